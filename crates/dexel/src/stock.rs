@@ -1,0 +1,183 @@
+//! Z-dexel stock: per column a sorted list of material intervals.
+
+use crate::{Error, Grid};
+
+/// Marker for "no step has cut this column".
+pub const NEVER_CUT: u32 = u32::MAX;
+
+/// One column's material. The lowest interval is stored inline, so the common
+/// single-interval column costs no allocation; higher intervals (undercuts,
+/// voids) live in `upper`, sorted ascending and disjoint.
+/// An empty column has `lo > hi`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Column {
+    pub lo: f32,
+    pub hi: f32,
+    pub upper: Option<Box<Vec<[f32; 2]>>>,
+}
+
+impl Column {
+    pub const EMPTY: Column = Column { lo: f32::INFINITY, hi: f32::NEG_INFINITY, upper: None };
+
+    /// Column holding exactly `intervals` (sorted ascending, disjoint, lo < hi each).
+    pub fn from_intervals(intervals: &[[f32; 2]]) -> Column {
+        match intervals {
+            [] => Column::EMPTY,
+            [first] => Column { lo: first[0], hi: first[1], upper: None },
+            [first, rest @ ..] => Column { lo: first[0], hi: first[1], upper: Some(Box::new(rest.to_vec())) },
+        }
+    }
+
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        !(self.lo < self.hi)
+    }
+
+    /// Highest material z, or `None` for an empty column.
+    #[inline]
+    pub fn top(&self) -> Option<f32> {
+        if self.is_empty() {
+            return None;
+        }
+        Some(match &self.upper {
+            Some(v) if !v.is_empty() => v[v.len() - 1][1],
+            _ => self.hi,
+        })
+    }
+
+    /// Total material length, mm (f64 sum).
+    pub fn length_mm(&self) -> f64 {
+        if self.is_empty() {
+            return 0.0;
+        }
+        let mut sum = (self.hi - self.lo) as f64;
+        if let Some(v) = &self.upper {
+            for iv in v.iter() {
+                sum += (iv[1] - iv[0]) as f64;
+            }
+        }
+        sum
+    }
+
+    /// Number of material intervals.
+    pub fn interval_count(&self) -> usize {
+        if self.is_empty() {
+            0
+        } else {
+            1 + self.upper.as_ref().map_or(0, |v| v.len())
+        }
+    }
+
+    /// All intervals, lowest first.
+    pub fn intervals(&self) -> impl Iterator<Item = [f32; 2]> + '_ {
+        let first = (!self.is_empty()).then_some([self.lo, self.hi]);
+        first.into_iter().chain(self.upper.iter().flat_map(|v| v.iter().copied()))
+    }
+}
+
+/// The stock: a grid of columns plus, per column, the step that last cut it.
+#[derive(Clone, Debug)]
+pub struct Stock {
+    grid: Grid,
+    pub(crate) columns: Vec<Column>,
+    pub(crate) last_cut: Vec<u32>,
+}
+
+/// Refuse grids that would need more than this share of physical memory.
+pub(crate) const DEFAULT_MEMORY_LIMIT_BYTES: f64 = 16.0e9;
+
+impl Stock {
+    /// Check that a grid fits in `limit_bytes` before allocating it.
+    pub fn check_memory(grid: &Grid, limit_bytes: f64) -> Result<(), Error> {
+        let bytes = grid.memory_bytes();
+        if bytes > limit_bytes {
+            return Err(Error::TooLarge { columns: grid.len() as f64, bytes });
+        }
+        Ok(())
+    }
+
+    /// Stock whose columns are produced by `fill(ix, iy, out)`, which pushes
+    /// the column's intervals into `out` (sorted ascending, disjoint).
+    /// Columns are filled in parallel.
+    pub fn from_columns<F>(grid: Grid, fill: F) -> Result<Stock, Error>
+    where
+        F: Fn(usize, usize, &mut Vec<[f32; 2]>) + Sync,
+    {
+        use rayon::prelude::*;
+        Stock::check_memory(&grid, DEFAULT_MEMORY_LIMIT_BYTES)?;
+        let mut columns = vec![Column::EMPTY; grid.len()];
+        columns.par_chunks_mut(grid.nx).enumerate().for_each_init(Vec::new, |buf, (iy, row)| {
+            for (ix, col) in row.iter_mut().enumerate() {
+                buf.clear();
+                fill(ix, iy, buf);
+                *col = Column::from_intervals(buf);
+            }
+        });
+        let last_cut = vec![NEVER_CUT; grid.len()];
+        Ok(Stock { grid, columns, last_cut })
+    }
+
+    /// Axis-aligned box `[min, max]` (mm); the grid covers its XY extent.
+    pub fn new_box(min: [f64; 3], max: [f64; 3], spacing_mm: f64) -> Result<Stock, Error> {
+        if !(max[2] > min[2]) {
+            return Err(Error::InvalidParameter(format!("box height must be positive, got z {}..{}", min[2], max[2])));
+        }
+        let grid = Grid::covering(min[0], min[1], max[0], max[1], spacing_mm)?;
+        let (lo, hi) = (min[2] as f32, max[2] as f32);
+        Stock::from_columns(grid, |_, _, out| out.push([lo, hi]))
+    }
+
+    /// Vertical cylinder with axis through `(cx, cy)`, radius `r`, z from `z_lo` to `z_hi`.
+    /// A column belongs to it when its centre lies inside the circle.
+    pub fn new_cylinder(center_xy: [f64; 2], radius_mm: f64, z_lo: f64, z_hi: f64, spacing_mm: f64) -> Result<Stock, Error> {
+        if !(radius_mm > 0.0) || !(z_hi > z_lo) {
+            return Err(Error::InvalidParameter(format!(
+                "cylinder needs a positive radius and height, got r {radius_mm}, z {z_lo}..{z_hi}"
+            )));
+        }
+        let [cx, cy] = center_xy;
+        let grid = Grid::covering(cx - radius_mm, cy - radius_mm, cx + radius_mm, cy + radius_mm, spacing_mm)?;
+        let (lo, hi) = (z_lo as f32, z_hi as f32);
+        Stock::from_columns(grid, |ix, iy, out| {
+            let (dx, dy) = (grid.x_mm(ix) - cx, grid.y_mm(iy) - cy);
+            if dx * dx + dy * dy <= radius_mm * radius_mm {
+                out.push([lo, hi]);
+            }
+        })
+    }
+
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// Column at `(ix, iy)`.
+    pub fn column(&self, ix: usize, iy: usize) -> &Column {
+        &self.columns[iy * self.grid.nx + ix]
+    }
+
+    /// All columns, row-major.
+    pub fn columns(&self) -> &[Column] {
+        &self.columns
+    }
+
+    /// Per column, the index of the step that last removed material there
+    /// ([`NEVER_CUT`] if none).
+    pub fn last_cut(&self) -> &[u32] {
+        &self.last_cut
+    }
+
+    /// Material volume, mm³ (f64, summed row by row in a fixed order).
+    pub fn volume_mm3(&self) -> f64 {
+        let area = self.grid.cell_area_mm2();
+        self.columns
+            .chunks(self.grid.nx.max(1))
+            .map(|row| row.iter().map(Column::length_mm).sum::<f64>())
+            .sum::<f64>()
+            * area
+    }
+
+    /// Top surface height per column (NaN where empty), row-major.
+    pub fn top_heights(&self) -> Vec<f32> {
+        self.columns.iter().map(|c| c.top().unwrap_or(f32::NAN)).collect()
+    }
+}

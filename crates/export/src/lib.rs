@@ -1,0 +1,2 @@
+//! Output writers: atomic files, CSV/JSON, PNG maps, GLB meshes, the HTML report.
+pub mod atomic;

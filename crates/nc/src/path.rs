@@ -1,0 +1,159 @@
+//! The motion path: what a program means geometrically, independent of time.
+//!
+//! Positions are tool-tip positions in the machine frame (mm), after work
+//! offsets and unit conversion. Every segment remembers the 1-based source line
+//! of the block that produced it so that diagnostics, error maps and the
+//! re-feed writer can point back into the program.
+
+use nalgebra::{Point3, Vector3};
+
+/// Arc plane as selected by G17/G18/G19.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Plane {
+    /// G17: arcs in XY, helix along Z.
+    XY,
+    /// G18: arcs in ZX, helix along Y.
+    ZX,
+    /// G19: arcs in YZ, helix along X.
+    YZ,
+}
+
+impl Plane {
+    /// Indices (first, second, normal) of the plane's axes in [x, y, z].
+    /// G18's first axis is Z and second X, so that G2 is clockwise seen from +Y.
+    pub fn axes(self) -> (usize, usize, usize) {
+        match self {
+            Plane::XY => (0, 1, 2),
+            Plane::ZX => (2, 0, 1),
+            Plane::YZ => (1, 2, 0),
+        }
+    }
+}
+
+/// Shape of one segment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Geometry {
+    /// Straight line from start to end.
+    Line,
+    /// Circular (or helical) arc. `center` lies in the plane of `start`;
+    /// the end may differ from the start plane along the plane normal (helix).
+    Arc {
+        center: Point3<f64>,
+        plane: Plane,
+        clockwise: bool,
+        /// Total swept angle, positive, full turns included (2π for a full circle).
+        sweep_rad: f64,
+    },
+}
+
+/// How the machine moves along a segment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Motion {
+    /// G0 at the machine's rapid rate.
+    Rapid,
+    /// Feed motion at the programmed feed (G93 inverse time already converted).
+    Feed { feed_mm_min: f64 },
+    /// G4: no motion for a time.
+    Dwell { seconds: f64 },
+}
+
+/// One piece of the path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Segment {
+    pub start: Point3<f64>,
+    pub end: Point3<f64>,
+    pub geometry: Geometry,
+    pub motion: Motion,
+    /// 1-based line in the source file of the block that made this segment.
+    pub line: u32,
+    /// Spindle speed in force when the segment runs (rev/min, 0 = stopped).
+    pub spindle_rpm: f64,
+}
+
+impl Segment {
+    /// Path length in mm (arc length for arcs, helix included).
+    pub fn length_mm(&self) -> f64 {
+        match self.geometry {
+            Geometry::Line => (self.end - self.start).norm(),
+            Geometry::Arc { center, plane, sweep_rad, .. } => {
+                let (a, b, n) = plane.axes();
+                let r = ((self.start[a] - center[a]).powi(2) + (self.start[b] - center[b]).powi(2)).sqrt();
+                let h = self.end[n] - self.start[n];
+                ((r * sweep_rad).powi(2) + h * h).sqrt()
+            }
+        }
+    }
+
+    /// Point at arc length `s_mm` from the start (clamped to the segment).
+    pub fn point_at(&self, s_mm: f64) -> Point3<f64> {
+        let len = self.length_mm();
+        let u = if len > 0.0 { (s_mm / len).clamp(0.0, 1.0) } else { 0.0 };
+        self.point_at_fraction(u)
+    }
+
+    /// Point at fraction `u` ∈ [0, 1] of the segment.
+    pub fn point_at_fraction(&self, u: f64) -> Point3<f64> {
+        match self.geometry {
+            Geometry::Line => self.start + (self.end - self.start) * u,
+            Geometry::Arc { center, plane, clockwise, sweep_rad } => {
+                let (a, b, n) = plane.axes();
+                let (sa, sb) = (self.start[a] - center[a], self.start[b] - center[b]);
+                let r = (sa * sa + sb * sb).sqrt();
+                let a0 = sb.atan2(sa);
+                let ang = if clockwise { a0 - sweep_rad * u } else { a0 + sweep_rad * u };
+                let mut p = self.start;
+                p[a] = center[a] + r * ang.cos();
+                p[b] = center[b] + r * ang.sin();
+                p[n] = self.start[n] + (self.end[n] - self.start[n]) * u;
+                if u >= 1.0 {
+                    p = self.end;
+                }
+                p
+            }
+        }
+    }
+
+    /// Unit tangent at fraction `u` (zero vector for a zero-length segment).
+    pub fn tangent_at_fraction(&self, u: f64) -> Vector3<f64> {
+        let t = match self.geometry {
+            Geometry::Line => self.end - self.start,
+            Geometry::Arc { center, plane, clockwise, sweep_rad } => {
+                let (a, b, n) = plane.axes();
+                let p = self.point_at_fraction(u);
+                let (ra, rb) = (p[a] - center[a], p[b] - center[b]);
+                let sign = if clockwise { -1.0 } else { 1.0 };
+                let mut v = Vector3::zeros();
+                v[a] = -rb * sign * sweep_rad;
+                v[b] = ra * sign * sweep_rad;
+                v[n] = self.end[n] - self.start[n];
+                v
+            }
+        };
+        let len = t.norm();
+        if len > 0.0 { t / len } else { Vector3::zeros() }
+    }
+
+    /// Curvature radius in mm (infinite for lines).
+    pub fn radius_mm(&self) -> f64 {
+        match self.geometry {
+            Geometry::Line => f64::INFINITY,
+            Geometry::Arc { center, plane, .. } => {
+                let (a, b, _) = plane.axes();
+                ((self.start[a] - center[a]).powi(2) + (self.start[b] - center[b]).powi(2)).sqrt()
+            }
+        }
+    }
+}
+
+/// A whole program's motion, in execution order (subprograms and loops unrolled).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Path {
+    pub segments: Vec<Segment>,
+}
+
+impl Path {
+    /// Total length in mm of all segments.
+    pub fn length_mm(&self) -> f64 {
+        self.segments.iter().map(Segment::length_mm).sum()
+    }
+}
