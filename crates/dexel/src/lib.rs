@@ -20,3 +20,8 @@ pub enum Error {
     #[error("the grid would need {columns:.3e} columns ({:.1} GiB); use a coarser grid", bytes / 1073741824.0)]
     TooLarge { columns: f64, bytes: f64 },
 }
+pub mod sweep;
+pub mod tool;
+
+pub use sweep::{sweep, RemovalRecord, Step, SweepOptions};
+pub use tool::{Tool, ToolShape};

@@ -1,0 +1,743 @@
+//! The sweep kernel: exact lower envelope of a tool moving along a straight
+//! line, intersected with every column it passes over (DESIGN.md §3).
+//!
+//! For each column the swept tool covers `[z_env, +∞)`, where `z_env` is the
+//! lowest point of the swept solid on the column's vertical line:
+//! * ball end: the swept ball is a capsule; `z_env` is a closed-form
+//!   ray–capsule intersection (cylinder body or one of the end spheres);
+//! * flat end: the lowest tip height over the parameter interval in which the
+//!   column lies under the tool's disc (closed form);
+//! * bull nose: the tool's lower surface height at horizontal distance ρ from
+//!   the axis, `f(ρ)`, is convex and non-decreasing, and ρ(t) is convex along
+//!   the move, so `f(ρ(t)) + z_tip(t)` is convex in t: a golden-section search
+//!   finds the minimum to 1e-10 of the move (no sub-sampling of positions).
+//!
+//! Removed material of a column is credited to the tool height band it falls
+//! in, measured from the tool tip at the parameter where the envelope is
+//! attained. Architecture invariants: no allocation per move or column (the
+//! only allocations are per batch of moves and per strip), and per-step sums
+//! are reduced in a fixed strip order, so results do not depend on the number
+//! of threads.
+
+use rayon::prelude::*;
+
+use crate::{Column, Error, Grid, Stock, Tool, ToolShape};
+
+/// One straight tool move, tip positions in mm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Step {
+    pub from_mm: [f64; 3],
+    pub to_mm: [f64; 3],
+    /// A rapid (G0) move: any material it removes is a collision.
+    pub rapid: bool,
+}
+
+/// Tuning of a sweep; the defaults suit grids from 0.01 to 1 mm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SweepOptions {
+    /// Height of one tool band, mm (band k spans [k·h, (k+1)·h) above the tip).
+    pub band_height_mm: f64,
+    /// Rows of columns per parallel strip.
+    pub strip_rows: usize,
+    /// Steps handled per batch (bounds the memory of partial sums; progress is
+    /// reported after each batch).
+    pub batch_steps: usize,
+}
+
+impl Default for SweepOptions {
+    fn default() -> Self {
+        SweepOptions { band_height_mm: 1.0, strip_rows: 8, batch_steps: 16_384 }
+    }
+}
+
+/// Values stored per step before the band volumes: volume, shank volume, contact x, contact y.
+const HEAD: usize = 4;
+
+/// What a sweep removed, per step.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RemovalRecord {
+    pub band_height_mm: f64,
+    pub n_bands: usize,
+    /// Per step: [volume, shank volume, contact x, contact y, band 0 … band K−1].
+    data: Vec<f64>,
+    /// Columns visited (inside a step's footprint) over the whole sweep.
+    pub columns_evaluated: u64,
+}
+
+impl RemovalRecord {
+    fn new(steps: usize, n_bands: usize, band_height_mm: f64) -> Self {
+        RemovalRecord { band_height_mm, n_bands, data: vec![0.0; steps * (HEAD + n_bands)], columns_evaluated: 0 }
+    }
+
+    fn stride(&self) -> usize {
+        HEAD + self.n_bands
+    }
+
+    fn row(&self, step: usize) -> &[f64] {
+        let s = self.stride();
+        &self.data[step * s..(step + 1) * s]
+    }
+
+    /// Number of steps recorded.
+    pub fn len(&self) -> usize {
+        self.data.len() / self.stride()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Total volume removed by `step`, mm³ (bands plus shank).
+    pub fn volume_mm3(&self, step: usize) -> f64 {
+        self.row(step)[0]
+    }
+
+    /// Volume removed above the flute length (shank contact), mm³.
+    pub fn shank_volume_mm3(&self, step: usize) -> f64 {
+        self.row(step)[1]
+    }
+
+    /// Volume removed per tool height band, mm³.
+    pub fn band_volumes_mm3(&self, step: usize) -> &[f64] {
+        &self.row(step)[HEAD..]
+    }
+
+    /// S4's contact-direction resultant in XY: Σ over cut columns of the unit
+    /// horizontal vector from the tool axis towards the column, weighted by the
+    /// removed volume (mm³). The cutting force on the tool points the other way.
+    pub fn contact_resultant(&self, step: usize) -> [f64; 2] {
+        let r = self.row(step);
+        [r[2], r[3]]
+    }
+
+    /// Sum of all step volumes, mm³.
+    pub fn total_volume_mm3(&self) -> f64 {
+        (0..self.len()).map(|i| self.volume_mm3(i)).sum()
+    }
+}
+
+/// Per-move values computed once.
+#[derive(Clone, Copy, Debug)]
+struct Prepared {
+    p0: [f64; 3],
+    d: [f64; 3],
+    /// |d_xy|² and |d|².
+    h2: f64,
+    dd: f64,
+    /// Unit XY direction and XY length (zero for a plunge).
+    u: [f64; 2],
+    len_xy: f64,
+    /// Lowest tip z along the move: nothing at or below this top can be cut.
+    zmin: f64,
+}
+
+/// Horizontal moves shorter than this (mm²) are treated as pure plunges.
+const PLUNGE_H2: f64 = 1e-18;
+
+impl Prepared {
+    fn new(step: &Step) -> Prepared {
+        let p0 = step.from_mm;
+        let d = [step.to_mm[0] - p0[0], step.to_mm[1] - p0[1], step.to_mm[2] - p0[2]];
+        let h2 = d[0] * d[0] + d[1] * d[1];
+        let len_xy = h2.sqrt();
+        let u = if h2 > PLUNGE_H2 { [d[0] / len_xy, d[1] / len_xy] } else { [0.0, 0.0] };
+        Prepared { p0, d, h2, dd: h2 + d[2] * d[2], u, len_xy, zmin: p0[2].min(step.to_mm[2]), }
+    }
+
+    /// X-interval of the move's footprint (stadium of radius `r`) on the row at `y`.
+    #[inline]
+    fn row_span(&self, y: f64, r: f64) -> Option<(f64, f64)> {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for (cx, cy) in [(self.p0[0], self.p0[1]), (self.p0[0] + self.d[0], self.p0[1] + self.d[1])] {
+            let dy = y - cy;
+            if dy.abs() <= r {
+                let w = (r * r - dy * dy).sqrt();
+                lo = lo.min(cx - w);
+                hi = hi.max(cx + w);
+            }
+        }
+        if self.h2 > PLUNGE_H2 {
+            // Band: |u × w| ≤ r and 0 ≤ u·w ≤ len, with w = (x − x0, y − y0); both linear in x.
+            let wy = y - self.p0[1];
+            let [ux, uy] = self.u;
+            let (a0, a1) = linear_range(-uy, ux * wy, -r, r);
+            let (b0, b1) = linear_range(ux, uy * wy, 0.0, self.len_xy);
+            let (s0, s1) = (a0.max(b0), a1.min(b1));
+            if s0 <= s1 {
+                lo = lo.min(self.p0[0] + s0);
+                hi = hi.max(self.p0[0] + s1);
+            }
+        }
+        (lo <= hi).then_some((lo, hi))
+    }
+}
+
+/// Values of x with `lo ≤ coef·x + c0 ≤ hi`, as an interval (possibly empty or unbounded).
+#[inline]
+fn linear_range(coef: f64, c0: f64, lo: f64, hi: f64) -> (f64, f64) {
+    if coef.abs() < 1e-12 {
+        if c0 >= lo && c0 <= hi {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        } else {
+            (f64::INFINITY, f64::NEG_INFINITY)
+        }
+    } else {
+        let (a, b) = ((lo - c0) / coef, (hi - c0) / coef);
+        (a.min(b), a.max(b))
+    }
+}
+
+/// Lower envelope of a swept tool on one vertical line.
+trait Envelope: Sync {
+    /// `(z_env, t)`: the lowest point of the swept tool above `(x, y)` and the
+    /// move parameter t ∈ [0, 1] where it is attained; `None` if the tool never
+    /// passes over the point.
+    fn eval(&self, m: &Prepared, x: f64, y: f64) -> Option<(f64, f64)>;
+}
+
+struct BallEnd {
+    r: f64,
+}
+
+impl Envelope for BallEnd {
+    #[inline]
+    fn eval(&self, m: &Prepared, x: f64, y: f64) -> Option<(f64, f64)> {
+        let r2 = self.r * self.r;
+        let (wx, wy) = (x - m.p0[0], y - m.p0[1]);
+        let rho0 = wx * wx + wy * wy;
+        let [dx, dy, dz] = m.d;
+        // ζ: height relative to the first ball centre C0 = p0 + (0, 0, R).
+        let mut best = (f64::INFINITY, 0.0);
+        if m.h2 > PLUNGE_H2 {
+            // Capsule body: |W − (W·D)D/|D|²|² = R² with W = (wx, wy, ζ) — quadratic in ζ.
+            let k = wx * dx + wy * dy;
+            let c = m.dd * rho0 - k * k - r2 * m.dd;
+            let disc = k * k * dz * dz - m.h2 * c;
+            if disc >= 0.0 {
+                let zeta = (k * dz - disc.sqrt()) / m.h2;
+                let t = (k + zeta * dz) / m.dd;
+                if (0.0..=1.0).contains(&t) {
+                    best = (zeta, t);
+                }
+            }
+        }
+        if rho0 <= r2 {
+            let zeta = -(r2 - rho0).sqrt();
+            if zeta < best.0 {
+                best = (zeta, 0.0);
+            }
+        }
+        let (w1x, w1y) = (wx - dx, wy - dy);
+        let rho1 = w1x * w1x + w1y * w1y;
+        if rho1 <= r2 {
+            let zeta = dz - (r2 - rho1).sqrt();
+            if zeta < best.0 {
+                best = (zeta, 1.0);
+            }
+        }
+        best.0.is_finite().then(|| (m.p0[2] + self.r + best.0, best.1))
+    }
+}
+
+/// Parameter interval in which the point `(x, y)` lies within `r` of the tool
+/// axis (XY), clipped to [0, 1].
+#[inline]
+fn disc_interval(m: &Prepared, x: f64, y: f64, r: f64) -> Option<(f64, f64)> {
+    let (wx, wy) = (x - m.p0[0], y - m.p0[1]);
+    let rho0 = wx * wx + wy * wy;
+    if m.h2 <= PLUNGE_H2 {
+        return (rho0 <= r * r).then_some((0.0, 1.0));
+    }
+    // |w − t·d_xy|² ≤ r²: quadratic in t.
+    let k = wx * m.d[0] + wy * m.d[1];
+    let disc = k * k - m.h2 * (rho0 - r * r);
+    if disc < 0.0 {
+        return None;
+    }
+    let s = disc.sqrt();
+    let (ta, tb) = (((k - s) / m.h2).max(0.0), ((k + s) / m.h2).min(1.0));
+    (ta <= tb).then_some((ta, tb))
+}
+
+struct FlatEnd {
+    r: f64,
+}
+
+impl Envelope for FlatEnd {
+    #[inline]
+    fn eval(&self, m: &Prepared, x: f64, y: f64) -> Option<(f64, f64)> {
+        let (ta, tb) = disc_interval(m, x, y, self.r)?;
+        // Tip height is linear in t: lowest at one end of the interval.
+        let t = if m.d[2] >= 0.0 { ta } else { tb };
+        Some((m.p0[2] + t * m.d[2], t))
+    }
+}
+
+struct BullNose {
+    r: f64,
+    /// Corner radius and the radius of the torus centre circle (R − r_c).
+    rc: f64,
+    ring: f64,
+}
+
+impl BullNose {
+    /// Height of the tool's lower surface above its tip at horizontal distance ρ.
+    #[inline]
+    fn profile(&self, rho: f64) -> f64 {
+        let e = rho - self.ring;
+        if e <= 0.0 {
+            0.0
+        } else {
+            self.rc - (self.rc * self.rc - (e * e).min(self.rc * self.rc)).sqrt()
+        }
+    }
+
+    #[inline]
+    fn height(&self, m: &Prepared, x: f64, y: f64, t: f64) -> f64 {
+        let (ax, ay) = (m.p0[0] + t * m.d[0], m.p0[1] + t * m.d[1]);
+        let rho = ((x - ax) * (x - ax) + (y - ay) * (y - ay)).sqrt();
+        self.profile(rho) + m.p0[2] + t * m.d[2]
+    }
+}
+
+impl Envelope for BullNose {
+    #[inline]
+    fn eval(&self, m: &Prepared, x: f64, y: f64) -> Option<(f64, f64)> {
+        let (mut a, mut b) = disc_interval(m, x, y, self.r)?;
+        // Golden-section search of a convex function on [a, b].
+        const INV_PHI: f64 = 0.618_033_988_749_894_8;
+        let mut c = b - INV_PHI * (b - a);
+        let mut d = a + INV_PHI * (b - a);
+        let (mut fc, mut fd) = (self.height(m, x, y, c), self.height(m, x, y, d));
+        while b - a > 1e-10 {
+            if fc <= fd {
+                b = d;
+                d = c;
+                fd = fc;
+                c = b - INV_PHI * (b - a);
+                fc = self.height(m, x, y, c);
+            } else {
+                a = c;
+                c = d;
+                fc = fd;
+                d = a + INV_PHI * (b - a);
+                fd = self.height(m, x, y, d);
+            }
+        }
+        let t = 0.5 * (a + b);
+        // The interval ends are candidates too (the minimum may sit on one).
+        let mut best = (self.height(m, x, y, t), t);
+        for t in [a.min(b), a.max(b)] {
+            let h = self.height(m, x, y, t);
+            if h < best.0 {
+                best = (h, t);
+            }
+        }
+        Some(best)
+    }
+}
+
+/// Per-(strip, move) accumulator width and band bookkeeping shared by the strip loop.
+struct Banding {
+    n_bands: usize,
+    band_h: f64,
+    inv_band_h: f64,
+    flute_len: f64,
+}
+
+impl Banding {
+    /// Credit the removed piece [a, b] (absolute z) of a column to the bands
+    /// above a tip at `z_tip`; `acc` is [volume, shank, cx, cy, bands…] in mm.
+    #[inline]
+    fn credit(&self, acc: &mut [f64], z_tip: f64, a: f64, b: f64) {
+        let mut lo = (a - z_tip).max(0.0);
+        let hi = (b - z_tip).max(lo);
+        acc[0] += hi - lo;
+        let mut k = (lo * self.inv_band_h) as usize;
+        while lo < hi && k < self.n_bands {
+            let top = (((k + 1) as f64) * self.band_h).min(self.flute_len).min(hi);
+            if top > lo {
+                acc[HEAD + k] += top - lo;
+                lo = top;
+            }
+            k += 1;
+        }
+        if lo < hi {
+            acc[1] += hi - lo;
+        }
+    }
+}
+
+/// Remove everything at and above `z` from a column, reporting each removed piece.
+#[inline]
+fn cut_above(col: &mut Column, z: f32, mut piece: impl FnMut(f32, f32)) {
+    if let Some(upper) = col.upper.as_mut() {
+        while let Some(&[lo, hi]) = upper.last() {
+            if hi <= z {
+                return;
+            }
+            if lo >= z {
+                piece(lo, hi);
+                upper.pop();
+            } else {
+                piece(z, hi);
+                if let Some(last) = upper.last_mut() {
+                    last[1] = z;
+                }
+                return;
+            }
+        }
+        col.upper = None;
+    }
+    if col.hi > z && col.lo < col.hi {
+        if col.lo >= z {
+            piece(col.lo, col.hi);
+            *col = Column::EMPTY;
+        } else {
+            piece(z, col.hi);
+            col.hi = z;
+        }
+    }
+}
+
+/// Highest material z of a column, −∞ when empty (no branch on emptiness:
+/// an empty column's `hi` is −∞).
+#[inline]
+fn top_or_neg_inf(col: &Column) -> f32 {
+    match &col.upper {
+        None => col.hi,
+        Some(v) => v.last().map_or(col.hi, |iv| iv[1]),
+    }
+}
+
+/// Everything one strip needs to run its moves.
+struct StripJob<'a, E> {
+    env: &'a E,
+    grid: &'a Grid,
+    radius: f64,
+    banding: &'a Banding,
+    moves: &'a [Prepared],
+    first_step: usize,
+}
+
+impl<E: Envelope> StripJob<'_, E> {
+    /// Run the moves `entries` (batch-local indices, ascending) over the rows
+    /// `row0..row0 + rows` whose columns are `cols`; write per-entry sums into `out`.
+    #[allow(clippy::too_many_arguments)]
+    fn run(&self, row0: usize, cols: &mut [Column], last_cut: &mut [u32], entries: &[u32], out: &mut [f64]) -> u64 {
+        let nx = self.grid.nx;
+        let rows = cols.len() / nx;
+        let stride = HEAD + self.banding.n_bands;
+        let area = self.grid.cell_area_mm2();
+        let mut visited = 0u64;
+        for (j, &mi) in entries.iter().enumerate() {
+            let m = &self.moves[mi as usize];
+            let acc = &mut out[j * stride..(j + 1) * stride];
+            let step_index = (self.first_step + mi as usize) as u32;
+            let y_lo = m.p0[1].min(m.p0[1] + m.d[1]) - self.radius;
+            let y_hi = m.p0[1].max(m.p0[1] + m.d[1]) + self.radius;
+            let Some((iy0, iy1)) = self.grid.iy_range(y_lo, y_hi) else { continue };
+            let (iy0, iy1) = (iy0.max(row0), iy1.min(row0 + rows - 1));
+            let zmin = m.zmin as f32;
+            for iy in iy0..=iy1 {
+                let y = self.grid.y_mm(iy);
+                let Some((x_lo, x_hi)) = m.row_span(y, self.radius) else { continue };
+                let Some((ix0, ix1)) = self.grid.ix_range(x_lo, x_hi) else { continue };
+                visited += (ix1 - ix0 + 1) as u64;
+                let base = (iy - row0) * nx;
+                for ix in ix0..=ix1 {
+                    let col = &mut cols[base + ix];
+                    if top_or_neg_inf(col) <= zmin {
+                        continue;
+                    }
+                    let x = self.grid.x_mm(ix);
+                    let Some((z_env, t)) = self.env.eval(m, x, y) else { continue };
+                    let z = z_env as f32;
+                    if top_or_neg_inf(col) <= z {
+                        continue;
+                    }
+                    let z_tip = m.p0[2] + t * m.d[2];
+                    let before = acc[0];
+                    cut_above(col, z, |a, b| self.banding.credit(acc, z_tip, a as f64, b as f64));
+                    let removed = acc[0] - before;
+                    if removed > 0.0 {
+                        last_cut[base + ix] = step_index;
+                        let (ax, ay) = (x - (m.p0[0] + t * m.d[0]), y - (m.p0[1] + t * m.d[1]));
+                        let dist = (ax * ax + ay * ay).sqrt();
+                        if dist > 1e-12 {
+                            acc[2] += removed * ax / dist;
+                            acc[3] += removed * ay / dist;
+                        }
+                    }
+                }
+            }
+            for v in acc.iter_mut() {
+                *v *= area;
+            }
+        }
+        visited
+    }
+}
+
+/// Sweep `tool` along `steps` through `stock`, removing material and recording
+/// what each step removed. `progress(done)` is called after each batch with
+/// the number of steps finished.
+pub fn sweep(
+    stock: &mut Stock,
+    tool: &Tool,
+    steps: &[Step],
+    options: &SweepOptions,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<RemovalRecord, Error> {
+    tool.validate()?;
+    if !(options.band_height_mm > 0.0 && options.band_height_mm.is_finite()) {
+        return Err(Error::InvalidParameter(format!("band height must be positive, got {} mm", options.band_height_mm)));
+    }
+    if let Some((i, _)) = steps.iter().enumerate().find(|(_, s)| !s.from_mm.iter().chain(&s.to_mm).all(|v| v.is_finite())) {
+        return Err(Error::InvalidParameter(format!("step {i} has a non-finite coordinate")));
+    }
+    let n_bands = ((tool.flute_length_mm / options.band_height_mm).ceil() as usize).max(1);
+    if n_bands > 10_000 {
+        return Err(Error::InvalidParameter(format!(
+            "band height {} mm gives {n_bands} bands over the flute length; use a larger band height",
+            options.band_height_mm
+        )));
+    }
+    let banding = Banding {
+        n_bands,
+        band_h: options.band_height_mm,
+        inv_band_h: 1.0 / options.band_height_mm,
+        flute_len: tool.flute_length_mm,
+    };
+    let radius = tool.radius_mm();
+    let mut record = RemovalRecord::new(steps.len(), n_bands, options.band_height_mm);
+    match tool.shape {
+        ToolShape::Ball => run_batches(stock, &BallEnd { r: radius }, radius, &banding, steps, options, &mut record, progress),
+        ToolShape::Flat => run_batches(stock, &FlatEnd { r: radius }, radius, &banding, steps, options, &mut record, progress),
+        ToolShape::Bull { corner_radius_mm } => {
+            let env = BullNose { r: radius, rc: corner_radius_mm, ring: radius - corner_radius_mm };
+            run_batches(stock, &env, radius, &banding, steps, options, &mut record, progress)
+        }
+    }
+    Ok(record)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn run_batches<E: Envelope>(
+    stock: &mut Stock,
+    env: &E,
+    radius: f64,
+    banding: &Banding,
+    steps: &[Step],
+    options: &SweepOptions,
+    record: &mut RemovalRecord,
+    progress: &(dyn Fn(usize) + Sync),
+) {
+    let grid = *stock.grid();
+    let strip_rows = options.strip_rows.max(1);
+    let n_strips = grid.ny.div_ceil(strip_rows);
+    let stride = HEAD + banding.n_bands;
+    let batch = options.batch_steps.max(1);
+    let mut done = 0;
+    for (b, chunk) in steps.chunks(batch).enumerate() {
+        let first_step = b * batch;
+        let moves: Vec<Prepared> = chunk.iter().map(Prepared::new).collect();
+        // Bin moves by strip (CSR): a move joins every strip its footprint's rows touch.
+        let mut counts = vec![0u32; n_strips + 1];
+        let strip_span = |m: &Prepared| {
+            let y_lo = m.p0[1].min(m.p0[1] + m.d[1]) - radius;
+            let y_hi = m.p0[1].max(m.p0[1] + m.d[1]) + radius;
+            grid.iy_range(y_lo, y_hi).map(|(a, b)| (a / strip_rows, b / strip_rows))
+        };
+        for m in &moves {
+            if let Some((s0, s1)) = strip_span(m) {
+                for s in s0..=s1 {
+                    counts[s + 1] += 1;
+                }
+            }
+        }
+        for s in 0..n_strips {
+            counts[s + 1] += counts[s];
+        }
+        let mut entries = vec![0u32; counts[n_strips] as usize];
+        let mut fill = counts.clone();
+        for (i, m) in moves.iter().enumerate() {
+            if let Some((s0, s1)) = strip_span(m) {
+                for s in s0..=s1 {
+                    entries[fill[s] as usize] = i as u32;
+                    fill[s] += 1;
+                }
+            }
+        }
+        let mut partial = vec![0.0f64; entries.len() * stride];
+        let job = StripJob { env, grid: &grid, radius, banding, moves: &moves, first_step };
+        // Split columns, last-cut marks and partial sums into per-strip pieces.
+        let strip_len = strip_rows * grid.nx;
+        let mut partial_pieces: Vec<&mut [f64]> = Vec::with_capacity(n_strips);
+        let mut rest: &mut [f64] = &mut partial;
+        for s in 0..n_strips {
+            let n = (counts[s + 1] - counts[s]) as usize * stride;
+            let (head, tail) = rest.split_at_mut(n);
+            partial_pieces.push(head);
+            rest = tail;
+        }
+        let visited: u64 = stock
+            .columns
+            .par_chunks_mut(strip_len)
+            .zip(stock.last_cut.par_chunks_mut(strip_len))
+            .zip(partial_pieces.into_par_iter())
+            .enumerate()
+            .map(|(s, ((cols, last), out))| {
+                let ents = &entries[counts[s] as usize..counts[s + 1] as usize];
+                if ents.is_empty() {
+                    0
+                } else {
+                    job.run(s * strip_rows, cols, last, ents, out)
+                }
+            })
+            .sum();
+        record.columns_evaluated += visited;
+        // Reduce in strip order: the same sums whatever the thread count.
+        for (e, &mi) in entries.iter().enumerate() {
+            let dst = (first_step + mi as usize) * stride;
+            let src = &partial[e * stride..(e + 1) * stride];
+            for (d, s) in record.data[dst..dst + stride].iter_mut().zip(src) {
+                *d += s;
+            }
+        }
+        done += chunk.len();
+        progress(done);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Lowest point of the tool's lower surface above (x, y) by dense sampling of t.
+    fn brute_force(profile: &dyn Fn(f64) -> Option<f64>, step: &Step, x: f64, y: f64) -> Option<f64> {
+        let n = 200_000;
+        let mut best: Option<f64> = None;
+        for i in 0..=n {
+            let t = i as f64 / n as f64;
+            let p: Vec<f64> = (0..3).map(|k| step.from_mm[k] + t * (step.to_mm[k] - step.from_mm[k])).collect();
+            let rho = ((x - p[0]).powi(2) + (y - p[1]).powi(2)).sqrt();
+            if let Some(h) = profile(rho) {
+                let z = p[2] + h;
+                best = Some(best.map_or(z, |b: f64| b.min(z)));
+            }
+        }
+        best
+    }
+
+    /// A small deterministic pseudo-random sequence (no test dependency on rand).
+    fn lcg(seed: &mut u64) -> f64 {
+        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((*seed >> 11) as f64) / ((1u64 << 53) as f64)
+    }
+
+    fn check_against_brute_force(env: &dyn Envelope, profile: &dyn Fn(f64) -> Option<f64>, tol: f64) {
+        let mut seed = 7;
+        for case in 0..300 {
+            let mut r = || lcg(&mut seed) * 20.0 - 10.0;
+            let step = Step { from_mm: [r(), r(), r()], to_mm: [r(), r(), r()], rapid: false };
+            let step = if case % 10 == 0 { Step { to_mm: [step.from_mm[0], step.from_mm[1], step.to_mm[2]], ..step } } else { step };
+            let m = Prepared::new(&step);
+            let (x, y) = (r() * 0.8, r() * 0.8);
+            let exact = env.eval(&m, x, y).map(|e| e.0);
+            let sampled = brute_force(profile, &step, x, y);
+            match (exact, sampled) {
+                (Some(e), Some(s)) => {
+                    assert!(e <= s + 1e-9, "case {case}: envelope {e} above sampled minimum {s}");
+                    assert!(e >= s - tol, "case {case}: envelope {e} far below sampled minimum {s}");
+                }
+                (None, None) => {}
+                // Sampling can miss a footprint only a hair wide.
+                (Some(_), None) | (None, Some(_)) => {
+                    let near = (0..=1000).any(|i| {
+                        let t = i as f64 / 1000.0;
+                        let px = step.from_mm[0] + t * (step.to_mm[0] - step.from_mm[0]);
+                        let py = step.from_mm[1] + t * (step.to_mm[1] - step.from_mm[1]);
+                        (((x - px).powi(2) + (y - py).powi(2)).sqrt() - 5.0).abs() < 1e-2
+                    });
+                    assert!(near, "case {case}: footprint disagreement {exact:?} vs {sampled:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn ball_envelope_matches_brute_force() {
+        let r = 5.0;
+        let profile = move |rho: f64| (rho <= r).then(|| r - (r * r - rho * rho).sqrt());
+        check_against_brute_force(&BallEnd { r }, &profile, 1e-4);
+    }
+
+    #[test]
+    fn flat_envelope_matches_brute_force() {
+        let r = 5.0;
+        let profile = move |rho: f64| (rho <= r).then_some(0.0);
+        check_against_brute_force(&FlatEnd { r }, &profile, 1e-3);
+    }
+
+    #[test]
+    fn bull_envelope_matches_brute_force() {
+        let env = BullNose { r: 5.0, rc: 2.0, ring: 3.0 };
+        let profile = |rho: f64| (rho <= 5.0).then(|| env.profile(rho));
+        check_against_brute_force(&env, &profile, 1e-4);
+    }
+
+    #[test]
+    fn bull_nose_limits_are_ball_and_flat() {
+        let mut seed = 11;
+        let ball = BallEnd { r: 5.0 };
+        let near_ball = BullNose { r: 5.0, rc: 5.0 - 1e-12, ring: 1e-12 };
+        for _ in 0..500 {
+            let mut r = || lcg(&mut seed) * 20.0 - 10.0;
+            let step = Step { from_mm: [r(), r(), r()], to_mm: [r(), r(), r()], rapid: false };
+            let m = Prepared::new(&step);
+            let (x, y) = (r() * 0.5, r() * 0.5);
+            match (ball.eval(&m, x, y), near_ball.eval(&m, x, y)) {
+                (Some(a), Some(b)) => assert!((a.0 - b.0).abs() < 1e-6, "{a:?} vs {b:?}"),
+                (None, None) => {}
+                (a, b) => panic!("footprint differs: {a:?} vs {b:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn cut_above_handles_several_intervals() {
+        let mut col = Column::from_intervals(&[[0.0, 1.0], [2.0, 3.0], [4.0, 5.0]]);
+        let mut pieces = Vec::new();
+        cut_above(&mut col, 2.5, |a, b| pieces.push((a, b)));
+        assert_eq!(pieces, vec![(4.0, 5.0), (2.5, 3.0)]);
+        assert_eq!(col.intervals().collect::<Vec<_>>(), vec![[0.0, 1.0], [2.0, 2.5]]);
+        pieces.clear();
+        cut_above(&mut col, -1.0, |a, b| pieces.push((a, b)));
+        assert_eq!(pieces, vec![(2.0, 2.5), (0.0, 1.0)]);
+        assert!(col.is_empty() && col.upper.is_none());
+    }
+
+    #[test]
+    fn banding_splits_pieces_and_shank() {
+        let b = Banding { n_bands: 3, band_h: 1.0, inv_band_h: 1.0, flute_len: 2.5 };
+        let mut acc = vec![0.0; HEAD + 3];
+        b.credit(&mut acc, 10.0, 10.5, 14.0);
+        assert_eq!(acc[0], 3.5);
+        assert_eq!(&acc[HEAD..], &[0.5, 1.0, 0.5]);
+        assert_eq!(acc[1], 1.5, "above the flute length is shank contact");
+    }
+
+    #[test]
+    fn row_span_is_the_stadium() {
+        let m = Prepared::new(&Step { from_mm: [0.0, 0.0, 0.0], to_mm: [10.0, 10.0, 0.0], rapid: false });
+        let (lo, hi) = m.row_span(5.0, 1.0).unwrap();
+        let h = 2f64.sqrt();
+        assert!((lo - (5.0 - h)).abs() < 1e-12 && (hi - (5.0 + h)).abs() < 1e-12, "{lo} {hi}");
+        assert!(m.row_span(11.5, 1.0).is_none());
+        // Near the end the band still reaches further left than the end circle.
+        let (lo, hi) = m.row_span(10.5, 1.0).unwrap();
+        let w = (1.0f64 - 0.25).sqrt();
+        assert!((lo - (10.5 - h)).abs() < 1e-12 && (hi - (10.0 + w)).abs() < 1e-12, "{lo} {hi}");
+    }
+}
