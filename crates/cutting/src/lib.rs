@@ -1,1 +1,27 @@
-//! cutting
+//! Cutting physics of S4: removed volume → cutting force → tool deflection → shape error.
+//!
+//! Everything here takes values and returns values (no I/O, no allocation per step):
+//!
+//! * [`material`]: force-law coefficients `F = a · V^n` per work material, starting points to be
+//!   calibrated with [`calibration::fit_force_law`].
+//! * [`force`]: volume per tooth per revolution and the force law.
+//! * [`beam`]: the tool as a cantilever clamped in the holder; point loads and band loads.
+//! * [`load`]: per step of the sweep, force magnitude and direction and the tool's deflection.
+//! * [`surface`]: projection of the deflection on the final surface's normal (error map) and
+//!   normals of a height field.
+//!
+//! Units (DESIGN §4): mm, s, N, MPa (= N/mm²); deflections in reports in µm.
+
+pub mod beam;
+pub mod calibration;
+pub mod force;
+pub mod load;
+pub mod material;
+pub mod surface;
+
+pub use beam::Cantilever;
+pub use calibration::{fit_force_law, Fit, FitError};
+pub use force::{force_n, volume_per_tooth_mm3};
+pub use load::{force_direction, CuttingModel, StepLoad};
+pub use material::Material;
+pub use surface::{surface_error_um, surface_normals_from_heights};

@@ -1,0 +1,79 @@
+//! Work materials and their force-law coefficients.
+
+use serde::Serialize;
+
+/// A work material with the coefficients of S4's force law `F = a · V^n`
+/// (F in N, V = removed volume per tooth per revolution in mm³).
+///
+/// The built-in values ([`Material::ALL`]) are **starting points to be calibrated** on the
+/// machine, tool and coolant at hand (fit measured forces with
+/// [`crate::calibration::fit_force_law`]). They were chosen so that a typical finishing chip of
+/// V ≈ 0.1 mm³ gives tens of newtons and a roughing chip of V ≈ 1 mm³ gives a few hundred, with
+/// `a` roughly following the specific cutting energy of the material (aluminium ≈ 0.7 J/mm³,
+/// carbon steel ≈ 2.5, hardened tool steel ≈ 3.5, titanium ≈ 3).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Material {
+    /// Short identifier used to look the material up, e.g. `"s50c"`.
+    pub name: &'static str,
+    /// `a` in `F = a · V^n`: force in N for V = 1 mm³ per tooth per revolution.
+    pub force_coef_a: f64,
+    /// `n` in `F = a · V^n` (dimensionless, typically 0.6–0.8).
+    pub force_exp_n: f64,
+}
+
+impl Material {
+    /// Aluminium alloy 6061-T6.
+    pub const AL6061: Material = Material {
+        name: "al6061",
+        force_coef_a: 250.0,
+        force_exp_n: 0.70,
+    };
+    /// Carbon steel S50C (JIS; ≈ C50 / AISI 1050), annealed, ≈ 200 HB.
+    pub const S50C: Material = Material {
+        name: "s50c",
+        force_coef_a: 800.0,
+        force_exp_n: 0.72,
+    };
+    /// Pre-hardened tool steel, ≈ 40 HRC (e.g. NAK80, P20 class).
+    pub const TOOL_STEEL_40HRC: Material = Material {
+        name: "tool-steel-40hrc",
+        force_coef_a: 1100.0,
+        force_exp_n: 0.75,
+    };
+    /// Titanium alloy Ti-6Al-4V.
+    pub const TI6AL4V: Material = Material {
+        name: "ti6al4v",
+        force_coef_a: 950.0,
+        force_exp_n: 0.75,
+    };
+
+    /// The built-in table.
+    pub const ALL: &'static [Material] = &[
+        Material::AL6061,
+        Material::S50C,
+        Material::TOOL_STEEL_40HRC,
+        Material::TI6AL4V,
+    ];
+
+    /// Looks a built-in material up by [`Material::name`], ignoring ASCII case.
+    pub fn by_name(name: &str) -> Option<&'static Material> {
+        Material::ALL
+            .iter()
+            .find(|m| m.name.eq_ignore_ascii_case(name))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lookup_by_name() {
+        assert_eq!(Material::by_name("S50C"), Some(&Material::S50C));
+        assert_eq!(Material::by_name("unobtainium"), None);
+        for m in Material::ALL {
+            assert_eq!(Material::by_name(m.name), Some(m));
+            assert!(m.force_coef_a > 0.0 && (0.5..=1.0).contains(&m.force_exp_n));
+        }
+    }
+}
