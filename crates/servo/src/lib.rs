@@ -1,1 +1,22 @@
-//! servo
+//! Servo drive model and motion evaluation (S2; S4 "motion error").
+//!
+//! * [`drive`]: a per-axis closed-loop model of the feed drive (first-order lag with velocity
+//!   feed-forward, or a second-order loop) simulated exactly at the servo period.
+//! * [`path_error`]: trajectory error, the largest distance of actual samples to the commanded
+//!   polyline.
+//! * [`evaluation`]: S2's score `V = Ka·Va + Kb·Vb + Kc·Vc` from trajectory error, machining time
+//!   and the largest jerk.
+//! * [`precomp`]: S4's iterative pre-compensation of the command for the drive's lag.
+//!
+//! Positions are in mm in the machine frame, one `[x, y, z]` sample per servo period (s).
+//! Pure: values in, values out.
+
+pub mod drive;
+pub mod evaluation;
+pub mod path_error;
+pub mod precomp;
+
+pub use drive::{simulate_actual, simulate_actual_from, Drive, DriveError, DriveOrder};
+pub use evaluation::{evaluate, max_jerk_mm_s3, Evaluation, Weights};
+pub use path_error::trajectory_error_mm;
+pub use precomp::{precompensate, Precomp};

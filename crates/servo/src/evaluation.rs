@@ -1,0 +1,140 @@
+//! S2's evaluation of a motion: trajectory error, machining time, jerk, and the weighted score.
+
+use serde::{Deserialize, Serialize};
+
+use crate::path_error::trajectory_error_mm;
+
+/// Largest |jerk| per axis in mm/s³ of positions sampled every `period_s`, from the third
+/// difference `|x[k+3] − 3x[k+2] + 3x[k+1] − x[k]| / T³`. Zero with fewer than 4 samples.
+pub fn max_jerk_mm_s3(actual: &[[f64; 3]], period_s: f64) -> [f64; 3] {
+    let t3 = period_s.powi(3);
+    let mut max = [0.0f64; 3];
+    for w in actual.windows(4) {
+        for axis in 0..3 {
+            // j ≈ (x₃ − 3x₂ + 3x₁ − x₀) / T³
+            let third = w[3][axis] - 3.0 * w[2][axis] + 3.0 * w[1][axis] - w[0][axis];
+            max[axis] = max[axis].max(third.abs() / t3);
+        }
+    }
+    max
+}
+
+/// User weights and the references that make S2's primary scores dimensionless.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Weights {
+    /// Ka, weight of the trajectory-error score.
+    pub ka: f64,
+    /// Kb, weight of the machining-time score.
+    pub kb: f64,
+    /// Kc, weight of the jerk score.
+    pub kc: f64,
+    /// Trajectory error that scores Va = 1, mm (e.g. the part tolerance).
+    pub tolerance_mm: f64,
+    /// Machining time that scores Vb = 1, s (e.g. the time of the program as it stands).
+    pub reference_time_s: f64,
+    /// Jerk that scores Vc = 1, mm/s³ (e.g. the machine's jerk limit).
+    pub jerk_reference_mm_s3: f64,
+}
+
+/// S2's evaluation of one motion; lower is better.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Evaluation {
+    /// Largest distance of an actual sample to the commanded path, mm.
+    pub trajectory_error_mm: f64,
+    /// Index of the sample where [`Evaluation::trajectory_error_mm`] occurs.
+    pub worst_sample: usize,
+    /// Time from the first to the last sample, s.
+    pub machining_time_s: f64,
+    /// Largest |jerk| of the actual motion per axis, mm/s³.
+    pub max_jerk_mm_s3: [f64; 3],
+    /// Va = trajectory error / tolerance.
+    pub va: f64,
+    /// Vb = machining time / reference time.
+    pub vb: f64,
+    /// Vc = largest per-axis jerk / jerk reference.
+    pub vc: f64,
+    /// V = Ka·Va + Kb·Vb + Kc·Vc.
+    pub evaluation: f64,
+}
+
+/// Evaluates the `actual` motion (e.g. from [`crate::simulate_actual`]) against the
+/// `commanded` samples, both taken every `period_s`.
+pub fn evaluate(
+    commanded: &[[f64; 3]],
+    actual: &[[f64; 3]],
+    period_s: f64,
+    weights: &Weights,
+) -> Evaluation {
+    let (error_mm, worst_sample) = trajectory_error_mm(commanded, actual);
+    let machining_time_s = commanded.len().saturating_sub(1) as f64 * period_s;
+    let jerk = max_jerk_mm_s3(actual, period_s);
+    let va = error_mm / weights.tolerance_mm;
+    let vb = machining_time_s / weights.reference_time_s;
+    let vc = jerk.iter().fold(0.0f64, |m, j| m.max(*j)) / weights.jerk_reference_mm_s3;
+    Evaluation {
+        trajectory_error_mm: error_mm,
+        worst_sample,
+        machining_time_s,
+        max_jerk_mm_s3: jerk,
+        va,
+        vb,
+        vc,
+        // V = Ka·Va + Kb·Vb + Kc·Vc
+        evaluation: weights.ka * va + weights.kb * vb + weights.kc * vc,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::drive::{simulate_actual, Drive};
+
+    #[test]
+    fn jerk_of_a_cubic() {
+        // x = c t³ has jerk 6c; y = −2 t³ → 12; z a parabola → 0.
+        let (c, t) = (7.5, 0.01);
+        let xs: Vec<_> = (0..50)
+            .map(|k| {
+                let s = k as f64 * t;
+                [c * s.powi(3), -2.0 * s.powi(3), 3.0 * s * s]
+            })
+            .collect();
+        let j = max_jerk_mm_s3(&xs, t);
+        assert!(
+            (j[0] - 6.0 * c).abs() < 1e-6 && (j[1] - 12.0).abs() < 1e-6 && j[2] < 1e-6,
+            "{j:?}"
+        );
+        assert_eq!(max_jerk_mm_s3(&xs[..3], t), [0.0; 3]);
+    }
+
+    #[test]
+    fn score_by_hand() {
+        // Ramp at 25 mm/s for 1 s, Kp = 30/s: the lagging actual stays on the line (error 0),
+        // the start from rest is a velocity step (jerk ≈ v·Kp/T at the first samples).
+        let t = 0.001;
+        let cmd: Vec<_> = (0..=1000)
+            .map(|k| [25.0 * k as f64 * t, 0.0, 0.0])
+            .collect();
+        let act = simulate_actual(&cmd, t, &Drive::first_order(30.0));
+        let w = Weights {
+            ka: 2.0,
+            kb: 1.0,
+            kc: 0.5,
+            tolerance_mm: 0.01,
+            reference_time_s: 2.0,
+            jerk_reference_mm_s3: 1e5,
+        };
+        let e = evaluate(&cmd, &act, t, &w);
+        assert!(e.trajectory_error_mm < 1e-12);
+        assert!((e.machining_time_s - 1.0).abs() < 1e-12 && (e.vb - 0.5).abs() < 1e-12);
+        let j = max_jerk_mm_s3(&act, t)[0];
+        assert_eq!(e.max_jerk_mm_s3[0], j);
+        assert!((e.vc - j / 1e5).abs() < 1e-15);
+        assert!((e.evaluation - (2.0 * e.va + 0.5 + 0.5 * e.vc)).abs() < 1e-12);
+
+        // Same command with a constant 0.02 mm offset in y: Va = 2.
+        let off: Vec<_> = act.iter().map(|p| [p[0], p[1] + 0.02, p[2]]).collect();
+        let e = evaluate(&cmd, &off, t, &w);
+        assert!((e.va - 2.0).abs() < 1e-9);
+    }
+}
