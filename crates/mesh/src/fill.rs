@@ -1,0 +1,408 @@
+//! Rasterising a mesh onto the vertical lines through the column centres.
+//!
+//! Each triangle that is not vertical is projected onto XY and tested against
+//! the column centres under its footprint with three edge functions. A centre
+//! exactly on an edge counts for the triangle on the edge's left only when the
+//! edge points down (−y), or along +x when horizontal: the half-open rule of
+//! rasterisers, which equals moving the centre by an infinitesimal (1, δ). To
+//! make the two triangles of a shared edge agree exactly, the edge function is
+//! always evaluated from the lexicographically smaller end point and negated
+//! as needed, so both get the same number with opposite signs. A centre on a
+//! vertex has all incident edge functions exactly zero, so the tie rule alone
+//! decides and exactly one triangle of a fan around the vertex takes it.
+//! Triangles facing up and down are treated alike (made counter-clockwise in
+//! XY first), so a column grazing a silhouette gets both or neither crossing.
+
+use dexel::{Grid, Stock};
+use rayon::prelude::*;
+
+use crate::solid::check_indices;
+use crate::{MeshError, TriMesh};
+
+/// What [`stock_from_mesh`] found while filling.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FillStats {
+    /// Triangles skipped because they are vertical (no area seen from above).
+    pub vertical_triangles: usize,
+    /// Crossings of column lines with the mesh, all columns.
+    pub crossings: usize,
+    /// Columns whose crossings did not balance (as many entries as exits):
+    /// an open or degenerate mesh. Their crossings were paired in z order and
+    /// an odd last one dropped.
+    pub unpaired_columns: usize,
+    /// Columns where more than one shell was entered at once or a shell was
+    /// exited before being entered: overlapping shells (filled as their
+    /// union) or a void shell wound like an outer one ([`crate::validate_solid`]
+    /// fixes the latter).
+    pub overlap_columns: usize,
+    /// The mesh faced inward (negative signed volume) and was filled as if flipped.
+    pub flipped: bool,
+}
+
+/// Fill a dexel stock from `mesh` on a grid of `spacing_mm` covering the
+/// mesh's XY bounds ([`Grid::covering`]); see [`stock_on_grid`].
+pub fn stock_from_mesh(mesh: &TriMesh, spacing_mm: f64) -> Result<(Stock, FillStats), MeshError> {
+    check_indices(mesh)?;
+    let Some((lo, hi)) = mesh.bounds_mm() else {
+        return Err(crate::SolidError::Empty.into());
+    };
+    stock_on_grid(
+        mesh,
+        Grid::covering(lo[0], lo[1], hi[0], hi[1], spacing_mm)?,
+    )
+}
+
+/// Fill a dexel stock from `mesh` on `grid` (which may be larger or smaller
+/// than the mesh). Each column holds the material between where its vertical
+/// line through the column centre enters the mesh (down-facing triangle) and
+/// leaves it (up-facing triangle), so undercuts and voids give several
+/// intervals. Heights are computed in f64 (mm) and stored as f32.
+///
+/// The mesh should be a closed solid ([`crate::validate_solid`]); anything
+/// else still fills without panicking, with problems counted in [`FillStats`].
+pub fn stock_on_grid(mesh: &TriMesh, grid: Grid) -> Result<(Stock, FillStats), MeshError> {
+    check_indices(mesh)?;
+    let flipped = mesh.signed_volume_mm3() < 0.0;
+    let raster = Raster::new(mesh, &grid, flipped);
+    let rows: Vec<RowIntervals> = (0..grid.ny)
+        .into_par_iter()
+        .map_init(Vec::new, |crossings, iy| {
+            raster.row_crossings(iy, crossings);
+            RowIntervals::from_crossings(grid.nx, crossings)
+        })
+        .collect();
+    let mut stats = FillStats {
+        vertical_triangles: raster.vertical_triangles,
+        flipped,
+        ..FillStats::default()
+    };
+    for row in &rows {
+        stats.crossings += row.crossings;
+        stats.unpaired_columns += row.unpaired_columns;
+        stats.overlap_columns += row.overlap_columns;
+    }
+    let stock = Stock::from_columns(grid, |ix, iy, out| {
+        let row = &rows[iy];
+        out.extend_from_slice(
+            &row.intervals[row.offsets[ix] as usize..row.offsets[ix + 1] as usize],
+        );
+    })?;
+    Ok((stock, stats))
+}
+
+/// Highest crossing of each column's centre line with `mesh` on `grid`, mm,
+/// row-major; NaN where the line misses the mesh. For a design model this is
+/// its top surface as seen by the tool.
+pub fn top_heights(mesh: &TriMesh, grid: &Grid) -> Result<Vec<f32>, MeshError> {
+    check_indices(mesh)?;
+    let raster = Raster::new(mesh, grid, false);
+    let rows: Vec<Vec<f32>> = (0..grid.ny)
+        .into_par_iter()
+        .map_init(Vec::new, |crossings, iy| {
+            raster.row_crossings(iy, crossings);
+            let mut top = vec![f64::NEG_INFINITY; grid.nx];
+            for c in crossings.iter() {
+                top[c.ix as usize] = top[c.ix as usize].max(c.z);
+            }
+            top.iter()
+                .map(|&z| {
+                    if z == f64::NEG_INFINITY {
+                        f32::NAN
+                    } else {
+                        z as f32
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    Ok(rows.concat())
+}
+
+/// Number of `triangles` over the point (x, y) (same fill rule as the stock)
+/// that lie above height `z` (mm) there: odd when the point is inside a closed
+/// shell made of them.
+pub(crate) fn crossings_above(
+    triangles: impl Iterator<Item = [[f64; 3]; 3]>,
+    [x, y, z]: [f64; 3],
+) -> usize {
+    triangles
+        .filter_map(|[a, b, c]| Prepared::new(a, b, c, false))
+        .filter(|t| {
+            (t.x_range[0]..=t.x_range[1]).contains(&x)
+                && t.edges.iter().all(|e| e.admits(x, y))
+                && t.z_at(x, y) > z
+        })
+        .count()
+}
+
+/// One crossing of a column line with a triangle.
+#[derive(Clone, Copy, Debug)]
+struct Crossing {
+    ix: u32,
+    /// The line enters material here (the triangle faces down).
+    enter: bool,
+    z: f64,
+}
+
+/// One edge of a triangle made counter-clockwise in XY, in canonical form.
+#[derive(Clone, Copy, Debug)]
+struct Edge {
+    /// Lexicographically smaller end point, and the vector to the other end.
+    ox: f64,
+    oy: f64,
+    dx: f64,
+    dy: f64,
+    /// +1 if the triangle runs from (ox, oy) along (dx, dy), −1 otherwise.
+    sign: f64,
+    /// A centre exactly on this edge belongs to this triangle.
+    owns_ties: bool,
+}
+
+impl Edge {
+    fn new(p: [f64; 3], q: [f64; 3]) -> Edge {
+        let forward = (p[0], p[1]) < (q[0], q[1]);
+        let (o, e) = if forward { (p, q) } else { (q, p) };
+        let (tx, ty) = (q[0] - p[0], q[1] - p[1]);
+        Edge {
+            ox: o[0],
+            oy: o[1],
+            dx: e[0] - o[0],
+            dy: e[1] - o[1],
+            sign: if forward { 1.0 } else { -1.0 },
+            owns_ties: ty < 0.0 || (ty == 0.0 && tx > 0.0),
+        }
+    }
+
+    /// Does the centre (x, y) lie on the triangle's side of this edge?
+    #[inline]
+    fn admits(&self, x: f64, y: f64) -> bool {
+        let w = self.sign * (self.dx * (y - self.oy) - self.dy * (x - self.ox));
+        w > 0.0 || (w == 0.0 && self.owns_ties)
+    }
+
+    /// X where the edge's line crosses height y, if the edge spans y.
+    #[inline]
+    fn x_at(&self, y: f64) -> Option<f64> {
+        let t = (y - self.oy) / self.dy;
+        (self.dy != 0.0 && (0.0..=1.0).contains(&t)).then_some(self.ox + t * self.dx)
+    }
+}
+
+/// A non-vertical triangle prepared for rasterising.
+#[derive(Clone, Copy, Debug)]
+struct Prepared {
+    edges: [Edge; 3],
+    /// Plane through the first vertex: z = z0 − (nx·(x − x0) + ny·(y − y0)) / nz.
+    p0: [f64; 3],
+    n: [f64; 3],
+    z_range: [f64; 2],
+    x_range: [f64; 2],
+    enter: bool,
+}
+
+impl Prepared {
+    /// `None` for a triangle with no area seen from above.
+    fn new(a: [f64; 3], b: [f64; 3], c: [f64; 3], flipped: bool) -> Option<Prepared> {
+        let (u, v) = (sub(b, a), sub(c, a));
+        let n = [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ];
+        if n[2] == 0.0 || !n[2].is_finite() {
+            return None;
+        }
+        let up = n[2] > 0.0;
+        // Counter-clockwise in XY whichever way it faces.
+        let (b, c) = if up { (b, c) } else { (c, b) };
+        Some(Prepared {
+            edges: [Edge::new(a, b), Edge::new(b, c), Edge::new(c, a)],
+            p0: a,
+            n,
+            z_range: [a[2].min(b[2]).min(c[2]), a[2].max(b[2]).max(c[2])],
+            x_range: [a[0].min(b[0]).min(c[0]), a[0].max(b[0]).max(c[0])],
+            enter: up == flipped,
+        })
+    }
+
+    #[inline]
+    fn z_at(&self, x: f64, y: f64) -> f64 {
+        let [x0, y0, z0] = self.p0;
+        let z = z0 - (self.n[0] * (x - x0) + self.n[1] * (y - y0)) / self.n[2];
+        // Guards nearly vertical triangles against rounding far outside them.
+        z.clamp(self.z_range[0], self.z_range[1])
+    }
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// Triangles binned by the grid rows their footprint spans (CSR).
+struct Raster<'g> {
+    grid: &'g Grid,
+    triangles: Vec<Prepared>,
+    row_start: Vec<u32>,
+    row_triangles: Vec<u32>,
+    vertical_triangles: usize,
+}
+
+impl<'g> Raster<'g> {
+    fn new(mesh: &TriMesh, grid: &'g Grid, flipped: bool) -> Raster<'g> {
+        let mut triangles = Vec::with_capacity(mesh.triangles.len());
+        let mut rows = Vec::with_capacity(mesh.triangles.len());
+        let mut vertical_triangles = 0;
+        for t in &mesh.triangles {
+            let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
+            let Some(p) = Prepared::new(a, b, c, flipped) else {
+                vertical_triangles += 1;
+                continue;
+            };
+            let (y_lo, y_hi) = (a[1].min(b[1]).min(c[1]), a[1].max(b[1]).max(c[1]));
+            if let Some(r) = grid.iy_range(y_lo, y_hi) {
+                triangles.push(p);
+                rows.push(r);
+            }
+        }
+        let mut row_start = vec![0u32; grid.ny + 1];
+        for &(first, last) in &rows {
+            for iy in first..=last {
+                row_start[iy + 1] += 1;
+            }
+        }
+        for iy in 0..grid.ny {
+            row_start[iy + 1] += row_start[iy];
+        }
+        let mut next = row_start.clone();
+        let mut row_triangles = vec![0u32; row_start[grid.ny] as usize];
+        for (ti, &(first, last)) in rows.iter().enumerate() {
+            for iy in first..=last {
+                row_triangles[next[iy] as usize] = ti as u32;
+                next[iy] += 1;
+            }
+        }
+        Raster {
+            grid,
+            triangles,
+            row_start,
+            row_triangles,
+            vertical_triangles,
+        }
+    }
+
+    /// All crossings of the column lines of row `iy`, unsorted.
+    fn row_crossings(&self, iy: usize, out: &mut Vec<Crossing>) {
+        out.clear();
+        let y = self.grid.y_mm(iy);
+        let bin = &self.row_triangles[self.row_start[iy] as usize..self.row_start[iy + 1] as usize];
+        for &ti in bin {
+            let t = &self.triangles[ti as usize];
+            // The footprint's x span on this row, widened by a column against rounding;
+            // the edge functions decide exactly.
+            let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            for x in t.edges.iter().filter_map(|e| e.x_at(y)) {
+                x_lo = x_lo.min(x);
+                x_hi = x_hi.max(x);
+            }
+            if x_lo > x_hi {
+                continue;
+            }
+            let g = self.grid.spacing_mm;
+            let Some((first, last)) = self
+                .grid
+                .ix_range((x_lo - g).max(t.x_range[0]), (x_hi + g).min(t.x_range[1]))
+            else {
+                continue;
+            };
+            for ix in first..=last {
+                let x = self.grid.x_mm(ix);
+                if t.edges.iter().all(|e| e.admits(x, y)) {
+                    out.push(Crossing {
+                        ix: ix as u32,
+                        enter: t.enter,
+                        z: t.z_at(x, y),
+                    });
+                }
+            }
+        }
+    }
+}
+
+/// One row's material intervals, CSR by column.
+struct RowIntervals {
+    offsets: Vec<u32>,
+    intervals: Vec<[f32; 2]>,
+    crossings: usize,
+    unpaired_columns: usize,
+    overlap_columns: usize,
+}
+
+impl RowIntervals {
+    /// Sort the crossings per column and turn them into intervals where the
+    /// winding number (entries minus exits below) is positive.
+    fn from_crossings(nx: usize, crossings: &mut [Crossing]) -> RowIntervals {
+        // By column, then z, entries first at equal z so touching solids merge
+        // and a grazed silhouette gives an empty interval.
+        crossings.sort_unstable_by(|a, b| {
+            a.ix.cmp(&b.ix)
+                .then(a.z.total_cmp(&b.z))
+                .then(b.enter.cmp(&a.enter))
+        });
+        let mut row = RowIntervals {
+            offsets: vec![0; nx + 1],
+            intervals: Vec::new(),
+            crossings: crossings.len(),
+            unpaired_columns: 0,
+            overlap_columns: 0,
+        };
+        let mut done = 0;
+        for column in crossings.chunk_by(|a, b| a.ix == b.ix) {
+            let ix = column[0].ix as usize;
+            row.offsets[done + 1..=ix].fill(row.intervals.len() as u32);
+            let start = row.intervals.len();
+            let (mut winding, mut lo, mut overlap) = (0i32, 0.0, false);
+            for c in column {
+                if c.enter {
+                    if winding == 0 {
+                        lo = c.z;
+                    }
+                    winding += 1;
+                } else {
+                    winding -= 1;
+                    if winding == 0 {
+                        push_merged(&mut row.intervals, start, lo, c.z);
+                    }
+                }
+                overlap |= !(0..=1).contains(&winding);
+            }
+            if winding != 0 {
+                // Unbalanced: pair in z order, drop an odd last crossing.
+                row.intervals.truncate(start);
+                for pair in column.chunks_exact(2) {
+                    push_merged(&mut row.intervals, start, pair[0].z, pair[1].z);
+                }
+                row.unpaired_columns += 1;
+            } else if overlap {
+                row.overlap_columns += 1;
+            }
+            row.offsets[ix + 1] = row.intervals.len() as u32;
+            done = ix + 1;
+        }
+        row.offsets[done + 1..].fill(row.intervals.len() as u32);
+        row
+    }
+}
+
+/// Append [lo, hi] (f64 mm) as f32 to the column whose intervals start at
+/// `start`, dropping empty ones and merging with a touching predecessor.
+fn push_merged(intervals: &mut Vec<[f32; 2]>, start: usize, lo: f64, hi: f64) {
+    let (lo, hi) = (lo as f32, hi as f32);
+    if hi <= lo {
+        return;
+    }
+    let in_column = intervals.len() > start;
+    match intervals.last_mut() {
+        Some(last) if in_column && last[1] >= lo => last[1] = last[1].max(hi),
+        _ => intervals.push([lo, hi]),
+    }
+}
