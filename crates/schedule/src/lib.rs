@@ -1,1 +1,23 @@
-//! schedule
+//! Machine motion and time-optimal re-timing along a toolpath.
+//!
+//! One planner serves two uses:
+//! * **machine motion**: how a control runs a program: programmed feeds, acceleration limits,
+//!   corners, block processing time ([`FeedPolicy::Programmed`]);
+//! * **optimize**: re-time under extra per-position feed caps (removal rate, force,
+//!   deflection, surface angle) with every feed block allowed `feed_max_mm_min`
+//!   ([`FeedPolicy::MachineMax`] plus [`Stations::apply_caps`]). Engagement is
+//!   feed-independent, so every such limit is a cap on the feed along the arc length s.
+//!
+//! Flow: [`Stations::new`] discretises the path and sets the caps, the caller may lower caps,
+//! [`plan`] computes the time-optimal speed profile, [`Profile::sample`] gives servo data.
+//! [`lower_bound_time_s`] bounds every profile from below, for the optimality gap.
+
+mod machine;
+mod plan;
+mod rules;
+mod stations;
+
+pub use machine::{Machine, ScheduleError};
+pub use plan::{axis_velocity_mm_s, plan, Profile, ServoSample};
+pub use rules::{angle_rule_feed_mm_min, block_feed_cap_mm_min, chord_tolerance_mm};
+pub use stations::{lower_bound_time_s, CapKind, FeedPolicy, Stations, Stop};

@@ -1,0 +1,113 @@
+//! Machine limits and the crate's error type.
+
+use thiserror::Error;
+
+/// What can go wrong when building stations or applying caps.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum ScheduleError {
+    /// A machine parameter is not a finite positive number.
+    #[error("machine parameter `{name}` must be finite and > 0, got {value}")]
+    InvalidMachine { name: &'static str, value: f64 },
+    /// The station spacing is not a finite positive number.
+    #[error("station spacing must be finite and > 0 mm, got {0}")]
+    InvalidSpacing(f64),
+    /// A segment of the path has a feed or dwell time that cannot be run.
+    #[error("segment {segment} (line {line}): {what}")]
+    InvalidSegment {
+        segment: usize,
+        line: u32,
+        what: &'static str,
+    },
+    /// The path has no segment at all, so there is no position to start from.
+    #[error("the path is empty")]
+    EmptyPath,
+    /// A feed cap is NaN or not > 0.
+    #[error("feed cap at station {station} must be > 0 mm/min, got {cap_mm_min}")]
+    InvalidCap { station: usize, cap_mm_min: f64 },
+    /// A caps slice does not have one value per station.
+    #[error("expected {expected} caps (one per station), got {got}")]
+    CapCount { expected: usize, got: usize },
+}
+
+/// Limits of the machine and its control.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Machine {
+    /// Interpolation (servo) period in ms.
+    pub period_ms: f64,
+    /// Highest cutting feed in mm/min.
+    pub feed_max_mm_min: f64,
+    /// Rapid (G0) rate in mm/min.
+    pub rapid_mm_min: f64,
+    /// Acceleration limit of each axis X, Y, Z in mm/s².
+    pub accel_mm_s2: [f64; 3],
+    /// Jerk limit of each axis X, Y, Z in mm/s³; `None`: acceleration may jump.
+    pub jerk_mm_s3: Option<[f64; 3]>,
+    /// Block processing time Tb in ms (S0); `None`: blocks are read instantly.
+    pub block_time_ms: Option<f64>,
+}
+
+impl Default for Machine {
+    fn default() -> Self {
+        Machine {
+            period_ms: 16.0,
+            feed_max_mm_min: 3000.0,
+            rapid_mm_min: 10000.0,
+            accel_mm_s2: [1000.0; 3],
+            jerk_mm_s3: None,
+            block_time_ms: None,
+        }
+    }
+}
+
+impl Machine {
+    /// Checks that every limit is finite and > 0.
+    pub fn validate(&self) -> Result<(), ScheduleError> {
+        let check = |name: &'static str, value: f64| {
+            if value.is_finite() && value > 0.0 {
+                Ok(())
+            } else {
+                Err(ScheduleError::InvalidMachine { name, value })
+            }
+        };
+        check("period_ms", self.period_ms)?;
+        check("feed_max_mm_min", self.feed_max_mm_min)?;
+        check("rapid_mm_min", self.rapid_mm_min)?;
+        for a in self.accel_mm_s2 {
+            check("accel_mm_s2", a)?;
+        }
+        if let Some(jerk) = self.jerk_mm_s3 {
+            for j in jerk {
+                check("jerk_mm_s3", j)?;
+            }
+        }
+        if let Some(tb) = self.block_time_ms {
+            check("block_time_ms", tb)?;
+        }
+        Ok(())
+    }
+
+    /// Interpolation period in s.
+    pub fn period_s(&self) -> f64 {
+        self.period_ms * 1e-3
+    }
+
+    /// Tangential acceleration limit in mm/s² along unit direction `t`:
+    /// the largest a with a·|t_i| ≤ a_i on every axis.
+    pub fn tangential_accel_mm_s2(&self, t: &nalgebra::Vector3<f64>) -> f64 {
+        along(t, self.accel_mm_s2)
+    }
+
+    /// Tangential jerk limit in mm/s³ along unit direction `t` (infinite without a jerk limit).
+    pub fn tangential_jerk_mm_s3(&self, t: &nalgebra::Vector3<f64>) -> f64 {
+        self.jerk_mm_s3.map_or(f64::INFINITY, |j| along(t, j))
+    }
+}
+
+/// min_i limit_i / |t_i| (infinite for the zero vector).
+fn along(t: &nalgebra::Vector3<f64>, limit: [f64; 3]) -> f64 {
+    (0..3)
+        .filter(|&i| t[i] != 0.0)
+        .map(|i| limit[i] / t[i].abs())
+        .fold(f64::INFINITY, f64::min)
+}

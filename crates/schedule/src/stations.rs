@@ -1,0 +1,464 @@
+//! The path discretised along its arc length, with a feed cap at every station.
+
+use nalgebra::{Point3, Vector3};
+use nc::{Geometry, Motion, Path, Segment};
+
+use crate::machine::{Machine, ScheduleError};
+use crate::rules::block_feed_cap_mm_min;
+
+/// Segments shorter than this (mm) carry no stations; they neither move nor turn the tool.
+const MIN_SEGMENT_MM: f64 = 1e-9;
+
+/// Which limit sets a station's feed cap, or, in a profile's time shares, what holds the speed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CapKind {
+    /// The programmed feed of the block.
+    Programmed,
+    /// The machine's highest cutting feed.
+    FeedMax,
+    /// The rapid rate (G0).
+    Rapid,
+    /// Centripetal acceleration on an arc: v ≤ sqrt(a_n · r).
+    Curvature,
+    /// Tangent jump between segments (corner rule).
+    Corner,
+    /// Block processing time (S0): a block cannot be crossed faster than it is read.
+    BlockTime,
+    /// Caller's cap from the material removal rate.
+    Removal,
+    /// Caller's cap from the cutting force.
+    Force,
+    /// Caller's cap from the tool deflection.
+    Deflection,
+    /// Caller's cap from the cutting-surface angle (S3).
+    SurfaceAngle,
+    /// Not at any cap: accelerating or decelerating (jerk ramps included).
+    Acceleration,
+    /// Standing still for a programmed dwell.
+    Dwell,
+}
+
+impl CapKind {
+    /// Every kind, in the order [`crate::Profile::time_at_cap_share`] reports them.
+    pub const ALL: [CapKind; 12] = [
+        CapKind::Programmed,
+        CapKind::FeedMax,
+        CapKind::Rapid,
+        CapKind::Curvature,
+        CapKind::Corner,
+        CapKind::BlockTime,
+        CapKind::Removal,
+        CapKind::Force,
+        CapKind::Deflection,
+        CapKind::SurfaceAngle,
+        CapKind::Acceleration,
+        CapKind::Dwell,
+    ];
+
+    /// Position of the kind in [`CapKind::ALL`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// Which feed a feed block is capped at.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FeedPolicy {
+    /// Machine motion: the programmed feed (itself capped at `feed_max_mm_min`).
+    Programmed,
+    /// Re-timing: every feed block may run at `feed_max_mm_min`; the caller adds caps.
+    MachineMax,
+}
+
+/// A station where the tool is at rest: path start, path end, and every dwell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stop {
+    /// Station index.
+    pub station: usize,
+    /// Time standing still there, in s (0 at a start or end without dwell).
+    pub dwell_s: f64,
+}
+
+/// The path discretised at arc-length stations, stored as struct of arrays.
+///
+/// Every segment end is a station, so corners are exact; each segment of length L gets
+/// max(2, ⌈L/ds⌉) equal intervals. Station k > 0 belongs to the segment of the interval
+/// k−1 → k that ends at it (a corner station sits at fraction 1 of the segment before the
+/// corner); station 0 sits at fraction 0 of the first moving segment.
+#[derive(Clone, Debug)]
+pub struct Stations {
+    machine: Machine,
+    segments: Vec<Segment>,
+    s_mm: Vec<f64>,
+    segment: Vec<u32>,
+    fraction: Vec<f64>,
+    position: Vec<Point3<f64>>,
+    tangent: Vec<Vector3<f64>>,
+    cap_mm_min: Vec<f64>,
+    cap_kind: Vec<CapKind>,
+    interval_accel_mm_s2: Vec<f64>,
+    interval_jerk_mm_s3: Vec<f64>,
+    stops: Vec<Stop>,
+}
+
+impl Stations {
+    /// Discretises `path` at station spacing `ds_mm` and sets the caps that follow from the
+    /// program and the machine:
+    ///
+    /// * the programmed feed (or `feed_max_mm_min` under [`FeedPolicy::MachineMax`]), never
+    ///   above `feed_max_mm_min`; rapids at `rapid_mm_min`;
+    /// * curvature: v ≤ sqrt(a_n · r) on arcs, a_n the smaller acceleration limit of the
+    ///   arc plane's two axes, r the arc radius (conservative on a helix);
+    /// * corners: where the unit tangent jumps by Δt between segments, the control crosses
+    ///   the corner within one period T, so each axis' velocity steps by v·|Δt_i|; the
+    ///   corner rule keeps that step within what the axis reaches in one period:
+    ///   v·|Δt_i| ≤ a_i·T for every axis i;
+    /// * block time (S0): with block time Tb, a segment of length L is capped at
+    ///   60000·L/Tb mm/min.
+    ///
+    /// Dwells become stops. Zero-length moves are skipped.
+    pub fn new(
+        path: &Path,
+        machine: &Machine,
+        ds_mm: f64,
+        policy: FeedPolicy,
+    ) -> Result<Self, ScheduleError> {
+        machine.validate()?;
+        if !(ds_mm.is_finite() && ds_mm > 0.0) {
+            return Err(ScheduleError::InvalidSpacing(ds_mm));
+        }
+        let first = path.segments.first().ok_or(ScheduleError::EmptyPath)?;
+        let estimate = (path.length_mm() / ds_mm) as usize + 2 * path.segments.len() + 1;
+        let mut st = Stations {
+            machine: *machine,
+            segments: path.segments.clone(),
+            s_mm: Vec::with_capacity(estimate),
+            segment: Vec::with_capacity(estimate),
+            fraction: Vec::with_capacity(estimate),
+            position: Vec::with_capacity(estimate),
+            tangent: Vec::with_capacity(estimate),
+            cap_mm_min: Vec::with_capacity(estimate),
+            cap_kind: Vec::with_capacity(estimate),
+            interval_accel_mm_s2: Vec::with_capacity(estimate),
+            interval_jerk_mm_s3: Vec::with_capacity(estimate),
+            stops: Vec::new(),
+        };
+        // A dwell (or run of dwells) waiting for the next station: total seconds.
+        let mut pending_dwell_s: Option<f64> = None;
+        let mut previous: Option<usize> = None;
+        for (index, seg) in path.segments.iter().enumerate() {
+            let invalid = |what| ScheduleError::InvalidSegment {
+                segment: index,
+                line: seg.line,
+                what,
+            };
+            let (mut cap_mm_min, mut kind) = match seg.motion {
+                Motion::Dwell { seconds } => {
+                    if !(seconds.is_finite() && seconds >= 0.0) {
+                        return Err(invalid("dwell time must be finite and >= 0 s"));
+                    }
+                    *pending_dwell_s.get_or_insert(0.0) += seconds;
+                    continue;
+                }
+                Motion::Rapid => (machine.rapid_mm_min, CapKind::Rapid),
+                Motion::Feed { feed_mm_min } => {
+                    if !(feed_mm_min.is_finite() && feed_mm_min > 0.0) {
+                        return Err(invalid("feed must be finite and > 0 mm/min"));
+                    }
+                    match policy {
+                        FeedPolicy::Programmed if feed_mm_min <= machine.feed_max_mm_min => {
+                            (feed_mm_min, CapKind::Programmed)
+                        }
+                        _ => (machine.feed_max_mm_min, CapKind::FeedMax),
+                    }
+                }
+            };
+            let len_mm = seg.length_mm();
+            if !len_mm.is_finite() {
+                return Err(invalid("length is not finite"));
+            }
+            if len_mm < MIN_SEGMENT_MM {
+                continue;
+            }
+            let mut lower = |cap: f64, k: CapKind| {
+                if cap < cap_mm_min {
+                    cap_mm_min = cap;
+                    kind = k;
+                }
+            };
+            if let Some(tb_ms) = machine.block_time_ms {
+                lower(block_feed_cap_mm_min(len_mm, tb_ms), CapKind::BlockTime);
+            }
+            if let Geometry::Arc { plane, .. } = seg.geometry {
+                let (a, b, _) = plane.axes();
+                let a_n = machine.accel_mm_s2[a].min(machine.accel_mm_s2[b]);
+                lower(60.0 * (a_n * seg.radius_mm()).sqrt(), CapKind::Curvature);
+            }
+
+            let start_tangent = seg.tangent_at_fraction(0.0);
+            let s_start_mm = match previous {
+                None => {
+                    st.push(0.0, index, 0.0, seg.start, start_tangent, cap_mm_min, kind);
+                    st.stops.push(Stop {
+                        station: 0,
+                        dwell_s: pending_dwell_s.take().unwrap_or(0.0),
+                    });
+                    0.0
+                }
+                Some(prev) => {
+                    let junction = st.len() - 1;
+                    st.lower_cap(junction, cap_mm_min, kind);
+                    match pending_dwell_s.take() {
+                        Some(dwell_s) => st.stops.push(Stop {
+                            station: junction,
+                            dwell_s,
+                        }),
+                        None => {
+                            let jump = start_tangent - st.segments[prev].tangent_at_fraction(1.0);
+                            let period_s = machine.period_s();
+                            let corner_mm_s = (0..3)
+                                .filter(|&i| jump[i] != 0.0)
+                                .map(|i| machine.accel_mm_s2[i] * period_s / jump[i].abs())
+                                .fold(f64::INFINITY, f64::min);
+                            st.lower_cap(junction, 60.0 * corner_mm_s, CapKind::Corner);
+                        }
+                    }
+                    st.s_mm[junction]
+                }
+            };
+
+            let intervals = ((len_mm / ds_mm).ceil() as usize).max(2);
+            let mut tangent_before = start_tangent;
+            for j in 1..=intervals {
+                let u = j as f64 / intervals as f64;
+                let tangent = seg.tangent_at_fraction(u);
+                let accel = machine
+                    .tangential_accel_mm_s2(&tangent_before)
+                    .min(machine.tangential_accel_mm_s2(&tangent));
+                let jerk = machine
+                    .tangential_jerk_mm_s3(&tangent_before)
+                    .min(machine.tangential_jerk_mm_s3(&tangent));
+                st.interval_accel_mm_s2.push(accel);
+                st.interval_jerk_mm_s3.push(jerk);
+                let position = if j == intervals {
+                    seg.end
+                } else {
+                    seg.point_at_fraction(u)
+                };
+                st.push(
+                    s_start_mm + len_mm * u,
+                    index,
+                    u,
+                    position,
+                    tangent,
+                    cap_mm_min,
+                    kind,
+                );
+                tangent_before = tangent;
+            }
+            previous = Some(index);
+        }
+        if st.s_mm.is_empty() {
+            // Nothing moves: one station where the program starts, standing for its dwells.
+            st.push(
+                0.0,
+                0,
+                0.0,
+                first.start,
+                Vector3::zeros(),
+                machine.feed_max_mm_min,
+                CapKind::Dwell,
+            );
+            st.stops.push(Stop {
+                station: 0,
+                dwell_s: pending_dwell_s.take().unwrap_or(0.0),
+            });
+        }
+        let last = st.len() - 1;
+        let dwell_s = pending_dwell_s.unwrap_or(0.0);
+        match st.stops.last_mut() {
+            Some(stop) if stop.station == last => stop.dwell_s += dwell_s,
+            _ => st.stops.push(Stop {
+                station: last,
+                dwell_s,
+            }),
+        }
+        Ok(st)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn push(
+        &mut self,
+        s_mm: f64,
+        segment: usize,
+        fraction: f64,
+        position: Point3<f64>,
+        tangent: Vector3<f64>,
+        cap_mm_min: f64,
+        kind: CapKind,
+    ) {
+        self.s_mm.push(s_mm);
+        self.segment.push(segment as u32);
+        self.fraction.push(fraction);
+        self.position.push(position);
+        self.tangent.push(tangent);
+        self.cap_mm_min.push(cap_mm_min);
+        self.cap_kind.push(kind);
+    }
+
+    fn lower_cap(&mut self, station: usize, cap_mm_min: f64, kind: CapKind) {
+        if cap_mm_min < self.cap_mm_min[station] {
+            self.cap_mm_min[station] = cap_mm_min;
+            self.cap_kind[station] = kind;
+        }
+    }
+
+    /// Lowers the cap of station `station` to `cap_mm_min` (mm/min, > 0) where that is lower,
+    /// recording `kind` as the binding limit.
+    pub fn apply_cap(
+        &mut self,
+        station: usize,
+        cap_mm_min: f64,
+        kind: CapKind,
+    ) -> Result<(), ScheduleError> {
+        if invalid_cap(cap_mm_min) {
+            return Err(ScheduleError::InvalidCap {
+                station,
+                cap_mm_min,
+            });
+        }
+        self.lower_cap(station, cap_mm_min, kind);
+        Ok(())
+    }
+
+    /// [`Stations::apply_cap`] for every station, one cap (mm/min) per station.
+    pub fn apply_caps(&mut self, caps_mm_min: &[f64], kind: CapKind) -> Result<(), ScheduleError> {
+        if caps_mm_min.len() != self.len() {
+            return Err(ScheduleError::CapCount {
+                expected: self.len(),
+                got: caps_mm_min.len(),
+            });
+        }
+        if let Some((station, &cap_mm_min)) = caps_mm_min
+            .iter()
+            .enumerate()
+            .find(|(_, &c)| invalid_cap(c))
+        {
+            return Err(ScheduleError::InvalidCap {
+                station,
+                cap_mm_min,
+            });
+        }
+        for (station, &cap_mm_min) in caps_mm_min.iter().enumerate() {
+            self.lower_cap(station, cap_mm_min, kind);
+        }
+        Ok(())
+    }
+
+    /// Number of stations (at least 1).
+    pub fn len(&self) -> usize {
+        self.s_mm.len()
+    }
+
+    /// Always false: a built path has at least one station.
+    pub fn is_empty(&self) -> bool {
+        self.s_mm.is_empty()
+    }
+
+    /// The machine the stations were built for.
+    pub fn machine(&self) -> &Machine {
+        &self.machine
+    }
+
+    /// The path's segments (indexed by [`Stations::segment`]).
+    pub fn segments(&self) -> &[Segment] {
+        &self.segments
+    }
+
+    /// Arc length from the path start at each station, mm.
+    pub fn s_mm(&self) -> &[f64] {
+        &self.s_mm
+    }
+
+    /// Segment index of each station.
+    pub fn segment(&self) -> &[u32] {
+        &self.segment
+    }
+
+    /// Fraction within its segment of each station, in [0, 1].
+    pub fn fraction(&self) -> &[f64] {
+        &self.fraction
+    }
+
+    /// Tool-tip position of each station, mm.
+    pub fn position(&self) -> &[Point3<f64>] {
+        &self.position
+    }
+
+    /// Unit tangent of each station's segment there (incoming side at a corner).
+    pub fn tangent(&self) -> &[Vector3<f64>] {
+        &self.tangent
+    }
+
+    /// Feed cap of each station, mm/min.
+    pub fn cap_mm_min(&self) -> &[f64] {
+        &self.cap_mm_min
+    }
+
+    /// Which limit sets each station's cap.
+    pub fn cap_kind(&self) -> &[CapKind] {
+        &self.cap_kind
+    }
+
+    /// Tangential acceleration limit of each interval k → k+1, mm/s²: min_i a_i/|t_i| over
+    /// the tangents at both ends.
+    pub fn interval_accel_mm_s2(&self) -> &[f64] {
+        &self.interval_accel_mm_s2
+    }
+
+    /// Tangential jerk limit of each interval k → k+1, mm/s³ (infinite without a jerk limit).
+    pub fn interval_jerk_mm_s3(&self) -> &[f64] {
+        &self.interval_jerk_mm_s3
+    }
+
+    /// Stations where the tool is at rest, in path order: the start, every dwell, the end.
+    pub fn stops(&self) -> &[Stop] {
+        &self.stops
+    }
+
+    /// Tool-tip position and segment index at arc length `s_mm` within interval `k` → k+1.
+    pub(crate) fn locate(&self, k: usize, s_mm: f64) -> (Point3<f64>, u32) {
+        let segment = self.segment[k + 1];
+        let start = if self.segment[k] == segment {
+            self.fraction[k]
+        } else {
+            0.0
+        };
+        let ds = self.s_mm[k + 1] - self.s_mm[k];
+        let w = ((s_mm - self.s_mm[k]) / ds).clamp(0.0, 1.0);
+        let u = start + w * (self.fraction[k + 1] - start);
+        (
+            self.segments[segment as usize].point_at_fraction(u),
+            segment,
+        )
+    }
+}
+
+/// A cap must be > 0 mm/min (+∞ is allowed and changes nothing); NaN is rejected.
+fn invalid_cap(cap_mm_min: f64) -> bool {
+    cap_mm_min.is_nan() || cap_mm_min <= 0.0
+}
+
+/// Time in s the path would take if the machine could jump to each cap at once: on each
+/// interval the planned speed is at most the larger cap of its two stations, so no profile
+/// from [`crate::plan`] beats Σ Δs / max(cap_k, cap_k+1) plus the dwells.
+pub fn lower_bound_time_s(stations: &Stations) -> f64 {
+    let caps = stations.cap_mm_min();
+    let moving: f64 = stations
+        .s_mm()
+        .windows(2)
+        .zip(caps.windows(2))
+        .map(|(s, c)| 60.0 * (s[1] - s[0]) / c[0].max(c[1]))
+        .sum();
+    moving + stations.stops().iter().map(|s| s.dwell_s).sum::<f64>()
+}
