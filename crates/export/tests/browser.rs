@@ -1,0 +1,233 @@
+//! Loads a synthetic report in headless Chromium and checks that it rendered:
+//! `data-status="ok"`, SVG plots and images present, the WebGL view drew the
+//! stock (or degraded gracefully), and no uncaught script errors.
+//!
+//! Without Chromium the test is skipped, unless `CI` is set: then it fails.
+//! Set `DEXCUT_KEEP_REPORT=DIR` to keep the HTML and a screenshot in DIR.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn find_chromium() -> Option<PathBuf> {
+    let names = [
+        "chromium",
+        "chromium-browser",
+        "google-chrome",
+        "google-chrome-stable",
+    ];
+    let path = std::env::var_os("PATH")?;
+    for dir in std::env::split_paths(&path) {
+        for name in names {
+            let p = dir.join(name);
+            if p.is_file() {
+                return Some(p);
+            }
+        }
+    }
+    None
+}
+
+struct Run {
+    stdout: String,
+    stderr: String,
+}
+
+/// Run Chromium headless on `url` with `extra` arguments, in a fresh profile, with a time limit.
+fn chromium(bin: &Path, url: &str, extra: &[String]) -> Run {
+    let profile = tempfile::tempdir().unwrap();
+    let out_dir = tempfile::tempdir().unwrap();
+    let stdout_path = out_dir.path().join("stdout");
+    let stderr_path = out_dir.path().join("stderr");
+    let mut cmd = Command::new(bin);
+    cmd.args([
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--use-angle=swiftshader",
+        "--enable-unsafe-swiftshader",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--disable-dev-shm-usage",
+        "--enable-logging=stderr",
+        "--v=0",
+        "--window-size=1400,2400",
+    ])
+    .arg(format!("--user-data-dir={}", profile.path().display()))
+    .args(extra)
+    .arg(url)
+    .stdin(Stdio::null())
+    .stdout(std::fs::File::create(&stdout_path).unwrap())
+    .stderr(std::fs::File::create(&stderr_path).unwrap());
+    let mut child = cmd.spawn().expect("start chromium");
+    let start = Instant::now();
+    loop {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        if start.elapsed() > Duration::from_secs(120) {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!(
+                "chromium did not finish in 120 s; stderr:\n{}",
+                std::fs::read_to_string(&stderr_path).unwrap_or_default()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    Run {
+        stdout: std::fs::read_to_string(&stdout_path).unwrap_or_default(),
+        stderr: std::fs::read_to_string(&stderr_path).unwrap_or_default(),
+    }
+}
+
+/// The value of attribute `name` on the first element with `id` (or the body for `id = None`).
+fn attr(dom: &str, tag_start: &str, name: &str) -> Option<String> {
+    let at = dom.find(tag_start)?;
+    let tag = &dom[at..at + dom[at..].find('>')?];
+    let key = format!("{name}=\"");
+    let v = tag.find(&key)? + key.len();
+    Some(tag[v..v + tag[v..].find('"')?].to_string())
+}
+
+/// The Chromium binary, or `None` when the test should be skipped (not in CI).
+fn chromium_or_skip() -> Option<PathBuf> {
+    let bin = find_chromium();
+    if bin.is_none() {
+        if std::env::var_os("CI").is_some() {
+            panic!(
+                "chromium is not installed but CI is set: install it (apt-get install -y chromium)"
+            );
+        }
+        println!("skipped: chromium not installed");
+    }
+    bin
+}
+
+/// Write `report` to a temporary file and dump its DOM with `extra` flags.
+fn dump(bin: &Path, report: &export::Report, extra: &[&str]) -> Run {
+    let dir = tempfile::tempdir().unwrap();
+    let html = dir.path().join("report.html");
+    export::write_report_html(&html, report).unwrap();
+    let mut args: Vec<String> = extra.iter().map(|s| s.to_string()).collect();
+    args.push("--dump-dom".into());
+    chromium(bin, &format!("file://{}", html.display()), &args)
+}
+
+#[test]
+fn viewer_degrades_without_webgl() {
+    let Some(bin) = chromium_or_skip() else {
+        return;
+    };
+    let run = dump(
+        &bin,
+        &common::report(),
+        &["--disable-3d-apis", "--disable-webgl"],
+    );
+    assert_eq!(
+        attr(&run.stdout, "<body", "data-status").as_deref(),
+        Some("ok"),
+        "stderr:\n{}",
+        run.stderr
+    );
+    assert_eq!(
+        attr(&run.stdout, "<div id=\"stock-view\"", "data-viewer").as_deref(),
+        Some("no-webgl")
+    );
+    assert!(run.stdout.contains("WebGL is not available"));
+}
+
+#[test]
+fn script_errors_reach_the_status() {
+    let Some(bin) = chromium_or_skip() else {
+        return;
+    };
+    let mut report = common::report();
+    report.glb = Some(b"not a glb at all".to_vec());
+    let run = dump(&bin, &report, &[]);
+    let status = attr(&run.stdout, "<body", "data-status").unwrap_or_default();
+    assert!(
+        status.starts_with("error: ") && status.contains("not a GLB"),
+        "status {status:?}"
+    );
+    assert!(run.stderr.contains("Uncaught"), "the error is logged too");
+}
+
+#[test]
+fn report_renders_in_headless_chromium() {
+    let Some(bin) = chromium_or_skip() else {
+        return;
+    };
+    let keep = std::env::var_os("DEXCUT_KEEP_REPORT").map(PathBuf::from);
+    let dir = tempfile::tempdir().unwrap();
+    let out = keep.clone().unwrap_or_else(|| dir.path().to_path_buf());
+    std::fs::create_dir_all(&out).unwrap();
+    let html = out.join("report.html");
+    export::write_report_html(&html, &common::report()).unwrap();
+    let url = format!("file://{}", html.canonicalize().unwrap().display());
+
+    let run = chromium(&bin, &url, &["--dump-dom".to_string()]);
+    let dom = &run.stdout;
+    assert!(
+        dom.contains("<body"),
+        "no DOM dumped; stderr:\n{}",
+        run.stderr
+    );
+    let status = attr(dom, "<body", "data-status");
+    assert_eq!(
+        status.as_deref(),
+        Some("ok"),
+        "page status; stderr:\n{}",
+        run.stderr
+    );
+    assert_eq!(dom.matches("<svg class=\"plot\"").count(), 4, "plots");
+    assert_eq!(dom.matches("<img ").count(), 1, "images");
+    for line in run.stderr.lines() {
+        assert!(!line.contains("Uncaught"), "console error: {line}");
+    }
+    let viewer = attr(dom, "<div id=\"stock-view\"", "data-viewer").unwrap_or_default();
+    eprintln!("viewer: {viewer}");
+    if viewer.starts_with("webgl") {
+        let pixels: usize = attr(dom, "<div id=\"stock-view\"", "data-mesh-pixels")
+            .and_then(|p| p.parse().ok())
+            .unwrap_or(0);
+        assert!(pixels > 10_000, "the 3D view drew only {pixels} pixels");
+    } else {
+        assert_eq!(viewer, "no-webgl", "viewer state");
+        assert!(
+            dom.contains("WebGL is not available"),
+            "no-WebGL message shown"
+        );
+        eprintln!("note: WebGL unavailable in this Chromium; the fallback message was checked");
+    }
+
+    let shot = out.join("report.png");
+    let run = chromium(
+        &bin,
+        &url,
+        &[
+            format!("--screenshot={}", shot.display()),
+            "--hide-scrollbars".into(),
+        ],
+    );
+    let img = image::open(&shot)
+        .unwrap_or_else(|e| panic!("no screenshot ({e}); stderr:\n{}", run.stderr))
+        .to_rgba8();
+    assert_eq!((img.width(), img.height()), (1400, 2400));
+    let non_white = img
+        .pixels()
+        .filter(|p| p.0[0] < 200 || p.0[2] < 200)
+        .count();
+    assert!(
+        non_white > 50_000,
+        "screenshot looks empty ({non_white} non-white pixels)"
+    );
+    if keep.is_some() {
+        println!("kept {} and {}", html.display(), shot.display());
+    }
+}

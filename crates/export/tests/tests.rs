@@ -1,0 +1,484 @@
+//! Read-back tests of every writer: decode the PNG with `image`, parse the GLB
+//! with `gltf`, read the CSV back, check the HTML's structure.
+
+mod common;
+
+use std::path::Path;
+
+use export::{ColorScale, Error, Grid, HeatMapStyle, HeightField, ScalarMap, NAN_RGBA};
+
+fn tmp() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap()
+}
+
+fn decode(path: &Path) -> image::RgbaImage {
+    image::open(path).unwrap().to_rgba8()
+}
+
+mod heat_map {
+    use super::*;
+
+    #[test]
+    fn pixels_match_the_scale_and_nan_is_grey() {
+        let dir = tmp();
+        let path = dir.path().join("err.png");
+        let map = common::error_map();
+        let style = HeatMapStyle::new("Shape error", "µm", true);
+        export::write_heat_map_png(&path, &map, &style).unwrap();
+        let img = decode(&path);
+        let (_, layout) = export::heat_map_image(&map, &style).unwrap();
+        assert_eq!((img.width(), img.height()), (layout.width, layout.height));
+        assert!(img.width() >= 600);
+        assert_eq!(layout.px_per_cell, 8, "80 columns upscaled to 640 px");
+
+        // Symmetric scale around zero from the largest |value|.
+        let max_abs = map
+            .values
+            .iter()
+            .filter(|v| v.is_finite())
+            .fold(0f32, |m, v| m.max(v.abs()));
+        assert_eq!(
+            layout.scale,
+            ColorScale {
+                min: -f64::from(max_abs),
+                max: f64::from(max_abs),
+                palette: export::Palette::Diverging
+            }
+        );
+
+        for (ix, iy) in [(0, 0), (10, 20), (40, 10), (79, 0), (60, 49)] {
+            let v = map.values[map.grid.index(ix, iy)];
+            let (px, py) = layout.pixel_of_column(ix, iy).unwrap();
+            let expected = layout.scale.rgb(f64::from(v)).unwrap();
+            assert_eq!(
+                &img.get_pixel(px, py).0[..3],
+                &expected,
+                "column ({ix},{iy}) value {v}"
+            );
+        }
+        // Positive (material left) is red, negative blue.
+        let p = img
+            .get_pixel(
+                layout.pixel_of_column(0, 5).unwrap().0,
+                layout.pixel_of_column(0, 5).unwrap().1,
+            )
+            .0;
+        assert!(p[0] > p[2] + 50, "positive is red: {p:?}");
+        let (qx, qy) = layout.pixel_of_column(69, 5).unwrap();
+        let q = img.get_pixel(qx, qy).0;
+        assert!(q[2] > q[0] + 50, "negative is blue: {q:?}");
+        // The hole is NaN grey; +Y is up, so the hole is at the top right.
+        let (hx, hy) = layout.pixel_of_column(75, 45).unwrap();
+        assert_eq!(img.get_pixel(hx, hy).0, NAN_RGBA);
+        assert!(hy < layout.pixel_of_column(75, 5).unwrap().1);
+    }
+
+    #[test]
+    fn colour_bar_runs_from_max_to_min_with_labels() {
+        let map = common::error_map();
+        let (img, l) = export::heat_map_image(&map, &HeatMapStyle::new("e", "µm", true)).unwrap();
+        let cx = l.bar_left + l.bar_width / 2;
+        let top = img.get_pixel(cx, l.bar_top + 1).0;
+        let bottom = img.get_pixel(cx, l.bar_top + l.bar_height - 2).0;
+        assert_eq!(
+            &top[..3],
+            &l.scale.rgb_at(1.0 - 1.5 / f64::from(l.bar_height))
+        );
+        assert!(top[0] > top[2] + 50, "top of bar is red: {top:?}");
+        assert!(
+            bottom[2] > bottom[0] + 50,
+            "bottom of bar is blue: {bottom:?}"
+        );
+        // Tick labels: dark ink to the right of the bar.
+        let ink = (l.bar_left + l.bar_width + 6..l.width)
+            .flat_map(|x| (l.bar_top..l.bar_top + l.bar_height).map(move |y| (x, y)))
+            .filter(|&(x, y)| img.get_pixel(x, y).0[0] < 60)
+            .count();
+        assert!(ink > 100, "tick labels drawn ({ink} dark pixels)");
+    }
+
+    #[test]
+    fn large_grids_are_reduced_keeping_the_worst_value() {
+        let g = Grid {
+            nx: 5000,
+            ny: 300,
+            x0_mm: 0.0,
+            y0_mm: 0.0,
+            spacing_mm: 0.1,
+        };
+        let mut values = vec![0.0f32; g.len()];
+        values[g.index(2501, 150)] = -30.0;
+        values[g.index(10, 10)] = 5.0;
+        let map = ScalarMap {
+            grid: g,
+            values,
+            unit: "µm".into(),
+        };
+        let (img, l) = export::heat_map_image(&map, &HeatMapStyle::new("", "", true)).unwrap();
+        assert_eq!(l.cols_per_cell, 3);
+        assert!(img.width() <= 2400 + 200);
+        let (x, y) = l.pixel_of_column(2501, 150).unwrap();
+        assert_eq!(&img.get_pixel(x, y).0[..3], &l.scale.rgb(-30.0).unwrap());
+    }
+
+    #[test]
+    fn degenerate_maps_still_give_pngs() {
+        let dir = tmp();
+        let cases = [
+            ScalarMap {
+                grid: Grid {
+                    nx: 0,
+                    ny: 0,
+                    x0_mm: 0.0,
+                    y0_mm: 0.0,
+                    spacing_mm: 1.0,
+                },
+                values: vec![],
+                unit: "µm".into(),
+            },
+            ScalarMap {
+                grid: Grid {
+                    nx: 3,
+                    ny: 2,
+                    x0_mm: 0.0,
+                    y0_mm: 0.0,
+                    spacing_mm: 1.0,
+                },
+                values: vec![f32::NAN; 6],
+                unit: "µm".into(),
+            },
+            ScalarMap {
+                grid: Grid {
+                    nx: 1,
+                    ny: 1,
+                    x0_mm: 0.0,
+                    y0_mm: 0.0,
+                    spacing_mm: 0.0,
+                },
+                values: vec![2.0],
+                unit: "mm".into(),
+            },
+            ScalarMap {
+                grid: Grid {
+                    nx: 2,
+                    ny: 3000,
+                    x0_mm: 0.0,
+                    y0_mm: 0.0,
+                    spacing_mm: 1.0,
+                },
+                values: vec![1.0; 6000],
+                unit: "mm".into(),
+            },
+        ];
+        for (k, map) in cases.iter().enumerate() {
+            for symmetric in [false, true] {
+                let path = dir.path().join(format!("{k}-{symmetric}.png"));
+                export::write_heat_map_png(
+                    &path,
+                    map,
+                    &HeatMapStyle::new("degenerate", "", symmetric),
+                )
+                .unwrap();
+                let img = decode(&path);
+                assert!(
+                    img.width() >= 600 && img.height() >= 200,
+                    "{k}: {}×{}",
+                    img.width(),
+                    img.height()
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn wrong_length_is_an_error_naming_the_file() {
+        let dir = tmp();
+        let path = dir.path().join("bad.png");
+        let map = ScalarMap {
+            grid: common::grid(),
+            values: vec![0.0; 3],
+            unit: "µm".into(),
+        };
+        let err =
+            export::write_heat_map_png(&path, &map, &HeatMapStyle::new("", "", true)).unwrap_err();
+        let msg = err.to_string();
+        assert!(
+            msg.contains("bad.png") && msg.contains("4000") && msg.contains("got 3"),
+            "{msg}"
+        );
+        assert!(!path.exists());
+    }
+}
+
+mod glb {
+    use super::*;
+
+    #[test]
+    fn reads_back_with_counts_bounds_and_colours() {
+        let dir = tmp();
+        let path = dir.path().join("stock.glb");
+        let h = common::height_field();
+        let map = common::error_map();
+        let opts = export::GlbOptions {
+            side_walls: false,
+            ..Default::default()
+        };
+        let stats = export::write_stock_glb_with(&path, &h, Some(&map), &opts).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let (doc, buffers, _) = gltf::import_slice(&bytes).unwrap();
+        let material = h.z_mm.iter().filter(|z| z.is_finite()).count();
+        assert_eq!(stats.vertices, material);
+        let mesh = doc.meshes().next().unwrap();
+        let prim = mesh.primitives().next().unwrap();
+        let reader = prim.reader(|b| Some(&buffers[b.index()]));
+        let pos: Vec<[f32; 3]> = reader.read_positions().unwrap().collect();
+        assert_eq!(pos.len(), material);
+        let idx: Vec<u32> = reader.read_indices().unwrap().into_u32().collect();
+        // Full cells: 79×49 minus the cells touching the 10×10 hole (11×11 minus the outside ones).
+        let cells = (0..49)
+            .flat_map(|j| (0..79).map(move |i| (i, j)))
+            .filter(|&(i, j)| {
+                [(i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)]
+                    .iter()
+                    .all(|&(a, b)| h.z_mm[h.grid.index(a, b)].is_finite())
+            });
+        assert_eq!(idx.len(), cells.count() * 6);
+        assert!(idx.iter().all(|&i| (i as usize) < pos.len()));
+
+        let bb = prim.bounding_box();
+        let zs = h.z_mm.iter().copied().filter(|z| z.is_finite());
+        let (zlo, zhi) = zs.fold((f32::MAX, f32::MIN), |(a, b), z| (a.min(z), b.max(z)));
+        assert_eq!(bb.min, [10.0, -5.0, zlo]);
+        assert_eq!(bb.max, [10.0 + 79.0 * 0.5, -5.0 + 49.0 * 0.5, zhi]);
+
+        let colors: Vec<[u8; 4]> = reader.read_colors(0).unwrap().into_rgba_u8().collect();
+        let scale = ColorScale::for_values(&map.values, true);
+        // Vertex 0 is column (0, 0).
+        assert_eq!(pos[0], [10.0, -5.0, h.z_mm[0]]);
+        let [r, g, b] = scale.rgb(f64::from(map.values[0])).unwrap();
+        assert_eq!(colors[0], [r, g, b, 255]);
+        let normals: Vec<[f32; 3]> = reader.read_normals().unwrap().collect();
+        assert!(normals
+            .iter()
+            .all(|n| (n[0] * n[0] + n[1] * n[1] + n[2] * n[2] - 1.0).abs() < 1e-4 && n[2] > 0.0));
+    }
+
+    #[test]
+    fn walls_reach_the_base_and_face_outwards() {
+        let g = Grid {
+            nx: 3,
+            ny: 3,
+            x0_mm: 0.0,
+            y0_mm: 0.0,
+            spacing_mm: 1.0,
+        };
+        let h = HeightField {
+            grid: g,
+            z_mm: vec![5.0; 9],
+        };
+        let opts = export::GlbOptions {
+            base_z_mm: Some(-2.0),
+            ..Default::default()
+        };
+        let (bytes, stats) = export::stock_glb_bytes(&h, None, &opts).unwrap();
+        // 9 top vertices, 8 boundary edges × 4 wall vertices; 8 + 16 triangles.
+        assert_eq!((stats.vertices, stats.triangles), (9 + 32, 8 + 16));
+        assert_eq!(stats.min_mm, Some([0.0, 0.0, -2.0]));
+        let (doc, buffers, _) = gltf::import_slice(&bytes).unwrap();
+        let prim = doc.meshes().next().unwrap().primitives().next().unwrap();
+        let r = prim.reader(|b| Some(&buffers[b.index()]));
+        let pos: Vec<[f32; 3]> = r.read_positions().unwrap().collect();
+        let idx: Vec<u32> = r.read_indices().unwrap().into_u32().collect();
+        for t in idx.chunks(3) {
+            let [a, b, c] = [pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]];
+            let (u, v) = (
+                [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+                [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+            );
+            let n = [
+                u[1] * v[2] - u[2] * v[1],
+                u[2] * v[0] - u[0] * v[2],
+                u[0] * v[1] - u[1] * v[0],
+            ];
+            let centre = [
+                (a[0] + b[0] + c[0]) / 3.0 - 1.0,
+                (a[1] + b[1] + c[1]) / 3.0 - 1.0,
+            ];
+            let outward = n[0] * centre[0] + n[1] * centre[1] + n[2];
+            assert!(outward > 0.0, "triangle {t:?} faces inwards");
+        }
+    }
+
+    #[test]
+    fn big_grids_are_decimated() {
+        let g = Grid {
+            nx: 1501,
+            ny: 1001,
+            x0_mm: 0.0,
+            y0_mm: 0.0,
+            spacing_mm: 0.1,
+        };
+        let h = HeightField {
+            grid: g,
+            z_mm: vec![1.0; g.len()],
+        };
+        let opts = export::GlbOptions {
+            max_vertices: 100_000,
+            side_walls: false,
+            ..Default::default()
+        };
+        let (bytes, stats) = export::stock_glb_bytes(&h, None, &opts).unwrap();
+        assert!(
+            stats.vertices <= 100_000 && stats.vertices > 50_000,
+            "{stats:?}"
+        );
+        assert!(stats.step > 1);
+        assert_eq!(stats.max_mm, Some([150.0, 100.0, 1.0]), "outline kept");
+        gltf::Gltf::from_slice(&bytes).unwrap();
+    }
+
+    #[test]
+    fn empty_stock_is_a_valid_glb() {
+        for z in [vec![], vec![f32::NAN; 4], vec![1.0]] {
+            let n = (z.len() as f64).sqrt() as usize;
+            let h = HeightField {
+                grid: Grid {
+                    nx: n,
+                    ny: n,
+                    x0_mm: 0.0,
+                    y0_mm: 0.0,
+                    spacing_mm: 1.0,
+                },
+                z_mm: z,
+            };
+            let (bytes, stats) =
+                export::stock_glb_bytes(&h, None, &export::GlbOptions::default()).unwrap();
+            assert_eq!(stats.triangles, 0);
+            let (doc, _, _) = gltf::import_slice(&bytes).unwrap();
+            assert_eq!(doc.meshes().count(), 0);
+        }
+    }
+
+    #[test]
+    fn mismatched_colour_grid_is_an_error() {
+        let h = common::height_field();
+        let map = ScalarMap {
+            grid: Grid {
+                nx: 2,
+                ny: 2,
+                x0_mm: 0.0,
+                y0_mm: 0.0,
+                spacing_mm: 1.0,
+            },
+            values: vec![0.0; 4],
+            unit: "µm".into(),
+        };
+        let err =
+            export::write_stock_glb(Path::new("/nonexistent/x.glb"), &h, Some(&map)).unwrap_err();
+        assert!(
+            matches!(&err, Error::AtPath { .. }) && err.to_string().contains("x.glb"),
+            "{err}"
+        );
+    }
+}
+
+mod csv_columns {
+    use super::*;
+
+    #[test]
+    fn rows_skip_all_nan_columns() {
+        let dir = tmp();
+        let path = dir.path().join("cols.csv");
+        let g = Grid {
+            nx: 3,
+            ny: 2,
+            x0_mm: 1.0,
+            y0_mm: 2.0,
+            spacing_mm: 0.5,
+        };
+        let z = [1.0, f32::NAN, 3.0, 4.0, f32::NAN, 6.0];
+        let e = [0.5, f32::NAN, f32::NAN, -1.0, f32::NAN, 2.0];
+        export::write_column_csv(&path, &g, &[("z_mm", &z), ("error_um", &e)]).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(
+            lines,
+            [
+                "ix,iy,x_mm,y_mm,z_mm,error_um",
+                "0,0,1,2,1,0.5",
+                "2,0,2,2,3,",
+                "0,1,1,2.5,4,-1",
+                "2,1,2,2.5,6,2"
+            ]
+        );
+    }
+
+    #[test]
+    fn empty_and_mismatched() {
+        let dir = tmp();
+        let path = dir.path().join("empty.csv");
+        let g = Grid {
+            nx: 0,
+            ny: 0,
+            x0_mm: 0.0,
+            y0_mm: 0.0,
+            spacing_mm: 1.0,
+        };
+        export::write_column_csv(&path, &g, &[]).unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "ix,iy,x_mm,y_mm\n");
+        let err =
+            export::write_column_csv(&path, &common::grid(), &[("z_mm", &[1.0][..])]).unwrap_err();
+        assert!(
+            err.to_string().contains("empty.csv") && err.to_string().contains("z_mm"),
+            "{err}"
+        );
+    }
+}
+
+mod report {
+    use super::*;
+
+    #[test]
+    fn is_self_contained_and_complete() {
+        let dir = tmp();
+        let path = dir.path().join("report.html");
+        export::write_report_html(&path, &common::report()).unwrap();
+        let html = std::fs::read_to_string(&path).unwrap();
+        assert!(html.starts_with("<!DOCTYPE html>"));
+        assert_eq!(html.matches("<svg class=\"plot\"").count(), 4);
+        assert_eq!(html.matches("<img ").count(), 1);
+        assert!(
+            html.contains("src=\"data:image/png;base64,iVBORw0KGgo"),
+            "PNG data URI"
+        );
+        assert!(
+            html.contains("id=\"stock-glb\">Z2xURg"),
+            "GLB magic in base64"
+        );
+        assert!(html.contains("&lt;b&gt;escaped&lt;/b&gt; &amp; safe"));
+        assert!(html.contains("data-status=\"loading\"") && html.contains("dataset.status='ok'"));
+        for banned in ["http://", "https://", "//cdn", "<link"] {
+            let without_svg_ns = html.replace("http://www.w3.org/2000/svg", "");
+            assert!(
+                !without_svg_ns.contains(banned),
+                "report references {banned}"
+            );
+        }
+        // The 200 000-sample series is decimated.
+        let longest = html
+            .split("<path class=\"series\" d=\"")
+            .skip(1)
+            .map(|p| p.split('"').next().unwrap().matches('L').count())
+            .max()
+            .unwrap();
+        assert!(longest < export::MAX_PLOT_POINTS + 10, "{longest} segments");
+        assert!(html.len() < 2_000_000, "{} bytes", html.len());
+    }
+
+    #[test]
+    fn empty_report_is_valid() {
+        let html = export::report_html(&export::Report::default());
+        assert!(html.contains("<h1>dexcut report</h1>") && html.ends_with("</html>\n"));
+        assert!(!html.contains("id=\"stock-view\""));
+    }
+}
