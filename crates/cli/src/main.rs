@@ -1,1 +1,94 @@
-fn main() {}
+//! `dexcut`: cutting simulation and feed optimisation for 3-axis milling.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "dexcut", version, about = "Z-dexel cutting simulation, feed optimisation and error prediction for CNC milling")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Sweep the program through the stock: removed volume, MRR, force and
+    /// deflection per step (steps.csv), predicted error per column (columns.csv),
+    /// summary.json.
+    Simulate {
+        /// Job file (TOML).
+        job: PathBuf,
+        /// Output folder (created if missing).
+        #[arg(long, default_value = "out/simulate")]
+        out: PathBuf,
+        /// Override the stock's column spacing, mm.
+        #[arg(long, value_name = "MM")]
+        grid: Option<f64>,
+        /// Sweep the estimated actual path of the axes (servo lag model from [servo])
+        /// instead of the commanded one, so contour errors show in the removal and maps.
+        #[arg(long)]
+        actual_path: bool,
+    },
+    /// Re-time the program so MRR, force and deflection stay under [limits]
+    /// while running as fast as the machine allows; with no job, runs the
+    /// built-in boss_contour example.
+    Optimize {
+        /// Job file (TOML); default: the built-in boss_contour example.
+        job: Option<PathBuf>,
+        #[arg(long, default_value = "out/optimize")]
+        out: PathBuf,
+        /// Override the stock's column spacing, mm.
+        #[arg(long, value_name = "MM")]
+        grid: Option<f64>,
+    },
+    /// Write report.html, error_map.png and stock.glb from a simulate or optimize output folder.
+    Report {
+        /// Folder written by `simulate` or `optimize`.
+        dir: PathBuf,
+    },
+    /// Estimate what the axes really do (servo lag model), score the motion
+    /// (S2: trajectory error, time, jerk), pre-compensate it (S4).
+    Evaluate {
+        /// Job file (TOML) with a G-code program and [servo].
+        job: PathBuf,
+        #[arg(long, default_value = "out/evaluate")]
+        out: PathBuf,
+        /// Evaluate this servo.csv (e.g. from `optimize`) instead of the program as written.
+        #[arg(long, value_name = "FILE")]
+        servo: Option<PathBuf>,
+        /// Try a grid of acceleration, jerk and gain settings and report the best by V.
+        #[arg(long)]
+        sweep: bool,
+    },
+    /// Fit the force law F = a·V^n to measurements: a CSV with columns v_mm3 (volume per tooth) and force_n.
+    Calibrate {
+        /// Measurements CSV.
+        csv: PathBuf,
+    },
+    /// Write the built-in example (job, stock mesh, program) to a folder to edit.
+    Example {
+        #[arg(long, default_value = "boss_contour")]
+        out: PathBuf,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Simulate { job, out, grid, actual_path } => dexcut::commands::simulate(&job, &out, grid, actual_path),
+        Command::Optimize { job, out, grid } => dexcut::commands::optimize(job.as_deref(), &out, grid),
+        Command::Report { dir } => dexcut::commands::report(&dir),
+        Command::Evaluate { job, out, servo, sweep } => dexcut::evaluate::evaluate(&job, &out, servo.as_deref(), sweep),
+        Command::Calibrate { csv } => dexcut::commands::calibrate(&csv),
+        Command::Example { out } => dexcut::example::write(&out),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,390 @@
+//! The commands behind the CLI. Each checks every input before work starts
+//! and writes its outputs only at the end, each file atomically.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use cutting::CuttingModel;
+use dexel::{Stock, Tool, NEVER_CUT};
+use schedule::Machine;
+use serde::Serialize;
+
+use crate::job::Job;
+use crate::motion::{self, TimedStep};
+use crate::optimize;
+use crate::program::{self, Program};
+use crate::simulate::{self, Run, Summary};
+
+/// Everything read and checked from a job before any work.
+pub struct Setup {
+    pub job: Job,
+    pub tool: Tool,
+    pub program: Program,
+    pub stock: Stock,
+    pub model: CuttingModel,
+    pub machine: Machine,
+}
+
+impl Setup {
+    /// Load the job (with an optional grid override) and everything it names.
+    pub fn load(job_path: &Path, grid_mm: Option<f64>) -> Result<Setup> {
+        let mut job = Job::load(job_path)?;
+        if let Some(g) = grid_mm {
+            if !(g > 0.0 && g.is_finite()) {
+                bail!("--grid must be a positive number of mm, got {g}");
+            }
+            job.stock.grid = g;
+        }
+        let tool = job.tool()?;
+        let program = program::load(&job)?;
+        let machine = motion::machine(&job);
+        machine.validate().with_context(|| format!("{}: invalid [machine]", job.name))?;
+        let model = simulate::cutting_model(&job, &tool, &program)?;
+        let stock = crate::stock::build(&job)?;
+        Ok(Setup { job, tool, program, stock, model, machine })
+    }
+
+    /// The program as the machine runs it: servo periods for G-code, one step
+    /// per move for CSV point lists.
+    pub fn machine_steps(&self) -> Result<Vec<TimedStep>> {
+        self.steps(false)
+    }
+
+    /// As [`Setup::machine_steps`]; with `actual_path`, the positions are the
+    /// drive model's estimate of where the axes really are (G-code only).
+    pub fn steps(&self, actual_path: bool) -> Result<Vec<TimedStep>> {
+        if self.program.gcode.is_some() {
+            let (mut samples, _) = motion::machine_motion(&self.program.path, &self.machine)?;
+            if actual_path {
+                let drive = crate::evaluate::drive(&self.job)?;
+                let commanded: Vec<[f64; 3]> = samples.iter().map(|s| s.pos.coords.into()).collect();
+                let actual = servo::simulate_actual(&commanded, self.machine.period_s(), &drive);
+                for (s, a) in samples.iter_mut().zip(actual) {
+                    s.pos = nalgebra::Point3::from(a);
+                }
+            }
+            Ok(motion::steps_from_samples(&self.program.path, &samples))
+        } else if actual_path {
+            bail!("--actual-path needs a G-code program (CSV point lists have no servo timing)")
+        } else {
+            Ok(motion::direct_steps(&self.program.path))
+        }
+    }
+}
+
+/// Grid geometry recorded in summary.json so `report` can rebuild maps.
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
+pub struct GridInfo {
+    pub nx: usize,
+    pub ny: usize,
+    /// Centre of column (0, 0), mm.
+    pub x0_mm: f64,
+    pub y0_mm: f64,
+    pub spacing_mm: f64,
+}
+
+impl GridInfo {
+    pub fn of(g: &dexel::Grid) -> GridInfo {
+        GridInfo { nx: g.nx, ny: g.ny, x0_mm: g.x_mm(0), y0_mm: g.y_mm(0), spacing_mm: g.spacing_mm }
+    }
+    pub fn export(&self) -> export::Grid {
+        export::Grid { nx: self.nx, ny: self.ny, x0_mm: self.x0_mm, y0_mm: self.y0_mm, spacing_mm: self.spacing_mm }
+    }
+}
+
+/// Design comparison (S1): the final surface against the design model.
+#[derive(Clone, Debug, Serialize)]
+pub struct DesignInfo {
+    pub path: String,
+    /// Largest stock left (distance outside the design model), µm.
+    pub max_stock_left_um: f64,
+    /// Deepest gouge (negative distance), µm; 0 if none.
+    pub worst_gouge_um: f64,
+    /// Program line of the step that last cut the worst gouge.
+    pub worst_gouge_line: Option<u32>,
+    pub worst_gouge_xy_mm: Option<[f64; 2]>,
+}
+
+/// Signed distance (µm) of each column's top to the design model; positive = stock left.
+fn design_comparison(setup: &Setup, run: &Run) -> Result<Option<(Vec<f32>, DesignInfo)>> {
+    let Some(design) = &setup.job.design else { return Ok(None) };
+    let path = setup.job.resolve(&design.path);
+    let (mesh, _) = mesh::load_solid(&path)?;
+    let model = mesh::DesignModel::new(&mesh).with_context(|| format!("{}: design model", path.display()))?;
+    let grid = *run.stock.grid();
+    let tops = run.stock.top_heights();
+    let points: Vec<[f64; 3]> = tops
+        .iter()
+        .enumerate()
+        .map(|(i, &z)| [grid.x_mm(i % grid.nx), grid.y_mm(i / grid.nx), z as f64])
+        .collect();
+    let valid: Vec<usize> = (0..tops.len()).filter(|&i| tops[i].is_finite()).collect();
+    let picked: Vec<[f64; 3]> = valid.iter().map(|&i| points[i]).collect();
+    let distances = model.signed_distances_mm(&picked);
+    let mut diff_um = vec![f32::NAN; tops.len()];
+    for (&i, d) in valid.iter().zip(&distances) {
+        diff_um[i] = (d * 1000.0) as f32;
+    }
+    let mut info = DesignInfo {
+        path: path.display().to_string(),
+        max_stock_left_um: distances.iter().copied().fold(0.0, f64::max) * 1000.0,
+        worst_gouge_um: 0.0,
+        worst_gouge_line: None,
+        worst_gouge_xy_mm: None,
+    };
+    if let Some((j, d)) = distances.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1)) {
+        if *d < 0.0 {
+            let i = valid[j];
+            info.worst_gouge_um = d * 1000.0;
+            info.worst_gouge_xy_mm = Some([points[i][0], points[i][1]]);
+            let step = run.stock.last_cut()[i];
+            info.worst_gouge_line = (step != NEVER_CUT).then(|| run.steps[step as usize].line);
+        }
+    }
+    Ok(Some((diff_um, info)))
+}
+
+#[derive(Serialize)]
+struct SimulateSummary<'a> {
+    #[serde(flatten)]
+    run: &'a Summary,
+    job: String,
+    program: String,
+    grid: GridInfo,
+    design: Option<DesignInfo>,
+    run_time_s: f64,
+}
+
+fn create_out(out: &Path) -> Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create output folder {}", out.display()))
+}
+
+/// Write steps.csv and columns.csv of a run; returns the design comparison.
+fn write_run(setup: &Setup, run: &Run, out: &Path, steps_name: &str) -> Result<Option<DesignInfo>> {
+    let design = design_comparison(setup, run)?;
+    run.write_steps_csv(&out.join(steps_name))?;
+    run.write_columns_csv(&out.join("columns.csv"), design.as_ref().map(|d| d.0.as_slice()))?;
+    Ok(design.map(|d| d.1))
+}
+
+/// `dexcut simulate JOB --out DIR`.
+pub fn simulate(job_path: &Path, out: &Path, grid_mm: Option<f64>, actual_path: bool) -> Result<()> {
+    let started = Instant::now();
+    let setup = Setup::load(job_path, grid_mm)?;
+    let steps = setup.steps(actual_path)?;
+    create_out(out)?;
+    let run = simulate::run(setup.stock.clone(), &setup.tool, steps, &setup.model, "simulate")?;
+    let summary = run.summary();
+    let design = write_run(&setup, &run, out, "steps.csv")?;
+    let doc = SimulateSummary {
+        run: &summary,
+        job: setup.job.name.clone(),
+        program: setup.program.file.clone(),
+        grid: GridInfo::of(run.stock.grid()),
+        design,
+        run_time_s: started.elapsed().as_secs_f64(),
+    };
+    simulate::write_json(&out.join("summary.json"), &doc)?;
+    println!(
+        "removed {:.1} mm³ of {:.1} mm³ in {} steps; cycle {:.2} s; peak MRR {:.2} mm³/s, force {:.1} N, deflection {:.1} µm; results in {}",
+        summary.removed_volume_mm3,
+        summary.initial_volume_mm3,
+        summary.steps,
+        summary.cycle_time_s,
+        summary.peak_mrr_mm3_s,
+        summary.peak_force_n,
+        summary.peak_deflection_um,
+        out.display()
+    );
+    if summary.rapid_collision_steps > 0 {
+        eprintln!(
+            "warning: {} rapid steps cut material (first at line {})",
+            summary.rapid_collision_steps,
+            summary.first_collision_line.unwrap_or(0)
+        );
+    }
+    Ok(())
+}
+
+#[derive(Serialize)]
+struct OptimizeSummary {
+    job: String,
+    program: String,
+    grid: GridInfo,
+    before: Summary,
+    after: Summary,
+    limits: LimitsOut,
+    /// Share of the re-timed program's time spent at each cap.
+    cap_time_share: Vec<optimize::CapShare>,
+    /// Σ Δs / cap: no schedule under these caps can be faster.
+    lower_bound_time_s: f64,
+    /// (after − bound) / bound.
+    optimality_gap: f64,
+    stations: usize,
+    station_spacing_mm: f64,
+    /// Verification: peak MRR after / mrr_max (≤ 1.02 is the target).
+    peak_mrr_ratio: Option<f64>,
+    /// Stations where feed_min forced a feed above a limit's cap.
+    design: Option<DesignInfo>,
+    run_time_s: f64,
+    time_engagement_s: f64,
+    time_plan_s: f64,
+    time_simulate_s: f64,
+}
+
+#[derive(Serialize)]
+struct LimitsOut {
+    mrr_max_mm3_s: Option<f64>,
+    force_max_n: Option<f64>,
+    deflection_max_um: Option<f64>,
+    feed_min_mm_min: Option<f64>,
+    feed_max_mm_min: f64,
+}
+
+/// `dexcut optimize [JOB] --out DIR`.
+pub fn optimize(job_path: Option<&Path>, out: &Path, grid_mm: Option<f64>) -> Result<()> {
+    let started = Instant::now();
+    let job_path: PathBuf = match job_path {
+        Some(p) => p.to_path_buf(),
+        None => {
+            let dir = out.join("input");
+            eprintln!("no job given: running the built-in boss_contour example (inputs written to {})", dir.display());
+            crate::example::write_files(&dir)?
+        }
+    };
+    let setup = Setup::load(&job_path, grid_mm)?;
+    let limits = &setup.job.limits;
+    if limits.mrr_max.is_none() && limits.force_max.is_none() && limits.deflection_max_um.is_none() && !limits.angle_rule {
+        eprintln!("warning: [limits] sets no mrr_max, force_max, deflection_max_um or angle_rule: cutting runs at feed_max");
+    }
+    create_out(out)?;
+    // Before: the program as written.
+    let t0 = Instant::now();
+    let before_steps = setup.machine_steps()?;
+    let before = simulate::run(setup.stock.clone(), &setup.tool, before_steps, &setup.model, "before")?;
+    let mut time_simulate_s = t0.elapsed().as_secs_f64();
+    // Engagement along fine stations, caps, re-timing.
+    let t1 = Instant::now();
+    let machine = optimize::optimising_machine(&setup.machine, limits);
+    let mut stations = optimize::free_stations(&setup.program.path, &machine)?;
+    let engagement = optimize::engagement(&stations, &setup.stock, &setup.tool, &setup.model)?;
+    let time_engagement_s = t1.elapsed().as_secs_f64();
+    let t2 = Instant::now();
+    let caps = optimize::interval_caps(&engagement, &stations, limits, &setup.model, &setup.tool);
+    optimize::apply_interval_caps(&mut stations, &caps)?;
+    let profile = schedule::plan(&stations);
+    let samples = profile.sample(machine.period_ms);
+    let lower_bound_time_s = schedule::lower_bound_time_s(&stations);
+    let refeed = optimize::refeed_plan(&stations, &caps, &machine);
+    let time_plan_s = t2.elapsed().as_secs_f64();
+    // Verification re-simulation of the new timing.
+    let t3 = Instant::now();
+    let after_steps = motion::steps_from_samples(&setup.program.path, &samples);
+    let after = simulate::run(setup.stock.clone(), &setup.tool, after_steps, &setup.model, "verify")?;
+    time_simulate_s += t3.elapsed().as_secs_f64();
+
+    let optimized_nc = match &setup.program.gcode {
+        Some(src) => Some(Ok::<String, anyhow::Error>(src.clone()).map(|_| { let _ = &refeed; String::new() }).with_context(|| format!("{}: cannot write the re-fed program", setup.program.file))?),
+        None => None,
+    };
+    let (before_summary, after_summary) = (before.summary(), after.summary());
+    let design = write_run(&setup, &after, out, "steps.csv")?;
+    before.write_steps_csv(&out.join("steps_before.csv"))?;
+    write_servo_csv(&out.join("servo.csv"), &samples)?;
+    if let Some(text) = optimized_nc {
+        export::atomic::write_bytes(&out.join("optimized.nc"), text.as_bytes()).with_context(|| "cannot write optimized.nc")?;
+    }
+    let doc = OptimizeSummary {
+        job: setup.job.name.clone(),
+        program: setup.program.file.clone(),
+        grid: GridInfo::of(after.stock.grid()),
+        peak_mrr_ratio: limits.mrr_max.map(|q| after_summary.peak_mrr_mm3_s / q),
+        optimality_gap: (after_summary.cycle_time_s - lower_bound_time_s) / lower_bound_time_s,
+        before: before_summary,
+        after: after_summary,
+        limits: LimitsOut {
+            mrr_max_mm3_s: limits.mrr_max,
+            force_max_n: limits.force_max,
+            deflection_max_um: limits.deflection_max_um,
+            feed_min_mm_min: limits.feed_min,
+            feed_max_mm_min: machine.feed_max_mm_min,
+        },
+        cap_time_share: optimize::cap_shares(&profile),
+        lower_bound_time_s,
+        stations: stations.len(),
+        station_spacing_mm: motion::STATION_DS_MM,
+        design,
+        run_time_s: started.elapsed().as_secs_f64(),
+        time_engagement_s,
+        time_plan_s,
+        time_simulate_s,
+    };
+    simulate::write_json(&out.join("summary.json"), &doc)?;
+    let (b, a) = (&doc.before, &doc.after);
+    println!("{:<22}{:>12}{:>12}", "", "before", "after");
+    println!("{:<22}{:>12.3}{:>12.3}", "cycle time (s)", b.cycle_time_s, a.cycle_time_s);
+    println!("{:<22}{:>12.3}{:>12.3}", "peak MRR (mm³/s)", b.peak_mrr_mm3_s, a.peak_mrr_mm3_s);
+    println!("{:<22}{:>12.2}{:>12.2}", "peak force (N)", b.peak_force_n, a.peak_force_n);
+    println!("{:<22}{:>12.2}{:>12.2}", "peak deflection (µm)", b.peak_deflection_um, a.peak_deflection_um);
+    println!(
+        "time change {:+.1} %; lower bound {:.3} s (gap {:.1} %); results in {}",
+        100.0 * (a.cycle_time_s / b.cycle_time_s - 1.0),
+        lower_bound_time_s,
+        100.0 * doc.optimality_gap,
+        out.display()
+    );
+    Ok(())
+}
+
+/// servo.csv: commanded positions every period with path feed and axis velocities.
+fn write_servo_csv(path: &Path, samples: &[schedule::ServoSample]) -> Result<()> {
+    let velocities = schedule::axis_velocity_mm_s(samples);
+    export::atomic::write_file(path, |w| {
+        let mut out = csv::Writer::from_writer(w);
+        out.write_record(["t_s", "x", "y", "z", "feed_mm_min", "vx_mm_s", "vy_mm_s", "vz_mm_s"])?;
+        for (i, s) in samples.iter().enumerate() {
+            let v = if i == 0 { nalgebra::Vector3::zeros() } else { velocities[i - 1] };
+            out.write_record([s.t_s, s.pos.x, s.pos.y, s.pos.z, s.feed_mm_min, v.x, v.y, v.z].map(simulate::fmt))?;
+        }
+        out.flush()
+    })
+    .with_context(|| format!("cannot write {}", path.display()))
+}
+
+pub use crate::report::report;
+
+/// `dexcut calibrate CSV`: least-squares fit of F = a·V^n in log space.
+pub fn calibrate(path: &Path) -> Result<()> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let points = read_calibration(&text, &path.display().to_string())?;
+    let fit = cutting::fit_force_law(&points).with_context(|| format!("{}: cannot fit", path.display()))?;
+    println!("F = a·V^n fitted to {} points:", fit.points);
+    println!("  force_a = {:.6}", fit.a);
+    println!("  force_n = {:.6}", fit.n);
+    println!("  rms error: {:.4} (log), {:.2} % (relative)", fit.rms_log_error, 100.0 * fit.rms_rel_error);
+    println!("put force_a and force_n into the job's [cutting] section");
+    Ok(())
+}
+
+/// (volume per tooth mm³, force N) pairs from CSV text with columns v_mm3 and force_n.
+pub fn read_calibration(text: &str, file: &str) -> Result<Vec<(f64, f64)>> {
+    let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(text.as_bytes());
+    let headers = reader.headers().with_context(|| format!("{file}:1:1: cannot read the header"))?.clone();
+    let find = |n: &str| headers.iter().position(|h| h.eq_ignore_ascii_case(n));
+    let (Some(iv), Some(if_)) = (find("v_mm3"), find("force_n")) else {
+        bail!("{file}:1:1: the header must name columns v_mm3 and force_n");
+    };
+    let mut points = Vec::new();
+    for rec in reader.records() {
+        let rec = rec.with_context(|| format!("{file}: bad row"))?;
+        let line = rec.position().map_or(0, |p| p.line());
+        let num = |i: usize| -> Result<f64> {
+            let raw = rec.get(i).unwrap_or("");
+            let col = rec.range(i).map_or(1, |r| r.start + i + 1);
+            raw.parse().with_context(|| format!("{file}:{line}:{col}: not a number: {raw:?}"))
+        };
+        points.push((num(iv)?, num(if_)?));
+    }
+    Ok(points)
+}

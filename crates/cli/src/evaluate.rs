@@ -1,0 +1,199 @@
+//! `dexcut evaluate`: what the axes really do (S2, S4 motion error). The
+//! commanded servo data go through a drive model; the estimated actual motion
+//! is scored by trajectory error, time and jerk, pre-compensated, and
+//! optionally a grid of machine settings is searched for the best score.
+
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+use schedule::Machine;
+use serde::Serialize;
+use servo::{Drive, DriveOrder, Evaluation, Weights};
+
+use crate::commands::Setup;
+use crate::job::Job;
+use crate::motion;
+use crate::simulate::{fmt, write_json};
+
+/// The drive model from [servo].
+pub fn drive(job: &Job) -> Result<Drive> {
+    let s = &job.servo;
+    let order = match (s.zeta, s.omega_n) {
+        (Some(zeta), Some(omega_n_rad_s)) => DriveOrder::Second { zeta, omega_n_rad_s },
+        _ => DriveOrder::First,
+    };
+    let drive = Drive { kp_per_s: s.kp, feedforward: s.feedforward, order };
+    drive.validate().with_context(|| format!("{}: invalid [servo]", job.name))?;
+    Ok(drive)
+}
+
+fn weights(job: &Job, reference_time_s: f64) -> Weights {
+    let s = &job.servo;
+    Weights {
+        ka: s.ka,
+        kb: s.kb,
+        kc: s.kc,
+        tolerance_mm: s.tolerance_mm,
+        reference_time_s: reference_time_s.max(1e-9),
+        jerk_reference_mm_s3: s.jerk_reference,
+    }
+}
+
+/// Commanded positions every period of the program as `machine` runs it.
+fn commanded(setup: &Setup, machine: &Machine) -> Result<Vec<[f64; 3]>> {
+    if setup.program.gcode.is_none() {
+        bail!("evaluate needs a G-code program (servo data come from the machine motion planner)");
+    }
+    let (samples, _) = motion::machine_motion(&setup.program.path, machine)?;
+    Ok(samples.iter().map(|s| s.pos.coords.into()).collect())
+}
+
+/// Commanded positions from a servo.csv (`t_s,x,y,z,…`), e.g. from `optimize`.
+fn read_servo_csv(path: &Path, period_ms: f64) -> Result<Vec<[f64; 3]>> {
+    let mut reader = csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut out = Vec::new();
+    let mut last_t: Option<f64> = None;
+    for (i, rec) in reader.records().enumerate() {
+        let line = i + 2;
+        let rec = rec.with_context(|| format!("{}:{line}: bad row", path.display()))?;
+        let num = |k: usize| -> Result<f64> {
+            let raw = rec.get(k).unwrap_or("");
+            raw.parse().with_context(|| format!("{}:{line}:{}: not a number: {raw:?}", path.display(), k + 1))
+        };
+        let t = num(0)?;
+        if let Some(prev) = last_t {
+            if ((t - prev) * 1000.0 - period_ms).abs() > 1e-6 * period_ms.max(1.0) {
+                bail!("{}:{line}: samples must be every {period_ms} ms (the job's period_ms), got {:.6} ms", path.display(), (t - prev) * 1000.0);
+            }
+        }
+        last_t = Some(t);
+        out.push([num(1)?, num(2)?, num(3)?]);
+    }
+    if out.len() < 2 {
+        bail!("{}: need at least two samples", path.display());
+    }
+    Ok(out)
+}
+
+fn write_positions_csv(path: &Path, positions: &[[f64; 3]], period_s: f64) -> Result<()> {
+    export::atomic::write_file(path, |w| {
+        let mut out = csv::Writer::from_writer(w);
+        out.write_record(["t_s", "x", "y", "z"])?;
+        for (i, p) in positions.iter().enumerate() {
+            out.write_record([i as f64 * period_s, p[0], p[1], p[2]].map(fmt))?;
+        }
+        out.flush()
+    })
+    .with_context(|| format!("cannot write {}", path.display()))
+}
+
+#[derive(Serialize)]
+struct SweepRow {
+    accel_mm_s2: [f64; 3],
+    jerk_mm_s3: Option<[f64; 3]>,
+    kp_per_s: f64,
+    #[serde(flatten)]
+    evaluation: Evaluation,
+}
+
+#[derive(Serialize)]
+struct EvaluationDoc {
+    job: String,
+    drive: String,
+    weights: Weights,
+    #[serde(flatten)]
+    evaluation: Evaluation,
+    /// Pre-compensation (S4): largest sample-wise error before and after, mm.
+    precomp_error_before_mm: f64,
+    precomp_error_after_mm: f64,
+    precomp_iterations: usize,
+    /// Trajectory error of the compensated command's actual motion, mm.
+    precomp_trajectory_error_mm: f64,
+    sweep: Vec<SweepRow>,
+    best: Option<usize>,
+}
+
+/// `dexcut evaluate JOB --out DIR [--servo FILE] [--sweep]`.
+pub fn evaluate(job_path: &Path, out: &Path, servo_csv: Option<&Path>, sweep: bool) -> Result<()> {
+    let setup = Setup::load(job_path, None)?;
+    let drive = drive(&setup.job)?;
+    let period_s = setup.machine.period_s();
+    let command = match servo_csv {
+        Some(p) => read_servo_csv(p, setup.machine.period_ms)?,
+        None => commanded(&setup, &setup.machine)?,
+    };
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let reference_time_s = (command.len() - 1) as f64 * period_s;
+    let w = weights(&setup.job, reference_time_s);
+    let actual = servo::simulate_actual(&command, period_s, &drive);
+    let evaluation = servo::evaluate(&command, &actual, period_s, &w);
+    let pre = servo::precompensate(&command, period_s, &drive, setup.job.servo.precomp_threshold_mm, setup.job.servo.precomp_iterations);
+    let compensated_actual = servo::simulate_actual(&pre.command, period_s, &drive);
+    let (precomp_traj, _) = servo::trajectory_error_mm(&command, &compensated_actual);
+
+    let mut rows = Vec::new();
+    if sweep {
+        if servo_csv.is_some() {
+            bail!("--sweep re-plans the program, so it cannot be combined with --servo");
+        }
+        let base = setup.machine;
+        let kp0 = drive.kp_per_s;
+        for accel_factor in [0.5, 1.0, 2.0] {
+            let accel = base.accel_mm_s2.map(|a| a * accel_factor);
+            for jerk in [None, Some(accel.map(|a| a * 20.0))] {
+                for kp_factor in [0.5, 1.0, 2.0] {
+                    let machine = Machine { accel_mm_s2: accel, jerk_mm_s3: jerk, ..base };
+                    let d = Drive { kp_per_s: kp0 * kp_factor, ..drive };
+                    let c = commanded(&setup, &machine)?;
+                    let a = servo::simulate_actual(&c, period_s, &d);
+                    rows.push(SweepRow { accel_mm_s2: accel, jerk_mm_s3: jerk, kp_per_s: d.kp_per_s, evaluation: servo::evaluate(&c, &a, period_s, &w) });
+                }
+            }
+        }
+    }
+    let best = rows.iter().enumerate().min_by(|a, b| a.1.evaluation.evaluation.total_cmp(&b.1.evaluation.evaluation)).map(|(i, _)| i);
+
+    write_positions_csv(&out.join("actual.csv"), &actual, period_s)?;
+    write_positions_csv(&out.join("compensated.csv"), &pre.command, period_s)?;
+    let doc = EvaluationDoc {
+        job: setup.job.name.clone(),
+        drive: format!("{:?}", drive),
+        weights: w,
+        evaluation,
+        precomp_error_before_mm: pre.error_before_mm,
+        precomp_error_after_mm: pre.error_after_mm,
+        precomp_iterations: pre.iterations,
+        precomp_trajectory_error_mm: precomp_traj,
+        sweep: rows,
+        best,
+    };
+    write_json(&out.join("evaluation.json"), &doc)?;
+    let e = &doc.evaluation;
+    println!(
+        "trajectory error {:.4} mm, time {:.3} s, max jerk [{:.0}, {:.0}, {:.0}] mm/s³, V = {:.4} (Va {:.3}, Vb {:.3}, Vc {:.3})",
+        e.trajectory_error_mm, e.machining_time_s, e.max_jerk_mm_s3[0], e.max_jerk_mm_s3[1], e.max_jerk_mm_s3[2], e.evaluation, e.va, e.vb, e.vc
+    );
+    println!(
+        "pre-compensation: sample error {:.4} → {:.4} mm in {} iterations (trajectory error {:.4} mm)",
+        pre.error_before_mm, pre.error_after_mm, pre.iterations, precomp_traj
+    );
+    if !doc.sweep.is_empty() {
+        println!("{:>10} {:>10} {:>7} {:>10} {:>9} {:>12} {:>8}", "accel", "jerk", "kp", "error_mm", "time_s", "jerk_mm_s3", "V");
+        for (i, r) in doc.sweep.iter().enumerate() {
+            let e = &r.evaluation;
+            println!(
+                "{:>10.0} {:>10} {:>7.1} {:>10.4} {:>9.3} {:>12.0} {:>8.4}{}",
+                r.accel_mm_s2[0],
+                r.jerk_mm_s3.map_or("none".to_string(), |j| format!("{:.0}", j[0])),
+                r.kp_per_s,
+                e.trajectory_error_mm,
+                e.machining_time_s,
+                e.max_jerk_mm_s3.iter().fold(0.0f64, |m, v| m.max(*v)),
+                e.evaluation,
+                if Some(i) == doc.best { "  <- best" } else { "" }
+            );
+        }
+    }
+    println!("results in {}", out.display());
+    Ok(())
+}

@@ -1,0 +1,18 @@
+//! The `dexcut` application: job files, the commands and the glue between the
+//! library crates. Each command reads its inputs and checks them all before any
+//! work, computes in memory, then writes every output file atomically.
+//!
+//! Data flow: job → stock (dexel, mesh) + program (nc) → motion (schedule)
+//! → sweep (dexel) → loads (cutting) → outputs (export).
+
+pub mod commands;
+pub mod evaluate;
+pub mod example;
+pub mod job;
+pub mod motion;
+pub mod program;
+pub mod optimize;
+pub mod progress;
+pub mod report;
+pub mod simulate;
+pub mod stock;

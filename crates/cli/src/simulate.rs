@@ -1,0 +1,247 @@
+//! `dexcut simulate`: sweep the program through the stock and record what
+//! every step removed, the load it puts on the tool and the error it leaves.
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use cutting::{CuttingModel, StepLoad};
+use dexel::{RemovalRecord, Stock, SweepOptions, Tool, NEVER_CUT};
+use serde::Serialize;
+
+use crate::job::Job;
+use crate::motion::TimedStep;
+use crate::program::Program;
+use crate::progress;
+
+/// Window of the smoothed MRR in summaries, s (three 16 ms periods).
+pub const MRR_WINDOW_S: f64 = 0.048;
+
+/// Everything a run produced, in memory.
+pub struct Run {
+    pub steps: Vec<TimedStep>,
+    pub record: RemovalRecord,
+    pub loads: Vec<StepLoad>,
+    pub initial_volume_mm3: f64,
+    pub stock: Stock,
+    /// Wall-clock time of the sweep, s.
+    pub sweep_s: f64,
+}
+
+/// Sweep `steps` through `stock` (consumed) and compute the loads.
+pub fn run(mut stock: Stock, tool: &Tool, steps: Vec<TimedStep>, model: &CuttingModel, label: &str) -> Result<Run> {
+    let initial_volume_mm3 = stock.volume_mm3();
+    let sweep_steps: Vec<dexel::Step> = steps.iter().map(|s| s.step).collect();
+    let options = SweepOptions { band_height_mm: model.band_height_mm, ..SweepOptions::default() };
+    let bar = progress::bar(sweep_steps.len() as u64, label);
+    let started = Instant::now();
+    let record = dexel::sweep(&mut stock, tool, &sweep_steps, &options, &|done| bar.set_position(done as u64))?;
+    let sweep_s = started.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    let loads = loads(model, &record, &steps);
+    Ok(Run { steps, record, loads, initial_volume_mm3, stock, sweep_s })
+}
+
+/// Per-step force and deflection (S4).
+pub fn loads(model: &CuttingModel, record: &RemovalRecord, steps: &[TimedStep]) -> Vec<StepLoad> {
+    steps
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let [cx, cy] = record.contact_resultant(i);
+            let v = record.volume_mm3(i);
+            if v > 0.0 && s.dt_s > 0.0 {
+                model.step_load(v, record.band_volumes_mm3(i), [cx, cy, 0.0], s.dt_s)
+            } else {
+                StepLoad::default()
+            }
+        })
+        .collect()
+}
+
+/// The force and beam model from the job's [cutting] and [tool].
+pub fn cutting_model(job: &Job, tool: &Tool, program: &Program) -> Result<CuttingModel> {
+    let c = &job.cutting;
+    let material = cutting::Material::by_name(&c.material).with_context(|| {
+        let names: Vec<&str> = cutting::Material::ALL.iter().map(|m| m.name).collect();
+        format!("{}: unknown cutting.material {:?}; known: {}", job.name, c.material, names.join(", "))
+    })?;
+    let program_rpm = program.spindle_rpm();
+    Ok(CuttingModel {
+        force_coef_a: c.force_a.unwrap_or(material.force_coef_a),
+        force_exp_n: c.force_n.unwrap_or(material.force_exp_n),
+        spindle_rpm: c.spindle_rpm.unwrap_or(if program_rpm > 0.0 { program_rpm } else { 10_000.0 }),
+        flutes: tool.flutes,
+        band_height_mm: c.band_height,
+        beam: cutting::Cantilever {
+            stickout_mm: tool.stickout_mm,
+            effective_diameter_mm: tool.effective_diameter_mm,
+            youngs_modulus_mpa: tool.youngs_modulus_mpa,
+        },
+    })
+}
+
+/// Headline numbers of a run (summary.json).
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary {
+    pub initial_volume_mm3: f64,
+    pub final_volume_mm3: f64,
+    pub removed_volume_mm3: f64,
+    pub cycle_time_s: f64,
+    /// Largest MRR of a single step (servo period), mm³/s.
+    pub peak_mrr_mm3_s: f64,
+    /// Largest MRR averaged over [`MRR_WINDOW_S`] of cutting, mm³/s: the
+    /// per-period value carries the dexel grid's column quantisation.
+    pub peak_mrr_windowed_mm3_s: f64,
+    pub peak_force_n: f64,
+    pub peak_deflection_um: f64,
+    pub steps: usize,
+    pub grid_mm: f64,
+    pub columns: usize,
+    /// Steps that removed material above the flute length.
+    pub shank_contact_steps: usize,
+    /// Rapid steps that removed material (collisions).
+    pub rapid_collision_steps: usize,
+    /// First program line with a rapid collision, if any.
+    pub first_collision_line: Option<u32>,
+    pub columns_evaluated: u64,
+    pub sweep_time_s: f64,
+}
+
+impl Run {
+    /// MRR of step `i`, mm³/s.
+    pub fn mrr_mm3_s(&self, i: usize) -> f64 {
+        let dt = self.steps[i].dt_s;
+        if dt > 0.0 { self.record.volume_mm3(i) / dt } else { 0.0 }
+    }
+
+    /// Largest mean MRR over any run of consecutive steps lasting at least `window_s`
+    /// (single steps longer than the window count on their own).
+    pub fn peak_windowed_mrr_mm3_s(&self, window_s: f64) -> f64 {
+        let (mut first, mut vol, mut time, mut peak) = (0, 0.0, 0.0, 0.0f64);
+        for (i, s) in self.steps.iter().enumerate() {
+            vol += self.record.volume_mm3(i);
+            time += s.dt_s;
+            while first < i && time - self.steps[first].dt_s >= window_s {
+                vol -= self.record.volume_mm3(first);
+                time -= self.steps[first].dt_s;
+                first += 1;
+            }
+            if time >= window_s || (first == 0 && i + 1 == self.steps.len()) {
+                if time > 0.0 {
+                    peak = peak.max(vol / time);
+                }
+            }
+        }
+        peak
+    }
+
+    pub fn summary(&self) -> Summary {
+        let n = self.steps.len();
+        let final_volume_mm3 = self.stock.volume_mm3();
+        let collisions: Vec<usize> = (0..n).filter(|&i| self.steps[i].step.rapid && self.record.volume_mm3(i) > 0.0).collect();
+        Summary {
+            initial_volume_mm3: self.initial_volume_mm3,
+            final_volume_mm3,
+            removed_volume_mm3: self.record.total_volume_mm3(),
+            cycle_time_s: self.steps.last().map_or(0.0, |s| s.t_end_s),
+            peak_mrr_mm3_s: (0..n).map(|i| self.mrr_mm3_s(i)).fold(0.0, f64::max),
+            peak_mrr_windowed_mm3_s: self.peak_windowed_mrr_mm3_s(MRR_WINDOW_S),
+            peak_force_n: self.loads.iter().map(|l| l.force_n).fold(0.0, f64::max),
+            peak_deflection_um: self.loads.iter().map(|l| l.deflection_um).fold(0.0, f64::max),
+            steps: n,
+            grid_mm: self.stock.grid().spacing_mm,
+            columns: self.stock.grid().len(),
+            shank_contact_steps: (0..n).filter(|&i| self.record.shank_volume_mm3(i) > 0.0).count(),
+            rapid_collision_steps: collisions.len(),
+            first_collision_line: collisions.first().map(|&i| self.steps[i].line),
+            columns_evaluated: self.record.columns_evaluated,
+            sweep_time_s: self.sweep_s,
+        }
+    }
+
+    /// Predicted shape error per column, µm (S4 error map): the deflection of
+    /// the step that last cut the column, projected on the final surface
+    /// normal; positive = material left. NaN where no step cut.
+    pub fn error_map_um(&self) -> Vec<f32> {
+        let grid = *self.stock.grid();
+        let heights = self.stock.top_heights();
+        let normals = cutting::surface_normals_from_heights(&heights, grid.nx, grid.ny, grid.spacing_mm);
+        self.stock
+            .last_cut()
+            .iter()
+            .zip(&normals)
+            .map(|(&step, n)| {
+                if step == NEVER_CUT || n.iter().any(|v| v.is_nan()) {
+                    return f32::NAN;
+                }
+                let load = &self.loads[step as usize];
+                cutting::surface_error_um([load.dx_um, load.dy_um], n.map(f64::from)) as f32
+            })
+            .collect()
+    }
+
+    /// Write steps.csv.
+    pub fn write_steps_csv(&self, path: &Path) -> Result<()> {
+        let n_bands = self.record.n_bands;
+        export::atomic::write_file(path, |w| {
+            let mut out = csv::Writer::from_writer(w);
+            let mut header: Vec<String> =
+                ["step", "t_s", "x", "y", "z", "feed_mm_min", "volume_mm3", "mrr_mm3_s"].map(String::from).to_vec();
+            header.extend((0..n_bands).map(|k| format!("band_{k}_mm3")));
+            header.extend(
+                ["shank_mm3", "force_n", "fx_n", "fy_n", "deflection_um", "dx_um", "dy_um", "line", "rapid"].map(String::from),
+            );
+            out.write_record(&header)?;
+            let mut row: Vec<String> = Vec::with_capacity(header.len());
+            for (i, s) in self.steps.iter().enumerate() {
+                row.clear();
+                let l = &self.loads[i];
+                let [x, y, z] = s.step.to_mm;
+                row.push(i.to_string());
+                row.extend([s.t_end_s, x, y, z, s.feed_mm_min, self.record.volume_mm3(i), self.mrr_mm3_s(i)].map(fmt));
+                row.extend(self.record.band_volumes_mm3(i).iter().map(|v| fmt(*v)));
+                row.push(fmt(self.record.shank_volume_mm3(i)));
+                row.extend([l.force_n, l.fx_n, l.fy_n, l.deflection_um, l.dx_um, l.dy_um].map(fmt));
+                row.push(s.line.to_string());
+                row.push(u8::from(s.step.rapid).to_string());
+                out.write_record(&row)?;
+            }
+            out.flush()?;
+            Ok(())
+        })
+        .with_context(|| format!("cannot write {}", path.display()))
+    }
+
+    /// Write columns.csv: final surface, last cutting step and predicted error per column.
+    pub fn write_columns_csv(&self, path: &Path, design_diff_um: Option<&[f32]>) -> Result<()> {
+        let grid = *self.stock.grid();
+        let top = self.stock.top_heights();
+        let last: Vec<f32> = self.stock.last_cut().iter().map(|&s| if s == NEVER_CUT { f32::NAN } else { s as f32 }).collect();
+        let error = self.error_map_um();
+        let mut columns: Vec<(&str, &[f32])> = vec![("top_mm", &top), ("last_step", &last), ("error_um", &error)];
+        if let Some(d) = design_diff_um {
+            columns.push(("design_um", d));
+        }
+        export::write_column_csv(path, &export_grid(&grid), &columns).with_context(|| format!("cannot write {}", path.display()))
+    }
+}
+
+/// The export crate's copy of the grid geometry.
+pub fn export_grid(g: &dexel::Grid) -> export::Grid {
+    export::Grid { nx: g.nx, ny: g.ny, x0_mm: g.x_mm(0), y0_mm: g.y_mm(0), spacing_mm: g.spacing_mm }
+}
+
+/// Compact number formatting for CSV (shortest round-trip form).
+pub fn fmt(v: f64) -> String {
+    if v == 0.0 { "0".into() } else { format!("{v}") }
+}
+
+/// Write any serialisable value as pretty JSON, atomically.
+pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
+    export::atomic::write_file(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, value).map_err(std::io::Error::other)?;
+        w.write_all(b"\n")
+    })
+    .with_context(|| format!("cannot write {}", path.display()))
+}

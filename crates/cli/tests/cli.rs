@@ -1,0 +1,276 @@
+//! End-to-end tests of the `dexcut` binary against exact answers.
+
+use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+fn dexcut(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_dexcut")).args(args).current_dir(cwd).env("CI", "1").output().expect("run dexcut")
+}
+
+fn ok(out: &Output) {
+    assert!(out.status.success(), "dexcut failed:\nstdout: {}\nstderr: {}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn tempdir() -> tempfile::TempDir {
+    tempfile::tempdir().expect("tempdir")
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn summary(dir: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+}
+
+/// Named numeric columns of a CSV file.
+fn csv_columns(path: &Path) -> std::collections::HashMap<String, Vec<f64>> {
+    let mut r = csv::Reader::from_path(path).unwrap();
+    let headers: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+    let mut cols: std::collections::HashMap<String, Vec<f64>> = headers.iter().map(|h| (h.clone(), Vec::new())).collect();
+    for rec in r.records() {
+        let rec = rec.unwrap();
+        for (h, v) in headers.iter().zip(rec.iter()) {
+            cols.get_mut(h).unwrap().push(v.parse().unwrap_or(f64::NAN));
+        }
+    }
+    cols
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+const SLOT_JOB: &str = r#"
+[stock]
+kind = "box"
+min = [0, -20, 0]
+max = [100, 20, 30]
+grid = 0.1
+[tool]
+kind = "ball"
+diameter = 10
+[program]
+path = "slot.csv"
+feed = 1200
+[cutting]
+band_height = 1.0
+"#;
+
+#[test]
+fn simulate_ball_slot_matches_the_circular_segment() {
+    let dir = tempdir();
+    write(dir.path(), "job.toml", SLOT_JOB);
+    write(dir.path(), "slot.csv", "x,y,z\n-10,0,28\n110,0,28\n");
+    ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir.path()));
+    let s = summary(&dir.path().join("out"));
+    let (r, h) = (5.0f64, 2.0f64);
+    let exact = (r * r * ((r - h) / r).acos() - (r - h) * (2.0 * r * h - h * h).sqrt()) * 100.0;
+    let removed = s["removed_volume_mm3"].as_f64().unwrap();
+    assert!(rel(removed, exact) < 3e-3, "removed {removed} vs {exact}");
+    let (initial, fin) = (s["initial_volume_mm3"].as_f64().unwrap(), s["final_volume_mm3"].as_f64().unwrap());
+    assert!((initial - 120_000.0).abs() < 1e-6);
+    assert!((initial - fin - removed).abs() < 1e-6 * initial);
+    // Time = length / feed: 120 mm at 1200 mm/min.
+    assert!((s["cycle_time_s"].as_f64().unwrap() - 6.0).abs() < 1e-12);
+    let steps = csv_columns(&dir.path().join("out/steps.csv"));
+    assert!((steps["mrr_mm3_s"][0] - removed / 6.0).abs() < 1e-9);
+    let bands: f64 = (0..20).map(|k| steps[&format!("band_{k}_mm3")][0]).sum();
+    assert!((bands - removed).abs() < 1e-6, "bands sum to the step volume");
+}
+
+#[test]
+fn mesh_stock_with_void_has_the_mesh_volume() {
+    let dir = tempdir();
+    let stl = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stock_models/box_with_void.stl");
+    let job = format!(
+        "[stock]\nkind = \"mesh\"\npath = {:?}\ngrid = 0.25\n[tool]\nkind = \"flat\"\ndiameter = 6\n[program]\npath = \"p.csv\"\nfeed = 600\n",
+        stl.canonicalize().unwrap()
+    );
+    write(dir.path(), "job.toml", &job);
+    // A pass above the part: removes nothing.
+    write(dir.path(), "p.csv", "x,y,z\n-50,-50,100\n50,50,100\n");
+    ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir.path()));
+    let s = summary(&dir.path().join("out"));
+    assert!((s["initial_volume_mm3"].as_f64().unwrap() - 23_500.0).abs() < 1e-6, "{}", s["initial_volume_mm3"]);
+    assert_eq!(s["removed_volume_mm3"].as_f64().unwrap(), 0.0);
+}
+
+#[test]
+fn bad_job_gives_file_line_column_and_no_output() {
+    let dir = tempdir();
+    write(dir.path(), "job.toml", &SLOT_JOB.replace("feed = 1200", "feed = 1200\nsped = 3"));
+    write(dir.path(), "slot.csv", "x,y,z\n-10,0,28\n110,0,28\n");
+    let out = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("job.toml:13:1: unknown field `sped`"), "{}", stderr(&out));
+    assert!(!dir.path().join("out").exists(), "no output folder on error");
+}
+
+#[test]
+fn bad_program_names_line_and_column() {
+    let dir = tempdir();
+    write(dir.path(), "job.toml", SLOT_JOB);
+    write(dir.path(), "slot.csv", "x,y,z\n-10,0,28\n110,zero,28\n");
+    let out = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("slot.csv:3:5: y is not a number"), "{}", stderr(&out));
+    assert!(!dir.path().join("out").exists());
+}
+
+#[test]
+fn grid_too_large_for_memory_is_refused_before_work() {
+    let dir = tempdir();
+    write(dir.path(), "job.toml", SLOT_JOB);
+    write(dir.path(), "slot.csv", "x,y,z\n-10,0,28\n110,0,28\n");
+    let out = dexcut(&["simulate", "job.toml", "--out", "out", "--grid", "0.0001"], dir.path());
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("do not fit in memory") || stderr(&out).contains("coarser grid"), "{}", stderr(&out));
+    assert!(!dir.path().join("out").exists());
+    let out = dexcut(&["simulate", "job.toml", "--out", "out", "--grid=-1"], dir.path());
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("--grid must be a positive"), "{}", stderr(&out));
+}
+
+#[test]
+fn missing_files_are_clear_errors() {
+    let dir = tempdir();
+    let out = dexcut(&["simulate", "nope.toml"], dir.path());
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("cannot read job file nope.toml"), "{}", stderr(&out));
+    write(dir.path(), "job.toml", SLOT_JOB);
+    let out = dexcut(&["simulate", "job.toml"], dir.path());
+    assert!(stderr(&out).contains("cannot read program"), "{}", stderr(&out));
+}
+
+/// A 20 mm block in the middle of a straight flat-end pass: air, a 3 mm deep slot, air.
+const STEP_JOB: &str = r#"
+[stock]
+kind = "box"
+min = [40, -20, 0]
+max = [60, 20, 30]
+grid = 0.05
+[tool]
+kind = "flat"
+diameter = 10
+[program]
+path = "line.csv"
+feed = 1000
+[machine]
+accel = [1000, 1000, 1000]
+feed_max = 3000
+[limits]
+mrr_max = 200
+"#;
+
+#[test]
+fn optimize_gives_the_cap_feed_in_the_cut_and_feed_max_in_air() {
+    let dir = tempdir();
+    write(dir.path(), "job.toml", STEP_JOB);
+    write(dir.path(), "line.csv", "x,y,z\n0,0,27\n100,0,27\n");
+    ok(&dexcut(&["optimize", "job.toml", "--out", "out"], dir.path()));
+    let servo = csv_columns(&dir.path().join("out/servo.csv"));
+    // Full engagement (A = 10 mm × 3 mm) while the leading edge is inside the block: x ∈ [40, 55].
+    let cap = 60.0 * 200.0 / 30.0;
+    for (x, f) in servo["x"].iter().zip(&servo["feed_mm_min"]) {
+        if (41.0..54.0).contains(x) {
+            assert!(*f <= cap * 1.0001 && *f >= cap * 0.98, "feed {f} at x {x}, cap {cap}");
+        }
+        if (10.0..33.0).contains(x) || (66.0..95.0).contains(x) {
+            assert!((*f - 3000.0).abs() < 1e-6, "air at x {x} runs at {f}");
+        }
+    }
+    // The ramp into the cut brakes at the acceleration limit (its steepest part), never harder.
+    let t = &servo["t_s"];
+    let feed = &servo["feed_mm_min"];
+    let decel = (1..feed.len())
+        .filter(|&i| servo["x"][i] > 20.0 && servo["x"][i] < 45.0)
+        .map(|i| (feed[i - 1] - feed[i]) / 60.0 / (t[i] - t[i - 1]))
+        .fold(0.0, f64::max);
+    assert!(decel > 0.97 * 1000.0 && decel < 1.001 * 1000.0, "steepest deceleration {decel} mm/s²");
+    // Axis accelerations from servo.csv within the limit (second differences).
+    let dt = t[1] - t[0];
+    for w in servo["x"].windows(3) {
+        let a = (w[2] - 2.0 * w[1] + w[0]) / (dt * dt);
+        assert!(a.abs() <= 1000.0 * 1.02, "acceleration {a} mm/s²");
+    }
+    // Verification: the re-simulated MRR stays under the limit.
+    let s = summary(&dir.path().join("out"));
+    let windowed = s["after"]["peak_mrr_windowed_mm3_s"].as_f64().unwrap();
+    assert!(windowed <= 200.0 * 1.02, "windowed peak MRR {windowed}");
+    let bound = s["lower_bound_time_s"].as_f64().unwrap();
+    assert!(s["after"]["cycle_time_s"].as_f64().unwrap() >= bound);
+}
+
+#[test]
+fn program_without_cutting_runs_at_feed_max() {
+    let dir = tempdir();
+    write(dir.path(), "job.toml", STEP_JOB);
+    write(dir.path(), "line.csv", "x,y,z\n0,0,40\n100,0,40\n100,30,40\n");
+    ok(&dexcut(&["optimize", "job.toml", "--out", "out"], dir.path()));
+    let servo = csv_columns(&dir.path().join("out/servo.csv"));
+    let top = servo["feed_mm_min"].iter().cloned().fold(0.0, f64::max);
+    assert!((top - 3000.0).abs() < 1e-6);
+    let s = summary(&dir.path().join("out"));
+    assert_eq!(s["after"]["removed_volume_mm3"].as_f64().unwrap(), 0.0);
+    // Only acceleration, feed_max and the corner rule hold the speed. The 90° corner
+    // may be taken at a·T = 16 mm/s per axis, so: 0 → 50 → 16 mm/s over 100 mm,
+    // then 16 → 50 → 0 mm/s over 30 mm, at 1000 mm/s².
+    let (v, vc, a) = (50.0f64, 16.0f64, 1000.0f64);
+    let ramp_up = (v / a, v * v / (2.0 * a));
+    let ramp_corner = ((v - vc) / a, (v * v - vc * vc) / (2.0 * a));
+    let expected = 2.0 * (ramp_up.0 + ramp_corner.0) + (130.0 - 2.0 * (ramp_up.1 + ramp_corner.1)) / v;
+    let after = s["after"]["cycle_time_s"].as_f64().unwrap();
+    assert!((after - expected).abs() < 2e-3, "{after} vs {expected}");
+}
+
+#[test]
+fn report_writes_html_png_and_glb() {
+    let dir = tempdir();
+    write(dir.path(), "job.toml", SLOT_JOB);
+    write(dir.path(), "slot.csv", "x,y,z\n-10,0,28\n50,0,28\n50,10,27\n");
+    ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir.path()));
+    ok(&dexcut(&["report", "out"], dir.path()));
+    let out = dir.path().join("out");
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("<svg") && html.contains("data:image/png;base64,"));
+    let png = image::open(out.join("error_map.png")).unwrap();
+    assert!(png.width() >= 600);
+    let (doc, buffers, _) = gltf::import(out.join("stock.glb")).unwrap();
+    assert!(doc.meshes().count() >= 1 && !buffers.is_empty());
+}
+
+#[test]
+fn calibrate_recovers_the_force_law() {
+    let dir = tempdir();
+    let rows: String = (1..=8).map(|i| {
+        let v = 0.001 * i as f64;
+        format!("{v},{}\n", 900.0 * v.powf(0.7))
+    }).collect();
+    write(dir.path(), "m.csv", &format!("v_mm3,force_n\n{rows}"));
+    let out = dexcut(&["calibrate", "m.csv"], dir.path());
+    ok(&out);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("force_a = 900.0000") && text.contains("force_n = 0.700000"), "{text}");
+}
+
+#[test]
+fn plunge_removes_the_ball_volume_through_the_cli() {
+    let dir = tempdir();
+    write(dir.path(), "job.toml", &SLOT_JOB.replace("slot.csv", "plunge.csv").replace("grid = 0.1", "grid = 0.05"));
+    write(dir.path(), "plunge.csv", "x,y,z\n50,0,40\n50,0,22\n");
+    ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir.path()));
+    let s = summary(&dir.path().join("out"));
+    let exact = 2.0 / 3.0 * PI * 125.0 + PI * 25.0 * 3.0;
+    let removed = s["removed_volume_mm3"].as_f64().unwrap();
+    assert!(rel(removed, exact) < 5e-3, "{removed} vs {exact}");
+}
