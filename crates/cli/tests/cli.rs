@@ -274,3 +274,82 @@ fn plunge_removes_the_ball_volume_through_the_cli() {
     let removed = s["removed_volume_mm3"].as_f64().unwrap();
     assert!(rel(removed, exact) < 5e-3, "{removed} vs {exact}");
 }
+
+/// ASCII STL of an axis-aligned box.
+fn box_stl(min: [f64; 3], max: [f64; 3]) -> String {
+    let c = |i: usize| [if i & 1 == 0 { min[0] } else { max[0] }, if i & 2 == 0 { min[1] } else { max[1] }, if i & 4 == 0 { min[2] } else { max[2] }];
+    // Outward-facing quads as corner indices (counter-clockwise seen from outside).
+    let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+    let mut s = String::from("solid box\n");
+    for q in quads {
+        for tri in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+            s.push_str("facet normal 0 0 0\nouter loop\n");
+            for v in tri {
+                let p = c(v);
+                s.push_str(&format!("vertex {} {} {}\n", p[0], p[1], p[2]));
+            }
+            s.push_str("endloop\nendfacet\n");
+        }
+    }
+    s.push_str("endsolid box\n");
+    s
+}
+
+#[test]
+fn planted_gouge_is_found_at_its_program_line() {
+    let dir = tempdir();
+    // Design: the block faced down to z = 28; the program faces at 28 but dips to 27.5 once.
+    write(dir.path(), "design.stl", &box_stl([0.0, -20.0, 0.0], [100.0, 20.0, 28.0]));
+    let job = SLOT_JOB.replace("kind = \"ball\"\ndiameter = 10", "kind = \"flat\"\ndiameter = 10")
+        + "[design]\npath = \"design.stl\"\n";
+    write(dir.path(), "job.toml", &job);
+    let mut csv = String::from("x,y,z\n-10,0,28\n40,0,28\n");
+    csv.push_str("50,0,27.5\n"); // line 4: the gouge
+    csv.push_str("60,0,28\n110,0,28\n");
+    write(dir.path(), "slot.csv", &csv);
+    ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir.path()));
+    let s = summary(&dir.path().join("out"));
+    let gouge = s["design"]["worst_gouge_um"].as_f64().unwrap();
+    assert!((gouge + 500.0).abs() < 1.0, "worst gouge {gouge} µm, planted 500 µm");
+    assert_eq!(s["design"]["worst_gouge_line"].as_u64(), Some(4));
+    let xy = s["design"]["worst_gouge_xy_mm"].as_array().unwrap();
+    // The flat bottom (radius 5) sits 0.5 mm too deep around x = 50.
+    assert!((xy[0].as_f64().unwrap() - 50.0).abs() <= 5.0 && xy[1].as_f64().unwrap().abs() <= 5.0, "{xy:?}");
+}
+
+#[test]
+fn wall_cut_with_constant_load_has_constant_error() {
+    let dir = tempdir();
+    // Side milling a 10 mm high wall at 2 mm radial depth in short steps: constant load.
+    let job = SLOT_JOB
+        .replace("min = [0, -20, 0]", "min = [0, 3, 0]")
+        .replace("kind = \"ball\"\ndiameter = 10", "kind = \"flat\"\ndiameter = 10\nflute_length = 20\nstickout = 60")
+        .replace("grid = 0.1", "grid = 0.05");
+    write(dir.path(), "job.toml", &job);
+    let csv: String = std::iter::once("x,y,z\n".to_string()).chain((0..=240).map(|i| format!("{},0,20\n", -10.0 + 0.5 * i as f64))).collect();
+    write(dir.path(), "slot.csv", &csv);
+    ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir.path()));
+    let steps = csv_columns(&dir.path().join("out/steps.csv"));
+    // Steady state: the tool fully inside the part (x from 20 to 80).
+    let steady: Vec<usize> = (0..steps["x"].len()).filter(|&i| (20.0..80.0).contains(&steps["x"][i])).collect();
+    let dy: Vec<f64> = steady.iter().map(|&i| steps["dy_um"][i]).collect();
+    let (lo, hi) = dy.iter().fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
+    assert!(hi < 0.0, "the tool is pushed away from the wall (−y): {dy:?}");
+    let cols = csv_columns(&dir.path().join("out/columns.csv"));
+    // The wall's last cut row (y just below 5): error = deflection projected on the outward normal (≈ −y).
+    let wall: Vec<f64> = (0..cols["x_mm"].len())
+        .filter(|&i| (25.0..75.0).contains(&cols["x_mm"][i]) && (4.95..5.0).contains(&cols["y_mm"][i]))
+        .map(|i| cols["error_um"][i])
+        .collect();
+    assert!(!wall.is_empty());
+    for e in &wall {
+        // n ≈ (0, −1, 0.01): error ≈ −dy, between the extremes of the steady deflection.
+        assert!(*e > -hi * 0.99 && *e < -lo * 1.01, "wall error {e} µm vs deflection {lo}..{hi} µm");
+    }
+    // The floor (normal +z) gets no error from a sideways deflection.
+    let floor: Vec<f64> = (0..cols["x_mm"].len())
+        .filter(|&i| (25.0..75.0).contains(&cols["x_mm"][i]) && (3.5..4.5).contains(&cols["y_mm"][i]))
+        .map(|i| cols["error_um"][i])
+        .collect();
+    assert!(floor.iter().all(|e| e.abs() < 1e-3), "floor errors {:?}", &floor[..5]);
+}
