@@ -127,10 +127,8 @@ impl Run {
                 time -= self.steps[first].dt_s;
                 first += 1;
             }
-            if time >= window_s || (first == 0 && i + 1 == self.steps.len()) {
-                if time > 0.0 {
-                    peak = peak.max(vol / time);
-                }
+            if (time >= window_s || (first == 0 && i + 1 == self.steps.len())) && time > 0.0 {
+                peak = peak.max(vol / time);
             }
         }
         peak
