@@ -1,4 +1,23 @@
 //! G-code reading into a motion path (lines, exact arcs, dwells) with the
 //! source line of every segment.
+//!
+//! Entry points: [`parse`], and [`refeed`] to write a program back with new feeds. The reader never stops at the first problem and
+//! never panics; every problem is a [`Diagnostic`] with file, line and column.
+mod cycles;
+pub mod diag;
+mod expr;
+mod interp;
 pub mod path;
+mod refeed;
+mod syntax;
+
+pub use diag::{Diagnostic, Severity};
+pub use interp::{Options, Parsed};
 pub use path::{Geometry, Motion, Path, Plane, Segment};
+pub use refeed::{refeed, RefeedError};
+
+/// Reads a program (`file_name` only labels diagnostics) into a path.
+/// Positions are tool-tip positions in mm in the machine frame.
+pub fn parse(source: &str, file_name: &str, options: &Options) -> Parsed {
+    interp::run(source, file_name, options).0
+}

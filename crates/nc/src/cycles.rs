@@ -1,0 +1,77 @@
+//! Canned drilling cycles G73/G81/G82/G83 expanded into moves, as LinuxCNC
+//! does it (XY plane only). All positions in mm, machine frame.
+
+/// One move of an expanded cycle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CycleMove {
+    /// Rapid to (x, y, z).
+    Rapid([f64; 3]),
+    /// Feed to (x, y, z) at the programmed feed.
+    Feed([f64; 3]),
+    /// Dwell in seconds.
+    Dwell(f64),
+}
+
+/// Retract step of G73/G83 above the last peck (LinuxCNC: 0.010 in).
+const RAPID_DELTA_MM: f64 = 0.254;
+
+/// A cycle to expand.
+#[derive(Clone, Copy, Debug)]
+pub struct Cycle {
+    /// G-code ×10 (730, 810, 820, 830).
+    pub code: i32,
+    /// Hole positions start here (mm) and step by `step` per repeat.
+    pub first_xy: [f64; 2],
+    pub step_xy: [f64; 2],
+    pub repeats: u32,
+    /// Tool Z before the cycle, R plane, hole bottom (mm).
+    pub start_z: f64,
+    pub r_z: f64,
+    pub bottom_z: f64,
+    /// G98 (true): retract to the start height; G99: to R.
+    pub retract_to_start: bool,
+    /// Peck depth (G73/G83), mm.
+    pub peck_mm: f64,
+    /// Dwell at the bottom (G82), s.
+    pub dwell_s: f64,
+}
+
+/// Expands a cycle; `current_xy` is where the tool is.
+pub fn expand(c: &Cycle, current_xy: [f64; 2]) -> Vec<CycleMove> {
+    let mut moves = Vec::new();
+    let mut old_z = c.start_z;
+    if old_z < c.r_z {
+        moves.push(CycleMove::Rapid([current_xy[0], current_xy[1], c.r_z]));
+        old_z = c.r_z;
+    }
+    let clear_z = if c.retract_to_start { old_z } else { c.r_z };
+    let [mut x, mut y] = c.first_xy;
+    for i in 0..c.repeats {
+        if i > 0 {
+            x += c.step_xy[0];
+            y += c.step_xy[1];
+        }
+        moves.push(CycleMove::Rapid([x, y, old_z]));
+        if old_z != c.r_z {
+            moves.push(CycleMove::Rapid([x, y, c.r_z]));
+        }
+        if c.code == 730 || c.code == 830 {
+            let mut depth = c.r_z - c.peck_mm;
+            while depth > c.bottom_z {
+                moves.push(CycleMove::Feed([x, y, depth]));
+                if c.code == 830 {
+                    moves.push(CycleMove::Rapid([x, y, c.r_z]));
+                }
+                moves.push(CycleMove::Rapid([x, y, depth + RAPID_DELTA_MM]));
+                depth -= c.peck_mm;
+            }
+        }
+        moves.push(CycleMove::Feed([x, y, c.bottom_z]));
+        if c.code == 820 && c.dwell_s > 0.0 {
+            moves.push(CycleMove::Dwell(c.dwell_s));
+        }
+        moves.push(CycleMove::Rapid([x, y, clear_z]));
+        old_z = clear_z;
+    }
+    moves
+}

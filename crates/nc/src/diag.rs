@@ -1,0 +1,35 @@
+//! Diagnostics with file, line and column, printed as `FILE:LINE:COL: message`.
+
+use std::fmt;
+
+/// How bad a diagnostic is; any `Error` means the program must not be used.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Severity {
+    Error,
+    Warning,
+}
+
+/// One problem found in a program.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Diagnostic {
+    pub file: String,
+    /// 1-based line.
+    pub line: u32,
+    /// 1-based character column.
+    pub column: u32,
+    pub message: String,
+    pub severity: Severity,
+}
+
+impl Diagnostic {
+    /// True for errors (the program must not be used), false for warnings.
+    pub fn is_error(&self) -> bool {
+        self.severity == Severity::Error
+    }
+}
+
+impl fmt::Display for Diagnostic {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}:{}: {}", self.file, self.line, self.column, self.message)
+    }
+}

@@ -1,0 +1,935 @@
+//! The interpreter: modal state, block execution in LinuxCNC's order, flow
+//! control (Fanuc M98/M99, LinuxCNC o-words) and motion generation.
+//!
+//! Internally all lengths are mm in the machine frame; program values are
+//! scaled by 25.4 under G20 and shifted by the active work offset and G92.
+
+use std::collections::HashMap;
+
+use nalgebra::Point3;
+
+use crate::cycles::{self, Cycle, CycleMove};
+use crate::diag::{Diagnostic, Severity};
+use crate::expr::Params;
+use crate::path::{Geometry, Motion, Path, Plane, Segment};
+use crate::syntax::{self, Item, ItemKind, LineKind, OKeyword, OLabel, OStmt};
+
+/// Settings the program cannot know by itself.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// G54..G59 work offsets (mm, machine frame).
+    pub work_offsets_mm: [[f64; 3]; 6],
+    /// Tool tip at program start (mm, machine frame).
+    pub initial_position_mm: [f64; 3],
+    /// G28 / G30 home positions (mm, machine frame).
+    pub g28_home_mm: [f64; 3],
+    pub g30_home_mm: [f64; 3],
+    /// Skip lines starting with `/` (block delete switch on).
+    pub block_delete: bool,
+    /// Stop with an error after executing this many blocks (endless loops).
+    pub max_blocks: u64,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            work_offsets_mm: [[0.0; 3]; 6],
+            initial_position_mm: [0.0; 3],
+            g28_home_mm: [0.0; 3],
+            g30_home_mm: [0.0; 3],
+            block_delete: true,
+            max_blocks: 10_000_000,
+        }
+    }
+}
+
+/// Result of [`crate::parse`]: the path and every diagnostic found.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Parsed {
+    pub path: Path,
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+impl Parsed {
+    /// True when any diagnostic is an error.
+    pub fn has_errors(&self) -> bool {
+        self.diagnostics.iter().any(|d| d.severity == Severity::Error)
+    }
+}
+
+/// Per-segment facts the re-feed writer needs (modes in force at the block).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SegmentTrace {
+    /// 0-based line index.
+    pub line_index: usize,
+    /// mm per program unit (1 or 25.4) of the block's coordinates.
+    pub scale: f64,
+    /// mm per program unit of the block's F word: the units in force before
+    /// the block, as F is read before a G20/G21 in the same block takes effect.
+    pub feed_scale: f64,
+    pub incremental: bool,
+    pub arc_incremental: bool,
+    pub inverse_time: bool,
+    /// Work offset + G92 in force (mm): machine = program·scale + offset.
+    pub offset_mm: [f64; 3],
+}
+
+/// What [`run`] returns besides the parse result.
+pub struct Trace {
+    pub segments: Vec<SegmentTrace>,
+}
+
+/// An execution error at a column.
+struct Fail {
+    col: u32,
+    msg: String,
+}
+
+fn fail<T>(col: u32, msg: impl Into<String>) -> Result<T, Fail> {
+    Err(Fail { col, msg: msg.into() })
+}
+
+/// A block after evaluation of its words.
+#[derive(Default)]
+struct Block {
+    /// G codes ×10 with columns.
+    g: Vec<(i32, u32)>,
+    m: Vec<(i32, u32)>,
+    /// Letter values and columns, indexed by letter − 'a'.
+    words: [Option<(f64, u32)>; 26],
+    first_col: u32,
+}
+
+impl Block {
+    fn get(&self, letter: char) -> Option<f64> {
+        self.words[(letter as u8 - b'a') as usize].map(|w| w.0)
+    }
+    fn col(&self, letter: char) -> u32 {
+        self.words[(letter as u8 - b'a') as usize].map_or(self.first_col, |w| w.1)
+    }
+    fn has_g(&self, code: i32) -> Option<u32> {
+        self.g.iter().find(|g| g.0 == code).map(|g| g.1)
+    }
+    fn has_m(&self, code: i32) -> bool {
+        self.m.iter().any(|m| m.0 == code)
+    }
+    fn has_axes(&self) -> bool {
+        ['x', 'y', 'z'].iter().any(|&c| self.get(c).is_some())
+    }
+}
+
+/// Modal group of a G code ×10, `None` when unknown.
+fn g_group(code: i32) -> Option<u8> {
+    Some(match code {
+        40 | 100 | 280 | 281 | 300 | 301 | 920 | 921 | 922 | 923 => 0,
+        530 => 99,
+        0 | 10 | 20 | 30 | 330 | 382 | 383 | 384 | 385 | 730 | 760 | 800..=890 => 1,
+        170 | 180 | 190 => 2,
+        900 | 910 => 3,
+        901 | 911 => 4,
+        930 | 940 | 950 => 5,
+        200 | 210 => 6,
+        400 | 410 | 420 | 411 | 421 => 7,
+        430 | 431 | 490 => 8,
+        980 | 990 => 10,
+        540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => 12,
+        610 | 611 | 640 => 13,
+        960 | 970 => 14,
+        _ => return None,
+    })
+}
+
+fn m_group(code: i32) -> Option<u8> {
+    Some(match code {
+        0 | 1 | 2 | 30 | 60 => 4,
+        6 => 6,
+        3..=5 => 7,
+        7 | 9 => 8,
+        8 => 9,
+        48 | 49 => 10,
+        98 | 99 => 11,
+        _ => return None,
+    })
+}
+
+fn g_name(code: i32) -> String {
+    if code % 10 == 0 { format!("G{}", code / 10) } else { format!("G{}.{}", code / 10, code % 10) }
+}
+
+enum Frame {
+    Fanuc { return_pc: usize, start: usize, remaining: u32 },
+    OSub { return_pc: usize, saved: Box<[f64; 30]> },
+}
+
+struct Interp<'a> {
+    file: &'a str,
+    options: &'a Options,
+    lines: Vec<Option<syntax::Line>>,
+    params: Params,
+    pos: [f64; 3],
+    scale: f64,
+    incremental: bool,
+    arc_incremental: bool,
+    inverse_time: bool,
+    plane: Plane,
+    motion: i32,
+    coord: usize,
+    work: [[f64; 3]; 6],
+    g92: [f64; 3],
+    feed_mm_min: f64,
+    spindle_rpm: f64,
+    spindle_on: bool,
+    retract_to_start: bool,
+    cycle_r: Option<f64>,
+    cycle_z: Option<f64>,
+    cycle_q: Option<f64>,
+    cycle_p: f64,
+    /// Z (mm) where the current series of canned cycles started (G98 level).
+    cycle_initial_z: Option<f64>,
+    frames: Vec<Frame>,
+    repeats: HashMap<usize, i64>,
+    path: Path,
+    trace: Vec<SegmentTrace>,
+    diagnostics: Vec<Diagnostic>,
+    line_index: usize,
+    /// Units in force when the current block's F word was read.
+    feed_scale: f64,
+}
+
+/// Parses and runs a program.
+pub fn run(source: &str, file: &str, options: &Options) -> (Parsed, Trace) {
+    let mut it = Interp {
+        file,
+        options,
+        lines: Vec::new(),
+        params: Params::default(),
+        pos: options.initial_position_mm,
+        scale: 1.0,
+        incremental: false,
+        arc_incremental: true,
+        inverse_time: false,
+        plane: Plane::XY,
+        motion: 800,
+        coord: 0,
+        work: options.work_offsets_mm,
+        g92: [0.0; 3],
+        feed_mm_min: 0.0,
+        spindle_rpm: 0.0,
+        spindle_on: false,
+        retract_to_start: false,
+        cycle_r: None,
+        cycle_z: None,
+        cycle_q: None,
+        cycle_p: 0.0,
+        cycle_initial_z: None,
+        frames: Vec::new(),
+        repeats: HashMap::new(),
+        path: Path::default(),
+        trace: Vec::new(),
+        diagnostics: Vec::new(),
+        line_index: 0,
+        feed_scale: 1.0,
+    };
+    for (i, text) in source.split('\n').enumerate() {
+        let text = text.strip_suffix('\r').unwrap_or(text);
+        match syntax::parse_line(text) {
+            Ok(line) => it.lines.push(Some(line)),
+            Err(e) => {
+                it.line_index = i;
+                it.report(e.col, e.message);
+                it.lines.push(None);
+            }
+        }
+    }
+    it.execute();
+    let trace = Trace { segments: it.trace };
+    (Parsed { path: it.path, diagnostics: it.diagnostics }, trace)
+}
+
+impl Interp<'_> {
+    fn report(&mut self, col: u32, message: String) {
+        self.diagnostics.push(Diagnostic {
+            file: self.file.to_owned(),
+            line: self.line_index as u32 + 1,
+            column: col.max(1),
+            message,
+            severity: Severity::Error,
+        });
+    }
+
+    fn execute(&mut self) {
+        let mut pc = 0usize;
+        let mut executed = 0u64;
+        let mut seen_percent = false;
+        while pc < self.lines.len() {
+            executed += 1;
+            if executed > self.options.max_blocks {
+                self.line_index = pc;
+                self.report(1, format!("more than {} blocks executed; endless loop?", self.options.max_blocks));
+                return;
+            }
+            self.line_index = pc;
+            let Some(line) = self.lines[pc].clone() else {
+                pc += 1;
+                continue;
+            };
+            if line.block_delete && self.options.block_delete {
+                pc += 1;
+                continue;
+            }
+            let next = match &line.kind {
+                LineKind::Empty | LineKind::ProgramNumber(_) => Ok(Some(pc + 1)),
+                LineKind::Percent if seen_percent => Ok(None),
+                LineKind::Percent => {
+                    seen_percent = true;
+                    Ok(Some(pc + 1))
+                }
+                LineKind::OWord(stmt) => self.oword(pc, stmt),
+                LineKind::Block(items) => self.block(pc, items),
+            };
+            match next {
+                Ok(Some(n)) => pc = n,
+                Ok(None) => return,
+                Err(f) => {
+                    self.report(f.col, f.msg);
+                    pc += 1;
+                }
+            }
+        }
+    }
+
+    /// Finds the next (or previous) o-word with `label` and one of `keywords`.
+    fn find_o(&self, from: usize, label: &OLabel, keywords: &[OKeyword], forward: bool) -> Option<usize> {
+        let matches = |i: usize| {
+            matches!(&self.lines[i], Some(syntax::Line { kind: LineKind::OWord(s), .. })
+                if &s.label == label && keywords.contains(&s.keyword))
+        };
+        if forward {
+            (from + 1..self.lines.len()).find(|&i| matches(i))
+        } else {
+            (0..from).rev().find(|&i| matches(i))
+        }
+    }
+
+    fn cond(&self, stmt: &OStmt) -> Result<bool, Fail> {
+        let e = stmt.args.first().ok_or(Fail { col: stmt.col, msg: "missing [condition]".into() })?;
+        Ok(self.params.eval(e).map_err(|msg| Fail { col: stmt.col, msg })? != 0.0)
+    }
+
+    fn oword(&mut self, pc: usize, s: &OStmt) -> Result<Option<usize>, Fail> {
+        use OKeyword as K;
+        let missing = |what: &str| Fail { col: s.col, msg: format!("no matching '{what}' for this o-word") };
+        let after = |r: Option<usize>, what: &str| r.map(|i| Some(i + 1)).ok_or_else(|| missing(what));
+        match s.keyword {
+            K::Sub => after(self.find_o(pc, &s.label, &[K::EndSub], true), "endsub"),
+            K::EndSub | K::Return => match self.frames.pop() {
+                Some(Frame::OSub { return_pc, saved }) => {
+                    if let Some(e) = s.args.first() {
+                        let v = self.params.eval(e).map_err(|msg| Fail { col: s.col, msg })?;
+                        self.params.pop_scope(&saved);
+                        self.params.set_named("_value", v);
+                    } else {
+                        self.params.pop_scope(&saved);
+                    }
+                    Ok(Some(return_pc))
+                }
+                Some(other) => {
+                    self.frames.push(other);
+                    fail(s.col, "endsub/return inside an M98 subprogram")
+                }
+                None => fail(s.col, "endsub/return outside a subroutine"),
+            },
+            K::Call => {
+                let start = (0..self.lines.len())
+                    .find(|&i| matches!(&self.lines[i], Some(syntax::Line { kind: LineKind::OWord(d), .. })
+                        if d.label == s.label && d.keyword == K::Sub))
+                    .ok_or_else(|| Fail { col: s.col, msg: "called subroutine is not defined".into() })?;
+                if self.frames.len() >= 64 {
+                    return fail(s.col, "subroutine calls nested too deeply");
+                }
+                let args = s
+                    .args
+                    .iter()
+                    .map(|e| self.params.eval(e))
+                    .collect::<Result<Vec<_>, _>>()
+                    .map_err(|msg| Fail { col: s.col, msg })?;
+                let saved = self.params.push_scope(&args);
+                self.frames.push(Frame::OSub { return_pc: pc + 1, saved: Box::new(saved) });
+                Ok(Some(start + 1))
+            }
+            K::If => {
+                let mut i = pc;
+                let mut stmt = s.clone();
+                loop {
+                    if self.cond(&stmt)? {
+                        return Ok(Some(i + 1));
+                    }
+                    i = self.find_o(i, &s.label, &[K::ElseIf, K::Else, K::EndIf], true).ok_or_else(|| missing("endif"))?;
+                    match &self.lines[i] {
+                        Some(syntax::Line { kind: LineKind::OWord(next), .. }) if next.keyword == K::ElseIf => {
+                            stmt = next.clone();
+                        }
+                        _ => return Ok(Some(i + 1)),
+                    }
+                }
+            }
+            K::ElseIf | K::Else => after(self.find_o(pc, &s.label, &[K::EndIf], true), "endif"),
+            K::EndIf | K::Do => Ok(Some(pc + 1)),
+            K::While => {
+                let end = self.find_o(pc, &s.label, &[K::EndWhile], true);
+                match end {
+                    Some(end) => Ok(Some(if self.cond(s)? { pc + 1 } else { end + 1 })),
+                    None => {
+                        let d = self.find_o(pc, &s.label, &[K::Do], false).ok_or_else(|| missing("endwhile"))?;
+                        Ok(Some(if self.cond(s)? { d + 1 } else { pc + 1 }))
+                    }
+                }
+            }
+            K::EndWhile => self.find_o(pc, &s.label, &[K::While], false).map(Some).ok_or_else(|| missing("while")),
+            K::Repeat => {
+                let e = s.args.first().ok_or(Fail { col: s.col, msg: "missing [count]".into() })?;
+                let n = self.params.eval(e).map_err(|msg| Fail { col: s.col, msg })?.round() as i64;
+                if n > 0 {
+                    self.repeats.insert(pc, n);
+                    Ok(Some(pc + 1))
+                } else {
+                    after(self.find_o(pc, &s.label, &[K::EndRepeat], true), "endrepeat")
+                }
+            }
+            K::EndRepeat => {
+                let start = self.find_o(pc, &s.label, &[K::Repeat], false).ok_or_else(|| missing("repeat"))?;
+                let left = self.repeats.entry(start).or_insert(1);
+                *left -= 1;
+                Ok(Some(if *left > 0 { start + 1 } else { pc + 1 }))
+            }
+            K::Break => {
+                let end = self
+                    .find_o(pc, &s.label, &[K::EndWhile, K::EndRepeat, K::While], true)
+                    .ok_or_else(|| missing("endwhile/endrepeat"))?;
+                Ok(Some(end + 1))
+            }
+            K::Continue => {
+                if let Some(w) = self.find_o(pc, &s.label, &[K::While, K::Repeat], false) {
+                    if matches!(&self.lines[w], Some(syntax::Line { kind: LineKind::OWord(t), .. }) if t.keyword == K::While) {
+                        return Ok(Some(w));
+                    }
+                }
+                self.find_o(pc, &s.label, &[K::EndRepeat, K::While], true).map(Some).ok_or_else(|| missing("loop end"))
+            }
+        }
+    }
+
+    fn eval_block(&mut self, items: &[Item]) -> Result<Block, Fail> {
+        let mut b = Block { first_col: items.first().map_or(1, |i| i.col), ..Block::default() };
+        let mut assignments = Vec::new();
+        for item in items {
+            let err = |msg| Fail { col: item.col, msg };
+            match &item.kind {
+                ItemKind::Assign { target, value } => {
+                    let t = self.params.resolve(target).map_err(err)?;
+                    let v = self.params.eval(value).map_err(err)?;
+                    assignments.push((t, v));
+                }
+                ItemKind::Word { letter, value } => {
+                    let v = self.params.eval(value).map_err(err)?;
+                    match letter {
+                        'g' | 'm' => {
+                            let code = (v * 10.0).round();
+                            if (v * 10.0 - code).abs() > 1e-6 || code.abs() > 1e6 {
+                                return fail(item.col, format!("{}{v} is not a valid code", letter.to_ascii_uppercase()));
+                            }
+                            let code = code as i32;
+                            if *letter == 'g' {
+                                b.g.push((code, item.col));
+                            } else if code % 10 != 0 {
+                                return fail(item.col, format!("unknown M code M{v}"));
+                            } else {
+                                b.m.push((code / 10, item.col));
+                            }
+                        }
+                        l => {
+                            let slot = &mut b.words[(*l as u8 - b'a') as usize];
+                            if slot.is_some() {
+                                return fail(item.col, format!("more than one {} word in the block", l.to_ascii_uppercase()));
+                            }
+                            *slot = Some((v, item.col));
+                        }
+                    }
+                }
+            }
+        }
+        for (i, &(code, col)) in b.g.iter().enumerate() {
+            let Some(group) = g_group(code) else {
+                return fail(col, format!("unknown G code {}", g_name(code)));
+            };
+            if let Some(&(other, _)) = b.g[..i].iter().find(|g| g_group(g.0) == Some(group)) {
+                return fail(col, format!("{} and {} are in the same modal group", g_name(other), g_name(code)));
+            }
+        }
+        for (i, &(code, col)) in b.m.iter().enumerate() {
+            let Some(group) = m_group(code) else {
+                return fail(col, format!("unknown M code M{code}"));
+            };
+            if b.m[..i].iter().any(|m| m_group(m.0) == Some(group)) {
+                return fail(col, format!("two M codes of the same modal group (M{code})"));
+            }
+        }
+        for l in ['a', 'b', 'c', 'u', 'v', 'w'] {
+            if b.get(l).is_some() {
+                return fail(b.col(l), format!("axis {} is not supported (3-axis X Y Z only)", l.to_ascii_uppercase()));
+            }
+        }
+        if b.get('e').is_some() {
+            return fail(b.col('e'), "E word is not supported");
+        }
+        for (t, v) in assignments {
+            self.params.assign(&t, v);
+        }
+        Ok(b)
+    }
+
+    fn block(&mut self, pc: usize, items: &[Item]) -> Result<Option<usize>, Fail> {
+        let b = self.eval_block(items)?;
+        self.feed_scale = self.scale;
+        let g_col = |code| b.has_g(code);
+        // Feed mode, feed, speed, tool, spindle.
+        if let Some(col) = g_col(950) {
+            return fail(col, "G95 feed per revolution is not supported");
+        }
+        if g_col(930).is_some() {
+            self.inverse_time = true;
+        }
+        if g_col(940).is_some() {
+            self.inverse_time = false;
+        }
+        if let Some(f) = b.get('f') {
+            if f < 0.0 {
+                return fail(b.col('f'), "negative feed rate");
+            }
+            if !self.inverse_time {
+                self.feed_mm_min = f * self.scale;
+            }
+        }
+        if let Some(s) = b.get('s') {
+            if s < 0.0 {
+                return fail(b.col('s'), "negative spindle speed");
+            }
+            self.spindle_rpm = s;
+        }
+        if b.has_m(3) || b.has_m(4) {
+            self.spindle_on = true;
+        }
+        if b.has_m(5) {
+            self.spindle_on = false;
+        }
+        if g_col(40).is_some() {
+            let p = b.get('p').ok_or(Fail { col: g_col(40).unwrap_or(1), msg: "G4 needs a P word (seconds)".into() })?;
+            if p < 0.0 {
+                return fail(b.col('p'), "negative dwell time");
+            }
+            self.push(self.pos, Geometry::Line, Motion::Dwell { seconds: p }, pc, true);
+        }
+        for (code, plane) in [(170, Plane::XY), (180, Plane::ZX), (190, Plane::YZ)] {
+            if g_col(code).is_some() {
+                self.plane = plane;
+            }
+        }
+        if g_col(200).is_some() {
+            self.scale = 25.4;
+        }
+        if g_col(210).is_some() {
+            self.scale = 1.0;
+        }
+        for code in [410, 420, 411, 421] {
+            if let Some(col) = g_col(code) {
+                return fail(col, format!("cutter radius compensation {} is not supported; post the program with the tool centre path (G40)", g_name(code)));
+            }
+        }
+        for code in [430, 431] {
+            if let Some(col) = g_col(code) {
+                return fail(col, format!("tool length compensation {} is not supported; positions must be tool tip positions (G49)", g_name(code)));
+            }
+        }
+        for l in ['d', 'h'] {
+            if b.get(l).is_some() {
+                return fail(b.col(l), format!("{} word without G41/G42/G43 (compensation is not supported)", l.to_ascii_uppercase()));
+            }
+        }
+        for (i, code) in [540, 550, 560, 570, 580, 590].into_iter().enumerate() {
+            if g_col(code).is_some() {
+                self.coord = i;
+            }
+        }
+        for code in [591, 592, 593, 960, 330, 382, 383, 384, 385, 760, 840, 850, 860, 870, 880, 890, 922, 923, 281, 301] {
+            if let Some(col) = g_col(code) {
+                return fail(col, format!("{} is not supported", g_name(code)));
+            }
+        }
+        if g_col(900).is_some() {
+            self.incremental = false;
+        }
+        if g_col(910).is_some() {
+            self.incremental = true;
+        }
+        if g_col(901).is_some() {
+            self.arc_incremental = false;
+        }
+        if g_col(911).is_some() {
+            self.arc_incremental = true;
+        }
+        if g_col(980).is_some() {
+            self.retract_to_start = true;
+        }
+        if g_col(990).is_some() {
+            self.retract_to_start = false;
+        }
+        // Non-modal group 0.
+        let axis_user = b.g.iter().find(|g| matches!(g.0, 100 | 280 | 300 | 920));
+        let motion_code = b.g.iter().find(|g| g_group(g.0) == Some(1)).copied();
+        if let (Some(&(a, col)), Some((m, _))) = (axis_user, motion_code) {
+            if m != 800 && b.has_axes() {
+                return fail(col, format!("{} and {} both use axis words", g_name(a), g_name(m)));
+            }
+        }
+        if let Some(&(code, col)) = axis_user {
+            self.modal0(code, col, &b, pc)?;
+        } else if g_col(921).is_some() {
+            self.g92 = [0.0; 3];
+        }
+        if let Some((code, _)) = motion_code {
+            self.motion = code;
+            if !matches!(code, 730 | 810 | 820 | 830) {
+                self.cycle_initial_z = None;
+            }
+        }
+        let use_motion = axis_user.is_none() && (motion_code.is_some() || b.has_axes());
+        if use_motion {
+            if self.motion == 800 {
+                if b.has_axes() {
+                    return fail(b.first_col, "axis words without a motion mode (G80 is active)");
+                }
+                self.cycle_r = None;
+                self.cycle_z = None;
+            } else if b.has_axes() || matches!(self.motion, 20 | 30) {
+                self.motion_block(&b, pc)?;
+            }
+        }
+        if !matches!(self.motion, 20 | 30) || !use_motion {
+            for l in ['i', 'j', 'k'] {
+                if b.get(l).is_some() {
+                    return fail(b.col(l), format!("{} word with no G2 or G3 to use it", l.to_ascii_uppercase()));
+                }
+            }
+        }
+        // Stop and flow.
+        if b.has_m(2) || b.has_m(30) {
+            return Ok(None);
+        }
+        if b.has_m(98) {
+            let p = b.get('p').ok_or(Fail { col: b.first_col, msg: "M98 needs a P word (program number)".into() })?;
+            let l = b.get('l').unwrap_or(1.0);
+            if l < 1.0 || l.fract() != 0.0 || l > 1e6 {
+                return fail(b.col('l'), "L repeat count must be a positive integer");
+            }
+            let target = p.round() as i64;
+            let start = self
+                .lines
+                .iter()
+                .position(|l| matches!(l, Some(syntax::Line { kind: LineKind::ProgramNumber(n), .. }) if *n == target))
+                .ok_or(Fail { col: b.col('p'), msg: format!("subprogram O{target} not found") })?;
+            if self.frames.len() >= 64 {
+                return fail(b.first_col, "subprogram calls nested too deeply");
+            }
+            self.frames.push(Frame::Fanuc { return_pc: pc + 1, start, remaining: l as u32 - 1 });
+            return Ok(Some(start + 1));
+        }
+        if b.has_m(99) {
+            return match self.frames.pop() {
+                Some(Frame::Fanuc { return_pc, start, remaining }) => {
+                    if remaining > 0 {
+                        self.frames.push(Frame::Fanuc { return_pc, start, remaining: remaining - 1 });
+                        Ok(Some(start + 1))
+                    } else {
+                        Ok(Some(return_pc))
+                    }
+                }
+                Some(other) => {
+                    self.frames.push(other);
+                    fail(b.first_col, "M99 inside an o-word subroutine")
+                }
+                None => Ok(None),
+            };
+        }
+        Ok(Some(pc + 1))
+    }
+
+    fn offset(&self) -> [f64; 3] {
+        let w = self.work[self.coord];
+        [w[0] + self.g92[0], w[1] + self.g92[1], w[2] + self.g92[2]]
+    }
+
+    /// Target of the block's axis words (mm, machine frame).
+    fn target(&self, b: &Block, machine: bool) -> [f64; 3] {
+        let off = self.offset();
+        let mut t = self.pos;
+        for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
+            if let Some(v) = b.get(l) {
+                t[i] = if machine {
+                    v * self.scale
+                } else if self.incremental {
+                    self.pos[i] + v * self.scale
+                } else {
+                    v * self.scale + off[i]
+                };
+            }
+        }
+        t
+    }
+
+    fn modal0(&mut self, code: i32, col: u32, b: &Block, pc: usize) -> Result<(), Fail> {
+        match code {
+            280 | 300 => {
+                let home = if code == 280 { self.options.g28_home_mm } else { self.options.g30_home_mm };
+                let mid = self.target(b, false);
+                self.rapid(mid, pc);
+                let mut end = self.pos;
+                for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
+                    if !b.has_axes() || b.get(l).is_some() {
+                        end[i] = home[i];
+                    }
+                }
+                self.rapid(end, pc);
+            }
+            920 => {
+                let w = self.work[self.coord];
+                for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
+                    if let Some(v) = b.get(l) {
+                        self.g92[i] = self.pos[i] - w[i] - v * self.scale;
+                    }
+                }
+            }
+            100 => {
+                let l = b.get('l').unwrap_or(0.0);
+                let p = b.get('p').unwrap_or(0.0);
+                if l != 2.0 || !(1.0..=6.0).contains(&p) || p.fract() != 0.0 {
+                    return fail(col, "only G10 L2 P1..P6 (set work offset) is supported");
+                }
+                let w = &mut self.work[p as usize - 1];
+                for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
+                    if let Some(v) = b.get(l) {
+                        w[i] = v * self.scale;
+                    }
+                }
+            }
+            _ => return fail(col, format!("{} is not supported", g_name(code))),
+        }
+        Ok(())
+    }
+
+    fn rapid(&mut self, to: [f64; 3], pc: usize) {
+        self.push(to, Geometry::Line, Motion::Rapid, pc, false);
+    }
+
+    /// Appends a segment from the current position to `to`; zero-length
+    /// lines are dropped. `dwell` keeps a zero-length segment.
+    fn push(&mut self, to: [f64; 3], geometry: Geometry, motion: Motion, pc: usize, dwell: bool) {
+        let start = Point3::from(self.pos);
+        let end = Point3::from(to);
+        if !dwell && geometry == Geometry::Line && start == end {
+            return;
+        }
+        self.path.segments.push(Segment {
+            start,
+            end,
+            geometry,
+            motion,
+            line: pc as u32 + 1,
+            spindle_rpm: if self.spindle_on { self.spindle_rpm } else { 0.0 },
+        });
+        self.trace.push(SegmentTrace {
+            line_index: pc,
+            scale: self.scale,
+            incremental: self.incremental,
+            arc_incremental: self.arc_incremental,
+            inverse_time: self.inverse_time,
+            offset_mm: self.offset(),
+            feed_scale: self.feed_scale,
+        });
+        self.pos = to;
+    }
+
+    /// Feed motion for a G1/G2/G3 of known geometry.
+    fn feed_motion(&self, b: &Block, length_mm: f64) -> Result<Motion, Fail> {
+        if self.inverse_time {
+            let f = b.get('f').ok_or(Fail { col: b.first_col, msg: "F word missing with inverse time (G93) feed move".into() })?;
+            if f <= 0.0 {
+                return fail(b.col('f'), "inverse time feed must be positive");
+            }
+            Ok(Motion::Feed { feed_mm_min: length_mm * f })
+        } else if self.feed_mm_min <= 0.0 {
+            fail(b.first_col, "feed move with zero feed rate (no F word yet)")
+        } else {
+            Ok(Motion::Feed { feed_mm_min: self.feed_mm_min })
+        }
+    }
+
+    fn motion_block(&mut self, b: &Block, pc: usize) -> Result<(), Fail> {
+        let machine = b.has_g(530).is_some();
+        if machine && !matches!(self.motion, 0 | 10) {
+            return fail(b.has_g(530).unwrap_or(1), "G53 needs G0 or G1");
+        }
+        match self.motion {
+            0 => {
+                let t = self.target(b, machine);
+                self.rapid(t, pc);
+            }
+            10 => {
+                let t = self.target(b, machine);
+                let len = (Point3::from(t) - Point3::from(self.pos)).norm();
+                if len > 0.0 {
+                    let m = self.feed_motion(b, len)?;
+                    self.push(t, Geometry::Line, m, pc, false);
+                }
+            }
+            20 | 30 => self.arc(b, pc)?,
+            730 | 810 | 820 | 830 => self.cycle(b, pc)?,
+            _ => return fail(b.first_col, format!("{} is not supported", g_name(self.motion))),
+        }
+        Ok(())
+    }
+
+    fn arc(&mut self, b: &Block, pc: usize) -> Result<(), Fail> {
+        let clockwise = self.motion == 20;
+        let end = self.target(b, false);
+        let (a, bb, n) = self.plane.axes();
+        let letters = ['i', 'j', 'k'];
+        let off_word = letters[n];
+        if b.get(off_word).is_some() {
+            return fail(b.col(off_word), format!("{} word not allowed for an arc in this plane", off_word.to_ascii_uppercase()));
+        }
+        let start = self.pos;
+        let mut center = start;
+        let col = b.first_col;
+        if let Some(r) = b.get('r') {
+            if b.get(letters[a]).is_some() || b.get(letters[bb]).is_some() {
+                return fail(b.col('r'), "mixed radius (R) and centre (I/J/K) format arc");
+            }
+            let r_mm = r * self.scale;
+            let (dx, dy) = (end[a] - start[a], end[bb] - start[bb]);
+            let half = 0.5 * dx.hypot(dy);
+            if half == 0.0 {
+                return fail(b.col('r'), "R format arc with end point equal to start point");
+            }
+            let abs_r = r_mm.abs();
+            if half - abs_r > 1e-6 * abs_r.max(1.0) || abs_r == 0.0 {
+                return fail(b.col('r'), "arc radius too small to reach the end point");
+            }
+            let half = half.min(abs_r);
+            let right = clockwise == (r_mm > 0.0);
+            let theta = dy.atan2(dx) + if right { -std::f64::consts::FRAC_PI_2 } else { std::f64::consts::FRAC_PI_2 };
+            let offset = abs_r * (half / abs_r).asin().cos();
+            center[a] = 0.5 * (start[a] + end[a]) + offset * theta.cos();
+            center[bb] = 0.5 * (start[bb] + end[bb]) + offset * theta.sin();
+        } else {
+            let (ca, cb) = (b.get(letters[a]), b.get(letters[bb]));
+            if ca.is_none() && cb.is_none() {
+                return fail(col, "arc needs R or centre (I/J/K) words");
+            }
+            let off = self.offset();
+            for (axis, v) in [(a, ca), (bb, cb)] {
+                let v = v.unwrap_or(0.0) * self.scale;
+                center[axis] = if self.arc_incremental { start[axis] + v } else { v + off[axis] };
+            }
+            let r1 = (start[a] - center[a]).hypot(start[bb] - center[bb]);
+            let r2 = (end[a] - center[a]).hypot(end[bb] - center[bb]);
+            if (r1 - r2).abs() > 0.002 && (r1 - r2).abs() > 0.001 * r1 {
+                return fail(col, format!("radius to end of arc differs from radius to start ({r1:.4} vs {r2:.4} mm)"));
+            }
+        }
+        let r = (start[a] - center[a]).hypot(start[bb] - center[bb]);
+        if r == 0.0 {
+            return fail(col, "arc of zero radius");
+        }
+        let turns = b.get('p').unwrap_or(1.0);
+        if turns < 1.0 || turns.fract() != 0.0 || turns > 1e4 {
+            return fail(b.col('p'), "P (turns) of an arc must be a positive integer");
+        }
+        let a0 = (start[bb] - center[bb]).atan2(start[a] - center[a]);
+        let a1 = (end[bb] - center[bb]).atan2(end[a] - center[a]);
+        let tau = std::f64::consts::TAU;
+        let mut sweep = if clockwise { a0 - a1 } else { a1 - a0 }.rem_euclid(tau);
+        if sweep < 1e-12 || (start[a] == end[a] && start[bb] == end[bb]) {
+            sweep = tau;
+        }
+        sweep += (turns - 1.0) * tau;
+        let length = ((r * sweep).powi(2) + (end[n] - start[n]).powi(2)).sqrt();
+        let motion = self.feed_motion(b, length)?;
+        self.push(end, Geometry::Arc { center: Point3::from(center), plane: self.plane, clockwise, sweep_rad: sweep }, motion, pc, false);
+        Ok(())
+    }
+
+    fn cycle(&mut self, b: &Block, pc: usize) -> Result<(), Fail> {
+        if self.plane != Plane::XY {
+            return fail(b.first_col, "canned cycles are supported in the G17 plane only");
+        }
+        if self.inverse_time {
+            return fail(b.first_col, "canned cycles cannot be used with G93 inverse time");
+        }
+        let r = b.get('r').or(self.cycle_r).ok_or(Fail { col: b.first_col, msg: "canned cycle needs an R word".into() })?;
+        let z = b.get('z').or(self.cycle_z).ok_or(Fail { col: b.first_col, msg: "canned cycle needs a Z word".into() })?;
+        self.cycle_r = Some(r);
+        self.cycle_z = Some(z);
+        let repeats = b.get('l').unwrap_or(1.0);
+        if repeats < 1.0 || repeats.fract() != 0.0 || repeats > 1e5 {
+            return fail(b.col('l'), "L repeat count must be a positive integer");
+        }
+        let mut peck_mm = 0.0;
+        if matches!(self.motion, 730 | 830) {
+            let q = b.get('q').or(self.cycle_q).ok_or(Fail { col: b.first_col, msg: "G73/G83 need a Q word (peck depth)".into() })?;
+            if q <= 0.0 {
+                return fail(b.col('q'), "Q (peck depth) must be positive");
+            }
+            self.cycle_q = Some(q);
+            peck_mm = q * self.scale;
+        }
+        if self.motion == 820 {
+            self.cycle_p = b.get('p').unwrap_or(self.cycle_p);
+        }
+        if self.feed_mm_min <= 0.0 {
+            return fail(b.first_col, "canned cycle with zero feed rate");
+        }
+        let initial_z = *self.cycle_initial_z.get_or_insert(self.pos[2]);
+        let off = self.offset();
+        let (r_z, bottom_z, first_xy, step_xy) = if self.incremental {
+            let r_z = self.pos[2] + r * self.scale;
+            let step = [b.get('x').unwrap_or(0.0) * self.scale, b.get('y').unwrap_or(0.0) * self.scale];
+            (r_z, r_z + z * self.scale, [self.pos[0] + step[0], self.pos[1] + step[1]], step)
+        } else {
+            let t = self.target(b, false);
+            (r * self.scale + off[2], z * self.scale + off[2], [t[0], t[1]], [0.0, 0.0])
+        };
+        if r_z < bottom_z {
+            return fail(b.col('r'), "R plane below the hole bottom Z");
+        }
+        let c = Cycle {
+            code: self.motion,
+            first_xy,
+            step_xy,
+            repeats: repeats as u32,
+            start_z: if self.retract_to_start { initial_z } else { self.pos[2] },
+            r_z,
+            bottom_z,
+            retract_to_start: self.retract_to_start,
+            peck_mm,
+            dwell_s: self.cycle_p,
+        };
+        for m in cycles::expand(&c, [self.pos[0], self.pos[1]]) {
+            match m {
+                CycleMove::Rapid(p) => self.rapid(p, pc),
+                CycleMove::Feed(p) => self.push(p, Geometry::Line, Motion::Feed { feed_mm_min: self.feed_mm_min }, pc, false),
+                CycleMove::Dwell(s) => self.push(self.pos, Geometry::Line, Motion::Dwell { seconds: s }, pc, true),
+            }
+        }
+        Ok(())
+    }
+}

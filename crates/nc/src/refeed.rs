@@ -1,0 +1,339 @@
+//! Re-feeding: the original program with new F words, feed blocks split
+//! where the feed must change inside them, every other byte as it was.
+//!
+//! Input is a *plan*: per path segment (as [`crate::parse`] returns them),
+//! pieces `(fraction_end, feed_mm_min)` in increasing fraction, the last
+//! ending at 1. Rapids and dwells take an empty plan.
+//!
+//! * A line that made exactly one feed segment (and nothing else) gets the
+//!   first piece in place (its axis, centre and F words rewritten) and one
+//!   new block per further piece right after it, in the line's own modes
+//!   (units, G90/G91, G90.1/G91.1, G93/G94, plane, work offset).
+//! * A line that made several feed segments (a canned cycle, or a line run
+//!   several times by a loop or subprogram) cannot be split: its F becomes the
+//!   lowest feed any of its pieces asks for.
+//! * Lines that cannot be split safely (G53, a dwell or a program stop in the
+//!   block, multi-turn arcs) are treated the same way.
+//!
+//! The output is parsed again and checked against the plan (same end points,
+//! feeds never above the plan) before it is returned.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use thiserror::Error;
+
+use crate::expr::Expr;
+use crate::interp::{self, Options, SegmentTrace};
+use crate::path::{Geometry, Motion, Segment};
+use crate::syntax::{self, Item, ItemKind, LineKind};
+
+/// Why a program could not be re-fed.
+#[derive(Debug, Error)]
+pub enum RefeedError {
+    #[error("{0}")]
+    Program(crate::Diagnostic),
+    #[error("the feed plan has {plan} entries but the program has {segments} segments")]
+    PlanLength { plan: usize, segments: usize },
+    #[error("{file}:{line}: feed plan for segment {segment} is not pieces with increasing fractions ending at 1 and positive feeds")]
+    BadPlan { file: String, line: u32, segment: usize },
+    #[error("{file}: the re-fed program does not reproduce the original path: {detail}")]
+    Verification { file: String, detail: String },
+}
+
+/// Writes `source` with the feeds of `plan` (see the module docs).
+pub fn refeed(source: &str, file: &str, options: &Options, plan: &[Vec<(f64, f64)>]) -> Result<String, RefeedError> {
+    let (parsed, trace) = interp::run(source, file, options);
+    if let Some(d) = parsed.diagnostics.iter().find(|d| d.severity == crate::Severity::Error) {
+        return Err(RefeedError::Program(d.clone()));
+    }
+    let segments = &parsed.path.segments;
+    if plan.len() != segments.len() {
+        return Err(RefeedError::PlanLength { plan: plan.len(), segments: segments.len() });
+    }
+    for (i, (seg, pieces)) in segments.iter().zip(plan).enumerate() {
+        if matches!(seg.motion, Motion::Feed { .. }) && !valid_pieces(pieces) {
+            return Err(RefeedError::BadPlan { file: file.to_owned(), line: seg.line, segment: i });
+        }
+    }
+    // Segments made by each line.
+    let mut by_line: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for (i, t) in trace.segments.iter().enumerate() {
+        by_line.entry(t.line_index).or_default().push(i);
+    }
+    // How many blocks each segment becomes (for the verification).
+    let mut written_pieces = vec![1usize; segments.len()];
+    let mut out = String::with_capacity(source.len() + source.len() / 8);
+    for (index, raw) in source.split_inclusive('\n').enumerate() {
+        let Some(segs) = by_line.get(&index) else {
+            out.push_str(raw);
+            continue;
+        };
+        let feeds: Vec<usize> = segs.iter().copied().filter(|&i| matches!(segments[i].motion, Motion::Feed { .. })).collect();
+        if feeds.is_empty() {
+            out.push_str(raw);
+            continue;
+        }
+        let (text, eol) = split_eol(raw);
+        let Ok(syntax::Line { kind: LineKind::Block(items), .. }) = syntax::parse_line(text) else {
+            out.push_str(raw);
+            continue;
+        };
+        let single = segs.len() == 1 && splittable(&items, &segments[feeds[0]]);
+        if single && plan[feeds[0]].len() > 1 {
+            let i = feeds[0];
+            written_pieces[i] = plan[i].len();
+            split_line(&mut out, text, eol, &items, &segments[i], &trace.segments[i], &plan[i]);
+        } else {
+            // The lowest F any execution of the line asks for (G93: per segment length).
+            let f = feeds
+                .iter()
+                .map(|&i| f_word(&trace.segments[i], lowest(&plan[i]), segments[i].length_mm(), true))
+                .min_by(|a, b| f_value(a).total_cmp(&f_value(b)))
+                .expect("at least one feed segment");
+            out.push_str(&with_f_word(text, &items, &f));
+            out.push_str(eol);
+        }
+    }
+    verify(&out, file, options, segments, plan, &written_pieces)?;
+    Ok(out)
+}
+
+fn valid_pieces(pieces: &[(f64, f64)]) -> bool {
+    let mut prev = 0.0;
+    for &(frac, feed) in pieces {
+        if !(frac > prev && frac <= 1.0 && feed > 0.0 && feed.is_finite()) {
+            return false;
+        }
+        prev = frac;
+    }
+    prev == 1.0
+}
+
+fn lowest(pieces: &[(f64, f64)]) -> f64 {
+    pieces.iter().map(|p| p.1).fold(f64::INFINITY, f64::min)
+}
+
+fn split_eol(raw: &str) -> (&str, &str) {
+    let body = raw.strip_suffix('\n').map_or(raw, |b| b.strip_suffix('\r').unwrap_or(b));
+    (body, &raw[body.len()..])
+}
+
+fn word_letter(item: &Item) -> Option<char> {
+    match &item.kind {
+        ItemKind::Word { letter, .. } => Some(*letter),
+        ItemKind::Assign { .. } => None,
+    }
+}
+
+/// A line may be split when its one feed segment is a plain G1/G2/G3 move:
+/// no G53 (machine coordinates), no dwell or program stop in the block, G and
+/// M codes written as numbers, no multi-turn arc.
+fn splittable(items: &[Item], seg: &Segment) -> bool {
+    let plain_codes = items.iter().all(|it| match &it.kind {
+        ItemKind::Word { letter: 'g', value: Expr::Num(v) } => ![4.0, 53.0].contains(v),
+        ItemKind::Word { letter: 'm', value: Expr::Num(v) } => ![0.0, 1.0, 2.0, 30.0, 60.0].contains(v),
+        ItemKind::Word { letter: 'g' | 'm', .. } => false,
+        _ => true,
+    });
+    let multi_turn = matches!(seg.geometry, Geometry::Arc { sweep_rad, .. } if sweep_rad > std::f64::consts::TAU + 1e-9);
+    plain_codes && !multi_turn
+}
+
+/// `F` word for a feed in mm/min over a piece `length_mm` long, rounded down
+/// so the feed never exceeds it. `in_original_line`: the F word is read with
+/// the units in force before the line (a G20/G21 in it comes after F).
+fn f_word(t: &SegmentTrace, feed_mm_min: f64, length_mm: f64, in_original_line: bool) -> String {
+    let scale = if in_original_line { t.feed_scale } else { t.scale };
+    let value = if t.inverse_time { feed_mm_min / length_mm } else { feed_mm_min / scale };
+    let decimals = if t.inverse_time { 4 } else if scale != 1.0 { 3 } else { 0 };
+    let unit = 10f64.powi(decimals);
+    let v = ((value * unit * (1.0 + 1e-12)).floor() / unit).max(1.0 / unit);
+    format!("F{}", trim_number(&format!("{v:.*}", decimals as usize)))
+}
+
+fn f_value(word: &str) -> f64 {
+    word[1..].parse().unwrap_or(f64::INFINITY)
+}
+
+fn trim_number(s: &str) -> String {
+    if s.contains('.') {
+        let t = s.trim_end_matches('0').trim_end_matches('.');
+        if t.is_empty() || t == "-" || t == "-0" { "0".into() } else { t.into() }
+    } else {
+        s.into()
+    }
+}
+
+fn coord(v: f64) -> String {
+    trim_number(&format!("{v:.6}"))
+}
+
+/// The line with its F word replaced by (or, without one, followed by) `f`.
+fn with_f_word(text: &str, items: &[Item], f: &str) -> String {
+    if let Some(it) = items.iter().find(|it| word_letter(it) == Some('f')) {
+        format!("{}{}{}", &text[..it.span.start], f, &text[it.span.end..])
+    } else {
+        let end = items.last().map_or(text.len(), |it| it.span.end);
+        format!("{} {}{}", &text[..end], f, &text[end..])
+    }
+}
+
+/// Axis, centre and F words of one piece from `from` to `to` (machine mm).
+/// `axes`: which of X, Y, Z to write (the others keep their value).
+#[allow(clippy::too_many_arguments)]
+fn piece_words(seg: &Segment, t: &SegmentTrace, axes: [bool; 3], from: [f64; 3], to: [f64; 3], feed_mm_min: f64, written_start: &mut [f64; 3], in_original_line: bool) -> String {
+    let mut w = String::new();
+    for (i, l) in ['X', 'Y', 'Z'].into_iter().enumerate().filter(|&(i, _)| axes[i]) {
+        let v = if t.incremental {
+            // Increments from the position written so far, so rounding never accumulates.
+            let target = (to[i] - t.offset_mm[i]) / t.scale;
+            let inc = target - written_start[i];
+            let text = coord(inc);
+            written_start[i] += text.parse::<f64>().unwrap_or(inc);
+            text
+        } else {
+            coord((to[i] - t.offset_mm[i]) / t.scale)
+        };
+        let _ = write!(w, "{l}{v} ");
+    }
+    if let Geometry::Arc { center, plane, .. } = seg.geometry {
+        let (a, b, _) = plane.axes();
+        let mut axes = [a, b];
+        axes.sort_unstable();
+        for axis in axes {
+            let v = if t.arc_incremental { (center[axis] - from[axis]) / t.scale } else { (center[axis] - t.offset_mm[axis]) / t.scale };
+            let _ = write!(w, "{}{} ", ['I', 'J', 'K'][axis], coord(v));
+        }
+    }
+    w.push_str(&f_word(t, feed_mm_min, piece_length(seg, from, to), in_original_line));
+    w
+}
+
+fn piece_length(seg: &Segment, from: [f64; 3], to: [f64; 3]) -> f64 {
+    let piece = Segment { start: from.into(), end: to.into(), geometry: sub_geometry(seg, from, to), ..*seg };
+    piece.length_mm()
+}
+
+/// Geometry of the part of `seg` between two of its points.
+fn sub_geometry(seg: &Segment, from: [f64; 3], to: [f64; 3]) -> Geometry {
+    match seg.geometry {
+        Geometry::Line => Geometry::Line,
+        Geometry::Arc { center, plane, clockwise, .. } => {
+            let (a, b, _) = plane.axes();
+            let a0 = (from[b] - center[b]).atan2(from[a] - center[a]);
+            let a1 = (to[b] - center[b]).atan2(to[a] - center[a]);
+            let mut sweep = if clockwise { a0 - a1 } else { a1 - a0 }.rem_euclid(std::f64::consts::TAU);
+            if sweep < 1e-12 {
+                sweep = std::f64::consts::TAU;
+            }
+            Geometry::Arc { center, plane, clockwise, sweep_rad: sweep }
+        }
+    }
+}
+
+/// Writes the line carrying the first piece and one block per further piece.
+fn split_line(out: &mut String, text: &str, eol: &str, items: &[Item], seg: &Segment, t: &SegmentTrace, pieces: &[(f64, f64)]) {
+    let points: Vec<[f64; 3]> = std::iter::once(0.0)
+        .chain(pieces.iter().map(|p| p.0))
+        .map(|u| if u >= 1.0 { seg.end.into() } else { seg.point_at_fraction(u).into() })
+        .collect();
+    // Program coordinates written so far (for increments under G91).
+    let mut written: [f64; 3] = std::array::from_fn(|i| (seg.start[i] - t.offset_mm[i]) / t.scale);
+    let arc = matches!(seg.geometry, Geometry::Arc { .. });
+    let motion_word = match seg.geometry {
+        Geometry::Arc { clockwise: true, .. } => "G2",
+        Geometry::Arc { clockwise: false, .. } => "G3",
+        Geometry::Line => "G1",
+    };
+    // Words the pieces rewrite: axes, arc centre / radius / turns, feed.
+    let replaced: Vec<&Item> = items
+        .iter()
+        .filter(|it| match word_letter(it) {
+            Some('x' | 'y' | 'z' | 'f') => true,
+            Some('i' | 'j' | 'k' | 'r' | 'p') => arc,
+            _ => false,
+        })
+        .collect();
+    // Axes to write: those the line names, those that move, and an arc's plane axes.
+    let plane_axes = match seg.geometry {
+        Geometry::Arc { plane, .. } => Some(plane.axes()),
+        Geometry::Line => None,
+    };
+    let axes: [bool; 3] = std::array::from_fn(|i| {
+        let named = items.iter().any(|it| word_letter(it) == Some(['x', 'y', 'z'][i]));
+        named || seg.start[i] != seg.end[i] || plane_axes.is_some_and(|(a, b, _)| i == a || i == b)
+    });
+    let first = piece_words(seg, t, axes, points[0], points[1], pieces[0].1, &mut written, true);
+    let mut line = String::with_capacity(text.len() + first.len());
+    let mut at = 0;
+    for (k, it) in replaced.iter().enumerate() {
+        let gap = &text[at..it.span.start];
+        // Blanks between two rewritten words go with them.
+        if k == 0 || !gap.trim().is_empty() {
+            line.push_str(gap);
+        }
+        if k == 0 {
+            line.push_str(&first);
+        }
+        at = it.span.end;
+    }
+    if replaced.is_empty() {
+        let end = items.last().map_or(text.len(), |it| it.span.end);
+        line.push_str(&text[..end]);
+        line.push(' ');
+        line.push_str(&first);
+        at = end;
+    }
+    line.push_str(&text[at..]);
+    out.push_str(&line);
+    out.push_str(eol_or_newline(eol));
+    for k in 1..pieces.len() {
+        out.push_str(motion_word);
+        out.push(' ');
+        out.push_str(&piece_words(seg, t, axes, points[k], points[k + 1], pieces[k].1, &mut written, false));
+        out.push_str(if k + 1 == pieces.len() { eol } else { eol_or_newline(eol) });
+    }
+}
+
+fn eol_or_newline(eol: &str) -> &str {
+    if eol.is_empty() { "\n" } else { eol }
+}
+
+/// Parses the re-fed program and checks it against the original path and plan.
+fn verify(out: &str, file: &str, options: &Options, original: &[Segment], plan: &[Vec<(f64, f64)>], written: &[usize]) -> Result<(), RefeedError> {
+    let fail = |detail: String| RefeedError::Verification { file: file.to_owned(), detail };
+    let (parsed, _) = interp::run(out, file, options);
+    if let Some(d) = parsed.diagnostics.first() {
+        return Err(fail(format!("it does not parse: {d}")));
+    }
+    let new = &parsed.path.segments;
+    let expected: usize = written.iter().sum();
+    if new.len() != expected {
+        return Err(fail(format!("{} segments instead of {expected}", new.len())));
+    }
+    let mut j = 0;
+    for (i, seg) in original.iter().enumerate() {
+        let pieces = &new[j..j + written[i]];
+        j += written[i];
+        let end = pieces[pieces.len() - 1].end;
+        if (end - seg.end).norm() > 1e-3 {
+            return Err(fail(format!("line {}: ends at {:?} instead of {:?}", seg.line, end, seg.end)));
+        }
+        if std::mem::discriminant(&pieces[0].motion) != std::mem::discriminant(&seg.motion) {
+            return Err(fail(format!("line {}: motion kind changed", seg.line)));
+        }
+        if let Motion::Feed { .. } = seg.motion {
+            for (k, p) in pieces.iter().enumerate() {
+                let allowed = if written[i] == 1 { lowest(&plan[i]) } else { plan[i][k].1 };
+                let Motion::Feed { feed_mm_min } = p.motion else {
+                    return Err(fail(format!("line {}: a piece is not a feed move", seg.line)));
+                };
+                if feed_mm_min > allowed * (1.0 + 1e-4) {
+                    return Err(fail(format!("line {}: feed {feed_mm_min:.3} above the plan's {allowed:.3} mm/min", seg.line)));
+                }
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,314 @@
+//! Lexing and parsing of one source line into an unevaluated block.
+//!
+//! As in LinuxCNC, a line is read case-insensitively with spaces and tabs
+//! ignored outside comments (`G 1 X 1 . 5` is `G1X1.5`). Parenthesised and
+//! `;` comments are dropped. Columns are 1-based character columns in the
+//! original line; byte spans let the re-feed writer edit words in place.
+
+use std::ops::Range;
+
+use crate::expr::{self, Expr, ParamRef};
+
+/// A syntax error at a column of a line.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SyntaxError {
+    /// 1-based character column.
+    pub col: u32,
+    pub message: String,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Char {
+    c: char,
+    col: u32,
+    byte: usize,
+    len: usize,
+}
+
+/// A cursor over the normalised (lower-case, blank- and comment-free)
+/// characters of a line.
+pub struct Cursor {
+    chars: Vec<Char>,
+    pos: usize,
+    end_col: u32,
+}
+
+impl Cursor {
+    fn new(text: &str) -> Result<Cursor, SyntaxError> {
+        let mut chars = Vec::new();
+        let mut comment_start: Option<u32> = None;
+        let mut col = 0u32;
+        for (byte, c) in text.char_indices() {
+            col += 1;
+            if let Some(start) = comment_start {
+                if c == ')' {
+                    comment_start = None;
+                } else if c == '(' {
+                    return Err(SyntaxError { col, message: format!("nested comment (comment opened at column {start})") });
+                }
+                continue;
+            }
+            match c {
+                '(' => comment_start = Some(col),
+                ';' => break,
+                c if c.is_whitespace() => {}
+                c => chars.push(Char { c: c.to_ascii_lowercase(), col, byte, len: c.len_utf8() }),
+            }
+        }
+        if let Some(start) = comment_start {
+            return Err(SyntaxError { col: start, message: "comment not closed with ')'".into() });
+        }
+        Ok(Cursor { chars, pos: 0, end_col: col + 1 })
+    }
+
+    /// Current character, if any.
+    pub fn peek(&self) -> Option<char> {
+        self.chars.get(self.pos).map(|c| c.c)
+    }
+
+    /// Advances by one character.
+    pub fn bump(&mut self) {
+        self.pos = (self.pos + 1).min(self.chars.len());
+    }
+
+    /// Column of the current character (one past the line at its end).
+    pub fn col(&self) -> u32 {
+        self.chars.get(self.pos).map_or(self.end_col, |c| c.col)
+    }
+
+    fn byte(&self) -> usize {
+        self.chars.get(self.pos).map_or(0, |c| c.byte)
+    }
+
+    fn byte_end_of_previous(&self) -> usize {
+        self.pos.checked_sub(1).and_then(|i| self.chars.get(i)).map_or(0, |c| c.byte + c.len)
+    }
+
+    /// Consumes `text` (lower case) if the input continues with it.
+    pub fn eat_str(&mut self, text: &str) -> bool {
+        let n = text.chars().count();
+        let matches = self.chars.len() >= self.pos + n
+            && self.chars[self.pos..self.pos + n].iter().map(|c| c.c).eq(text.chars());
+        if matches {
+            self.pos += n;
+        }
+        matches
+    }
+
+    /// The rest of the normalised line.
+    pub fn rest(&self) -> String {
+        self.chars[self.pos..].iter().map(|c| c.c).collect()
+    }
+
+    /// An error at the current column.
+    pub fn error(&self, message: &str) -> SyntaxError {
+        SyntaxError { col: self.col(), message: message.to_owned() }
+    }
+
+    /// Reads an unsigned decimal number (`12`, `1.5`, `.5`, `3.`).
+    pub fn number(&mut self) -> Result<f64, SyntaxError> {
+        let start_col = self.col();
+        let mut text = String::new();
+        let mut seen_dot = false;
+        while let Some(c) = self.peek() {
+            if c.is_ascii_digit() {
+                text.push(c);
+            } else if c == '.' {
+                if seen_dot {
+                    return Err(SyntaxError { col: start_col, message: format!("malformed number '{text}.'") });
+                }
+                seen_dot = true;
+                text.push(c);
+            } else {
+                break;
+            }
+            self.bump();
+        }
+        if !text.chars().any(|c| c.is_ascii_digit()) {
+            return Err(SyntaxError { col: start_col, message: "expected digits in number".into() });
+        }
+        text.parse().map_err(|_| SyntaxError { col: start_col, message: format!("malformed number '{text}'") })
+    }
+}
+
+/// One word or parameter assignment of a block.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Item {
+    pub kind: ItemKind,
+    /// 1-based column of the item's first character.
+    pub col: u32,
+    /// Byte range in the line, from the letter (or `#`) to the value's end.
+    pub span: Range<usize>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum ItemKind {
+    /// Letter (lower case) and value, e.g. `x` and `[#1 * 2]`.
+    Word { letter: char, value: Expr },
+    /// `#target = value`.
+    Assign { target: ParamRef, value: Expr },
+}
+
+/// Label of an o-word: `o100` or `o<name>`.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub enum OLabel {
+    Number(i64),
+    Name(String),
+}
+
+/// O-word keywords (LinuxCNC flow control).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OKeyword {
+    Sub,
+    EndSub,
+    Call,
+    Return,
+    If,
+    ElseIf,
+    Else,
+    EndIf,
+    While,
+    EndWhile,
+    Do,
+    Repeat,
+    EndRepeat,
+    Break,
+    Continue,
+}
+
+const KEYWORDS: [(&str, OKeyword); 15] = [
+    ("sub", OKeyword::Sub),
+    ("endsub", OKeyword::EndSub),
+    ("call", OKeyword::Call),
+    ("return", OKeyword::Return),
+    ("if", OKeyword::If),
+    ("elseif", OKeyword::ElseIf),
+    ("else", OKeyword::Else),
+    ("endif", OKeyword::EndIf),
+    ("while", OKeyword::While),
+    ("endwhile", OKeyword::EndWhile),
+    ("do", OKeyword::Do),
+    ("repeat", OKeyword::Repeat),
+    ("endrepeat", OKeyword::EndRepeat),
+    ("break", OKeyword::Break),
+    ("continue", OKeyword::Continue),
+];
+
+/// An o-word statement such as `o100 call [1] [2]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OStmt {
+    pub label: OLabel,
+    pub keyword: OKeyword,
+    pub args: Vec<Expr>,
+    pub col: u32,
+}
+
+/// What a line holds.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LineKind {
+    /// Blank or comment only.
+    Empty,
+    /// A `%` program delimiter.
+    Percent,
+    /// Words and assignments.
+    Block(Vec<Item>),
+    /// LinuxCNC flow control.
+    OWord(OStmt),
+    /// Fanuc program/subprogram number `O1000` alone on its line.
+    ProgramNumber(i64),
+}
+
+/// A parsed line.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Line {
+    /// Starts with `/`.
+    pub block_delete: bool,
+    pub kind: LineKind,
+}
+
+/// Parses one line (without its line terminator).
+pub fn parse_line(text: &str) -> Result<Line, SyntaxError> {
+    let mut cur = Cursor::new(text)?;
+    let block_delete = cur.eat_str("/");
+    if cur.eat_str("%") {
+        return Ok(Line { block_delete, kind: LineKind::Percent });
+    }
+    if cur.peek() == Some('n') {
+        cur.bump();
+        cur.number()?;
+    }
+    if cur.peek() == Some('o') {
+        return Ok(Line { block_delete, kind: parse_oword(&mut cur)? });
+    }
+    let mut items = Vec::new();
+    while let Some(c) = cur.peek() {
+        let col = cur.col();
+        let start = cur.byte();
+        let kind = match c {
+            'a'..='z' if c != 'n' && c != 'o' => {
+                cur.bump();
+                if cur.peek().is_none() {
+                    return Err(SyntaxError { col, message: format!("missing value after '{}'", c.to_ascii_uppercase()) });
+                }
+                ItemKind::Word { letter: c, value: expr::parse_value(&mut cur, 0)? }
+            }
+            '#' => {
+                let target = expr::parse_param(&mut cur, 0)?;
+                if !cur.eat_str("=") {
+                    return Err(cur.error("expected '=' in parameter assignment"));
+                }
+                ItemKind::Assign { target, value: expr::parse_value(&mut cur, 0)? }
+            }
+            'n' => return Err(cur.error("N word not at start of line")),
+            'o' => return Err(cur.error("O word not at start of line")),
+            c => return Err(cur.error(&format!("unexpected character '{c}'"))),
+        };
+        items.push(Item { kind, col, span: start..cur.byte_end_of_previous() });
+    }
+    Ok(Line { block_delete, kind: if items.is_empty() { LineKind::Empty } else { LineKind::Block(items) } })
+}
+
+fn parse_oword(cur: &mut Cursor) -> Result<LineKind, SyntaxError> {
+    let col = cur.col();
+    cur.bump(); // 'o'
+    let label = if cur.peek() == Some('<') {
+        let mut name = String::new();
+        cur.bump();
+        loop {
+            match cur.peek() {
+                Some('>') => break,
+                Some(c) => name.push(c),
+                None => return Err(cur.error("o-word name not closed with '>'")),
+            }
+            cur.bump();
+        }
+        cur.bump();
+        OLabel::Name(name)
+    } else {
+        let n = cur.number()?;
+        if n.fract() != 0.0 || n > 1e15 {
+            return Err(SyntaxError { col, message: "O number must be an integer".into() });
+        }
+        OLabel::Number(n as i64)
+    };
+    let kw_col = cur.col();
+    let word: String = cur.rest().chars().take_while(char::is_ascii_alphabetic).collect();
+    if word.is_empty() {
+        return match (label, cur.peek()) {
+            (OLabel::Number(n), None) => Ok(LineKind::ProgramNumber(n)),
+            _ => Err(cur.error("expected an o-word keyword (sub, call, if, while, …)")),
+        };
+    }
+    let Some(&(_, keyword)) = KEYWORDS.iter().find(|(name, _)| *name == word) else {
+        return Err(SyntaxError { col: kw_col, message: format!("unknown o-word keyword '{word}'") });
+    };
+    cur.eat_str(&word);
+    let mut args = Vec::new();
+    while let Some(c) = cur.peek() {
+        if c != '[' {
+            return Err(cur.error(&format!("unexpected character '{c}' after o-word")));
+        }
+        args.push(expr::parse_value(cur, 0)?);
+    }
+    Ok(LineKind::OWord(OStmt { label, keyword, args, col }))
+}

@@ -1,0 +1,183 @@
+//! Re-feeding: new F words, split blocks, everything else byte for byte.
+
+use nc::{Geometry, Motion, Options};
+
+fn parse(src: &str) -> nc::Path {
+    let p = nc::parse(src, "t.ngc", &Options::default());
+    assert!(p.diagnostics.is_empty(), "{:?}", p.diagnostics);
+    p.path
+}
+
+fn feeds(path: &nc::Path) -> Vec<f64> {
+    path.segments
+        .iter()
+        .filter_map(|s| match s.motion {
+            Motion::Feed { feed_mm_min } => Some(feed_mm_min),
+            _ => None,
+        })
+        .collect()
+}
+
+/// One piece at `feed` for every feed segment.
+fn uniform(path: &nc::Path, feed: f64) -> Vec<Vec<(f64, f64)>> {
+    path.segments.iter().map(|s| if matches!(s.motion, Motion::Feed { .. }) { vec![(1.0, feed)] } else { vec![] }).collect()
+}
+
+#[test]
+fn line_split_in_place_and_other_bytes_kept() {
+    let src = "%\n(header)\nG21 G90 G17\nG0 X0 Y0 Z5\nN10 G1 Z0 F300 (plunge)\nN20 X10 ; cut\nG0 Z5\nM30\n%\n";
+    let path = parse(src);
+    let mut plan = uniform(&path, 250.0);
+    plan[2] = vec![(0.3, 500.0), (1.0, 812.7)];
+    let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
+    assert_eq!(
+        out,
+        "%\n(header)\nG21 G90 G17\nG0 X0 Y0 Z5\nN10 G1 Z0 F250 (plunge)\nN20 X3 F500 ; cut\nG1 X10 F812\nG0 Z5\nM30\n%\n"
+    );
+    let new = parse(&out);
+    assert_eq!(feeds(&new), vec![250.0, 500.0, 812.0]);
+    assert_eq!(new.segments[3].end, path.segments[2].end);
+    // Source lines of the split pieces: the original line, then the inserted one.
+    assert_eq!((new.segments[2].line, new.segments[3].line), (6, 7));
+}
+
+#[test]
+fn f_word_added_before_comments_and_crlf_kept() {
+    let src = "G1 X5 F100\r\nX6 (no feed word)\r\nX7;end\r\n";
+    let path = parse(src);
+    let out = nc::refeed(src, "t.ngc", &Options::default(), &uniform(&path, 1234.9)).unwrap();
+    assert_eq!(out, "G1 X5 F1234\r\nX6 F1234 (no feed word)\r\nX7 F1234;end\r\n");
+}
+
+#[test]
+fn incremental_inch_split_lands_exactly() {
+    let src = "G20 G91\nG1 X1 Y0.5 F10\nX-0.3 Z-0.1\n";
+    let path = parse(src);
+    let mut plan = uniform(&path, 254.0);
+    plan[0] = vec![(1.0 / 3.0, 127.0), (2.0 / 3.0, 200.0), (1.0, 254.0)];
+    let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
+    let new = parse(&out);
+    assert_eq!(new.segments.len(), 4, "{out}");
+    // Feeds are written in inch/min, rounded down to 0.001.
+    let f = feeds(&new);
+    assert!((f[0] - 127.0).abs() < 1e-9 && f[1] <= 200.0 && f[1] > 199.97 && (f[2] - 254.0).abs() < 1e-9, "{f:?}");
+    for (a, b) in [(2, 0), (3, 1)] {
+        assert!((new.segments[a].end - path.segments[b].end).norm() < 1e-9, "{out}");
+    }
+    let third = new.segments[0].end;
+    assert!((third - nalgebra::Point3::new(25.4 / 3.0, 12.7 / 3.0, 0.0)).norm() < 1e-4, "{third}");
+}
+
+#[test]
+fn f_in_a_line_that_changes_units_is_read_in_the_old_units() {
+    // LinuxCNC reads F before G21 in the same block: F500 here is 500 inch/min.
+    let src = "G20 G1 X1 F10\nG21 G1 X100 F500\nG1 X200\n";
+    let path = parse(src);
+    // (and F10 before G20 on the first line is 10 mm/min).
+    assert_eq!(feeds(&path), vec![10.0, 12700.0, 12700.0]);
+    let plan = vec![vec![(1.0, 10.0)], vec![(0.5, 1270.0), (1.0, 2540.0)], vec![(1.0, 3000.0)]];
+    let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
+    assert_eq!(out, "G20 G1 X1 F10\nG21 G1 X62.7 F50\nG1 X100 F2540\nG1 X200 F3000\n");
+}
+
+#[test]
+fn arcs_split_on_the_circle_ij_and_r() {
+    for src in ["G0 X10 Y0\nG17 G3 X-10 Y0 I-10 J0 F600\n", "G0 X10 Y0\nG3 X-10 Y0 R10 F600\n", "G0 X10 Y0 Z0\nG2 I-10 Z-3 F600\n"] {
+        let path = parse(src);
+        let mut plan = uniform(&path, 600.0);
+        plan[1] = vec![(0.25, 300.0), (0.5, 400.0), (1.0, 600.0)];
+        let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
+        let new = parse(&out);
+        assert_eq!(new.segments.len(), 4, "{out}");
+        assert_eq!(feeds(&new), vec![300.0, 400.0, 600.0]);
+        let original = path.segments[1];
+        let total: f64 = new.segments[1..].iter().map(|s| s.length_mm()).sum();
+        assert!((total - original.length_mm()).abs() < 1e-4, "{total} vs {}", original.length_mm());
+        for (k, s) in new.segments[1..].iter().enumerate() {
+            let Geometry::Arc { center, clockwise, .. } = s.geometry else { panic!("piece {k} is not an arc:\n{out}") };
+            let Geometry::Arc { center: c0, clockwise: cw0, .. } = original.geometry else { unreachable!() };
+            assert!((center.xy() - c0.xy()).norm() < 1e-5 && clockwise == cw0, "{out}");
+            let u = [0.25, 0.5, 1.0][k];
+            assert!((s.end - original.point_at_fraction(u)).norm() < 1e-5, "{out}");
+        }
+        assert!(!out.contains('R'), "R words are replaced by centres when split:\n{out}");
+    }
+}
+
+#[test]
+fn inverse_time_pieces_get_their_own_times() {
+    let src = "G0 X0 Y5\nG93 G1 X100 F10\nG94\n";
+    let path = parse(src);
+    assert_eq!(feeds(&path), vec![1000.0]);
+    let plan = vec![vec![], vec![(0.5, 1000.0), (1.0, 500.0)]];
+    let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
+    assert_eq!(out, "G0 X0 Y5\nG93 G1 X50 F20\nG1 X100 F10\nG94\n");
+    assert_eq!(feeds(&parse(&out)), vec![1000.0, 500.0]);
+}
+
+#[test]
+fn repeated_lines_and_cycles_take_the_lowest_feed() {
+    // The subroutine's feed line runs twice; the drilling cycle makes two feed moves.
+    let src = "o100 sub\nG1 X[#1] F500\no100 endsub\nG0 Z5\no100 call [10]\no100 call [20]\nG98 G81 X30 Y0 Z-2 R1 F200\nX40\nG80\nM2\n";
+    let path = parse(src);
+    let mut plan: Vec<Vec<(f64, f64)>> = vec![vec![]; path.segments.len()];
+    let mut next = 700.0;
+    for (i, s) in path.segments.iter().enumerate() {
+        if matches!(s.motion, Motion::Feed { .. }) {
+            plan[i] = vec![(0.5, next), (1.0, next + 50.0)];
+            next -= 100.0;
+        }
+    }
+    let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines[1], "G1 X[#1] F600", "{out}");
+    assert_eq!(lines[6], "G98 G81 X30 Y0 Z-2 R1 F500", "{out}");
+    assert_eq!(lines[7], "X40 F400", "{out}");
+    assert_eq!(lines.len(), 10);
+}
+
+#[test]
+fn bad_plans_are_rejected() {
+    let src = "G1 X10 F100\n";
+    let opts = Options::default();
+    assert!(matches!(nc::refeed(src, "t.ngc", &opts, &[]), Err(nc::RefeedError::PlanLength { .. })));
+    for bad in [vec![(0.5, 100.0)], vec![(0.6, 100.0), (0.4, 100.0), (1.0, 1.0)], vec![(1.0, 0.0)], vec![(1.0, f64::NAN)]] {
+        let err = nc::refeed(src, "t.ngc", &opts, &[bad]).unwrap_err();
+        assert!(err.to_string().starts_with("t.ngc:1: feed plan"), "{err}");
+    }
+    let err = nc::refeed("G1 X10\n", "t.ngc", &opts, &[vec![(1.0, 5.0)]]).unwrap_err();
+    assert!(err.to_string().starts_with("t.ngc:1:1:"), "{err}");
+}
+
+/// Every program of the corpus, every feed block split in three with
+/// different feeds: the re-fed program parses to the same path, pieces end
+/// where the plan says (refeed verifies this itself before returning).
+#[test]
+fn corpus_round_trip_with_split_blocks() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../toolpaths");
+    let mut checked = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let file = entry.unwrap().path();
+        if file.extension().is_none_or(|e| e != "ngc") {
+            continue;
+        }
+        let src = std::fs::read_to_string(&file).unwrap();
+        let path = parse(&src);
+        let plan: Vec<Vec<(f64, f64)>> = path
+            .segments
+            .iter()
+            .enumerate()
+            .map(|(i, s)| match s.motion {
+                Motion::Feed { .. } if s.length_mm() > 1.0 => vec![(0.2, 100.0 + i as f64), (0.7, 2000.0), (1.0, 900.5)],
+                Motion::Feed { .. } => vec![(1.0, 321.0)],
+                _ => vec![],
+            })
+            .collect();
+        let out = nc::refeed(&src, &file.display().to_string(), &Options::default(), &plan).unwrap_or_else(|e| panic!("{e}"));
+        let new = parse(&out);
+        assert!(new.segments.len() >= path.segments.len());
+        assert!((new.length_mm() - path.length_mm()).abs() < 1e-3 * (1.0 + path.length_mm() * 1e-3), "{}", file.display());
+        checked += 1;
+    }
+    assert!(checked >= 5);
+}
