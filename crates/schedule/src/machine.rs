@@ -105,7 +105,7 @@ impl Machine {
 }
 
 /// min_i limit_i / |t_i| (infinite for the zero vector).
-fn along(t: &nalgebra::Vector3<f64>, limit: [f64; 3]) -> f64 {
+pub(crate) fn along(t: &nalgebra::Vector3<f64>, limit: [f64; 3]) -> f64 {
     (0..3)
         .filter(|&i| t[i] != 0.0)
         .map(|i| limit[i] / t[i].abs())

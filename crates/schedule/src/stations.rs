@@ -3,7 +3,7 @@
 use nalgebra::{Point3, Vector3};
 use nc::{Geometry, Motion, Path, Segment};
 
-use crate::machine::{Machine, ScheduleError};
+use crate::machine::{along, Machine, ScheduleError};
 use crate::rules::block_feed_cap_mm_min;
 
 /// Segments shorter than this (mm) carry no stations; they neither move nor turn the tool.
@@ -111,8 +111,9 @@ impl Stations {
     ///   arc plane's two axes, r the arc radius (conservative on a helix);
     /// * corners: where the unit tangent jumps by Δt between segments, the control crosses
     ///   the corner within one period T, so each axis' velocity steps by v·|Δt_i|; the
-    ///   corner rule keeps that step within what the axis reaches in one period:
-    ///   v·|Δt_i| ≤ a_i·T for every axis i;
+    ///   corner rule keeps that step within half of what the axis reaches in one period,
+    ///   v·|Δt_i| ≤ a_i·T/2 for every axis i, so that the step plus the ramps on either
+    ///   side stay within a_i in the sampled positions (second differences / T²);
     /// * block time (S0): with block time Tb, a segment of length L is capped at
     ///   60000·L/Tb mm/min.
     ///
@@ -146,6 +147,8 @@ impl Stations {
         // A dwell (or run of dwells) waiting for the next station: total seconds.
         let mut pending_dwell_s: Option<f64> = None;
         let mut previous: Option<usize> = None;
+        // Corner stations and their tangent jumps.
+        let mut corners: Vec<(usize, Vector3<f64>)> = Vec::new();
         for (index, seg) in path.segments.iter().enumerate() {
             let invalid = |what| ScheduleError::InvalidSegment {
                 segment: index,
@@ -218,9 +221,10 @@ impl Stations {
                             let period_s = machine.period_s();
                             let corner_mm_s = (0..3)
                                 .filter(|&i| jump[i] != 0.0)
-                                .map(|i| machine.accel_mm_s2[i] * period_s / jump[i].abs())
+                                .map(|i| 0.5 * machine.accel_mm_s2[i] * period_s / jump[i].abs())
                                 .fold(f64::INFINITY, f64::min);
                             st.lower_cap(junction, 60.0 * corner_mm_s, CapKind::Corner);
+                            corners.push((junction, jump));
                         }
                     }
                     st.s_mm[junction]
@@ -258,6 +262,7 @@ impl Stations {
             }
             previous = Some(index);
         }
+        st.share_corner_budgets(&corners);
         if st.s_mm.is_empty() {
             // Nothing moves: one station where the program starts, standing for its dwells.
             st.push(
@@ -284,6 +289,31 @@ impl Stations {
             }),
         }
         Ok(st)
+    }
+
+    /// Within one period of a corner, each axis' velocity step there (v·|Δt_i|, at most
+    /// a_i·T/2 by the corner rule) is taken out of that axis' acceleration budget, so the
+    /// step and the ramps beside it together stay within a_i in the sampled positions.
+    fn share_corner_budgets(&mut self, corners: &[(usize, Vector3<f64>)]) {
+        let period_s = self.machine.period_s();
+        let a = self.machine.accel_mm_s2;
+        let a_max = a.iter().copied().fold(0.0, f64::max);
+        for &(c, jump) in corners {
+            let v_c = self.cap_mm_min[c] / 60.0;
+            let budget: [f64; 3] = std::array::from_fn(|i| (a[i] - v_c * jump[i].abs() / period_s).max(0.5 * a[i]));
+            let (s_c, reach) = (self.s_mm[c], (v_c + a_max * period_s) * period_s);
+            // Intervals k → k+1 overlapping [s_c − reach, s_c + reach].
+            let mut k = c;
+            while k > 0 && self.s_mm[k] > s_c - reach {
+                k -= 1;
+            }
+            while k + 1 < self.s_mm.len() && self.s_mm[k] < s_c + reach {
+                let limit = along(&self.tangent[k], budget).min(along(&self.tangent[k + 1], budget));
+                let accel = &mut self.interval_accel_mm_s2[k];
+                *accel = accel.min(limit);
+                k += 1;
+            }
+        }
     }
 
     #[allow(clippy::too_many_arguments)]
