@@ -149,6 +149,10 @@ pub struct MachineSpec {
     pub jerk: Option<[f64; 3]>,
     /// Block processing time of the control, ms (S0); none by default.
     pub block_time_ms: Option<f64>,
+    /// Tool-tip position (x, y, z), mm, machine frame, when the program
+    /// starts. Default: above the program's first point, at the highest Z
+    /// the program reaches, so the first move is a straight rapid down.
+    pub start: Option<[f64; 3]>,
 }
 
 fn default_period() -> f64 {
@@ -173,6 +177,7 @@ impl Default for MachineSpec {
             accel: default_accel(),
             jerk: None,
             block_time_ms: None,
+            start: None,
         }
     }
 }
@@ -362,6 +367,11 @@ impl Job {
             }
         }
         positive_opt("machine.block_time_ms", m.block_time_ms)?;
+        if let Some(p) = m.start {
+            if p.iter().any(|v| !v.is_finite()) {
+                bail!("machine.start must be three finite numbers (mm)");
+            }
+        }
         let l = &self.limits;
         positive_opt("limits.mrr_max (mm³/s)", l.mrr_max)?;
         positive_opt("limits.force_max (N)", l.force_max)?;

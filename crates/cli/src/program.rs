@@ -16,6 +16,8 @@ pub struct Program {
     pub file: String,
     /// G-code source (None for CSV point lists).
     pub gcode: Option<String>,
+    /// Interpreter settings the path was read with (G-code only).
+    pub nc_options: nc::Options,
 }
 
 impl Program {
@@ -32,26 +34,39 @@ pub fn load(job: &Job) -> Result<Program> {
     let file = path.display().to_string();
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     match ext.as_str() {
-        "csv" => Ok(Program { path: read_points_csv(&text, &file, job.program.feed)?, file, gcode: None }),
+        "csv" => Ok(Program { path: read_points_csv(&text, &file, job.program.feed)?, file, gcode: None, nc_options: nc::Options::default() }),
         "nc" | "ngc" | "tap" | "gcode" | "cnc" => parse_gcode(&text, &file, job),
         _ => bail!("{file}: unknown program type .{ext}; use .nc/.ngc/.tap/.gcode for G-code or .csv for tool-tip points"),
     }
 }
 
-/// Parse G-code text; every error diagnostic is reported at once.
+/// Parse G-code text; every error diagnostic is reported at once. The tool
+/// starts at `[machine] start`, or by default above the first programmed
+/// point at the highest Z of the program (see [`default_start`]).
 pub fn parse_gcode(text: &str, file: &str, job: &Job) -> Result<Program> {
-    let parsed = nc_shim::parse(text, file, job);
+    let mut options = nc::Options { work_offsets_mm: job.offsets.as_array(), ..nc::Options::default() };
+    let mut parsed = nc::parse(text, file, &options);
     let errors: Vec<String> = parsed.diagnostics.iter().filter(|d| d.is_error()).map(|d| d.to_string()).collect();
     if !errors.is_empty() {
         bail!("{} error(s) in the program:\n{}", errors.len(), errors.join("\n"));
     }
-    for d in parsed.diagnostics.iter().filter(|d| !d.is_error()) {
-        eprintln!("warning: {d}");
-    }
     if parsed.path.segments.is_empty() {
         bail!("{file}: the program has no motion");
     }
-    Ok(Program { path: parsed.path, file: file.to_string(), gcode: Some(text.to_string()) })
+    options.initial_position_mm = job.machine.start.unwrap_or_else(|| default_start(&parsed.path));
+    parsed = nc::parse(text, file, &options);
+    for d in parsed.diagnostics.iter().filter(|d| !d.is_error()) {
+        eprintln!("warning: {d}");
+    }
+    Ok(Program { path: parsed.path, file: file.to_string(), gcode: Some(text.to_string()), nc_options: options })
+}
+
+/// Start above the end of the first move (read from the machine origin), at
+/// the highest Z of the path: the machine arrives from a safe height.
+fn default_start(path: &nc::Path) -> [f64; 3] {
+    let first = path.segments[0].end;
+    let top = path.segments.iter().map(|s| s.end.z.max(s.start.z)).fold(first.z, f64::max);
+    [first.x, first.y, top]
 }
 
 /// Tool-tip points with header `x,y,z[,feed]` (mm, mm/min) become straight
@@ -143,13 +158,4 @@ mod tests {
         let err = read_points_csv("x,y,z\n0,0,0\n1,1,1\n", "p.csv", None).unwrap_err().to_string();
         assert!(err.contains("no feed column"), "{err}");
     }
-}
-
-// TEMPORARY until the nc interpreter lands.
-mod nc_shim {
-    pub struct D;
-    impl D { pub fn is_error(&self) -> bool { true } }
-    impl std::fmt::Display for D { fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result { write!(f, "G-code not yet supported") } }
-    pub struct P { pub path: nc::Path, pub diagnostics: Vec<D> }
-    pub fn parse(_: &str, _: &str, _: &crate::job::Job) -> P { P { path: nc::Path::default(), diagnostics: vec![D] } }
 }

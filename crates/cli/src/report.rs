@@ -67,9 +67,10 @@ fn series(name: &str, unit: &str, cols: &HashMap<String, Vec<f64>>, key: &str) -
 const STEP_COLUMNS: [&str; 5] = ["t_s", "mrr_mm3_s", "feed_mm_min", "force_n", "deflection_um"];
 
 /// Summary rows: (label, json key, unit, decimals).
-const ROWS: [(&str, &str, &str, usize); 9] = [
+const ROWS: [(&str, &str, &str, usize); 10] = [
     ("cycle time", "cycle_time_s", "s", 3),
-    ("peak MRR", "peak_mrr_mm3_s", "mm³/s", 2),
+    ("peak MRR (≥ 48 ms, ≥ 10 cells)", "peak_mrr_windowed_mm3_s", "mm³/s", 2),
+    ("peak MRR per period", "peak_mrr_mm3_s", "mm³/s", 2),
     ("peak force", "peak_force_n", "N", 1),
     ("peak deflection", "peak_deflection_um", "µm", 1),
     ("removed volume", "removed_volume_mm3", "mm³", 1),

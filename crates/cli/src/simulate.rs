@@ -16,6 +16,9 @@ use crate::progress;
 
 /// Window of the smoothed MRR in summaries, s (three 16 ms periods).
 pub const MRR_WINDOW_S: f64 = 0.048;
+/// ... and at least this many grid cells of path: removal per unit length is
+/// resolved only to about one column, so shorter windows show the column phase.
+pub const MRR_WINDOW_CELLS: f64 = 10.0;
 
 /// Everything a run produced, in memory.
 pub struct Run {
@@ -90,8 +93,10 @@ pub struct Summary {
     pub cycle_time_s: f64,
     /// Largest MRR of a single step (servo period), mm³/s.
     pub peak_mrr_mm3_s: f64,
-    /// Largest MRR averaged over [`MRR_WINDOW_S`] of cutting, mm³/s: the
-    /// per-period value carries the dexel grid's column quantisation.
+    /// Largest MRR averaged over at least [`MRR_WINDOW_S`] and
+    /// [`MRR_WINDOW_CELLS`] grid cells of path, mm³/s: the per-period value
+    /// carries the dexel grid's column quantisation (±15 % for a slot at 0.8
+    /// cells per period), which this average resolves.
     pub peak_mrr_windowed_mm3_s: f64,
     pub peak_force_n: f64,
     pub peak_deflection_um: f64,
@@ -115,19 +120,27 @@ impl Run {
         if dt > 0.0 { self.record.volume_mm3(i) / dt } else { 0.0 }
     }
 
-    /// Largest mean MRR over any run of consecutive steps lasting at least `window_s`
-    /// (single steps longer than the window count on their own).
-    pub fn peak_windowed_mrr_mm3_s(&self, window_s: f64) -> f64 {
-        let (mut first, mut vol, mut time, mut peak) = (0, 0.0, 0.0, 0.0f64);
+    /// Largest mean MRR over any run of consecutive steps lasting at least
+    /// `window_s` and covering at least `window_mm` of path (a run shorter than
+    /// that over the whole program counts as a whole).
+    pub fn peak_windowed_mrr_mm3_s(&self, window_s: f64, window_mm: f64) -> f64 {
+        let length = |s: &TimedStep| {
+            let (a, b) = (s.step.from_mm, s.step.to_mm);
+            ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
+        };
+        let (mut first, mut vol, mut time, mut len, mut peak) = (0, 0.0, 0.0, 0.0, 0.0f64);
         for (i, s) in self.steps.iter().enumerate() {
             vol += self.record.volume_mm3(i);
             time += s.dt_s;
-            while first < i && time - self.steps[first].dt_s >= window_s {
+            len += length(s);
+            while first < i && time - self.steps[first].dt_s >= window_s && len - length(&self.steps[first]) >= window_mm {
                 vol -= self.record.volume_mm3(first);
                 time -= self.steps[first].dt_s;
+                len -= length(&self.steps[first]);
                 first += 1;
             }
-            if (time >= window_s || (first == 0 && i + 1 == self.steps.len())) && time > 0.0 {
+            let full = time >= window_s && len >= window_mm;
+            if (full || (first == 0 && i + 1 == self.steps.len())) && time > 0.0 {
                 peak = peak.max(vol / time);
             }
         }
@@ -144,7 +157,7 @@ impl Run {
             removed_volume_mm3: self.record.total_volume_mm3(),
             cycle_time_s: self.steps.last().map_or(0.0, |s| s.t_end_s),
             peak_mrr_mm3_s: (0..n).map(|i| self.mrr_mm3_s(i)).fold(0.0, f64::max),
-            peak_mrr_windowed_mm3_s: self.peak_windowed_mrr_mm3_s(MRR_WINDOW_S),
+            peak_mrr_windowed_mm3_s: self.peak_windowed_mrr_mm3_s(MRR_WINDOW_S, MRR_WINDOW_CELLS * self.stock.grid().spacing_mm),
             peak_force_n: self.loads.iter().map(|l| l.force_n).fold(0.0, f64::max),
             peak_deflection_um: self.loads.iter().map(|l| l.deflection_um).fold(0.0, f64::max),
             steps: n,

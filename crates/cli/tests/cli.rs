@@ -223,12 +223,16 @@ fn program_without_cutting_runs_at_feed_max() {
     let s = summary(&dir.path().join("out"));
     assert_eq!(s["after"]["removed_volume_mm3"].as_f64().unwrap(), 0.0);
     // Only acceleration, feed_max and the corner rule hold the speed. The 90° corner
-    // may be taken at a·T = 16 mm/s per axis, so: 0 → 50 → 16 mm/s over 100 mm,
-    // then 16 → 50 → 0 mm/s over 30 mm, at 1000 mm/s².
-    let (v, vc, a) = (50.0f64, 16.0f64, 1000.0f64);
-    let ramp_up = (v / a, v * v / (2.0 * a));
-    let ramp_corner = ((v - vc) / a, (v * v - vc * vc) / (2.0 * a));
-    let expected = 2.0 * (ramp_up.0 + ramp_corner.0) + (130.0 - 2.0 * (ramp_up.1 + ramp_corner.1)) / v;
+    // is taken at a·T/2 = 8 mm/s per axis; within one period of it (the 0.05 mm
+    // station intervals up to 0.4 mm either side) the axes keep a − 8/T = 500 mm/s²
+    // for the ramps. So: 0 → 50 → v1 → 8 mm/s over 100 mm, then 8 → v1 → 50 → 0 over 30 mm.
+    let (v, vc, a, a_near, zone) = (50.0f64, 8.0f64, 1000.0f64, 500.0f64, 0.4f64);
+    let v1 = (vc * vc + 2.0 * a_near * zone).sqrt();
+    let ramp = |from: f64, to: f64, acc: f64| ((to - from).abs() / acc, (to * to - from * from).abs() / (2.0 * acc));
+    let pieces = [ramp(0.0, v, a), ramp(v1, v, a), ramp(vc, v1, a_near)];
+    let ramps_t: f64 = pieces.iter().map(|p| p.0).sum::<f64>() * 2.0;
+    let ramps_s: f64 = pieces.iter().map(|p| p.1).sum::<f64>() * 2.0;
+    let expected = ramps_t + (130.0 - ramps_s) / v;
     let after = s["after"]["cycle_time_s"].as_f64().unwrap();
     assert!((after - expected).abs() < 2e-3, "{after} vs {expected}");
 }
@@ -352,4 +356,121 @@ fn wall_cut_with_constant_load_has_constant_error() {
         .map(|i| cols["error_um"][i])
         .collect();
     assert!(floor.iter().all(|e| e.abs() < 1e-3), "floor errors {:?}", &floor[..5]);
+}
+
+const GCODE_SLOT_JOB: &str = r#"
+[stock]
+kind = "box"
+min = [0, -20, 0]
+max = [100, 20, 30]
+grid = 0.1
+[tool]
+kind = "ball"
+diameter = 10
+[program]
+path = "slot.ngc"
+[cutting]
+band_height = 1.0
+[machine]
+period_ms = 16
+accel = [1000, 1000, 1000]
+"#;
+
+const GCODE_SLOT: &str = "%\n(slot 2 mm deep)\nG21 G90 G17 G54\nG0 X-10 Y0 Z40\nG0 Z28\nG1 X110 F1200\nG0 Z40\nM30\n%\n";
+
+#[test]
+fn gcode_slot_simulates_per_servo_period() {
+    let dir = tempdir();
+    write(dir.path(), "job.toml", GCODE_SLOT_JOB);
+    write(dir.path(), "slot.ngc", GCODE_SLOT);
+    ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir.path()));
+    let s = summary(&dir.path().join("out"));
+    let (r, h) = (5.0f64, 2.0f64);
+    let exact = (r * r * ((r - h) / r).acos() - (r - h) * (2.0 * r * h - h * h).sqrt()) * 100.0;
+    let removed = s["removed_volume_mm3"].as_f64().unwrap();
+    assert!(rel(removed, exact) < 3e-3, "removed {removed} vs {exact}");
+    let steps = csv_columns(&dir.path().join("out/steps.csv"));
+    // One row per 16 ms servo period (the last one may be shorter).
+    let t = &steps["t_s"];
+    for w in t.windows(2).take(t.len() - 2) {
+        assert!((w[1] - w[0] - 0.016).abs() < 1e-9, "period {}", w[1] - w[0]);
+    }
+    assert!((s["cycle_time_s"].as_f64().unwrap() - t[t.len() - 1]).abs() < 1e-9);
+    // Cutting happens on line 6 (the G1) at no more than the programmed feed.
+    for ((v, line), f) in steps["volume_mm3"].iter().zip(&steps["line"]).zip(&steps["feed_mm_min"]) {
+        if *v > 0.0 {
+            assert_eq!(*line, 6.0);
+            assert!(*f <= 1200.0 + 1e-6);
+        }
+    }
+    // Real time exceeds the constant-feed time of the cut (120 mm at 1200 mm/min) by the ramps and rapids.
+    assert!(s["cycle_time_s"].as_f64().unwrap() > 6.0);
+}
+
+#[test]
+fn gcode_errors_name_file_line_and_column() {
+    let dir = tempdir();
+    write(dir.path(), "job.toml", GCODE_SLOT_JOB);
+    write(dir.path(), "slot.ngc", "G21 G90\nG0 X-10 Y0 Z40\nG1 X110 Y[2 +] F1200\nG41 X5\n");
+    let out = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(err.contains("slot.ngc:3:"), "{err}");
+    assert!(err.contains("slot.ngc:4:1: cutter radius compensation G41 is not supported"), "{err}");
+    assert!(!dir.path().join("out").exists());
+}
+
+/// `dexcut optimize` with no job: the boss_contour example. The verification
+/// re-simulation stays under mrr_max, the servo data keeps the machine's
+/// limits, and the re-fed program reads back to the same path with its new
+/// feeds and simulates under the limit too.
+#[test]
+fn default_example_optimizes_under_the_limit() {
+    let dir = tempdir();
+    ok(&dexcut(&["optimize", "--out", "out"], dir.path()));
+    let out = dir.path().join("out");
+    let s = summary(&out);
+    let (before, after) = (&s["before"], &s["after"]);
+    let mrr_max = 8.0;
+    assert!(before["peak_mrr_mm3_s"].as_f64().unwrap() > 1.5 * mrr_max, "{before}");
+    assert!(after["peak_mrr_windowed_mm3_s"].as_f64().unwrap() <= 1.02 * mrr_max, "{after}");
+    // Per 16 ms period the grid's column phase adds a few per cent.
+    assert!(after["peak_mrr_mm3_s"].as_f64().unwrap() <= 1.06 * mrr_max, "{after}");
+    assert!(after["cycle_time_s"].as_f64().unwrap() < before["cycle_time_s"].as_f64().unwrap());
+    assert!(after["cycle_time_s"].as_f64().unwrap() >= s["lower_bound_time_s"].as_f64().unwrap());
+    // Servo periods are chords of the arcs: at 3000 mm/min a 0.8 mm chord of the
+    // R20 arc sags 4 µm inwards, into the 0.05–0.2 mm cut, so removal differs a little.
+    let (v0, v1) = (before["removed_volume_mm3"].as_f64().unwrap(), after["removed_volume_mm3"].as_f64().unwrap());
+    assert!(rel(v1, v0) < 0.03, "removed {v0} before, {v1} after");
+    let servo = csv_columns(&out.join("servo.csv"));
+    let dt = servo["t_s"][1] - servo["t_s"][0];
+    assert!((dt - 0.016).abs() < 1e-12);
+    // Feed moves within feed_max (rapids run at the rapid rate); the period
+    // that crosses from a rapid into a feed move is skipped.
+    let steps = csv_columns(&out.join("steps.csv"));
+    for i in 1..steps["rapid"].len() {
+        if steps["rapid"][i] == 0.0 && steps["rapid"][i - 1] == 0.0 {
+            assert!(steps["feed_mm_min"][i] <= 3000.0 * (1.0 + 1e-9), "feed {} at row {i}", steps["feed_mm_min"][i]);
+        }
+    }
+    for axis in ["x", "y", "z"] {
+        for w in servo[axis].windows(3) {
+            let a = (w[2] - 2.0 * w[1] + w[0]) / (dt * dt);
+            assert!(a.abs() <= 1000.0 * 1.02, "{axis} acceleration {a} mm/s²");
+        }
+    }
+    // The re-fed program: only F words changed or blocks split, everything else kept.
+    let original = std::fs::read_to_string(out.join("input/boss_contour.nc")).unwrap();
+    let refed = std::fs::read_to_string(out.join("optimized.nc")).unwrap();
+    assert!(refed.lines().count() > original.lines().count());
+    for line in original.lines().filter(|l| !l.contains('G') || l.contains("G0") || l.contains("G21")) {
+        assert!(refed.lines().any(|r| r == line), "line {line:?} lost");
+    }
+    // Simulated as a program of its own, it stays under the limit (window of 3 periods).
+    let job = std::fs::read_to_string(out.join("input/job.toml")).unwrap().replace("boss_contour.nc\"", "../optimized.nc\"");
+    write(&out.join("input"), "refed.toml", &job);
+    ok(&dexcut(&["simulate", "out/input/refed.toml", "--out", "refed"], dir.path()));
+    let r = summary(&dir.path().join("refed"));
+    assert!(r["peak_mrr_windowed_mm3_s"].as_f64().unwrap() <= 1.02 * mrr_max, "{r}");
+    assert!(rel(r["cycle_time_s"].as_f64().unwrap(), after["cycle_time_s"].as_f64().unwrap()) < 0.05, "{r}");
 }
