@@ -52,6 +52,8 @@ fn commanded(setup: &Setup, machine: &Machine) -> Result<Vec<[f64; 3]>> {
 fn read_servo_csv(path: &Path, period_ms: f64) -> Result<Vec<[f64; 3]>> {
     let mut reader = csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut out = Vec::new();
+    // Interval before each sample, ms, with its line (checked once the last row is known).
+    let mut intervals: Vec<(usize, f64)> = Vec::new();
     let mut last_t: Option<f64> = None;
     for (i, rec) in reader.records().enumerate() {
         let line = i + 2;
@@ -62,12 +64,20 @@ fn read_servo_csv(path: &Path, period_ms: f64) -> Result<Vec<[f64; 3]>> {
         };
         let t = num(0)?;
         if let Some(prev) = last_t {
-            if ((t - prev) * 1000.0 - period_ms).abs() > 1e-6 * period_ms.max(1.0) {
-                bail!("{}:{line}: samples must be every {period_ms} ms (the job's period_ms), got {:.6} ms", path.display(), (t - prev) * 1000.0);
-            }
+            intervals.push((line, (t - prev) * 1000.0));
         }
         last_t = Some(t);
         out.push([num(1)?, num(2)?, num(3)?]);
+    }
+    // Every period_ms; the program's end may fall inside the last period (that
+    // sample is then taken as one period later, as the planner's own samples are).
+    let tol = 1e-6 * period_ms.max(1.0);
+    for (k, &(line, dt_ms)) in intervals.iter().enumerate() {
+        let last = k + 1 == intervals.len();
+        let ok = (dt_ms - period_ms).abs() <= tol || (last && dt_ms > 0.0 && dt_ms < period_ms);
+        if !ok {
+            bail!("{}:{line}: samples must be every {period_ms} ms (the job's period_ms), got {dt_ms:.6} ms", path.display());
+        }
     }
     if out.len() < 2 {
         bail!("{}: need at least two samples", path.display());

@@ -474,3 +474,70 @@ fn default_example_optimizes_under_the_limit() {
     assert!(r["peak_mrr_windowed_mm3_s"].as_f64().unwrap() <= 1.02 * mrr_max, "{r}");
     assert!(rel(r["cycle_time_s"].as_f64().unwrap(), after["cycle_time_s"].as_f64().unwrap()) < 0.05, "{r}");
 }
+
+const SERVO_JOB: &str = r#"
+[stock]
+kind = "box"
+min = [-50, -50, -10]
+max = [50, 50, -5]
+grid = 0.5
+[tool]
+kind = "ball"
+diameter = 10
+[program]
+path = "p.ngc"
+[cutting]
+band_height = 1.0
+[machine]
+period_ms = 16
+feed_max = 3000
+accel = [1000, 1000, 1000]
+[servo]
+kp = 30
+"#;
+
+/// `dexcut evaluate` on G-code: a full circle of r = 10 mm at 10 mm/s (ω = 1 rad/s)
+/// through a first-order lag Kp = 30/s shrinks to r/√(1 + (ω/Kp)²); a straight
+/// line at 30 mm/s lags by v/Kp = 1 mm along the path and has no path error.
+#[test]
+fn evaluate_circle_shrinks_and_line_lags_as_the_closed_forms() {
+    let dir = tempdir();
+    write(dir.path(), "job.toml", SERVO_JOB);
+    write(dir.path(), "p.ngc", "G21 G90 G17\nG0 X10 Y0 Z5\nG1 F600\nG2 X10 Y0 I-10 J0\nM2\n");
+    ok(&dexcut(&["evaluate", "job.toml", "--out", "circle"], dir.path()));
+    let e: Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("circle/evaluation.json")).unwrap()).unwrap();
+    let shrink = 10.0 * (1.0 - 1.0 / (1.0f64 + (1.0f64 / 30.0).powi(2)).sqrt());
+    let err = e["trajectory_error_mm"].as_f64().unwrap();
+    // Servo data are chords of the circle (10 mm/s · 16 ms = 0.16 mm): the polyline
+    // lies up to c²/8r inside it, and a linearly interpolated sampled circle has
+    // radius r(1 − (ωT)²/12) to first order; the closed form holds within those.
+    let (c, w_t) = (0.16f64, 0.016f64);
+    let tolerance = c * c / 80.0 + 10.0 * w_t * w_t / 12.0;
+    assert!((err - shrink).abs() <= tolerance, "trajectory error {err} vs {shrink} ± {tolerance}");
+    let time = e["machining_time_s"].as_f64().unwrap();
+    assert!(time > 2.0 * PI && time < 2.0 * PI + 0.1, "time {time}");
+    assert_eq!(e["max_jerk_mm_s3"].as_array().unwrap().len(), 3);
+
+    write(dir.path(), "p.ngc", "G21 G90\nG0 X-40 Y0 Z5\nG1 X40 F1800\nM2\n");
+    ok(&dexcut(&["evaluate", "job.toml", "--out", "line"], dir.path()));
+    let e: Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("line/evaluation.json")).unwrap()).unwrap();
+    assert!(e["trajectory_error_mm"].as_f64().unwrap() < 1e-9);
+    let actual = csv_columns(&dir.path().join("line/actual.csv"));
+    // Mid-line (t ≈ 1.5 s, cruise since 0.03 s + settling): commanded x = −40 + 30·(t − 0.015) − 0.45 … lag 1 mm.
+    let i = actual["t_s"].iter().position(|t| (*t - 1.504).abs() < 1e-9).unwrap();
+    let commanded_x = -40.0 + 0.5 * 1000.0 * 0.03f64.powi(2) + 30.0 * (1.504 - 0.03);
+    assert!((commanded_x - actual["x"][i] - 1.0).abs() < 1e-6, "lag {}", commanded_x - actual["x"][i]);
+}
+
+/// The servo.csv of `optimize` (whose last period is cut short by the
+/// program's end) is accepted by `evaluate --servo`.
+#[test]
+fn evaluate_accepts_optimize_servo_data() {
+    let dir = tempdir();
+    ok(&dexcut(&["optimize", "--out", "opt"], dir.path()));
+    ok(&dexcut(&["evaluate", "opt/input/job.toml", "--servo", "opt/servo.csv", "--out", "ev"], dir.path()));
+    let e: Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("ev/evaluation.json")).unwrap()).unwrap();
+    let s = summary(&dir.path().join("opt"));
+    let t = e["machining_time_s"].as_f64().unwrap();
+    assert!((t - s["after"]["cycle_time_s"].as_f64().unwrap()).abs() <= 0.016 + 1e-9, "{t}");
+}
