@@ -27,7 +27,7 @@ impl Grid {
         if !(spacing_mm > 0.0 && spacing_mm.is_finite()) {
             return Err(Error::InvalidParameter(format!("grid spacing must be a positive number of mm, got {spacing_mm}")));
         }
-        if !(max_x > min_x && max_y > min_y) || ![min_x, min_y, max_x, max_y].iter().all(|v| v.is_finite()) {
+        if !(max_x > min_x && max_y > min_y && [min_x, min_y, max_x, max_y].iter().all(|v| v.is_finite())) {
             return Err(Error::InvalidParameter(format!(
                 "grid area must have positive size, got x {min_x}..{max_x}, y {min_y}..{max_y}"
             )));

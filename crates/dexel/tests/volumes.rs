@@ -101,8 +101,8 @@ fn flat_slot_is_a_rectangle() {
     let record = run(&mut stock, &Tool::flat(10.0), &[line([-10.0, 0.0, 26.0], [110.0, 0.0, 26.0])], 1.0);
     assert_rel(record.volume_mm3(0), 10.0 * 4.0 * 100.0, 1e-6, "flat slot");
     let bands = record.band_volumes_mm3(0);
-    for k in 0..4 {
-        assert_rel(bands[k], 1000.0, 1e-6, "flat slot band");
+    for &band in &bands[..4] {
+        assert_rel(band, 1000.0, 1e-6, "flat slot band");
     }
 }
 
