@@ -28,7 +28,45 @@ const TOKENS: &[&str] = &[
     "#2=", "1e308", "999999999", "-0",
 ];
 
+/// Lines of the test corpus (toolpaths/), for mutation.
+fn corpus_lines() -> &'static [String] {
+    static LINES: std::sync::OnceLock<Vec<String>> = std::sync::OnceLock::new();
+    LINES.get_or_init(|| {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../toolpaths");
+        let mut lines = Vec::new();
+        for e in std::fs::read_dir(dir).expect("toolpaths/") {
+            let p = e.expect("entry").path();
+            if p.extension().is_some_and(|e| e == "ngc") {
+                lines.extend(std::fs::read_to_string(&p).expect("read").lines().map(String::from));
+            }
+        }
+        lines
+    })
+}
+
 proptest! {
+    /// Real programs' lines, a window of up to 60, with up to 8 byte edits.
+    #[test]
+    fn mutated_corpus_never_panics(
+        start in any::<prop::sample::Index>(),
+        len in 1usize..60,
+        edits in proptest::collection::vec((any::<prop::sample::Index>(), 0u8..3, any::<u8>()), 0..8),
+    ) {
+        let lines = corpus_lines();
+        let first = start.index(lines.len());
+        let mut bytes = lines[first..(first + len).min(lines.len())].join("\n").into_bytes();
+        for (at, kind, byte) in edits {
+            let i = at.index(bytes.len() + 1);
+            match kind {
+                0 => bytes.insert(i, byte),
+                1 if i < bytes.len() => { bytes.remove(i); }
+                _ if i < bytes.len() => bytes[i] = byte,
+                _ => {}
+            }
+        }
+        check(&String::from_utf8_lossy(&bytes));
+    }
+
     #[test]
     fn random_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..400)) {
         check(&String::from_utf8_lossy(&bytes));

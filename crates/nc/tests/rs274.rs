@@ -210,9 +210,11 @@ fn installed_samples_match_linuxcnc_rs274() {
     if !have_rs274() {
         return;
     }
-    let dir = Path::new("/usr/share/doc/linuxcnc/examples/nc_files");
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        assert!(std::env::var_os("CI").is_none(), "{} missing but CI is set", dir.display());
+    // The package installs them in /usr/share/linuxcnc/ncfiles, linked from
+    // /usr/share/doc/linuxcnc/examples/nc_files.
+    let dirs = ["/usr/share/linuxcnc/ncfiles", "/usr/share/doc/linuxcnc/examples/nc_files"];
+    let Some(entries) = dirs.iter().find_map(|d| std::fs::read_dir(d).ok()) else {
+        assert!(std::env::var_os("CI").is_none(), "{dirs:?} missing but CI is set");
         return;
     };
     let mut files: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|e| e == "ngc")).collect();
