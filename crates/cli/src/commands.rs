@@ -14,7 +14,7 @@ use crate::job::Job;
 use crate::motion::{self, TimedStep};
 use crate::optimize;
 use crate::program::{self, Program};
-use crate::simulate::{self, Run, Summary};
+use crate::simulate::{self, GridInfo, Run, Summary};
 
 /// Everything read and checked from a job before any work.
 pub struct Setup {
@@ -55,7 +55,7 @@ impl Setup {
     /// drive model's estimate of where the axes really are (G-code only).
     pub fn steps(&self, actual_path: bool) -> Result<Vec<TimedStep>> {
         if self.program.gcode.is_some() {
-            let (mut samples, _) = motion::machine_motion(&self.program.path, &self.machine)?;
+            let mut samples = motion::machine_motion(&self.program.path, &self.machine)?;
             if actual_path {
                 let drive = crate::evaluate::drive(&self.job)?;
                 let commanded: Vec<[f64; 3]> = samples.iter().map(|s| s.pos.coords.into()).collect();
@@ -73,26 +73,6 @@ impl Setup {
     }
 }
 
-/// Grid geometry recorded in summary.json so `report` can rebuild maps.
-#[derive(Clone, Debug, Serialize, serde::Deserialize)]
-pub struct GridInfo {
-    pub nx: usize,
-    pub ny: usize,
-    /// Centre of column (0, 0), mm.
-    pub x0_mm: f64,
-    pub y0_mm: f64,
-    pub spacing_mm: f64,
-}
-
-impl GridInfo {
-    pub fn of(g: &dexel::Grid) -> GridInfo {
-        GridInfo { nx: g.nx, ny: g.ny, x0_mm: g.x_mm(0), y0_mm: g.y_mm(0), spacing_mm: g.spacing_mm }
-    }
-    pub fn export(&self) -> export::Grid {
-        export::Grid { nx: self.nx, ny: self.ny, x0_mm: self.x0_mm, y0_mm: self.y0_mm, spacing_mm: self.spacing_mm }
-    }
-}
-
 /// Design comparison (S1): the final surface against the design model.
 #[derive(Clone, Debug, Serialize)]
 pub struct DesignInfo {
@@ -106,22 +86,16 @@ pub struct DesignInfo {
     pub worst_gouge_xy_mm: Option<[f64; 2]>,
 }
 
-/// Signed distance (µm) of each column's top to the design model; positive = stock left.
-fn design_comparison(setup: &Setup, run: &Run) -> Result<Option<(Vec<f32>, DesignInfo)>> {
+/// Signed distance (µm) of each column's top (`tops`) to the design model; positive = stock left.
+fn design_comparison(setup: &Setup, run: &Run, tops: &[f32]) -> Result<Option<(Vec<f32>, DesignInfo)>> {
     let Some(design) = &setup.job.design else { return Ok(None) };
     let path = setup.job.resolve(&design.path);
     let (mesh, _) = mesh::load_solid(&path)?;
     let model = mesh::DesignModel::new(&mesh).with_context(|| format!("{}: design model", path.display()))?;
     let grid = *run.stock.grid();
-    let tops = run.stock.top_heights();
-    let points: Vec<[f64; 3]> = tops
-        .iter()
-        .enumerate()
-        .map(|(i, &z)| [grid.x_mm(i % grid.nx), grid.y_mm(i / grid.nx), z as f64])
-        .collect();
+    let point = |i: usize| [grid.x_mm(i % grid.nx), grid.y_mm(i / grid.nx), tops[i] as f64];
     let valid: Vec<usize> = (0..tops.len()).filter(|&i| tops[i].is_finite()).collect();
-    let picked: Vec<[f64; 3]> = valid.iter().map(|&i| points[i]).collect();
-    let distances = model.signed_distances_mm(&picked);
+    let distances = model.signed_distances_mm(&valid.iter().map(|&i| point(i)).collect::<Vec<_>>());
     let mut diff_um = vec![f32::NAN; tops.len()];
     for (&i, d) in valid.iter().zip(&distances) {
         diff_um[i] = (d * 1000.0) as f32;
@@ -136,8 +110,9 @@ fn design_comparison(setup: &Setup, run: &Run) -> Result<Option<(Vec<f32>, Desig
     if let Some((j, d)) = distances.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1)) {
         if *d < 0.0 {
             let i = valid[j];
+            let [x, y, _] = point(i);
             info.worst_gouge_um = d * 1000.0;
-            info.worst_gouge_xy_mm = Some([points[i][0], points[i][1]]);
+            info.worst_gouge_xy_mm = Some([x, y]);
             let step = run.stock.last_cut()[i];
             info.worst_gouge_line = (step != NEVER_CUT).then(|| run.steps[step as usize].line);
         }
@@ -162,9 +137,10 @@ fn create_out(out: &Path) -> Result<()> {
 
 /// Write steps.csv and columns.csv of a run; returns the design comparison.
 fn write_run(setup: &Setup, run: &Run, out: &Path, steps_name: &str) -> Result<Option<DesignInfo>> {
-    let design = design_comparison(setup, run)?;
+    let tops = run.stock.top_heights();
+    let design = design_comparison(setup, run, &tops)?;
     run.write_steps_csv(&out.join(steps_name))?;
-    run.write_columns_csv(&out.join("columns.csv"), design.as_ref().map(|d| d.0.as_slice()))?;
+    run.write_columns_csv(&out.join("columns.csv"), &tops, design.as_ref().map(|d| d.0.as_slice()))?;
     Ok(design.map(|d| d.1))
 }
 

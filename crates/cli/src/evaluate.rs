@@ -41,10 +41,7 @@ fn weights(job: &Job, reference_time_s: f64) -> Weights {
 
 /// Commanded positions every period of the program as `machine` runs it.
 fn commanded(setup: &Setup, machine: &Machine) -> Result<Vec<[f64; 3]>> {
-    if setup.program.gcode.is_none() {
-        bail!("evaluate needs a G-code program (servo data come from the machine motion planner)");
-    }
-    let (samples, _) = motion::machine_motion(&setup.program.path, machine)?;
+    let samples = motion::machine_motion(&setup.program.path, machine)?;
     Ok(samples.iter().map(|s| s.pos.coords.into()).collect())
 }
 
@@ -127,14 +124,20 @@ struct EvaluationDoc {
 pub fn evaluate(job_path: &Path, out: &Path, servo_csv: Option<&Path>, sweep: bool) -> Result<()> {
     let setup = Setup::load(job_path, None)?;
     let drive = drive(&setup.job)?;
+    if sweep && servo_csv.is_some() {
+        bail!("--sweep re-plans the program, so it cannot be combined with --servo");
+    }
     let period_s = setup.machine.period_s();
-    let command = match servo_csv {
-        Some(p) => read_servo_csv(p, setup.machine.period_ms)?,
-        None => commanded(&setup, &setup.machine)?,
+    let as_written = setup.program.gcode.is_some().then(|| commanded(&setup, &setup.machine)).transpose()?;
+    let command = match (servo_csv, &as_written) {
+        (Some(p), _) => read_servo_csv(p, setup.machine.period_ms)?,
+        (None, Some(c)) => c.clone(),
+        (None, None) => bail!("evaluate needs a G-code program or --servo data"),
     };
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let reference_time_s = (command.len() - 1) as f64 * period_s;
-    let w = weights(&setup.job, reference_time_s);
+    // Vb = time / the program's time as written, so runs of one job compare.
+    let reference = as_written.as_ref().unwrap_or(&command);
+    let w = weights(&setup.job, (reference.len() - 1) as f64 * period_s);
     let actual = servo::simulate_actual(&command, period_s, &drive);
     let evaluation = servo::evaluate(&command, &actual, period_s, &w);
     let pre = servo::precompensate(&command, period_s, &drive, setup.job.servo.precomp_threshold_mm, setup.job.servo.precomp_iterations);
@@ -143,9 +146,6 @@ pub fn evaluate(job_path: &Path, out: &Path, servo_csv: Option<&Path>, sweep: bo
 
     let mut rows = Vec::new();
     if sweep {
-        if servo_csv.is_some() {
-            bail!("--sweep re-plans the program, so it cannot be combined with --servo");
-        }
         let base = setup.machine;
         let kp0 = drive.kp_per_s;
         for accel_factor in [0.5, 1.0, 2.0] {

@@ -8,7 +8,7 @@ use anyhow::{bail, Context, Result};
 use export::{HeatMapStyle, HeightField, PlotGroup, Report, ReportImage, ScalarMap, Series, SummaryRow};
 use serde_json::Value;
 
-use crate::commands::GridInfo;
+use crate::simulate::GridInfo;
 
 /// Named numeric columns of a CSV file (empty fields read as NaN).
 fn read_csv_columns(path: &Path, wanted: &[&str]) -> Result<HashMap<String, Vec<f64>>> {

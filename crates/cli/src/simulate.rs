@@ -124,19 +124,20 @@ impl Run {
     /// `window_s` and covering at least `window_mm` of path (a run shorter than
     /// that over the whole program counts as a whole).
     pub fn peak_windowed_mrr_mm3_s(&self, window_s: f64, window_mm: f64) -> f64 {
-        let length = |s: &TimedStep| {
-            let (a, b) = (s.step.from_mm, s.step.to_mm);
-            ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
-        };
+        let lengths: Vec<f64> = self
+            .steps
+            .iter()
+            .map(|s| nalgebra::distance(&s.step.from_mm.into(), &s.step.to_mm.into()))
+            .collect();
         let (mut first, mut vol, mut time, mut len, mut peak) = (0, 0.0, 0.0, 0.0, 0.0f64);
         for (i, s) in self.steps.iter().enumerate() {
             vol += self.record.volume_mm3(i);
             time += s.dt_s;
-            len += length(s);
-            while first < i && time - self.steps[first].dt_s >= window_s && len - length(&self.steps[first]) >= window_mm {
+            len += lengths[i];
+            while first < i && time - self.steps[first].dt_s >= window_s && len - lengths[first] >= window_mm {
                 vol -= self.record.volume_mm3(first);
                 time -= self.steps[first].dt_s;
-                len -= length(&self.steps[first]);
+                len -= lengths[first];
                 first += 1;
             }
             let full = time >= window_s && len >= window_mm;
@@ -172,12 +173,12 @@ impl Run {
     }
 
     /// Predicted shape error per column, µm (S4 error map): the deflection of
-    /// the step that last cut the column, projected on the final surface
-    /// normal; positive = material left. NaN where no step cut.
-    pub fn error_map_um(&self) -> Vec<f32> {
+    /// the step that last cut the column, projected on the normal of the final
+    /// surface `tops` (the stock's top heights); positive = material left. NaN
+    /// where no step cut.
+    pub fn error_map_um(&self, tops: &[f32]) -> Vec<f32> {
         let grid = *self.stock.grid();
-        let heights = self.stock.top_heights();
-        let normals = cutting::surface_normals_from_heights(&heights, grid.nx, grid.ny, grid.spacing_mm);
+        let normals = cutting::surface_normals_from_heights(tops, grid.nx, grid.ny, grid.spacing_mm);
         self.stock
             .last_cut()
             .iter()
@@ -224,23 +225,40 @@ impl Run {
         .with_context(|| format!("cannot write {}", path.display()))
     }
 
-    /// Write columns.csv: final surface, last cutting step and predicted error per column.
-    pub fn write_columns_csv(&self, path: &Path, design_diff_um: Option<&[f32]>) -> Result<()> {
-        let grid = *self.stock.grid();
-        let top = self.stock.top_heights();
+    /// Write columns.csv: final surface (`tops`, the stock's top heights), last
+    /// cutting step and predicted error per column.
+    pub fn write_columns_csv(&self, path: &Path, tops: &[f32], design_diff_um: Option<&[f32]>) -> Result<()> {
         let last: Vec<f32> = self.stock.last_cut().iter().map(|&s| if s == NEVER_CUT { f32::NAN } else { s as f32 }).collect();
-        let error = self.error_map_um();
-        let mut columns: Vec<(&str, &[f32])> = vec![("top_mm", &top), ("last_step", &last), ("error_um", &error)];
+        let error = self.error_map_um(tops);
+        let mut columns: Vec<(&str, &[f32])> = vec![("top_mm", tops), ("last_step", &last), ("error_um", &error)];
         if let Some(d) = design_diff_um {
             columns.push(("design_um", d));
         }
-        export::write_column_csv(path, &export_grid(&grid), &columns).with_context(|| format!("cannot write {}", path.display()))
+        let grid = GridInfo::of(self.stock.grid()).export();
+        export::write_column_csv(path, &grid, &columns).with_context(|| format!("cannot write {}", path.display()))
     }
 }
 
-/// The export crate's copy of the grid geometry.
-pub fn export_grid(g: &dexel::Grid) -> export::Grid {
-    export::Grid { nx: g.nx, ny: g.ny, x0_mm: g.x_mm(0), y0_mm: g.y_mm(0), spacing_mm: g.spacing_mm }
+/// Grid geometry recorded in summary.json so `report` can rebuild maps.
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
+pub struct GridInfo {
+    pub nx: usize,
+    pub ny: usize,
+    /// Centre of column (0, 0), mm.
+    pub x0_mm: f64,
+    pub y0_mm: f64,
+    pub spacing_mm: f64,
+}
+
+impl GridInfo {
+    pub fn of(g: &dexel::Grid) -> GridInfo {
+        GridInfo { nx: g.nx, ny: g.ny, x0_mm: g.x_mm(0), y0_mm: g.y_mm(0), spacing_mm: g.spacing_mm }
+    }
+
+    /// The export crate's copy of the grid geometry.
+    pub fn export(&self) -> export::Grid {
+        export::Grid { nx: self.nx, ny: self.ny, x0_mm: self.x0_mm, y0_mm: self.y0_mm, spacing_mm: self.spacing_mm }
+    }
 }
 
 /// Compact number formatting for CSV (shortest round-trip form).

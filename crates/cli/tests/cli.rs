@@ -46,6 +46,11 @@ fn csv_columns(path: &Path) -> std::collections::HashMap<String, Vec<f64>> {
     cols
 }
 
+/// Cross-section of a slot cut h deep by a ball of radius r (circular segment), mm².
+fn ball_slot_area_mm2(r: f64, h: f64) -> f64 {
+    r * r * ((r - h) / r).acos() - (r - h) * (2.0 * r * h - h * h).sqrt()
+}
+
 fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
 }
@@ -73,8 +78,7 @@ fn simulate_ball_slot_matches_the_circular_segment() {
     write(dir.path(), "slot.csv", "x,y,z\n-10,0,28\n110,0,28\n");
     ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir.path()));
     let s = summary(&dir.path().join("out"));
-    let (r, h) = (5.0f64, 2.0f64);
-    let exact = (r * r * ((r - h) / r).acos() - (r - h) * (2.0 * r * h - h * h).sqrt()) * 100.0;
+    let exact = ball_slot_area_mm2(5.0, 2.0) * 100.0;
     let removed = s["removed_volume_mm3"].as_f64().unwrap();
     assert!(rel(removed, exact) < 3e-3, "removed {removed} vs {exact}");
     let (initial, fin) = (s["initial_volume_mm3"].as_f64().unwrap(), s["final_volume_mm3"].as_f64().unwrap());
@@ -358,35 +362,21 @@ fn wall_cut_with_constant_load_has_constant_error() {
     assert!(floor.iter().all(|e| e.abs() < 1e-3), "floor errors {:?}", &floor[..5]);
 }
 
-const GCODE_SLOT_JOB: &str = r#"
-[stock]
-kind = "box"
-min = [0, -20, 0]
-max = [100, 20, 30]
-grid = 0.1
-[tool]
-kind = "ball"
-diameter = 10
-[program]
-path = "slot.ngc"
-[cutting]
-band_height = 1.0
-[machine]
-period_ms = 16
-accel = [1000, 1000, 1000]
-"#;
+/// SLOT_JOB with the slot as G-code and the machine's acceleration.
+fn gcode_slot_job() -> String {
+    SLOT_JOB.replace("path = \"slot.csv\"\nfeed = 1200", "path = \"slot.ngc\"") + "[machine]\nperiod_ms = 16\naccel = [1000, 1000, 1000]\n"
+}
 
 const GCODE_SLOT: &str = "%\n(slot 2 mm deep)\nG21 G90 G17 G54\nG0 X-10 Y0 Z40\nG0 Z28\nG1 X110 F1200\nG0 Z40\nM30\n%\n";
 
 #[test]
 fn gcode_slot_simulates_per_servo_period() {
     let dir = tempdir();
-    write(dir.path(), "job.toml", GCODE_SLOT_JOB);
+    write(dir.path(), "job.toml", &gcode_slot_job());
     write(dir.path(), "slot.ngc", GCODE_SLOT);
     ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir.path()));
     let s = summary(&dir.path().join("out"));
-    let (r, h) = (5.0f64, 2.0f64);
-    let exact = (r * r * ((r - h) / r).acos() - (r - h) * (2.0 * r * h - h * h).sqrt()) * 100.0;
+    let exact = ball_slot_area_mm2(5.0, 2.0) * 100.0;
     let removed = s["removed_volume_mm3"].as_f64().unwrap();
     assert!(rel(removed, exact) < 3e-3, "removed {removed} vs {exact}");
     let steps = csv_columns(&dir.path().join("out/steps.csv"));
@@ -410,7 +400,7 @@ fn gcode_slot_simulates_per_servo_period() {
 #[test]
 fn gcode_errors_name_file_line_and_column() {
     let dir = tempdir();
-    write(dir.path(), "job.toml", GCODE_SLOT_JOB);
+    write(dir.path(), "job.toml", &gcode_slot_job());
     write(dir.path(), "slot.ngc", "G21 G90\nG0 X-10 Y0 Z40\nG1 X110 Y[2 +] F1200\nG41 X5\n");
     let out = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
     assert!(!out.status.success());
@@ -540,4 +530,9 @@ fn evaluate_accepts_optimize_servo_data() {
     let s = summary(&dir.path().join("opt"));
     let t = e["machining_time_s"].as_f64().unwrap();
     assert!((t - s["after"]["cycle_time_s"].as_f64().unwrap()).abs() <= 0.016 + 1e-9, "{t}");
+    // Vb compares with the program as written (one period of rounding on each side).
+    let before = s["before"]["cycle_time_s"].as_f64().unwrap();
+    let vb = e["vb"].as_f64().unwrap();
+    assert!((vb - t / before).abs() < 0.02 / before, "Vb {vb} vs {}", t / before);
+    assert!(vb < 0.9);
 }
