@@ -9,9 +9,18 @@ pub fn write_file<F>(path: &Path, write: F) -> io::Result<()>
 where
     F: FnOnce(&mut dyn Write) -> io::Result<()>,
 {
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "output path has no file name"))?;
-    let tmp = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path.file_name().ok_or_else(|| {
+        io::Error::new(io::ErrorKind::InvalidInput, "output path has no file name")
+    })?;
+    let tmp = dir.join(format!(
+        ".{}.{}.tmp",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
     let result = (|| {
         let file = std::fs::File::create(&tmp)?;
         let mut buf = io::BufWriter::new(file);
@@ -37,8 +46,8 @@ mod tests {
 
     #[test]
     fn failed_write_leaves_nothing() {
-        let dir = std::env::temp_dir().join(format!("dexcut-atomic-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
         let target = dir.join("out.csv");
         let err = write_file(&target, |w| {
             w.write_all(b"partial")?;
@@ -46,9 +55,20 @@ mod tests {
         });
         assert!(err.is_err());
         assert!(!target.exists());
-        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "temporary file left behind");
+        assert_eq!(
+            std::fs::read_dir(dir).unwrap().count(),
+            0,
+            "temporary file left behind"
+        );
         write_bytes(&target, b"whole").unwrap();
         assert_eq!(std::fs::read(&target).unwrap(), b"whole");
-        std::fs::remove_dir_all(&dir).unwrap();
+        // A failed rewrite keeps the previous content.
+        assert!(write_file(&target, |_| Err(io::Error::other("boom"))).is_err());
+        assert_eq!(std::fs::read(&target).unwrap(), b"whole");
+        assert_eq!(
+            std::fs::read_dir(dir).unwrap().count(),
+            1,
+            "only the target remains"
+        );
     }
 }

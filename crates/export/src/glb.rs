@@ -83,13 +83,9 @@ pub fn write_stock_glb_with(
     colors: Option<&ScalarMap>,
     options: &GlbOptions,
 ) -> Result<GlbStats, Error> {
-    let mut stats = None;
-    render_and_write(path, || {
-        let (bytes, s) = stock_glb_bytes(height, colors, options)?;
-        stats = Some(s);
-        Ok(bytes)
-    })?;
-    Ok(stats.expect("set by a successful render"))
+    let (bytes, stats) = stock_glb_bytes(height, colors, options).map_err(|e| e.at(path))?;
+    render_and_write(path, || Ok(bytes))?;
+    Ok(stats)
 }
 
 /// Indices of the sampled columns along one axis: every `step`-th and the last.
@@ -139,16 +135,14 @@ pub fn stock_glb_bytes(
         }
     }
 
-    // Decimation step: smallest k with at most max_vertices samples.
+    // Decimation step: smallest k whose samples (at most ⌈n/k⌉ + 1 per axis)
+    // stay within max_vertices.
     let max_v = options.max_vertices.max(4);
     let mut step = 1;
     while (g.nx.div_ceil(step) + 1) * (g.ny.div_ceil(step) + 1) > max_v
         && step < g.nx.max(g.ny).max(1)
     {
         step += 1;
-    }
-    if step == 1 && g.len() > max_v {
-        step = 2;
     }
     let sx = samples(g.nx, step);
     let sy = samples(g.ny, step);
@@ -180,45 +174,29 @@ pub fn stock_glb_bytes(
                 continue;
             }
             let (x, y, z) = (g.x_mm(sx[i]) as f32, g.y_mm(sy[j]) as f32, z_at(i, j));
-            let slope = |a: Option<(f64, f32)>, b: Option<(f64, f32)>| -> f32 {
-                match (a, b) {
-                    (Some((pa, za)), Some((pb, zb))) if pb != pa => {
-                        ((zb - za) as f64 / (pb - pa)) as f32
-                    }
-                    _ => 0.0,
-                }
-            };
-            let nb = |ii: usize, jj: usize, p: f64| {
-                if has(ii, jj) {
-                    Some((p, z_at(ii, jj)))
+            // Central differences over the neighbours with material; one-sided
+            // at the outline and at holes, flat where there is neither.
+            let (il, ir) = (
+                i.checked_sub(1).filter(|&ii| has(ii, j)).unwrap_or(i),
+                Some(i + 1)
+                    .filter(|&ii| ii < nsx && has(ii, j))
+                    .unwrap_or(i),
+            );
+            let (jd, ju) = (
+                j.checked_sub(1).filter(|&jj| has(i, jj)).unwrap_or(j),
+                Some(j + 1)
+                    .filter(|&jj| jj < nsy && has(i, jj))
+                    .unwrap_or(j),
+            );
+            let slope = |pa: f64, za: f32, pb: f64, zb: f32| -> f32 {
+                if pb != pa {
+                    ((zb - za) as f64 / (pb - pa)) as f32
                 } else {
-                    None
+                    0.0
                 }
             };
-            let here_x = Some((g.x_mm(sx[i]), z));
-            let here_y = Some((g.y_mm(sy[j]), z));
-            let left = if i > 0 {
-                nb(i - 1, j, g.x_mm(sx[i - 1]))
-            } else {
-                None
-            };
-            let right = if i + 1 < nsx {
-                nb(i + 1, j, g.x_mm(sx[i + 1]))
-            } else {
-                None
-            };
-            let down = if j > 0 {
-                nb(i, j - 1, g.y_mm(sy[j - 1]))
-            } else {
-                None
-            };
-            let up = if j + 1 < nsy {
-                nb(i, j + 1, g.y_mm(sy[j + 1]))
-            } else {
-                None
-            };
-            let dzdx = slope(left.or(here_x), right.or(here_x));
-            let dzdy = slope(down.or(here_y), up.or(here_y));
+            let dzdx = slope(g.x_mm(sx[il]), z_at(il, j), g.x_mm(sx[ir]), z_at(ir, j));
+            let dzdy = slope(g.y_mm(sy[jd]), z_at(i, jd), g.y_mm(sy[ju]), z_at(i, ju));
             let n = normalize([-dzdx, -dzdy, 1.0]);
             vid[j * nsx + i] = mesh.push([x, y, z], n, color_of(sx[i], sy[j]));
         }

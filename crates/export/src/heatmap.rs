@@ -156,7 +156,7 @@ pub fn heat_map_image(
         .max(text_width(&style.title, TEXT_SCALE) + 2 * MARGIN)
         .max(MIN_MAP_WIDTH_PX as u32);
     let scale_bar_h = 10 + 6 + th;
-    let height = map_top + map_h.max(bar_height) + 12 + scale_bar_h + MARGIN;
+    let height = map_top + bar_height + 12 + scale_bar_h + MARGIN; // bar_height ≥ map_h
 
     let mut img = RgbaImage::from_pixel(width, height, BACKGROUND);
     if !style.title.is_empty() {

@@ -12,7 +12,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::svg::{plot_svg, PlotGroup};
-use crate::{b64, render_and_write, Error};
+use crate::{b64, escape_html as esc, render_and_write, Error};
 
 /// One row of the summary table, values already formatted with units.
 #[derive(Clone, Debug, PartialEq)]
@@ -65,13 +65,6 @@ figcaption{font-size:.9em;color:#555;margin-top:4px}\
 #stock-view canvas{width:100%;height:520px;display:block;border:1px solid #ddd;background:#f5f7fa;cursor:grab;touch-action:none}\
 .viewer-note{font-size:.9em;color:#555;margin:4px 0}.notes p{margin:.4em 0}";
 
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
-
 /// Render the report as one HTML string.
 pub fn report_html(report: &Report) -> String {
     let mut h = String::with_capacity(
@@ -120,8 +113,8 @@ pub fn report_html(report: &Report) -> String {
 
     if !report.plots.is_empty() {
         h.push_str("<h2>Over time</h2><div class=\"plots\">\n");
-        for p in &report.plots {
-            let _ = writeln!(h, "<div class=\"plot-box\">{}</div>", plot_svg(p));
+        for (k, p) in report.plots.iter().enumerate() {
+            let _ = writeln!(h, "<div class=\"plot-box\">{}</div>", plot_svg(p, k));
         }
         h.push_str("</div>\n");
     }

@@ -21,14 +21,14 @@
 //! * no function panics on empty input: empty series, 0×0 grids and all-NaN
 //!   maps still give valid (if empty-looking) files;
 //! * no text rendering depends on system fonts (PNG text uses the built-in
-//!   5×8 bitmap font in [`font`]); the HTML report loads nothing from the
-//!   network.
+//!   5×8 bitmap font of the private `font` module); the HTML report loads
+//!   nothing from the network.
 
 pub mod atomic;
 mod b64;
-pub mod color;
+mod color;
 mod csv_out;
-pub mod font;
+mod font;
 mod glb;
 mod heatmap;
 mod html;
@@ -37,7 +37,6 @@ mod ticks;
 
 use std::path::{Path, PathBuf};
 
-pub use b64::encode as base64_encode;
 pub use color::{ColorScale, Palette};
 pub use csv_out::{column_csv_bytes, write_column_csv};
 pub use glb::{stock_glb_bytes, write_stock_glb, write_stock_glb_with, GlbOptions, GlbStats};
@@ -45,7 +44,7 @@ pub use heatmap::{
     heat_map_image, heat_map_png_bytes, write_heat_map_png, HeatMapLayout, HeatMapStyle, NAN_RGBA,
 };
 pub use html::{report_html, write_report_html, Report, ReportImage, SummaryRow};
-pub use svg::{decimate_min_max, plot_svg, PlotGroup, MAX_PLOT_POINTS};
+pub use svg::{PlotGroup, MAX_PLOT_POINTS};
 
 /// A regular grid of vertical columns (dexels) in the machine XY plane.
 ///
@@ -128,15 +127,8 @@ pub struct ScalarMap {
     pub unit: String,
 }
 
-impl ScalarMap {
-    /// Smallest and largest finite value, or `None` when there is none.
-    pub fn finite_range(&self) -> Option<(f32, f32)> {
-        finite_range(&self.values)
-    }
-}
-
 /// Smallest and largest finite value of `values`, or `None` when there is none.
-pub fn finite_range(values: &[f32]) -> Option<(f32, f32)> {
+pub(crate) fn finite_range(values: &[f32]) -> Option<(f32, f32)> {
     values
         .iter()
         .filter(|v| v.is_finite())
@@ -224,6 +216,14 @@ impl Error {
             },
         }
     }
+}
+
+/// Escape `s` for HTML/SVG text and double-quoted attribute values.
+pub(crate) fn escape_html(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }
 
 /// Render with `render`, then write the bytes atomically to `path`; errors name `path`.

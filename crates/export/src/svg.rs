@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 
 use crate::ticks::{format_tick, nice_ticks};
-use crate::Series;
+use crate::{escape_html as esc, Series};
 
 /// Most points drawn per series in one plot.
 pub const MAX_PLOT_POINTS: usize = 2000;
@@ -84,15 +84,10 @@ pub fn decimate_min_max(t_s: &[f64], values: &[f64], max_points: usize) -> Vec<(
     out
 }
 
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
-
 /// Render `group` as a standalone `<svg>` element (scales to its container's width).
-pub fn plot_svg(group: &PlotGroup) -> String {
+/// `id` tells the plots of one page apart (it names the clip path), so the
+/// output depends only on the arguments.
+pub fn plot_svg(group: &PlotGroup, id: usize) -> String {
     let decimated: Vec<Vec<(f64, f64)>> = group
         .series
         .iter()
@@ -211,11 +206,9 @@ pub fn plot_svg(group: &PlotGroup) -> String {
     );
 
     // Series.
-    static CLIP_ID: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let clip = CLIP_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let _ = write!(
         s,
-        r#"<defs><clipPath id="plot-clip-{clip}"><rect x="{LEFT}" y="{TOP}" width="{pw}" height="{ph}"/></clipPath></defs><g clip-path="url(#plot-clip-{clip})">"#
+        r#"<defs><clipPath id="plot-clip-{id}"><rect x="{LEFT}" y="{TOP}" width="{pw}" height="{ph}"/></clipPath></defs><g clip-path="url(#plot-clip-{id})">"#
     );
     for (k, pts) in decimated.iter().enumerate() {
         let color = COLORS[k % COLORS.len()];
@@ -265,9 +258,9 @@ pub fn plot_svg(group: &PlotGroup) -> String {
     }
 
     // Legend, top right.
-    let names: Vec<&str> = group.series.iter().map(|s| s.name.as_str()).collect();
     let mut x = WIDTH - RIGHT;
-    for (k, name) in names.iter().enumerate().rev() {
+    for (k, series) in group.series.iter().enumerate().rev() {
+        let name = &series.name;
         let w = 7.0 * name.chars().count() as f64 + 30.0;
         x -= w;
         let color = COLORS[k % COLORS.len()];
@@ -319,13 +312,16 @@ mod tests {
                 values: vec![3.0],
             }],
         ] {
-            let svg = plot_svg(&PlotGroup {
-                title: "F <x>".into(),
-                y_label: "force".into(),
-                unit: "N".into(),
-                series,
-                limit: None,
-            });
+            let svg = plot_svg(
+                &PlotGroup {
+                    title: "F <x>".into(),
+                    y_label: "force".into(),
+                    unit: "N".into(),
+                    series,
+                    limit: None,
+                },
+                0,
+            );
             assert!(svg.starts_with("<svg") && svg.ends_with("</svg>"));
             assert!(svg.contains("F &lt;x&gt;") && !svg.contains("NaN") && !svg.contains("inf"));
         }

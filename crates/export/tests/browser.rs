@@ -86,7 +86,7 @@ fn chromium(bin: &Path, url: &str, extra: &[String]) -> Run {
     }
 }
 
-/// The value of attribute `name` on the first element with `id` (or the body for `id = None`).
+/// The value of attribute `name` on the first tag of `dom` that starts with `tag_start`.
 fn attr(dom: &str, tag_start: &str, name: &str) -> Option<String> {
     let at = dom.find(tag_start)?;
     let tag = &dom[at..at + dom[at..].find('>')?];
@@ -198,6 +198,13 @@ fn report_renders_in_headless_chromium() {
             .unwrap_or(0);
         assert!(pixels > 10_000, "the 3D view drew only {pixels} pixels");
     } else {
+        // CI installs Chromium with SwiftShader, so WebGL must work there: a
+        // viewer that wrongly falls back must not pass.
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "viewer state {viewer:?} in CI; stderr:\n{}",
+            run.stderr
+        );
         assert_eq!(viewer, "no-webgl", "viewer state");
         assert!(
             dom.contains("WebGL is not available"),

@@ -99,13 +99,7 @@ mod heat_map {
 
     #[test]
     fn large_grids_are_reduced_keeping_the_worst_value() {
-        let g = Grid {
-            nx: 5000,
-            ny: 300,
-            x0_mm: 0.0,
-            y0_mm: 0.0,
-            spacing_mm: 0.1,
-        };
+        let g = common::grid_at_origin(5000, 300, 0.1);
         let mut values = vec![0.0f32; g.len()];
         values[g.index(2501, 150)] = -30.0;
         values[g.index(10, 10)] = 5.0;
@@ -126,46 +120,22 @@ mod heat_map {
         let dir = tmp();
         let cases = [
             ScalarMap {
-                grid: Grid {
-                    nx: 0,
-                    ny: 0,
-                    x0_mm: 0.0,
-                    y0_mm: 0.0,
-                    spacing_mm: 1.0,
-                },
+                grid: common::grid_at_origin(0, 0, 1.0),
                 values: vec![],
                 unit: "µm".into(),
             },
             ScalarMap {
-                grid: Grid {
-                    nx: 3,
-                    ny: 2,
-                    x0_mm: 0.0,
-                    y0_mm: 0.0,
-                    spacing_mm: 1.0,
-                },
+                grid: common::grid_at_origin(3, 2, 1.0),
                 values: vec![f32::NAN; 6],
                 unit: "µm".into(),
             },
             ScalarMap {
-                grid: Grid {
-                    nx: 1,
-                    ny: 1,
-                    x0_mm: 0.0,
-                    y0_mm: 0.0,
-                    spacing_mm: 0.0,
-                },
+                grid: common::grid_at_origin(1, 1, 0.0),
                 values: vec![2.0],
                 unit: "mm".into(),
             },
             ScalarMap {
-                grid: Grid {
-                    nx: 2,
-                    ny: 3000,
-                    x0_mm: 0.0,
-                    y0_mm: 0.0,
-                    spacing_mm: 1.0,
-                },
+                grid: common::grid_at_origin(2, 3000, 1.0),
                 values: vec![1.0; 6000],
                 unit: "mm".into(),
             },
@@ -252,11 +222,15 @@ mod glb {
         assert_eq!(bb.max, [10.0 + 79.0 * 0.5, -5.0 + 49.0 * 0.5, zhi]);
 
         let colors: Vec<[u8; 4]> = reader.read_colors(0).unwrap().into_rgba_u8().collect();
-        let scale = ColorScale::for_values(&map.values, true);
-        // Vertex 0 is column (0, 0).
+        // Vertex 0 is column (0, 0): positive error (material left), so red,
+        // and the same colour as in the PNG heat map of the same map.
         assert_eq!(pos[0], [10.0, -5.0, h.z_mm[0]]);
-        let [r, g, b] = scale.rgb(f64::from(map.values[0])).unwrap();
-        assert_eq!(colors[0], [r, g, b, 255]);
+        assert!(map.values[0] > 0.0);
+        let c = colors[0];
+        assert!(c[0] > c[2] + 50 && c[3] == 255, "positive is red: {c:?}");
+        let (img, layout) = export::heat_map_image(&map, &HeatMapStyle::new("", "", true)).unwrap();
+        let (px, py) = layout.pixel_of_column(0, 0).unwrap();
+        assert_eq!(c, img.get_pixel(px, py).0, "GLB and PNG agree on colours");
         let normals: Vec<[f32; 3]> = reader.read_normals().unwrap().collect();
         assert!(normals
             .iter()
@@ -265,13 +239,7 @@ mod glb {
 
     #[test]
     fn walls_reach_the_base_and_face_outwards() {
-        let g = Grid {
-            nx: 3,
-            ny: 3,
-            x0_mm: 0.0,
-            y0_mm: 0.0,
-            spacing_mm: 1.0,
-        };
+        let g = common::grid_at_origin(3, 3, 1.0);
         let h = HeightField {
             grid: g,
             z_mm: vec![5.0; 9],
@@ -311,13 +279,7 @@ mod glb {
 
     #[test]
     fn big_grids_are_decimated() {
-        let g = Grid {
-            nx: 1501,
-            ny: 1001,
-            x0_mm: 0.0,
-            y0_mm: 0.0,
-            spacing_mm: 0.1,
-        };
+        let g = common::grid_at_origin(1501, 1001, 0.1);
         let h = HeightField {
             grid: g,
             z_mm: vec![1.0; g.len()],
@@ -342,13 +304,7 @@ mod glb {
         for z in [vec![], vec![f32::NAN; 4], vec![1.0]] {
             let n = (z.len() as f64).sqrt() as usize;
             let h = HeightField {
-                grid: Grid {
-                    nx: n,
-                    ny: n,
-                    x0_mm: 0.0,
-                    y0_mm: 0.0,
-                    spacing_mm: 1.0,
-                },
+                grid: common::grid_at_origin(n, n, 1.0),
                 z_mm: z,
             };
             let (bytes, stats) =
@@ -363,13 +319,7 @@ mod glb {
     fn mismatched_colour_grid_is_an_error() {
         let h = common::height_field();
         let map = ScalarMap {
-            grid: Grid {
-                nx: 2,
-                ny: 2,
-                x0_mm: 0.0,
-                y0_mm: 0.0,
-                spacing_mm: 1.0,
-            },
+            grid: common::grid_at_origin(2, 2, 1.0),
             values: vec![0.0; 4],
             unit: "µm".into(),
         };
@@ -417,13 +367,7 @@ mod csv_columns {
     fn empty_and_mismatched() {
         let dir = tmp();
         let path = dir.path().join("empty.csv");
-        let g = Grid {
-            nx: 0,
-            ny: 0,
-            x0_mm: 0.0,
-            y0_mm: 0.0,
-            spacing_mm: 1.0,
-        };
+        let g = common::grid_at_origin(0, 0, 1.0);
         export::write_column_csv(&path, &g, &[]).unwrap();
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "ix,iy,x_mm,y_mm\n");
         let err =
@@ -473,6 +417,21 @@ mod report {
             .unwrap();
         assert!(longest < export::MAX_PLOT_POINTS + 10, "{longest} segments");
         assert!(html.len() < 2_000_000, "{} bytes", html.len());
+    }
+
+    #[test]
+    fn output_depends_only_on_the_input() {
+        let report = common::report();
+        let html = export::report_html(&report);
+        assert_eq!(
+            html,
+            export::report_html(&report),
+            "same report, same bytes"
+        );
+        // Each plot clips to its own clip path.
+        for k in 0..report.plots.len() {
+            assert_eq!(html.matches(&format!("id=\"plot-clip-{k}\"")).count(), 1);
+        }
     }
 
     #[test]

@@ -14,6 +14,17 @@ pub fn grid() -> Grid {
     }
 }
 
+/// An `nx` × `ny` grid of `spacing_mm` with column (0, 0) at the origin.
+pub fn grid_at_origin(nx: usize, ny: usize, spacing_mm: f64) -> Grid {
+    Grid {
+        nx,
+        ny,
+        x0_mm: 0.0,
+        y0_mm: 0.0,
+        spacing_mm,
+    }
+}
+
 /// A wavy pocket: top at z = 20 with a dish cut into it, and a hole (NaN) in one corner.
 pub fn height_field() -> HeightField {
     let g = grid();
