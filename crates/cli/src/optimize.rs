@@ -11,7 +11,7 @@
 
 use anyhow::{bail, Result};
 use cutting::CuttingModel;
-use dexel::{RemovalRecord, Stock, SweepOptions, Tool};
+use dexel::{Stock, SweepOptions, Tool};
 use nc::Motion;
 use schedule::{CapKind, FeedPolicy, Machine, Stations};
 use serde::Serialize;
@@ -47,7 +47,7 @@ pub fn engagement(stations: &Stations, stock: &Stock, tool: &Tool, model: &Cutti
     let volumes: Vec<f64> = (0..steps.len()).map(|k| record.volume_mm3(k)).collect();
     let window_mm = (ENGAGEMENT_WINDOW_CELLS * stock.grid().spacing_mm).max(2.0 * STATION_DS_MM);
     let area_mm2 = windowed_area(stations.s_mm(), &volumes, window_mm);
-    let compliance_mm_n = (0..steps.len()).map(|k| compliance(&record, k, model)).collect();
+    let compliance_mm_n = (0..steps.len()).map(|k| model.tip_compliance_mm_per_n(record.band_volumes_mm3(k))).collect();
     Ok(Engagement { area_mm2, compliance_mm_n })
 }
 
@@ -108,19 +108,6 @@ pub fn windowed_area(s_mm: &[f64], volumes_mm3: &[f64], window_mm: f64) -> Vec<f
     out
 }
 
-/// Tip deflection per newton when the force is spread over the bands like
-/// the removed volume of step `k` (superposition of band loads).
-fn compliance(record: &RemovalRecord, k: usize, model: &CuttingModel) -> f64 {
-    let bands = record.band_volumes_mm3(k);
-    let total: f64 = bands.iter().sum();
-    if total <= 0.0 {
-        return model.beam.deflection_mm(1.0, 0.0, 0.0);
-    }
-    let loads: Vec<(f64, f64)> =
-        bands.iter().enumerate().filter(|(_, v)| **v > 0.0).map(|(i, v)| ((i as f64 + 0.5) * model.band_height_mm, v / total)).collect();
-    model.beam.deflection_from_band_loads(&loads, 0.0)
-}
-
 /// Feed caps per interval from the limits, with the kind that sets each.
 pub fn interval_caps(
     engagement: &Engagement,
@@ -129,7 +116,7 @@ pub fn interval_caps(
     model: &CuttingModel,
     tool: &Tool,
 ) -> Vec<(f64, CapKind)> {
-    let force_cap_v = |force_max_n: f64| (force_max_n / model.force_coef_a).powf(1.0 / model.force_exp_n);
+    let force_cap_v = |force_max_n: f64| cutting::volume_per_tooth_at_force_mm3(force_max_n, model.force_coef_a, model.force_exp_n);
     let per_rev = model.flutes as f64 * model.spindle_rpm;
     let tangents = stations.tangent();
     engagement

@@ -73,7 +73,8 @@ pub fn fit_force_law(points: &[(f64, f64)]) -> Result<Fit, FitError> {
             points: points.len(),
         });
     }
-    // Normal equations of ln F = ln a + n ln V: n = Sxy / Sxx, ln a = ȳ − n x̄
+    // DESIGN §2 S4 force law in logs, ln F = ln a + n ln V; normal equations:
+    // n = Sxy / Sxx, ln a = ȳ − n x̄
     let n = sxy / sxx;
     let ln_a = mean_y - n * mean_x;
     let (sum_log2, sum_rel2) = points.iter().fold((0.0, 0.0), |(sl, sr), (v, f)| {

@@ -6,7 +6,7 @@
 ///
 /// `flutes`, `spindle_rpm` and `dt_s` must be positive; otherwise the result is not finite.
 pub fn volume_per_tooth_mm3(step_volume_mm3: f64, flutes: u32, spindle_rpm: f64, dt_s: f64) -> f64 {
-    // V = volume / (flutes · rpm · Δt / 60)
+    // DESIGN §3: V = A·fz with fz = F/(flutes·rpm); per step V = volume / (flutes·rpm·Δt/60)
     let tooth_passes = f64::from(flutes) * spindle_rpm * dt_s / 60.0;
     step_volume_mm3 / tooth_passes
 }
@@ -17,8 +17,15 @@ pub fn force_n(v_mm3: f64, a: f64, n: f64) -> f64 {
     if v_mm3 <= 0.0 {
         return 0.0;
     }
-    // F = a · V^n
+    // DESIGN §2 S4: F = a · V^n
     a * v_mm3.powf(n)
+}
+
+/// The inverse of [`force_n`]: the volume per tooth (mm³/rev/tooth) at which the force law
+/// gives `force_n` (used to turn a force limit into a feed cap).
+pub fn volume_per_tooth_at_force_mm3(force_n: f64, a: f64, n: f64) -> f64 {
+    // DESIGN §2 S4: F = a · V^n  ⇒  V = (F / a)^(1/n)
+    (force_n / a).powf(1.0 / n)
 }
 
 #[cfg(test)]
@@ -42,5 +49,15 @@ mod tests {
         assert_eq!(force_n(1.0, 250.0, 0.7), 250.0);
         assert_eq!(force_n(0.0, 250.0, 0.7), 0.0);
         assert_eq!(force_n(-1.0, 250.0, 0.7), 0.0);
+    }
+
+    #[test]
+    fn force_law_inverse() {
+        // (485.678 / 800)^(1/0.72) = 0.5 (to the rounding of 485.678).
+        assert!((volume_per_tooth_at_force_mm3(485.677_6, 800.0, 0.72) - 0.5).abs() < 1e-6);
+        for v in [0.01, 0.3, 2.0] {
+            let f = force_n(v, 250.0, 0.7);
+            assert!((volume_per_tooth_at_force_mm3(f, 250.0, 0.7) - v).abs() < 1e-12 * v.max(1.0));
+        }
     }
 }

@@ -21,7 +21,7 @@ pub mod surface;
 
 pub use beam::Cantilever;
 pub use calibration::{fit_force_law, Fit, FitError};
-pub use force::{force_n, volume_per_tooth_mm3};
+pub use force::{force_n, volume_per_tooth_at_force_mm3, volume_per_tooth_mm3};
 pub use load::{force_direction, CuttingModel, StepLoad};
 pub use material::Material;
 pub use surface::{surface_error_um, surface_normals_from_heights};

@@ -16,6 +16,7 @@ const MIN_RESULTANT: f64 = 1e-12;
 /// The material pushes the tool away from itself, so the force acts opposite to the resultant.
 /// Returns `[0, 0]` when the horizontal resultant is (nearly) zero, e.g. a pure plunge.
 pub fn force_direction(contact_resultant: [f64; 3]) -> [f64; 2] {
+    // DESIGN §2 S4: the contact resultant is the force direction; the tool yields along its reaction.
     let [x, y, _] = contact_resultant;
     let len = x.hypot(y);
     if len.is_nan() || len <= MIN_RESULTANT {
@@ -59,12 +60,34 @@ pub struct CuttingModel {
 }
 
 impl CuttingModel {
+    /// Tip deflection in mm per newton of cutting force when the force is spread over the
+    /// tool's height bands like `band_volumes_mm3`: band k carries the share
+    /// `band_volumes_mm3[k] / Σ band_volumes_mm3` at its mid-height `(k + ½)·h` above the tip
+    /// (DESIGN §3 "Bands"; superposition of [`Cantilever::deflection_mm`]). With no volume in
+    /// the bands the whole force acts at the tip, the largest deflection for that force.
+    ///
+    /// Does not allocate.
+    pub fn tip_compliance_mm_per_n(&self, band_volumes_mm3: &[f64]) -> f64 {
+        let band_total_mm3: f64 = band_volumes_mm3.iter().filter(|v| **v > 0.0).sum();
+        if band_total_mm3 <= 0.0 {
+            return self.beam.deflection_mm(1.0, 0.0, 0.0);
+        }
+        band_volumes_mm3
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| **v > 0.0)
+            .map(|(k, v)| {
+                let mid_height_mm = (k as f64 + 0.5) * self.band_height_mm;
+                self.beam
+                    .deflection_mm(v / band_total_mm3, mid_height_mm, 0.0)
+            })
+            .sum()
+    }
+
     /// Load of one step that removed `step_volume_mm3` in `dt_s` seconds.
     ///
     /// * Force: `F = a · V^n` with V from [`volume_per_tooth_mm3`].
-    /// * Distribution: band k carries `F · band_volumes_mm3[k] / Σ band_volumes_mm3`, acting at
-    ///   the band's mid-height `(k + ½)·h` above the tip. If the bands hold no volume the whole
-    ///   force acts at the tip (the largest deflection for that force).
+    /// * Deflection: `F ·` [`CuttingModel::tip_compliance_mm_per_n`] of the band volumes.
     /// * Direction: [`force_direction`] of `contact_resultant`; the tool bends along the force.
     ///
     /// Does not allocate.
@@ -77,21 +100,8 @@ impl CuttingModel {
     ) -> StepLoad {
         let v_mm3 = volume_per_tooth_mm3(step_volume_mm3, self.flutes, self.spindle_rpm, dt_s);
         let force = force_n(v_mm3, self.force_coef_a, self.force_exp_n);
-        let band_total_mm3: f64 = band_volumes_mm3.iter().filter(|v| **v > 0.0).sum();
-        let tip_deflection_mm = if band_total_mm3 > 0.0 {
-            band_volumes_mm3
-                .iter()
-                .enumerate()
-                .filter(|(_, v)| **v > 0.0)
-                .map(|(k, v)| {
-                    let mid_height_mm = (k as f64 + 0.5) * self.band_height_mm;
-                    self.beam
-                        .deflection_mm(force * v / band_total_mm3, mid_height_mm, 0.0)
-                })
-                .sum()
-        } else {
-            self.beam.deflection_mm(force, 0.0, 0.0)
-        };
+        // The beam is linear: deflection = force · compliance.
+        let tip_deflection_mm = force * self.tip_compliance_mm_per_n(band_volumes_mm3);
         let [ux, uy] = force_direction(contact_resultant);
         let deflection_um = tip_deflection_mm * 1000.0;
         StepLoad {
@@ -148,6 +158,9 @@ mod tests {
         // Close to the tip the bands barely shorten the lever: a bit less than F L³/(3EI).
         let tip_only_um = 1000.0 * MODEL.beam.deflection_mm(f, 0.0, 0.0);
         assert!(load.deflection_um < tip_only_um && load.deflection_um > 0.95 * tip_only_um);
+        // Only the shares matter, not the volumes' scale.
+        let compliance = MODEL.tip_compliance_mm_per_n(&[3.0, 0.0, 1.0]);
+        assert!((1000.0 * f * compliance - load.deflection_um).abs() < 1e-9);
     }
 
     #[test]

@@ -17,7 +17,7 @@ pub fn surface_error_um(deflection_xy_um: [f64; 2], surface_normal: [f64; 3]) ->
     if len.is_nan() || len == 0.0 {
         return f64::NAN;
     }
-    // e = δ · n̂ (positive: material left)
+    // DESIGN §3 "Error map": e = δ · n̂ (positive: material left)
     (deflection_xy_um[0] * nx + deflection_xy_um[1] * ny) / len
 }
 
