@@ -140,8 +140,7 @@ pub fn plan(stations: &Stations) -> Profile<'_> {
             if window_s > 0.0 {
                 interval_integral_mm_s.push(integral_mm_s);
                 let a = (v[k + 1] - v[k]) / dt;
-                integral_mm_s +=
-                    (s[k] - s[first]) * dt + v[k] * dt * dt / 2.0 + a * dt * dt * dt / 6.0;
+                integral_mm_s += integral_over_mm_s(s[k] - s[first], v[k], a, dt);
             }
             t_s += dt;
         }
@@ -207,6 +206,12 @@ fn erode(caps: &[f64], s: &[f64], first: usize, last: usize, window_s: f64, out:
     }
 }
 
+/// ∫ (s − s_first) dt over the first `h_s` seconds of an interval that starts `offset_mm` past
+/// the run's first station at speed `v0_mm_s` with constant acceleration `a_mm_s2`, mm·s.
+fn integral_over_mm_s(offset_mm: f64, v0_mm_s: f64, a_mm_s2: f64, h_s: f64) -> f64 {
+    offset_mm * h_s + v0_mm_s * h_s * h_s / 2.0 + a_mm_s2 * h_s * h_s * h_s / 6.0
+}
+
 /// Where a planned run is at a time: arc length, speed and ∫ (s − s_first) dt.
 #[derive(Clone, Copy, Debug)]
 struct RunState {
@@ -215,12 +220,7 @@ struct RunState {
     integral_mm_s: f64,
 }
 
-impl<'a> Profile<'a> {
-    /// The stations this profile runs over.
-    pub fn stations(&self) -> &'a Stations {
-        self.stations
-    }
-
+impl Profile<'_> {
     /// Planned speed at each station, mm/s (before the jerk filter, if any).
     pub fn speed_mm_s(&self) -> &[f64] {
         &self.speed_mm_s
@@ -229,11 +229,6 @@ impl<'a> Profile<'a> {
     /// Time at which the planned motion leaves station k towards k+1, s.
     pub fn interval_start_s(&self) -> &[f64] {
         &self.interval_start_s
-    }
-
-    /// Planned time from station k to k+1, s (before the jerk filter, if any).
-    pub fn interval_dt_s(&self) -> &[f64] {
-        &self.interval_dt_s
     }
 
     /// Width of the jerk filter's moving average, s (0 without a jerk limit).
@@ -343,7 +338,7 @@ impl<'a> Profile<'a> {
         let a = (v1 - v0) / dt;
         let s_mm = (s[k] + v0 * h + a * h * h / 2.0).min(s[k + 1]);
         let integral_mm_s = match self.interval_integral_mm_s.get(k) {
-            Some(i0) => i0 + (s[k] - s_first) * h + v0 * h * h / 2.0 + a * h * h * h / 6.0,
+            Some(i0) => i0 + integral_over_mm_s(s[k] - s_first, v0, a, h),
             None => 0.0,
         };
         RunState {

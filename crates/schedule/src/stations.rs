@@ -218,11 +218,10 @@ impl Stations {
                         }),
                         None => {
                             let jump = start_tangent - st.segments[prev].tangent_at_fraction(1.0);
+                            // Corner rule: v·|Δt_i| ≤ a_i·T/2 on every axis.
                             let period_s = machine.period_s();
-                            let corner_mm_s = (0..3)
-                                .filter(|&i| jump[i] != 0.0)
-                                .map(|i| 0.5 * machine.accel_mm_s2[i] * period_s / jump[i].abs())
-                                .fold(f64::INFINITY, f64::min);
+                            let corner_mm_s =
+                                along(&jump, machine.accel_mm_s2.map(|a| 0.5 * a * period_s));
                             st.lower_cap(junction, 60.0 * corner_mm_s, CapKind::Corner);
                             corners.push((junction, jump));
                         }
@@ -300,7 +299,8 @@ impl Stations {
         let a_max = a.iter().copied().fold(0.0, f64::max);
         for &(c, jump) in corners {
             let v_c = self.cap_mm_min[c] / 60.0;
-            let budget: [f64; 3] = std::array::from_fn(|i| (a[i] - v_c * jump[i].abs() / period_s).max(0.5 * a[i]));
+            let budget: [f64; 3] =
+                std::array::from_fn(|i| (a[i] - v_c * jump[i].abs() / period_s).max(0.5 * a[i]));
             let (s_c, reach) = (self.s_mm[c], (v_c + a_max * period_s) * period_s);
             // Intervals k → k+1 overlapping [s_c − reach, s_c + reach].
             let mut k = c;
@@ -308,7 +308,8 @@ impl Stations {
                 k -= 1;
             }
             while k + 1 < self.s_mm.len() && self.s_mm[k] < s_c + reach {
-                let limit = along(&self.tangent[k], budget).min(along(&self.tangent[k + 1], budget));
+                let limit =
+                    along(&self.tangent[k], budget).min(along(&self.tangent[k + 1], budget));
                 let accel = &mut self.interval_accel_mm_s2[k];
                 *accel = accel.min(limit);
                 k += 1;

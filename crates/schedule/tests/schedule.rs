@@ -61,6 +61,15 @@ fn stations(segments: Vec<Segment>, machine: &Machine, ds_mm: f64) -> Stations {
     Stations::new(&path(segments), machine, ds_mm, FeedPolicy::Programmed).unwrap()
 }
 
+/// A single line from the origin to `end` at [`FEED`], default machine, stations every 0.05 mm.
+fn line_from_origin(end: Point3<f64>) -> Stations {
+    stations(
+        vec![line(p(0.0, 0.0, 0.0), end, FEED)],
+        &Machine::default(),
+        0.05,
+    )
+}
+
 fn close(actual: f64, expected: f64, tol: f64) {
     assert!(
         (actual - expected).abs() <= tol,
@@ -84,12 +93,7 @@ fn trapezoid_s(t: f64, len: f64, v: f64, a: f64) -> f64 {
 
 #[test]
 fn straight_move_is_trapezoidal() {
-    let machine = Machine::default();
-    let st = stations(
-        vec![line(p(0.0, 0.0, 0.0), p(100.0, 0.0, 0.0), FEED)],
-        &machine,
-        0.05,
-    );
+    let st = line_from_origin(p(100.0, 0.0, 0.0));
     let profile = plan(&st);
     let (v, len) = (50.0, 100.0);
     close(profile.cycle_time_s(), len / v + v / ACCEL, 1e-9);
@@ -111,11 +115,7 @@ fn straight_move_is_trapezoidal() {
 
 #[test]
 fn short_move_is_triangular() {
-    let st = stations(
-        vec![line(p(0.0, 0.0, 0.0), p(0.0, 1.0, 0.0), FEED)],
-        &Machine::default(),
-        0.05,
-    );
+    let st = line_from_origin(p(0.0, 1.0, 0.0));
     let profile = plan(&st);
     close(profile.cycle_time_s(), 2.0 * (1.0 / ACCEL).sqrt(), 1e-12);
     let samples = profile.sample(1.0);
@@ -133,11 +133,7 @@ fn short_move_is_triangular() {
 
 #[test]
 fn constant_caps_give_exactly_the_cap_inside() {
-    let st = stations(
-        vec![line(p(0.0, 0.0, 0.0), p(30.0, 40.0, 0.0), FEED)],
-        &Machine::default(),
-        0.05,
-    );
+    let st = line_from_origin(p(30.0, 40.0, 0.0));
     let profile = plan(&st);
     // Diagonal (0.6, 0.8): tangential limit 1000 / 0.8 = 1250 mm/s², ramp 50² / 2500 = 1 mm.
     for (s, v) in st.s_mm().iter().zip(profile.speed_mm_s()) {
@@ -196,7 +192,6 @@ fn corner_runs_at_the_corner_rule_speed_and_axes_keep_their_limits() {
     close(profile.speed_mm_s()[corner], ACCEL * 0.016 / 2.0, 1e-12);
 
     let period_s = 0.016;
-    let t_corner = profile.interval_start_s()[corner];
     let samples = profile.sample(16.0);
     let uniform = &samples[..samples.len() - 1];
     for j in 1..uniform.len() - 1 {
@@ -205,7 +200,6 @@ fn corner_runs_at_the_corner_rule_speed_and_axes_keep_their_limits() {
             / (period_s * period_s);
         // Everywhere, the corner included: the corner rule's one-period velocity step
         // (≤ a_i·T/2) and the ramps beside it (weighted ≤ 1/2 each side) stay within a_i.
-        let _ = t_corner;
         for i in 0..3 {
             assert!(
                 accel[i].abs() <= ACCEL * (1.0 + 1e-6),
@@ -480,11 +474,7 @@ fn feed_policies_and_rapids() {
 
 #[test]
 fn time_shares_split_cruise_and_ramps() {
-    let st = stations(
-        vec![line(p(0.0, 0.0, 0.0), p(100.0, 0.0, 0.0), FEED)],
-        &Machine::default(),
-        0.05,
-    );
+    let st = line_from_origin(p(100.0, 0.0, 0.0));
     let profile = plan(&st);
     let shares = profile.time_at_cap_share();
     close(shares.iter().map(|s| s.1).sum::<f64>(), 1.0, 1e-12);
@@ -580,11 +570,7 @@ fn dwell_only_program_stands_still() {
 
 #[test]
 fn axis_velocity_follows_the_segments() {
-    let st = stations(
-        vec![line(p(0.0, 0.0, 0.0), p(0.0, 0.0, -20.0), FEED)],
-        &Machine::default(),
-        0.05,
-    );
+    let st = line_from_origin(p(0.0, 0.0, -20.0));
     let samples = plan(&st).sample(16.0);
     let velocity = axis_velocity_mm_s(&samples);
     assert_eq!(velocity.len(), samples.len() - 1);

@@ -11,7 +11,7 @@ pub fn max_jerk_mm_s3(actual: &[[f64; 3]], period_s: f64) -> [f64; 3] {
     let mut max = [0.0f64; 3];
     for w in actual.windows(4) {
         for axis in 0..3 {
-            // j ≈ (x₃ − 3x₂ + 3x₁ − x₀) / T³
+            // DESIGN §2 S2 (largest |jerk| per axis): j ≈ (x₃ − 3x₂ + 3x₁ − x₀) / T³
             let third = w[3][axis] - 3.0 * w[2][axis] + 3.0 * w[1][axis] - w[0][axis];
             max[axis] = max[axis].max(third.abs() / t3);
         }
@@ -79,7 +79,7 @@ pub fn evaluate(
         va,
         vb,
         vc,
-        // V = Ka·Va + Kb·Vb + Kc·Vc
+        // DESIGN §2 S2: V = Ka·Va + Kb·Vb + Kc·Vc
         evaluation: weights.ka * va + weights.kb * vb + weights.kc * vc,
     }
 }
@@ -109,8 +109,9 @@ mod tests {
 
     #[test]
     fn score_by_hand() {
-        // Ramp at 25 mm/s for 1 s, Kp = 30/s: the lagging actual stays on the line (error 0),
-        // the start from rest is a velocity step (jerk ≈ v·Kp/T at the first samples).
+        // Ramp at 25 mm/s for 1 s, Kp = 30/s: the lagging actual stays on the line (error 0).
+        // Starting from rest, x_k = v·k·T − (v/Kp)(1 − d^k) with d = e^{−Kp T}, so the third
+        // difference is largest in the first window: (v/Kp)(1 − d)³/T³ ≈ v·Kp² = 22 500 mm/s³.
         let t = 0.001;
         let cmd: Vec<_> = (0..=1000)
             .map(|k| [25.0 * k as f64 * t, 0.0, 0.0])
@@ -127,9 +128,10 @@ mod tests {
         let e = evaluate(&cmd, &act, t, &w);
         assert!(e.trajectory_error_mm < 1e-12);
         assert!((e.machining_time_s - 1.0).abs() < 1e-12 && (e.vb - 0.5).abs() < 1e-12);
-        let j = max_jerk_mm_s3(&act, t)[0];
-        assert_eq!(e.max_jerk_mm_s3[0], j);
-        assert!((e.vc - j / 1e5).abs() < 1e-15);
+        let j = 25.0 / 30.0 * (1.0 - (-30.0 * t).exp()).powi(3) / t.powi(3);
+        assert!((e.max_jerk_mm_s3[0] / j - 1.0).abs() < 1e-6, "{e:?} vs {j}");
+        assert_eq!(&e.max_jerk_mm_s3[1..], &[0.0, 0.0]);
+        assert!((e.vc - j / 1e5).abs() < 1e-9);
         assert!((e.evaluation - (2.0 * e.va + 0.5 + 0.5 * e.vc)).abs() < 1e-12);
 
         // Same command with a constant 0.02 mm offset in y: Va = 2.
