@@ -45,6 +45,7 @@ pub fn load(job: &Job) -> Result<Program> {
 /// point at the highest Z of the program (see [`default_start`]).
 pub fn parse_gcode(text: &str, file: &str, job: &Job) -> Result<Program> {
     let mut options = nc::Options { work_offsets_mm: job.offsets.as_array(), ..nc::Options::default() };
+    options.initial_position_mm = job.machine.start.unwrap_or_default();
     let mut parsed = nc::parse(text, file, &options);
     let errors: Vec<String> = parsed.diagnostics.iter().filter(|d| d.is_error()).map(|d| d.to_string()).collect();
     if !errors.is_empty() {
@@ -53,8 +54,11 @@ pub fn parse_gcode(text: &str, file: &str, job: &Job) -> Result<Program> {
     if parsed.path.segments.is_empty() {
         bail!("{file}: the program has no motion");
     }
-    options.initial_position_mm = job.machine.start.unwrap_or_else(|| default_start(&parsed.path));
-    parsed = nc::parse(text, file, &options);
+    if job.machine.start.is_none() {
+        // The default start depends on the path read from the origin: read it again from there.
+        options.initial_position_mm = default_start(&parsed.path);
+        parsed = nc::parse(text, file, &options);
+    }
     for d in parsed.diagnostics.iter().filter(|d| !d.is_error()) {
         eprintln!("warning: {d}");
     }

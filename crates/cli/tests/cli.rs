@@ -536,3 +536,29 @@ fn evaluate_accepts_optimize_servo_data() {
     assert!((vb - t / before).abs() < 0.02 / before, "Vb {vb} vs {}", t / before);
     assert!(vb < 0.9);
 }
+
+/// `[machine] start` is where the tool begins; by default it begins above the
+/// first programmed point at the program's highest Z.
+#[test]
+fn machine_start_is_where_the_tool_begins() {
+    let dir = tempdir();
+    write(dir.path(), "slot.ngc", "G21 G90\nG0 X-10 Y0\nG0 Z28\nG1 X110 F1200\n");
+    write(dir.path(), "job.toml", &gcode_slot_job());
+    ok(&dexcut(&["simulate", "job.toml", "--out", "default"], dir.path()));
+    write(dir.path(), "job.toml", &(gcode_slot_job() + "start = [-10, 0, 60]\n"));
+    ok(&dexcut(&["simulate", "job.toml", "--out", "given"], dir.path()));
+    let first = |out: &str| {
+        let c = csv_columns(&dir.path().join(out).join("steps.csv"));
+        let top = c["z"].iter().cloned().fold(f64::MIN, f64::max);
+        (c["x"][0], top, *c["t_s"].last().unwrap())
+    };
+    // Default: read from the origin, the first move ends at (−10, 0, 0) and the highest
+    // Z is 28, so the tool starts at (−10, 0, 28): the rapids do not move it and the
+    // first period already feeds along X at Z 28.
+    let (x, top, t_default) = first("default");
+    assert!(x > -10.0 && x < -9.0 && top == 28.0, "{x} {top}");
+    // Given: it starts 32 mm higher, so the first periods come down X = −10.
+    let (x, top, t_given) = first("given");
+    assert!(x == -10.0 && top < 60.0 && top > 28.0, "{x} {top}");
+    assert!(t_given > t_default);
+}
