@@ -151,21 +151,7 @@ pub fn parse_param(cur: &mut Cursor, depth: u32) -> Result<ParamRef, SyntaxError
     }
     cur.bump(); // '#'
     if cur.peek() == Some('<') {
-        cur.bump();
-        let mut name = String::new();
-        loop {
-            match cur.peek() {
-                Some('>') => {
-                    cur.bump();
-                    break;
-                }
-                Some(c) => {
-                    name.push(c);
-                    cur.bump();
-                }
-                None => return Err(cur.error("named parameter not closed with '>'")),
-            }
-        }
+        let name = cur.angle_name("named parameter not closed with '>'")?;
         if name.is_empty() {
             return Err(cur.error("empty parameter name"));
         }
@@ -216,10 +202,8 @@ fn reduce(operands: &mut Vec<Expr>, operators: &mut Vec<BinOp>) {
 }
 
 fn read_operator(cur: &mut Cursor) -> Result<BinOp, SyntaxError> {
-    for (text, op) in OPS {
-        if cur.eat_str(text) {
-            return Ok(op);
-        }
+    if let Some(op) = cur.eat_any(&OPS) {
+        return Ok(op);
     }
     match cur.peek() {
         None => Err(cur.error("expression not closed with ']'")),
@@ -251,11 +235,9 @@ fn parse_function(cur: &mut Cursor, depth: u32) -> Result<Expr, SyntaxError> {
         }
         return Ok(Expr::Exists(name));
     }
-    for (name, f) in FUNCS {
-        if cur.eat_str(name) {
-            expect_bracket(cur)?;
-            return Ok(Expr::Func(f, Box::new(parse_bracketed(cur, depth + 1)?)));
-        }
+    if let Some(f) = cur.eat_any(&FUNCS) {
+        expect_bracket(cur)?;
+        return Ok(Expr::Func(f, Box::new(parse_bracketed(cur, depth + 1)?)));
     }
     let word: String = cur.rest().chars().take_while(|c| c.is_ascii_alphabetic()).collect();
     Err(cur.error(&format!("expected a number, found '{word}'")))

@@ -5,6 +5,7 @@
 //! scaled by 25.4 under G20 and shifted by the active work offset and G92.
 
 use std::collections::HashMap;
+use std::rc::Rc;
 
 use nalgebra::Point3;
 
@@ -50,13 +51,6 @@ pub struct Parsed {
     pub diagnostics: Vec<Diagnostic>,
 }
 
-impl Parsed {
-    /// True when any diagnostic is an error.
-    pub fn has_errors(&self) -> bool {
-        self.diagnostics.iter().any(|d| d.severity == Severity::Error)
-    }
-}
-
 /// Per-segment facts the re-feed writer needs (modes in force at the block).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SegmentTrace {
@@ -76,7 +70,11 @@ pub struct SegmentTrace {
 
 /// What [`run`] returns besides the parse result.
 pub struct Trace {
+    /// One per path segment.
     pub segments: Vec<SegmentTrace>,
+    /// Every source line as parsed (`None`: syntax error), split at `\n`
+    /// with a trailing `\r` removed.
+    pub lines: Rc<[Option<syntax::Line>]>,
 }
 
 /// An execution error at a column.
@@ -115,6 +113,15 @@ impl Block {
     }
     fn has_axes(&self) -> bool {
         ['x', 'y', 'z'].iter().any(|&c| self.get(c).is_some())
+    }
+    /// Sets a two-state mode from the block's G code for it, if any (the two
+    /// codes share a modal group, so at most one is present).
+    fn set_mode(&self, mode: &mut bool, off_code: i32, on_code: i32) {
+        if self.has_g(on_code).is_some() {
+            *mode = true;
+        } else if self.has_g(off_code).is_some() {
+            *mode = false;
+        }
     }
 }
 
@@ -164,7 +171,8 @@ enum Frame {
 struct Interp<'a> {
     file: &'a str,
     options: &'a Options,
-    lines: Vec<Option<syntax::Line>>,
+    /// Shared so that executing a line needs no copy of it.
+    lines: Rc<[Option<syntax::Line>]>,
     params: Params,
     pos: [f64; 3],
     scale: f64,
@@ -201,7 +209,7 @@ pub fn run(source: &str, file: &str, options: &Options) -> (Parsed, Trace) {
     let mut it = Interp {
         file,
         options,
-        lines: Vec::new(),
+        lines: Rc::new([]),
         params: Params::default(),
         pos: options.initial_position_mm,
         scale: 1.0,
@@ -230,19 +238,21 @@ pub fn run(source: &str, file: &str, options: &Options) -> (Parsed, Trace) {
         line_index: 0,
         feed_scale: 1.0,
     };
+    let mut lines = Vec::new();
     for (i, text) in source.split('\n').enumerate() {
         let text = text.strip_suffix('\r').unwrap_or(text);
         match syntax::parse_line(text) {
-            Ok(line) => it.lines.push(Some(line)),
+            Ok(line) => lines.push(Some(line)),
             Err(e) => {
                 it.line_index = i;
                 it.report(e.col, e.message);
-                it.lines.push(None);
+                lines.push(None);
             }
         }
     }
+    it.lines = lines.into();
     it.execute();
-    let trace = Trace { segments: it.trace };
+    let trace = Trace { segments: it.trace, lines: it.lines };
     (Parsed { path: it.path, diagnostics: it.diagnostics }, trace)
 }
 
@@ -261,7 +271,8 @@ impl Interp<'_> {
         let mut pc = 0usize;
         let mut executed = 0u64;
         let mut seen_percent = false;
-        while pc < self.lines.len() {
+        let lines = Rc::clone(&self.lines);
+        while pc < lines.len() {
             executed += 1;
             if executed > self.options.max_blocks {
                 self.line_index = pc;
@@ -269,7 +280,7 @@ impl Interp<'_> {
                 return;
             }
             self.line_index = pc;
-            let Some(line) = self.lines[pc].clone() else {
+            let Some(line) = &lines[pc] else {
                 pc += 1;
                 continue;
             };
@@ -359,16 +370,14 @@ impl Interp<'_> {
             }
             K::If => {
                 let mut i = pc;
-                let mut stmt = s.clone();
+                let mut stmt = s;
                 loop {
-                    if self.cond(&stmt)? {
+                    if self.cond(stmt)? {
                         return Ok(Some(i + 1));
                     }
                     i = self.find_o(i, &s.label, &[K::ElseIf, K::Else, K::EndIf], true).ok_or_else(|| missing("endif"))?;
                     match &self.lines[i] {
-                        Some(syntax::Line { kind: LineKind::OWord(next), .. }) if next.keyword == K::ElseIf => {
-                            stmt = next.clone();
-                        }
+                        Some(syntax::Line { kind: LineKind::OWord(next), .. }) if next.keyword == K::ElseIf => stmt = next,
                         _ => return Ok(Some(i + 1)),
                     }
                 }
@@ -496,12 +505,7 @@ impl Interp<'_> {
         if let Some(col) = g_col(950) {
             return fail(col, "G95 feed per revolution is not supported");
         }
-        if g_col(930).is_some() {
-            self.inverse_time = true;
-        }
-        if g_col(940).is_some() {
-            self.inverse_time = false;
-        }
+        b.set_mode(&mut self.inverse_time, 940, 930);
         if let Some(f) = b.get('f') {
             if f < 0.0 {
                 return fail(b.col('f'), "negative feed rate");
@@ -522,8 +526,8 @@ impl Interp<'_> {
         if b.has_m(5) {
             self.spindle_on = false;
         }
-        if g_col(40).is_some() {
-            let p = b.get('p').ok_or(Fail { col: g_col(40).unwrap_or(1), msg: "G4 needs a P word (seconds)".into() })?;
+        if let Some(col) = g_col(40) {
+            let p = b.get('p').ok_or(Fail { col, msg: "G4 needs a P word (seconds)".into() })?;
             if p < 0.0 {
                 return fail(b.col('p'), "negative dwell time");
             }
@@ -565,24 +569,9 @@ impl Interp<'_> {
                 return fail(col, format!("{} is not supported", g_name(code)));
             }
         }
-        if g_col(900).is_some() {
-            self.incremental = false;
-        }
-        if g_col(910).is_some() {
-            self.incremental = true;
-        }
-        if g_col(901).is_some() {
-            self.arc_incremental = false;
-        }
-        if g_col(911).is_some() {
-            self.arc_incremental = true;
-        }
-        if g_col(980).is_some() {
-            self.retract_to_start = true;
-        }
-        if g_col(990).is_some() {
-            self.retract_to_start = false;
-        }
+        b.set_mode(&mut self.incremental, 900, 910);
+        b.set_mode(&mut self.arc_incremental, 901, 911);
+        b.set_mode(&mut self.retract_to_start, 990, 980);
         // Non-modal group 0.
         let axis_user = b.g.iter().find(|g| matches!(g.0, 100 | 280 | 300 | 920));
         let motion_code = b.g.iter().find(|g| g_group(g.0) == Some(1)).copied();
@@ -862,9 +851,9 @@ impl Interp<'_> {
             sweep = tau;
         }
         sweep += (turns - 1.0) * tau;
-        let length = ((r * sweep).powi(2) + (end[n] - start[n]).powi(2)).sqrt();
-        let motion = self.feed_motion(b, length)?;
-        self.push(end, Geometry::Arc { center: Point3::from(center), plane: self.plane, clockwise, sweep_rad: sweep }, motion, pc, false);
+        let geometry = Geometry::Arc { center: Point3::from(center), plane: self.plane, clockwise, sweep_rad: sweep };
+        let motion = self.feed_motion(b, geometry.length_mm(&Point3::from(start), &Point3::from(end)))?;
+        self.push(end, geometry, motion, pc, false);
         Ok(())
     }
 

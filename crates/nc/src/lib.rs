@@ -4,10 +4,10 @@
 //! Entry points: [`parse`], and [`refeed`] to write a program back with new feeds. The reader never stops at the first problem and
 //! never panics; every problem is a [`Diagnostic`] with file, line and column.
 mod cycles;
-pub mod diag;
+mod diag;
 mod expr;
 mod interp;
-pub mod path;
+mod path;
 mod refeed;
 mod syntax;
 

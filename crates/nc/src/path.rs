@@ -73,22 +73,7 @@ pub struct Segment {
 impl Segment {
     /// Path length in mm (arc length for arcs, helix included).
     pub fn length_mm(&self) -> f64 {
-        match self.geometry {
-            Geometry::Line => (self.end - self.start).norm(),
-            Geometry::Arc { center, plane, sweep_rad, .. } => {
-                let (a, b, n) = plane.axes();
-                let r = ((self.start[a] - center[a]).powi(2) + (self.start[b] - center[b]).powi(2)).sqrt();
-                let h = self.end[n] - self.start[n];
-                ((r * sweep_rad).powi(2) + h * h).sqrt()
-            }
-        }
-    }
-
-    /// Point at arc length `s_mm` from the start (clamped to the segment).
-    pub fn point_at(&self, s_mm: f64) -> Point3<f64> {
-        let len = self.length_mm();
-        let u = if len > 0.0 { (s_mm / len).clamp(0.0, 1.0) } else { 0.0 };
-        self.point_at_fraction(u)
+        self.geometry.length_mm(&self.start, &self.end)
     }
 
     /// Point at fraction `u` ∈ [0, 1] of the segment.
@@ -97,9 +82,8 @@ impl Segment {
             Geometry::Line => self.start + (self.end - self.start) * u,
             Geometry::Arc { center, plane, clockwise, sweep_rad } => {
                 let (a, b, n) = plane.axes();
-                let (sa, sb) = (self.start[a] - center[a], self.start[b] - center[b]);
-                let r = (sa * sa + sb * sb).sqrt();
-                let a0 = sb.atan2(sa);
+                let r = arc_radius(&center, plane, &self.start);
+                let a0 = (self.start[b] - center[b]).atan2(self.start[a] - center[a]);
                 let ang = if clockwise { a0 - sweep_rad * u } else { a0 + sweep_rad * u };
                 let mut p = self.start;
                 p[a] = center[a] + r * ang.cos();
@@ -137,12 +121,31 @@ impl Segment {
     pub fn radius_mm(&self) -> f64 {
         match self.geometry {
             Geometry::Line => f64::INFINITY,
-            Geometry::Arc { center, plane, .. } => {
-                let (a, b, _) = plane.axes();
-                ((self.start[a] - center[a]).powi(2) + (self.start[b] - center[b]).powi(2)).sqrt()
+            Geometry::Arc { center, plane, .. } => arc_radius(&center, plane, &self.start),
+        }
+    }
+}
+
+impl Geometry {
+    /// Length in mm of this shape from `start` to `end` (arc length for
+    /// arcs, helix included); what [`Segment::length_mm`] returns.
+    pub(crate) fn length_mm(&self, start: &Point3<f64>, end: &Point3<f64>) -> f64 {
+        match *self {
+            Geometry::Line => (end - start).norm(),
+            Geometry::Arc { center, plane, sweep_rad, .. } => {
+                let n = plane.axes().2;
+                let r = arc_radius(&center, plane, start);
+                let h = end[n] - start[n];
+                ((r * sweep_rad).powi(2) + h * h).sqrt()
             }
         }
     }
+}
+
+/// Distance in the arc plane from `center` to `point`.
+fn arc_radius(center: &Point3<f64>, plane: Plane, point: &Point3<f64>) -> f64 {
+    let (a, b, _) = plane.axes();
+    ((point[a] - center[a]).powi(2) + (point[b] - center[b]).powi(2)).sqrt()
 }
 
 /// A whole program's motion, in execution order (subprograms and loops unrolled).

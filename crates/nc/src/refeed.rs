@@ -15,8 +15,8 @@
 //! * Lines that cannot be split safely (G53, a dwell or a program stop in the
 //!   block, multi-turn arcs) are treated the same way.
 //!
-//! The output is parsed again and checked against the plan (same end points,
-//! feeds never above the plan) before it is returned.
+//! The output is parsed again and checked against the plan (same end points
+//! and lengths, feeds never above the plan) before it is returned.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -44,7 +44,7 @@ pub enum RefeedError {
 /// Writes `source` with the feeds of `plan` (see the module docs).
 pub fn refeed(source: &str, file: &str, options: &Options, plan: &[Vec<(f64, f64)>]) -> Result<String, RefeedError> {
     let (parsed, trace) = interp::run(source, file, options);
-    if let Some(d) = parsed.diagnostics.iter().find(|d| d.severity == crate::Severity::Error) {
+    if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
         return Err(RefeedError::Program(d.clone()));
     }
     let segments = &parsed.path.segments;
@@ -75,15 +75,15 @@ pub fn refeed(source: &str, file: &str, options: &Options, plan: &[Vec<(f64, f64
             continue;
         }
         let (text, eol) = split_eol(raw);
-        let Ok(syntax::Line { kind: LineKind::Block(items), .. }) = syntax::parse_line(text) else {
+        let Some(syntax::Line { kind: LineKind::Block(items), .. }) = &trace.lines[index] else {
             out.push_str(raw);
             continue;
         };
-        let single = segs.len() == 1 && splittable(&items, &segments[feeds[0]]);
+        let single = segs.len() == 1 && splittable(items, &segments[feeds[0]]);
         if single && plan[feeds[0]].len() > 1 {
             let i = feeds[0];
             written_pieces[i] = plan[i].len();
-            split_line(&mut out, text, eol, &items, &segments[i], &trace.segments[i], &plan[i]);
+            split_line(&mut out, text, eol, items, &segments[i], &trace.segments[i], &plan[i]);
         } else {
             // The lowest F any execution of the line asks for (G93: per segment length).
             let f = feeds
@@ -91,7 +91,7 @@ pub fn refeed(source: &str, file: &str, options: &Options, plan: &[Vec<(f64, f64
                 .map(|&i| f_word(&trace.segments[i], lowest(&plan[i]), segments[i].length_mm(), true))
                 .min_by(|a, b| f_value(a).total_cmp(&f_value(b)))
                 .expect("at least one feed segment");
-            out.push_str(&with_f_word(text, &items, &f));
+            out.push_str(&with_f_word(text, items, &f));
             out.push_str(eol);
         }
     }
@@ -179,10 +179,10 @@ fn with_f_word(text: &str, items: &[Item], f: &str) -> String {
     }
 }
 
-/// Axis, centre and F words of one piece from `from` to `to` (machine mm).
-/// `axes`: which of X, Y, Z to write (the others keep their value).
-#[allow(clippy::too_many_arguments)]
-fn piece_words(seg: &Segment, t: &SegmentTrace, axes: [bool; 3], from: [f64; 3], to: [f64; 3], feed_mm_min: f64, written_start: &mut [f64; 3], in_original_line: bool) -> String {
+/// Axis and centre words (each followed by a blank) of one piece from `from`
+/// to `to` (machine mm). `axes`: which of X, Y, Z to write (the others keep
+/// their value).
+fn piece_words(seg: &Segment, t: &SegmentTrace, axes: [bool; 3], from: [f64; 3], to: [f64; 3], written_start: &mut [f64; 3]) -> String {
     let mut w = String::new();
     for (i, l) in ['X', 'Y', 'Z'].into_iter().enumerate().filter(|&(i, _)| axes[i]) {
         let v = if t.incremental {
@@ -206,38 +206,18 @@ fn piece_words(seg: &Segment, t: &SegmentTrace, axes: [bool; 3], from: [f64; 3],
             let _ = write!(w, "{}{} ", ['I', 'J', 'K'][axis], coord(v));
         }
     }
-    w.push_str(&f_word(t, feed_mm_min, piece_length(seg, from, to), in_original_line));
     w
-}
-
-fn piece_length(seg: &Segment, from: [f64; 3], to: [f64; 3]) -> f64 {
-    let piece = Segment { start: from.into(), end: to.into(), geometry: sub_geometry(seg, from, to), ..*seg };
-    piece.length_mm()
-}
-
-/// Geometry of the part of `seg` between two of its points.
-fn sub_geometry(seg: &Segment, from: [f64; 3], to: [f64; 3]) -> Geometry {
-    match seg.geometry {
-        Geometry::Line => Geometry::Line,
-        Geometry::Arc { center, plane, clockwise, .. } => {
-            let (a, b, _) = plane.axes();
-            let a0 = (from[b] - center[b]).atan2(from[a] - center[a]);
-            let a1 = (to[b] - center[b]).atan2(to[a] - center[a]);
-            let mut sweep = if clockwise { a0 - a1 } else { a1 - a0 }.rem_euclid(std::f64::consts::TAU);
-            if sweep < 1e-12 {
-                sweep = std::f64::consts::TAU;
-            }
-            Geometry::Arc { center, plane, clockwise, sweep_rad: sweep }
-        }
-    }
 }
 
 /// Writes the line carrying the first piece and one block per further piece.
 fn split_line(out: &mut String, text: &str, eol: &str, items: &[Item], seg: &Segment, t: &SegmentTrace, pieces: &[(f64, f64)]) {
-    let points: Vec<[f64; 3]> = std::iter::once(0.0)
-        .chain(pieces.iter().map(|p| p.0))
-        .map(|u| if u >= 1.0 { seg.end.into() } else { seg.point_at_fraction(u).into() })
-        .collect();
+    let fractions: Vec<f64> = std::iter::once(0.0).chain(pieces.iter().map(|p| p.0)).collect();
+    let points: Vec<[f64; 3]> = fractions.iter().map(|&u| if u >= 1.0 { seg.end.into() } else { seg.point_at_fraction(u).into() }).collect();
+    // Lines and arcs (helices included) run at constant speed in the fraction.
+    let length_mm = seg.length_mm();
+    let piece_f_word = |k: usize, in_original_line: bool| {
+        f_word(t, pieces[k].1, length_mm * (fractions[k + 1] - fractions[k]), in_original_line)
+    };
     // Program coordinates written so far (for increments under G91).
     let mut written: [f64; 3] = std::array::from_fn(|i| (seg.start[i] - t.offset_mm[i]) / t.scale);
     let arc = matches!(seg.geometry, Geometry::Arc { .. });
@@ -264,7 +244,7 @@ fn split_line(out: &mut String, text: &str, eol: &str, items: &[Item], seg: &Seg
         let named = items.iter().any(|it| word_letter(it) == Some(['x', 'y', 'z'][i]));
         named || seg.start[i] != seg.end[i] || plane_axes.is_some_and(|(a, b, _)| i == a || i == b)
     });
-    let first = piece_words(seg, t, axes, points[0], points[1], pieces[0].1, &mut written, true);
+    let first = piece_words(seg, t, axes, points[0], points[1], &mut written) + &piece_f_word(0, true);
     let mut line = String::with_capacity(text.len() + first.len());
     let mut at = 0;
     for (k, it) in replaced.iter().enumerate() {
@@ -291,7 +271,8 @@ fn split_line(out: &mut String, text: &str, eol: &str, items: &[Item], seg: &Seg
     for k in 1..pieces.len() {
         out.push_str(motion_word);
         out.push(' ');
-        out.push_str(&piece_words(seg, t, axes, points[k], points[k + 1], pieces[k].1, &mut written, false));
+        out.push_str(&piece_words(seg, t, axes, points[k], points[k + 1], &mut written));
+        out.push_str(&piece_f_word(k, false));
         out.push_str(if k + 1 == pieces.len() { eol } else { eol_or_newline(eol) });
     }
 }
@@ -304,7 +285,7 @@ fn eol_or_newline(eol: &str) -> &str {
 fn verify(out: &str, file: &str, options: &Options, original: &[Segment], plan: &[Vec<(f64, f64)>], written: &[usize]) -> Result<(), RefeedError> {
     let fail = |detail: String| RefeedError::Verification { file: file.to_owned(), detail };
     let (parsed, _) = interp::run(out, file, options);
-    if let Some(d) = parsed.diagnostics.first() {
+    if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
         return Err(fail(format!("it does not parse: {d}")));
     }
     let new = &parsed.path.segments;
@@ -319,6 +300,12 @@ fn verify(out: &str, file: &str, options: &Options, original: &[Segment], plan: 
         let end = pieces[pieces.len() - 1].end;
         if (end - seg.end).norm() > 1e-3 {
             return Err(fail(format!("line {}: ends at {:?} instead of {:?}", seg.line, end, seg.end)));
+        }
+        // Same end points can hide a changed shape: a piece of an arc shorter
+        // than the written digits reads back as a full circle.
+        let length_mm: f64 = pieces.iter().map(Segment::length_mm).sum();
+        if (length_mm - seg.length_mm()).abs() > 1e-3 {
+            return Err(fail(format!("line {}: {length_mm:.4} mm long instead of {:.4} mm", seg.line, seg.length_mm())));
         }
         if std::mem::discriminant(&pieces[0].motion) != std::mem::discriminant(&seg.motion) {
             return Err(fail(format!("line {}: motion kind changed", seg.line)));

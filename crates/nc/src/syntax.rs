@@ -95,6 +95,29 @@ impl Cursor {
         matches
     }
 
+    /// Consumes the first entry of `table` whose text (lower case) the input
+    /// continues with, and returns its value.
+    pub fn eat_any<T: Copy>(&mut self, table: &[(&str, T)]) -> Option<T> {
+        table.iter().find(|(text, _)| self.eat_str(text)).map(|&(_, value)| value)
+    }
+
+    /// Reads `<name>` (the cursor is on `<`) and returns the name;
+    /// `unclosed` is the error message when no `>` follows.
+    pub fn angle_name(&mut self, unclosed: &str) -> Result<String, SyntaxError> {
+        self.bump(); // '<'
+        let mut name = String::new();
+        loop {
+            match self.peek() {
+                Some('>') => break,
+                Some(c) => name.push(c),
+                None => return Err(self.error(unclosed)),
+            }
+            self.bump();
+        }
+        self.bump(); // '>'
+        Ok(name)
+    }
+
     /// The rest of the normalised line.
     pub fn rest(&self) -> String {
         self.chars[self.pos..].iter().map(|c| c.c).collect()
@@ -272,18 +295,7 @@ fn parse_oword(cur: &mut Cursor) -> Result<LineKind, SyntaxError> {
     let col = cur.col();
     cur.bump(); // 'o'
     let label = if cur.peek() == Some('<') {
-        let mut name = String::new();
-        cur.bump();
-        loop {
-            match cur.peek() {
-                Some('>') => break,
-                Some(c) => name.push(c),
-                None => return Err(cur.error("o-word name not closed with '>'")),
-            }
-            cur.bump();
-        }
-        cur.bump();
-        OLabel::Name(name)
+        OLabel::Name(cur.angle_name("o-word name not closed with '>'")?)
     } else {
         let n = cur.number()?;
         if n.fract() != 0.0 || n > 1e15 {

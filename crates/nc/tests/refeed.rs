@@ -82,7 +82,15 @@ fn f_in_a_line_that_changes_units_is_read_in_the_old_units() {
 
 #[test]
 fn arcs_split_on_the_circle_ij_and_r() {
-    for src in ["G0 X10 Y0\nG17 G3 X-10 Y0 I-10 J0 F600\n", "G0 X10 Y0\nG3 X-10 Y0 R10 F600\n", "G0 X10 Y0 Z0\nG2 I-10 Z-3 F600\n"] {
+    // Ends of the pieces at fractions 0.25, 0.5 and 1, worked out by hand: a
+    // counter-clockwise half circle, and a clockwise helical full circle.
+    let half = [[50f64.sqrt(), 50f64.sqrt(), 0.0], [0.0, 10.0, 0.0], [-10.0, 0.0, 0.0]];
+    let helix = [[0.0, -10.0, -0.75], [-10.0, 0.0, -1.5], [10.0, 0.0, -3.0]];
+    for (src, ends) in [
+        ("G0 X10 Y0\nG17 G3 X-10 Y0 I-10 J0 F600\n", half),
+        ("G0 X10 Y0\nG3 X-10 Y0 R10 F600\n", half),
+        ("G0 X10 Y0 Z0\nG2 I-10 Z-3 F600\n", helix),
+    ] {
         let path = parse(src);
         let mut plan = uniform(&path, 600.0);
         plan[1] = vec![(0.25, 300.0), (0.5, 400.0), (1.0, 600.0)];
@@ -97,8 +105,7 @@ fn arcs_split_on_the_circle_ij_and_r() {
             let Geometry::Arc { center, clockwise, .. } = s.geometry else { panic!("piece {k} is not an arc:\n{out}") };
             let Geometry::Arc { center: c0, clockwise: cw0, .. } = original.geometry else { unreachable!() };
             assert!((center.xy() - c0.xy()).norm() < 1e-5 && clockwise == cw0, "{out}");
-            let u = [0.25, 0.5, 1.0][k];
-            assert!((s.end - original.point_at_fraction(u)).norm() < 1e-5, "{out}");
+            assert!((s.end - nalgebra::Point3::from(ends[k])).norm() < 1e-5, "{out}");
         }
         assert!(!out.contains('R'), "R words are replaced by centres when split:\n{out}");
     }
@@ -180,4 +187,17 @@ fn corpus_round_trip_with_split_blocks() {
         checked += 1;
     }
     assert!(checked >= 5);
+}
+
+/// An arc piece too short to survive the 6 written decimals would read back
+/// as a full circle (start = end): the verification must catch it, as it
+/// catches a vanishing line piece.
+#[test]
+fn arc_piece_shorter_than_the_written_digits_is_refused() {
+    let src = "G0 X10 Y0\nG3 X-10 Y0 I-10 J0 F600\n";
+    let path = parse(src);
+    let mut plan = uniform(&path, 600.0);
+    plan[1] = vec![(1e-9, 300.0), (1.0, 600.0)];
+    let err = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap_err();
+    assert!(matches!(err, nc::RefeedError::Verification { .. }), "{err}");
 }
