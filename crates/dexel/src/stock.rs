@@ -36,13 +36,17 @@ impl Column {
     /// Highest material z, or `None` for an empty column.
     #[inline]
     pub fn top(&self) -> Option<f32> {
-        if self.is_empty() {
-            return None;
+        (!self.is_empty()).then(|| self.top_or_neg_inf())
+    }
+
+    /// Highest material z, −∞ for [`Column::EMPTY`] (no branch on emptiness:
+    /// its `hi` is −∞); the sweep kernel's per-column test.
+    #[inline]
+    pub(crate) fn top_or_neg_inf(&self) -> f32 {
+        match &self.upper {
+            None => self.hi,
+            Some(v) => v.last().map_or(self.hi, |iv| iv[1]),
         }
-        Some(match &self.upper {
-            Some(v) if !v.is_empty() => v[v.len() - 1][1],
-            _ => self.hi,
-        })
     }
 
     /// Total material length, mm (f64 sum).

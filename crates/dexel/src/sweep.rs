@@ -1,5 +1,5 @@
 //! The sweep kernel: exact lower envelope of a tool moving along a straight
-//! line, intersected with every column it passes over (DESIGN.md §3).
+//! line, intersected with every column it passes over.
 //!
 //! For each column the swept tool covers `[z_env, +∞)`, where `z_env` is the
 //! lowest point of the swept solid on the column's vertical line:
@@ -180,6 +180,13 @@ impl Prepared {
             }
         }
         (lo <= hi).then_some((lo, hi))
+    }
+
+    /// Grid rows `[first, last]` the move's footprint (radius `r`) can touch.
+    #[inline]
+    fn row_range(&self, grid: &Grid, r: f64) -> Option<(usize, usize)> {
+        let (y0, y1) = (self.p0[1], self.p0[1] + self.d[1]);
+        grid.iy_range(y0.min(y1) - r, y0.max(y1) + r)
     }
 }
 
@@ -379,7 +386,7 @@ impl Envelope for BullNose {
         let t = 0.5 * (a + b);
         // The interval ends are candidates too (the minimum may sit on one).
         let mut best = (self.height(m, x, y, t), t);
-        for t in [a.min(b), a.max(b)] {
+        for t in [a, b] {
             let h = self.height(m, x, y, t);
             if h < best.0 {
                 best = (h, t);
@@ -452,16 +459,6 @@ fn cut_above(col: &mut Column, z: f32, mut piece: impl FnMut(f32, f32)) {
     }
 }
 
-/// Highest material z of a column, −∞ when empty (no branch on emptiness:
-/// an empty column's `hi` is −∞).
-#[inline]
-fn top_or_neg_inf(col: &Column) -> f32 {
-    match &col.upper {
-        None => col.hi,
-        Some(v) => v.last().map_or(col.hi, |iv| iv[1]),
-    }
-}
-
 /// Everything one strip needs to run its moves.
 struct StripJob<'a, E> {
     env: &'a E,
@@ -475,7 +472,6 @@ struct StripJob<'a, E> {
 impl<E: Envelope> StripJob<'_, E> {
     /// Run the moves `entries` (batch-local indices, ascending) over the rows
     /// `row0..row0 + rows` whose columns are `cols`; write per-entry sums into `out`.
-    #[allow(clippy::too_many_arguments)]
     fn run(&self, row0: usize, cols: &mut [Column], last_cut: &mut [u32], entries: &[u32], out: &mut [f64]) -> u64 {
         let nx = self.grid.nx;
         let rows = cols.len() / nx;
@@ -486,9 +482,7 @@ impl<E: Envelope> StripJob<'_, E> {
             let m = &self.moves[mi as usize];
             let acc = &mut out[j * stride..(j + 1) * stride];
             let step_index = (self.first_step + mi as usize) as u32;
-            let y_lo = m.p0[1].min(m.p0[1] + m.d[1]) - self.radius;
-            let y_hi = m.p0[1].max(m.p0[1] + m.d[1]) + self.radius;
-            let Some((iy0, iy1)) = self.grid.iy_range(y_lo, y_hi) else { continue };
+            let Some((iy0, iy1)) = m.row_range(self.grid, self.radius) else { continue };
             let (iy0, iy1) = (iy0.max(row0), iy1.min(row0 + rows - 1));
             let zmin = m.zmin as f32;
             for iy in iy0..=iy1 {
@@ -501,16 +495,17 @@ impl<E: Envelope> StripJob<'_, E> {
                 let Some((ix0, ix1)) = self.reachable(m, y, &cols[base + ix0..=base + ix1], ix0, ix1) else { continue };
                 for ix in ix0..=ix1 {
                     let col = &mut cols[base + ix];
-                    if top_or_neg_inf(col) <= zmin {
+                    let top = col.top_or_neg_inf();
+                    if top <= zmin {
                         continue;
                     }
                     let x = self.grid.x_mm(ix);
-                    if self.env.stays_above(m, x, y, top_or_neg_inf(col) as f64) {
+                    if self.env.stays_above(m, x, y, top as f64) {
                         continue;
                     }
                     let Some((z_env, t)) = self.env.eval(m, x, y) else { continue };
                     let z = z_env as f32;
-                    if top_or_neg_inf(col) <= z {
+                    if top <= z {
                         continue;
                     }
                     let z_tip = m.p0[2] + t * m.d[2];
@@ -545,7 +540,7 @@ impl<E: Envelope> StripJob<'_, E> {
             return Some((ix0, ix1));
         }
         // Heights are never NaN: a plain compare is cheaper than f32::max.
-        let top = row.iter().map(top_or_neg_inf).fold(f32::NEG_INFINITY, |a, b| if b > a { b } else { a });
+        let top = row.iter().map(Column::top_or_neg_inf).fold(f32::NEG_INFINITY, |a, b| if b > a { b } else { a });
         if top <= m.zmin as f32 {
             return None;
         }
@@ -626,11 +621,7 @@ fn run_batches<E: Envelope>(
         let moves: Vec<Prepared> = chunk.iter().map(Prepared::new).collect();
         // Bin moves by strip (CSR): a move joins every strip its footprint's rows touch.
         let mut counts = vec![0u32; n_strips + 1];
-        let strip_span = |m: &Prepared| {
-            let y_lo = m.p0[1].min(m.p0[1] + m.d[1]) - radius;
-            let y_hi = m.p0[1].max(m.p0[1] + m.d[1]) + radius;
-            grid.iy_range(y_lo, y_hi).map(|(a, b)| (a / strip_rows, b / strip_rows))
-        };
+        let strip_span = |m: &Prepared| m.row_range(&grid, radius).map(|(a, b)| (a / strip_rows, b / strip_rows));
         for m in &moves {
             if let Some((s0, s1)) = strip_span(m) {
                 for s in s0..=s1 {
@@ -701,8 +692,7 @@ mod tests {
         let n = 200_000;
         let mut best: Option<f64> = None;
         for i in 0..=n {
-            let t = i as f64 / n as f64;
-            let p: Vec<f64> = (0..3).map(|k| step.from_mm[k] + t * (step.to_mm[k] - step.from_mm[k])).collect();
+            let p = m_at(step, i as f64 / n as f64);
             let rho = ((x - p[0]).powi(2) + (y - p[1]).powi(2)).sqrt();
             if let Some(h) = profile(rho) {
                 let z = p[2] + h;
@@ -737,10 +727,8 @@ mod tests {
                 // Sampling can miss a footprint only a hair wide.
                 (Some(_), None) | (None, Some(_)) => {
                     let near = (0..=1000).any(|i| {
-                        let t = i as f64 / 1000.0;
-                        let px = step.from_mm[0] + t * (step.to_mm[0] - step.from_mm[0]);
-                        let py = step.from_mm[1] + t * (step.to_mm[1] - step.from_mm[1]);
-                        (((x - px).powi(2) + (y - py).powi(2)).sqrt() - 5.0).abs() < 1e-2
+                        let p = m_at(&step, i as f64 / 1000.0);
+                        (((x - p[0]).powi(2) + (y - p[1]).powi(2)).sqrt() - 5.0).abs() < 1e-2
                     });
                     assert!(near, "case {case}: footprint disagreement {exact:?} vs {sampled:?}");
                 }
@@ -762,7 +750,7 @@ mod tests {
     /// minimum to ~1e-12.
     fn ball_reference(step: &Step, r: f64, x: f64, y: f64) -> Option<f64> {
         let at = |t: f64| -> Option<f64> {
-            let p: Vec<f64> = (0..3).map(|k| step.from_mm[k] + t * (step.to_mm[k] - step.from_mm[k])).collect();
+            let p = m_at(step, t);
             let rho2 = (x - p[0]).powi(2) + (y - p[1]).powi(2);
             (rho2 <= r * r).then(|| p[2] + r - (r * r - rho2).sqrt())
         };
@@ -888,19 +876,30 @@ mod tests {
     #[test]
     fn bull_nose_limits_are_ball_and_flat() {
         let mut seed = 11;
-        let ball = BallEnd { r: 5.0 };
+        let (ball, flat) = (BallEnd { r: 5.0 }, FlatEnd { r: 5.0 });
         let near_ball = BullNose { r: 5.0, rc: 5.0 - 1e-12, ring: 1e-12 };
+        let near_flat = BullNose { r: 5.0, rc: 1e-12, ring: 5.0 - 1e-12 };
+        let (mut ball_hits, mut flat_hits) = (0, 0);
         for _ in 0..500 {
             let mut r = || lcg(&mut seed) * 20.0 - 10.0;
             let step = Step { from_mm: [r(), r(), r()], to_mm: [r(), r(), r()], rapid: false };
             let m = Prepared::new(&step);
             let (x, y) = (r() * 0.5, r() * 0.5);
-            match (ball.eval(&m, x, y), near_ball.eval(&m, x, y)) {
-                (Some(a), Some(b)) => assert!((a.0 - b.0).abs() < 1e-6, "{a:?} vs {b:?}"),
-                (None, None) => {}
-                (a, b) => panic!("footprint differs: {a:?} vs {b:?}"),
+            for (exact, limit, hits) in [
+                (ball.eval(&m, x, y), near_ball.eval(&m, x, y), &mut ball_hits),
+                (flat.eval(&m, x, y), near_flat.eval(&m, x, y), &mut flat_hits),
+            ] {
+                match (exact, limit) {
+                    (Some(a), Some(b)) => {
+                        *hits += 1;
+                        assert!((a.0 - b.0).abs() < 1e-6, "{a:?} vs {b:?}");
+                    }
+                    (None, None) => {}
+                    (a, b) => panic!("footprint differs: {a:?} vs {b:?}"),
+                }
             }
         }
+        assert!(ball_hits > 100 && flat_hits > 100, "{ball_hits} ball, {flat_hits} flat hits");
     }
 
     #[test]

@@ -60,15 +60,6 @@ impl Tool {
         0.5 * self.diameter_mm
     }
 
-    /// Corner radius: R for a ball, 0 for a flat end.
-    pub fn corner_radius_mm(&self) -> f64 {
-        match self.shape {
-            ToolShape::Ball => self.radius_mm(),
-            ToolShape::Flat => 0.0,
-            ToolShape::Bull { corner_radius_mm } => corner_radius_mm,
-        }
-    }
-
     /// Reject tools no machine could hold.
     pub fn validate(&self) -> Result<(), Error> {
         let bad = |what: &str, v: f64| Err(Error::InvalidParameter(format!("tool {what} must be a positive number, got {v}")));

@@ -46,7 +46,7 @@ pub fn stock_from_mesh(mesh: &TriMesh, spacing_mm: f64) -> Result<(Stock, FillSt
     let Some((lo, hi)) = mesh.bounds_mm() else {
         return Err(crate::SolidError::Empty.into());
     };
-    stock_on_grid(
+    fill_checked(
         mesh,
         Grid::covering(lo[0], lo[1], hi[0], hi[1], spacing_mm)?,
     )
@@ -62,6 +62,11 @@ pub fn stock_from_mesh(mesh: &TriMesh, spacing_mm: f64) -> Result<(Stock, FillSt
 /// else still fills without panicking, with problems counted in [`FillStats`].
 pub fn stock_on_grid(mesh: &TriMesh, grid: Grid) -> Result<(Stock, FillStats), MeshError> {
     check_indices(mesh)?;
+    fill_checked(mesh, grid)
+}
+
+/// [`stock_on_grid`] for a mesh that passed `check_indices`.
+fn fill_checked(mesh: &TriMesh, grid: Grid) -> Result<(Stock, FillStats), MeshError> {
     let flipped = mesh.signed_volume_mm3() < 0.0;
     let raster = Raster::new(mesh, &grid, flipped);
     let rows: Vec<RowIntervals> = (0..grid.ny)
@@ -96,26 +101,21 @@ pub fn stock_on_grid(mesh: &TriMesh, grid: Grid) -> Result<(Stock, FillStats), M
 pub fn top_heights(mesh: &TriMesh, grid: &Grid) -> Result<Vec<f32>, MeshError> {
     check_indices(mesh)?;
     let raster = Raster::new(mesh, grid, false);
-    let rows: Vec<Vec<f32>> = (0..grid.ny)
-        .into_par_iter()
-        .map_init(Vec::new, |crossings, iy| {
+    let mut tops = vec![f32::NAN; grid.len()];
+    tops.par_chunks_mut(grid.nx.max(1))
+        .enumerate()
+        .for_each_init(Vec::new, |crossings, (iy, row)| {
             raster.row_crossings(iy, crossings);
-            let mut top = vec![f64::NEG_INFINITY; grid.nx];
             for c in crossings.iter() {
-                top[c.ix as usize] = top[c.ix as usize].max(c.z);
+                // Rounding to f32 is monotone, so the max of the rounded
+                // heights is the rounded max; `!(>=)` replaces the NaN start.
+                let (top, z) = (&mut row[c.ix as usize], c.z as f32);
+                if !(*top >= z) {
+                    *top = z;
+                }
             }
-            top.iter()
-                .map(|&z| {
-                    if z == f64::NEG_INFINITY {
-                        f32::NAN
-                    } else {
-                        z as f32
-                    }
-                })
-                .collect()
-        })
-        .collect();
-    Ok(rows.concat())
+        });
+    Ok(tops)
 }
 
 /// Number of `triangles` over the point (x, y) (same fill rule as the stock)

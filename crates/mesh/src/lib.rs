@@ -56,18 +56,18 @@ impl TriMesh {
     /// Axis-aligned bounds `(min, max)` of the vertices used by triangles, mm;
     /// `None` for a mesh without triangles.
     pub fn bounds_mm(&self) -> Option<([f64; 3], [f64; 3])> {
-        let mut it = self
-            .triangles
-            .iter()
-            .flatten()
-            .filter_map(|&i| self.vertices.get(i as usize).copied());
-        let first = it.next()?;
-        Some(it.fold((first, first), |(lo, hi), p| {
-            (
-                std::array::from_fn(|k| lo[k].min(p[k])),
-                std::array::from_fn(|k| hi[k].max(p[k])),
-            )
-        }))
+        bounds_of(
+            self.triangles
+                .iter()
+                .flatten()
+                .filter_map(|&i| self.vertices.get(i as usize).copied()),
+        )
+    }
+
+    /// Centre of [`TriMesh::bounds_mm`]: the reference point of the volume sums.
+    pub(crate) fn centre_mm(&self) -> Option<[f64; 3]> {
+        let (lo, hi) = self.bounds_mm()?;
+        Some(std::array::from_fn(|k| 0.5 * (lo[k] + hi[k])))
     }
 
     /// Signed enclosed volume by the divergence theorem, mm³ (f64, summed in
@@ -77,18 +77,19 @@ impl TriMesh {
     /// # Panics
     /// If a triangle refers to a vertex that does not exist.
     pub fn signed_volume_mm3(&self) -> f64 {
-        self.signed_volume_of_mm3(&self.triangles)
+        match self.centre_mm() {
+            Some(c) => self.signed_volume_about_mm3(c, &self.triangles),
+            None => 0.0,
+        }
     }
 
-    /// [`TriMesh::signed_volume_mm3`] of some of the triangles (e.g. one shell).
-    pub(crate) fn signed_volume_of_mm3<'a>(
+    /// Signed volume of some of the triangles (e.g. one shell) summed about
+    /// the point `c` (mm), as in [`TriMesh::signed_volume_mm3`].
+    pub(crate) fn signed_volume_about_mm3<'a>(
         &self,
+        c: [f64; 3],
         triangles: impl IntoIterator<Item = &'a [u32; 3]>,
     ) -> f64 {
-        let Some((lo, hi)) = self.bounds_mm() else {
-            return 0.0;
-        };
-        let c: [f64; 3] = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
         let rel = |i: u32| {
             let p = self.vertices[i as usize];
             [p[0] - c[0], p[1] - c[1], p[2] - c[2]]
@@ -111,6 +112,19 @@ impl TriMesh {
             t.swap(1, 2);
         }
     }
+}
+
+/// Axis-aligned bounds `(min, max)` of `points`, mm; `None` when there are none.
+pub(crate) fn bounds_of(
+    mut points: impl Iterator<Item = [f64; 3]>,
+) -> Option<([f64; 3], [f64; 3])> {
+    let first = points.next()?;
+    Some(points.fold((first, first), |(lo, hi), p| {
+        (
+            std::array::from_fn(|k| lo[k].min(p[k])),
+            std::array::from_fn(|k| hi[k].max(p[k])),
+        )
+    }))
 }
 
 /// What can go wrong loading a mesh or filling a stock from it.

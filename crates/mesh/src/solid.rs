@@ -1,7 +1,7 @@
 //! Is a mesh the boundary of a solid? Closedness, manifoldness, winding, volume.
 
 use crate::fill::crossings_above;
-use crate::TriMesh;
+use crate::{bounds_of, TriMesh};
 
 /// Why a mesh does not bound a solid. Points are in mm.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -162,21 +162,15 @@ pub fn validate_solid(mesh: &mut TriMesh) -> Result<SolidInfo, SolidError> {
     let bounds: Vec<([f64; 3], [f64; 3])> = shells
         .iter()
         .map(|shell| {
-            let corners = shell.iter().flat_map(|&t| triangle(t));
-            corners.fold(
-                ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
-                |(lo, hi), p| {
-                    (
-                        std::array::from_fn(|k| lo[k].min(p[k])),
-                        std::array::from_fn(|k| hi[k].max(p[k])),
-                    )
-                },
-            )
+            bounds_of(shell.iter().flat_map(|&t| triangle(t))).expect("a shell has triangles")
         })
         .collect();
+    // One reference point for every shell's volume sum, as in `signed_volume_mm3`.
+    let centre = mesh.centre_mm().ok_or(SolidError::Empty)?;
     let mut wrong = Vec::new();
     for (k, shell) in shells.iter().enumerate() {
-        let volume = mesh.signed_volume_of_mm3(shell.iter().map(|&t| &mesh.triangles[t as usize]));
+        let volume = mesh
+            .signed_volume_about_mm3(centre, shell.iter().map(|&t| &mesh.triangles[t as usize]));
         let Some(probe) = probe_point(shell.iter().map(|&t| triangle(t))) else {
             continue;
         };

@@ -21,11 +21,16 @@ pub struct Faces {
     pub sides: bool,
 }
 
-pub const ALL: Faces = Faces {
-    bottom: true,
-    top: true,
-    sides: true,
-};
+impl Faces {
+    const fn new(bottom: bool, top: bool, sides: bool) -> Faces {
+        Faces { bottom, top, sides }
+    }
+}
+
+pub const ALL: Faces = Faces::new(true, true, true);
+const NO_TOP: Faces = Faces::new(true, false, true);
+const NO_BOTTOM: Faces = Faces::new(false, true, true);
+const SIDES: Faces = Faces::new(false, false, true);
 
 /// Outward-facing faces of the box [lo, hi].
 pub fn box_faces(out: &mut Vec<Tri>, lo: [f64; 3], hi: [f64; 3], faces: Faces) {
@@ -82,16 +87,7 @@ pub fn box_with_void() -> Vec<Tri> {
 /// The box without its top face: not closed.
 pub fn open_box() -> Vec<Tri> {
     let mut t = Vec::new();
-    box_faces(
-        &mut t,
-        [0.0; 3],
-        [40.0, 30.0, 20.0],
-        Faces {
-            bottom: true,
-            top: false,
-            sides: true,
-        },
-    );
+    box_faces(&mut t, [0.0; 3], [40.0, 30.0, 20.0], NO_TOP);
     t
 }
 
@@ -101,38 +97,11 @@ pub fn open_box() -> Vec<Tri> {
 pub fn spool() -> Vec<Tri> {
     let pillar = [15.0, 10.0, 25.0, 20.0];
     let mut t = Vec::new();
-    box_faces(
-        &mut t,
-        [0.0; 3],
-        [40.0, 30.0, 4.0],
-        Faces {
-            bottom: true,
-            top: false,
-            sides: true,
-        },
-    );
+    box_faces(&mut t, [0.0; 3], [40.0, 30.0, 4.0], NO_TOP);
     frame(&mut t, [0.0, 0.0, 40.0, 30.0], pillar, 4.0, true);
-    box_faces(
-        &mut t,
-        [15.0, 10.0, 4.0],
-        [25.0, 20.0, 10.0],
-        Faces {
-            bottom: false,
-            top: false,
-            sides: true,
-        },
-    );
+    box_faces(&mut t, [15.0, 10.0, 4.0], [25.0, 20.0, 10.0], SIDES);
     frame(&mut t, [5.0, 5.0, 35.0, 25.0], pillar, 10.0, false);
-    box_faces(
-        &mut t,
-        [5.0, 5.0, 10.0],
-        [35.0, 25.0, 14.0],
-        Faces {
-            bottom: false,
-            top: true,
-            sides: true,
-        },
-    );
+    box_faces(&mut t, [5.0, 5.0, 10.0], [35.0, 25.0, 14.0], NO_BOTTOM);
     t
 }
 
