@@ -45,8 +45,9 @@ pub fn build(job: &Job) -> Result<Stock> {
             let path = job.resolve(s.path.as_deref().unwrap_or(std::path::Path::new("")));
             let (mesh, _info) = mesh::load_solid(&path)?;
             let (lo, hi) = mesh.bounds_mm().with_context(|| format!("{}: the stock mesh is empty", path.display()))?;
-            check_fits(&Grid::covering(lo[0], lo[1], hi[0], hi[1], s.grid)?, &what)?;
-            let (stock, _stats) = mesh::stock_from_mesh(&mesh, s.grid)?;
+            let grid = Grid::covering(lo[0], lo[1], hi[0], hi[1], s.grid)?;
+            check_fits(&grid, &what)?;
+            let (stock, _stats) = mesh::stock_on_grid(&mesh, grid)?;
             Ok(stock)
         }
     }
