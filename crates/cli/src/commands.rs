@@ -39,10 +39,19 @@ impl Setup {
         let tool = job.tool()?;
         let program = program::load(&job)?;
         let machine = motion::machine(&job);
-        machine.validate().with_context(|| format!("{}: invalid [machine]", job.name))?;
+        machine
+            .validate()
+            .with_context(|| format!("{}: invalid [machine]", job.name))?;
         let model = simulate::cutting_model(&job, &tool, &program)?;
         let stock = crate::stock::build(&job)?;
-        Ok(Setup { job, tool, program, stock, model, machine })
+        Ok(Setup {
+            job,
+            tool,
+            program,
+            stock,
+            model,
+            machine,
+        })
     }
 
     /// The program as the machine runs it: servo periods for G-code, one step
@@ -58,7 +67,8 @@ impl Setup {
             let mut samples = motion::machine_motion(&self.program.path, &self.machine)?;
             if actual_path {
                 let drive = crate::evaluate::drive(&self.job)?;
-                let commanded: Vec<[f64; 3]> = samples.iter().map(|s| s.pos.coords.into()).collect();
+                let commanded: Vec<[f64; 3]> =
+                    samples.iter().map(|s| s.pos.coords.into()).collect();
                 let actual = servo::simulate_actual(&commanded, self.machine.period_s(), &drive);
                 for (s, a) in samples.iter_mut().zip(actual) {
                     s.pos = nalgebra::Point3::from(a);
@@ -87,13 +97,26 @@ pub struct DesignInfo {
 }
 
 /// Signed distance (µm) of each column's top (`tops`) to the design model; positive = stock left.
-fn design_comparison(setup: &Setup, run: &Run, tops: &[f32]) -> Result<Option<(Vec<f32>, DesignInfo)>> {
-    let Some(design) = &setup.job.design else { return Ok(None) };
+fn design_comparison(
+    setup: &Setup,
+    run: &Run,
+    tops: &[f32],
+) -> Result<Option<(Vec<f32>, DesignInfo)>> {
+    let Some(design) = &setup.job.design else {
+        return Ok(None);
+    };
     let path = setup.job.resolve(&design.path);
     let (mesh, _) = mesh::load_solid(&path)?;
-    let model = mesh::DesignModel::new(&mesh).with_context(|| format!("{}: design model", path.display()))?;
+    let model = mesh::DesignModel::new(&mesh)
+        .with_context(|| format!("{}: design model", path.display()))?;
     let grid = *run.stock.grid();
-    let point = |i: usize| [grid.x_mm(i % grid.nx), grid.y_mm(i / grid.nx), tops[i] as f64];
+    let point = |i: usize| {
+        [
+            grid.x_mm(i % grid.nx),
+            grid.y_mm(i / grid.nx),
+            tops[i] as f64,
+        ]
+    };
     let valid: Vec<usize> = (0..tops.len()).filter(|&i| tops[i].is_finite()).collect();
     let distances = model.signed_distances_mm(&valid.iter().map(|&i| point(i)).collect::<Vec<_>>());
     let mut diff_um = vec![f32::NAN; tops.len()];
@@ -107,7 +130,11 @@ fn design_comparison(setup: &Setup, run: &Run, tops: &[f32]) -> Result<Option<(V
         worst_gouge_line: None,
         worst_gouge_xy_mm: None,
     };
-    if let Some((j, d)) = distances.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1)) {
+    if let Some((j, d)) = distances
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.total_cmp(b.1))
+    {
         if *d < 0.0 {
             let i = valid[j];
             let [x, y, _] = point(i);
@@ -132,7 +159,8 @@ struct SimulateSummary<'a> {
 }
 
 fn create_out(out: &Path) -> Result<()> {
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create output folder {}", out.display()))
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create output folder {}", out.display()))
 }
 
 /// Write steps.csv and columns.csv of a run; returns the design comparison.
@@ -140,17 +168,32 @@ fn write_run(setup: &Setup, run: &Run, out: &Path, steps_name: &str) -> Result<O
     let tops = run.stock.top_heights();
     let design = design_comparison(setup, run, &tops)?;
     run.write_steps_csv(&out.join(steps_name))?;
-    run.write_columns_csv(&out.join("columns.csv"), &tops, design.as_ref().map(|d| d.0.as_slice()))?;
+    run.write_columns_csv(
+        &out.join("columns.csv"),
+        &tops,
+        design.as_ref().map(|d| d.0.as_slice()),
+    )?;
     Ok(design.map(|d| d.1))
 }
 
 /// `dexcut simulate JOB --out DIR`.
-pub fn simulate(job_path: &Path, out: &Path, grid_mm: Option<f64>, actual_path: bool) -> Result<()> {
+pub fn simulate(
+    job_path: &Path,
+    out: &Path,
+    grid_mm: Option<f64>,
+    actual_path: bool,
+) -> Result<()> {
     let started = Instant::now();
     let setup = Setup::load(job_path, grid_mm)?;
     let steps = setup.steps(actual_path)?;
     create_out(out)?;
-    let run = simulate::run(setup.stock.clone(), &setup.tool, steps, &setup.model, "simulate")?;
+    let run = simulate::run(
+        setup.stock.clone(),
+        &setup.tool,
+        steps,
+        &setup.model,
+        "simulate",
+    )?;
     let summary = run.summary();
     let design = write_run(&setup, &run, out, "steps.csv")?;
     let doc = SimulateSummary {
@@ -225,20 +268,33 @@ pub fn optimize(job_path: Option<&Path>, out: &Path, grid_mm: Option<f64>) -> Re
         Some(p) => p.to_path_buf(),
         None => {
             let dir = out.join("input");
-            eprintln!("no job given: running the built-in boss_contour example (inputs written to {})", dir.display());
+            eprintln!(
+                "no job given: running the built-in boss_contour example (inputs written to {})",
+                dir.display()
+            );
             crate::example::write_files(&dir)?
         }
     };
     let setup = Setup::load(&job_path, grid_mm)?;
     let limits = &setup.job.limits;
-    if limits.mrr_max.is_none() && limits.force_max.is_none() && limits.deflection_max_um.is_none() && !limits.angle_rule {
+    if limits.mrr_max.is_none()
+        && limits.force_max.is_none()
+        && limits.deflection_max_um.is_none()
+        && !limits.angle_rule
+    {
         eprintln!("warning: [limits] sets no mrr_max, force_max, deflection_max_um or angle_rule: cutting runs at feed_max");
     }
     create_out(out)?;
     // Before: the program as written.
     let t0 = Instant::now();
     let before_steps = setup.machine_steps()?;
-    let before = simulate::run(setup.stock.clone(), &setup.tool, before_steps, &setup.model, "before")?;
+    let before = simulate::run(
+        setup.stock.clone(),
+        &setup.tool,
+        before_steps,
+        &setup.model,
+        "before",
+    )?;
     let mut time_simulate_s = t0.elapsed().as_secs_f64();
     // Engagement along fine stations, caps, re-timing.
     let t1 = Instant::now();
@@ -257,13 +313,20 @@ pub fn optimize(job_path: Option<&Path>, out: &Path, grid_mm: Option<f64>) -> Re
     // Verification re-simulation of the new timing.
     let t3 = Instant::now();
     let after_steps = motion::steps_from_samples(&setup.program.path, &samples);
-    let after = simulate::run(setup.stock.clone(), &setup.tool, after_steps, &setup.model, "verify")?;
+    let after = simulate::run(
+        setup.stock.clone(),
+        &setup.tool,
+        after_steps,
+        &setup.model,
+        "verify",
+    )?;
     time_simulate_s += t3.elapsed().as_secs_f64();
 
     let optimized_nc = match &setup.program.gcode {
         Some(src) => Some(
-            nc::refeed(src, &setup.program.file, &setup.program.nc_options, &refeed)
-                .with_context(|| format!("{}: cannot write the re-fed program", setup.program.file))?,
+            nc::refeed(src, &setup.program.file, &setup.program.nc_options, &refeed).with_context(
+                || format!("{}: cannot write the re-fed program", setup.program.file),
+            )?,
         ),
         None => None,
     };
@@ -272,13 +335,16 @@ pub fn optimize(job_path: Option<&Path>, out: &Path, grid_mm: Option<f64>) -> Re
     before.write_steps_csv(&out.join("steps_before.csv"))?;
     write_servo_csv(&out.join("servo.csv"), &samples)?;
     if let Some(text) = optimized_nc {
-        export::atomic::write_bytes(&out.join("optimized.nc"), text.as_bytes()).with_context(|| "cannot write optimized.nc")?;
+        export::atomic::write_bytes(&out.join("optimized.nc"), text.as_bytes())
+            .with_context(|| "cannot write optimized.nc")?;
     }
     let doc = OptimizeSummary {
         job: setup.job.name.clone(),
         program: setup.program.file.clone(),
         grid: GridInfo::of(after.stock.grid()),
-        peak_mrr_ratio: limits.mrr_max.map(|q| after_summary.peak_mrr_windowed_mm3_s / q),
+        peak_mrr_ratio: limits
+            .mrr_max
+            .map(|q| after_summary.peak_mrr_windowed_mm3_s / q),
         optimality_gap: (after_summary.cycle_time_s - lower_bound_time_s) / lower_bound_time_s,
         before: before_summary,
         after: after_summary,
@@ -302,11 +368,26 @@ pub fn optimize(job_path: Option<&Path>, out: &Path, grid_mm: Option<f64>) -> Re
     simulate::write_json(&out.join("summary.json"), &doc)?;
     let (b, a) = (&doc.before, &doc.after);
     println!("{:<22}{:>12}{:>12}", "", "before", "after");
-    println!("{:<22}{:>12.3}{:>12.3}", "cycle time (s)", b.cycle_time_s, a.cycle_time_s);
-    println!("{:<22}{:>12.3}{:>12.3}", "peak MRR (mm³/s)", b.peak_mrr_windowed_mm3_s, a.peak_mrr_windowed_mm3_s);
-    println!("{:<22}{:>12.3}{:>12.3}", "  per period", b.peak_mrr_mm3_s, a.peak_mrr_mm3_s);
-    println!("{:<22}{:>12.2}{:>12.2}", "peak force (N)", b.peak_force_n, a.peak_force_n);
-    println!("{:<22}{:>12.2}{:>12.2}", "peak deflection (µm)", b.peak_deflection_um, a.peak_deflection_um);
+    println!(
+        "{:<22}{:>12.3}{:>12.3}",
+        "cycle time (s)", b.cycle_time_s, a.cycle_time_s
+    );
+    println!(
+        "{:<22}{:>12.3}{:>12.3}",
+        "peak MRR (mm³/s)", b.peak_mrr_windowed_mm3_s, a.peak_mrr_windowed_mm3_s
+    );
+    println!(
+        "{:<22}{:>12.3}{:>12.3}",
+        "  per period", b.peak_mrr_mm3_s, a.peak_mrr_mm3_s
+    );
+    println!(
+        "{:<22}{:>12.2}{:>12.2}",
+        "peak force (N)", b.peak_force_n, a.peak_force_n
+    );
+    println!(
+        "{:<22}{:>12.2}{:>12.2}",
+        "peak deflection (µm)", b.peak_deflection_um, a.peak_deflection_um
+    );
     println!(
         "time change {:+.1} %; lower bound {:.3} s (gap {:.1} %); results in {}",
         100.0 * (a.cycle_time_s / b.cycle_time_s - 1.0),
@@ -322,10 +403,35 @@ fn write_servo_csv(path: &Path, samples: &[schedule::ServoSample]) -> Result<()>
     let velocities = schedule::axis_velocity_mm_s(samples);
     export::atomic::write_file(path, |w| {
         let mut out = csv::Writer::from_writer(w);
-        out.write_record(["t_s", "x", "y", "z", "feed_mm_min", "vx_mm_s", "vy_mm_s", "vz_mm_s"])?;
+        out.write_record([
+            "t_s",
+            "x",
+            "y",
+            "z",
+            "feed_mm_min",
+            "vx_mm_s",
+            "vy_mm_s",
+            "vz_mm_s",
+        ])?;
         for (i, s) in samples.iter().enumerate() {
-            let v = if i == 0 { nalgebra::Vector3::zeros() } else { velocities[i - 1] };
-            out.write_record([s.t_s, s.pos.x, s.pos.y, s.pos.z, s.feed_mm_min, v.x, v.y, v.z].map(simulate::fmt))?;
+            let v = if i == 0 {
+                nalgebra::Vector3::zeros()
+            } else {
+                velocities[i - 1]
+            };
+            out.write_record(
+                [
+                    s.t_s,
+                    s.pos.x,
+                    s.pos.y,
+                    s.pos.z,
+                    s.feed_mm_min,
+                    v.x,
+                    v.y,
+                    v.z,
+                ]
+                .map(simulate::fmt),
+            )?;
         }
         out.flush()
     })
@@ -336,21 +442,32 @@ pub use crate::report::report;
 
 /// `dexcut calibrate CSV`: least-squares fit of F = a·V^n in log space.
 pub fn calibrate(path: &Path) -> Result<()> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let points = read_calibration(&text, &path.display().to_string())?;
-    let fit = cutting::fit_force_law(&points).with_context(|| format!("{}: cannot fit", path.display()))?;
+    let fit = cutting::fit_force_law(&points)
+        .with_context(|| format!("{}: cannot fit", path.display()))?;
     println!("F = a·V^n fitted to {} points:", fit.points);
     println!("  force_a = {:.6}", fit.a);
     println!("  force_n = {:.6}", fit.n);
-    println!("  rms error: {:.4} (log), {:.2} % (relative)", fit.rms_log_error, 100.0 * fit.rms_rel_error);
+    println!(
+        "  rms error: {:.4} (log), {:.2} % (relative)",
+        fit.rms_log_error,
+        100.0 * fit.rms_rel_error
+    );
     println!("put force_a and force_n into the job's [cutting] section");
     Ok(())
 }
 
 /// (volume per tooth mm³, force N) pairs from CSV text with columns v_mm3 and force_n.
 pub fn read_calibration(text: &str, file: &str) -> Result<Vec<(f64, f64)>> {
-    let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(text.as_bytes());
-    let headers = reader.headers().with_context(|| format!("{file}:1:1: cannot read the header"))?.clone();
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    let headers = reader
+        .headers()
+        .with_context(|| format!("{file}:1:1: cannot read the header"))?
+        .clone();
     let find = |n: &str| headers.iter().position(|h| h.eq_ignore_ascii_case(n));
     let (Some(iv), Some(if_)) = (find("v_mm3"), find("force_n")) else {
         bail!("{file}:1:1: the header must name columns v_mm3 and force_n");
@@ -362,7 +479,8 @@ pub fn read_calibration(text: &str, file: &str) -> Result<Vec<(f64, f64)>> {
         let num = |i: usize| -> Result<f64> {
             let raw = rec.get(i).unwrap_or("");
             let col = rec.range(i).map_or(1, |r| r.start + i + 1);
-            raw.parse().with_context(|| format!("{file}:{line}:{col}: not a number: {raw:?}"))
+            raw.parse()
+                .with_context(|| format!("{file}:{line}:{col}: not a number: {raw:?}"))
         };
         points.push((num(iv)?, num(if_)?));
     }

@@ -19,11 +19,20 @@ use crate::simulate::{fmt, write_json};
 pub fn drive(job: &Job) -> Result<Drive> {
     let s = &job.servo;
     let order = match (s.zeta, s.omega_n) {
-        (Some(zeta), Some(omega_n_rad_s)) => DriveOrder::Second { zeta, omega_n_rad_s },
+        (Some(zeta), Some(omega_n_rad_s)) => DriveOrder::Second {
+            zeta,
+            omega_n_rad_s,
+        },
         _ => DriveOrder::First,
     };
-    let drive = Drive { kp_per_s: s.kp, feedforward: s.feedforward, order };
-    drive.validate().with_context(|| format!("{}: invalid [servo]", job.name))?;
+    let drive = Drive {
+        kp_per_s: s.kp,
+        feedforward: s.feedforward,
+        order,
+    };
+    drive
+        .validate()
+        .with_context(|| format!("{}: invalid [servo]", job.name))?;
     Ok(drive)
 }
 
@@ -47,7 +56,8 @@ fn commanded(setup: &Setup, machine: &Machine) -> Result<Vec<[f64; 3]>> {
 
 /// Commanded positions from a servo.csv (`t_s,x,y,z,…`), e.g. from `optimize`.
 fn read_servo_csv(path: &Path, period_ms: f64) -> Result<Vec<[f64; 3]>> {
-    let mut reader = csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut reader =
+        csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
     let mut out = Vec::new();
     // Interval before each sample, ms, with its line (checked once the last row is known).
     let mut intervals: Vec<(usize, f64)> = Vec::new();
@@ -57,7 +67,9 @@ fn read_servo_csv(path: &Path, period_ms: f64) -> Result<Vec<[f64; 3]>> {
         let rec = rec.with_context(|| format!("{}:{line}: bad row", path.display()))?;
         let num = |k: usize| -> Result<f64> {
             let raw = rec.get(k).unwrap_or("");
-            raw.parse().with_context(|| format!("{}:{line}:{}: not a number: {raw:?}", path.display(), k + 1))
+            raw.parse().with_context(|| {
+                format!("{}:{line}:{}: not a number: {raw:?}", path.display(), k + 1)
+            })
         };
         let t = num(0)?;
         if let Some(prev) = last_t {
@@ -128,7 +140,12 @@ pub fn evaluate(job_path: &Path, out: &Path, servo_csv: Option<&Path>, sweep: bo
         bail!("--sweep re-plans the program, so it cannot be combined with --servo");
     }
     let period_s = setup.machine.period_s();
-    let as_written = setup.program.gcode.is_some().then(|| commanded(&setup, &setup.machine)).transpose()?;
+    let as_written = setup
+        .program
+        .gcode
+        .is_some()
+        .then(|| commanded(&setup, &setup.machine))
+        .transpose()?;
     let command = match (servo_csv, &as_written) {
         (Some(p), _) => read_servo_csv(p, setup.machine.period_ms)?,
         (None, Some(c)) => c.clone(),
@@ -140,7 +157,13 @@ pub fn evaluate(job_path: &Path, out: &Path, servo_csv: Option<&Path>, sweep: bo
     let w = weights(&setup.job, (reference.len() - 1) as f64 * period_s);
     let actual = servo::simulate_actual(&command, period_s, &drive);
     let evaluation = servo::evaluate(&command, &actual, period_s, &w);
-    let pre = servo::precompensate(&command, period_s, &drive, setup.job.servo.precomp_threshold_mm, setup.job.servo.precomp_iterations);
+    let pre = servo::precompensate(
+        &command,
+        period_s,
+        &drive,
+        setup.job.servo.precomp_threshold_mm,
+        setup.job.servo.precomp_iterations,
+    );
     let compensated_actual = servo::simulate_actual(&pre.command, period_s, &drive);
     let (precomp_traj, _) = servo::trajectory_error_mm(&command, &compensated_actual);
 
@@ -152,16 +175,36 @@ pub fn evaluate(job_path: &Path, out: &Path, servo_csv: Option<&Path>, sweep: bo
             let accel = base.accel_mm_s2.map(|a| a * accel_factor);
             for jerk in [None, Some(accel.map(|a| a * 20.0))] {
                 for kp_factor in [0.5, 1.0, 2.0] {
-                    let machine = Machine { accel_mm_s2: accel, jerk_mm_s3: jerk, ..base };
-                    let d = Drive { kp_per_s: kp0 * kp_factor, ..drive };
+                    let machine = Machine {
+                        accel_mm_s2: accel,
+                        jerk_mm_s3: jerk,
+                        ..base
+                    };
+                    let d = Drive {
+                        kp_per_s: kp0 * kp_factor,
+                        ..drive
+                    };
                     let c = commanded(&setup, &machine)?;
                     let a = servo::simulate_actual(&c, period_s, &d);
-                    rows.push(SweepRow { accel_mm_s2: accel, jerk_mm_s3: jerk, kp_per_s: d.kp_per_s, evaluation: servo::evaluate(&c, &a, period_s, &w) });
+                    rows.push(SweepRow {
+                        accel_mm_s2: accel,
+                        jerk_mm_s3: jerk,
+                        kp_per_s: d.kp_per_s,
+                        evaluation: servo::evaluate(&c, &a, period_s, &w),
+                    });
                 }
             }
         }
     }
-    let best = rows.iter().enumerate().min_by(|a, b| a.1.evaluation.evaluation.total_cmp(&b.1.evaluation.evaluation)).map(|(i, _)| i);
+    let best = rows
+        .iter()
+        .enumerate()
+        .min_by(|a, b| {
+            a.1.evaluation
+                .evaluation
+                .total_cmp(&b.1.evaluation.evaluation)
+        })
+        .map(|(i, _)| i);
 
     write_positions_csv(&out.join("actual.csv"), &actual, period_s)?;
     write_positions_csv(&out.join("compensated.csv"), &pre.command, period_s)?;
@@ -188,13 +231,17 @@ pub fn evaluate(job_path: &Path, out: &Path, servo_csv: Option<&Path>, sweep: bo
         pre.error_before_mm, pre.error_after_mm, pre.iterations, precomp_traj
     );
     if !doc.sweep.is_empty() {
-        println!("{:>10} {:>10} {:>7} {:>10} {:>9} {:>12} {:>8}", "accel", "jerk", "kp", "error_mm", "time_s", "jerk_mm_s3", "V");
+        println!(
+            "{:>10} {:>10} {:>7} {:>10} {:>9} {:>12} {:>8}",
+            "accel", "jerk", "kp", "error_mm", "time_s", "jerk_mm_s3", "V"
+        );
         for (i, r) in doc.sweep.iter().enumerate() {
             let e = &r.evaluation;
             println!(
                 "{:>10.0} {:>10} {:>7.1} {:>10.4} {:>9.3} {:>12.0} {:>8.4}{}",
                 r.accel_mm_s2[0],
-                r.jerk_mm_s3.map_or("none".to_string(), |j| format!("{:.0}", j[0])),
+                r.jerk_mm_s3
+                    .map_or("none".to_string(), |j| format!("{:.0}", j[0])),
                 r.kp_per_s,
                 e.trajectory_error_mm,
                 e.machining_time_s,

@@ -7,16 +7,26 @@ use anyhow::{Context, Result};
 
 /// (file name, content) of the example's files.
 pub const FILES: [(&str, &[u8]); 3] = [
-    ("job.toml", include_bytes!("../../../examples/boss_contour/job.toml")),
-    ("boss_contour.nc", include_bytes!("../../../examples/boss_contour/boss_contour.nc")),
-    ("boss_contour_stock.stl", include_bytes!("../../../examples/boss_contour/boss_contour_stock.stl")),
+    (
+        "job.toml",
+        include_bytes!("../../../examples/boss_contour/job.toml"),
+    ),
+    (
+        "boss_contour.nc",
+        include_bytes!("../../../examples/boss_contour/boss_contour.nc"),
+    ),
+    (
+        "boss_contour_stock.stl",
+        include_bytes!("../../../examples/boss_contour/boss_contour_stock.stl"),
+    ),
 ];
 
 /// Write the example into `dir`; returns the job file's path.
 pub fn write_files(dir: &Path) -> Result<PathBuf> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     for (name, bytes) in FILES {
-        export::atomic::write_bytes(&dir.join(name), bytes).with_context(|| format!("cannot write {}", dir.join(name).display()))?;
+        export::atomic::write_bytes(&dir.join(name), bytes)
+            .with_context(|| format!("cannot write {}", dir.join(name).display()))?;
     }
     Ok(dir.join("job.toml"))
 }
@@ -24,6 +34,10 @@ pub fn write_files(dir: &Path) -> Result<PathBuf> {
 /// `dexcut example`: write the example to edit and run.
 pub fn write(dir: &Path) -> Result<()> {
     let job = write_files(dir)?;
-    println!("wrote the boss_contour example to {}; run it with: dexcut optimize {}", dir.display(), job.display());
+    println!(
+        "wrote the boss_contour example to {}; run it with: dexcut optimize {}",
+        dir.display(),
+        job.display()
+    );
     Ok(())
 }

@@ -126,7 +126,13 @@ fn default_material() -> String {
 
 impl Default for CuttingSpec {
     fn default() -> Self {
-        CuttingSpec { band_height: default_band(), material: default_material(), spindle_rpm: None, force_a: None, force_n: None }
+        CuttingSpec {
+            band_height: default_band(),
+            material: default_material(),
+            spindle_rpm: None,
+            force_a: None,
+            force_n: None,
+        }
     }
 }
 
@@ -279,7 +285,8 @@ pub fn location(file: &str, text: &str, offset: usize) -> String {
 impl Job {
     /// Read and check a job file.
     pub fn load(path: &Path) -> Result<Job> {
-        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read job file {}", path.display()))?;
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read job file {}", path.display()))?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Job::parse(&text, &path.display().to_string(), &base)
     }
@@ -287,12 +294,15 @@ impl Job {
     /// Parse job text; `name` is used in messages, `base_dir` resolves relative paths.
     pub fn parse(text: &str, name: &str, base_dir: &Path) -> Result<Job> {
         let mut job: Job = toml::from_str(text).map_err(|e| {
-            let at = e.span().map_or_else(|| name.to_string(), |s| location(name, text, s.start));
+            let at = e
+                .span()
+                .map_or_else(|| name.to_string(), |s| location(name, text, s.start));
             anyhow::anyhow!("{at}: {}", e.message())
         })?;
         job.base_dir = base_dir.to_path_buf();
         job.name = name.to_string();
-        job.validate().with_context(|| format!("{name}: invalid job"))?;
+        job.validate()
+            .with_context(|| format!("{name}: invalid job"))?;
         Ok(job)
     }
 
@@ -319,7 +329,9 @@ impl Job {
         positive("stock.grid (mm)", s.grid)?;
         match s.kind {
             StockKind::Box => {
-                let (Some(min), Some(max)) = (s.min, s.max) else { bail!("stock kind \"box\" needs min = [x, y, z] and max = [x, y, z]") };
+                let (Some(min), Some(max)) = (s.min, s.max) else {
+                    bail!("stock kind \"box\" needs min = [x, y, z] and max = [x, y, z]")
+                };
                 for k in 0..3 {
                     if !(max[k] > min[k]) {
                         bail!("stock box max must exceed min on every axis, got min {min:?}, max {max:?}");
@@ -327,7 +339,8 @@ impl Job {
                 }
             }
             StockKind::Cylinder => {
-                let (Some(_), Some(r), Some(lo), Some(hi)) = (s.center, s.radius, s.z_min, s.z_max) else {
+                let (Some(_), Some(r), Some(lo), Some(hi)) = (s.center, s.radius, s.z_min, s.z_max)
+                else {
                     bail!("stock kind \"cylinder\" needs center = [x, y], radius, z_min and z_max")
                 };
                 positive("stock.radius (mm)", r)?;
@@ -390,14 +403,20 @@ impl Job {
         positive("servo.kp (1/s)", self.servo.kp)?;
         positive("servo.tolerance_mm", self.servo.tolerance_mm)?;
         positive("servo.jerk_reference (mm/s³)", self.servo.jerk_reference)?;
-        positive("servo.precomp_threshold_mm", self.servo.precomp_threshold_mm)?;
+        positive(
+            "servo.precomp_threshold_mm",
+            self.servo.precomp_threshold_mm,
+        )?;
         positive_opt("servo.zeta", self.servo.zeta)?;
         positive_opt("servo.omega_n (rad/s)", self.servo.omega_n)?;
         if self.servo.zeta.is_some() != self.servo.omega_n.is_some() {
             bail!("servo: a second-order drive needs both zeta and omega_n");
         }
         if !(0.0..=1.0).contains(&self.servo.feedforward) {
-            bail!("servo.feedforward must lie in 0..1, got {}", self.servo.feedforward);
+            bail!(
+                "servo.feedforward must lie in 0..1, got {}",
+                self.servo.feedforward
+            );
         }
         Ok(())
     }
@@ -452,15 +471,26 @@ feed = 1000
     #[test]
     fn unknown_key_names_file_line_and_column() {
         let text = MINIMAL.replace("feed = 1000", "feed = 1000\nspeed = 3");
-        let err = Job::parse(&text, "job.toml", Path::new(".")).unwrap_err().to_string();
-        assert!(err.starts_with("job.toml:13:1: unknown field `speed`"), "{err}");
+        let err = Job::parse(&text, "job.toml", Path::new("."))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("job.toml:13:1: unknown field `speed`"),
+            "{err}"
+        );
     }
 
     #[test]
     fn negative_sizes_are_rejected() {
         let text = MINIMAL.replace("diameter = 6", "diameter = -6");
-        let err = format!("{:#}", Job::parse(&text, "job.toml", Path::new(".")).unwrap_err());
-        assert!(err.contains("tool.diameter (mm) must be a positive number"), "{err}");
+        let err = format!(
+            "{:#}",
+            Job::parse(&text, "job.toml", Path::new(".")).unwrap_err()
+        );
+        assert!(
+            err.contains("tool.diameter (mm) must be a positive number"),
+            "{err}"
+        );
         let text = MINIMAL.replace("max = [10, 10, 10]", "max = [10, -10, 10]");
         assert!(Job::parse(&text, "job.toml", Path::new(".")).is_err());
     }

@@ -6,7 +6,11 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(name = "dexcut", version, about = "Z-dexel cutting simulation, feed optimisation and error prediction for CNC milling")]
+#[command(
+    name = "dexcut",
+    version,
+    about = "Z-dexel cutting simulation, feed optimisation and error prediction for CNC milling"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -77,10 +81,22 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Simulate { job, out, grid, actual_path } => dexcut::commands::simulate(&job, &out, grid, actual_path),
-        Command::Optimize { job, out, grid } => dexcut::commands::optimize(job.as_deref(), &out, grid),
+        Command::Simulate {
+            job,
+            out,
+            grid,
+            actual_path,
+        } => dexcut::commands::simulate(&job, &out, grid, actual_path),
+        Command::Optimize { job, out, grid } => {
+            dexcut::commands::optimize(job.as_deref(), &out, grid)
+        }
         Command::Report { dir } => dexcut::commands::report(&dir),
-        Command::Evaluate { job, out, servo, sweep } => dexcut::evaluate::evaluate(&job, &out, servo.as_deref(), sweep),
+        Command::Evaluate {
+            job,
+            out,
+            servo,
+            sweep,
+        } => dexcut::evaluate::evaluate(&job, &out, servo.as_deref(), sweep),
         Command::Calibrate { csv } => dexcut::commands::calibrate(&csv),
         Command::Example { out } => dexcut::example::write(&out),
     };

@@ -53,7 +53,11 @@ pub fn steps_from_samples(path: &nc::Path, samples: &[ServoSample]) -> Vec<Timed
                 },
                 t_end_s: w[1].t_s,
                 dt_s: dt,
-                feed_mm_min: if dt > 0.0 { (w[1].s_mm - w[0].s_mm) / dt * 60.0 } else { 0.0 },
+                feed_mm_min: if dt > 0.0 {
+                    (w[1].s_mm - w[0].s_mm) / dt * 60.0
+                } else {
+                    0.0
+                },
                 line: seg.line,
             }
         })
@@ -76,10 +80,18 @@ pub fn direct_steps(path: &nc::Path) -> Vec<TimedStep> {
                 Motion::Feed { feed_mm_min } => feed_mm_min,
                 _ => 0.0,
             };
-            let dt = if feed > 0.0 { seg.length_mm() / feed * 60.0 } else { 0.0 };
+            let dt = if feed > 0.0 {
+                seg.length_mm() / feed * 60.0
+            } else {
+                0.0
+            };
             t += dt;
             TimedStep {
-                step: dexel::Step { from_mm: seg.start.coords.into(), to_mm: seg.end.coords.into(), rapid: false },
+                step: dexel::Step {
+                    from_mm: seg.start.coords.into(),
+                    to_mm: seg.end.coords.into(),
+                    rapid: false,
+                },
                 t_end_s: t,
                 dt_s: dt,
                 feed_mm_min: feed,

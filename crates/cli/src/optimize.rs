@@ -28,7 +28,12 @@ pub struct Engagement {
 }
 
 /// Sweep a copy of the stock along the stations (geometry only, no time).
-pub fn engagement(stations: &Stations, stock: &Stock, tool: &Tool, model: &CuttingModel) -> Result<Engagement> {
+pub fn engagement(
+    stations: &Stations,
+    stock: &Stock,
+    tool: &Tool,
+    model: &CuttingModel,
+) -> Result<Engagement> {
     let pos = stations.position();
     let segs = stations.segments();
     let seg_of = stations.segment();
@@ -40,15 +45,25 @@ pub fn engagement(stations: &Stations, stock: &Stock, tool: &Tool, model: &Cutti
         })
         .collect();
     let mut stock = stock.clone();
-    let options = SweepOptions { band_height_mm: model.band_height_mm, ..SweepOptions::default() };
+    let options = SweepOptions {
+        band_height_mm: model.band_height_mm,
+        ..SweepOptions::default()
+    };
     let bar = crate::progress::bar(steps.len() as u64, "engagement");
-    let record = dexel::sweep(&mut stock, tool, &steps, &options, &|d| bar.set_position(d as u64))?;
+    let record = dexel::sweep(&mut stock, tool, &steps, &options, &|d| {
+        bar.set_position(d as u64)
+    })?;
     bar.finish_and_clear();
     let volumes: Vec<f64> = (0..steps.len()).map(|k| record.volume_mm3(k)).collect();
     let window_mm = (ENGAGEMENT_WINDOW_CELLS * stock.grid().spacing_mm).max(2.0 * STATION_DS_MM);
     let area_mm2 = windowed_area(stations.s_mm(), &volumes, window_mm);
-    let compliance_mm_n = (0..steps.len()).map(|k| model.tip_compliance_mm_per_n(record.band_volumes_mm3(k))).collect();
-    Ok(Engagement { area_mm2, compliance_mm_n })
+    let compliance_mm_n = (0..steps.len())
+        .map(|k| model.tip_compliance_mm_per_n(record.band_volumes_mm3(k)))
+        .collect();
+    Ok(Engagement {
+        area_mm2,
+        compliance_mm_n,
+    })
 }
 
 /// Engagement is averaged over this many grid cells of path: a dexel grid
@@ -76,7 +91,11 @@ pub fn windowed_area(s_mm: &[f64], volumes_mm3: &[f64], window_mm: f64) -> Vec<f
             *i += 1;
         }
         let (a, b) = (s_mm[*i], s_mm[*i + 1]);
-        let f = if b > a { ((x - a) / (b - a)).clamp(0.0, 1.0) } else { 1.0 };
+        let f = if b > a {
+            ((x - a) / (b - a)).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
         cum[*i] + f * volumes_mm3[*i]
     };
     let (mut lo, mut hi) = (0usize, 0usize);
@@ -84,7 +103,11 @@ pub fn windowed_area(s_mm: &[f64], volumes_mm3: &[f64], window_mm: f64) -> Vec<f
         .map(|k| {
             let mid = 0.5 * (s_mm[k] + s_mm[k + 1]);
             let (a, b) = ((mid - half).max(s_first), (mid + half).min(s_last));
-            if b > a { (cum_at(b, &mut hi) - cum_at(a, &mut lo)) / (b - a) } else { 0.0 }
+            if b > a {
+                (cum_at(b, &mut hi) - cum_at(a, &mut lo)) / (b - a)
+            } else {
+                0.0
+            }
         })
         .collect();
     // Sliding maximum over ±half (monotone deque).
@@ -100,7 +123,10 @@ pub fn windowed_area(s_mm: &[f64], volumes_mm3: &[f64], window_mm: f64) -> Vec<f
             deque.push_back(next);
             next += 1;
         }
-        while deque.front().is_some_and(|&f| 0.5 * (s_mm[f] + s_mm[f + 1]) < mid - half) {
+        while deque
+            .front()
+            .is_some_and(|&f| 0.5 * (s_mm[f] + s_mm[f + 1]) < mid - half)
+        {
             deque.pop_front();
         }
         out[k] = deque.front().map_or(mean[k], |&f| mean[f]);
@@ -116,7 +142,9 @@ pub fn interval_caps(
     model: &CuttingModel,
     tool: &Tool,
 ) -> Vec<(f64, CapKind)> {
-    let force_cap_v = |force_max_n: f64| cutting::volume_per_tooth_at_force_mm3(force_max_n, model.force_coef_a, model.force_exp_n);
+    let force_cap_v = |force_max_n: f64| {
+        cutting::volume_per_tooth_at_force_mm3(force_max_n, model.force_coef_a, model.force_exp_n)
+    };
     let per_rev = model.flutes as f64 * model.spindle_rpm;
     let tangents = stations.tangent();
     engagement
@@ -141,12 +169,17 @@ pub fn interval_caps(
                     let f = d_um * 1e-3 / engagement.compliance_mm_n[k];
                     lower(force_cap_v(f) * per_rev / a, CapKind::Deflection); // δ = F_c·c
                 }
-                if let (true, Some(v0), dexel::ToolShape::Ball) = (limits.angle_rule, limits.v0, tool.shape) {
+                if let (true, Some(v0), dexel::ToolShape::Ball) =
+                    (limits.angle_rule, limits.v0, tool.shape)
+                {
                     // S3: θ between the surface normal and the tool axis, taken as the path's inclination.
                     let t = tangents[k + 1];
                     let theta_deg = t.z.abs().atan2((t.x * t.x + t.y * t.y).sqrt()).to_degrees();
                     let feed = stations.machine().feed_max_mm_min;
-                    lower(schedule::angle_rule_feed_mm_min(theta_deg, feed, v0), CapKind::SurfaceAngle);
+                    lower(
+                        schedule::angle_rule_feed_mm_min(theta_deg, feed, v0),
+                        CapKind::SurfaceAngle,
+                    );
                 }
             }
             if let Some(lo) = limits.feed_min {
@@ -183,7 +216,11 @@ pub const MERGE_RATIO: f64 = 1.05;
 /// piecewise-constant feeds that never exceed the limit caps (`interval_caps`,
 /// and feed_max) in the piece. Corner, curvature and acceleration limits are
 /// left to the control, as with any program.
-pub fn refeed_plan(stations: &Stations, interval_caps: &[(f64, CapKind)], machine: &Machine) -> Vec<Vec<(f64, f64)>> {
+pub fn refeed_plan(
+    stations: &Stations,
+    interval_caps: &[(f64, CapKind)],
+    machine: &Machine,
+) -> Vec<Vec<(f64, f64)>> {
     let segs = stations.segments();
     let mut plan: Vec<Vec<(f64, f64)>> = vec![Vec::new(); segs.len()];
     let (seg_of, frac, s) = (stations.segment(), stations.fraction(), stations.s_mm());
@@ -221,7 +258,10 @@ pub fn refeed_plan(stations: &Stations, interval_caps: &[(f64, CapKind)], machin
             }
         }
         if matches!(segs[seg].motion, Motion::Feed { .. }) {
-            plan[seg] = pieces.iter().map(|p| (p.1, (p.2.floor()).max(1.0))).collect();
+            plan[seg] = pieces
+                .iter()
+                .map(|p| (p.1, (p.2.floor()).max(1.0)))
+                .collect();
         }
     }
     plan
@@ -239,21 +279,36 @@ pub fn cap_shares(profile: &schedule::Profile<'_>) -> Vec<CapShare> {
         .time_at_cap_share()
         .into_iter()
         .filter(|(_, share)| *share > 0.0)
-        .map(|(kind, share)| CapShare { cap: format!("{kind:?}"), share })
+        .map(|(kind, share)| CapShare {
+            cap: format!("{kind:?}"),
+            share,
+        })
         .collect()
 }
 
 /// The machine the optimiser plans for: the job's, with [limits] feed_max.
 pub fn optimising_machine(machine: &Machine, limits: &LimitsSpec) -> Machine {
-    Machine { feed_max_mm_min: limits.feed_max.unwrap_or(machine.feed_max_mm_min), ..*machine }
+    Machine {
+        feed_max_mm_min: limits.feed_max.unwrap_or(machine.feed_max_mm_min),
+        ..*machine
+    }
 }
 
 /// Stations for re-timing with every feed block free up to feed_max.
 pub fn free_stations(path: &nc::Path, machine: &Machine) -> Result<Stations> {
-    if path.segments.iter().all(|s| !matches!(s.motion, Motion::Feed { .. })) {
+    if path
+        .segments
+        .iter()
+        .all(|s| !matches!(s.motion, Motion::Feed { .. }))
+    {
         bail!("the program has no feed moves to optimise");
     }
-    Ok(Stations::new(path, machine, STATION_DS_MM, FeedPolicy::MachineMax)?)
+    Ok(Stations::new(
+        path,
+        machine,
+        STATION_DS_MM,
+        FeedPolicy::MachineMax,
+    )?)
 }
 
 #[cfg(test)]
@@ -264,7 +319,19 @@ mod tests {
     fn windowed_area_is_conservative_and_exact_on_plateaus() {
         // 0.05 mm intervals; volume alternates 0 / 3 (quantised 30 mm³/mm) from s = 2 to 6.
         let s: Vec<f64> = (0..=200).map(|i| i as f64 * 0.05).collect();
-        let v: Vec<f64> = (0..200).map(|i| if (40..120).contains(&i) { if i % 2 == 0 { 3.0 } else { 0.0 } } else { 0.0 }).collect();
+        let v: Vec<f64> = (0..200)
+            .map(|i| {
+                if (40..120).contains(&i) {
+                    if i % 2 == 0 {
+                        3.0
+                    } else {
+                        0.0
+                    }
+                } else {
+                    0.0
+                }
+            })
+            .collect();
         let a = windowed_area(&s, &v, 0.2);
         assert!((a[80] - 30.0).abs() < 1e-9, "plateau {}", a[80]);
         // The cap starts one window (4 intervals) before the rise and ends one window after.

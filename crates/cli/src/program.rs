@@ -3,8 +3,8 @@
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
-use nc::{Geometry, Motion, Segment};
 use nalgebra::Point3;
+use nc::{Geometry, Motion, Segment};
 
 use crate::job::Job;
 
@@ -23,16 +23,25 @@ pub struct Program {
 impl Program {
     /// Highest spindle speed the program sets, rev/min (0 if none).
     pub fn spindle_rpm(&self) -> f64 {
-        self.path.segments.iter().map(|s| s.spindle_rpm).fold(0.0, f64::max)
+        self.path
+            .segments
+            .iter()
+            .map(|s| s.spindle_rpm)
+            .fold(0.0, f64::max)
     }
 }
 
 /// Load the job's program, choosing the reader by extension.
 pub fn load(job: &Job) -> Result<Program> {
     let path = job.resolve(&job.program.path);
-    let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read program {}", path.display()))?;
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("cannot read program {}", path.display()))?;
     let file = path.display().to_string();
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
     match ext.as_str() {
         "csv" => Ok(Program { path: read_points_csv(&text, &file, job.program.feed)?, file, gcode: None, nc_options: nc::Options::default() }),
         "nc" | "ngc" | "tap" | "gcode" | "cnc" => parse_gcode(&text, &file, job),
@@ -44,12 +53,24 @@ pub fn load(job: &Job) -> Result<Program> {
 /// starts at `[machine] start`, or by default above the first programmed
 /// point at the highest Z of the program (see [`default_start`]).
 pub fn parse_gcode(text: &str, file: &str, job: &Job) -> Result<Program> {
-    let mut options = nc::Options { work_offsets_mm: job.offsets.as_array(), ..nc::Options::default() };
+    let mut options = nc::Options {
+        work_offsets_mm: job.offsets.as_array(),
+        ..nc::Options::default()
+    };
     options.initial_position_mm = job.machine.start.unwrap_or_default();
     let mut parsed = nc::parse(text, file, &options);
-    let errors: Vec<String> = parsed.diagnostics.iter().filter(|d| d.is_error()).map(|d| d.to_string()).collect();
+    let errors: Vec<String> = parsed
+        .diagnostics
+        .iter()
+        .filter(|d| d.is_error())
+        .map(|d| d.to_string())
+        .collect();
     if !errors.is_empty() {
-        bail!("{} error(s) in the program:\n{}", errors.len(), errors.join("\n"));
+        bail!(
+            "{} error(s) in the program:\n{}",
+            errors.len(),
+            errors.join("\n")
+        );
     }
     if parsed.path.segments.is_empty() {
         bail!("{file}: the program has no motion");
@@ -62,25 +83,42 @@ pub fn parse_gcode(text: &str, file: &str, job: &Job) -> Result<Program> {
     for d in parsed.diagnostics.iter().filter(|d| !d.is_error()) {
         eprintln!("warning: {d}");
     }
-    Ok(Program { path: parsed.path, file: file.to_string(), gcode: Some(text.to_string()), nc_options: options })
+    Ok(Program {
+        path: parsed.path,
+        file: file.to_string(),
+        gcode: Some(text.to_string()),
+        nc_options: options,
+    })
 }
 
 /// Start above the end of the first move (read from the machine origin), at
 /// the highest Z of the path: the machine arrives from a safe height.
 fn default_start(path: &nc::Path) -> [f64; 3] {
     let first = path.segments[0].end;
-    let top = path.segments.iter().map(|s| s.end.z.max(s.start.z)).fold(first.z, f64::max);
+    let top = path
+        .segments
+        .iter()
+        .map(|s| s.end.z.max(s.start.z))
+        .fold(first.z, f64::max);
     [first.x, first.y, top]
 }
 
 /// Tool-tip points with header `x,y,z[,feed]` (mm, mm/min) become straight
 /// feed moves from each point to the next; the first point is the start.
 pub fn read_points_csv(text: &str, file: &str, default_feed: Option<f64>) -> Result<nc::Path> {
-    let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(text.as_bytes());
-    let headers = reader.headers().with_context(|| format!("{file}:1:1: cannot read the CSV header"))?.clone();
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    let headers = reader
+        .headers()
+        .with_context(|| format!("{file}:1:1: cannot read the CSV header"))?
+        .clone();
     let find = |name: &str| headers.iter().position(|h| h.eq_ignore_ascii_case(name));
     let (Some(ix), Some(iy), Some(iz)) = (find("x"), find("y"), find("z")) else {
-        bail!("{file}:1:1: the header must name columns x, y, z (and optionally feed); found {:?}", headers.iter().collect::<Vec<_>>());
+        bail!(
+            "{file}:1:1: the header must name columns x, y, z (and optionally feed); found {:?}",
+            headers.iter().collect::<Vec<_>>()
+        );
     };
     let ifeed = find("feed").or_else(|| find("feed_mm_min"));
     if ifeed.is_none() && default_feed.is_none() {
@@ -98,7 +136,9 @@ pub fn read_points_csv(text: &str, file: &str, default_feed: Option<f64>) -> Res
             // Field ranges exclude delimiters: add one per preceding field.
             let col = record.range(i).map_or(1, |r| r.start + i + 1);
             let raw = record.get(i).unwrap_or("");
-            let v: f64 = raw.parse().map_err(|_| anyhow::anyhow!("{file}:{line}:{col}: {what} is not a number: {raw:?}"))?;
+            let v: f64 = raw.parse().map_err(|_| {
+                anyhow::anyhow!("{file}:{line}:{col}: {what} is not a number: {raw:?}")
+            })?;
             if !v.is_finite() {
                 bail!("{file}:{line}:{col}: {what} must be finite, got {raw}");
             }
@@ -110,7 +150,9 @@ pub fn read_points_csv(text: &str, file: &str, default_feed: Option<f64>) -> Res
             _ => default_feed.unwrap_or(0.0),
         };
         if !(feed > 0.0) {
-            let col = ifeed.and_then(|i| record.range(i).map(|r| r.start + i + 1)).unwrap_or(1);
+            let col = ifeed
+                .and_then(|i| record.range(i).map(|r| r.start + i + 1))
+                .unwrap_or(1);
             bail!("{file}:{line}:{col}: feed must be positive, got {feed}");
         }
         if let Some(start) = prev {
@@ -134,7 +176,10 @@ pub fn read_points_csv(text: &str, file: &str, default_feed: Option<f64>) -> Res
 /// True if the program file name looks like G-code.
 pub fn is_gcode(path: &Path) -> bool {
     matches!(
-        path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref(),
+        path.extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+            .as_deref(),
         Some("nc" | "ngc" | "tap" | "gcode" | "cnc")
     )
 }
@@ -145,21 +190,37 @@ mod tests {
 
     #[test]
     fn csv_points_become_lines() {
-        let path = read_points_csv("x,y,z,feed\n0,0,1,\n10,0,1,600\n10,5,1,\n", "p.csv", Some(1200.0)).unwrap();
+        let path = read_points_csv(
+            "x,y,z,feed\n0,0,1,\n10,0,1,600\n10,5,1,\n",
+            "p.csv",
+            Some(1200.0),
+        )
+        .unwrap();
         assert_eq!(path.segments.len(), 2);
         assert_eq!(path.segments[0].motion, Motion::Feed { feed_mm_min: 600.0 });
-        assert_eq!(path.segments[1].motion, Motion::Feed { feed_mm_min: 1200.0 });
+        assert_eq!(
+            path.segments[1].motion,
+            Motion::Feed {
+                feed_mm_min: 1200.0
+            }
+        );
         assert_eq!(path.segments[1].line, 4);
         assert!((path.length_mm() - 15.0).abs() < 1e-12);
     }
 
     #[test]
     fn csv_errors_name_line_and_column() {
-        let err = read_points_csv("x,y,z\n0,0,1\n1,abc,1\n", "p.csv", Some(100.0)).unwrap_err().to_string();
+        let err = read_points_csv("x,y,z\n0,0,1\n1,abc,1\n", "p.csv", Some(100.0))
+            .unwrap_err()
+            .to_string();
         assert_eq!(err, "p.csv:3:3: y is not a number: \"abc\"");
-        let err = read_points_csv("a,b\n0,0\n", "p.csv", Some(100.0)).unwrap_err().to_string();
+        let err = read_points_csv("a,b\n0,0\n", "p.csv", Some(100.0))
+            .unwrap_err()
+            .to_string();
         assert!(err.starts_with("p.csv:1:1: the header must name"), "{err}");
-        let err = read_points_csv("x,y,z\n0,0,0\n1,1,1\n", "p.csv", None).unwrap_err().to_string();
+        let err = read_points_csv("x,y,z\n0,0,0\n1,1,1\n", "p.csv", None)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("no feed column"), "{err}");
     }
 }

@@ -5,20 +5,32 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
-use export::{HeatMapStyle, HeightField, PlotGroup, Report, ReportImage, ScalarMap, Series, SummaryRow};
+use export::{
+    HeatMapStyle, HeightField, PlotGroup, Report, ReportImage, ScalarMap, Series, SummaryRow,
+};
 use serde_json::Value;
 
 use crate::simulate::GridInfo;
 
 /// Named numeric columns of a CSV file (empty fields read as NaN).
 fn read_csv_columns(path: &Path, wanted: &[&str]) -> Result<HashMap<String, Vec<f64>>> {
-    let mut reader = csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let headers = reader.headers().with_context(|| format!("{}: no header", path.display()))?.clone();
+    let mut reader =
+        csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let headers = reader
+        .headers()
+        .with_context(|| format!("{}: no header", path.display()))?
+        .clone();
     let index: Vec<(String, usize)> = wanted
         .iter()
-        .filter_map(|w| headers.iter().position(|h| h == *w).map(|i| (w.to_string(), i)))
+        .filter_map(|w| {
+            headers
+                .iter()
+                .position(|h| h == *w)
+                .map(|i| (w.to_string(), i))
+        })
         .collect();
-    let mut cols: HashMap<String, Vec<f64>> = index.iter().map(|(n, _)| (n.clone(), Vec::new())).collect();
+    let mut cols: HashMap<String, Vec<f64>> =
+        index.iter().map(|(n, _)| (n.clone(), Vec::new())).collect();
     for (row, record) in reader.records().enumerate() {
         let record = record.with_context(|| format!("{}: bad row {}", path.display(), row + 2))?;
         for (name, i) in &index {
@@ -26,7 +38,13 @@ fn read_csv_columns(path: &Path, wanted: &[&str]) -> Result<HashMap<String, Vec<
             let v = if raw.is_empty() {
                 f64::NAN
             } else {
-                raw.parse().with_context(|| format!("{}:{}: {name} is not a number: {raw:?}", path.display(), row + 2))?
+                raw.parse().with_context(|| {
+                    format!(
+                        "{}:{}: {name} is not a number: {raw:?}",
+                        path.display(),
+                        row + 2
+                    )
+                })?
             };
             cols.get_mut(name).expect("column").push(v);
         }
@@ -39,10 +57,14 @@ fn read_maps(path: &Path, grid: &GridInfo, names: &[&str]) -> Result<HashMap<Str
     let mut wanted = vec!["ix", "iy"];
     wanted.extend_from_slice(names);
     let cols = read_csv_columns(path, &wanted)?;
-    let (Some(ix), Some(iy)) = (cols.get("ix"), cols.get("iy")) else { bail!("{}: missing ix/iy columns", path.display()) };
+    let (Some(ix), Some(iy)) = (cols.get("ix"), cols.get("iy")) else {
+        bail!("{}: missing ix/iy columns", path.display())
+    };
     let mut maps = HashMap::new();
     for name in names {
-        let Some(values) = cols.get(*name) else { continue };
+        let Some(values) = cols.get(*name) else {
+            continue;
+        };
         let mut map = vec![f32::NAN; grid.nx * grid.ny];
         for ((x, y), v) in ix.iter().zip(iy).zip(values) {
             let (x, y) = (*x as usize, *y as usize);
@@ -64,12 +86,23 @@ fn series(name: &str, unit: &str, cols: &HashMap<String, Vec<f64>>, key: &str) -
     }
 }
 
-const STEP_COLUMNS: [&str; 5] = ["t_s", "mrr_mm3_s", "feed_mm_min", "force_n", "deflection_um"];
+const STEP_COLUMNS: [&str; 5] = [
+    "t_s",
+    "mrr_mm3_s",
+    "feed_mm_min",
+    "force_n",
+    "deflection_um",
+];
 
 /// Summary rows: (label, json key, unit, decimals).
 const ROWS: [(&str, &str, &str, usize); 10] = [
     ("cycle time", "cycle_time_s", "s", 3),
-    ("peak MRR (≥ 48 ms, ≥ 10 cells)", "peak_mrr_windowed_mm3_s", "mm³/s", 2),
+    (
+        "peak MRR (≥ 48 ms, ≥ 10 cells)",
+        "peak_mrr_windowed_mm3_s",
+        "mm³/s",
+        2,
+    ),
     ("peak MRR per period", "peak_mrr_mm3_s", "mm³/s", 2),
     ("peak force", "peak_force_n", "N", 1),
     ("peak deflection", "peak_deflection_um", "µm", 1),
@@ -90,56 +123,141 @@ fn cell(v: &Value, key: &str, unit: &str, decimals: usize) -> String {
 /// `dexcut report DIR`.
 pub fn report(dir: &Path) -> Result<()> {
     let summary_path = dir.join("summary.json");
-    let text = std::fs::read_to_string(&summary_path)
-        .with_context(|| format!("cannot read {}: is {} a `dexcut simulate` or `optimize` output folder?", summary_path.display(), dir.display()))?;
-    let summary: Value = serde_json::from_str(&text).with_context(|| format!("{}: not valid JSON", summary_path.display()))?;
-    let grid: GridInfo = serde_json::from_value(summary.get("grid").cloned().unwrap_or(Value::Null))
-        .with_context(|| format!("{}: no grid description", summary_path.display()))?;
+    let text = std::fs::read_to_string(&summary_path).with_context(|| {
+        format!(
+            "cannot read {}: is {} a `dexcut simulate` or `optimize` output folder?",
+            summary_path.display(),
+            dir.display()
+        )
+    })?;
+    let summary: Value = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not valid JSON", summary_path.display()))?;
+    let grid: GridInfo =
+        serde_json::from_value(summary.get("grid").cloned().unwrap_or(Value::Null))
+            .with_context(|| format!("{}: no grid description", summary_path.display()))?;
     let optimized = summary.get("after").is_some();
-    let (before_json, after_json) = if optimized { (&summary["before"], Some(&summary["after"])) } else { (&summary, None) };
+    let (before_json, after_json) = if optimized {
+        (&summary["before"], Some(&summary["after"]))
+    } else {
+        (&summary, None)
+    };
 
     // Time series.
     let after_cols = read_csv_columns(&dir.join("steps.csv"), &STEP_COLUMNS)?;
-    let before_cols = if optimized { Some(read_csv_columns(&dir.join("steps_before.csv"), &STEP_COLUMNS)?) } else { None };
+    let before_cols = if optimized {
+        Some(read_csv_columns(
+            &dir.join("steps_before.csv"),
+            &STEP_COLUMNS,
+        )?)
+    } else {
+        None
+    };
     let limits = summary.get("limits");
     let limit = |k: &str| limits.and_then(|l| l.get(k)).and_then(Value::as_f64);
     let plot = |title: &str, label: &str, unit: &str, key: &str, limit: Option<f64>| {
-        let mut group = PlotGroup { title: title.into(), y_label: label.into(), unit: unit.into(), series: Vec::new(), limit };
+        let mut group = PlotGroup {
+            title: title.into(),
+            y_label: label.into(),
+            unit: unit.into(),
+            series: Vec::new(),
+            limit,
+        };
         match &before_cols {
             Some(b) => {
                 group.series.push(series("before", unit, b, key));
-                group.series.push(series("optimised", unit, &after_cols, key));
+                group
+                    .series
+                    .push(series("optimised", unit, &after_cols, key));
             }
-            None => group.series.push(series("simulated", unit, &after_cols, key)),
+            None => group
+                .series
+                .push(series("simulated", unit, &after_cols, key)),
         }
         group
     };
     let plots = vec![
-        plot("Material removal rate", "MRR", "mm³/s", "mrr_mm3_s", limit("mrr_max_mm3_s")),
+        plot(
+            "Material removal rate",
+            "MRR",
+            "mm³/s",
+            "mrr_mm3_s",
+            limit("mrr_max_mm3_s"),
+        ),
         plot("Feed", "feed", "mm/min", "feed_mm_min", None),
-        plot("Cutting force", "force", "N", "force_n", limit("force_max_n")),
-        plot("Tool tip deflection", "deflection", "µm", "deflection_um", limit("deflection_max_um")),
+        plot(
+            "Cutting force",
+            "force",
+            "N",
+            "force_n",
+            limit("force_max_n"),
+        ),
+        plot(
+            "Tool tip deflection",
+            "deflection",
+            "µm",
+            "deflection_um",
+            limit("deflection_max_um"),
+        ),
     ];
 
     // Maps and the 3D stock.
-    let maps = read_maps(&dir.join("columns.csv"), &grid, &["top_mm", "error_um", "design_um"])?;
+    let maps = read_maps(
+        &dir.join("columns.csv"),
+        &grid,
+        &["top_mm", "error_um", "design_um"],
+    )?;
     let egrid = grid.export();
-    let error = ScalarMap { grid: egrid, values: maps.get("error_um").cloned().unwrap_or_default(), unit: "µm".into() };
-    let error_style = HeatMapStyle { title: "Predicted error (+ material left)".into(), unit: "µm".into(), symmetric: true, range: None };
+    let error = ScalarMap {
+        grid: egrid,
+        values: maps.get("error_um").cloned().unwrap_or_default(),
+        unit: "µm".into(),
+    };
+    let error_style = HeatMapStyle {
+        title: "Predicted error (+ material left)".into(),
+        unit: "µm".into(),
+        symmetric: true,
+        range: None,
+    };
     let mut images = Vec::new();
     let error_png = export::heat_map_png_bytes(&error, &error_style)?;
-    export::atomic::write_bytes(&dir.join("error_map.png"), &error_png).context("cannot write error_map.png")?;
-    images.push(ReportImage { name: "Predicted shape error from tool deflection (µm, positive = material left)".into(), png: error_png });
-    if let Some(design) = maps.get("design_um").filter(|m| m.iter().any(|v| v.is_finite())) {
-        let map = ScalarMap { grid: egrid, values: design.clone(), unit: "µm".into() };
-        let style = HeatMapStyle { title: "Distance to design (+ stock left, - gouge)".into(), unit: "µm".into(), symmetric: true, range: None };
+    export::atomic::write_bytes(&dir.join("error_map.png"), &error_png)
+        .context("cannot write error_map.png")?;
+    images.push(ReportImage {
+        name: "Predicted shape error from tool deflection (µm, positive = material left)".into(),
+        png: error_png,
+    });
+    if let Some(design) = maps
+        .get("design_um")
+        .filter(|m| m.iter().any(|v| v.is_finite()))
+    {
+        let map = ScalarMap {
+            grid: egrid,
+            values: design.clone(),
+            unit: "µm".into(),
+        };
+        let style = HeatMapStyle {
+            title: "Distance to design (+ stock left, - gouge)".into(),
+            unit: "µm".into(),
+            symmetric: true,
+            range: None,
+        };
         let png = export::heat_map_png_bytes(&map, &style)?;
-        export::atomic::write_bytes(&dir.join("design_map.png"), &png).context("cannot write design_map.png")?;
-        images.push(ReportImage { name: "Final surface against the design model (µm)".into(), png });
+        export::atomic::write_bytes(&dir.join("design_map.png"), &png)
+            .context("cannot write design_map.png")?;
+        images.push(ReportImage {
+            name: "Final surface against the design model (µm)".into(),
+            png,
+        });
     }
-    let height = HeightField { grid: egrid, z_mm: maps.get("top_mm").cloned().unwrap_or_default() };
+    let height = HeightField {
+        grid: egrid,
+        z_mm: maps.get("top_mm").cloned().unwrap_or_default(),
+    };
     // 250k vertices keep the embedded GLB near 10 MB (the page stays quick in software WebGL).
-    let glb_options = export::GlbOptions { max_vertices: 250_000, ..export::GlbOptions::default() };
+    let glb_options = export::GlbOptions {
+        max_vertices: 250_000,
+        ..export::GlbOptions::default()
+    };
     let (glb, _) = export::stock_glb_bytes(&height, Some(&error), &glb_options)?;
     export::atomic::write_bytes(&dir.join("stock.glb"), &glb).context("cannot write stock.glb")?;
 
@@ -152,31 +270,67 @@ pub fn report(dir: &Path) -> Result<()> {
             after: after_json.map(|a| cell(a, key, unit, *d)),
         })
         .collect();
-    rows.push(SummaryRow { key: "grid".into(), before: format!("{} × {} columns at {} mm", grid.nx, grid.ny, grid.spacing_mm), after: None });
+    rows.push(SummaryRow {
+        key: "grid".into(),
+        before: format!(
+            "{} × {} columns at {} mm",
+            grid.nx, grid.ny, grid.spacing_mm
+        ),
+        after: None,
+    });
     let mut notes = vec![
         "Force F = a·V^n from the removed volume per tooth; deflection from a cantilever of the tool's stick-out with the band loads superposed (DESIGN.md §2 S4). Material coefficients are starting points: calibrate them with `dexcut calibrate`. S4 measured deflections about half of those predicted this way.".to_string(),
     ];
     if let Some(share) = summary.get("cap_time_share").and_then(Value::as_array) {
         let parts: Vec<String> = share
             .iter()
-            .filter_map(|s| Some(format!("{} {:.1} %", s.get("cap")?.as_str()?, 100.0 * s.get("share")?.as_f64()?)))
+            .filter_map(|s| {
+                Some(format!(
+                    "{} {:.1} %",
+                    s.get("cap")?.as_str()?,
+                    100.0 * s.get("share")?.as_f64()?
+                ))
+            })
             .collect();
-        notes.push(format!("Time at each cap after optimisation: {}.", parts.join(", ")));
+        notes.push(format!(
+            "Time at each cap after optimisation: {}.",
+            parts.join(", ")
+        ));
     }
     if let Some(d) = summary.get("design").filter(|d| !d.is_null()) {
         notes.push(format!(
             "Design comparison: largest stock left {:.1} µm, worst gouge {:.1} µm{}.",
-            d.get("max_stock_left_um").and_then(Value::as_f64).unwrap_or(0.0),
-            d.get("worst_gouge_um").and_then(Value::as_f64).unwrap_or(0.0),
-            d.get("worst_gouge_line").and_then(Value::as_u64).map_or(String::new(), |l| format!(" at program line {l}"))
+            d.get("max_stock_left_um")
+                .and_then(Value::as_f64)
+                .unwrap_or(0.0),
+            d.get("worst_gouge_um")
+                .and_then(Value::as_f64)
+                .unwrap_or(0.0),
+            d.get("worst_gouge_line")
+                .and_then(Value::as_u64)
+                .map_or(String::new(), |l| format!(" at program line {l}"))
         ));
     }
     let title = format!(
         "dexcut {} report: {}",
-        if optimized { "optimisation" } else { "simulation" },
-        summary.get("program").and_then(Value::as_str).unwrap_or("program")
+        if optimized {
+            "optimisation"
+        } else {
+            "simulation"
+        },
+        summary
+            .get("program")
+            .and_then(Value::as_str)
+            .unwrap_or("program")
     );
-    let report = Report { title, summary: rows, plots, images, glb: Some(glb), notes };
+    let report = Report {
+        title,
+        summary: rows,
+        plots,
+        images,
+        glb: Some(glb),
+        notes,
+    };
     export::write_report_html(&dir.join("report.html"), &report)?;
     println!("wrote {}", dir.join("report.html").display());
     Ok(())

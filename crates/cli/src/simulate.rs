@@ -32,17 +32,35 @@ pub struct Run {
 }
 
 /// Sweep `steps` through `stock` (consumed) and compute the loads.
-pub fn run(mut stock: Stock, tool: &Tool, steps: Vec<TimedStep>, model: &CuttingModel, label: &str) -> Result<Run> {
+pub fn run(
+    mut stock: Stock,
+    tool: &Tool,
+    steps: Vec<TimedStep>,
+    model: &CuttingModel,
+    label: &str,
+) -> Result<Run> {
     let initial_volume_mm3 = stock.volume_mm3();
     let sweep_steps: Vec<dexel::Step> = steps.iter().map(|s| s.step).collect();
-    let options = SweepOptions { band_height_mm: model.band_height_mm, ..SweepOptions::default() };
+    let options = SweepOptions {
+        band_height_mm: model.band_height_mm,
+        ..SweepOptions::default()
+    };
     let bar = progress::bar(sweep_steps.len() as u64, label);
     let started = Instant::now();
-    let record = dexel::sweep(&mut stock, tool, &sweep_steps, &options, &|done| bar.set_position(done as u64))?;
+    let record = dexel::sweep(&mut stock, tool, &sweep_steps, &options, &|done| {
+        bar.set_position(done as u64)
+    })?;
     let sweep_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let loads = loads(model, &record, &steps);
-    Ok(Run { steps, record, loads, initial_volume_mm3, stock, sweep_s })
+    Ok(Run {
+        steps,
+        record,
+        loads,
+        initial_volume_mm3,
+        stock,
+        sweep_s,
+    })
 }
 
 /// Per-step force and deflection (S4).
@@ -67,13 +85,22 @@ pub fn cutting_model(job: &Job, tool: &Tool, program: &Program) -> Result<Cuttin
     let c = &job.cutting;
     let material = cutting::Material::by_name(&c.material).with_context(|| {
         let names: Vec<&str> = cutting::Material::ALL.iter().map(|m| m.name).collect();
-        format!("{}: unknown cutting.material {:?}; known: {}", job.name, c.material, names.join(", "))
+        format!(
+            "{}: unknown cutting.material {:?}; known: {}",
+            job.name,
+            c.material,
+            names.join(", ")
+        )
     })?;
     let program_rpm = program.spindle_rpm();
     Ok(CuttingModel {
         force_coef_a: c.force_a.unwrap_or(material.force_coef_a),
         force_exp_n: c.force_n.unwrap_or(material.force_exp_n),
-        spindle_rpm: c.spindle_rpm.unwrap_or(if program_rpm > 0.0 { program_rpm } else { 10_000.0 }),
+        spindle_rpm: c.spindle_rpm.unwrap_or(if program_rpm > 0.0 {
+            program_rpm
+        } else {
+            10_000.0
+        }),
         flutes: tool.flutes,
         band_height_mm: c.band_height,
         beam: cutting::Cantilever {
@@ -117,7 +144,11 @@ impl Run {
     /// MRR of step `i`, mm³/s.
     pub fn mrr_mm3_s(&self, i: usize) -> f64 {
         let dt = self.steps[i].dt_s;
-        if dt > 0.0 { self.record.volume_mm3(i) / dt } else { 0.0 }
+        if dt > 0.0 {
+            self.record.volume_mm3(i) / dt
+        } else {
+            0.0
+        }
     }
 
     /// Largest mean MRR over any run of consecutive steps lasting at least
@@ -134,7 +165,10 @@ impl Run {
             vol += self.record.volume_mm3(i);
             time += s.dt_s;
             len += lengths[i];
-            while first < i && time - self.steps[first].dt_s >= window_s && len - lengths[first] >= window_mm {
+            while first < i
+                && time - self.steps[first].dt_s >= window_s
+                && len - lengths[first] >= window_mm
+            {
                 vol -= self.record.volume_mm3(first);
                 time -= self.steps[first].dt_s;
                 len -= lengths[first];
@@ -151,20 +185,31 @@ impl Run {
     pub fn summary(&self) -> Summary {
         let n = self.steps.len();
         let final_volume_mm3 = self.stock.volume_mm3();
-        let collisions: Vec<usize> = (0..n).filter(|&i| self.steps[i].step.rapid && self.record.volume_mm3(i) > 0.0).collect();
+        let collisions: Vec<usize> = (0..n)
+            .filter(|&i| self.steps[i].step.rapid && self.record.volume_mm3(i) > 0.0)
+            .collect();
         Summary {
             initial_volume_mm3: self.initial_volume_mm3,
             final_volume_mm3,
             removed_volume_mm3: self.record.total_volume_mm3(),
             cycle_time_s: self.steps.last().map_or(0.0, |s| s.t_end_s),
             peak_mrr_mm3_s: (0..n).map(|i| self.mrr_mm3_s(i)).fold(0.0, f64::max),
-            peak_mrr_windowed_mm3_s: self.peak_windowed_mrr_mm3_s(MRR_WINDOW_S, MRR_WINDOW_CELLS * self.stock.grid().spacing_mm),
+            peak_mrr_windowed_mm3_s: self.peak_windowed_mrr_mm3_s(
+                MRR_WINDOW_S,
+                MRR_WINDOW_CELLS * self.stock.grid().spacing_mm,
+            ),
             peak_force_n: self.loads.iter().map(|l| l.force_n).fold(0.0, f64::max),
-            peak_deflection_um: self.loads.iter().map(|l| l.deflection_um).fold(0.0, f64::max),
+            peak_deflection_um: self
+                .loads
+                .iter()
+                .map(|l| l.deflection_um)
+                .fold(0.0, f64::max),
             steps: n,
             grid_mm: self.stock.grid().spacing_mm,
             columns: self.stock.grid().len(),
-            shank_contact_steps: (0..n).filter(|&i| self.record.shank_volume_mm3(i) > 0.0).count(),
+            shank_contact_steps: (0..n)
+                .filter(|&i| self.record.shank_volume_mm3(i) > 0.0)
+                .count(),
             rapid_collision_steps: collisions.len(),
             first_collision_line: collisions.first().map(|&i| self.steps[i].line),
             columns_evaluated: self.record.columns_evaluated,
@@ -178,7 +223,8 @@ impl Run {
     /// where no step cut.
     pub fn error_map_um(&self, tops: &[f32]) -> Vec<f32> {
         let grid = *self.stock.grid();
-        let normals = cutting::surface_normals_from_heights(tops, grid.nx, grid.ny, grid.spacing_mm);
+        let normals =
+            cutting::surface_normals_from_heights(tops, grid.nx, grid.ny, grid.spacing_mm);
         self.stock
             .last_cut()
             .iter()
@@ -198,11 +244,32 @@ impl Run {
         let n_bands = self.record.n_bands;
         export::atomic::write_file(path, |w| {
             let mut out = csv::Writer::from_writer(w);
-            let mut header: Vec<String> =
-                ["step", "t_s", "x", "y", "z", "feed_mm_min", "volume_mm3", "mrr_mm3_s"].map(String::from).to_vec();
+            let mut header: Vec<String> = [
+                "step",
+                "t_s",
+                "x",
+                "y",
+                "z",
+                "feed_mm_min",
+                "volume_mm3",
+                "mrr_mm3_s",
+            ]
+            .map(String::from)
+            .to_vec();
             header.extend((0..n_bands).map(|k| format!("band_{k}_mm3")));
             header.extend(
-                ["shank_mm3", "force_n", "fx_n", "fy_n", "deflection_um", "dx_um", "dy_um", "line", "rapid"].map(String::from),
+                [
+                    "shank_mm3",
+                    "force_n",
+                    "fx_n",
+                    "fy_n",
+                    "deflection_um",
+                    "dx_um",
+                    "dy_um",
+                    "line",
+                    "rapid",
+                ]
+                .map(String::from),
             );
             out.write_record(&header)?;
             let mut row: Vec<String> = Vec::with_capacity(header.len());
@@ -211,7 +278,18 @@ impl Run {
                 let l = &self.loads[i];
                 let [x, y, z] = s.step.to_mm;
                 row.push(i.to_string());
-                row.extend([s.t_end_s, x, y, z, s.feed_mm_min, self.record.volume_mm3(i), self.mrr_mm3_s(i)].map(fmt));
+                row.extend(
+                    [
+                        s.t_end_s,
+                        x,
+                        y,
+                        z,
+                        s.feed_mm_min,
+                        self.record.volume_mm3(i),
+                        self.mrr_mm3_s(i),
+                    ]
+                    .map(fmt),
+                );
                 row.extend(self.record.band_volumes_mm3(i).iter().map(|v| fmt(*v)));
                 row.push(fmt(self.record.shank_volume_mm3(i)));
                 row.extend([l.force_n, l.fx_n, l.fy_n, l.deflection_um, l.dx_um, l.dy_um].map(fmt));
@@ -227,15 +305,27 @@ impl Run {
 
     /// Write columns.csv: final surface (`tops`, the stock's top heights), last
     /// cutting step and predicted error per column.
-    pub fn write_columns_csv(&self, path: &Path, tops: &[f32], design_diff_um: Option<&[f32]>) -> Result<()> {
-        let last: Vec<f32> = self.stock.last_cut().iter().map(|&s| if s == NEVER_CUT { f32::NAN } else { s as f32 }).collect();
+    pub fn write_columns_csv(
+        &self,
+        path: &Path,
+        tops: &[f32],
+        design_diff_um: Option<&[f32]>,
+    ) -> Result<()> {
+        let last: Vec<f32> = self
+            .stock
+            .last_cut()
+            .iter()
+            .map(|&s| if s == NEVER_CUT { f32::NAN } else { s as f32 })
+            .collect();
         let error = self.error_map_um(tops);
-        let mut columns: Vec<(&str, &[f32])> = vec![("top_mm", tops), ("last_step", &last), ("error_um", &error)];
+        let mut columns: Vec<(&str, &[f32])> =
+            vec![("top_mm", tops), ("last_step", &last), ("error_um", &error)];
         if let Some(d) = design_diff_um {
             columns.push(("design_um", d));
         }
         let grid = GridInfo::of(self.stock.grid()).export();
-        export::write_column_csv(path, &grid, &columns).with_context(|| format!("cannot write {}", path.display()))
+        export::write_column_csv(path, &grid, &columns)
+            .with_context(|| format!("cannot write {}", path.display()))
     }
 }
 
@@ -252,18 +342,34 @@ pub struct GridInfo {
 
 impl GridInfo {
     pub fn of(g: &dexel::Grid) -> GridInfo {
-        GridInfo { nx: g.nx, ny: g.ny, x0_mm: g.x_mm(0), y0_mm: g.y_mm(0), spacing_mm: g.spacing_mm }
+        GridInfo {
+            nx: g.nx,
+            ny: g.ny,
+            x0_mm: g.x_mm(0),
+            y0_mm: g.y_mm(0),
+            spacing_mm: g.spacing_mm,
+        }
     }
 
     /// The export crate's copy of the grid geometry.
     pub fn export(&self) -> export::Grid {
-        export::Grid { nx: self.nx, ny: self.ny, x0_mm: self.x0_mm, y0_mm: self.y0_mm, spacing_mm: self.spacing_mm }
+        export::Grid {
+            nx: self.nx,
+            ny: self.ny,
+            x0_mm: self.x0_mm,
+            y0_mm: self.y0_mm,
+            spacing_mm: self.spacing_mm,
+        }
     }
 }
 
 /// Compact number formatting for CSV (shortest round-trip form).
 pub fn fmt(v: f64) -> String {
-    if v == 0.0 { "0".into() } else { format!("{v}") }
+    if v == 0.0 {
+        "0".into()
+    } else {
+        format!("{v}")
+    }
 }
 
 /// Write any serialisable value as pretty JSON, atomically.

@@ -7,11 +7,21 @@ use std::process::{Command, Output};
 use serde_json::Value;
 
 fn dexcut(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_dexcut")).args(args).current_dir(cwd).env("CI", "1").output().expect("run dexcut")
+    Command::new(env!("CARGO_BIN_EXE_dexcut"))
+        .args(args)
+        .current_dir(cwd)
+        .env("CI", "1")
+        .output()
+        .expect("run dexcut")
 }
 
 fn ok(out: &Output) {
-    assert!(out.status.success(), "dexcut failed:\nstdout: {}\nstderr: {}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "dexcut failed:\nstdout: {}\nstderr: {}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 fn stderr(out: &Output) -> String {
@@ -36,7 +46,8 @@ fn summary(dir: &Path) -> Value {
 fn csv_columns(path: &Path) -> std::collections::HashMap<String, Vec<f64>> {
     let mut r = csv::Reader::from_path(path).unwrap();
     let headers: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
-    let mut cols: std::collections::HashMap<String, Vec<f64>> = headers.iter().map(|h| (h.clone(), Vec::new())).collect();
+    let mut cols: std::collections::HashMap<String, Vec<f64>> =
+        headers.iter().map(|h| (h.clone(), Vec::new())).collect();
     for rec in r.records() {
         let rec = rec.unwrap();
         for (h, v) in headers.iter().zip(rec.iter()) {
@@ -76,12 +87,18 @@ fn simulate_ball_slot_matches_the_circular_segment() {
     let dir = tempdir();
     write(dir.path(), "job.toml", SLOT_JOB);
     write(dir.path(), "slot.csv", "x,y,z\n-10,0,28\n110,0,28\n");
-    ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir.path()));
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
     let s = summary(&dir.path().join("out"));
     let exact = ball_slot_area_mm2(5.0, 2.0) * 100.0;
     let removed = s["removed_volume_mm3"].as_f64().unwrap();
     assert!(rel(removed, exact) < 3e-3, "removed {removed} vs {exact}");
-    let (initial, fin) = (s["initial_volume_mm3"].as_f64().unwrap(), s["final_volume_mm3"].as_f64().unwrap());
+    let (initial, fin) = (
+        s["initial_volume_mm3"].as_f64().unwrap(),
+        s["final_volume_mm3"].as_f64().unwrap(),
+    );
     assert!((initial - 120_000.0).abs() < 1e-6);
     assert!((initial - fin - removed).abs() < 1e-6 * initial);
     // Time = length / feed: 120 mm at 1200 mm/min.
@@ -89,7 +106,10 @@ fn simulate_ball_slot_matches_the_circular_segment() {
     let steps = csv_columns(&dir.path().join("out/steps.csv"));
     assert!((steps["mrr_mm3_s"][0] - removed / 6.0).abs() < 1e-9);
     let bands: f64 = (0..20).map(|k| steps[&format!("band_{k}_mm3")][0]).sum();
-    assert!((bands - removed).abs() < 1e-6, "bands sum to the step volume");
+    assert!(
+        (bands - removed).abs() < 1e-6,
+        "bands sum to the step volume"
+    );
 }
 
 #[test]
@@ -103,21 +123,39 @@ fn mesh_stock_with_void_has_the_mesh_volume() {
     write(dir.path(), "job.toml", &job);
     // A pass above the part: removes nothing.
     write(dir.path(), "p.csv", "x,y,z\n-50,-50,100\n50,50,100\n");
-    ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir.path()));
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
     let s = summary(&dir.path().join("out"));
-    assert!((s["initial_volume_mm3"].as_f64().unwrap() - 23_500.0).abs() < 1e-6, "{}", s["initial_volume_mm3"]);
+    assert!(
+        (s["initial_volume_mm3"].as_f64().unwrap() - 23_500.0).abs() < 1e-6,
+        "{}",
+        s["initial_volume_mm3"]
+    );
     assert_eq!(s["removed_volume_mm3"].as_f64().unwrap(), 0.0);
 }
 
 #[test]
 fn bad_job_gives_file_line_column_and_no_output() {
     let dir = tempdir();
-    write(dir.path(), "job.toml", &SLOT_JOB.replace("feed = 1200", "feed = 1200\nsped = 3"));
+    write(
+        dir.path(),
+        "job.toml",
+        &SLOT_JOB.replace("feed = 1200", "feed = 1200\nsped = 3"),
+    );
     write(dir.path(), "slot.csv", "x,y,z\n-10,0,28\n110,0,28\n");
     let out = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
     assert!(!out.status.success());
-    assert!(stderr(&out).contains("job.toml:13:1: unknown field `sped`"), "{}", stderr(&out));
-    assert!(!dir.path().join("out").exists(), "no output folder on error");
+    assert!(
+        stderr(&out).contains("job.toml:13:1: unknown field `sped`"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(
+        !dir.path().join("out").exists(),
+        "no output folder on error"
+    );
 }
 
 #[test]
@@ -127,7 +165,11 @@ fn bad_program_names_line_and_column() {
     write(dir.path(), "slot.csv", "x,y,z\n-10,0,28\n110,zero,28\n");
     let out = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
     assert!(!out.status.success());
-    assert!(stderr(&out).contains("slot.csv:3:5: y is not a number"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("slot.csv:3:5: y is not a number"),
+        "{}",
+        stderr(&out)
+    );
     assert!(!dir.path().join("out").exists());
 }
 
@@ -136,13 +178,27 @@ fn grid_too_large_for_memory_is_refused_before_work() {
     let dir = tempdir();
     write(dir.path(), "job.toml", SLOT_JOB);
     write(dir.path(), "slot.csv", "x,y,z\n-10,0,28\n110,0,28\n");
-    let out = dexcut(&["simulate", "job.toml", "--out", "out", "--grid", "0.0001"], dir.path());
+    let out = dexcut(
+        &["simulate", "job.toml", "--out", "out", "--grid", "0.0001"],
+        dir.path(),
+    );
     assert!(!out.status.success());
-    assert!(stderr(&out).contains("do not fit in memory") || stderr(&out).contains("coarser grid"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("do not fit in memory") || stderr(&out).contains("coarser grid"),
+        "{}",
+        stderr(&out)
+    );
     assert!(!dir.path().join("out").exists());
-    let out = dexcut(&["simulate", "job.toml", "--out", "out", "--grid=-1"], dir.path());
+    let out = dexcut(
+        &["simulate", "job.toml", "--out", "out", "--grid=-1"],
+        dir.path(),
+    );
     assert!(!out.status.success());
-    assert!(stderr(&out).contains("--grid must be a positive"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("--grid must be a positive"),
+        "{}",
+        stderr(&out)
+    );
 }
 
 #[test]
@@ -150,10 +206,18 @@ fn missing_files_are_clear_errors() {
     let dir = tempdir();
     let out = dexcut(&["simulate", "nope.toml"], dir.path());
     assert!(!out.status.success());
-    assert!(stderr(&out).contains("cannot read job file nope.toml"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("cannot read job file nope.toml"),
+        "{}",
+        stderr(&out)
+    );
     write(dir.path(), "job.toml", SLOT_JOB);
     let out = dexcut(&["simulate", "job.toml"], dir.path());
-    assert!(stderr(&out).contains("cannot read program"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("cannot read program"),
+        "{}",
+        stderr(&out)
+    );
 }
 
 /// A 20 mm block in the middle of a straight flat-end pass: air, a 3 mm deep slot, air.
@@ -181,13 +245,19 @@ fn optimize_gives_the_cap_feed_in_the_cut_and_feed_max_in_air() {
     let dir = tempdir();
     write(dir.path(), "job.toml", STEP_JOB);
     write(dir.path(), "line.csv", "x,y,z\n0,0,27\n100,0,27\n");
-    ok(&dexcut(&["optimize", "job.toml", "--out", "out"], dir.path()));
+    ok(&dexcut(
+        &["optimize", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
     let servo = csv_columns(&dir.path().join("out/servo.csv"));
     // Full engagement (A = 10 mm × 3 mm) while the leading edge is inside the block: x ∈ [40, 55].
     let cap = 60.0 * 200.0 / 30.0;
     for (x, f) in servo["x"].iter().zip(&servo["feed_mm_min"]) {
         if (41.0..54.0).contains(x) {
-            assert!(*f <= cap * 1.0001 && *f >= cap * 0.98, "feed {f} at x {x}, cap {cap}");
+            assert!(
+                *f <= cap * 1.0001 && *f >= cap * 0.98,
+                "feed {f} at x {x}, cap {cap}"
+            );
         }
         if (10.0..33.0).contains(x) || (66.0..95.0).contains(x) {
             assert!((*f - 3000.0).abs() < 1e-6, "air at x {x} runs at {f}");
@@ -200,7 +270,10 @@ fn optimize_gives_the_cap_feed_in_the_cut_and_feed_max_in_air() {
         .filter(|&i| servo["x"][i] > 20.0 && servo["x"][i] < 45.0)
         .map(|i| (feed[i - 1] - feed[i]) / 60.0 / (t[i] - t[i - 1]))
         .fold(0.0, f64::max);
-    assert!(decel > 0.97 * 1000.0 && decel < 1.001 * 1000.0, "steepest deceleration {decel} mm/s²");
+    assert!(
+        decel > 0.97 * 1000.0 && decel < 1.001 * 1000.0,
+        "steepest deceleration {decel} mm/s²"
+    );
     // Axis accelerations from servo.csv within the limit (second differences).
     let dt = t[1] - t[0];
     for w in servo["x"].windows(3) {
@@ -219,8 +292,15 @@ fn optimize_gives_the_cap_feed_in_the_cut_and_feed_max_in_air() {
 fn program_without_cutting_runs_at_feed_max() {
     let dir = tempdir();
     write(dir.path(), "job.toml", STEP_JOB);
-    write(dir.path(), "line.csv", "x,y,z\n0,0,40\n100,0,40\n100,30,40\n");
-    ok(&dexcut(&["optimize", "job.toml", "--out", "out"], dir.path()));
+    write(
+        dir.path(),
+        "line.csv",
+        "x,y,z\n0,0,40\n100,0,40\n100,30,40\n",
+    );
+    ok(&dexcut(
+        &["optimize", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
     let servo = csv_columns(&dir.path().join("out/servo.csv"));
     let top = servo["feed_mm_min"].iter().cloned().fold(0.0, f64::max);
     assert!((top - 3000.0).abs() < 1e-6);
@@ -232,7 +312,12 @@ fn program_without_cutting_runs_at_feed_max() {
     // for the ramps. So: 0 → 50 → v1 → 8 mm/s over 100 mm, then 8 → v1 → 50 → 0 over 30 mm.
     let (v, vc, a, a_near, zone) = (50.0f64, 8.0f64, 1000.0f64, 500.0f64, 0.4f64);
     let v1 = (vc * vc + 2.0 * a_near * zone).sqrt();
-    let ramp = |from: f64, to: f64, acc: f64| ((to - from).abs() / acc, (to * to - from * from).abs() / (2.0 * acc));
+    let ramp = |from: f64, to: f64, acc: f64| {
+        (
+            (to - from).abs() / acc,
+            (to * to - from * from).abs() / (2.0 * acc),
+        )
+    };
     let pieces = [ramp(0.0, v, a), ramp(v1, v, a), ramp(vc, v1, a_near)];
     let ramps_t: f64 = pieces.iter().map(|p| p.0).sum::<f64>() * 2.0;
     let ramps_s: f64 = pieces.iter().map(|p| p.1).sum::<f64>() * 2.0;
@@ -245,8 +330,15 @@ fn program_without_cutting_runs_at_feed_max() {
 fn report_writes_html_png_and_glb() {
     let dir = tempdir();
     write(dir.path(), "job.toml", SLOT_JOB);
-    write(dir.path(), "slot.csv", "x,y,z\n-10,0,28\n50,0,28\n50,10,27\n");
-    ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir.path()));
+    write(
+        dir.path(),
+        "slot.csv",
+        "x,y,z\n-10,0,28\n50,0,28\n50,10,27\n",
+    );
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
     ok(&dexcut(&["report", "out"], dir.path()));
     let out = dir.path().join("out");
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
@@ -260,23 +352,37 @@ fn report_writes_html_png_and_glb() {
 #[test]
 fn calibrate_recovers_the_force_law() {
     let dir = tempdir();
-    let rows: String = (1..=8).map(|i| {
-        let v = 0.001 * i as f64;
-        format!("{v},{}\n", 900.0 * v.powf(0.7))
-    }).collect();
+    let rows: String = (1..=8)
+        .map(|i| {
+            let v = 0.001 * i as f64;
+            format!("{v},{}\n", 900.0 * v.powf(0.7))
+        })
+        .collect();
     write(dir.path(), "m.csv", &format!("v_mm3,force_n\n{rows}"));
     let out = dexcut(&["calibrate", "m.csv"], dir.path());
     ok(&out);
     let text = String::from_utf8_lossy(&out.stdout);
-    assert!(text.contains("force_a = 900.0000") && text.contains("force_n = 0.700000"), "{text}");
+    assert!(
+        text.contains("force_a = 900.0000") && text.contains("force_n = 0.700000"),
+        "{text}"
+    );
 }
 
 #[test]
 fn plunge_removes_the_ball_volume_through_the_cli() {
     let dir = tempdir();
-    write(dir.path(), "job.toml", &SLOT_JOB.replace("slot.csv", "plunge.csv").replace("grid = 0.1", "grid = 0.05"));
+    write(
+        dir.path(),
+        "job.toml",
+        &SLOT_JOB
+            .replace("slot.csv", "plunge.csv")
+            .replace("grid = 0.1", "grid = 0.05"),
+    );
     write(dir.path(), "plunge.csv", "x,y,z\n50,0,40\n50,0,22\n");
-    ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir.path()));
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
     let s = summary(&dir.path().join("out"));
     let exact = 2.0 / 3.0 * PI * 125.0 + PI * 25.0 * 3.0;
     let removed = s["removed_volume_mm3"].as_f64().unwrap();
@@ -285,9 +391,22 @@ fn plunge_removes_the_ball_volume_through_the_cli() {
 
 /// ASCII STL of an axis-aligned box.
 fn box_stl(min: [f64; 3], max: [f64; 3]) -> String {
-    let c = |i: usize| [if i & 1 == 0 { min[0] } else { max[0] }, if i & 2 == 0 { min[1] } else { max[1] }, if i & 4 == 0 { min[2] } else { max[2] }];
+    let c = |i: usize| {
+        [
+            if i & 1 == 0 { min[0] } else { max[0] },
+            if i & 2 == 0 { min[1] } else { max[1] },
+            if i & 4 == 0 { min[2] } else { max[2] },
+        ]
+    };
     // Outward-facing quads as corner indices (counter-clockwise seen from outside).
-    let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+    let quads = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
     let mut s = String::from("solid box\n");
     for q in quads {
         for tri in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
@@ -307,22 +426,37 @@ fn box_stl(min: [f64; 3], max: [f64; 3]) -> String {
 fn planted_gouge_is_found_at_its_program_line() {
     let dir = tempdir();
     // Design: the block faced down to z = 28; the program faces at 28 but dips to 27.5 once.
-    write(dir.path(), "design.stl", &box_stl([0.0, -20.0, 0.0], [100.0, 20.0, 28.0]));
-    let job = SLOT_JOB.replace("kind = \"ball\"\ndiameter = 10", "kind = \"flat\"\ndiameter = 10")
-        + "[design]\npath = \"design.stl\"\n";
+    write(
+        dir.path(),
+        "design.stl",
+        &box_stl([0.0, -20.0, 0.0], [100.0, 20.0, 28.0]),
+    );
+    let job = SLOT_JOB.replace(
+        "kind = \"ball\"\ndiameter = 10",
+        "kind = \"flat\"\ndiameter = 10",
+    ) + "[design]\npath = \"design.stl\"\n";
     write(dir.path(), "job.toml", &job);
     let mut csv = String::from("x,y,z\n-10,0,28\n40,0,28\n");
     csv.push_str("50,0,27.5\n"); // line 4: the gouge
     csv.push_str("60,0,28\n110,0,28\n");
     write(dir.path(), "slot.csv", &csv);
-    ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir.path()));
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
     let s = summary(&dir.path().join("out"));
     let gouge = s["design"]["worst_gouge_um"].as_f64().unwrap();
-    assert!((gouge + 500.0).abs() < 1.0, "worst gouge {gouge} µm, planted 500 µm");
+    assert!(
+        (gouge + 500.0).abs() < 1.0,
+        "worst gouge {gouge} µm, planted 500 µm"
+    );
     assert_eq!(s["design"]["worst_gouge_line"].as_u64(), Some(4));
     let xy = s["design"]["worst_gouge_xy_mm"].as_array().unwrap();
     // The flat bottom (radius 5) sits 0.5 mm too deep around x = 50.
-    assert!((xy[0].as_f64().unwrap() - 50.0).abs() <= 5.0 && xy[1].as_f64().unwrap().abs() <= 5.0, "{xy:?}");
+    assert!(
+        (xy[0].as_f64().unwrap() - 50.0).abs() <= 5.0 && xy[1].as_f64().unwrap().abs() <= 5.0,
+        "{xy:?}"
+    );
 }
 
 #[test]
@@ -331,50 +465,81 @@ fn wall_cut_with_constant_load_has_constant_error() {
     // Side milling a 10 mm high wall at 2 mm radial depth in short steps: constant load.
     let job = SLOT_JOB
         .replace("min = [0, -20, 0]", "min = [0, 3, 0]")
-        .replace("kind = \"ball\"\ndiameter = 10", "kind = \"flat\"\ndiameter = 10\nflute_length = 20\nstickout = 60")
+        .replace(
+            "kind = \"ball\"\ndiameter = 10",
+            "kind = \"flat\"\ndiameter = 10\nflute_length = 20\nstickout = 60",
+        )
         .replace("grid = 0.1", "grid = 0.05");
     write(dir.path(), "job.toml", &job);
-    let csv: String = std::iter::once("x,y,z\n".to_string()).chain((0..=240).map(|i| format!("{},0,20\n", -10.0 + 0.5 * i as f64))).collect();
+    let csv: String = std::iter::once("x,y,z\n".to_string())
+        .chain((0..=240).map(|i| format!("{},0,20\n", -10.0 + 0.5 * i as f64)))
+        .collect();
     write(dir.path(), "slot.csv", &csv);
-    ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir.path()));
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
     let steps = csv_columns(&dir.path().join("out/steps.csv"));
     // Steady state: the tool fully inside the part (x from 20 to 80).
-    let steady: Vec<usize> = (0..steps["x"].len()).filter(|&i| (20.0..80.0).contains(&steps["x"][i])).collect();
+    let steady: Vec<usize> = (0..steps["x"].len())
+        .filter(|&i| (20.0..80.0).contains(&steps["x"][i]))
+        .collect();
     let dy: Vec<f64> = steady.iter().map(|&i| steps["dy_um"][i]).collect();
-    let (lo, hi) = dy.iter().fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
-    assert!(hi < 0.0, "the tool is pushed away from the wall (−y): {dy:?}");
+    let (lo, hi) = dy
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
+    assert!(
+        hi < 0.0,
+        "the tool is pushed away from the wall (−y): {dy:?}"
+    );
     let cols = csv_columns(&dir.path().join("out/columns.csv"));
     // The wall's last cut row (y just below 5): error = deflection projected on the outward normal (≈ −y).
     let wall: Vec<f64> = (0..cols["x_mm"].len())
-        .filter(|&i| (25.0..75.0).contains(&cols["x_mm"][i]) && (4.95..5.0).contains(&cols["y_mm"][i]))
+        .filter(|&i| {
+            (25.0..75.0).contains(&cols["x_mm"][i]) && (4.95..5.0).contains(&cols["y_mm"][i])
+        })
         .map(|i| cols["error_um"][i])
         .collect();
     assert!(!wall.is_empty());
     for e in &wall {
         // n ≈ (0, −1, 0.01): error ≈ −dy, between the extremes of the steady deflection.
-        assert!(*e > -hi * 0.99 && *e < -lo * 1.01, "wall error {e} µm vs deflection {lo}..{hi} µm");
+        assert!(
+            *e > -hi * 0.99 && *e < -lo * 1.01,
+            "wall error {e} µm vs deflection {lo}..{hi} µm"
+        );
     }
     // The floor (normal +z) gets no error from a sideways deflection.
     let floor: Vec<f64> = (0..cols["x_mm"].len())
-        .filter(|&i| (25.0..75.0).contains(&cols["x_mm"][i]) && (3.5..4.5).contains(&cols["y_mm"][i]))
+        .filter(|&i| {
+            (25.0..75.0).contains(&cols["x_mm"][i]) && (3.5..4.5).contains(&cols["y_mm"][i])
+        })
         .map(|i| cols["error_um"][i])
         .collect();
-    assert!(floor.iter().all(|e| e.abs() < 1e-3), "floor errors {:?}", &floor[..5]);
+    assert!(
+        floor.iter().all(|e| e.abs() < 1e-3),
+        "floor errors {:?}",
+        &floor[..5]
+    );
 }
 
 /// SLOT_JOB with the slot as G-code and the machine's acceleration.
 fn gcode_slot_job() -> String {
-    SLOT_JOB.replace("path = \"slot.csv\"\nfeed = 1200", "path = \"slot.ngc\"") + "[machine]\nperiod_ms = 16\naccel = [1000, 1000, 1000]\n"
+    SLOT_JOB.replace("path = \"slot.csv\"\nfeed = 1200", "path = \"slot.ngc\"")
+        + "[machine]\nperiod_ms = 16\naccel = [1000, 1000, 1000]\n"
 }
 
-const GCODE_SLOT: &str = "%\n(slot 2 mm deep)\nG21 G90 G17 G54\nG0 X-10 Y0 Z40\nG0 Z28\nG1 X110 F1200\nG0 Z40\nM30\n%\n";
+const GCODE_SLOT: &str =
+    "%\n(slot 2 mm deep)\nG21 G90 G17 G54\nG0 X-10 Y0 Z40\nG0 Z28\nG1 X110 F1200\nG0 Z40\nM30\n%\n";
 
 #[test]
 fn gcode_slot_simulates_per_servo_period() {
     let dir = tempdir();
     write(dir.path(), "job.toml", &gcode_slot_job());
     write(dir.path(), "slot.ngc", GCODE_SLOT);
-    ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir.path()));
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
     let s = summary(&dir.path().join("out"));
     let exact = ball_slot_area_mm2(5.0, 2.0) * 100.0;
     let removed = s["removed_volume_mm3"].as_f64().unwrap();
@@ -387,7 +552,11 @@ fn gcode_slot_simulates_per_servo_period() {
     }
     assert!((s["cycle_time_s"].as_f64().unwrap() - t[t.len() - 1]).abs() < 1e-9);
     // Cutting happens on line 6 (the G1) at no more than the programmed feed.
-    for ((v, line), f) in steps["volume_mm3"].iter().zip(&steps["line"]).zip(&steps["feed_mm_min"]) {
+    for ((v, line), f) in steps["volume_mm3"]
+        .iter()
+        .zip(&steps["line"])
+        .zip(&steps["feed_mm_min"])
+    {
         if *v > 0.0 {
             assert_eq!(*line, 6.0);
             assert!(*f <= 1200.0 + 1e-6);
@@ -401,12 +570,19 @@ fn gcode_slot_simulates_per_servo_period() {
 fn gcode_errors_name_file_line_and_column() {
     let dir = tempdir();
     write(dir.path(), "job.toml", &gcode_slot_job());
-    write(dir.path(), "slot.ngc", "G21 G90\nG0 X-10 Y0 Z40\nG1 X110 Y[2 +] F1200\nG41 X5\n");
+    write(
+        dir.path(),
+        "slot.ngc",
+        "G21 G90\nG0 X-10 Y0 Z40\nG1 X110 Y[2 +] F1200\nG41 X5\n",
+    );
     let out = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
     assert!(!out.status.success());
     let err = stderr(&out);
     assert!(err.contains("slot.ngc:3:"), "{err}");
-    assert!(err.contains("slot.ngc:4:1: cutter radius compensation G41 is not supported"), "{err}");
+    assert!(
+        err.contains("slot.ngc:4:1: cutter radius compensation G41 is not supported"),
+        "{err}"
+    );
     assert!(!dir.path().join("out").exists());
 }
 
@@ -422,15 +598,27 @@ fn default_example_optimizes_under_the_limit() {
     let s = summary(&out);
     let (before, after) = (&s["before"], &s["after"]);
     let mrr_max = 8.0;
-    assert!(before["peak_mrr_mm3_s"].as_f64().unwrap() > 1.5 * mrr_max, "{before}");
-    assert!(after["peak_mrr_windowed_mm3_s"].as_f64().unwrap() <= 1.02 * mrr_max, "{after}");
+    assert!(
+        before["peak_mrr_mm3_s"].as_f64().unwrap() > 1.5 * mrr_max,
+        "{before}"
+    );
+    assert!(
+        after["peak_mrr_windowed_mm3_s"].as_f64().unwrap() <= 1.02 * mrr_max,
+        "{after}"
+    );
     // Per 16 ms period the grid's column phase adds a few per cent.
-    assert!(after["peak_mrr_mm3_s"].as_f64().unwrap() <= 1.06 * mrr_max, "{after}");
+    assert!(
+        after["peak_mrr_mm3_s"].as_f64().unwrap() <= 1.06 * mrr_max,
+        "{after}"
+    );
     assert!(after["cycle_time_s"].as_f64().unwrap() < before["cycle_time_s"].as_f64().unwrap());
     assert!(after["cycle_time_s"].as_f64().unwrap() >= s["lower_bound_time_s"].as_f64().unwrap());
     // Servo periods are chords of the arcs: at 3000 mm/min a 0.8 mm chord of the
     // R20 arc sags 4 µm inwards, into the 0.05–0.2 mm cut, so removal differs a little.
-    let (v0, v1) = (before["removed_volume_mm3"].as_f64().unwrap(), after["removed_volume_mm3"].as_f64().unwrap());
+    let (v0, v1) = (
+        before["removed_volume_mm3"].as_f64().unwrap(),
+        after["removed_volume_mm3"].as_f64().unwrap(),
+    );
     assert!(rel(v1, v0) < 0.03, "removed {v0} before, {v1} after");
     let servo = csv_columns(&out.join("servo.csv"));
     let dt = servo["t_s"][1] - servo["t_s"][0];
@@ -440,7 +628,11 @@ fn default_example_optimizes_under_the_limit() {
     let steps = csv_columns(&out.join("steps.csv"));
     for i in 1..steps["rapid"].len() {
         if steps["rapid"][i] == 0.0 && steps["rapid"][i - 1] == 0.0 {
-            assert!(steps["feed_mm_min"][i] <= 3000.0 * (1.0 + 1e-9), "feed {} at row {i}", steps["feed_mm_min"][i]);
+            assert!(
+                steps["feed_mm_min"][i] <= 3000.0 * (1.0 + 1e-9),
+                "feed {} at row {i}",
+                steps["feed_mm_min"][i]
+            );
         }
     }
     for axis in ["x", "y", "z"] {
@@ -453,16 +645,33 @@ fn default_example_optimizes_under_the_limit() {
     let original = std::fs::read_to_string(out.join("input/boss_contour.nc")).unwrap();
     let refed = std::fs::read_to_string(out.join("optimized.nc")).unwrap();
     assert!(refed.lines().count() > original.lines().count());
-    for line in original.lines().filter(|l| !l.contains('G') || l.contains("G0") || l.contains("G21")) {
+    for line in original
+        .lines()
+        .filter(|l| !l.contains('G') || l.contains("G0") || l.contains("G21"))
+    {
         assert!(refed.lines().any(|r| r == line), "line {line:?} lost");
     }
     // Simulated as a program of its own, it stays under the limit (window of 3 periods).
-    let job = std::fs::read_to_string(out.join("input/job.toml")).unwrap().replace("boss_contour.nc\"", "../optimized.nc\"");
+    let job = std::fs::read_to_string(out.join("input/job.toml"))
+        .unwrap()
+        .replace("boss_contour.nc\"", "../optimized.nc\"");
     write(&out.join("input"), "refed.toml", &job);
-    ok(&dexcut(&["simulate", "out/input/refed.toml", "--out", "refed"], dir.path()));
+    ok(&dexcut(
+        &["simulate", "out/input/refed.toml", "--out", "refed"],
+        dir.path(),
+    ));
     let r = summary(&dir.path().join("refed"));
-    assert!(r["peak_mrr_windowed_mm3_s"].as_f64().unwrap() <= 1.02 * mrr_max, "{r}");
-    assert!(rel(r["cycle_time_s"].as_f64().unwrap(), after["cycle_time_s"].as_f64().unwrap()) < 0.05, "{r}");
+    assert!(
+        r["peak_mrr_windowed_mm3_s"].as_f64().unwrap() <= 1.02 * mrr_max,
+        "{r}"
+    );
+    assert!(
+        rel(
+            r["cycle_time_s"].as_f64().unwrap(),
+            after["cycle_time_s"].as_f64().unwrap()
+        ) < 0.05,
+        "{r}"
+    );
 }
 
 const SERVO_JOB: &str = r#"
@@ -493,9 +702,19 @@ kp = 30
 fn evaluate_circle_shrinks_and_line_lags_as_the_closed_forms() {
     let dir = tempdir();
     write(dir.path(), "job.toml", SERVO_JOB);
-    write(dir.path(), "p.ngc", "G21 G90 G17\nG0 X10 Y0 Z5\nG1 F600\nG2 X10 Y0 I-10 J0\nM2\n");
-    ok(&dexcut(&["evaluate", "job.toml", "--out", "circle"], dir.path()));
-    let e: Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("circle/evaluation.json")).unwrap()).unwrap();
+    write(
+        dir.path(),
+        "p.ngc",
+        "G21 G90 G17\nG0 X10 Y0 Z5\nG1 F600\nG2 X10 Y0 I-10 J0\nM2\n",
+    );
+    ok(&dexcut(
+        &["evaluate", "job.toml", "--out", "circle"],
+        dir.path(),
+    ));
+    let e: Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("circle/evaluation.json")).unwrap(),
+    )
+    .unwrap();
     let shrink = 10.0 * (1.0 - 1.0 / (1.0f64 + (1.0f64 / 30.0).powi(2)).sqrt());
     let err = e["trajectory_error_mm"].as_f64().unwrap();
     // Servo data are chords of the circle (10 mm/s · 16 ms = 0.16 mm): the polyline
@@ -503,20 +722,40 @@ fn evaluate_circle_shrinks_and_line_lags_as_the_closed_forms() {
     // radius r(1 − (ωT)²/12) to first order; the closed form holds within those.
     let (c, w_t) = (0.16f64, 0.016f64);
     let tolerance = c * c / 80.0 + 10.0 * w_t * w_t / 12.0;
-    assert!((err - shrink).abs() <= tolerance, "trajectory error {err} vs {shrink} ± {tolerance}");
+    assert!(
+        (err - shrink).abs() <= tolerance,
+        "trajectory error {err} vs {shrink} ± {tolerance}"
+    );
     let time = e["machining_time_s"].as_f64().unwrap();
     assert!(time > 2.0 * PI && time < 2.0 * PI + 0.1, "time {time}");
     assert_eq!(e["max_jerk_mm_s3"].as_array().unwrap().len(), 3);
 
-    write(dir.path(), "p.ngc", "G21 G90\nG0 X-40 Y0 Z5\nG1 X40 F1800\nM2\n");
-    ok(&dexcut(&["evaluate", "job.toml", "--out", "line"], dir.path()));
-    let e: Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("line/evaluation.json")).unwrap()).unwrap();
+    write(
+        dir.path(),
+        "p.ngc",
+        "G21 G90\nG0 X-40 Y0 Z5\nG1 X40 F1800\nM2\n",
+    );
+    ok(&dexcut(
+        &["evaluate", "job.toml", "--out", "line"],
+        dir.path(),
+    ));
+    let e: Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("line/evaluation.json")).unwrap(),
+    )
+    .unwrap();
     assert!(e["trajectory_error_mm"].as_f64().unwrap() < 1e-9);
     let actual = csv_columns(&dir.path().join("line/actual.csv"));
     // Mid-line (t ≈ 1.5 s, cruise since 0.03 s + settling): commanded x = −40 + 30·(t − 0.015) − 0.45 … lag 1 mm.
-    let i = actual["t_s"].iter().position(|t| (*t - 1.504).abs() < 1e-9).unwrap();
+    let i = actual["t_s"]
+        .iter()
+        .position(|t| (*t - 1.504).abs() < 1e-9)
+        .unwrap();
     let commanded_x = -40.0 + 0.5 * 1000.0 * 0.03f64.powi(2) + 30.0 * (1.504 - 0.03);
-    assert!((commanded_x - actual["x"][i] - 1.0).abs() < 1e-6, "lag {}", commanded_x - actual["x"][i]);
+    assert!(
+        (commanded_x - actual["x"][i] - 1.0).abs() < 1e-6,
+        "lag {}",
+        commanded_x - actual["x"][i]
+    );
 }
 
 /// The servo.csv of `optimize` (whose last period is cut short by the
@@ -525,15 +764,35 @@ fn evaluate_circle_shrinks_and_line_lags_as_the_closed_forms() {
 fn evaluate_accepts_optimize_servo_data() {
     let dir = tempdir();
     ok(&dexcut(&["optimize", "--out", "opt"], dir.path()));
-    ok(&dexcut(&["evaluate", "opt/input/job.toml", "--servo", "opt/servo.csv", "--out", "ev"], dir.path()));
-    let e: Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("ev/evaluation.json")).unwrap()).unwrap();
+    ok(&dexcut(
+        &[
+            "evaluate",
+            "opt/input/job.toml",
+            "--servo",
+            "opt/servo.csv",
+            "--out",
+            "ev",
+        ],
+        dir.path(),
+    ));
+    let e: Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("ev/evaluation.json")).unwrap(),
+    )
+    .unwrap();
     let s = summary(&dir.path().join("opt"));
     let t = e["machining_time_s"].as_f64().unwrap();
-    assert!((t - s["after"]["cycle_time_s"].as_f64().unwrap()).abs() <= 0.016 + 1e-9, "{t}");
+    assert!(
+        (t - s["after"]["cycle_time_s"].as_f64().unwrap()).abs() <= 0.016 + 1e-9,
+        "{t}"
+    );
     // Vb compares with the program as written (one period of rounding on each side).
     let before = s["before"]["cycle_time_s"].as_f64().unwrap();
     let vb = e["vb"].as_f64().unwrap();
-    assert!((vb - t / before).abs() < 0.02 / before, "Vb {vb} vs {}", t / before);
+    assert!(
+        (vb - t / before).abs() < 0.02 / before,
+        "Vb {vb} vs {}",
+        t / before
+    );
     assert!(vb < 0.9);
 }
 
@@ -542,11 +801,25 @@ fn evaluate_accepts_optimize_servo_data() {
 #[test]
 fn machine_start_is_where_the_tool_begins() {
     let dir = tempdir();
-    write(dir.path(), "slot.ngc", "G21 G90\nG0 X-10 Y0\nG0 Z28\nG1 X110 F1200\n");
+    write(
+        dir.path(),
+        "slot.ngc",
+        "G21 G90\nG0 X-10 Y0\nG0 Z28\nG1 X110 F1200\n",
+    );
     write(dir.path(), "job.toml", &gcode_slot_job());
-    ok(&dexcut(&["simulate", "job.toml", "--out", "default"], dir.path()));
-    write(dir.path(), "job.toml", &(gcode_slot_job() + "start = [-10, 0, 60]\n"));
-    ok(&dexcut(&["simulate", "job.toml", "--out", "given"], dir.path()));
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "default"],
+        dir.path(),
+    ));
+    write(
+        dir.path(),
+        "job.toml",
+        &(gcode_slot_job() + "start = [-10, 0, 60]\n"),
+    );
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "given"],
+        dir.path(),
+    ));
     let first = |out: &str| {
         let c = csv_columns(&dir.path().join(out).join("steps.csv"));
         let top = c["z"].iter().cloned().fold(f64::MIN, f64::max);

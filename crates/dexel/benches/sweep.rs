@@ -34,14 +34,18 @@ fn bench_workload(c: &mut Criterion, name: &str, stock: &Stock, steps: &[Step]) 
         .measurement_time(Duration::from_secs(5))
         .throughput(Throughput::Elements(columns));
     for threads in [1, 2] {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("rayon pool");
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("rayon pool");
         let label = if threads == 1 { "serial" } else { "parallel_2" };
         group.bench_function(label, |b| {
             b.iter_batched(
                 || stock.clone(),
                 // Return the stock so that dropping it is not timed.
                 |mut s| {
-                    let record = pool.install(|| sweep(&mut s, &tool, steps, &options, &|_| {}).expect("sweep"));
+                    let record = pool
+                        .install(|| sweep(&mut s, &tool, steps, &options, &|_| {}).expect("sweep"));
                     (s, record)
                 },
                 BatchSize::PerIteration,
@@ -52,11 +56,21 @@ fn bench_workload(c: &mut Criterion, name: &str, stock: &Stock, steps: &[Step]) 
 }
 
 fn roughing(c: &mut Criterion) {
-    bench_workload(c, "roughing", &workloads::box_stock(), &workloads::roughing_steps());
+    bench_workload(
+        c,
+        "roughing",
+        &workloads::box_stock(),
+        &workloads::roughing_steps(),
+    );
 }
 
 fn finishing(c: &mut Criterion) {
-    bench_workload(c, "finishing", &workloads::semi_finished_stock(), &workloads::finishing_steps());
+    bench_workload(
+        c,
+        "finishing",
+        &workloads::semi_finished_stock(),
+        &workloads::finishing_steps(),
+    );
 }
 
 criterion_group!(benches, roughing, finishing);

@@ -30,7 +30,9 @@ fn memory_bytes() -> (u64, u64) {
 
 /// FNV-1a over 64-bit words: a fingerprint of heights and volumes, to see whether a change alters results.
 fn fnv1a(words: impl Iterator<Item = u64>) -> u64 {
-    words.fold(0xcbf2_9ce4_8422_2325, |h, w| (h ^ w).wrapping_mul(0x100_0000_01b3))
+    words.fold(0xcbf2_9ce4_8422_2325, |h, w| {
+        (h ^ w).wrapping_mul(0x100_0000_01b3)
+    })
 }
 
 fn main() {
@@ -38,12 +40,18 @@ fn main() {
     let workload = args.get(1).map_or("roughing", String::as_str);
     let threads: usize = args.get(2).map_or(1, |v| v.parse().expect("threads"));
     let repeats: usize = args.get(3).map_or(1, |v| v.parse().expect("repeats"));
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("rayon pool");
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("rayon pool");
 
     let (hwm0, _) = memory_bytes();
     let (prepared, steps) = match workload {
         "roughing" => (workloads::box_stock(), workloads::roughing_steps()),
-        "finishing" => (workloads::semi_finished_stock(), workloads::finishing_steps()),
+        "finishing" => (
+            workloads::semi_finished_stock(),
+            workloads::finishing_steps(),
+        ),
         other => panic!("unknown workload {other}; use roughing or finishing"),
     };
     let (hwm_stock, _) = memory_bytes();
@@ -59,15 +67,23 @@ fn main() {
     for _ in 0..repeats {
         let mut stock = prepared.clone();
         let start = Instant::now();
-        let record = pool.install(|| sweep(&mut stock, &tool, &steps, &options, &|_| {}).expect("sweep"));
+        let record =
+            pool.install(|| sweep(&mut stock, &tool, &steps, &options, &|_| {}).expect("sweep"));
         times.push(start.elapsed().as_secs_f64());
         columns = record.columns_evaluated;
         volume = record.total_volume_mm3();
         hwm_sweep = memory_bytes().0;
         fingerprint = fnv1a(
-            stock.top_heights().iter().map(|h| h.to_bits() as u64).chain(
-                (0..record.len()).flat_map(|i| [record.volume_mm3(i).to_bits(), record.contact_resultant(i)[0].to_bits()]),
-            ),
+            stock
+                .top_heights()
+                .iter()
+                .map(|h| h.to_bits() as u64)
+                .chain((0..record.len()).flat_map(|i| {
+                    [
+                        record.volume_mm3(i).to_bits(),
+                        record.contact_resultant(i)[0].to_bits(),
+                    ]
+                })),
         );
     }
     drop(prepared);

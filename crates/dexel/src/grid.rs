@@ -3,7 +3,8 @@
 use crate::Error;
 
 /// Bytes one column costs in a [`crate::Stock`] (interval, last-cut index, overflow pointer).
-pub const BYTES_PER_COLUMN: usize = std::mem::size_of::<crate::stock::Column>() + std::mem::size_of::<u32>();
+pub const BYTES_PER_COLUMN: usize =
+    std::mem::size_of::<crate::stock::Column>() + std::mem::size_of::<u32>();
 
 /// A regular grid of vertical columns. Column `(ix, iy)` stands at
 /// `(x0 + (ix + ½)·spacing, y0 + (iy + ½)·spacing)` and represents the
@@ -23,11 +24,22 @@ impl Grid {
     /// Grid covering `[min_x, max_x] × [min_y, max_y]` with cells of `spacing_mm`
     /// (the count is rounded so that cells tile the area; the area is then
     /// re-centred so the grid is symmetric about the requested rectangle).
-    pub fn covering(min_x: f64, min_y: f64, max_x: f64, max_y: f64, spacing_mm: f64) -> Result<Grid, Error> {
+    pub fn covering(
+        min_x: f64,
+        min_y: f64,
+        max_x: f64,
+        max_y: f64,
+        spacing_mm: f64,
+    ) -> Result<Grid, Error> {
         if !(spacing_mm > 0.0 && spacing_mm.is_finite()) {
-            return Err(Error::InvalidParameter(format!("grid spacing must be a positive number of mm, got {spacing_mm}")));
+            return Err(Error::InvalidParameter(format!(
+                "grid spacing must be a positive number of mm, got {spacing_mm}"
+            )));
         }
-        if !(max_x > min_x && max_y > min_y && [min_x, min_y, max_x, max_y].iter().all(|v| v.is_finite())) {
+        if !(max_x > min_x
+            && max_y > min_y
+            && [min_x, min_y, max_x, max_y].iter().all(|v| v.is_finite()))
+        {
             return Err(Error::InvalidParameter(format!(
                 "grid area must have positive size, got x {min_x}..{max_x}, y {min_y}..{max_y}"
             )));
@@ -35,12 +47,21 @@ impl Grid {
         let nxf = ((max_x - min_x) / spacing_mm).round().max(1.0);
         let nyf = ((max_y - min_y) / spacing_mm).round().max(1.0);
         if nxf * nyf > 4.0e9 {
-            return Err(Error::TooLarge { columns: nxf * nyf, bytes: nxf * nyf * BYTES_PER_COLUMN as f64 });
+            return Err(Error::TooLarge {
+                columns: nxf * nyf,
+                bytes: nxf * nyf * BYTES_PER_COLUMN as f64,
+            });
         }
         let (nx, ny) = (nxf as usize, nyf as usize);
         let cx = 0.5 * (min_x + max_x) - 0.5 * nx as f64 * spacing_mm;
         let cy = 0.5 * (min_y + max_y) - 0.5 * ny as f64 * spacing_mm;
-        Ok(Grid { x0_mm: cx, y0_mm: cy, spacing_mm, nx, ny })
+        Ok(Grid {
+            x0_mm: cx,
+            y0_mm: cy,
+            spacing_mm,
+            nx,
+            ny,
+        })
     }
 
     /// Number of columns.

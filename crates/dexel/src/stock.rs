@@ -17,14 +17,26 @@ pub struct Column {
 }
 
 impl Column {
-    pub const EMPTY: Column = Column { lo: f32::INFINITY, hi: f32::NEG_INFINITY, upper: None };
+    pub const EMPTY: Column = Column {
+        lo: f32::INFINITY,
+        hi: f32::NEG_INFINITY,
+        upper: None,
+    };
 
     /// Column holding exactly `intervals` (sorted ascending, disjoint, lo < hi each).
     pub fn from_intervals(intervals: &[[f32; 2]]) -> Column {
         match intervals {
             [] => Column::EMPTY,
-            [first] => Column { lo: first[0], hi: first[1], upper: None },
-            [first, rest @ ..] => Column { lo: first[0], hi: first[1], upper: Some(Box::new(rest.to_vec())) },
+            [first] => Column {
+                lo: first[0],
+                hi: first[1],
+                upper: None,
+            },
+            [first, rest @ ..] => Column {
+                lo: first[0],
+                hi: first[1],
+                upper: Some(Box::new(rest.to_vec())),
+            },
         }
     }
 
@@ -75,7 +87,9 @@ impl Column {
     /// All intervals, lowest first.
     pub fn intervals(&self) -> impl Iterator<Item = [f32; 2]> + '_ {
         let first = (!self.is_empty()).then_some([self.lo, self.hi]);
-        first.into_iter().chain(self.upper.iter().flat_map(|v| v.iter().copied()))
+        first
+            .into_iter()
+            .chain(self.upper.iter().flat_map(|v| v.iter().copied()))
     }
 }
 
@@ -95,7 +109,10 @@ impl Stock {
     pub fn check_memory(grid: &Grid, limit_bytes: f64) -> Result<(), Error> {
         let bytes = grid.memory_bytes();
         if bytes > limit_bytes {
-            return Err(Error::TooLarge { columns: grid.len() as f64, bytes });
+            return Err(Error::TooLarge {
+                columns: grid.len() as f64,
+                bytes,
+            });
         }
         Ok(())
     }
@@ -110,21 +127,31 @@ impl Stock {
         use rayon::prelude::*;
         Stock::check_memory(&grid, DEFAULT_MEMORY_LIMIT_BYTES)?;
         let mut columns = vec![Column::EMPTY; grid.len()];
-        columns.par_chunks_mut(grid.nx).enumerate().for_each_init(Vec::new, |buf, (iy, row)| {
-            for (ix, col) in row.iter_mut().enumerate() {
-                buf.clear();
-                fill(ix, iy, buf);
-                *col = Column::from_intervals(buf);
-            }
-        });
+        columns
+            .par_chunks_mut(grid.nx)
+            .enumerate()
+            .for_each_init(Vec::new, |buf, (iy, row)| {
+                for (ix, col) in row.iter_mut().enumerate() {
+                    buf.clear();
+                    fill(ix, iy, buf);
+                    *col = Column::from_intervals(buf);
+                }
+            });
         let last_cut = vec![NEVER_CUT; grid.len()];
-        Ok(Stock { grid, columns, last_cut })
+        Ok(Stock {
+            grid,
+            columns,
+            last_cut,
+        })
     }
 
     /// Axis-aligned box `[min, max]` (mm); the grid covers its XY extent.
     pub fn new_box(min: [f64; 3], max: [f64; 3], spacing_mm: f64) -> Result<Stock, Error> {
         if !(max[2] > min[2]) {
-            return Err(Error::InvalidParameter(format!("box height must be positive, got z {}..{}", min[2], max[2])));
+            return Err(Error::InvalidParameter(format!(
+                "box height must be positive, got z {}..{}",
+                min[2], max[2]
+            )));
         }
         let grid = Grid::covering(min[0], min[1], max[0], max[1], spacing_mm)?;
         let (lo, hi) = (min[2] as f32, max[2] as f32);
@@ -133,14 +160,26 @@ impl Stock {
 
     /// Vertical cylinder with axis through `(cx, cy)`, radius `r`, z from `z_lo` to `z_hi`.
     /// A column belongs to it when its centre lies inside the circle.
-    pub fn new_cylinder(center_xy: [f64; 2], radius_mm: f64, z_lo: f64, z_hi: f64, spacing_mm: f64) -> Result<Stock, Error> {
+    pub fn new_cylinder(
+        center_xy: [f64; 2],
+        radius_mm: f64,
+        z_lo: f64,
+        z_hi: f64,
+        spacing_mm: f64,
+    ) -> Result<Stock, Error> {
         if !(radius_mm > 0.0) || !(z_hi > z_lo) {
             return Err(Error::InvalidParameter(format!(
                 "cylinder needs a positive radius and height, got r {radius_mm}, z {z_lo}..{z_hi}"
             )));
         }
         let [cx, cy] = center_xy;
-        let grid = Grid::covering(cx - radius_mm, cy - radius_mm, cx + radius_mm, cy + radius_mm, spacing_mm)?;
+        let grid = Grid::covering(
+            cx - radius_mm,
+            cy - radius_mm,
+            cx + radius_mm,
+            cy + radius_mm,
+            spacing_mm,
+        )?;
         let (lo, hi) = (z_lo as f32, z_hi as f32);
         Stock::from_columns(grid, |ix, iy, out| {
             let (dx, dy) = (grid.x_mm(ix) - cx, grid.y_mm(iy) - cy);
@@ -182,6 +221,9 @@ impl Stock {
 
     /// Top surface height per column (NaN where empty), row-major.
     pub fn top_heights(&self) -> Vec<f32> {
-        self.columns.iter().map(|c| c.top().unwrap_or(f32::NAN)).collect()
+        self.columns
+            .iter()
+            .map(|c| c.top().unwrap_or(f32::NAN))
+            .collect()
     }
 }

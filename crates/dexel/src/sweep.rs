@@ -52,7 +52,11 @@ pub struct SweepOptions {
 
 impl Default for SweepOptions {
     fn default() -> Self {
-        SweepOptions { band_height_mm: 1.0, strip_rows: 8, batch_steps: 16_384 }
+        SweepOptions {
+            band_height_mm: 1.0,
+            strip_rows: 8,
+            batch_steps: 16_384,
+        }
     }
 }
 
@@ -72,7 +76,12 @@ pub struct RemovalRecord {
 
 impl RemovalRecord {
     fn new(steps: usize, n_bands: usize, band_height_mm: f64) -> Self {
-        RemovalRecord { band_height_mm, n_bands, data: vec![0.0; steps * (HEAD + n_bands)], columns_evaluated: 0 }
+        RemovalRecord {
+            band_height_mm,
+            n_bands,
+            data: vec![0.0; steps * (HEAD + n_bands)],
+            columns_evaluated: 0,
+        }
     }
 
     fn stride(&self) -> usize {
@@ -146,20 +155,45 @@ const PLUNGE_H2: f64 = 1e-18;
 impl Prepared {
     fn new(step: &Step) -> Prepared {
         let p0 = step.from_mm;
-        let d = [step.to_mm[0] - p0[0], step.to_mm[1] - p0[1], step.to_mm[2] - p0[2]];
+        let d = [
+            step.to_mm[0] - p0[0],
+            step.to_mm[1] - p0[1],
+            step.to_mm[2] - p0[2],
+        ];
         let h2 = d[0] * d[0] + d[1] * d[1];
         let len_xy = h2.sqrt();
-        let u = if h2 > PLUNGE_H2 { [d[0] / len_xy, d[1] / len_xy] } else { [0.0, 0.0] };
+        let u = if h2 > PLUNGE_H2 {
+            [d[0] / len_xy, d[1] / len_xy]
+        } else {
+            [0.0, 0.0]
+        };
         let dd = h2 + d[2] * d[2];
-        let (inv_h2, inv_dd) = if h2 > PLUNGE_H2 { (1.0 / h2, 1.0 / dd) } else { (0.0, 0.0) };
-        Prepared { p0, d, h2, dd, inv_h2, inv_dd, u, len_xy, zmin: p0[2].min(step.to_mm[2]) }
+        let (inv_h2, inv_dd) = if h2 > PLUNGE_H2 {
+            (1.0 / h2, 1.0 / dd)
+        } else {
+            (0.0, 0.0)
+        };
+        Prepared {
+            p0,
+            d,
+            h2,
+            dd,
+            inv_h2,
+            inv_dd,
+            u,
+            len_xy,
+            zmin: p0[2].min(step.to_mm[2]),
+        }
     }
 
     /// X-interval of the move's footprint (stadium of radius `r`) on the row at `y`.
     #[inline]
     fn row_span(&self, y: f64, r: f64) -> Option<(f64, f64)> {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for (cx, cy) in [(self.p0[0], self.p0[1]), (self.p0[0] + self.d[0], self.p0[1] + self.d[1])] {
+        for (cx, cy) in [
+            (self.p0[0], self.p0[1]),
+            (self.p0[0] + self.d[0], self.p0[1] + self.d[1]),
+        ] {
             let dy = y - cy;
             if dy.abs() <= r {
                 let w = (r * r - dy * dy).sqrt();
@@ -275,7 +309,11 @@ impl Envelope for BallEnd {
             // Plunge: the lower of the two (coaxial) end balls.
             dz < 0.0
         };
-        let (ex, ey, ez, t) = if at_end { (wx - dx, wy - dy, dz, 1.0) } else { (wx, wy, 0.0, 0.0) };
+        let (ex, ey, ez, t) = if at_end {
+            (wx - dx, wy - dy, dz, 1.0)
+        } else {
+            (wx, wy, 0.0, 0.0)
+        };
         let rho = ex * ex + ey * ey;
         (rho <= r2).then(|| (m.p0[2] + self.r + (ez - (r2 - rho).sqrt()), t))
     }
@@ -472,7 +510,14 @@ struct StripJob<'a, E> {
 impl<E: Envelope> StripJob<'_, E> {
     /// Run the moves `entries` (batch-local indices, ascending) over the rows
     /// `row0..row0 + rows` whose columns are `cols`; write per-entry sums into `out`.
-    fn run(&self, row0: usize, cols: &mut [Column], last_cut: &mut [u32], entries: &[u32], out: &mut [f64]) -> u64 {
+    fn run(
+        &self,
+        row0: usize,
+        cols: &mut [Column],
+        last_cut: &mut [u32],
+        entries: &[u32],
+        out: &mut [f64],
+    ) -> u64 {
         let nx = self.grid.nx;
         let rows = cols.len() / nx;
         let stride = HEAD + self.banding.n_bands;
@@ -482,17 +527,27 @@ impl<E: Envelope> StripJob<'_, E> {
             let m = &self.moves[mi as usize];
             let acc = &mut out[j * stride..(j + 1) * stride];
             let step_index = (self.first_step + mi as usize) as u32;
-            let Some((iy0, iy1)) = m.row_range(self.grid, self.radius) else { continue };
+            let Some((iy0, iy1)) = m.row_range(self.grid, self.radius) else {
+                continue;
+            };
             let (iy0, iy1) = (iy0.max(row0), iy1.min(row0 + rows - 1));
             let zmin = m.zmin as f32;
             for iy in iy0..=iy1 {
                 let y = self.grid.y_mm(iy);
-                let Some((x_lo, x_hi)) = m.row_span(y, self.radius) else { continue };
-                let Some((ix0, ix1)) = self.grid.ix_range(x_lo, x_hi) else { continue };
+                let Some((x_lo, x_hi)) = m.row_span(y, self.radius) else {
+                    continue;
+                };
+                let Some((ix0, ix1)) = self.grid.ix_range(x_lo, x_hi) else {
+                    continue;
+                };
                 visited += (ix1 - ix0 + 1) as u64;
                 let base = (iy - row0) * nx;
                 // Narrow the row to where the tool can reach below the row's highest top.
-                let Some((ix0, ix1)) = self.reachable(m, y, &cols[base + ix0..=base + ix1], ix0, ix1) else { continue };
+                let Some((ix0, ix1)) =
+                    self.reachable(m, y, &cols[base + ix0..=base + ix1], ix0, ix1)
+                else {
+                    continue;
+                };
                 for ix in ix0..=ix1 {
                     let col = &mut cols[base + ix];
                     let top = col.top_or_neg_inf();
@@ -503,14 +558,18 @@ impl<E: Envelope> StripJob<'_, E> {
                     if self.env.stays_above(m, x, y, top as f64) {
                         continue;
                     }
-                    let Some((z_env, t)) = self.env.eval(m, x, y) else { continue };
+                    let Some((z_env, t)) = self.env.eval(m, x, y) else {
+                        continue;
+                    };
                     let z = z_env as f32;
                     if top <= z {
                         continue;
                     }
                     let z_tip = m.p0[2] + t * m.d[2];
                     let before = acc[0];
-                    cut_above(col, z, |a, b| self.banding.credit(acc, z_tip, a as f64, b as f64));
+                    cut_above(col, z, |a, b| {
+                        self.banding.credit(acc, z_tip, a as f64, b as f64)
+                    });
                     let removed = acc[0] - before;
                     if removed > 0.0 {
                         last_cut[base + ix] = step_index;
@@ -535,12 +594,22 @@ impl<E: Envelope> StripJob<'_, E> {
     /// top. Columns left out pass neither `stays_above` nor the zmin test, so
     /// narrowing changes no result.
     #[inline]
-    fn reachable(&self, m: &Prepared, y: f64, row: &[Column], ix0: usize, ix1: usize) -> Option<(usize, usize)> {
+    fn reachable(
+        &self,
+        m: &Prepared,
+        y: f64,
+        row: &[Column],
+        ix0: usize,
+        ix1: usize,
+    ) -> Option<(usize, usize)> {
         if self.env.reach(m, 0.0).is_none() {
             return Some((ix0, ix1));
         }
         // Heights are never NaN: a plain compare is cheaper than f32::max.
-        let top = row.iter().map(Column::top_or_neg_inf).fold(f32::NEG_INFINITY, |a, b| if b > a { b } else { a });
+        let top = row
+            .iter()
+            .map(Column::top_or_neg_inf)
+            .fold(f32::NEG_INFINITY, |a, b| if b > a { b } else { a });
         if top <= m.zmin as f32 {
             return None;
         }
@@ -568,10 +637,19 @@ pub fn sweep(
 ) -> Result<RemovalRecord, Error> {
     tool.validate()?;
     if !(options.band_height_mm > 0.0 && options.band_height_mm.is_finite()) {
-        return Err(Error::InvalidParameter(format!("band height must be positive, got {} mm", options.band_height_mm)));
+        return Err(Error::InvalidParameter(format!(
+            "band height must be positive, got {} mm",
+            options.band_height_mm
+        )));
     }
-    if let Some((i, _)) = steps.iter().enumerate().find(|(_, s)| !s.from_mm.iter().chain(&s.to_mm).all(|v| v.is_finite())) {
-        return Err(Error::InvalidParameter(format!("step {i} has a non-finite coordinate")));
+    if let Some((i, _)) = steps
+        .iter()
+        .enumerate()
+        .find(|(_, s)| !s.from_mm.iter().chain(&s.to_mm).all(|v| v.is_finite()))
+    {
+        return Err(Error::InvalidParameter(format!(
+            "step {i} has a non-finite coordinate"
+        )));
     }
     let n_bands = ((tool.flute_length_mm / options.band_height_mm).ceil() as usize).max(1);
     if n_bands > 10_000 {
@@ -589,11 +667,42 @@ pub fn sweep(
     let radius = tool.radius_mm();
     let mut record = RemovalRecord::new(steps.len(), n_bands, options.band_height_mm);
     match tool.shape {
-        ToolShape::Ball => run_batches(stock, &BallEnd { r: radius }, radius, &banding, steps, options, &mut record, progress),
-        ToolShape::Flat => run_batches(stock, &FlatEnd { r: radius }, radius, &banding, steps, options, &mut record, progress),
+        ToolShape::Ball => run_batches(
+            stock,
+            &BallEnd { r: radius },
+            radius,
+            &banding,
+            steps,
+            options,
+            &mut record,
+            progress,
+        ),
+        ToolShape::Flat => run_batches(
+            stock,
+            &FlatEnd { r: radius },
+            radius,
+            &banding,
+            steps,
+            options,
+            &mut record,
+            progress,
+        ),
         ToolShape::Bull { corner_radius_mm } => {
-            let env = BullNose { r: radius, rc: corner_radius_mm, ring: radius - corner_radius_mm };
-            run_batches(stock, &env, radius, &banding, steps, options, &mut record, progress)
+            let env = BullNose {
+                r: radius,
+                rc: corner_radius_mm,
+                ring: radius - corner_radius_mm,
+            };
+            run_batches(
+                stock,
+                &env,
+                radius,
+                &banding,
+                steps,
+                options,
+                &mut record,
+                progress,
+            )
         }
     }
     Ok(record)
@@ -621,7 +730,10 @@ fn run_batches<E: Envelope>(
         let moves: Vec<Prepared> = chunk.iter().map(Prepared::new).collect();
         // Bin moves by strip (CSR): a move joins every strip its footprint's rows touch.
         let mut counts = vec![0u32; n_strips + 1];
-        let strip_span = |m: &Prepared| m.row_range(&grid, radius).map(|(a, b)| (a / strip_rows, b / strip_rows));
+        let strip_span = |m: &Prepared| {
+            m.row_range(&grid, radius)
+                .map(|(a, b)| (a / strip_rows, b / strip_rows))
+        };
         for m in &moves {
             if let Some((s0, s1)) = strip_span(m) {
                 for s in s0..=s1 {
@@ -643,7 +755,14 @@ fn run_batches<E: Envelope>(
             }
         }
         let mut partial = vec![0.0f64; entries.len() * stride];
-        let job = StripJob { env, grid: &grid, radius, banding, moves: &moves, first_step };
+        let job = StripJob {
+            env,
+            grid: &grid,
+            radius,
+            banding,
+            moves: &moves,
+            first_step,
+        };
         // Split columns, last-cut marks and partial sums into per-strip pieces.
         let strip_len = strip_rows * grid.nx;
         let mut partial_pieces: Vec<&mut [f64]> = Vec::with_capacity(n_strips);
@@ -688,7 +807,12 @@ mod tests {
     use super::*;
 
     /// Lowest point of the tool's lower surface above (x, y) by dense sampling of t.
-    fn brute_force(profile: &dyn Fn(f64) -> Option<f64>, step: &Step, x: f64, y: f64) -> Option<f64> {
+    fn brute_force(
+        profile: &dyn Fn(f64) -> Option<f64>,
+        step: &Step,
+        x: f64,
+        y: f64,
+    ) -> Option<f64> {
         let n = 200_000;
         let mut best: Option<f64> = None;
         for i in 0..=n {
@@ -704,24 +828,47 @@ mod tests {
 
     /// A small deterministic pseudo-random sequence (no test dependency on rand).
     fn lcg(seed: &mut u64) -> f64 {
-        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        *seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((*seed >> 11) as f64) / ((1u64 << 53) as f64)
     }
 
-    fn check_against_brute_force(env: &dyn Envelope, profile: &dyn Fn(f64) -> Option<f64>, tol: f64) {
+    fn check_against_brute_force(
+        env: &dyn Envelope,
+        profile: &dyn Fn(f64) -> Option<f64>,
+        tol: f64,
+    ) {
         let mut seed = 7;
         for case in 0..300 {
             let mut r = || lcg(&mut seed) * 20.0 - 10.0;
-            let step = Step { from_mm: [r(), r(), r()], to_mm: [r(), r(), r()], rapid: false };
-            let step = if case % 10 == 0 { Step { to_mm: [step.from_mm[0], step.from_mm[1], step.to_mm[2]], ..step } } else { step };
+            let step = Step {
+                from_mm: [r(), r(), r()],
+                to_mm: [r(), r(), r()],
+                rapid: false,
+            };
+            let step = if case % 10 == 0 {
+                Step {
+                    to_mm: [step.from_mm[0], step.from_mm[1], step.to_mm[2]],
+                    ..step
+                }
+            } else {
+                step
+            };
             let m = Prepared::new(&step);
             let (x, y) = (r() * 0.8, r() * 0.8);
             let exact = env.eval(&m, x, y).map(|e| e.0);
             let sampled = brute_force(profile, &step, x, y);
             match (exact, sampled) {
                 (Some(e), Some(s)) => {
-                    assert!(e <= s + 1e-9, "case {case}: envelope {e} above sampled minimum {s}");
-                    assert!(e >= s - tol, "case {case}: envelope {e} far below sampled minimum {s}");
+                    assert!(
+                        e <= s + 1e-9,
+                        "case {case}: envelope {e} above sampled minimum {s}"
+                    );
+                    assert!(
+                        e >= s - tol,
+                        "case {case}: envelope {e} far below sampled minimum {s}"
+                    );
                 }
                 (None, None) => {}
                 // Sampling can miss a footprint only a hair wide.
@@ -730,7 +877,10 @@ mod tests {
                         let p = m_at(&step, i as f64 / 1000.0);
                         (((x - p[0]).powi(2) + (y - p[1]).powi(2)).sqrt() - 5.0).abs() < 1e-2
                     });
-                    assert!(near, "case {case}: footprint disagreement {exact:?} vs {sampled:?}");
+                    assert!(
+                        near,
+                        "case {case}: footprint disagreement {exact:?} vs {sampled:?}"
+                    );
                 }
             }
         }
@@ -765,7 +915,10 @@ mod tests {
         }
         let (mut z_best, i) = best?;
         // Refine on the neighbouring samples, clipped to where the line meets the ball.
-        let (mut a, mut b) = (i.saturating_sub(1) as f64 / n as f64, (i + 1).min(n) as f64 / n as f64);
+        let (mut a, mut b) = (
+            i.saturating_sub(1) as f64 / n as f64,
+            (i + 1).min(n) as f64 / n as f64,
+        );
         let f = |t: f64| at(t).unwrap_or(f64::INFINITY);
         for _ in 0..200 {
             let (c, d) = (a + (b - a) / 3.0, b - (b - a) / 3.0);
@@ -793,17 +946,25 @@ mod tests {
             // Horizontal direction and length, vertical change, by kind of move.
             let ang = u() * std::f64::consts::TAU;
             let (len_xy, dz) = match case % 8 {
-                0 => (0.0, u() * 20.0 - 10.0),                  // plunge / retract
-                1 => (u() * 15.0, 0.0),                         // horizontal
-                2 => (u() * 15.0, -u() * 3.0),                  // ramp down
-                3 => (u() * 15.0, u() * 3.0),                   // ramp up
+                0 => (0.0, u() * 20.0 - 10.0), // plunge / retract
+                1 => (u() * 15.0, 0.0),        // horizontal
+                2 => (u() * 15.0, -u() * 3.0), // ramp down
+                3 => (u() * 15.0, u() * 3.0),  // ramp up
                 4 => (10f64.powf(-3.0 - 4.0 * u()), u() * 20.0 - 10.0), // near-vertical
-                5 => (u() * 1e-3, (u() - 0.5) * 1e-3),          // tiny move
-                6 => (u() * 0.8, (u() - 0.5) * 0.2),            // servo-sized step
-                _ => (u() * 20.0, u() * 20.0 - 10.0),           // anything
+                5 => (u() * 1e-3, (u() - 0.5) * 1e-3), // tiny move
+                6 => (u() * 0.8, (u() - 0.5) * 0.2), // servo-sized step
+                _ => (u() * 20.0, u() * 20.0 - 10.0), // anything
             };
-            let to = [from[0] + len_xy * ang.cos(), from[1] + len_xy * ang.sin(), from[2] + dz];
-            let step = Step { from_mm: from, to_mm: to, rapid: false };
+            let to = [
+                from[0] + len_xy * ang.cos(),
+                from[1] + len_xy * ang.sin(),
+                from[2] + dz,
+            ];
+            let step = Step {
+                from_mm: from,
+                to_mm: to,
+                rapid: false,
+            };
             let m = Prepared::new(&step);
             // A point within R + 0.5 of a random point of the move's XY segment.
             let (s, a2, d2) = (u(), u() * std::f64::consts::TAU, (r + 0.5) * u().sqrt());
@@ -814,26 +975,43 @@ mod tests {
             match (got, want) {
                 (Some((z, t)), Some(w)) => {
                     hits += 1;
-                    assert!((z - w).abs() < 1e-9, "case {case}: {step:?} at ({x}, {y}): eval {z}, reference {w}");
+                    assert!(
+                        (z - w).abs() < 1e-9,
+                        "case {case}: {step:?} at ({x}, {y}): eval {z}, reference {w}"
+                    );
                     assert!((0.0..=1.0).contains(&t), "case {case}: t = {t}");
                     // The reported t must be where the envelope is attained.
                     let at_t = ball_reference(
-                        &Step { from_mm: m_at(&step, t), to_mm: m_at(&step, t), rapid: false },
+                        &Step {
+                            from_mm: m_at(&step, t),
+                            to_mm: m_at(&step, t),
+                            rapid: false,
+                        },
                         r,
                         x,
                         y,
                     );
                     let at_t = at_t.unwrap_or(f64::INFINITY);
-                    assert!((at_t - z).abs() < 1e-6, "case {case}: height at t = {t} is {at_t}, envelope {z}");
+                    assert!(
+                        (at_t - z).abs() < 1e-6,
+                        "case {case}: height at t = {t} is {at_t}, envelope {z}"
+                    );
                     // The sqrt-free bounds may only skip columns the tool cannot cut.
                     let (sx, sy) = (to[0] - from[0], to[1] - from[1]);
                     let s_len2 = sx * sx + sy * sy;
-                    let s_t = if s_len2 > 0.0 { (((x - from[0]) * sx + (y - from[1]) * sy) / s_len2).clamp(0.0, 1.0) } else { 0.0 };
+                    let s_t = if s_len2 > 0.0 {
+                        (((x - from[0]) * sx + (y - from[1]) * sy) / s_len2).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
                     let rho_min = (x - from[0] - s_t * sx).hypot(y - from[1] - s_t * sy);
                     for top in [z - 1.0, z - 1e-3, z - 1e-9, z + 1e-9, z + 1e-3, z + 1.0] {
                         if ball.stays_above(&m, x, y, top) {
                             skipped += 1;
-                            assert!(z >= top, "case {case}: stays_above({top}) but the envelope is {z}");
+                            assert!(
+                                z >= top,
+                                "case {case}: stays_above({top}) but the envelope is {z}"
+                            );
                         }
                         let reach = ball.reach(&m, top - m.zmin).unwrap();
                         if rho_min > reach + 1e-6 {
@@ -848,11 +1026,17 @@ mod tests {
                         let p = m_at(&step, i as f64 / 10_000.0);
                         (((x - p[0]).powi(2) + (y - p[1]).powi(2)).sqrt() - r).abs() < 1e-6
                     });
-                    assert!(near_rim, "case {case}: {step:?} at ({x}, {y}): eval {got:?}, reference {want:?}");
+                    assert!(
+                        near_rim,
+                        "case {case}: {step:?} at ({x}, {y}): eval {got:?}, reference {want:?}"
+                    );
                 }
             }
         }
-        assert!(hits > 4000 && misses > 100 && skipped > 1000, "{hits} hits, {misses} misses, {skipped} skipped");
+        assert!(
+            hits > 4000 && misses > 100 && skipped > 1000,
+            "{hits} hits, {misses} misses, {skipped} skipped"
+        );
     }
 
     fn m_at(step: &Step, t: f64) -> [f64; 3] {
@@ -868,7 +1052,11 @@ mod tests {
 
     #[test]
     fn bull_envelope_matches_brute_force() {
-        let env = BullNose { r: 5.0, rc: 2.0, ring: 3.0 };
+        let env = BullNose {
+            r: 5.0,
+            rc: 2.0,
+            ring: 3.0,
+        };
         let profile = |rho: f64| (rho <= 5.0).then(|| env.profile(rho));
         check_against_brute_force(&env, &profile, 1e-4);
     }
@@ -877,17 +1065,37 @@ mod tests {
     fn bull_nose_limits_are_ball_and_flat() {
         let mut seed = 11;
         let (ball, flat) = (BallEnd { r: 5.0 }, FlatEnd { r: 5.0 });
-        let near_ball = BullNose { r: 5.0, rc: 5.0 - 1e-12, ring: 1e-12 };
-        let near_flat = BullNose { r: 5.0, rc: 1e-12, ring: 5.0 - 1e-12 };
+        let near_ball = BullNose {
+            r: 5.0,
+            rc: 5.0 - 1e-12,
+            ring: 1e-12,
+        };
+        let near_flat = BullNose {
+            r: 5.0,
+            rc: 1e-12,
+            ring: 5.0 - 1e-12,
+        };
         let (mut ball_hits, mut flat_hits) = (0, 0);
         for _ in 0..500 {
             let mut r = || lcg(&mut seed) * 20.0 - 10.0;
-            let step = Step { from_mm: [r(), r(), r()], to_mm: [r(), r(), r()], rapid: false };
+            let step = Step {
+                from_mm: [r(), r(), r()],
+                to_mm: [r(), r(), r()],
+                rapid: false,
+            };
             let m = Prepared::new(&step);
             let (x, y) = (r() * 0.5, r() * 0.5);
             for (exact, limit, hits) in [
-                (ball.eval(&m, x, y), near_ball.eval(&m, x, y), &mut ball_hits),
-                (flat.eval(&m, x, y), near_flat.eval(&m, x, y), &mut flat_hits),
+                (
+                    ball.eval(&m, x, y),
+                    near_ball.eval(&m, x, y),
+                    &mut ball_hits,
+                ),
+                (
+                    flat.eval(&m, x, y),
+                    near_flat.eval(&m, x, y),
+                    &mut flat_hits,
+                ),
             ] {
                 match (exact, limit) {
                     (Some(a), Some(b)) => {
@@ -899,7 +1107,10 @@ mod tests {
                 }
             }
         }
-        assert!(ball_hits > 100 && flat_hits > 100, "{ball_hits} ball, {flat_hits} flat hits");
+        assert!(
+            ball_hits > 100 && flat_hits > 100,
+            "{ball_hits} ball, {flat_hits} flat hits"
+        );
     }
 
     #[test]
@@ -908,7 +1119,10 @@ mod tests {
         let mut pieces = Vec::new();
         cut_above(&mut col, 2.5, |a, b| pieces.push((a, b)));
         assert_eq!(pieces, vec![(4.0, 5.0), (2.5, 3.0)]);
-        assert_eq!(col.intervals().collect::<Vec<_>>(), vec![[0.0, 1.0], [2.0, 2.5]]);
+        assert_eq!(
+            col.intervals().collect::<Vec<_>>(),
+            vec![[0.0, 1.0], [2.0, 2.5]]
+        );
         pieces.clear();
         cut_above(&mut col, -1.0, |a, b| pieces.push((a, b)));
         assert_eq!(pieces, vec![(2.0, 2.5), (0.0, 1.0)]);
@@ -917,7 +1131,12 @@ mod tests {
 
     #[test]
     fn banding_splits_pieces_and_shank() {
-        let b = Banding { n_bands: 3, band_h: 1.0, inv_band_h: 1.0, flute_len: 2.5 };
+        let b = Banding {
+            n_bands: 3,
+            band_h: 1.0,
+            inv_band_h: 1.0,
+            flute_len: 2.5,
+        };
         let mut acc = vec![0.0; HEAD + 3];
         b.credit(&mut acc, 10.0, 10.5, 14.0);
         assert_eq!(acc[0], 3.5);
@@ -927,14 +1146,24 @@ mod tests {
 
     #[test]
     fn row_span_is_the_stadium() {
-        let m = Prepared::new(&Step { from_mm: [0.0, 0.0, 0.0], to_mm: [10.0, 10.0, 0.0], rapid: false });
+        let m = Prepared::new(&Step {
+            from_mm: [0.0, 0.0, 0.0],
+            to_mm: [10.0, 10.0, 0.0],
+            rapid: false,
+        });
         let (lo, hi) = m.row_span(5.0, 1.0).unwrap();
         let h = 2f64.sqrt();
-        assert!((lo - (5.0 - h)).abs() < 1e-12 && (hi - (5.0 + h)).abs() < 1e-12, "{lo} {hi}");
+        assert!(
+            (lo - (5.0 - h)).abs() < 1e-12 && (hi - (5.0 + h)).abs() < 1e-12,
+            "{lo} {hi}"
+        );
         assert!(m.row_span(11.5, 1.0).is_none());
         // Near the end the band still reaches further left than the end circle.
         let (lo, hi) = m.row_span(10.5, 1.0).unwrap();
         let w = (1.0f64 - 0.25).sqrt();
-        assert!((lo - (10.5 - h)).abs() < 1e-12 && (hi - (10.0 + w)).abs() < 1e-12, "{lo} {hi}");
+        assert!(
+            (lo - (10.5 - h)).abs() < 1e-12 && (hi - (10.0 + w)).abs() < 1e-12,
+            "{lo} {hi}"
+        );
     }
 }

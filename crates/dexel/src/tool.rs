@@ -48,12 +48,18 @@ impl Tool {
 
     /// Same defaults with a flat end.
     pub fn flat(diameter_mm: f64) -> Tool {
-        Tool { shape: ToolShape::Flat, ..Tool::ball(diameter_mm) }
+        Tool {
+            shape: ToolShape::Flat,
+            ..Tool::ball(diameter_mm)
+        }
     }
 
     /// Same defaults with a bull-nose end.
     pub fn bull(diameter_mm: f64, corner_radius_mm: f64) -> Tool {
-        Tool { shape: ToolShape::Bull { corner_radius_mm }, ..Tool::ball(diameter_mm) }
+        Tool {
+            shape: ToolShape::Bull { corner_radius_mm },
+            ..Tool::ball(diameter_mm)
+        }
     }
 
     pub fn radius_mm(&self) -> f64 {
@@ -62,7 +68,11 @@ impl Tool {
 
     /// Reject tools no machine could hold.
     pub fn validate(&self) -> Result<(), Error> {
-        let bad = |what: &str, v: f64| Err(Error::InvalidParameter(format!("tool {what} must be a positive number, got {v}")));
+        let bad = |what: &str, v: f64| {
+            Err(Error::InvalidParameter(format!(
+                "tool {what} must be a positive number, got {v}"
+            )))
+        };
         for (what, v) in [
             ("diameter_mm", self.diameter_mm),
             ("flute_length_mm", self.flute_length_mm),
@@ -75,9 +85,14 @@ impl Tool {
             }
         }
         if self.flutes == 0 {
-            return Err(Error::InvalidParameter("tool flutes must be at least 1".into()));
+            return Err(Error::InvalidParameter(
+                "tool flutes must be at least 1".into(),
+            ));
         }
-        if let ToolShape::Bull { corner_radius_mm: r } = self.shape {
+        if let ToolShape::Bull {
+            corner_radius_mm: r,
+        } = self.shape
+        {
             if !(r > 0.0 && r < self.radius_mm()) {
                 return Err(Error::InvalidParameter(format!(
                     "bull-nose corner_radius_mm must lie in (0, diameter/2 = {}), got {r}",

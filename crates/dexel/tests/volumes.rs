@@ -7,11 +7,18 @@ use dexel::{sweep, RemovalRecord, Step, Stock, SweepOptions, Tool};
 const R: f64 = 5.0;
 
 fn line(from: [f64; 3], to: [f64; 3]) -> Step {
-    Step { from_mm: from, to_mm: to, rapid: false }
+    Step {
+        from_mm: from,
+        to_mm: to,
+        rapid: false,
+    }
 }
 
 fn run(stock: &mut Stock, tool: &Tool, steps: &[Step], band_mm: f64) -> RemovalRecord {
-    let options = SweepOptions { band_height_mm: band_mm, ..SweepOptions::default() };
+    let options = SweepOptions {
+        band_height_mm: band_mm,
+        ..SweepOptions::default()
+    };
     sweep(stock, tool, steps, &options, &|_| {}).expect("sweep")
 }
 
@@ -28,7 +35,10 @@ fn slot_area_below(h: f64) -> f64 {
 
 fn assert_rel(actual: f64, exact: f64, tol: f64, what: &str) {
     let rel = (actual - exact).abs() / exact;
-    assert!(rel < tol, "{what}: {actual} vs exact {exact} (relative error {rel:.2e}, allowed {tol:.1e})");
+    assert!(
+        rel < tol,
+        "{what}: {actual} vs exact {exact} (relative error {rel:.2e}, allowed {tol:.1e})"
+    );
 }
 
 /// Ball slot straight through a 100 mm box at depth `depth`: volume and bands.
@@ -36,15 +46,33 @@ fn check_ball_slot(depth: f64, grid: f64) -> f64 {
     let mut stock = Stock::new_box([0.0, -20.0, 0.0], [100.0, 20.0, 30.0], grid).unwrap();
     let before = stock.volume_mm3();
     let z = 30.0 - depth;
-    let record = run(&mut stock, &Tool::ball(2.0 * R), &[line([-10.0, 0.0, z], [110.0, 0.0, z])], 1.0);
+    let record = run(
+        &mut stock,
+        &Tool::ball(2.0 * R),
+        &[line([-10.0, 0.0, z], [110.0, 0.0, z])],
+        1.0,
+    );
     let exact = slot_area_below(depth) * 100.0;
-    assert_rel(record.volume_mm3(0), exact, 3e-3, &format!("slot depth {depth} at grid {grid}"));
-    assert!((before - stock.volume_mm3() - record.volume_mm3(0)).abs() < 1e-6 * exact, "removed = initial − final");
+    assert_rel(
+        record.volume_mm3(0),
+        exact,
+        3e-3,
+        &format!("slot depth {depth} at grid {grid}"),
+    );
+    assert!(
+        (before - stock.volume_mm3() - record.volume_mm3(0)).abs() < 1e-6 * exact,
+        "removed = initial − final"
+    );
     for (k, band) in record.band_volumes_mm3(0).iter().enumerate() {
         let (a, b) = (k as f64, (k as f64 + 1.0).min(depth));
         let exact_band = (slot_area_below(b) - slot_area_below(a)).max(0.0) * 100.0;
         if exact_band > 0.0 {
-            assert_rel(*band, exact_band, 1.5e-2, &format!("band {k} of slot depth {depth}"));
+            assert_rel(
+                *band,
+                exact_band,
+                1.5e-2,
+                &format!("band {k} of slot depth {depth}"),
+            );
         } else {
             assert_eq!(*band, 0.0, "band {k} above the stock");
         }
@@ -65,9 +93,15 @@ fn ball_slot_deeper_than_radius() {
 
 #[test]
 fn slot_error_falls_with_grid() {
-    let errors: Vec<f64> = [0.4, 0.2, 0.1, 0.05].iter().map(|&g| check_ball_slot(2.0, g)).collect();
+    let errors: Vec<f64> = [0.4, 0.2, 0.1, 0.05]
+        .iter()
+        .map(|&g| check_ball_slot(2.0, g))
+        .collect();
     eprintln!("ball slot depth 2: relative volume error at grid 0.4/0.2/0.1/0.05 mm = {errors:?}");
-    assert!(errors[3] < errors[0], "error should fall with the grid: {errors:?}");
+    assert!(
+        errors[3] < errors[0],
+        "error should fall with the grid: {errors:?}"
+    );
 }
 
 #[test]
@@ -76,29 +110,52 @@ fn diagonal_slot_matches_section_times_axis_length() {
     let mut stock = Stock::new_box([0.0, -80.0, 0.0], [100.0, 80.0, 30.0], 0.1).unwrap();
     let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
     let z = 27.0;
-    let (from, to) = ([-20.0 * c, -20.0 * s - 25.0, z], [140.0 * c, 140.0 * s - 25.0, z]);
+    let (from, to) = (
+        [-20.0 * c, -20.0 * s - 25.0, z],
+        [140.0 * c, 140.0 * s - 25.0, z],
+    );
     let record = run(&mut stock, &Tool::ball(2.0 * R), &[line(from, to)], 1.0);
-    assert_rel(record.volume_mm3(0), slot_area_below(3.0) * 100.0 / c, 3e-3, "diagonal slot");
+    assert_rel(
+        record.volume_mm3(0),
+        slot_area_below(3.0) * 100.0 / c,
+        3e-3,
+        "diagonal slot",
+    );
 }
 
 #[test]
 fn plunge_removes_ball_cap_and_cylinder() {
     for depth in [3.0, 8.0] {
         let mut stock = Stock::new_box([-20.0, -20.0, 0.0], [20.0, 20.0, 30.0], 0.05).unwrap();
-        let record = run(&mut stock, &Tool::ball(2.0 * R), &[line([0.0, 0.0, 40.0], [0.0, 0.0, 30.0 - depth])], 1.0);
+        let record = run(
+            &mut stock,
+            &Tool::ball(2.0 * R),
+            &[line([0.0, 0.0, 40.0], [0.0, 0.0, 30.0 - depth])],
+            1.0,
+        );
         let exact = if depth <= R {
             PI * depth * depth * (3.0 * R - depth) / 3.0
         } else {
             2.0 / 3.0 * PI * R.powi(3) + PI * R * R * (depth - R)
         };
-        assert_rel(record.volume_mm3(0), exact, 5e-3, &format!("plunge depth {depth}"));
+        assert_rel(
+            record.volume_mm3(0),
+            exact,
+            5e-3,
+            &format!("plunge depth {depth}"),
+        );
     }
 }
 
 #[test]
 fn flat_slot_is_a_rectangle() {
     let mut stock = Stock::new_box([0.0, -20.0, 0.0], [100.0, 20.0, 30.0], 0.1).unwrap();
-    let record = run(&mut stock, &Tool::flat(10.0), &[line([-10.0, 0.0, 26.0], [110.0, 0.0, 26.0])], 1.0);
+    let record = run(
+        &mut stock,
+        &Tool::flat(10.0),
+        &[line([-10.0, 0.0, 26.0], [110.0, 0.0, 26.0])],
+        1.0,
+    );
     assert_rel(record.volume_mm3(0), 10.0 * 4.0 * 100.0, 1e-6, "flat slot");
     let bands = record.band_volumes_mm3(0);
     for &band in &bands[..4] {
@@ -111,7 +168,12 @@ fn bull_nose_slot_matches_its_section() {
     // Section below height h: bottom flat 2(R−r) wide plus two quarter discs of radius r, then 2R wide.
     let (rc, depth) = (2.0, 3.0);
     let mut stock = Stock::new_box([0.0, -20.0, 0.0], [100.0, 20.0, 30.0], 0.05).unwrap();
-    let record = run(&mut stock, &Tool::bull(10.0, rc), &[line([-10.0, 0.0, 27.0], [110.0, 0.0, 27.0])], 1.0);
+    let record = run(
+        &mut stock,
+        &Tool::bull(10.0, rc),
+        &[line([-10.0, 0.0, 27.0], [110.0, 0.0, 27.0])],
+        1.0,
+    );
     let exact = (2.0 * R * depth - (4.0 - PI) * rc * rc / 2.0) * 100.0;
     assert_rel(record.volume_mm3(0), exact, 3e-3, "bull-nose slot");
 }
@@ -138,14 +200,28 @@ fn removed_equals_initial_minus_final_and_last_cut_is_set() {
     let record = run(&mut stock, &Tool::bull(8.0, 1.5), &steps, 0.5);
     assert!((before - stock.volume_mm3() - record.total_volume_mm3()).abs() < 1e-6 * before);
     let grid = *stock.grid();
-    let (ix, iy) = (grid.ix_range(25.0, 25.1).unwrap().0, grid.iy_range(41.5, 41.6).unwrap().0);
-    assert_eq!(stock.last_cut()[iy * grid.nx + ix], 9, "the last pass cut y ≈ 41.5");
+    let (ix, iy) = (
+        grid.ix_range(25.0, 25.1).unwrap().0,
+        grid.iy_range(41.5, 41.6).unwrap().0,
+    );
+    assert_eq!(
+        stock.last_cut()[iy * grid.nx + ix],
+        9,
+        "the last pass cut y ≈ 41.5"
+    );
 }
 
 /// Short steps along X, as servo steps are: the resultant of a steady step.
 fn steady_resultant(tool: &Tool, stock_y_min: f64) -> [f64; 2] {
     let mut stock = Stock::new_box([0.0, stock_y_min, 0.0], [100.0, 20.0, 30.0], 0.05).unwrap();
-    let steps: Vec<Step> = (0..100).map(|i| line([i as f64 * 0.5, 0.0, 27.0], [(i + 1) as f64 * 0.5, 0.0, 27.0])).collect();
+    let steps: Vec<Step> = (0..100)
+        .map(|i| {
+            line(
+                [i as f64 * 0.5, 0.0, 27.0],
+                [(i + 1) as f64 * 0.5, 0.0, 27.0],
+            )
+        })
+        .collect();
     let record = run(&mut stock, tool, &steps, 1.0);
     record.contact_resultant(60)
 }
@@ -155,10 +231,18 @@ fn contact_resultant_points_to_the_material() {
     for tool in [Tool::flat(10.0), Tool::ball(10.0)] {
         // Wall on the +y side (radial depth 2 mm): contact in the front-left quadrant.
         let [cx, cy] = steady_resultant(&tool, 3.0);
-        assert!(cx > 0.0 && cy > 0.0, "{:?}: resultant {cx}, {cy}", tool.shape);
+        assert!(
+            cx > 0.0 && cy > 0.0,
+            "{:?}: resultant {cx}, {cy}",
+            tool.shape
+        );
         // Full-width slot: symmetric about the path, resultant along the feed.
         let [cx, cy] = steady_resultant(&tool, -20.0);
-        assert!(cx > 0.0 && cy.abs() < 1e-3 * cx, "{:?}: slot resultant {cx}, {cy}", tool.shape);
+        assert!(
+            cx > 0.0 && cy.abs() < 1e-3 * cx,
+            "{:?}: slot resultant {cx}, {cy}",
+            tool.shape
+        );
     }
 }
 
@@ -167,9 +251,19 @@ fn shank_contact_is_reported() {
     let mut tool = Tool::ball(10.0);
     tool.flute_length_mm = 4.0;
     let mut stock = Stock::new_box([0.0, -20.0, 0.0], [100.0, 20.0, 30.0], 0.1).unwrap();
-    let record = run(&mut stock, &tool, &[line([-10.0, 0.0, 24.0], [110.0, 0.0, 24.0])], 1.0);
+    let record = run(
+        &mut stock,
+        &tool,
+        &[line([-10.0, 0.0, 24.0], [110.0, 0.0, 24.0])],
+        1.0,
+    );
     let exact_shank = (slot_area_below(6.0) - slot_area_below(4.0)) * 100.0;
-    assert_rel(record.shank_volume_mm3(0), exact_shank, 5e-3, "shank volume");
+    assert_rel(
+        record.shank_volume_mm3(0),
+        exact_shank,
+        5e-3,
+        "shank volume",
+    );
 }
 
 #[test]
@@ -177,14 +271,32 @@ fn identical_results_for_one_and_many_threads() {
     let steps: Vec<Step> = (0..400)
         .map(|i| {
             let a = i as f64 * 0.07;
-            line([30.0 + 20.0 * a.cos(), 30.0 + 20.0 * a.sin(), 18.0 - 0.01 * i as f64], [30.0 + 19.0 * (a + 0.07).cos(), 30.0 + 19.0 * (a + 0.07).sin(), 17.5])
+            line(
+                [
+                    30.0 + 20.0 * a.cos(),
+                    30.0 + 20.0 * a.sin(),
+                    18.0 - 0.01 * i as f64,
+                ],
+                [
+                    30.0 + 19.0 * (a + 0.07).cos(),
+                    30.0 + 19.0 * (a + 0.07).sin(),
+                    17.5,
+                ],
+            )
         })
         .collect();
     let run_with = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| {
             let mut stock = Stock::new_box([0.0, 0.0, 0.0], [60.0, 60.0, 20.0], 0.1).unwrap();
-            let opts = SweepOptions { band_height_mm: 0.5, strip_rows: 4, batch_steps: 97 };
+            let opts = SweepOptions {
+                band_height_mm: 0.5,
+                strip_rows: 4,
+                batch_steps: 97,
+            };
             let record = sweep(&mut stock, &Tool::ball(6.0), &steps, &opts, &|_| {}).unwrap();
             (record, stock.top_heights(), stock.last_cut().to_vec())
         })
@@ -192,7 +304,10 @@ fn identical_results_for_one_and_many_threads() {
     let (r1, h1, l1) = run_with(1);
     let (r4, h4, l4) = run_with(4);
     assert_eq!(r1, r4);
-    assert_eq!(h1.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), h4.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
+    assert_eq!(
+        h1.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+        h4.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+    );
     assert_eq!(l1, l4);
 }
 
@@ -200,11 +315,22 @@ fn identical_results_for_one_and_many_threads() {
 fn voids_give_several_intervals_and_cutting_through_them_works() {
     // Column material [0,5] and [10,20]; a flat tool at z = 7 removes only [10,20].
     let grid = dexel::Grid::covering(0.0, 0.0, 20.0, 20.0, 0.5).unwrap();
-    let mut stock = Stock::from_columns(grid, |_, _, out| out.extend([[0.0, 5.0], [10.0, 20.0]])).unwrap();
+    let mut stock =
+        Stock::from_columns(grid, |_, _, out| out.extend([[0.0, 5.0], [10.0, 20.0]])).unwrap();
     assert_eq!(stock.column(3, 3).interval_count(), 2);
-    let record = run(&mut stock, &Tool::flat(4.0), &[line([10.0, -5.0, 7.0], [10.0, 25.0, 7.0])], 1.0);
+    let record = run(
+        &mut stock,
+        &Tool::flat(4.0),
+        &[line([10.0, -5.0, 7.0], [10.0, 25.0, 7.0])],
+        1.0,
+    );
     // Footprint: 4 mm wide stripe over 20 mm = 80 mm² (8 columns of 0.5 mm).
-    assert_rel(record.volume_mm3(0), 80.0 * 10.0, 1e-9, "cut through the upper interval");
+    assert_rel(
+        record.volume_mm3(0),
+        80.0 * 10.0,
+        1e-9,
+        "cut through the upper interval",
+    );
     assert_eq!(stock.column(20, 3).interval_count(), 1);
 }
 
@@ -219,5 +345,12 @@ fn rejects_bad_parameters() {
     tool.diameter_mm = -1.0;
     assert!(sweep(&mut stock, &tool, &[], &SweepOptions::default(), &|_| {}).is_err());
     let nan = line([f64::NAN, 0.0, 0.0], [1.0, 1.0, 1.0]);
-    assert!(sweep(&mut stock, &Tool::ball(1.0), &[nan], &SweepOptions::default(), &|_| {}).is_err());
+    assert!(sweep(
+        &mut stock,
+        &Tool::ball(1.0),
+        &[nan],
+        &SweepOptions::default(),
+        &|_| {}
+    )
+    .is_err());
 }

@@ -239,7 +239,11 @@ fn parse_function(cur: &mut Cursor, depth: u32) -> Result<Expr, SyntaxError> {
         expect_bracket(cur)?;
         return Ok(Expr::Func(f, Box::new(parse_bracketed(cur, depth + 1)?)));
     }
-    let word: String = cur.rest().chars().take_while(|c| c.is_ascii_alphabetic()).collect();
+    let word: String = cur
+        .rest()
+        .chars()
+        .take_while(|c| c.is_ascii_alphabetic())
+        .collect();
     Err(cur.error(&format!("expected a number, found '{word}'")))
 }
 
@@ -262,7 +266,11 @@ pub struct Params {
 
 impl Default for Params {
     fn default() -> Self {
-        Params { numbered: vec![0.0; MAX_NUMBERED + 1], globals: HashMap::new(), locals: Vec::new() }
+        Params {
+            numbered: vec![0.0; MAX_NUMBERED + 1],
+            globals: HashMap::new(),
+            locals: Vec::new(),
+        }
     }
 }
 
@@ -283,7 +291,9 @@ impl Params {
     pub fn index(value: f64) -> Result<usize, String> {
         let n = value.round();
         if (value - n).abs() > 1e-6 || !(1.0..=MAX_NUMBERED as f64).contains(&n) {
-            return Err(format!("parameter number {value} out of range 1..{MAX_NUMBERED}"));
+            return Err(format!(
+                "parameter number {value} out of range 1..{MAX_NUMBERED}"
+            ));
         }
         Ok(n as usize)
     }
@@ -345,9 +355,9 @@ impl Params {
         let v = match e {
             Expr::Num(v) => *v,
             Expr::Param(p) => match p.as_ref() {
-                ParamRef::Named(name) => {
-                    self.named(name).ok_or_else(|| format!("named parameter #<{name}> is not defined"))?
-                }
+                ParamRef::Named(name) => self
+                    .named(name)
+                    .ok_or_else(|| format!("named parameter #<{name}> is not defined"))?,
                 ParamRef::Numbered(index) => self.numbered(Params::index(self.eval(index)?)?),
             },
             Expr::Neg(inner) => -self.eval(inner)?,
@@ -407,7 +417,11 @@ fn apply_op(op: BinOp, a: f64, b: f64) -> Result<f64, String> {
         BinOp::Div => a / b,
         BinOp::Mod => {
             let r = a % b;
-            if r < 0.0 { r + b.abs() } else { r }
+            if r < 0.0 {
+                r + b.abs()
+            } else {
+                r
+            }
         }
         BinOp::Add => a + b,
         BinOp::Sub => a - b,

@@ -84,7 +84,10 @@ struct Fail {
 }
 
 fn fail<T>(col: u32, msg: impl Into<String>) -> Result<T, Fail> {
-    Err(Fail { col, msg: msg.into() })
+    Err(Fail {
+        col,
+        msg: msg.into(),
+    })
 }
 
 /// A block after evaluation of its words.
@@ -160,12 +163,23 @@ fn m_group(code: i32) -> Option<u8> {
 }
 
 fn g_name(code: i32) -> String {
-    if code % 10 == 0 { format!("G{}", code / 10) } else { format!("G{}.{}", code / 10, code % 10) }
+    if code % 10 == 0 {
+        format!("G{}", code / 10)
+    } else {
+        format!("G{}.{}", code / 10, code % 10)
+    }
 }
 
 enum Frame {
-    Fanuc { return_pc: usize, start: usize, remaining: u32 },
-    OSub { return_pc: usize, saved: Box<[f64; 30]> },
+    Fanuc {
+        return_pc: usize,
+        start: usize,
+        remaining: u32,
+    },
+    OSub {
+        return_pc: usize,
+        saved: Box<[f64; 30]>,
+    },
 }
 
 struct Interp<'a> {
@@ -252,8 +266,17 @@ pub fn run(source: &str, file: &str, options: &Options) -> (Parsed, Trace) {
     }
     it.lines = lines.into();
     it.execute();
-    let trace = Trace { segments: it.trace, lines: it.lines };
-    (Parsed { path: it.path, diagnostics: it.diagnostics }, trace)
+    let trace = Trace {
+        segments: it.trace,
+        lines: it.lines,
+    };
+    (
+        Parsed {
+            path: it.path,
+            diagnostics: it.diagnostics,
+        },
+        trace,
+    )
 }
 
 impl Interp<'_> {
@@ -276,7 +299,13 @@ impl Interp<'_> {
             executed += 1;
             if executed > self.options.max_blocks {
                 self.line_index = pc;
-                self.report(1, format!("more than {} blocks executed; endless loop?", self.options.max_blocks));
+                self.report(
+                    1,
+                    format!(
+                        "more than {} blocks executed; endless loop?",
+                        self.options.max_blocks
+                    ),
+                );
                 return;
             }
             self.line_index = pc;
@@ -310,7 +339,13 @@ impl Interp<'_> {
     }
 
     /// Finds the next (or previous) o-word with `label` and one of `keywords`.
-    fn find_o(&self, from: usize, label: &OLabel, keywords: &[OKeyword], forward: bool) -> Option<usize> {
+    fn find_o(
+        &self,
+        from: usize,
+        label: &OLabel,
+        keywords: &[OKeyword],
+        forward: bool,
+    ) -> Option<usize> {
         let matches = |i: usize| {
             matches!(&self.lines[i], Some(syntax::Line { kind: LineKind::OWord(s), .. })
                 if &s.label == label && keywords.contains(&s.keyword))
@@ -323,20 +358,34 @@ impl Interp<'_> {
     }
 
     fn cond(&self, stmt: &OStmt) -> Result<bool, Fail> {
-        let e = stmt.args.first().ok_or(Fail { col: stmt.col, msg: "missing [condition]".into() })?;
-        Ok(self.params.eval(e).map_err(|msg| Fail { col: stmt.col, msg })? != 0.0)
+        let e = stmt.args.first().ok_or(Fail {
+            col: stmt.col,
+            msg: "missing [condition]".into(),
+        })?;
+        Ok(self
+            .params
+            .eval(e)
+            .map_err(|msg| Fail { col: stmt.col, msg })?
+            != 0.0)
     }
 
     fn oword(&mut self, pc: usize, s: &OStmt) -> Result<Option<usize>, Fail> {
         use OKeyword as K;
-        let missing = |what: &str| Fail { col: s.col, msg: format!("no matching '{what}' for this o-word") };
-        let after = |r: Option<usize>, what: &str| r.map(|i| Some(i + 1)).ok_or_else(|| missing(what));
+        let missing = |what: &str| Fail {
+            col: s.col,
+            msg: format!("no matching '{what}' for this o-word"),
+        };
+        let after =
+            |r: Option<usize>, what: &str| r.map(|i| Some(i + 1)).ok_or_else(|| missing(what));
         match s.keyword {
             K::Sub => after(self.find_o(pc, &s.label, &[K::EndSub], true), "endsub"),
             K::EndSub | K::Return => match self.frames.pop() {
                 Some(Frame::OSub { return_pc, saved }) => {
                     if let Some(e) = s.args.first() {
-                        let v = self.params.eval(e).map_err(|msg| Fail { col: s.col, msg })?;
+                        let v = self
+                            .params
+                            .eval(e)
+                            .map_err(|msg| Fail { col: s.col, msg })?;
                         self.params.pop_scope(&saved);
                         self.params.set_named("_value", v);
                     } else {
@@ -352,9 +401,14 @@ impl Interp<'_> {
             },
             K::Call => {
                 let start = (0..self.lines.len())
-                    .find(|&i| matches!(&self.lines[i], Some(syntax::Line { kind: LineKind::OWord(d), .. })
-                        if d.label == s.label && d.keyword == K::Sub))
-                    .ok_or_else(|| Fail { col: s.col, msg: "called subroutine is not defined".into() })?;
+                    .find(|&i| {
+                        matches!(&self.lines[i], Some(syntax::Line { kind: LineKind::OWord(d), .. })
+                        if d.label == s.label && d.keyword == K::Sub)
+                    })
+                    .ok_or_else(|| Fail {
+                        col: s.col,
+                        msg: "called subroutine is not defined".into(),
+                    })?;
                 if self.frames.len() >= 64 {
                     return fail(s.col, "subroutine calls nested too deeply");
                 }
@@ -365,7 +419,10 @@ impl Interp<'_> {
                     .collect::<Result<Vec<_>, _>>()
                     .map_err(|msg| Fail { col: s.col, msg })?;
                 let saved = self.params.push_scope(&args);
-                self.frames.push(Frame::OSub { return_pc: pc + 1, saved: Box::new(saved) });
+                self.frames.push(Frame::OSub {
+                    return_pc: pc + 1,
+                    saved: Box::new(saved),
+                });
                 Ok(Some(start + 1))
             }
             K::If => {
@@ -375,9 +432,14 @@ impl Interp<'_> {
                     if self.cond(stmt)? {
                         return Ok(Some(i + 1));
                     }
-                    i = self.find_o(i, &s.label, &[K::ElseIf, K::Else, K::EndIf], true).ok_or_else(|| missing("endif"))?;
+                    i = self
+                        .find_o(i, &s.label, &[K::ElseIf, K::Else, K::EndIf], true)
+                        .ok_or_else(|| missing("endif"))?;
                     match &self.lines[i] {
-                        Some(syntax::Line { kind: LineKind::OWord(next), .. }) if next.keyword == K::ElseIf => stmt = next,
+                        Some(syntax::Line {
+                            kind: LineKind::OWord(next),
+                            ..
+                        }) if next.keyword == K::ElseIf => stmt = next,
                         _ => return Ok(Some(i + 1)),
                     }
                 }
@@ -389,24 +451,41 @@ impl Interp<'_> {
                 match end {
                     Some(end) => Ok(Some(if self.cond(s)? { pc + 1 } else { end + 1 })),
                     None => {
-                        let d = self.find_o(pc, &s.label, &[K::Do], false).ok_or_else(|| missing("endwhile"))?;
+                        let d = self
+                            .find_o(pc, &s.label, &[K::Do], false)
+                            .ok_or_else(|| missing("endwhile"))?;
                         Ok(Some(if self.cond(s)? { d + 1 } else { pc + 1 }))
                     }
                 }
             }
-            K::EndWhile => self.find_o(pc, &s.label, &[K::While], false).map(Some).ok_or_else(|| missing("while")),
+            K::EndWhile => self
+                .find_o(pc, &s.label, &[K::While], false)
+                .map(Some)
+                .ok_or_else(|| missing("while")),
             K::Repeat => {
-                let e = s.args.first().ok_or(Fail { col: s.col, msg: "missing [count]".into() })?;
-                let n = self.params.eval(e).map_err(|msg| Fail { col: s.col, msg })?.round() as i64;
+                let e = s.args.first().ok_or(Fail {
+                    col: s.col,
+                    msg: "missing [count]".into(),
+                })?;
+                let n = self
+                    .params
+                    .eval(e)
+                    .map_err(|msg| Fail { col: s.col, msg })?
+                    .round() as i64;
                 if n > 0 {
                     self.repeats.insert(pc, n);
                     Ok(Some(pc + 1))
                 } else {
-                    after(self.find_o(pc, &s.label, &[K::EndRepeat], true), "endrepeat")
+                    after(
+                        self.find_o(pc, &s.label, &[K::EndRepeat], true),
+                        "endrepeat",
+                    )
                 }
             }
             K::EndRepeat => {
-                let start = self.find_o(pc, &s.label, &[K::Repeat], false).ok_or_else(|| missing("repeat"))?;
+                let start = self
+                    .find_o(pc, &s.label, &[K::Repeat], false)
+                    .ok_or_else(|| missing("repeat"))?;
                 let left = self.repeats.entry(start).or_insert(1);
                 *left -= 1;
                 Ok(Some(if *left > 0 { start + 1 } else { pc + 1 }))
@@ -419,17 +498,23 @@ impl Interp<'_> {
             }
             K::Continue => {
                 if let Some(w) = self.find_o(pc, &s.label, &[K::While, K::Repeat], false) {
-                    if matches!(&self.lines[w], Some(syntax::Line { kind: LineKind::OWord(t), .. }) if t.keyword == K::While) {
+                    if matches!(&self.lines[w], Some(syntax::Line { kind: LineKind::OWord(t), .. }) if t.keyword == K::While)
+                    {
                         return Ok(Some(w));
                     }
                 }
-                self.find_o(pc, &s.label, &[K::EndRepeat, K::While], true).map(Some).ok_or_else(|| missing("loop end"))
+                self.find_o(pc, &s.label, &[K::EndRepeat, K::While], true)
+                    .map(Some)
+                    .ok_or_else(|| missing("loop end"))
             }
         }
     }
 
     fn eval_block(&mut self, items: &[Item]) -> Result<Block, Fail> {
-        let mut b = Block { first_col: items.first().map_or(1, |i| i.col), ..Block::default() };
+        let mut b = Block {
+            first_col: items.first().map_or(1, |i| i.col),
+            ..Block::default()
+        };
         let mut assignments = Vec::new();
         for item in items {
             let err = |msg| Fail { col: item.col, msg };
@@ -445,7 +530,13 @@ impl Interp<'_> {
                         'g' | 'm' => {
                             let code = (v * 10.0).round();
                             if (v * 10.0 - code).abs() > 1e-6 || code.abs() > 1e6 {
-                                return fail(item.col, format!("{}{v} is not a valid code", letter.to_ascii_uppercase()));
+                                return fail(
+                                    item.col,
+                                    format!(
+                                        "{}{v} is not a valid code",
+                                        letter.to_ascii_uppercase()
+                                    ),
+                                );
                             }
                             let code = code as i32;
                             if *letter == 'g' {
@@ -459,7 +550,13 @@ impl Interp<'_> {
                         l => {
                             let slot = &mut b.words[(*l as u8 - b'a') as usize];
                             if slot.is_some() {
-                                return fail(item.col, format!("more than one {} word in the block", l.to_ascii_uppercase()));
+                                return fail(
+                                    item.col,
+                                    format!(
+                                        "more than one {} word in the block",
+                                        l.to_ascii_uppercase()
+                                    ),
+                                );
                             }
                             *slot = Some((v, item.col));
                         }
@@ -472,7 +569,14 @@ impl Interp<'_> {
                 return fail(col, format!("unknown G code {}", g_name(code)));
             };
             if let Some(&(other, _)) = b.g[..i].iter().find(|g| g_group(g.0) == Some(group)) {
-                return fail(col, format!("{} and {} are in the same modal group", g_name(other), g_name(code)));
+                return fail(
+                    col,
+                    format!(
+                        "{} and {} are in the same modal group",
+                        g_name(other),
+                        g_name(code)
+                    ),
+                );
             }
         }
         for (i, &(code, col)) in b.m.iter().enumerate() {
@@ -480,12 +584,21 @@ impl Interp<'_> {
                 return fail(col, format!("unknown M code M{code}"));
             };
             if b.m[..i].iter().any(|m| m_group(m.0) == Some(group)) {
-                return fail(col, format!("two M codes of the same modal group (M{code})"));
+                return fail(
+                    col,
+                    format!("two M codes of the same modal group (M{code})"),
+                );
             }
         }
         for l in ['a', 'b', 'c', 'u', 'v', 'w'] {
             if b.get(l).is_some() {
-                return fail(b.col(l), format!("axis {} is not supported (3-axis X Y Z only)", l.to_ascii_uppercase()));
+                return fail(
+                    b.col(l),
+                    format!(
+                        "axis {} is not supported (3-axis X Y Z only)",
+                        l.to_ascii_uppercase()
+                    ),
+                );
             }
         }
         if b.get('e').is_some() {
@@ -527,11 +640,20 @@ impl Interp<'_> {
             self.spindle_on = false;
         }
         if let Some(col) = g_col(40) {
-            let p = b.get('p').ok_or(Fail { col, msg: "G4 needs a P word (seconds)".into() })?;
+            let p = b.get('p').ok_or(Fail {
+                col,
+                msg: "G4 needs a P word (seconds)".into(),
+            })?;
             if p < 0.0 {
                 return fail(b.col('p'), "negative dwell time");
             }
-            self.push(self.pos, Geometry::Line, Motion::Dwell { seconds: p }, pc, true);
+            self.push(
+                self.pos,
+                Geometry::Line,
+                Motion::Dwell { seconds: p },
+                pc,
+                true,
+            );
         }
         for (code, plane) in [(170, Plane::XY), (180, Plane::ZX), (190, Plane::YZ)] {
             if g_col(code).is_some() {
@@ -556,7 +678,13 @@ impl Interp<'_> {
         }
         for l in ['d', 'h'] {
             if b.get(l).is_some() {
-                return fail(b.col(l), format!("{} word without G41/G42/G43 (compensation is not supported)", l.to_ascii_uppercase()));
+                return fail(
+                    b.col(l),
+                    format!(
+                        "{} word without G41/G42/G43 (compensation is not supported)",
+                        l.to_ascii_uppercase()
+                    ),
+                );
             }
         }
         for (i, code) in [540, 550, 560, 570, 580, 590].into_iter().enumerate() {
@@ -564,7 +692,10 @@ impl Interp<'_> {
                 self.coord = i;
             }
         }
-        for code in [591, 592, 593, 960, 330, 382, 383, 384, 385, 760, 840, 850, 860, 870, 880, 890, 922, 923, 281, 301] {
+        for code in [
+            591, 592, 593, 960, 330, 382, 383, 384, 385, 760, 840, 850, 860, 870, 880, 890, 922,
+            923, 281, 301,
+        ] {
             if let Some(col) = g_col(code) {
                 return fail(col, format!("{} is not supported", g_name(code)));
             }
@@ -577,7 +708,10 @@ impl Interp<'_> {
         let motion_code = b.g.iter().find(|g| g_group(g.0) == Some(1)).copied();
         if let (Some(&(a, col)), Some((m, _))) = (axis_user, motion_code) {
             if m != 800 && b.has_axes() {
-                return fail(col, format!("{} and {} both use axis words", g_name(a), g_name(m)));
+                return fail(
+                    col,
+                    format!("{} and {} both use axis words", g_name(a), g_name(m)),
+                );
             }
         }
         if let Some(&(code, col)) = axis_user {
@@ -595,7 +729,10 @@ impl Interp<'_> {
         if use_motion {
             if self.motion == 800 {
                 if b.has_axes() {
-                    return fail(b.first_col, "axis words without a motion mode (G80 is active)");
+                    return fail(
+                        b.first_col,
+                        "axis words without a motion mode (G80 is active)",
+                    );
                 }
                 self.cycle_r = None;
                 self.cycle_z = None;
@@ -606,7 +743,10 @@ impl Interp<'_> {
         if !matches!(self.motion, 20 | 30) || !use_motion {
             for l in ['i', 'j', 'k'] {
                 if b.get(l).is_some() {
-                    return fail(b.col(l), format!("{} word with no G2 or G3 to use it", l.to_ascii_uppercase()));
+                    return fail(
+                        b.col(l),
+                        format!("{} word with no G2 or G3 to use it", l.to_ascii_uppercase()),
+                    );
                 }
             }
         }
@@ -615,7 +755,10 @@ impl Interp<'_> {
             return Ok(None);
         }
         if b.has_m(98) {
-            let p = b.get('p').ok_or(Fail { col: b.first_col, msg: "M98 needs a P word (program number)".into() })?;
+            let p = b.get('p').ok_or(Fail {
+                col: b.first_col,
+                msg: "M98 needs a P word (program number)".into(),
+            })?;
             let l = b.get('l').unwrap_or(1.0);
             if l < 1.0 || l.fract() != 0.0 || l > 1e6 {
                 return fail(b.col('l'), "L repeat count must be a positive integer");
@@ -629,14 +772,26 @@ impl Interp<'_> {
             if self.frames.len() >= 64 {
                 return fail(b.first_col, "subprogram calls nested too deeply");
             }
-            self.frames.push(Frame::Fanuc { return_pc: pc + 1, start, remaining: l as u32 - 1 });
+            self.frames.push(Frame::Fanuc {
+                return_pc: pc + 1,
+                start,
+                remaining: l as u32 - 1,
+            });
             return Ok(Some(start + 1));
         }
         if b.has_m(99) {
             return match self.frames.pop() {
-                Some(Frame::Fanuc { return_pc, start, remaining }) => {
+                Some(Frame::Fanuc {
+                    return_pc,
+                    start,
+                    remaining,
+                }) => {
                     if remaining > 0 {
-                        self.frames.push(Frame::Fanuc { return_pc, start, remaining: remaining - 1 });
+                        self.frames.push(Frame::Fanuc {
+                            return_pc,
+                            start,
+                            remaining: remaining - 1,
+                        });
                         Ok(Some(start + 1))
                     } else {
                         Ok(Some(return_pc))
@@ -678,7 +833,11 @@ impl Interp<'_> {
     fn modal0(&mut self, code: i32, col: u32, b: &Block, pc: usize) -> Result<(), Fail> {
         match code {
             280 | 300 => {
-                let home = if code == 280 { self.options.g28_home_mm } else { self.options.g30_home_mm };
+                let home = if code == 280 {
+                    self.options.g28_home_mm
+                } else {
+                    self.options.g30_home_mm
+                };
                 let mid = self.target(b, false);
                 self.rapid(mid, pc);
                 let mut end = self.pos;
@@ -733,7 +892,11 @@ impl Interp<'_> {
             geometry,
             motion,
             line: pc as u32 + 1,
-            spindle_rpm: if self.spindle_on { self.spindle_rpm } else { 0.0 },
+            spindle_rpm: if self.spindle_on {
+                self.spindle_rpm
+            } else {
+                0.0
+            },
         });
         self.trace.push(SegmentTrace {
             line_index: pc,
@@ -750,15 +913,22 @@ impl Interp<'_> {
     /// Feed motion for a G1/G2/G3 of known geometry.
     fn feed_motion(&self, b: &Block, length_mm: f64) -> Result<Motion, Fail> {
         if self.inverse_time {
-            let f = b.get('f').ok_or(Fail { col: b.first_col, msg: "F word missing with inverse time (G93) feed move".into() })?;
+            let f = b.get('f').ok_or(Fail {
+                col: b.first_col,
+                msg: "F word missing with inverse time (G93) feed move".into(),
+            })?;
             if f <= 0.0 {
                 return fail(b.col('f'), "inverse time feed must be positive");
             }
-            Ok(Motion::Feed { feed_mm_min: length_mm * f })
+            Ok(Motion::Feed {
+                feed_mm_min: length_mm * f,
+            })
         } else if self.feed_mm_min <= 0.0 {
             fail(b.first_col, "feed move with zero feed rate (no F word yet)")
         } else {
-            Ok(Motion::Feed { feed_mm_min: self.feed_mm_min })
+            Ok(Motion::Feed {
+                feed_mm_min: self.feed_mm_min,
+            })
         }
     }
 
@@ -782,7 +952,12 @@ impl Interp<'_> {
             }
             20 | 30 => self.arc(b, pc)?,
             730 | 810 | 820 | 830 => self.cycle(b, pc)?,
-            _ => return fail(b.first_col, format!("{} is not supported", g_name(self.motion))),
+            _ => {
+                return fail(
+                    b.first_col,
+                    format!("{} is not supported", g_name(self.motion)),
+                )
+            }
         }
         Ok(())
     }
@@ -794,7 +969,13 @@ impl Interp<'_> {
         let letters = ['i', 'j', 'k'];
         let off_word = letters[n];
         if b.get(off_word).is_some() {
-            return fail(b.col(off_word), format!("{} word not allowed for an arc in this plane", off_word.to_ascii_uppercase()));
+            return fail(
+                b.col(off_word),
+                format!(
+                    "{} word not allowed for an arc in this plane",
+                    off_word.to_ascii_uppercase()
+                ),
+            );
         }
         let start = self.pos;
         let mut center = start;
@@ -807,7 +988,10 @@ impl Interp<'_> {
             let (dx, dy) = (end[a] - start[a], end[bb] - start[bb]);
             let half = 0.5 * dx.hypot(dy);
             if half == 0.0 {
-                return fail(b.col('r'), "R format arc with end point equal to start point");
+                return fail(
+                    b.col('r'),
+                    "R format arc with end point equal to start point",
+                );
             }
             let abs_r = r_mm.abs();
             if half - abs_r > 1e-6 * abs_r.max(1.0) || abs_r == 0.0 {
@@ -815,7 +999,12 @@ impl Interp<'_> {
             }
             let half = half.min(abs_r);
             let right = clockwise == (r_mm > 0.0);
-            let theta = dy.atan2(dx) + if right { -std::f64::consts::FRAC_PI_2 } else { std::f64::consts::FRAC_PI_2 };
+            let theta = dy.atan2(dx)
+                + if right {
+                    -std::f64::consts::FRAC_PI_2
+                } else {
+                    std::f64::consts::FRAC_PI_2
+                };
             let offset = abs_r * (half / abs_r).asin().cos();
             center[a] = 0.5 * (start[a] + end[a]) + offset * theta.cos();
             center[bb] = 0.5 * (start[bb] + end[bb]) + offset * theta.sin();
@@ -827,12 +1016,21 @@ impl Interp<'_> {
             let off = self.offset();
             for (axis, v) in [(a, ca), (bb, cb)] {
                 let v = v.unwrap_or(0.0) * self.scale;
-                center[axis] = if self.arc_incremental { start[axis] + v } else { v + off[axis] };
+                center[axis] = if self.arc_incremental {
+                    start[axis] + v
+                } else {
+                    v + off[axis]
+                };
             }
             let r1 = (start[a] - center[a]).hypot(start[bb] - center[bb]);
             let r2 = (end[a] - center[a]).hypot(end[bb] - center[bb]);
             if (r1 - r2).abs() > 0.002 && (r1 - r2).abs() > 0.001 * r1 {
-                return fail(col, format!("radius to end of arc differs from radius to start ({r1:.4} vs {r2:.4} mm)"));
+                return fail(
+                    col,
+                    format!(
+                        "radius to end of arc differs from radius to start ({r1:.4} vs {r2:.4} mm)"
+                    ),
+                );
             }
         }
         let r = (start[a] - center[a]).hypot(start[bb] - center[bb]);
@@ -851,21 +1049,41 @@ impl Interp<'_> {
             sweep = tau;
         }
         sweep += (turns - 1.0) * tau;
-        let geometry = Geometry::Arc { center: Point3::from(center), plane: self.plane, clockwise, sweep_rad: sweep };
-        let motion = self.feed_motion(b, geometry.length_mm(&Point3::from(start), &Point3::from(end)))?;
+        let geometry = Geometry::Arc {
+            center: Point3::from(center),
+            plane: self.plane,
+            clockwise,
+            sweep_rad: sweep,
+        };
+        let motion = self.feed_motion(
+            b,
+            geometry.length_mm(&Point3::from(start), &Point3::from(end)),
+        )?;
         self.push(end, geometry, motion, pc, false);
         Ok(())
     }
 
     fn cycle(&mut self, b: &Block, pc: usize) -> Result<(), Fail> {
         if self.plane != Plane::XY {
-            return fail(b.first_col, "canned cycles are supported in the G17 plane only");
+            return fail(
+                b.first_col,
+                "canned cycles are supported in the G17 plane only",
+            );
         }
         if self.inverse_time {
-            return fail(b.first_col, "canned cycles cannot be used with G93 inverse time");
+            return fail(
+                b.first_col,
+                "canned cycles cannot be used with G93 inverse time",
+            );
         }
-        let r = b.get('r').or(self.cycle_r).ok_or(Fail { col: b.first_col, msg: "canned cycle needs an R word".into() })?;
-        let z = b.get('z').or(self.cycle_z).ok_or(Fail { col: b.first_col, msg: "canned cycle needs a Z word".into() })?;
+        let r = b.get('r').or(self.cycle_r).ok_or(Fail {
+            col: b.first_col,
+            msg: "canned cycle needs an R word".into(),
+        })?;
+        let z = b.get('z').or(self.cycle_z).ok_or(Fail {
+            col: b.first_col,
+            msg: "canned cycle needs a Z word".into(),
+        })?;
         self.cycle_r = Some(r);
         self.cycle_z = Some(z);
         let repeats = b.get('l').unwrap_or(1.0);
@@ -874,7 +1092,10 @@ impl Interp<'_> {
         }
         let mut peck_mm = 0.0;
         if matches!(self.motion, 730 | 830) {
-            let q = b.get('q').or(self.cycle_q).ok_or(Fail { col: b.first_col, msg: "G73/G83 need a Q word (peck depth)".into() })?;
+            let q = b.get('q').or(self.cycle_q).ok_or(Fail {
+                col: b.first_col,
+                msg: "G73/G83 need a Q word (peck depth)".into(),
+            })?;
             if q <= 0.0 {
                 return fail(b.col('q'), "Q (peck depth) must be positive");
             }
@@ -891,11 +1112,24 @@ impl Interp<'_> {
         let off = self.offset();
         let (r_z, bottom_z, first_xy, step_xy) = if self.incremental {
             let r_z = self.pos[2] + r * self.scale;
-            let step = [b.get('x').unwrap_or(0.0) * self.scale, b.get('y').unwrap_or(0.0) * self.scale];
-            (r_z, r_z + z * self.scale, [self.pos[0] + step[0], self.pos[1] + step[1]], step)
+            let step = [
+                b.get('x').unwrap_or(0.0) * self.scale,
+                b.get('y').unwrap_or(0.0) * self.scale,
+            ];
+            (
+                r_z,
+                r_z + z * self.scale,
+                [self.pos[0] + step[0], self.pos[1] + step[1]],
+                step,
+            )
         } else {
             let t = self.target(b, false);
-            (r * self.scale + off[2], z * self.scale + off[2], [t[0], t[1]], [0.0, 0.0])
+            (
+                r * self.scale + off[2],
+                z * self.scale + off[2],
+                [t[0], t[1]],
+                [0.0, 0.0],
+            )
         };
         if r_z < bottom_z {
             return fail(b.col('r'), "R plane below the hole bottom Z");
@@ -905,7 +1139,11 @@ impl Interp<'_> {
             first_xy,
             step_xy,
             repeats: repeats as u32,
-            start_z: if self.retract_to_start { initial_z } else { self.pos[2] },
+            start_z: if self.retract_to_start {
+                initial_z
+            } else {
+                self.pos[2]
+            },
             r_z,
             bottom_z,
             retract_to_start: self.retract_to_start,
@@ -915,8 +1153,22 @@ impl Interp<'_> {
         for m in cycles::expand(&c, [self.pos[0], self.pos[1]]) {
             match m {
                 CycleMove::Rapid(p) => self.rapid(p, pc),
-                CycleMove::Feed(p) => self.push(p, Geometry::Line, Motion::Feed { feed_mm_min: self.feed_mm_min }, pc, false),
-                CycleMove::Dwell(s) => self.push(self.pos, Geometry::Line, Motion::Dwell { seconds: s }, pc, true),
+                CycleMove::Feed(p) => self.push(
+                    p,
+                    Geometry::Line,
+                    Motion::Feed {
+                        feed_mm_min: self.feed_mm_min,
+                    },
+                    pc,
+                    false,
+                ),
+                CycleMove::Dwell(s) => self.push(
+                    self.pos,
+                    Geometry::Line,
+                    Motion::Dwell { seconds: s },
+                    pc,
+                    true,
+                ),
             }
         }
         Ok(())

@@ -80,11 +80,20 @@ impl Segment {
     pub fn point_at_fraction(&self, u: f64) -> Point3<f64> {
         match self.geometry {
             Geometry::Line => self.start + (self.end - self.start) * u,
-            Geometry::Arc { center, plane, clockwise, sweep_rad } => {
+            Geometry::Arc {
+                center,
+                plane,
+                clockwise,
+                sweep_rad,
+            } => {
                 let (a, b, n) = plane.axes();
                 let r = arc_radius(&center, plane, &self.start);
                 let a0 = (self.start[b] - center[b]).atan2(self.start[a] - center[a]);
-                let ang = if clockwise { a0 - sweep_rad * u } else { a0 + sweep_rad * u };
+                let ang = if clockwise {
+                    a0 - sweep_rad * u
+                } else {
+                    a0 + sweep_rad * u
+                };
                 let mut p = self.start;
                 p[a] = center[a] + r * ang.cos();
                 p[b] = center[b] + r * ang.sin();
@@ -101,7 +110,12 @@ impl Segment {
     pub fn tangent_at_fraction(&self, u: f64) -> Vector3<f64> {
         let t = match self.geometry {
             Geometry::Line => self.end - self.start,
-            Geometry::Arc { center, plane, clockwise, sweep_rad } => {
+            Geometry::Arc {
+                center,
+                plane,
+                clockwise,
+                sweep_rad,
+            } => {
                 let (a, b, n) = plane.axes();
                 let p = self.point_at_fraction(u);
                 let (ra, rb) = (p[a] - center[a], p[b] - center[b]);
@@ -114,7 +128,11 @@ impl Segment {
             }
         };
         let len = t.norm();
-        if len > 0.0 { t / len } else { Vector3::zeros() }
+        if len > 0.0 {
+            t / len
+        } else {
+            Vector3::zeros()
+        }
     }
 
     /// Curvature radius in mm (infinite for lines).
@@ -132,7 +150,12 @@ impl Geometry {
     pub(crate) fn length_mm(&self, start: &Point3<f64>, end: &Point3<f64>) -> f64 {
         match *self {
             Geometry::Line => (end - start).norm(),
-            Geometry::Arc { center, plane, sweep_rad, .. } => {
+            Geometry::Arc {
+                center,
+                plane,
+                sweep_rad,
+                ..
+            } => {
                 let n = plane.axes().2;
                 let r = arc_radius(&center, plane, start);
                 let h = end[n] - start[n];

@@ -36,24 +36,40 @@ pub enum RefeedError {
     #[error("the feed plan has {plan} entries but the program has {segments} segments")]
     PlanLength { plan: usize, segments: usize },
     #[error("{file}:{line}: feed plan for segment {segment} is not pieces with increasing fractions ending at 1 and positive feeds")]
-    BadPlan { file: String, line: u32, segment: usize },
+    BadPlan {
+        file: String,
+        line: u32,
+        segment: usize,
+    },
     #[error("{file}: the re-fed program does not reproduce the original path: {detail}")]
     Verification { file: String, detail: String },
 }
 
 /// Writes `source` with the feeds of `plan` (see the module docs).
-pub fn refeed(source: &str, file: &str, options: &Options, plan: &[Vec<(f64, f64)>]) -> Result<String, RefeedError> {
+pub fn refeed(
+    source: &str,
+    file: &str,
+    options: &Options,
+    plan: &[Vec<(f64, f64)>],
+) -> Result<String, RefeedError> {
     let (parsed, trace) = interp::run(source, file, options);
     if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
         return Err(RefeedError::Program(d.clone()));
     }
     let segments = &parsed.path.segments;
     if plan.len() != segments.len() {
-        return Err(RefeedError::PlanLength { plan: plan.len(), segments: segments.len() });
+        return Err(RefeedError::PlanLength {
+            plan: plan.len(),
+            segments: segments.len(),
+        });
     }
     for (i, (seg, pieces)) in segments.iter().zip(plan).enumerate() {
         if matches!(seg.motion, Motion::Feed { .. }) && !valid_pieces(pieces) {
-            return Err(RefeedError::BadPlan { file: file.to_owned(), line: seg.line, segment: i });
+            return Err(RefeedError::BadPlan {
+                file: file.to_owned(),
+                line: seg.line,
+                segment: i,
+            });
         }
     }
     // Segments made by each line.
@@ -69,13 +85,21 @@ pub fn refeed(source: &str, file: &str, options: &Options, plan: &[Vec<(f64, f64
             out.push_str(raw);
             continue;
         };
-        let feeds: Vec<usize> = segs.iter().copied().filter(|&i| matches!(segments[i].motion, Motion::Feed { .. })).collect();
+        let feeds: Vec<usize> = segs
+            .iter()
+            .copied()
+            .filter(|&i| matches!(segments[i].motion, Motion::Feed { .. }))
+            .collect();
         if feeds.is_empty() {
             out.push_str(raw);
             continue;
         }
         let (text, eol) = split_eol(raw);
-        let Some(syntax::Line { kind: LineKind::Block(items), .. }) = &trace.lines[index] else {
+        let Some(syntax::Line {
+            kind: LineKind::Block(items),
+            ..
+        }) = &trace.lines[index]
+        else {
             out.push_str(raw);
             continue;
         };
@@ -83,12 +107,27 @@ pub fn refeed(source: &str, file: &str, options: &Options, plan: &[Vec<(f64, f64
         if single && plan[feeds[0]].len() > 1 {
             let i = feeds[0];
             written_pieces[i] = plan[i].len();
-            split_line(&mut out, text, eol, items, &segments[i], &trace.segments[i], &plan[i]);
+            split_line(
+                &mut out,
+                text,
+                eol,
+                items,
+                &segments[i],
+                &trace.segments[i],
+                &plan[i],
+            );
         } else {
             // The lowest F any execution of the line asks for (G93: per segment length).
             let f = feeds
                 .iter()
-                .map(|&i| f_word(&trace.segments[i], lowest(&plan[i]), segments[i].length_mm(), true))
+                .map(|&i| {
+                    f_word(
+                        &trace.segments[i],
+                        lowest(&plan[i]),
+                        segments[i].length_mm(),
+                        true,
+                    )
+                })
                 .min_by(|a, b| f_value(a).total_cmp(&f_value(b)))
                 .expect("at least one feed segment");
             out.push_str(&with_f_word(text, items, &f));
@@ -115,7 +154,9 @@ fn lowest(pieces: &[(f64, f64)]) -> f64 {
 }
 
 fn split_eol(raw: &str) -> (&str, &str) {
-    let body = raw.strip_suffix('\n').map_or(raw, |b| b.strip_suffix('\r').unwrap_or(b));
+    let body = raw
+        .strip_suffix('\n')
+        .map_or(raw, |b| b.strip_suffix('\r').unwrap_or(b));
     (body, &raw[body.len()..])
 }
 
@@ -131,9 +172,17 @@ fn word_letter(item: &Item) -> Option<char> {
 /// M codes written as numbers, no multi-turn arc.
 fn splittable(items: &[Item], seg: &Segment) -> bool {
     let plain_codes = items.iter().all(|it| match &it.kind {
-        ItemKind::Word { letter: 'g', value: Expr::Num(v) } => ![4.0, 53.0].contains(v),
-        ItemKind::Word { letter: 'm', value: Expr::Num(v) } => ![0.0, 1.0, 2.0, 30.0, 60.0].contains(v),
-        ItemKind::Word { letter: 'g' | 'm', .. } => false,
+        ItemKind::Word {
+            letter: 'g',
+            value: Expr::Num(v),
+        } => ![4.0, 53.0].contains(v),
+        ItemKind::Word {
+            letter: 'm',
+            value: Expr::Num(v),
+        } => ![0.0, 1.0, 2.0, 30.0, 60.0].contains(v),
+        ItemKind::Word {
+            letter: 'g' | 'm', ..
+        } => false,
         _ => true,
     });
     let multi_turn = matches!(seg.geometry, Geometry::Arc { sweep_rad, .. } if sweep_rad > std::f64::consts::TAU + 1e-9);
@@ -144,9 +193,23 @@ fn splittable(items: &[Item], seg: &Segment) -> bool {
 /// so the feed never exceeds it. `in_original_line`: the F word is read with
 /// the units in force before the line (a G20/G21 in it comes after F).
 fn f_word(t: &SegmentTrace, feed_mm_min: f64, length_mm: f64, in_original_line: bool) -> String {
-    let scale = if in_original_line { t.feed_scale } else { t.scale };
-    let value = if t.inverse_time { feed_mm_min / length_mm } else { feed_mm_min / scale };
-    let decimals = if t.inverse_time { 4 } else if scale != 1.0 { 3 } else { 0 };
+    let scale = if in_original_line {
+        t.feed_scale
+    } else {
+        t.scale
+    };
+    let value = if t.inverse_time {
+        feed_mm_min / length_mm
+    } else {
+        feed_mm_min / scale
+    };
+    let decimals = if t.inverse_time {
+        4
+    } else if scale != 1.0 {
+        3
+    } else {
+        0
+    };
     let unit = 10f64.powi(decimals);
     let v = ((value * unit * (1.0 + 1e-12)).floor() / unit).max(1.0 / unit);
     format!("F{}", trim_number(&format!("{v:.*}", decimals as usize)))
@@ -159,7 +222,11 @@ fn f_value(word: &str) -> f64 {
 fn trim_number(s: &str) -> String {
     if s.contains('.') {
         let t = s.trim_end_matches('0').trim_end_matches('.');
-        if t.is_empty() || t == "-" || t == "-0" { "0".into() } else { t.into() }
+        if t.is_empty() || t == "-" || t == "-0" {
+            "0".into()
+        } else {
+            t.into()
+        }
     } else {
         s.into()
     }
@@ -182,9 +249,20 @@ fn with_f_word(text: &str, items: &[Item], f: &str) -> String {
 /// Axis and centre words (each followed by a blank) of one piece from `from`
 /// to `to` (machine mm). `axes`: which of X, Y, Z to write (the others keep
 /// their value).
-fn piece_words(seg: &Segment, t: &SegmentTrace, axes: [bool; 3], from: [f64; 3], to: [f64; 3], written_start: &mut [f64; 3]) -> String {
+fn piece_words(
+    seg: &Segment,
+    t: &SegmentTrace,
+    axes: [bool; 3],
+    from: [f64; 3],
+    to: [f64; 3],
+    written_start: &mut [f64; 3],
+) -> String {
     let mut w = String::new();
-    for (i, l) in ['X', 'Y', 'Z'].into_iter().enumerate().filter(|&(i, _)| axes[i]) {
+    for (i, l) in ['X', 'Y', 'Z']
+        .into_iter()
+        .enumerate()
+        .filter(|&(i, _)| axes[i])
+    {
         let v = if t.incremental {
             // Increments from the position written so far, so rounding never accumulates.
             let target = (to[i] - t.offset_mm[i]) / t.scale;
@@ -202,7 +280,11 @@ fn piece_words(seg: &Segment, t: &SegmentTrace, axes: [bool; 3], from: [f64; 3],
         let mut axes = [a, b];
         axes.sort_unstable();
         for axis in axes {
-            let v = if t.arc_incremental { (center[axis] - from[axis]) / t.scale } else { (center[axis] - t.offset_mm[axis]) / t.scale };
+            let v = if t.arc_incremental {
+                (center[axis] - from[axis]) / t.scale
+            } else {
+                (center[axis] - t.offset_mm[axis]) / t.scale
+            };
             let _ = write!(w, "{}{} ", ['I', 'J', 'K'][axis], coord(v));
         }
     }
@@ -210,20 +292,48 @@ fn piece_words(seg: &Segment, t: &SegmentTrace, axes: [bool; 3], from: [f64; 3],
 }
 
 /// Writes the line carrying the first piece and one block per further piece.
-fn split_line(out: &mut String, text: &str, eol: &str, items: &[Item], seg: &Segment, t: &SegmentTrace, pieces: &[(f64, f64)]) {
-    let fractions: Vec<f64> = std::iter::once(0.0).chain(pieces.iter().map(|p| p.0)).collect();
-    let points: Vec<[f64; 3]> = fractions.iter().map(|&u| if u >= 1.0 { seg.end.into() } else { seg.point_at_fraction(u).into() }).collect();
+fn split_line(
+    out: &mut String,
+    text: &str,
+    eol: &str,
+    items: &[Item],
+    seg: &Segment,
+    t: &SegmentTrace,
+    pieces: &[(f64, f64)],
+) {
+    let fractions: Vec<f64> = std::iter::once(0.0)
+        .chain(pieces.iter().map(|p| p.0))
+        .collect();
+    let points: Vec<[f64; 3]> = fractions
+        .iter()
+        .map(|&u| {
+            if u >= 1.0 {
+                seg.end.into()
+            } else {
+                seg.point_at_fraction(u).into()
+            }
+        })
+        .collect();
     // Lines and arcs (helices included) run at constant speed in the fraction.
     let length_mm = seg.length_mm();
     let piece_f_word = |k: usize, in_original_line: bool| {
-        f_word(t, pieces[k].1, length_mm * (fractions[k + 1] - fractions[k]), in_original_line)
+        f_word(
+            t,
+            pieces[k].1,
+            length_mm * (fractions[k + 1] - fractions[k]),
+            in_original_line,
+        )
     };
     // Program coordinates written so far (for increments under G91).
     let mut written: [f64; 3] = std::array::from_fn(|i| (seg.start[i] - t.offset_mm[i]) / t.scale);
     let arc = matches!(seg.geometry, Geometry::Arc { .. });
     let motion_word = match seg.geometry {
-        Geometry::Arc { clockwise: true, .. } => "G2",
-        Geometry::Arc { clockwise: false, .. } => "G3",
+        Geometry::Arc {
+            clockwise: true, ..
+        } => "G2",
+        Geometry::Arc {
+            clockwise: false, ..
+        } => "G3",
         Geometry::Line => "G1",
     };
     // Words the pieces rewrite: axes, arc centre / radius / turns, feed.
@@ -241,10 +351,13 @@ fn split_line(out: &mut String, text: &str, eol: &str, items: &[Item], seg: &Seg
         Geometry::Line => None,
     };
     let axes: [bool; 3] = std::array::from_fn(|i| {
-        let named = items.iter().any(|it| word_letter(it) == Some(['x', 'y', 'z'][i]));
+        let named = items
+            .iter()
+            .any(|it| word_letter(it) == Some(['x', 'y', 'z'][i]));
         named || seg.start[i] != seg.end[i] || plane_axes.is_some_and(|(a, b, _)| i == a || i == b)
     });
-    let first = piece_words(seg, t, axes, points[0], points[1], &mut written) + &piece_f_word(0, true);
+    let first =
+        piece_words(seg, t, axes, points[0], points[1], &mut written) + &piece_f_word(0, true);
     let mut line = String::with_capacity(text.len() + first.len());
     let mut at = 0;
     for (k, it) in replaced.iter().enumerate() {
@@ -271,19 +384,44 @@ fn split_line(out: &mut String, text: &str, eol: &str, items: &[Item], seg: &Seg
     for k in 1..pieces.len() {
         out.push_str(motion_word);
         out.push(' ');
-        out.push_str(&piece_words(seg, t, axes, points[k], points[k + 1], &mut written));
+        out.push_str(&piece_words(
+            seg,
+            t,
+            axes,
+            points[k],
+            points[k + 1],
+            &mut written,
+        ));
         out.push_str(&piece_f_word(k, false));
-        out.push_str(if k + 1 == pieces.len() { eol } else { eol_or_newline(eol) });
+        out.push_str(if k + 1 == pieces.len() {
+            eol
+        } else {
+            eol_or_newline(eol)
+        });
     }
 }
 
 fn eol_or_newline(eol: &str) -> &str {
-    if eol.is_empty() { "\n" } else { eol }
+    if eol.is_empty() {
+        "\n"
+    } else {
+        eol
+    }
 }
 
 /// Parses the re-fed program and checks it against the original path and plan.
-fn verify(out: &str, file: &str, options: &Options, original: &[Segment], plan: &[Vec<(f64, f64)>], written: &[usize]) -> Result<(), RefeedError> {
-    let fail = |detail: String| RefeedError::Verification { file: file.to_owned(), detail };
+fn verify(
+    out: &str,
+    file: &str,
+    options: &Options,
+    original: &[Segment],
+    plan: &[Vec<(f64, f64)>],
+    written: &[usize],
+) -> Result<(), RefeedError> {
+    let fail = |detail: String| RefeedError::Verification {
+        file: file.to_owned(),
+        detail,
+    };
     let (parsed, _) = interp::run(out, file, options);
     if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
         return Err(fail(format!("it does not parse: {d}")));
@@ -291,7 +429,10 @@ fn verify(out: &str, file: &str, options: &Options, original: &[Segment], plan: 
     let new = &parsed.path.segments;
     let expected: usize = written.iter().sum();
     if new.len() != expected {
-        return Err(fail(format!("{} segments instead of {expected}", new.len())));
+        return Err(fail(format!(
+            "{} segments instead of {expected}",
+            new.len()
+        )));
     }
     let mut j = 0;
     for (i, seg) in original.iter().enumerate() {
@@ -299,25 +440,42 @@ fn verify(out: &str, file: &str, options: &Options, original: &[Segment], plan: 
         j += written[i];
         let end = pieces[pieces.len() - 1].end;
         if (end - seg.end).norm() > 1e-3 {
-            return Err(fail(format!("line {}: ends at {:?} instead of {:?}", seg.line, end, seg.end)));
+            return Err(fail(format!(
+                "line {}: ends at {:?} instead of {:?}",
+                seg.line, end, seg.end
+            )));
         }
         // Same end points can hide a changed shape: a piece of an arc shorter
         // than the written digits reads back as a full circle.
         let length_mm: f64 = pieces.iter().map(Segment::length_mm).sum();
         if (length_mm - seg.length_mm()).abs() > 1e-3 {
-            return Err(fail(format!("line {}: {length_mm:.4} mm long instead of {:.4} mm", seg.line, seg.length_mm())));
+            return Err(fail(format!(
+                "line {}: {length_mm:.4} mm long instead of {:.4} mm",
+                seg.line,
+                seg.length_mm()
+            )));
         }
         if std::mem::discriminant(&pieces[0].motion) != std::mem::discriminant(&seg.motion) {
             return Err(fail(format!("line {}: motion kind changed", seg.line)));
         }
         if let Motion::Feed { .. } = seg.motion {
             for (k, p) in pieces.iter().enumerate() {
-                let allowed = if written[i] == 1 { lowest(&plan[i]) } else { plan[i][k].1 };
+                let allowed = if written[i] == 1 {
+                    lowest(&plan[i])
+                } else {
+                    plan[i][k].1
+                };
                 let Motion::Feed { feed_mm_min } = p.motion else {
-                    return Err(fail(format!("line {}: a piece is not a feed move", seg.line)));
+                    return Err(fail(format!(
+                        "line {}: a piece is not a feed move",
+                        seg.line
+                    )));
                 };
                 if feed_mm_min > allowed * (1.0 + 1e-4) {
-                    return Err(fail(format!("line {}: feed {feed_mm_min:.3} above the plan's {allowed:.3} mm/min", seg.line)));
+                    return Err(fail(format!(
+                        "line {}: feed {feed_mm_min:.3} above the plan's {allowed:.3} mm/min",
+                        seg.line
+                    )));
                 }
             }
         }

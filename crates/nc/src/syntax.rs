@@ -44,7 +44,10 @@ impl Cursor {
                 if c == ')' {
                     comment_start = None;
                 } else if c == '(' {
-                    return Err(SyntaxError { col, message: format!("nested comment (comment opened at column {start})") });
+                    return Err(SyntaxError {
+                        col,
+                        message: format!("nested comment (comment opened at column {start})"),
+                    });
                 }
                 continue;
             }
@@ -52,13 +55,25 @@ impl Cursor {
                 '(' => comment_start = Some(col),
                 ';' => break,
                 c if c.is_whitespace() => {}
-                c => chars.push(Char { c: c.to_ascii_lowercase(), col, byte, len: c.len_utf8() }),
+                c => chars.push(Char {
+                    c: c.to_ascii_lowercase(),
+                    col,
+                    byte,
+                    len: c.len_utf8(),
+                }),
             }
         }
         if let Some(start) = comment_start {
-            return Err(SyntaxError { col: start, message: "comment not closed with ')'".into() });
+            return Err(SyntaxError {
+                col: start,
+                message: "comment not closed with ')'".into(),
+            });
         }
-        Ok(Cursor { chars, pos: 0, end_col: col + 1 })
+        Ok(Cursor {
+            chars,
+            pos: 0,
+            end_col: col + 1,
+        })
     }
 
     /// Current character, if any.
@@ -81,14 +96,20 @@ impl Cursor {
     }
 
     fn byte_end_of_previous(&self) -> usize {
-        self.pos.checked_sub(1).and_then(|i| self.chars.get(i)).map_or(0, |c| c.byte + c.len)
+        self.pos
+            .checked_sub(1)
+            .and_then(|i| self.chars.get(i))
+            .map_or(0, |c| c.byte + c.len)
     }
 
     /// Consumes `text` (lower case) if the input continues with it.
     pub fn eat_str(&mut self, text: &str) -> bool {
         let n = text.chars().count();
         let matches = self.chars.len() >= self.pos + n
-            && self.chars[self.pos..self.pos + n].iter().map(|c| c.c).eq(text.chars());
+            && self.chars[self.pos..self.pos + n]
+                .iter()
+                .map(|c| c.c)
+                .eq(text.chars());
         if matches {
             self.pos += n;
         }
@@ -98,7 +119,10 @@ impl Cursor {
     /// Consumes the first entry of `table` whose text (lower case) the input
     /// continues with, and returns its value.
     pub fn eat_any<T: Copy>(&mut self, table: &[(&str, T)]) -> Option<T> {
-        table.iter().find(|(text, _)| self.eat_str(text)).map(|&(_, value)| value)
+        table
+            .iter()
+            .find(|(text, _)| self.eat_str(text))
+            .map(|&(_, value)| value)
     }
 
     /// Reads `<name>` (the cursor is on `<`) and returns the name;
@@ -125,7 +149,10 @@ impl Cursor {
 
     /// An error at the current column.
     pub fn error(&self, message: &str) -> SyntaxError {
-        SyntaxError { col: self.col(), message: message.to_owned() }
+        SyntaxError {
+            col: self.col(),
+            message: message.to_owned(),
+        }
     }
 
     /// Reads an unsigned decimal number (`12`, `1.5`, `.5`, `3.`).
@@ -138,7 +165,10 @@ impl Cursor {
                 text.push(c);
             } else if c == '.' {
                 if seen_dot {
-                    return Err(SyntaxError { col: start_col, message: format!("malformed number '{text}.'") });
+                    return Err(SyntaxError {
+                        col: start_col,
+                        message: format!("malformed number '{text}.'"),
+                    });
                 }
                 seen_dot = true;
                 text.push(c);
@@ -148,9 +178,15 @@ impl Cursor {
             self.bump();
         }
         if !text.chars().any(|c| c.is_ascii_digit()) {
-            return Err(SyntaxError { col: start_col, message: "expected digits in number".into() });
+            return Err(SyntaxError {
+                col: start_col,
+                message: "expected digits in number".into(),
+            });
         }
-        text.parse().map_err(|_| SyntaxError { col: start_col, message: format!("malformed number '{text}'") })
+        text.parse().map_err(|_| SyntaxError {
+            col: start_col,
+            message: format!("malformed number '{text}'"),
+        })
     }
 }
 
@@ -254,14 +290,20 @@ pub fn parse_line(text: &str) -> Result<Line, SyntaxError> {
     let mut cur = Cursor::new(text)?;
     let block_delete = cur.eat_str("/");
     if cur.eat_str("%") {
-        return Ok(Line { block_delete, kind: LineKind::Percent });
+        return Ok(Line {
+            block_delete,
+            kind: LineKind::Percent,
+        });
     }
     if cur.peek() == Some('n') {
         cur.bump();
         cur.number()?;
     }
     if cur.peek() == Some('o') {
-        return Ok(Line { block_delete, kind: parse_oword(&mut cur)? });
+        return Ok(Line {
+            block_delete,
+            kind: parse_oword(&mut cur)?,
+        });
     }
     let mut items = Vec::new();
     while let Some(c) = cur.peek() {
@@ -271,24 +313,44 @@ pub fn parse_line(text: &str) -> Result<Line, SyntaxError> {
             'a'..='z' if c != 'n' && c != 'o' => {
                 cur.bump();
                 if cur.peek().is_none() {
-                    return Err(SyntaxError { col, message: format!("missing value after '{}'", c.to_ascii_uppercase()) });
+                    return Err(SyntaxError {
+                        col,
+                        message: format!("missing value after '{}'", c.to_ascii_uppercase()),
+                    });
                 }
-                ItemKind::Word { letter: c, value: expr::parse_value(&mut cur, 0)? }
+                ItemKind::Word {
+                    letter: c,
+                    value: expr::parse_value(&mut cur, 0)?,
+                }
             }
             '#' => {
                 let target = expr::parse_param(&mut cur, 0)?;
                 if !cur.eat_str("=") {
                     return Err(cur.error("expected '=' in parameter assignment"));
                 }
-                ItemKind::Assign { target, value: expr::parse_value(&mut cur, 0)? }
+                ItemKind::Assign {
+                    target,
+                    value: expr::parse_value(&mut cur, 0)?,
+                }
             }
             'n' => return Err(cur.error("N word not at start of line")),
             'o' => return Err(cur.error("O word not at start of line")),
             c => return Err(cur.error(&format!("unexpected character '{c}'"))),
         };
-        items.push(Item { kind, col, span: start..cur.byte_end_of_previous() });
+        items.push(Item {
+            kind,
+            col,
+            span: start..cur.byte_end_of_previous(),
+        });
     }
-    Ok(Line { block_delete, kind: if items.is_empty() { LineKind::Empty } else { LineKind::Block(items) } })
+    Ok(Line {
+        block_delete,
+        kind: if items.is_empty() {
+            LineKind::Empty
+        } else {
+            LineKind::Block(items)
+        },
+    })
 }
 
 fn parse_oword(cur: &mut Cursor) -> Result<LineKind, SyntaxError> {
@@ -299,12 +361,19 @@ fn parse_oword(cur: &mut Cursor) -> Result<LineKind, SyntaxError> {
     } else {
         let n = cur.number()?;
         if n.fract() != 0.0 || n > 1e15 {
-            return Err(SyntaxError { col, message: "O number must be an integer".into() });
+            return Err(SyntaxError {
+                col,
+                message: "O number must be an integer".into(),
+            });
         }
         OLabel::Number(n as i64)
     };
     let kw_col = cur.col();
-    let word: String = cur.rest().chars().take_while(char::is_ascii_alphabetic).collect();
+    let word: String = cur
+        .rest()
+        .chars()
+        .take_while(char::is_ascii_alphabetic)
+        .collect();
     if word.is_empty() {
         return match (label, cur.peek()) {
             (OLabel::Number(n), None) => Ok(LineKind::ProgramNumber(n)),
@@ -312,7 +381,10 @@ fn parse_oword(cur: &mut Cursor) -> Result<LineKind, SyntaxError> {
         };
     }
     let Some(&(_, keyword)) = KEYWORDS.iter().find(|(name, _)| *name == word) else {
-        return Err(SyntaxError { col: kw_col, message: format!("unknown o-word keyword '{word}'") });
+        return Err(SyntaxError {
+            col: kw_col,
+            message: format!("unknown o-word keyword '{word}'"),
+        });
     };
     cur.eat_str(&word);
     let mut args = Vec::new();
@@ -322,5 +394,10 @@ fn parse_oword(cur: &mut Cursor) -> Result<LineKind, SyntaxError> {
         }
         args.push(expr::parse_value(cur, 0)?);
     }
-    Ok(LineKind::OWord(OStmt { label, keyword, args, col }))
+    Ok(LineKind::OWord(OStmt {
+        label,
+        keyword,
+        args,
+        col,
+    }))
 }

@@ -5,27 +5,135 @@ use nc::Options;
 use proptest::prelude::*;
 
 fn check(src: &str) {
-    let options = Options { max_blocks: 20_000, ..Options::default() };
+    let options = Options {
+        max_blocks: 20_000,
+        ..Options::default()
+    };
     let parsed = nc::parse(src, "fuzz.ngc", &options);
     let lines: Vec<&str> = src.split('\n').collect();
     for d in &parsed.diagnostics {
-        assert!(d.line >= 1 && (d.line as usize) <= lines.len(), "{d} outside {} lines", lines.len());
+        assert!(
+            d.line >= 1 && (d.line as usize) <= lines.len(),
+            "{d} outside {} lines",
+            lines.len()
+        );
         let cols = lines[d.line as usize - 1].chars().count() as u32 + 1;
-        assert!(d.column >= 1 && d.column <= cols, "{d}: column outside 1..={cols}");
+        assert!(
+            d.column >= 1 && d.column <= cols,
+            "{d}: column outside 1..={cols}"
+        );
     }
     for s in &parsed.path.segments {
-        assert!(s.start.iter().chain(s.end.iter()).all(|v| v.is_finite()), "{s:?}");
+        assert!(
+            s.start.iter().chain(s.end.iter()).all(|v| v.is_finite()),
+            "{s:?}"
+        );
     }
 }
 
 const TOKENS: &[&str] = &[
-    "G0", "G1", "G2", "G3", "G4", "G17", "G18", "G19", "G20", "G21", "G28", "G30", "G40", "G41", "G43", "G53",
-    "G54", "G59", "G80", "G81", "G82", "G83", "G73", "G90", "G91", "G90.1", "G91.1", "G92", "G93", "G94", "G98",
-    "G99", "G10 L2 P1", "M3", "M5", "M6", "M98", "M99", "M30", "X", "Y", "Z", "I", "J", "K", "R", "P", "Q", "L", "F",
-    "S", "T", "1", "-2.5", "0", ".", "..", "1e5", "360", "#1", "#<a>", "=", "[", "]", "**", "*", "/", "MOD", "SIN",
-    "ATAN", "SQRT", "LN", "LT", "AND", "(", ")", ";", "%", "\n", "\n", "\n", "o1", "o2", "sub", "endsub", "call",
-    "while", "endwhile", "if", "else", "endif", "repeat", "endrepeat", "break", "continue", "O1000", "N10", " ",
-    "#2=", "1e308", "999999999", "-0",
+    "G0",
+    "G1",
+    "G2",
+    "G3",
+    "G4",
+    "G17",
+    "G18",
+    "G19",
+    "G20",
+    "G21",
+    "G28",
+    "G30",
+    "G40",
+    "G41",
+    "G43",
+    "G53",
+    "G54",
+    "G59",
+    "G80",
+    "G81",
+    "G82",
+    "G83",
+    "G73",
+    "G90",
+    "G91",
+    "G90.1",
+    "G91.1",
+    "G92",
+    "G93",
+    "G94",
+    "G98",
+    "G99",
+    "G10 L2 P1",
+    "M3",
+    "M5",
+    "M6",
+    "M98",
+    "M99",
+    "M30",
+    "X",
+    "Y",
+    "Z",
+    "I",
+    "J",
+    "K",
+    "R",
+    "P",
+    "Q",
+    "L",
+    "F",
+    "S",
+    "T",
+    "1",
+    "-2.5",
+    "0",
+    ".",
+    "..",
+    "1e5",
+    "360",
+    "#1",
+    "#<a>",
+    "=",
+    "[",
+    "]",
+    "**",
+    "*",
+    "/",
+    "MOD",
+    "SIN",
+    "ATAN",
+    "SQRT",
+    "LN",
+    "LT",
+    "AND",
+    "(",
+    ")",
+    ";",
+    "%",
+    "\n",
+    "\n",
+    "\n",
+    "o1",
+    "o2",
+    "sub",
+    "endsub",
+    "call",
+    "while",
+    "endwhile",
+    "if",
+    "else",
+    "endif",
+    "repeat",
+    "endrepeat",
+    "break",
+    "continue",
+    "O1000",
+    "N10",
+    " ",
+    "#2=",
+    "1e308",
+    "999999999",
+    "-0",
 ];
 
 /// Lines of the test corpus (toolpaths/), for mutation.
@@ -37,7 +145,12 @@ fn corpus_lines() -> &'static [String] {
         for e in std::fs::read_dir(dir).expect("toolpaths/") {
             let p = e.expect("entry").path();
             if p.extension().is_some_and(|e| e == "ngc") {
-                lines.extend(std::fs::read_to_string(&p).expect("read").lines().map(String::from));
+                lines.extend(
+                    std::fs::read_to_string(&p)
+                        .expect("read")
+                        .lines()
+                        .map(String::from),
+                );
             }
         }
         lines

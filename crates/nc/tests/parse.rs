@@ -10,12 +10,23 @@ fn parse(src: &str) -> Parsed {
 
 fn ok(src: &str) -> Vec<Segment> {
     let p = parse(src);
-    assert!(p.diagnostics.is_empty(), "{:?}", p.diagnostics.iter().map(ToString::to_string).collect::<Vec<_>>());
+    assert!(
+        p.diagnostics.is_empty(),
+        "{:?}",
+        p.diagnostics
+            .iter()
+            .map(ToString::to_string)
+            .collect::<Vec<_>>()
+    );
     p.path.segments
 }
 
 fn errors(src: &str) -> Vec<String> {
-    parse(src).diagnostics.iter().map(ToString::to_string).collect()
+    parse(src)
+        .diagnostics
+        .iter()
+        .map(ToString::to_string)
+        .collect()
 }
 
 fn close(a: f64, b: f64) {
@@ -28,7 +39,12 @@ fn end(s: &Segment) -> [f64; 3] {
 
 fn arc(s: &Segment) -> ([f64; 3], Plane, bool, f64) {
     match s.geometry {
-        Geometry::Arc { center, plane, clockwise, sweep_rad } => ([center.x, center.y, center.z], plane, clockwise, sweep_rad),
+        Geometry::Arc {
+            center,
+            plane,
+            clockwise,
+            sweep_rad,
+        } => ([center.x, center.y, center.z], plane, clockwise, sweep_rad),
         Geometry::Line => panic!("not an arc: {s:?}"),
     }
 }
@@ -74,7 +90,10 @@ fn incremental_and_inch() {
     close(s[0].end.x, 25.4);
     assert_eq!(s[0].motion, Motion::Feed { feed_mm_min: 254.0 });
     // As in LinuxCNC, F is read before G20/G21 of the same block takes effect.
-    assert_eq!(ok("G20 G1 X1 F10")[0].motion, Motion::Feed { feed_mm_min: 10.0 });
+    assert_eq!(
+        ok("G20 G1 X1 F10")[0].motion,
+        Motion::Feed { feed_mm_min: 10.0 }
+    );
 }
 
 #[test]
@@ -87,7 +106,10 @@ fn plane_directions_as_linuxcnc() {
     close(sweep, PI / 2.0);
     let mid = s[1].point_at_fraction(0.5);
     assert!(mid.x > 0.0 && mid.z > 0.0);
-    close(arc(&ok("F100\nG0 Z10\nG18 G2 X10 Z0 I0 K-10")[1]).3, 1.5 * PI);
+    close(
+        arc(&ok("F100\nG0 Z10\nG18 G2 X10 Z0 I0 K-10")[1]).3,
+        1.5 * PI,
+    );
     // G19: G2 from +Y to +Z is clockwise seen from +X.
     let s = ok("F100\nG0 Y10\nG19 G2 Y0 Z10 J-10 K0");
     close(arc(&s[1]).3, 1.5 * PI);
@@ -116,14 +138,22 @@ fn fanuc_subprogram_with_repeat() {
 #[test]
 fn oword_subroutine_and_loops() {
     let s = ok("o1 sub\nG0 X#1 Y#2\no1 endsub\n#5=0\no2 while [#5 lt 3]\no1 call [#5] [2]\n#5=[#5+1]\no2 endwhile\nM2");
-    assert_eq!(s.iter().map(|s| s.end.x).collect::<Vec<_>>(), vec![0.0, 1.0, 2.0]);
+    assert_eq!(
+        s.iter().map(|s| s.end.x).collect::<Vec<_>>(),
+        vec![0.0, 1.0, 2.0]
+    );
 }
 
 #[test]
 fn drill_cycle_g98_g99() {
     use Motion::*;
     let f = Feed { feed_mm_min: 100.0 };
-    let moves = |src| ok(src).iter().map(|s| (s.motion, end(s))).collect::<Vec<_>>();
+    let moves = |src| {
+        ok(src)
+            .iter()
+            .map(|s| (s.motion, end(s)))
+            .collect::<Vec<_>>()
+    };
     assert_eq!(
         moves("F100\nG0 Z10\nG98 G81 X5 Y5 Z-2 R1\nX8"),
         vec![
@@ -140,13 +170,21 @@ fn drill_cycle_g98_g99() {
     );
     assert_eq!(
         moves("F100\nG0 Z10\nG99 G81 X5 Y5 Z-2 R1\nX8")[4..],
-        [(Rapid, [5.0, 5.0, 1.0]), (Rapid, [8.0, 5.0, 1.0]), (f, [8.0, 5.0, -2.0]), (Rapid, [8.0, 5.0, 1.0])]
+        [
+            (Rapid, [5.0, 5.0, 1.0]),
+            (Rapid, [8.0, 5.0, 1.0]),
+            (f, [8.0, 5.0, -2.0]),
+            (Rapid, [8.0, 5.0, 1.0])
+        ]
     );
 }
 
 #[test]
 fn compensation_rejected_with_position() {
-    assert_eq!(errors("G0 X0\nG1 G41 D1 X5 F100")[0].split(": ").next(), Some("t.ngc:2:4"));
+    assert_eq!(
+        errors("G0 X0\nG1 G41 D1 X5 F100")[0].split(": ").next(),
+        Some("t.ngc:2:4")
+    );
     assert!(errors("G43 H1 Z5")[0].contains("tool length compensation"));
     assert!(errors("G40 G49 G0 X1").is_empty());
 }
@@ -154,8 +192,21 @@ fn compensation_rejected_with_position() {
 #[test]
 fn malformed_words_point_at_columns() {
     let e = errors("G1 X1..2 F1\nX\nG1 Xabc F1\nG1 X1 G12 F1\nG1 G2 X1\nX1 X2");
-    let heads: Vec<_> = e.iter().map(|d| d.splitn(4, ':').take(3).collect::<Vec<_>>().join(":")).collect();
-    assert_eq!(heads, ["t.ngc:1:5", "t.ngc:2:1", "t.ngc:3:5", "t.ngc:4:7", "t.ngc:5:4", "t.ngc:6:4"]);
+    let heads: Vec<_> = e
+        .iter()
+        .map(|d| d.splitn(4, ':').take(3).collect::<Vec<_>>().join(":"))
+        .collect();
+    assert_eq!(
+        heads,
+        [
+            "t.ngc:1:5",
+            "t.ngc:2:1",
+            "t.ngc:3:5",
+            "t.ngc:4:7",
+            "t.ngc:5:4",
+            "t.ngc:6:4"
+        ]
+    );
 }
 
 #[test]

@@ -20,7 +20,16 @@ fn feeds(path: &nc::Path) -> Vec<f64> {
 
 /// One piece at `feed` for every feed segment.
 fn uniform(path: &nc::Path, feed: f64) -> Vec<Vec<(f64, f64)>> {
-    path.segments.iter().map(|s| if matches!(s.motion, Motion::Feed { .. }) { vec![(1.0, feed)] } else { vec![] }).collect()
+    path.segments
+        .iter()
+        .map(|s| {
+            if matches!(s.motion, Motion::Feed { .. }) {
+                vec![(1.0, feed)]
+            } else {
+                vec![]
+            }
+        })
+        .collect()
 }
 
 #[test]
@@ -46,7 +55,10 @@ fn f_word_added_before_comments_and_crlf_kept() {
     let src = "G1 X5 F100\r\nX6 (no feed word)\r\nX7;end\r\n";
     let path = parse(src);
     let out = nc::refeed(src, "t.ngc", &Options::default(), &uniform(&path, 1234.9)).unwrap();
-    assert_eq!(out, "G1 X5 F1234\r\nX6 F1234 (no feed word)\r\nX7 F1234;end\r\n");
+    assert_eq!(
+        out,
+        "G1 X5 F1234\r\nX6 F1234 (no feed word)\r\nX7 F1234;end\r\n"
+    );
 }
 
 #[test]
@@ -60,12 +72,24 @@ fn incremental_inch_split_lands_exactly() {
     assert_eq!(new.segments.len(), 4, "{out}");
     // Feeds are written in inch/min, rounded down to 0.001.
     let f = feeds(&new);
-    assert!((f[0] - 127.0).abs() < 1e-9 && f[1] <= 200.0 && f[1] > 199.97 && (f[2] - 254.0).abs() < 1e-9, "{f:?}");
+    assert!(
+        (f[0] - 127.0).abs() < 1e-9
+            && f[1] <= 200.0
+            && f[1] > 199.97
+            && (f[2] - 254.0).abs() < 1e-9,
+        "{f:?}"
+    );
     for (a, b) in [(2, 0), (3, 1)] {
-        assert!((new.segments[a].end - path.segments[b].end).norm() < 1e-9, "{out}");
+        assert!(
+            (new.segments[a].end - path.segments[b].end).norm() < 1e-9,
+            "{out}"
+        );
     }
     let third = new.segments[0].end;
-    assert!((third - nalgebra::Point3::new(25.4 / 3.0, 12.7 / 3.0, 0.0)).norm() < 1e-4, "{third}");
+    assert!(
+        (third - nalgebra::Point3::new(25.4 / 3.0, 12.7 / 3.0, 0.0)).norm() < 1e-4,
+        "{third}"
+    );
 }
 
 #[test]
@@ -75,16 +99,27 @@ fn f_in_a_line_that_changes_units_is_read_in_the_old_units() {
     let path = parse(src);
     // (and F10 before G20 on the first line is 10 mm/min).
     assert_eq!(feeds(&path), vec![10.0, 12700.0, 12700.0]);
-    let plan = vec![vec![(1.0, 10.0)], vec![(0.5, 1270.0), (1.0, 2540.0)], vec![(1.0, 3000.0)]];
+    let plan = vec![
+        vec![(1.0, 10.0)],
+        vec![(0.5, 1270.0), (1.0, 2540.0)],
+        vec![(1.0, 3000.0)],
+    ];
     let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
-    assert_eq!(out, "G20 G1 X1 F10\nG21 G1 X62.7 F50\nG1 X100 F2540\nG1 X200 F3000\n");
+    assert_eq!(
+        out,
+        "G20 G1 X1 F10\nG21 G1 X62.7 F50\nG1 X100 F2540\nG1 X200 F3000\n"
+    );
 }
 
 #[test]
 fn arcs_split_on_the_circle_ij_and_r() {
     // Ends of the pieces at fractions 0.25, 0.5 and 1, worked out by hand: a
     // counter-clockwise half circle, and a clockwise helical full circle.
-    let half = [[50f64.sqrt(), 50f64.sqrt(), 0.0], [0.0, 10.0, 0.0], [-10.0, 0.0, 0.0]];
+    let half = [
+        [50f64.sqrt(), 50f64.sqrt(), 0.0],
+        [0.0, 10.0, 0.0],
+        [-10.0, 0.0, 0.0],
+    ];
     let helix = [[0.0, -10.0, -0.75], [-10.0, 0.0, -1.5], [10.0, 0.0, -3.0]];
     for (src, ends) in [
         ("G0 X10 Y0\nG17 G3 X-10 Y0 I-10 J0 F600\n", half),
@@ -100,14 +135,39 @@ fn arcs_split_on_the_circle_ij_and_r() {
         assert_eq!(feeds(&new), vec![300.0, 400.0, 600.0]);
         let original = path.segments[1];
         let total: f64 = new.segments[1..].iter().map(|s| s.length_mm()).sum();
-        assert!((total - original.length_mm()).abs() < 1e-4, "{total} vs {}", original.length_mm());
+        assert!(
+            (total - original.length_mm()).abs() < 1e-4,
+            "{total} vs {}",
+            original.length_mm()
+        );
         for (k, s) in new.segments[1..].iter().enumerate() {
-            let Geometry::Arc { center, clockwise, .. } = s.geometry else { panic!("piece {k} is not an arc:\n{out}") };
-            let Geometry::Arc { center: c0, clockwise: cw0, .. } = original.geometry else { unreachable!() };
-            assert!((center.xy() - c0.xy()).norm() < 1e-5 && clockwise == cw0, "{out}");
-            assert!((s.end - nalgebra::Point3::from(ends[k])).norm() < 1e-5, "{out}");
+            let Geometry::Arc {
+                center, clockwise, ..
+            } = s.geometry
+            else {
+                panic!("piece {k} is not an arc:\n{out}")
+            };
+            let Geometry::Arc {
+                center: c0,
+                clockwise: cw0,
+                ..
+            } = original.geometry
+            else {
+                unreachable!()
+            };
+            assert!(
+                (center.xy() - c0.xy()).norm() < 1e-5 && clockwise == cw0,
+                "{out}"
+            );
+            assert!(
+                (s.end - nalgebra::Point3::from(ends[k])).norm() < 1e-5,
+                "{out}"
+            );
         }
-        assert!(!out.contains('R'), "R words are replaced by centres when split:\n{out}");
+        assert!(
+            !out.contains('R'),
+            "R words are replaced by centres when split:\n{out}"
+        );
     }
 }
 
@@ -147,8 +207,16 @@ fn repeated_lines_and_cycles_take_the_lowest_feed() {
 fn bad_plans_are_rejected() {
     let src = "G1 X10 F100\n";
     let opts = Options::default();
-    assert!(matches!(nc::refeed(src, "t.ngc", &opts, &[]), Err(nc::RefeedError::PlanLength { .. })));
-    for bad in [vec![(0.5, 100.0)], vec![(0.6, 100.0), (0.4, 100.0), (1.0, 1.0)], vec![(1.0, 0.0)], vec![(1.0, f64::NAN)]] {
+    assert!(matches!(
+        nc::refeed(src, "t.ngc", &opts, &[]),
+        Err(nc::RefeedError::PlanLength { .. })
+    ));
+    for bad in [
+        vec![(0.5, 100.0)],
+        vec![(0.6, 100.0), (0.4, 100.0), (1.0, 1.0)],
+        vec![(1.0, 0.0)],
+        vec![(1.0, f64::NAN)],
+    ] {
         let err = nc::refeed(src, "t.ngc", &opts, &[bad]).unwrap_err();
         assert!(err.to_string().starts_with("t.ngc:1: feed plan"), "{err}");
     }
@@ -175,15 +243,27 @@ fn corpus_round_trip_with_split_blocks() {
             .iter()
             .enumerate()
             .map(|(i, s)| match s.motion {
-                Motion::Feed { .. } if s.length_mm() > 1.0 => vec![(0.2, 100.0 + i as f64), (0.7, 2000.0), (1.0, 900.5)],
+                Motion::Feed { .. } if s.length_mm() > 1.0 => {
+                    vec![(0.2, 100.0 + i as f64), (0.7, 2000.0), (1.0, 900.5)]
+                }
                 Motion::Feed { .. } => vec![(1.0, 321.0)],
                 _ => vec![],
             })
             .collect();
-        let out = nc::refeed(&src, &file.display().to_string(), &Options::default(), &plan).unwrap_or_else(|e| panic!("{e}"));
+        let out = nc::refeed(
+            &src,
+            &file.display().to_string(),
+            &Options::default(),
+            &plan,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
         let new = parse(&out);
         assert!(new.segments.len() >= path.segments.len());
-        assert!((new.length_mm() - path.length_mm()).abs() < 1e-3 * (1.0 + path.length_mm() * 1e-3), "{}", file.display());
+        assert!(
+            (new.length_mm() - path.length_mm()).abs() < 1e-3 * (1.0 + path.length_mm() * 1e-3),
+            "{}",
+            file.display()
+        );
         checked += 1;
     }
     assert!(checked >= 5);

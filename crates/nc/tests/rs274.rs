@@ -34,7 +34,9 @@ struct Move {
 }
 
 fn numbers(args: &str) -> Vec<f64> {
-    args.split(',').filter_map(|a| a.trim().parse().ok()).collect()
+    args.split(',')
+        .filter_map(|a| a.trim().parse().ok())
+        .collect()
 }
 
 /// rs274 instances running at once interfere (shared parameter file), so
@@ -44,7 +46,11 @@ static RS274: std::sync::Mutex<()> = std::sync::Mutex::new(());
 fn rs274_moves(file: &Path) -> Vec<Move> {
     let out = {
         let _turn = RS274.lock().unwrap_or_else(|e| e.into_inner());
-        Command::new("rs274").arg("-g").arg(file).output().expect("run rs274")
+        Command::new("rs274")
+            .arg("-g")
+            .arg(file)
+            .output()
+            .expect("run rs274")
     };
     let text = String::from_utf8_lossy(&out.stdout);
     let (mut scale, mut g5x, mut g92) = (1.0, [0.0; 3], [0.0; 3]);
@@ -53,7 +59,9 @@ fn rs274_moves(file: &Path) -> Vec<Move> {
     for line in text.lines() {
         // "   12 N30    CMD(args)": sequence number, N field, command.
         let mut fields = line.trim_start().splitn(3, ' ');
-        let (Some(_), Some(n), Some(cmd)) = (fields.next(), fields.next(), fields.next()) else { continue };
+        let (Some(_), Some(n), Some(cmd)) = (fields.next(), fields.next(), fields.next()) else {
+            continue;
+        };
         if !n.starts_with('N') {
             continue;
         }
@@ -68,15 +76,37 @@ fn rs274_moves(file: &Path) -> Vec<Move> {
             "SET_G5X_OFFSET" => g5x = [v[1] * scale, v[2] * scale, v[3] * scale],
             "SET_G92_OFFSET" => g92 = [v[0] * scale, v[1] * scale, v[2] * scale],
             "SELECT_PLANE" => {
-                plane = if args.contains("XZ") { Plane::ZX } else if args.contains("YZ") { Plane::YZ } else { Plane::XY }
+                plane = if args.contains("XZ") {
+                    Plane::ZX
+                } else if args.contains("YZ") {
+                    Plane::YZ
+                } else {
+                    Plane::XY
+                }
             }
             "SET_FEED_RATE" => feed = v[0] * scale,
-            "DWELL" => moves.push(Move { kind: Kind::Dwell, end: pos, arc: None, value: v[0], tol }),
+            "DWELL" => moves.push(Move {
+                kind: Kind::Dwell,
+                end: pos,
+                arc: None,
+                value: v[0],
+                tol,
+            }),
             "STRAIGHT_TRAVERSE" | "STRAIGHT_FEED" => {
                 let end = [machine(0, v[0]), machine(1, v[1]), machine(2, v[2])];
                 if (0..3).any(|i| (end[i] - pos[i]).abs() > 1e-12) {
-                    let kind = if name == "STRAIGHT_FEED" { Kind::Feed } else { Kind::Rapid };
-                    moves.push(Move { kind, end, arc: None, value: feed, tol });
+                    let kind = if name == "STRAIGHT_FEED" {
+                        Kind::Feed
+                    } else {
+                        Kind::Rapid
+                    };
+                    moves.push(Move {
+                        kind,
+                        end,
+                        arc: None,
+                        value: feed,
+                        tol,
+                    });
                 }
                 pos = end;
             }
@@ -89,7 +119,13 @@ fn rs274_moves(file: &Path) -> Vec<Move> {
                 end[n] = machine(n, v[5]);
                 centre[a] = machine(a, v[2]);
                 centre[b] = machine(b, v[3]);
-                moves.push(Move { kind: Kind::Feed, end, arc: Some((centre, v[4] as i64)), value: feed, tol });
+                moves.push(Move {
+                    kind: Kind::Feed,
+                    end,
+                    arc: Some((centre, v[4] as i64)),
+                    value: feed,
+                    tol,
+                });
                 pos = end;
             }
             _ => {}
@@ -115,12 +151,26 @@ fn our_moves(source: &str, name: &str) -> Vec<Move> {
             };
             let arc = match s.geometry {
                 Geometry::Line => None,
-                Geometry::Arc { center, clockwise, sweep_rad, .. } => {
+                Geometry::Arc {
+                    center,
+                    clockwise,
+                    sweep_rad,
+                    ..
+                } => {
                     let turns = ((sweep_rad - 1e-9) / std::f64::consts::TAU).floor() as i64 + 1;
-                    Some(([center.x, center.y, center.z], if clockwise { -turns } else { turns }))
+                    Some((
+                        [center.x, center.y, center.z],
+                        if clockwise { -turns } else { turns },
+                    ))
                 }
             };
-            Move { kind, end: [s.end.x, s.end.y, s.end.z], arc, value, tol: 0.0 }
+            Move {
+                kind,
+                end: [s.end.x, s.end.y, s.end.z],
+                arc,
+                value,
+                tol: 0.0,
+            }
         })
         .collect()
 }
@@ -130,7 +180,12 @@ fn compare(file: &Path) -> Result<usize, String> {
     let ours = our_moves(&source, &file.display().to_string());
     let theirs = rs274_moves(file);
     if ours.len() != theirs.len() {
-        return Err(format!("{}: {} moves vs rs274's {}", file.display(), ours.len(), theirs.len()));
+        return Err(format!(
+            "{}: {} moves vs rs274's {}",
+            file.display(),
+            ours.len(),
+            theirs.len()
+        ));
     }
     for (i, (o, t)) in ours.iter().zip(&theirs).enumerate() {
         let close = |x: f64, y: f64| (x - y).abs() <= t.tol;
@@ -144,8 +199,12 @@ fn compare(file: &Path) -> Result<usize, String> {
             Kind::Dwell => (o.value - t.value).abs() <= 6e-5,
             Kind::Feed => (o.value - t.value).abs() <= t.tol,
         };
-        if o.kind != t.kind || !(0..3).all(|k| close(o.end[k], t.end[k])) || !same_arc || !value_ok {
-            return Err(format!("{}: move {i} differs:\n ours   {o:?}\n rs274  {t:?}", file.display()));
+        if o.kind != t.kind || !(0..3).all(|k| close(o.end[k], t.end[k])) || !same_arc || !value_ok
+        {
+            return Err(format!(
+                "{}: move {i} differs:\n ours   {o:?}\n rs274  {t:?}",
+                file.display()
+            ));
         }
     }
     Ok(ours.len())
@@ -154,7 +213,10 @@ fn compare(file: &Path) -> Result<usize, String> {
 /// False (after checking CI does not require it) when rs274 is missing.
 fn have_rs274() -> bool {
     if Command::new("rs274").arg("-h").output().is_err() {
-        assert!(std::env::var_os("CI").is_none(), "rs274 not installed (apt-get install linuxcnc-uspace) but CI is set");
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "rs274 not installed (apt-get install linuxcnc-uspace) but CI is set"
+        );
         println!("skipped: rs274 not installed");
         return false;
     }
@@ -163,7 +225,11 @@ fn have_rs274() -> bool {
 
 fn corpus() -> Vec<PathBuf> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../toolpaths");
-    let mut files: Vec<_> = std::fs::read_dir(&dir).expect("toolpaths/").filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|e| e == "ngc")).collect();
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .expect("toolpaths/")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "ngc"))
+        .collect();
     files.sort();
     assert!(files.len() >= 5, "corpus missing");
     files
@@ -185,12 +251,15 @@ fn refed_programs_match_linuxcnc_rs274() {
             .segments
             .iter()
             .map(|s| match s.motion {
-                Motion::Feed { .. } if s.length_mm() > 1.0 => vec![(0.3, 444.0), (0.6, 1234.0), (1.0, 777.0)],
+                Motion::Feed { .. } if s.length_mm() > 1.0 => {
+                    vec![(0.3, 444.0), (0.6, 1234.0), (1.0, 777.0)]
+                }
                 Motion::Feed { .. } => vec![(1.0, 555.0)],
                 _ => vec![],
             })
             .collect();
-        let out = nc::refeed(&source, "in.ngc", &Options::default(), &plan).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        let out = nc::refeed(&source, "in.ngc", &Options::default(), &plan)
+            .unwrap_or_else(|e| panic!("{}: {e}", f.display()));
         let written = dir.path().join(f.file_name().expect("name"));
         std::fs::write(&written, out).expect("write");
         match compare(&written) {
@@ -212,18 +281,36 @@ fn installed_samples_match_linuxcnc_rs274() {
     }
     // The package installs them in /usr/share/linuxcnc/ncfiles, linked from
     // /usr/share/doc/linuxcnc/examples/nc_files.
-    let dirs = ["/usr/share/linuxcnc/ncfiles", "/usr/share/doc/linuxcnc/examples/nc_files"];
+    let dirs = [
+        "/usr/share/linuxcnc/ncfiles",
+        "/usr/share/doc/linuxcnc/examples/nc_files",
+    ];
     let Some(entries) = dirs.iter().find_map(|d| std::fs::read_dir(d).ok()) else {
-        assert!(std::env::var_os("CI").is_none(), "{dirs:?} missing but CI is set");
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "{dirs:?} missing but CI is set"
+        );
         println!("skipped: no LinuxCNC sample programs in {dirs:?}");
         return;
     };
-    let mut files: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|e| e == "ngc")).collect();
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "ngc"))
+        .collect();
     files.sort();
     let (mut accepted, mut failures, mut with_motion) = (Vec::new(), Vec::new(), 0);
     for f in &files {
-        let Ok(source) = std::fs::read_to_string(f) else { continue };
-        let parsed = nc::parse(&source, &f.display().to_string(), &Options { max_blocks: 1_000_000, ..Options::default() });
+        let Ok(source) = std::fs::read_to_string(f) else {
+            continue;
+        };
+        let parsed = nc::parse(
+            &source,
+            &f.display().to_string(),
+            &Options {
+                max_blocks: 1_000_000,
+                ..Options::default()
+            },
+        );
         if let Some(d) = parsed.diagnostics.first() {
             println!("not supported: {d}");
             continue;
@@ -236,7 +323,12 @@ fn installed_samples_match_linuxcnc_rs274() {
             Err(e) => failures.push(e),
         }
     }
-    println!("{} of {} samples accepted and agree:\n  {}", accepted.len(), files.len(), accepted.join("\n  "));
+    println!(
+        "{} of {} samples accepted and agree:\n  {}",
+        accepted.len(),
+        files.len(),
+        accepted.join("\n  ")
+    );
     assert!(failures.is_empty(), "{}", failures.join("\n"));
     assert!(with_motion >= 5, "too few samples with motion accepted");
 }

@@ -29,9 +29,17 @@ fn polyline(points: &[[f64; 3]], step_mm: f64) -> Vec<Step> {
         let n = (len / step_mm).ceil().max(1.0) as usize;
         let at = |i: usize| {
             let t = i as f64 / n as f64;
-            [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])]
+            [
+                a[0] + t * (b[0] - a[0]),
+                a[1] + t * (b[1] - a[1]),
+                a[2] + t * (b[2] - a[2]),
+            ]
         };
-        steps.extend((0..n).map(|i| Step { from_mm: at(i), to_mm: at(i + 1), rapid: false }));
+        steps.extend((0..n).map(|i| Step {
+            from_mm: at(i),
+            to_mm: at(i + 1),
+            rapid: false,
+        }));
     }
     steps
 }
@@ -45,7 +53,11 @@ pub fn roughing_steps() -> Vec<Step> {
     let mut y = 0.0;
     let mut forward = true;
     while y <= 100.0 + 1e-9 {
-        let (xa, xb) = if forward { (-5.0, 105.0) } else { (105.0, -5.0) };
+        let (xa, xb) = if forward {
+            (-5.0, 105.0)
+        } else {
+            (105.0, -5.0)
+        };
         points.push([xa, y, z]);
         points.push([xb, y, z]);
         y += 3.0;
@@ -83,15 +95,27 @@ pub fn finishing_steps() -> Vec<Step> {
         let pts: Vec<[f64; 3]> = (0..=n)
             .map(|i| {
                 let s = i as f64 / n as f64;
-                let x = if forward { x0 + s * (x1 - x0) } else { x1 - s * (x1 - x0) };
+                let x = if forward {
+                    x0 + s * (x1 - x0)
+                } else {
+                    x1 - s * (x1 - x0)
+                };
                 [x, y, surface_mm(x, y)]
             })
             .collect();
         if let Some(p) = prev {
             // Stepover move between passes.
-            steps.push(Step { from_mm: p, to_mm: pts[0], rapid: false });
+            steps.push(Step {
+                from_mm: p,
+                to_mm: pts[0],
+                rapid: false,
+            });
         }
-        steps.extend(pts.windows(2).map(|w| Step { from_mm: w[0], to_mm: w[1], rapid: false }));
+        steps.extend(pts.windows(2).map(|w| Step {
+            from_mm: w[0],
+            to_mm: w[1],
+            rapid: false,
+        }));
         prev = pts.last().copied();
         y += 0.3;
         forward = !forward;
