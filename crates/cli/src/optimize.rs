@@ -1,7 +1,7 @@
 //! `dexcut optimize`: feed caps from the engagement along the path, the
 //! time-optimal re-timing under them, and a verification re-simulation.
 //!
-//! Engagement is feed-independent (DESIGN.md §3): one geometric sweep along
+//! Engagement is feed-independent (MODEL.md §2): one geometric sweep along
 //! fine stations gives the removed volume per unit length A(s) (mm³/mm).
 //! Every limit then becomes a cap on the feed at that station:
 //! * MRR: MRR = A·F/60 ≤ Q  ⇒  F ≤ 60·Q/A;

@@ -279,7 +279,7 @@ pub fn report(dir: &Path) -> Result<()> {
         after: None,
     });
     let mut notes = vec![
-        "Force F = a·V^n from the removed volume per tooth; deflection from a cantilever of the tool's stick-out with the band loads superposed (DESIGN.md §2 S4). Material coefficients are starting points: calibrate them with `dexcut calibrate`. S4 measured deflections about half of those predicted this way.".to_string(),
+        "Force F = a·V^n from the removed volume per tooth; deflection from a cantilever of the tool's stick-out with the band loads superposed (docs/MODEL.md §3.1, §4.1). Material coefficients are starting points: calibrate them with `dexcut calibrate`. S4 measured deflections about half of those predicted this way.".to_string(),
     ];
     if let Some(share) = summary.get("cap_time_share").and_then(Value::as_array) {
         let parts: Vec<String> = share

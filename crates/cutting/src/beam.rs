@@ -19,7 +19,7 @@ pub struct Cantilever {
 impl Cantilever {
     /// Second moment of area of the round section, mm⁴.
     pub fn second_moment_mm4(&self) -> f64 {
-        // DESIGN §2 S4: I = π d⁴ / 64
+        // MODEL.md §4.1 (S4): I = π d⁴ / 64
         std::f64::consts::PI * self.effective_diameter_mm.powi(4) / 64.0
     }
 
@@ -41,7 +41,7 @@ impl Cantilever {
         let b = l - load_from_tip_mm.clamp(0.0, l);
         let u = l - at_from_tip_mm.clamp(0.0, l);
         let six_ei = 6.0 * self.flexural_rigidity_n_mm2();
-        // DESIGN §2 S4's z(x) generalised to a load anywhere on the cantilever.
+        // MODEL.md §4.1: S4's z(x) generalised to a load anywhere on the cantilever.
         if u <= b {
             // y(u) = F u² (3b − u) / (6EI), between clamp and load
             load_n * u * u * (3.0 * b - u) / six_ei

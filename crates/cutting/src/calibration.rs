@@ -73,7 +73,7 @@ pub fn fit_force_law(points: &[(f64, f64)]) -> Result<Fit, FitError> {
             points: points.len(),
         });
     }
-    // DESIGN §2 S4 force law in logs, ln F = ln a + n ln V; normal equations:
+    // MODEL.md §3.1 (S4) force law in logs, ln F = ln a + n ln V; normal equations:
     // n = Sxy / Sxx, ln a = ȳ − n x̄
     let n = sxy / sxx;
     let ln_a = mean_y - n * mean_x;

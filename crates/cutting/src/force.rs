@@ -6,7 +6,7 @@
 ///
 /// `flutes`, `spindle_rpm` and `dt_s` must be positive; otherwise the result is not finite.
 pub fn volume_per_tooth_mm3(step_volume_mm3: f64, flutes: u32, spindle_rpm: f64, dt_s: f64) -> f64 {
-    // DESIGN §3: V = A·fz with fz = F/(flutes·rpm); per step V = volume / (flutes·rpm·Δt/60)
+    // MODEL.md §2: V = A·fz with fz = F/(flutes·rpm); per step V = volume / (flutes·rpm·Δt/60)
     let tooth_passes = f64::from(flutes) * spindle_rpm * dt_s / 60.0;
     step_volume_mm3 / tooth_passes
 }
@@ -17,14 +17,14 @@ pub fn force_n(v_mm3: f64, a: f64, n: f64) -> f64 {
     if v_mm3 <= 0.0 {
         return 0.0;
     }
-    // DESIGN §2 S4: F = a · V^n
+    // MODEL.md §3.1 (S4): F = a · V^n
     a * v_mm3.powf(n)
 }
 
 /// The inverse of [`force_n`]: the volume per tooth (mm³/rev/tooth) at which the force law
 /// gives `force_n` (used to turn a force limit into a feed cap).
 pub fn volume_per_tooth_at_force_mm3(force_n: f64, a: f64, n: f64) -> f64 {
-    // DESIGN §2 S4: F = a · V^n  ⇒  V = (F / a)^(1/n)
+    // MODEL.md §3.1 (S4): F = a · V^n  ⇒  V = (F / a)^(1/n)
     (force_n / a).powf(1.0 / n)
 }
 

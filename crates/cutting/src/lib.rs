@@ -10,7 +10,7 @@
 //! * [`surface`]: projection of the deflection on the final surface's normal (error map) and
 //!   normals of a height field.
 //!
-//! Units (DESIGN §4): mm, s, N, MPa (= N/mm²); deflections in reports in µm.
+//! Units (MODEL.md): mm, s, N, MPa (= N/mm²); deflections in reports in µm.
 
 pub mod beam;
 pub mod calibration;

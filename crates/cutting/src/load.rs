@@ -16,7 +16,7 @@ const MIN_RESULTANT: f64 = 1e-12;
 /// The material pushes the tool away from itself, so the force acts opposite to the resultant.
 /// Returns `[0, 0]` when the horizontal resultant is (nearly) zero, e.g. a pure plunge.
 pub fn force_direction(contact_resultant: [f64; 3]) -> [f64; 2] {
-    // DESIGN §2 S4: the contact resultant is the force direction; the tool yields along its reaction.
+    // MODEL.md §1.4 (S4): the contact resultant is the force direction; the tool yields along its reaction.
     let [x, y, _] = contact_resultant;
     let len = x.hypot(y);
     if len.is_nan() || len <= MIN_RESULTANT {
@@ -63,7 +63,7 @@ impl CuttingModel {
     /// Tip deflection in mm per newton of cutting force when the force is spread over the
     /// tool's height bands like `band_volumes_mm3`: band k carries the share
     /// `band_volumes_mm3[k] / Σ band_volumes_mm3` at its mid-height `(k + ½)·h` above the tip
-    /// (DESIGN §3 "Bands"; superposition of [`Cantilever::deflection_mm`]). With no volume in
+    /// (MODEL.md §1.3; superposition of [`Cantilever::deflection_mm`]). With no volume in
     /// the bands the whole force acts at the tip, the largest deflection for that force.
     ///
     /// Does not allocate.

@@ -1,4 +1,4 @@
-//! Error map: the tool's deflection projected on the final surface (DESIGN §3 "Error map").
+//! Error map: the tool's deflection projected on the final surface (MODEL.md §5).
 
 /// Predicted shape error in µm at a surface point cut while the tool was deflected by
 /// `deflection_xy_um` (µm, machine frame), given the **outward** normal of the final stock there
@@ -17,7 +17,7 @@ pub fn surface_error_um(deflection_xy_um: [f64; 2], surface_normal: [f64; 3]) ->
     if len.is_nan() || len == 0.0 {
         return f64::NAN;
     }
-    // DESIGN §3 "Error map": e = δ · n̂ (positive: material left)
+    // MODEL.md §5: e = δ · n̂ (positive: material left)
     (deflection_xy_um[0] * nx + deflection_xy_um[1] * ny) / len
 }
 

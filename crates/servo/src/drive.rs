@@ -123,7 +123,7 @@ pub fn simulate_actual_from(
                 for axis in 0..3 {
                     let (c0, c1) = (pair[0][axis], pair[1][axis]);
                     let slope = (c1 - c0) / period_s;
-                    // DESIGN §2 S4 first-order lag, solved over one period:
+                    // MODEL.md §7.1 (S4) first-order lag, solved over one period:
                     // e(T) = e(0)·e^{−Kp T} − (1 − ff)·s·(1 − e^{−Kp T})/Kp
                     let e = (x[axis] - c0) * decay
                         - (1.0 - ff) * slope * (1.0 - decay) / drive.kp_per_s;
@@ -136,7 +136,7 @@ pub fn simulate_actual_from(
             zeta,
             omega_n_rad_s: w,
         } => {
-            // Not in DESIGN (an extension of S4's lag): ẋ = v, v̇ = ω²(c − x) − 2ζω v + 2ζω ff s,
+            // Not in S4 (MODEL.md §7.1, an extension of its lag): ẋ = v, v̇ = ω²(c − x) − 2ζω v + 2ζω ff s,
             // ċ = s, ṡ = 0
             #[rustfmt::skip]
             let a = Matrix4::new(

@@ -11,7 +11,7 @@ pub fn max_jerk_mm_s3(actual: &[[f64; 3]], period_s: f64) -> [f64; 3] {
     let mut max = [0.0f64; 3];
     for w in actual.windows(4) {
         for axis in 0..3 {
-            // DESIGN §2 S2 (largest |jerk| per axis): j ≈ (x₃ − 3x₂ + 3x₁ − x₀) / T³
+            // MODEL.md §7.2 (S2) (largest |jerk| per axis): j ≈ (x₃ − 3x₂ + 3x₁ − x₀) / T³
             let third = w[3][axis] - 3.0 * w[2][axis] + 3.0 * w[1][axis] - w[0][axis];
             max[axis] = max[axis].max(third.abs() / t3);
         }
@@ -79,7 +79,7 @@ pub fn evaluate(
         va,
         vb,
         vc,
-        // DESIGN §2 S2: V = Ka·Va + Kb·Vb + Kc·Vc
+        // MODEL.md §7.2 (S2): V = Ka·Va + Kb·Vb + Kc·Vc
         evaluation: weights.ka * va + weights.kb * vb + weights.kc * vc,
     }
 }

@@ -167,7 +167,7 @@ pub fn trajectory_error_mm(commanded: &[[f64; 3]], actual: &[[f64; 3]]) -> (f64,
         !commanded.is_empty(),
         "no commanded path to measure against"
     );
-    // DESIGN §2 S2: trajectory error = max over actual samples of the distance to the path.
+    // MODEL.md §7.2 (S2): trajectory error = max over actual samples of the distance to the path.
     let tree = SegmentTree::new(commanded);
     let mut stack = Vec::with_capacity(2 * tree.levels.len() + 2);
     let mut hint = 0;

@@ -58,7 +58,7 @@ pub fn precompensate(
     while best.0 >= threshold_mm && iterations < max_iterations {
         for ((c, t), a) in command.iter_mut().zip(target).zip(&actual) {
             for axis in 0..3 {
-                // DESIGN §2 S4 motion error: command ← command + (target − actual)
+                // MODEL.md §7.3 (S4) motion error: command ← command + (target − actual)
                 c[axis] += t[axis] - a[axis];
             }
         }
