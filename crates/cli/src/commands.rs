@@ -24,6 +24,8 @@ pub struct Setup {
     pub stock: Stock,
     pub model: CuttingModel,
     pub machine: Machine,
+    /// The `[design]` model, read and checked before any work.
+    pub design: Option<(PathBuf, mesh::DesignModel)>,
 }
 
 impl Setup {
@@ -31,10 +33,7 @@ impl Setup {
     pub fn load(job_path: &Path, grid_mm: Option<f64>) -> Result<Setup> {
         let mut job = Job::load(job_path)?;
         if let Some(g) = grid_mm {
-            if !(g > 0.0 && g.is_finite()) {
-                bail!("--grid must be a positive number of mm, got {g}");
-            }
-            job.stock.grid = g;
+            job.set_grid(g)?;
         }
         let tool = job.tool()?;
         let program = program::load(&job)?;
@@ -42,8 +41,29 @@ impl Setup {
         machine
             .validate()
             .with_context(|| format!("{}: invalid [machine]", job.name))?;
+        if program.gcode.is_some() {
+            // Stations and samples are bounded before planning (2 runs: optimize's before and after).
+            let estimate =
+                crate::bounds::estimate_motion(&program.path, &machine, motion::STATION_DS_MM);
+            crate::bounds::check_motion(&estimate, &program.file, machine.period_ms, 2.0)?;
+        }
         let model = simulate::cutting_model(&job, &tool, &program)?;
         let stock = crate::stock::build(&job)?;
+        let design = match &job.design {
+            Some(d) => {
+                let path = job.resolve(&d.path);
+                crate::bounds::check_input_file(
+                    &path,
+                    "design model",
+                    crate::bounds::MAX_MESH_BYTES,
+                )?;
+                let (mesh, _) = mesh::load_solid(&path)?;
+                let model = mesh::DesignModel::new(&mesh)
+                    .with_context(|| format!("{}: design model", path.display()))?;
+                Some((path, model))
+            }
+            None => None,
+        };
         Ok(Setup {
             job,
             tool,
@@ -51,6 +71,7 @@ impl Setup {
             stock,
             model,
             machine,
+            design,
         })
     }
 
@@ -102,13 +123,9 @@ fn design_comparison(
     run: &Run,
     tops: &[f32],
 ) -> Result<Option<(Vec<f32>, DesignInfo)>> {
-    let Some(design) = &setup.job.design else {
+    let Some((path, model)) = &setup.design else {
         return Ok(None);
     };
-    let path = setup.job.resolve(&design.path);
-    let (mesh, _) = mesh::load_solid(&path)?;
-    let model = mesh::DesignModel::new(&mesh)
-        .with_context(|| format!("{}: design model", path.display()))?;
     let grid = *run.stock.grid();
     let point = |i: usize| {
         [
@@ -306,6 +323,11 @@ pub fn optimize(job_path: Option<&Path>, out: &Path, grid_mm: Option<f64>) -> Re
     let caps = optimize::interval_caps(&engagement, &stations, limits, &setup.model, &setup.tool);
     optimize::apply_interval_caps(&mut stations, &caps)?;
     let profile = schedule::plan(&stations);
+    crate::bounds::check_samples(
+        profile.cycle_time_s(),
+        machine.period_ms,
+        "the re-timed program ([limits] caps)",
+    )?;
     let samples = profile.sample(machine.period_ms);
     let lower_bound_time_s = schedule::lower_bound_time_s(&stations);
     let refeed = optimize::refeed_plan(&stations, &caps, &machine);

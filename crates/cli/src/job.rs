@@ -282,11 +282,84 @@ pub fn location(file: &str, text: &str, offset: usize) -> String {
     format!("{file}:{line}:{col}")
 }
 
+/// Finest column spacing and smallest tool size accepted, mm.
+const MIN_GRID_MM: f64 = 1e-4;
+/// Largest coordinate or length accepted, mm (1 km).
+const MAX_LENGTH_MM: f64 = 1e6;
+/// Feeds accepted, mm/min: 1 µm/min to 10 km/min.
+const FEED_RANGE_MM_MIN: (f64, f64) = (1e-3, 1e7);
+const MAX_FLUTES: u32 = 100;
+/// Pre-compensation iterations accepted (each is one drive simulation).
+const MAX_PRECOMP_ITERATIONS: usize = 1000;
+/// Columns a stock must have across its narrowest XY extent: a coarser grid
+/// rounds the stock's outline to a few cells (grid 1000 mm on a 20 mm box
+/// reported a thousand times its volume).
+const MIN_COLUMNS_ACROSS: f64 = 4.0;
+
+/// `key` must be a finite number in `lo..=hi`.
+fn range(key: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
+    if !(v >= lo && v <= hi) {
+        if !v.is_finite() {
+            bail!("{key} must be a finite number, got {v}");
+        }
+        bail!("{key} must lie in {lo}..{hi}, got {v}");
+    }
+    Ok(())
+}
+
+/// An optional positive number up to `hi`.
+fn positive_opt(key: &str, v: Option<f64>, hi: f64) -> Result<()> {
+    match v {
+        Some(v) if !(v > 0.0) => {
+            if v.is_nan() {
+                bail!("{key} must be a finite number, got {v}");
+            }
+            bail!("{key} must be a positive number, got {v}")
+        }
+        Some(v) => range(key, v, 0.0, hi),
+        None => Ok(()),
+    }
+}
+
+fn feed_opt(key: &str, v: Option<f64>) -> Result<()> {
+    positive_opt(key, v, FEED_RANGE_MM_MIN.1)?;
+    v.map_or(Ok(()), |v| {
+        range(key, v, FEED_RANGE_MM_MIN.0, FEED_RANGE_MM_MIN.1)
+    })
+}
+
+/// Finite coordinates within ±1 km; the key names the element.
+fn coordinates(key: &str, v: &[f64]) -> Result<()> {
+    for (i, x) in v.iter().enumerate() {
+        if !(x.abs() <= MAX_LENGTH_MM) {
+            let at = if v.len() > 1 {
+                format!("{key}[{i}]")
+            } else {
+                key.to_string()
+            };
+            if !x.is_finite() {
+                bail!("{at} must be a finite number, got {x}");
+            }
+            bail!("{at} must lie within ±{MAX_LENGTH_MM} mm, got {x}");
+        }
+    }
+    Ok(())
+}
+
+/// The grid must resolve the stock: at least [`MIN_COLUMNS_ACROSS`] columns across.
+fn grid_resolves(kind: &str, grid_mm: f64, extent_mm: f64) -> Result<()> {
+    if grid_mm * MIN_COLUMNS_ACROSS > extent_mm {
+        bail!(
+            "stock.grid ({grid_mm} mm) is too coarse for the {kind}'s {extent_mm} mm XY extent: at least {MIN_COLUMNS_ACROSS} columns across are needed"
+        );
+    }
+    Ok(())
+}
+
 impl Job {
     /// Read and check a job file.
     pub fn load(path: &Path) -> Result<Job> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read job file {}", path.display()))?;
+        let text = crate::bounds::read_text(path, "job file", crate::bounds::MAX_JOB_BYTES)?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Job::parse(&text, &path.display().to_string(), &base)
     }
@@ -306,6 +379,13 @@ impl Job {
         Ok(job)
     }
 
+    /// Override the stock's column spacing (`--grid`) and check the job again.
+    pub fn set_grid(&mut self, grid_mm: f64) -> Result<()> {
+        self.stock.grid = grid_mm;
+        self.validate()
+            .with_context(|| format!("--grid {grid_mm}: invalid for {}", self.name))
+    }
+
     /// Resolve a path from the job file against its folder.
     pub fn resolve(&self, p: &Path) -> PathBuf {
         if p.is_absolute() {
@@ -315,38 +395,39 @@ impl Job {
         }
     }
 
+    /// Every number is checked against a plausible range here, at parse time,
+    /// with its key: non-finite values (toml reads `inf` and `nan`) and absurd
+    /// ones (a 1e-9 mm/s² acceleration, a 1e9 ms period) never reach the work.
     fn validate(&self) -> Result<()> {
-        fn positive(what: &str, v: f64) -> Result<()> {
-            if !(v > 0.0 && v.is_finite()) {
-                bail!("{what} must be a positive number, got {v}");
-            }
-            Ok(())
-        }
-        fn positive_opt(what: &str, v: Option<f64>) -> Result<()> {
-            v.map_or(Ok(()), |v| positive(what, v))
-        }
         let s = &self.stock;
-        positive("stock.grid (mm)", s.grid)?;
+        range("stock.grid (mm)", s.grid, MIN_GRID_MM, MAX_LENGTH_MM)?;
         match s.kind {
             StockKind::Box => {
                 let (Some(min), Some(max)) = (s.min, s.max) else {
                     bail!("stock kind \"box\" needs min = [x, y, z] and max = [x, y, z]")
                 };
+                coordinates("stock.min (mm)", &min)?;
+                coordinates("stock.max (mm)", &max)?;
                 for k in 0..3 {
                     if !(max[k] > min[k]) {
                         bail!("stock box max must exceed min on every axis, got min {min:?}, max {max:?}");
                     }
                 }
+                grid_resolves("box", s.grid, (max[0] - min[0]).min(max[1] - min[1]))?;
             }
             StockKind::Cylinder => {
-                let (Some(_), Some(r), Some(lo), Some(hi)) = (s.center, s.radius, s.z_min, s.z_max)
+                let (Some(c), Some(r), Some(lo), Some(hi)) = (s.center, s.radius, s.z_min, s.z_max)
                 else {
                     bail!("stock kind \"cylinder\" needs center = [x, y], radius, z_min and z_max")
                 };
-                positive("stock.radius (mm)", r)?;
+                coordinates("stock.center (mm)", &c)?;
+                range("stock.radius (mm)", r, f64::MIN_POSITIVE, MAX_LENGTH_MM)?;
+                coordinates("stock.z_min (mm)", &[lo])?;
+                coordinates("stock.z_max (mm)", &[hi])?;
                 if !(hi > lo) {
                     bail!("stock cylinder z_max ({hi}) must exceed z_min ({lo})");
                 }
+                grid_resolves("cylinder", s.grid, 2.0 * r)?;
             }
             StockKind::Mesh => {
                 if s.path.is_none() {
@@ -355,43 +436,65 @@ impl Job {
             }
         }
         let t = &self.tool;
-        positive("tool.diameter (mm)", t.diameter)?;
-        positive_opt("tool.flute_length (mm)", t.flute_length)?;
-        positive_opt("tool.stickout (mm)", t.stickout)?;
+        range("tool.diameter (mm)", t.diameter, MIN_GRID_MM, 1000.0)?;
+        if let Some(r) = t.corner_radius {
+            range("tool.corner_radius (mm)", r, 0.0, t.diameter / 2.0)?;
+        }
+        positive_opt("tool.flute_length (mm)", t.flute_length, MAX_LENGTH_MM)?;
+        positive_opt("tool.stickout (mm)", t.stickout, MAX_LENGTH_MM)?;
+        positive_opt("tool.youngs_modulus_mpa", t.youngs_modulus_mpa, 1e7)?;
+        positive_opt("tool.effective_diameter (mm)", t.effective_diameter, 1000.0)?;
+        if !(1..=MAX_FLUTES).contains(&t.flutes) {
+            bail!("tool.flutes must be 1..{MAX_FLUTES}, got {}", t.flutes);
+        }
         if t.kind == ToolKind::Bull && t.corner_radius.is_none() {
             bail!("tool kind \"bull\" needs corner_radius (mm)");
         }
-        positive_opt("program.feed (mm/min)", self.program.feed)?;
+        feed_opt("program.feed (mm/min)", self.program.feed)?;
         let c = &self.cutting;
-        positive("cutting.band_height (mm)", c.band_height)?;
-        positive_opt("cutting.spindle_rpm", c.spindle_rpm)?;
-        positive_opt("cutting.force_a", c.force_a)?;
-        positive_opt("cutting.force_n", c.force_n)?;
+        range(
+            "cutting.band_height (mm)",
+            c.band_height,
+            MIN_GRID_MM,
+            MAX_LENGTH_MM,
+        )?;
+        if let Some(rpm) = c.spindle_rpm {
+            range("cutting.spindle_rpm (rev/min)", rpm, 1.0, 1e6)?;
+        }
+        positive_opt("cutting.force_a", c.force_a, 1e7)?;
+        positive_opt("cutting.force_n", c.force_n, 2.0)?;
         let m = &self.machine;
-        positive("machine.period_ms", m.period_ms)?;
-        positive("machine.feed_max (mm/min)", m.feed_max)?;
-        positive("machine.rapid (mm/min)", m.rapid)?;
+        range("machine.period_ms", m.period_ms, 0.01, 1000.0)?;
+        feed_opt("machine.feed_max (mm/min)", Some(m.feed_max))?;
+        feed_opt("machine.rapid (mm/min)", Some(m.rapid))?;
         for a in m.accel {
-            positive("machine.accel (mm/s²)", a)?;
+            range("machine.accel (mm/s²)", a, 1e-3, 1e8)?;
         }
         if let Some(j) = m.jerk {
             for v in j {
-                positive("machine.jerk (mm/s³)", v)?;
+                range("machine.jerk (mm/s³)", v, 1e-3, 1e12)?;
             }
         }
-        positive_opt("machine.block_time_ms", m.block_time_ms)?;
+        if let Some(b) = m.block_time_ms {
+            range("machine.block_time_ms", b, f64::MIN_POSITIVE, 1000.0)?;
+        }
         if let Some(p) = m.start {
-            if p.iter().any(|v| !v.is_finite()) {
-                bail!("machine.start must be three finite numbers (mm)");
-            }
+            coordinates("machine.start (mm)", &p)?;
         }
         let l = &self.limits;
-        positive_opt("limits.mrr_max (mm³/s)", l.mrr_max)?;
-        positive_opt("limits.force_max (N)", l.force_max)?;
-        positive_opt("limits.deflection_max_um", l.deflection_max_um)?;
-        positive_opt("limits.feed_min (mm/min)", l.feed_min)?;
-        positive_opt("limits.feed_max (mm/min)", l.feed_max)?;
-        positive_opt("limits.v0 (mm/min)", l.v0)?;
+        for (key, v) in [
+            ("limits.mrr_max (mm³/s)", l.mrr_max),
+            ("limits.force_max (N)", l.force_max),
+            ("limits.deflection_max_um", l.deflection_max_um),
+        ] {
+            positive_opt(key, v, 1e9)?;
+            if let Some(v) = v {
+                range(key, v, 1e-6, 1e9)?;
+            }
+        }
+        feed_opt("limits.feed_min (mm/min)", l.feed_min)?;
+        feed_opt("limits.feed_max (mm/min)", l.feed_max)?;
+        feed_opt("limits.v0 (mm/min)", l.v0)?;
         if let (Some(lo), Some(hi)) = (l.feed_min, l.feed_max.or(Some(m.feed_max))) {
             if lo > hi {
                 bail!("limits.feed_min ({lo}) exceeds the highest feed ({hi})");
@@ -400,23 +503,54 @@ impl Job {
         if l.angle_rule && l.v0.is_none() {
             bail!("limits.angle_rule needs v0 (mm/min), the feed near the ball tip");
         }
-        positive("servo.kp (1/s)", self.servo.kp)?;
-        positive("servo.tolerance_mm", self.servo.tolerance_mm)?;
-        positive("servo.jerk_reference (mm/s³)", self.servo.jerk_reference)?;
-        positive(
-            "servo.precomp_threshold_mm",
-            self.servo.precomp_threshold_mm,
+        let sv = &self.servo;
+        range("servo.kp (1/s)", sv.kp, 1e-3, 1e5)?;
+        range("servo.tolerance_mm", sv.tolerance_mm, 1e-9, MAX_LENGTH_MM)?;
+        range(
+            "servo.jerk_reference (mm/s³)",
+            sv.jerk_reference,
+            1e-3,
+            1e15,
         )?;
-        positive_opt("servo.zeta", self.servo.zeta)?;
-        positive_opt("servo.omega_n (rad/s)", self.servo.omega_n)?;
-        if self.servo.zeta.is_some() != self.servo.omega_n.is_some() {
+        range(
+            "servo.precomp_threshold_mm",
+            sv.precomp_threshold_mm,
+            1e-9,
+            MAX_LENGTH_MM,
+        )?;
+        if sv.precomp_iterations > MAX_PRECOMP_ITERATIONS {
+            bail!(
+                "servo.precomp_iterations must be at most {MAX_PRECOMP_ITERATIONS}, got {}",
+                sv.precomp_iterations
+            );
+        }
+        positive_opt("servo.zeta", sv.zeta, 100.0)?;
+        positive_opt("servo.omega_n (rad/s)", sv.omega_n, 1e6)?;
+        for (key, v) in [
+            ("servo.ka", sv.ka),
+            ("servo.kb", sv.kb),
+            ("servo.kc", sv.kc),
+        ] {
+            range(key, v, 0.0, 1e6)?;
+        }
+        if sv.zeta.is_some() != sv.omega_n.is_some() {
             bail!("servo: a second-order drive needs both zeta and omega_n");
         }
-        if !(0.0..=1.0).contains(&self.servo.feedforward) {
-            bail!(
-                "servo.feedforward must lie in 0..1, got {}",
-                self.servo.feedforward
-            );
+        range("servo.feedforward", sv.feedforward, 0.0, 1.0)?;
+        for (i, o) in [
+            self.offsets.g54,
+            self.offsets.g55,
+            self.offsets.g56,
+            self.offsets.g57,
+            self.offsets.g58,
+            self.offsets.g59,
+        ]
+        .iter()
+        .enumerate()
+        {
+            if let Some(o) = o {
+                coordinates(&format!("offsets.g{} (mm)", 54 + i), o)?;
+            }
         }
         Ok(())
     }
@@ -488,10 +622,147 @@ feed = 1000
             Job::parse(&text, "job.toml", Path::new(".")).unwrap_err()
         );
         assert!(
-            err.contains("tool.diameter (mm) must be a positive number"),
+            err.contains("tool.diameter (mm) must lie in 0.0001..1000, got -6"),
             "{err}"
         );
         let text = MINIMAL.replace("max = [10, 10, 10]", "max = [10, -10, 10]");
         assert!(Job::parse(&text, "job.toml", Path::new(".")).is_err());
+    }
+
+    /// Issue 15 (D1, D4, D9, D12): non-finite and absurd numbers are refused
+    /// at parse time, each with its key.
+    #[test]
+    fn non_finite_and_absurd_numbers_name_their_key() {
+        let cases: [(&str, &str, &str); 24] = [
+            (
+                "max = [10, 10, 10]",
+                "max = [10, 10, inf]",
+                "stock.max (mm)[2] must be a finite number, got inf",
+            ),
+            (
+                "min = [0, 0, 0]",
+                "min = [nan, 0, 0]",
+                "stock.min (mm)[0] must be a finite number, got NaN",
+            ),
+            (
+                "grid = 0.5",
+                "grid = 1000",
+                "stock.grid (1000 mm) is too coarse",
+            ),
+            (
+                "grid = 0.5",
+                "grid = nan",
+                "stock.grid (mm) must be a finite number",
+            ),
+            (
+                "diameter = 6",
+                "diameter = inf",
+                "tool.diameter (mm) must be a finite number",
+            ),
+            (
+                "diameter = 6",
+                "diameter = 6\nflutes = 0",
+                "tool.flutes must be 1..100, got 0",
+            ),
+            (
+                "feed = 1000",
+                "feed = 1e-9",
+                "program.feed (mm/min) must lie in 0.001..10000000",
+            ),
+            (
+                "[program]",
+                "[machine]\naccel = [1e-9, 1000, 1000]\n[program]",
+                "machine.accel (mm/s²) must lie in",
+            ),
+            (
+                "[program]",
+                "[machine]\nfeed_max = 1e-6\n[program]",
+                "machine.feed_max (mm/min) must lie in",
+            ),
+            (
+                "[program]",
+                "[machine]\nperiod_ms = 1e-6\n[program]",
+                "machine.period_ms must lie in 0.01..1000",
+            ),
+            (
+                "[program]",
+                "[machine]\nperiod_ms = 1e9\n[program]",
+                "machine.period_ms must lie in 0.01..1000",
+            ),
+            (
+                "[program]",
+                "[machine]\njerk = [1e-6, 1, 1]\n[program]",
+                "machine.jerk (mm/s³) must lie in",
+            ),
+            (
+                "[program]",
+                "[machine]\nblock_time_ms = 1e9\n[program]",
+                "machine.block_time_ms must lie in",
+            ),
+            (
+                "[program]",
+                "[machine]\nstart = [0, 0, 1e12]\n[program]",
+                "machine.start (mm)[2] must lie within",
+            ),
+            (
+                "[program]",
+                "[limits]\nmrr_max = 1e-12\n[program]",
+                "limits.mrr_max (mm³/s) must lie in 0.000001..1000000000",
+            ),
+            (
+                "[program]",
+                "[limits]\nforce_max = 1e-9\n[program]",
+                "limits.force_max (N) must lie in",
+            ),
+            (
+                "[program]",
+                "[limits]\ndeflection_max_um = 1e-9\n[program]",
+                "limits.deflection_max_um must lie in",
+            ),
+            (
+                "[program]",
+                "[cutting]\nspindle_rpm = 1e-300\n[program]",
+                "cutting.spindle_rpm (rev/min) must lie in 1..1000000",
+            ),
+            (
+                "[program]",
+                "[servo]\nkp = nan\n[program]",
+                "servo.kp (1/s) must be a finite number",
+            ),
+            (
+                "[program]",
+                "[servo]\nka = nan\n[program]",
+                "servo.ka must be a finite number",
+            ),
+            (
+                "[program]",
+                "[servo]\nprecomp_iterations = 100000000000\n[program]",
+                "servo.precomp_iterations must be at most 1000",
+            ),
+            (
+                "[program]",
+                "[servo]\nprecomp_threshold_mm = 1e-300\n[program]",
+                "servo.precomp_threshold_mm must lie in",
+            ),
+            (
+                "[program]",
+                "[offsets]\ng55 = [0, nan, 0]\n[program]",
+                "offsets.g55 (mm)[1] must be a finite number",
+            ),
+            (
+                "[program]",
+                "[cutting]\nforce_n = -1\n[program]",
+                "cutting.force_n must be a positive number, got -1",
+            ),
+        ];
+        for (from, to, expected) in cases {
+            assert!(MINIMAL.contains(from), "{from}");
+            let text = MINIMAL.replacen(from, to, 1);
+            let err = format!(
+                "{:#}",
+                Job::parse(&text, "job.toml", Path::new(".")).unwrap_err()
+            );
+            assert!(err.contains(expected), "{to}: {err}");
+        }
     }
 }

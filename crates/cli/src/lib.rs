@@ -5,6 +5,7 @@
 //! Data flow: job → stock (dexel, mesh) + program (nc) → motion (schedule)
 //! → sweep (dexel) → loads (cutting) → outputs (export).
 
+pub mod bounds;
 pub mod commands;
 pub mod evaluate;
 pub mod example;

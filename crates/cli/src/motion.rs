@@ -67,7 +67,9 @@ pub fn steps_from_samples(path: &nc::Path, samples: &[ServoSample]) -> Vec<Timed
 /// How the machine runs the program as written: servo samples every period.
 pub fn machine_motion(path: &nc::Path, machine: &Machine) -> Result<Vec<ServoSample>> {
     let stations = Stations::new(path, machine, STATION_DS_MM, FeedPolicy::Programmed)?;
-    Ok(schedule::plan(&stations).sample(machine.period_ms))
+    let profile = schedule::plan(&stations);
+    crate::bounds::check_samples(profile.cycle_time_s(), machine.period_ms, "the program")?;
+    Ok(profile.sample(machine.period_ms))
 }
 
 /// CSV point lists: one step per move, time = length / feed (no acceleration).

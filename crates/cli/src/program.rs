@@ -34,8 +34,12 @@ impl Program {
 /// Load the job's program, choosing the reader by extension.
 pub fn load(job: &Job) -> Result<Program> {
     let path = job.resolve(&job.program.path);
-    let text = std::fs::read_to_string(&path)
-        .with_context(|| format!("cannot read program {}", path.display()))?;
+    let size = crate::bounds::check_input_file(&path, "program", crate::bounds::MAX_PROGRAM_BYTES)?;
+    crate::bounds::check_memory(
+        size as f64 * crate::bounds::BYTES_PER_PROGRAM_BYTE,
+        &format!("reading the {size}-byte program {}", path.display()),
+    )?;
+    let text = crate::bounds::read_text(&path, "program", crate::bounds::MAX_PROGRAM_BYTES)?;
     let file = path.display().to_string();
     let ext = path
         .extension()

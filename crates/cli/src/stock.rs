@@ -5,29 +5,9 @@ use dexel::{Grid, Stock};
 
 use crate::job::{Job, StockKind};
 
-/// Bytes of memory the machine can still give, from /proc/meminfo (Linux),
-/// else a conservative 4 GiB.
-pub fn available_memory_bytes() -> f64 {
-    std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("MemAvailable:"))
-                .and_then(|l| l.split_whitespace().nth(1))
-                .and_then(|kb| kb.parse::<f64>().ok())
-        })
-        .map_or(4.0 * 1024.0 * 1024.0 * 1024.0, |kb| kb * 1024.0)
-}
-
-/// Refuse a grid that would need more than half the available memory
-/// (the sweep needs room for a second copy in `optimize`).
+/// Refuse a grid whose columns would not fit in the memory this process may use.
 fn check_fits(grid: &Grid, what: &str) -> Result<()> {
-    Stock::check_memory(grid, 0.5 * available_memory_bytes()).with_context(|| {
-        format!(
-            "{what}: {}×{} columns at grid {} mm do not fit in memory",
-            grid.nx, grid.ny, grid.spacing_mm
-        )
-    })
+    crate::bounds::check_columns(grid.nx, grid.ny, grid.spacing_mm, what)
 }
 
 /// The job's stock.
@@ -59,10 +39,18 @@ pub fn build(job: &Job) -> Result<Stock> {
         }
         StockKind::Mesh => {
             let path = job.resolve(s.path.as_deref().unwrap_or(std::path::Path::new("")));
+            crate::bounds::check_input_file(&path, "stock mesh", crate::bounds::MAX_MESH_BYTES)?;
             let (mesh, _info) = mesh::load_solid(&path)?;
             let (lo, hi) = mesh
                 .bounds_mm()
                 .with_context(|| format!("{}: the stock mesh is empty", path.display()))?;
+            let extent_mm = (hi[0] - lo[0]).min(hi[1] - lo[1]);
+            if s.grid * 4.0 > extent_mm {
+                anyhow::bail!(
+                    "{what}: grid ({} mm) is too coarse for the mesh's {extent_mm} mm XY extent: at least 4 columns across are needed",
+                    s.grid
+                );
+            }
             let grid = Grid::covering(lo[0], lo[1], hi[0], hi[1], s.grid)?;
             check_fits(&grid, &what)?;
             let (stock, _stats) = mesh::stock_on_grid(&mesh, grid)?;

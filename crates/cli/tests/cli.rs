@@ -184,7 +184,8 @@ fn grid_too_large_for_memory_is_refused_before_work() {
     );
     assert!(!out.status.success());
     assert!(
-        stderr(&out).contains("do not fit in memory") || stderr(&out).contains("coarser grid"),
+        stderr(&out).contains("MB of memory, more than the")
+            || stderr(&out).contains("use a coarser grid"),
         "{}",
         stderr(&out)
     );
@@ -195,7 +196,7 @@ fn grid_too_large_for_memory_is_refused_before_work() {
     );
     assert!(!out.status.success());
     assert!(
-        stderr(&out).contains("--grid must be a positive"),
+        stderr(&out).contains("stock.grid (mm) must lie in 0.0001..1000000, got -1"),
         "{}",
         stderr(&out)
     );

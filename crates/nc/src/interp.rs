@@ -29,6 +29,8 @@ pub struct Options {
     pub block_delete: bool,
     /// Stop with an error after executing this many blocks (endless loops).
     pub max_blocks: u64,
+    /// Stop with an error once the path has more segments than this (memory bound).
+    pub max_segments: usize,
 }
 
 impl Default for Options {
@@ -40,6 +42,7 @@ impl Default for Options {
             g30_home_mm: [0.0; 3],
             block_delete: true,
             max_blocks: 10_000_000,
+            max_segments: 5_000_000,
         }
     }
 }
@@ -82,6 +85,9 @@ struct Fail {
     col: u32,
     msg: String,
 }
+
+/// Most pecks (times L repeats) one drilling cycle block may make.
+const MAX_CYCLE_PECKS: f64 = 100_000.0;
 
 fn fail<T>(col: u32, msg: impl Into<String>) -> Result<T, Fail> {
     Err(Fail {
@@ -304,6 +310,16 @@ impl Interp<'_> {
                     format!(
                         "more than {} blocks executed; endless loop?",
                         self.options.max_blocks
+                    ),
+                );
+                return;
+            }
+            if self.path.segments.len() > self.options.max_segments {
+                self.report(
+                    1,
+                    format!(
+                        "the program makes more than {} moves (the limit)",
+                        self.options.max_segments
                     ),
                 );
                 return;
@@ -1133,6 +1149,20 @@ impl Interp<'_> {
         };
         if r_z < bottom_z {
             return fail(b.col('r'), "R plane below the hole bottom Z");
+        }
+        // Each peck is a few moves: bound them before expanding (Q 1e-9 would be 1e10 moves).
+        let pecks = if peck_mm > 0.0 {
+            ((r_z - bottom_z) / peck_mm).ceil() * repeats
+        } else {
+            repeats
+        };
+        if !(pecks <= MAX_CYCLE_PECKS) {
+            return fail(
+                b.col(if peck_mm > 0.0 { 'q' } else { 'l' }),
+                format!(
+                    "the cycle would make {pecks:.3e} pecks (limit {MAX_CYCLE_PECKS}): Q peck depth too small"
+                ),
+            );
         }
         let c = Cycle {
             code: self.motion,
