@@ -95,7 +95,7 @@ fn default_flutes() -> u32 {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ProgramSpec {
-    /// G-code (.nc, .ngc, .tap, .gcode) or tool-tip points (.csv with header x,y,z[,feed]).
+    /// G-code (any extension) or tool-tip points (a CSV with header x,y,z[,feed]), told apart by content.
     pub path: PathBuf,
     /// Feed for CSV rows without one, mm/min.
     pub feed: Option<f64>,

@@ -1,7 +1,5 @@
 //! Reading the program: G-code through `nc`, or a CSV of tool-tip points.
 
-use std::path::Path;
-
 use anyhow::{bail, Context, Result};
 use nalgebra::Point3;
 use nc::{Geometry, Motion, Segment};
@@ -31,7 +29,8 @@ impl Program {
     }
 }
 
-/// Load the job's program, choosing the reader by extension.
+/// Load the job's program, choosing the reader by its content (any file
+/// name: .nc, .ngc, .gc, .tap, .gcode, .cnc, … are all G-code).
 pub fn load(job: &Job) -> Result<Program> {
     let path = job.resolve(&job.program.path);
     let size = crate::bounds::check_input_file(&path, "program", crate::bounds::MAX_PROGRAM_BYTES)?;
@@ -41,16 +40,31 @@ pub fn load(job: &Job) -> Result<Program> {
     )?;
     let text = crate::bounds::read_text(&path, "program", crate::bounds::MAX_PROGRAM_BYTES)?;
     let file = path.display().to_string();
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    match ext.as_str() {
-        "csv" => Ok(Program { path: read_points_csv(&text, &file, job.program.feed)?, file, gcode: None, nc_options: nc::Options::default() }),
-        "nc" | "ngc" | "tap" | "gcode" | "cnc" => parse_gcode(&text, &file, job),
-        _ => bail!("{file}: unknown program type .{ext}; use .nc/.ngc/.tap/.gcode for G-code or .csv for tool-tip points"),
+    if is_points_csv(&text) {
+        Ok(Program {
+            path: read_points_csv(&text, &file, job.program.feed)?,
+            file,
+            gcode: None,
+            nc_options: nc::Options::default(),
+        })
+    } else {
+        parse_gcode(&text, &file, job)
     }
+}
+
+/// True when the first non-blank line is a CSV header naming columns x, y
+/// and z: a tool-tip point list. Anything else is read as G-code.
+pub fn is_points_csv(text: &str) -> bool {
+    let Some(first) = text.lines().map(str::trim).find(|l| !l.is_empty()) else {
+        return false;
+    };
+    let fields: Vec<String> = first
+        .split(',')
+        .map(|f| f.trim().to_ascii_lowercase())
+        .collect();
+    ["x", "y", "z"]
+        .iter()
+        .all(|axis| fields.iter().any(|f| f == axis))
 }
 
 /// Parse G-code text; every error diagnostic is reported at once. The tool
@@ -59,6 +73,7 @@ pub fn load(job: &Job) -> Result<Program> {
 pub fn parse_gcode(text: &str, file: &str, job: &Job) -> Result<Program> {
     let mut options = nc::Options {
         work_offsets_mm: job.offsets.as_array(),
+        require_program_end: true,
         ..nc::Options::default()
     };
     options.initial_position_mm = job.machine.start.unwrap_or_default();
@@ -167,6 +182,7 @@ pub fn read_points_csv(text: &str, file: &str, default_feed: Option<f64>) -> Res
                 motion: Motion::Feed { feed_mm_min: feed },
                 line,
                 spindle_rpm: 0.0,
+                tool: 1,
             });
         }
         prev = Some(p);
@@ -175,17 +191,6 @@ pub fn read_points_csv(text: &str, file: &str, default_feed: Option<f64>) -> Res
         bail!("{file}: need at least two points to make a move");
     }
     Ok(nc::Path { segments })
-}
-
-/// True if the program file name looks like G-code.
-pub fn is_gcode(path: &Path) -> bool {
-    matches!(
-        path.extension()
-            .and_then(|e| e.to_str())
-            .map(|e| e.to_ascii_lowercase())
-            .as_deref(),
-        Some("nc" | "ngc" | "tap" | "gcode" | "cnc")
-    )
 }
 
 #[cfg(test)]
@@ -210,6 +215,14 @@ mod tests {
         );
         assert_eq!(path.segments[1].line, 4);
         assert!((path.length_mm() - 15.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn programs_are_told_apart_by_content() {
+        assert!(is_points_csv("\n x, y ,Z,feed\n0,0,0,100\n"));
+        assert!(!is_points_csv("%\nG0 X0 Y0 Z5\nM30\n%\n"));
+        assert!(!is_points_csv("(x,y,z)\nG0 X1\n"));
+        assert!(!is_points_csv(""));
     }
 
     #[test]

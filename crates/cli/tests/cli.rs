@@ -805,7 +805,7 @@ fn machine_start_is_where_the_tool_begins() {
     write(
         dir.path(),
         "slot.ngc",
-        "G21 G90\nG0 X-10 Y0\nG0 Z28\nG1 X110 F1200\n",
+        "G21 G90\nG0 X-10 Y0\nG0 Z28\nG1 X110 F1200\nM2\n",
     );
     write(dir.path(), "job.toml", &gcode_slot_job());
     ok(&dexcut(

@@ -16,14 +16,12 @@ pub enum CycleMove {
 const RAPID_DELTA_MM: f64 = 0.254;
 
 /// A cycle to expand.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Cycle {
     /// G-code ×10 (730, 810, 820, 830).
     pub code: i32,
-    /// Hole positions start here (mm) and step by `step` per repeat.
-    pub first_xy: [f64; 2],
-    pub step_xy: [f64; 2],
-    pub repeats: u32,
+    /// Hole positions (mm), one per repeat.
+    pub holes: Vec<[f64; 2]>,
     /// Tool Z before the cycle, R plane, hole bottom (mm).
     pub start_z: f64,
     pub r_z: f64,
@@ -45,12 +43,7 @@ pub fn expand(c: &Cycle, current_xy: [f64; 2]) -> Vec<CycleMove> {
         old_z = c.r_z;
     }
     let clear_z = if c.retract_to_start { old_z } else { c.r_z };
-    let [mut x, mut y] = c.first_xy;
-    for i in 0..c.repeats {
-        if i > 0 {
-            x += c.step_xy[0];
-            y += c.step_xy[1];
-        }
+    for &[x, y] in &c.holes {
         moves.push(CycleMove::Rapid([x, y, old_z]));
         if old_z != c.r_z {
             moves.push(CycleMove::Rapid([x, y, c.r_z]));

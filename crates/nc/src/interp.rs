@@ -4,7 +4,7 @@
 //! Internally all lengths are mm in the machine frame; program values are
 //! scaled by 25.4 under G20 and shifted by the active work offset and G92.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::rc::Rc;
 
 use nalgebra::Point3;
@@ -13,7 +13,7 @@ use crate::cycles::{self, Cycle, CycleMove};
 use crate::diag::{Diagnostic, Severity};
 use crate::expr::Params;
 use crate::path::{Geometry, Motion, Path, Plane, Segment};
-use crate::syntax::{self, Item, ItemKind, LineKind, OKeyword, OLabel, OStmt};
+use crate::syntax::{self, Item, ItemKind, LineKind, OKeyword, OLabel, OStmt, SyntaxError};
 
 /// Settings the program cannot know by itself.
 #[derive(Clone, Debug, PartialEq)]
@@ -31,6 +31,17 @@ pub struct Options {
     pub max_blocks: u64,
     /// Stop with an error once the path has more segments than this (memory bound).
     pub max_segments: usize,
+    /// Tool table: gauge length (mm) of each tool number (T word), used by
+    /// G43. Empty: every T is accepted and every tool has length 0.
+    pub tool_lengths_mm: BTreeMap<u32, f64>,
+    /// Tool in the spindle when the program starts; `None`: the first tool
+    /// the program loads (M6, M61), or 0 if it loads none.
+    pub initial_tool: Option<u32>,
+    /// Errors kept per program; the rest are counted in a last "and K more".
+    pub max_errors: usize,
+    /// A file that ends without M2, M30 or a closing `%` is an error, as in
+    /// LinuxCNC (off by default for program fragments).
+    pub require_program_end: bool,
 }
 
 impl Default for Options {
@@ -43,6 +54,10 @@ impl Default for Options {
             block_delete: true,
             max_blocks: 10_000_000,
             max_segments: 5_000_000,
+            tool_lengths_mm: BTreeMap::new(),
+            initial_tool: None,
+            max_errors: 20,
+            require_program_end: false,
         }
     }
 }
@@ -102,17 +117,26 @@ struct Block {
     /// G codes ×10 with columns.
     g: Vec<(i32, u32)>,
     m: Vec<(i32, u32)>,
-    /// Letter values and columns, indexed by letter − 'a'.
-    words: [Option<(f64, u32)>; 26],
+    /// Letter values and columns, indexed by [`slot`].
+    words: [Option<(f64, u32)>; 28],
     first_col: u32,
+}
+
+/// Index of a word letter: a–z, then `@` (polar radius) and `^` (polar angle).
+fn slot(letter: char) -> usize {
+    match letter {
+        '@' => 26,
+        '^' => 27,
+        l => (l as u8 - b'a') as usize,
+    }
 }
 
 impl Block {
     fn get(&self, letter: char) -> Option<f64> {
-        self.words[(letter as u8 - b'a') as usize].map(|w| w.0)
+        self.words[slot(letter)].map(|w| w.0)
     }
     fn col(&self, letter: char) -> u32 {
-        self.words[(letter as u8 - b'a') as usize].map_or(self.first_col, |w| w.1)
+        self.words[slot(letter)].map_or(self.first_col, |w| w.1)
     }
     fn has_g(&self, code: i32) -> Option<u32> {
         self.g.iter().find(|g| g.0 == code).map(|g| g.1)
@@ -121,7 +145,9 @@ impl Block {
         self.m.iter().any(|m| m.0 == code)
     }
     fn has_axes(&self) -> bool {
-        ['x', 'y', 'z'].iter().any(|&c| self.get(c).is_some())
+        ['x', 'y', 'z', '@', '^']
+            .iter()
+            .any(|&c| self.get(c).is_some())
     }
     /// Sets a two-state mode from the block's G code for it, if any (the two
     /// codes share a modal group, so at most one is present).
@@ -133,6 +159,10 @@ impl Block {
         }
     }
 }
+
+/// LinuxCNC's RADIUS_TOLERANCE (0.00005 in = 0.00127 mm): an R arc's half
+/// chord may exceed R by this much, and a shorter radius is zero.
+const RADIUS_TOLERANCE_MM: f64 = 0.00127;
 
 /// Modal group of a G code ×10, `None` when unknown.
 fn g_group(code: i32) -> Option<u8> {
@@ -146,7 +176,7 @@ fn g_group(code: i32) -> Option<u8> {
         930 | 940 | 950 => 5,
         200 | 210 => 6,
         400 | 410 | 420 | 411 | 421 => 7,
-        430 | 431 | 490 => 8,
+        430 | 431 | 432 | 490 => 8,
         980 | 990 => 10,
         540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => 12,
         610 | 611 | 640 => 13,
@@ -158,8 +188,8 @@ fn g_group(code: i32) -> Option<u8> {
 fn m_group(code: i32) -> Option<u8> {
     Some(match code {
         0 | 1 | 2 | 30 | 60 => 4,
-        6 => 6,
-        3..=5 => 7,
+        6 | 61 => 6,
+        3..=5 | 70..=73 => 7,
         7 | 9 => 8,
         8 => 9,
         48 | 49 => 10,
@@ -186,6 +216,30 @@ enum Frame {
         return_pc: usize,
         saved: Box<[f64; 30]>,
     },
+}
+
+/// Modal state saved by M70/M73 and restored by M72 or, after M73, on return
+/// (LinuxCNC's `save_settings`/`restore_settings`; the motion mode is not restored).
+#[derive(Clone, Copy)]
+struct SavedModes {
+    scale: f64,
+    plane: Plane,
+    incremental: bool,
+    arc_incremental: bool,
+    inverse_time: bool,
+    coord: usize,
+    retract_to_start: bool,
+    tlo_on: bool,
+    feed_mm_min: f64,
+    spindle_rpm: f64,
+    spindle_on: bool,
+}
+
+/// M70/M73 context of one call level.
+#[derive(Clone, Copy)]
+struct Context {
+    modes: Option<SavedModes>,
+    restore_on_return: bool,
 }
 
 struct Interp<'a> {
@@ -222,16 +276,68 @@ struct Interp<'a> {
     line_index: usize,
     /// Units in force when the current block's F word was read.
     feed_scale: f64,
+    /// Syntax errors by line index, reported when the line is executed (as
+    /// LinuxCNC does: a bad line after M2 is never read).
+    syntax_errors: HashMap<usize, SyntaxError>,
+    /// Lines of the o-words of each label, ascending (linear-time lookup).
+    olines: HashMap<OLabel, Vec<usize>>,
+    /// Line of each Fanuc program number `O1000` (its first occurrence).
+    programs: HashMap<i64, usize>,
+    /// Errors found, including those not kept beyond `max_errors`.
+    error_count: usize,
+    /// Line and column of the first error not kept.
+    first_dropped: Option<(usize, u32)>,
+    /// Tool in the spindle, its gauge length (mm) and the tool selected by T.
+    tool: u32,
+    tool_length_mm: f64,
+    selected_tool: Option<u32>,
+    /// First tool loaded by M6/M61.
+    first_loaded: Option<u32>,
+    /// Active tool length offset (G43, G43.1, G43.2) in mm; `pos` is the
+    /// gauge point = program + work offset + G92 + this.
+    tlo_mm: [f64; 3],
+    tlo_on: bool,
+    /// Gauge point of the last move minus the tool length offset then in
+    /// force: where LinuxCNC's canon says the machine is.
+    canon_mm: [f64; 3],
+    /// M6/M61 ran: the next block re-reads the position from the canon.
+    toolchange_pending: bool,
+    /// Where the tool tip is: the end of the last segment (the next one
+    /// starts here even where the interpreter's idea of `pos` moved without
+    /// motion, as after a tool change).
+    last_tip: Point3<f64>,
+    /// M70/M73 contexts per call level (index = frames.len()).
+    contexts: Vec<Context>,
 }
 
-/// Parses and runs a program.
+/// Parses and runs a program. Without an initial tool, the first tool the
+/// program loads is taken to be in the spindle from the start.
 pub fn run(source: &str, file: &str, options: &Options) -> (Parsed, Trace) {
+    let (parsed, trace, first) = run_once(source, file, options);
+    match (options.initial_tool, first) {
+        (None, Some(tool)) if tool != 0 => {
+            let options = Options {
+                initial_tool: Some(tool),
+                ..options.clone()
+            };
+            let (parsed, trace, _) = run_once(source, file, &options);
+            (parsed, trace)
+        }
+        _ => (parsed, trace),
+    }
+}
+
+fn run_once(source: &str, file: &str, options: &Options) -> (Parsed, Trace, Option<u32>) {
+    let tool = options.initial_tool.unwrap_or(0);
+    let tool_length_mm = options.tool_lengths_mm.get(&tool).copied().unwrap_or(0.0);
+    let mut pos = options.initial_position_mm;
+    pos[2] += tool_length_mm;
     let mut it = Interp {
         file,
         options,
         lines: Rc::new([]),
         params: Params::default(),
-        pos: options.initial_position_mm,
+        pos,
         scale: 1.0,
         incremental: false,
         arc_incremental: true,
@@ -257,21 +363,62 @@ pub fn run(source: &str, file: &str, options: &Options) -> (Parsed, Trace) {
         diagnostics: Vec::new(),
         line_index: 0,
         feed_scale: 1.0,
+        syntax_errors: HashMap::new(),
+        olines: HashMap::new(),
+        programs: HashMap::new(),
+        error_count: 0,
+        first_dropped: None,
+        tool,
+        tool_length_mm,
+        selected_tool: None,
+        first_loaded: None,
+        tlo_mm: [0.0; 3],
+        tlo_on: false,
+        canon_mm: pos,
+        toolchange_pending: false,
+        last_tip: Point3::from(options.initial_position_mm),
+        contexts: vec![Context {
+            modes: None,
+            restore_on_return: false,
+        }],
     };
     let mut lines = Vec::new();
-    for (i, text) in source.split('\n').enumerate() {
-        let text = text.strip_suffix('\r').unwrap_or(text);
+    for (i, (text, _)) in syntax::split_lines(source).enumerate() {
         match syntax::parse_line(text) {
-            Ok(line) => lines.push(Some(line)),
+            Ok(line) => {
+                match &line.kind {
+                    LineKind::OWord(stmt) => {
+                        it.olines.entry(stmt.label.clone()).or_default().push(i)
+                    }
+                    LineKind::ProgramNumber(n) => {
+                        it.programs.entry(*n).or_insert(i);
+                    }
+                    _ => {}
+                }
+                lines.push(Some(line));
+            }
             Err(e) => {
-                it.line_index = i;
-                it.report(e.col, e.message);
+                it.syntax_errors.insert(i, e);
                 lines.push(None);
             }
         }
     }
     it.lines = lines.into();
     it.execute();
+    if let Some((line, col)) = it.first_dropped {
+        let more = it.error_count - it.options.max_errors;
+        it.diagnostics.push(Diagnostic {
+            file: it.file.to_owned(),
+            line: line as u32 + 1,
+            column: col.max(1),
+            message: format!(
+                "and {more} more error{} (only the first {} are listed)",
+                if more == 1 { "" } else { "s" },
+                it.options.max_errors
+            ),
+            severity: Severity::Error,
+        });
+    }
     let trace = Trace {
         segments: it.trace,
         lines: it.lines,
@@ -282,11 +429,17 @@ pub fn run(source: &str, file: &str, options: &Options) -> (Parsed, Trace) {
             diagnostics: it.diagnostics,
         },
         trace,
+        it.first_loaded,
     )
 }
 
 impl Interp<'_> {
     fn report(&mut self, col: u32, message: String) {
+        self.error_count += 1;
+        if self.error_count > self.options.max_errors {
+            self.first_dropped.get_or_insert((self.line_index, col));
+            return;
+        }
         self.diagnostics.push(Diagnostic {
             file: self.file.to_owned(),
             line: self.line_index as u32 + 1,
@@ -325,7 +478,18 @@ impl Interp<'_> {
                 return;
             }
             self.line_index = pc;
+            if self.toolchange_pending {
+                // LinuxCNC's refresh_actual_position after a tool change:
+                // the program point is the canon's, which ignores a tool
+                // length offset changed since the last move (rs274 does so).
+                self.toolchange_pending = false;
+                self.pos = std::array::from_fn(|i| self.canon_mm[i] + self.tlo_mm[i]);
+            }
             let Some(line) = &lines[pc] else {
+                if let Some(e) = self.syntax_errors.get(&pc) {
+                    let e = e.clone();
+                    self.report(e.col, e.message);
+                }
                 pc += 1;
                 continue;
             };
@@ -352,6 +516,14 @@ impl Interp<'_> {
                 }
             }
         }
+        if self.options.require_program_end {
+            // As LinuxCNC: a program ends with M2, M30 or a closing '%'.
+            self.line_index = lines.len().saturating_sub(1);
+            self.report(
+                1,
+                "file ended with no program end (M2 or M30) or closing '%'".into(),
+            );
+        }
     }
 
     /// Finds the next (or previous) o-word with `label` and one of `keywords`.
@@ -362,14 +534,17 @@ impl Interp<'_> {
         keywords: &[OKeyword],
         forward: bool,
     ) -> Option<usize> {
-        let matches = |i: usize| {
-            matches!(&self.lines[i], Some(syntax::Line { kind: LineKind::OWord(s), .. })
-                if &s.label == label && keywords.contains(&s.keyword))
+        let matches = |i: &usize| {
+            matches!(&self.lines[*i], Some(syntax::Line { kind: LineKind::OWord(s), .. })
+                if keywords.contains(&s.keyword))
         };
+        let at = self.olines.get(label)?;
         if forward {
-            (from + 1..self.lines.len()).find(|&i| matches(i))
+            let k = at.partition_point(|&i| i <= from);
+            at[k..].iter().copied().find(matches)
         } else {
-            (0..from).rev().find(|&i| matches(i))
+            let k = at.partition_point(|&i| i < from);
+            at[..k].iter().rev().copied().find(matches)
         }
     }
 
@@ -407,6 +582,7 @@ impl Interp<'_> {
                     } else {
                         self.params.pop_scope(&saved);
                     }
+                    self.leave_call_level();
                     Ok(Some(return_pc))
                 }
                 Some(other) => {
@@ -416,10 +592,14 @@ impl Interp<'_> {
                 None => fail(s.col, "endsub/return outside a subroutine"),
             },
             K::Call => {
-                let start = (0..self.lines.len())
-                    .find(|&i| {
-                        matches!(&self.lines[i], Some(syntax::Line { kind: LineKind::OWord(d), .. })
-                        if d.label == s.label && d.keyword == K::Sub)
+                let start = self
+                    .olines
+                    .get(&s.label)
+                    .and_then(|at| {
+                        at.iter().copied().find(|&i| {
+                            matches!(&self.lines[i], Some(syntax::Line { kind: LineKind::OWord(d), .. })
+                                if d.keyword == K::Sub)
+                        })
                     })
                     .ok_or_else(|| Fail {
                         col: s.col,
@@ -439,6 +619,7 @@ impl Interp<'_> {
                     return_pc: pc + 1,
                     saved: Box::new(saved),
                 });
+                self.enter_call_level();
                 Ok(Some(start + 1))
             }
             K::If => {
@@ -564,7 +745,7 @@ impl Interp<'_> {
                             }
                         }
                         l => {
-                            let slot = &mut b.words[(*l as u8 - b'a') as usize];
+                            let slot = &mut b.words[slot(*l)];
                             if slot.is_some() {
                                 return fail(
                                     item.col,
@@ -580,11 +761,24 @@ impl Interp<'_> {
                 }
             }
         }
-        for (i, &(code, col)) in b.g.iter().enumerate() {
-            let Some(group) = g_group(code) else {
+        for &(code, col) in &b.g {
+            if g_group(code).is_none() {
                 return fail(col, format!("unknown G code {}", g_name(code)));
-            };
-            if let Some(&(other, _)) = b.g[..i].iter().find(|g| g_group(g.0) == Some(group)) {
+            }
+        }
+        // As in LinuxCNC, G80 gives way to another motion code in the block.
+        if b.g.iter().any(|g| g_group(g.0) == Some(1) && g.0 != 800) {
+            b.g.retain(|g| g.0 != 800);
+        } else if let Some(i) = b.g.iter().position(|g| g.0 == 800) {
+            let mut k = 0;
+            b.g.retain(|g| {
+                k += 1;
+                g.0 != 800 || k - 1 == i
+            });
+        }
+        for (i, &(code, col)) in b.g.iter().enumerate() {
+            let group = g_group(code);
+            if let Some(&(other, _)) = b.g[..i].iter().find(|g| g_group(g.0) == group) {
                 return fail(
                     col,
                     format!(
@@ -649,12 +843,27 @@ impl Interp<'_> {
             }
             self.spindle_rpm = s;
         }
+        if let Some(t) = b.get('t') {
+            self.selected_tool = Some(self.tool_number(t, b.col('t'), 'T')?);
+        }
+        if b.has_m(6) {
+            self.load_tool(self.selected_tool.unwrap_or(self.tool), pc);
+        }
+        if b.has_m(61) {
+            let q = b.get('q').ok_or(Fail {
+                col: b.first_col,
+                msg: "M61 needs a Q word (tool number)".into(),
+            })?;
+            let t = self.tool_number(q, b.col('q'), 'Q')?;
+            self.load_tool(t, pc);
+        }
         if b.has_m(3) || b.has_m(4) {
             self.spindle_on = true;
         }
         if b.has_m(5) {
             self.spindle_on = false;
         }
+        self.m70_m73(&b)?;
         if let Some(col) = g_col(40) {
             let p = b.get('p').ok_or(Fail {
                 col,
@@ -687,22 +896,10 @@ impl Interp<'_> {
                 return fail(col, format!("cutter radius compensation {} is not supported; post the program with the tool centre path (G40)", g_name(code)));
             }
         }
-        for code in [430, 431] {
-            if let Some(col) = g_col(code) {
-                return fail(col, format!("tool length compensation {} is not supported; positions must be tool tip positions (G49)", g_name(code)));
-            }
+        if b.get('d').is_some() {
+            return fail(b.col('d'), "D word with no G41 or G42 to use it");
         }
-        for l in ['d', 'h'] {
-            if b.get(l).is_some() {
-                return fail(
-                    b.col(l),
-                    format!(
-                        "{} word without G41/G42/G43 (compensation is not supported)",
-                        l.to_ascii_uppercase()
-                    ),
-                );
-            }
-        }
+        self.tool_length_offset(&b)?;
         for (i, code) in [540, 550, 560, 570, 580, 590].into_iter().enumerate() {
             if g_col(code).is_some() {
                 self.coord = i;
@@ -720,7 +917,9 @@ impl Interp<'_> {
         b.set_mode(&mut self.arc_incremental, 901, 911);
         b.set_mode(&mut self.retract_to_start, 990, 980);
         // Non-modal group 0.
-        let axis_user = b.g.iter().find(|g| matches!(g.0, 100 | 280 | 300 | 920));
+        let axis_user =
+            b.g.iter()
+                .find(|g| matches!(g.0, 100 | 280 | 300 | 920 | 431 | 432));
         let motion_code = b.g.iter().find(|g| g_group(g.0) == Some(1)).copied();
         if let (Some(&(a, col)), Some((m, _))) = (axis_user, motion_code) {
             if m != 800 && b.has_axes() {
@@ -730,7 +929,7 @@ impl Interp<'_> {
                 );
             }
         }
-        if let Some(&(code, col)) = axis_user {
+        if let Some(&(code, col)) = axis_user.filter(|g| !matches!(g.0, 431 | 432)) {
             self.modal0(code, col, &b, pc)?;
         } else if g_col(921).is_some() {
             self.g92 = [0.0; 3];
@@ -777,14 +976,16 @@ impl Interp<'_> {
             })?;
             let l = b.get('l').unwrap_or(1.0);
             if l < 1.0 || l.fract() != 0.0 || l > 1e6 {
-                return fail(b.col('l'), "L repeat count must be a positive integer");
+                return fail(
+                    b.col('l'),
+                    "L repeat count must be an integer from 1 to 1000000",
+                );
             }
             let target = p.round() as i64;
-            let start = self
-                .lines
-                .iter()
-                .position(|l| matches!(l, Some(syntax::Line { kind: LineKind::ProgramNumber(n), .. }) if *n == target))
-                .ok_or(Fail { col: b.col('p'), msg: format!("subprogram O{target} not found") })?;
+            let start = *self.programs.get(&target).ok_or(Fail {
+                col: b.col('p'),
+                msg: format!("subprogram O{target} not found"),
+            })?;
             if self.frames.len() >= 64 {
                 return fail(b.first_col, "subprogram calls nested too deeply");
             }
@@ -793,6 +994,7 @@ impl Interp<'_> {
                 start,
                 remaining: l as u32 - 1,
             });
+            self.enter_call_level();
             return Ok(Some(start + 1));
         }
         if b.has_m(99) {
@@ -810,6 +1012,7 @@ impl Interp<'_> {
                         });
                         Ok(Some(start + 1))
                     } else {
+                        self.leave_call_level();
                         Ok(Some(return_pc))
                     }
                 }
@@ -823,13 +1026,17 @@ impl Interp<'_> {
         Ok(Some(pc + 1))
     }
 
+    /// Work offset + G92 + tool length offset (mm): gauge point = program·scale + this.
     fn offset(&self) -> [f64; 3] {
         let w = self.work[self.coord];
-        [w[0] + self.g92[0], w[1] + self.g92[1], w[2] + self.g92[2]]
+        std::array::from_fn(|i| w[i] + self.g92[i] + self.tlo_mm[i])
     }
 
-    /// Target of the block's axis words (mm, machine frame).
-    fn target(&self, b: &Block, machine: bool) -> [f64; 3] {
+    /// Target of the block's axis words (mm, machine frame, gauge point),
+    /// polar `@` radius and `^` angle (degrees) included, as LinuxCNC's
+    /// `find_ends`: about the program origin, incremental ones from the
+    /// current point's polar coordinates.
+    fn target(&self, b: &Block, machine: bool) -> Result<[f64; 3], Fail> {
         let off = self.offset();
         let mut t = self.pos;
         for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
@@ -843,7 +1050,226 @@ impl Interp<'_> {
                 };
             }
         }
-        t
+        let (radius, theta) = (b.get('@'), b.get('^'));
+        if radius.is_none() && theta.is_none() {
+            return Ok(t);
+        }
+        let col = b.col(if radius.is_some() { '@' } else { '^' });
+        if machine {
+            return fail(col, "cannot use polar coordinates with G53");
+        }
+        if b.get('x').is_some() || b.get('y').is_some() {
+            return fail(col, "cannot specify X or Y words with polar coordinates");
+        }
+        // Current point in program units about the program origin.
+        let (px, py) = (
+            (self.pos[0] - off[0]) / self.scale,
+            (self.pos[1] - off[1]) / self.scale,
+        );
+        let (r, a) = if self.incremental {
+            if px == 0.0 && py == 0.0 {
+                return fail(
+                    col,
+                    "incremental polar motion is indeterminate at the origin",
+                );
+            }
+            (
+                px.hypot(py) + radius.unwrap_or(0.0),
+                py.atan2(px) + theta.unwrap_or(0.0).to_radians(),
+            )
+        } else {
+            let a = match theta {
+                Some(deg) => deg.to_radians(),
+                None if px == 0.0 && py == 0.0 => {
+                    return fail(col, "polar radius at the origin needs an angle (^)")
+                }
+                None => py.atan2(px),
+            };
+            (radius.unwrap_or_else(|| px.hypot(py)), a)
+        };
+        t[0] = r * a.cos() * self.scale + off[0];
+        t[1] = r * a.sin() * self.scale + off[1];
+        Ok(t)
+    }
+
+    /// A T or Q value as a tool number, checked against the tool table.
+    fn tool_number(&self, v: f64, col: u32, letter: char) -> Result<u32, Fail> {
+        if v < 0.0 || v.fract() != 0.0 || v > 1e9 {
+            return fail(
+                col,
+                format!("{letter}{v} is not a tool number (an integer from 0)"),
+            );
+        }
+        let t = v as u32;
+        let table = &self.options.tool_lengths_mm;
+        if t != 0 && !table.is_empty() && !table.contains_key(&t) {
+            let known: Vec<String> = table.keys().map(|k| format!("T{k}")).collect();
+            return fail(
+                col,
+                format!(
+                    "tool T{t} is not in the job's tool table (it has {})",
+                    known.join(", ")
+                ),
+            );
+        }
+        Ok(t)
+    }
+
+    /// Gauge length of tool `t` (mm); 0 for T0 and without a table.
+    fn length_of(&self, t: u32) -> f64 {
+        self.options.tool_lengths_mm.get(&t).copied().unwrap_or(0.0)
+    }
+
+    /// M6 / M61: puts tool `t` in the spindle. The gauge point stays; if the
+    /// tip moves (another length), a rapid from the old tip to the new one
+    /// records the change (MODEL.md §9.1).
+    fn load_tool(&mut self, t: u32, pc: usize) {
+        self.first_loaded.get_or_insert(t);
+        self.toolchange_pending = true;
+        if t == self.tool {
+            return;
+        }
+        let old_tip = self.last_tip;
+        let old_length = self.tool_length_mm;
+        self.tool = t;
+        self.tool_length_mm = self.length_of(t);
+        let mut new_tip = old_tip;
+        new_tip.z += old_length - self.tool_length_mm;
+        if old_tip != new_tip {
+            self.emit(old_tip, new_tip, Geometry::Line, Motion::Rapid, pc);
+        }
+    }
+
+    /// G43 [H], G43.1, G43.2 and G49 (LinuxCNC's `convert_tool_length_offset`).
+    fn tool_length_offset(&mut self, b: &Block) -> Result<(), Fail> {
+        let code = b.g.iter().find(|g| g_group(g.0) == Some(8)).copied();
+        if b.get('h').is_some() && !matches!(code, Some((430 | 432, _))) {
+            return fail(b.col('h'), "H word with no G43 to use it");
+        }
+        let Some((code, col)) = code else {
+            return Ok(());
+        };
+        let h_tool = |it: &Self| -> Result<u32, Fail> {
+            match b.get('h') {
+                None => Ok(it.tool),
+                Some(h) => {
+                    let t = it.tool_number(h, b.col('h'), 'H')?;
+                    Ok(if t == 0 { it.tool } else { t })
+                }
+            }
+        };
+        match code {
+            490 => {
+                self.tlo_mm = [0.0; 3];
+                self.tlo_on = false;
+            }
+            430 => {
+                let t = h_tool(self)?;
+                self.tlo_mm = [0.0, 0.0, self.length_of(t)];
+                self.tlo_on = true;
+            }
+            431 | 432 => {
+                if code == 432 && b.get('h').is_some() {
+                    if b.has_axes() {
+                        return fail(col, "G43.2: cannot have both H and axis words");
+                    }
+                    let t = h_tool(self)?;
+                    self.tlo_mm[2] += self.length_of(t);
+                } else {
+                    if code == 432 && !b.has_axes() {
+                        return fail(col, "G43.2: no axes specified and H word missing");
+                    }
+                    for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
+                        if let Some(v) = b.get(l) {
+                            let v = v * self.scale;
+                            self.tlo_mm[i] = if code == 431 { v } else { self.tlo_mm[i] + v };
+                        }
+                    }
+                }
+                self.tlo_on = true;
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn modes(&self) -> SavedModes {
+        SavedModes {
+            scale: self.scale,
+            plane: self.plane,
+            incremental: self.incremental,
+            arc_incremental: self.arc_incremental,
+            inverse_time: self.inverse_time,
+            coord: self.coord,
+            retract_to_start: self.retract_to_start,
+            tlo_on: self.tlo_on,
+            feed_mm_min: self.feed_mm_min,
+            spindle_rpm: self.spindle_rpm,
+            spindle_on: self.spindle_on,
+        }
+    }
+
+    /// LinuxCNC's `restore_settings`: units first, then the modes; F is
+    /// restored to 0.1 and S to 1 in program units, G43 with the tool in
+    /// the spindle.
+    fn restore(&mut self, m: SavedModes) {
+        self.scale = m.scale;
+        self.plane = m.plane;
+        self.incremental = m.incremental;
+        self.arc_incremental = m.arc_incremental;
+        self.inverse_time = m.inverse_time;
+        self.coord = m.coord;
+        self.retract_to_start = m.retract_to_start;
+        if m.tlo_on != self.tlo_on {
+            self.tlo_on = m.tlo_on;
+            self.tlo_mm = [0.0, 0.0, if m.tlo_on { self.tool_length_mm } else { 0.0 }];
+        }
+        if m.feed_mm_min != self.feed_mm_min {
+            self.feed_mm_min = (m.feed_mm_min / self.scale * 10.0).round() / 10.0 * self.scale;
+        }
+        if m.spindle_rpm != self.spindle_rpm {
+            self.spindle_rpm = m.spindle_rpm.round();
+        }
+        self.spindle_on = m.spindle_on;
+    }
+
+    /// M70 save, M71 invalidate, M72 restore, M73 save and restore on return.
+    fn m70_m73(&mut self, b: &Block) -> Result<(), Fail> {
+        let level = self.contexts.len() - 1;
+        let col = b.m.iter().find(|m| (70..=73).contains(&m.0)).map(|m| m.1);
+        if b.has_m(70) || b.has_m(73) {
+            let modes = self.modes();
+            let c = &mut self.contexts[level];
+            c.modes = Some(modes);
+            c.restore_on_return |= b.has_m(73) && level > 0;
+        } else if b.has_m(71) {
+            self.contexts[level].modes = None;
+        } else if b.has_m(72) {
+            let Some(modes) = self.contexts[level].modes else {
+                return fail(
+                    col.unwrap_or(b.first_col),
+                    "cannot restore modes: no M70 or M73 at this call level",
+                );
+            };
+            self.restore(modes);
+        }
+        Ok(())
+    }
+
+    fn enter_call_level(&mut self) {
+        self.contexts.push(Context {
+            modes: None,
+            restore_on_return: false,
+        });
+    }
+
+    fn leave_call_level(&mut self) {
+        if self.contexts.len() > 1 {
+            let c = self.contexts.pop().expect("a call level");
+            if let (true, Some(modes)) = (c.restore_on_return, c.modes) {
+                self.restore(modes);
+            }
+        }
     }
 
     fn modal0(&mut self, code: i32, col: u32, b: &Block, pc: usize) -> Result<(), Fail> {
@@ -854,7 +1280,7 @@ impl Interp<'_> {
                 } else {
                     self.options.g30_home_mm
                 };
-                let mid = self.target(b, false);
+                let mid = self.target(b, false)?;
                 self.rapid(mid, pc);
                 let mut end = self.pos;
                 for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
@@ -868,7 +1294,7 @@ impl Interp<'_> {
                 let w = self.work[self.coord];
                 for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
                     if let Some(v) = b.get(l) {
-                        self.g92[i] = self.pos[i] - w[i] - v * self.scale;
+                        self.g92[i] = self.pos[i] - w[i] - self.tlo_mm[i] - v * self.scale;
                     }
                 }
             }
@@ -894,14 +1320,49 @@ impl Interp<'_> {
         self.push(to, Geometry::Line, Motion::Rapid, pc, false);
     }
 
-    /// Appends a segment from the current position to `to`; zero-length
-    /// lines are dropped. `dwell` keeps a zero-length segment.
+    /// Tool tip (path frame) of gauge point `gauge`.
+    fn tip(&self, gauge: [f64; 3]) -> Point3<f64> {
+        Point3::new(gauge[0], gauge[1], gauge[2] - self.tool_length_mm)
+    }
+
+    /// Appends a segment from the current position to `to` (gauge points,
+    /// turned into tool tips); zero-length lines are dropped. `dwell` keeps
+    /// a zero-length segment.
     fn push(&mut self, to: [f64; 3], geometry: Geometry, motion: Motion, pc: usize, dwell: bool) {
-        let start = Point3::from(self.pos);
-        let end = Point3::from(to);
+        let start = self.last_tip;
+        let end = if dwell { start } else { self.tip(to) };
+        self.pos = to;
+        self.canon_mm = std::array::from_fn(|i| to[i] - self.tlo_mm[i]);
         if !dwell && geometry == Geometry::Line && start == end {
             return;
         }
+        let geometry = match geometry {
+            Geometry::Arc {
+                center,
+                plane,
+                clockwise,
+                sweep_rad,
+            } => Geometry::Arc {
+                center: self.tip(center.into()),
+                plane,
+                clockwise,
+                sweep_rad,
+            },
+            g => g,
+        };
+        self.emit(start, end, geometry, motion, pc);
+    }
+
+    /// Appends a segment between two tool-tip points.
+    fn emit(
+        &mut self,
+        start: Point3<f64>,
+        end: Point3<f64>,
+        geometry: Geometry,
+        motion: Motion,
+        pc: usize,
+    ) {
+        self.last_tip = end;
         self.path.segments.push(Segment {
             start,
             end,
@@ -913,17 +1374,19 @@ impl Interp<'_> {
             } else {
                 0.0
             },
+            tool: self.tool,
         });
+        let mut offset_mm = self.offset();
+        offset_mm[2] -= self.tool_length_mm;
         self.trace.push(SegmentTrace {
             line_index: pc,
             scale: self.scale,
             incremental: self.incremental,
             arc_incremental: self.arc_incremental,
             inverse_time: self.inverse_time,
-            offset_mm: self.offset(),
+            offset_mm,
             feed_scale: self.feed_scale,
         });
-        self.pos = to;
     }
 
     /// Feed motion for a G1/G2/G3 of known geometry.
@@ -953,34 +1416,39 @@ impl Interp<'_> {
         if machine && !matches!(self.motion, 0 | 10) {
             return fail(b.has_g(530).unwrap_or(1), "G53 needs G0 or G1");
         }
-        match self.motion {
+        let t = self.target(b, machine)?;
+        let done = match self.motion {
             0 => {
-                let t = self.target(b, machine);
                 self.rapid(t, pc);
+                Ok(())
             }
             10 => {
-                let t = self.target(b, machine);
                 let len = (Point3::from(t) - Point3::from(self.pos)).norm();
                 if len > 0.0 {
                     let m = self.feed_motion(b, len)?;
                     self.push(t, Geometry::Line, m, pc, false);
                 }
+                Ok(())
             }
-            20 | 30 => self.arc(b, pc)?,
-            730 | 810 | 820 | 830 => self.cycle(b, pc)?,
+            20 | 30 => self.arc(b, t, pc),
+            730 | 810 | 820 | 830 => return self.cycle(b, pc),
             _ => {
                 return fail(
                     b.first_col,
                     format!("{} is not supported", g_name(self.motion)),
                 )
             }
+        };
+        if done.is_err() {
+            // Later blocks start where this one meant to end: one error per
+            // problem, not a cascade of follow-on errors.
+            self.pos = t;
         }
-        Ok(())
+        done
     }
 
-    fn arc(&mut self, b: &Block, pc: usize) -> Result<(), Fail> {
+    fn arc(&mut self, b: &Block, end: [f64; 3], pc: usize) -> Result<(), Fail> {
         let clockwise = self.motion == 20;
-        let end = self.target(b, false);
         let (a, bb, n) = self.plane.axes();
         let letters = ['i', 'j', 'k'];
         let off_word = letters[n];
@@ -1009,11 +1477,23 @@ impl Interp<'_> {
                     "R format arc with end point equal to start point",
                 );
             }
+            // LinuxCNC's arc_data_r: a chord up to 2 × 0.00127 mm longer
+            // than the diameter is a semicircle.
             let abs_r = r_mm.abs();
-            if half - abs_r > 1e-6 * abs_r.max(1.0) || abs_r == 0.0 {
-                return fail(b.col('r'), "arc radius too small to reach the end point");
+            if half - abs_r > RADIUS_TOLERANCE_MM || abs_r == 0.0 {
+                return fail(
+                    b.col('r'),
+                    format!(
+                        "arc radius {:.4} mm too small to reach the end point (half chord {half:.4} mm)",
+                        abs_r
+                    ),
+                );
             }
-            let half = half.min(abs_r);
+            let half = if half / abs_r > 1.0 - 1e-12 {
+                abs_r
+            } else {
+                half
+            };
             let right = clockwise == (r_mm > 0.0);
             let theta = dy.atan2(dx)
                 + if right {
@@ -1038,9 +1518,20 @@ impl Interp<'_> {
                     v + off[axis]
                 };
             }
+            // LinuxCNC's arc_data_ijk tolerances.
             let r1 = (start[a] - center[a]).hypot(start[bb] - center[bb]);
             let r2 = (end[a] - center[a]).hypot(end[bb] - center[bb]);
-            if (r1 - r2).abs() > 0.002 && (r1 - r2).abs() > 0.001 * r1 {
+            if r1 < RADIUS_TOLERANCE_MM || r2 < RADIUS_TOLERANCE_MM {
+                return fail(col, "arc of zero radius");
+            }
+            let spiral_mm = if self.scale == 1.0 {
+                2.0 * 0.01 * std::f64::consts::SQRT_2
+            } else {
+                2.0 * 0.001 * std::f64::consts::SQRT_2 * 25.4
+            };
+            let abs_err = (r1 - r2).abs();
+            if abs_err > 100.0 * spiral_mm || (abs_err / r1.max(r2) > 0.001 && abs_err > spiral_mm)
+            {
                 return fail(
                     col,
                     format!(
@@ -1055,7 +1546,10 @@ impl Interp<'_> {
         }
         let turns = b.get('p').unwrap_or(1.0);
         if turns < 1.0 || turns.fract() != 0.0 || turns > 1e4 {
-            return fail(b.col('p'), "P (turns) of an arc must be a positive integer");
+            return fail(
+                b.col('p'),
+                "P (turns) of an arc must be an integer from 1 to 10000",
+            );
         }
         let a0 = (start[bb] - center[bb]).atan2(start[a] - center[a]);
         let a1 = (end[bb] - center[bb]).atan2(end[a] - center[a]);
@@ -1104,7 +1598,10 @@ impl Interp<'_> {
         self.cycle_z = Some(z);
         let repeats = b.get('l').unwrap_or(1.0);
         if repeats < 1.0 || repeats.fract() != 0.0 || repeats > 1e5 {
-            return fail(b.col('l'), "L repeat count must be a positive integer");
+            return fail(
+                b.col('l'),
+                "L repeat count must be an integer from 1 to 100000",
+            );
         }
         let mut peck_mm = 0.0;
         if matches!(self.motion, 730 | 830) {
@@ -1126,25 +1623,42 @@ impl Interp<'_> {
         }
         let initial_z = *self.cycle_initial_z.get_or_insert(self.pos[2]);
         let off = self.offset();
-        let (r_z, bottom_z, first_xy, step_xy) = if self.incremental {
-            let r_z = self.pos[2] + r * self.scale;
-            let step = [
-                b.get('x').unwrap_or(0.0) * self.scale,
-                b.get('y').unwrap_or(0.0) * self.scale,
-            ];
-            (
-                r_z,
-                r_z + z * self.scale,
-                [self.pos[0] + step[0], self.pos[1] + step[1]],
-                step,
-            )
+        let (r_z, bottom_z, holes) = if self.incremental {
+            // LinuxCNC's CYCLE_MACRO: each repeat steps X/Y, then the polar
+            // radius and angle about the program origin.
+            let r_z = initial_z + r * self.scale;
+            let (mut aa, mut bb) = (
+                (self.pos[0] - off[0]) / self.scale,
+                (self.pos[1] - off[1]) / self.scale,
+            );
+            let (di, dj) = (b.get('x').unwrap_or(0.0), b.get('y').unwrap_or(0.0));
+            let (dr, dt) = (b.get('@').unwrap_or(0.0), b.get('^').unwrap_or(0.0));
+            let mut holes = Vec::with_capacity(repeats as usize);
+            for _ in 0..repeats as u32 {
+                aa += di;
+                bb += dj;
+                for (radius_inc, angle_inc) in [(dr, 0.0), (0.0, dt.to_radians())] {
+                    if radius_inc == 0.0 && angle_inc == 0.0 {
+                        continue;
+                    }
+                    if aa == 0.0 && bb == 0.0 {
+                        return fail(
+                            b.col(if dr != 0.0 { '@' } else { '^' }),
+                            "incremental polar motion is indeterminate at the origin",
+                        );
+                    }
+                    let (radius, theta) = (aa.hypot(bb) + radius_inc, bb.atan2(aa) + angle_inc);
+                    (aa, bb) = (radius * theta.cos(), radius * theta.sin());
+                }
+                holes.push([aa * self.scale + off[0], bb * self.scale + off[1]]);
+            }
+            (r_z, r_z + z * self.scale, holes)
         } else {
-            let t = self.target(b, false);
+            let t = self.target(b, false)?;
             (
                 r * self.scale + off[2],
                 z * self.scale + off[2],
-                [t[0], t[1]],
-                [0.0, 0.0],
+                vec![[t[0], t[1]]; repeats as usize],
             )
         };
         if r_z < bottom_z {
@@ -1166,9 +1680,7 @@ impl Interp<'_> {
         }
         let c = Cycle {
             code: self.motion,
-            first_xy,
-            step_xy,
-            repeats: repeats as u32,
+            holes,
             start_z: if self.retract_to_start {
                 initial_z
             } else {

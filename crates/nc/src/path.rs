@@ -68,6 +68,8 @@ pub struct Segment {
     pub line: u32,
     /// Spindle speed in force when the segment runs (rev/min, 0 = stopped).
     pub spindle_rpm: f64,
+    /// Number (T word) of the tool in the spindle; 0 before any tool is loaded.
+    pub tool: u32,
 }
 
 impl Segment {
@@ -171,7 +173,9 @@ fn arc_radius(center: &Point3<f64>, plane: Plane, point: &Point3<f64>) -> f64 {
     ((point[a] - center[a]).powi(2) + (point[b] - center[b]).powi(2)).sqrt()
 }
 
-/// A whole program's motion, in execution order (subprograms and loops unrolled).
+/// A whole program's motion, in execution order (subprograms and loops
+/// unrolled). A tool change whose new tool reaches lower or higher than the
+/// old one is a rapid from the old tool's tip to the new tool's tip.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Path {
     pub segments: Vec<Segment>,
@@ -181,5 +185,18 @@ impl Path {
     /// Total length in mm of all segments.
     pub fn length_mm(&self) -> f64 {
         self.segments.iter().map(Segment::length_mm).sum()
+    }
+}
+
+impl Path {
+    /// Tool numbers in order of first use.
+    pub fn tools(&self) -> Vec<u32> {
+        let mut tools: Vec<u32> = Vec::new();
+        for s in &self.segments {
+            if !tools.contains(&s.tool) {
+                tools.push(s.tool);
+            }
+        }
+        tools
     }
 }

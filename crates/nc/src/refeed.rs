@@ -80,9 +80,10 @@ pub fn refeed(
     // How many blocks each segment becomes (for the verification).
     let mut written_pieces = vec![1usize; segments.len()];
     let mut out = String::with_capacity(source.len() + source.len() / 8);
-    for (index, raw) in source.split_inclusive('\n').enumerate() {
+    for (index, (text, eol)) in syntax::split_lines(source).enumerate() {
         let Some(segs) = by_line.get(&index) else {
-            out.push_str(raw);
+            out.push_str(text);
+            out.push_str(eol);
             continue;
         };
         let feeds: Vec<usize> = segs
@@ -91,16 +92,17 @@ pub fn refeed(
             .filter(|&i| matches!(segments[i].motion, Motion::Feed { .. }))
             .collect();
         if feeds.is_empty() {
-            out.push_str(raw);
+            out.push_str(text);
+            out.push_str(eol);
             continue;
         }
-        let (text, eol) = split_eol(raw);
         let Some(syntax::Line {
             kind: LineKind::Block(items),
             ..
         }) = &trace.lines[index]
         else {
-            out.push_str(raw);
+            out.push_str(text);
+            out.push_str(eol);
             continue;
         };
         let single = segs.len() == 1 && splittable(items, &segments[feeds[0]]);
@@ -151,13 +153,6 @@ fn valid_pieces(pieces: &[(f64, f64)]) -> bool {
 
 fn lowest(pieces: &[(f64, f64)]) -> f64 {
     pieces.iter().map(|p| p.1).fold(f64::INFINITY, f64::min)
-}
-
-fn split_eol(raw: &str) -> (&str, &str) {
-    let body = raw
-        .strip_suffix('\n')
-        .map_or(raw, |b| b.strip_suffix('\r').unwrap_or(b));
-    (body, &raw[body.len()..])
 }
 
 fn word_letter(item: &Item) -> Option<char> {

@@ -285,6 +285,30 @@ pub struct Line {
     pub kind: LineKind,
 }
 
+/// Splits a program into lines and their terminators, as LinuxCNC reads
+/// them: `\n`, `\r\n` and a lone `\r` (old Mac files) all end a line.
+pub fn split_lines(source: &str) -> impl Iterator<Item = (&str, &str)> {
+    let bytes = source.as_bytes();
+    let mut start = 0;
+    std::iter::from_fn(move || {
+        if start >= bytes.len() {
+            return None;
+        }
+        let from = start;
+        let mut i = from;
+        while i < bytes.len() && bytes[i] != b'\n' && bytes[i] != b'\r' {
+            i += 1;
+        }
+        let eol_len = match (bytes.get(i), bytes.get(i + 1)) {
+            (Some(b'\r'), Some(b'\n')) => 2,
+            (Some(_), _) => 1,
+            (None, _) => 0,
+        };
+        start = i + eol_len;
+        Some((&source[from..i], &source[i..i + eol_len]))
+    })
+}
+
 /// Parses one line (without its line terminator).
 pub fn parse_line(text: &str) -> Result<Line, SyntaxError> {
     let mut cur = Cursor::new(text)?;
@@ -310,7 +334,7 @@ pub fn parse_line(text: &str) -> Result<Line, SyntaxError> {
         let col = cur.col();
         let start = cur.byte();
         let kind = match c {
-            'a'..='z' if c != 'n' && c != 'o' => {
+            'a'..='z' | '@' | '^' if c != 'n' && c != 'o' => {
                 cur.bump();
                 if cur.peek().is_none() {
                     return Err(SyntaxError {

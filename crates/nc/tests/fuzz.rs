@@ -10,7 +10,9 @@ fn check(src: &str) {
         ..Options::default()
     };
     let parsed = nc::parse(src, "fuzz.ngc", &options);
-    let lines: Vec<&str> = src.split('\n').collect();
+    // Lines end at \n, \r\n or a lone \r, as LinuxCNC reads them.
+    let unified = src.replace("\r\n", "\n");
+    let lines: Vec<&str> = unified.split(['\n', '\r']).collect();
     for d in &parsed.diagnostics {
         assert!(
             d.line >= 1 && (d.line as usize) <= lines.len(),

@@ -4,8 +4,9 @@ use std::f64::consts::{PI, TAU};
 
 use nc::{Geometry, Motion, Options, Parsed, Plane, Segment};
 
+/// Reads `src` followed by a program end (M2) on a line of its own.
 fn parse(src: &str) -> Parsed {
-    nc::parse(src, "t.ngc", &Options::default())
+    nc::parse(&format!("{src}\nM2"), "t.ngc", &Options::default())
 }
 
 fn ok(src: &str) -> Vec<Segment> {
@@ -185,8 +186,219 @@ fn compensation_rejected_with_position() {
         errors("G0 X0\nG1 G41 D1 X5 F100")[0].split(": ").next(),
         Some("t.ngc:2:4")
     );
-    assert!(errors("G43 H1 Z5")[0].contains("tool length compensation"));
     assert!(errors("G40 G49 G0 X1").is_empty());
+    assert!(errors("G0 X1 D2")[0].contains("D word with no G41 or G42"));
+    assert!(errors("G0 X1 H2")[0].contains("H word with no G43"));
+}
+
+/// The safety line of Fanuc-style posts: G80 gives way to G0 in the same
+/// block (LinuxCNC's read_g), and G0 with no axis words stays put.
+#[test]
+fn g80_with_a_motion_code_in_one_block() {
+    assert!(ok("N1 G00 G17 G21 G40 G49 G80 G90").is_empty());
+    let s = ok("G80 G1 X3 F100\nG81 G80 X5 Z-1 R1");
+    assert_eq!(end(&s[0]), [3.0, 0.0, 0.0]);
+    // G81 wins over G80: a drilled hole at X5.
+    assert_eq!(end(&s[s.len() - 1]), [5.0, 0.0, 1.0]);
+    assert!(errors("G0 G1 X1")[0].contains("same modal group"));
+}
+
+/// LinuxCNC accepts an R arc whose half chord exceeds R by up to 0.00127 mm
+/// (a semicircle), and refuses one beyond that with one error, not a cascade.
+#[test]
+fn r_arc_rounding_tolerance_and_no_cascade() {
+    // Chord 3.0169 against 2R = 3.016: a semicircle about the chord's middle.
+    let s = ok("G0 X0 Y0\nG2 X3.0169 Y0 R1.508 F100");
+    let (c, _, _, sweep) = arc(&s[0]);
+    close(c[0], 3.0169 / 2.0);
+    close(c[1], 0.0);
+    close(sweep, PI);
+    // 0.003 mm too far: one error on that line; the next arc is read from
+    // the end point the bad one meant to reach.
+    let e = errors("G0 X0 Y0\nG2 X3.022 Y0 R1.508 F100\nG2 X0 Y0 R1.511");
+    assert_eq!(e.len(), 1, "{e:?}");
+    assert!(e[0].starts_with("t.ngc:2:"), "{e:?}");
+}
+
+/// Centre-format tolerance as LinuxCNC's arc_data_ijk: start and end radii
+/// may differ by 0.0283 mm (G21) before an error.
+#[test]
+fn ijk_arc_radius_tolerance() {
+    assert!(errors("G0 X0 Y0\nG2 X20.02 Y0 I10 J0 F100").is_empty());
+    assert!(errors("G0 X0 Y0\nG2 X20.03 Y0 I10 J0 F100")[0].contains("radius to end"));
+}
+
+/// Lines end at a lone CR too (old Mac files), not only at LF and CR LF.
+#[test]
+fn cr_only_line_ends() {
+    let s = ok("G0 X1 Z5\rG1 X2 Z1 F100\r\nG1 Y3\r");
+    assert_eq!(s.len(), 3);
+    assert_eq!(end(&s[2]), [2.0, 3.0, 1.0]);
+    assert_eq!(s[2].line, 3);
+}
+
+/// A bad line after the program end is never read (as in LinuxCNC); the
+/// same line before it is an error. A file with no end is an error.
+#[test]
+fn lines_after_the_program_end_are_not_read() {
+    let src = "G0 X1\nM30\nN2490%\n";
+    assert!(nc::parse(src, "t.ngc", &Options::default())
+        .diagnostics
+        .is_empty());
+    let e = errors("G0 X1\nN2490%");
+    assert!(e[0].starts_with("t.ngc:2:6"), "{e:?}");
+    let strict = Options {
+        require_program_end: true,
+        ..Options::default()
+    };
+    let d = nc::parse("G0 X1\n", "t.ngc", &strict).diagnostics;
+    assert_eq!(d.len(), 1);
+    assert!(d[0].message.contains("no program end"), "{}", d[0]);
+}
+
+/// At most `max_errors` errors are listed, then one line with the count.
+#[test]
+fn errors_are_capped_per_program() {
+    let src = "G1 X1 G12\n".repeat(30);
+    let e = errors(&src);
+    assert_eq!(e.len(), 21, "{e:?}");
+    assert!(e[20].contains("and 10 more errors"), "{}", e[20]);
+    assert!(e[20].starts_with("t.ngc:21:"), "{}", e[20]);
+}
+
+/// o-word subroutines found through an index: a sub at the far end of a
+/// long file called many times stays linear (it took minutes when every
+/// call scanned the file).
+#[test]
+fn oword_calls_are_linear() {
+    let mut src = String::new();
+    for _ in 0..20_000 {
+        src.push_str("o<far> call\n");
+    }
+    src.push_str("M2\n");
+    src.push_str(&"(padding)\n".repeat(200_000));
+    src.push_str("o<far> sub\n#1 = [#1 + 1]\no<far> endsub\n");
+    let started = std::time::Instant::now();
+    let p = nc::parse(&src, "t.ngc", &Options::default());
+    assert!(p.diagnostics.is_empty(), "{:?}", p.diagnostics.first());
+    assert!(
+        started.elapsed().as_secs_f64() < 5.0,
+        "{:?}",
+        started.elapsed()
+    );
+}
+
+/// P turns beyond dexcut's cap get a message naming the cap.
+#[test]
+fn arc_turns_message_names_the_cap() {
+    let e = errors("G0 X10\nG3 X10 Y0 I-10 J0 P1000000 F100");
+    assert!(e[0].contains("integer from 1 to 10000"), "{e:?}");
+}
+
+/// Polar coordinates: `@` radius and `^` angle about the program origin;
+/// incremental ones add to the current point's radius and angle.
+#[test]
+fn polar_coordinates() {
+    let s = ok("G0 @10 ^90\nG91 G0 ^90\nG0 @-5\nG90 G0 ^0");
+    close(s[0].end.x, 0.0);
+    close(s[0].end.y, 10.0);
+    close(s[1].end.x, -10.0);
+    close(s[1].end.y, 0.0);
+    close(s[2].end.x, -5.0);
+    close(s[3].end.x, 5.0);
+    close(s[3].end.y, 0.0);
+    assert!(errors("G0 X1 @2")[0].contains("polar"));
+}
+
+/// G64 P Q, G61 and G61.1 are accepted (dexcut follows the programmed
+/// path exactly under all three).
+#[test]
+fn path_control_modes_accepted() {
+    assert_eq!(ok("G64 P0.01 Q0.01\nG1 X1 F100\nG61\nG61.1\nG64").len(), 1);
+}
+
+/// Tool length offsets keep positions tool-tip positions: G43 with the
+/// tool's own length reads as the program without offsets.
+#[test]
+fn tool_length_offsets_keep_tip_positions() {
+    let options = Options {
+        tool_lengths_mm: [(1, 50.0), (2, 80.0)].into_iter().collect(),
+        initial_position_mm: [0.0, 0.0, 100.0],
+        ..Options::default()
+    };
+    let with = nc::parse(
+        "T1 M6\nG43 H1\nG0 X5 Z10\nG1 Z-1 F100\nG0 Z10\nT2 M6\nG43 Z10 H2\nG1 Z-2 F100\nG49\nM2",
+        "t.ngc",
+        &options,
+    );
+    assert!(with.diagnostics.is_empty(), "{:?}", with.diagnostics);
+    let without = nc::parse(
+        "G0 X5 Z10\nG1 Z-1 F100\nG0 Z10\nG1 Z-2 F100\nM2",
+        "t.ngc",
+        &Options {
+            initial_position_mm: [0.0, 0.0, 100.0],
+            ..Options::default()
+        },
+    );
+    // The tool change puts a tool 30 mm longer in: its tip appears 30 mm
+    // lower (a rapid), then G43 H2 Z10 brings it to Z10.
+    let w: Vec<([f64; 3], u32)> = with
+        .path
+        .segments
+        .iter()
+        .map(|s| (end(s), s.tool))
+        .collect();
+    assert_eq!(
+        w,
+        [
+            ([5.0, 0.0, 10.0], 1),
+            ([5.0, 0.0, -1.0], 1),
+            ([5.0, 0.0, 10.0], 1),
+            ([5.0, 0.0, -20.0], 2),
+            ([5.0, 0.0, 10.0], 2),
+            ([5.0, 0.0, -2.0], 2),
+        ]
+    );
+    let wo: Vec<[f64; 3]> = without.path.segments.iter().map(end).collect();
+    let w_moves: Vec<[f64; 3]> = [0, 1, 2, 5].iter().map(|&i| w[i].0).collect();
+    assert_eq!(w_moves, wo);
+    // G43.1 sets the offset directly (a tool of length 0 ends 5 mm above
+    // the programmed point); G49 removes it without moving the tool.
+    let s = nc::parse(
+        "G43.1 Z5\nG0 X1 Z0\nG49\nG0 X2\nM2",
+        "t.ngc",
+        &Options::default(),
+    );
+    assert!(s.diagnostics.is_empty(), "{:?}", s.diagnostics);
+    assert_eq!(end(&s.path.segments[0]), [1.0, 0.0, 5.0]);
+    assert_eq!(end(&s.path.segments[1]), [2.0, 0.0, 5.0]);
+    // A tool the table lacks is an error at its T word.
+    let e = nc::parse("G0 X1\nT7 M6\nM2", "t.ngc", &options).diagnostics;
+    assert!(
+        e[0].to_string()
+            .starts_with("t.ngc:2:1: tool T7 is not in the job's tool table"),
+        "{}",
+        e[0]
+    );
+}
+
+/// M61 Q sets the tool in the spindle; M70/M72 save and restore modes, M73
+/// restores them when the subroutine returns.
+#[test]
+fn m61_and_m70_to_m73() {
+    let s = ok("M61 Q3\nG0 X1");
+    assert_eq!(s[0].tool, 3);
+    let s = ok("G21 F100\nM70\nG20 G91 F10\nG1 X1\nM72\nG1 X1");
+    // F is read before G20 takes effect (10 mm/min); M72 restores G21 G90
+    // F100: the second move goes to X1 mm absolute at 100 mm/min.
+    assert_eq!(end(&s[0]), [25.4, 0.0, 0.0]);
+    assert_eq!(s[0].motion, Motion::Feed { feed_mm_min: 10.0 });
+    assert_eq!(end(&s[1]), [1.0, 0.0, 0.0]);
+    assert_eq!(s[1].motion, Motion::Feed { feed_mm_min: 100.0 });
+    // G91 in the subroutine is undone on return: X2 is absolute (not 3).
+    let s = ok("o<s> sub\nM73\nG91\no<s> endsub\nG1 X1 F100\no<s> call\nG1 X2");
+    assert_eq!(end(&s[1]), [2.0, 0.0, 0.0]);
+    assert!(errors("M72")[0].contains("no M70"));
 }
 
 #[test]

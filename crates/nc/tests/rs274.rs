@@ -8,7 +8,15 @@
 //! sides are converted to mm in the machine frame; zero-length moves are
 //! dropped on both sides. Tolerance: half a unit of rs274's last printed
 //! digit (5e-5 program units) plus rounding of the offsets.
+//!
+//! Both read the same tool table ([`tool_length_mm`]; rs274's standalone
+//! table is in inches). rs274 prints positions without the tool length
+//! offset (USE_TOOL_LENGTH_OFFSET separately); the tool tip is that gauge
+//! point minus the gauge length of the tool in the spindle, which is what
+//! dexcut's path holds. A tool change that moves the tip is a rapid on both
+//! sides, and the first tool loaded is in the spindle from the start.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -31,6 +39,50 @@ struct Move {
     value: f64,
     /// Tolerance of lengths in mm (depends on the units rs274 printed in).
     tol: f64,
+    tool: u32,
+}
+
+/// Gauge length (mm) of tool `t` in the tables of both readers.
+fn tool_length_mm(t: u32) -> f64 {
+    if t == 0 {
+        0.0
+    } else {
+        12.7 * t as f64 + 25.4
+    }
+}
+
+/// Diameter (mm) of tool `t`.
+fn tool_diameter_mm(t: u32) -> f64 {
+    1.27 * t as f64 + 2.54
+}
+
+const TOOLS: std::ops::RangeInclusive<u32> = 1..=20;
+
+fn tool_table() -> BTreeMap<u32, f64> {
+    TOOLS.map(|t| (t, tool_length_mm(t))).collect()
+}
+
+/// The tool table for rs274 (inches), written once.
+fn rs274_tool_table() -> PathBuf {
+    static TABLE: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    TABLE
+        .get_or_init(|| {
+            let path = Path::new(env!("CARGO_TARGET_TMPDIR")).join("rs274-tools.tbl");
+            let text: String = TOOLS
+                .map(|t| {
+                    format!(
+                        "T{t} P{t} Z{} D{}\n",
+                        tool_length_mm(t) / 25.4,
+                        tool_diameter_mm(t) / 25.4
+                    )
+                })
+                .collect();
+            let partial = path.with_extension(format!("{}", std::process::id()));
+            std::fs::write(&partial, text).expect("write tool table");
+            std::fs::rename(&partial, &path).expect("rename tool table");
+            path
+        })
+        .clone()
 }
 
 fn numbers(args: &str) -> Vec<f64> {
@@ -43,18 +95,31 @@ fn numbers(args: &str) -> Vec<f64> {
 /// the tests of this file take turns.
 static RS274: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
-fn rs274_moves(file: &Path) -> Vec<Move> {
+/// rs274's moves, the first tool it loads, and its error message if it stopped on one.
+fn rs274_moves(file: &Path) -> (Vec<Move>, u32, Option<String>) {
     let out = {
         let _turn = RS274.lock().unwrap_or_else(|e| e.into_inner());
         Command::new("rs274")
+            .arg("-t")
+            .arg(rs274_tool_table())
             .arg("-g")
             .arg(file)
             .output()
             .expect("run rs274")
     };
     let text = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let error = stderr
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && *l != "executing")
+        .map(|l| format!("{l} (at: {})", stderr.lines().last().unwrap_or("").trim()));
     let (mut scale, mut g5x, mut g92) = (1.0, [0.0; 3], [0.0; 3]);
     let (mut plane, mut feed, mut pos) = (Plane::XY, 0.0, [0.0; 3]);
+    let mut tlo = [0.0; 3];
+    let first_tool = first_tool(&text);
+    let mut tool = first_tool;
+    pos[2] = -tool_length_mm(first_tool);
     let mut moves = Vec::new();
     for line in text.lines() {
         // "   12 N30    CMD(args)": sequence number, N field, command.
@@ -70,8 +135,37 @@ fn rs274_moves(file: &Path) -> Vec<Move> {
         let args = args.trim_end_matches(')');
         let v = numbers(args);
         let tol = 6e-5 * scale + 1e-9;
-        let machine = |i: usize, p: f64| p * scale + g5x[i] + g92[i];
+        let length = tool_length_mm(tool);
+        // Tool tip: program point + offsets + tool length offset − gauge length.
+        let machine = |i: usize, p: f64| {
+            p * scale + g5x[i] + g92[i] + tlo[i] - if i == 2 { length } else { 0.0 }
+        };
         match name {
+            "USE_TOOL_LENGTH_OFFSET" => {
+                let v: Vec<f64> = args
+                    .split([',', ' '])
+                    .filter_map(|a| a.trim().parse().ok())
+                    .collect();
+                tlo = [v[0] * scale, v[1] * scale, v[2] * scale];
+            }
+            "CHANGE_TOOL" | "CHANGE_TOOL_NUMBER" => {
+                let new = v[0] as u32;
+                let jump = tool_length_mm(tool) - tool_length_mm(new);
+                if jump != 0.0 {
+                    let mut end = pos;
+                    end[2] += jump;
+                    moves.push(Move {
+                        kind: Kind::Rapid,
+                        end,
+                        arc: None,
+                        value: 0.0,
+                        tol,
+                        tool: new,
+                    });
+                    pos = end;
+                }
+                tool = new;
+            }
             "USE_LENGTH_UNITS" => scale = if args.contains("INCHES") { 25.4 } else { 1.0 },
             "SET_G5X_OFFSET" => g5x = [v[1] * scale, v[2] * scale, v[3] * scale],
             "SET_G92_OFFSET" => g92 = [v[0] * scale, v[1] * scale, v[2] * scale],
@@ -91,10 +185,11 @@ fn rs274_moves(file: &Path) -> Vec<Move> {
                 arc: None,
                 value: v[0],
                 tol,
+                tool,
             }),
             "STRAIGHT_TRAVERSE" | "STRAIGHT_FEED" => {
                 let end = [machine(0, v[0]), machine(1, v[1]), machine(2, v[2])];
-                if (0..3).any(|i| (end[i] - pos[i]).abs() > 1e-12) {
+                if (0..3).any(|i| (end[i] - pos[i]).abs() > SUB_RESOLUTION_MM) {
                     let kind = if name == "STRAIGHT_FEED" {
                         Kind::Feed
                     } else {
@@ -106,9 +201,10 @@ fn rs274_moves(file: &Path) -> Vec<Move> {
                         arc: None,
                         value: feed,
                         tol,
+                        tool,
                     });
+                    pos = end;
                 }
-                pos = end;
             }
             "ARC_FEED" => {
                 let (a, b, n) = plane.axes();
@@ -125,24 +221,74 @@ fn rs274_moves(file: &Path) -> Vec<Move> {
                     arc: Some((centre, v[4] as i64)),
                     value: feed,
                     tol,
+                    tool,
                 });
                 pos = end;
             }
             _ => {}
         }
     }
-    moves
+    (moves, first_tool, error)
 }
 
-fn our_moves(source: &str, name: &str) -> Vec<Move> {
-    let parsed = nc::parse(source, name, &Options::default());
+/// The first tool rs274 loads (0 if none): in the spindle from the start.
+fn first_tool(rs274_output: &str) -> u32 {
+    rs274_output
+        .lines()
+        .find_map(|l| {
+            let (_, rest) = l.split_once("CHANGE_TOOL")?;
+            let rest = rest.strip_prefix("_NUMBER").unwrap_or(rest);
+            rest.trim_start_matches('(')
+                .split(')')
+                .next()?
+                .trim()
+                .parse()
+                .ok()
+        })
+        .unwrap_or(0)
+}
+
+/// Options of both readers: the tool table, and the first tool's tip where
+/// rs274 starts its gauge point (the origin).
+fn options(first_tool: u32) -> Options {
+    Options {
+        tool_lengths_mm: tool_table(),
+        initial_position_mm: [0.0, 0.0, -tool_length_mm(first_tool)],
+        max_blocks: 1_000_000,
+        require_program_end: true,
+        ..Options::default()
+    }
+}
+
+/// Straight moves that end within this distance (mm, on every axis) of the
+/// last move kept are dropped on both sides: rs274 prints 4 decimals, so
+/// moves below its resolution (0.0001 in) may print as zero-length.
+const SUB_RESOLUTION_MM: f64 = 0.0016;
+
+fn our_moves(source: &str, name: &str, first_tool: u32) -> Vec<Move> {
+    let parsed = nc::parse(source, name, &options(first_tool));
     if let Some(d) = parsed.diagnostics.first() {
         panic!("{d}");
     }
+    let mut last = parsed
+        .path
+        .segments
+        .first()
+        .map_or([0.0; 3], |s| [s.start.x, s.start.y, s.start.z]);
     parsed
         .path
         .segments
         .iter()
+        .filter(|s| {
+            let end = [s.end.x, s.end.y, s.end.z];
+            let keep = !matches!(s.geometry, Geometry::Line)
+                || matches!(s.motion, Motion::Dwell { .. })
+                || (0..3).any(|i| (end[i] - last[i]).abs() > SUB_RESOLUTION_MM);
+            if keep {
+                last = end;
+            }
+            keep
+        })
         .map(|s| {
             let (kind, value) = match s.motion {
                 Motion::Rapid => (Kind::Rapid, 0.0),
@@ -170,6 +316,7 @@ fn our_moves(source: &str, name: &str) -> Vec<Move> {
                 arc,
                 value,
                 tol: 0.0,
+                tool: s.tool,
             }
         })
         .collect()
@@ -177,8 +324,11 @@ fn our_moves(source: &str, name: &str) -> Vec<Move> {
 
 fn compare(file: &Path) -> Result<usize, String> {
     let source = std::fs::read_to_string(file).map_err(|e| e.to_string())?;
-    let ours = our_moves(&source, &file.display().to_string());
-    let theirs = rs274_moves(file);
+    let (theirs, first_tool, error) = rs274_moves(file);
+    if let Some(e) = error {
+        return Err(format!("{}: rs274 refuses it: {e}", file.display()));
+    }
+    let ours = our_moves(&source, &file.display().to_string(), first_tool);
     if ours.len() != theirs.len() {
         return Err(format!(
             "{}: {} moves vs rs274's {}",
@@ -199,7 +349,11 @@ fn compare(file: &Path) -> Result<usize, String> {
             Kind::Dwell => (o.value - t.value).abs() <= 6e-5,
             Kind::Feed => (o.value - t.value).abs() <= t.tol,
         };
-        if o.kind != t.kind || !(0..3).all(|k| close(o.end[k], t.end[k])) || !same_arc || !value_ok
+        if o.kind != t.kind
+            || o.tool != t.tool
+            || !(0..3).all(|k| close(o.end[k], t.end[k]))
+            || !same_arc
+            || !value_ok
         {
             return Err(format!(
                 "{}: move {i} differs:\n ours   {o:?}\n rs274  {t:?}",
@@ -303,14 +457,7 @@ fn installed_samples_match_linuxcnc_rs274() {
         let Ok(source) = std::fs::read_to_string(f) else {
             continue;
         };
-        let parsed = nc::parse(
-            &source,
-            &f.display().to_string(),
-            &Options {
-                max_blocks: 1_000_000,
-                ..Options::default()
-            },
-        );
+        let parsed = nc::parse(&source, &f.display().to_string(), &options(0));
         if let Some(d) = parsed.diagnostics.first() {
             println!("not supported: {d}");
             continue;
@@ -347,4 +494,79 @@ fn matches_linuxcnc_rs274() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// How one program reads in both interpreters.
+enum Outcome {
+    /// Both read it and move through the same path (this many moves).
+    Agree(usize),
+    /// Both refuse it: our first error and rs274's.
+    BothRefuse(String, String),
+    /// They disagree.
+    Differ(String),
+}
+
+fn outcome(file: &Path) -> Outcome {
+    let Ok(bytes) = std::fs::read(file) else {
+        return Outcome::Differ(format!("{}: unreadable", file.display()));
+    };
+    let source = String::from_utf8_lossy(&bytes);
+    let (_, first_tool, rs274_error) = rs274_moves(file);
+    let parsed = nc::parse(&source, &file.display().to_string(), &options(first_tool));
+    let ours = parsed.diagnostics.iter().find(|d| d.is_error());
+    match (ours, rs274_error) {
+        (Some(d), Some(e)) => Outcome::BothRefuse(d.to_string(), e),
+        (Some(d), None) => Outcome::Differ(format!("we refuse what rs274 reads: {d}")),
+        (None, Some(e)) => Outcome::Differ(format!(
+            "{}: rs274 refuses ({e}) what we read",
+            file.display()
+        )),
+        (None, None) => match compare(file) {
+            Ok(n) => Outcome::Agree(n),
+            Err(e) => Outcome::Differ(e),
+        },
+    }
+}
+
+/// Real programs from other CAM systems and people (tests/data/real, sources
+/// in its README; `DEXCUT_REAL_DIR` reads another folder): each one rs274
+/// reads, we read and move through the same path; each one rs274 refuses,
+/// we refuse too.
+#[test]
+fn real_programs_match_linuxcnc_rs274() {
+    if !have_rs274() {
+        return;
+    }
+    let dir = std::env::var_os("DEXCUT_REAL_DIR").map_or_else(
+        || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/real"),
+        PathBuf::from,
+    );
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .expect("real program folder")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.file_name().is_some_and(|n| n != "README.md"))
+        .collect();
+    files.sort();
+    let (mut read, mut refused, mut failures) = (0, 0, Vec::new());
+    for f in &files {
+        match outcome(f) {
+            Outcome::Agree(n) => {
+                read += 1;
+                println!("read, {n} moves agree: {}", f.display());
+            }
+            Outcome::BothRefuse(ours, theirs) => {
+                refused += 1;
+                println!("refused by both: {ours}\n    rs274: {theirs}");
+            }
+            Outcome::Differ(e) => failures.push(e),
+        }
+    }
+    println!(
+        "{read} read and agree, {refused} refused by both, {} differ",
+        failures.len()
+    );
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    if std::env::var_os("DEXCUT_REAL_DIR").is_none() {
+        assert!(read >= 15, "corpus too small");
+    }
 }
