@@ -99,13 +99,31 @@ static RS274: std::sync::Mutex<()> = std::sync::Mutex::new(());
 fn rs274_moves(file: &Path) -> (Vec<Move>, u32, Option<String>) {
     let out = {
         let _turn = RS274.lock().unwrap_or_else(|e| e.into_inner());
-        Command::new("rs274")
-            .arg("-t")
-            .arg(rs274_tool_table())
-            .arg("-g")
-            .arg(file)
-            .output()
-            .expect("run rs274")
+        // LinuxCNC 2.9 keeps tool data in shared memory: rs274 runs of other
+        // processes (other checkouts' tests) can swap the table under us.
+        // Take a lock all checkouts share, and run again when the table
+        // was lost anyway (a run without our lock).
+        let lock = std::fs::File::create(std::env::temp_dir().join("dexcut-rs274.lock"))
+            .expect("rs274 lock file");
+        lock.lock().expect("lock rs274");
+        let run = || {
+            Command::new("rs274")
+                .arg("-t")
+                .arg(rs274_tool_table())
+                .arg("-g")
+                .arg(file)
+                .output()
+                .expect("run rs274")
+        };
+        let mut out = run();
+        for _ in 0..20 {
+            if !String::from_utf8_lossy(&out.stderr).contains("not found in the tool table") {
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+            out = run();
+        }
+        out
     };
     let text = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
