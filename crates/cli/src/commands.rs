@@ -328,7 +328,7 @@ pub fn optimize(job_path: Option<&Path>, out: &Path, grid_mm: Option<f64>) -> Re
         machine.period_ms,
         "the re-timed program ([limits] caps)",
     )?;
-    let samples = profile.sample(machine.period_ms);
+    let samples = profile.sample(machine.period_ms)?;
     let lower_bound_time_s = schedule::lower_bound_time_s(&stations);
     let refeed = optimize::refeed_plan(&stations, &caps, &machine);
     let time_plan_s = t2.elapsed().as_secs_f64();

@@ -69,7 +69,7 @@ pub fn machine_motion(path: &nc::Path, machine: &Machine) -> Result<Vec<ServoSam
     let stations = Stations::new(path, machine, STATION_DS_MM, FeedPolicy::Programmed)?;
     let profile = schedule::plan(&stations);
     crate::bounds::check_samples(profile.cycle_time_s(), machine.period_ms, "the program")?;
-    Ok(profile.sample(machine.period_ms))
+    Ok(profile.sample(machine.period_ms)?)
 }
 
 /// CSV point lists: one step per move, time = length / feed (no acceleration).

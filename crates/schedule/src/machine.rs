@@ -25,6 +25,17 @@ pub enum ScheduleError {
     /// A feed cap is NaN or not > 0.
     #[error("feed cap at station {station} must be > 0 mm/min, got {cap_mm_min}")]
     InvalidCap { station: usize, cap_mm_min: f64 },
+    /// The path needs more stations than the planner allows.
+    #[error("the path needs {needed} planner stations, more than the limit of {limit} (a very long move or a very fine station spacing)")]
+    TooManyStations { needed: usize, limit: usize },
+    /// The profile needs more servo samples than allowed.
+    #[error("the motion needs {needed} servo samples, more than the limit of {limit} (cycle time {cycle_time_s:.1} s at period {period_ms} ms)")]
+    TooManySamples {
+        needed: f64,
+        limit: usize,
+        cycle_time_s: f64,
+        period_ms: f64,
+    },
     /// A caps slice does not have one value per station.
     #[error("expected {expected} caps (one per station), got {got}")]
     CapCount { expected: usize, got: usize },

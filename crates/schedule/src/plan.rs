@@ -2,6 +2,8 @@
 
 use nalgebra::{Point3, Vector3};
 
+use crate::machine::ScheduleError;
+use crate::range_min::RangeMin;
 use crate::stations::{CapKind, Stations};
 
 /// A speed within this share below the cap counts as running at the cap.
@@ -42,6 +44,8 @@ struct Run {
     duration_s: f64,
     /// ∫ (s − s_first) dt over the whole planned run, mm·s.
     integral_mm_s: f64,
+    /// Width of the run's jerk filter, s (0 without a jerk limit).
+    window_s: f64,
 }
 
 /// A planned speed profile over [`Stations`].
@@ -59,11 +63,18 @@ pub struct Profile<'a> {
     /// ∫ (s − s_first of the run) dt from the run start to the start of each interval, mm·s.
     interval_integral_mm_s: Vec<f64>,
     runs: Vec<Run>,
-    window_s: f64,
     cycle_time_s: f64,
 }
 
-/// Plans the time-optimal speed profile over `stations`.
+/// Most servo samples one profile may produce (about 60 bytes each, 1.2 GB at the bound).
+pub const MAX_SAMPLES: usize = 20_000_000;
+
+/// Runs with at most this many stations get the jerk-limited search over the acceleration
+/// share λ (short moves, where the time-optimal profile does not reach the full acceleration);
+/// longer runs plan at λ = 1.
+const LAMBDA_SEARCH_MAX_STATIONS: usize = 4000;
+
+/// Plans the time-optimal speed profile over `stations` (MODEL.md §6.1).
 ///
 /// Speed at each station is at most its cap; between stations the tangential acceleration is
 /// at most the interval's limit (min_i a_i/|t_i|); the tool rests at every stop. The classic
@@ -71,64 +82,58 @@ pub struct Profile<'a> {
 /// end) give the largest such speed at every station, hence the least time: this is exact for
 /// profiles made of constant-acceleration pieces between stations.
 ///
-/// Jerk limit: each run between stops is planned as above and its speed v(t) is then averaged
-/// over a sliding window W = max_k 2·a_k/j_k (a_k, j_k the interval's tangential acceleration
-/// and jerk limits). Averaging keeps |a| ≤ max a and bounds the jerk by 2·max a/W ≤ j, keeps
-/// the path geometry exact (the filter acts on s(t), not on the axes), keeps stops and dwells
-/// exact, and costs W per run. To keep the averaged speed under the caps, the run is first
-/// planned with eroded caps (each station's cap lowered to the smallest cap within the distance
-/// W·v + Δs that the window can span at that speed; see `erode`), which makes the caps hold
-/// exactly at every station at the price of slowing down a little early and late around a
-/// dip. Exact on straight lines; on curved paths the jerk bound is tangential only (the normal
-/// jerk d(v²κ)/dt is not limited) and corners still step per the corner rule.
+/// Jerk limit (MODEL.md §6.1): each run between stops is planned with the acceleration limits
+/// scaled by λ ≤ 1 and its speed v(t) is then averaged over a sliding window
+/// W = λ·max_k a_k/j_k. The filtered jerk is (a(t) − a(t−W))/W, at most λ·a/W ≤ j as long as
+/// the planned acceleration never changes sign within W. The plan makes sure of that:
+/// * every local minimum of the speed is a cap; each station's cap c is extended over
+///   c·W/2 on either side (c·(W + 3T)/2 at a corner), so the plan rests at that speed for
+///   W (W + 3T at a corner: the filtered speed is then constant for 3T around the corner,
+///   the sampling stencil of its velocity step);
+/// * every local maximum that is held for less than W is cut flat at the highest level c
+///   where it is held for c·W.
+///
+/// A trapezoid with accelerations of at least W filtered this way is exactly the 7-segment
+/// S-curve, so a rest-to-rest move is time-optimal for the best λ; λ is searched on short
+/// runs (golden section), λ = 1 elsewhere. Averaging keeps the path geometry exact (the
+/// filter acts on s(t), not on the axes), keeps stops and dwells exact, and costs W per run.
+/// On curved paths the jerk bound is tangential only (the normal jerk d(v²κ)/dt is not
+/// limited).
 pub fn plan(stations: &Stations) -> Profile<'_> {
     let n = stations.len();
     let s = stations.s_mm();
-    let accel = stations.interval_accel_mm_s2();
-    let mut limit_mm_s: Vec<f64> = stations.cap_mm_min().iter().map(|c| c / 60.0).collect();
-
-    let window_s = accel
+    let caps_mm_s: Vec<f64> = stations.cap_mm_min().iter().map(|c| c / 60.0).collect();
+    let base_window_s = stations
+        .interval_accel_mm_s2()
         .iter()
         .zip(stations.interval_jerk_mm_s3())
-        .map(|(a, j)| 2.0 * a / j)
+        .map(|(a, j)| a / j)
         .fold(0.0, f64::max);
     let stops = stations.stops();
-    if window_s > 0.0 {
-        let caps = limit_mm_s.clone();
-        for pair in stops.windows(2) {
-            erode(
-                &caps,
-                s,
-                pair[0].station,
-                pair[1].station,
-                window_s,
-                &mut limit_mm_s,
-            );
-        }
-    }
+    let mut planner = RunPlanner::new(stations, &caps_mm_s);
 
-    // Forward and backward passes; the tool rests at every stop.
-    let mut v = limit_mm_s;
-    for stop in stops {
-        v[stop.station] = 0.0;
-    }
-    for k in 0..n.saturating_sub(1) {
-        let reach = (v[k] * v[k] + 2.0 * accel[k] * (s[k + 1] - s[k])).sqrt();
-        v[k + 1] = v[k + 1].min(reach);
-    }
-    for k in (0..n.saturating_sub(1)).rev() {
-        let reach = (v[k + 1] * v[k + 1] + 2.0 * accel[k] * (s[k + 1] - s[k])).sqrt();
-        v[k] = v[k].min(reach);
+    let mut v = vec![0.0; n];
+    let mut windows = Vec::with_capacity(stops.len());
+    for pair in stops.windows(2) {
+        let (first, last) = (pair[0].station, pair[1].station);
+        let lambda = if base_window_s > 0.0 && last - first <= LAMBDA_SEARCH_MAX_STATIONS {
+            planner.best_lambda(first, last, base_window_s)
+        } else {
+            1.0
+        };
+        let window_s = lambda * base_window_s;
+        planner.plan_run(first, last, lambda, window_s, &mut v);
+        windows.push(window_s);
     }
 
     // Time line: dwell at a stop, then the run to the next stop (stretched by W if filtered).
     let intervals = n.saturating_sub(1);
     let mut interval_start_s = Vec::with_capacity(intervals);
     let mut interval_dt_s = Vec::with_capacity(intervals);
-    let mut interval_integral_mm_s = Vec::with_capacity(if window_s > 0.0 { intervals } else { 0 });
+    let mut interval_integral_mm_s = Vec::with_capacity(intervals);
     let mut runs = Vec::with_capacity(stops.len().saturating_sub(1));
     let mut t_s = stops[0].dwell_s;
-    for pair in stops.windows(2) {
+    for (pair, &window_s) in stops.windows(2).zip(&windows) {
         let (first, last) = (pair[0].station, pair[1].station);
         let start_s = t_s;
         let mut integral_mm_s = 0.0;
@@ -137,11 +142,9 @@ pub fn plan(stations: &Stations) -> Profile<'_> {
             let dt = 2.0 * ds / (v[k] + v[k + 1]);
             interval_start_s.push(t_s);
             interval_dt_s.push(dt);
-            if window_s > 0.0 {
-                interval_integral_mm_s.push(integral_mm_s);
-                let a = (v[k + 1] - v[k]) / dt;
-                integral_mm_s += integral_over_mm_s(s[k] - s[first], v[k], a, dt);
-            }
+            interval_integral_mm_s.push(integral_mm_s);
+            let a = (v[k + 1] - v[k]) / dt;
+            integral_mm_s += integral_over_mm_s(s[k] - s[first], v[k], a, dt);
             t_s += dt;
         }
         runs.push(Run {
@@ -150,6 +153,7 @@ pub fn plan(stations: &Stations) -> Profile<'_> {
             start_s,
             duration_s: t_s - start_s,
             integral_mm_s,
+            window_s,
         });
         t_s += window_s + pair[1].dwell_s;
     }
@@ -161,48 +165,189 @@ pub fn plan(stations: &Stations) -> Profile<'_> {
         interval_dt_s,
         interval_integral_mm_s,
         runs,
-        window_s,
         cycle_time_s: t_s,
     }
 }
 
-/// Erodes the caps of stations `first..=last` for the jerk filter, writing into `out` where
-/// lower: c'_k is the largest c ≤ cap_k with c ≤ cap_j for every station j within
-/// W·c + Δs_max of station k in s.
-///
-/// Why that suffices: the filtered position s_f(t) is the mean of s over [t − W, t], so it lies
-/// within W·v_f(t) of every planned position in the window, v_f(t) being the window's mean
-/// speed. If v_f(t) exceeded the cap at s_f(t), some planned speed in the window would be
-/// ≥ v_f(t), hence some station m there has v_m ≥ v_f(t) and a reach W·c'_m + Δs_max that
-/// covers s_f(t); so v_m ≤ c'_m ≤ cap at s_f(t) < v_f(t), a contradiction.
-///
-/// Cost: per station, the stations within its reach (found nearest first).
-fn erode(caps: &[f64], s: &[f64], first: usize, last: usize, window_s: f64, out: &mut [f64]) {
-    let ds_max = s[first..=last]
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .fold(0.0, f64::max);
-    for k in first..=last {
-        let mut cap = caps[k];
-        let (mut lo, mut hi) = (k, k);
-        loop {
-            let reach_mm = window_s * cap + ds_max;
-            let left = (lo > first).then(|| (s[k] - s[lo - 1], lo - 1));
-            let right = (hi < last).then(|| (s[hi + 1] - s[k], hi + 1));
-            let nearest = match (left, right) {
-                (Some(l), Some(r)) => Some(if l.0 <= r.0 { l } else { r }),
-                (l, r) => l.or(r),
-            };
-            match nearest {
-                Some((distance_mm, j)) if distance_mm <= reach_mm => {
-                    cap = cap.min(caps[j]);
-                    lo = lo.min(j);
-                    hi = hi.max(j);
-                }
-                _ => break,
+/// Plans single runs; reuses its buffers between runs and between trials of λ.
+struct RunPlanner<'a> {
+    stations: &'a Stations,
+    caps_mm_s: &'a [f64],
+    /// Largest station spacing of the path, mm.
+    ds_max_mm: f64,
+    is_corner: Vec<bool>,
+    trial: Vec<f64>,
+}
+
+impl<'a> RunPlanner<'a> {
+    fn new(stations: &'a Stations, caps_mm_s: &'a [f64]) -> Self {
+        let n = stations.len();
+        let mut is_corner = vec![false; n];
+        for &c in stations.corners() {
+            is_corner[c] = true;
+        }
+        RunPlanner {
+            stations,
+            caps_mm_s,
+            ds_max_mm: stations
+                .s_mm()
+                .windows(2)
+                .map(|w| w[1] - w[0])
+                .fold(0.0, f64::max),
+            is_corner,
+            trial: vec![0.0; n],
+        }
+    }
+
+    /// λ in (0, 1] that minimises the run's time (planned time + W): golden section, with
+    /// λ = 1 kept when nothing beats it.
+    fn best_lambda(&mut self, first: usize, last: usize, base_window_s: f64) -> f64 {
+        let mut trial = std::mem::take(&mut self.trial);
+        let mut time = |lambda: f64| {
+            let w = lambda * base_window_s;
+            self.plan_run(first, last, lambda, w, &mut trial) + w
+        };
+        let ratio = (5f64.sqrt() - 1.0) / 2.0;
+        let (mut lo, mut hi) = (0.02, 1.0);
+        let mut x1 = hi - ratio * (hi - lo);
+        let mut x2 = lo + ratio * (hi - lo);
+        let (mut f1, mut f2) = (time(x1), time(x2));
+        for _ in 0..24 {
+            if f1 <= f2 {
+                hi = x2;
+                x2 = x1;
+                f2 = f1;
+                x1 = hi - ratio * (hi - lo);
+                f1 = time(x1);
+            } else {
+                lo = x1;
+                x1 = x2;
+                f1 = f2;
+                x2 = lo + ratio * (hi - lo);
+                f2 = time(x2);
             }
         }
-        out[k] = out[k].min(cap);
+        let (best, best_time) = if f1 <= f2 { (x1, f1) } else { (x2, f2) };
+        let at_one = time(1.0);
+        self.trial = trial;
+        if at_one <= best_time {
+            1.0
+        } else {
+            best
+        }
+    }
+
+    /// Plans stations `first..=last` (a run between two stops) into `v`, with the
+    /// acceleration limits scaled by `lambda` and, when `window_s` > 0, the plateaus the jerk
+    /// filter needs (see [`plan`]). Returns the planned (unfiltered) time, s.
+    fn plan_run(
+        &self,
+        first: usize,
+        last: usize,
+        lambda: f64,
+        window_s: f64,
+        v: &mut [f64],
+    ) -> f64 {
+        let s = self.stations.s_mm();
+        let accel = self.stations.interval_accel_mm_s2();
+        v[first..=last].copy_from_slice(&self.caps_mm_s[first..=last]);
+        if window_s > 0.0 {
+            self.extend_caps(first, last, window_s, v);
+        }
+        v[first] = 0.0;
+        v[last] = 0.0;
+        for k in first..last {
+            let reach = (v[k] * v[k] + 2.0 * lambda * accel[k] * (s[k + 1] - s[k])).sqrt();
+            v[k + 1] = v[k + 1].min(reach);
+        }
+        for k in (first..last).rev() {
+            let reach = (v[k + 1] * v[k + 1] + 2.0 * lambda * accel[k] * (s[k + 1] - s[k])).sqrt();
+            v[k] = v[k].min(reach);
+        }
+        if window_s > 0.0 {
+            self.cut_peaks(first, last, window_s, v);
+        }
+        (first..last)
+            .map(|k| 2.0 * (s[k + 1] - s[k]) / (v[k] + v[k + 1]))
+            .sum()
+    }
+
+    /// Each station's cap c holds over c·W/2 + Δs_max on either side (c·(W + 3T)/2 + Δs_max
+    /// at a corner): c'_k = min { c_j : |s_j − s_k| ≤ r_j }. n·log n through a range-minimum
+    /// tree.
+    fn extend_caps(&self, first: usize, last: usize, window_s: f64, v: &mut [f64]) {
+        let s = &self.stations.s_mm()[first..=last];
+        let period_s = self.stations.machine().period_s();
+        let mut tree = RangeMin::<1>::new(s.len());
+        for (j, &s_j) in s.iter().enumerate() {
+            let cap = self.caps_mm_s[first + j];
+            let hold_s = if self.is_corner[first + j] {
+                window_s + 3.0 * period_s
+            } else {
+                window_s
+            };
+            let reach = cap * hold_s / 2.0 + self.ds_max_mm;
+            let lo = s[..=j].partition_point(|&x| x < s_j - reach);
+            let hi = j + s[j..].partition_point(|&x| x <= s_j + reach);
+            tree.lower(lo, hi, [cap]);
+        }
+        for (j, vj) in v[first..=last].iter_mut().enumerate() {
+            *vj = vj.min(tree.get(j)[0]);
+        }
+    }
+
+    /// Cuts every local maximum of `v` on `first..=last` that is held for less than W
+    /// flat at the highest level c where it is held for at least W (length ≥ c·W), but
+    /// not below the higher of its two neighbouring minima.
+    fn cut_peaks(&self, first: usize, last: usize, window_s: f64, v: &mut [f64]) {
+        let s = self.stations.s_mm();
+        let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.max(b);
+        let mut k = first;
+        while k < last {
+            // A plateau [a, b] of equal speeds.
+            let a = k;
+            let mut b = k;
+            while b < last && same(v[b + 1], v[a]) {
+                b += 1;
+            }
+            let is_peak = a > first && b < last && v[a - 1] < v[a] && v[b + 1] < v[b];
+            if !is_peak || s[b] - s[a] >= v[a] * window_s {
+                k = b + 1;
+                continue;
+            }
+            // Walk down both sides to the neighbouring minima.
+            let mut left = a;
+            while left > first && v[left - 1] <= v[left] {
+                left -= 1;
+            }
+            let mut right = b;
+            while right < last && v[right + 1] <= v[right] {
+                right += 1;
+            }
+            let floor = v[left].max(v[right]);
+            // Held length at level c: outermost stations with v ≥ c on either side
+            // (v rises on left..=a and falls on b..=right).
+            let held = |c: f64| {
+                let l = left + v[left..=a].partition_point(|&x| x < c);
+                let r = b + v[b..=right].partition_point(|&x| x >= c);
+                s[r.saturating_sub(1).max(b)] - s[l.min(a)]
+            };
+            let (mut lo, mut hi) = (floor, v[a]);
+            if held(lo) >= lo * window_s {
+                for _ in 0..60 {
+                    let mid = 0.5 * (lo + hi);
+                    if held(mid) >= mid * window_s {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+            }
+            for x in &mut v[left..=right] {
+                *x = x.min(lo);
+            }
+            k = right;
+        }
     }
 }
 
@@ -231,9 +376,9 @@ impl Profile<'_> {
         &self.interval_start_s
     }
 
-    /// Width of the jerk filter's moving average, s (0 without a jerk limit).
+    /// Widest jerk filter of any run, s (0 without a jerk limit).
     pub fn filter_window_s(&self) -> f64 {
-        self.window_s
+        self.runs.iter().map(|r| r.window_s).fold(0.0, f64::max)
     }
 
     /// Total time from program start to the end of the last dwell, s.
@@ -260,7 +405,7 @@ impl Profile<'_> {
             time_s[binding(k).index()] += dt / 2.0;
             time_s[binding(k + 1).index()] += dt / 2.0;
         }
-        time_s[CapKind::Acceleration.index()] += self.window_s * self.runs.len() as f64;
+        time_s[CapKind::Acceleration.index()] += self.runs.iter().map(|r| r.window_s).sum::<f64>();
         time_s[CapKind::Dwell.index()] +=
             self.stations.stops().iter().map(|s| s.dwell_s).sum::<f64>();
         let total: f64 = time_s.iter().sum();
@@ -284,9 +429,21 @@ impl Profile<'_> {
     /// Inside a station interval s(t) is the exact quadratic of constant acceleration (with a
     /// jerk limit: the exact moving average of it); s is then mapped onto the segment's own
     /// geometry, so positions lie exactly on lines and arcs.
-    pub fn sample(&self, period_ms: f64) -> Vec<ServoSample> {
+    ///
+    /// More than [`MAX_SAMPLES`] samples (see [`Profile::sample_count`]) is an error,
+    /// checked before allocating; so is a period that is not finite and > 0.
+    pub fn sample(&self, period_ms: f64) -> Result<Vec<ServoSample>, ScheduleError> {
+        let count = self.sample_count(period_ms)?;
+        if count > MAX_SAMPLES as f64 {
+            return Err(ScheduleError::TooManySamples {
+                needed: count,
+                limit: MAX_SAMPLES,
+                cycle_time_s: self.cycle_time_s,
+                period_ms,
+            });
+        }
         let period_s = period_ms * 1e-3;
-        let count = (self.cycle_time_s / period_s).ceil() as usize + 1;
+        let count = count as usize;
         let mut samples = Vec::with_capacity(count);
         let mut sampler = Sampler {
             profile: self,
@@ -303,7 +460,19 @@ impl Profile<'_> {
             samples.push(sampler.at(t_s));
         }
         samples.push(sampler.at(self.cycle_time_s));
-        samples
+        Ok(samples)
+    }
+
+    /// Number of samples [`Profile::sample`] makes at `period_ms` (as f64: it may be
+    /// astronomically large), so callers can check memory before sampling.
+    pub fn sample_count(&self, period_ms: f64) -> Result<f64, ScheduleError> {
+        if !(period_ms.is_finite() && period_ms > 0.0) {
+            return Err(ScheduleError::InvalidMachine {
+                name: "period_ms",
+                value: period_ms,
+            });
+        }
+        Ok((self.cycle_time_s / (period_ms * 1e-3)).ceil() + 1.0)
     }
 
     /// State of run `run` at time `t_s`, searching intervals from `*cursor` on (monotone).
@@ -370,8 +539,8 @@ impl Sampler<'_, '_> {
         }
         let (s_mm, v_mm_s) = match runs.get(self.run) {
             None => (0.0, 0.0),
-            Some(run) if profile.window_s > 0.0 => {
-                let w = profile.window_s;
+            Some(run) if run.window_s > 0.0 => {
+                let w = run.window_s;
                 let now = profile.run_state(run, t_s, &mut self.now);
                 let lagged = profile.run_state(run, t_s - w, &mut self.lagged);
                 let s_first = stations.s_mm()[run.first];

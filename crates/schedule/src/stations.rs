@@ -4,7 +4,15 @@ use nalgebra::{Point3, Vector3};
 use nc::{Geometry, Motion, Path, Segment};
 
 use crate::machine::{along, Machine, ScheduleError};
+use crate::range_min::RangeMin;
 use crate::rules::block_feed_cap_mm_min;
+
+/// Most stations one path may have: about 200 bytes each while planning (the arrays here,
+/// the plan's speeds and times, the corner-budget tree), so 4 GB at the bound.
+pub const MAX_STATIONS: usize = 20_000_000;
+
+/// Memory one station takes while planning, bytes (for callers' memory estimates).
+pub const BYTES_PER_STATION: usize = 200;
 
 /// Segments shorter than this (mm) carry no stations; they neither move nor turn the tool.
 const MIN_SEGMENT_MM: f64 = 1e-9;
@@ -99,6 +107,31 @@ pub struct Stations {
     interval_accel_mm_s2: Vec<f64>,
     interval_jerk_mm_s3: Vec<f64>,
     stops: Vec<Stop>,
+    /// Stations where the tangent jumps (corners), ascending.
+    corners: Vec<usize>,
+}
+
+/// Number of stations [`Stations::new`] builds for `path` at spacing `ds_mm`: one at the
+/// start and max(2, ⌈L/ds⌉) per moving segment. Linear in the segments, allocates nothing,
+/// so callers can check the bound before any work. Saturates instead of overflowing.
+pub fn station_count(path: &Path, ds_mm: f64) -> usize {
+    let mut count: usize = 1;
+    for seg in &path.segments {
+        if matches!(seg.motion, Motion::Dwell { .. }) {
+            continue;
+        }
+        let len_mm = seg.length_mm();
+        if !(len_mm >= MIN_SEGMENT_MM) {
+            continue;
+        }
+        let intervals = (len_mm / ds_mm).ceil().max(2.0);
+        count = count.saturating_add(if intervals < usize::MAX as f64 {
+            intervals as usize
+        } else {
+            usize::MAX
+        });
+    }
+    count
 }
 
 impl Stations {
@@ -116,8 +149,12 @@ impl Stations {
     ///   side stay within a_i in the sampled positions (second differences / T²);
     /// * block time (S0): with block time Tb, a segment of length L is capped at
     ///   60000·L/Tb mm/min.
+    /// * with a jerk limit j the corner step also obeys v·|Δt_i| ≤ j_i·T²/2 (the step's third
+    ///   difference is at most v·|Δt_i|/T²); the planner holds the speed constant around the
+    ///   corner (see [`crate::plan`]), so the other half covers the sampling phase.
     ///
-    /// Dwells become stops. Zero-length moves are skipped.
+    /// Dwells become stops. Zero-length moves are skipped. More than [`MAX_STATIONS`]
+    /// stations is an error ([`ScheduleError::TooManyStations`]), checked before allocating.
     pub fn new(
         path: &Path,
         machine: &Machine,
@@ -129,7 +166,13 @@ impl Stations {
             return Err(ScheduleError::InvalidSpacing(ds_mm));
         }
         let first = path.segments.first().ok_or(ScheduleError::EmptyPath)?;
-        let estimate = (path.length_mm() / ds_mm) as usize + 2 * path.segments.len() + 1;
+        let estimate = station_count(path, ds_mm);
+        if estimate > MAX_STATIONS {
+            return Err(ScheduleError::TooManyStations {
+                needed: estimate,
+                limit: MAX_STATIONS,
+            });
+        }
         let mut st = Stations {
             machine: *machine,
             segments: path.segments.clone(),
@@ -143,6 +186,7 @@ impl Stations {
             interval_accel_mm_s2: Vec::with_capacity(estimate),
             interval_jerk_mm_s3: Vec::with_capacity(estimate),
             stops: Vec::new(),
+            corners: Vec::new(),
         };
         // A dwell (or run of dwells) waiting for the next station: total seconds.
         let mut pending_dwell_s: Option<f64> = None;
@@ -218,10 +262,16 @@ impl Stations {
                         }),
                         None => {
                             let jump = start_tangent - st.segments[prev].tangent_at_fraction(1.0);
-                            // Corner rule: v·|Δt_i| ≤ a_i·T/2 on every axis.
+                            // MODEL.md §6.1 corner rule: v·|Δt_i| ≤ a_i·T/2 on every axis,
+                            // and ≤ j_i·T²/2 with a jerk limit.
                             let period_s = machine.period_s();
-                            let corner_mm_s =
-                                along(&jump, machine.accel_mm_s2.map(|a| 0.5 * a * period_s));
+                            let step_mm_s: [f64; 3] = std::array::from_fn(|i| {
+                                let by_accel = 0.5 * machine.accel_mm_s2[i] * period_s;
+                                machine.jerk_mm_s3.map_or(by_accel, |j| {
+                                    by_accel.min(0.5 * j[i] * period_s * period_s)
+                                })
+                            });
+                            let corner_mm_s = along(&jump, step_mm_s);
                             st.lower_cap(junction, 60.0 * corner_mm_s, CapKind::Corner);
                             corners.push((junction, jump));
                         }
@@ -262,6 +312,7 @@ impl Stations {
             previous = Some(index);
         }
         st.share_corner_budgets(&corners);
+        st.corners = corners.iter().map(|&(c, _)| c).collect();
         if st.s_mm.is_empty() {
             // Nothing moves: one station where the program starts, standing for its dwells.
             st.push(
@@ -293,26 +344,38 @@ impl Stations {
     /// Within one period of a corner, each axis' velocity step there (v·|Δt_i|, at most
     /// a_i·T/2 by the corner rule) is taken out of that axis' acceleration budget, so the
     /// step and the ramps beside it together stay within a_i in the sampled positions.
+    /// Each corner's budgets are applied to the interval range its reach overlaps through a
+    /// range-minimum tree, so the cost is O((stations + corners)·log stations) however many
+    /// corners fall within one reach (very short segments).
     fn share_corner_budgets(&mut self, corners: &[(usize, Vector3<f64>)]) {
+        let intervals = self.s_mm.len().saturating_sub(1);
+        if corners.is_empty() || intervals == 0 {
+            return;
+        }
         let period_s = self.machine.period_s();
         let a = self.machine.accel_mm_s2;
         let a_max = a.iter().copied().fold(0.0, f64::max);
+        let mut budgets = RangeMin::<3>::new(intervals);
         for &(c, jump) in corners {
             let v_c = self.cap_mm_min[c] / 60.0;
             let budget: [f64; 3] =
                 std::array::from_fn(|i| (a[i] - v_c * jump[i].abs() / period_s).max(0.5 * a[i]));
             let (s_c, reach) = (self.s_mm[c], (v_c + a_max * period_s) * period_s);
-            // Intervals k → k+1 overlapping [s_c − reach, s_c + reach].
-            let mut k = c;
-            while k > 0 && self.s_mm[k] > s_c - reach {
-                k -= 1;
-            }
-            while k + 1 < self.s_mm.len() && self.s_mm[k] < s_c + reach {
+            // Intervals k → k+1 overlapping [s_c − reach, s_c + reach]: from the last station
+            // at or before s_c − reach to the last one before s_c + reach.
+            let lo = self.s_mm[..=c]
+                .partition_point(|&s| s <= s_c - reach)
+                .saturating_sub(1);
+            let hi = c + self.s_mm[c..].partition_point(|&s| s < s_c + reach);
+            budgets.lower(lo, hi.min(intervals), budget);
+        }
+        for k in 0..intervals {
+            let budget = budgets.get(k);
+            if budget[0].is_finite() {
                 let limit =
                     along(&self.tangent[k], budget).min(along(&self.tangent[k + 1], budget));
                 let accel = &mut self.interval_accel_mm_s2[k];
                 *accel = accel.min(limit);
-                k += 1;
             }
         }
     }
@@ -457,6 +520,11 @@ impl Stations {
         &self.stops
     }
 
+    /// Stations where the tangent jumps (corners crossed without stopping), ascending.
+    pub fn corners(&self) -> &[usize] {
+        &self.corners
+    }
+
     /// Tool-tip position and segment index at arc length `s_mm` within interval `k` → k+1.
     pub(crate) fn locate(&self, k: usize, s_mm: f64) -> (Point3<f64>, u32) {
         let segment = self.segment[k + 1];
@@ -480,16 +548,113 @@ fn invalid_cap(cap_mm_min: f64) -> bool {
     cap_mm_min.is_nan() || cap_mm_min <= 0.0
 }
 
-/// Time in s the path would take if the machine could jump to each cap at once: on each
-/// interval the planned speed is at most the larger cap of its two stations, so no profile
-/// from [`crate::plan`] beats Σ Δs / max(cap_k, cap_k+1) plus the dwells.
+/// A lower bound on the time in s of any motion along the stations that keeps every station
+/// at or under its cap, the speed inside an interval at or under the larger cap of its two
+/// stations, the tangential acceleration within each interval's limit, and rests at every
+/// stop for its dwell (MODEL.md §6.1):
+///
+/// * the forward/backward passes give, at every station, the highest speed any such motion
+///   can have there (v_k+1² ≤ v_k² + 2 a Δs holds for every motion, not only for the plan);
+/// * inside an interval the speed is at most min(√(v_k² + 2a·x), √(v_k+1² + 2a·(Δs − x)), cap),
+///   whose time integral is closed form;
+/// * with a jerk limit, a run from stop to stop of length D takes at least the rest-to-rest
+///   time of the 7-segment S-curve ([`rest_to_rest_time_s`]) with the run's highest cap,
+///   acceleration and jerk limits.
+///
+/// The planned profile is never faster, so `cycle / bound − 1` is an upper bound on how far
+/// the plan is from the optimum.
 pub fn lower_bound_time_s(stations: &Stations) -> f64 {
-    let caps = stations.cap_mm_min();
-    let moving: f64 = stations
-        .s_mm()
-        .windows(2)
-        .zip(caps.windows(2))
-        .map(|(s, c)| 60.0 * (s[1] - s[0]) / c[0].max(c[1]))
-        .sum();
-    moving + stations.stops().iter().map(|s| s.dwell_s).sum::<f64>()
+    let s = stations.s_mm();
+    let caps: Vec<f64> = stations.cap_mm_min().iter().map(|c| c / 60.0).collect();
+    let accel = stations.interval_accel_mm_s2();
+    let jerk = stations.interval_jerk_mm_s3();
+    let mut v = caps.clone();
+    let stops = stations.stops();
+    for stop in stops {
+        v[stop.station] = 0.0;
+    }
+    let n = v.len();
+    for k in 0..n.saturating_sub(1) {
+        v[k + 1] = v[k + 1].min((v[k] * v[k] + 2.0 * accel[k] * (s[k + 1] - s[k])).sqrt());
+    }
+    for k in (0..n.saturating_sub(1)).rev() {
+        v[k] = v[k].min((v[k + 1] * v[k + 1] + 2.0 * accel[k] * (s[k + 1] - s[k])).sqrt());
+    }
+    let mut total_s: f64 = stops.iter().map(|s| s.dwell_s).sum();
+    for pair in stops.windows(2) {
+        let (first, last) = (pair[0].station, pair[1].station);
+        let mut run_s = 0.0;
+        let (mut v_max, mut a_max, mut j_max) = (0.0f64, 0.0f64, 0.0f64);
+        for k in first..last {
+            run_s += interval_bound_s(
+                s[k + 1] - s[k],
+                v[k],
+                v[k + 1],
+                accel[k],
+                caps[k].max(caps[k + 1]),
+            );
+            v_max = v_max.max(caps[k].max(caps[k + 1]));
+            a_max = a_max.max(accel[k]);
+            j_max = j_max.max(jerk[k]);
+        }
+        if j_max.is_finite() && last > first {
+            let scurve_s = rest_to_rest_time_s(s[last] - s[first], v_max, a_max, j_max);
+            run_s = run_s.max(scurve_s);
+        }
+        total_s += run_s;
+    }
+    total_s
+}
+
+/// Least time over an interval of length `len_mm` entered at no more than `v0`, left at no
+/// more than `v1`, with acceleration ≤ `a` and speed ≤ `cap` (mm/s).
+fn interval_bound_s(len_mm: f64, v0: f64, v1: f64, a: f64, cap: f64) -> f64 {
+    if len_mm <= 0.0 {
+        return 0.0;
+    }
+    // Where the rising and falling limits meet.
+    let x_peak = ((v1 * v1 - v0 * v0 + 2.0 * a * len_mm) / (4.0 * a)).clamp(0.0, len_mm);
+    // Time over x ∈ [0, x_end] at speed min(√(u² + 2a·x), cap).
+    let half = |u: f64, x_end: f64| {
+        let x_cap = ((cap * cap - u * u) / (2.0 * a)).max(0.0);
+        let x_ramp = x_end.min(x_cap);
+        let ramp_s = if x_ramp > 0.0 {
+            ((u * u + 2.0 * a * x_ramp).sqrt() - u) / a
+        } else {
+            0.0
+        };
+        ramp_s + (x_end - x_ramp).max(0.0) / cap
+    };
+    half(v0, x_peak) + half(v1, len_mm - x_peak)
+}
+
+/// Least time in s of a rest-to-rest move of length `len_mm` under speed `v`, acceleration `a`
+/// and jerk `j` limits: the closed form of the 7-segment S-curve (MODEL.md §6.1).
+///
+/// Accelerating to a speed u and back takes τ(u) = u/a + a/j when u ≥ a²/j (the acceleration
+/// limit is reached) and 2√(u/j) otherwise, and covers u·τ(u). If L ≥ v·τ(v) the move
+/// cruises: T = L/v + τ(v). Otherwise it peaks at the u with u·τ(u) = L and T = 2τ(u).
+pub fn rest_to_rest_time_s(len_mm: f64, v: f64, a: f64, j: f64) -> f64 {
+    if len_mm <= 0.0 {
+        return 0.0;
+    }
+    let tau = |u: f64| {
+        if u * j >= a * a {
+            u / a + a / j
+        } else {
+            2.0 * (u / j).sqrt()
+        }
+    };
+    if len_mm >= v * tau(v) {
+        return len_mm / v + tau(v);
+    }
+    // Peak with the acceleration limit reached: u²/a + u·a/j = L.
+    let u = a * (-a / j + (a * a / (j * j) + 4.0 * len_mm / a).sqrt()) / 2.0;
+    let u = if u * j >= a * a {
+        u
+    } else {
+        // Pure jerk phases: L = 2u·√(u/j).
+        (len_mm * j.sqrt() / 2.0).powf(2.0 / 3.0)
+    };
+    2.0 * tau(u)
 }
