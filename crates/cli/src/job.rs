@@ -86,6 +86,9 @@ pub struct ToolSpec {
     pub youngs_modulus_mpa: Option<f64>,
     /// Effective diameter of the fluted part for the beam model, mm; default 0.8 × diameter.
     pub effective_diameter: Option<f64>,
+    /// Largest feed per tooth, mm/tooth (chip-load limit of optimize); default
+    /// from the tool diameter and cutting.material (MODEL.md §2.1).
+    pub fz_max: Option<f64>,
 }
 
 fn default_flutes() -> u32 {
@@ -206,6 +209,8 @@ pub struct LimitsSpec {
     pub angle_rule: bool,
     /// S3's v0: feed near the ball tip, mm/min.
     pub v0: Option<f64>,
+    /// Largest factor over the programmed feed on cutting moves (none by default).
+    pub feed_scale_max: Option<f64>,
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -447,6 +452,7 @@ impl Job {
         if !(1..=MAX_FLUTES).contains(&t.flutes) {
             bail!("tool.flutes must be 1..{MAX_FLUTES}, got {}", t.flutes);
         }
+        positive_opt("tool.fz_max (mm/tooth)", t.fz_max, 10.0)?;
         if t.kind == ToolKind::Bull && t.corner_radius.is_none() {
             bail!("tool kind \"bull\" needs corner_radius (mm)");
         }
@@ -495,6 +501,7 @@ impl Job {
         feed_opt("limits.feed_min (mm/min)", l.feed_min)?;
         feed_opt("limits.feed_max (mm/min)", l.feed_max)?;
         feed_opt("limits.v0 (mm/min)", l.v0)?;
+        positive_opt("limits.feed_scale_max", l.feed_scale_max, 1000.0)?;
         if let (Some(lo), Some(hi)) = (l.feed_min, l.feed_max.or(Some(m.feed_max))) {
             if lo > hi {
                 bail!("limits.feed_min ({lo}) exceeds the highest feed ({hi})");
@@ -553,6 +560,14 @@ impl Job {
             }
         }
         Ok(())
+    }
+
+    /// Largest feed per tooth of the tool, mm/tooth: `tool.fz_max`, else the
+    /// default for its diameter and the work material (MODEL.md §2.1).
+    pub fn fz_max_mm(&self) -> Option<f64> {
+        self.tool.fz_max.or_else(|| {
+            cutting::chipload::default_fz_max_mm(&self.cutting.material, self.tool.diameter)
+        })
     }
 
     /// The tool as the kernel and the beam model see it.

@@ -17,3 +17,4 @@ pub mod progress;
 pub mod report;
 pub mod simulate;
 pub mod stock;
+pub mod warnings;

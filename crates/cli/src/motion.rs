@@ -23,6 +23,11 @@ pub struct TimedStep {
     pub feed_mm_min: f64,
     /// Source line of the block the step ends in.
     pub line: u32,
+    /// Arc length along the path at the end of the step, mm.
+    pub s_end_mm: f64,
+    /// This step is the second (or later) part of a servo period split where
+    /// the motion changes between rapid and feed.
+    pub continues: bool,
 }
 
 /// The machine limits from the job.
@@ -38,30 +43,69 @@ pub fn machine(job: &Job) -> Machine {
     }
 }
 
-/// Steps between consecutive servo samples.
+/// Steps between consecutive servo samples. A period that crosses the start
+/// or end of a rapid move is split there (at the path's corner), so material a
+/// rapid removes is told apart from what the moves before or after it removed,
+/// and each part is blamed on its own line. The parts share the period's time in proportion to
+/// their lengths; [`TimedStep::continues`] marks the second part.
 pub fn steps_from_samples(path: &nc::Path, samples: &[ServoSample]) -> Vec<TimedStep> {
-    samples
-        .windows(2)
-        .map(|w| {
-            let seg = &path.segments[w[1].segment as usize];
-            let dt = w[1].t_s - w[0].t_s;
-            TimedStep {
+    let is_rapid = |seg: usize| matches!(path.segments[seg].motion, Motion::Rapid);
+    let mut steps = Vec::with_capacity(samples.len());
+    for w in samples.windows(2) {
+        let (a, b) = (w[0].segment as usize, w[1].segment as usize);
+        let dt = w[1].t_s - w[0].t_s;
+        let feed_mm_min = if dt > 0.0 {
+            (w[1].s_mm - w[0].s_mm) / dt * 60.0
+        } else {
+            0.0
+        };
+        // Ends of segments inside the period where a rapid starts or ends.
+        let cuts: Vec<usize> = (a..b).filter(|&k| is_rapid(k) || is_rapid(k + 1)).collect();
+        let mut points: Vec<([f64; 3], usize)> = vec![(w[0].pos.coords.into(), a)];
+        points.extend(
+            cuts.iter()
+                .map(|&k| (path.segments[k].end.coords.into(), k)),
+        );
+        points.push((w[1].pos.coords.into(), b));
+        let lengths: Vec<f64> = points
+            .windows(2)
+            .map(|p| {
+                let d: f64 = (0..3).map(|i| (p[1].0[i] - p[0].0[i]).powi(2)).sum();
+                d.sqrt()
+            })
+            .collect();
+        let total: f64 = lengths.iter().sum();
+        let (mut t, mut s) = (w[0].t_s, w[0].s_mm);
+        for (j, p) in points.windows(2).enumerate() {
+            let last = j + 2 == points.len();
+            let part_dt = if last {
+                w[1].t_s - t
+            } else if total > 0.0 {
+                dt * lengths[j] / total
+            } else {
+                0.0
+            };
+            t = if last { w[1].t_s } else { t + part_dt };
+            s = if last { w[1].s_mm } else { s + lengths[j] };
+            // The part up to a corner lies on the corner's segment (or, without
+            // a rapid, on segments of its kind).
+            let seg = p[1].1;
+            steps.push(TimedStep {
                 step: dexel::Step {
-                    from_mm: w[0].pos.coords.into(),
-                    to_mm: w[1].pos.coords.into(),
-                    rapid: matches!(seg.motion, Motion::Rapid),
+                    from_mm: p[0].0,
+                    to_mm: p[1].0,
+                    rapid: is_rapid(seg),
                 },
-                t_end_s: w[1].t_s,
-                dt_s: dt,
-                feed_mm_min: if dt > 0.0 {
-                    (w[1].s_mm - w[0].s_mm) / dt * 60.0
-                } else {
-                    0.0
-                },
-                line: seg.line,
-            }
-        })
-        .collect()
+                t_end_s: t,
+                dt_s: part_dt,
+                feed_mm_min,
+                line: path.segments[seg].line,
+                s_end_mm: s,
+                continues: j > 0,
+            });
+        }
+    }
+    steps
 }
 
 /// How the machine runs the program as written: servo samples every period.
@@ -74,7 +118,7 @@ pub fn machine_motion(path: &nc::Path, machine: &Machine) -> Result<Vec<ServoSam
 
 /// CSV point lists: one step per move, time = length / feed (no acceleration).
 pub fn direct_steps(path: &nc::Path) -> Vec<TimedStep> {
-    let mut t = 0.0;
+    let (mut t, mut s) = (0.0, 0.0);
     path.segments
         .iter()
         .map(|seg| {
@@ -88,6 +132,7 @@ pub fn direct_steps(path: &nc::Path) -> Vec<TimedStep> {
                 0.0
             };
             t += dt;
+            s += seg.length_mm();
             TimedStep {
                 step: dexel::Step {
                     from_mm: seg.start.coords.into(),
@@ -98,6 +143,8 @@ pub fn direct_steps(path: &nc::Path) -> Vec<TimedStep> {
                 dt_s: dt,
                 feed_mm_min: feed,
                 line: seg.line,
+                s_end_mm: s,
+                continues: false,
             }
         })
         .collect()

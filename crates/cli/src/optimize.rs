@@ -9,15 +9,17 @@
 //! * deflection: δ = F_c·c(s), c from the band distribution ⇒ a force cap F_max = δ_max/c;
 //! * S3's angle rule on ball-end mills; feed_min/feed_max; S0's block time.
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use cutting::CuttingModel;
 use dexel::{Stock, SweepOptions, Tool};
 use nc::Motion;
 use schedule::{CapKind, FeedPolicy, Machine, Stations};
 use serde::Serialize;
 
+use crate::commands::Setup;
 use crate::job::LimitsSpec;
 use crate::motion::STATION_DS_MM;
+use crate::simulate::Run;
 
 /// Engagement along the stations: removed volume per interval.
 pub struct Engagement {
@@ -135,18 +137,23 @@ pub fn windowed_area(s_mm: &[f64], volumes_mm3: &[f64], window_mm: f64) -> Vec<f
 }
 
 /// Feed caps per interval from the limits, with the kind that sets each.
+/// Cutting intervals (engagement above zero) are also held to the chip load
+/// `fz_max_mm` (F ≤ f_z·z·n with the segment's spindle speed, MODEL.md §2.1)
+/// and to `feed_scale_max` times the programmed feed; air runs free.
 pub fn interval_caps(
     engagement: &Engagement,
     stations: &Stations,
     limits: &LimitsSpec,
     model: &CuttingModel,
     tool: &Tool,
+    fz_max_mm: Option<f64>,
 ) -> Vec<(f64, CapKind)> {
     let force_cap_v = |force_max_n: f64| {
         cutting::volume_per_tooth_at_force_mm3(force_max_n, model.force_coef_a, model.force_exp_n)
     };
     let per_rev = model.flutes as f64 * model.spindle_rpm;
     let tangents = stations.tangent();
+    let (segs, seg_of) = (stations.segments(), stations.segment());
     engagement
         .area_mm2
         .iter()
@@ -159,6 +166,23 @@ pub fn interval_caps(
                 }
             };
             if a > 1e-12 {
+                let seg = &segs[seg_of[k + 1] as usize];
+                if let Some(fz) = fz_max_mm {
+                    let rpm = if seg.spindle_rpm > 0.0 {
+                        seg.spindle_rpm
+                    } else {
+                        model.spindle_rpm
+                    };
+                    lower(
+                        cutting::chipload::chip_load_feed_mm_min(fz, model.flutes, rpm),
+                        CapKind::ChipLoad,
+                    );
+                }
+                if let (Some(scale), Motion::Feed { feed_mm_min }) =
+                    (limits.feed_scale_max, seg.motion)
+                {
+                    lower(scale * feed_mm_min, CapKind::FeedScale);
+                }
                 if let Some(q) = limits.mrr_max {
                     lower(60.0 * q / a, CapKind::Removal); // MRR = A·F/60 ≤ Q
                 }
@@ -209,62 +233,365 @@ pub fn apply_interval_caps(stations: &mut Stations, caps: &[(f64, CapKind)]) -> 
 /// Shortest block the re-feed writer emits, mm (and never shorter than the
 /// control can read in its block time at the block's feed).
 pub const MIN_BLOCK_MM: f64 = 0.2;
-/// Feeds within this ratio are merged into one block (the lower one is written).
+/// Feeds within this ratio are first merged into one block (the lower one is
+/// written); [`refine`] lowers it when the written program is slower than the
+/// plan by more than [`PLAN_TOLERANCE`].
 pub const MERGE_RATIO: f64 = 1.05;
+/// The written program's cycle time may exceed the plan's by this fraction.
+pub const PLAN_TOLERANCE: f64 = 0.01;
 
 /// Per path segment, the feed pieces `(fraction_end, feed_mm_min)` to write:
 /// piecewise-constant feeds that never exceed the limit caps (`interval_caps`,
-/// and feed_max) in the piece. Corner, curvature and acceleration limits are
-/// left to the control, as with any program.
+/// and feed_max) in the piece. Feeds within `merge_ratio` share a block; a
+/// block is at least [`MIN_BLOCK_MM`] long. A short last piece takes its length
+/// from the piece before it rather than lowering that whole piece to its feed.
+/// Corner, curvature and acceleration limits are left to the control, as with
+/// any program.
 pub fn refeed_plan(
     stations: &Stations,
     interval_caps: &[(f64, CapKind)],
     machine: &Machine,
+    merge_ratio: f64,
 ) -> Vec<Vec<(f64, f64)>> {
     let segs = stations.segments();
     let mut plan: Vec<Vec<(f64, f64)>> = vec![Vec::new(); segs.len()];
     let (seg_of, frac, s) = (stations.segment(), stations.fraction(), stations.s_mm());
     let tb_ms = machine.block_time_ms.unwrap_or(0.0);
+    let min_len = |feed: f64| MIN_BLOCK_MM.max(feed * tb_ms / 60_000.0);
     let mut k = 1;
     while k < stations.len() {
         let seg = seg_of[k] as usize;
-        let mut pieces: Vec<(f64, f64, f64)> = Vec::new(); // (s_end, frac_end, feed)
-        let (mut start_s, mut lo, mut hi) = (s[k - 1], f64::INFINITY, 0.0f64);
+        // Intervals of this segment: (s_end, fraction_end, cap).
+        let first = k;
         while k < stations.len() && seg_of[k] as usize == seg {
-            let c = interval_caps[k - 1].0.min(machine.feed_max_mm_min);
-            let (new_lo, new_hi) = (lo.min(c), hi.max(c));
-            let long_enough = s[k - 1] - start_s >= MIN_BLOCK_MM.max(lo * tb_ms / 60_000.0);
-            if lo.is_finite() && new_hi > MERGE_RATIO * new_lo && long_enough {
-                pieces.push((s[k - 1], frac[k - 1], lo));
-                start_s = s[k - 1];
-                lo = c;
-                hi = c;
-            } else {
-                lo = new_lo;
-                hi = new_hi;
-            }
             k += 1;
         }
-        pieces.push((s[k - 1], 1.0, lo));
-        // A last piece too short to be read in time joins the one before (at the lower feed).
-        if pieces.len() > 1 {
-            let n = pieces.len();
-            let last_len = pieces[n - 1].0 - pieces[n - 2].0;
-            if last_len < MIN_BLOCK_MM.max(pieces[n - 1].2 * tb_ms / 60_000.0) {
-                let f = pieces[n - 1].2.min(pieces[n - 2].2);
-                pieces.pop();
-                let last = pieces.last_mut().expect("two pieces");
-                *last = (last.0, 1.0, f);
+        if !matches!(segs[seg].motion, Motion::Feed { .. }) {
+            continue;
+        }
+        let cap = |i: usize| interval_caps[i - 1].0.min(machine.feed_max_mm_min);
+        let min_cap = |a: usize, b: usize| (a..b).map(cap).fold(f64::INFINITY, f64::min);
+        // Piece boundaries as station indices: piece j covers intervals bounds[j]+1 ..= bounds[j+1].
+        let mut bounds = vec![first - 1];
+        let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+        for i in first..k {
+            let c = cap(i);
+            let (new_lo, new_hi) = (lo.min(c), hi.max(c));
+            let start = *bounds.last().expect("a start");
+            let long_enough = s[i - 1] - s[start] >= min_len(lo);
+            if lo.is_finite() && new_hi > merge_ratio * new_lo && long_enough {
+                bounds.push(i - 1);
+                (lo, hi) = (c, c);
+            } else {
+                (lo, hi) = (new_lo, new_hi);
             }
         }
-        if matches!(segs[seg].motion, Motion::Feed { .. }) {
-            plan[seg] = pieces
-                .iter()
-                .map(|p| (p.1, (p.2.floor()).max(1.0)))
-                .collect();
+        bounds.push(k - 1);
+        // A last piece too short to be read in time takes length from the piece
+        // before it, or joins it when that one would become too short.
+        while bounds.len() > 2 {
+            let n = bounds.len();
+            let last_feed = min_cap(bounds[n - 2] + 1, bounds[n - 1] + 1);
+            if s[bounds[n - 1]] - s[bounds[n - 2]] >= min_len(last_feed) {
+                break;
+            }
+            let mut b = bounds[n - 2];
+            while b > bounds[n - 3] + 1 && s[bounds[n - 1]] - s[b] < min_len(last_feed) {
+                b -= 1;
+            }
+            let prev_feed = min_cap(bounds[n - 3] + 1, b + 1);
+            if s[bounds[n - 1]] - s[b] >= min_len(last_feed)
+                && s[b] - s[bounds[n - 3]] >= min_len(prev_feed)
+            {
+                bounds[n - 2] = b;
+                break;
+            }
+            bounds.remove(n - 2);
+        }
+        plan[seg] = bounds
+            .windows(2)
+            .map(|w| {
+                let f = if w[1] == k - 1 { 1.0 } else { frac[w[1]] };
+                (f, min_cap(w[0] + 1, w[1] + 1))
+            })
+            .collect();
+    }
+    // Feed moves too short for a station (below the planner's shortest segment) keep their feed.
+    for (seg, pieces) in segs.iter().zip(plan.iter_mut()) {
+        if let (Motion::Feed { feed_mm_min }, true) = (seg.motion, pieces.is_empty()) {
+            pieces.push((1.0, feed_mm_min));
         }
     }
     plan
+}
+
+/// One servo period of the written program above a limit: where it lies on
+/// the path, its feed and the factor the feed must fall by.
+#[derive(Clone, Copy, Debug)]
+pub struct Excess {
+    pub s_from_mm: f64,
+    pub s_to_mm: f64,
+    pub feed_mm_min: f64,
+    pub feed_ratio: f64,
+    pub kind: CapKind,
+}
+
+/// Margin kept under a limit when a period over it is corrected.
+pub const LIMIT_MARGIN: f64 = 0.01;
+
+/// Servo periods of `run` (per period, as the summary prints them) whose MRR,
+/// force or deflection exceeds the limits. MRR scales with the feed; force and
+/// deflection with the feed to the power n of the force law (MODEL.md §3.1).
+pub fn excesses(
+    run: &crate::simulate::Run,
+    limits: &LimitsSpec,
+    model: &CuttingModel,
+) -> Vec<Excess> {
+    let mut out = Vec::new();
+    let n = run.steps.len();
+    let mut i = 0;
+    let mut s_prev = 0.0;
+    while i < n {
+        let mut j = i + 1;
+        while j < n && run.steps[j].continues {
+            j += 1;
+        }
+        let (mut vol, mut dt, mut force, mut defl) = (0.0, 0.0, 0.0f64, 0.0f64);
+        for k in i..j {
+            vol += run.record.volume_mm3(k);
+            dt += run.steps[k].dt_s;
+            force = force.max(run.loads[k].force_n);
+            defl = defl.max(run.loads[k].deflection_um);
+        }
+        let s_to = run.steps[j - 1].s_end_mm;
+        let cutting = !run.steps[i..j].iter().all(|s| s.step.rapid);
+        if dt > 0.0 && cutting {
+            let feed = (s_to - s_prev) / dt * 60.0;
+            let mut ratio = (1.0, CapKind::FeedMax);
+            let mut lower = |r: f64, kind: CapKind| {
+                if r < ratio.0 {
+                    ratio = (r, kind);
+                }
+            };
+            if let Some(q) = limits.mrr_max {
+                if vol / dt > q * (1.0 + 0.5 * LIMIT_MARGIN) {
+                    lower(q * (1.0 - LIMIT_MARGIN) * dt / vol, CapKind::Removal);
+                }
+            }
+            let root = |r: f64| r.powf(1.0 / model.force_exp_n);
+            if let Some(f) = limits.force_max {
+                if force > f * (1.0 + 0.5 * LIMIT_MARGIN) {
+                    lower(root(f * (1.0 - LIMIT_MARGIN) / force), CapKind::Force);
+                }
+            }
+            if let Some(d) = limits.deflection_max_um {
+                if defl > d * (1.0 + 0.5 * LIMIT_MARGIN) {
+                    lower(root(d * (1.0 - LIMIT_MARGIN) / defl), CapKind::Deflection);
+                }
+            }
+            if ratio.0 < 1.0 && feed > 0.0 {
+                out.push(Excess {
+                    s_from_mm: s_prev,
+                    s_to_mm: s_to,
+                    feed_mm_min: feed,
+                    feed_ratio: ratio.0,
+                    kind: ratio.1,
+                });
+            }
+        }
+        s_prev = s_to;
+        i = j;
+    }
+    out
+}
+
+/// Lower the interval caps over each excess (± `margin_mm`) to the period's
+/// feed times its ratio, never below `feed_min`.
+pub fn lower_caps(
+    caps: &mut [(f64, CapKind)],
+    s_mm: &[f64],
+    excesses: &[Excess],
+    margin_mm: f64,
+    feed_min: Option<f64>,
+) {
+    for e in excesses {
+        let cap = (e.feed_mm_min * e.feed_ratio).max(feed_min.unwrap_or(0.0));
+        let from = s_mm.partition_point(|&s| s < e.s_from_mm - margin_mm);
+        let mut k = from.saturating_sub(1);
+        while k < caps.len() && s_mm[k] <= e.s_to_mm + margin_mm {
+            if cap < caps[k].0 {
+                caps[k] = (cap, e.kind);
+            }
+            k += 1;
+        }
+    }
+}
+
+/// Per interval, the feed of the block (refeed plan piece) it lies in, with the
+/// kind of cap that set the interval.
+pub fn block_caps(
+    stations: &Stations,
+    plan: &[Vec<(f64, f64)>],
+    caps: &[(f64, CapKind)],
+) -> Vec<(f64, CapKind)> {
+    let (seg_of, frac) = (stations.segment(), stations.fraction());
+    (0..caps.len())
+        .map(|k| {
+            let pieces = &plan[seg_of[k + 1] as usize];
+            let f = frac[k + 1];
+            match pieces.iter().find(|p| p.0 >= f - 1e-9) {
+                Some(&(_, feed)) => (feed, caps[k].1),
+                None => caps[k],
+            }
+        })
+        .collect()
+}
+
+/// Most rounds of writing, re-simulating and correcting the program.
+pub const MAX_ROUNDS: usize = 6;
+
+/// The program optimize writes, re-simulated as a program of its own.
+pub struct Written {
+    /// The re-fed G-code (None for CSV point lists).
+    pub text: Option<String>,
+    /// The written program simulated; None when the original is kept.
+    pub run: Option<Run>,
+    /// Its servo samples (servo.csv).
+    pub samples: Vec<schedule::ServoSample>,
+    /// Cycle time of the plan as written (each block at its feed, the
+    /// machine's acceleration), s.
+    pub plan_time_s: f64,
+    /// Cycle time of the time-optimal timing under the final caps (feeds free
+    /// to change at every station), s.
+    pub time_optimal_s: f64,
+    /// Σ Δs / cap under the final caps, s.
+    pub lower_bound_time_s: f64,
+    pub cap_shares: Vec<CapShare>,
+    /// Rounds of write → re-simulate → correct.
+    pub rounds: usize,
+    /// Feeds within this ratio share a block in the written program.
+    pub merge_ratio: f64,
+    /// Servo periods still above a limit after the last round.
+    pub excesses_left: usize,
+    /// The original program was within every limit and faster: it is written unchanged.
+    pub kept_original: bool,
+}
+
+/// Whether a run (of the program as written) is within every limit: no
+/// period above mrr_max, force_max or deflection_max_um, no cutting step
+/// above the chip-load feed.
+pub fn within_limits(
+    run: &Run,
+    limits: &LimitsSpec,
+    model: &CuttingModel,
+    fz_max_mm: Option<f64>,
+) -> bool {
+    let chip_ok = fz_max_mm.is_none_or(|fz| {
+        let cap = cutting::chipload::chip_load_feed_mm_min(fz, model.flutes, model.spindle_rpm);
+        run.peak_cutting_feed_mm_min() <= cap * (1.0 + 1e-3)
+    });
+    chip_ok && excesses(run, limits, model).is_empty()
+}
+
+/// Write the re-timed program, simulate it as a program of its own (parsed
+/// again and planned by the machine model), and correct it until every servo
+/// period is within the limits and its cycle time is within
+/// [`PLAN_TOLERANCE`] of the plan: periods over a limit lower the caps there,
+/// a written program slower than the plan gets finer blocks. When the
+/// original program is within every limit and the result would be slower,
+/// the original is kept.
+pub fn write_verified(
+    setup: &Setup,
+    machine: &Machine,
+    free: &Stations,
+    mut caps: Vec<(f64, CapKind)>,
+    before: &Run,
+    fz_max_mm: Option<f64>,
+) -> Result<Written> {
+    let limits = &setup.job.limits;
+    let margin_mm = 2.0 * setup.stock.grid().spacing_mm;
+    let mut merge_ratio = MERGE_RATIO;
+    let mut round = 0;
+    loop {
+        round += 1;
+        let mut stations = free.clone();
+        apply_interval_caps(&mut stations, &caps)?;
+        let optimum = schedule::plan(&stations);
+        let time_optimal_s = optimum.cycle_time_s();
+        let lower_bound_time_s = schedule::lower_bound_time_s(&stations);
+        let plan = refeed_plan(&stations, &caps, machine, merge_ratio);
+        // The plan as written: every interval at its block's feed.
+        let mut blocks = free.clone();
+        apply_interval_caps(&mut blocks, &block_caps(free, &plan, &caps))?;
+        let profile = schedule::plan(&blocks);
+        let plan_time_s = profile.cycle_time_s();
+        let (text, samples, path) = match &setup.program.gcode {
+            Some(src) => {
+                let text = nc::refeed(src, &setup.program.file, &setup.program.nc_options, &plan)
+                    .with_context(|| {
+                    format!("{}: cannot write the re-fed program", setup.program.file)
+                })?;
+                let parsed = nc::parse(&text, &setup.program.file, &setup.program.nc_options);
+                if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
+                    bail!("the re-fed program does not read back: {d}");
+                }
+                let samples = crate::motion::machine_motion(&parsed.path, &setup.machine)?;
+                (Some(text), samples, parsed.path)
+            }
+            None => {
+                crate::bounds::check_samples(
+                    optimum.cycle_time_s(),
+                    machine.period_ms,
+                    "the re-timed program ([limits] caps)",
+                )?;
+                (
+                    None,
+                    optimum.sample(machine.period_ms)?,
+                    setup.program.path.clone(),
+                )
+            }
+        };
+        let steps = crate::motion::steps_from_samples(&path, &samples);
+        let run = crate::simulate::run(
+            setup.stock.clone(),
+            &setup.tool,
+            steps,
+            &setup.model,
+            &format!("verify {round}"),
+        )?;
+        let over = excesses(&run, limits, &setup.model);
+        let slow = text.is_some()
+            && run.steps.last().map_or(0.0, |s| s.t_end_s) > plan_time_s * (1.0 + PLAN_TOLERANCE);
+        let done = (over.is_empty() && !slow) || round >= MAX_ROUNDS;
+        if done {
+            let cycle = run.steps.last().map_or(0.0, |s| s.t_end_s);
+            let before_cycle = before.steps.last().map_or(0.0, |s| s.t_end_s);
+            let kept_original = text.is_some()
+                && cycle > before_cycle
+                && within_limits(before, limits, &setup.model, fz_max_mm);
+            return Ok(Written {
+                text: if kept_original {
+                    setup.program.gcode.clone()
+                } else {
+                    text
+                },
+                run: (!kept_original).then_some(run),
+                samples,
+                plan_time_s,
+                time_optimal_s,
+                lower_bound_time_s,
+                cap_shares: cap_shares(&profile),
+                rounds: round,
+                merge_ratio,
+                excesses_left: over.len(),
+                kept_original,
+            });
+        }
+        lower_caps(&mut caps, free.s_mm(), &over, margin_mm, limits.feed_min);
+        if slow {
+            merge_ratio = 1.0 + (merge_ratio - 1.0) / 2.5;
+        }
+    }
 }
 
 /// Share of the optimised time spent at each kind of cap.
@@ -280,10 +607,30 @@ pub fn cap_shares(profile: &schedule::Profile<'_>) -> Vec<CapShare> {
         .into_iter()
         .filter(|(_, share)| *share > 0.0)
         .map(|(kind, share)| CapShare {
-            cap: format!("{kind:?}"),
+            cap: cap_words(kind).into(),
             share,
         })
         .collect()
+}
+
+/// What holds the feed, in a user's words.
+pub fn cap_words(kind: CapKind) -> &'static str {
+    match kind {
+        CapKind::Programmed => "programmed feed",
+        CapKind::FeedMax => "highest feed (feed_max)",
+        CapKind::Rapid => "rapid moves",
+        CapKind::Curvature => "arcs (axis acceleration on the curve)",
+        CapKind::Corner => "corners (axis acceleration)",
+        CapKind::BlockTime => "block processing time",
+        CapKind::Removal => "removal-rate limit (mrr_max)",
+        CapKind::Force => "force limit (force_max)",
+        CapKind::Deflection => "deflection limit (deflection_max_um)",
+        CapKind::SurfaceAngle => "surface-angle rule (S3)",
+        CapKind::ChipLoad => "chip-load limit (fz_max)",
+        CapKind::FeedScale => "programmed feed × feed_scale_max",
+        CapKind::Acceleration => "speeding up or slowing down",
+        CapKind::Dwell => "dwells",
+    }
 }
 
 /// The machine the optimiser plans for: the job's, with [limits] feed_max.

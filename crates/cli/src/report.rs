@@ -281,6 +281,25 @@ pub fn report(dir: &Path) -> Result<()> {
     let mut notes = vec![
         "Force F = a·V^n from the removed volume per tooth; deflection from a cantilever of the tool's stick-out with the band loads superposed (docs/MODEL.md §3.1, §4.1). Material coefficients are starting points: calibrate them with `dexcut calibrate`. S4 measured deflections about half of those predicted this way.".to_string(),
     ];
+    for (label, run) in [
+        ("program", Some(before_json)),
+        ("optimised program", after_json),
+    ] {
+        let Some(list) = run
+            .and_then(|r| r.get("warnings"))
+            .and_then(Value::as_array)
+        else {
+            continue;
+        };
+        for w in list {
+            let line = w.get("line").and_then(Value::as_u64);
+            let message = w.get("message").and_then(Value::as_str).unwrap_or("");
+            notes.push(match line {
+                Some(l) => format!("Warning ({label}), line {l}: {message}"),
+                None => format!("Warning ({label}): {message}"),
+            });
+        }
+    }
     if let Some(share) = summary.get("cap_time_share").and_then(Value::as_array) {
         let parts: Vec<String> = share
             .iter()

@@ -13,6 +13,11 @@ use crate::job::Job;
 use crate::motion::TimedStep;
 use crate::program::Program;
 use crate::progress;
+use crate::warnings::{self, LineTally, WarningKind, Warnings};
+
+/// Volume below which a step counts as removing nothing, mm³ (f32 column
+/// heights round at about 1e-7 mm; this is a 0.1 µm layer over 10 × 10 cells of 0.1 mm).
+pub const NOTHING_MM3: f64 = 1e-6;
 
 /// Window of the smoothed MRR in summaries, s (three 16 ms periods).
 pub const MRR_WINDOW_S: f64 = 0.048;
@@ -127,6 +132,8 @@ pub struct Summary {
     pub peak_mrr_windowed_mm3_s: f64,
     pub peak_force_n: f64,
     pub peak_deflection_um: f64,
+    /// Highest mean path speed of a step that removed material (not a rapid), mm/min.
+    pub peak_cutting_feed_mm_min: f64,
     pub steps: usize,
     pub grid_mm: f64,
     pub columns: usize,
@@ -136,19 +143,83 @@ pub struct Summary {
     pub rapid_collision_steps: usize,
     /// First program line with a rapid collision, if any.
     pub first_collision_line: Option<u32>,
+    /// What a user must look at, each with its program line.
+    pub warnings: Warnings,
     pub columns_evaluated: u64,
     pub sweep_time_s: f64,
 }
 
 impl Run {
-    /// MRR of step `i`, mm³/s.
-    pub fn mrr_mm3_s(&self, i: usize) -> f64 {
-        let dt = self.steps[i].dt_s;
+    /// MRR of the servo period that step `i` belongs to, mm³/s: a period split
+    /// where the motion changes between rapid and feed counts as a whole.
+    pub fn period_mrr_mm3_s(&self, i: usize) -> f64 {
+        let mut first = i;
+        while first > 0 && self.steps[first].continues {
+            first -= 1;
+        }
+        let mut last = i;
+        while last + 1 < self.steps.len() && self.steps[last + 1].continues {
+            last += 1;
+        }
+        let (vol, dt) = (first..=last).fold((0.0, 0.0), |(v, t), k| {
+            (v + self.record.volume_mm3(k), t + self.steps[k].dt_s)
+        });
         if dt > 0.0 {
-            self.record.volume_mm3(i) / dt
+            vol / dt
         } else {
             0.0
         }
+    }
+
+    /// Highest mean path speed of a step that removed material (not a rapid), mm/min.
+    pub fn peak_cutting_feed_mm_min(&self) -> f64 {
+        (0..self.steps.len())
+            .filter(|&i| !self.steps[i].step.rapid && self.record.volume_mm3(i) > NOTHING_MM3)
+            .map(|i| self.steps[i].feed_mm_min)
+            .fold(0.0, f64::max)
+    }
+
+    /// Largest MRR of a servo period, mm³/s.
+    pub fn peak_period_mrr_mm3_s(&self) -> f64 {
+        (0..self.steps.len())
+            .filter(|&i| !self.steps[i].continues)
+            .map(|i| self.period_mrr_mm3_s(i))
+            .fold(0.0, f64::max)
+    }
+
+    /// Warnings of this run (MODEL.md §10): rapid moves that cut, shank or
+    /// holder contact, a program that removes nothing.
+    pub fn warnings(&self) -> Warnings {
+        let mut out = Warnings::default();
+        let (mut rapid, mut shank) = (LineTally::new(), LineTally::new());
+        for (i, s) in self.steps.iter().enumerate() {
+            let v = self.record.volume_mm3(i);
+            if s.step.rapid && v > NOTHING_MM3 {
+                warnings::tally(&mut rapid, s.line, v);
+            }
+            let sv = self.record.shank_volume_mm3(i);
+            if sv > NOTHING_MM3 {
+                warnings::tally(&mut shank, s.line, sv);
+            }
+        }
+        out.from_lines(WarningKind::RapidCut, &rapid, "mm³", true, |v, lines| {
+            format!("rapid moves (G0) removed {v:.3} mm³ of stock at {lines}: a collision on a real machine")
+        });
+        out.from_lines(WarningKind::ShankContact, &shank, "mm³", true, |v, lines| {
+            format!("the tool above its flute length (shank or holder) removed {v:.3} mm³ at {lines}: raise the flute length or stick-out, or change the program")
+        });
+        if self.record.total_volume_mm3() <= NOTHING_MM3 {
+            out.push(warnings::Warning {
+                kind: WarningKind::NoRemoval,
+                line: None,
+                value: 0.0,
+                unit: "mm³".into(),
+                steps: self.steps.len(),
+                lines: Vec::new(),
+                message: "the program removes no material: check the stock position, the work offsets and [machine] start".into(),
+            });
+        }
+        out
     }
 
     /// Largest mean MRR over any run of consecutive steps lasting at least
@@ -186,14 +257,14 @@ impl Run {
         let n = self.steps.len();
         let final_volume_mm3 = self.stock.volume_mm3();
         let collisions: Vec<usize> = (0..n)
-            .filter(|&i| self.steps[i].step.rapid && self.record.volume_mm3(i) > 0.0)
+            .filter(|&i| self.steps[i].step.rapid && self.record.volume_mm3(i) > NOTHING_MM3)
             .collect();
         Summary {
             initial_volume_mm3: self.initial_volume_mm3,
             final_volume_mm3,
             removed_volume_mm3: self.record.total_volume_mm3(),
             cycle_time_s: self.steps.last().map_or(0.0, |s| s.t_end_s),
-            peak_mrr_mm3_s: (0..n).map(|i| self.mrr_mm3_s(i)).fold(0.0, f64::max),
+            peak_mrr_mm3_s: self.peak_period_mrr_mm3_s(),
             peak_mrr_windowed_mm3_s: self.peak_windowed_mrr_mm3_s(
                 MRR_WINDOW_S,
                 MRR_WINDOW_CELLS * self.stock.grid().spacing_mm,
@@ -204,16 +275,18 @@ impl Run {
                 .iter()
                 .map(|l| l.deflection_um)
                 .fold(0.0, f64::max),
+            peak_cutting_feed_mm_min: self.peak_cutting_feed_mm_min(),
             steps: n,
             grid_mm: self.stock.grid().spacing_mm,
             columns: self.stock.grid().len(),
             shank_contact_steps: (0..n)
-                .filter(|&i| self.record.shank_volume_mm3(i) > 0.0)
+                .filter(|&i| self.record.shank_volume_mm3(i) > NOTHING_MM3)
                 .count(),
             rapid_collision_steps: collisions.len(),
             first_collision_line: collisions.first().map(|&i| self.steps[i].line),
             columns_evaluated: self.record.columns_evaluated,
             sweep_time_s: self.sweep_s,
+            warnings: self.warnings(),
         }
     }
 
@@ -286,7 +359,7 @@ impl Run {
                         z,
                         s.feed_mm_min,
                         self.record.volume_mm3(i),
-                        self.mrr_mm3_s(i),
+                        self.period_mrr_mm3_s(i),
                     ]
                     .map(fmt),
                 );

@@ -252,18 +252,25 @@ fn optimize_gives_the_cap_feed_in_the_cut_and_feed_max_in_air() {
     ));
     let servo = csv_columns(&dir.path().join("out/servo.csv"));
     // Full engagement (A = 10 mm × 3 mm) while the leading edge is inside the block: x ∈ [40, 55].
+    // Servo periods whose measured MRR exceeds the limit (the grid's column
+    // phase, ±1.5 cells per period here) are slowed where they lie: the cut
+    // runs within 5 % of the cap.
     let cap = 60.0 * 200.0 / 30.0;
+    let mut in_cut = Vec::new();
     for (x, f) in servo["x"].iter().zip(&servo["feed_mm_min"]) {
         if (41.0..54.0).contains(x) {
             assert!(
-                *f <= cap * 1.0001 && *f >= cap * 0.98,
+                *f <= cap * 1.0001 && *f >= cap * 0.94,
                 "feed {f} at x {x}, cap {cap}"
             );
+            in_cut.push(*f);
         }
         if (10.0..33.0).contains(x) || (66.0..95.0).contains(x) {
             assert!((*f - 3000.0).abs() < 1e-6, "air at x {x} runs at {f}");
         }
     }
+    let mean = in_cut.iter().sum::<f64>() / in_cut.len() as f64;
+    assert!(mean >= 0.95 * cap, "mean feed in the cut {mean}");
     // The ramp into the cut brakes at the acceleration limit (its steepest part), never harder.
     let t = &servo["t_s"];
     let feed = &servo["feed_mm_min"];
@@ -546,11 +553,21 @@ fn gcode_slot_simulates_per_servo_period() {
     let removed = s["removed_volume_mm3"].as_f64().unwrap();
     assert!(rel(removed, exact) < 3e-3, "removed {removed} vs {exact}");
     let steps = csv_columns(&dir.path().join("out/steps.csv"));
-    // One row per 16 ms servo period (the last one may be shorter).
+    // One row per 16 ms servo period (the last one may be shorter); a period
+    // that crosses the start or end of a rapid has one row per side.
     let t = &steps["t_s"];
-    for w in t.windows(2).take(t.len() - 2) {
+    let on_grid: Vec<f64> = (0..t.len() - 1)
+        .filter(|&i| steps["rapid"][i] == steps["rapid"][i + 1])
+        .map(|i| t[i])
+        .collect();
+    for w in on_grid.windows(2) {
         assert!((w[1] - w[0] - 0.016).abs() < 1e-9, "period {}", w[1] - w[0]);
     }
+    assert!(
+        t.len() - on_grid.len() <= 4,
+        "{} rows off the period grid",
+        t.len() - on_grid.len()
+    );
     assert!((s["cycle_time_s"].as_f64().unwrap() - t[t.len() - 1]).abs() < 1e-9);
     // Cutting happens on line 6 (the G1) at no more than the programmed feed.
     for ((v, line), f) in steps["volume_mm3"]
@@ -835,4 +852,96 @@ fn machine_start_is_where_the_tool_begins() {
     let (x, top, t_given) = first("given");
     assert!(x == -10.0 && top < 60.0 && top > 28.0, "{x} {top}");
     assert!(t_given > t_default);
+}
+
+/// The warnings of a simulate run (summary.json `warnings`), by kind.
+fn warning<'a>(s: &'a Value, kind: &str) -> Option<&'a Value> {
+    s["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|w| w["kind"] == kind)
+}
+
+/// Simulate `program` with the G-code slot job, `edit` = (from, to) replaced in the job.
+fn simulate_slot(program: &str, edit: (&str, &str)) -> (tempfile::TempDir, Value, String) {
+    let dir = tempdir();
+    let job = gcode_slot_job().replace(edit.0, edit.1);
+    write(dir.path(), "job.toml", &job);
+    write(dir.path(), "slot.ngc", program);
+    let out = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
+    ok(&out);
+    let s = summary(&dir.path().join("out"));
+    (dir, s, stderr(&out))
+}
+
+/// A retract (G0) right after a feed move that ends inside the stock: the servo
+/// period that spans the corner removes material on the feed's side only, so
+/// no rapid is blamed.
+#[test]
+fn rapid_after_a_feed_in_the_stock_is_no_collision() {
+    let (dir, s, err) = simulate_slot(
+        "G21 G90 G17\nG0 X-10 Y0 Z40\nG0 Z28\nG1 X50 F1200\nG0 Z40\nG0 X-10\nM30\n",
+        ("", ""),
+    );
+    assert!(warning(&s, "rapid_cut").is_none(), "{s}");
+    assert_eq!(s["rapid_collision_steps"], 0);
+    assert!(!err.contains("rapid"), "{err}");
+    // The case is exercised: the last cutting step of line 4 is followed at once by line 5's rapid.
+    let steps = csv_columns(&dir.path().join("out/steps.csv"));
+    let n = steps["line"].len();
+    let crossing = (0..n - 1).any(|i| {
+        steps["line"][i] == 4.0 && steps["volume_mm3"][i] > 0.0 && steps["rapid"][i + 1] == 1.0
+    });
+    assert!(crossing);
+}
+
+/// A rapid along the slot floor removes the slot's cross-section times its
+/// length, blamed on its own line.
+#[test]
+fn rapid_through_the_stock_is_blamed_on_its_line() {
+    let (_dir, s, err) = simulate_slot(
+        "G21 G90 G17\nG0 X-10 Y0 Z40\nG0 Z28\nG1 X50 F1200\nG0 X80\nG0 Z40\nM30\n",
+        ("", ""),
+    );
+    let w = warning(&s, "rapid_cut").expect("rapid warning");
+    assert_eq!(w["line"], 5, "{w}");
+    assert_eq!(w["lines"], serde_json::json!([5]));
+    let exact = ball_slot_area_mm2(5.0, 2.0) * 30.0;
+    let v = w["value"].as_f64().unwrap();
+    assert!(rel(v, exact) < 5e-3, "rapid removed {v} vs {exact}");
+    assert!(
+        err.contains("warning: line 5: rapid moves (G0) removed"),
+        "{err}"
+    );
+}
+
+/// Flutes 1 mm long in a 2 mm deep slot: the shank removes the slot's
+/// cross-section between 1 and 2 mm above the tip.
+#[test]
+fn shank_contact_is_warned_with_its_volume_and_line() {
+    let (_dir, s, err) = simulate_slot(GCODE_SLOT, ("", ""));
+    assert!(warning(&s, "shank_contact").is_none(), "{s}");
+    assert!(!err.contains("warning"), "{err}");
+    let (_dir, s, err) = simulate_slot(
+        GCODE_SLOT,
+        ("diameter = 10\n", "diameter = 10\nflute_length = 1\n"),
+    );
+    let w = warning(&s, "shank_contact").expect("shank warning");
+    assert_eq!(w["line"], 6);
+    let exact = (ball_slot_area_mm2(5.0, 2.0) - ball_slot_area_mm2(5.0, 1.0)) * 100.0;
+    let v = w["value"].as_f64().unwrap();
+    assert!(rel(v, exact) < 0.01, "shank removed {v} vs {exact}");
+    assert!(
+        err.contains("line 6: the tool above its flute length"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_program_that_removes_nothing_is_warned() {
+    let (_dir, s, err) = simulate_slot("G21 G90\nG0 X-10 Y0 Z40\nG1 X110 F1200\nM30\n", ("", ""));
+    let w = warning(&s, "no_removal").expect("no-removal warning");
+    assert!(w["line"].is_null());
+    assert!(err.contains("removes no material"), "{err}");
 }

@@ -4,6 +4,7 @@
 //!
 //! * [`material`]: force-law coefficients `F = a · V^n` per work material, starting points to be
 //!   calibrated with [`calibration::fit_force_law`].
+//! * [`chipload`]: the largest feed per tooth by tool diameter and material, and its feed cap.
 //! * [`force`]: volume per tooth per revolution and the force law.
 //! * [`beam`]: the tool as a cantilever clamped in the holder; point loads and band loads.
 //! * [`load`]: per step of the sweep, force magnitude and direction and the tool's deflection.
@@ -14,6 +15,7 @@
 
 pub mod beam;
 pub mod calibration;
+pub mod chipload;
 pub mod force;
 pub mod load;
 pub mod material;

@@ -184,8 +184,8 @@ fn splittable(items: &[Item], seg: &Segment) -> bool {
     plain_codes && !multi_turn
 }
 
-/// `F` word for a feed in mm/min over a piece `length_mm` long, rounded down
-/// so the feed never exceeds it. `in_original_line`: the F word is read with
+/// `F` word for a feed in mm/min over a piece `length_mm` long, six significant
+/// digits (at least three decimals) rounded down, so the feed never exceeds it. `in_original_line`: the F word is read with
 /// the units in force before the line (a G20/G21 in it comes after F).
 fn f_word(t: &SegmentTrace, feed_mm_min: f64, length_mm: f64, in_original_line: bool) -> String {
     let scale = if in_original_line {
@@ -198,13 +198,9 @@ fn f_word(t: &SegmentTrace, feed_mm_min: f64, length_mm: f64, in_original_line: 
     } else {
         feed_mm_min / scale
     };
-    let decimals = if t.inverse_time {
-        4
-    } else if scale != 1.0 {
-        3
-    } else {
-        0
-    };
+    // Six significant digits (at least three decimals), rounded down.
+    let magnitude = value.abs().log10().floor() as i32;
+    let decimals = (5 - magnitude).clamp(3, 8);
     let unit = 10f64.powi(decimals);
     let v = ((value * unit * (1.0 + 1e-12)).floor() / unit).max(1.0 / unit);
     format!("F{}", trim_number(&format!("{v:.*}", decimals as usize)))

@@ -41,10 +41,11 @@ fn line_split_in_place_and_other_bytes_kept() {
     let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
     assert_eq!(
         out,
-        "%\n(header)\nG21 G90 G17\nG0 X0 Y0 Z5\nN10 G1 Z0 F250 (plunge)\nN20 X3 F500 ; cut\nG1 X10 F812\nG0 Z5\nM30\n%\n"
+        "%\n(header)\nG21 G90 G17\nG0 X0 Y0 Z5\nN10 G1 Z0 F250 (plunge)\nN20 X3 F500 ; cut\nG1 X10 F812.7\nG0 Z5\nM30\n%\n"
     );
     let new = parse(&out);
-    assert_eq!(feeds(&new), vec![250.0, 500.0, 812.0]);
+    // Feed decimals are kept (six significant digits).
+    assert_eq!(feeds(&new), vec![250.0, 500.0, 812.7]);
     assert_eq!(new.segments[3].end, path.segments[2].end);
     // Source lines of the split pieces: the original line, then the inserted one.
     assert_eq!((new.segments[2].line, new.segments[3].line), (6, 7));
@@ -57,7 +58,7 @@ fn f_word_added_before_comments_and_crlf_kept() {
     let out = nc::refeed(src, "t.ngc", &Options::default(), &uniform(&path, 1234.9)).unwrap();
     assert_eq!(
         out,
-        "G1 X5 F1234\r\nX6 F1234 (no feed word)\r\nX7 F1234;end\r\n"
+        "G1 X5 F1234.9\r\nX6 F1234.9 (no feed word)\r\nX7 F1234.9;end\r\n"
     );
 }
 
@@ -70,7 +71,7 @@ fn incremental_inch_split_lands_exactly() {
     let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
     let new = parse(&out);
     assert_eq!(new.segments.len(), 4, "{out}");
-    // Feeds are written in inch/min, rounded down to 0.001.
+    // Feeds are written in inch/min, six significant digits rounded down.
     let f = feeds(&new);
     assert!(
         (f[0] - 127.0).abs() < 1e-9

@@ -40,6 +40,10 @@ pub enum CapKind {
     Deflection,
     /// Caller's cap from the cutting-surface angle (S3).
     SurfaceAngle,
+    /// Caller's cap from the largest feed per tooth (chip load).
+    ChipLoad,
+    /// Caller's cap at a factor over the programmed feed.
+    FeedScale,
     /// Not at any cap: accelerating or decelerating (jerk ramps included).
     Acceleration,
     /// Standing still for a programmed dwell.
@@ -48,7 +52,7 @@ pub enum CapKind {
 
 impl CapKind {
     /// Every kind, in the order [`crate::Profile::time_at_cap_share`] reports them.
-    pub const ALL: [CapKind; 12] = [
+    pub const ALL: [CapKind; 14] = [
         CapKind::Programmed,
         CapKind::FeedMax,
         CapKind::Rapid,
@@ -59,6 +63,8 @@ impl CapKind {
         CapKind::Force,
         CapKind::Deflection,
         CapKind::SurfaceAngle,
+        CapKind::ChipLoad,
+        CapKind::FeedScale,
         CapKind::Acceleration,
         CapKind::Dwell,
     ];
