@@ -13,6 +13,7 @@ use serde::Serialize;
 use crate::job::Job;
 use crate::motion::{self, TimedStep};
 use crate::optimize;
+use crate::outdir::OutDir;
 use crate::program::{self, Program};
 use crate::simulate::{self, GridInfo, Run, Summary};
 
@@ -73,6 +74,17 @@ impl Setup {
             machine,
             design,
         })
+    }
+
+    /// Every file the run reads: the job, its program, stock mesh and design model.
+    pub fn input_files(&self, job_path: &Path) -> Vec<PathBuf> {
+        let mut files = vec![
+            job_path.to_path_buf(),
+            self.job.resolve(&self.job.program.path),
+        ];
+        files.extend(self.job.stock.path.as_deref().map(|p| self.job.resolve(p)));
+        files.extend(self.design.as_ref().map(|(p, _)| p.clone()));
+        files
     }
 
     /// The program as the machine runs it: servo periods for G-code, one step
@@ -173,11 +185,8 @@ struct SimulateSummary<'a> {
     grid: GridInfo,
     design: Option<DesignInfo>,
     run_time_s: f64,
-}
-
-fn create_out(out: &Path) -> Result<()> {
-    std::fs::create_dir_all(out)
-        .with_context(|| format!("cannot create output folder {}", out.display()))
+    /// The run that wrote the folder (as in manifest.json).
+    run_id: String,
 }
 
 /// Write steps.csv and columns.csv of a run; returns the design comparison.
@@ -199,11 +208,12 @@ pub fn simulate(
     out: &Path,
     grid_mm: Option<f64>,
     actual_path: bool,
+    force: bool,
 ) -> Result<()> {
     let started = Instant::now();
     let setup = Setup::load(job_path, grid_mm)?;
+    let out_dir = OutDir::begin(out, &setup.input_files(job_path), force)?;
     let steps = setup.steps(actual_path)?;
-    create_out(out)?;
     let run = simulate::run(
         setup.stock.clone(),
         &setup.tool,
@@ -212,7 +222,8 @@ pub fn simulate(
         "simulate",
     )?;
     let summary = run.summary();
-    let design = write_run(&setup, &run, out, "steps.csv")?;
+    summary.check_finite()?;
+    let design = write_run(&setup, &run, out_dir.path(), "steps.csv")?;
     let doc = SimulateSummary {
         run: &summary,
         job: setup.job.name.clone(),
@@ -220,9 +231,11 @@ pub fn simulate(
         grid: GridInfo::of(run.stock.grid()),
         design,
         run_time_s: started.elapsed().as_secs_f64(),
+        run_id: out_dir.run_id(),
     };
-    simulate::write_json(&out.join("summary.json"), &doc)?;
-    println!(
+    simulate::write_json(&out_dir.path().join("summary.json"), &doc)?;
+    out_dir.commit("simulate")?;
+    crate::outln!(
         "removed {:.1} mm³ of {:.1} mm³ in {} steps; cycle {:.2} s; peak MRR {:.2} mm³/s, force {:.1} N, deflection {:.1} µm; results in {}",
         summary.removed_volume_mm3,
         summary.initial_volume_mm3,
@@ -275,6 +288,8 @@ struct OptimizeSummary {
     time_engagement_s: f64,
     time_plan_s: f64,
     time_simulate_s: f64,
+    /// The run that wrote the folder (as in manifest.json).
+    run_id: String,
 }
 
 #[derive(Serialize)]
@@ -290,20 +305,38 @@ struct LimitsOut {
 }
 
 /// `dexcut optimize [JOB] --out DIR`.
-pub fn optimize(job_path: Option<&Path>, out: &Path, grid_mm: Option<f64>) -> Result<()> {
+pub fn optimize(
+    job_path: Option<&Path>,
+    out: &Path,
+    grid_mm: Option<f64>,
+    force: bool,
+) -> Result<()> {
     let started = Instant::now();
-    let job_path: PathBuf = match job_path {
-        Some(p) => p.to_path_buf(),
+    let (setup, out_dir) = match job_path {
+        Some(p) => {
+            let setup = Setup::load(p, grid_mm)?;
+            let out_dir = OutDir::begin(out, &setup.input_files(p), force)?;
+            (setup, out_dir)
+        }
         None => {
+            // The example's inputs go into the new results, in input/.
+            let out_dir = OutDir::begin(out, &[], force)?;
             let dir = out.join("input");
             eprintln!(
                 "no job given: running the built-in boss_contour example (inputs written to {})",
                 dir.display()
             );
-            crate::example::write_files(&dir)?
+            let staged = out_dir.path().join("input");
+            let mut setup = Setup::load(&crate::example::write_files(&staged)?, grid_mm)?;
+            // Name the inputs where they will be once the results are in place.
+            setup.job.name = dir.join("job.toml").display().to_string();
+            setup.program.file = setup
+                .program
+                .file
+                .replace(&staged.display().to_string(), &dir.display().to_string());
+            (setup, out_dir)
         }
     };
-    let setup = Setup::load(&job_path, grid_mm)?;
     let limits = &setup.job.limits;
     if limits.mrr_max.is_none()
         && limits.force_max.is_none()
@@ -312,7 +345,6 @@ pub fn optimize(job_path: Option<&Path>, out: &Path, grid_mm: Option<f64>) -> Re
     {
         eprintln!("warning: [limits] sets no mrr_max, force_max, deflection_max_um or angle_rule: cutting runs at feed_max");
     }
-    create_out(out)?;
     // Before: the program as written.
     let t0 = Instant::now();
     let before_steps = setup.machine_steps()?;
@@ -344,6 +376,8 @@ pub fn optimize(job_path: Option<&Path>, out: &Path, grid_mm: Option<f64>) -> Re
     let time_plan_s = t2.elapsed().as_secs_f64();
     let after = written.run.as_ref().unwrap_or(&before);
     let (before_summary, mut after_summary) = (before.summary(), after.summary());
+    before_summary.check_finite()?;
+    after_summary.check_finite()?;
     if written.excesses_left > 0 {
         after_summary.warnings.push(crate::warnings::Warning {
             kind: crate::warnings::WarningKind::LimitExceeded,
@@ -358,11 +392,12 @@ pub fn optimize(job_path: Option<&Path>, out: &Path, grid_mm: Option<f64>) -> Re
             ),
         });
     }
-    let design = write_run(&setup, after, out, "steps.csv")?;
-    before.write_steps_csv(&out.join("steps_before.csv"))?;
-    write_servo_csv(&out.join("servo.csv"), &written.samples)?;
+    let staged = out_dir.path();
+    let design = write_run(&setup, after, staged, "steps.csv")?;
+    before.write_steps_csv(&staged.join("steps_before.csv"))?;
+    write_servo_csv(&staged.join("servo.csv"), &written.samples)?;
     if let Some(text) = &written.text {
-        export::atomic::write_bytes(&out.join("optimized.nc"), text.as_bytes())
+        export::atomic::write_bytes(&staged.join("optimized.nc"), text.as_bytes())
             .with_context(|| "cannot write optimized.nc")?;
     }
     let lower_bound_time_s = written.lower_bound_time_s;
@@ -405,17 +440,19 @@ pub fn optimize(job_path: Option<&Path>, out: &Path, grid_mm: Option<f64>) -> Re
         time_engagement_s,
         time_plan_s,
         time_simulate_s,
+        run_id: out_dir.run_id(),
     };
-    simulate::write_json(&out.join("summary.json"), &doc)?;
+    simulate::write_json(&staged.join("summary.json"), &doc)?;
+    out_dir.commit("optimize")?;
     let (b, a) = (&doc.before, &doc.after);
     let after_label = if doc.kept_original {
         "after (kept)"
     } else {
         "optimized.nc"
     };
-    println!("{:<24}{:>12}{:>14}", "", "as given", after_label);
+    crate::outln!("{:<24}{:>12}{:>14}", "", "as given", after_label);
     let row = |name: &str, x: f64, y: f64, d: usize| {
-        println!("{name:<24}{x:>12.d$}{y:>14.d$}");
+        crate::outln!("{name:<24}{x:>12.d$}{y:>14.d$}");
     };
     row("cycle time (s)", b.cycle_time_s, a.cycle_time_s, 3);
     row("peak MRR per period", b.peak_mrr_mm3_s, a.peak_mrr_mm3_s, 3);
@@ -453,8 +490,8 @@ pub fn optimize(job_path: Option<&Path>, out: &Path, grid_mm: Option<f64>) -> Re
     .into_iter()
     .flatten()
     .collect();
-    println!("limits: {}", limits_text.join(", "));
-    println!(
+    crate::outln!("limits: {}", limits_text.join(", "));
+    crate::outln!(
         "time change {:+.1} %. The numbers after are optimized.nc read back and simulated as a program of its own ({} round(s)); the plan it was written from takes {:.3} s ({:+.2} %); with the feed free to change every 0.05 mm it would take {:.3} s.",
         100.0 * (a.cycle_time_s / b.cycle_time_s - 1.0),
         doc.rounds,
@@ -463,9 +500,9 @@ pub fn optimize(job_path: Option<&Path>, out: &Path, grid_mm: Option<f64>) -> Re
         doc.time_optimal_s,
     );
     if doc.kept_original {
-        println!("The program as given is within every limit and faster than any re-timing: optimized.nc is the original.");
+        crate::outln!("The program as given is within every limit and faster than any re-timing: optimized.nc is the original.");
     }
-    println!(
+    crate::outln!(
         "No timing under these limits can beat {:.3} s (every point at its highest allowed feed, no time to speed up or slow down); the {:.1} % above it is acceleration, corners and arcs.",
         lower_bound_time_s,
         100.0 * doc.optimality_gap,
@@ -475,8 +512,8 @@ pub fn optimize(job_path: Option<&Path>, out: &Path, grid_mm: Option<f64>) -> Re
         .iter()
         .map(|c| format!("{} {:.0} %", c.cap, 100.0 * c.share))
         .collect();
-    println!("time held by: {}", shares.join(", "));
-    println!("results in {}", out.display());
+    crate::outln!("time held by: {}", shares.join(", "));
+    crate::outln!("results in {}", out.display());
     doc.before.warnings.print("program");
     doc.after.warnings.print("optimised");
     Ok(())
@@ -526,20 +563,19 @@ pub use crate::report::report;
 
 /// `dexcut calibrate CSV`: least-squares fit of F = a·V^n in log space.
 pub fn calibrate(path: &Path) -> Result<()> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text = crate::bounds::read_text(path, "measurements", crate::bounds::MAX_CSV_BYTES)?;
     let points = read_calibration(&text, &path.display().to_string())?;
     let fit = cutting::fit_force_law(&points)
         .with_context(|| format!("{}: cannot fit", path.display()))?;
-    println!("F = a·V^n fitted to {} points:", fit.points);
-    println!("  force_a = {:.6}", fit.a);
-    println!("  force_n = {:.6}", fit.n);
-    println!(
+    crate::outln!("F = a·V^n fitted to {} points:", fit.points);
+    crate::outln!("  force_a = {:.6}", fit.a);
+    crate::outln!("  force_n = {:.6}", fit.n);
+    crate::outln!(
         "  rms error: {:.4} (log), {:.2} % (relative)",
         fit.rms_log_error,
         100.0 * fit.rms_rel_error
     );
-    println!("put force_a and force_n into the job's [cutting] section");
+    crate::outln!("put force_a and force_n into the job's [cutting] section");
     Ok(())
 }
 
@@ -563,8 +599,17 @@ pub fn read_calibration(text: &str, file: &str) -> Result<Vec<(f64, f64)>> {
         let num = |i: usize| -> Result<f64> {
             let raw = rec.get(i).unwrap_or("");
             let col = rec.range(i).map_or(1, |r| r.start + i + 1);
-            raw.parse()
-                .with_context(|| format!("{file}:{line}:{col}: not a number: {raw:?}"))
+            let v: f64 = raw
+                .parse()
+                .with_context(|| format!("{file}:{line}:{col}: not a number: {raw:?}"))?;
+            // The law F = a·V^n is fitted in logs: only positive, finite values mean anything.
+            if !(v > 0.0 && v.is_finite()) {
+                bail!(
+                    "{file}:{line}:{col}: {} must be a positive, finite number, got {raw}",
+                    headers.get(i).unwrap_or("value")
+                );
+            }
+            Ok(v)
         };
         points.push((num(iv)?, num(if_)?));
     }

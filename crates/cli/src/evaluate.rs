@@ -56,8 +56,17 @@ fn commanded(setup: &Setup, machine: &Machine) -> Result<Vec<[f64; 3]>> {
 
 /// Commanded positions from a servo.csv (`t_s,x,y,z,…`), e.g. from `optimize`.
 fn read_servo_csv(path: &Path, period_ms: f64) -> Result<Vec<[f64; 3]>> {
-    let mut reader =
-        csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let size = crate::bounds::check_input_file(path, "servo data", crate::bounds::MAX_CSV_BYTES)?;
+    // A row is at least 8 bytes ("0,0,0,0\n"); each costs about BYTES_PER_SAMPLE while evaluated.
+    crate::bounds::check_memory(
+        size as f64 / 8.0 * crate::bounds::BYTES_PER_SAMPLE,
+        &format!("{}: servo data of {size} bytes", path.display()),
+    )?;
+    let mut reader = csv::Reader::from_reader(crate::bounds::open(
+        path,
+        "servo data",
+        crate::bounds::MAX_CSV_BYTES,
+    )?);
     let mut out = Vec::new();
     // Interval before each sample, ms, with its line (checked once the last row is known).
     let mut intervals: Vec<(usize, f64)> = Vec::new();
@@ -67,9 +76,17 @@ fn read_servo_csv(path: &Path, period_ms: f64) -> Result<Vec<[f64; 3]>> {
         let rec = rec.with_context(|| format!("{}:{line}: bad row", path.display()))?;
         let num = |k: usize| -> Result<f64> {
             let raw = rec.get(k).unwrap_or("");
-            raw.parse().with_context(|| {
+            let v: f64 = raw.parse().with_context(|| {
                 format!("{}:{line}:{}: not a number: {raw:?}", path.display(), k + 1)
-            })
+            })?;
+            if !(v.abs() <= 1e9) {
+                bail!(
+                    "{}:{line}:{}: {raw:?} is not a finite number within ±1e9",
+                    path.display(),
+                    k + 1
+                );
+            }
+            Ok(v)
         };
         let t = num(0)?;
         if let Some(prev) = last_t {
@@ -133,12 +150,21 @@ struct EvaluationDoc {
 }
 
 /// `dexcut evaluate JOB --out DIR [--servo FILE] [--sweep]`.
-pub fn evaluate(job_path: &Path, out: &Path, servo_csv: Option<&Path>, sweep: bool) -> Result<()> {
+pub fn evaluate(
+    job_path: &Path,
+    out: &Path,
+    servo_csv: Option<&Path>,
+    sweep: bool,
+    force: bool,
+) -> Result<()> {
     let setup = Setup::load(job_path, None)?;
     let drive = drive(&setup.job)?;
     if sweep && servo_csv.is_some() {
         bail!("--sweep re-plans the program, so it cannot be combined with --servo");
     }
+    let mut inputs = setup.input_files(job_path);
+    inputs.extend(servo_csv.map(Path::to_path_buf));
+    let out_dir = crate::outdir::OutDir::begin(out, &inputs, force)?;
     let period_s = setup.machine.period_s();
     let as_written = setup
         .program
@@ -151,7 +177,6 @@ pub fn evaluate(job_path: &Path, out: &Path, servo_csv: Option<&Path>, sweep: bo
         (None, Some(c)) => c.clone(),
         (None, None) => bail!("evaluate needs a G-code program or --servo data"),
     };
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     // Vb = time / the program's time as written, so runs of one job compare.
     let reference = as_written.as_ref().unwrap_or(&command);
     let w = weights(&setup.job, (reference.len() - 1) as f64 * period_s);
@@ -206,8 +231,21 @@ pub fn evaluate(job_path: &Path, out: &Path, servo_csv: Option<&Path>, sweep: bo
         })
         .map(|(i, _)| i);
 
-    write_positions_csv(&out.join("actual.csv"), &actual, period_s)?;
-    write_positions_csv(&out.join("compensated.csv"), &pre.command, period_s)?;
+    for (key, v) in [
+        ("trajectory error (mm)", evaluation.trajectory_error_mm),
+        ("V", evaluation.evaluation),
+        ("pre-compensated error (mm)", pre.error_after_mm),
+    ] {
+        if !v.is_finite() {
+            bail!("the evaluation's {key} is {v}: the inputs give no finite result");
+        }
+    }
+    write_positions_csv(&out_dir.path().join("actual.csv"), &actual, period_s)?;
+    write_positions_csv(
+        &out_dir.path().join("compensated.csv"),
+        &pre.command,
+        period_s,
+    )?;
     let doc = EvaluationDoc {
         job: setup.job.name.clone(),
         drive: format!("{:?}", drive),
@@ -220,24 +258,31 @@ pub fn evaluate(job_path: &Path, out: &Path, servo_csv: Option<&Path>, sweep: bo
         sweep: rows,
         best,
     };
-    write_json(&out.join("evaluation.json"), &doc)?;
+    write_json(&out_dir.path().join("evaluation.json"), &doc)?;
+    out_dir.commit("evaluate")?;
     let e = &doc.evaluation;
-    println!(
+    crate::outln!(
         "trajectory error {:.4} mm, time {:.3} s, max jerk [{:.0}, {:.0}, {:.0}] mm/s³, V = {:.4} (Va {:.3}, Vb {:.3}, Vc {:.3})",
         e.trajectory_error_mm, e.machining_time_s, e.max_jerk_mm_s3[0], e.max_jerk_mm_s3[1], e.max_jerk_mm_s3[2], e.evaluation, e.va, e.vb, e.vc
     );
-    println!(
+    crate::outln!(
         "pre-compensation: sample error {:.4} → {:.4} mm in {} iterations (trajectory error {:.4} mm)",
         pre.error_before_mm, pre.error_after_mm, pre.iterations, precomp_traj
     );
     if !doc.sweep.is_empty() {
-        println!(
+        crate::outln!(
             "{:>10} {:>10} {:>7} {:>10} {:>9} {:>12} {:>8}",
-            "accel", "jerk", "kp", "error_mm", "time_s", "jerk_mm_s3", "V"
+            "accel",
+            "jerk",
+            "kp",
+            "error_mm",
+            "time_s",
+            "jerk_mm_s3",
+            "V"
         );
         for (i, r) in doc.sweep.iter().enumerate() {
             let e = &r.evaluation;
-            println!(
+            crate::outln!(
                 "{:>10.0} {:>10} {:>7.1} {:>10.4} {:>9.3} {:>12.0} {:>8.4}{}",
                 r.accel_mm_s2[0],
                 r.jerk_mm_s3
@@ -251,6 +296,6 @@ pub fn evaluate(job_path: &Path, out: &Path, servo_csv: Option<&Path>, sweep: bo
             );
         }
     }
-    println!("results in {}", out.display());
+    crate::outln!("results in {}", out.display());
     Ok(())
 }

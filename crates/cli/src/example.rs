@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 
 /// (file name, content) of the example's files.
 pub const FILES: [(&str, &[u8]); 3] = [
@@ -31,10 +31,28 @@ pub fn write_files(dir: &Path) -> Result<PathBuf> {
     Ok(dir.join("job.toml"))
 }
 
-/// `dexcut example`: write the example to edit and run.
-pub fn write(dir: &Path) -> Result<()> {
+/// `dexcut example`: write the example to edit and run. A file of the folder
+/// that differs from the example (an edited job) is overwritten only with `force`.
+pub fn write(dir: &Path, force: bool) -> Result<()> {
+    let edited: Vec<String> = FILES
+        .iter()
+        .map(|(name, _)| dir.join(name))
+        .filter(|p| std::fs::symlink_metadata(p).is_ok())
+        .filter(|p| {
+            !FILES.iter().any(|(n, bytes)| {
+                p.ends_with(n) && std::fs::read(p).ok().as_deref() == Some(*bytes)
+            })
+        })
+        .map(|p| p.display().to_string())
+        .collect();
+    if !edited.is_empty() && !force {
+        bail!(
+            "{} already exist(s) and differ(s) from the example (edited?); not overwritten: choose another --out or give --force",
+            edited.join(", ")
+        );
+    }
     let job = write_files(dir)?;
-    println!(
+    crate::outln!(
         "wrote the boss_contour example to {}; run it with: dexcut optimize {}",
         dir.display(),
         job.display()

@@ -7,11 +7,13 @@
 
 pub mod bounds;
 pub mod commands;
+pub mod console;
 pub mod evaluate;
 pub mod example;
 pub mod job;
 pub mod motion;
 pub mod optimize;
+pub mod outdir;
 pub mod program;
 pub mod progress;
 pub mod report;

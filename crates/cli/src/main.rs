@@ -34,6 +34,9 @@ enum Command {
         /// instead of the commanded one, so contour errors show in the removal and maps.
         #[arg(long)]
         actual_path: bool,
+        /// Use an output folder that holds this run's inputs (they are kept in the new results).
+        #[arg(long)]
+        force: bool,
     },
     /// Re-time the program so MRR, force and deflection stay under [limits]
     /// while running as fast as the machine allows; with no job, runs the
@@ -46,6 +49,9 @@ enum Command {
         /// Override the stock's column spacing, mm.
         #[arg(long, value_name = "MM")]
         grid: Option<f64>,
+        /// Use an output folder that holds this run's inputs (they are kept in the new results).
+        #[arg(long)]
+        force: bool,
     },
     /// Write report.html, error_map.png and stock.glb from a simulate or optimize output folder.
     Report {
@@ -65,6 +71,9 @@ enum Command {
         /// Try a grid of acceleration, jerk and gain settings and report the best by V.
         #[arg(long)]
         sweep: bool,
+        /// Use an output folder that holds this run's inputs (they are kept in the new results).
+        #[arg(long)]
+        force: bool,
     },
     /// Fit the force law F = a·V^n to measurements: a CSV with columns v_mm3 (volume per tooth) and force_n.
     Calibrate {
@@ -75,6 +84,9 @@ enum Command {
     Example {
         #[arg(long, default_value = "boss_contour")]
         out: PathBuf,
+        /// Overwrite files of the folder that differ from the example (edited ones).
+        #[arg(long)]
+        force: bool,
     },
 }
 
@@ -86,24 +98,29 @@ fn main() -> ExitCode {
             out,
             grid,
             actual_path,
-        } => dexcut::commands::simulate(&job, &out, grid, actual_path),
-        Command::Optimize { job, out, grid } => {
-            dexcut::commands::optimize(job.as_deref(), &out, grid)
-        }
+            force,
+        } => dexcut::commands::simulate(&job, &out, grid, actual_path, force),
+        Command::Optimize {
+            job,
+            out,
+            grid,
+            force,
+        } => dexcut::commands::optimize(job.as_deref(), &out, grid, force),
         Command::Report { dir } => dexcut::commands::report(&dir),
         Command::Evaluate {
             job,
             out,
             servo,
             sweep,
-        } => dexcut::evaluate::evaluate(&job, &out, servo.as_deref(), sweep),
+            force,
+        } => dexcut::evaluate::evaluate(&job, &out, servo.as_deref(), sweep, force),
         Command::Calibrate { csv } => dexcut::commands::calibrate(&csv),
-        Command::Example { out } => dexcut::example::write(&out),
+        Command::Example { out, force } => dexcut::example::write(&out, force),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", dexcut::console::error_message(&e));
             ExitCode::FAILURE
         }
     }

@@ -13,22 +13,36 @@ use serde_json::Value;
 use crate::simulate::GridInfo;
 
 /// Named numeric columns of a CSV file (empty fields read as NaN).
-fn read_csv_columns(path: &Path, wanted: &[&str]) -> Result<HashMap<String, Vec<f64>>> {
-    let mut reader =
-        csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
+/// Every wanted column must be in the header, and at least one data row must follow.
+fn read_csv_columns(
+    path: &Path,
+    wanted: &[&str],
+    optional: &[&str],
+) -> Result<HashMap<String, Vec<f64>>> {
+    let mut reader = csv::Reader::from_reader(crate::bounds::open(
+        path,
+        "results file",
+        crate::bounds::MAX_CSV_BYTES,
+    )?);
     let headers = reader
         .headers()
         .with_context(|| format!("{}: no header", path.display()))?
         .clone();
-    let index: Vec<(String, usize)> = wanted
-        .iter()
-        .filter_map(|w| {
-            headers
-                .iter()
-                .position(|h| h == *w)
-                .map(|i| (w.to_string(), i))
-        })
-        .collect();
+    let mut index: Vec<(String, usize)> = Vec::new();
+    for w in wanted {
+        let Some(i) = headers.iter().position(|h| h == *w) else {
+            bail!(
+                "{}:1: no column {w} in the header (not a dexcut results file, or damaged)",
+                path.display()
+            );
+        };
+        index.push((w.to_string(), i));
+    }
+    for w in optional {
+        if let Some(i) = headers.iter().position(|h| h == *w) {
+            index.push((w.to_string(), i));
+        }
+    }
     let mut cols: HashMap<String, Vec<f64>> =
         index.iter().map(|(n, _)| (n.clone(), Vec::new())).collect();
     for (row, record) in reader.records().enumerate() {
@@ -49,19 +63,36 @@ fn read_csv_columns(path: &Path, wanted: &[&str]) -> Result<HashMap<String, Vec<
             cols.get_mut(name).expect("column").push(v);
         }
     }
+    if cols.values().all(Vec::is_empty) {
+        bail!("{}: no data rows", path.display());
+    }
     Ok(cols)
 }
 
 /// Per-column maps from columns.csv, laid out on the grid.
-fn read_maps(path: &Path, grid: &GridInfo, names: &[&str]) -> Result<HashMap<String, Vec<f32>>> {
+fn read_maps(
+    path: &Path,
+    grid: &GridInfo,
+    names: &[&str],
+    optional: &[&str],
+) -> Result<HashMap<String, Vec<f32>>> {
     let mut wanted = vec!["ix", "iy"];
     wanted.extend_from_slice(names);
-    let cols = read_csv_columns(path, &wanted)?;
+    let cols = read_csv_columns(path, &wanted, optional)?;
+    let rows = cols.get("ix").map_or(0, Vec::len);
+    if rows > grid.nx * grid.ny {
+        bail!(
+            "{}: {rows} rows for a {}×{} grid",
+            path.display(),
+            grid.nx,
+            grid.ny
+        );
+    }
     let (Some(ix), Some(iy)) = (cols.get("ix"), cols.get("iy")) else {
         bail!("{}: missing ix/iy columns", path.display())
     };
     let mut maps = HashMap::new();
-    for name in names {
+    for name in names.iter().chain(optional) {
         let Some(values) = cols.get(*name) else {
             continue;
         };
@@ -120,21 +151,99 @@ fn cell(v: &Value, key: &str, unit: &str, decimals: usize) -> String {
     }
 }
 
+/// Every file of the folder comes from the run its manifest names: the files
+/// it lists have their recorded sizes, and summary.json carries its run id.
+fn check_one_run(dir: &Path, summary: &Value) -> Result<()> {
+    let manifest_path = dir.join(export::atomic::MANIFEST);
+    let text =
+        crate::bounds::read_text(&manifest_path, "manifest", crate::bounds::MAX_SUMMARY_BYTES)
+            .with_context(|| {
+                format!(
+            "{} is not a complete dexcut results folder (written by an older or interrupted run?)",
+            dir.display()
+        )
+            })?;
+    let manifest: Value = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not valid JSON", manifest_path.display()))?;
+    let run_id = manifest.get("run_id").and_then(Value::as_str);
+    let files = manifest.get("files").and_then(Value::as_object);
+    let (Some(run_id), Some(files)) = (run_id, files) else {
+        bail!("{}: no run_id or files", manifest_path.display());
+    };
+    if summary.get("run_id").and_then(Value::as_str) != Some(run_id) {
+        bail!(
+            "{}: summary.json is not from run {run_id} of the manifest: the folder mixes runs",
+            dir.display()
+        );
+    }
+    for (name, size) in files {
+        let path = dir.join(name);
+        let actual = std::fs::metadata(&path).map(|m| m.len()).ok();
+        if actual != size.as_u64() {
+            bail!(
+                "{}: {name} is not the file run {run_id} wrote (size {actual:?}, manifest {size}): the folder mixes runs or was changed",
+                dir.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Bytes per column while the report is built (CSV columns as f64, three
+/// f32 maps, heat-map pixels), an upper estimate.
+const REPORT_BYTES_PER_COLUMN: f64 = 96.0;
+
+/// The grid of summary.json must describe a real grid that fits in memory.
+fn check_grid(grid: &GridInfo, path: &Path) -> Result<()> {
+    if grid.nx == 0 || grid.ny == 0 {
+        bail!(
+            "{}: grid nx and ny must be at least 1, got {}×{}",
+            path.display(),
+            grid.nx,
+            grid.ny
+        );
+    }
+    if !(grid.spacing_mm > 0.0 && grid.spacing_mm.is_finite()) {
+        bail!(
+            "{}: grid spacing_mm must be a positive number, got {}",
+            path.display(),
+            grid.spacing_mm
+        );
+    }
+    if !(grid.x0_mm.is_finite() && grid.y0_mm.is_finite()) {
+        bail!("{}: grid x0_mm and y0_mm must be finite", path.display());
+    }
+    let Some(columns) = grid.nx.checked_mul(grid.ny) else {
+        bail!("{}: grid {}×{} overflows", path.display(), grid.nx, grid.ny);
+    };
+    crate::bounds::check_memory(
+        columns as f64 * REPORT_BYTES_PER_COLUMN,
+        &format!(
+            "{}: a report of {}×{} columns",
+            path.display(),
+            grid.nx,
+            grid.ny
+        ),
+    )
+}
+
 /// `dexcut report DIR`.
 pub fn report(dir: &Path) -> Result<()> {
     let summary_path = dir.join("summary.json");
-    let text = std::fs::read_to_string(&summary_path).with_context(|| {
-        format!(
-            "cannot read {}: is {} a `dexcut simulate` or `optimize` output folder?",
-            summary_path.display(),
-            dir.display()
-        )
-    })?;
+    let text = crate::bounds::read_text(&summary_path, "summary", crate::bounds::MAX_SUMMARY_BYTES)
+        .with_context(|| {
+            format!(
+                "is {} a `dexcut simulate` or `optimize` output folder?",
+                dir.display()
+            )
+        })?;
     let summary: Value = serde_json::from_str(&text)
         .with_context(|| format!("{}: not valid JSON", summary_path.display()))?;
+    check_one_run(dir, &summary)?;
     let grid: GridInfo =
         serde_json::from_value(summary.get("grid").cloned().unwrap_or(Value::Null))
             .with_context(|| format!("{}: no grid description", summary_path.display()))?;
+    check_grid(&grid, &summary_path)?;
     let optimized = summary.get("after").is_some();
     let (before_json, after_json) = if optimized {
         (&summary["before"], Some(&summary["after"]))
@@ -143,11 +252,12 @@ pub fn report(dir: &Path) -> Result<()> {
     };
 
     // Time series.
-    let after_cols = read_csv_columns(&dir.join("steps.csv"), &STEP_COLUMNS)?;
+    let after_cols = read_csv_columns(&dir.join("steps.csv"), &STEP_COLUMNS, &[])?;
     let before_cols = if optimized {
         Some(read_csv_columns(
             &dir.join("steps_before.csv"),
             &STEP_COLUMNS,
+            &[],
         )?)
     } else {
         None
@@ -204,7 +314,8 @@ pub fn report(dir: &Path) -> Result<()> {
     let maps = read_maps(
         &dir.join("columns.csv"),
         &grid,
-        &["top_mm", "error_um", "design_um"],
+        &["top_mm", "error_um"],
+        &["design_um"],
     )?;
     let egrid = grid.export();
     let error = ScalarMap {
@@ -351,6 +462,6 @@ pub fn report(dir: &Path) -> Result<()> {
         notes,
     };
     export::write_report_html(&dir.join("report.html"), &report)?;
-    println!("wrote {}", dir.join("report.html").display());
+    crate::outln!("wrote {}", dir.join("report.html").display());
     Ok(())
 }

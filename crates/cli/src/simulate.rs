@@ -149,6 +149,27 @@ pub struct Summary {
     pub sweep_time_s: f64,
 }
 
+impl Summary {
+    /// A result that is inf or NaN is an error, not an output.
+    pub fn check_finite(&self) -> Result<()> {
+        for (key, v) in [
+            ("initial volume (mm³)", self.initial_volume_mm3),
+            ("final volume (mm³)", self.final_volume_mm3),
+            ("removed volume (mm³)", self.removed_volume_mm3),
+            ("cycle time (s)", self.cycle_time_s),
+            ("peak MRR (mm³/s)", self.peak_mrr_mm3_s),
+            ("peak windowed MRR (mm³/s)", self.peak_mrr_windowed_mm3_s),
+            ("peak force (N)", self.peak_force_n),
+            ("peak deflection (µm)", self.peak_deflection_um),
+        ] {
+            if !v.is_finite() {
+                anyhow::bail!("the run's {key} is {v}: the inputs give no finite result");
+            }
+        }
+        Ok(())
+    }
+}
+
 impl Run {
     /// MRR of the servo period that step `i` belongs to, mm³/s: a period split
     /// where the motion changes between rapid and feed counts as a whole.

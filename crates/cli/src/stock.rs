@@ -53,7 +53,30 @@ pub fn build(job: &Job) -> Result<Stock> {
             }
             let grid = Grid::covering(lo[0], lo[1], hi[0], hi[1], s.grid)?;
             check_fits(&grid, &what)?;
-            let (stock, _stats) = mesh::stock_on_grid(&mesh, grid)?;
+            let (stock, stats) = mesh::stock_on_grid(&mesh, grid)?;
+            // A self-intersecting mesh has overlapping shells (or unbalanced
+            // crossings), and its signed volume counts the overlap twice.
+            let (filled, signed) = (stock.volume_mm3(), mesh.signed_volume_mm3().abs());
+            let area_mm2: f64 = mesh
+                .triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|i| nalgebra::Vector3::from(mesh.vertices[i as usize]));
+                    0.5 * (b - a).cross(&(c - a)).norm()
+                })
+                .sum();
+            let discretisation_mm3 = area_mm2 * s.grid;
+            if stats.overlap_columns > 0
+                || stats.unpaired_columns > 0
+                || (filled - signed).abs() > discretisation_mm3 + 1e-9 * signed
+            {
+                anyhow::bail!(
+                    "{what}: the stock mesh {} intersects itself or overlaps ({} columns with overlapping shells, {} unbalanced; filled {filled:.1} mm³ against {signed:.1} mm³ enclosed): a stock must be one clean solid",
+                    path.display(),
+                    stats.overlap_columns,
+                    stats.unpaired_columns
+                );
+            }
             Ok(stock)
         }
     }

@@ -24,9 +24,11 @@ pub struct Fit {
 pub enum FitError {
     /// A volume or force is zero, negative or not finite (the law lives in log space).
     #[error(
-        "point {index}: volume {v_mm3} mm³ and force {force_n} N must both be positive and finite"
+        "point {} (counted from 1): volume {v_mm3} mm³ and force {force_n} N must both be positive and finite",
+        .index + 1
     )]
     NonPositive {
+        /// 0-based index of the point.
         index: usize,
         v_mm3: f64,
         force_n: f64,

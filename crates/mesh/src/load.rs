@@ -71,11 +71,45 @@ enum Kind {
     Obj,
 }
 
+/// A binary STL is an 80-byte header, a triangle count N and 50 bytes per
+/// triangle; a file of another size is truncated (or padded) and refused with
+/// the sizes, rather than with the reader's "failed to fill whole buffer".
+fn check_stl_size(bytes: &[u8]) -> std::io::Result<()> {
+    let ascii = bytes.trim_ascii_start().starts_with(b"solid");
+    let invalid = |m: String| Err(std::io::Error::new(std::io::ErrorKind::InvalidData, m));
+    if bytes.len() < 84 {
+        if !ascii {
+            return invalid(format!(
+                "{} bytes: too short for a binary STL (84-byte header) and not ASCII STL",
+                bytes.len()
+            ));
+        }
+        return Ok(());
+    }
+    let count = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64;
+    let expected = 84 + 50 * count;
+    if !ascii && bytes.len() as u64 != expected {
+        return invalid(format!(
+            "binary STL with {count} triangles must have {expected} bytes, the file has {}: truncated or damaged",
+            bytes.len()
+        ));
+    }
+    Ok(())
+}
+
 fn read_stl(bytes: &[u8]) -> std::io::Result<TriMesh> {
+    check_stl_size(bytes)?;
     let mut cursor = Cursor::new(bytes);
     let triangles = stl_io::create_stl_reader(&mut cursor)?
         .map(|t| t.map(|t| t.vertices.map(|v| v.0.map(f64::from))))
-        .collect::<std::io::Result<Vec<_>>>()?;
+        .collect::<std::io::Result<Vec<_>>>()
+        .map_err(|e| {
+            if e.kind() == std::io::ErrorKind::UnexpectedEof {
+                std::io::Error::new(e.kind(), "the file ends inside a triangle: truncated")
+            } else {
+                e
+            }
+        })?;
     Ok(TriMesh::from_soup(triangles))
 }
 

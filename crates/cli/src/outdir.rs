@@ -1,0 +1,94 @@
+//! A command's output folder: checked before the work, built in a private
+//! staging folder and swapped into place whole at the end
+//! ([`export::atomic::Staging`]), so a failure, a full disk or `kill -9`
+//! leaves the complete previous results or the complete new ones.
+//! Outputs never overwrite inputs: a folder holding the job's own inputs is
+//! refused unless `--force`, which keeps those inputs in the new folder.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use export::atomic::Staging;
+
+/// A results folder being written.
+pub struct OutDir {
+    stage: Staging,
+    /// Inputs inside the target (absolute path, path relative to the target),
+    /// kept in the new folder (`--force` only).
+    kept: Vec<(PathBuf, PathBuf)>,
+}
+
+/// Inputs of the run that lie inside `out`, as (input, path relative to `out`).
+fn inputs_inside(out: &Path, inputs: &[PathBuf]) -> Vec<(PathBuf, PathBuf)> {
+    let Ok(out) = out.canonicalize() else {
+        return Vec::new();
+    };
+    inputs
+        .iter()
+        .filter_map(|p| {
+            let abs = p.canonicalize().ok()?;
+            let rel = abs.strip_prefix(&out).ok()?.to_path_buf();
+            Some((abs, rel))
+        })
+        .collect()
+}
+
+impl OutDir {
+    /// Check `out` and start staging its new content. `inputs`: every file the
+    /// run reads (job, program, meshes, servo data).
+    pub fn begin(out: &Path, inputs: &[PathBuf], force: bool) -> Result<OutDir> {
+        let inside = inputs_inside(out, inputs);
+        if !inside.is_empty() && !force {
+            let names: Vec<String> = inside
+                .iter()
+                .map(|(a, _)| a.display().to_string())
+                .collect();
+            bail!(
+                "output folder {} holds this run's inputs ({}); the run would replace them: choose another --out, or give --force to keep the inputs in the new results",
+                out.display(),
+                names.join(", ")
+            );
+        }
+        let stage = Staging::begin(out)
+            .with_context(|| format!("cannot use output folder {}", out.display()))?;
+        Ok(OutDir {
+            stage,
+            kept: inside,
+        })
+    }
+
+    /// Where the run writes its files.
+    pub fn path(&self) -> &Path {
+        self.stage.path()
+    }
+
+    /// The folder the results will be in.
+    pub fn target(&self) -> &Path {
+        self.stage.target()
+    }
+
+    pub fn run_id(&self) -> String {
+        self.stage.run_id().to_string()
+    }
+
+    /// Keep the inputs inside the folder (unless an output took their name:
+    /// that is what `--force` allows), then swap the new folder into place.
+    pub fn commit(self, command: &str) -> Result<()> {
+        for (abs, rel) in &self.kept {
+            let dest = self.stage.path().join(rel);
+            if dest.exists() {
+                continue;
+            }
+            if let Some(parent) = dest.parent() {
+                std::fs::create_dir_all(parent)?;
+            }
+            std::fs::copy(abs, &dest)
+                .with_context(|| format!("cannot keep input {}", abs.display()))?;
+        }
+        let target = self.stage.target().to_path_buf();
+        self.stage
+            .commit(command)
+            .with_context(|| format!("cannot move the results into {}", target.display()))?;
+        Ok(())
+    }
+}
