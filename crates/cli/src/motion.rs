@@ -46,8 +46,9 @@ pub fn machine(job: &Job) -> Machine {
 /// Steps between consecutive servo samples. A period that crosses the start
 /// or end of a rapid move is split there (at the path's corner), so material a
 /// rapid removes is told apart from what the moves before or after it removed,
-/// and each part is blamed on its own line. The parts share the period's time in proportion to
-/// their lengths; [`TimedStep::continues`] marks the second part.
+/// and each part is blamed on its own line. The parts share the period's time
+/// by their lengths at the speeds sampled at the period's ends;
+/// [`TimedStep::continues`] marks the second part.
 pub fn steps_from_samples(path: &nc::Path, samples: &[ServoSample]) -> Vec<TimedStep> {
     let is_rapid = |seg: usize| matches!(path.segments[seg].motion, Motion::Rapid);
     let mut steps = Vec::with_capacity(samples.len());
@@ -74,14 +75,29 @@ pub fn steps_from_samples(path: &nc::Path, samples: &[ServoSample]) -> Vec<Timed
                 d.sqrt()
             })
             .collect();
-        let total: f64 = lengths.iter().sum();
+        // Each part's time from its length at the speed of the sample at its
+        // end of the period (the middle parts at the faster one), scaled to
+        // the period; its speed never shows above that sample's.
+        let n_parts = lengths.len();
+        let part_speed: Vec<f64> = (0..n_parts)
+            .map(|j| match (j == 0, j + 1 == n_parts) {
+                (true, true) => feed_mm_min,
+                (true, false) => w[0].feed_mm_min,
+                (false, true) => w[1].feed_mm_min,
+                (false, false) => w[0].feed_mm_min.max(w[1].feed_mm_min),
+            })
+            .collect();
+        let estimate: Vec<f64> = (0..n_parts)
+            .map(|j| lengths[j] / part_speed[j].max(1e-9))
+            .collect();
+        let total: f64 = estimate.iter().sum();
         let (mut t, mut s) = (w[0].t_s, w[0].s_mm);
         for (j, p) in points.windows(2).enumerate() {
             let last = j + 2 == points.len();
             let part_dt = if last {
                 w[1].t_s - t
             } else if total > 0.0 {
-                dt * lengths[j] / total
+                dt * estimate[j] / total
             } else {
                 0.0
             };
@@ -98,7 +114,13 @@ pub fn steps_from_samples(path: &nc::Path, samples: &[ServoSample]) -> Vec<Timed
                 },
                 t_end_s: t,
                 dt_s: part_dt,
-                feed_mm_min,
+                feed_mm_min: if n_parts == 1 {
+                    feed_mm_min
+                } else if part_dt > 0.0 {
+                    (lengths[j] / part_dt * 60.0).min(part_speed[j])
+                } else {
+                    0.0
+                },
                 line: path.segments[seg].line,
                 s_end_mm: s,
                 continues: j > 0,

@@ -234,11 +234,15 @@ pub fn apply_interval_caps(stations: &mut Stations, caps: &[(f64, CapKind)]) -> 
 /// control can read in its block time at the block's feed).
 pub const MIN_BLOCK_MM: f64 = 0.2;
 /// Feeds within this ratio are first merged into one block (the lower one is
-/// written); [`refine`] lowers it when the written program is slower than the
-/// plan by more than [`PLAN_TOLERANCE`].
+/// written); [`write_verified`] lowers it (down to [`MERGE_RATIO_MIN`]) when
+/// the written program is slower than the plan by more than [`PLAN_TOLERANCE`].
 pub const MERGE_RATIO: f64 = 1.05;
 /// The written program's cycle time may exceed the plan's by this fraction.
 pub const PLAN_TOLERANCE: f64 = 0.01;
+/// The finest merge ratio tried.
+pub const MERGE_RATIO_MIN: f64 = 1.01;
+/// A period counts as above a limit in the result when it exceeds it by more than this.
+pub const LIMIT_TOLERANCE: f64 = 0.02;
 
 /// Per path segment, the feed pieces `(fraction_end, feed_mm_min)` to write:
 /// piecewise-constant feeds that never exceed the limit caps (`interval_caps`,
@@ -334,6 +338,8 @@ pub struct Excess {
     pub feed_mm_min: f64,
     pub feed_ratio: f64,
     pub kind: CapKind,
+    /// By how much the period exceeds its limit: value / limit − 1.
+    pub over_limit: f64,
 }
 
 /// Margin kept under a limit when a period over it is corrected.
@@ -368,25 +374,34 @@ pub fn excesses(
         if dt > 0.0 && cutting {
             let feed = (s_to - s_prev) / dt * 60.0;
             let mut ratio = (1.0, CapKind::FeedMax);
-            let mut lower = |r: f64, kind: CapKind| {
+            let mut over_limit = 0.0f64;
+            let mut lower = |r: f64, kind: CapKind, over: f64| {
+                over_limit = over_limit.max(over);
                 if r < ratio.0 {
                     ratio = (r, kind);
                 }
             };
             if let Some(q) = limits.mrr_max {
                 if vol / dt > q * (1.0 + 0.5 * LIMIT_MARGIN) {
-                    lower(q * (1.0 - LIMIT_MARGIN) * dt / vol, CapKind::Removal);
+                    let over = vol / dt / q - 1.0;
+                    lower(q * (1.0 - LIMIT_MARGIN) * dt / vol, CapKind::Removal, over);
                 }
             }
             let root = |r: f64| r.powf(1.0 / model.force_exp_n);
             if let Some(f) = limits.force_max {
                 if force > f * (1.0 + 0.5 * LIMIT_MARGIN) {
-                    lower(root(f * (1.0 - LIMIT_MARGIN) / force), CapKind::Force);
+                    let over = force / f - 1.0;
+                    lower(root(f * (1.0 - LIMIT_MARGIN) / force), CapKind::Force, over);
                 }
             }
             if let Some(d) = limits.deflection_max_um {
                 if defl > d * (1.0 + 0.5 * LIMIT_MARGIN) {
-                    lower(root(d * (1.0 - LIMIT_MARGIN) / defl), CapKind::Deflection);
+                    let over = defl / d - 1.0;
+                    lower(
+                        root(d * (1.0 - LIMIT_MARGIN) / defl),
+                        CapKind::Deflection,
+                        over,
+                    );
                 }
             }
             if ratio.0 < 1.0 && feed > 0.0 {
@@ -396,6 +411,7 @@ pub fn excesses(
                     feed_mm_min: feed,
                     feed_ratio: ratio.0,
                     kind: ratio.1,
+                    over_limit,
                 });
             }
         }
@@ -471,7 +487,7 @@ pub struct Written {
     pub rounds: usize,
     /// Feeds within this ratio share a block in the written program.
     pub merge_ratio: f64,
-    /// Servo periods still above a limit after the last round.
+    /// Servo periods still above a limit by more than [`LIMIT_TOLERANCE`] after the last round.
     pub excesses_left: usize,
     /// The original program was within every limit and faster: it is written unchanged.
     pub kept_original: bool,
@@ -497,7 +513,9 @@ pub fn within_limits(
 /// again and planned by the machine model), and correct it until every servo
 /// period is within the limits and its cycle time is within
 /// [`PLAN_TOLERANCE`] of the plan: periods over a limit lower the caps there,
-/// a written program slower than the plan gets finer blocks. When the
+/// a written program slower than the plan gets finer blocks (down to
+/// [`MERGE_RATIO_MIN`]; what remains comes from lines that run more than
+/// once or drilling cycles, which take one feed per run). When the
 /// original program is within every limit and the result would be slower,
 /// the original is kept.
 pub fn write_verified(
@@ -562,7 +580,8 @@ pub fn write_verified(
         let over = excesses(&run, limits, &setup.model);
         let slow = text.is_some()
             && run.steps.last().map_or(0.0, |s| s.t_end_s) > plan_time_s * (1.0 + PLAN_TOLERANCE);
-        let done = (over.is_empty() && !slow) || round >= MAX_ROUNDS;
+        let refine_blocks = slow && merge_ratio > MERGE_RATIO_MIN;
+        let done = (over.is_empty() && !refine_blocks) || round >= MAX_ROUNDS;
         if done {
             let cycle = run.steps.last().map_or(0.0, |s| s.t_end_s);
             let before_cycle = before.steps.last().map_or(0.0, |s| s.t_end_s);
@@ -583,13 +602,16 @@ pub fn write_verified(
                 cap_shares: cap_shares(&profile),
                 rounds: round,
                 merge_ratio,
-                excesses_left: over.len(),
+                excesses_left: over
+                    .iter()
+                    .filter(|e| e.over_limit > LIMIT_TOLERANCE)
+                    .count(),
                 kept_original,
             });
         }
         lower_caps(&mut caps, free.s_mm(), &over, margin_mm, limits.feed_min);
-        if slow {
-            merge_ratio = 1.0 + (merge_ratio - 1.0) / 2.5;
+        if refine_blocks {
+            merge_ratio = (1.0 + (merge_ratio - 1.0) / 2.5).max(MERGE_RATIO_MIN);
         }
     }
 }

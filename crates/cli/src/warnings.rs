@@ -34,6 +34,8 @@ pub enum WarningKind {
     CoarseGrid,
     /// A limit that the optimised program does not meet.
     LimitExceeded,
+    /// The written program is slower than the plan it was written from.
+    PlanNotMet,
 }
 
 /// One warning: kind, the first program line concerned, the worst value and a

@@ -945,3 +945,188 @@ fn a_program_that_removes_nothing_is_warned() {
     assert!(w["line"].is_null());
     assert!(err.contains("removes no material"), "{err}");
 }
+
+/// A box and a 4 mm flat end mill for `tests/data/mix.ngc`.
+const MIX_JOB: &str = r#"
+[stock]
+kind = "box"
+min = [0, 0, 0]
+max = [60, 40, 10]
+grid = 0.1
+[tool]
+kind = "flat"
+diameter = 4
+flutes = 2
+fz_max = 0.1
+[program]
+path = "mix.ngc"
+[cutting]
+material = "al6061"
+[machine]
+feed_max = 3000
+[limits]
+mrr_max = 40
+"#;
+
+fn mix_dir(job: &str) -> tempfile::TempDir {
+    let dir = tempdir();
+    write(dir.path(), "job.toml", job);
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mix.ngc");
+    std::fs::copy(src, dir.path().join("mix.ngc")).unwrap();
+    dir
+}
+
+/// Simulate `out/optimized.nc` as a program of its own with the same job.
+fn resimulate_optimized(dir: &Path, job: &str) -> Value {
+    write(
+        dir,
+        "refed.toml",
+        &job.replace("path = \"mix.ngc\"", "path = \"out/optimized.nc\""),
+    );
+    ok(&dexcut(&["simulate", "refed.toml", "--out", "refed"], dir));
+    summary(&dir.join("refed"))
+}
+
+/// optimize on a program with an o-word subprogram called in a loop with
+/// deeper cuts each run, G91, G20, G93, arcs and a drilling cycle: the
+/// summary's `after` is optimized.nc simulated as a program of its own, and
+/// it keeps the removal limit per period as printed.
+#[test]
+fn optimized_program_simulates_as_the_summary_says() {
+    let dir = mix_dir(MIX_JOB);
+    let out = dexcut(&["optimize", "job.toml", "--out", "out"], dir.path());
+    ok(&out);
+    let s = summary(&dir.path().join("out"));
+    let r = resimulate_optimized(dir.path(), MIX_JOB);
+    let after = &s["after"];
+    for key in [
+        "cycle_time_s",
+        "removed_volume_mm3",
+        "peak_mrr_mm3_s",
+        "peak_mrr_windowed_mm3_s",
+    ] {
+        let (a, b) = (after[key].as_f64().unwrap(), r[key].as_f64().unwrap());
+        assert!(rel(a, b) < 1e-9, "{key}: summary {a}, optimized.nc {b}");
+    }
+    // The limit holds per period, as printed (within 2 %), and the console says the same.
+    let peak = after["peak_mrr_mm3_s"].as_f64().unwrap();
+    assert!(peak <= 40.0 * 1.02, "peak MRR per period {peak}");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains(&format!("{peak:.3}")), "{stdout}");
+    // Same material removed as the program as given (same path, other timing).
+    let (v0, v1) = (
+        s["before"]["removed_volume_mm3"].as_f64().unwrap(),
+        after["removed_volume_mm3"].as_f64().unwrap(),
+    );
+    assert!(rel(v1, v0) < 2e-3, "removed {v0} before, {v1} after");
+    assert!(
+        after["cycle_time_s"].as_f64().unwrap() < s["before"]["cycle_time_s"].as_f64().unwrap()
+    );
+    // The subprogram's cutting line runs three times at three depths: one feed
+    // per run from a table, shallower runs faster.
+    let text = std::fs::read_to_string(dir.path().join("out/optimized.nc")).unwrap();
+    assert!(text.contains("G1 X55 F#[#1000 + 1000]"), "{text}");
+    let table: Vec<f64> = (1001..=1003)
+        .map(|n| {
+            let line = text
+                .lines()
+                .find(|l| l.starts_with(&format!("#{n} = ")))
+                .unwrap();
+            line.split(" = ").nth(1).unwrap().parse().unwrap()
+        })
+        .collect();
+    assert!(table[0] > table[1] && table[1] > table[2], "{table:?}");
+    // The modes the program uses are kept around the split blocks.
+    for kept in [
+        "G91 G1 Z-",
+        "G20 G1 X",
+        "G93 G1 X",
+        "G98 G81 X50 Y20 Z8 R11",
+        "G3 X",
+    ] {
+        assert!(text.contains(kept), "{kept} lost:\n{text}");
+    }
+    // Chip load: no step that removes material runs above fz_max·z·n = 0.1·2·10000.
+    for (i, r) in step_rows(&dir.path().join("out/steps.csv"))
+        .iter()
+        .enumerate()
+    {
+        if r.volume_mm3 > 0.0 && !r.rapid {
+            assert!(r.feed_mm_min <= 2000.0 * (1.0 + 1e-9), "row {i}");
+        }
+    }
+}
+
+/// The columns of steps.csv the feed checks read, per row.
+struct StepRow {
+    volume_mm3: f64,
+    rapid: bool,
+    feed_mm_min: f64,
+    line: f64,
+}
+
+fn step_rows(path: &Path) -> Vec<StepRow> {
+    let c = csv_columns(path);
+    (0..c["step"].len())
+        .map(|i| StepRow {
+            volume_mm3: c["volume_mm3"][i],
+            rapid: c["rapid"][i] != 0.0,
+            feed_mm_min: c["feed_mm_min"][i],
+            line: c["line"][i],
+        })
+        .collect()
+}
+
+/// With a small fz_max the chip load holds the cutting feed, air runs at
+/// feed_max, and the summary says how much time the chip load held.
+#[test]
+fn chip_load_caps_cutting_feed_and_air_runs_free() {
+    let job = MIX_JOB
+        .replace("fz_max = 0.1", "fz_max = 0.02")
+        .replace("mrr_max = 40", "mrr_max = 1000");
+    let dir = mix_dir(&job);
+    ok(&dexcut(
+        &["optimize", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
+    let s = summary(&dir.path().join("out"));
+    let cap = 0.02 * 2.0 * 10_000.0;
+    assert!((s["limits"]["chip_load_feed_mm_min"].as_f64().unwrap() - cap).abs() < 1e-9);
+    let (mut at_cap, mut air_fast) = (0, 0usize);
+    for (i, r) in step_rows(&dir.path().join("out/steps.csv"))
+        .iter()
+        .enumerate()
+    {
+        let f = r.feed_mm_min;
+        if r.volume_mm3 > 0.0 && !r.rapid {
+            assert!(f <= cap * (1.0 + 1e-9), "feed {f} at row {i}");
+            at_cap += usize::from(f > 0.99 * cap);
+        } else if !r.rapid && r.line == 7.0 {
+            // The plunges in air (F300, 2.5 mm): up to √(a·L) = 50 mm/s = 3000 mm/min.
+            air_fast = air_fast.max(f as usize);
+        }
+    }
+    assert!(at_cap > 100, "{at_cap} periods at the chip load");
+    assert!(air_fast > 2500, "air plunges at most {air_fast} mm/min");
+    let shares = s["cap_time_share"].as_array().unwrap();
+    let chip = shares
+        .iter()
+        .find(|c| c["cap"] == "chip-load limit (fz_max)")
+        .unwrap();
+    assert!(chip["share"].as_f64().unwrap() > 0.3, "{shares:?}");
+    // feed_scale_max: no cutting move above 1.2 × its programmed feed (F900 and F300 lines).
+    let job = MIX_JOB.replace("mrr_max = 40", "mrr_max = 1000\nfeed_scale_max = 1.2");
+    let dir = mix_dir(&job);
+    ok(&dexcut(
+        &["optimize", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
+    for (i, r) in step_rows(&dir.path().join("out/steps.csv"))
+        .iter()
+        .enumerate()
+    {
+        if r.volume_mm3 > 0.0 && !r.rapid && r.line == 8.0 {
+            assert!(r.feed_mm_min <= 1.2 * 900.0 * (1.0 + 1e-9), "row {i}");
+        }
+    }
+}

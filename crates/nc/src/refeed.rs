@@ -9,9 +9,13 @@
 //!   first piece in place (its axis, centre and F words rewritten) and one
 //!   new block per further piece right after it, in the line's own modes
 //!   (units, G90/G91, G90.1/G91.1, G93/G94, plane, work offset).
-//! * A line that made several feed segments (a canned cycle, or a line run
-//!   several times by a loop or subprogram) cannot be split: its F becomes the
-//!   lowest feed any of its pieces asks for.
+//! * A line run several times by a loop or subprogram, one plain feed move
+//!   per run, gets a feed per run: a counter parameter counts its runs and
+//!   its F reads a table of feeds set at the top of the program (numbered
+//!   parameters 1000–4999; each run's feed is the lowest of its pieces).
+//! * Other lines that made several feed segments (a canned cycle, or a
+//!   program that names a parameter of that range) cannot be split: their F
+//!   becomes the lowest feed any of their pieces asks for.
 //! * Lines that cannot be split safely (G53, a dwell or a program stop in the
 //!   block, multi-turn arcs) are treated the same way.
 //!
@@ -77,10 +81,42 @@ pub fn refeed(
     for (i, t) in trace.segments.iter().enumerate() {
         by_line.entry(t.line_index).or_default().push(i);
     }
+    let tables = run_tables(source, &by_line, segments, &trace, plan);
     // How many blocks each segment becomes (for the verification).
     let mut written_pieces = vec![1usize; segments.len()];
     let mut out = String::with_capacity(source.len() + source.len() / 8);
     for (index, (text, eol)) in syntax::split_lines(source).enumerate() {
+        if index == 0 && !tables.is_empty() {
+            // The tables are set before anything runs (after a leading `%`).
+            let nl = eol_or_newline(eol);
+            let header = table_header(&tables, nl);
+            if text.trim() == "%" {
+                out.push_str(text);
+                out.push_str(nl);
+                out.push_str(&header);
+                continue;
+            }
+            out.push_str(&header);
+        }
+        if let Some(t) = tables.get(&index) {
+            let Some(syntax::Line {
+                kind: LineKind::Block(items),
+                ..
+            }) = &trace.lines[index]
+            else {
+                unreachable!("a table line is a block")
+            };
+            let _ = write!(
+                out,
+                "#{c} = [#{c} + 1]{}",
+                eol_or_newline(eol),
+                c = t.counter
+            );
+            let f = format!("F#[#{} + {}]", t.counter, t.first - 1);
+            out.push_str(&with_f_word(text, items, &f));
+            out.push_str(eol);
+            continue;
+        }
         let Some(segs) = by_line.get(&index) else {
             out.push_str(text);
             out.push_str(eol);
@@ -138,6 +174,122 @@ pub fn refeed(
     }
     verify(&out, file, options, segments, plan, &written_pieces)?;
     Ok(out)
+}
+
+/// Parameters that hold the feeds of lines run more than once: one counter
+/// per line and a table of its feeds, one per run, in this range of numbered
+/// parameters (LinuxCNC's free globals; Fanuc macro B reads the same).
+const TABLE_PARAMS: std::ops::RangeInclusive<u32> = 1000..=4999;
+
+/// Feeds of a line run more than once, one per run in the order they run.
+struct RunTable {
+    /// Parameter counting the runs.
+    counter: u32,
+    /// Parameter holding the first run's F value.
+    first: u32,
+    /// F values (program units), one per run.
+    values: Vec<f64>,
+}
+
+/// Numbers of the numbered parameters a program names literally (`#12`).
+fn named_parameters(source: &str) -> Vec<u32> {
+    let bytes = source.as_bytes();
+    let mut out = Vec::new();
+    for (i, &b) in bytes.iter().enumerate() {
+        if b == b'#' {
+            let digits: String = source[i + 1..]
+                .chars()
+                .skip_while(|c| *c == ' ')
+                .take_while(char::is_ascii_digit)
+                .collect();
+            if let Ok(n) = digits.parse() {
+                out.push(n);
+            }
+        }
+    }
+    out
+}
+
+/// Lines that run more than once as one plain feed move per run, with runs
+/// that need different feeds: each gets a counter and a table of feeds (one
+/// per run) instead of the lowest feed of all runs. None when the program
+/// names a parameter of [`TABLE_PARAMS`] itself, or the tables do not fit.
+fn run_tables(
+    source: &str,
+    by_line: &BTreeMap<usize, Vec<usize>>,
+    segments: &[Segment],
+    trace: &interp::Trace,
+    plan: &[Vec<(f64, f64)>],
+) -> BTreeMap<usize, RunTable> {
+    let mut tables = BTreeMap::new();
+    if named_parameters(source)
+        .iter()
+        .any(|n| TABLE_PARAMS.contains(n))
+    {
+        return tables;
+    }
+    let mut next = *TABLE_PARAMS.start();
+    for (&index, segs) in by_line {
+        let all_feeds = segs
+            .iter()
+            .all(|&i| matches!(segments[i].motion, Motion::Feed { .. }));
+        let Some(syntax::Line {
+            kind: LineKind::Block(items),
+            ..
+        }) = &trace.lines[index]
+        else {
+            continue;
+        };
+        if segs.len() < 2 || !all_feeds || !splittable(items, &segments[segs[0]]) {
+            continue;
+        }
+        let values: Vec<f64> = segs
+            .iter()
+            .map(|&i| {
+                f_value(&f_word(
+                    &trace.segments[i],
+                    lowest(&plan[i]),
+                    segments[i].length_mm(),
+                    true,
+                ))
+            })
+            .collect();
+        let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
+        if values.iter().all(|v| *v <= lo * 1.001) {
+            continue;
+        }
+        let needed = values.len() as u32 + 1;
+        if next + needed - 1 > *TABLE_PARAMS.end() {
+            continue;
+        }
+        tables.insert(
+            index,
+            RunTable {
+                counter: next,
+                first: next + 1,
+                values,
+            },
+        );
+        next += needed;
+    }
+    tables
+}
+
+/// Lines that set every counter to 0 and every table entry to its feed.
+fn table_header(tables: &BTreeMap<usize, RunTable>, nl: &str) -> String {
+    let mut h = format!("(dexcut: feeds of lines run more than once, one per run){nl}");
+    for t in tables.values() {
+        let _ = write!(h, "#{} = 0{nl}", t.counter);
+        for (k, v) in t.values.iter().enumerate() {
+            let _ = write!(
+                h,
+                "#{} = {}{nl}",
+                t.first + k as u32,
+                trim_number(&format!("{v:.8}"))
+            );
+        }
+    }
+    h
 }
 
 fn valid_pieces(pieces: &[(f64, f64)]) -> bool {

@@ -183,9 +183,11 @@ fn inverse_time_pieces_get_their_own_times() {
     assert_eq!(feeds(&parse(&out)), vec![1000.0, 500.0]);
 }
 
+/// The subroutine's feed line runs twice with different feeds: a counter and
+/// a table give each run its own F. The drilling cycle makes two feed moves
+/// on each of its lines: those lines take the lowest feed of their moves.
 #[test]
-fn repeated_lines_and_cycles_take_the_lowest_feed() {
-    // The subroutine's feed line runs twice; the drilling cycle makes two feed moves.
+fn repeated_lines_get_a_feed_per_run_and_cycles_the_lowest() {
     let src = "o100 sub\nG1 X[#1] F500\no100 endsub\nG0 Z5\no100 call [10]\no100 call [20]\nG98 G81 X30 Y0 Z-2 R1 F200\nX40\nG80\nM2\n";
     let path = parse(src);
     let mut plan: Vec<Vec<(f64, f64)>> = vec![vec![]; path.segments.len()];
@@ -197,11 +199,49 @@ fn repeated_lines_and_cycles_take_the_lowest_feed() {
         }
     }
     let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
-    let lines: Vec<&str> = out.lines().collect();
-    assert_eq!(lines[1], "G1 X[#1] F600", "{out}");
-    assert_eq!(lines[6], "G98 G81 X30 Y0 Z-2 R1 F500", "{out}");
-    assert_eq!(lines[7], "X40 F400", "{out}");
-    assert_eq!(lines.len(), 10);
+    assert_eq!(
+        out,
+        "(dexcut: feeds of lines run more than once, one per run)\n#1000 = 0\n#1001 = 700\n#1002 = 600\n\
+         o100 sub\n#1000 = [#1000 + 1]\nG1 X[#1] F#[#1000 + 1000]\no100 endsub\nG0 Z5\no100 call [10]\no100 call [20]\n\
+         G98 G81 X30 Y0 Z-2 R1 F500\nX40 F400\nG80\nM2\n"
+    );
+    let new = parse(&out);
+    assert_eq!(feeds(&new), vec![700.0, 600.0, 500.0, 400.0]);
+    assert_eq!(new.segments.len(), path.segments.len());
+    // A loop under G93 with a leading `%`: each run's F is its own inverse time.
+    let src = "%\nG0 X0 Y0 Z1\nG93\n#1 = 1\no1 while [#1 LE 3]\nG1 X[#1 * 10] F1\n#1 = [#1 + 1]\no1 endwhile\nG94\nM2\n%\n";
+    let path = parse(src);
+    let mut plan: Vec<Vec<(f64, f64)>> = vec![vec![]; path.segments.len()];
+    for (i, s) in path.segments.iter().enumerate() {
+        if matches!(s.motion, Motion::Feed { .. }) {
+            plan[i] = vec![(1.0, 100.0 * i as f64)];
+        }
+    }
+    let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
+    assert!(out.starts_with("%\n(dexcut: "), "{out}");
+    let new = parse(&out);
+    // 10 mm at 100, 200, 300 mm/min: inverse times 10, 20, 30 per minute.
+    assert_eq!(feeds(&new), vec![100.0, 200.0, 300.0], "{out}");
+    // A program that names a parameter of the table range keeps the lowest feed.
+    let src =
+        "#1500 = 2\no100 sub\nG1 X[#1] F500\no100 endsub\no100 call [10]\no100 call [20]\nM2\n";
+    let path = parse(src);
+    let plan: Vec<Vec<(f64, f64)>> = path
+        .segments
+        .iter()
+        .enumerate()
+        .map(|(i, s)| match s.motion {
+            Motion::Feed { .. } => vec![(1.0, 300.0 + 100.0 * i as f64)],
+            _ => vec![],
+        })
+        .collect();
+    let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
+    let lowest = plan
+        .iter()
+        .filter_map(|p| p.first().map(|x| x.1))
+        .fold(f64::INFINITY, f64::min);
+    assert!(out.contains(&format!("G1 X[#1] F{lowest}\n")), "{out}");
+    assert!(!out.contains("dexcut"), "{out}");
 }
 
 #[test]
