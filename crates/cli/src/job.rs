@@ -780,4 +780,145 @@ feed = 1000
             assert!(err.contains(expected), "{to}: {err}");
         }
     }
+
+    /// Issue 15 fuzzer over job files: random keys of every section set to
+    /// hostile values (non-finite, huge, tiny, negative, wrong types). No
+    /// panic; every error names a key or a file line; every accepted job has
+    /// finite numbers only.
+    #[test]
+    fn fuzzed_jobs_give_named_errors_or_finite_jobs() {
+        use proptest::prelude::*;
+        use proptest::test_runner::{Config, TestRunner};
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        const KEYS: [(&str, &str, usize); 33] = [
+            ("stock", "grid", 1),
+            ("stock", "min", 3),
+            ("stock", "max", 3),
+            ("tool", "diameter", 1),
+            ("tool", "flute_length", 1),
+            ("tool", "stickout", 1),
+            ("tool", "youngs_modulus_mpa", 1),
+            ("tool", "effective_diameter", 1),
+            ("program", "feed", 1),
+            ("cutting", "band_height", 1),
+            ("cutting", "spindle_rpm", 1),
+            ("cutting", "force_a", 1),
+            ("cutting", "force_n", 1),
+            ("machine", "period_ms", 1),
+            ("machine", "feed_max", 1),
+            ("machine", "rapid", 1),
+            ("machine", "accel", 3),
+            ("machine", "jerk", 3),
+            ("machine", "block_time_ms", 1),
+            ("machine", "start", 3),
+            ("limits", "mrr_max", 1),
+            ("limits", "force_max", 1),
+            ("limits", "deflection_max_um", 1),
+            ("limits", "feed_min", 1),
+            ("limits", "feed_max", 1),
+            ("servo", "kp", 1),
+            ("servo", "feedforward", 1),
+            ("servo", "ka", 1),
+            ("servo", "tolerance_mm", 1),
+            ("servo", "precomp_threshold_mm", 1),
+            ("servo", "precomp_iterations", 1),
+            ("offsets", "g54", 3),
+            ("offsets", "g59", 3),
+        ];
+        let scalar = prop_oneof![
+            Just("nan".to_string()),
+            Just("inf".to_string()),
+            Just("-inf".to_string()),
+            Just("0".to_string()),
+            Just("-0.0".to_string()),
+            Just("1e-300".to_string()),
+            Just("1e300".to_string()),
+            Just("1e308".to_string()),
+            Just("-1".to_string()),
+            Just("\"x\"".to_string()),
+            Just("true".to_string()),
+            Just("[1, 2]".to_string()),
+            any::<f64>().prop_map(|v| format!("{v:e}")),
+            any::<i64>().prop_map(|v| v.to_string()),
+            (-1e4f64..1e4).prop_map(|v| format!("{v:?}")),
+        ];
+        let edit = (0..KEYS.len(), proptest::collection::vec(scalar, 3));
+        let jobs = proptest::collection::vec(edit, 1..5);
+        let (tried, accepted, named) = (
+            AtomicUsize::new(0),
+            AtomicUsize::new(0),
+            AtomicUsize::new(0),
+        );
+        let mut runner = TestRunner::new(Config {
+            cases: 3000,
+            failure_persistence: None,
+            ..Config::default()
+        });
+        runner
+            .run(&jobs, |edits| {
+                tried.fetch_add(1, Ordering::Relaxed);
+                // Sections of MINIMAL are edited in place; others are appended once.
+                let mut text = MINIMAL.to_string();
+                let mut extra: std::collections::BTreeMap<&str, Vec<String>> = Default::default();
+                for (k, values) in &edits {
+                    let (section, key, arity) = KEYS[*k];
+                    let value = if arity == 1 {
+                        values[0].clone()
+                    } else {
+                        format!("[{}]", values[..arity].join(", "))
+                    };
+                    let line = format!("{key} = {value}");
+                    match section {
+                        "stock" | "tool" | "program" => {
+                            let header = format!("[{section}]\n");
+                            text = text.replacen(&header, &format!("{header}{line}\n"), 1);
+                        }
+                        _ => extra.entry(section).or_default().push(line),
+                    }
+                }
+                for (section, lines) in extra {
+                    text.push_str(&format!("[{section}]\n{}\n", lines.join("\n")));
+                }
+                match Job::parse(&text, "job.toml", Path::new(".")) {
+                    Ok(job) => {
+                        accepted.fetch_add(1, Ordering::Relaxed);
+                        let m = &job.machine;
+                        let mut numbers = vec![
+                            job.stock.grid,
+                            job.tool.diameter,
+                            m.period_ms,
+                            m.feed_max,
+                            m.rapid,
+                        ];
+                        numbers.extend(m.accel);
+                        numbers.extend(m.jerk.into_iter().flatten());
+                        numbers.extend(m.start.into_iter().flatten());
+                        numbers.extend(job.offsets.as_array().into_iter().flatten());
+                        numbers.extend([job.servo.kp, job.servo.ka, job.servo.tolerance_mm]);
+                        prop_assert!(numbers.iter().all(|v| v.is_finite()), "{text}");
+                    }
+                    Err(e) => {
+                        let msg = format!("{e:#}");
+                        let keyed = KEYS
+                            .iter()
+                            .any(|(s, k, _)| msg.contains(&format!("{s}.{k}")))
+                            || msg.starts_with("job.toml:")
+                            || msg.contains("stock box max must exceed min")
+                            || msg.contains("stock.grid (")
+                            || msg.contains("limits.feed_min (");
+                        prop_assert!(keyed, "error names no key or line: {msg}\n{text}");
+                        named.fetch_add(1, Ordering::Relaxed);
+                    }
+                }
+                Ok(())
+            })
+            .unwrap();
+        let (tried, accepted, named) = (
+            tried.into_inner(),
+            accepted.into_inner(),
+            named.into_inner(),
+        );
+        eprintln!("job fuzzer: {tried} cases, {accepted} accepted, {named} refused with a key or line, 0 unnamed");
+        assert_eq!(accepted + named, tried);
+    }
 }

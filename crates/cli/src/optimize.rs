@@ -543,6 +543,12 @@ pub fn write_verified(
         apply_interval_caps(&mut blocks, &block_caps(free, &plan, &caps))?;
         let profile = schedule::plan(&blocks);
         let plan_time_s = profile.cycle_time_s();
+        // Caps from tiny limits (mrr_max 1e-4) would make the written program run for days.
+        crate::bounds::check_samples(
+            plan_time_s.max(time_optimal_s),
+            machine.period_ms,
+            "the re-timed program ([limits] caps: mrr_max, force_max, deflection_max_um)",
+        )?;
         let (text, samples, path) = match &setup.program.gcode {
             Some(src) => {
                 let text = nc::refeed(src, &setup.program.file, &setup.program.nc_options, &plan)
@@ -556,18 +562,11 @@ pub fn write_verified(
                 let samples = crate::motion::machine_motion(&parsed.path, &setup.machine)?;
                 (Some(text), samples, parsed.path)
             }
-            None => {
-                crate::bounds::check_samples(
-                    optimum.cycle_time_s(),
-                    machine.period_ms,
-                    "the re-timed program ([limits] caps)",
-                )?;
-                (
-                    None,
-                    optimum.sample(machine.period_ms)?,
-                    setup.program.path.clone(),
-                )
-            }
+            None => (
+                None,
+                optimum.sample(machine.period_ms)?,
+                setup.program.path.clone(),
+            ),
         };
         let steps = crate::motion::steps_from_samples(&path, &samples);
         let run = crate::simulate::run(

@@ -28,6 +28,9 @@ fn read_csv_columns(
         .headers()
         .with_context(|| format!("{}: no header", path.display()))?
         .clone();
+    if headers.is_empty() {
+        bail!("{}: empty file, no header", path.display());
+    }
     let mut index: Vec<(String, usize)> = Vec::new();
     for w in wanted {
         let Some(i) = headers.iter().position(|h| h == *w) else {
