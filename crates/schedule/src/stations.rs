@@ -147,7 +147,8 @@ impl Stations {
     /// * the programmed feed (or `feed_max_mm_min` under [`FeedPolicy::MachineMax`]), never
     ///   above `feed_max_mm_min`; rapids at `rapid_mm_min`;
     /// * curvature: v ≤ sqrt(a_n · r) on arcs, a_n the smaller acceleration limit of the
-    ///   arc plane's two axes, r the arc radius (conservative on a helix);
+    ///   arc plane's two axes, r the arc radius (conservative on a helix), then the sampled
+    ///   geometry rule below, which takes half of it;
     /// * corners: where the unit tangent jumps by Δt between segments, the control crosses
     ///   the corner within one period T, so each axis' velocity steps by v·|Δt_i|; the
     ///   corner rule keeps that step within half of what the axis reaches in one period,
@@ -158,6 +159,10 @@ impl Stations {
     /// * with a jerk limit j the corner step also obeys v·|Δt_i| ≤ j_i·T²/2 (the step's third
     ///   difference is at most v·|Δt_i|/T²); the planner holds the speed constant around the
     ///   corner (see [`crate::plan`]), so the other half covers the sampling phase.
+    ///
+    /// * sampled geometry (MODEL.md §6.1): wherever the path turns (arcs, corners, runs of
+    ///   short chords), the second (and third) differences of samples at the capped speed
+    ///   stay within half the axis limits, and the tangential acceleration gets the rest.
     ///
     /// Dwells become stops. Zero-length moves are skipped. More than [`MAX_STATIONS`]
     /// stations is an error ([`ScheduleError::TooManyStations`]), checked before allocating.
@@ -344,6 +349,7 @@ impl Stations {
                 dwell_s,
             }),
         }
+        st.limit_sampled_geometry();
         Ok(st)
     }
 
@@ -382,6 +388,149 @@ impl Stations {
                     along(&self.tangent[k], budget).min(along(&self.tangent[k + 1], budget));
                 let accel = &mut self.interval_accel_mm_s2[k];
                 *accel = accel.min(limit);
+            }
+        }
+    }
+
+    /// MODEL.md §6.1 sampled geometry: at constant speed v a sample at arc length s and its
+    /// neighbours one period T away (L = v·T) have per-axis second difference
+    /// D_i = |P_i(s+L) − 2P_i(s) + P_i(s−L)|/T² and third difference
+    /// E_i = |P_i(s+2L) − 3P_i(s+L) + 3P_i(s) − P_i(s−L)|/T³, whatever the geometry: an arc
+    /// (v²/r), a corner (v·|Δt_i|/T) or many short chords of a curve (their turns add up
+    /// within one period). Each station's cap is lowered until D_i ≤ a_i/2 (and E_i ≤ j_i/2),
+    /// and each interval's tangential acceleration is limited to what the axes have left,
+    /// a_i − D_i at the capped speed (with a jerk limit also the cross term
+    /// 3·a_t·D_i/v ≤ j_i/4), so that tangential and normal acceleration together stay
+    /// within a_i in the samples.
+    fn limit_sampled_geometry(&mut self) {
+        let n = self.len();
+        if n < 2 {
+            return;
+        }
+        let period_s = self.machine.period_s();
+        let accel = self.machine.accel_mm_s2;
+        let jerk = self.machine.jerk_mm_s3;
+        // The run (stop to stop) of each station; a window reaching past a stop continues
+        // straight along the run's end tangent (the tool rests there, so nothing beyond it
+        // is sampled at speed).
+        let mut is_stop = vec![false; n];
+        for stop in &self.stops {
+            is_stop[stop.station] = true;
+        }
+        let mut run_of = vec![(0usize, n - 1); n];
+        for pair in self.stops.windows(2) {
+            for r in &mut run_of[pair[0].station..=pair[1].station] {
+                *r = (pair[0].station, pair[1].station);
+            }
+        }
+        // Arc length to the nearest turn (tangent change or arc) before and after each station.
+        let turns = |k: usize| {
+            !is_stop[k]
+                && ((self.tangent[k + 1] - self.tangent[k]).norm() > 1e-12
+                    || matches!(
+                        self.segments[self.segment[k + 1] as usize].geometry,
+                        Geometry::Arc { .. }
+                    ))
+        };
+        let mut last_turn = vec![f64::NEG_INFINITY; n];
+        let mut at = f64::NEG_INFINITY;
+        for (k, last) in last_turn.iter_mut().enumerate().take(n - 1) {
+            *last = at;
+            if turns(k) {
+                at = self.s_mm[k + 1];
+                *last = self.s_mm[k];
+            }
+        }
+        last_turn[n - 1] = at;
+        let mut next_turn = vec![f64::INFINITY; n];
+        let mut at = f64::INFINITY;
+        for k in (1..n).rev() {
+            next_turn[k] = at;
+            if turns(k - 1) {
+                at = self.s_mm[k - 1];
+                next_turn[k] = self.s_mm[k];
+            }
+        }
+        next_turn[0] = at;
+        let position = |run: (usize, usize), x: f64| {
+            let (lo, hi) = run;
+            if x <= self.s_mm[lo] {
+                return self.position[lo].coords
+                    - (self.s_mm[lo] - x) * self.tangent[(lo + 1).min(n - 1)];
+            }
+            if x >= self.s_mm[hi] {
+                return self.position[hi].coords + (x - self.s_mm[hi]) * self.tangent[hi];
+            }
+            let k = self.s_mm.partition_point(|&sk| sk <= x).clamp(1, n - 1) - 1;
+            self.locate(k, x).0.coords
+        };
+        let differences = |k: usize, v: f64| {
+            let (s, l, run) = (self.s_mm[k], v * period_s, run_of[k]);
+            let p0 = self.position[k].coords;
+            let (pm, p1) = (position(run, s - l), position(run, s + l));
+            let d = (p1 - 2.0 * p0 + pm).map(f64::abs) / (period_s * period_s);
+            let e = match jerk {
+                Some(_) => {
+                    let p2 = position(run, s + 2.0 * l);
+                    (p2 - 3.0 * p1 + 3.0 * p0 - pm).map(f64::abs) / period_s.powi(3)
+                }
+                None => Vector3::zeros(),
+            };
+            (d, e)
+        };
+        let within = |(d, e): (Vector3<f64>, Vector3<f64>)| {
+            (0..3).all(|i| {
+                d[i] <= 0.5 * accel[i] * (1.0 + 1e-9)
+                    && jerk.is_none_or(|j| e[i] <= 0.5 * j[i] * (1.0 + 1e-9))
+            })
+        };
+        let mut second = vec![Vector3::zeros(); n];
+        let mut lowered: Vec<(usize, f64)> = Vec::new();
+        for k in 0..n {
+            let cap = self.cap_mm_min[k] / 60.0;
+            let reach = 2.0 * cap * period_s + 1e-9;
+            if is_stop[k]
+                || self.s_mm[k] - last_turn[k] > reach && next_turn[k] - self.s_mm[k] > reach
+            {
+                continue;
+            }
+            let mut v = cap;
+            if !within(differences(k, v)) {
+                let (mut lo, mut hi) = (0.0, cap);
+                for _ in 0..40 {
+                    let mid = 0.5 * (lo + hi);
+                    if within(differences(k, mid)) {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                v = lo;
+                lowered.push((k, v));
+            }
+            second[k] = differences(k, v).0;
+        }
+        for (k, v) in lowered {
+            self.lower_cap(k, 60.0 * v, CapKind::Curvature);
+        }
+        for k in 0..n - 1 {
+            for m in [k, k + 1] {
+                let d = second[m];
+                if d == Vector3::zeros() {
+                    continue;
+                }
+                let v = self.cap_mm_min[m] / 60.0;
+                let budget: [f64; 3] = std::array::from_fn(|i| {
+                    let left = accel[i] - d[i];
+                    match jerk {
+                        Some(j) if d[i] > 0.0 => left.min(0.25 * j[i] * v / (3.0 * d[i])),
+                        _ => left,
+                    }
+                });
+                let limit =
+                    along(&self.tangent[k], budget).min(along(&self.tangent[k + 1], budget));
+                let a = &mut self.interval_accel_mm_s2[k];
+                *a = a.min(limit);
             }
         }
     }
