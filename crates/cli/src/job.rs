@@ -301,13 +301,23 @@ const MAX_PRECOMP_ITERATIONS: usize = 1000;
 /// reported a thousand times its volume).
 const MIN_COLUMNS_ACROSS: f64 = 4.0;
 
+/// A number as written in messages: plain when moderate, else with an exponent
+/// (1e-300, not three hundred zeros).
+fn num(v: f64) -> String {
+    if v == 0.0 || (1e-4..1e7).contains(&v.abs()) || !v.is_finite() {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
 /// `key` must be a finite number in `lo..=hi`.
 fn range(key: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
     if !(v >= lo && v <= hi) {
         if !v.is_finite() {
             bail!("{key} must be a finite number, got {v}");
         }
-        bail!("{key} must lie in {lo}..{hi}, got {v}");
+        bail!("{key} must lie in {}..{}, got {}", num(lo), num(hi), num(v));
     }
     Ok(())
 }
@@ -319,7 +329,7 @@ fn positive_opt(key: &str, v: Option<f64>, hi: f64) -> Result<()> {
             if v.is_nan() {
                 bail!("{key} must be a finite number, got {v}");
             }
-            bail!("{key} must be a positive number, got {v}")
+            bail!("{key} must be a positive number, got {}", num(v))
         }
         Some(v) => range(key, v, 0.0, hi),
         None => Ok(()),
@@ -345,7 +355,11 @@ fn coordinates(key: &str, v: &[f64]) -> Result<()> {
             if !x.is_finite() {
                 bail!("{at} must be a finite number, got {x}");
             }
-            bail!("{at} must lie within ±{MAX_LENGTH_MM} mm, got {x}");
+            bail!(
+                "{at} must lie within ±{} mm, got {}",
+                num(MAX_LENGTH_MM),
+                num(*x)
+            );
         }
     }
     Ok(())
@@ -682,7 +696,7 @@ feed = 1000
             (
                 "feed = 1000",
                 "feed = 1e-9",
-                "program.feed (mm/min) must lie in 0.001..10000000",
+                "program.feed (mm/min) must lie in 0.001..1e7",
             ),
             (
                 "[program]",
@@ -722,7 +736,7 @@ feed = 1000
             (
                 "[program]",
                 "[limits]\nmrr_max = 1e-12\n[program]",
-                "limits.mrr_max (mm³/s) must lie in 0.000001..1000000000",
+                "limits.mrr_max (mm³/s) must lie in 1e-6..1e9, got 1e-12",
             ),
             (
                 "[program]",

@@ -47,7 +47,7 @@ pub fn build(job: &Job) -> Result<Stock> {
             let extent_mm = (hi[0] - lo[0]).min(hi[1] - lo[1]);
             if s.grid * 4.0 > extent_mm {
                 anyhow::bail!(
-                    "{what}: grid ({} mm) is too coarse for the mesh's {extent_mm} mm XY extent: at least 4 columns across are needed",
+                    "{what}: grid ({} mm) is too coarse for the mesh's {extent_mm:.3} mm XY extent: at least 4 columns across are needed",
                     s.grid
                 );
             }

@@ -187,7 +187,12 @@ impl Staging {
     /// folder), and create a private staging folder beside it.
     pub fn begin(target: &Path) -> io::Result<Staging> {
         let (parent, name) = parent_and_name(target)?;
-        std::fs::create_dir_all(&parent)?;
+        std::fs::create_dir_all(&parent).map_err(|e| {
+            io::Error::new(
+                e.kind(),
+                format!("cannot create its parent folder {}: {e}", parent.display()),
+            )
+        })?;
         recover(target)?;
         check_replaceable(target)?;
         let dir = tempfile::Builder::new()
