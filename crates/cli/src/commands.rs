@@ -16,14 +16,18 @@ use crate::optimize;
 use crate::outdir::OutDir;
 use crate::program::{self, Program};
 use crate::simulate::{self, GridInfo, Run, Summary};
+use crate::tools::ToolSet;
 
 /// Everything read and checked from a job before any work.
 pub struct Setup {
     pub job: Job,
+    /// The first tool the program uses and its model (the single [tool]).
     pub tool: Tool,
     pub program: Program,
     pub stock: Stock,
     pub model: CuttingModel,
+    /// Every tool of the job; each step is cut by its own (MODEL.md §9.1).
+    pub tools: ToolSet,
     pub machine: Machine,
     /// The `[design]` model, read and checked before any work.
     pub design: Option<(PathBuf, mesh::DesignModel)>,
@@ -36,8 +40,12 @@ impl Setup {
         if let Some(g) = grid_mm {
             job.set_grid(g)?;
         }
-        let tool = job.tool()?;
         let program = program::load(&job)?;
+        let tools = ToolSet::from_job(&job, &program)?;
+        // Every move's tool is in the table (an error names the line).
+        tools.indices(program.path.segments.iter().map(|s| (s.tool, s.line)))?;
+        let first = tools.entry(program.path.segments.first().map_or(1, |s| s.tool));
+        let (tool, model) = (first.tool, first.model);
         let machine = motion::machine(&job);
         machine
             .validate()
@@ -48,7 +56,6 @@ impl Setup {
                 crate::bounds::estimate_motion(&program.path, &machine, motion::STATION_DS_MM);
             crate::bounds::check_motion(&estimate, &program.file, machine.period_ms, 2.0)?;
         }
-        let model = simulate::cutting_model(&job, &tool, &program)?;
         let stock = crate::stock::build(&job)?;
         let design = match &job.design {
             Some(d) => {
@@ -71,6 +78,7 @@ impl Setup {
             program,
             stock,
             model,
+            tools,
             machine,
             design,
         })
@@ -214,13 +222,7 @@ pub fn simulate(
     let setup = Setup::load(job_path, grid_mm)?;
     let out_dir = OutDir::begin(out, &setup.input_files(job_path), force)?;
     let steps = setup.steps(actual_path)?;
-    let run = simulate::run(
-        setup.stock.clone(),
-        &setup.tool,
-        steps,
-        &setup.model,
-        "simulate",
-    )?;
+    let run = simulate::run(setup.stock.clone(), &setup.tools, steps, "simulate")?;
     let summary = run.summary();
     summary.check_finite()?;
     let design = write_run(&setup, &run, out_dir.path(), "steps.csv")?;
@@ -348,30 +350,17 @@ pub fn optimize(
     // Before: the program as written.
     let t0 = Instant::now();
     let before_steps = setup.machine_steps()?;
-    let before = simulate::run(
-        setup.stock.clone(),
-        &setup.tool,
-        before_steps,
-        &setup.model,
-        "before",
-    )?;
+    let before = simulate::run(setup.stock.clone(), &setup.tools, before_steps, "before")?;
     let time_simulate_s = t0.elapsed().as_secs_f64();
     // Engagement along fine stations, caps, re-timing.
     let t1 = Instant::now();
     let machine = optimize::optimising_machine(&setup.machine, limits);
     let stations = optimize::free_stations(&setup.program.path, &machine)?;
-    let engagement = optimize::engagement(&stations, &setup.stock, &setup.tool, &setup.model)?;
+    let engagement = optimize::engagement(&stations, &setup.stock, &setup.tools)?;
     let time_engagement_s = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
     let fz_max_mm = setup.job.fz_max_mm();
-    let caps = optimize::interval_caps(
-        &engagement,
-        &stations,
-        limits,
-        &setup.model,
-        &setup.tool,
-        fz_max_mm,
-    );
+    let caps = optimize::interval_caps(&engagement, &stations, limits, &setup.tools);
     let written = optimize::write_verified(&setup, &machine, &stations, caps, &before, fz_max_mm)?;
     let time_plan_s = t2.elapsed().as_secs_f64();
     let after = written.run.as_ref().unwrap_or(&before);

@@ -12,7 +12,11 @@ use serde::Deserialize;
 #[serde(deny_unknown_fields)]
 pub struct Job {
     pub stock: StockSpec,
-    pub tool: ToolSpec,
+    /// The one tool: tool 1, and every T of the program.
+    pub tool: Option<ToolSpec>,
+    /// A tool table: entries keyed by `number` (the T word).
+    #[serde(default)]
+    pub tools: Vec<ToolSpec>,
     pub program: ProgramSpec,
     #[serde(default)]
     pub cutting: CuttingSpec,
@@ -89,6 +93,10 @@ pub struct ToolSpec {
     /// Largest feed per tooth, mm/tooth (chip-load limit of optimize); default
     /// from the tool diameter and cutting.material (MODEL.md §2.1).
     pub fz_max: Option<f64>,
+    /// `[[tools]]` only: the tool number (T word), 1 or more.
+    pub number: Option<u32>,
+    /// `[[tools]]` only: gauge length, mm (what G43 applies); default 0.
+    pub length: Option<f64>,
 }
 
 fn default_flutes() -> u32 {
@@ -454,21 +462,36 @@ impl Job {
                 }
             }
         }
-        let t = &self.tool;
-        range("tool.diameter (mm)", t.diameter, MIN_GRID_MM, 1000.0)?;
-        if let Some(r) = t.corner_radius {
-            range("tool.corner_radius (mm)", r, 0.0, t.diameter / 2.0)?;
-        }
-        positive_opt("tool.flute_length (mm)", t.flute_length, MAX_LENGTH_MM)?;
-        positive_opt("tool.stickout (mm)", t.stickout, MAX_LENGTH_MM)?;
-        positive_opt("tool.youngs_modulus_mpa", t.youngs_modulus_mpa, 1e7)?;
-        positive_opt("tool.effective_diameter (mm)", t.effective_diameter, 1000.0)?;
-        if !(1..=MAX_FLUTES).contains(&t.flutes) {
-            bail!("tool.flutes must be 1..{MAX_FLUTES}, got {}", t.flutes);
-        }
-        positive_opt("tool.fz_max (mm/tooth)", t.fz_max, 10.0)?;
-        if t.kind == ToolKind::Bull && t.corner_radius.is_none() {
-            bail!("tool kind \"bull\" needs corner_radius (mm)");
+        match (&self.tool, self.tools.is_empty()) {
+            (None, true) => {
+                bail!("the job needs a [tool] or a tool table ([[tools]] with number = …)")
+            }
+            (Some(_), false) => bail!("give either one [tool] or a tool table [[tools]], not both"),
+            (Some(t), true) => {
+                if t.number.is_some() || t.length.is_some() {
+                    bail!("tool.number and tool.length belong to [[tools]] entries: a single [tool] is every T, with no gauge length");
+                }
+                t.validate("tool")?;
+            }
+            (None, false) => {
+                let mut seen = std::collections::BTreeSet::new();
+                for (i, t) in self.tools.iter().enumerate() {
+                    let key = format!("tools[{i}]");
+                    let Some(n) = t.number else {
+                        bail!("{key}.number is missing: each [[tools]] entry needs the tool number (T word)");
+                    };
+                    if n == 0 {
+                        bail!("{key}.number must be 1 or more (T0 is the empty spindle), got 0");
+                    }
+                    if !seen.insert(n) {
+                        bail!("{key}.number: tool {n} is in the table twice");
+                    }
+                    if let Some(l) = t.length {
+                        range(&format!("{key}.length (mm)"), l, 0.0, MAX_LENGTH_MM)?;
+                    }
+                    t.validate(&key)?;
+                }
+            }
         }
         feed_opt("program.feed (mm/min)", self.program.feed)?;
         let c = &self.cutting;
@@ -576,17 +599,81 @@ impl Job {
         Ok(())
     }
 
-    /// Largest feed per tooth of the tool, mm/tooth: `tool.fz_max`, else the
-    /// default for its diameter and the work material (MODEL.md §2.1).
+    /// Largest feed per tooth of the first tool, mm/tooth: its `fz_max`,
+    /// else the default for its diameter and the work material (MODEL.md §2.1).
     pub fn fz_max_mm(&self) -> Option<f64> {
-        self.tool.fz_max.or_else(|| {
-            cutting::chipload::default_fz_max_mm(&self.cutting.material, self.tool.diameter)
-        })
+        self.tool_specs()[0].1.fz_max_mm(&self.cutting.material)
+    }
+
+    /// The tools, each with its number (`None`: the single [tool], every T).
+    pub fn tool_specs(&self) -> Vec<(Option<u32>, &ToolSpec)> {
+        match &self.tool {
+            Some(t) => vec![(None, t)],
+            None => self.tools.iter().map(|t| (t.number, t)).collect(),
+        }
+    }
+
+    /// The first tool (the single [tool], or the table's first entry) as the
+    /// kernel and the beam model see it.
+    pub fn tool(&self) -> Result<dexel::Tool> {
+        let (_, t) = self.tool_specs()[0];
+        t.dexel_tool()
+    }
+}
+
+impl ToolSpec {
+    fn validate(&self, key: &str) -> Result<()> {
+        let t = self;
+        range(
+            &format!("{key}.diameter (mm)"),
+            t.diameter,
+            MIN_GRID_MM,
+            1000.0,
+        )?;
+        if let Some(r) = t.corner_radius {
+            range(
+                &format!("{key}.corner_radius (mm)"),
+                r,
+                0.0,
+                t.diameter / 2.0,
+            )?;
+        }
+        positive_opt(
+            &format!("{key}.flute_length (mm)"),
+            t.flute_length,
+            MAX_LENGTH_MM,
+        )?;
+        positive_opt(&format!("{key}.stickout (mm)"), t.stickout, MAX_LENGTH_MM)?;
+        positive_opt(
+            &format!("{key}.youngs_modulus_mpa"),
+            t.youngs_modulus_mpa,
+            1e7,
+        )?;
+        positive_opt(
+            &format!("{key}.effective_diameter (mm)"),
+            t.effective_diameter,
+            1000.0,
+        )?;
+        if !(1..=MAX_FLUTES).contains(&t.flutes) {
+            bail!("{key}.flutes must be 1..{MAX_FLUTES}, got {}", t.flutes);
+        }
+        positive_opt(&format!("{key}.fz_max (mm/tooth)"), t.fz_max, 10.0)?;
+        if t.kind == ToolKind::Bull && t.corner_radius.is_none() {
+            bail!("{key}: kind \"bull\" needs corner_radius (mm)");
+        }
+        Ok(())
+    }
+
+    /// Largest feed per tooth, mm/tooth: `fz_max`, else the default for the
+    /// diameter and the work material `material` (MODEL.md §2.1).
+    pub fn fz_max_mm(&self, material: &str) -> Option<f64> {
+        self.fz_max
+            .or_else(|| cutting::chipload::default_fz_max_mm(material, self.diameter))
     }
 
     /// The tool as the kernel and the beam model see it.
-    pub fn tool(&self) -> Result<dexel::Tool> {
-        let t = &self.tool;
+    pub fn dexel_tool(&self) -> Result<dexel::Tool> {
+        let t = self;
         let base = match t.kind {
             ToolKind::Ball => dexel::Tool::ball(t.diameter),
             ToolKind::Flat => dexel::Tool::flat(t.diameter),
@@ -641,6 +728,38 @@ feed = 1000
             err.starts_with("job.toml:13:1: unknown field `speed`"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn tool_tables_are_checked_by_key() {
+        let table = MINIMAL.replace(
+            "[tool]\nkind = \"ball\"\ndiameter = 6",
+            "[[tools]]\nnumber = 2\nkind = \"ball\"\ndiameter = 6\nlength = 50\n[[tools]]\nnumber = 5\nkind = \"flat\"\ndiameter = 3",
+        );
+        let job = Job::parse(&table, "job.toml", Path::new(".")).unwrap();
+        let numbers: Vec<Option<u32>> = job.tool_specs().iter().map(|t| t.0).collect();
+        assert_eq!(numbers, [Some(2), Some(5)]);
+        assert_eq!(job.tool().unwrap().diameter_mm, 6.0);
+        let err = |text: &str| {
+            format!(
+                "{:#}",
+                Job::parse(text, "job.toml", Path::new(".")).unwrap_err()
+            )
+        };
+        let twice = table.replace("number = 5", "number = 2");
+        assert!(err(&twice).contains("tools[1].number: tool 2 is in the table twice"));
+        let both = format!("{table}\n[tool]\nkind = \"flat\"\ndiameter = 1\n");
+        assert!(err(&both).contains("not both"), "{}", err(&both));
+        let unnumbered = table.replace("number = 5\n", "");
+        assert!(err(&unnumbered).contains("tools[1].number is missing"));
+        let bad = table.replace("diameter = 3", "diameter = -3");
+        assert!(
+            err(&bad).contains("tools[1].diameter (mm)"),
+            "{}",
+            err(&bad)
+        );
+        let single_length = MINIMAL.replace("diameter = 6", "diameter = 6\nlength = 10");
+        assert!(err(&single_length).contains("belong to [[tools]]"));
     }
 
     #[test]
@@ -899,7 +1018,7 @@ feed = 1000
                         let m = &job.machine;
                         let mut numbers = vec![
                             job.stock.grid,
-                            job.tool.diameter,
+                            job.tool_specs()[0].1.diameter,
                             m.period_ms,
                             m.feed_max,
                             m.rapid,

@@ -19,4 +19,5 @@ pub mod progress;
 pub mod report;
 pub mod simulate;
 pub mod stock;
+pub mod tools;
 pub mod warnings;

@@ -28,6 +28,8 @@ pub struct TimedStep {
     /// This step is the second (or later) part of a servo period split where
     /// the motion changes between rapid and feed.
     pub continues: bool,
+    /// Number (T word) of the tool cutting the step.
+    pub tool: u32,
 }
 
 /// The machine limits from the job.
@@ -124,6 +126,7 @@ pub fn steps_from_samples(path: &nc::Path, samples: &[ServoSample]) -> Vec<Timed
                 line: path.segments[seg].line,
                 s_end_mm: s,
                 continues: j > 0,
+                tool: path.segments[seg].tool,
             });
         }
     }
@@ -167,6 +170,7 @@ pub fn direct_steps(path: &nc::Path) -> Vec<TimedStep> {
                 line: seg.line,
                 s_end_mm: s,
                 continues: false,
+                tool: seg.tool,
             }
         })
         .collect()

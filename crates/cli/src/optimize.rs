@@ -11,7 +11,7 @@
 
 use anyhow::{bail, Context, Result};
 use cutting::CuttingModel;
-use dexel::{Stock, SweepOptions, Tool};
+use dexel::{Stock, SweepOptions};
 use nc::Motion;
 use schedule::{CapKind, FeedPolicy, Machine, Stations};
 use serde::Serialize;
@@ -20,6 +20,7 @@ use crate::commands::Setup;
 use crate::job::LimitsSpec;
 use crate::motion::STATION_DS_MM;
 use crate::simulate::Run;
+use crate::tools::ToolSet;
 
 /// Engagement along the stations: removed volume per interval.
 pub struct Engagement {
@@ -27,15 +28,12 @@ pub struct Engagement {
     pub area_mm2: Vec<f64>,
     /// Per interval: tip deflection per newton of cutting force, mm/N (band distribution).
     pub compliance_mm_n: Vec<f64>,
+    /// Per interval: index into the tool set of the tool cutting it.
+    pub tool_index: Vec<usize>,
 }
 
 /// Sweep a copy of the stock along the stations (geometry only, no time).
-pub fn engagement(
-    stations: &Stations,
-    stock: &Stock,
-    tool: &Tool,
-    model: &CuttingModel,
-) -> Result<Engagement> {
+pub fn engagement(stations: &Stations, stock: &Stock, tools: &ToolSet) -> Result<Engagement> {
     let pos = stations.position();
     let segs = stations.segments();
     let seg_of = stations.segment();
@@ -46,25 +44,39 @@ pub fn engagement(
             rapid: matches!(segs[seg_of[k] as usize].motion, Motion::Rapid),
         })
         .collect();
+    let tool_index = tools.indices((1..pos.len()).map(|k| {
+        let seg = &segs[seg_of[k] as usize];
+        (seg.tool, seg.line)
+    }))?;
     let mut stock = stock.clone();
     let options = SweepOptions {
-        band_height_mm: model.band_height_mm,
+        band_height_mm: tools.entries[0].model.band_height_mm,
         ..SweepOptions::default()
     };
     let bar = crate::progress::bar(steps.len() as u64, "engagement");
-    let record = dexel::sweep(&mut stock, tool, &steps, &options, &|d| {
-        bar.set_position(d as u64)
-    })?;
+    let record = dexel::sweep_tools(
+        &mut stock,
+        &tools.tools(),
+        &tool_index,
+        &steps,
+        &options,
+        &|d| bar.set_position(d as u64),
+    )?;
     bar.finish_and_clear();
     let volumes: Vec<f64> = (0..steps.len()).map(|k| record.volume_mm3(k)).collect();
     let window_mm = (ENGAGEMENT_WINDOW_CELLS * stock.grid().spacing_mm).max(2.0 * STATION_DS_MM);
     let area_mm2 = windowed_area(stations.s_mm(), &volumes, window_mm);
     let compliance_mm_n = (0..steps.len())
-        .map(|k| model.tip_compliance_mm_per_n(record.band_volumes_mm3(k)))
+        .map(|k| {
+            tools.entries[tool_index[k]]
+                .model
+                .tip_compliance_mm_per_n(record.band_volumes_mm3(k))
+        })
         .collect();
     Ok(Engagement {
         area_mm2,
         compliance_mm_n,
+        tool_index,
     })
 }
 
@@ -144,14 +156,8 @@ pub fn interval_caps(
     engagement: &Engagement,
     stations: &Stations,
     limits: &LimitsSpec,
-    model: &CuttingModel,
-    tool: &Tool,
-    fz_max_mm: Option<f64>,
+    tools: &ToolSet,
 ) -> Vec<(f64, CapKind)> {
-    let force_cap_v = |force_max_n: f64| {
-        cutting::volume_per_tooth_at_force_mm3(force_max_n, model.force_coef_a, model.force_exp_n)
-    };
-    let per_rev = model.flutes as f64 * model.spindle_rpm;
     let tangents = stations.tangent();
     let (segs, seg_of) = (stations.segments(), stations.segment());
     engagement
@@ -159,6 +165,17 @@ pub fn interval_caps(
         .iter()
         .enumerate()
         .map(|(k, &a)| {
+            // The model and shape of the tool cutting this interval.
+            let entry = &tools.entries[engagement.tool_index[k]];
+            let (model, tool) = (&entry.model, &entry.tool);
+            let force_cap_v = |force_max_n: f64| {
+                cutting::volume_per_tooth_at_force_mm3(
+                    force_max_n,
+                    model.force_coef_a,
+                    model.force_exp_n,
+                )
+            };
+            let per_rev = model.flutes as f64 * model.spindle_rpm;
             let mut cap = (f64::INFINITY, CapKind::FeedMax);
             let mut lower = |v: f64, kind: CapKind| {
                 if v < cap.0 {
@@ -167,7 +184,7 @@ pub fn interval_caps(
             };
             if a > 1e-12 {
                 let seg = &segs[seg_of[k + 1] as usize];
-                if let Some(fz) = fz_max_mm {
+                if let Some(fz) = entry.fz_max_mm {
                     let rpm = if seg.spindle_rpm > 0.0 {
                         seg.spindle_rpm
                     } else {
@@ -571,9 +588,8 @@ pub fn write_verified(
         let steps = crate::motion::steps_from_samples(&path, &samples);
         let run = crate::simulate::run(
             setup.stock.clone(),
-            &setup.tool,
+            &setup.tools,
             steps,
-            &setup.model,
             &format!("verify {round}"),
         )?;
         let over = excesses(&run, limits, &setup.model);

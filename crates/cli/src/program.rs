@@ -41,8 +41,14 @@ pub fn load(job: &Job) -> Result<Program> {
     let text = crate::bounds::read_text(&path, "program", crate::bounds::MAX_PROGRAM_BYTES)?;
     let file = path.display().to_string();
     if is_points_csv(&text) {
+        // A point list is cut by the job's first tool.
+        let mut path = read_points_csv(&text, &file, job.program.feed)?;
+        let tool = job.tool_specs()[0].0.unwrap_or(1);
+        for s in &mut path.segments {
+            s.tool = tool;
+        }
         Ok(Program {
-            path: read_points_csv(&text, &file, job.program.feed)?,
+            path,
             file,
             gcode: None,
             nc_options: nc::Options::default(),
@@ -74,6 +80,16 @@ pub fn parse_gcode(text: &str, file: &str, job: &Job) -> Result<Program> {
     let mut options = nc::Options {
         work_offsets_mm: job.offsets.as_array(),
         require_program_end: true,
+        tool_lengths_mm: job
+            .tools
+            .iter()
+            .filter_map(|t| Some((t.number?, t.length.unwrap_or(0.0))))
+            .collect(),
+        // A table of one tool: it is in the spindle from the start.
+        initial_tool: match job.tools.as_slice() {
+            [only] => only.number,
+            _ => None,
+        },
         ..nc::Options::default()
     };
     options.initial_position_mm = job.machine.start.unwrap_or_default();

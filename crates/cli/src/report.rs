@@ -147,6 +147,14 @@ const ROWS: [(&str, &str, &str, usize); 10] = [
     ("rapid collision steps", "rapid_collision_steps", "", 0),
 ];
 
+/// Rows per tool: (label, key in summary `tools`, unit, decimals).
+const TOOL_ROWS: [(&str, &str, &str, usize); 4] = [
+    ("removed volume", "removed_volume_mm3", "mm³", 1),
+    ("peak MRR per period", "peak_mrr_mm3_s", "mm³/s", 2),
+    ("peak force", "peak_force_n", "N", 1),
+    ("peak deflection", "peak_deflection_um", "µm", 1),
+];
+
 fn cell(v: &Value, key: &str, unit: &str, decimals: usize) -> String {
     match v.get(key).and_then(Value::as_f64) {
         Some(x) => format!("{x:.decimals$} {unit}").trim_end().to_string(),
@@ -384,6 +392,29 @@ pub fn report(dir: &Path) -> Result<()> {
             after: after_json.map(|a| cell(a, key, unit, *d)),
         })
         .collect();
+    // Peaks per tool when more than one tool cuts (summary `tools`).
+    let per_tool = |v: &Value| {
+        v.get("tools")
+            .and_then(Value::as_array)
+            .cloned()
+            .unwrap_or_default()
+    };
+    let (tools_before, tools_after) = (per_tool(before_json), after_json.map(per_tool));
+    if tools_before.len() > 1 {
+        for (k, t) in tools_before.iter().enumerate() {
+            let number = t.get("tool").and_then(Value::as_u64).unwrap_or(0);
+            for (label, key, unit, d) in TOOL_ROWS {
+                rows.push(SummaryRow {
+                    key: format!("T{number} {label}"),
+                    before: cell(t, key, unit, d),
+                    after: tools_after
+                        .as_ref()
+                        .and_then(|a| a.get(k))
+                        .map(|a| cell(a, key, unit, d)),
+                });
+            }
+        }
+    }
     rows.push(SummaryRow {
         key: "grid".into(),
         before: format!(

@@ -18,6 +18,7 @@ use crate::warnings::{self, LineTally, WarningKind, Warnings};
 /// Volume below which a step counts as removing nothing, mm³ (f32 column
 /// heights round at about 1e-7 mm; this is a 0.1 µm layer over 10 × 10 cells of 0.1 mm).
 pub const NOTHING_MM3: f64 = 1e-6;
+use crate::tools::ToolSet;
 
 /// Window of the smoothed MRR in summaries, s (three 16 ms periods).
 pub const MRR_WINDOW_S: f64 = 0.048;
@@ -36,28 +37,29 @@ pub struct Run {
     pub sweep_s: f64,
 }
 
-/// Sweep `steps` through `stock` (consumed) and compute the loads.
-pub fn run(
-    mut stock: Stock,
-    tool: &Tool,
-    steps: Vec<TimedStep>,
-    model: &CuttingModel,
-    label: &str,
-) -> Result<Run> {
+/// Sweep `steps` through `stock` (consumed), each with its tool (MODEL.md
+/// §9.1), and compute the loads.
+pub fn run(mut stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) -> Result<Run> {
     let initial_volume_mm3 = stock.volume_mm3();
     let sweep_steps: Vec<dexel::Step> = steps.iter().map(|s| s.step).collect();
+    let tool_of_step = tools.indices(steps.iter().map(|s| (s.tool, s.line)))?;
     let options = SweepOptions {
-        band_height_mm: model.band_height_mm,
+        band_height_mm: tools.entries[0].model.band_height_mm,
         ..SweepOptions::default()
     };
     let bar = progress::bar(sweep_steps.len() as u64, label);
     let started = Instant::now();
-    let record = dexel::sweep(&mut stock, tool, &sweep_steps, &options, &|done| {
-        bar.set_position(done as u64)
-    })?;
+    let record = dexel::sweep_tools(
+        &mut stock,
+        &tools.tools(),
+        &tool_of_step,
+        &sweep_steps,
+        &options,
+        &|done| bar.set_position(done as u64),
+    )?;
     let sweep_s = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    let loads = loads(model, &record, &steps);
+    let loads = loads(tools, &tool_of_step, &record, &steps);
     Ok(Run {
         steps,
         record,
@@ -68,14 +70,20 @@ pub fn run(
     })
 }
 
-/// Per-step force and deflection (S4).
-pub fn loads(model: &CuttingModel, record: &RemovalRecord, steps: &[TimedStep]) -> Vec<StepLoad> {
+/// Per-step force and deflection (S4), each step with its tool's model.
+pub fn loads(
+    tools: &ToolSet,
+    tool_of_step: &[usize],
+    record: &RemovalRecord,
+    steps: &[TimedStep],
+) -> Vec<StepLoad> {
     steps
         .iter()
         .enumerate()
         .map(|(i, s)| {
             let [cx, cy] = record.contact_resultant(i);
             let v = record.volume_mm3(i);
+            let model = &tools.entries[tool_of_step[i]].model;
             if v > 0.0 && s.dt_s > 0.0 {
                 model.step_load(v, record.band_volumes_mm3(i), [cx, cy, 0.0], s.dt_s)
             } else {
@@ -147,6 +155,22 @@ pub struct Summary {
     pub warnings: Warnings,
     pub columns_evaluated: u64,
     pub sweep_time_s: f64,
+    /// The same peaks per tool, in order of first use.
+    pub tools: Vec<ToolPeaks>,
+}
+
+/// Peaks of the steps one tool cut (summary.json `tools`).
+#[derive(Clone, Debug, Serialize)]
+pub struct ToolPeaks {
+    /// T number.
+    pub tool: u32,
+    pub steps: usize,
+    pub removed_volume_mm3: f64,
+    /// Time the tool is in the spindle, s.
+    pub time_s: f64,
+    pub peak_mrr_mm3_s: f64,
+    pub peak_force_n: f64,
+    pub peak_deflection_um: f64,
 }
 
 impl Summary {
@@ -308,7 +332,38 @@ impl Run {
             columns_evaluated: self.record.columns_evaluated,
             sweep_time_s: self.sweep_s,
             warnings: self.warnings(),
+            tools: self.tool_peaks(),
         }
+    }
+
+    /// Peaks per tool, in order of first use.
+    pub fn tool_peaks(&self) -> Vec<ToolPeaks> {
+        let mut out: Vec<ToolPeaks> = Vec::new();
+        for (i, s) in self.steps.iter().enumerate() {
+            let k = match out.iter().position(|p| p.tool == s.tool) {
+                Some(k) => k,
+                None => {
+                    out.push(ToolPeaks {
+                        tool: s.tool,
+                        steps: 0,
+                        removed_volume_mm3: 0.0,
+                        time_s: 0.0,
+                        peak_mrr_mm3_s: 0.0,
+                        peak_force_n: 0.0,
+                        peak_deflection_um: 0.0,
+                    });
+                    out.len() - 1
+                }
+            };
+            let p = &mut out[k];
+            p.steps += 1;
+            p.removed_volume_mm3 += self.record.volume_mm3(i);
+            p.time_s += s.dt_s;
+            p.peak_mrr_mm3_s = p.peak_mrr_mm3_s.max(self.period_mrr_mm3_s(i));
+            p.peak_force_n = p.peak_force_n.max(self.loads[i].force_n);
+            p.peak_deflection_um = p.peak_deflection_um.max(self.loads[i].deflection_um);
+        }
+        out
     }
 
     /// Predicted shape error per column, µm (S4 error map): the deflection of
@@ -362,6 +417,7 @@ impl Run {
                     "dy_um",
                     "line",
                     "rapid",
+                    "tool",
                 ]
                 .map(String::from),
             );
@@ -389,6 +445,7 @@ impl Run {
                 row.extend([l.force_n, l.fx_n, l.fy_n, l.deflection_um, l.dx_um, l.dy_um].map(fmt));
                 row.push(s.line.to_string());
                 row.push(u8::from(s.step.rapid).to_string());
+                row.push(s.tool.to_string());
                 out.write_record(&row)?;
             }
             out.flush()?;

@@ -1138,3 +1138,86 @@ fn chip_load_caps_cutting_feed_and_air_runs_free() {
         }
     }
 }
+
+/// Two flat tools from a `[[tools]]` table, each with its gauge length and
+/// G43: two slots of known cross-section. Each tool's removal is exact (the
+/// slot edges fall between grid columns): T1 Ø6 × 2 deep × 100 long = 1200 mm³,
+/// T2 Ø10 × 3 deep × 100 long = 3000 mm³, reported per tool.
+#[test]
+fn two_tools_cut_their_own_slots() {
+    let dir = tempdir();
+    let job = r#"
+[stock]
+kind = "box"
+min = [0, -20, 0]
+max = [100, 20, 30]
+grid = 0.1
+[[tools]]
+number = 1
+kind = "flat"
+diameter = 6
+length = 40
+[[tools]]
+number = 2
+kind = "flat"
+diameter = 10
+length = 60
+[program]
+path = "two.nc"
+[machine]
+accel = [1000, 1000, 1000]
+"#;
+    write(dir.path(), "job.toml", job);
+    write(
+        dir.path(),
+        "two.nc",
+        "%\nG21 G90 G17\nT1 M6\nG0 G43 H1 Z40\nG0 X-10 Y-8\nG0 Z28\nG1 X110 F1200\nG0 Z40\n\
+         T2 M6\nG43 H2 Z40\nG0 X-10 Y8\nG0 Z27\nG1 X110 F1200\nG0 Z40\nM30\n%\n",
+    );
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
+    let s = summary(&dir.path().join("out"));
+    let tools = s["tools"].as_array().expect("tools in summary.json");
+    assert_eq!(tools.len(), 2, "{tools:?}");
+    let volume = |k: usize| tools[k]["removed_volume_mm3"].as_f64().unwrap();
+    assert_eq!(tools[0]["tool"], 1);
+    assert_eq!(tools[1]["tool"], 2);
+    assert!(rel(volume(0), 1200.0) < 1e-5, "T1 removed {}", volume(0));
+    assert!(rel(volume(1), 3000.0) < 1e-5, "T2 removed {}", volume(1));
+    assert!(rel(s["removed_volume_mm3"].as_f64().unwrap(), 4200.0) < 1e-5);
+    // steps.csv says which tool cut each step: T1 only on line 7, T2 only on line 13.
+    let steps = csv_columns(&dir.path().join("out/steps.csv"));
+    for ((v, line), tool) in steps["volume_mm3"]
+        .iter()
+        .zip(&steps["line"])
+        .zip(&steps["tool"])
+    {
+        if *v > 0.0 {
+            assert_eq!(
+                (*line, *tool),
+                if *tool == 1.0 {
+                    (7.0, 1.0)
+                } else {
+                    (13.0, 2.0)
+                }
+            );
+        }
+    }
+    assert_eq!(s["rapid_collision_steps"], 0);
+    // A tool the table lacks is an error naming its line; nothing is written.
+    write(
+        dir.path(),
+        "two.nc",
+        "G21 G90\nT1 M6\nG0 X-10 Y0 Z40\nT3 M6\nG0 X0\nM30\n",
+    );
+    let out = dexcut(&["simulate", "job.toml", "--out", "bad"], dir.path());
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("two.nc:4:1: tool T3 is not in the job's tool table"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!dir.path().join("bad").exists());
+}

@@ -23,5 +23,5 @@ pub enum Error {
 pub mod sweep;
 pub mod tool;
 
-pub use sweep::{sweep, RemovalRecord, Step, SweepOptions};
+pub use sweep::{sweep, sweep_tools, RemovalRecord, Step, SweepOptions};
 pub use tool::{Tool, ToolShape};

@@ -708,6 +708,63 @@ pub fn sweep(
     Ok(record)
 }
 
+/// Sweep steps cut by several tools: step `i` is cut by `tools[tool_of_step[i]]`.
+/// Each run of consecutive steps with one tool is one [`sweep`] (in order, on
+/// the same stock); the record has the band count of the tool with the most
+/// bands, the others' higher bands are zero.
+pub fn sweep_tools(
+    stock: &mut Stock,
+    tools: &[Tool],
+    tool_of_step: &[usize],
+    steps: &[Step],
+    options: &SweepOptions,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<RemovalRecord, Error> {
+    if tool_of_step.len() != steps.len() {
+        return Err(Error::InvalidParameter(format!(
+            "{} tool indices for {} steps",
+            tool_of_step.len(),
+            steps.len()
+        )));
+    }
+    if let Some(&bad) = tool_of_step.iter().find(|&&t| t >= tools.len()) {
+        return Err(Error::InvalidParameter(format!(
+            "tool index {bad} with {} tools",
+            tools.len()
+        )));
+    }
+    let mut parts = Vec::new();
+    let mut start = 0;
+    while start < steps.len() {
+        let t = tool_of_step[start];
+        let end = start
+            + tool_of_step[start..]
+                .iter()
+                .position(|&u| u != t)
+                .unwrap_or(steps.len() - start);
+        let done = start;
+        parts.push((
+            start,
+            sweep(stock, &tools[t], &steps[start..end], options, &|d| {
+                progress(done + d)
+            })?,
+        ));
+        start = end;
+    }
+    let n_bands = parts.iter().map(|(_, r)| r.n_bands).max().unwrap_or(1);
+    let mut record = RemovalRecord::new(steps.len(), n_bands, options.band_height_mm);
+    let stride = record.stride();
+    for (offset, part) in &parts {
+        record.columns_evaluated += part.columns_evaluated;
+        for j in 0..part.len() {
+            let row = part.row(j);
+            let at = (offset + j) * stride;
+            record.data[at..at + row.len()].copy_from_slice(row);
+        }
+    }
+    Ok(record)
+}
+
 #[allow(clippy::too_many_arguments)]
 fn run_batches<E: Envelope>(
     stock: &mut Stock,

@@ -354,3 +354,55 @@ fn rejects_bad_parameters() {
     )
     .is_err());
 }
+
+/// Steps cut by two tools: the same as two sweeps in turn on one stock, row
+/// for row, with the shorter tool's missing bands zero.
+#[test]
+fn sweep_tools_equals_sweeps_in_turn() {
+    let tools = [
+        Tool {
+            flute_length_mm: 4.0,
+            ..Tool::flat(6.0)
+        },
+        Tool::ball(10.0),
+    ];
+    let steps = [
+        line([-10.0, -8.0, 28.0], [110.0, -8.0, 28.0]),
+        line([110.0, -8.0, 28.0], [110.0, 8.0, 28.0]),
+        line([110.0, 8.0, 27.0], [-10.0, 8.0, 27.0]),
+        line([-10.0, 0.0, 26.0], [110.0, 0.0, 26.0]),
+    ];
+    let which = [0, 0, 1, 0];
+    let options = SweepOptions::default();
+    let fresh = || Stock::new_box([0.0, -20.0, 0.0], [100.0, 20.0, 30.0], 0.25).unwrap();
+    let mut together = fresh();
+    let all = dexel::sweep_tools(&mut together, &tools, &which, &steps, &options, &|_| {}).unwrap();
+    let mut apart = fresh();
+    let mut rows = Vec::new();
+    for (range, t) in [(0..2, 0), (2..3, 1), (3..4, 0)] {
+        let r = sweep(&mut apart, &tools[t], &steps[range], &options, &|_| {}).unwrap();
+        for j in 0..r.len() {
+            rows.push((r.volume_mm3(j), r.band_volumes_mm3(j).to_vec()));
+        }
+    }
+    assert_eq!(all.len(), 4);
+    assert_eq!(all.n_bands, 20, "the ball's 20 bands");
+    for (i, (v, bands)) in rows.iter().enumerate() {
+        assert_eq!(all.volume_mm3(i), *v, "step {i}");
+        let b = all.band_volumes_mm3(i);
+        assert_eq!(&b[..bands.len()], &bands[..], "step {i}");
+        assert!(b[bands.len()..].iter().all(|&x| x == 0.0));
+    }
+    assert_eq!(together.volume_mm3(), apart.volume_mm3());
+    assert!(all.volume_mm3(0) > 0.0 && all.volume_mm3(2) > 0.0);
+    // A step without a tool is an error, not a panic.
+    assert!(dexel::sweep_tools(
+        &mut fresh(),
+        &tools,
+        &[0, 2, 0, 0],
+        &steps,
+        &options,
+        &|_| {}
+    )
+    .is_err());
+}

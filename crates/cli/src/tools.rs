@@ -1,0 +1,113 @@
+//! The job's tools: one `[tool]` (tool 1 and every T) or a `[[tools]]`
+//! table keyed by the T word, each with its kernel shape, gauge length and
+//! force and beam model (MODEL.md §9.1).
+
+use std::collections::BTreeMap;
+
+use anyhow::{bail, Result};
+use cutting::CuttingModel;
+use dexel::Tool;
+
+use crate::job::Job;
+use crate::program::Program;
+
+/// One tool of the job.
+#[derive(Clone, Debug)]
+pub struct ToolEntry {
+    /// T number (1 for the single `[tool]`).
+    pub number: u32,
+    pub tool: Tool,
+    /// Gauge length, mm (G43).
+    pub length_mm: f64,
+    pub model: CuttingModel,
+    /// Largest feed per tooth, mm/tooth (chip-load cap of optimize).
+    pub fz_max_mm: Option<f64>,
+}
+
+/// The tools a run can use.
+#[derive(Clone, Debug)]
+pub struct ToolSet {
+    pub entries: Vec<ToolEntry>,
+    /// A single `[tool]`: it cuts whatever T the program names.
+    pub single: bool,
+}
+
+impl ToolSet {
+    /// The job's tools, with their cutting models.
+    pub fn from_job(job: &Job, program: &Program) -> Result<ToolSet> {
+        let specs = job.tool_specs();
+        let single = job.tool.is_some();
+        let mut entries = Vec::with_capacity(specs.len());
+        for (number, spec) in specs {
+            let tool = spec.dexel_tool()?;
+            let model = crate::simulate::cutting_model(job, &tool, program)?;
+            entries.push(ToolEntry {
+                number: number.unwrap_or(1),
+                tool,
+                length_mm: spec.length.unwrap_or(0.0),
+                model,
+                fz_max_mm: spec.fz_max_mm(&job.cutting.material),
+            });
+        }
+        Ok(ToolSet { entries, single })
+    }
+
+    /// Gauge lengths by tool number for the G-code reader (empty for a
+    /// single `[tool]`: every T is accepted, with length 0).
+    pub fn lengths_mm(&self) -> BTreeMap<u32, f64> {
+        if self.single {
+            BTreeMap::new()
+        } else {
+            self.entries
+                .iter()
+                .map(|e| (e.number, e.length_mm))
+                .collect()
+        }
+    }
+
+    /// Index into `entries` of tool `number`.
+    pub fn index_of(&self, number: u32) -> Option<usize> {
+        if self.single {
+            Some(0)
+        } else {
+            self.entries.iter().position(|e| e.number == number)
+        }
+    }
+
+    /// The entry of tool `number` (the first entry if the table lacks it).
+    pub fn entry(&self, number: u32) -> &ToolEntry {
+        &self.entries[self.index_of(number).unwrap_or(0)]
+    }
+
+    /// Per item, the index of the tool numbered by `numbers`; an error names
+    /// the program line of the first number the table lacks.
+    pub fn indices(&self, numbers: impl Iterator<Item = (u32, u32)>) -> Result<Vec<usize>> {
+        numbers
+            .map(|(number, line)| match self.index_of(number) {
+                Some(i) => Ok(i),
+                None if number == 0 => bail!(
+                    "line {line}: moves with no tool in the spindle (T0); load one of the job's tools ({}) with T… M6",
+                    self.names()
+                ),
+                None => bail!(
+                    "line {line}: tool T{number} is not in the job's [[tools]] ({})",
+                    self.names()
+                ),
+            })
+            .collect()
+    }
+
+    /// "T1, T2, …".
+    pub fn names(&self) -> String {
+        self.entries
+            .iter()
+            .map(|e| format!("T{}", e.number))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// The kernel shapes, in `entries` order.
+    pub fn tools(&self) -> Vec<Tool> {
+        self.entries.iter().map(|e| e.tool).collect()
+    }
+}
