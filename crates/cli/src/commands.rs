@@ -95,6 +95,43 @@ impl Setup {
         files
     }
 
+    /// The grid check of [`crate::warnings::grid_check`] for this job, printed
+    /// at once (before any work).
+    pub fn grid_warning(&self) -> Option<crate::warnings::Warning> {
+        let slowest = self
+            .program
+            .path
+            .segments
+            .iter()
+            .filter_map(|s| match s.motion {
+                // Moves mostly across the columns (plunges are resolved in Z).
+                nc::Motion::Feed { feed_mm_min }
+                    if (s.end - s.start).xy().norm() >= 0.5 * (s.end - s.start).norm() =>
+                {
+                    Some(feed_mm_min.min(self.machine.feed_max_mm_min))
+                }
+                _ => None,
+            })
+            .fold(None, |m: Option<f64>, f| Some(m.map_or(f, |m| m.min(f))));
+        let w = crate::warnings::grid_check(
+            // The smallest tool the job uses is the hardest to resolve.
+            self.tools
+                .entries
+                .iter()
+                .map(|e| e.tool.diameter_mm)
+                .fold(self.tool.diameter_mm, f64::min),
+            self.stock.grid().spacing_mm,
+            if self.program.gcode.is_some() {
+                slowest
+            } else {
+                None
+            },
+            self.machine.period_ms,
+        )?;
+        eprintln!("warning: {w}");
+        Some(w)
+    }
+
     /// The program as the machine runs it: servo periods for G-code, one step
     /// per move for CSV point lists.
     pub fn machine_steps(&self) -> Result<Vec<TimedStep>> {
@@ -221,10 +258,12 @@ pub fn simulate(
     let started = Instant::now();
     let setup = Setup::load(job_path, grid_mm)?;
     let out_dir = OutDir::begin(out, &setup.input_files(job_path), force)?;
+    let grid_warning = setup.grid_warning();
     let steps = setup.steps(actual_path)?;
     let run = simulate::run(setup.stock.clone(), &setup.tools, steps, "simulate")?;
-    let summary = run.summary();
+    let mut summary = run.summary();
     summary.check_finite()?;
+    summary.warnings.0.splice(0..0, grid_warning);
     let design = write_run(&setup, &run, out_dir.path(), "steps.csv")?;
     let doc = SimulateSummary {
         run: &summary,
@@ -248,7 +287,7 @@ pub fn simulate(
         summary.peak_deflection_um,
         out.display()
     );
-    summary.warnings.print("");
+    summary.warnings.print_after_work("");
     Ok(())
 }
 
@@ -347,6 +386,7 @@ pub fn optimize(
     {
         eprintln!("warning: [limits] sets no mrr_max, force_max, deflection_max_um or angle_rule: cutting runs at feed_max");
     }
+    let grid_warning = setup.grid_warning();
     // Before: the program as written.
     let t0 = Instant::now();
     let before_steps = setup.machine_steps()?;
@@ -381,6 +421,18 @@ pub fn optimize(
             ),
         });
     }
+    after_summary.warnings.0.splice(0..0, grid_warning);
+    let mut unresolved = crate::warnings::LineTally::new();
+    for e in &written.unresolved {
+        crate::warnings::tally(&mut unresolved, e.line, 100.0 * e.over_limit);
+    }
+    after_summary.warnings.from_lines(
+        crate::warnings::WarningKind::CoarseGrid,
+        &unresolved,
+        "%",
+        false,
+        |v, lines| format!("servo periods up to {v:.0} % above a limit at {lines}, where the tool advances less than one grid column per period: the removal there comes in whole columns, so a slower feed would not lower it; use a finer grid to hold the limit per period"),
+    );
     let written_vs_plan = after_summary.cycle_time_s / written.plan_time_s - 1.0;
     if written_vs_plan > optimize::PLAN_TOLERANCE && !written.kept_original {
         after_summary.warnings.push(crate::warnings::Warning {
@@ -518,8 +570,8 @@ pub fn optimize(
         .collect();
     crate::outln!("time held by: {}", shares.join(", "));
     crate::outln!("results in {}", out.display());
-    doc.before.warnings.print("program");
-    doc.after.warnings.print("optimised");
+    doc.before.warnings.print_after_work("program");
+    doc.after.warnings.print_after_work("optimised");
     Ok(())
 }
 

@@ -357,6 +357,13 @@ pub struct Excess {
     pub kind: CapKind,
     /// By how much the period exceeds its limit: value / limit − 1.
     pub over_limit: f64,
+    /// Program line the period ends in.
+    pub line: u32,
+    /// The tool advanced at least one grid cell in the period. When it did
+    /// not, the removal per period is quantised to whole columns (a column
+    /// goes in the period its edge is crossed), so a slower feed does not
+    /// lower it: such periods are reported, not corrected.
+    pub resolved: bool,
 }
 
 /// Margin kept under a limit when a period over it is corrected.
@@ -372,6 +379,7 @@ pub fn excesses(
 ) -> Vec<Excess> {
     let mut out = Vec::new();
     let n = run.steps.len();
+    let grid_mm = run.stock.grid().spacing_mm;
     let mut i = 0;
     let mut s_prev = 0.0;
     while i < n {
@@ -429,6 +437,8 @@ pub fn excesses(
                     feed_ratio: ratio.0,
                     kind: ratio.1,
                     over_limit,
+                    line: run.steps[j - 1].line,
+                    resolved: s_to - s_prev >= grid_mm,
                 });
             }
         }
@@ -508,6 +518,9 @@ pub struct Written {
     pub excesses_left: usize,
     /// The original program was within every limit and faster: it is written unchanged.
     pub kept_original: bool,
+    /// Periods above a limit by more than [`LIMIT_TOLERANCE`] where the tool
+    /// advanced less than a grid cell (see [`Excess::resolved`]).
+    pub unresolved: Vec<Excess>,
 }
 
 /// Whether a run (of the program as written) is within every limit: no
@@ -523,7 +536,10 @@ pub fn within_limits(
         let cap = cutting::chipload::chip_load_feed_mm_min(fz, model.flutes, model.spindle_rpm);
         run.peak_cutting_feed_mm_min() <= cap * (1.0 + 1e-3)
     });
-    chip_ok && excesses(run, limits, model).is_empty()
+    chip_ok
+        && excesses(run, limits, model)
+            .iter()
+            .all(|e| e.over_limit <= LIMIT_TOLERANCE)
 }
 
 /// Write the re-timed program, simulate it as a program of its own (parsed
@@ -592,7 +608,9 @@ pub fn write_verified(
             steps,
             &format!("verify {round}"),
         )?;
-        let over = excesses(&run, limits, &setup.model);
+        let (over, unresolved): (Vec<Excess>, Vec<Excess>) = excesses(&run, limits, &setup.model)
+            .into_iter()
+            .partition(|e| e.resolved);
         let slow = text.is_some()
             && run.steps.last().map_or(0.0, |s| s.t_end_s) > plan_time_s * (1.0 + PLAN_TOLERANCE);
         let refine_blocks = slow && merge_ratio > MERGE_RATIO_MIN;
@@ -621,6 +639,10 @@ pub fn write_verified(
                     .iter()
                     .filter(|e| e.over_limit > LIMIT_TOLERANCE)
                     .count(),
+                unresolved: unresolved
+                    .into_iter()
+                    .filter(|e| e.over_limit > LIMIT_TOLERANCE)
+                    .collect(),
                 kept_original,
             });
         }

@@ -137,6 +137,19 @@ impl Warnings {
         });
     }
 
+    /// Print the warnings found by the work (those of [`grid_check`] were
+    /// printed before it), each prefixed by `label` when given.
+    pub fn print_after_work(&self, label: &str) {
+        Warnings(
+            self.0
+                .iter()
+                .filter(|w| !(w.kind == WarningKind::CoarseGrid && w.line.is_none()))
+                .cloned()
+                .collect(),
+        )
+        .print(label);
+    }
+
     /// Print every warning on stderr, each prefixed by `label` when given.
     pub fn print(&self, label: &str) {
         for w in &self.0 {
@@ -157,9 +170,97 @@ pub fn tally(t: &mut LineTally, line: u32, value: f64) {
     e.2 = e.2.max(value);
 }
 
+/// Before any work: whether the grid can measure the tool's removal honestly
+/// (MODEL.md §10). Two checks, each with a grid that would do:
+/// * the tool spans fewer than [`TOOL_CELLS`] columns across its diameter,
+///   so its footprint, and the removal of one step, is coarse;
+/// * at the slowest programmed cutting feed the tool advances less than one
+///   column per servo period, so removal per period comes in whole columns
+///   and the per-period MRR shows the grid rather than the cut (the MRR over
+///   ≥ 48 ms is still resolved).
+pub fn grid_check(
+    diameter_mm: f64,
+    grid_mm: f64,
+    slowest_feed_mm_min: Option<f64>,
+    period_ms: f64,
+) -> Option<Warning> {
+    let mut reasons = Vec::new();
+    let mut suggest = grid_mm;
+    if diameter_mm / grid_mm < TOOL_CELLS {
+        suggest = suggest.min(diameter_mm / TOOL_CELLS);
+        reasons.push(format!(
+            "the {diameter_mm} mm tool spans only {:.1} columns of {grid_mm} mm",
+            diameter_mm / grid_mm
+        ));
+    }
+    if let Some(f) = slowest_feed_mm_min {
+        let advance_mm = f * period_ms / 60_000.0;
+        if advance_mm < grid_mm {
+            suggest = suggest.min(advance_mm);
+            reasons.push(format!(
+                "at F{f} the tool advances {advance_mm:.3} mm per {period_ms} ms period, less than one column, so the MRR per period comes in whole columns (the MRR over ≥ 48 ms is resolved)"
+            ));
+        }
+    }
+    if reasons.is_empty() {
+        return None;
+    }
+    // Round the suggestion down to two significant digits.
+    let scale = 10f64.powf(suggest.log10().floor() - 1.0);
+    let suggest = (suggest / scale).floor() * scale;
+    Some(Warning {
+        kind: WarningKind::CoarseGrid,
+        line: None,
+        value: grid_mm,
+        unit: "mm".into(),
+        steps: 0,
+        lines: Vec::new(),
+        message: format!(
+            "the grid is too coarse to measure this tool's removal per period: {}; a grid of {} mm (--grid {}) would resolve it",
+            reasons.join("; "),
+            trim(suggest),
+            trim(suggest)
+        ),
+    })
+}
+
+/// Columns a tool's diameter should span for its removal to be resolved.
+pub const TOOL_CELLS: f64 = 10.0;
+
+fn trim(v: f64) -> String {
+    let s = format!("{v:.4}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn grid_check_names_both_reasons_and_a_grid() {
+        assert!(grid_check(10.0, 0.1, Some(1000.0), 16.0).is_none());
+        // 1 mm on 0.2 mm: 5 columns; F150 at 16 ms: 0.04 mm per period.
+        let w = grid_check(1.0, 0.2, Some(150.0), 16.0).unwrap();
+        assert_eq!(w.kind, WarningKind::CoarseGrid);
+        assert!(
+            w.message.contains("spans only 5.0 columns"),
+            "{}",
+            w.message
+        );
+        assert!(
+            w.message.contains("advances 0.040 mm per 16 ms"),
+            "{}",
+            w.message
+        );
+        assert!(
+            w.message
+                .ends_with("a grid of 0.04 mm (--grid 0.04) would resolve it"),
+            "{}",
+            w.message
+        );
+        let w = grid_check(1.0, 0.2, None, 16.0).unwrap();
+        assert!(w.message.contains("a grid of 0.1 mm"), "{}", w.message);
+    }
 
     #[test]
     fn from_lines_lists_lines_and_sums() {
