@@ -31,8 +31,14 @@ impl Ran {
             self.code,
             self.stderr
         );
+        // Warnings printed before the work began (the grid check) may come first.
+        let first = self
+            .stderr
+            .lines()
+            .find(|l| !l.starts_with("warning: "))
+            .unwrap_or("");
         assert!(
-            self.stderr.starts_with("error: ") && !self.stderr.contains("panicked"),
+            first.starts_with("error: ") && !self.stderr.contains("panicked"),
             "{}",
             self.stderr
         );
