@@ -452,6 +452,16 @@ pub fn optimize(
     let design = write_run(&setup, after, staged, "steps.csv")?;
     before.write_steps_csv(&staged.join("steps_before.csv"))?;
     write_servo_csv(&staged.join("servo.csv"), &written.samples)?;
+    let precomp = if setup.job.servo_given {
+        Some(crate::evaluate::write_compensated_servo(
+            &setup.job,
+            &written.samples,
+            setup.machine.period_ms,
+            &staged.join("servo_compensated.csv"),
+        )?)
+    } else {
+        None
+    };
     if let Some(text) = &written.text {
         export::atomic::write_bytes(&staged.join("optimized.nc"), text.as_bytes())
             .with_context(|| "cannot write optimized.nc")?;
@@ -569,6 +579,14 @@ pub fn optimize(
         .map(|c| format!("{} {:.0} %", c.cap, 100.0 * c.share))
         .collect();
     crate::outln!("time held by: {}", shares.join(", "));
+    if let Some(pre) = &precomp {
+        crate::outln!(
+            "servo_compensated.csv: drive error {:.4} mm before, {:.2e} mm after pre-compensation ({} corrections)",
+            pre.error_before_mm,
+            pre.error_after_mm,
+            pre.iterations
+        );
+    }
     crate::outln!("results in {}", out.display());
     doc.before.warnings.print_after_work("program");
     doc.after.warnings.print_after_work("optimised");

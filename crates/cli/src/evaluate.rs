@@ -111,6 +111,30 @@ fn read_servo_csv(path: &Path, period_ms: f64) -> Result<Vec<[f64; 3]>> {
     Ok(out)
 }
 
+/// S4's pre-compensation of planned servo data (MODEL.md §7.3): the commands that make the
+/// `[servo]` drive model follow `samples` to within `precomp_threshold_mm`, written as
+/// `t_s,x,y,z` every period to `path`. The last sample (the cycle end, off the period grid)
+/// is taken at the next period, where the plan rests at the end point anyway.
+pub fn write_compensated_servo(
+    job: &Job,
+    samples: &[schedule::ServoSample],
+    period_ms: f64,
+    path: &Path,
+) -> Result<servo::Precomp> {
+    let drive = drive(job)?;
+    let period_s = period_ms * 1e-3;
+    let target: Vec<[f64; 3]> = samples.iter().map(|s| s.pos.coords.into()).collect();
+    let pre = servo::precompensate(
+        &target,
+        period_s,
+        &drive,
+        job.servo.precomp_threshold_mm,
+        job.servo.precomp_iterations,
+    );
+    write_positions_csv(path, &pre.command, period_s)?;
+    Ok(pre)
+}
+
 fn write_positions_csv(path: &Path, positions: &[[f64; 3]], period_s: f64) -> Result<()> {
     export::atomic::write_file(path, |w| {
         let mut out = csv::Writer::from_writer(w);

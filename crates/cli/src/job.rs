@@ -29,6 +29,10 @@ pub struct Job {
     #[serde(default)]
     pub offsets: OffsetsSpec,
     pub design: Option<DesignSpec>,
+    /// Whether the job file has a `[servo]` table (optimize then writes pre-compensated
+    /// servo data).
+    #[serde(skip)]
+    pub servo_given: bool,
     /// Folder that relative paths are resolved against (the job file's folder).
     #[serde(skip)]
     pub base_dir: PathBuf,
@@ -401,6 +405,9 @@ impl Job {
         })?;
         job.base_dir = base_dir.to_path_buf();
         job.name = name.to_string();
+        job.servo_given = toml::from_str::<toml::Table>(text)
+            .map(|t| t.contains_key("servo"))
+            .unwrap_or(false);
         job.validate()
             .with_context(|| format!("{name}: invalid job"))?;
         Ok(job)

@@ -1221,3 +1221,54 @@ accel = [1000, 1000, 1000]
     );
     assert!(!dir.path().join("bad").exists());
 }
+
+/// `optimize` with `[servo]` writes servo_compensated.csv (MODEL.md §7.3, S4). Read back
+/// and run through the drive model it puts the axes on servo.csv at every period within
+/// precomp_threshold_mm, where servo.csv itself lags by about v/Kp.
+#[test]
+fn optimize_writes_precompensated_servo_data() {
+    let dir = tempdir();
+    write(
+        dir.path(),
+        "job.toml",
+        &format!("{STEP_JOB}[servo]\nkp = 30\nprecomp_threshold_mm = 0.001\n"),
+    );
+    write(
+        dir.path(),
+        "line.csv",
+        "x,y,z\n0,0,27\n100,0,27\n100,30,27\n",
+    );
+    let out = dexcut(&["optimize", "job.toml", "--out", "out"], dir.path());
+    ok(&out);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("servo_compensated.csv: drive error"),
+        "{stdout}"
+    );
+    let positions = |name: &str| {
+        let c = csv_columns(&dir.path().join("out").join(name));
+        (0..c["x"].len())
+            .map(|i| [c["x"][i], c["y"][i], c["z"][i]])
+            .collect::<Vec<[f64; 3]>>()
+    };
+    let (plan, command) = (positions("servo.csv"), positions("servo_compensated.csv"));
+    assert_eq!(plan.len(), command.len());
+    let drive = servo::Drive::first_order(30.0);
+    let worst = |actual: &[[f64; 3]]| {
+        plan.iter()
+            .zip(actual)
+            .map(|(p, a)| (0..3).map(|i| (p[i] - a[i]).powi(2)).sum::<f64>().sqrt())
+            .fold(0.0, f64::max)
+    };
+    let before = worst(&servo::simulate_actual(&plan, 0.016, &drive));
+    let after = worst(&servo::simulate_actual(&command, 0.016, &drive));
+    assert!(before > 0.5, "uncompensated lag {before} mm");
+    assert!(after <= 0.001, "compensated residual {after} mm");
+    // Without [servo] there is no compensated file.
+    write(dir.path(), "job.toml", STEP_JOB);
+    ok(&dexcut(
+        &["optimize", "job.toml", "--out", "out2"],
+        dir.path(),
+    ));
+    assert!(!dir.path().join("out2/servo_compensated.csv").exists());
+}

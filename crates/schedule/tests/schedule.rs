@@ -903,3 +903,37 @@ fn chord_approximated_sine_keeps_axis_limits() {
         }
     }
 }
+
+/// A circle of radius `r_mm` as a regular polygon of `sides` chords at `feed_mm_min`.
+fn polygon(r_mm: f64, sides: usize, feed_mm_min: f64) -> Vec<Segment> {
+    let corner = |i: usize| {
+        let a = 2.0 * PI * i as f64 / sides as f64;
+        p(r_mm * a.cos(), r_mm * a.sin(), 0.0)
+    };
+    (0..sides)
+        .map(|i| line(corner(i), corner(i + 1), feed_mm_min))
+        .collect()
+}
+
+#[test]
+#[ignore = "exploration"]
+fn s0_polygons_explore() {
+    for accel in [300.0, 500.0, 700.0, 1000.0, 1500.0, 2000.0, 3000.0] {
+        for sides in [157usize, 471] {
+            let machine = Machine {
+                feed_max_mm_min: 10000.0,
+                accel_mm_s2: [accel; 3],
+                block_time_ms: Some(4.0),
+                ..Machine::default()
+            };
+            let st = stations(polygon(50.0, sides, 10000.0), &machine, 0.05);
+            let profile = plan(&st);
+            let len = *st.s_mm().last().unwrap();
+            let vmax = profile.speed_mm_s().iter().copied().fold(0.0, f64::max) * 60.0;
+            println!(
+                "a {accel} sides {sides}: mean {:.0} mm/min, top {vmax:.0}",
+                60.0 * len / profile.cycle_time_s()
+            );
+        }
+    }
+}

@@ -19,4 +19,4 @@ pub mod precomp;
 pub use drive::{simulate_actual, simulate_actual_from, Drive, DriveError, DriveOrder};
 pub use evaluation::{evaluate, max_jerk_mm_s3, Evaluation, Weights};
 pub use path_error::trajectory_error_mm;
-pub use precomp::{precompensate, Precomp};
+pub use precomp::{first_order_inverse, precompensate, Precomp};
