@@ -606,7 +606,7 @@ fn gcode_errors_name_file_line_and_column() {
     let err = stderr(&out);
     assert!(err.contains("slot.ngc:3:"), "{err}");
     assert!(
-        err.contains("slot.ngc:4:1: cutter radius compensation G41 is not supported"),
+        err.contains("slot.ngc:4:1: file ended with no program end"),
         "{err}"
     );
     assert!(!dir.path().join("out").exists());

@@ -9,6 +9,8 @@ use std::rc::Rc;
 
 use nalgebra::Point3;
 
+mod comp;
+
 use crate::cycles::{self, Cycle, CycleMove};
 use crate::diag::{Diagnostic, Severity};
 use crate::expr::Params;
@@ -34,6 +36,10 @@ pub struct Options {
     /// Tool table: gauge length (mm) of each tool number (T word), used by
     /// G43. Empty: every T is accepted and every tool has length 0.
     pub tool_lengths_mm: BTreeMap<u32, f64>,
+    /// Diameter (mm) of each tool number, for cutter compensation (G41/G42).
+    pub tool_diameters_mm: BTreeMap<u32, f64>,
+    /// Diameter (mm) of a tool the map lacks (a single tool for every T).
+    pub default_tool_diameter_mm: f64,
     /// Tool in the spindle when the program starts; `None`: the first tool
     /// the program loads (M6, M61), or 0 if it loads none.
     pub initial_tool: Option<u32>,
@@ -55,6 +61,8 @@ impl Default for Options {
             max_blocks: 10_000_000,
             max_segments: 5_000_000,
             tool_lengths_mm: BTreeMap::new(),
+            tool_diameters_mm: BTreeMap::new(),
+            default_tool_diameter_mm: 0.0,
             initial_tool: None,
             max_errors: 20,
             require_program_end: false,
@@ -84,6 +92,9 @@ pub struct SegmentTrace {
     pub inverse_time: bool,
     /// Work offset + G92 in force (mm): machine = program·scale + offset.
     pub offset_mm: [f64; 3],
+    /// Cutter radius compensation shaped the segment: its block cannot be
+    /// split (the pieces would be compensated again).
+    pub compensated: bool,
 }
 
 /// What [`run`] returns besides the parse result.
@@ -308,6 +319,8 @@ struct Interp<'a> {
     last_tip: Point3<f64>,
     /// M70/M73 contexts per call level (index = frames.len()).
     contexts: Vec<Context>,
+    /// Cutter radius compensation.
+    comp: comp::Comp,
 }
 
 /// Parses and runs a program. Without an initial tool, the first tool the
@@ -381,6 +394,10 @@ fn run_once(source: &str, file: &str, options: &Options) -> (Parsed, Trace, Opti
             modes: None,
             restore_on_return: false,
         }],
+        comp: comp::Comp {
+            first: true,
+            ..comp::Comp::default()
+        },
     };
     let mut lines = Vec::new();
     for (i, (text, _)) in syntax::split_lines(source).enumerate() {
@@ -499,11 +516,17 @@ impl Interp<'_> {
             }
             let next = match &line.kind {
                 LineKind::Empty | LineKind::ProgramNumber(_) => Ok(Some(pc + 1)),
+                // As LinuxCNC: '%' opens a program on the first line and
+                // then closes it; anywhere else it is an error.
                 LineKind::Percent if seen_percent => Ok(None),
-                LineKind::Percent => {
+                LineKind::Percent if pc == 0 => {
                     seen_percent = true;
                     Ok(Some(pc + 1))
                 }
+                LineKind::Percent => Err(Fail {
+                    col: 1,
+                    msg: "'%' is allowed only on the first line and to close a program opened with it".into(),
+                }),
                 LineKind::OWord(stmt) => self.oword(pc, stmt),
                 LineKind::Block(items) => self.block(pc, items),
             };
@@ -846,6 +869,12 @@ impl Interp<'_> {
         if let Some(t) = b.get('t') {
             self.selected_tool = Some(self.tool_number(t, b.col('t'), 'T')?);
         }
+        if (b.has_m(6) || b.has_m(61)) && self.comp.side.is_some() {
+            return fail(
+                b.first_col,
+                "cannot change tools with cutter radius compensation on",
+            );
+        }
         if b.has_m(6) {
             self.load_tool(self.selected_tool.unwrap_or(self.tool), pc);
         }
@@ -891,13 +920,18 @@ impl Interp<'_> {
         if g_col(210).is_some() {
             self.scale = 1.0;
         }
-        for code in [410, 420, 411, 421] {
-            if let Some(col) = g_col(code) {
-                return fail(col, format!("cutter radius compensation {} is not supported; post the program with the tool centre path (G40)", g_name(code)));
-            }
+        if g_col(400).is_some() {
+            self.comp_off()?;
         }
-        if b.get('d').is_some() {
-            return fail(b.col('d'), "D word with no G41 or G42 to use it");
+        let comp_code = [410, 420, 411, 421]
+            .into_iter()
+            .find_map(|c| g_col(c).map(|col| (c, col)));
+        match comp_code {
+            Some((code, col)) => self.comp_on(code, &b, col)?,
+            None if b.get('d').is_some() => {
+                return fail(b.col('d'), "D word with no G41 or G42 to use it")
+            }
+            None => {}
         }
         self.tool_length_offset(&b)?;
         for (i, code) in [540, 550, 560, 570, 580, 590].into_iter().enumerate() {
@@ -1038,13 +1072,19 @@ impl Interp<'_> {
     /// current point's polar coordinates.
     fn target(&self, b: &Block, machine: bool) -> Result<[f64; 3], Fail> {
         let off = self.offset();
-        let mut t = self.pos;
+        // Under compensation, words not given keep the programmed point.
+        let base = if self.comp_active() && !self.comp.first {
+            [self.comp.program[0], self.comp.program[1], self.pos[2]]
+        } else {
+            self.pos
+        };
+        let mut t = base;
         for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
             if let Some(v) = b.get(l) {
                 t[i] = if machine {
                     v * self.scale
                 } else if self.incremental {
-                    self.pos[i] + v * self.scale
+                    base[i] + v * self.scale
                 } else {
                     v * self.scale + off[i]
                 };
@@ -1063,8 +1103,8 @@ impl Interp<'_> {
         }
         // Current point in program units about the program origin.
         let (px, py) = (
-            (self.pos[0] - off[0]) / self.scale,
-            (self.pos[1] - off[1]) / self.scale,
+            (base[0] - off[0]) / self.scale,
+            (base[1] - off[1]) / self.scale,
         );
         let (r, a) = if self.incremental {
             if px == 0.0 && py == 0.0 {
@@ -1115,6 +1155,15 @@ impl Interp<'_> {
         Ok(t)
     }
 
+    /// Diameter of tool `t` (mm).
+    fn diameter_of(&self, t: u32) -> f64 {
+        self.options
+            .tool_diameters_mm
+            .get(&t)
+            .copied()
+            .unwrap_or(self.options.default_tool_diameter_mm)
+    }
+
     /// Gauge length of tool `t` (mm); 0 for T0 and without a table.
     fn length_of(&self, t: u32) -> f64 {
         self.options.tool_lengths_mm.get(&t).copied().unwrap_or(0.0)
@@ -1149,6 +1198,12 @@ impl Interp<'_> {
         let Some((code, col)) = code else {
             return Ok(());
         };
+        if self.comp.side.is_some() {
+            return fail(
+                col,
+                "cannot change tool offset with cutter radius compensation on",
+            );
+        }
         let h_tool = |it: &Self| -> Result<u32, Fail> {
             match b.get('h') {
                 None => Ok(it.tool),
@@ -1386,6 +1441,7 @@ impl Interp<'_> {
             inverse_time: self.inverse_time,
             offset_mm,
             feed_scale: self.feed_scale,
+            compensated: self.comp_active(),
         });
     }
 
@@ -1417,6 +1473,37 @@ impl Interp<'_> {
             return fail(b.has_g(530).unwrap_or(1), "G53 needs G0 or G1");
         }
         let t = self.target(b, machine)?;
+        if self.comp_active() {
+            if machine {
+                return fail(
+                    b.has_g(530).unwrap_or(1),
+                    "cannot use G53 with cutter radius compensation",
+                );
+            }
+            if self.inverse_time {
+                return fail(
+                    b.first_col,
+                    "inverse time feed (G93) with cutter radius compensation is not supported",
+                );
+            }
+            match self.motion {
+                0 => return self.straight_comp(b, t, Motion::Rapid, pc),
+                10 => {
+                    let m = self.feed_motion(b, 1.0)?;
+                    return self.straight_comp(b, t, m, pc);
+                }
+                730 | 810 | 820 | 830 => {
+                    return fail(
+                        b.first_col,
+                        "cannot use canned cycles with cutter radius compensation",
+                    )
+                }
+                _ => {}
+            }
+        }
+        if matches!(self.motion, 0 | 10) {
+            self.comp.arc_not_allowed = false;
+        }
         let done = match self.motion {
             0 => {
                 self.rapid(t, pc);
@@ -1461,7 +1548,44 @@ impl Interp<'_> {
                 ),
             );
         }
-        let start = self.pos;
+        if self.comp.arc_not_allowed {
+            return fail(
+                b.first_col,
+                "the move just after exiting cutter compensation (G40) must be straight",
+            );
+        }
+        // Under compensation the arc is defined on the programmed contour.
+        let start = if self.comp_active() && !self.comp.first {
+            self.comp.program
+        } else {
+            self.pos
+        };
+        let center = self.arc_center(b, start, end)?;
+        let col = b.first_col;
+        let r = (start[a] - center[a]).hypot(start[bb] - center[bb]);
+        if r == 0.0 {
+            return fail(col, "arc of zero radius");
+        }
+        let turns = b.get('p').unwrap_or(1.0);
+        if turns < 1.0 || turns.fract() != 0.0 || turns > 1e4 {
+            return fail(
+                b.col('p'),
+                "P (turns) of an arc must be an integer from 1 to 10000",
+            );
+        }
+        if self.comp_active() {
+            let motion = self.feed_motion(b, 0.0)?;
+            return self.arc_comp(b, end, [center[a], center[bb]], turns as i32, motion, pc);
+        }
+        self.arc_from(b, start, end, center, clockwise, turns, pc)
+    }
+
+    /// Centre (gauge frame) of the block's arc from `start` to `end`, with
+    /// LinuxCNC's R and I/J/K tolerances.
+    fn arc_center(&self, b: &Block, start: [f64; 3], end: [f64; 3]) -> Result<[f64; 3], Fail> {
+        let clockwise = self.motion == 20;
+        let (a, bb, _) = self.plane.axes();
+        let letters = ['i', 'j', 'k'];
         let mut center = start;
         let col = b.first_col;
         if let Some(r) = b.get('r') {
@@ -1540,17 +1664,22 @@ impl Interp<'_> {
                 );
             }
         }
-        let r = (start[a] - center[a]).hypot(start[bb] - center[bb]);
-        if r == 0.0 {
-            return fail(col, "arc of zero radius");
-        }
-        let turns = b.get('p').unwrap_or(1.0);
-        if turns < 1.0 || turns.fract() != 0.0 || turns > 1e4 {
-            return fail(
-                b.col('p'),
-                "P (turns) of an arc must be an integer from 1 to 10000",
-            );
-        }
+        Ok(center)
+    }
+
+    /// Appends the arc from `start` about `center` to `end`.
+    #[allow(clippy::too_many_arguments)]
+    fn arc_from(
+        &mut self,
+        b: &Block,
+        start: [f64; 3],
+        end: [f64; 3],
+        center: [f64; 3],
+        clockwise: bool,
+        turns: f64,
+        pc: usize,
+    ) -> Result<(), Fail> {
+        let (a, bb, _) = self.plane.axes();
         let a0 = (start[bb] - center[bb]).atan2(start[a] - center[a]);
         let a1 = (end[bb] - center[bb]).atan2(end[a] - center[a]);
         let tau = std::f64::consts::TAU;

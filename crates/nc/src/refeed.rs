@@ -141,7 +141,9 @@ pub fn refeed(
             out.push_str(eol);
             continue;
         };
-        let single = segs.len() == 1 && splittable(items, &segments[feeds[0]]);
+        let single = segs.len() == 1
+            && splittable(items, &segments[feeds[0]])
+            && !trace.segments[feeds[0]].compensated;
         if single && plan[feeds[0]].len() > 1 {
             let i = feeds[0];
             written_pieces[i] = plan[i].len();
@@ -240,7 +242,11 @@ fn run_tables(
         else {
             continue;
         };
-        if segs.len() < 2 || !all_feeds || !splittable(items, &segments[segs[0]]) {
+        if segs.len() < 2
+            || !all_feeds
+            || !splittable(items, &segments[segs[0]])
+            || segs.iter().any(|&i| trace.segments[i].compensated)
+        {
             continue;
         }
         let values: Vec<f64> = segs
@@ -329,6 +335,10 @@ fn splittable(items: &[Item], seg: &Segment) -> bool {
         } => ![0.0, 1.0, 2.0, 30.0, 60.0].contains(v),
         ItemKind::Word {
             letter: 'g' | 'm', ..
+        } => false,
+        // Polar words: the pieces' end points would need polar words too.
+        ItemKind::Word {
+            letter: '@' | '^', ..
         } => false,
         _ => true,
     });

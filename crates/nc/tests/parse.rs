@@ -181,11 +181,21 @@ fn drill_cycle_g98_g99() {
 }
 
 #[test]
-fn compensation_rejected_with_position() {
-    assert_eq!(
-        errors("G0 X0\nG1 G41 D1 X5 F100")[0].split(": ").next(),
-        Some("t.ngc:2:4")
+fn compensation_errors_with_position() {
+    // G41 with a radius: the entry move must be longer than the radius.
+    let options = Options {
+        tool_diameters_mm: [(1, 10.0)].into_iter().collect(),
+        ..Options::default()
+    };
+    let e = nc::parse("G0 X0\nG1 G41 D1 X4 F100\nM2", "t.ngc", &options).diagnostics;
+    assert!(
+        e[0].to_string()
+            .starts_with("t.ngc:2:1: length of cutter compensation entry move"),
+        "{}",
+        e[0]
     );
+    assert!(errors("G18 G41.1 D2")[0].contains("G17"));
+    assert!(errors("G41.1 D2 G0 X10\nG41 X20")[0].contains("already on"));
     assert!(errors("G40 G49 G0 X1").is_empty());
     assert!(errors("G0 X1 D2")[0].contains("D word with no G41 or G42"));
     assert!(errors("G0 X1 H2")[0].contains("H word with no G43"));

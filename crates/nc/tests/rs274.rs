@@ -271,6 +271,7 @@ fn first_tool(rs274_output: &str) -> u32 {
 fn options(first_tool: u32) -> Options {
     Options {
         tool_lengths_mm: tool_table(),
+        tool_diameters_mm: TOOLS.map(|t| (t, tool_diameter_mm(t))).collect(),
         initial_position_mm: [0.0, 0.0, -tool_length_mm(first_tool)],
         max_blocks: 1_000_000,
         require_program_end: true,
@@ -586,5 +587,48 @@ fn real_programs_match_linuxcnc_rs274() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
     if std::env::var_os("DEXCUT_REAL_DIR").is_none() {
         assert!(read >= 15, "corpus too small");
+    }
+}
+
+/// Concave corners the compensated tool cannot reach: rs274 and dexcut both
+/// refuse them, with the same kind of error at the same line.
+#[test]
+fn compensation_gouges_are_refused_like_linuxcnc() {
+    if !have_rs274() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    // T3 is 6.35 mm across (radius 3.175 mm).
+    let cases = [
+        // A slot 5 mm wide: the pulled-back end runs past the line's start.
+        (
+            "slot",
+            "G21 G90 G17\nT3 M6\nG0 X10 Y10 Z1\nG1 Z-1 F200\nG41 G1 X10 Y0\nX30\nY5\nX10\nY0\nG40 G1 X10 Y10\nM2\n",
+            "gouging",
+            8,
+        ),
+        // An inside arc of radius 2 mm: smaller than the tool.
+        (
+            "small_arc",
+            "G21 G90 G17\nT3 M6\nG0 X0 Y-10 Z1\nG1 Z-1 F200\nG41 G1 X0 Y0\nX20\nG3 X22 Y2 R2\nG1 Y10\nG40 G1 X10 Y10\nM2\n",
+            "tool radius not less than arc radius",
+            7,
+        ),
+    ];
+    for (name, text, what, line) in cases {
+        let path = dir.path().join(format!("{name}.ngc"));
+        std::fs::write(&path, text).expect("write");
+        match outcome(&path) {
+            Outcome::BothRefuse(ours, theirs) => {
+                println!("{name}: ours {ours}\n    rs274 {theirs}");
+                assert!(
+                    ours.to_lowercase().contains(what) && theirs.to_lowercase().contains(what),
+                    "{name}: {ours} / {theirs}"
+                );
+                assert!(ours.contains(&format!(".ngc:{line}:")), "{name}: {ours}");
+            }
+            Outcome::Agree(_) => panic!("{name}: both read it"),
+            Outcome::Differ(e) => panic!("{name}: {e}"),
+        }
     }
 }
