@@ -6,8 +6,12 @@
 //! The per-item costs are measured peak resident memory of the release
 //! binary (`/usr/bin/time -f %M`, differences between two sizes of the same
 //! job), not sizes of structs:
-//! * a stock column: 80 B in `simulate`, 99.5 B in `optimize` (stock clones,
-//!   top heights, the error map and columns.csv's rows);
+//! * a stock column: 63 B in `simulate`, 82 B in `optimize` (stock clones,
+//!   top heights, the error map; columns.csv is streamed). Before columns.csv
+//!   was streamed it was 80 and 99.5 B, and under `ulimit -v` its doubling
+//!   buffer aborted runs that passed the check. Probed at the boundary under
+//!   `prlimit --as` of 512 MiB, 1 GiB and 2 GiB: every grid either ran or was
+//!   refused by this check, none aborted;
 //! * a servo sample (one sweep step): 307 B (sample, step, removal record, load);
 //! * a planner station: 110 B in `simulate`, 320 B in `optimize` (engagement).
 

@@ -235,6 +235,22 @@ fn d2_memory_guard_follows_measured_cost_and_ulimit() {
     );
     r.clear_error("ulimit");
     assert!(!dir.path().join("out").exists());
+    // At the boundary of the check (512 MiB): a run passes it only if it fits.
+    for g in ["0.029", "0.03"] {
+        let dir = job_dir(|_| job(g), SLOT_NC);
+        let r = run_limited(
+            &["optimize", "job.toml", "--out", "out"],
+            dir.path(),
+            1 << 29,
+            120,
+        );
+        assert!(
+            r.code == Some(0) || (r.code == Some(1) && r.stderr.contains("MB of memory")),
+            "grid {g}: exit {:?}: {}",
+            r.code,
+            r.stderr
+        );
+    }
     // 1.44 M columns (150 MB) run under the same limit.
     let dir = job_dir(|_| job("0.05"), SLOT_NC);
     run_limited(
