@@ -48,6 +48,10 @@ pub struct SweepOptions {
     /// Steps handled per batch (bounds the memory of partial sums; progress is
     /// reported after each batch).
     pub batch_steps: usize,
+    /// Credit a column's removal to the neighbouring steps by the share of its
+    /// cell that the tool's edge sweeps in each (MODEL.md §1.5), so per-step
+    /// removal does not alias with the grid. Totals are unchanged.
+    pub smooth: bool,
 }
 
 impl Default for SweepOptions {
@@ -56,19 +60,22 @@ impl Default for SweepOptions {
             band_height_mm: 1.0,
             strip_rows: 8,
             batch_steps: 16_384,
+            smooth: true,
         }
     }
 }
 
-/// Values stored per step before the band volumes: volume, shank volume, contact x, contact y.
-const HEAD: usize = 4;
+/// Values stored per step before the band volumes: volume, shank volume, contact x, contact y,
+/// chip edge area, volume over edge radius.
+const HEAD: usize = 6;
 
 /// What a sweep removed, per step.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RemovalRecord {
     pub band_height_mm: f64,
     pub n_bands: usize,
-    /// Per step: [volume, shank volume, contact x, contact y, band 0 … band K−1].
+    /// Per step: [volume, shank volume, contact x, contact y, chip edge area,
+    /// volume over radius, band 0 … band K−1].
     data: Vec<f64>,
     /// Columns visited (inside a step's footprint) over the whole sweep.
     pub columns_evaluated: u64,
@@ -125,6 +132,21 @@ impl RemovalRecord {
         [r[2], r[3]]
     }
 
+    /// Σ over removed volume of dV / h, where h is the thickness the edge cut
+    /// during the step at that point, normal to the tool surface (mm², MODEL.md
+    /// §3.2). The step's mean chip thickness is `volume / this`; divided by the
+    /// tooth passes of the step it is the mean chip thickness per tooth.
+    pub fn chip_edge_area_mm2(&self, step: usize) -> f64 {
+        self.row(step)[4]
+    }
+
+    /// Σ over removed volume of dV / r, r the tool's radius where the edge cut
+    /// it (mm²): turns specific cutting energy into mean tangential force
+    /// (MODEL.md §3.2).
+    pub fn volume_over_radius_mm2(&self, step: usize) -> f64 {
+        self.row(step)[5]
+    }
+
     /// Sum of all step volumes, mm³.
     pub fn total_volume_mm3(&self) -> f64 {
         (0..self.len()).map(|i| self.volume_mm3(i)).sum()
@@ -145,6 +167,8 @@ struct Prepared {
     /// Unit XY direction and XY length (zero for a plunge).
     u: [f64; 2],
     len_xy: f64,
+    /// 3D length of the move.
+    len: f64,
     /// Lowest tip z along the move: nothing at or below this top can be cut.
     zmin: f64,
 }
@@ -182,6 +206,7 @@ impl Prepared {
             inv_dd,
             u,
             len_xy,
+            len: dd.sqrt(),
             zmin: p0[2].min(step.to_mm[2]),
         }
     }
@@ -260,7 +285,19 @@ trait Envelope: Sync {
     fn reach(&self, _m: &Prepared, _depth: f64) -> Option<f64> {
         None
     }
+
+    /// The cutting edge at height `h` ≥ 0 above the tip: its radius r and
+    /// sin κ, κ the angle between the tool surface's normal there and the axis
+    /// (90° on a cylindrical flank).
+    fn side(&self, h: f64) -> (f64, f64);
+
+    /// cos κ of the tool surface at height `h` ≥ 0 above the tip, where the
+    /// lowest point of a removed piece lies (1 on a flat bottom).
+    fn bottom_cos(&self, h: f64) -> f64;
 }
+
+/// Heights above the tip below this (mm) count as the tool's flat bottom.
+const BOTTOM_MM: f64 = 1e-6;
 
 /// Margin of [`Envelope::stays_above`], mm: far below an f32 height's
 /// resolution, far above the f64 rounding of the bound (and the ≤ 1e-9 mm a
@@ -334,6 +371,22 @@ impl Envelope for BallEnd {
     fn reach(&self, _m: &Prepared, depth: f64) -> Option<f64> {
         Some((2.0 * self.r * (depth + ABOVE_MARGIN_MM)).sqrt())
     }
+
+    #[inline]
+    fn side(&self, h: f64) -> (f64, f64) {
+        if h >= self.r {
+            (self.r, 1.0)
+        } else {
+            // r = √(h (2R − h)), sin κ = r / R
+            let r = (h * (2.0 * self.r - h)).max(0.0).sqrt();
+            (r, r / self.r)
+        }
+    }
+
+    #[inline]
+    fn bottom_cos(&self, h: f64) -> f64 {
+        ((self.r - h) / self.r).max(0.0)
+    }
 }
 
 /// Parameter interval in which the point `(x, y)` lies within `r` of the tool
@@ -367,6 +420,20 @@ impl Envelope for FlatEnd {
         // Tip height is linear in t: lowest at one end of the interval.
         let t = if m.d[2] >= 0.0 { ta } else { tb };
         Some((m.p0[2] + t * m.d[2], t))
+    }
+
+    #[inline]
+    fn side(&self, _h: f64) -> (f64, f64) {
+        (self.r, 1.0)
+    }
+
+    #[inline]
+    fn bottom_cos(&self, h: f64) -> f64 {
+        if h < BOTTOM_MM {
+            1.0
+        } else {
+            0.0
+        }
     }
 }
 
@@ -432,6 +499,26 @@ impl Envelope for BullNose {
         }
         Some(best)
     }
+
+    #[inline]
+    fn side(&self, h: f64) -> (f64, f64) {
+        if h >= self.rc {
+            (self.r, 1.0)
+        } else {
+            // Torus: r = ring + √(rc² − (rc − h)²), sin κ = (r − ring) / rc
+            let e = (h * (2.0 * self.rc - h)).max(0.0).sqrt();
+            (self.ring + e, e / self.rc)
+        }
+    }
+
+    #[inline]
+    fn bottom_cos(&self, h: f64) -> f64 {
+        if h < BOTTOM_MM {
+            1.0
+        } else {
+            ((self.rc - h) / self.rc).max(0.0)
+        }
+    }
 }
 
 /// Per-(strip, move) accumulator width and band bookkeeping shared by the strip loop.
@@ -443,25 +530,28 @@ struct Banding {
 }
 
 impl Banding {
-    /// Credit the removed piece [a, b] (absolute z) of a column to the bands
-    /// above a tip at `z_tip`; `acc` is [volume, shank, cx, cy, bands…] in mm.
+    /// Credit `share` of the removed piece [a, b] (absolute z) of a column to
+    /// the bands above a tip at `z_tip`; `acc` is [volume, shank, cx, cy, chip
+    /// area, volume over radius, bands…] in mm. Returns the piece's length.
     #[inline]
-    fn credit(&self, acc: &mut [f64], z_tip: f64, a: f64, b: f64) {
+    fn credit(&self, acc: &mut [f64], z_tip: f64, a: f64, b: f64, share: f64) -> f64 {
         let mut lo = (a - z_tip).max(0.0);
         let hi = (b - z_tip).max(lo);
-        acc[0] += hi - lo;
+        let length = hi - lo;
+        acc[0] += share * length;
         let mut k = (lo * self.inv_band_h) as usize;
         while lo < hi && k < self.n_bands {
             let top = (((k + 1) as f64) * self.band_h).min(self.flute_len).min(hi);
             if top > lo {
-                acc[HEAD + k] += top - lo;
+                acc[HEAD + k] += share * (top - lo);
                 lo = top;
             }
             k += 1;
         }
         if lo < hi {
-            acc[1] += hi - lo;
+            acc[1] += share * (hi - lo);
         }
+        length
     }
 }
 
@@ -497,6 +587,56 @@ fn cut_above(col: &mut Column, z: f32, mut piece: impl FnMut(f32, f32)) {
     }
 }
 
+/// Where and how the edge met a cut column (MODEL.md §1.4, §1.5, §3.2).
+struct Contact {
+    /// Unit XY vector from the tool axis to the column when the edge reached it.
+    r_hat: [f64; 2],
+    /// Radius of the edge there, mm.
+    r_mm: f64,
+    /// Thickness the edge cut there during the whole step, normal to the tool
+    /// surface, mm.
+    h_mm: f64,
+    /// Shares of the column credited to the previous, this and the next step.
+    shares: [f64; 3],
+}
+
+/// Accumulator slot of share k ([previous, this, next] → slots 1, 0, 2).
+#[inline]
+fn k_slot(k: usize) -> usize {
+    [1, 0, 2][k]
+}
+
+/// Floor of the cut thickness as a share of the step length (flanks, where
+/// the edge runs along the material: the chip there is thin but not zero).
+/// It biases the mean chip thickness of a full slot up by about 1 %.
+const MIN_THICKNESS_SHARE: f64 = 0.03;
+
+/// Floor of the edge's advance normal to itself per unit of path when
+/// spreading a column over steps (on a flank it runs nearly along itself).
+const MIN_EDGE_SPEED: f64 = 0.1;
+
+/// CDF at `x` of the sum of two uniform variables on [0, a] and [0, b]: the
+/// share of a square cell that a straight boundary has passed, a and b being
+/// the projections of the cell's sides on the boundary's normal.
+#[inline]
+fn trapezoid_cdf(x: f64, a: f64, b: f64) -> f64 {
+    let (a, b) = if a >= b { (a, b) } else { (b, a) };
+    if x <= 0.0 {
+        0.0
+    } else if x >= a + b {
+        1.0
+    } else if b <= 1e-9 * a {
+        x / a
+    } else if x < b {
+        x * x / (2.0 * a * b)
+    } else if x <= a {
+        (x - 0.5 * b) / a
+    } else {
+        let r = a + b - x;
+        1.0 - r * r / (2.0 * a * b)
+    }
+}
+
 /// Everything one strip needs to run its moves.
 struct StripJob<'a, E> {
     env: &'a E,
@@ -505,11 +645,90 @@ struct StripJob<'a, E> {
     banding: &'a Banding,
     moves: &'a [Prepared],
     first_step: usize,
+    smooth: bool,
 }
 
 impl<E: Envelope> StripJob<'_, E> {
+    /// Accumulator width per entry: this step, then (smoothing) the previous and next.
+    fn width(&self) -> usize {
+        let stride = HEAD + self.banding.n_bands;
+        if self.smooth {
+            3 * stride
+        } else {
+            stride
+        }
+    }
+
+    /// How the edge met the column at (x, y), cut at parameter t from the
+    /// heights `h_top` (its top before the cut) down to `h_bot` above the tip.
+    #[inline]
+    fn contact(&self, m: &Prepared, x: f64, y: f64, t: f64, h_top: f64, h_bot: f64) -> Contact {
+        let (r_edge, sin_k) = self.env.side(h_top.max(0.0));
+        let r_mm = r_edge.max(1e-3 * self.radius);
+        let down = (-m.d[2]).max(0.0) * self.env.bottom_cos(h_bot.max(0.0));
+        let floor = MIN_THICKNESS_SHARE * m.len;
+        if m.h2 <= PLUNGE_H2 {
+            let (ax, ay) = (x - (m.p0[0] + t * m.d[0]), y - (m.p0[1] + t * m.d[1]));
+            let dist = ax.hypot(ay);
+            let r_hat = if dist > 1e-12 {
+                [ax / dist, ay / dist]
+            } else {
+                [0.0, 0.0]
+            };
+            return Contact {
+                r_hat,
+                r_mm,
+                h_mm: down.max(floor),
+                shares: [0.0, 1.0, 0.0],
+            };
+        }
+        // The edge circle of radius r at the column's top first reaches it at
+        // the angle θ from the feed direction with sin θ = e / r (e: the
+        // column's signed offset to the left of the move's line).
+        let [ux, uy] = m.u;
+        let (wx, wy) = (x - m.p0[0], y - m.p0[1]);
+        let sin_t = ((ux * wy - uy * wx) / r_mm).clamp(-1.0, 1.0);
+        let cos_t = (1.0 - sin_t * sin_t).sqrt();
+        let r_hat = [cos_t * ux - sin_t * uy, cos_t * uy + sin_t * ux];
+        // MODEL.md §3.2: h = f · n̂, the step's feed vector on the tool surface's normal.
+        // Near the flanks 1/cos θ varies fast across the cell: take its mean over the
+        // cell's offsets, [e − g/2, e + g/2] ∩ [−r, r] (mean of 1/cos = Δ arcsin · r / Δe).
+        let side = m.len_xy * sin_k * cos_t;
+        let inv_cos = if cos_t >= 0.5 {
+            1.0 / cos_t
+        } else {
+            let half = 0.5 * self.grid.spacing_mm / r_mm;
+            let (lo, hi) = ((sin_t - half).max(-1.0), (sin_t + half).min(1.0));
+            (hi.asin() - lo.asin()) / (2.0 * half)
+        };
+        let side_eff = m.len_xy * sin_k / inv_cos;
+        let h_mm = side_eff.max(down).max(floor);
+        let shares = if self.smooth && side >= down {
+            // MODEL.md §1.5: the edge, locally straight with normal r̂, passes the
+            // column's centre at s_c along the move and advances cos θ per mm of path;
+            // the cell's share passed by s is the trapezoid CDF.
+            let s_c = ((wx * ux + wy * uy) - r_mm * cos_t).clamp(0.0, m.len_xy);
+            let g = self.grid.spacing_mm;
+            let (a, b) = (g * r_hat[0].abs(), g * r_hat[1].abs());
+            let speed = cos_t.max(MIN_EDGE_SPEED);
+            let passed = |s: f64| trapezoid_cdf((s - s_c) * speed + 0.5 * (a + b), a, b);
+            let (before, after) = (passed(0.0), 1.0 - passed(m.len_xy));
+            [before, 1.0 - before - after, after]
+        } else {
+            [0.0, 1.0, 0.0]
+        };
+        Contact {
+            r_hat,
+            r_mm,
+            h_mm,
+            shares,
+        }
+    }
+
     /// Run the moves `entries` (batch-local indices, ascending) over the rows
-    /// `row0..row0 + rows` whose columns are `cols`; write per-entry sums into `out`.
+    /// `row0..row0 + rows` whose columns are `cols`; write per-entry sums into `out`
+    /// (per entry: this step's sums, then with smoothing the shares for the
+    /// previous and the next step).
     fn run(
         &self,
         row0: usize,
@@ -521,11 +740,12 @@ impl<E: Envelope> StripJob<'_, E> {
         let nx = self.grid.nx;
         let rows = cols.len() / nx;
         let stride = HEAD + self.banding.n_bands;
+        let width = self.width();
         let area = self.grid.cell_area_mm2();
         let mut visited = 0u64;
         for (j, &mi) in entries.iter().enumerate() {
             let m = &self.moves[mi as usize];
-            let acc = &mut out[j * stride..(j + 1) * stride];
+            let all = &mut out[j * width..(j + 1) * width];
             let step_index = (self.first_step + mi as usize) as u32;
             let Some((iy0, iy1)) = m.row_range(self.grid, self.radius) else {
                 continue;
@@ -566,23 +786,35 @@ impl<E: Envelope> StripJob<'_, E> {
                         continue;
                     }
                     let z_tip = m.p0[2] + t * m.d[2];
-                    let before = acc[0];
+                    let c = self.contact(m, x, y, t, top as f64 - z_tip, z as f64 - z_tip);
+                    let mut removed = 0.0;
                     cut_above(col, z, |a, b| {
-                        self.banding.credit(acc, z_tip, a as f64, b as f64)
+                        let mut length = 0.0;
+                        for (k, share) in c.shares.iter().enumerate() {
+                            if *share > 0.0 {
+                                let acc = &mut all[k_slot(k) * stride..(k_slot(k) + 1) * stride];
+                                length =
+                                    self.banding.credit(acc, z_tip, a as f64, b as f64, *share);
+                            }
+                        }
+                        removed += length;
                     });
-                    let removed = acc[0] - before;
                     if removed > 0.0 {
                         last_cut[base + ix] = step_index;
-                        let (ax, ay) = (x - (m.p0[0] + t * m.d[0]), y - (m.p0[1] + t * m.d[1]));
-                        let dist = (ax * ax + ay * ay).sqrt();
-                        if dist > 1e-12 {
-                            acc[2] += removed * ax / dist;
-                            acc[3] += removed * ay / dist;
+                        for (k, share) in c.shares.iter().enumerate() {
+                            if *share > 0.0 {
+                                let acc = &mut all[k_slot(k) * stride..(k_slot(k) + 1) * stride];
+                                let v = share * removed;
+                                acc[2] += v * c.r_hat[0];
+                                acc[3] += v * c.r_hat[1];
+                                acc[4] += v / c.h_mm;
+                                acc[5] += v / c.r_mm;
+                            }
                         }
                     }
                 }
             }
-            for v in acc.iter_mut() {
+            for v in all.iter_mut() {
                 *v *= area;
             }
         }
@@ -765,6 +997,19 @@ pub fn sweep_tools(
     Ok(record)
 }
 
+/// Whether `b` continues `a`'s motion: it starts where `a` ends, is of the same
+/// kind (a rapid must not look as if it cut) and turns by less than 90° in XY.
+fn continues(a: &Step, b: &Step) -> bool {
+    let da = [a.to_mm[0] - a.from_mm[0], a.to_mm[1] - a.from_mm[1]];
+    let db = [b.to_mm[0] - b.from_mm[0], b.to_mm[1] - b.from_mm[1]];
+    a.rapid == b.rapid
+        && a.to_mm
+            .iter()
+            .zip(&b.from_mm)
+            .all(|(p, q)| (p - q).abs() <= 1e-9)
+        && da[0] * db[0] + da[1] * db[1] > 0.0
+}
+
 #[allow(clippy::too_many_arguments)]
 fn run_batches<E: Envelope>(
     stock: &mut Stock,
@@ -811,7 +1056,6 @@ fn run_batches<E: Envelope>(
                 }
             }
         }
-        let mut partial = vec![0.0f64; entries.len() * stride];
         let job = StripJob {
             env,
             grid: &grid,
@@ -819,13 +1063,16 @@ fn run_batches<E: Envelope>(
             banding,
             moves: &moves,
             first_step,
+            smooth: options.smooth,
         };
+        let width = job.width();
+        let mut partial = vec![0.0f64; entries.len() * width];
         // Split columns, last-cut marks and partial sums into per-strip pieces.
         let strip_len = strip_rows * grid.nx;
         let mut partial_pieces: Vec<&mut [f64]> = Vec::with_capacity(n_strips);
         let mut rest: &mut [f64] = &mut partial;
         for s in 0..n_strips {
-            let n = (counts[s + 1] - counts[s]) as usize * stride;
+            let n = (counts[s + 1] - counts[s]) as usize * width;
             let (head, tail) = rest.split_at_mut(n);
             partial_pieces.push(head);
             rest = tail;
@@ -846,12 +1093,27 @@ fn run_batches<E: Envelope>(
             })
             .sum();
         record.columns_evaluated += visited;
-        // Reduce in strip order: the same sums whatever the thread count.
+        // Reduce in strip order: the same sums whatever the thread count. Shares
+        // for a neighbouring step go to it only if the tool's motion continues
+        // there (else they stay with the step).
         for (e, &mi) in entries.iter().enumerate() {
-            let dst = (first_step + mi as usize) * stride;
-            let src = &partial[e * stride..(e + 1) * stride];
-            for (d, s) in record.data[dst..dst + stride].iter_mut().zip(src) {
-                *d += s;
+            let i = first_step + mi as usize;
+            let prev = if i > 0 && continues(&steps[i - 1], &steps[i]) {
+                i - 1
+            } else {
+                i
+            };
+            let next = if i + 1 < steps.len() && continues(&steps[i], &steps[i + 1]) {
+                i + 1
+            } else {
+                i
+            };
+            for (slot, target) in [i, prev, next].into_iter().enumerate().take(width / stride) {
+                let src = &partial[e * width + slot * stride..e * width + (slot + 1) * stride];
+                let dst = target * stride;
+                for (d, s) in record.data[dst..dst + stride].iter_mut().zip(src) {
+                    *d += s;
+                }
             }
         }
         done += chunk.len();
@@ -1195,7 +1457,7 @@ mod tests {
             flute_len: 2.5,
         };
         let mut acc = vec![0.0; HEAD + 3];
-        b.credit(&mut acc, 10.0, 10.5, 14.0);
+        assert_eq!(b.credit(&mut acc, 10.0, 10.5, 14.0, 1.0), 3.5);
         assert_eq!(acc[0], 3.5);
         assert_eq!(&acc[HEAD..], &[0.5, 1.0, 0.5]);
         assert_eq!(acc[1], 1.5, "above the flute length is shank contact");

@@ -296,6 +296,7 @@ fn identical_results_for_one_and_many_threads() {
                 band_height_mm: 0.5,
                 strip_rows: 4,
                 batch_steps: 97,
+                ..SweepOptions::default()
             };
             let record = sweep(&mut stock, &Tool::ball(6.0), &steps, &opts, &|_| {}).unwrap();
             (record, stock.top_heights(), stock.last_cut().to_vec())
@@ -405,4 +406,112 @@ fn sweep_tools_equals_sweeps_in_turn() {
         &|_| {}
     )
     .is_err());
+}
+
+/// Steady flat-end slot in servo-sized steps: per-step volumes of the steady part.
+fn slot_step_volumes(
+    smooth: bool,
+    grid: f64,
+    step_mm: f64,
+    width_y: (f64, f64),
+) -> (Vec<f64>, f64, f64) {
+    let mut stock = Stock::new_box([0.0, width_y.0, 0.0], [60.0, width_y.1, 10.0], grid).unwrap();
+    let before = stock.volume_mm3();
+    let n = (70.0 / step_mm) as usize;
+    let steps: Vec<Step> = (0..n)
+        .map(|i| {
+            let x = -6.0 + i as f64 * step_mm;
+            line([x, 0.0, 8.0], [x + step_mm, 0.0, 8.0])
+        })
+        .collect();
+    let options = SweepOptions {
+        band_height_mm: 1.0,
+        smooth,
+        ..SweepOptions::default()
+    };
+    let record = sweep(&mut stock, &Tool::flat(10.0), &steps, &options, &|_| {}).unwrap();
+    let removed = before - stock.volume_mm3();
+    // Steady: the whole tool inside the stock, from x = 10 to x = 45.
+    let steady: Vec<f64> = (0..n)
+        .filter(|&i| {
+            let x = -6.0 + i as f64 * step_mm;
+            x > 10.0 && x < 45.0
+        })
+        .map(|i| record.volume_mm3(i))
+        .collect();
+    (steady, removed, record.total_volume_mm3())
+}
+
+/// Largest relative change of removal from one step to the next.
+fn step_to_step(v: &[f64]) -> f64 {
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    v.windows(2)
+        .map(|w| (w[1] - w[0]).abs() / mean)
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn smoothed_step_removal_does_not_alias_with_the_grid() {
+    // Full slot, Ø10 flat end, 0.1 mm grid, 0.08 mm per step (0.8 cells per period).
+    let (raw, _, _) = slot_step_volumes(false, 0.1, 0.08, (-20.0, 20.0));
+    let (smooth, removed, recorded) = slot_step_volumes(true, 0.1, 0.08, (-20.0, 20.0));
+    // Exact volume per step: D · depth · step = 10 · 2 · 0.08 = 1.6 mm³.
+    let mean = smooth.iter().sum::<f64>() / smooth.len() as f64;
+    assert_rel(mean, 1.6, 5e-3, "mean steady removal");
+    let (raw_var, smooth_var) = (step_to_step(&raw), step_to_step(&smooth));
+    eprintln!("full slot step-to-step: raw {raw_var:.4}, smoothed {smooth_var:.4}");
+    assert!(raw_var > 0.05, "unsmoothed removal should alias: {raw_var}");
+    assert!(
+        smooth_var < 0.02,
+        "smoothed removal varies {smooth_var} step to step (raw {raw_var})"
+    );
+    // Totals are kept: Σ steps = initial − final.
+    assert_rel(recorded, removed, 1e-9, "smoothed total");
+    // Half-immersion side cut and a step that is not a simple fraction of the grid.
+    for step_mm in [0.08, 0.137, 0.3] {
+        let (side, removed, recorded) = slot_step_volumes(true, 0.1, step_mm, (0.0, 20.0));
+        let v = step_to_step(&side);
+        eprintln!("side cut {step_mm} mm/step: smoothed {v:.4}");
+        let mean = side.iter().sum::<f64>() / side.len() as f64;
+        assert_rel(mean, 5.0 * 2.0 * step_mm, 5e-3, "mean side-cut removal");
+        assert!(v < 0.02, "side cut at {step_mm} mm per step varies {v}");
+        assert_rel(recorded, removed, 1e-9, "side-cut total");
+    }
+}
+
+/// Steady flat-end cut, radial immersion from the +y side: (Σ volume, Σ chip edge area,
+/// Σ volume / radius, resultant) over the steady steps.
+fn steady_chip_sums(y_min: f64, step_mm: f64, tool: Tool) -> (f64, f64, f64, [f64; 2]) {
+    let mut stock = Stock::new_box([0.0, y_min, 0.0], [60.0, 20.0, 10.0], 0.05).unwrap();
+    let n = (70.0 / step_mm) as usize;
+    let steps: Vec<Step> = (0..n)
+        .map(|i| {
+            let x = -6.0 + i as f64 * step_mm;
+            line([x, 0.0, 8.0], [x + step_mm, 0.0, 8.0])
+        })
+        .collect();
+    let record = run(&mut stock, &tool, &steps, 1.0);
+    let mut sums = (0.0, 0.0, 0.0, [0.0, 0.0]);
+    for i in (0..n).filter(|&i| (10.0..45.0).contains(&(-6.0 + i as f64 * step_mm))) {
+        sums.0 += record.volume_mm3(i);
+        sums.1 += record.chip_edge_area_mm2(i);
+        sums.2 += record.volume_over_radius_mm2(i);
+        let [cx, cy] = record.contact_resultant(i);
+        sums.3 = [sums.3[0] + cx, sums.3[1] + cy];
+    }
+    sums
+}
+
+#[test]
+fn mean_chip_thickness_of_side_cuts() {
+    // h_m / f = (cos φ_st − cos φ_ex) / (φ_ex − φ_st) (MODEL.md §3.2): full slot and half
+    // immersion 2/π, quarter immersion (a_e = D/4, φ = 0…π/3) 0.5 / (π/3).
+    let step = 0.2;
+    for (y_min, expected) in [(-20.0, 2.0 / PI), (0.0, 2.0 / PI), (2.5, 0.5 / (PI / 3.0))] {
+        let (v, edge, v_over_r, _) = steady_chip_sums(y_min, step, Tool::flat(10.0));
+        let ratio = v / edge / step;
+        eprintln!("y_min {y_min}: h_m/f = {ratio:.4}, expected {expected:.4}");
+        assert_rel(ratio, expected, 0.02, "mean chip thickness per feed");
+        assert_rel(v_over_r, v / R, 1e-9, "flat end: volume over radius");
+    }
 }
