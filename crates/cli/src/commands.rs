@@ -277,14 +277,17 @@ pub fn simulate(
     simulate::write_json(&out_dir.path().join("summary.json"), &doc)?;
     out_dir.commit("simulate")?;
     crate::outln!(
-        "removed {:.1} mm³ of {:.1} mm³ in {} steps; cycle {:.2} s; peak MRR {:.2} mm³/s, force {:.1} N, deflection {:.1} µm; results in {}",
+        "removed {:.1} mm³ of {:.1} mm³ in {} steps; cycle {:.2} s; peak MRR {:.2} mm³/s, force {:.1} N, power {:.3} kW, deflection {:.1} µm; error {:.1}…{:.1} µm; results in {}",
         summary.removed_volume_mm3,
         summary.initial_volume_mm3,
         summary.steps,
         summary.cycle_time_s,
         summary.peak_mrr_mm3_s,
         summary.peak_force_n,
+        summary.peak_power_w / 1000.0,
         summary.peak_deflection_um,
+        summary.min_error_um,
+        summary.max_error_um,
         out.display()
     );
     summary.warnings.print_after_work("");
@@ -338,6 +341,7 @@ struct LimitsOut {
     mrr_max_mm3_s: Option<f64>,
     force_max_n: Option<f64>,
     deflection_max_um: Option<f64>,
+    power_max_kw: Option<f64>,
     feed_min_mm_min: Option<f64>,
     feed_max_mm_min: f64,
     /// fz_max · flutes · spindle rpm, mm/min.
@@ -382,9 +386,10 @@ pub fn optimize(
     if limits.mrr_max.is_none()
         && limits.force_max.is_none()
         && limits.deflection_max_um.is_none()
+        && limits.power_max_kw.is_none()
         && !limits.angle_rule
     {
-        eprintln!("warning: [limits] sets no mrr_max, force_max, deflection_max_um or angle_rule: cutting runs at feed_max");
+        eprintln!("warning: [limits] sets no mrr_max, force_max, deflection_max_um, power_max_kw or angle_rule: cutting runs at feed_max");
     }
     let grid_warning = setup.grid_warning();
     // Before: the program as written.
@@ -486,6 +491,7 @@ pub fn optimize(
             mrr_max_mm3_s: limits.mrr_max,
             force_max_n: limits.force_max,
             deflection_max_um: limits.deflection_max_um,
+            power_max_kw: limits.power_max_kw,
             feed_min_mm_min: limits.feed_min,
             feed_max_mm_min: machine.feed_max_mm_min,
             chip_load_feed_mm_min: fz_max_mm.map(|fz| {

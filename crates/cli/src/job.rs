@@ -101,6 +101,13 @@ pub struct ToolSpec {
     pub number: Option<u32>,
     /// `[[tools]]` only: gauge length, mm (what G43 applies); default 0.
     pub length: Option<f64>,
+    /// Diameter of the solid shank between the flutes and the holder, mm; default diameter.
+    pub shank_diameter: Option<f64>,
+    /// Lateral stiffness of holder and spindle at the holder face, N/µm; default rigid.
+    pub holder_stiffness_n_per_um: Option<f64>,
+    /// Allowable von Mises stress in the tool, MPa (plausibility warnings); default
+    /// 1200 for carbide (E ≥ 400 000 MPa), 1000 otherwise (MODEL.md §4.4).
+    pub stress_limit_mpa: Option<f64>,
 }
 
 fn default_flutes() -> u32 {
@@ -127,9 +134,28 @@ pub struct CuttingSpec {
     pub material: String,
     /// Spindle speed, rev/min; default: the program's S word, else 10 000.
     pub spindle_rpm: Option<f64>,
+    /// Force model: "kienzle" (specific cutting force at the mean chip thickness,
+    /// MODEL.md §3.2) or "power_law" (S4's F = a·V^n, §3.1).
+    #[serde(default)]
+    pub model: ForceModelKind,
     /// Force law F = a·V^n (N, mm³/rev/tooth); default from the material.
     pub force_a: Option<f64>,
     pub force_n: Option<f64>,
+    /// Kienzle: specific cutting force at 1 mm chip thickness, N/mm²; default from the material.
+    pub kc1_1: Option<f64>,
+    /// Kienzle exponent mc; default from the material.
+    pub mc: Option<f64>,
+    /// Radial and axial force over tangential force; default 0.3 and 0.25.
+    pub radial_ratio: Option<f64>,
+    pub axial_ratio: Option<f64>,
+}
+
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum ForceModelKind {
+    #[default]
+    Kienzle,
+    PowerLaw,
 }
 
 fn default_band() -> f64 {
@@ -145,8 +171,13 @@ impl Default for CuttingSpec {
             band_height: default_band(),
             material: default_material(),
             spindle_rpm: None,
+            model: ForceModelKind::default(),
             force_a: None,
             force_n: None,
+            kc1_1: None,
+            mc: None,
+            radial_ratio: None,
+            axial_ratio: None,
         }
     }
 }
@@ -210,8 +241,10 @@ pub struct LimitsSpec {
     pub mrr_max: Option<f64>,
     /// Cutting force limit, N.
     pub force_max: Option<f64>,
-    /// Tool tip deflection limit, µm.
+    /// Tool deflection limit at the contact height, µm.
     pub deflection_max_um: Option<f64>,
+    /// Spindle cutting power limit, kW.
+    pub power_max_kw: Option<f64>,
     /// Lowest feed the optimiser may write, mm/min.
     pub feed_min: Option<f64>,
     /// Highest feed the optimiser may write, mm/min (default: machine feed_max).
@@ -513,6 +546,22 @@ impl Job {
         }
         positive_opt("cutting.force_a", c.force_a, 1e7)?;
         positive_opt("cutting.force_n", c.force_n, 2.0)?;
+        positive_opt("cutting.kc1_1 (N/mm²)", c.kc1_1, 1e6)?;
+        if let Some(mc) = c.mc {
+            if !(0.0..1.0).contains(&mc) {
+                bail!("cutting.mc must lie in 0..1, got {mc}");
+            }
+        }
+        for (what, v) in [
+            ("cutting.radial_ratio", c.radial_ratio),
+            ("cutting.axial_ratio", c.axial_ratio),
+        ] {
+            if let Some(v) = v {
+                if !(0.0..=100.0).contains(&v) {
+                    bail!("{what} must be a number from 0 to 100, got {v}");
+                }
+            }
+        }
         let m = &self.machine;
         range("machine.period_ms", m.period_ms, 0.01, 1000.0)?;
         feed_opt("machine.feed_max (mm/min)", Some(m.feed_max))?;
@@ -536,6 +585,7 @@ impl Job {
             ("limits.mrr_max (mm³/s)", l.mrr_max),
             ("limits.force_max (N)", l.force_max),
             ("limits.deflection_max_um", l.deflection_max_um),
+            ("limits.power_max_kw", l.power_max_kw),
         ] {
             positive_opt(key, v, 1e9)?;
             if let Some(v) = v {
@@ -665,6 +715,17 @@ impl ToolSpec {
             bail!("{key}.flutes must be 1..{MAX_FLUTES}, got {}", t.flutes);
         }
         positive_opt(&format!("{key}.fz_max (mm/tooth)"), t.fz_max, 10.0)?;
+        positive_opt(
+            &format!("{key}.shank_diameter (mm)"),
+            t.shank_diameter,
+            1000.0,
+        )?;
+        positive_opt(
+            &format!("{key}.holder_stiffness_n_per_um"),
+            t.holder_stiffness_n_per_um,
+            1e12,
+        )?;
+        positive_opt(&format!("{key}.stress_limit_mpa"), t.stress_limit_mpa, 1e6)?;
         if t.kind == ToolKind::Bull && t.corner_radius.is_none() {
             bail!("{key}: kind \"bull\" needs corner_radius (mm)");
         }

@@ -5,8 +5,9 @@
 //! fine stations gives the removed volume per unit length A(s) (mm³/mm).
 //! Every limit then becomes a cap on the feed at that station:
 //! * MRR: MRR = A·F/60 ≤ Q  ⇒  F ≤ 60·Q/A;
-//! * force: V = A·F/(z·n) per tooth and F_c = a·V^n ≤ F_max ⇒ F ≤ (F_max/a)^(1/n)·z·n/A;
-//! * deflection: δ = F_c·c(s), c from the band distribution ⇒ a force cap F_max = δ_max/c;
+//! * force, deflection and spindle power: at fixed engagement each grows like F^p
+//!   (p = n for S4's law, 1 − mc for Kienzle's, MODEL.md §3), so the load at a
+//!   reference feed gives the cap F ≤ F_ref·(limit/Q(F_ref))^(1/p);
 //! * S3's angle rule on ball-end mills; feed_min/feed_max; S0's block time.
 
 use anyhow::{bail, Context, Result};
@@ -26,11 +27,14 @@ use crate::tools::ToolSet;
 pub struct Engagement {
     /// Per interval k (station k → k+1): removed volume per unit length, mm³/mm.
     pub area_mm2: Vec<f64>,
-    /// Per interval: tip deflection per newton of cutting force, mm/N (band distribution).
-    pub compliance_mm_n: Vec<f64>,
     /// Per interval: index into the tool set of the tool cutting it.
     pub tool_index: Vec<usize>,
+    /// Per interval: the load at [`REFERENCE_FEED_MM_MIN`] with the windowed engagement.
+    pub reference_loads: Vec<cutting::StepLoad>,
 }
+
+/// Feed at which [`Engagement::reference_loads`] are computed, mm/min.
+pub const REFERENCE_FEED_MM_MIN: f64 = 1000.0;
 
 /// Sweep a copy of the stock along the stations (geometry only, no time).
 pub fn engagement(stations: &Stations, stock: &Stock, tools: &ToolSet) -> Result<Engagement> {
@@ -66,18 +70,69 @@ pub fn engagement(stations: &Stations, stock: &Stock, tools: &ToolSet) -> Result
     let volumes: Vec<f64> = (0..steps.len()).map(|k| record.volume_mm3(k)).collect();
     let window_mm = (ENGAGEMENT_WINDOW_CELLS * stock.grid().spacing_mm).max(2.0 * STATION_DS_MM);
     let area_mm2 = windowed_area(stations.s_mm(), &volumes, window_mm);
-    let compliance_mm_n = (0..steps.len())
-        .map(|k| {
-            tools.entries[tool_index[k]]
-                .model
-                .tip_compliance_mm_per_n(record.band_volumes_mm3(k))
-        })
-        .collect();
+    let reference_loads = reference_loads(&record, &area_mm2, stations.s_mm(), |k| {
+        &tools.entries[tool_index[k]].model
+    });
     Ok(Engagement {
         area_mm2,
-        compliance_mm_n,
+        reference_loads,
         tool_index,
     })
+}
+
+/// Per interval, the load at [`REFERENCE_FEED_MM_MIN`] of a cut with the
+/// windowed volume per length and the interval's own shape of removal (chip
+/// thickness per feed, contact direction, bands), taken from the nearest
+/// interval that removed material where this one removed none.
+fn reference_loads<'a>(
+    record: &dexel::RemovalRecord,
+    area_mm2: &[f64],
+    s_mm: &[f64],
+    model_of: impl Fn(usize) -> &'a CuttingModel,
+) -> Vec<cutting::StepLoad> {
+    let n = area_mm2.len();
+    let mut last = None;
+    let mut source: Vec<Option<usize>> = (0..n)
+        .map(|k| {
+            if record.volume_mm3(k) > 0.0 {
+                last = Some(k);
+            }
+            last
+        })
+        .collect();
+    let mut next = None;
+    for (k, src) in source.iter_mut().enumerate().rev() {
+        if record.volume_mm3(k) > 0.0 {
+            next = Some(k);
+        }
+        *src = src.or(next);
+    }
+    let mut bands = vec![0.0; record.n_bands];
+    (0..n)
+        .map(|k| {
+            let (Some(j), true) = (source[k], area_mm2[k] > 0.0) else {
+                return cutting::StepLoad::default();
+            };
+            let len_mm = s_mm[k + 1] - s_mm[k];
+            let volume = area_mm2[k] * len_mm;
+            let scale = volume / record.volume_mm3(j);
+            for (b, v) in bands.iter_mut().zip(record.band_volumes_mm3(j)) {
+                *b = v * scale;
+            }
+            let [cx, cy] = record.contact_resultant(j);
+            model_of(k).step_load(&cutting::StepRemoval {
+                volume_mm3: volume,
+                band_volumes_mm3: &bands,
+                contact_resultant: [cx * scale, cy * scale],
+                // The chip edge area is per step: for the interval's own length, scaled
+                // by the ratio of lengths (thickness per mm of path is what is kept).
+                chip_edge_area_mm2: record.chip_edge_area_mm2(j) * scale * (s_mm[j + 1] - s_mm[j])
+                    / len_mm,
+                volume_over_radius_mm2: record.volume_over_radius_mm2(j) * scale,
+                dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
+            })
+        })
+        .collect()
 }
 
 /// Engagement is averaged over this many grid cells of path: a dexel grid
@@ -168,14 +223,6 @@ pub fn interval_caps(
             // The model and shape of the tool cutting this interval.
             let entry = &tools.entries[engagement.tool_index[k]];
             let (model, tool) = (&entry.model, &entry.tool);
-            let force_cap_v = |force_max_n: f64| {
-                cutting::volume_per_tooth_at_force_mm3(
-                    force_max_n,
-                    model.force_coef_a,
-                    model.force_exp_n,
-                )
-            };
-            let per_rev = model.flutes as f64 * model.spindle_rpm;
             let mut cap = (f64::INFINITY, CapKind::FeedMax);
             let mut lower = |v: f64, kind: CapKind| {
                 if v < cap.0 {
@@ -203,12 +250,19 @@ pub fn interval_caps(
                 if let Some(q) = limits.mrr_max {
                     lower(60.0 * q / a, CapKind::Removal); // MRR = A·F/60 ≤ Q
                 }
+                // Load ∝ F^p at fixed engagement (MODEL.md §3): F ≤ F_ref·(limit/Q_ref)^(1/p).
+                let at_ref = &engagement.reference_loads[k];
+                let cap = |q_ref: f64, limit: f64| {
+                    model.feed_for_limit(q_ref, REFERENCE_FEED_MM_MIN, limit)
+                };
                 if let Some(f) = limits.force_max {
-                    lower(force_cap_v(f) * per_rev / a, CapKind::Force); // V = A·F/(z·n), F_c = a·V^n
+                    lower(cap(at_ref.force_n, f), CapKind::Force);
                 }
                 if let Some(d_um) = limits.deflection_max_um {
-                    let f = d_um * 1e-3 / engagement.compliance_mm_n[k];
-                    lower(force_cap_v(f) * per_rev / a, CapKind::Deflection); // δ = F_c·c
+                    lower(cap(at_ref.deflection_um, d_um), CapKind::Deflection);
+                }
+                if let Some(p_kw) = limits.power_max_kw {
+                    lower(cap(at_ref.power_w, 1000.0 * p_kw), CapKind::Power);
                 }
                 if let (true, Some(v0), dexel::ToolShape::Ball) =
                     (limits.angle_rule, limits.v0, tool.shape)
@@ -370,8 +424,9 @@ pub struct Excess {
 pub const LIMIT_MARGIN: f64 = 0.01;
 
 /// Servo periods of `run` (per period, as the summary prints them) whose MRR,
-/// force or deflection exceeds the limits. MRR scales with the feed; force and
-/// deflection with the feed to the power n of the force law (MODEL.md §3.1).
+/// force, deflection or spindle power exceeds the limits. MRR scales with the
+/// feed; force, deflection and power with the feed to the power p of the force
+/// model (n of S4's law, 1 − mc of Kienzle's, MODEL.md §3).
 pub fn excesses(
     run: &crate::simulate::Run,
     limits: &LimitsSpec,
@@ -387,12 +442,13 @@ pub fn excesses(
         while j < n && run.steps[j].continues {
             j += 1;
         }
-        let (mut vol, mut dt, mut force, mut defl) = (0.0, 0.0, 0.0f64, 0.0f64);
+        let (mut vol, mut dt, mut force, mut defl, mut power) = (0.0, 0.0, 0.0f64, 0.0f64, 0.0f64);
         for k in i..j {
             vol += run.record.volume_mm3(k);
             dt += run.steps[k].dt_s;
             force = force.max(run.loads[k].force_n);
             defl = defl.max(run.loads[k].deflection_um);
+            power = power.max(run.loads[k].power_w);
         }
         let s_to = run.steps[j - 1].s_end_mm;
         let cutting = !run.steps[i..j].iter().all(|s| s.step.rapid);
@@ -412,7 +468,15 @@ pub fn excesses(
                     lower(q * (1.0 - LIMIT_MARGIN) * dt / vol, CapKind::Removal, over);
                 }
             }
-            let root = |r: f64| r.powf(1.0 / model.force_exp_n);
+            let p = model.force_model.feed_exponent();
+            let root = |r: f64| r.powf(1.0 / p);
+            if let Some(kw) = limits.power_max_kw {
+                let w = 1000.0 * kw;
+                if power > w * (1.0 + 0.5 * LIMIT_MARGIN) {
+                    let over = power / w - 1.0;
+                    lower(root(w * (1.0 - LIMIT_MARGIN) / power), CapKind::Power, over);
+                }
+            }
             if let Some(f) = limits.force_max {
                 if force > f * (1.0 + 0.5 * LIMIT_MARGIN) {
                     let over = force / f - 1.0;
@@ -684,6 +748,7 @@ pub fn cap_words(kind: CapKind) -> &'static str {
         CapKind::Removal => "removal-rate limit (mrr_max)",
         CapKind::Force => "force limit (force_max)",
         CapKind::Deflection => "deflection limit (deflection_max_um)",
+        CapKind::Power => "spindle power limit (power_max_kw)",
         CapKind::SurfaceAngle => "surface-angle rule (S3)",
         CapKind::ChipLoad => "chip-load limit (fz_max)",
         CapKind::FeedScale => "programmed feed × feed_scale_max",

@@ -424,7 +424,7 @@ pub fn report(dir: &Path) -> Result<()> {
         after: None,
     });
     let mut notes = vec![
-        "Force F = a·V^n from the removed volume per tooth; deflection from a cantilever of the tool's stick-out with the band loads superposed (docs/MODEL.md §3.1, §4.1). Material coefficients are starting points: calibrate them with `dexcut calibrate`. S4 measured deflections about half of those predicted this way.".to_string(),
+        "Force and spindle power from Kienzle's specific cutting force at the mean chip thickness the removal record gives (or S4's F = a·V^n with [cutting] model = \"power_law\"); deflection of the tool as a stepped cantilever (flutes, shank, holder spring) at the contact height, with the band loads superposed; the tool swept again offset by its deflection until removal and deflection agree, so the error map shows what the bent tool left (docs/MODEL.md §3.2, §4.2–4.3, §5.1). Material coefficients are published starting points: calibrate them for the machine at hand.".to_string(),
     ];
     for (label, run) in [
         ("program", Some(before_json)),

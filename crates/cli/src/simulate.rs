@@ -9,7 +9,7 @@ use cutting::{CuttingModel, StepLoad};
 use dexel::{RemovalRecord, Stock, SweepOptions, Tool, NEVER_CUT};
 use serde::Serialize;
 
-use crate::job::Job;
+use crate::job::{ForceModelKind, Job, ToolSpec};
 use crate::motion::TimedStep;
 use crate::program::Program;
 use crate::progress;
@@ -29,48 +29,252 @@ pub const MRR_WINDOW_CELLS: f64 = 10.0;
 /// Everything a run produced, in memory.
 pub struct Run {
     pub steps: Vec<TimedStep>,
+    /// What the (deflected) tool removed, per step.
     pub record: RemovalRecord,
     pub loads: Vec<StepLoad>,
+    /// Per step, the lateral offset of the tool in the final pass, µm: its converged
+    /// deflection at the contact height (MODEL.md §5.1).
+    pub offsets_um: Vec<[f64; 2]>,
     pub initial_volume_mm3: f64,
+    /// The stock the deflected tool leaves.
     pub stock: Stock,
-    /// Wall-clock time of the sweep, s.
+    /// Wall-clock time of the sweeps, s.
     pub sweep_s: f64,
+    /// Sweeps of the closed loop (1: the tool did not bend measurably).
+    pub passes: usize,
+    /// Largest |model deflection − applied offset| after the last pass, µm.
+    pub loop_residual_um: f64,
+    /// Largest deflection at the contact height of the rigid tool's removal, µm.
+    pub rigid_peak_deflection_um: f64,
+    /// Allowable tool stress of each step's tool, MPa.
+    pub stress_limits_mpa: Vec<f64>,
 }
 
-/// Sweep `steps` through `stock` (consumed), each with its tool (MODEL.md
-/// §9.1), and compute the loads.
-pub fn run(mut stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) -> Result<Run> {
+/// Closed loop (MODEL.md §5.1): at most this many sweeps...
+pub const LOOP_MAX_PASSES: usize = 8;
+/// ... until every step's deflection agrees with its applied offset within
+/// this many µm plus [`LOOP_REL_TOL`] of the offset.
+pub const LOOP_TOL_UM: f64 = 0.5;
+pub const LOOP_REL_TOL: f64 = 0.02;
+
+/// One sweep of `steps` through a copy of `stock`, each step with its tool.
+fn sweep_pass(
+    stock: &Stock,
+    tools: &ToolSet,
+    tool_of_step: &[usize],
+    steps: &[dexel::Step],
+    options: &SweepOptions,
+    label: &str,
+) -> Result<(Stock, RemovalRecord)> {
+    let mut stock = stock.clone();
+    let bar = progress::bar(steps.len() as u64, label);
+    let record = dexel::sweep_tools(
+        &mut stock,
+        &tools.tools(),
+        tool_of_step,
+        steps,
+        options,
+        &|done| bar.set_position(done as u64),
+    )?;
+    bar.finish_and_clear();
+    Ok((stock, record))
+}
+
+/// The steps with the tool moved sideways by `offsets_mm` (per step, at its end; a
+/// step that continues the previous one starts at the previous offset, so the
+/// offset path stays continuous).
+fn offset_steps(steps: &[TimedStep], offsets_mm: &[[f64; 2]]) -> Vec<dexel::Step> {
+    steps
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let o = offsets_mm[i];
+            let start = if i > 0 && steps[i - 1].step.to_mm == s.step.from_mm {
+                offsets_mm[i - 1]
+            } else {
+                o
+            };
+            let [fx, fy, fz] = s.step.from_mm;
+            let [tx, ty, tz] = s.step.to_mm;
+            dexel::Step {
+                from_mm: [fx + start[0], fy + start[1], fz],
+                to_mm: [tx + o[0], ty + o[1], tz],
+                rapid: s.step.rapid,
+            }
+        })
+        .collect()
+}
+
+/// The tool's offset per step, µm: `magnitude · direction` for feed steps; a
+/// rapid keeps the offset of the feed step before it (the tool leaves the cut
+/// where it was, and no rapid cuts what the bent tool left).
+fn applied_offsets_um(steps: &[TimedStep], magnitude: &[f64], dirs: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    let mut carried = [0.0, 0.0];
+    steps
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            if !s.step.rapid {
+                carried = [magnitude[i] * dirs[i][0], magnitude[i] * dirs[i][1]];
+            }
+            carried
+        })
+        .collect()
+}
+
+/// Per-step bracket of the closed loop's root of h(x) = x − g(x), x the offset
+/// along the rigid force direction and g the deflection the removal at x causes.
+#[derive(Clone, Copy)]
+struct Bracket {
+    lo: (f64, f64),
+    hi: Option<(f64, f64)>,
+    /// Side replaced last (−1 lo, +1 hi), for the Illinois step.
+    last: i8,
+}
+
+impl Bracket {
+    /// Record g at x and return the next x to try (µm).
+    fn next(&mut self, x: f64, g: f64) -> f64 {
+        let side = if x - g > 0.0 {
+            self.hi = Some((x, g));
+            1
+        } else {
+            self.lo = (x, g);
+            -1
+        };
+        let Some((xh, gh)) = self.hi else {
+            // No offset yet where the tool bends less than it is moved: follow g.
+            self.last = side;
+            return g.max(0.0);
+        };
+        let (xl, gl) = self.lo;
+        if xh - xl <= 1e-9 {
+            return 0.5 * (xl + xh);
+        }
+        let mid = 0.5 * (xl + xh);
+        if side == self.last {
+            // The same end moved twice: bisect so the other end moves too.
+            self.last = 0;
+            return mid;
+        }
+        self.last = side;
+        // Regula falsi on g linear between the ends: x = g_lo + slope (x − x_lo).
+        let slope = (gh - gl) / (xh - xl);
+        let x_new = (gl - slope * xl) / (1.0 - slope);
+        if x_new.is_finite() && x_new > xl && x_new < xh {
+            x_new
+        } else {
+            mid
+        }
+    }
+}
+
+/// Sweep `steps` through `stock` and compute the loads, closing the loop between
+/// removal and deflection (MODEL.md §5.1): the rigid tool's removal gives each
+/// step's deflection; the program is swept again with the tool moved by it, and
+/// the offsets are refined per step (regula falsi in a bracket) until the
+/// deflection the removal causes equals the offset that produced it. Each step
+/// is cut by its own tool (MODEL.md §9.1).
+pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) -> Result<Run> {
     let initial_volume_mm3 = stock.volume_mm3();
-    let sweep_steps: Vec<dexel::Step> = steps.iter().map(|s| s.step).collect();
+    let rigid_steps: Vec<dexel::Step> = steps.iter().map(|s| s.step).collect();
     let tool_of_step = tools.indices(steps.iter().map(|s| (s.tool, s.line)))?;
     let options = SweepOptions {
         band_height_mm: tools.entries[0].model.band_height_mm,
         ..SweepOptions::default()
     };
-    let bar = progress::bar(sweep_steps.len() as u64, label);
     let started = Instant::now();
-    let record = dexel::sweep_tools(
-        &mut stock,
-        &tools.tools(),
-        &tool_of_step,
-        &sweep_steps,
-        &options,
-        &|done| bar.set_position(done as u64),
-    )?;
+    let (mut final_stock, mut record) =
+        sweep_pass(&stock, tools, &tool_of_step, &rigid_steps, &options, label)?;
+    let mut step_loads = loads(tools, &tool_of_step, &record, &steps);
+    let n = steps.len();
+    // Rigid force directions, kept for the loop (unit, µm per µm); rapids are
+    // not moved (a collision's load means nothing).
+    let dirs: Vec<[f64; 2]> = step_loads
+        .iter()
+        .zip(&steps)
+        .map(|(l, s)| {
+            if l.deflection_um > 0.0 && !s.step.rapid {
+                [l.dx_um / l.deflection_um, l.dy_um / l.deflection_um]
+            } else {
+                [0.0, 0.0]
+            }
+        })
+        .collect();
+    let rigid: Vec<f64> = step_loads
+        .iter()
+        .zip(&dirs)
+        .map(|(l, d)| {
+            if *d == [0.0, 0.0] {
+                0.0
+            } else {
+                l.deflection_um
+            }
+        })
+        .collect();
+    let rigid_peak_deflection_um = rigid.iter().copied().fold(0.0, f64::max);
+    let mut x: Vec<f64> = vec![0.0; n];
+    let mut residual = rigid_peak_deflection_um;
+    let mut passes = 1;
+    if rigid_peak_deflection_um > LOOP_TOL_UM {
+        let mut brackets: Vec<Bracket> = rigid
+            .iter()
+            .map(|&g| Bracket {
+                lo: (0.0, g),
+                hi: None,
+                last: -1,
+            })
+            .collect();
+        let mut trial = rigid.clone();
+        loop {
+            let offsets_mm: Vec<[f64; 2]> = applied_offsets_um(&steps, &trial, &dirs)
+                .into_iter()
+                .map(|[x, y]| [1e-3 * x, 1e-3 * y])
+                .collect();
+            let shifted = offset_steps(&steps, &offsets_mm);
+            (final_stock, record) =
+                sweep_pass(&stock, tools, &tool_of_step, &shifted, &options, label)?;
+            step_loads = loads(tools, &tool_of_step, &record, &steps);
+            passes += 1;
+            x.clone_from(&trial);
+            // g: the deflection the removal at the trial offset causes, along the rigid direction.
+            let g: Vec<f64> = (0..n)
+                .map(|i| step_loads[i].dx_um * dirs[i][0] + step_loads[i].dy_um * dirs[i][1])
+                .collect();
+            residual = (0..n).map(|i| (g[i] - x[i]).abs()).fold(0.0, f64::max);
+            let converged =
+                (0..n).all(|i| (g[i] - x[i]).abs() <= LOOP_TOL_UM + LOOP_REL_TOL * x[i].abs());
+            if converged || passes >= LOOP_MAX_PASSES {
+                break;
+            }
+            for i in 0..n {
+                if dirs[i] != [0.0, 0.0] {
+                    trial[i] = brackets[i].next(x[i], g[i]);
+                }
+            }
+        }
+    }
     let sweep_s = started.elapsed().as_secs_f64();
-    bar.finish_and_clear();
-    let loads = loads(tools, &tool_of_step, &record, &steps);
+    let offsets_um = applied_offsets_um(&steps, &x, &dirs);
     Ok(Run {
         steps,
         record,
-        loads,
+        loads: step_loads,
+        offsets_um,
         initial_volume_mm3,
-        stock,
+        stock: final_stock,
         sweep_s,
+        passes,
+        loop_residual_um: residual,
+        rigid_peak_deflection_um,
+        stress_limits_mpa: tool_of_step
+            .iter()
+            .map(|&t| tools.entries[t].stress_limit_mpa)
+            .collect(),
     })
 }
 
-/// Per-step force and deflection (S4), each step with its tool's model.
+/// Per-step force, power and deflection (MODEL.md §3, §4), each step with its tool's model.
 pub fn loads(
     tools: &ToolSet,
     tool_of_step: &[usize],
@@ -81,20 +285,36 @@ pub fn loads(
         .iter()
         .enumerate()
         .map(|(i, s)| {
-            let [cx, cy] = record.contact_resultant(i);
-            let v = record.volume_mm3(i);
             let model = &tools.entries[tool_of_step[i]].model;
-            if v > 0.0 && s.dt_s > 0.0 {
-                model.step_load(v, record.band_volumes_mm3(i), [cx, cy, 0.0], s.dt_s)
-            } else {
-                StepLoad::default()
-            }
+            model.step_load(&cutting::StepRemoval {
+                volume_mm3: record.volume_mm3(i),
+                band_volumes_mm3: record.band_volumes_mm3(i),
+                contact_resultant: record.contact_resultant(i),
+                chip_edge_area_mm2: record.chip_edge_area_mm2(i),
+                volume_over_radius_mm2: record.volume_over_radius_mm2(i),
+                dt_s: s.dt_s,
+            })
         })
         .collect()
 }
 
-/// The force and beam model from the job's [cutting] and [tool].
-pub fn cutting_model(job: &Job, tool: &Tool, program: &Program) -> Result<CuttingModel> {
+/// Allowable stress of a tool (MODEL.md §4.4).
+pub fn stress_limit_mpa(spec: &ToolSpec, tool: &Tool) -> f64 {
+    spec.stress_limit_mpa
+        .unwrap_or(if tool.youngs_modulus_mpa >= 400_000.0 {
+            1200.0
+        } else {
+            1000.0
+        })
+}
+
+/// The force and beam model from the job's [cutting] and a tool's spec.
+pub fn cutting_model(
+    job: &Job,
+    spec: &ToolSpec,
+    tool: &Tool,
+    program: &Program,
+) -> Result<CuttingModel> {
     let c = &job.cutting;
     let material = cutting::Material::by_name(&c.material).with_context(|| {
         let names: Vec<&str> = cutting::Material::ALL.iter().map(|m| m.name).collect();
@@ -106,20 +326,38 @@ pub fn cutting_model(job: &Job, tool: &Tool, program: &Program) -> Result<Cuttin
         )
     })?;
     let program_rpm = program.spindle_rpm();
+    let force_model = match c.model {
+        ForceModelKind::PowerLaw => cutting::ForceModel::PowerLaw {
+            a: c.force_a.unwrap_or(material.force_coef_a),
+            n: c.force_n.unwrap_or(material.force_exp_n),
+        },
+        ForceModelKind::Kienzle => {
+            let k = material.kienzle;
+            cutting::ForceModel::Kienzle(cutting::Kienzle {
+                kc1_1_mpa: c.kc1_1.unwrap_or(k.kc1_1_mpa),
+                mc: c.mc.unwrap_or(k.mc),
+                radial_ratio: c.radial_ratio.unwrap_or(k.radial_ratio),
+                axial_ratio: c.axial_ratio.unwrap_or(k.axial_ratio),
+            })
+        }
+    };
     Ok(CuttingModel {
-        force_coef_a: c.force_a.unwrap_or(material.force_coef_a),
-        force_exp_n: c.force_n.unwrap_or(material.force_exp_n),
+        force_model,
         spindle_rpm: c.spindle_rpm.unwrap_or(if program_rpm > 0.0 {
             program_rpm
         } else {
             10_000.0
         }),
         flutes: tool.flutes,
+        tool_radius_mm: tool.radius_mm(),
         band_height_mm: c.band_height,
-        beam: cutting::Cantilever {
+        beam: cutting::SteppedBeam {
             stickout_mm: tool.stickout_mm,
-            effective_diameter_mm: tool.effective_diameter_mm,
+            flute_length_mm: tool.flute_length_mm,
+            flute_diameter_mm: tool.effective_diameter_mm,
+            shank_diameter_mm: spec.shank_diameter.unwrap_or(tool.diameter_mm),
             youngs_modulus_mpa: tool.youngs_modulus_mpa,
+            holder_stiffness_n_per_um: spec.holder_stiffness_n_per_um,
         },
     })
 }
@@ -139,9 +377,28 @@ pub struct Summary {
     /// cells per period), which this average resolves.
     pub peak_mrr_windowed_mm3_s: f64,
     pub peak_force_n: f64,
+    /// Largest spindle cutting power, W, and torque, N·m.
+    pub peak_power_w: f64,
+    pub peak_torque_nm: f64,
+    /// Largest deflection at the contact height (closed loop), µm.
     pub peak_deflection_um: f64,
     /// Highest mean path speed of a step that removed material (not a rapid), mm/min.
     pub peak_cutting_feed_mm_min: f64,
+    /// Largest tip deflection (closed loop), µm.
+    pub peak_tip_deflection_um: f64,
+    /// Largest deflection at the contact height of the rigid tool's removal, µm
+    /// (what an open-loop model predicts).
+    pub rigid_peak_deflection_um: f64,
+    /// Largest material left on the surface, µm (≥ 0; error map, MODEL.md §5).
+    pub max_error_um: f64,
+    /// Deepest overcut, µm (≤ 0).
+    pub min_error_um: f64,
+    /// Sweeps of the closed loop and its largest remaining disagreement, µm.
+    pub closed_loop_passes: usize,
+    pub closed_loop_residual_um: f64,
+    /// Largest von Mises stress in the tool, MPa, and the allowable stress.
+    pub peak_stress_mpa: f64,
+    pub stress_limit_mpa: f64,
     pub steps: usize,
     pub grid_mm: f64,
     pub columns: usize,
@@ -232,12 +489,24 @@ impl Run {
             .fold(0.0, f64::max)
     }
 
+    /// The lowest allowable stress of the tools the run uses, MPa.
+    pub fn stress_limit_mpa(&self) -> f64 {
+        self.stress_limits_mpa
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// Warnings of this run (MODEL.md §10): rapid moves that cut, shank or
     /// holder contact, a program that removes nothing.
     pub fn warnings(&self) -> Warnings {
         let mut out = Warnings::default();
         let (mut rapid, mut shank) = (LineTally::new(), LineTally::new());
+        let mut stress = LineTally::new();
         for (i, s) in self.steps.iter().enumerate() {
+            if self.loads[i].stress_mpa > self.stress_limits_mpa[i] {
+                warnings::tally(&mut stress, s.line, self.loads[i].stress_mpa);
+            }
             let v = self.record.volume_mm3(i);
             if s.step.rapid && v > NOTHING_MM3 {
                 warnings::tally(&mut rapid, s.line, v);
@@ -252,6 +521,10 @@ impl Run {
         });
         out.from_lines(WarningKind::ShankContact, &shank, "mm³", true, |v, lines| {
             format!("the tool above its flute length (shank or holder) removed {v:.3} mm³ at {lines}: raise the flute length or stick-out, or change the program")
+        });
+        let limit = self.stress_limit_mpa();
+        out.from_lines(WarningKind::Force, &stress, "MPa", false, |v, lines| {
+            format!("the cutting force and torque stress the tool to {v:.0} MPa at {lines}, above the allowable {limit:.0} MPa ([tool] stress_limit_mpa, docs/MODEL.md §4.4): lower the feed or the engagement, or use a shorter or stiffer tool")
         });
         if self.record.total_volume_mm3() <= NOTHING_MM3 {
             out.push(warnings::Warning {
@@ -300,6 +573,12 @@ impl Run {
 
     pub fn summary(&self) -> Summary {
         let n = self.steps.len();
+        let errors: Vec<f64> = self
+            .error_map_um(&self.stock.top_heights())
+            .into_iter()
+            .filter(|e| e.is_finite())
+            .map(f64::from)
+            .collect();
         let final_volume_mm3 = self.stock.volume_mm3();
         let collisions: Vec<usize> = (0..n)
             .filter(|&i| self.steps[i].step.rapid && self.record.volume_mm3(i) > NOTHING_MM3)
@@ -315,12 +594,26 @@ impl Run {
                 MRR_WINDOW_CELLS * self.stock.grid().spacing_mm,
             ),
             peak_force_n: self.loads.iter().map(|l| l.force_n).fold(0.0, f64::max),
+            peak_power_w: self.loads.iter().map(|l| l.power_w).fold(0.0, f64::max),
+            peak_torque_nm: self.loads.iter().map(|l| l.torque_nm).fold(0.0, f64::max),
             peak_deflection_um: self
                 .loads
                 .iter()
                 .map(|l| l.deflection_um)
                 .fold(0.0, f64::max),
             peak_cutting_feed_mm_min: self.peak_cutting_feed_mm_min(),
+            peak_tip_deflection_um: self
+                .loads
+                .iter()
+                .map(|l| l.tip_deflection_um)
+                .fold(0.0, f64::max),
+            rigid_peak_deflection_um: self.rigid_peak_deflection_um,
+            max_error_um: errors.iter().fold(0.0, |a, &e| if e > a { e } else { a }),
+            min_error_um: errors.iter().fold(0.0, |a, &e| if e < a { e } else { a }),
+            closed_loop_passes: self.passes,
+            closed_loop_residual_um: self.loop_residual_um,
+            peak_stress_mpa: self.loads.iter().map(|l| l.stress_mpa).fold(0.0, f64::max),
+            stress_limit_mpa: self.stress_limit_mpa(),
             steps: n,
             grid_mm: self.stock.grid().spacing_mm,
             columns: self.stock.grid().len(),
@@ -366,8 +659,9 @@ impl Run {
         out
     }
 
-    /// Predicted shape error per column, µm (S4 error map): the deflection of
-    /// the step that last cut the column, projected on the normal of the final
+    /// Predicted shape error per column, µm (MODEL.md §5): the offset of the
+    /// deflected tool (its converged deflection at the contact height) at the
+    /// step that last cut the column, projected on the normal of the final
     /// surface `tops` (the stock's top heights); positive = material left. NaN
     /// where no step cut.
     pub fn error_map_um(&self, tops: &[f32]) -> Vec<f32> {
@@ -382,8 +676,8 @@ impl Run {
                 if step == NEVER_CUT || n.iter().any(|v| v.is_nan()) {
                     return f32::NAN;
                 }
-                let load = &self.loads[step as usize];
-                cutting::surface_error_um([load.dx_um, load.dy_um], n.map(f64::from)) as f32
+                let offset = self.offsets_um[step as usize];
+                cutting::surface_error_um(offset, n.map(f64::from)) as f32
             })
             .collect()
     }
@@ -412,9 +706,16 @@ impl Run {
                     "force_n",
                     "fx_n",
                     "fy_n",
+                    "fz_n",
+                    "power_w",
+                    "torque_nm",
+                    "chip_mm",
+                    "contact_height_mm",
                     "deflection_um",
                     "dx_um",
                     "dy_um",
+                    "tip_deflection_um",
+                    "stress_mpa",
                     "line",
                     "rapid",
                     "tool",
@@ -442,7 +743,24 @@ impl Run {
                 );
                 row.extend(self.record.band_volumes_mm3(i).iter().map(|v| fmt(*v)));
                 row.push(fmt(self.record.shank_volume_mm3(i)));
-                row.extend([l.force_n, l.fx_n, l.fy_n, l.deflection_um, l.dx_um, l.dy_um].map(fmt));
+                row.extend(
+                    [
+                        l.force_n,
+                        l.fx_n,
+                        l.fy_n,
+                        l.fz_n,
+                        l.power_w,
+                        l.torque_nm,
+                        l.chip_thickness_mm,
+                        l.contact_height_mm,
+                        l.deflection_um,
+                        l.dx_um,
+                        l.dy_um,
+                        l.tip_deflection_um,
+                        l.stress_mpa,
+                    ]
+                    .map(fmt),
+                );
                 row.push(s.line.to_string());
                 row.push(u8::from(s.step.rapid).to_string());
                 row.push(s.tool.to_string());

@@ -22,6 +22,8 @@ pub struct ToolEntry {
     pub model: CuttingModel,
     /// Largest feed per tooth, mm/tooth (chip-load cap of optimize).
     pub fz_max_mm: Option<f64>,
+    /// Allowable stress in the tool, MPa (MODEL.md §4.4).
+    pub stress_limit_mpa: f64,
 }
 
 /// The tools a run can use.
@@ -40,13 +42,14 @@ impl ToolSet {
         let mut entries = Vec::with_capacity(specs.len());
         for (number, spec) in specs {
             let tool = spec.dexel_tool()?;
-            let model = crate::simulate::cutting_model(job, &tool, program)?;
+            let model = crate::simulate::cutting_model(job, spec, &tool, program)?;
             entries.push(ToolEntry {
                 number: number.unwrap_or(1),
                 tool,
                 length_mm: spec.length.unwrap_or(0.0),
                 model,
                 fz_max_mm: spec.fz_max_mm(&job.cutting.material),
+                stress_limit_mpa: crate::simulate::stress_limit_mpa(spec, &tool),
             });
         }
         Ok(ToolSet { entries, single })

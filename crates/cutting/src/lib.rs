@@ -6,7 +6,9 @@
 //!   calibrated with [`calibration::fit_force_law`].
 //! * [`chipload`]: the largest feed per tooth by tool diameter and material, and its feed cap.
 //! * [`force`]: volume per tooth per revolution and the force law.
-//! * [`beam`]: the tool as a cantilever clamped in the holder; point loads and band loads.
+//! * [`kienzle`]: Kienzle's specific cutting force and the mean chip thickness of milling.
+//! * [`beam`]: the tool as a cantilever clamped in the holder (uniform, and stepped: flutes,
+//!   shank, holder spring); point loads, band loads and the stress at the holder.
 //! * [`load`]: per step of the sweep, force magnitude and direction and the tool's deflection.
 //! * [`surface`]: projection of the deflection on the final surface's normal (error map) and
 //!   normals of a height field.
@@ -17,13 +19,15 @@ pub mod beam;
 pub mod calibration;
 pub mod chipload;
 pub mod force;
+pub mod kienzle;
 pub mod load;
 pub mod material;
 pub mod surface;
 
-pub use beam::Cantilever;
+pub use beam::{Cantilever, SteppedBeam};
 pub use calibration::{fit_force_law, Fit, FitError};
 pub use force::{force_n, volume_per_tooth_at_force_mm3, volume_per_tooth_mm3};
-pub use load::{force_direction, CuttingModel, StepLoad};
+pub use kienzle::{mean_chip_thickness_mm, Kienzle};
+pub use load::{force_direction, CuttingModel, ForceModel, StepLoad, StepRemoval};
 pub use material::Material;
 pub use surface::{surface_error_um, surface_normals_from_heights};

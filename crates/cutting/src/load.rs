@@ -3,8 +3,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::beam::Cantilever;
+use crate::beam::SteppedBeam;
 use crate::force::{force_n, volume_per_tooth_mm3};
+use crate::kienzle::Kienzle;
 
 /// Below this length the contact resultant is treated as zero (no defined direction).
 const MIN_RESULTANT: f64 = 1e-12;
@@ -28,109 +29,269 @@ pub fn force_direction(contact_resultant: [f64; 3]) -> [f64; 2] {
 /// What one step of the sweep does to the tool.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct StepLoad {
-    /// Magnitude of the cutting force, N.
+    /// Magnitude of the mean lateral cutting force on the tool, N.
     pub force_n: f64,
     /// X component of the force on the tool, N.
     pub fx_n: f64,
     /// Y component of the force on the tool, N.
     pub fy_n: f64,
-    /// Lateral deflection of the tool tip, µm.
+    /// Axial force on the tool, N (pulling it out of the holder; 0 for S4's law).
+    pub fz_n: f64,
+    /// Spindle cutting power, W.
+    pub power_w: f64,
+    /// Spindle torque, N·m.
+    pub torque_nm: f64,
+    /// Mean chip thickness per tooth, mm (0 where the record has none).
+    pub chip_thickness_mm: f64,
+    /// Height above the tip where the resultant of the band loads acts, mm.
+    pub contact_height_mm: f64,
+    /// Lateral deflection of the tool at the contact height, µm.
     pub deflection_um: f64,
-    /// X component of the tip deflection, µm (along the force).
+    /// X component of the deflection at the contact height, µm (along the force).
     pub dx_um: f64,
-    /// Y component of the tip deflection, µm (along the force).
+    /// Y component of the deflection at the contact height, µm (along the force).
     pub dy_um: f64,
+    /// Lateral deflection of the tip, µm.
+    pub tip_deflection_um: f64,
+    /// Largest von Mises stress in the tool (holder face or flute end), MPa.
+    pub stress_mpa: f64,
+}
+
+/// How removed volume turns into force.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum ForceModel {
+    /// S4's `F = a · V^n` (MODEL.md §3.1).
+    PowerLaw {
+        /// N at V = 1 mm³ per tooth per revolution.
+        a: f64,
+        /// Dimensionless exponent.
+        n: f64,
+    },
+    /// Kienzle's specific cutting force at the mean chip thickness (MODEL.md §3.2).
+    Kienzle(Kienzle),
+}
+
+impl ForceModel {
+    /// Exponent p of the feed in force, power and deflection at fixed engagement
+    /// (Q ∝ F^p): n for the power law, 1 − mc for Kienzle.
+    pub fn feed_exponent(&self) -> f64 {
+        match self {
+            ForceModel::PowerLaw { n, .. } => *n,
+            ForceModel::Kienzle(k) => 1.0 - k.mc,
+        }
+    }
+}
+
+/// What the sweep recorded for one step, the input of [`CuttingModel::step_load`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepRemoval<'a> {
+    /// Removed volume, mm³.
+    pub volume_mm3: f64,
+    /// Removed volume per tool height band, mm³.
+    pub band_volumes_mm3: &'a [f64],
+    /// Σ dV · r̂ (mm³), r̂ the unit vector from the axis to where the edge cut.
+    pub contact_resultant: [f64; 2],
+    /// Σ dV / h (mm²), h the thickness the edge cut in the step.
+    pub chip_edge_area_mm2: f64,
+    /// Σ dV / r (mm²), r the edge's radius where it cut.
+    pub volume_over_radius_mm2: f64,
+    /// Duration of the step, s.
+    pub dt_s: f64,
 }
 
 /// The parameters that turn a step's removed volume into force and deflection.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CuttingModel {
-    /// `a` in `F = a · V^n`, N at V = 1 mm³ per tooth per revolution.
-    pub force_coef_a: f64,
-    /// `n` in `F = a · V^n`, dimensionless.
-    pub force_exp_n: f64,
+    pub force_model: ForceModel,
     /// Spindle speed, rev/min.
     pub spindle_rpm: f64,
     /// Number of flutes (teeth).
     pub flutes: u32,
+    /// Nominal tool radius, mm (cutting speed of S4's law).
+    pub tool_radius_mm: f64,
     /// Height h of one band of the tool, mm; band k spans `[k·h, (k+1)·h)` above the tip.
     pub band_height_mm: f64,
     /// The tool as a beam.
-    pub beam: Cantilever,
+    pub beam: SteppedBeam,
 }
 
 impl CuttingModel {
-    /// Tip deflection in mm per newton of cutting force when the force is spread over the
-    /// tool's height bands like `band_volumes_mm3`: band k carries the share
-    /// `band_volumes_mm3[k] / Σ band_volumes_mm3` at its mid-height `(k + ½)·h` above the tip
-    /// (MODEL.md §1.3; superposition of [`Cantilever::deflection_mm`]). With no volume in
-    /// the bands the whole force acts at the tip, the largest deflection for that force.
-    ///
-    /// Does not allocate.
-    pub fn tip_compliance_mm_per_n(&self, band_volumes_mm3: &[f64]) -> f64 {
-        let band_total_mm3: f64 = band_volumes_mm3.iter().filter(|v| **v > 0.0).sum();
-        if band_total_mm3 <= 0.0 {
-            return self.beam.deflection_mm(1.0, 0.0, 0.0);
+    /// Height above the tip where the band loads' resultant acts, mm: the volume-weighted
+    /// mean of the bands' mid-heights `(k + ½)·h`; at the tip when no band has volume.
+    pub fn contact_height_mm(&self, band_volumes_mm3: &[f64]) -> f64 {
+        let (sum, moment) = band_volumes_mm3
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| **v > 0.0)
+            .fold((0.0, 0.0), |(s, m), (k, v)| {
+                (s + v, m + v * (k as f64 + 0.5) * self.band_height_mm)
+            });
+        if sum > 0.0 {
+            moment / sum
+        } else {
+            0.0
+        }
+    }
+
+    /// Deflection in mm at `at_from_tip_mm` per newton of cutting force spread over the
+    /// bands like `band_volumes_mm3` (band k carries its share at its mid-height; the whole
+    /// force at the tip when no band has volume). Does not allocate.
+    pub fn compliance_at_mm_per_n(&self, band_volumes_mm3: &[f64], at_from_tip_mm: f64) -> f64 {
+        let total: f64 = band_volumes_mm3.iter().filter(|v| **v > 0.0).sum();
+        if total <= 0.0 {
+            return self.beam.deflection_mm(1.0, 0.0, at_from_tip_mm);
         }
         band_volumes_mm3
             .iter()
             .enumerate()
             .filter(|(_, v)| **v > 0.0)
             .map(|(k, v)| {
-                let mid_height_mm = (k as f64 + 0.5) * self.band_height_mm;
-                self.beam
-                    .deflection_mm(v / band_total_mm3, mid_height_mm, 0.0)
+                let mid_mm = (k as f64 + 0.5) * self.band_height_mm;
+                self.beam.deflection_mm(v / total, mid_mm, at_from_tip_mm)
             })
             .sum()
     }
 
-    /// Load of one step that removed `step_volume_mm3` in `dt_s` seconds.
+    /// Deflection at the contact height per newton (what `deflection_um` reports).
+    pub fn compliance_mm_per_n(&self, band_volumes_mm3: &[f64]) -> f64 {
+        self.compliance_at_mm_per_n(band_volumes_mm3, self.contact_height_mm(band_volumes_mm3))
+    }
+
+    /// Tooth passes during `dt_s`.
+    fn tooth_passes(&self, dt_s: f64) -> f64 {
+        f64::from(self.flutes) * self.spindle_rpm * dt_s / 60.0
+    }
+
+    /// Load of one step.
     ///
-    /// * Force: `F = a · V^n` with V from [`volume_per_tooth_mm3`].
-    /// * Deflection: `F ·` [`CuttingModel::tip_compliance_mm_per_n`] of the band volumes.
-    /// * Direction: [`force_direction`] of `contact_resultant`; the tool bends along the force.
+    /// * S4's law (MODEL.md §3.1): `F = a · V^n` with V from [`volume_per_tooth_mm3`],
+    ///   opposite the contact resultant; power `F · v_c` at the nominal radius.
+    /// * Kienzle (MODEL.md §3.2): mean chip thickness per tooth `h_m = V / (Σ dV/h) / N`,
+    ///   `kc = kc1_1 · h_m^(−mc)`, power `kc · V / Δt`, torque `P / ω`, mean force
+    ///   `kc / (2π N_rev) · (Σ dV/r) / V · (ẑ × C − k_r C)`, axial `k_a` times the mean
+    ///   tangential force.
+    /// * Deflection (MODEL.md §4.2, §4.3): the force spread over the bands, on the stepped
+    ///   beam, at the contact height and at the tip, along the force.
     ///
     /// Does not allocate.
-    pub fn step_load(
-        &self,
-        step_volume_mm3: f64,
-        band_volumes_mm3: &[f64],
-        contact_resultant: [f64; 3],
-        dt_s: f64,
-    ) -> StepLoad {
-        let v_mm3 = volume_per_tooth_mm3(step_volume_mm3, self.flutes, self.spindle_rpm, dt_s);
-        let force = force_n(v_mm3, self.force_coef_a, self.force_exp_n);
-        // The beam is linear: deflection = force · compliance.
-        let tip_deflection_mm = force * self.tip_compliance_mm_per_n(band_volumes_mm3);
-        let [ux, uy] = force_direction(contact_resultant);
-        let deflection_um = tip_deflection_mm * 1000.0;
+    pub fn step_load(&self, r: &StepRemoval<'_>) -> StepLoad {
+        if !(r.volume_mm3 > 0.0 && r.dt_s > 0.0) {
+            return StepLoad::default();
+        }
+        let passes = self.tooth_passes(r.dt_s);
+        let revolutions = self.spindle_rpm * r.dt_s / 60.0;
+        let omega = 2.0 * std::f64::consts::PI * self.spindle_rpm / 60.0;
+        let chip_thickness_mm = if r.chip_edge_area_mm2 > 0.0 {
+            r.volume_mm3 / r.chip_edge_area_mm2 / passes
+        } else {
+            0.0
+        };
+        let (fx, fy, fz, power_w) = match self.force_model {
+            ForceModel::PowerLaw { a, n } => {
+                let v = volume_per_tooth_mm3(r.volume_mm3, self.flutes, self.spindle_rpm, r.dt_s);
+                let f = force_n(v, a, n);
+                let [ux, uy] =
+                    force_direction([r.contact_resultant[0], r.contact_resultant[1], 0.0]);
+                // P = F · v_c, v_c = ω R (mm/s) → W = N·mm/s / 1000
+                (
+                    f * ux,
+                    f * uy,
+                    0.0,
+                    f * omega * self.tool_radius_mm / 1000.0,
+                )
+            }
+            ForceModel::Kienzle(k) => {
+                if chip_thickness_mm <= 0.0 {
+                    return StepLoad::default();
+                }
+                let kc = k.specific_force_mpa(chip_thickness_mm);
+                let power_w = kc * r.volume_mm3 / r.dt_s / 1000.0;
+                // Mean tangential force: energy per revolution over the edge's path 2π r.
+                let ft = kc * r.volume_over_radius_mm2 / (2.0 * std::f64::consts::PI * revolutions);
+                let [cx, cy] = r.contact_resultant;
+                let scale = ft / r.volume_mm3;
+                // Tangential (ẑ × C) for a clockwise (M3) spindle, radial −C.
+                (
+                    scale * (-cy - k.radial_ratio * cx),
+                    scale * (cx - k.radial_ratio * cy),
+                    k.axial_ratio * ft,
+                    power_w,
+                )
+            }
+        };
+        let force = fx.hypot(fy);
+        let (ux, uy) = if force > 0.0 {
+            (fx / force, fy / force)
+        } else {
+            (0.0, 0.0)
+        };
+        let bands = r.band_volumes_mm3;
+        let contact_height_mm = self.contact_height_mm(bands);
+        let deflection_um = 1000.0 * force * self.compliance_at_mm_per_n(bands, contact_height_mm);
+        let tip_deflection_um = 1000.0 * force * self.compliance_at_mm_per_n(bands, 0.0);
+        let torque_nm = power_w / omega;
         StepLoad {
             force_n: force,
-            fx_n: force * ux,
-            fy_n: force * uy,
+            fx_n: fx,
+            fy_n: fy,
+            fz_n: fz,
+            power_w,
+            torque_nm,
+            chip_thickness_mm,
+            contact_height_mm,
             deflection_um,
             dx_um: deflection_um * ux,
             dy_um: deflection_um * uy,
+            tip_deflection_um,
+            stress_mpa: self.stress_mpa(bands, force, 1000.0 * torque_nm),
         }
+    }
+
+    /// Peak von Mises stress for `force_n` spread over the bands and `torque_nmm`.
+    fn stress_mpa(&self, band_volumes_mm3: &[f64], force_n: f64, torque_nmm: f64) -> f64 {
+        let total: f64 = band_volumes_mm3.iter().filter(|v| **v > 0.0).sum();
+        // Lever of the band loads: their resultant at the contact height.
+        let height = if total > 0.0 {
+            self.contact_height_mm(band_volumes_mm3)
+        } else {
+            0.0
+        };
+        self.beam.peak_stress_mpa(&[(height, force_n)], torque_nmm)
+    }
+
+    /// The highest feed (mm/min) at which `quantity_at(feed)` stays at or under `limit`,
+    /// for a quantity that grows like `feed^p` at fixed engagement (p from
+    /// [`ForceModel::feed_exponent`]; 1 for removal rate): `F = F₁ (limit / Q(F₁))^(1/p)`.
+    pub fn feed_for_limit(&self, quantity_at_ref: f64, ref_feed_mm_min: f64, limit: f64) -> f64 {
+        if !(quantity_at_ref > 0.0) {
+            return f64::INFINITY;
+        }
+        let p = self.force_model.feed_exponent();
+        ref_feed_mm_min * (limit / quantity_at_ref).powf(1.0 / p)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::beam::Cantilever;
 
-    const MODEL: CuttingModel = CuttingModel {
-        force_coef_a: 800.0,
-        force_exp_n: 0.72,
-        spindle_rpm: 6000.0,
-        flutes: 2,
-        band_height_mm: 1.0,
-        beam: Cantilever {
-            stickout_mm: 80.0,
-            effective_diameter_mm: 10.0,
-            youngs_modulus_mpa: 210_000.0,
-        },
-    };
+    fn model(force_model: ForceModel) -> CuttingModel {
+        CuttingModel {
+            force_model,
+            spindle_rpm: 6000.0,
+            flutes: 2,
+            tool_radius_mm: 5.0,
+            band_height_mm: 1.0,
+            beam: SteppedBeam::uniform(&Cantilever {
+                stickout_mm: 80.0,
+                effective_diameter_mm: 10.0,
+                youngs_modulus_mpa: 210_000.0,
+            }),
+        }
+    }
+
+    const S4: ForceModel = ForceModel::PowerLaw { a: 800.0, n: 0.72 };
 
     #[test]
     fn direction_is_opposite_the_contact_resultant() {
@@ -143,35 +304,98 @@ mod tests {
     }
 
     #[test]
-    fn step_load_by_hand() {
+    fn power_law_step_load_by_hand() {
+        let m = model(S4);
         // 2 flutes · 6000 rpm · 0.016 s / 60 = 3.2 tooth passes; 1.6 mm³ → V = 0.5 mm³.
         // F = 800 · 0.5^0.72 = 485.67795 N, split 3:1 over bands 0 and 2 (mid-heights 0.5, 2.5).
-        let load = MODEL.step_load(1.6, &[0.3, 0.0, 0.1], [0.0, 1.0, 0.0], 0.016);
+        let bands = [0.3, 0.0, 0.1];
+        let load = m.step_load(&StepRemoval {
+            volume_mm3: 1.6,
+            band_volumes_mm3: &bands,
+            contact_resultant: [0.0, 1.0],
+            dt_s: 0.016,
+            ..StepRemoval::default()
+        });
         let f = 800.0 * 0.5f64.powf(0.72);
         assert!((load.force_n - f).abs() < 1e-9);
         assert!(load.fx_n.abs() < 1e-12 && (load.fy_n + f).abs() < 1e-9);
-        let expected_mm = MODEL
-            .beam
-            .deflection_from_band_loads(&[(0.5, 0.75 * f), (2.5, 0.25 * f)], 0.0);
-        assert!((load.deflection_um - 1000.0 * expected_mm).abs() < 1e-9);
+        // Contact height: (0.3 · 0.5 + 0.1 · 2.5) / 0.4 = 1.0 mm.
+        assert!((load.contact_height_mm - 1.0).abs() < 1e-12);
+        let at = |x: f64| {
+            1000.0
+                * m.beam
+                    .deflection_from_band_loads(&[(0.5, 0.75 * f), (2.5, 0.25 * f)], x)
+        };
+        assert!((load.deflection_um - at(1.0)).abs() < 1e-9);
+        assert!((load.tip_deflection_um - at(0.0)).abs() < 1e-9);
         assert!(load.dx_um.abs() < 1e-12 && (load.dy_um + load.deflection_um).abs() < 1e-12);
-        // Close to the tip the bands barely shorten the lever: a bit less than F L³/(3EI).
-        let tip_only_um = 1000.0 * MODEL.beam.deflection_mm(f, 0.0, 0.0);
-        assert!(load.deflection_um < tip_only_um && load.deflection_um > 0.95 * tip_only_um);
-        // Only the shares matter, not the volumes' scale.
-        let compliance = MODEL.tip_compliance_mm_per_n(&[3.0, 0.0, 1.0]);
-        assert!((1000.0 * f * compliance - load.deflection_um).abs() < 1e-9);
+        // Power F·ω·R: 485.678 · 628.3185 · 5 / 1000 = 1525.8 W; torque F·R = 2.428 N·m.
+        assert!((load.power_w - f * 200.0 * std::f64::consts::PI * 5.0 / 1000.0).abs() < 1e-9);
+        assert!((load.torque_nm - f * 0.005).abs() < 1e-12);
+    }
+
+    #[test]
+    fn kienzle_full_slot_by_hand() {
+        let k = Kienzle {
+            kc1_1_mpa: 1500.0,
+            mc: 0.22,
+            radial_ratio: 0.3,
+            axial_ratio: 0.25,
+        };
+        let m = model(ForceModel::Kienzle(k));
+        // Full slot, R = 5, a_p = 2, f = 0.32 mm per step (3.2 tooth passes → f_z = 0.1):
+        // V = 2R·a_p·f = 6.4 mm³, edge area Σ dV/h = a_p·R·π·(per step) → V/E = 2f/π,
+        // C = a_p R f · π/2 along the feed (+x) per step... scaled to V: C = V·π/4 x̂.
+        let (v, f) = (6.4, 0.32);
+        let edge = v / (2.0 * f / std::f64::consts::PI);
+        let c = [v * std::f64::consts::PI / 4.0, 0.0];
+        let load = m.step_load(&StepRemoval {
+            volume_mm3: v,
+            band_volumes_mm3: &[3.2, 3.2],
+            contact_resultant: c,
+            chip_edge_area_mm2: edge,
+            volume_over_radius_mm2: v / 5.0,
+            dt_s: 0.016,
+        });
+        let hm = 2.0 * 0.1 / std::f64::consts::PI;
+        assert!((load.chip_thickness_mm - hm).abs() < 1e-12);
+        let kc = 1500.0 * hm.powf(-0.22);
+        assert!((load.power_w - kc * v / 0.016 / 1000.0).abs() < 1e-9);
+        // Altintas' mean slot forces per tooth pass: F_y = z a_p f_z K_t / 4, F_x = −k_r F_y.
+        let fy = 2.0 * 2.0 * 0.1 * kc / 4.0;
+        assert!((load.fy_n - fy).abs() < 1e-9 * fy, "{} vs {fy}", load.fy_n);
+        assert!((load.fx_n + 0.3 * fy).abs() < 1e-9 * fy);
+        // Torque = P/ω; mean tangential force = T / R; axial = k_a · that.
+        let ft = load.torque_nm * 1000.0 / 5.0;
+        assert!((load.fz_n - 0.25 * ft).abs() < 1e-9);
+        assert!(load.stress_mpa > 0.0);
     }
 
     #[test]
     fn air_cut_and_empty_bands() {
-        assert_eq!(
-            MODEL.step_load(0.0, &[0.0, 0.0], [0.0; 3], 0.016),
-            StepLoad::default()
-        );
+        let m = model(S4);
+        let nothing = StepRemoval {
+            dt_s: 0.016,
+            ..StepRemoval::default()
+        };
+        assert_eq!(m.step_load(&nothing), StepLoad::default());
         // Volume but no band breakdown: the force acts at the tip.
-        let load = MODEL.step_load(1.6, &[], [-1.0, 0.0, 0.0], 0.016);
-        let tip_um = 1000.0 * MODEL.beam.deflection_mm(load.force_n, 0.0, 0.0);
+        let load = m.step_load(&StepRemoval {
+            volume_mm3: 1.6,
+            contact_resultant: [-1.0, 0.0],
+            dt_s: 0.016,
+            ..StepRemoval::default()
+        });
+        let tip_um = 1000.0 * m.beam.deflection_mm(load.force_n, 0.0, 0.0);
         assert!((load.dx_um - tip_um).abs() < 1e-9);
+    }
+
+    #[test]
+    fn feed_for_limit_inverts_the_power_law() {
+        let m = model(S4);
+        // Q(1000) = 50 grows like F^0.72: Q(F) = 80 at F = 1000 · 1.6^(1/0.72).
+        let f = m.feed_for_limit(50.0, 1000.0, 80.0);
+        assert!((50.0 * (f / 1000.0).powf(0.72) - 80.0).abs() < 1e-9);
+        assert_eq!(m.feed_for_limit(0.0, 1000.0, 80.0), f64::INFINITY);
     }
 }

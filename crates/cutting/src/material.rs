@@ -2,6 +2,14 @@
 
 use serde::Serialize;
 
+use crate::kienzle::Kienzle;
+
+/// Ratios of the radial and axial to the tangential force used for every built-in material
+/// (MODEL.md §3.2): between aluminium's 0.21 / 0.28 (Altintas, *Manufacturing Automation*,
+/// Al7075-T6 with a 30° helix end mill: K_tc 796, K_rc 168, K_ac 222 N/mm²) and steels' ≈ 0.4.
+pub const RADIAL_RATIO: f64 = 0.3;
+pub const AXIAL_RATIO: f64 = 0.25;
+
 /// A work material with the coefficients of S4's force law `F = a · V^n`
 /// (F in N, V = removed volume per tooth per revolution in mm³).
 ///
@@ -19,6 +27,24 @@ pub struct Material {
     pub force_coef_a: f64,
     /// `n` in `F = a · V^n` (dimensionless, typically 0.6–0.8).
     pub force_exp_n: f64,
+    /// Kienzle's specific cutting force (MODEL.md §3.2).
+    pub kienzle: Kienzle,
+    /// Where the Kienzle values come from.
+    pub kienzle_source: &'static str,
+}
+
+/// ISCAR, *Turning tools* catalogue 2017, "Material groups according to DIN/ISO 513 and
+/// VDI 3323", kc1 (N/mm², for a 1 mm² chip of 1 mm thickness) and mc per group.
+const ISCAR_VDI3323: &str =
+    "ISCAR turning catalogue 2017, material groups after DIN/ISO 513 and VDI 3323";
+
+const fn kienzle(kc1_1_mpa: f64, mc: f64) -> Kienzle {
+    Kienzle {
+        kc1_1_mpa,
+        mc,
+        radial_ratio: RADIAL_RATIO,
+        axial_ratio: AXIAL_RATIO,
+    }
 }
 
 impl Material {
@@ -27,24 +53,37 @@ impl Material {
         name: "al6061",
         force_coef_a: 250.0,
         force_exp_n: 0.70,
+        // VDI 3323 group 22, wrought aluminium, hardenable (aged): kc1 800, mc 0.25.
+        kienzle: kienzle(800.0, 0.25),
+        kienzle_source: ISCAR_VDI3323,
     };
     /// Carbon steel S50C (JIS; ≈ C50 / AISI 1050), annealed, ≈ 200 HB.
     pub const S50C: Material = Material {
         name: "s50c",
         force_coef_a: 800.0,
         force_exp_n: 0.72,
+        // VDI 3323 group 2, non-alloy steel ≥ 0.25 % C annealed (C45/C50, 190 HB): kc1 1500, mc 0.22.
+        kienzle: kienzle(1500.0, 0.22),
+        kienzle_source: ISCAR_VDI3323,
     };
     /// Pre-hardened tool steel, ≈ 40 HRC (e.g. NAK80, P20 class).
     pub const TOOL_STEEL_40HRC: Material = Material {
         name: "tool-steel-40hrc",
         force_coef_a: 1100.0,
         force_exp_n: 0.75,
+        // VDI 3323 group 11, high-alloy and tool steel quenched and tempered (1100 N/mm²,
+        // 325 HB ≈ 35 HRC, the nearest group to 40 HRC): kc1 2500, mc 0.23.
+        kienzle: kienzle(2500.0, 0.23),
+        kienzle_source: ISCAR_VDI3323,
     };
     /// Titanium alloy Ti-6Al-4V.
     pub const TI6AL4V: Material = Material {
         name: "ti6al4v",
         force_coef_a: 950.0,
         force_exp_n: 0.75,
+        // VDI 3323 group 37, α+β titanium alloys (Rm 1050 N/mm²): kc1 2110, mc 0.22.
+        kienzle: kienzle(2110.0, 0.22),
+        kienzle_source: ISCAR_VDI3323,
     };
 
     /// The built-in table.
@@ -74,6 +113,7 @@ mod tests {
         for m in Material::ALL {
             assert_eq!(Material::by_name(m.name), Some(m));
             assert!(m.force_coef_a > 0.0 && (0.5..=1.0).contains(&m.force_exp_n));
+            assert!(m.kienzle.kc1_1_mpa > 500.0 && (0.1..0.4).contains(&m.kienzle.mc));
         }
     }
 }

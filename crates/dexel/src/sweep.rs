@@ -167,8 +167,10 @@ struct Prepared {
     /// Unit XY direction and XY length (zero for a plunge).
     u: [f64; 2],
     len_xy: f64,
-    /// 3D length of the move.
-    len: f64,
+    /// 1 / XY length (0 for a plunge).
+    inv_len_xy: f64,
+    /// 1 / the floor of the cut thickness ([`MIN_THICKNESS_SHARE`] of the length).
+    inv_floor: f64,
     /// Lowest tip z along the move: nothing at or below this top can be cut.
     zmin: f64,
 }
@@ -206,7 +208,8 @@ impl Prepared {
             inv_dd,
             u,
             len_xy,
-            len: dd.sqrt(),
+            inv_len_xy: if h2 > PLUNGE_H2 { 1.0 / len_xy } else { 0.0 },
+            inv_floor: 1.0 / (MIN_THICKNESS_SHARE * dd.sqrt()).max(1e-12),
             zmin: p0[2].min(step.to_mm[2]),
         }
     }
@@ -286,10 +289,10 @@ trait Envelope: Sync {
         None
     }
 
-    /// The cutting edge at height `h` ≥ 0 above the tip: its radius r and
-    /// sin κ, κ the angle between the tool surface's normal there and the axis
-    /// (90° on a cylindrical flank).
-    fn side(&self, h: f64) -> (f64, f64);
+    /// The cutting edge at height `h` ≥ 0 above the tip: its radius r, 1/r and
+    /// 1/sin κ, κ the angle between the tool surface's normal there and the
+    /// axis (90° on a cylindrical flank). r is at least [`MIN_EDGE_RADIUS`]·R.
+    fn side(&self, h: f64) -> (f64, f64, f64);
 
     /// cos κ of the tool surface at height `h` ≥ 0 above the tip, where the
     /// lowest point of a removed piece lies (1 on a flat bottom).
@@ -298,6 +301,10 @@ trait Envelope: Sync {
 
 /// Heights above the tip below this (mm) count as the tool's flat bottom.
 const BOTTOM_MM: f64 = 1e-6;
+
+/// Smallest edge radius used for chip sums, as a share of the tool radius
+/// (the very tip of a ball has r → 0).
+const MIN_EDGE_RADIUS: f64 = 1e-3;
 
 /// Margin of [`Envelope::stays_above`], mm: far below an f32 height's
 /// resolution, far above the f64 rounding of the bound (and the ≤ 1e-9 mm a
@@ -373,13 +380,16 @@ impl Envelope for BallEnd {
     }
 
     #[inline]
-    fn side(&self, h: f64) -> (f64, f64) {
+    fn side(&self, h: f64) -> (f64, f64, f64) {
         if h >= self.r {
-            (self.r, 1.0)
+            (self.r, 1.0 / self.r, 1.0)
         } else {
             // r = √(h (2R − h)), sin κ = r / R
-            let r = (h * (2.0 * self.r - h)).max(0.0).sqrt();
-            (r, r / self.r)
+            let r = (h * (2.0 * self.r - h))
+                .sqrt()
+                .max(MIN_EDGE_RADIUS * self.r);
+            let inv_r = 1.0 / r;
+            (r, inv_r, self.r * inv_r)
         }
     }
 
@@ -423,8 +433,8 @@ impl Envelope for FlatEnd {
     }
 
     #[inline]
-    fn side(&self, _h: f64) -> (f64, f64) {
-        (self.r, 1.0)
+    fn side(&self, _h: f64) -> (f64, f64, f64) {
+        (self.r, 1.0 / self.r, 1.0)
     }
 
     #[inline]
@@ -501,13 +511,16 @@ impl Envelope for BullNose {
     }
 
     #[inline]
-    fn side(&self, h: f64) -> (f64, f64) {
+    fn side(&self, h: f64) -> (f64, f64, f64) {
         if h >= self.rc {
-            (self.r, 1.0)
+            (self.r, 1.0 / self.r, 1.0)
         } else {
             // Torus: r = ring + √(rc² − (rc − h)²), sin κ = (r − ring) / rc
-            let e = (h * (2.0 * self.rc - h)).max(0.0).sqrt();
-            (self.ring + e, e / self.rc)
+            let e = (h * (2.0 * self.rc - h))
+                .sqrt()
+                .max(MIN_EDGE_RADIUS * self.rc);
+            let r = self.ring + e;
+            (r, 1.0 / r, self.rc / e)
         }
     }
 
@@ -530,26 +543,26 @@ struct Banding {
 }
 
 impl Banding {
-    /// Credit `share` of the removed piece [a, b] (absolute z) of a column to
-    /// the bands above a tip at `z_tip`; `acc` is [volume, shank, cx, cy, chip
-    /// area, volume over radius, bands…] in mm. Returns the piece's length.
+    /// Credit the removed piece [a, b] (absolute z) of a column to the bands
+    /// above a tip at `z_tip` and to the shank; `acc` is [volume, shank, cx, cy,
+    /// chip area, volume over radius, bands…] in mm. Returns the piece's length
+    /// (the caller adds it to the volume).
     #[inline]
-    fn credit(&self, acc: &mut [f64], z_tip: f64, a: f64, b: f64, share: f64) -> f64 {
+    fn credit(&self, acc: &mut [f64], z_tip: f64, a: f64, b: f64) -> f64 {
         let mut lo = (a - z_tip).max(0.0);
         let hi = (b - z_tip).max(lo);
         let length = hi - lo;
-        acc[0] += share * length;
         let mut k = (lo * self.inv_band_h) as usize;
         while lo < hi && k < self.n_bands {
             let top = (((k + 1) as f64) * self.band_h).min(self.flute_len).min(hi);
             if top > lo {
-                acc[HEAD + k] += share * (top - lo);
+                acc[HEAD + k] += top - lo;
                 lo = top;
             }
             k += 1;
         }
         if lo < hi {
-            acc[1] += share * (hi - lo);
+            acc[1] += hi - lo;
         }
         length
     }
@@ -591,19 +604,13 @@ fn cut_above(col: &mut Column, z: f32, mut piece: impl FnMut(f32, f32)) {
 struct Contact {
     /// Unit XY vector from the tool axis to the column when the edge reached it.
     r_hat: [f64; 2],
-    /// Radius of the edge there, mm.
-    r_mm: f64,
-    /// Thickness the edge cut there during the whole step, normal to the tool
-    /// surface, mm.
-    h_mm: f64,
-    /// Shares of the column credited to the previous, this and the next step.
-    shares: [f64; 3],
-}
-
-/// Accumulator slot of share k ([previous, this, next] → slots 1, 0, 2).
-#[inline]
-fn k_slot(k: usize) -> usize {
-    [1, 0, 2][k]
+    /// 1 / radius of the edge there, 1/mm.
+    inv_r: f64,
+    /// 1 / thickness the edge cut there during the whole step, normal to the
+    /// tool surface, 1/mm.
+    inv_h: f64,
+    /// Shares of the column credited to the previous and the next step.
+    shares: [f64; 2],
 }
 
 /// Floor of the cut thickness as a share of the step length (flanks, where
@@ -649,11 +656,12 @@ struct StripJob<'a, E> {
 }
 
 impl<E: Envelope> StripJob<'_, E> {
-    /// Accumulator width per entry: this step, then (smoothing) the previous and next.
+    /// Accumulator width per entry: this step's sums, then (smoothing) the head
+    /// values moved to the previous and to the next step.
     fn width(&self) -> usize {
         let stride = HEAD + self.banding.n_bands;
         if self.smooth {
-            3 * stride
+            stride + 2 * HEAD
         } else {
             stride
         }
@@ -663,10 +671,15 @@ impl<E: Envelope> StripJob<'_, E> {
     /// heights `h_top` (its top before the cut) down to `h_bot` above the tip.
     #[inline]
     fn contact(&self, m: &Prepared, x: f64, y: f64, t: f64, h_top: f64, h_bot: f64) -> Contact {
-        let (r_edge, sin_k) = self.env.side(h_top.max(0.0));
-        let r_mm = r_edge.max(1e-3 * self.radius);
-        let down = (-m.d[2]).max(0.0) * self.env.bottom_cos(h_bot.max(0.0));
-        let floor = MIN_THICKNESS_SHARE * m.len;
+        let (r_mm, inv_r, inv_sin_k) = self.env.side(h_top.max(0.0));
+        // 1/h of the floor and of the bottom's cut (descending moves only).
+        let mut inv_h = m.inv_floor;
+        if m.d[2] < 0.0 {
+            let down = -m.d[2] * self.env.bottom_cos(h_bot.max(0.0));
+            if down * inv_h > 1.0 {
+                inv_h = 1.0 / down;
+            }
+        }
         if m.h2 <= PLUNGE_H2 {
             let (ax, ay) = (x - (m.p0[0] + t * m.d[0]), y - (m.p0[1] + t * m.d[1]));
             let dist = ax.hypot(ay);
@@ -677,9 +690,9 @@ impl<E: Envelope> StripJob<'_, E> {
             };
             return Contact {
                 r_hat,
-                r_mm,
-                h_mm: down.max(floor),
-                shares: [0.0, 1.0, 0.0],
+                inv_r,
+                inv_h,
+                shares: [0.0, 0.0],
             };
         }
         // The edge circle of radius r at the column's top first reaches it at
@@ -687,23 +700,25 @@ impl<E: Envelope> StripJob<'_, E> {
         // column's signed offset to the left of the move's line).
         let [ux, uy] = m.u;
         let (wx, wy) = (x - m.p0[0], y - m.p0[1]);
-        let sin_t = ((ux * wy - uy * wx) / r_mm).clamp(-1.0, 1.0);
+        let sin_t = ((ux * wy - uy * wx) * inv_r).clamp(-1.0, 1.0);
         let cos_t = (1.0 - sin_t * sin_t).sqrt();
         let r_hat = [cos_t * ux - sin_t * uy, cos_t * uy + sin_t * ux];
-        // MODEL.md §3.2: h = f · n̂, the step's feed vector on the tool surface's normal.
-        // Near the flanks 1/cos θ varies fast across the cell: take its mean over the
-        // cell's offsets, [e − g/2, e + g/2] ∩ [−r, r] (mean of 1/cos = Δ arcsin · r / Δe).
-        let side = m.len_xy * sin_k * cos_t;
-        let inv_cos = if cos_t >= 0.5 {
+        // MODEL.md §3.2: h = f · n̂, the step's feed vector on the tool surface's normal,
+        // h_side = L_xy sin κ cos θ. Near the flanks 1/cos θ varies fast across the cell:
+        // take its mean over the cell's offsets, [e − g/2, e + g/2] ∩ [−r, r]
+        // (mean of 1/cos = Δ arcsin · r / Δe).
+        let half = 0.5 * self.grid.spacing_mm * inv_r;
+        let inv_cos = if 1.0 - sin_t.abs() > 4.0 * half {
+            // Away from the flank the cell mean is 1/cos θ to O(half²).
             1.0 / cos_t
         } else {
-            let half = 0.5 * self.grid.spacing_mm / r_mm;
             let (lo, hi) = ((sin_t - half).max(-1.0), (sin_t + half).min(1.0));
             (hi.asin() - lo.asin()) / (2.0 * half)
         };
-        let side_eff = m.len_xy * sin_k / inv_cos;
-        let h_mm = side_eff.max(down).max(floor);
-        let shares = if self.smooth && side >= down {
+        let inv_side = inv_cos * inv_sin_k * m.inv_len_xy;
+        let side_cut = inv_side <= inv_h;
+        inv_h = inv_h.min(inv_side);
+        let shares = if self.smooth && side_cut {
             // MODEL.md §1.5: the edge, locally straight with normal r̂, passes the
             // column's centre at s_c along the move and advances cos θ per mm of path;
             // the cell's share passed by s is the trapezoid CDF.
@@ -711,16 +726,21 @@ impl<E: Envelope> StripJob<'_, E> {
             let g = self.grid.spacing_mm;
             let (a, b) = (g * r_hat[0].abs(), g * r_hat[1].abs());
             let speed = cos_t.max(MIN_EDGE_SPEED);
-            let passed = |s: f64| trapezoid_cdf((s - s_c) * speed + 0.5 * (a + b), a, b);
-            let (before, after) = (passed(0.0), 1.0 - passed(m.len_xy));
-            [before, 1.0 - before - after, after]
+            let reach = 0.5 * (a + b);
+            if s_c * speed >= reach && (m.len_xy - s_c) * speed >= reach {
+                // The whole cell is passed within the step.
+                [0.0, 0.0]
+            } else {
+                let passed = |s: f64| trapezoid_cdf((s - s_c) * speed + reach, a, b);
+                [passed(0.0), 1.0 - passed(m.len_xy)]
+            }
         } else {
-            [0.0, 1.0, 0.0]
+            [0.0, 0.0]
         };
         Contact {
             r_hat,
-            r_mm,
-            h_mm,
+            inv_r,
+            inv_h,
             shares,
         }
     }
@@ -789,26 +809,29 @@ impl<E: Envelope> StripJob<'_, E> {
                     let c = self.contact(m, x, y, t, top as f64 - z_tip, z as f64 - z_tip);
                     let mut removed = 0.0;
                     cut_above(col, z, |a, b| {
-                        let mut length = 0.0;
-                        for (k, share) in c.shares.iter().enumerate() {
-                            if *share > 0.0 {
-                                let acc = &mut all[k_slot(k) * stride..(k_slot(k) + 1) * stride];
-                                length =
-                                    self.banding.credit(acc, z_tip, a as f64, b as f64, *share);
-                            }
-                        }
-                        removed += length;
+                        removed += self.banding.credit(all, z_tip, a as f64, b as f64);
                     });
                     if removed > 0.0 {
                         last_cut[base + ix] = step_index;
-                        for (k, share) in c.shares.iter().enumerate() {
-                            if *share > 0.0 {
-                                let acc = &mut all[k_slot(k) * stride..(k_slot(k) + 1) * stride];
-                                let v = share * removed;
-                                acc[2] += v * c.r_hat[0];
-                                acc[3] += v * c.r_hat[1];
-                                acc[4] += v / c.h_mm;
-                                acc[5] += v / c.r_mm;
+                        let column = [
+                            removed,
+                            0.0,
+                            removed * c.r_hat[0],
+                            removed * c.r_hat[1],
+                            removed * c.inv_h,
+                            removed * c.inv_r,
+                        ];
+                        for (d, v) in all[..HEAD].iter_mut().zip(column) {
+                            *d += v;
+                        }
+                        // Shares for the neighbours: head values only; bands and shank
+                        // follow in proportion when the strips are reduced.
+                        for (k, slot) in [(0, stride), (1, stride + HEAD)] {
+                            let share = c.shares[k];
+                            if share > 0.0 {
+                                for (d, v) in all[slot..slot + HEAD].iter_mut().zip(column) {
+                                    *d += share * v;
+                                }
                             }
                         }
                     }
@@ -1026,6 +1049,12 @@ fn run_batches<E: Envelope>(
     let n_strips = grid.ny.div_ceil(strip_rows);
     let stride = HEAD + banding.n_bands;
     let batch = options.batch_steps.max(1);
+    // Per step: head values to move to the previous and to the next step.
+    let mut spill = if options.smooth {
+        vec![0.0f64; steps.len() * 2 * HEAD]
+    } else {
+        Vec::new()
+    };
     let mut done = 0;
     for (b, chunk) in steps.chunks(batch).enumerate() {
         let first_step = b * batch;
@@ -1093,31 +1122,69 @@ fn run_batches<E: Envelope>(
             })
             .sum();
         record.columns_evaluated += visited;
-        // Reduce in strip order: the same sums whatever the thread count. Shares
-        // for a neighbouring step go to it only if the tool's motion continues
-        // there (else they stay with the step).
+        // Reduce in strip order: the same sums whatever the thread count. The
+        // shares for the neighbouring steps are summed per step and applied
+        // once the whole program is swept (`apply_spill`).
         for (e, &mi) in entries.iter().enumerate() {
             let i = first_step + mi as usize;
-            let prev = if i > 0 && continues(&steps[i - 1], &steps[i]) {
-                i - 1
-            } else {
-                i
-            };
-            let next = if i + 1 < steps.len() && continues(&steps[i], &steps[i + 1]) {
-                i + 1
-            } else {
-                i
-            };
-            for (slot, target) in [i, prev, next].into_iter().enumerate().take(width / stride) {
-                let src = &partial[e * width + slot * stride..e * width + (slot + 1) * stride];
-                let dst = target * stride;
-                for (d, s) in record.data[dst..dst + stride].iter_mut().zip(src) {
+            let src = &partial[e * width..(e + 1) * width];
+            let dst = i * stride;
+            for (d, s) in record.data[dst..dst + stride].iter_mut().zip(src) {
+                *d += s;
+            }
+            if width > stride {
+                for (d, s) in spill[i * 2 * HEAD..(i + 1) * 2 * HEAD]
+                    .iter_mut()
+                    .zip(&src[stride..])
+                {
                     *d += s;
                 }
             }
         }
         done += chunk.len();
         progress(done);
+    }
+    if options.smooth {
+        apply_spill(record, steps, &spill);
+    }
+}
+
+/// Move each step's shares to its neighbours (MODEL.md §1.5): head values as
+/// recorded per column, the shank and the bands in proportion to the volume
+/// moved. A share moves only where the motion continues into the neighbour
+/// and the neighbour removes material of its own, else it stays.
+fn apply_spill(record: &mut RemovalRecord, steps: &[Step], spill: &[f64]) {
+    let stride = record.stride();
+    let own = record.data.clone();
+    let n = steps.len();
+    for i in 0..n {
+        let row = &own[i * stride..(i + 1) * stride];
+        let volume = row[0];
+        if volume <= 0.0 {
+            continue;
+        }
+        let targets = [
+            (i > 0 && continues(&steps[i - 1], &steps[i])).then(|| i - 1),
+            (i + 1 < n && continues(&steps[i], &steps[i + 1])).then_some(i + 1),
+        ];
+        for (side, target) in targets.into_iter().enumerate() {
+            let Some(t) = target.filter(|&t| own[t * stride] > 0.0) else {
+                continue;
+            };
+            let moved = &spill[(2 * i + side) * HEAD..(2 * i + side + 1) * HEAD];
+            if moved[0] <= 0.0 {
+                continue;
+            }
+            let f = (moved[0] / volume).min(1.0);
+            for k in 0..stride {
+                let v = match k {
+                    0 | 2..=5 => moved[k],
+                    _ => f * row[k],
+                };
+                record.data[i * stride + k] -= v;
+                record.data[t * stride + k] += v;
+            }
+        }
     }
 }
 
@@ -1457,8 +1524,7 @@ mod tests {
             flute_len: 2.5,
         };
         let mut acc = vec![0.0; HEAD + 3];
-        assert_eq!(b.credit(&mut acc, 10.0, 10.5, 14.0, 1.0), 3.5);
-        assert_eq!(acc[0], 3.5);
+        assert_eq!(b.credit(&mut acc, 10.0, 10.5, 14.0), 3.5);
         assert_eq!(&acc[HEAD..], &[0.5, 1.0, 0.5]);
         assert_eq!(acc[1], 1.5, "above the flute length is shank contact");
     }

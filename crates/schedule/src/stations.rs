@@ -38,6 +38,8 @@ pub enum CapKind {
     Force,
     /// Caller's cap from the tool deflection.
     Deflection,
+    /// Caller's cap from the spindle cutting power.
+    Power,
     /// Caller's cap from the cutting-surface angle (S3).
     SurfaceAngle,
     /// Caller's cap from the largest feed per tooth (chip load).
@@ -52,7 +54,7 @@ pub enum CapKind {
 
 impl CapKind {
     /// Every kind, in the order [`crate::Profile::time_at_cap_share`] reports them.
-    pub const ALL: [CapKind; 14] = [
+    pub const ALL: [CapKind; 15] = [
         CapKind::Programmed,
         CapKind::FeedMax,
         CapKind::Rapid,
@@ -62,6 +64,7 @@ impl CapKind {
         CapKind::Removal,
         CapKind::Force,
         CapKind::Deflection,
+        CapKind::Power,
         CapKind::SurfaceAngle,
         CapKind::ChipLoad,
         CapKind::FeedScale,
