@@ -1333,3 +1333,33 @@ fn optimize_writes_precompensated_servo_data() {
     ));
     assert!(!dir.path().join("out2/servo_compensated.csv").exists());
 }
+
+/// At F300 on a 0.2 mm grid the tool advances less than a column per period:
+/// the grid check warns before the work and suggests a grid; at F1200 on
+/// 0.1 mm (0.32 mm per period) it does not.
+#[test]
+fn coarse_grid_is_warned_before_work_with_a_grid() {
+    let (_dir, s, err) = simulate_slot(GCODE_SLOT, ("", ""));
+    assert!(warning(&s, "coarse_grid").is_none(), "{s}");
+    assert!(!err.contains("coarse"), "{err}");
+    let (_dir, s, err) = simulate_slot(
+        GCODE_SLOT.replace("F1200", "F300").as_str(),
+        ("grid = 0.1", "grid = 0.2"),
+    );
+    let w = warning(&s, "coarse_grid").expect("grid warning");
+    assert!(w["line"].is_null());
+    // F300 at 16 ms: 0.08 mm per period on a 0.2 mm grid.
+    assert!(
+        w["message"]
+            .as_str()
+            .unwrap()
+            .contains("advances 0.080 mm per 16 ms period"),
+        "{w}"
+    );
+    assert!(
+        w["message"].as_str().unwrap().contains("a grid of 0.08 mm"),
+        "{w}"
+    );
+    // Printed before the work: ahead of the summary line on the console.
+    assert!(err.starts_with("warning: the grid is too coarse"), "{err}");
+}

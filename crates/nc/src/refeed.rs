@@ -81,7 +81,29 @@ pub fn refeed(
     for (i, t) in trace.segments.iter().enumerate() {
         by_line.entry(t.line_index).or_default().push(i);
     }
-    let tables = run_tables(source, &by_line, segments, &trace, plan);
+    let mut tables = run_tables(source, &by_line, segments, &trace, plan);
+    loop {
+        let (out, written_pieces) = write(source, segments, &trace, &by_line, plan, &tables);
+        match verify(&out, file, options, segments, plan, &written_pieces) {
+            Ok(()) => return Ok(out),
+            // A line that sometimes runs without moving (a zero-length move
+            // makes no segment) counts a run the table does not have: write
+            // those lines at their lowest feed instead.
+            Err(_) if !tables.is_empty() => tables.clear(),
+            Err(e) => return Err(e),
+        }
+    }
+}
+
+/// The re-fed text and how many blocks each segment became.
+fn write(
+    source: &str,
+    segments: &[Segment],
+    trace: &interp::Trace,
+    by_line: &BTreeMap<usize, Vec<usize>>,
+    plan: &[Vec<(f64, f64)>],
+    tables: &BTreeMap<usize, RunTable>,
+) -> (String, Vec<usize>) {
     // How many blocks each segment becomes (for the verification).
     let mut written_pieces = vec![1usize; segments.len()];
     let mut out = String::with_capacity(source.len() + source.len() / 8);
@@ -89,7 +111,7 @@ pub fn refeed(
         if index == 0 && !tables.is_empty() {
             // The tables are set before anything runs (after a leading `%`).
             let nl = eol_or_newline(eol);
-            let header = table_header(&tables, nl);
+            let header = table_header(tables, nl);
             if text.trim() == "%" {
                 out.push_str(text);
                 out.push_str(nl);
@@ -174,8 +196,7 @@ pub fn refeed(
             out.push_str(eol);
         }
     }
-    verify(&out, file, options, segments, plan, &written_pieces)?;
-    Ok(out)
+    (out, written_pieces)
 }
 
 /// Parameters that hold the feeds of lines run more than once: one counter

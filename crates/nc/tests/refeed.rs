@@ -244,6 +244,31 @@ fn repeated_lines_get_a_feed_per_run_and_cycles_the_lowest() {
     assert!(!out.contains("dexcut"), "{out}");
 }
 
+/// A line that once runs without moving (a zero-length move makes no
+/// segment) would read the wrong table entry: it falls back to the lowest feed.
+#[test]
+fn a_run_without_motion_falls_back_to_the_lowest_feed() {
+    let src = "o100 sub\nG1 X[#1] F500\no100 endsub\nG0 X0\no100 call [10]\no100 call [10]\no100 call [20]\nM2\n";
+    let path = parse(src);
+    let plan: Vec<Vec<(f64, f64)>> = path
+        .segments
+        .iter()
+        .enumerate()
+        .map(|(i, s)| match s.motion {
+            Motion::Feed { .. } => vec![(1.0, 300.0 + 100.0 * i as f64)],
+            _ => vec![],
+        })
+        .collect();
+    assert_eq!(feeds(&path).len(), 2);
+    let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
+    assert!(!out.contains("#1000"), "{out}");
+    let lowest = plan
+        .iter()
+        .filter_map(|p| p.first().map(|x| x.1))
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(feeds(&parse(&out)), vec![lowest, lowest], "{out}");
+}
+
 #[test]
 fn bad_plans_are_rejected() {
     let src = "G1 X10 F100\n";
