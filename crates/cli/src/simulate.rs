@@ -66,10 +66,10 @@ fn sweep_pass(
     options: &SweepOptions,
     label: &str,
 ) -> Result<(Stock, RemovalRecord)> {
-    let mut stock = stock.clone();
+    let mut work = stock.clone();
     let bar = progress::bar(steps.len() as u64, label);
     let record = dexel::sweep_tools(
-        &mut stock,
+        &mut work,
         &tools.tools(),
         tool_of_step,
         steps,
@@ -77,7 +77,7 @@ fn sweep_pass(
         &|done| bar.set_position(done as u64),
     )?;
     bar.finish_and_clear();
-    Ok((stock, record))
+    Ok((work, record))
 }
 
 /// The steps with the tool moved sideways by `offsets_mm` (per step, at its end; a
@@ -184,8 +184,10 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
         ..SweepOptions::default()
     };
     let started = Instant::now();
-    let (mut final_stock, mut record) =
+    let (rigid_stock, mut record) =
         sweep_pass(&stock, tools, &tool_of_step, &rigid_steps, &options, label)?;
+    // At most two stocks at a time: the initial one and the last pass's.
+    let mut final_stock = Some(rigid_stock);
     let mut step_loads = loads(tools, &tool_of_step, &record, &steps);
     let n = steps.len();
     // Rigid force directions, kept for the loop (unit, µm per µm); rapids are
@@ -232,8 +234,10 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
                 .map(|[x, y]| [1e-3 * x, 1e-3 * y])
                 .collect();
             let shifted = offset_steps(&steps, &offsets_mm);
-            (final_stock, record) =
+            drop(final_stock.take());
+            let (pass_stock, pass_record) =
                 sweep_pass(&stock, tools, &tool_of_step, &shifted, &options, label)?;
+            (final_stock, record) = (Some(pass_stock), pass_record);
             step_loads = loads(tools, &tool_of_step, &record, &steps);
             passes += 1;
             x.clone_from(&trial);
@@ -262,7 +266,7 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
         loads: step_loads,
         offsets_um,
         initial_volume_mm3,
-        stock: final_stock,
+        stock: final_stock.expect("a pass ran"),
         sweep_s,
         passes,
         loop_residual_um: residual,
