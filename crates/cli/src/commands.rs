@@ -172,6 +172,99 @@ pub struct DesignInfo {
     /// Program line of the step that last cut the worst gouge.
     pub worst_gouge_line: Option<u32>,
     pub worst_gouge_xy_mm: Option<[f64; 2]>,
+    /// Tolerances the per-line lists use, µm.
+    pub gouge_tolerance_um: f64,
+    pub stock_tolerance_um: f64,
+    /// Every program line whose cut left a gouge deeper than `gouge_tolerance_um` or stock
+    /// above `stock_tolerance_um` (S1, MODEL.md §8), by line, gouges first.
+    pub lines: Vec<LineDeviation>,
+    /// Columns no step cut that stand above the design by more than `stock_tolerance_um`.
+    pub uncut_stock_columns: usize,
+}
+
+/// One program line's worst deviation from the design of one kind.
+#[derive(Clone, Debug, Serialize)]
+pub struct LineDeviation {
+    /// Program line of the step that last cut the columns.
+    pub line: u32,
+    /// "gouge" (below the design) or "stock" (above it).
+    pub kind: &'static str,
+    /// Worst signed distance, µm (negative for a gouge).
+    pub worst_um: f64,
+    /// Column centre of the worst one, mm.
+    pub x_mm: f64,
+    pub y_mm: f64,
+    /// Number of columns beyond the tolerance whose last cut was on this line.
+    pub columns: usize,
+}
+
+/// Lines to print on the console before "and K more".
+const PRINTED_LINES: usize = 20;
+
+/// The per-line design comparison on the console (S1).
+fn print_line_deviations(info: &DesignInfo) {
+    crate::outln!(
+        "design: {} program line(s) beyond tolerance (gouge > {} µm, stock > {} µm){}",
+        info.lines.len(),
+        info.gouge_tolerance_um,
+        info.stock_tolerance_um,
+        if info.uncut_stock_columns > 0 {
+            format!(", {} uncut columns with stock", info.uncut_stock_columns)
+        } else {
+            String::new()
+        }
+    );
+    for l in info.lines.iter().take(PRINTED_LINES) {
+        crate::outln!(
+            "  line {}: {} {:.1} µm at ({:.3}, {:.3}) mm, {} columns",
+            l.line,
+            l.kind,
+            l.worst_um,
+            l.x_mm,
+            l.y_mm,
+            l.columns
+        );
+    }
+    if info.lines.len() > PRINTED_LINES {
+        crate::outln!("  and {} more", info.lines.len() - PRINTED_LINES);
+    }
+}
+
+/// Per program line, the columns beyond tolerance (MODEL.md §8): `deviations` is
+/// `(line of the last cut or None, signed distance µm, x mm, y mm)` for each column.
+fn line_deviations(
+    deviations: impl Iterator<Item = (Option<u32>, f64, f64, f64)>,
+    gouge_tolerance_um: f64,
+    stock_tolerance_um: f64,
+) -> (Vec<LineDeviation>, usize) {
+    let mut by_line: std::collections::BTreeMap<(u32, u8), LineDeviation> = Default::default();
+    let mut uncut = 0;
+    for (line, d_um, x_mm, y_mm) in deviations {
+        let kind = if d_um < -gouge_tolerance_um {
+            (0u8, "gouge")
+        } else if d_um > stock_tolerance_um {
+            (1u8, "stock")
+        } else {
+            continue;
+        };
+        let Some(line) = line else {
+            uncut += usize::from(kind.0 == 1);
+            continue;
+        };
+        let entry = by_line.entry((line, kind.0)).or_insert(LineDeviation {
+            line,
+            kind: kind.1,
+            worst_um: d_um,
+            x_mm,
+            y_mm,
+            columns: 0,
+        });
+        entry.columns += 1;
+        if d_um.abs() > entry.worst_um.abs() {
+            (entry.worst_um, entry.x_mm, entry.y_mm) = (d_um, x_mm, y_mm);
+        }
+    }
+    (by_line.into_values().collect(), uncut)
 }
 
 /// Signed distance (µm) of each column's top (`tops`) to the design model; positive = stock left.
@@ -197,12 +290,32 @@ fn design_comparison(
     for (&i, d) in valid.iter().zip(&distances) {
         diff_um[i] = (d * 1000.0) as f32;
     }
+    let last_cut = run.stock.last_cut();
+    let line_of = |i: usize| {
+        let step = last_cut[i];
+        (step != NEVER_CUT).then(|| run.steps[step as usize].line)
+    };
+    let spec = setup.job.design.as_ref();
+    let gouge_tolerance_um = spec.map_or(10.0, |d| d.gouge_tolerance_um);
+    let stock_tolerance_um = spec.map_or(50.0, |d| d.stock_tolerance_um);
+    let (lines, uncut_stock_columns) = line_deviations(
+        valid.iter().zip(&distances).map(|(&i, d)| {
+            let [x, y, _] = point(i);
+            (line_of(i), d * 1000.0, x, y)
+        }),
+        gouge_tolerance_um,
+        stock_tolerance_um,
+    );
     let mut info = DesignInfo {
         path: path.display().to_string(),
         max_stock_left_um: distances.iter().copied().fold(0.0, f64::max) * 1000.0,
         worst_gouge_um: 0.0,
         worst_gouge_line: None,
         worst_gouge_xy_mm: None,
+        gouge_tolerance_um,
+        stock_tolerance_um,
+        lines,
+        uncut_stock_columns,
     };
     if let Some((j, d)) = distances
         .iter()
@@ -214,8 +327,7 @@ fn design_comparison(
             let [x, y, _] = point(i);
             info.worst_gouge_um = d * 1000.0;
             info.worst_gouge_xy_mm = Some([x, y]);
-            let step = run.stock.last_cut()[i];
-            info.worst_gouge_line = (step != NEVER_CUT).then(|| run.steps[step as usize].line);
+            info.worst_gouge_line = line_of(i);
         }
     }
     Ok(Some((diff_um, info)))
@@ -239,11 +351,29 @@ fn write_run(setup: &Setup, run: &Run, out: &Path, steps_name: &str) -> Result<O
     let tops = run.stock.top_heights();
     let design = design_comparison(setup, run, &tops)?;
     run.write_steps_csv(&out.join(steps_name))?;
+    // With a design model each column also names the program line that last cut it (S1).
+    let lines: Option<Vec<f32>> = design.as_ref().map(|_| {
+        run.stock
+            .last_cut()
+            .iter()
+            .map(|&s| {
+                if s == NEVER_CUT {
+                    f32::NAN
+                } else {
+                    run.steps[s as usize].line as f32
+                }
+            })
+            .collect()
+    });
     run.write_columns_csv(
         &out.join("columns.csv"),
         &tops,
         design.as_ref().map(|d| d.0.as_slice()),
+        lines.as_deref(),
     )?;
+    if let Some((_, info)) = &design {
+        print_line_deviations(info);
+    }
     Ok(design.map(|d| d.1))
 }
 

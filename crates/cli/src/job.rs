@@ -322,6 +322,20 @@ impl OffsetsSpec {
 pub struct DesignSpec {
     /// Design model (STL or OBJ) to compare the final stock with.
     pub path: PathBuf,
+    /// A column cut deeper than this below the design is a gouge, µm (S1, MODEL.md §8).
+    #[serde(default = "default_gouge_tolerance_um")]
+    pub gouge_tolerance_um: f64,
+    /// A column left higher than this above the design is stock left, µm.
+    #[serde(default = "default_stock_tolerance_um")]
+    pub stock_tolerance_um: f64,
+}
+
+fn default_gouge_tolerance_um() -> f64 {
+    10.0
+}
+
+fn default_stock_tolerance_um() -> f64 {
+    50.0
 }
 
 /// `FILE:LINE:COL` of a byte offset.
@@ -603,6 +617,10 @@ impl Job {
         }
         if l.angle_rule && l.v0.is_none() {
             bail!("limits.angle_rule needs v0 (mm/min), the feed near the ball tip");
+        }
+        if let Some(d) = &self.design {
+            range("design.gouge_tolerance_um", d.gouge_tolerance_um, 0.0, 1e6)?;
+            range("design.stock_tolerance_um", d.stock_tolerance_um, 0.0, 1e6)?;
         }
         let sv = &self.servo;
         range("servo.kp (1/s)", sv.kp, 1e-3, 1e5)?;

@@ -474,6 +474,35 @@ pub fn report(dir: &Path) -> Result<()> {
                 .and_then(Value::as_u64)
                 .map_or(String::new(), |l| format!(" at program line {l}"))
         ));
+        // S1 (MODEL.md §8): every program line beyond tolerance.
+        if let Some(lines) = d.get("lines").and_then(Value::as_array) {
+            let text: Vec<String> = lines
+                .iter()
+                .filter_map(|l| {
+                    Some(format!(
+                        "line {} {} {:.1} µm at ({:.2}, {:.2}) mm over {} columns",
+                        l.get("line")?.as_u64()?,
+                        l.get("kind")?.as_str()?,
+                        l.get("worst_um")?.as_f64()?,
+                        l.get("x_mm")?.as_f64()?,
+                        l.get("y_mm")?.as_f64()?,
+                        l.get("columns")?.as_u64()?
+                    ))
+                })
+                .collect();
+            if !text.is_empty() {
+                notes.push(format!(
+                    "Program lines beyond tolerance (gouge > {} µm, stock > {} µm): {}.",
+                    d.get("gouge_tolerance_um")
+                        .and_then(Value::as_f64)
+                        .unwrap_or(0.0),
+                    d.get("stock_tolerance_um")
+                        .and_then(Value::as_f64)
+                        .unwrap_or(0.0),
+                    text.join("; ")
+                ));
+            }
+        }
     }
     let title = format!(
         "dexcut {} report: {}",

@@ -783,6 +783,7 @@ impl Run {
         path: &Path,
         tops: &[f32],
         design_diff_um: Option<&[f32]>,
+        line: Option<&[f32]>,
     ) -> Result<()> {
         let last: Vec<f32> = self
             .stock
@@ -795,6 +796,9 @@ impl Run {
             vec![("top_mm", tops), ("last_step", &last), ("error_um", &error)];
         if let Some(d) = design_diff_um {
             columns.push(("design_um", d));
+        }
+        if let Some(l) = line {
+            columns.push(("line", l));
         }
         let grid = GridInfo::of(self.stock.grid()).export();
         export::write_column_csv(path, &grid, &columns)
