@@ -51,7 +51,7 @@ pub struct Run {
 }
 
 /// Closed loop (MODEL.md §5.1): at most this many sweeps...
-pub const LOOP_MAX_PASSES: usize = 8;
+pub const LOOP_MAX_PASSES: usize = 16;
 /// ... until every step's deflection agrees with its applied offset within
 /// this many µm plus [`LOOP_REL_TOL`] of the offset.
 pub const LOOP_TOL_UM: f64 = 0.5;

@@ -1451,3 +1451,120 @@ fn coarse_grid_is_warned_before_work_with_a_grid() {
     // Printed before the work: ahead of the summary line on the console.
     assert!(err.starts_with("warning: the grid is too coarse"), "{err}");
 }
+
+/// A flat Ø10 end mill (2 flutes, 6000 rpm, F1200: f_z = 0.1 mm) along +x at
+/// height z through a box spanning y = `y.0` to `y.1` (z 0 to 30), in 0.5 mm CSV
+/// moves; `tool_extra` adds [tool] keys. Returns steps.csv, columns.csv and
+/// summary.json.
+fn flat_cut(y: (f64, f64), tool_extra: &str, z: f64) -> RunOutput {
+    let dir = tempdir();
+    let job = SLOT_JOB
+        .replace("min = [0, -20, 0]", &format!("min = [0, {}, 0]", y.0))
+        .replace("max = [100, 20, 30]", &format!("max = [100, {}, 30]", y.1))
+        .replace(
+            "kind = \"ball\"\ndiameter = 10",
+            &format!("kind = \"flat\"\ndiameter = 10\nflute_length = 20\n{tool_extra}"),
+        )
+        .replace("band_height = 1.0", "band_height = 1.0\nspindle_rpm = 6000")
+        .replace("grid = 0.1", "grid = 0.05");
+    write(dir.path(), "job.toml", &job);
+    let csv: String = std::iter::once("x,y,z\n".to_string())
+        .chain((0..=240).map(|i| format!("{},0,{z}\n", -10.0 + 0.5 * i as f64)))
+        .collect();
+    write(dir.path(), "slot.csv", &csv);
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
+    let out = dir.path().join("out");
+    (
+        csv_columns(&out.join("steps.csv")),
+        csv_columns(&out.join("columns.csv")),
+        summary(&out),
+    )
+}
+
+/// Spindle power against Kienzle's closed form (MODEL.md §3.2): a full slot and a
+/// half-immersion side cut both have h_m = 2 f_z/π, so the mean power over the
+/// steady part is kc1_1 · h_m^(−mc) · MRR (s50c: kc1_1 = 1500 N/mm², mc = 0.22).
+#[test]
+fn spindle_power_matches_kienzle_closed_form() {
+    let fz = 1200.0 / (2.0 * 6000.0);
+    let hm = 2.0 * fz / PI;
+    let kc = 1500.0 * hm.powf(-0.22);
+    for (y_min, width) in [(-20.0, 10.0), (0.0, 5.0)] {
+        let (steps, _, s) = flat_cut((y_min, 20.0), "youngs_modulus_mpa = 1e7", 28.0);
+        let steady: Vec<usize> = (0..steps["x"].len())
+            .filter(|&i| (20.0..80.0).contains(&steps["x"][i]))
+            .collect();
+        let mean = |k: &str| steady.iter().map(|&i| steps[k][i]).sum::<f64>() / steady.len() as f64;
+        // MRR = a_e · a_p · v_f = width · 2 · 20 mm/s; P = kc · MRR (N·mm/s → W).
+        let mrr = width * 2.0 * 20.0;
+        assert!(
+            rel(mean("mrr_mm3_s"), mrr) < 0.01,
+            "MRR {} vs {mrr}",
+            mean("mrr_mm3_s")
+        );
+        let expected_w = kc * mrr / 1000.0;
+        let power = mean("power_w");
+        assert!(
+            rel(power, expected_w) < 0.05,
+            "a_e {width}: mean power {power:.1} W vs closed form {expected_w:.1} W"
+        );
+        assert!(
+            rel(mean("chip_mm"), hm) < 0.03,
+            "h_m {} vs {hm}",
+            mean("chip_mm")
+        );
+        // Torque = P / ω.
+        let torque = power / (2.0 * PI * 6000.0 / 60.0);
+        assert!(rel(mean("torque_nm"), torque) < 1e-6);
+        assert!(s["peak_power_w"].as_f64().unwrap() >= power);
+    }
+}
+
+/// The bent tool cuts less (MODEL.md §5.1): a wall finished with 0.2 mm radial
+/// stock (climb milling, 10 mm deep) leaves material that is positive and at most
+/// the stock everywhere, falls as the holder gets stiffer, and vanishes for a
+/// rigid tool.
+#[test]
+fn closed_loop_error_is_bounded_by_the_stock_and_falls_with_stiffness() {
+    let mut last = f64::INFINITY;
+    for (stiffness, extra) in [
+        ("slender", "stickout = 60\nholder_stiffness_n_per_um = 0.1"),
+        ("medium", "stickout = 60\nholder_stiffness_n_per_um = 1"),
+        ("stiff", "stickout = 60\nholder_stiffness_n_per_um = 10"),
+        (
+            "rigid",
+            "stickout = 60\nholder_stiffness_n_per_um = 1e12\nyoungs_modulus_mpa = 1e7",
+        ),
+    ] {
+        let (_, cols, s) = flat_cut((-20.0, -4.8), extra, 20.0);
+        let (max_e, min_e, rigid) = (
+            s["max_error_um"].as_f64().unwrap(),
+            s["min_error_um"].as_f64().unwrap(),
+            s["rigid_peak_deflection_um"].as_f64().unwrap(),
+        );
+        eprintln!("{stiffness}: error {min_e}…{max_e} µm, rigid tool's deflection {rigid} µm");
+        // Wall errors (the cut columns next to the wall, x 25…75): positive, ≤ the stock.
+        let wall = wall_errors(&cols);
+        if stiffness == "rigid" {
+            assert!(max_e < 1.0 && min_e > -1.0, "rigid: {min_e}…{max_e}");
+        } else {
+            for e in &wall {
+                assert!(*e > 0.0 && *e <= 200.0, "{stiffness}: wall error {e} µm");
+            }
+            assert!(
+                max_e > 0.0 && max_e <= 200.0,
+                "{stiffness}: max error {max_e}"
+            );
+            assert!(max_e < last, "{stiffness}: {max_e} µm, not below {last} µm");
+        }
+        if stiffness == "slender" {
+            // Open loop, the rigid tool's load would bend it by more than the stock.
+            assert!(rigid > 200.0, "slender tool: rigid deflection {rigid} µm");
+            assert!(s["closed_loop_passes"].as_u64().unwrap() > 2);
+        }
+        last = max_e;
+    }
+}
