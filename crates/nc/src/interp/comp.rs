@@ -440,10 +440,7 @@ impl Interp<'_> {
     ) -> Result<(), Fail> {
         let col = b.first_col;
         if self.comp.first {
-            return fail(
-                col,
-                "an arc as the cutter compensation entry move is not supported; enter with a straight move",
-            );
+            return self.arc_comp_entry(b, p, center, turns, motion, pc);
         }
         let side = self.comp.side.expect("compensation on");
         let tool_radius = self.comp.radius_mm;
@@ -574,6 +571,65 @@ impl Interp<'_> {
         self.queue_arc(new_end, center, turn, motion, pc);
         self.pos = new_end;
         self.comp.program = p;
+        Ok(())
+    }
+
+    /// An arc as the entry move (LinuxCNC's convert_arc_comp1): the arc from
+    /// the current point to the programmed end, shifted by the radius at its
+    /// end, with the centre moved so both ends stay on one circle.
+    fn arc_comp_entry(
+        &mut self,
+        b: &Block,
+        p: [f64; 3],
+        center: [f64; 2],
+        turns: i32,
+        motion: Motion,
+        pc: usize,
+    ) -> Result<(), Fail> {
+        let col = b.first_col;
+        let side = self.comp.side.expect("compensation on");
+        let tool_radius = self.comp.radius_mm;
+        let [cx, cy, _] = self.pos;
+        let ccw = self.motion == 30;
+        let turn = if ccw { turns } else { -turns };
+        let arc_radius = (center[0] - cx).hypot(center[1] - cy);
+        if arc_radius <= tool_radius && tool_inside_arc(side, turn) {
+            return fail(
+                col,
+                "tool radius not less than arc radius with cutter radius compensation",
+            );
+        }
+        if (p[0] - cx).hypot(p[1] - cy) <= tool_radius {
+            return fail(
+                col,
+                "radius of cutter compensation entry arc is not greater than the tool radius",
+            );
+        }
+        let gamma = if tool_inside_arc(side, turn) {
+            (center[1] - p[1]).atan2(center[0] - p[0])
+        } else {
+            (p[1] - center[1]).atan2(p[0] - center[0])
+        };
+        let end = [
+            p[0] + tool_radius * gamma.cos(),
+            p[1] + tool_radius * gamma.sin(),
+            p[2],
+        ];
+        let b_len = (cy - end[1]).hypot(cx - end[0]) / 2.0;
+        let ab_ang = (center[1] - end[1]).atan2(center[0] - end[0]);
+        let a_ang = (cy - end[1]).atan2(cx - end[0]) - ab_ang;
+        if a_ang.cos().abs() < 1e-4 {
+            return fail(
+                col,
+                "tool radius not less than arc radius with cutter radius compensation",
+            );
+        }
+        let c_len = b_len / a_ang.cos();
+        let new_center = [end[0] + c_len * ab_ang.cos(), end[1] + c_len * ab_ang.sin()];
+        self.comp.first = false;
+        self.comp.program = p;
+        self.queue_arc(end, new_center, turn, motion, pc);
+        self.pos = end;
         Ok(())
     }
 }
