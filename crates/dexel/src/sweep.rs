@@ -1006,6 +1006,10 @@ pub fn sweep_tools(
         ));
         start = end;
     }
+    if parts.len() == 1 {
+        // One tool: the record as it is (no copy).
+        return Ok(parts.pop().expect("one part").1);
+    }
     let n_bands = parts.iter().map(|(_, r)| r.n_bands).max().unwrap_or(1);
     let mut record = RemovalRecord::new(steps.len(), n_bands, options.band_height_mm);
     let stride = record.stride();
