@@ -600,7 +600,7 @@ fn real_programs_match_linuxcnc_rs274() {
     );
     assert!(failures.is_empty(), "{}", failures.join("\n"));
     if std::env::var_os("DEXCUT_REAL_DIR").is_none() {
-        assert!(read >= 15, "corpus too small");
+        assert!(read >= 20, "corpus too small");
     }
 }
 
