@@ -12,7 +12,10 @@
 //!   buffer aborted runs that passed the check. Probed at the boundary under
 //!   `prlimit --as` of 512 MiB, 1 GiB and 2 GiB: every grid either ran or was
 //!   refused by this check, none aborted;
-//! * a servo sample (one sweep step): 307 B (sample, step, removal record, load);
+//! * a servo sample (one sweep step): 307 B with 20 bands in air; while
+//!   cutting 996 B with 40 bands, 1116 B with 80, 2027 B with 160 (the
+//!   removal record keeps every band of every step): bounded by
+//!   [`bytes_per_sample`] = 600 B + 12 B per band;
 //! * a planner station: 110 B in `simulate`, 320 B in `optimize` (engagement).
 
 use std::io::Read;
@@ -22,8 +25,14 @@ use anyhow::{bail, Context, Result};
 
 /// Peak bytes per stock column (measured, see the module notes; rounded up).
 pub const BYTES_PER_COLUMN: f64 = 104.0;
-/// Peak bytes per servo sample of one run (measured 307 B).
+/// Peak bytes per servo sample of one run without bands (measured 307 B with 20 bands in air).
 pub const BYTES_PER_SAMPLE: f64 = 320.0;
+
+/// Peak bytes per servo sample of a run whose removal record has `bands`
+/// tool bands (measured while cutting; see the module notes).
+pub fn bytes_per_sample(bands: usize) -> f64 {
+    600.0 + 12.0 * bands as f64
+}
 /// Peak bytes per planner station (measured 320 B in optimize).
 pub const BYTES_PER_STATION: f64 = 336.0;
 /// Peak bytes per byte of G-code text while it is parsed (about 40×, measured
@@ -228,7 +237,13 @@ pub fn estimate_motion(path: &nc::Path, machine: &schedule::Machine, ds_mm: f64)
 
 /// Refuse a motion whose stations or samples exceed the caps or the memory.
 /// `runs`: how many sample sets the command keeps (2 for optimize's before and after).
-pub fn check_motion(e: &MotionEstimate, file: &str, period_ms: f64, runs: f64) -> Result<()> {
+pub fn check_motion(
+    e: &MotionEstimate,
+    file: &str,
+    period_ms: f64,
+    runs: f64,
+    bytes_per_sample: f64,
+) -> Result<()> {
     if !(e.stations <= MAX_STATIONS) {
         bail!(
             "{file}: the path needs {:.3e} planner stations (one per 0.05 mm), more than the limit of {MAX_STATIONS:.0e}: the program is too long",
@@ -243,7 +258,7 @@ pub fn check_motion(e: &MotionEstimate, file: &str, period_ms: f64, runs: f64) -
         );
     }
     check_memory(
-        e.stations * BYTES_PER_STATION + runs * e.samples * BYTES_PER_SAMPLE,
+        e.stations * BYTES_PER_STATION + runs * e.samples * bytes_per_sample,
         &format!(
             "{file}: {:.0} planner stations and {:.0} servo samples",
             e.stations, e.samples

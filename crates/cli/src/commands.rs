@@ -54,7 +54,19 @@ impl Setup {
             // Stations and samples are bounded before planning (2 runs: optimize's before and after).
             let estimate =
                 crate::bounds::estimate_motion(&program.path, &machine, motion::STATION_DS_MM);
-            crate::bounds::check_motion(&estimate, &program.file, machine.period_ms, 2.0)?;
+            let flute_mm = tools
+                .entries
+                .iter()
+                .map(|e| e.tool.flute_length_mm)
+                .fold(0.0, f64::max);
+            let bands = (flute_mm / job.cutting.band_height).ceil() as usize;
+            crate::bounds::check_motion(
+                &estimate,
+                &program.file,
+                machine.period_ms,
+                2.0,
+                crate::bounds::bytes_per_sample(bands),
+            )?;
         }
         let stock = crate::stock::build(&job)?;
         let design = match &job.design {

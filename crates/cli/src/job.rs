@@ -353,6 +353,8 @@ const MAX_LENGTH_MM: f64 = 1e6;
 /// Feeds accepted, mm/min: 1 µm/min to 10 km/min.
 const FEED_RANGE_MM_MIN: (f64, f64) = (1e-3, 1e7);
 const MAX_FLUTES: u32 = 100;
+/// Tool bands per step (each costs 12 B per servo sample in the removal record).
+const MAX_BANDS: f64 = 1000.0;
 /// Pre-compensation iterations accepted (each is one drive simulation).
 const MAX_PRECOMP_ITERATIONS: usize = 1000;
 /// Columns a stock must have across its narrowest XY extent: a coarser grid
@@ -555,6 +557,20 @@ impl Job {
             MIN_GRID_MM,
             MAX_LENGTH_MM,
         )?;
+        let flute_mm = self
+            .tool
+            .iter()
+            .chain(&self.tools)
+            .map(|t| t.flute_length.unwrap_or(2.0 * t.diameter))
+            .fold(0.0, f64::max);
+        if flute_mm / c.band_height > MAX_BANDS {
+            bail!(
+                "cutting.band_height ({} mm) gives {:.0} bands over the {} mm flute length, more than {MAX_BANDS}: use a larger band height",
+                num(c.band_height),
+                (flute_mm / c.band_height).ceil(),
+                num(flute_mm)
+            );
+        }
         if let Some(rpm) = c.spindle_rpm {
             range("cutting.spindle_rpm (rev/min)", rpm, 1.0, 1e6)?;
         }
