@@ -9,9 +9,10 @@
 //! * a stock column: 63 B in `simulate`, 82 B in `optimize` (stock clones,
 //!   top heights, the error map; columns.csv is streamed). Before columns.csv
 //!   was streamed it was 80 and 99.5 B, and under `ulimit -v` its doubling
-//!   buffer aborted runs that passed the check. Probed at the boundary under
-//!   `prlimit --as` of 512 MiB, 1 GiB and 2 GiB: every grid either ran or was
-//!   refused by this check, none aborted;
+//!   buffer aborted runs that passed the check. After the Kienzle model
+//!   (issue 13) 78 and 96.5 B. Probed at the boundary under `prlimit --as` of
+//!   512 MiB, 1 GiB and 2 GiB: every grid either ran or was refused by this
+//!   check, none aborted (with [`THREAD_RESERVE_BYTES`] counted);
 //! * a servo sample (one sweep step): 307 B with 20 bands in air; while
 //!   cutting 996 B with 40 bands, 1116 B with 80, 2027 B with 160 (the
 //!   removal record keeps every band of every step): bounded by
@@ -138,8 +139,13 @@ fn cgroup_room() -> Option<f64> {
     room
 }
 
+/// Address space each worker thread reserves beyond its data: glibc's
+/// per-thread malloc arena (64 MiB reserved) and a 2 MiB stack. The sweep's
+/// threads start after the checks, so their reservations are counted here.
+const THREAD_RESERVE_BYTES: f64 = 66.0 * 1048576.0;
+
 /// Room left under RLIMIT_AS and RLIMIT_DATA (from /proc/self/limits, less
-/// what the process already maps).
+/// what the process already maps and what its worker threads will reserve).
 fn rlimit_room() -> Option<f64> {
     let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
@@ -155,7 +161,9 @@ fn rlimit_room() -> Option<f64> {
             .and_then(|v| v.parse().ok())
             .unwrap_or(0.0)
     };
-    let as_room = soft("Max address space").map(|b| b - used_kb("VmSize:") * 1024.0);
+    let threads = std::thread::available_parallelism().map_or(4, |n| n.get()) as f64 + 1.0;
+    let as_room = soft("Max address space")
+        .map(|b| b - used_kb("VmSize:") * 1024.0 - threads * THREAD_RESERVE_BYTES);
     let data_room = soft("Max data size").map(|b| b - used_kb("VmData:") * 1024.0);
     match (as_room, data_room) {
         (Some(a), Some(d)) => Some(a.min(d)),

@@ -236,7 +236,7 @@ fn d2_memory_guard_follows_measured_cost_and_ulimit() {
     r.clear_error("ulimit");
     assert!(!dir.path().join("out").exists());
     // At the boundary of the check (512 MiB): a run passes it only if it fits.
-    for g in ["0.029", "0.03"] {
+    for g in ["0.038", "0.039", "0.04"] {
         let dir = job_dir(|_| job(g), SLOT_NC);
         let r = run_limited(
             &["optimize", "job.toml", "--out", "out"],
