@@ -537,7 +537,13 @@ pub fn optimize(
     // Before: the program as written.
     let t0 = Instant::now();
     let before_steps = setup.machine_steps()?;
-    let before = simulate::run(setup.stock.clone(), &setup.tools, before_steps, "before")?;
+    let mut before = simulate::run(setup.stock.clone(), &setup.tools, before_steps, "before")?;
+    let before_summary = before.summary();
+    // The program as given keeps its steps and loads; its stock is not needed
+    // again (unless it is kept, then it is simulated again): free it for the
+    // rounds of optimize::write_verified. One column on the same grid.
+    let spacing = setup.stock.grid().spacing_mm;
+    before.stock = dexel::Stock::new_box([0.0; 3], [spacing; 3], spacing)?;
     let time_simulate_s = t0.elapsed().as_secs_f64();
     // Engagement along fine stations, caps, re-timing.
     let t1 = Instant::now();
@@ -550,8 +556,17 @@ pub fn optimize(
     let caps = optimize::interval_caps(&engagement, &stations, limits, &setup.tools);
     let written = optimize::write_verified(&setup, &machine, &stations, caps, &before, fz_max_mm)?;
     let time_plan_s = t2.elapsed().as_secs_f64();
-    let after = written.run.as_ref().unwrap_or(&before);
-    let (before_summary, mut after_summary) = (before.summary(), after.summary());
+    let after_run = match written.run {
+        Some(run) => run,
+        None => simulate::run(
+            setup.stock.clone(),
+            &setup.tools,
+            setup.machine_steps()?,
+            "as given",
+        )?,
+    };
+    let after = &after_run;
+    let mut after_summary = after.summary();
     before_summary.check_finite()?;
     after_summary.check_finite()?;
     if written.excesses_left > 0 {
