@@ -19,8 +19,8 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Sweep the program through the stock: removed volume, MRR, force and
-    /// deflection per step (steps.csv), predicted error per column (columns.csv),
-    /// summary.json.
+    /// deflection per step (steps.csv), final surface and predicted error per
+    /// column (columns.json and .npy arrays), summary.json.
     Simulate {
         /// Job file (TOML).
         job: PathBuf,
@@ -37,6 +37,10 @@ enum Command {
         /// Use an output folder that holds this run's inputs (they are kept in the new results).
         #[arg(long)]
         force: bool,
+        /// Also write the per-column results as columns.csv (one text row per
+        /// column: large on fine grids; the .npy arrays are always written).
+        #[arg(long)]
+        columns_csv: bool,
     },
     /// Re-time the program so MRR, force and deflection stay under [limits]
     /// while running as fast as the machine allows; with no job, runs the
@@ -52,6 +56,10 @@ enum Command {
         /// Use an output folder that holds this run's inputs (they are kept in the new results).
         #[arg(long)]
         force: bool,
+        /// Also write the per-column results as columns.csv (one text row per
+        /// column: large on fine grids; the .npy arrays are always written).
+        #[arg(long)]
+        columns_csv: bool,
     },
     /// Write report.html, error_map.png and stock.glb from a simulate or optimize output folder.
     Report {
@@ -99,13 +107,15 @@ fn main() -> ExitCode {
             grid,
             actual_path,
             force,
-        } => dexcut::commands::simulate(&job, &out, grid, actual_path, force),
+            columns_csv,
+        } => dexcut::commands::simulate(&job, &out, grid, actual_path, force, columns_csv),
         Command::Optimize {
             job,
             out,
             grid,
             force,
-        } => dexcut::commands::optimize(job.as_deref(), &out, grid, force),
+            columns_csv,
+        } => dexcut::commands::optimize(job.as_deref(), &out, grid, force, columns_csv),
         Command::Report { dir } => dexcut::commands::report(&dir),
         Command::Evaluate {
             job,

@@ -58,6 +58,53 @@ fn csv_columns(path: &Path) -> std::collections::HashMap<String, Vec<f64>> {
     cols
 }
 
+/// The per-column results of an output folder read from its `.npy` grid
+/// (`columns.json`), laid out as columns.csv's rows: one per column where any
+/// value is set, with ix, iy, x_mm, y_mm and one entry per array (NaN and the
+/// integer arrays' −1 read as NaN).
+fn grid_columns(out: &Path) -> HashMap<String, Vec<f64>> {
+    let info = export::read_column_grid_info(out, 1 << 20).unwrap();
+    let arrays: Vec<(String, Vec<f64>)> = info
+        .arrays
+        .iter()
+        .map(|a| {
+            let npy = export::parse_npy(&std::fs::read(out.join(&a.file)).unwrap()).unwrap();
+            assert_eq!(npy.shape, vec![info.ny, info.nx], "{}", a.file);
+            let values = match npy.data {
+                export::NpyArray::F32(v) => v.iter().map(|&x| x as f64).collect(),
+                export::NpyArray::I32(v) => v
+                    .iter()
+                    .map(|&i| if i < 0 { f64::NAN } else { i as f64 })
+                    .collect(),
+            };
+            (a.name.clone(), values)
+        })
+        .collect();
+    let grid = info.grid();
+    let mut cols: HashMap<String, Vec<f64>> = HashMap::new();
+    for iy in 0..grid.ny {
+        for ix in 0..grid.nx {
+            let i = grid.index(ix, iy);
+            if arrays.iter().all(|(_, v)| v[i].is_nan()) {
+                continue;
+            }
+            let fixed = [
+                ("ix", ix as f64),
+                ("iy", iy as f64),
+                ("x_mm", grid.x_mm(ix)),
+                ("y_mm", grid.y_mm(iy)),
+            ];
+            for (name, v) in fixed {
+                cols.entry(name.into()).or_default().push(v);
+            }
+            for (name, v) in &arrays {
+                cols.entry(name.clone()).or_default().push(v[i]);
+            }
+        }
+    }
+    cols
+}
+
 /// Cross-section of a slot cut h deep by a ball of radius r (circular segment), mm².
 fn ball_slot_area_mm2(r: f64, h: f64) -> f64 {
     r * r * ((r - h) / r).acos() - (r - h) * (2.0 * r * h - h * h).sqrt()
@@ -439,10 +486,10 @@ fn box_stl(min: [f64; 3], max: [f64; 3]) -> String {
     s
 }
 
-#[test]
-fn planted_gouge_is_found_at_its_program_line() {
+/// A job folder: SLOT_JOB's box with a flat Ø10 tool, a design model of the box
+/// faced down to z = 28 (`[design]` plus `design_keys`), and the CSV program `slot`.
+fn faced_design_dir(design_keys: &str, slot: &str) -> tempfile::TempDir {
     let dir = tempdir();
-    // Design: the block faced down to z = 28; the program faces at 28 but dips to 27.5 once.
     write(
         dir.path(),
         "design.stl",
@@ -451,12 +498,20 @@ fn planted_gouge_is_found_at_its_program_line() {
     let job = SLOT_JOB.replace(
         "kind = \"ball\"\ndiameter = 10",
         "kind = \"flat\"\ndiameter = 10",
-    ) + "[design]\npath = \"design.stl\"\n";
+    ) + "[design]\npath = \"design.stl\"\n"
+        + design_keys;
     write(dir.path(), "job.toml", &job);
+    write(dir.path(), "slot.csv", slot);
+    dir
+}
+
+#[test]
+fn planted_gouge_is_found_at_its_program_line() {
+    // Design: the block faced down to z = 28; the program faces at 28 but dips to 27.5 once.
     let mut csv = String::from("x,y,z\n-10,0,28\n40,0,28\n");
     csv.push_str("50,0,27.5\n"); // line 4: the gouge
     csv.push_str("60,0,28\n110,0,28\n");
-    write(dir.path(), "slot.csv", &csv);
+    let dir = faced_design_dir("", &csv);
     ok(&dexcut(
         &["simulate", "job.toml", "--out", "out"],
         dir.path(),
@@ -478,26 +533,13 @@ fn planted_gouge_is_found_at_its_program_line() {
 
 /// S1 per program line (MODEL.md §8): every line whose cut left a gouge beyond
 /// gouge_tolerance_um or stock beyond stock_tolerance_um is listed with its worst value,
-/// position and column count, in summary.json, columns.csv (a `line` column) and the report.
+/// position and column count, in summary.json, the column grid (a `line` array) and the report.
 #[test]
 fn every_line_beyond_tolerance_is_listed() {
-    let dir = tempdir();
     // Design: faced to z = 28. Line 4 dips to 27.5 (gouge), line 5 climbs back (gouge
     // shrinking), line 7 runs 0.3 mm high (stock left 300 µm).
-    write(
-        dir.path(),
-        "design.stl",
-        &box_stl([0.0, -20.0, 0.0], [100.0, 20.0, 28.0]),
-    );
-    let job = SLOT_JOB.replace(
-        "kind = \"ball\"\ndiameter = 10",
-        "kind = \"flat\"\ndiameter = 10",
-    )
-        + "[design]\npath = \"design.stl\"\ngouge_tolerance_um = 10\nstock_tolerance_um = 50\n";
-    write(dir.path(), "job.toml", &job);
-    write(
-        dir.path(),
-        "slot.csv",
+    let dir = faced_design_dir(
+        "gouge_tolerance_um = 10\nstock_tolerance_um = 50\n",
         "x,y,z\n-10,0,28\n40,0,28\n50,0,27.5\n60,0,28\n60,0,28.3\n110,0,28.3\n",
     );
     let out = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
@@ -546,8 +588,8 @@ fn every_line_beyond_tolerance_is_listed() {
     assert!((s7["x_mm"].as_f64().unwrap() - 82.5).abs() <= 27.5, "{s7}");
     // Columns never cut (|y| > 5) stand 2 mm above the design: counted apart.
     assert!(s["design"]["uncut_stock_columns"].as_u64().unwrap() > 0);
-    // The counts are the columns of columns.csv on that line beyond the tolerance.
-    let columns = csv_columns(&dir.path().join("out/columns.csv"));
+    // The counts are the columns of the grid on that line beyond the tolerance.
+    let columns = grid_columns(&dir.path().join("out"));
     for e in lines {
         let line = e["line"].as_f64().unwrap();
         let gouge = e["kind"].as_str() == Some("gouge");
@@ -564,11 +606,137 @@ fn every_line_beyond_tolerance_is_listed() {
     assert!(html.contains("line 7 stock 300."), "report lists line 7");
 }
 
+/// The per-column results are written as `.npy` arrays with `columns.json` by
+/// default, and as columns.csv only with `--columns-csv`; both hold the same
+/// values bit for bit, and `report` gives the same maps from either.
+#[test]
+fn column_grid_by_default_csv_on_request_and_report_reads_both() {
+    let dir = faced_design_dir(
+        "",
+        "x,y,z\n-10,0,28\n40,0,28\n50,0,27.5\n60,0,28\n110,0,28\n",
+    );
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "npy"],
+        dir.path(),
+    ));
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "both", "--columns-csv"],
+        dir.path(),
+    ));
+    let (npy, both) = (dir.path().join("npy"), dir.path().join("both"));
+    assert!(!npy.join("columns.csv").exists());
+    let info: Value =
+        serde_json::from_str(&std::fs::read_to_string(npy.join("columns.json")).unwrap()).unwrap();
+    assert_eq!(info["format"], "dexcut column grid");
+    assert_eq!(
+        (info["nx"].as_u64(), info["ny"].as_u64()),
+        (Some(1000), Some(400))
+    );
+    assert_eq!(info["spacing_mm"].as_f64(), Some(0.1));
+    let names: Vec<&str> = info["arrays"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        ["top_mm", "last_step", "error_um", "design_um", "line"]
+    );
+    // Same run, same arrays byte for byte.
+    for a in &names {
+        let f = format!("{a}.npy");
+        assert_eq!(
+            std::fs::read(npy.join(&f)).unwrap(),
+            std::fs::read(both.join(&f)).unwrap(),
+            "{f}"
+        );
+    }
+    // The CSV's rows are the grid's, value for value (NaN as an empty field):
+    // the arrays compared as f32 bits, the centres as f64.
+    let from_grid = grid_columns(&npy);
+    let mut r = csv::Reader::from_path(both.join("columns.csv")).unwrap();
+    let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+    let mut expected: Vec<&str> = vec!["ix", "iy", "x_mm", "y_mm"];
+    expected.extend(&names);
+    assert_eq!(header, expected);
+    let mut rows = 0;
+    for (row, rec) in r.records().enumerate() {
+        let rec = rec.unwrap();
+        for (name, field) in header.iter().zip(rec.iter()) {
+            let want = from_grid[name][row];
+            let same = if ["ix", "iy", "x_mm", "y_mm"].contains(&name.as_str()) {
+                field.parse::<f64>().unwrap().to_bits() == want.to_bits()
+            } else if field.is_empty() {
+                want.is_nan()
+            } else {
+                field.parse::<f32>().unwrap().to_bits() == (want as f32).to_bits()
+            };
+            assert!(same, "row {row} {name}: csv {field:?}, grid {want}");
+        }
+        rows += 1;
+    }
+    assert_eq!(rows, from_grid["ix"].len());
+    // The surface is the stock's: a box from z = 0, so Σ top · cell area is the final volume.
+    let s = summary(&npy);
+    let top_sum: f64 = from_grid["top_mm"].iter().sum();
+    let fin = s["final_volume_mm3"].as_f64().unwrap();
+    assert!(
+        rel(top_sum * 0.01, fin) < 1e-6,
+        "{} vs {fin}",
+        top_sum * 0.01
+    );
+    // The dip of line 3 (x 40 → 50) cut 0.5 mm into the design at x = 50.
+    let worst = from_grid["design_um"]
+        .iter()
+        .cloned()
+        .fold(f64::INFINITY, f64::min);
+    assert!((worst + 500.0).abs() < 1.0, "{worst}");
+
+    // report from the grid alone, and from columns.csv alone: the same maps.
+    ok(&dexcut(&["report", "npy"], dir.path()));
+    // Results as an older dexcut wrote them: columns.csv only (files and manifest entries gone).
+    let forget = |files: &[String]| {
+        let path = both.join("manifest.json");
+        let mut manifest: Value =
+            serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        for f in files {
+            std::fs::remove_file(both.join(f)).unwrap();
+            manifest["files"]
+                .as_object_mut()
+                .unwrap()
+                .remove(f)
+                .unwrap();
+        }
+        std::fs::write(&path, serde_json::to_string(&manifest).unwrap()).unwrap();
+    };
+    let mut grid_files: Vec<String> = names.iter().map(|a| format!("{a}.npy")).collect();
+    grid_files.push("columns.json".into());
+    forget(&grid_files);
+    ok(&dexcut(&["report", "both"], dir.path()));
+    for f in ["error_map.png", "design_map.png", "stock.glb"] {
+        assert_eq!(
+            std::fs::read(npy.join(f)).unwrap(),
+            std::fs::read(both.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    // With neither, report says what is missing.
+    forget(&["columns.csv".to_string()]);
+    let r = dexcut(&["report", "both"], dir.path());
+    assert!(!r.status.success());
+    assert!(
+        String::from_utf8_lossy(&r.stderr).contains("no columns.json (nor columns.csv)"),
+        "{}",
+        String::from_utf8_lossy(&r.stderr)
+    );
+}
+
 /// Side milling a 10 mm high wall at 2 mm radial depth in short steps along +x
 /// (constant load), the wall on the +y side (`climb = false`: up milling with an
-/// M3 spindle) or the −y side (climb milling). Returns steps.csv, columns.csv and
+/// M3 spindle) or the −y side (climb milling). Returns steps.csv, the column grid and
 /// summary.json of the run.
-/// steps.csv, columns.csv and summary.json of a run.
+/// steps.csv, the column grid (as rows, see `grid_columns`) and summary.json of a run.
 type RunOutput = (HashMap<String, Vec<f64>>, HashMap<String, Vec<f64>>, Value);
 
 fn wall_cut(climb: bool, tool_extra: &str) -> RunOutput {
@@ -599,7 +767,7 @@ fn wall_cut(climb: bool, tool_extra: &str) -> RunOutput {
     let out = dir.path().join("out");
     (
         csv_columns(&out.join("steps.csv")),
-        csv_columns(&out.join("columns.csv")),
+        grid_columns(&out),
         summary(&out),
     )
 }
@@ -1454,7 +1622,7 @@ fn coarse_grid_is_warned_before_work_with_a_grid() {
 
 /// A flat Ø10 end mill (2 flutes, 6000 rpm, F1200: f_z = 0.1 mm) along +x at
 /// height z through a box spanning y = `y.0` to `y.1` (z 0 to 30), in 0.5 mm CSV
-/// moves; `tool_extra` adds [tool] keys. Returns steps.csv, columns.csv and
+/// moves; `tool_extra` adds [tool] keys. Returns steps.csv, the column grid and
 /// summary.json.
 fn flat_cut(y: (f64, f64), tool_extra: &str, z: f64) -> RunOutput {
     let dir = tempdir();
@@ -1479,7 +1647,7 @@ fn flat_cut(y: (f64, f64), tool_extra: &str, z: f64) -> RunOutput {
     let out = dir.path().join("out");
     (
         csv_columns(&out.join("steps.csv")),
-        csv_columns(&out.join("columns.csv")),
+        grid_columns(&out),
         summary(&out),
     )
 }

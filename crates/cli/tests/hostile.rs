@@ -780,7 +780,7 @@ fn disk_full_keeps_previous_results_and_says_so_once() {
     dexcut(&["simulate", "job.toml", "--out", "res"], &mnt).ok();
     assert_complete(&mnt.join("res"));
     let previous = std::fs::read(mnt.join("res/manifest.json")).unwrap();
-    // A finer grid's columns.csv does not.
+    // A finer grid's column arrays do not.
     write(
         &mnt,
         "fine.toml",

@@ -358,30 +358,38 @@ struct SimulateSummary<'a> {
     run_id: String,
 }
 
-/// Write steps.csv and columns.csv of a run; returns the design comparison.
-fn write_run(setup: &Setup, run: &Run, out: &Path, steps_name: &str) -> Result<Option<DesignInfo>> {
+/// Write steps.csv and the per-column results of a run (the `.npy` grid, and
+/// columns.csv when `columns_csv`); returns the design comparison.
+fn write_run(
+    setup: &Setup,
+    run: &Run,
+    out: &Path,
+    steps_name: &str,
+    columns_csv: bool,
+) -> Result<Option<DesignInfo>> {
     let tops = run.stock.top_heights();
     let design = design_comparison(setup, run, &tops)?;
     run.write_steps_csv(&out.join(steps_name))?;
     // With a design model each column also names the program line that last cut it (S1).
-    let lines: Option<Vec<f32>> = design.as_ref().map(|_| {
+    let lines: Option<Vec<i32>> = design.as_ref().map(|_| {
         run.stock
             .last_cut()
             .iter()
             .map(|&s| {
                 if s == NEVER_CUT {
-                    f32::NAN
+                    -1
                 } else {
-                    run.steps[s as usize].line as f32
+                    run.steps[s as usize].line as i32
                 }
             })
             .collect()
     });
-    run.write_columns_csv(
-        &out.join("columns.csv"),
+    run.write_columns(
+        out,
         &tops,
         design.as_ref().map(|d| d.0.as_slice()),
         lines.as_deref(),
+        columns_csv,
     )?;
     if let Some((_, info)) = &design {
         print_line_deviations(info);
@@ -396,6 +404,7 @@ pub fn simulate(
     grid_mm: Option<f64>,
     actual_path: bool,
     force: bool,
+    columns_csv: bool,
 ) -> Result<()> {
     let started = Instant::now();
     let setup = Setup::load(job_path, grid_mm)?;
@@ -406,7 +415,7 @@ pub fn simulate(
     let mut summary = run.summary();
     summary.check_finite()?;
     summary.warnings.0.splice(0..0, grid_warning);
-    let design = write_run(&setup, &run, out_dir.path(), "steps.csv")?;
+    let design = write_run(&setup, &run, out_dir.path(), "steps.csv", columns_csv)?;
     let doc = SimulateSummary {
         run: &summary,
         job: setup.job.name.clone(),
@@ -497,6 +506,7 @@ pub fn optimize(
     out: &Path,
     grid_mm: Option<f64>,
     force: bool,
+    columns_csv: bool,
 ) -> Result<()> {
     let started = Instant::now();
     let (setup, out_dir) = match job_path {
@@ -611,7 +621,7 @@ pub fn optimize(
         });
     }
     let staged = out_dir.path();
-    let design = write_run(&setup, after, staged, "steps.csv")?;
+    let design = write_run(&setup, after, staged, "steps.csv", columns_csv)?;
     before.write_steps_csv(&staged.join("steps_before.csv"))?;
     write_servo_csv(&staged.join("servo.csv"), &written.samples)?;
     let precomp = if setup.job.servo_given {

@@ -72,7 +72,7 @@ fn read_csv_columns(
     Ok(cols)
 }
 
-/// Per-column maps from columns.csv, laid out on the grid.
+/// Per-column maps from columns.csv (results without the `.npy` grid), laid out on the grid.
 fn read_maps(
     path: &Path,
     grid: &GridInfo,
@@ -107,6 +107,52 @@ fn read_maps(
             }
         }
         maps.insert(name.to_string(), map);
+    }
+    Ok(maps)
+}
+
+/// The per-column maps `top_mm`, `error_um` (and `design_um` when written) of
+/// a results folder: from the `.npy` grid (`columns.json`), or from
+/// columns.csv when the folder has no grid (older results).
+fn read_column_maps(dir: &Path, grid: &GridInfo) -> Result<HashMap<String, Vec<f32>>> {
+    let json = dir.join(export::COLUMN_GRID_JSON);
+    if !json.exists() {
+        let csv = dir.join("columns.csv");
+        if !csv.exists() {
+            bail!(
+                "{}: no {} (nor columns.csv): the per-column results are missing",
+                dir.display(),
+                export::COLUMN_GRID_JSON
+            );
+        }
+        return read_maps(&csv, grid, &["top_mm", "error_um"], &["design_um"]);
+    }
+    let info = export::read_column_grid_info(dir, crate::bounds::MAX_SUMMARY_BYTES)?;
+    if info.grid() != grid.export() {
+        bail!(
+            "{}: grid {}×{} at {} mm from ({}, {}) differs from summary.json's {}×{} at {} mm from ({}, {})",
+            json.display(),
+            info.nx,
+            info.ny,
+            info.spacing_mm,
+            info.x0_mm,
+            info.y0_mm,
+            grid.nx,
+            grid.ny,
+            grid.spacing_mm,
+            grid.x0_mm,
+            grid.y0_mm
+        );
+    }
+    let mut maps = HashMap::new();
+    for (name, required) in [("top_mm", true), ("error_um", true), ("design_um", false)] {
+        match export::read_grid_array_f32(dir, &info, name)? {
+            Some(values) => {
+                maps.insert(name.to_string(), values);
+            }
+            None if required => bail!("{}: lists no array {name}", json.display()),
+            None => {}
+        }
     }
     Ok(maps)
 }
@@ -322,12 +368,7 @@ pub fn report(dir: &Path) -> Result<()> {
     ];
 
     // Maps and the 3D stock.
-    let maps = read_maps(
-        &dir.join("columns.csv"),
-        &grid,
-        &["top_mm", "error_um"],
-        &["design_um"],
-    )?;
+    let maps = read_column_maps(dir, &grid)?;
     let egrid = grid.export();
     let error = ScalarMap {
         grid: egrid,

@@ -776,32 +776,91 @@ impl Run {
         .with_context(|| format!("cannot write {}", path.display()))
     }
 
-    /// Write columns.csv: final surface (`tops`, the stock's top heights), last
-    /// cutting step and predicted error per column.
-    pub fn write_columns_csv(
+    /// Write the per-column results into the folder `dir`: final surface
+    /// (`tops`, the stock's top heights), last cutting step, predicted error,
+    /// and with a design model the distance to it and the program line that
+    /// last cut. Always as the compact grid (`columns.json` and one `.npy`
+    /// array each); also as `columns.csv` when `csv` is set.
+    pub fn write_columns(
         &self,
-        path: &Path,
+        dir: &Path,
         tops: &[f32],
         design_diff_um: Option<&[f32]>,
-        line: Option<&[f32]>,
+        line: Option<&[i32]>,
+        csv: bool,
     ) -> Result<()> {
-        let last: Vec<f32> = self
+        let last: Vec<i32> = self
             .stock
             .last_cut()
             .iter()
-            .map(|&s| if s == NEVER_CUT { f32::NAN } else { s as f32 })
+            .map(|&s| if s == NEVER_CUT { -1 } else { s as i32 })
             .collect();
         let error = self.error_map_um(tops);
-        let mut columns: Vec<(&str, &[f32])> =
-            vec![("top_mm", tops), ("last_step", &last), ("error_um", &error)];
+        let grid = GridInfo::of(self.stock.grid()).export();
+        let mut arrays = vec![
+            export::GridArray {
+                name: "top_mm",
+                unit: "mm",
+                meaning: "top of the material after the run; NaN where the column holds none",
+                values: export::NpyValues::F32(tops),
+            },
+            export::GridArray {
+                name: "last_step",
+                unit: "1",
+                meaning:
+                    "index of the step (row of steps.csv) that last cut the column; -1 if never cut",
+                values: export::NpyValues::I32(&last),
+            },
+            export::GridArray {
+                name: "error_um",
+                unit: "µm",
+                meaning:
+                    "predicted shape error from tool deflection, + material left; NaN where not cut",
+                values: export::NpyValues::F32(&error),
+            },
+        ];
+        if let Some(d) = design_diff_um {
+            arrays.push(export::GridArray {
+                name: "design_um",
+                unit: "µm",
+                meaning: "final surface minus the design model, + stock left, - gouge; NaN outside the design",
+                values: export::NpyValues::F32(d),
+            });
+        }
+        if let Some(l) = line {
+            arrays.push(export::GridArray {
+                name: "line",
+                unit: "1",
+                meaning: "program line of the step that last cut the column; -1 if never cut",
+                values: export::NpyValues::I32(l),
+            });
+        }
+        export::write_column_grid(dir, &grid, &arrays)
+            .with_context(|| format!("cannot write the column grid in {}", dir.display()))?;
+        if !csv {
+            return Ok(());
+        }
+        // columns.csv: integers as numbers, "no value" as an empty field.
+        let as_f32 = |v: &[i32]| -> Vec<f32> {
+            v.iter()
+                .map(|&i| if i < 0 { f32::NAN } else { i as f32 })
+                .collect()
+        };
+        let last_f = as_f32(&last);
+        let line_f = line.map(as_f32);
+        let mut columns: Vec<(&str, &[f32])> = vec![
+            ("top_mm", tops),
+            ("last_step", &last_f),
+            ("error_um", &error),
+        ];
         if let Some(d) = design_diff_um {
             columns.push(("design_um", d));
         }
-        if let Some(l) = line {
+        if let Some(l) = &line_f {
             columns.push(("line", l));
         }
-        let grid = GridInfo::of(self.stock.grid()).export();
-        export::write_column_csv(path, &grid, &columns)
+        let path = dir.join("columns.csv");
+        export::write_column_csv(&path, &grid, &columns)
             .with_context(|| format!("cannot write {}", path.display()))
     }
 }

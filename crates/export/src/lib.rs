@@ -9,7 +9,8 @@
 //! | --- | --- |
 //! | [`write_heat_map_png`] | PNG heat map with colour bar (µm) and scale bar (mm) |
 //! | [`write_stock_glb`] | binary glTF of the stock's top surface with vertex colours |
-//! | [`write_column_csv`] | one CSV row per grid column |
+//! | [`write_column_grid`] | `columns.json` and one NumPy `.npy` array per quantity (the default column output) |
+//! | [`write_column_csv`] | one CSV row per grid column (on request) |
 //! | [`write_report_html`] | one self-contained offline HTML report (SVG plots, PNG maps, WebGL 3D view) |
 //!
 //! Every `write_*` function has a pure counterpart returning bytes or a string
@@ -32,6 +33,7 @@ mod font;
 mod glb;
 mod heatmap;
 mod html;
+mod npy;
 mod svg;
 mod ticks;
 
@@ -44,6 +46,11 @@ pub use heatmap::{
     heat_map_image, heat_map_png_bytes, write_heat_map_png, HeatMapLayout, HeatMapStyle, NAN_RGBA,
 };
 pub use html::{report_html, write_report_html, Report, ReportImage, SummaryRow};
+pub use npy::{
+    npy_bytes, npy_header, parse_npy, read_column_grid_info, read_grid_array_f32,
+    write_column_grid, write_npy, ColumnGridInfo, GridArray, GridArrayInfo, Npy, NpyArray,
+    NpyValues, COLUMN_GRID_FORMAT, COLUMN_GRID_JSON,
+};
 pub use svg::{PlotGroup, MAX_PLOT_POINTS};
 
 /// A regular grid of vertical columns (dexels) in the machine XY plane.

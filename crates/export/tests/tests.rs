@@ -441,3 +441,212 @@ mod report {
         assert!(!html.contains("id=\"stock-view\""));
     }
 }
+
+mod npy {
+    use super::*;
+    use export::{GridArray, Npy, NpyArray, NpyValues};
+
+    /// Bit patterns, so NaN and −0 compare exactly.
+    fn bits(v: &[f32]) -> Vec<u32> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    #[test]
+    fn header_is_the_documented_v1_layout() {
+        let h = export::npy_header("<f4", &[2, 3]);
+        // Magic, version 1.0, little-endian u16 header length.
+        assert_eq!(&h[..8], b"\x93NUMPY\x01\x00");
+        let len = u16::from_le_bytes([h[8], h[9]]) as usize;
+        assert_eq!(h.len(), 10 + len);
+        assert_eq!(h.len() % 64, 0, "data starts 64-byte aligned");
+        let dict = std::str::from_utf8(&h[10..]).unwrap();
+        assert!(dict.starts_with("{'descr': '<f4', 'fortran_order': False, 'shape': (2, 3), }"));
+        assert!(dict.ends_with('\n'));
+        // A 1-D shape is written as a one-element tuple.
+        let h1 = export::npy_header("<i4", &[5]);
+        assert!(std::str::from_utf8(&h1[10..])
+            .unwrap()
+            .contains("'shape': (5,), }"));
+        // 1.0f32 is 0x3f800000, stored little-endian after the header.
+        let b = export::npy_bytes(&[1], NpyValues::F32(&[1.0])).unwrap();
+        assert_eq!(&b[b.len() - 4..], &[0x00, 0x00, 0x80, 0x3f]);
+        assert_eq!(b.len(), 128 + 4, "a 68-byte header pads to 128");
+    }
+
+    #[test]
+    fn f32_and_i32_round_trip_bit_exactly() {
+        let f = [
+            0.0,
+            -0.0,
+            1.5,
+            -3.25e-7,
+            f32::MIN_POSITIVE / 4.0,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            12.345_679,
+        ];
+        let b = export::npy_bytes(&[2, 5], NpyValues::F32(&f)).unwrap();
+        let Npy { shape, data } = export::parse_npy(&b).unwrap();
+        assert_eq!(shape, vec![2, 5]);
+        let NpyArray::F32(back) = data else {
+            panic!("not f32")
+        };
+        assert_eq!(bits(&back), bits(&f));
+        let i = [i32::MIN, -1, 0, 1, 16_777_217, i32::MAX];
+        let b = export::npy_bytes(&[6], NpyValues::I32(&i)).unwrap();
+        assert_eq!(
+            export::parse_npy(&b).unwrap(),
+            Npy {
+                shape: vec![6],
+                data: NpyArray::I32(i.to_vec())
+            }
+        );
+    }
+
+    #[test]
+    fn reads_a_header_padded_to_16_bytes_as_older_numpy_wrote_it() {
+        let dict = "{'descr': '<f4', 'fortran_order': False, 'shape': (3,), }";
+        let mut text = dict.to_string();
+        while (10 + text.len() + 1) % 16 != 0 {
+            text.push(' ');
+        }
+        text.push('\n');
+        let mut b = b"\x93NUMPY\x01\x00".to_vec();
+        b.extend_from_slice(&(text.len() as u16).to_le_bytes());
+        b.extend_from_slice(text.as_bytes());
+        for v in [1.0f32, 2.0, -4.0] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        assert_eq!(
+            export::parse_npy(&b).unwrap().data,
+            NpyArray::F32(vec![1.0, 2.0, -4.0])
+        );
+    }
+
+    #[test]
+    fn damaged_files_are_refused_not_panicked_on() {
+        let good = export::npy_bytes(&[2, 2], NpyValues::F32(&[1.0, 2.0, 3.0, 4.0])).unwrap();
+        let cases: Vec<(Vec<u8>, &str)> = vec![
+            (good[..good.len() - 1].to_vec(), "data bytes"),
+            (good[..5].to_vec(), "magic"),
+            (b"PK\x03\x04 not npy at all".to_vec(), "magic"),
+            (
+                {
+                    let mut b = good.clone();
+                    let s = b.windows(5).position(|w| w == b"False").unwrap();
+                    b[s..s + 5].copy_from_slice(b"True ");
+                    b
+                },
+                "Fortran",
+            ),
+            (
+                {
+                    let mut b = good.clone();
+                    let s = b.windows(3).position(|w| w == b"<f4").unwrap();
+                    b[s..s + 3].copy_from_slice(b"<f8");
+                    b
+                },
+                "dtype <f8",
+            ),
+            (
+                {
+                    let mut b = good.clone();
+                    b[8] = 0xff;
+                    b[9] = 0xff;
+                    b
+                },
+                "past the end",
+            ),
+            (
+                {
+                    let mut b = good.clone();
+                    let s = b.windows(6).position(|w| w == b"(2, 2)").unwrap();
+                    b[s..s + 6].copy_from_slice(b"(2, x)");
+                    b
+                },
+                "tuple of sizes",
+            ),
+        ];
+        for (bytes, needle) in cases {
+            let e = export::parse_npy(&bytes).unwrap_err().to_string();
+            assert!(e.contains(needle), "{e:?} should mention {needle:?}");
+        }
+        assert!(export::npy_bytes(&[3], NpyValues::F32(&[1.0])).is_err());
+    }
+
+    #[test]
+    fn column_grid_folder_round_trips() {
+        let dir = tmp();
+        let grid = Grid {
+            nx: 7,
+            ny: 3,
+            x0_mm: -1.25,
+            y0_mm: 40.0,
+            spacing_mm: 0.05,
+        };
+        let top: Vec<f32> = (0..21)
+            .map(|i| if i % 5 == 0 { f32::NAN } else { i as f32 * 0.1 })
+            .collect();
+        let last: Vec<i32> = (0..21).map(|i| i * 1000 - 1).collect();
+        export::write_column_grid(
+            dir.path(),
+            &grid,
+            &[
+                GridArray {
+                    name: "top_mm",
+                    unit: "mm",
+                    meaning: "top",
+                    values: NpyValues::F32(&top),
+                },
+                GridArray {
+                    name: "last_step",
+                    unit: "1",
+                    meaning: "step",
+                    values: NpyValues::I32(&last),
+                },
+            ],
+        )
+        .unwrap();
+        let info = export::read_column_grid_info(dir.path(), 1 << 20).unwrap();
+        assert_eq!(info.grid(), grid);
+        assert_eq!(info.arrays.len(), 2);
+        assert_eq!(info.arrays[1].dtype, "<i4");
+        let back = export::read_grid_array_f32(dir.path(), &info, "top_mm")
+            .unwrap()
+            .unwrap();
+        assert_eq!(bits(&back), bits(&top));
+        assert!(export::read_grid_array_f32(dir.path(), &info, "design_um")
+            .unwrap()
+            .is_none());
+        // The int array is refused as f32, and read back exactly from its file.
+        assert!(export::read_grid_array_f32(dir.path(), &info, "last_step").is_err());
+        let raw = std::fs::read(dir.path().join("last_step.npy")).unwrap();
+        assert_eq!(export::parse_npy(&raw).unwrap().data, NpyArray::I32(last));
+        assert_eq!(export::parse_npy(&raw).unwrap().shape, vec![3, 7]);
+
+        // An array of the wrong shape for the grid is refused, naming the file.
+        let mut other = info.clone();
+        other.nx = 3;
+        other.ny = 7;
+        let e = export::read_grid_array_f32(dir.path(), &other, "top_mm")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("top_mm.npy") && e.contains("shape"), "{e}");
+        // A wrong-length array is refused before anything is written.
+        let empty = tmp();
+        assert!(export::write_column_grid(
+            empty.path(),
+            &grid,
+            &[GridArray {
+                name: "x",
+                unit: "mm",
+                meaning: "",
+                values: NpyValues::F32(&[1.0]),
+            }],
+        )
+        .is_err());
+        assert_eq!(std::fs::read_dir(empty.path()).unwrap().count(), 0);
+    }
+}
