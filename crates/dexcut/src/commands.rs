@@ -559,7 +559,12 @@ pub fn optimize(
     let t1 = Instant::now();
     let machine = optimize::optimising_machine(&setup.machine, limits);
     let stations = optimize::free_stations(&setup.program.path, &machine)?;
-    let engagement = optimize::engagement(&stations, &setup.stock, &setup.tools)?;
+    let surface = match (&setup.design, limits.angle_rule) {
+        (_, false) => optimize::SurfaceFrom::Nothing,
+        (Some((_, model)), true) => optimize::SurfaceFrom::Design(model),
+        (None, true) => optimize::SurfaceFrom::Stock,
+    };
+    let engagement = optimize::engagement(&stations, &setup.stock, &setup.tools, surface)?;
     let time_engagement_s = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
     let fz_max_mm = setup.job.fz_max_mm();

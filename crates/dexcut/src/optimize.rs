@@ -31,13 +31,32 @@ pub struct Engagement {
     pub tool_index: Vec<usize>,
     /// Per interval: the load at [`REFERENCE_FEED_MM_MIN`] with the windowed engagement.
     pub reference_loads: Vec<cutting::StepLoad>,
+    /// Per interval: S3's cutting-surface angle of a ball-end mill, degrees
+    /// (NaN where not asked for, not a ball, no cut or no surface within reach).
+    pub surface_angle_deg: Vec<f64>,
+}
+
+/// Where S3's surface normal comes from (MODEL.md §6.3).
+#[derive(Clone, Copy)]
+pub enum SurfaceFrom<'a> {
+    /// Not needed (no angle rule).
+    Nothing,
+    /// The `[design]` model's surface nearest to the ball centre.
+    Design(&'a mesh::DesignModel),
+    /// The stock surface that the removal leaves, nearest to the ball centre.
+    Stock,
 }
 
 /// Feed at which [`Engagement::reference_loads`] are computed, mm/min.
 pub const REFERENCE_FEED_MM_MIN: f64 = 1000.0;
 
 /// Sweep a copy of the stock along the stations (geometry only, no time).
-pub fn engagement(stations: &Stations, stock: &Stock, tools: &ToolSet) -> Result<Engagement> {
+pub fn engagement(
+    stations: &Stations,
+    stock: &Stock,
+    tools: &ToolSet,
+    surface: SurfaceFrom,
+) -> Result<Engagement> {
     let pos = stations.position();
     let segs = stations.segments();
     let seg_of = stations.segment();
@@ -73,11 +92,53 @@ pub fn engagement(stations: &Stations, stock: &Stock, tools: &ToolSet) -> Result
     let reference_loads = reference_loads(&record, &area_mm2, stations.s_mm(), |k| {
         &tools.entries[tool_index[k]].model
     });
+    let surface_angle_deg =
+        surface_angles_deg(stations, &stock, tools, &tool_index, &area_mm2, surface);
     Ok(Engagement {
         area_mm2,
         reference_loads,
         tool_index,
+        surface_angle_deg,
     })
+}
+
+/// S3's cutting-surface angle per interval (MODEL.md §6.3): the angle between
+/// the tool axis and the normal of the surface nearest to the ball centre at
+/// the interval's middle, from the design model or from the stock after the
+/// sweep (`stock`). NaN on intervals that cut nothing or not with a ball.
+fn surface_angles_deg(
+    stations: &Stations,
+    stock: &Stock,
+    tools: &ToolSet,
+    tool_index: &[usize],
+    area_mm2: &[f64],
+    surface: SurfaceFrom,
+) -> Vec<f64> {
+    use rayon::prelude::*;
+    let pos = stations.position();
+    let g = stock.grid().spacing_mm;
+    (0..area_mm2.len())
+        .into_par_iter()
+        .map(|k| {
+            let tool = &tools.entries[tool_index[k]].tool;
+            if area_mm2[k] <= 1e-12 || tool.shape != dexel::ToolShape::Ball {
+                return f64::NAN;
+            }
+            let r = tool.radius_mm();
+            let mid = nalgebra::center(&pos[k], &pos[k + 1]);
+            let centre = [mid.x, mid.y, mid.z + r];
+            let along: [f64; 3] = (pos[k + 1] - pos[k]).into();
+            let normal = match surface {
+                SurfaceFrom::Nothing => None,
+                SurfaceFrom::Design(model) => model.normal_towards_mm(centre),
+                // Points within half a column of the nearest are touched; look up to 4 radii away.
+                SurfaceFrom::Stock => {
+                    dexel::surface_normal_near(stock, centre, along, 0.5 * g, 4.0 * r)
+                }
+            };
+            normal.map_or(f64::NAN, dexel::angle_to_axis_deg)
+        })
+        .collect()
 }
 
 /// Per interval, the load at [`REFERENCE_FEED_MM_MIN`] of a cut with the
@@ -213,16 +274,15 @@ pub fn interval_caps(
     limits: &LimitsSpec,
     tools: &ToolSet,
 ) -> Vec<(f64, CapKind)> {
-    let tangents = stations.tangent();
     let (segs, seg_of) = (stations.segments(), stations.segment());
     engagement
         .area_mm2
         .iter()
         .enumerate()
         .map(|(k, &a)| {
-            // The model and shape of the tool cutting this interval.
+            // The model of the tool cutting this interval.
             let entry = &tools.entries[engagement.tool_index[k]];
-            let (model, tool) = (&entry.model, &entry.tool);
+            let model = &entry.model;
             let mut cap = (f64::INFINITY, CapKind::FeedMax);
             let mut lower = |v: f64, kind: CapKind| {
                 if v < cap.0 {
@@ -264,15 +324,14 @@ pub fn interval_caps(
                 if let Some(p_kw) = limits.power_max_kw {
                     lower(cap(at_ref.power_w, 1000.0 * p_kw), CapKind::Power);
                 }
-                if let (true, Some(v0), dexel::ToolShape::Ball) =
-                    (limits.angle_rule, limits.v0, tool.shape)
+                // S3 (MODEL.md §6.3): θ between the surface normal at the contact and the
+                // tool axis, applied to the programmed (set) feed.
+                let theta_deg = engagement.surface_angle_deg[k];
+                if let (true, Some(v0), false, Motion::Feed { feed_mm_min }) =
+                    (limits.angle_rule, limits.v0, theta_deg.is_nan(), seg.motion)
                 {
-                    // S3: θ between the surface normal and the tool axis, taken as the path's inclination.
-                    let t = tangents[k + 1];
-                    let theta_deg = t.z.abs().atan2((t.x * t.x + t.y * t.y).sqrt()).to_degrees();
-                    let feed = stations.machine().feed_max_mm_min;
                     lower(
-                        schedule::angle_rule_feed_mm_min(theta_deg, feed, v0),
+                        schedule::angle_rule_feed_mm_min(theta_deg, feed_mm_min, v0),
                         CapKind::SurfaceAngle,
                     );
                 }

@@ -7,9 +7,11 @@
 //! tool height band. No I/O happens here.
 pub mod grid;
 pub mod stock;
+pub mod surface;
 
 pub use grid::Grid;
 pub use stock::{Column, Stock, NEVER_CUT};
+pub use surface::{angle_to_axis_deg, surface_normal_near};
 
 /// What can go wrong building a stock or running a sweep.
 #[derive(Debug, thiserror::Error)]

@@ -43,6 +43,21 @@ impl DesignModel {
         }
     }
 
+    /// Outward unit normal of the model's surface at the point nearest to
+    /// `point_mm`, as the direction between the two points (MODEL.md §6.3);
+    /// `None` when the point lies on the surface.
+    pub fn normal_towards_mm(&self, point_mm: [f64; 3]) -> Option<[f64; 3]> {
+        let q = local(&point_mm, &self.origin_mm);
+        let proj = self.shape.project_local_point(q, false);
+        // In f64, from the f32 projection: the centre lies far from the surface (a tool radius).
+        let p: [f64; 3] =
+            std::array::from_fn(|k| proj.point[k] as f64 + self.origin_mm[k] - point_mm[k]);
+        let d = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        // Towards the point: outside, the point minus the surface; inside, the other way.
+        let sign = if proj.is_inside { 1.0 } else { -1.0 };
+        (d > 0.0).then(|| p.map(|c| sign * c / d))
+    }
+
     /// [`DesignModel::signed_distance_mm`] of many points, in parallel.
     pub fn signed_distances_mm(&self, points_mm: &[[f64; 3]]) -> Vec<f64> {
         points_mm
