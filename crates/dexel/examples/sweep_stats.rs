@@ -28,7 +28,8 @@ fn memory_bytes() -> (u64, u64) {
     (field("VmHWM:"), field("VmRSS:"))
 }
 
-/// FNV-1a over 64-bit words: a fingerprint of heights and volumes, to see whether a change alters results.
+/// FNV-1a over 64-bit words: a fingerprint of the stock (heights, last cut)
+/// and of every per-step value of the record, to see whether a change alters results.
 fn fnv1a(words: impl Iterator<Item = u64>) -> u64 {
     words.fold(0xcbf2_9ce4_8422_2325, |h, w| {
         (h ^ w).wrapping_mul(0x100_0000_01b3)
@@ -78,11 +79,21 @@ fn main() {
                 .top_heights()
                 .iter()
                 .map(|h| h.to_bits() as u64)
+                .chain(stock.last_cut().iter().map(|&s| s as u64))
                 .chain((0..record.len()).flat_map(|i| {
+                    let [cx, cy] = record.contact_resultant(i);
                     [
-                        record.volume_mm3(i).to_bits(),
-                        record.contact_resultant(i)[0].to_bits(),
+                        record.volume_mm3(i),
+                        record.shank_volume_mm3(i),
+                        cx,
+                        cy,
+                        record.chip_edge_area_mm2(i),
+                        record.volume_over_radius_mm2(i),
                     ]
+                    .into_iter()
+                    .chain(record.band_volumes_mm3(i).iter().copied())
+                    .map(f64::to_bits)
+                    .collect::<Vec<_>>()
                 })),
         );
     }

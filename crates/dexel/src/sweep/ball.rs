@@ -1,0 +1,250 @@
+//! Ball end: the swept ball is a capsule, its lower envelope a closed-form
+//! ray–capsule intersection, with a square-root-free skip bound.
+
+use super::{torus_edge, Edge, Envelope, EnvelopeHit, Prepared, ABOVE_MARGIN_MM, PLUNGE_H2};
+
+pub(super) struct BallEnd {
+    pub(super) r: f64,
+}
+
+impl Envelope for BallEnd {
+    /// The points of the vertical line inside the ball at parameter t form a
+    /// segment whose lower end m(t) = c_z(t) − √(R² − ρ(t)²) is convex in t
+    /// (ρ² is a convex quadratic). Over all t the balls fill the infinite
+    /// cylinder around the centre line, whose lowest point on the line (the
+    /// body root ζ*, attained at t*) minimises m; so the envelope is the body
+    /// root when t* ∈ [0, 1], else the end sphere on t*'s side — one square
+    /// root for the body and at most one for a sphere, no comparison of
+    /// candidates. If the line misses the cylinder it misses every ball.
+    #[inline]
+    fn eval(&self, m: &Prepared, x: f64, y: f64) -> Option<EnvelopeHit> {
+        let r2 = self.r * self.r;
+        let (wx, wy) = (x - m.p0[0], y - m.p0[1]);
+        let [dx, dy, dz] = m.d;
+        // ζ: height relative to the first ball centre C0 = p0 + (0, 0, R).
+        let at_end = if m.h2 > PLUNGE_H2 {
+            // Capsule body: |W − (W·D)D/|D|²|² = R² with W = (wx, wy, ζ) — quadratic in ζ.
+            let rho0 = wx * wx + wy * wy;
+            let k = wx * dx + wy * dy;
+            let c = m.dd * rho0 - k * k - r2 * m.dd;
+            let disc = k * k * dz * dz - m.h2 * c;
+            if disc < 0.0 {
+                return None;
+            }
+            let zeta = (k * dz - disc.sqrt()) * m.inv_h2;
+            // t*·|D|², compared with [0, |D|²] without dividing.
+            let t_dd = k + zeta * dz;
+            if t_dd < 0.0 {
+                false
+            } else if t_dd > m.dd {
+                true
+            } else {
+                return Some(EnvelopeHit {
+                    z_mm: m.p0[2] + self.r + zeta,
+                    t: t_dd * m.inv_dd,
+                });
+            }
+        } else {
+            // Plunge: the lower of the two (coaxial) end balls.
+            dz < 0.0
+        };
+        let (ex, ey, ez, t) = if at_end {
+            (wx - dx, wy - dy, dz, 1.0)
+        } else {
+            (wx, wy, 0.0, 0.0)
+        };
+        let rho = ex * ex + ey * ey;
+        (rho <= r2).then(|| EnvelopeHit {
+            z_mm: m.p0[2] + self.r + (ez - (r2 - rho).sqrt()),
+            t,
+        })
+    }
+
+    /// No square root: with ρ the XY distance from the column to the move's
+    /// axis segment, the ball's lower surface over the column is at least
+    /// z_min + R − √(R² − ρ²) ≥ z_min + ρ²/(2R).
+    #[inline]
+    fn stays_above(&self, m: &Prepared, x: f64, y: f64, top: f64) -> bool {
+        let (wx, wy) = (x - m.p0[0], y - m.p0[1]);
+        let t = ((wx * m.d[0] + wy * m.d[1]) * m.inv_h2).clamp(0.0, 1.0);
+        let (ex, ey) = (wx - t * m.d[0], wy - t * m.d[1]);
+        ex * ex + ey * ey >= 2.0 * self.r * (top - m.zmin + ABOVE_MARGIN_MM)
+    }
+
+    /// The same bound for a whole row: ρ² ≥ 2R·(depth + margin) stays above.
+    #[inline]
+    fn reach(&self, _m: &Prepared, depth: f64) -> Option<f64> {
+        Some((2.0 * self.r * (depth + ABOVE_MARGIN_MM)).sqrt())
+    }
+
+    #[inline]
+    fn side(&self, h: f64) -> Edge {
+        // The torus with ring 0 and corner radius R: r = √(h (2R − h)), sin κ = r / R.
+        torus_edge(h, self.r, self.r, 0.0)
+    }
+
+    #[inline]
+    fn bottom_cos(&self, h: f64) -> f64 {
+        ((self.r - h) / self.r).max(0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sweep::testing::*;
+    use crate::sweep::Step;
+
+    #[test]
+    fn ball_envelope_matches_brute_force() {
+        let r = 5.0;
+        let profile = move |rho: f64| (rho <= r).then(|| r - (r * r - rho * rho).sqrt());
+        check_against_brute_force(&BallEnd { r }, &profile, 1e-4);
+    }
+
+    /// Lowest point of the swept ball on the vertical line at (x, y), found
+    /// without the capsule formula: the ball's lower end m(t) is convex on the
+    /// parameter interval where the line meets the ball, so a dense scan
+    /// followed by a golden-section refinement around the best sample gives the
+    /// minimum to ~1e-12.
+    fn ball_reference(step: &Step, r: f64, x: f64, y: f64) -> Option<f64> {
+        let at = |t: f64| -> Option<f64> {
+            let p = m_at(step, t);
+            let rho2 = (x - p[0]).powi(2) + (y - p[1]).powi(2);
+            (rho2 <= r * r).then(|| p[2] + r - (r * r - rho2).sqrt())
+        };
+        let n = 4000;
+        let mut best: Option<(f64, usize)> = None;
+        for i in 0..=n {
+            if let Some(z) = at(i as f64 / n as f64) {
+                if best.is_none_or(|b| z < b.0) {
+                    best = Some((z, i));
+                }
+            }
+        }
+        let (mut z_best, i) = best?;
+        // Refine on the neighbouring samples, clipped to where the line meets the ball.
+        let (mut a, mut b) = (
+            i.saturating_sub(1) as f64 / n as f64,
+            (i + 1).min(n) as f64 / n as f64,
+        );
+        let f = |t: f64| at(t).unwrap_or(f64::INFINITY);
+        for _ in 0..200 {
+            let (c, d) = (a + (b - a) / 3.0, b - (b - a) / 3.0);
+            let (fc, fd) = (f(c), f(d));
+            z_best = z_best.min(fc).min(fd);
+            // Outside the ball's interval f is +∞: move towards the finite side.
+            if fc <= fd {
+                b = d;
+            } else {
+                a = c;
+            }
+        }
+        Some(z_best.min(f(0.0)).min(f(1.0)))
+    }
+
+    #[test]
+    fn ball_single_candidate_matches_refined_minimum() {
+        let r = 5.0;
+        let ball = BallEnd { r };
+        let mut seed = 23;
+        let (mut hits, mut misses, mut skipped) = (0, 0, 0);
+        for case in 0..6000 {
+            let mut u = || lcg(&mut seed);
+            let from = [u() * 20.0 - 10.0, u() * 20.0 - 10.0, u() * 20.0 - 10.0];
+            // Horizontal direction and length, vertical change, by kind of move.
+            let ang = u() * std::f64::consts::TAU;
+            let (len_xy, dz) = match case % 8 {
+                0 => (0.0, u() * 20.0 - 10.0), // plunge / retract
+                1 => (u() * 15.0, 0.0),        // horizontal
+                2 => (u() * 15.0, -u() * 3.0), // ramp down
+                3 => (u() * 15.0, u() * 3.0),  // ramp up
+                4 => (10f64.powf(-3.0 - 4.0 * u()), u() * 20.0 - 10.0), // near-vertical
+                5 => (u() * 1e-3, (u() - 0.5) * 1e-3), // tiny move
+                6 => (u() * 0.8, (u() - 0.5) * 0.2), // servo-sized step
+                _ => (u() * 20.0, u() * 20.0 - 10.0), // anything
+            };
+            let to = [
+                from[0] + len_xy * ang.cos(),
+                from[1] + len_xy * ang.sin(),
+                from[2] + dz,
+            ];
+            let step = Step {
+                from_mm: from,
+                to_mm: to,
+                rapid: false,
+            };
+            let m = Prepared::new(&step);
+            // A point within R + 0.5 of a random point of the move's XY segment.
+            let (s, a2, d2) = (u(), u() * std::f64::consts::TAU, (r + 0.5) * u().sqrt());
+            let x = from[0] + s * (to[0] - from[0]) + d2 * a2.cos();
+            let y = from[1] + s * (to[1] - from[1]) + d2 * a2.sin();
+            let got = ball.eval(&m, x, y);
+            let want = ball_reference(&step, r, x, y);
+            match (got, want) {
+                (Some(EnvelopeHit { z_mm: z, t }), Some(w)) => {
+                    hits += 1;
+                    assert!(
+                        (z - w).abs() < 1e-9,
+                        "case {case}: {step:?} at ({x}, {y}): eval {z}, reference {w}"
+                    );
+                    assert!((0.0..=1.0).contains(&t), "case {case}: t = {t}");
+                    // The reported t must be where the envelope is attained.
+                    let at_t = ball_reference(
+                        &Step {
+                            from_mm: m_at(&step, t),
+                            to_mm: m_at(&step, t),
+                            rapid: false,
+                        },
+                        r,
+                        x,
+                        y,
+                    );
+                    let at_t = at_t.unwrap_or(f64::INFINITY);
+                    assert!(
+                        (at_t - z).abs() < 1e-6,
+                        "case {case}: height at t = {t} is {at_t}, envelope {z}"
+                    );
+                    // The sqrt-free bounds may only skip columns the tool cannot cut.
+                    let (sx, sy) = (to[0] - from[0], to[1] - from[1]);
+                    let s_len2 = sx * sx + sy * sy;
+                    let s_t = if s_len2 > 0.0 {
+                        (((x - from[0]) * sx + (y - from[1]) * sy) / s_len2).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
+                    let rho_min = (x - from[0] - s_t * sx).hypot(y - from[1] - s_t * sy);
+                    for top in [z - 1.0, z - 1e-3, z - 1e-9, z + 1e-9, z + 1e-3, z + 1.0] {
+                        if ball.stays_above(&m, x, y, top) {
+                            skipped += 1;
+                            assert!(
+                                z >= top,
+                                "case {case}: stays_above({top}) but the envelope is {z}"
+                            );
+                        }
+                        let reach = ball.reach(&m, top - m.zmin).unwrap();
+                        if rho_min > reach + 1e-6 {
+                            assert!(z >= top, "case {case}: ρ {rho_min} beyond reach {reach} of {top}, envelope {z}");
+                        }
+                    }
+                }
+                (None, None) => misses += 1,
+                (got, want) => {
+                    // Only a point on the footprint's rim may disagree.
+                    let near_rim = (0..=10_000).any(|i| {
+                        let p = m_at(&step, i as f64 / 10_000.0);
+                        (((x - p[0]).powi(2) + (y - p[1]).powi(2)).sqrt() - r).abs() < 1e-6
+                    });
+                    assert!(
+                        near_rim,
+                        "case {case}: {step:?} at ({x}, {y}): eval {got:?}, reference {want:?}"
+                    );
+                }
+            }
+        }
+        assert!(
+            hits > 4000 && misses > 100 && skipped > 1000,
+            "{hits} hits, {misses} misses, {skipped} skipped"
+        );
+    }
+}

@@ -1,0 +1,519 @@
+//! The sweep kernel: exact lower envelope of a tool moving along a straight
+//! line, intersected with every column it passes over.
+//!
+//! For each column the swept tool covers `[z_env, +∞)`, where `z_env` is the
+//! lowest point of the swept solid on the column's vertical line:
+//! * ball end: the swept ball is a capsule; `z_env` is a closed-form
+//!   ray–capsule intersection (cylinder body or one of the end spheres);
+//! * flat end: the lowest tip height over the parameter interval in which the
+//!   column lies under the tool's disc (closed form);
+//! * bull nose: the tool's lower surface height at horizontal distance ρ from
+//!   the axis, `f(ρ)`, is convex and non-decreasing, and ρ(t) is convex along
+//!   the move, so `f(ρ(t)) + z_tip(t)` is convex in t: a golden-section search
+//!   finds the minimum to 1e-10 of the move (no sub-sampling of positions).
+//!
+//! Before the exact envelope, a ball end rules out columns with a square-root
+//! free bound (z ≥ z_min + ρ²/2R, ρ the XY distance to the move's axis): per
+//! row against the row's highest top, then per column against its own top.
+//! The bound skips only columns that the envelope would not cut, so results
+//! are the same with or without it.
+//!
+//! Removed material of a column is credited to the tool height band it falls
+//! in, measured from the tool tip at the parameter where the envelope is
+//! attained. Architecture invariants: no allocation per move or column (the
+//! only allocations are per batch of moves and per strip), and per-step sums
+//! are reduced in a fixed strip order, so results do not depend on the number
+//! of threads.
+
+mod ball;
+mod batch;
+mod bull;
+mod flat;
+mod strip;
+
+pub use batch::{sweep, sweep_tools};
+
+use crate::Grid;
+
+/// One straight tool move, tip positions in mm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Step {
+    pub from_mm: [f64; 3],
+    pub to_mm: [f64; 3],
+    /// A rapid (G0) move: any material it removes is a collision.
+    pub rapid: bool,
+}
+
+/// Tuning of a sweep; the defaults suit grids from 0.01 to 1 mm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SweepOptions {
+    /// Height of one tool band, mm (band k spans [k·h, (k+1)·h) above the tip).
+    pub band_height_mm: f64,
+    /// Rows of columns per parallel strip.
+    pub strip_rows: usize,
+    /// Steps handled per batch (bounds the memory of partial sums; progress is
+    /// reported after each batch).
+    pub batch_steps: usize,
+    /// Credit a column's removal to the neighbouring steps by the share of its
+    /// cell that the tool's edge sweeps in each (MODEL.md §1.5), so per-step
+    /// removal does not alias with the grid. Totals are unchanged.
+    pub smooth: bool,
+}
+
+impl Default for SweepOptions {
+    fn default() -> Self {
+        SweepOptions {
+            band_height_mm: 1.0,
+            strip_rows: 8,
+            batch_steps: 16_384,
+            smooth: true,
+        }
+    }
+}
+
+/// Values stored per step before the band volumes: volume, shank volume, contact x, contact y,
+/// chip edge area, volume over edge radius.
+const HEAD: usize = 6;
+
+/// What a sweep removed, per step.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RemovalRecord {
+    pub band_height_mm: f64,
+    pub n_bands: usize,
+    /// Per step: [volume, shank volume, contact x, contact y, chip edge area,
+    /// volume over radius, band 0 … band K−1].
+    data: Vec<f64>,
+    /// Columns visited (inside a step's footprint) over the whole sweep.
+    pub columns_evaluated: u64,
+}
+
+impl RemovalRecord {
+    fn new(steps: usize, n_bands: usize, band_height_mm: f64) -> Self {
+        RemovalRecord {
+            band_height_mm,
+            n_bands,
+            data: vec![0.0; steps * (HEAD + n_bands)],
+            columns_evaluated: 0,
+        }
+    }
+
+    fn stride(&self) -> usize {
+        HEAD + self.n_bands
+    }
+
+    fn row(&self, step: usize) -> &[f64] {
+        let s = self.stride();
+        &self.data[step * s..(step + 1) * s]
+    }
+
+    /// Number of steps recorded.
+    pub fn len(&self) -> usize {
+        self.data.len() / self.stride()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Total volume removed by `step`, mm³ (bands plus shank).
+    pub fn volume_mm3(&self, step: usize) -> f64 {
+        self.row(step)[0]
+    }
+
+    /// Volume removed above the flute length (shank contact), mm³.
+    pub fn shank_volume_mm3(&self, step: usize) -> f64 {
+        self.row(step)[1]
+    }
+
+    /// Volume removed per tool height band, mm³.
+    pub fn band_volumes_mm3(&self, step: usize) -> &[f64] {
+        &self.row(step)[HEAD..]
+    }
+
+    /// S4's contact-direction resultant in XY: Σ over cut columns of the unit
+    /// horizontal vector from the tool axis towards the column, weighted by the
+    /// removed volume (mm³). The cutting force on the tool points the other way.
+    pub fn contact_resultant(&self, step: usize) -> [f64; 2] {
+        let r = self.row(step);
+        [r[2], r[3]]
+    }
+
+    /// Σ over removed volume of dV / h, where h is the thickness the edge cut
+    /// during the step at that point, normal to the tool surface (mm², MODEL.md
+    /// §3.2). The step's mean chip thickness is `volume / this`; divided by the
+    /// tooth passes of the step it is the mean chip thickness per tooth.
+    pub fn chip_edge_area_mm2(&self, step: usize) -> f64 {
+        self.row(step)[4]
+    }
+
+    /// Σ over removed volume of dV / r, r the tool's radius where the edge cut
+    /// it (mm²): turns specific cutting energy into mean tangential force
+    /// (MODEL.md §3.2).
+    pub fn volume_over_radius_mm2(&self, step: usize) -> f64 {
+        self.row(step)[5]
+    }
+
+    /// Sum of all step volumes, mm³.
+    pub fn total_volume_mm3(&self) -> f64 {
+        (0..self.len()).map(|i| self.volume_mm3(i)).sum()
+    }
+}
+
+/// Per-move values computed once.
+#[derive(Clone, Copy, Debug)]
+struct Prepared {
+    p0: [f64; 3],
+    d: [f64; 3],
+    /// |d_xy|² and |d|².
+    h2: f64,
+    dd: f64,
+    /// 1/|d_xy|² and 1/|d|² (0 for a plunge).
+    inv_h2: f64,
+    inv_dd: f64,
+    /// Unit XY direction and XY length (zero for a plunge).
+    u: [f64; 2],
+    len_xy: f64,
+    /// 1 / XY length (0 for a plunge).
+    inv_len_xy: f64,
+    /// 1 / the floor of the cut thickness ([`MIN_THICKNESS_SHARE`] of the length).
+    inv_floor: f64,
+    /// Lowest tip z along the move: nothing at or below this top can be cut.
+    zmin: f64,
+}
+
+/// Floor of the cut thickness as a share of the step length (flanks, where
+/// the edge runs along the material: the chip there is thin but not zero).
+/// It biases the mean chip thickness of a full slot up by about 1 %.
+const MIN_THICKNESS_SHARE: f64 = 0.03;
+
+/// Horizontal moves shorter than this (mm²) are treated as pure plunges.
+const PLUNGE_H2: f64 = 1e-18;
+
+impl Prepared {
+    fn new(step: &Step) -> Prepared {
+        let p0 = step.from_mm;
+        let d = [
+            step.to_mm[0] - p0[0],
+            step.to_mm[1] - p0[1],
+            step.to_mm[2] - p0[2],
+        ];
+        let h2 = d[0] * d[0] + d[1] * d[1];
+        let len_xy = h2.sqrt();
+        let u = if h2 > PLUNGE_H2 {
+            [d[0] / len_xy, d[1] / len_xy]
+        } else {
+            [0.0, 0.0]
+        };
+        let dd = h2 + d[2] * d[2];
+        let (inv_h2, inv_dd) = if h2 > PLUNGE_H2 {
+            (1.0 / h2, 1.0 / dd)
+        } else {
+            (0.0, 0.0)
+        };
+        Prepared {
+            p0,
+            d,
+            h2,
+            dd,
+            inv_h2,
+            inv_dd,
+            u,
+            len_xy,
+            inv_len_xy: if h2 > PLUNGE_H2 { 1.0 / len_xy } else { 0.0 },
+            inv_floor: 1.0 / (MIN_THICKNESS_SHARE * dd.sqrt()).max(1e-12),
+            zmin: p0[2].min(step.to_mm[2]),
+        }
+    }
+
+    /// X-interval of the move's footprint (stadium of radius `r`) on the row at `y`.
+    #[inline]
+    fn row_span(&self, y: f64, r: f64) -> Option<Span> {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for (cx, cy) in [
+            (self.p0[0], self.p0[1]),
+            (self.p0[0] + self.d[0], self.p0[1] + self.d[1]),
+        ] {
+            let dy = y - cy;
+            if dy.abs() <= r {
+                let w = (r * r - dy * dy).sqrt();
+                lo = lo.min(cx - w);
+                hi = hi.max(cx + w);
+            }
+        }
+        if self.h2 > PLUNGE_H2 {
+            // Band: |u × w| ≤ r and 0 ≤ u·w ≤ len, with w = (x − x0, y − y0); both linear in x.
+            let wy = y - self.p0[1];
+            let [ux, uy] = self.u;
+            let (a0, a1) = linear_range(-uy, ux * wy, -r, r);
+            let (b0, b1) = linear_range(ux, uy * wy, 0.0, self.len_xy);
+            let (s0, s1) = (a0.max(b0), a1.min(b1));
+            if s0 <= s1 {
+                lo = lo.min(self.p0[0] + s0);
+                hi = hi.max(self.p0[0] + s1);
+            }
+        }
+        (lo <= hi).then_some(Span { lo, hi })
+    }
+
+    /// Grid rows `[first, last]` the move's footprint (radius `r`) can touch.
+    #[inline]
+    fn row_range(&self, grid: &Grid, r: f64) -> Option<(usize, usize)> {
+        let (y0, y1) = (self.p0[1], self.p0[1] + self.d[1]);
+        grid.iy_range(y0.min(y1) - r, y0.max(y1) + r)
+    }
+}
+
+/// Values of x with `lo ≤ coef·x + c0 ≤ hi`, as an interval (possibly empty or unbounded).
+#[inline]
+fn linear_range(coef: f64, c0: f64, lo: f64, hi: f64) -> (f64, f64) {
+    if coef.abs() < 1e-12 {
+        if c0 >= lo && c0 <= hi {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        } else {
+            (f64::INFINITY, f64::NEG_INFINITY)
+        }
+    } else {
+        let (a, b) = ((lo - c0) / coef, (hi - c0) / coef);
+        (a.min(b), a.max(b))
+    }
+}
+
+/// An interval `[lo, hi]`: of x on a grid row, or of the move parameter t.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Span {
+    lo: f64,
+    hi: f64,
+}
+
+/// Where the swept tool's lower envelope meets a column's vertical line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct EnvelopeHit {
+    /// Height of the envelope, mm.
+    z_mm: f64,
+    /// Move parameter t ∈ [0, 1] where it is attained.
+    t: f64,
+}
+
+/// The cutting edge at a height above the tip.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Edge {
+    /// Radius of the edge, mm: at least [`MIN_EDGE_RADIUS`]·(corner radius).
+    r_mm: f64,
+    /// 1 / `r_mm`.
+    inv_r: f64,
+    /// 1 / sin κ, κ the angle between the tool surface's normal there and the
+    /// axis (90° on a cylindrical flank).
+    inv_sin_k: f64,
+}
+
+/// The edge at height `h` ≥ 0 above the tip of a tool of radius `r` whose
+/// corner is a torus of radius `rc` around a ring of radius `ring` = r − rc
+/// (MODEL.md §3.2): r(h) = ring + √(h (2 rc − h)), sin κ = (r(h) − ring) / rc,
+/// and the flank (r, κ = 90°) from h = rc up. A ball is the torus with
+/// `ring` = 0 and `rc` = R; a flat end has no corner below the flank.
+#[inline]
+fn torus_edge(h: f64, r: f64, rc: f64, ring: f64) -> Edge {
+    if h >= rc {
+        Edge {
+            r_mm: r,
+            inv_r: 1.0 / r,
+            inv_sin_k: 1.0,
+        }
+    } else {
+        let e = (h * (2.0 * rc - h)).sqrt().max(MIN_EDGE_RADIUS * rc);
+        let inv_e = 1.0 / e;
+        // On a ball the edge radius is e itself: no second division.
+        let (r_mm, inv_r) = if ring == 0.0 {
+            (e, inv_e)
+        } else {
+            let r_mm = ring + e;
+            (r_mm, 1.0 / r_mm)
+        };
+        Edge {
+            r_mm,
+            inv_r,
+            inv_sin_k: rc * inv_e,
+        }
+    }
+}
+
+/// Lower envelope of a swept tool on one vertical line.
+trait Envelope: Sync {
+    /// The lowest point of the swept tool above `(x, y)` and the move
+    /// parameter where it is attained; `None` if the tool never passes over
+    /// the point.
+    fn eval(&self, m: &Prepared, x: f64, y: f64) -> Option<EnvelopeHit>;
+
+    /// A cheap test, made before `eval`, that the swept tool stays at or above
+    /// `top` over `(x, y)` (so the column cannot be cut); `false` when unsure.
+    #[inline]
+    fn stays_above(&self, _m: &Prepared, _x: f64, _y: f64, _top: f64) -> bool {
+        false
+    }
+
+    /// XY distance from the move's axis segment beyond which the swept tool
+    /// stays above `m.zmin + depth` (so a row's columns no higher than that
+    /// can be cut only within it); `None` when the tool has no such bound.
+    #[inline]
+    fn reach(&self, _m: &Prepared, _depth: f64) -> Option<f64> {
+        None
+    }
+
+    /// The cutting edge at height `h` ≥ 0 above the tip.
+    fn side(&self, h: f64) -> Edge;
+
+    /// cos κ of the tool surface at height `h` ≥ 0 above the tip, where the
+    /// lowest point of a removed piece lies (1 on a flat bottom).
+    fn bottom_cos(&self, h: f64) -> f64;
+}
+
+/// Heights above the tip below this (mm) count as the tool's flat bottom.
+const BOTTOM_MM: f64 = 1e-6;
+
+/// Smallest edge radius used for chip sums, as a share of the tool radius
+/// (the very tip of a ball has r → 0).
+const MIN_EDGE_RADIUS: f64 = 1e-3;
+
+/// Margin of [`Envelope::stays_above`], mm: far below an f32 height's
+/// resolution, far above the f64 rounding of the bound (and the ≤ 1e-9 mm a
+/// plunge's tiny horizontal part can shift the closest axis point).
+const ABOVE_MARGIN_MM: f64 = 1e-7;
+
+/// Parameter interval in which the point `(x, y)` lies within `r` of the tool
+/// axis (XY), clipped to [0, 1].
+#[inline]
+fn disc_interval(m: &Prepared, x: f64, y: f64, r: f64) -> Option<Span> {
+    let (wx, wy) = (x - m.p0[0], y - m.p0[1]);
+    let rho0 = wx * wx + wy * wy;
+    if m.h2 <= PLUNGE_H2 {
+        return (rho0 <= r * r).then_some(Span { lo: 0.0, hi: 1.0 });
+    }
+    // |w − t·d_xy|² ≤ r²: quadratic in t.
+    let k = wx * m.d[0] + wy * m.d[1];
+    let disc = k * k - m.h2 * (rho0 - r * r);
+    if disc < 0.0 {
+        return None;
+    }
+    let s = disc.sqrt();
+    let (ta, tb) = (((k - s) / m.h2).max(0.0), ((k + s) / m.h2).min(1.0));
+    (ta <= tb).then_some(Span { lo: ta, hi: tb })
+}
+
+/// Shared test references: dense sampling of the swept tool, a small
+/// pseudo-random sequence, the move's point at t.
+#[cfg(test)]
+pub(super) mod testing {
+    use super::*;
+
+    /// Lowest point of the tool's lower surface above (x, y) by dense sampling of t.
+    pub(super) fn brute_force(
+        profile: &dyn Fn(f64) -> Option<f64>,
+        step: &Step,
+        x: f64,
+        y: f64,
+    ) -> Option<f64> {
+        let n = 200_000;
+        let mut best: Option<f64> = None;
+        for i in 0..=n {
+            let p = m_at(step, i as f64 / n as f64);
+            let rho = ((x - p[0]).powi(2) + (y - p[1]).powi(2)).sqrt();
+            if let Some(h) = profile(rho) {
+                let z = p[2] + h;
+                best = Some(best.map_or(z, |b: f64| b.min(z)));
+            }
+        }
+        best
+    }
+
+    /// A small deterministic pseudo-random sequence (no test dependency on rand).
+    pub(super) fn lcg(seed: &mut u64) -> f64 {
+        *seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((*seed >> 11) as f64) / ((1u64 << 53) as f64)
+    }
+
+    pub(super) fn check_against_brute_force(
+        env: &dyn Envelope,
+        profile: &dyn Fn(f64) -> Option<f64>,
+        tol: f64,
+    ) {
+        let mut seed = 7;
+        for case in 0..300 {
+            let mut r = || lcg(&mut seed) * 20.0 - 10.0;
+            let step = Step {
+                from_mm: [r(), r(), r()],
+                to_mm: [r(), r(), r()],
+                rapid: false,
+            };
+            let step = if case % 10 == 0 {
+                Step {
+                    to_mm: [step.from_mm[0], step.from_mm[1], step.to_mm[2]],
+                    ..step
+                }
+            } else {
+                step
+            };
+            let m = Prepared::new(&step);
+            let (x, y) = (r() * 0.8, r() * 0.8);
+            let exact = env.eval(&m, x, y).map(|e| e.z_mm);
+            let sampled = brute_force(profile, &step, x, y);
+            match (exact, sampled) {
+                (Some(e), Some(s)) => {
+                    assert!(
+                        e <= s + 1e-9,
+                        "case {case}: envelope {e} above sampled minimum {s}"
+                    );
+                    assert!(
+                        e >= s - tol,
+                        "case {case}: envelope {e} far below sampled minimum {s}"
+                    );
+                }
+                (None, None) => {}
+                // Sampling can miss a footprint only a hair wide.
+                (Some(_), None) | (None, Some(_)) => {
+                    let near = (0..=1000).any(|i| {
+                        let p = m_at(&step, i as f64 / 1000.0);
+                        (((x - p[0]).powi(2) + (y - p[1]).powi(2)).sqrt() - 5.0).abs() < 1e-2
+                    });
+                    assert!(
+                        near,
+                        "case {case}: footprint disagreement {exact:?} vs {sampled:?}"
+                    );
+                }
+            }
+        }
+    }
+
+    pub(super) fn m_at(step: &Step, t: f64) -> [f64; 3] {
+        std::array::from_fn(|k| step.from_mm[k] + t * (step.to_mm[k] - step.from_mm[k]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn row_span_is_the_stadium() {
+        let m = Prepared::new(&Step {
+            from_mm: [0.0, 0.0, 0.0],
+            to_mm: [10.0, 10.0, 0.0],
+            rapid: false,
+        });
+        let Span { lo, hi } = m.row_span(5.0, 1.0).unwrap();
+        let h = 2f64.sqrt();
+        assert!(
+            (lo - (5.0 - h)).abs() < 1e-12 && (hi - (5.0 + h)).abs() < 1e-12,
+            "{lo} {hi}"
+        );
+        assert!(m.row_span(11.5, 1.0).is_none());
+        // Near the end the band still reaches further left than the end circle.
+        let Span { lo, hi } = m.row_span(10.5, 1.0).unwrap();
+        let w = (1.0f64 - 0.25).sqrt();
+        assert!(
+            (lo - (10.5 - h)).abs() < 1e-12 && (hi - (10.0 + w)).abs() < 1e-12,
+            "{lo} {hi}"
+        );
+    }
+}

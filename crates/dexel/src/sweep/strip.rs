@@ -1,0 +1,401 @@
+//! One strip of rows: every move of a batch that reaches it, column by column
+//! (envelope, removal, bands, contact and smoothing shares).
+
+use super::{Edge, Envelope, EnvelopeHit, Prepared, HEAD, PLUNGE_H2};
+use crate::{Column, Grid};
+
+/// Per-(strip, move) accumulator width and band bookkeeping shared by the strip loop.
+pub(super) struct Banding {
+    pub(super) n_bands: usize,
+    pub(super) band_h: f64,
+    pub(super) inv_band_h: f64,
+    pub(super) flute_len: f64,
+}
+
+impl Banding {
+    /// Credit the removed piece [a, b] (absolute z) of a column to the bands
+    /// above a tip at `z_tip` and to the shank; `acc` is [volume, shank, cx, cy,
+    /// chip area, volume over radius, bands…] in mm. Returns the piece's length
+    /// (the caller adds it to the volume).
+    #[inline]
+    fn credit(&self, acc: &mut [f64], z_tip: f64, a: f64, b: f64) -> f64 {
+        let mut lo = (a - z_tip).max(0.0);
+        let hi = (b - z_tip).max(lo);
+        let length = hi - lo;
+        let mut k = (lo * self.inv_band_h) as usize;
+        while lo < hi && k < self.n_bands {
+            let top = (((k + 1) as f64) * self.band_h).min(self.flute_len).min(hi);
+            if top > lo {
+                acc[HEAD + k] += top - lo;
+                lo = top;
+            }
+            k += 1;
+        }
+        if lo < hi {
+            acc[1] += hi - lo;
+        }
+        length
+    }
+}
+
+/// Remove everything at and above `z` from a column, reporting each removed piece.
+#[inline]
+fn cut_above(col: &mut Column, z: f32, mut piece: impl FnMut(f32, f32)) {
+    if let Some(upper) = col.upper.as_mut() {
+        while let Some(&[lo, hi]) = upper.last() {
+            if hi <= z {
+                return;
+            }
+            if lo >= z {
+                piece(lo, hi);
+                upper.pop();
+            } else {
+                piece(z, hi);
+                if let Some(last) = upper.last_mut() {
+                    last[1] = z;
+                }
+                return;
+            }
+        }
+        col.upper = None;
+    }
+    if col.hi > z && col.lo < col.hi {
+        if col.lo >= z {
+            piece(col.lo, col.hi);
+            *col = Column::EMPTY;
+        } else {
+            piece(z, col.hi);
+            col.hi = z;
+        }
+    }
+}
+
+/// Where and how the edge met a cut column (MODEL.md §1.4, §1.5, §3.2).
+struct Contact {
+    /// Unit XY vector from the tool axis to the column when the edge reached it.
+    r_hat: [f64; 2],
+    /// 1 / radius of the edge there, 1/mm.
+    inv_r: f64,
+    /// 1 / thickness the edge cut there during the whole step, normal to the
+    /// tool surface, 1/mm.
+    inv_h: f64,
+    /// Shares of the column credited to the previous and the next step.
+    shares: [f64; 2],
+}
+
+/// Floor of the edge's advance normal to itself per unit of path when
+/// spreading a column over steps (on a flank it runs nearly along itself).
+const MIN_EDGE_SPEED: f64 = 0.1;
+
+/// CDF at `x` of the sum of two uniform variables on [0, a] and [0, b]: the
+/// share of a square cell that a straight boundary has passed, a and b being
+/// the projections of the cell's sides on the boundary's normal.
+#[inline]
+fn trapezoid_cdf(x: f64, a: f64, b: f64) -> f64 {
+    let (a, b) = if a >= b { (a, b) } else { (b, a) };
+    if x <= 0.0 {
+        0.0
+    } else if x >= a + b {
+        1.0
+    } else if b <= 1e-9 * a {
+        x / a
+    } else if x < b {
+        x * x / (2.0 * a * b)
+    } else if x <= a {
+        (x - 0.5 * b) / a
+    } else {
+        let r = a + b - x;
+        1.0 - r * r / (2.0 * a * b)
+    }
+}
+
+/// Everything one strip needs to run its moves.
+pub(super) struct StripJob<'a, E> {
+    pub(super) env: &'a E,
+    pub(super) grid: &'a Grid,
+    pub(super) radius: f64,
+    pub(super) banding: &'a Banding,
+    pub(super) moves: &'a [Prepared],
+    pub(super) first_step: usize,
+    pub(super) smooth: bool,
+}
+
+impl<E: Envelope> StripJob<'_, E> {
+    /// Accumulator width per entry: this step's sums, then (smoothing) the head
+    /// values moved to the previous and to the next step.
+    pub(super) fn width(&self) -> usize {
+        let stride = HEAD + self.banding.n_bands;
+        if self.smooth {
+            stride + 2 * HEAD
+        } else {
+            stride
+        }
+    }
+
+    /// How the edge met the column at (x, y), cut at parameter t from the
+    /// heights `h_top` (its top before the cut) down to `h_bot` above the tip.
+    #[inline]
+    fn contact(&self, m: &Prepared, x: f64, y: f64, t: f64, h_top: f64, h_bot: f64) -> Contact {
+        let Edge {
+            r_mm,
+            inv_r,
+            inv_sin_k,
+        } = self.env.side(h_top.max(0.0));
+        // 1/h of the floor and of the bottom's cut (descending moves only).
+        let mut inv_h = m.inv_floor;
+        if m.d[2] < 0.0 {
+            let down = -m.d[2] * self.env.bottom_cos(h_bot.max(0.0));
+            if down * inv_h > 1.0 {
+                inv_h = 1.0 / down;
+            }
+        }
+        if m.h2 <= PLUNGE_H2 {
+            let (ax, ay) = (x - (m.p0[0] + t * m.d[0]), y - (m.p0[1] + t * m.d[1]));
+            let dist = ax.hypot(ay);
+            let r_hat = if dist > 1e-12 {
+                [ax / dist, ay / dist]
+            } else {
+                [0.0, 0.0]
+            };
+            return Contact {
+                r_hat,
+                inv_r,
+                inv_h,
+                shares: [0.0, 0.0],
+            };
+        }
+        // The edge circle of radius r at the column's top first reaches it at
+        // the angle θ from the feed direction with sin θ = e / r (e: the
+        // column's signed offset to the left of the move's line).
+        let [ux, uy] = m.u;
+        let (wx, wy) = (x - m.p0[0], y - m.p0[1]);
+        let sin_t = ((ux * wy - uy * wx) * inv_r).clamp(-1.0, 1.0);
+        let cos_t = (1.0 - sin_t * sin_t).sqrt();
+        let r_hat = [cos_t * ux - sin_t * uy, cos_t * uy + sin_t * ux];
+        // MODEL.md §3.2: h = f · n̂, the step's feed vector on the tool surface's normal,
+        // h_side = L_xy sin κ cos θ. Near the flanks 1/cos θ varies fast across the cell:
+        // take its mean over the cell's offsets, [e − g/2, e + g/2] ∩ [−r, r]
+        // (mean of 1/cos = Δ arcsin · r / Δe).
+        let half = 0.5 * self.grid.spacing_mm * inv_r;
+        let inv_cos = if 1.0 - sin_t.abs() > 4.0 * half {
+            // Away from the flank the cell mean is 1/cos θ to O(half²).
+            1.0 / cos_t
+        } else {
+            let (lo, hi) = ((sin_t - half).max(-1.0), (sin_t + half).min(1.0));
+            (hi.asin() - lo.asin()) / (2.0 * half)
+        };
+        let inv_side = inv_cos * inv_sin_k * m.inv_len_xy;
+        let side_cut = inv_side <= inv_h;
+        inv_h = inv_h.min(inv_side);
+        let shares = if self.smooth && side_cut {
+            // MODEL.md §1.5: the edge, locally straight with normal r̂, passes the
+            // column's centre at s_c along the move and advances cos θ per mm of path;
+            // the cell's share passed by s is the trapezoid CDF.
+            let s_c = ((wx * ux + wy * uy) - r_mm * cos_t).clamp(0.0, m.len_xy);
+            let g = self.grid.spacing_mm;
+            let (a, b) = (g * r_hat[0].abs(), g * r_hat[1].abs());
+            let speed = cos_t.max(MIN_EDGE_SPEED);
+            let reach = 0.5 * (a + b);
+            if s_c * speed >= reach && (m.len_xy - s_c) * speed >= reach {
+                // The whole cell is passed within the step.
+                [0.0, 0.0]
+            } else {
+                let passed = |s: f64| trapezoid_cdf((s - s_c) * speed + reach, a, b);
+                [passed(0.0), 1.0 - passed(m.len_xy)]
+            }
+        } else {
+            [0.0, 0.0]
+        };
+        Contact {
+            r_hat,
+            inv_r,
+            inv_h,
+            shares,
+        }
+    }
+
+    /// Run the moves `entries` (batch-local indices, ascending) over the rows
+    /// `row0..row0 + rows` whose columns are `cols`; write per-entry sums into `out`
+    /// (per entry: this step's sums, then with smoothing the shares for the
+    /// previous and the next step).
+    pub(super) fn run(
+        &self,
+        row0: usize,
+        cols: &mut [Column],
+        last_cut: &mut [u32],
+        entries: &[u32],
+        out: &mut [f64],
+    ) -> u64 {
+        let nx = self.grid.nx;
+        let rows = cols.len() / nx;
+        let stride = HEAD + self.banding.n_bands;
+        let width = self.width();
+        let area = self.grid.cell_area_mm2();
+        let mut visited = 0u64;
+        for (j, &mi) in entries.iter().enumerate() {
+            let m = &self.moves[mi as usize];
+            let all = &mut out[j * width..(j + 1) * width];
+            let step_index = (self.first_step + mi as usize) as u32;
+            let Some((iy0, iy1)) = m.row_range(self.grid, self.radius) else {
+                continue;
+            };
+            let (iy0, iy1) = (iy0.max(row0), iy1.min(row0 + rows - 1));
+            let zmin = m.zmin as f32;
+            for iy in iy0..=iy1 {
+                let y = self.grid.y_mm(iy);
+                let Some(span) = m.row_span(y, self.radius) else {
+                    continue;
+                };
+                let Some((ix0, ix1)) = self.grid.ix_range(span.lo, span.hi) else {
+                    continue;
+                };
+                visited += (ix1 - ix0 + 1) as u64;
+                let base = (iy - row0) * nx;
+                // Narrow the row to where the tool can reach below the row's highest top.
+                let Some((ix0, ix1)) =
+                    self.reachable(m, y, &cols[base + ix0..=base + ix1], ix0, ix1)
+                else {
+                    continue;
+                };
+                for ix in ix0..=ix1 {
+                    let col = &mut cols[base + ix];
+                    let top = col.top_or_neg_inf();
+                    if top <= zmin {
+                        continue;
+                    }
+                    let x = self.grid.x_mm(ix);
+                    if self.env.stays_above(m, x, y, top as f64) {
+                        continue;
+                    }
+                    let Some(EnvelopeHit { z_mm, t }) = self.env.eval(m, x, y) else {
+                        continue;
+                    };
+                    let z = z_mm as f32;
+                    if top <= z {
+                        continue;
+                    }
+                    let z_tip = m.p0[2] + t * m.d[2];
+                    let c = self.contact(m, x, y, t, top as f64 - z_tip, z as f64 - z_tip);
+                    let mut removed = 0.0;
+                    cut_above(col, z, |a, b| {
+                        removed += self.banding.credit(all, z_tip, a as f64, b as f64);
+                    });
+                    if removed > 0.0 {
+                        last_cut[base + ix] = step_index;
+                        let column = [
+                            removed,
+                            0.0,
+                            removed * c.r_hat[0],
+                            removed * c.r_hat[1],
+                            removed * c.inv_h,
+                            removed * c.inv_r,
+                        ];
+                        for (d, v) in all[..HEAD].iter_mut().zip(column) {
+                            *d += v;
+                        }
+                        // Shares for the neighbours: head values only; bands and shank
+                        // follow in proportion when the strips are reduced.
+                        for (k, slot) in [(0, stride), (1, stride + HEAD)] {
+                            let share = c.shares[k];
+                            if share > 0.0 {
+                                for (d, v) in all[slot..slot + HEAD].iter_mut().zip(column) {
+                                    *d += share * v;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            for v in all.iter_mut() {
+                *v *= area;
+            }
+        }
+        visited
+    }
+
+    /// The columns `ix0..=ix1` of the row at `y` (`row` holds them) that the
+    /// move can cut: those within the tool's reach below the row's highest
+    /// top. Columns left out pass neither `stays_above` nor the zmin test, so
+    /// narrowing changes no result.
+    #[inline]
+    fn reachable(
+        &self,
+        m: &Prepared,
+        y: f64,
+        row: &[Column],
+        ix0: usize,
+        ix1: usize,
+    ) -> Option<(usize, usize)> {
+        if self.env.reach(m, 0.0).is_none() {
+            return Some((ix0, ix1));
+        }
+        let top = row_top(row);
+        if top <= m.zmin as f32 {
+            return None;
+        }
+        match self.env.reach(m, top as f64 - m.zmin) {
+            Some(r) if r < self.radius => {
+                let span = m.row_span(y, r)?;
+                let (a, b) = self.grid.ix_range(span.lo, span.hi)?;
+                let (a, b) = (a.max(ix0), b.min(ix1));
+                (a <= b).then_some((a, b))
+            }
+            _ => Some((ix0, ix1)),
+        }
+    }
+}
+
+/// The highest top of `row` (−∞ if all columns are empty). Heights are never
+/// NaN, so a plain compare replaces `f32::max`, and four running maxima break
+/// the dependency chain of one: the maximum is exact in any order.
+#[inline]
+fn row_top(row: &[Column]) -> f32 {
+    let max = |a: f32, b: f32| if b > a { b } else { a };
+    let mut acc = [f32::NEG_INFINITY; 4];
+    let mut quads = row.chunks_exact(4);
+    for q in &mut quads {
+        for (a, c) in acc.iter_mut().zip(q) {
+            *a = max(*a, c.top_or_neg_inf());
+        }
+    }
+    let rest = quads
+        .remainder()
+        .iter()
+        .fold(f32::NEG_INFINITY, |a, c| max(a, c.top_or_neg_inf()));
+    max(max(acc[0], acc[1]), max(max(acc[2], acc[3]), rest))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cut_above_handles_several_intervals() {
+        let mut col = Column::from_intervals(&[[0.0, 1.0], [2.0, 3.0], [4.0, 5.0]]);
+        let mut pieces = Vec::new();
+        cut_above(&mut col, 2.5, |a, b| pieces.push((a, b)));
+        assert_eq!(pieces, vec![(4.0, 5.0), (2.5, 3.0)]);
+        assert_eq!(
+            col.intervals().collect::<Vec<_>>(),
+            vec![[0.0, 1.0], [2.0, 2.5]]
+        );
+        pieces.clear();
+        cut_above(&mut col, -1.0, |a, b| pieces.push((a, b)));
+        assert_eq!(pieces, vec![(2.0, 2.5), (0.0, 1.0)]);
+        assert!(col.is_empty() && col.upper.is_none());
+    }
+
+    #[test]
+    fn banding_splits_pieces_and_shank() {
+        let b = Banding {
+            n_bands: 3,
+            band_h: 1.0,
+            inv_band_h: 1.0,
+            flute_len: 2.5,
+        };
+        let mut acc = vec![0.0; HEAD + 3];
+        assert_eq!(b.credit(&mut acc, 10.0, 10.5, 14.0), 3.5);
+        assert_eq!(&acc[HEAD..], &[0.5, 1.0, 0.5]);
+        assert_eq!(acc[1], 1.5, "above the flute length is shank contact");
+    }
+}
