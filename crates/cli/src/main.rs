@@ -60,6 +60,9 @@ enum Command {
         /// column: large on fine grids; the .npy arrays are always written).
         #[arg(long)]
         columns_csv: bool,
+        /// Machine and drive settings written by `evaluate --sweep` (best.toml), over the job's.
+        #[arg(long, value_name = "FILE")]
+        settings: Option<PathBuf>,
     },
     /// Write report.html, error_map.png and stock.glb from a simulate or optimize output folder.
     Report {
@@ -76,9 +79,12 @@ enum Command {
         /// Evaluate this servo.csv (e.g. from `optimize`) instead of the program as written.
         #[arg(long, value_name = "FILE")]
         servo: Option<PathBuf>,
-        /// Try a grid of acceleration, jerk and gain settings and report the best by V.
+        /// Try a grid of acceleration, jerk and gain settings; the best by V goes to best.toml.
         #[arg(long)]
         sweep: bool,
+        /// Machine and drive settings written by `evaluate --sweep` (best.toml), over the job's.
+        #[arg(long, value_name = "FILE")]
+        settings: Option<PathBuf>,
         /// Use an output folder that holds this run's inputs (they are kept in the new results).
         #[arg(long)]
         force: bool,
@@ -115,15 +121,31 @@ fn main() -> ExitCode {
             grid,
             force,
             columns_csv,
-        } => dexcut::commands::optimize(job.as_deref(), &out, grid, force, columns_csv),
+            settings,
+        } => dexcut::commands::optimize(
+            job.as_deref(),
+            &out,
+            grid,
+            force,
+            columns_csv,
+            settings.as_deref(),
+        ),
         Command::Report { dir } => dexcut::commands::report(&dir),
         Command::Evaluate {
             job,
             out,
             servo,
             sweep,
+            settings,
             force,
-        } => dexcut::evaluate::evaluate(&job, &out, servo.as_deref(), sweep, force),
+        } => dexcut::evaluate::evaluate(
+            &job,
+            &out,
+            servo.as_deref(),
+            sweep,
+            settings.as_deref(),
+            force,
+        ),
         Command::Calibrate { csv } => dexcut::commands::calibrate(&csv),
         Command::Example { out, force } => dexcut::example::write(&out, force),
     };

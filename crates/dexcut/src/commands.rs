@@ -36,9 +36,22 @@ pub struct Setup {
 impl Setup {
     /// Load the job (with an optional grid override) and everything it names.
     pub fn load(job_path: &Path, grid_mm: Option<f64>) -> Result<Setup> {
+        Setup::load_with(job_path, grid_mm, None)
+    }
+
+    /// [`Setup::load`] with the machine and drive settings of a fragment
+    /// written by `evaluate --sweep` (`--settings FILE`) put over the job's.
+    pub fn load_with(
+        job_path: &Path,
+        grid_mm: Option<f64>,
+        settings: Option<&Path>,
+    ) -> Result<Setup> {
         let mut job = Job::load(job_path)?;
         if let Some(g) = grid_mm {
             job.set_grid(g)?;
+        }
+        if let Some(path) = settings {
+            crate::evaluate::Settings::load(path)?.apply(&mut job, path)?;
         }
         let program = program::load(&job)?;
         let tools = ToolSet::from_job(&job, &program)?;
@@ -507,12 +520,15 @@ pub fn optimize(
     grid_mm: Option<f64>,
     force: bool,
     columns_csv: bool,
+    settings: Option<&Path>,
 ) -> Result<()> {
     let started = Instant::now();
     let (setup, out_dir) = match job_path {
         Some(p) => {
-            let setup = Setup::load(p, grid_mm)?;
-            let out_dir = OutDir::begin(out, &setup.input_files(p), force)?;
+            let setup = Setup::load_with(p, grid_mm, settings)?;
+            let mut inputs = setup.input_files(p);
+            inputs.extend(settings.map(Path::to_path_buf));
+            let out_dir = OutDir::begin(out, &inputs, force)?;
             (setup, out_dir)
         }
         None => {
@@ -524,7 +540,8 @@ pub fn optimize(
                 dir.display()
             );
             let staged = out_dir.path().join("input");
-            let mut setup = Setup::load(&crate::example::write_files(&staged)?, grid_mm)?;
+            let mut setup =
+                Setup::load_with(&crate::example::write_files(&staged)?, grid_mm, settings)?;
             // Name the inputs where they will be once the results are in place.
             setup.job.name = dir.join("job.toml").display().to_string();
             setup.program.file = setup

@@ -147,6 +147,65 @@ fn write_positions_csv(path: &Path, positions: &[[f64; 3]], period_s: f64) -> Re
     .with_context(|| format!("cannot write {}", path.display()))
 }
 
+/// The machine and drive settings that `evaluate --sweep` varies, as a job
+/// fragment (`best.toml`): `[machine] accel`, `jerk` (absent: no jerk limit)
+/// and `[servo] kp`. `optimize` and `evaluate` take it with `--settings FILE`,
+/// over the job's own values (MODEL.md §7.2).
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Settings {
+    pub machine: MachineSettings,
+    pub servo: ServoSettings,
+}
+
+/// `[machine]` of a [`Settings`] fragment.
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MachineSettings {
+    /// Per-axis acceleration limit, mm/s².
+    pub accel: [f64; 3],
+    /// Per-axis jerk limit, mm/s³; none when absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub jerk: Option<[f64; 3]>,
+}
+
+/// `[servo]` of a [`Settings`] fragment.
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ServoSettings {
+    /// Position loop gain, 1/s.
+    pub kp: f64,
+}
+
+impl Settings {
+    /// Read a fragment; errors name the file, line and column, or the key.
+    pub fn load(path: &Path) -> Result<Settings> {
+        let text = crate::bounds::read_text(path, "settings", crate::bounds::MAX_JOB_BYTES)?;
+        let name = path.display().to_string();
+        toml::from_str(&text).map_err(|e| {
+            let at = e.span().map_or_else(
+                || name.clone(),
+                |s| crate::job::location(&name, &text, s.start),
+            );
+            anyhow::anyhow!("{at}: {}", e.message())
+        })
+    }
+
+    /// Put these settings into `job` and check it again.
+    pub fn apply(&self, job: &mut Job, source: &Path) -> Result<()> {
+        job.machine.accel = self.machine.accel;
+        job.machine.jerk = self.machine.jerk;
+        job.servo.kp = self.servo.kp;
+        job.validate()
+            .with_context(|| format!("{}: invalid settings for {}", source.display(), job.name))
+    }
+
+    /// The fragment as TOML text.
+    pub fn to_toml(&self) -> Result<String> {
+        Ok(toml::to_string(self)?)
+    }
+}
+
 #[derive(Serialize)]
 struct SweepRow {
     accel_mm_s2: [f64; 3],
@@ -179,15 +238,17 @@ pub fn evaluate(
     out: &Path,
     servo_csv: Option<&Path>,
     sweep: bool,
+    settings: Option<&Path>,
     force: bool,
 ) -> Result<()> {
-    let setup = Setup::load(job_path, None)?;
+    let setup = Setup::load_with(job_path, None, settings)?;
     let drive = drive(&setup.job)?;
     if sweep && servo_csv.is_some() {
         bail!("--sweep re-plans the program, so it cannot be combined with --servo");
     }
     let mut inputs = setup.input_files(job_path);
     inputs.extend(servo_csv.map(Path::to_path_buf));
+    inputs.extend(settings.map(Path::to_path_buf));
     let out_dir = crate::outdir::OutDir::begin(out, &inputs, force)?;
     let period_s = setup.machine.period_s();
     let as_written = setup
@@ -201,10 +262,21 @@ pub fn evaluate(
         (None, Some(c)) => c.clone(),
         (None, None) => bail!("evaluate needs a G-code program or --servo data"),
     };
-    // Vb = time / the program's time as written, so runs of one job compare.
+    // MODEL.md §7.2 (S2): times of the estimated actual motion, which is done when the axes
+    // settle within the tolerance of the end. Vb's reference is the program as written with
+    // the job's settings, so runs of one job compare (it scores Vb = 1/2).
+    let settle_mm = setup.job.servo.tolerance_mm;
+    let actual_of =
+        |c: &[[f64; 3]], d: &Drive| servo::simulate_until_settled(c, period_s, d, settle_mm);
     let reference = as_written.as_ref().unwrap_or(&command);
-    let w = weights(&setup.job, (reference.len() - 1) as f64 * period_s);
-    let actual = servo::simulate_actual(&command, period_s, &drive);
+    let reference_s = servo::settled_time_s(
+        &actual_of(reference, &drive),
+        *reference.last().expect("samples"),
+        settle_mm,
+        period_s,
+    );
+    let w = weights(&setup.job, reference_s);
+    let actual = actual_of(&command, &drive);
     let evaluation = servo::evaluate(&command, &actual, period_s, &w);
     let pre = servo::precompensate(
         &command,
@@ -234,7 +306,7 @@ pub fn evaluate(
                         ..drive
                     };
                     let c = commanded(&setup, &machine)?;
-                    let a = servo::simulate_actual(&c, period_s, &d);
+                    let a = actual_of(&c, &d);
                     rows.push(SweepRow {
                         accel_mm_s2: accel,
                         jerk_mm_s3: jerk,
@@ -245,10 +317,11 @@ pub fn evaluate(
             }
         }
     }
+    // S2 keeps the parameter set with the largest V.
     let best = rows
         .iter()
         .enumerate()
-        .min_by(|a, b| {
+        .max_by(|a, b| {
             a.1.evaluation
                 .evaluation
                 .total_cmp(&b.1.evaluation.evaluation)
@@ -283,6 +356,25 @@ pub fn evaluate(
         best,
     };
     write_json(&out_dir.path().join("evaluation.json"), &doc)?;
+    if let Some(b) = best.map(|i| &doc.sweep[i]) {
+        let fragment = Settings {
+            machine: MachineSettings {
+                accel: b.accel_mm_s2,
+                jerk: b.jerk_mm_s3,
+            },
+            servo: ServoSettings { kp: b.kp_per_s },
+        };
+        let text = format!(
+            "# The best settings of `dexcut evaluate --sweep` by S2's V = {} (largest).\n\
+             # Use with `dexcut optimize JOB --settings best.toml` or `dexcut evaluate JOB --settings best.toml`.\n{}",
+            fmt(b.evaluation.evaluation),
+            fragment.to_toml()?
+        );
+        export::atomic::write_file(&out_dir.path().join("best.toml"), |w| {
+            w.write_all(text.as_bytes())
+        })
+        .context("cannot write best.toml")?;
+    }
     out_dir.commit("evaluate")?;
     let e = &doc.evaluation;
     crate::outln!(

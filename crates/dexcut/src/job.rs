@@ -481,7 +481,7 @@ impl Job {
     /// Every number is checked against a plausible range here, at parse time,
     /// with its key: non-finite values (toml reads `inf` and `nan`) and absurd
     /// ones (a 1e-9 mm/s² acceleration, a 1e9 ms period) never reach the work.
-    fn validate(&self) -> Result<()> {
+    pub(crate) fn validate(&self) -> Result<()> {
         let s = &self.stock;
         range("stock.grid (mm)", s.grid, MIN_GRID_MM, MAX_LENGTH_MM)?;
         match s.kind {

@@ -90,6 +90,39 @@ pub fn simulate_actual(commanded: &[[f64; 3]], period_s: f64, drive: &Drive) -> 
     }
 }
 
+/// Actual positions (mm) of the axes following `commanded` and then holding its last sample,
+/// until they stay within `settle_mm` of it (S2: the machining time of the estimated actual
+/// motion). The command is held for at least as many periods again as were needed to settle
+/// (64 at least), and never past 2²² extra periods; the result stops one sample after the
+/// last one farther than `settle_mm`, or at the command's end if it settled before.
+pub fn simulate_until_settled(
+    commanded: &[[f64; 3]],
+    period_s: f64,
+    drive: &Drive,
+    settle_mm: f64,
+) -> Vec<[f64; 3]> {
+    let Some(&end) = commanded.last() else {
+        return Vec::new();
+    };
+    let far =
+        |p: &[f64; 3]| (0..3).map(|k| (p[k] - end[k]).powi(2)).sum::<f64>() > settle_mm * settle_mm;
+    let mut hold = 64usize;
+    loop {
+        let mut cmd = commanded.to_vec();
+        cmd.resize(commanded.len() + hold, end);
+        let mut actual = simulate_actual(&cmd, period_s, drive);
+        let last_far = actual.iter().rposition(far);
+        let settled_at = last_far.map_or(0, |k| k + 1);
+        // Settled for at least as long again as it took after the command's end.
+        let tail = cmd.len() - settled_at;
+        if tail > settled_at.saturating_sub(commanded.len()).max(32) || hold >= 1 << 22 {
+            actual.truncate(settled_at.max(commanded.len()).min(actual.len()));
+            return actual;
+        }
+        hold *= 2;
+    }
+}
+
 /// Actual positions (mm) of the axes following `commanded`, starting at rest (zero velocity) at
 /// `start_mm`. Sample k of the result is the position at time `k·period_s`, so
 /// `result[0] == start_mm`.

@@ -16,7 +16,11 @@ pub mod evaluation;
 pub mod path_error;
 pub mod precomp;
 
-pub use drive::{simulate_actual, simulate_actual_from, Drive, DriveError, DriveOrder};
-pub use evaluation::{evaluate, max_jerk_mm_s3, Evaluation, Weights};
+pub use drive::{
+    simulate_actual, simulate_actual_from, simulate_until_settled, Drive, DriveError, DriveOrder,
+};
+pub use evaluation::{
+    evaluate, max_jerk_mm_s3, primary_score, settled_time_s, Evaluation, Weights,
+};
 pub use path_error::trajectory_error_mm;
 pub use precomp::{first_order_inverse, precompensate, Precomp};
