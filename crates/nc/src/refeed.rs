@@ -10,9 +10,12 @@
 //!   new block per further piece right after it, in the line's own modes
 //!   (units, G90/G91, G90.1/G91.1, G93/G94, plane, work offset).
 //! * A line run several times by a loop or subprogram, one plain feed move
-//!   per run, gets a feed per run: a counter parameter counts its runs and
-//!   its F reads a table of feeds set at the top of the program (numbered
-//!   parameters 1000–4999; each run's feed is the lowest of its pieces).
+//!   per run, gets a record per run: a counter parameter counts its runs and
+//!   its words read a table set at the top of the program (numbered
+//!   parameters 1000–4999). Where every run is one block, the record is its
+//!   F; where a run needs pieces, every run is split into as many blocks as
+//!   the run that needs most (the longest pieces of the others halved) and
+//!   the record holds each block's end point, arc centre and F.
 //! * Other lines that made several feed segments (a canned cycle, or a
 //!   program that names a parameter of that range) cannot be split: their F
 //!   becomes the lowest feed any of their pieces asks for.
@@ -83,8 +86,17 @@ pub fn refeed(
     }
     let mut tables = run_tables(source, &by_line, segments, &trace, plan);
     loop {
-        let (out, written_pieces) = write(source, segments, &trace, &by_line, plan, &tables);
-        match verify(&out, file, options, segments, plan, &written_pieces) {
+        // Runs of a line split into more blocks than they need: their pieces as written.
+        let mut plan = plan.to_vec();
+        for (index, t) in &tables {
+            for &i in &by_line[index] {
+                if t.blocks() > 1 {
+                    plan[i] = padded(&plan[i], t.blocks());
+                }
+            }
+        }
+        let (out, written_pieces) = write(source, segments, &trace, &by_line, &plan, &tables);
+        match verify(&out, file, options, segments, &plan, &written_pieces) {
             Ok(()) => return Ok(out),
             // A line that sometimes runs without moving (a zero-length move
             // makes no segment) counts a run the table does not have: write
@@ -134,9 +146,35 @@ fn write(
                 eol_or_newline(eol),
                 c = t.counter
             );
-            let f = format!("F#[#{} + {}]", t.counter, t.first - 1);
-            out.push_str(&with_f_word(text, items, &f));
-            out.push_str(eol);
+            if t.blocks() == 1 {
+                let f = format!("F{}", t.reference(0));
+                out.push_str(&with_f_word(text, items, &f));
+                out.push_str(eol);
+            } else {
+                let segs = &by_line[&index];
+                for &i in segs {
+                    written_pieces[i] = t.blocks();
+                }
+                let mut j = 0;
+                let blocks: Vec<String> = t
+                    .letters
+                    .iter()
+                    .map(|letters| {
+                        words_text(letters.iter().map(|&l| {
+                            j += 1;
+                            (l, t.reference(j - 1))
+                        }))
+                    })
+                    .collect();
+                write_blocks(
+                    &mut out,
+                    text,
+                    eol,
+                    items,
+                    &segments[segs[0]].geometry,
+                    &blocks,
+                );
+            }
             continue;
         }
         let Some(segs) = by_line.get(&index) else {
@@ -204,14 +242,42 @@ fn write(
 /// parameters (LinuxCNC's free globals; Fanuc macro B reads the same).
 const TABLE_PARAMS: std::ops::RangeInclusive<u32> = 1000..=4999;
 
-/// Feeds of a line run more than once, one per run in the order they run.
+/// Words of a line run more than once, one record per run in the order they
+/// run: its F (one block per run), or the axis, centre and F words of each of
+/// its blocks when its runs need pieces (every run split into the same number
+/// of blocks, each run at its own points and feeds).
 struct RunTable {
     /// Parameter counting the runs.
     counter: u32,
-    /// Parameter holding the first run's F value.
+    /// Parameter holding the first run's first value.
     first: u32,
-    /// F values (program units), one per run.
+    /// Per block, the letters of the words read from the table (F last).
+    letters: Vec<Vec<char>>,
+    /// Values, `width()` per run, in the order the runs run.
     values: Vec<f64>,
+}
+
+impl RunTable {
+    /// Values per run.
+    fn width(&self) -> usize {
+        self.letters.iter().map(Vec::len).sum()
+    }
+
+    /// The expression reading value `j` of the current run (the counter
+    /// counts from 1).
+    fn reference(&self, j: usize) -> String {
+        let w = self.width() as u32;
+        if w == 1 {
+            format!("#[#{} + {}]", self.counter, self.first - 1 + j as u32)
+        } else {
+            format!("#[#{} * {w} + {}]", self.counter, self.first - w + j as u32)
+        }
+    }
+
+    /// Blocks each run is written as.
+    fn blocks(&self) -> usize {
+        self.letters.len()
+    }
 }
 
 /// Numbers of the numbered parameters a program names literally (`#12`).
@@ -234,8 +300,10 @@ fn named_parameters(source: &str) -> Vec<u32> {
 }
 
 /// Lines that run more than once as one plain feed move per run, with runs
-/// that need different feeds: each gets a counter and a table of feeds (one
-/// per run) instead of the lowest feed of all runs. None when the program
+/// that need different feeds or more than one block: each gets a counter and
+/// a table, one record per run ([`RunTable`]), instead of the lowest feed of
+/// all runs. A run that needs fewer blocks than another has its longest
+/// pieces halved (same feed) until it has as many. None when the program
 /// names a parameter of [`TABLE_PARAMS`] itself, or the tables do not fit.
 fn run_tables(
     source: &str,
@@ -265,26 +333,57 @@ fn run_tables(
         };
         if segs.len() < 2
             || !all_feeds
-            || !splittable(items, &segments[segs[0]])
-            || segs.iter().any(|&i| trace.segments[i].compensated)
+            || segs
+                .iter()
+                .any(|&i| !splittable(items, &segments[i]) || trace.segments[i].compensated)
         {
             continue;
         }
-        let values: Vec<f64> = segs
-            .iter()
-            .map(|&i| {
-                f_value(&f_word(
-                    &trace.segments[i],
-                    lowest(&plan[i]),
-                    segments[i].length_mm(),
-                    true,
-                ))
-            })
-            .collect();
-        let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
-        if values.iter().all(|v| *v <= lo * 1.001) {
-            continue;
-        }
+        let blocks = segs.iter().map(|&i| plan[i].len()).max().unwrap_or(1);
+        let (letters, values) = if blocks == 1 {
+            let values: Vec<f64> = segs
+                .iter()
+                .map(|&i| {
+                    f_value(&f_word(
+                        &trace.segments[i],
+                        lowest(&plan[i]),
+                        segments[i].length_mm(),
+                        true,
+                    ))
+                })
+                .collect();
+            let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
+            if values.iter().all(|v| *v <= lo * 1.001) {
+                continue;
+            }
+            (vec![vec!['f']], values)
+        } else {
+            // Every run the same kind of move (a line may take its motion mode from before it).
+            let first = &segments[segs[0]];
+            let same_kind = segs.iter().all(|&i| {
+                motion_word(&segments[i].geometry) == motion_word(&first.geometry)
+                    && plane_of(&segments[i].geometry) == plane_of(&first.geometry)
+            });
+            if !same_kind {
+                continue;
+            }
+            let axes: [bool; 3] =
+                std::array::from_fn(|a| segs.iter().any(|&i| block_axes(items, &segments[i])[a]));
+            let mut letters: Vec<Vec<char>> = Vec::new();
+            let mut values = Vec::new();
+            for &i in segs {
+                let pieces = padded(&plan[i], blocks);
+                let words = block_values(&segments[i], &trace.segments[i], axes, &pieces);
+                if letters.is_empty() {
+                    letters = words
+                        .iter()
+                        .map(|b| b.iter().map(|w| w.0).collect())
+                        .collect();
+                }
+                values.extend(words.iter().flatten().map(|w| w.1));
+            }
+            (letters, values)
+        };
         let needed = values.len() as u32 + 1;
         if next + needed - 1 > *TABLE_PARAMS.end() {
             continue;
@@ -294,6 +393,7 @@ fn run_tables(
             RunTable {
                 counter: next,
                 first: next + 1,
+                letters,
                 values,
             },
         );
@@ -302,9 +402,31 @@ fn run_tables(
     tables
 }
 
+/// `pieces` in `blocks` pieces: the longest halved (same feed) until there are as many.
+fn padded(pieces: &[(f64, f64)], blocks: usize) -> Vec<(f64, f64)> {
+    let mut out = pieces.to_vec();
+    while out.len() < blocks {
+        let (k, _) = out
+            .iter()
+            .enumerate()
+            .map(|(k, p)| (k, p.0 - if k == 0 { 0.0 } else { out[k - 1].0 }))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .expect("a piece");
+        let start = if k == 0 { 0.0 } else { out[k - 1].0 };
+        out.insert(k, (0.5 * (start + out[k].0), out[k].1));
+    }
+    out
+}
+
 /// Lines that set every counter to 0 and every table entry to its feed.
 fn table_header(tables: &BTreeMap<usize, RunTable>, nl: &str) -> String {
     let mut h = format!("(dexcut: feeds of lines run more than once, one per run){nl}");
+    if tables.values().any(|t| t.blocks() > 1) {
+        let _ = write!(
+            h,
+            "(dexcut: and the end points and feeds of the blocks they are split into){nl}"
+        );
+    }
     for t in tables.values() {
         let _ = write!(h, "#{} = 0{nl}", t.counter);
         for (k, v) in t.values.iter().enumerate() {
@@ -420,19 +542,20 @@ fn with_f_word(text: &str, items: &[Item], f: &str) -> String {
     }
 }
 
-/// Axis and centre words (each followed by a blank) of one piece from `from`
-/// to `to` (machine mm). `axes`: which of X, Y, Z to write (the others keep
-/// their value).
-fn piece_words(
+/// Axis and centre words of one piece from `from` to `to` (machine mm), as
+/// (letter, value as written). `axes`: which of X, Y, Z to write (the others
+/// keep their value).
+fn piece_values(
     seg: &Segment,
     t: &SegmentTrace,
     axes: [bool; 3],
     from: [f64; 3],
     to: [f64; 3],
     written_start: &mut [f64; 3],
-) -> String {
-    let mut w = String::new();
-    for (i, l) in ['X', 'Y', 'Z']
+) -> Vec<(char, f64)> {
+    let mut w = Vec::new();
+    let written = |v: f64| coord(v).parse::<f64>().unwrap_or(v);
+    for (i, l) in ['x', 'y', 'z']
         .into_iter()
         .enumerate()
         .filter(|&(i, _)| axes[i])
@@ -440,14 +563,13 @@ fn piece_words(
         let v = if t.incremental {
             // Increments from the position written so far, so rounding never accumulates.
             let target = (to[i] - t.offset_mm[i]) / t.scale;
-            let inc = target - written_start[i];
-            let text = coord(inc);
-            written_start[i] += text.parse::<f64>().unwrap_or(inc);
-            text
+            let inc = written(target - written_start[i]);
+            written_start[i] += inc;
+            inc
         } else {
-            coord((to[i] - t.offset_mm[i]) / t.scale)
+            written((to[i] - t.offset_mm[i]) / t.scale)
         };
-        let _ = write!(w, "{l}{v} ");
+        w.push((l, v));
     }
     if let Geometry::Arc { center, plane, .. } = seg.geometry {
         let (a, b, _) = plane.axes();
@@ -459,22 +581,21 @@ fn piece_words(
             } else {
                 (center[axis] - t.offset_mm[axis]) / t.scale
             };
-            let _ = write!(w, "{}{} ", ['I', 'J', 'K'][axis], coord(v));
+            w.push((['i', 'j', 'k'][axis], written(v)));
         }
     }
     w
 }
 
-/// Writes the line carrying the first piece and one block per further piece.
-fn split_line(
-    out: &mut String,
-    text: &str,
-    eol: &str,
-    items: &[Item],
+/// The words of every block a segment is split into, F last: axis and
+/// centre values as written, F as [`f_word`] writes it (the first block's
+/// read with the units in force before the line).
+fn block_values(
     seg: &Segment,
     t: &SegmentTrace,
+    axes: [bool; 3],
     pieces: &[(f64, f64)],
-) {
+) -> Vec<Vec<(char, f64)>> {
     let fractions: Vec<f64> = std::iter::once(0.0)
         .chain(pieces.iter().map(|p| p.0))
         .collect();
@@ -490,18 +611,34 @@ fn split_line(
         .collect();
     // Lines and arcs (helices included) run at constant speed in the fraction.
     let length_mm = seg.length_mm();
-    let piece_f_word = |k: usize, in_original_line: bool| {
-        f_word(
-            t,
-            pieces[k].1,
-            length_mm * (fractions[k + 1] - fractions[k]),
-            in_original_line,
-        )
-    };
     // Program coordinates written so far (for increments under G91).
     let mut written: [f64; 3] = std::array::from_fn(|i| (seg.start[i] - t.offset_mm[i]) / t.scale);
-    let arc = matches!(seg.geometry, Geometry::Arc { .. });
-    let motion_word = match seg.geometry {
+    (0..pieces.len())
+        .map(|k| {
+            let mut words = piece_values(seg, t, axes, points[k], points[k + 1], &mut written);
+            let f = f_word(
+                t,
+                pieces[k].1,
+                length_mm * (fractions[k + 1] - fractions[k]),
+                k == 0,
+            );
+            words.push(('f', f_value(&f)));
+            words
+        })
+        .collect()
+}
+
+/// Words of one block as text, each followed by a blank but the last.
+fn words_text(words: impl Iterator<Item = (char, String)>) -> String {
+    let parts: Vec<String> = words
+        .map(|(l, v)| format!("{}{v}", l.to_ascii_uppercase()))
+        .collect();
+    parts.join(" ")
+}
+
+/// G1, G2 or G3.
+fn motion_word(geometry: &Geometry) -> &'static str {
+    match geometry {
         Geometry::Arc {
             clockwise: true, ..
         } => "G2",
@@ -509,7 +646,65 @@ fn split_line(
             clockwise: false, ..
         } => "G3",
         Geometry::Line => "G1",
-    };
+    }
+}
+
+fn plane_of(geometry: &Geometry) -> Option<crate::path::Plane> {
+    match geometry {
+        Geometry::Arc { plane, .. } => Some(*plane),
+        Geometry::Line => None,
+    }
+}
+
+/// Axes a block of the line writes: those the line names, those that move,
+/// and an arc's plane axes.
+fn block_axes(items: &[Item], seg: &Segment) -> [bool; 3] {
+    let plane_axes = plane_of(&seg.geometry).map(|p| p.axes());
+    std::array::from_fn(|i| {
+        let named = items
+            .iter()
+            .any(|it| word_letter(it) == Some(['x', 'y', 'z'][i]));
+        named || seg.start[i] != seg.end[i] || plane_axes.is_some_and(|(a, b, _)| i == a || i == b)
+    })
+}
+
+/// Writes the line carrying the first piece and one block per further piece.
+fn split_line(
+    out: &mut String,
+    text: &str,
+    eol: &str,
+    items: &[Item],
+    seg: &Segment,
+    t: &SegmentTrace,
+    pieces: &[(f64, f64)],
+) {
+    let blocks: Vec<String> = block_values(seg, t, block_axes(items, seg), pieces)
+        .into_iter()
+        .map(|b| {
+            words_text(b.into_iter().map(|(l, v)| {
+                let text = if l == 'f' {
+                    trim_number(&format!("{v:.8}"))
+                } else {
+                    coord(v)
+                };
+                (l, text)
+            }))
+        })
+        .collect();
+    write_blocks(out, text, eol, items, &seg.geometry, &blocks);
+}
+
+/// Writes the line with its axis, centre and F words replaced by `blocks[0]`,
+/// then one block per further entry of `blocks` in the line's motion mode.
+fn write_blocks(
+    out: &mut String,
+    text: &str,
+    eol: &str,
+    items: &[Item],
+    geometry: &Geometry,
+    blocks: &[String],
+) {
+    let arc = matches!(geometry, Geometry::Arc { .. });
     // Words the pieces rewrite: axes, arc centre / radius / turns, feed.
     let replaced: Vec<&Item> = items
         .iter()
@@ -519,19 +714,7 @@ fn split_line(
             _ => false,
         })
         .collect();
-    // Axes to write: those the line names, those that move, and an arc's plane axes.
-    let plane_axes = match seg.geometry {
-        Geometry::Arc { plane, .. } => Some(plane.axes()),
-        Geometry::Line => None,
-    };
-    let axes: [bool; 3] = std::array::from_fn(|i| {
-        let named = items
-            .iter()
-            .any(|it| word_letter(it) == Some(['x', 'y', 'z'][i]));
-        named || seg.start[i] != seg.end[i] || plane_axes.is_some_and(|(a, b, _)| i == a || i == b)
-    });
-    let first =
-        piece_words(seg, t, axes, points[0], points[1], &mut written) + &piece_f_word(0, true);
+    let first = &blocks[0];
     let mut line = String::with_capacity(text.len() + first.len());
     let mut at = 0;
     for (k, it) in replaced.iter().enumerate() {
@@ -541,7 +724,7 @@ fn split_line(
             line.push_str(gap);
         }
         if k == 0 {
-            line.push_str(&first);
+            line.push_str(first);
         }
         at = it.span.end;
     }
@@ -549,25 +732,17 @@ fn split_line(
         let end = items.last().map_or(text.len(), |it| it.span.end);
         line.push_str(&text[..end]);
         line.push(' ');
-        line.push_str(&first);
+        line.push_str(first);
         at = end;
     }
     line.push_str(&text[at..]);
     out.push_str(&line);
     out.push_str(eol_or_newline(eol));
-    for k in 1..pieces.len() {
-        out.push_str(motion_word);
+    for (k, block) in blocks.iter().enumerate().skip(1) {
+        out.push_str(motion_word(geometry));
         out.push(' ');
-        out.push_str(&piece_words(
-            seg,
-            t,
-            axes,
-            points[k],
-            points[k + 1],
-            &mut written,
-        ));
-        out.push_str(&piece_f_word(k, false));
-        out.push_str(if k + 1 == pieces.len() {
+        out.push_str(block);
+        out.push_str(if k + 1 == blocks.len() {
             eol
         } else {
             eol_or_newline(eol)

@@ -194,7 +194,11 @@ fn repeated_lines_get_a_feed_per_run_and_cycles_the_lowest() {
     let mut next = 700.0;
     for (i, s) in path.segments.iter().enumerate() {
         if matches!(s.motion, Motion::Feed { .. }) {
-            plan[i] = vec![(0.5, next), (1.0, next + 50.0)];
+            plan[i] = if s.line == 2 {
+                vec![(1.0, next)]
+            } else {
+                vec![(0.5, next), (1.0, next + 50.0)]
+            };
             next -= 100.0;
         }
     }
@@ -242,6 +246,62 @@ fn repeated_lines_get_a_feed_per_run_and_cycles_the_lowest() {
         .fold(f64::INFINITY, f64::min);
     assert!(out.contains(&format!("G1 X[#1] F{lowest}\n")), "{out}");
     assert!(!out.contains("dexcut"), "{out}");
+}
+
+/// A line run several times whose runs need different pieces (a piece in
+/// air at a high feed, the cut at a low one, at another fraction each run)
+/// is split in the same number of blocks every run, each run's end points
+/// and feeds read from a table: the program reads back to each run's pieces
+/// exactly, under G90 and G91, on lines and arcs.
+#[test]
+fn repeated_lines_get_their_own_pieces_per_run() {
+    for src in [
+        "G0 X-5 Y0 Z1\no100 sub\nG1 X[#1] Z[#2] F500\nG0 X-5\no100 endsub\no100 call [10] [0]\no100 call [20] [-1]\no100 call [30] [-2]\nM2\n",
+        "G0 X0 Y0 Z1\no1 repeat [3]\nG91 G1 X10 Y2 F500\nG90\no1 endrepeat\nM2\n",
+        "G0 X10 Y0 Z0\n#1 = 0\no1 while [#1 LT 3]\nG3 X-10 Y0 Z[-#1] I-10 J0 F500\nG0 X10 Y0\n#1 = [#1 + 1]\no1 endwhile\nM2\n",
+    ] {
+        let path = parse(src);
+        let mut plan: Vec<Vec<(f64, f64)>> = vec![vec![]; path.segments.len()];
+        let mut run = 0;
+        for (i, s) in path.segments.iter().enumerate() {
+            if matches!(s.motion, Motion::Feed { .. }) {
+                // Run 0: one piece; run 1: two; run 2: three, at other fractions.
+                plan[i] = match run {
+                    0 => vec![(1.0, 400.0)],
+                    1 => vec![(0.3, 3000.0), (1.0, 250.0)],
+                    _ => vec![(0.2, 2500.0), (0.65, 300.5), (1.0, 1200.0)],
+                };
+                run += 1;
+            }
+        }
+        assert_eq!(run, 3, "{src}");
+        let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
+        assert!(out.contains("#1000 = [#1000 + 1]\n"), "{out}");
+        let new = parse(&out);
+        // Every run in three blocks: the longest piece halved where a run has fewer.
+        let expect: Vec<Vec<(f64, f64)>> = vec![
+            vec![(0.5, 400.0), (0.75, 400.0), (1.0, 400.0)],
+            vec![(0.3, 3000.0), (0.65, 250.0), (1.0, 250.0)],
+            vec![(0.2, 2500.0), (0.65, 300.5), (1.0, 1200.0)],
+        ];
+        let (mut j, mut run) = (0, 0);
+        for s in &path.segments {
+            if !matches!(s.motion, Motion::Feed { .. }) {
+                assert!((new.segments[j].end - s.end).norm() < 1e-6);
+                j += 1;
+                continue;
+            }
+            for &(frac, feed) in &expect[run] {
+                let p = &new.segments[j];
+                let want = if frac >= 1.0 { s.end } else { s.point_at_fraction(frac) };
+                assert!((p.end - want).norm() < 2e-6, "{out}\nrun {run} at {frac}: {:?} vs {want:?}", p.end);
+                assert!(matches!(p.motion, Motion::Feed { feed_mm_min } if (feed_mm_min - feed).abs() < 1e-9), "{out}");
+                j += 1;
+            }
+            run += 1;
+        }
+        assert_eq!(j, new.segments.len(), "{out}");
+    }
 }
 
 /// A line that once runs without moving (a zero-length move makes no
