@@ -946,9 +946,18 @@ fn default_example_optimizes_under_the_limit() {
         after["peak_mrr_windowed_mm3_s"].as_f64().unwrap() <= 1.02 * mrr_max,
         "{after}"
     );
-    // Per 16 ms period the grid's column phase adds a few per cent (6.2 % measured).
+    // The limit holds per period as printed, within 2 %.
     assert!(
-        after["peak_mrr_mm3_s"].as_f64().unwrap() <= 1.07 * mrr_max,
+        after["peak_mrr_mm3_s"].as_f64().unwrap() <= 1.02 * mrr_max,
+        "{after}"
+    );
+    // Chip load: every step in contact with the stock (the arc chords that shave
+    // the finished boss included) runs at most fz_max·z·n; the top cutting feed
+    // printed is that of the written program.
+    let chip = s["limits"]["chip_load_feed_mm_min"].as_f64().unwrap();
+    assert!((chip - 0.18 * 2.0 * 6000.0).abs() < 1e-6, "{chip}");
+    assert!(
+        after["peak_cutting_feed_mm_min"].as_f64().unwrap() <= chip * (1.0 + 1e-3),
         "{after}"
     );
     assert!(after["cycle_time_s"].as_f64().unwrap() < before["cycle_time_s"].as_f64().unwrap());
@@ -1001,17 +1010,27 @@ fn default_example_optimizes_under_the_limit() {
         dir.path(),
     ));
     let r = summary(&dir.path().join("refed"));
-    assert!(
-        r["peak_mrr_windowed_mm3_s"].as_f64().unwrap() <= 1.02 * mrr_max,
-        "{r}"
-    );
-    assert!(
-        rel(
-            r["cycle_time_s"].as_f64().unwrap(),
-            after["cycle_time_s"].as_f64().unwrap()
-        ) < 0.05,
-        "{r}"
-    );
+    for key in [
+        "cycle_time_s",
+        "peak_mrr_mm3_s",
+        "peak_mrr_windowed_mm3_s",
+        "peak_cutting_feed_mm_min",
+    ] {
+        let (a, b) = (after[key].as_f64().unwrap(), r[key].as_f64().unwrap());
+        assert!(rel(a, b) < 1e-9, "{key}: summary {a}, optimized.nc {b}");
+    }
+    for (i, row) in step_rows(&dir.path().join("refed/steps.csv"))
+        .iter()
+        .enumerate()
+    {
+        if row.volume_mm3 > 1e-6 && !row.rapid {
+            assert!(
+                row.feed_mm_min <= chip * (1.0 + 1e-3),
+                "row {i}: {}",
+                row.feed_mm_min
+            );
+        }
+    }
 }
 
 const SERVO_JOB: &str = r#"
@@ -1354,20 +1373,30 @@ fn optimized_program_simulates_as_the_summary_says() {
     assert!(
         after["cycle_time_s"].as_f64().unwrap() < s["before"]["cycle_time_s"].as_f64().unwrap()
     );
-    // The subprogram's cutting line runs three times at three depths: one feed
-    // per run from a table, shallower runs faster.
+    // The subprogram's cutting line runs three times at three depths, each run
+    // split where it enters the stock: one record per run (end points and feeds
+    // of its blocks) from a table; the cut's feed falls with the depth.
     let text = std::fs::read_to_string(dir.path().join("out/optimized.nc")).unwrap();
-    assert!(text.contains("G1 X55 F#[#1000 + 1000]"), "{text}");
-    let table: Vec<f64> = (1001..=1003)
-        .map(|n| {
-            let line = text
-                .lines()
-                .find(|l| l.starts_with(&format!("#{n} = ")))
-                .unwrap();
-            line.split(" = ").nth(1).unwrap().parse().unwrap()
-        })
-        .collect();
-    assert!(table[0] > table[1] && table[1] > table[2], "{table:?}");
+    let param = |n: u32| -> f64 {
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(&format!("#{n} = ")))
+            .unwrap_or_else(|| panic!("#{n} not set:\n{text}"));
+        line.split(" = ").nth(1).unwrap().parse().unwrap()
+    };
+    let width: u32 = text
+        .split("F#[#1000 * ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|w| w.parse().ok())
+        .unwrap_or_else(|| panic!("no table of pieces:\n{text}"));
+    // Run c's last F (the cut into X55) is parameter 1000 + c·width.
+    let cut: Vec<f64> = (1..=3).map(|c| param(1000 + c * width)).collect();
+    assert!(cut[0] > cut[1] && cut[1] > cut[2], "{cut:?}");
+    // The last block of every run ends at X55.
+    for c in 1..=3 {
+        assert_eq!(param(1000 + c * width - 1), 55.0);
+    }
     // The modes the program uses are kept around the split blocks.
     for kept in [
         "G91 G1 Z-",
@@ -1422,6 +1451,19 @@ fn chip_load_caps_cutting_feed_and_air_runs_free() {
         dir.path(),
     ));
     let s = summary(&dir.path().join("out"));
+    // The subprogram's plunge and cut run three times, each run part in air
+    // (feed_max) and part in the stock (chip load): one table record per run
+    // gives each its blocks, so the written program keeps to its plan.
+    assert!(
+        s["written_vs_plan"].as_f64().unwrap() <= 0.01,
+        "{}",
+        s["written_vs_plan"]
+    );
+    let text = std::fs::read_to_string(dir.path().join("out/optimized.nc")).unwrap();
+    let plunge_line = 1 + text
+        .lines()
+        .position(|l| l.contains("G1 Z[#1]"))
+        .expect("the plunge line") as u32;
     let cap = 0.02 * 2.0 * 10_000.0;
     assert!((s["limits"]["chip_load_feed_mm_min"].as_f64().unwrap() - cap).abs() < 1e-9);
     let (mut at_cap, mut air_fast) = (0, 0usize);
@@ -1433,7 +1475,7 @@ fn chip_load_caps_cutting_feed_and_air_runs_free() {
         if r.volume_mm3 > 0.0 && !r.rapid {
             assert!(f <= cap * (1.0 + 1e-9), "feed {f} at row {i}");
             at_cap += usize::from(f > 0.99 * cap);
-        } else if !r.rapid && r.line == 7.0 {
+        } else if !r.rapid && r.line == f64::from(plunge_line) {
             // The plunges in air (F300, 2.5 mm): up to √(a·L) = 50 mm/s = 3000 mm/min.
             air_fast = air_fast.max(f as usize);
         }
@@ -1745,4 +1787,153 @@ fn closed_loop_error_is_bounded_by_the_stock_and_falls_with_stiffness() {
         }
         last = max_e;
     }
+}
+
+/// A Ø2 mm flat end mill slotting 2 mm deep on a 0.2 mm grid with
+/// mrr_max = 2 mm³/s: the cap feed 60·Q/(D·a_p) = 30 mm/min advances 0.008 mm
+/// per 16 ms period, 1/25 of a column. The grid is named too coarse before
+/// work; after optimisation the peak MRR per period as printed (a period under
+/// one cell measured over the periods around it, MODEL.md §2.3) is within 2 %
+/// of the limit, the straight slot runs at the closed-form feed, and
+/// optimized.nc simulated as a program of its own gives the same numbers.
+#[test]
+fn small_tool_on_a_coarse_grid_holds_the_limit_per_period() {
+    let dir = tempdir();
+    let job = r#"
+[stock]
+kind = "box"
+min = [0, -5, -5]
+max = [24, 15, 0]
+grid = 0.2
+[tool]
+kind = "flat"
+diameter = 2
+flutes = 2
+fz_max = 0.05
+[program]
+path = "p.ngc"
+[cutting]
+material = "al6061"
+[limits]
+mrr_max = 2
+"#;
+    write(dir.path(), "job.toml", job);
+    write(
+        dir.path(),
+        "p.ngc",
+        "G21 G90 G17\nS10000 M3\nG0 X-3 Y0 Z5\nG1 Z-2 F100\nG1 X12 F200\nG3 X18 Y6 I0 J6\nG1 Y12\nG0 Z5\nM30\n",
+    );
+    let out = dexcut(&["optimize", "job.toml", "--out", "out"], dir.path());
+    ok(&out);
+    assert!(
+        stderr(&out).contains("the grid is too coarse"),
+        "{}",
+        stderr(&out)
+    );
+    let s = summary(&dir.path().join("out"));
+    let after = &s["after"];
+    let peak = after["peak_mrr_mm3_s"].as_f64().unwrap();
+    assert!(peak <= 2.0 * 1.02, "peak MRR per period {peak}");
+    assert!(peak >= 2.0 * 0.9, "the limit is not used: {peak}");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains(&format!("{peak:.3}")), "{stdout}");
+    // The straight slot (x 2..10) at 60·Q/(D·a_p) mm/min, less what the grid's
+    // measure of the engagement adds (the cap takes the highest removal per
+    // length over two cells, MODEL.md §2; under 10 % on 0.2 mm cells).
+    let steps = csv_columns(&dir.path().join("out/steps.csv"));
+    let closed_form = 60.0 * 2.0 / (2.0 * 2.0);
+    let mut n = 0;
+    for (x, (y, f)) in steps["x"]
+        .iter()
+        .zip(steps["y"].iter().zip(&steps["feed_mm_min"]))
+    {
+        if (2.0..10.0).contains(x) && y.abs() < 1e-9 {
+            assert!(
+                *f <= closed_form * 1.01 && *f >= 0.9 * closed_form,
+                "feed {f} at x {x}"
+            );
+            n += 1;
+        }
+    }
+    assert!(n > 500, "{n} steps in the straight slot");
+    write(
+        dir.path(),
+        "refed.toml",
+        &job.replace("path = \"p.ngc\"", "path = \"out/optimized.nc\""),
+    );
+    ok(&dexcut(
+        &["simulate", "refed.toml", "--out", "refed"],
+        dir.path(),
+    ));
+    let r = summary(&dir.path().join("refed"));
+    for key in ["cycle_time_s", "peak_mrr_mm3_s", "removed_volume_mm3"] {
+        let (a, b) = (after[key].as_f64().unwrap(), r[key].as_f64().unwrap());
+        assert!(rel(a, b) < 1e-9, "{key}: summary {a}, optimized.nc {b}");
+    }
+}
+
+/// Two tools, each with its own chip load: T1 fz 0.1 (2000 mm/min at
+/// S10000, 2 flutes), T2 fz 0.02 (400 mm/min), both programmed at F1200. The
+/// program as given runs T2 above its chip load, so it is not "within every
+/// limit" (the check takes each move's tool, not the first one's) and is not
+/// kept; in optimized.nc every step each tool cuts is within its own cap.
+#[test]
+fn each_tool_is_held_to_its_own_chip_load() {
+    let dir = tempdir();
+    let job = r#"
+[stock]
+kind = "box"
+min = [0, -20, 0]
+max = [100, 20, 30]
+grid = 0.2
+[[tools]]
+number = 1
+kind = "flat"
+diameter = 6
+flutes = 2
+fz_max = 0.1
+length = 40
+[[tools]]
+number = 2
+kind = "flat"
+diameter = 10
+flutes = 2
+fz_max = 0.02
+length = 60
+[program]
+path = "two.nc"
+[machine]
+feed_max = 3000
+accel = [1000, 1000, 1000]
+[limits]
+mrr_max = 1e6
+"#;
+    write(dir.path(), "job.toml", job);
+    write(
+        dir.path(),
+        "two.nc",
+        "%\nG21 G90 G17\nS10000 M3\nT1 M6\nG0 G43 H1 Z40\nG0 X-10 Y-8\nG0 Z29.5\nG1 X110 F1200\nG0 Z40\n\
+         T2 M6\nG43 H2 Z40\nG0 X-10 Y8\nG0 Z29.5\nG1 X110 F1200\nG0 Z40\nM30\n%\n",
+    );
+    ok(&dexcut(
+        &["optimize", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
+    let s = summary(&dir.path().join("out"));
+    assert_eq!(s["kept_original"], false, "{s}");
+    let steps = csv_columns(&dir.path().join("out/steps.csv"));
+    let mut top = [0.0f64; 2];
+    for (i, r) in step_rows(&dir.path().join("out/steps.csv"))
+        .iter()
+        .enumerate()
+    {
+        if r.volume_mm3 > 1e-6 && !r.rapid {
+            let t = steps["tool"][i] as usize;
+            let cap = [2000.0, 400.0][t - 1];
+            let f = r.feed_mm_min;
+            assert!(f <= cap * (1.0 + 1e-3), "T{t} at {f} mm/min, row {i}");
+            top[t - 1] = top[t - 1].max(f);
+        }
+    }
+    assert!(top[0] > 0.99 * 2000.0 && top[1] > 0.99 * 400.0, "{top:?}");
 }

@@ -586,7 +586,7 @@ pub fn optimize(
     let t2 = Instant::now();
     let fz_max_mm = setup.job.fz_max_mm();
     let caps = optimize::interval_caps(&engagement, &stations, limits, &setup.tools);
-    let written = optimize::write_verified(&setup, &machine, &stations, caps, &before, fz_max_mm)?;
+    let written = optimize::write_verified(&setup, &machine, &stations, caps, &before)?;
     let time_plan_s = t2.elapsed().as_secs_f64();
     let after_run = match written.run {
         Some(run) => run,
@@ -625,7 +625,7 @@ pub fn optimize(
         &unresolved,
         "%",
         false,
-        |v, lines| format!("servo periods up to {v:.0} % above a limit at {lines}, where the tool advances less than one grid column per period: the removal there comes in whole columns, so a slower feed would not lower it; use a finer grid to hold the limit per period"),
+        |v, lines| format!("servo periods up to {v:.0} % above a limit at {lines} after {rounds} rounds of slowing them, where the tool advances less than one grid column per period: part of the removal there comes in whole columns (where the tool enters the stock or turns), which a slower feed does not lower in proportion; use a finer grid to hold the limit per period", rounds = written.rounds),
     );
     let written_vs_plan = after_summary.cycle_time_s / written.plan_time_s - 1.0;
     if written_vs_plan > optimize::PLAN_TOLERANCE && !written.kept_original {

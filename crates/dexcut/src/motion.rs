@@ -30,6 +30,8 @@ pub struct TimedStep {
     pub continues: bool,
     /// Number (T word) of the tool cutting the step.
     pub tool: u32,
+    /// Spindle speed of the block the step ends in (its S word), rev/min; 0 when none was given.
+    pub spindle_rpm: f64,
 }
 
 /// The machine limits from the job.
@@ -127,6 +129,7 @@ pub fn steps_from_samples(path: &nc::Path, samples: &[ServoSample]) -> Vec<Timed
                 s_end_mm: s,
                 continues: j > 0,
                 tool: path.segments[seg].tool,
+                spindle_rpm: path.segments[seg].spindle_rpm,
             });
         }
     }
@@ -171,6 +174,7 @@ pub fn direct_steps(path: &nc::Path) -> Vec<TimedStep> {
                 s_end_mm: s,
                 continues: false,
                 tool: seg.tool,
+                spindle_rpm: seg.spindle_rpm,
             }
         })
         .collect()

@@ -89,6 +89,7 @@ pub fn engagement(
     let volumes: Vec<f64> = (0..steps.len()).map(|k| record.volume_mm3(k)).collect();
     let window_mm = (ENGAGEMENT_WINDOW_CELLS * stock.grid().spacing_mm).max(2.0 * STATION_DS_MM);
     let area_mm2 = windowed_area(stations.s_mm(), &volumes, window_mm);
+
     let reference_loads = reference_loads(&record, &area_mm2, stations.s_mm(), |k| {
         &tools.entries[tool_index[k]].model
     });
@@ -291,16 +292,8 @@ pub fn interval_caps(
             };
             if a > 1e-12 {
                 let seg = &segs[seg_of[k + 1] as usize];
-                if let Some(fz) = entry.fz_max_mm {
-                    let rpm = if seg.spindle_rpm > 0.0 {
-                        seg.spindle_rpm
-                    } else {
-                        model.spindle_rpm
-                    };
-                    lower(
-                        cutting::chipload::chip_load_feed_mm_min(fz, model.flutes, rpm),
-                        CapKind::ChipLoad,
-                    );
+                if let Some(f) = entry.chip_load_feed_mm_min(seg.spindle_rpm) {
+                    lower(f, CapKind::ChipLoad);
                 }
                 if let (Some(scale), Motion::Feed { feed_mm_min }) =
                     (limits.feed_scale_max, seg.motion)
@@ -466,131 +459,198 @@ pub struct Excess {
     pub s_from_mm: f64,
     pub s_to_mm: f64,
     pub feed_mm_min: f64,
-    pub feed_ratio: f64,
+    /// The feed the period may run at: its feed times the factor the limit
+    /// asks for, or the chip-load feed.
+    pub cap_mm_min: f64,
     pub kind: CapKind,
-    /// By how much the period exceeds its limit: value / limit − 1.
+    /// By how much the period exceeds its limit: value / limit − 1 (the
+    /// largest over the limits it exceeds).
     pub over_limit: f64,
+    /// It exceeds a limit by more than that limit's tolerance:
+    /// [`LIMIT_TOLERANCE`] for removal, force, deflection and power per
+    /// period, [`CHIP_LOAD_TOLERANCE`] for the chip-load feed of a cutting step.
+    pub beyond_tolerance: bool,
     /// Program line the period ends in.
     pub line: u32,
-    /// The tool advanced at least one grid cell in the period. When it did
-    /// not, the removal per period is quantised to whole columns (a column
-    /// goes in the period its edge is crossed), so a slower feed does not
-    /// lower it: such periods are reported, not corrected.
+    /// The path the MRR is measured over covers at least one grid cell
+    /// (MODEL.md §2.3; not so only in a cut shorter than that). Periods left
+    /// over a limit that are not resolved are named as a coarse grid.
     pub resolved: bool,
+    /// The period itself advanced less than a grid cell (its MRR is measured
+    /// over the periods around it, MODEL.md §2.3).
+    pub sub_cell: bool,
 }
+
+/// A step that removes material may run above its chip-load feed by this
+/// fraction (the feed of a servo step is a mean over a chord; F words are
+/// rounded down, so the plan itself never exceeds the cap).
+pub const CHIP_LOAD_TOLERANCE: f64 = 1e-3;
 
 /// Margin kept under a limit when a period over it is corrected.
 pub const LIMIT_MARGIN: f64 = 0.01;
 
 /// Servo periods of `run` (per period, as the summary prints them) whose MRR,
-/// force, deflection or spindle power exceeds the limits. MRR scales with the
-/// feed; force, deflection and power with the feed to the power p of the force
-/// model (n of S4's law, 1 − mc of Kienzle's, MODEL.md §3).
-pub fn excesses(
-    run: &crate::simulate::Run,
-    limits: &LimitsSpec,
-    model: &CuttingModel,
-) -> Vec<Excess> {
+/// force, deflection or spindle power exceeds the limits, and steps that
+/// remove material (however little: any step in contact with the stock is a
+/// cutting move) above their tool's chip-load feed f_z,max·z·n at the block's
+/// spindle speed (MODEL.md §2.1). MRR scales with the feed; force, deflection
+/// and power with the feed to the power p of the step's tool's force model
+/// (n of S4's law, 1 − mc of Kienzle's, MODEL.md §3).
+pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> {
     let mut out = Vec::new();
-    let n = run.steps.len();
     let grid_mm = run.stock.grid().spacing_mm;
-    let mut i = 0;
-    let mut s_prev = 0.0;
-    while i < n {
-        let mut j = i + 1;
-        while j < n && run.steps[j].continues {
-            j += 1;
-        }
-        let (mut vol, mut dt, mut force, mut defl, mut power) = (0.0, 0.0, 0.0f64, 0.0f64, 0.0f64);
-        for k in i..j {
-            vol += run.record.volume_mm3(k);
-            dt += run.steps[k].dt_s;
-            force = force.max(run.loads[k].force_n);
-            defl = defl.max(run.loads[k].deflection_um);
-            power = power.max(run.loads[k].power_w);
-        }
-        let s_to = run.steps[j - 1].s_end_mm;
-        let cutting = !run.steps[i..j].iter().all(|s| s.step.rapid);
-        if dt > 0.0 && cutting {
-            let feed = (s_to - s_prev) / dt * 60.0;
-            let mut ratio = (1.0, CapKind::FeedMax);
-            let mut over_limit = 0.0f64;
-            let mut lower = |r: f64, kind: CapKind, over: f64| {
-                over_limit = over_limit.max(over);
-                if r < ratio.0 {
-                    ratio = (r, kind);
+    for period in run.periods().iter().filter(|p| p.cutting) {
+        // Per load: the largest value / limit in the period, and the feed exponent of its tool.
+        let mut worst = [(0.0f64, 1.0f64); 3];
+        // Largest step feed / its chip-load feed among the steps that cut.
+        let mut chip: Option<(f64, f64)> = None;
+        for k in period.first_step..=period.last_step {
+            let step = &run.steps[k];
+            let entry = tools.entry(step.tool);
+            let p = entry.model.force_model.feed_exponent();
+            let load = &run.loads[k];
+            for (w, (value, limit)) in worst.iter_mut().zip([
+                (load.force_n, limits.force_max),
+                (load.deflection_um, limits.deflection_max_um),
+                (load.power_w, limits.power_max_kw.map(|kw| 1000.0 * kw)),
+            ]) {
+                if let Some(limit) = limit {
+                    if value / limit > w.0 {
+                        *w = (value / limit, p);
+                    }
                 }
+            }
+            if !step.step.rapid && run.record.volume_mm3(k) > crate::simulate::NOTHING_MM3 {
+                if let Some(cap) = entry.chip_load_feed_mm_min(step.spindle_rpm) {
+                    if chip.is_none_or(|(r, _)| step.feed_mm_min / cap > r) {
+                        chip = Some((step.feed_mm_min / cap, cap));
+                    }
+                }
+            }
+        }
+        // The path and time the period's MRR is measured over (MODEL.md §2.3);
+        // its loads and chip load are corrected over the same stretch.
+        let (s_lo, s_hi, dt) = (period.s_from_mm, period.s_to_mm, period.dt_s);
+        if dt <= 0.0 {
+            continue;
+        }
+        let feed = (s_hi - s_lo) / dt * 60.0;
+        let mut found: Option<(f64, CapKind)> = None;
+        let (mut over_limit, mut beyond_tolerance) = (0.0f64, false);
+        let mut lower = |cap: f64, kind: CapKind, over: f64| {
+            over_limit = over_limit.max(over);
+            let tolerance = match kind {
+                CapKind::ChipLoad => CHIP_LOAD_TOLERANCE,
+                _ => LIMIT_TOLERANCE,
             };
-            if let Some(q) = limits.mrr_max {
-                if vol / dt > q * (1.0 + 0.5 * LIMIT_MARGIN) {
-                    let over = vol / dt / q - 1.0;
-                    lower(q * (1.0 - LIMIT_MARGIN) * dt / vol, CapKind::Removal, over);
-                }
+            beyond_tolerance |= over > tolerance;
+            if found.is_none_or(|(c, _)| cap < c) {
+                found = Some((cap, kind));
             }
-            let p = model.force_model.feed_exponent();
-            let root = |r: f64| r.powf(1.0 / p);
-            if let Some(kw) = limits.power_max_kw {
-                let w = 1000.0 * kw;
-                if power > w * (1.0 + 0.5 * LIMIT_MARGIN) {
-                    let over = power / w - 1.0;
-                    lower(root(w * (1.0 - LIMIT_MARGIN) / power), CapKind::Power, over);
-                }
-            }
-            if let Some(f) = limits.force_max {
-                if force > f * (1.0 + 0.5 * LIMIT_MARGIN) {
-                    let over = force / f - 1.0;
-                    lower(root(f * (1.0 - LIMIT_MARGIN) / force), CapKind::Force, over);
-                }
-            }
-            if let Some(d) = limits.deflection_max_um {
-                if defl > d * (1.0 + 0.5 * LIMIT_MARGIN) {
-                    let over = defl / d - 1.0;
-                    lower(
-                        root(d * (1.0 - LIMIT_MARGIN) / defl),
-                        CapKind::Deflection,
-                        over,
-                    );
-                }
-            }
-            if ratio.0 < 1.0 && feed > 0.0 {
-                out.push(Excess {
-                    s_from_mm: s_prev,
-                    s_to_mm: s_to,
-                    feed_mm_min: feed,
-                    feed_ratio: ratio.0,
-                    kind: ratio.1,
-                    over_limit,
-                    line: run.steps[j - 1].line,
-                    resolved: s_to - s_prev >= grid_mm,
-                });
+        };
+        let mrr = period.mrr_mm3_s();
+        if let Some(q) = limits.mrr_max {
+            if mrr > q * (1.0 + 0.5 * LIMIT_MARGIN) {
+                lower(
+                    feed * q * (1.0 - LIMIT_MARGIN) / mrr,
+                    CapKind::Removal,
+                    mrr / q - 1.0,
+                );
             }
         }
-        s_prev = s_to;
-        i = j;
+        for ((ratio, p), kind) in
+            worst
+                .into_iter()
+                .zip([CapKind::Force, CapKind::Deflection, CapKind::Power])
+        {
+            if ratio > 1.0 + 0.5 * LIMIT_MARGIN {
+                lower(
+                    feed * ((1.0 - LIMIT_MARGIN) / ratio).powf(1.0 / p),
+                    kind,
+                    ratio - 1.0,
+                );
+            }
+        }
+        if let Some((ratio, cap)) = chip {
+            if ratio > 1.0 + 0.5 * CHIP_LOAD_TOLERANCE {
+                lower(cap * (1.0 - 1e-6), CapKind::ChipLoad, ratio - 1.0);
+            }
+        }
+        if let (Some((cap, kind)), true) = (found, feed > 0.0) {
+            out.push(Excess {
+                s_from_mm: s_lo,
+                s_to_mm: s_hi,
+                feed_mm_min: feed,
+                cap_mm_min: cap,
+                kind,
+                over_limit,
+                beyond_tolerance,
+                line: run.steps[period.last_step].line,
+                resolved: s_hi - s_lo >= grid_mm,
+                sub_cell: period.window.0 != period.window.1,
+            });
+        }
     }
     out
 }
 
-/// Lower the interval caps over each excess (± `margin_mm`) to the period's
-/// feed times its ratio, never below `feed_min`.
+/// Lower the interval caps over each excess (± `margin_mm`) to the feed it
+/// may run at, never below `feed_min`. A removal excess where the tool
+/// advances less than a grid cell per period ([`Excess::sub_cell`]) lowers
+/// the whole written block it lies in (`blocks`: per interval, the block it
+/// is written in): its removal per period varies with the column phase
+/// along the block, and a change of timing anywhere shifts that phase, so
+/// the block's feed is what sets its peak.
 pub fn lower_caps(
     caps: &mut [(f64, CapKind)],
     s_mm: &[f64],
+    blocks: &[usize],
     excesses: &[Excess],
     margin_mm: f64,
     feed_min: Option<f64>,
 ) {
     for e in excesses {
-        let cap = (e.feed_mm_min * e.feed_ratio).max(feed_min.unwrap_or(0.0));
+        let cap = e.cap_mm_min.max(feed_min.unwrap_or(0.0));
         let from = s_mm.partition_point(|&s| s < e.s_from_mm - margin_mm);
-        let mut k = from.saturating_sub(1);
-        while k < caps.len() && s_mm[k] <= e.s_to_mm + margin_mm {
-            if cap < caps[k].0 {
-                caps[k] = (cap, e.kind);
+        let mut from = from.saturating_sub(1).min(caps.len().saturating_sub(1));
+        let mut to = from;
+        while to + 1 < caps.len() && s_mm[to + 1] <= e.s_to_mm + margin_mm {
+            to += 1;
+        }
+        if e.sub_cell && e.kind == CapKind::Removal {
+            while from > 0 && blocks[from - 1] == blocks[from] {
+                from -= 1;
             }
-            k += 1;
+            while to + 1 < caps.len() && blocks[to + 1] == blocks[to] {
+                to += 1;
+            }
+        }
+        for c in &mut caps[from..=to] {
+            if cap < c.0 {
+                *c = (cap, e.kind);
+            }
         }
     }
+}
+
+/// Per interval, the block of the written program it lies in (an index
+/// counting the refeed plan's pieces over all segments).
+pub fn interval_blocks(stations: &Stations, plan: &[Vec<(f64, f64)>]) -> Vec<usize> {
+    let (seg_of, frac) = (stations.segment(), stations.fraction());
+    let mut first_piece = Vec::with_capacity(plan.len());
+    let mut n = 0;
+    for pieces in plan {
+        first_piece.push(n);
+        n += pieces.len().max(1);
+    }
+    (0..stations.len() - 1)
+        .map(|k| {
+            let seg = seg_of[k + 1] as usize;
+            let f = frac[k + 1];
+            let piece = plan[seg].iter().position(|p| p.0 >= f - 1e-9).unwrap_or(0);
+            first_piece[seg] + piece
+        })
+        .collect()
 }
 
 /// Per interval, the feed of the block (refeed plan piece) it lies in, with the
@@ -614,7 +674,7 @@ pub fn block_caps(
 }
 
 /// Most rounds of writing, re-simulating and correcting the program.
-pub const MAX_ROUNDS: usize = 6;
+pub const MAX_ROUNDS: usize = 12;
 
 /// The program optimize writes, re-simulated as a program of its own.
 pub struct Written {
@@ -637,32 +697,24 @@ pub struct Written {
     pub rounds: usize,
     /// Feeds within this ratio share a block in the written program.
     pub merge_ratio: f64,
-    /// Servo periods still above a limit by more than [`LIMIT_TOLERANCE`] after the last round.
+    /// Servo periods still above a limit by more than its tolerance after the
+    /// last round, where the tool advanced at least a grid cell.
     pub excesses_left: usize,
     /// The original program was within every limit and faster: it is written unchanged.
     pub kept_original: bool,
-    /// Periods above a limit by more than [`LIMIT_TOLERANCE`] where the tool
-    /// advanced less than a grid cell (see [`Excess::resolved`]).
+    /// Periods above a limit by more than its tolerance after the last round,
+    /// where the tool advanced less than a grid cell (see [`Excess::resolved`]).
     pub unresolved: Vec<Excess>,
 }
 
 /// Whether a run (of the program as written) is within every limit: no
-/// period above mrr_max, force_max or deflection_max_um, no cutting step
-/// above the chip-load feed.
-pub fn within_limits(
-    run: &Run,
-    limits: &LimitsSpec,
-    model: &CuttingModel,
-    fz_max_mm: Option<f64>,
-) -> bool {
-    let chip_ok = fz_max_mm.is_none_or(|fz| {
-        let cap = cutting::chipload::chip_load_feed_mm_min(fz, model.flutes, model.spindle_rpm);
-        run.peak_cutting_feed_mm_min() <= cap * (1.0 + 1e-3)
-    });
-    chip_ok
-        && excesses(run, limits, model)
-            .iter()
-            .all(|e| e.over_limit <= LIMIT_TOLERANCE)
+/// period above mrr_max, force_max, deflection_max_um or power_max_kw by more
+/// than [`LIMIT_TOLERANCE`], no cutting step above its tool's chip-load feed
+/// by more than [`CHIP_LOAD_TOLERANCE`].
+pub fn within_limits(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> bool {
+    excesses(run, limits, tools)
+        .iter()
+        .all(|e| !e.beyond_tolerance)
 }
 
 /// Write the re-timed program, simulate it as a program of its own (parsed
@@ -680,7 +732,6 @@ pub fn write_verified(
     free: &Stations,
     mut caps: Vec<(f64, CapKind)>,
     before: &Run,
-    fz_max_mm: Option<f64>,
 ) -> Result<Written> {
     let limits = &setup.job.limits;
     let margin_mm = 2.0 * setup.stock.grid().spacing_mm;
@@ -731,19 +782,29 @@ pub fn write_verified(
             steps,
             &format!("verify {round}"),
         )?;
-        let (over, unresolved): (Vec<Excess>, Vec<Excess>) = excesses(&run, limits, &setup.model)
-            .into_iter()
-            .partition(|e| e.resolved);
+        let over = excesses(&run, limits, &setup.tools);
         let slow = text.is_some()
             && run.steps.last().map_or(0.0, |s| s.t_end_s) > plan_time_s * (1.0 + PLAN_TOLERANCE);
         let refine_blocks = slow && merge_ratio > MERGE_RATIO_MIN;
-        let done = (over.is_empty() && !refine_blocks) || round >= MAX_ROUNDS;
+        // Every period over a limit lowers its caps; the rounds end when none
+        // is over by more than its tolerance.
+        let done =
+            (!over.iter().any(|e| e.beyond_tolerance) && !refine_blocks) || round >= MAX_ROUNDS;
         if done {
             let cycle = run.steps.last().map_or(0.0, |s| s.t_end_s);
             let before_cycle = before.steps.last().map_or(0.0, |s| s.t_end_s);
             let kept_original = text.is_some()
                 && cycle > before_cycle
-                && within_limits(before, limits, &setup.model, fz_max_mm);
+                && within_limits(before, limits, &setup.tools);
+            let (left, unresolved): (Vec<Excess>, Vec<Excess>) = over
+                .into_iter()
+                .filter(|e| e.beyond_tolerance)
+                .partition(|e| e.resolved);
+            let samples = if kept_original {
+                crate::motion::machine_motion(&setup.program.path, &setup.machine)?
+            } else {
+                samples
+            };
             return Ok(Written {
                 text: if kept_original {
                     setup.program.gcode.clone()
@@ -758,18 +819,20 @@ pub fn write_verified(
                 cap_shares: cap_shares(&profile),
                 rounds: round,
                 merge_ratio,
-                excesses_left: over
-                    .iter()
-                    .filter(|e| e.over_limit > LIMIT_TOLERANCE)
-                    .count(),
-                unresolved: unresolved
-                    .into_iter()
-                    .filter(|e| e.over_limit > LIMIT_TOLERANCE)
-                    .collect(),
+                excesses_left: left.len(),
+                unresolved,
                 kept_original,
             });
         }
-        lower_caps(&mut caps, free.s_mm(), &over, margin_mm, limits.feed_min);
+        let blocks = interval_blocks(free, &plan);
+        lower_caps(
+            &mut caps,
+            free.s_mm(),
+            &blocks,
+            &over,
+            margin_mm,
+            limits.feed_min,
+        );
         if refine_blocks {
             merge_ratio = (1.0 + (merge_ratio - 1.0) / 2.5).max(MERGE_RATIO_MIN);
         }

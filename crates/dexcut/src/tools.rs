@@ -26,6 +26,21 @@ pub struct ToolEntry {
     pub stress_limit_mpa: f64,
 }
 
+impl ToolEntry {
+    /// The chip-load feed cap F = f_z,max · z · n (MODEL.md §2.1) at a block's
+    /// spindle speed `block_rpm` (its S word; 0 when none: the job's
+    /// `spindle_rpm`), mm/min; None without a chip-load limit.
+    pub fn chip_load_feed_mm_min(&self, block_rpm: f64) -> Option<f64> {
+        let rpm = if block_rpm > 0.0 {
+            block_rpm
+        } else {
+            self.model.spindle_rpm
+        };
+        self.fz_max_mm
+            .map(|fz| cutting::chipload::chip_load_feed_mm_min(fz, self.model.flutes, rpm))
+    }
+}
+
 /// The tools a run can use.
 #[derive(Clone, Debug)]
 pub struct ToolSet {
