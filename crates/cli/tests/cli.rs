@@ -1677,6 +1677,11 @@ fn coarse_grid_is_warned_before_work_with_a_grid() {
 /// moves; `tool_extra` adds [tool] keys. Returns steps.csv, the column grid and
 /// summary.json.
 fn flat_cut(y: (f64, f64), tool_extra: &str, z: f64) -> RunOutput {
+    flat_cut_with(y, tool_extra, z, "")
+}
+
+/// [`flat_cut`] with `cutting_extra` added to `[cutting]`.
+fn flat_cut_with(y: (f64, f64), tool_extra: &str, z: f64, cutting_extra: &str) -> RunOutput {
     let dir = tempdir();
     let job = SLOT_JOB
         .replace("min = [0, -20, 0]", &format!("min = [0, {}, 0]", y.0))
@@ -1685,7 +1690,10 @@ fn flat_cut(y: (f64, f64), tool_extra: &str, z: f64) -> RunOutput {
             "kind = \"ball\"\ndiameter = 10",
             &format!("kind = \"flat\"\ndiameter = 10\nflute_length = 20\n{tool_extra}"),
         )
-        .replace("band_height = 1.0", "band_height = 1.0\nspindle_rpm = 6000")
+        .replace(
+            "band_height = 1.0",
+            &format!("band_height = 1.0\nspindle_rpm = 6000\n{cutting_extra}"),
+        )
         .replace("grid = 0.1", "grid = 0.05");
     write(dir.path(), "job.toml", &job);
     let csv: String = std::iter::once("x,y,z\n".to_string())
@@ -1785,6 +1793,13 @@ fn closed_loop_error_is_bounded_by_the_stock_and_falls_with_stiffness() {
             assert!(rigid > 200.0, "slender tool: rigid deflection {rigid} µm");
             assert!(s["closed_loop_passes"].as_u64().unwrap() > 2);
         }
+        // The loop converges: every step's offset within 0.5 µm + 2 % of its deflection.
+        let passes = s["closed_loop_passes"].as_u64().unwrap();
+        assert_eq!(s["closed_loop_converged"], true, "{stiffness}: {s}");
+        assert_eq!(s["closed_loop_unconverged_steps"], 0);
+        assert!(passes <= 10, "{stiffness}: {passes} sweeps");
+        assert!(s["closed_loop_residual_um"].as_f64().unwrap() <= 0.5 + 0.02 * 200.0);
+        assert!(warning(&s, "closed_loop").is_none());
         last = max_e;
     }
 }
@@ -1936,4 +1951,39 @@ mrr_max = 1e6
         }
     }
     assert!(top[0] > 0.99 * 2000.0 && top[1] > 0.99 * 400.0, "{top:?}");
+}
+
+/// Open loop (`closed_loop = false`, MODEL.md §5): the slender tool of the test
+/// above, swept once rigid, would bend by more than the 0.2 mm stock; the error
+/// map is clamped to the stock that was there. On the wall (the outermost cut
+/// column, centre 0.025 mm inside the finished wall at y = −5) that is exactly the
+/// initial stock outside the column centre along +y: −4.8 − (−4.975) = 0.175 mm.
+#[test]
+fn open_loop_error_is_clamped_to_the_stock() {
+    let (_, cols, s) = flat_cut_with(
+        (-20.0, -4.8),
+        "stickout = 60\nholder_stiffness_n_per_um = 0.1",
+        20.0,
+        "closed_loop = false",
+    );
+    assert_eq!(s["closed_loop"], false);
+    assert_eq!(s["closed_loop_passes"], 1);
+    assert!(warning(&s, "closed_loop").is_none());
+    let rigid = s["rigid_peak_deflection_um"].as_f64().unwrap();
+    assert!(rigid > 400.0, "rigid deflection {rigid} µm");
+    let wall = wall_errors(&cols);
+    assert!(wall.len() > 900, "{} wall columns", wall.len());
+    for e in &wall {
+        assert!(
+            (e - 175.0).abs() < 0.01,
+            "wall error {e} µm vs 175 µm of stock"
+        );
+    }
+    let max_e = s["max_error_um"].as_f64().unwrap();
+    assert!(max_e <= 200.0 && max_e >= 175.0 - 0.01, "max error {max_e}");
+    // Every column's error is within the 0.2 mm of radial stock.
+    assert!(cols["error_um"]
+        .iter()
+        .filter(|e| e.is_finite())
+        .all(|e| *e <= 200.0));
 }

@@ -148,6 +148,10 @@ pub struct CuttingSpec {
     /// Radial and axial force over tangential force; default 0.3 and 0.25.
     pub radial_ratio: Option<f64>,
     pub axial_ratio: Option<f64>,
+    /// Sweep again with the tool moved by its deflection until they agree
+    /// (MODEL.md §5.1); false: one rigid sweep, the error map clamped to the stock (§5).
+    #[serde(default = "default_true")]
+    pub closed_loop: bool,
 }
 
 #[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
@@ -158,6 +162,9 @@ pub enum ForceModelKind {
     PowerLaw,
 }
 
+fn default_true() -> bool {
+    true
+}
 fn default_band() -> f64 {
     1.0
 }
@@ -178,6 +185,7 @@ impl Default for CuttingSpec {
             mc: None,
             radial_ratio: None,
             axial_ratio: None,
+            closed_loop: true,
         }
     }
 }

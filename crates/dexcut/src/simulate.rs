@@ -7,6 +7,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use cutting::{CuttingModel, StepLoad};
 use dexel::{RemovalRecord, Stock, SweepOptions, Tool, NEVER_CUT};
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::job::{ForceModelKind, Job, ToolSpec};
@@ -72,15 +73,15 @@ pub struct Run {
     /// Per step, the lateral offset of the tool in the final pass, µm: its converged
     /// deflection at the contact height (MODEL.md §5.1).
     pub offsets_um: Vec<[f64; 2]>,
+    /// Predicted shape error per column, µm, clamped to the stock (MODEL.md §5).
+    pub error_um: Vec<f32>,
     pub initial_volume_mm3: f64,
     /// The stock the deflected tool leaves.
     pub stock: Stock,
     /// Wall-clock time of the sweeps, s.
     pub sweep_s: f64,
-    /// Sweeps of the closed loop (1: the tool did not bend measurably).
-    pub passes: usize,
-    /// Largest |model deflection − applied offset| after the last pass, µm.
-    pub loop_residual_um: f64,
+    /// How the closed loop between removal and deflection ended.
+    pub closed_loop: LoopReport,
     /// Largest deflection at the contact height of the rigid tool's removal, µm.
     pub rigid_peak_deflection_um: f64,
     /// Allowable tool stress of each step's tool, MPa.
@@ -90,9 +91,16 @@ pub struct Run {
 /// Closed loop (MODEL.md §5.1): at most this many sweeps...
 pub const LOOP_MAX_PASSES: usize = 16;
 /// ... until every step's deflection agrees with its applied offset within
-/// this many µm plus [`LOOP_REL_TOL`] of the offset.
+/// this many µm plus [`LOOP_REL_TOL`] of the offset...
 pub const LOOP_TOL_UM: f64 = 0.5;
 pub const LOOP_REL_TOL: f64 = 0.02;
+/// ... or until it stalls: neither the steps out of tolerance nor the largest
+/// residual fell below this share of their value two sweeps before.
+pub const LOOP_STALL_RATIO: f64 = 0.8;
+/// Relaxation factor of a step's offset update: first, largest and smallest.
+const LOOP_RELAX_START: f64 = 0.4;
+const LOOP_RELAX_MAX: f64 = 1.0;
+const LOOP_RELAX_MIN: f64 = 0.02;
 
 /// One sweep of `steps` through a copy of `stock`, each step with its tool.
 fn sweep_pass(
@@ -159,59 +167,76 @@ fn applied_offsets_um(steps: &[TimedStep], magnitude: &[f64], dirs: &[[f64; 2]])
         .collect()
 }
 
-/// Per-step bracket of the closed loop's root of h(x) = x − g(x), x the offset
-/// along the rigid force direction and g the deflection the removal at x causes.
+/// Per-step relaxed update of the closed loop's offset (MODEL.md §5.1): the
+/// next trial is `x + ω (g − x)`; ω halves when the step's residual g − x
+/// changes sign (it overshot) and grows by 30 % while it keeps its sign.
 #[derive(Clone, Copy)]
-struct Bracket {
-    lo: (f64, f64),
-    hi: Option<(f64, f64)>,
-    /// Side replaced last (−1 lo, +1 hi), for the Illinois step.
-    last: i8,
+struct Relaxed {
+    omega: f64,
+    sign: f64,
 }
 
-impl Bracket {
-    /// Record g at x and return the next x to try (µm).
+impl Relaxed {
+    const START: Relaxed = Relaxed {
+        omega: LOOP_RELAX_START,
+        sign: 1.0,
+    };
+
+    /// Record g at x and return the next x to try (µm, ≥ 0).
     fn next(&mut self, x: f64, g: f64) -> f64 {
-        let side = if x - g > 0.0 {
-            self.hi = Some((x, g));
-            1
+        let r = g - x;
+        let sign = if r < 0.0 { -1.0 } else { 1.0 };
+        self.omega = if sign == self.sign {
+            (1.3 * self.omega).min(LOOP_RELAX_MAX)
         } else {
-            self.lo = (x, g);
-            -1
+            (0.5 * self.omega).max(LOOP_RELAX_MIN)
         };
-        let Some((xh, gh)) = self.hi else {
-            // No offset yet where the tool bends less than it is moved: follow g.
-            self.last = side;
-            return g.max(0.0);
-        };
-        let (xl, gl) = self.lo;
-        if xh - xl <= 1e-9 {
-            return 0.5 * (xl + xh);
-        }
-        let mid = 0.5 * (xl + xh);
-        if side == self.last {
-            // The same end moved twice: bisect so the other end moves too.
-            self.last = 0;
-            return mid;
-        }
-        self.last = side;
-        // Regula falsi on g linear between the ends: x = g_lo + slope (x − x_lo).
-        let slope = (gh - gl) / (xh - xl);
-        let x_new = (gl - slope * xl) / (1.0 - slope);
-        if x_new.is_finite() && x_new > xl && x_new < xh {
-            x_new
-        } else {
-            mid
-        }
+        self.sign = sign;
+        (x + self.omega * r).max(0.0)
     }
+}
+
+/// Unit direction in which the closed loop moves a step's tool: the rigid
+/// deflection `(dx, dy)` without its component along the step's XY motion
+/// `m` (MODEL.md §5.1); zero when nothing is left.
+fn loop_direction(dx: f64, dy: f64, m: [f64; 2]) -> [f64; 2] {
+    let m2 = m[0] * m[0] + m[1] * m[1];
+    let along = if m2 > 0.0 {
+        (dx * m[0] + dy * m[1]) / m2
+    } else {
+        0.0
+    };
+    let (px, py) = (dx - along * m[0], dy - along * m[1]);
+    let len = (px * px + py * py).sqrt();
+    if len > 0.0 && len.is_finite() {
+        [px / len, py / len]
+    } else {
+        [0.0, 0.0]
+    }
+}
+
+/// How the closed loop ended (summary.json `closed_loop_*`).
+#[derive(Clone, Debug, Default)]
+pub struct LoopReport {
+    /// The job asked for the closed loop (`[cutting] closed_loop`).
+    pub enabled: bool,
+    /// Sweeps, the rigid one included.
+    pub passes: usize,
+    /// Largest |g − x| after the last sweep, µm (open loop: the rigid sweep's
+    /// largest deflection across the path, which nothing compensated).
+    pub residual_um: f64,
+    /// Every step within tolerance.
+    pub converged: bool,
+    /// Steps left out of tolerance, with their |g − x| in µm.
+    pub unconverged: Vec<(usize, f64)>,
 }
 
 /// Sweep `steps` through `stock` and compute the loads, closing the loop between
 /// removal and deflection (MODEL.md §5.1): the rigid tool's removal gives each
-/// step's deflection; the program is swept again with the tool moved by it, and
-/// the offsets are refined per step (regula falsi in a bracket) until the
-/// deflection the removal causes equals the offset that produced it. Each step
-/// is cut by its own tool (MODEL.md §9.1).
+/// step's deflection; the program is swept again with the tool moved across its
+/// path by a trial offset, and each step's offset is relaxed towards the
+/// deflection the removal causes until they agree. Each step is cut by its own
+/// tool (MODEL.md §9.1). The error map is then clamped to the stock (MODEL.md §5).
 pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) -> Result<Run> {
     let initial_volume_mm3 = stock.volume_mm3();
     let rigid_steps: Vec<dexel::Step> = steps.iter().map(|s| s.step).collect();
@@ -227,44 +252,45 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
     let mut final_stock = Some(rigid_stock);
     let mut step_loads = loads(tools, &tool_of_step, &record, &steps);
     let n = steps.len();
-    // Rigid force directions, kept for the loop (unit, µm per µm); rapids are
-    // not moved (a collision's load means nothing).
+    // Directions of the loop's offsets (unit, fixed from the rigid sweep):
+    // across the path; rapids are not moved (a collision's load means nothing).
     let dirs: Vec<[f64; 2]> = step_loads
         .iter()
         .zip(&steps)
         .map(|(l, s)| {
-            if l.deflection_um > 0.0 && !s.step.rapid {
-                [l.dx_um / l.deflection_um, l.dy_um / l.deflection_um]
-            } else {
-                [0.0, 0.0]
+            if s.step.rapid {
+                return [0.0, 0.0];
             }
+            let m = [
+                s.step.to_mm[0] - s.step.from_mm[0],
+                s.step.to_mm[1] - s.step.from_mm[1],
+            ];
+            loop_direction(l.dx_um, l.dy_um, m)
         })
         .collect();
-    let rigid: Vec<f64> = step_loads
+    let along = |loads: &[StepLoad], i: usize| -> f64 {
+        loads[i].dx_um * dirs[i][0] + loads[i].dy_um * dirs[i][1]
+    };
+    let rigid: Vec<f64> = (0..n).map(|i| along(&step_loads, i).max(0.0)).collect();
+    let rigid_peak_deflection_um = step_loads
         .iter()
-        .zip(&dirs)
-        .map(|(l, d)| {
-            if *d == [0.0, 0.0] {
-                0.0
-            } else {
-                l.deflection_um
-            }
-        })
-        .collect();
-    let rigid_peak_deflection_um = rigid.iter().copied().fold(0.0, f64::max);
+        .map(|l| l.deflection_um)
+        .fold(0.0, f64::max);
+    let rigid_across_peak_um = rigid.iter().copied().fold(0.0, f64::max);
     let mut x: Vec<f64> = vec![0.0; n];
-    let mut residual = rigid_peak_deflection_um;
-    let mut passes = 1;
-    if rigid_peak_deflection_um > LOOP_TOL_UM {
-        let mut brackets: Vec<Bracket> = rigid
-            .iter()
-            .map(|&g| Bracket {
-                lo: (0.0, g),
-                hi: None,
-                last: -1,
-            })
-            .collect();
-        let mut trial = rigid.clone();
+    let mut report = LoopReport {
+        enabled: tools.closed_loop,
+        passes: 1,
+        residual_um: rigid_across_peak_um,
+        converged: rigid_across_peak_um <= LOOP_TOL_UM,
+        unconverged: Vec::new(),
+    };
+    if tools.closed_loop && !report.converged {
+        let mut relaxed = vec![Relaxed::START; n];
+        let mut trial: Vec<f64> = rigid.iter().map(|g| LOOP_RELAX_START * g).collect();
+        // Steps out of tolerance after each sweep, to see the loop stall.
+        let mut out_counts: Vec<usize> = Vec::new();
+        let mut residuals: Vec<f64> = Vec::new();
         loop {
             let offsets_mm: Vec<[f64; 2]> = applied_offsets_um(&steps, &trial, &dirs)
                 .into_iter()
@@ -276,43 +302,163 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
                 sweep_pass(&stock, tools, &tool_of_step, &shifted, &options, label)?;
             (final_stock, record) = (Some(pass_stock), pass_record);
             step_loads = loads(tools, &tool_of_step, &record, &steps);
-            passes += 1;
+            report.passes += 1;
             x.clone_from(&trial);
-            // g: the deflection the removal at the trial offset causes, along the rigid direction.
-            let g: Vec<f64> = (0..n)
-                .map(|i| step_loads[i].dx_um * dirs[i][0] + step_loads[i].dy_um * dirs[i][1])
+            // g: the deflection the removal at the trial offset causes, across the path.
+            let g: Vec<f64> = (0..n).map(|i| along(&step_loads, i)).collect();
+            report.unconverged = (0..n)
+                .filter(|&i| dirs[i] != [0.0, 0.0])
+                .map(|i| (i, (g[i] - x[i]).abs()))
+                .filter(|&(i, r)| r > LOOP_TOL_UM + LOOP_REL_TOL * x[i].abs())
                 .collect();
-            residual = (0..n).map(|i| (g[i] - x[i]).abs()).fold(0.0, f64::max);
-            let converged =
-                (0..n).all(|i| (g[i] - x[i]).abs() <= LOOP_TOL_UM + LOOP_REL_TOL * x[i].abs());
-            if converged || passes >= LOOP_MAX_PASSES {
+            report.residual_um = (0..n)
+                .filter(|&i| dirs[i] != [0.0, 0.0])
+                .map(|i| (g[i] - x[i]).abs())
+                .fold(0.0, f64::max);
+            report.converged = report.unconverged.is_empty();
+            out_counts.push(report.unconverged.len());
+            residuals.push(report.residual_um);
+            // Stalled: the best of the last three sweeps is no better than 0.8 of
+            // the best before them, both in steps out and in residual (from the
+            // ninth sweep on: the first ones may leave every step out while the
+            // offsets grow, and a step whose g jumps where a column centre is
+            // crossed closes in slowly).
+            let k = out_counts.len();
+            let stalled = k >= 8 && {
+                let best = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
+                let counts: Vec<f64> = out_counts.iter().map(|&c| c as f64).collect();
+                best(&counts[k - 3..]) > LOOP_STALL_RATIO * best(&counts[..k - 3])
+                    && best(&residuals[k - 3..]) > LOOP_STALL_RATIO * best(&residuals[..k - 3])
+            };
+            if report.converged || stalled || report.passes >= LOOP_MAX_PASSES {
                 break;
             }
             for i in 0..n {
                 if dirs[i] != [0.0, 0.0] {
-                    trial[i] = brackets[i].next(x[i], g[i]);
+                    trial[i] = relaxed[i].next(x[i], g[i]);
                 }
             }
         }
     }
     let sweep_s = started.elapsed().as_secs_f64();
     let offsets_um = applied_offsets_um(&steps, &x, &dirs);
+    // The deflection across the path that the final removal causes (rapids:
+    // the offset they carry).
+    let model_um: Vec<[f64; 2]> = (0..n)
+        .map(|i| {
+            if steps[i].step.rapid {
+                offsets_um[i]
+            } else {
+                let g = along(&step_loads, i);
+                [g * dirs[i][0], g * dirs[i][1]]
+            }
+        })
+        .collect();
+    let final_stock = final_stock.expect("a pass ran");
+    let error_um = clamped_error_map_um(&stock, &final_stock, &offsets_um, &model_um);
     Ok(Run {
         steps,
         record,
         loads: step_loads,
         offsets_um,
+        error_um,
         initial_volume_mm3,
-        stock: final_stock.expect("a pass ran"),
+        stock: final_stock,
         sweep_s,
-        passes,
-        loop_residual_um: residual,
+        closed_loop: report,
         rigid_peak_deflection_um,
         stress_limits_mpa: tool_of_step
             .iter()
             .map(|&t| tools.entries[t].stress_limit_mpa)
             .collect(),
     })
+}
+
+/// Whether the point `p` (mm) lies in `stock`'s material (the column whose
+/// cell holds its XY; outside the grid: no).
+fn in_material(stock: &Stock, p: [f64; 3]) -> bool {
+    let g = stock.grid();
+    let fx = ((p[0] - g.x0_mm) / g.spacing_mm).floor();
+    let fy = ((p[1] - g.y0_mm) / g.spacing_mm).floor();
+    if !(fx >= 0.0 && fy >= 0.0 && fx < g.nx as f64 && fy < g.ny as f64) {
+        return false;
+    }
+    let z = p[2] as f32;
+    stock
+        .column(fx as usize, fy as usize)
+        .intervals()
+        .any(|[lo, hi]| lo <= z && z <= hi)
+}
+
+/// Thickness of `initial`'s material from `p` along the unit direction `n`,
+/// mm, looked for up to `max_mm` (returned when the material goes on): the
+/// stock that was there outside the final surface point `p` (MODEL.md §5).
+/// Marches in quarter cells, then bisects the crossing to 1e-6 mm.
+fn material_along_mm(initial: &Stock, p: [f64; 3], n: [f64; 3], max_mm: f64) -> f64 {
+    let at = |t: f64| [p[0] + t * n[0], p[1] + t * n[1], p[2] + t * n[2]];
+    if !in_material(initial, p) {
+        return 0.0;
+    }
+    let ds = 0.25 * initial.grid().spacing_mm;
+    let mut t_in = 0.0;
+    while t_in < max_mm {
+        let t_next = (t_in + ds).min(max_mm);
+        if !in_material(initial, at(t_next)) {
+            let mut t_out = t_next;
+            while t_out - t_in > 1e-6 {
+                let mid = 0.5 * (t_in + t_out);
+                if in_material(initial, at(mid)) {
+                    t_in = mid;
+                } else {
+                    t_out = mid;
+                }
+            }
+            return t_in;
+        }
+        t_in = t_next;
+    }
+    max_mm
+}
+
+/// Predicted shape error per column, µm (MODEL.md §5), positive = material
+/// left, NaN where no step cut. `applied_um` is the offset each step was swept
+/// with, `model_um` the deflection its removal causes. The error is the model
+/// deflection projected on the outward normal of the final surface; where it
+/// says more material is left than the sweep's offset made (`model > applied`
+/// along the normal), the excess is clamped to the stock that was there: the
+/// initial stock's thickness outside the final surface along the normal.
+fn clamped_error_map_um(
+    initial: &Stock,
+    last: &Stock,
+    applied_um: &[[f64; 2]],
+    model_um: &[[f64; 2]],
+) -> Vec<f32> {
+    let grid = *last.grid();
+    let tops = last.top_heights();
+    let normals = cutting::surface_normals_from_heights(&tops, grid.nx, grid.ny, grid.spacing_mm);
+    let cells: Vec<usize> = (0..grid.len()).collect();
+    cells
+        .par_iter()
+        .map(|&c| {
+            let step = last.last_cut()[c];
+            let n = normals[c].map(f64::from);
+            if step == NEVER_CUT || n.iter().any(|v| v.is_nan()) {
+                return f32::NAN;
+            }
+            let step = step as usize;
+            let applied = cutting::surface_error_um(applied_um[step], n);
+            let model = cutting::surface_error_um(model_um[step], n);
+            if model <= applied {
+                return model as f32;
+            }
+            let (ix, iy) = (c % grid.nx, c / grid.nx);
+            let p = [grid.x_mm(ix), grid.y_mm(iy), f64::from(tops[c])];
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            let unit = n.map(|v| v / len);
+            let room_um = 1e3 * material_along_mm(initial, p, unit, 1e-3 * (model - applied));
+            (applied + room_um.min(model - applied)) as f32
+        })
+        .collect()
 }
 
 /// Per-step force, power and deflection (MODEL.md §3, §4), each step with its tool's model.
@@ -434,9 +580,17 @@ pub struct Summary {
     pub max_error_um: f64,
     /// Deepest overcut, µm (≤ 0).
     pub min_error_um: f64,
-    /// Sweeps of the closed loop and its largest remaining disagreement, µm.
+    /// The closed loop of removal and deflection ran (`[cutting] closed_loop`, MODEL.md §5.1).
+    pub closed_loop: bool,
+    /// Every step's offset agreed with its deflection (false for an open loop
+    /// whose rigid tool bent by more than the tolerance).
+    pub closed_loop_converged: bool,
+    /// Sweeps (the rigid one included) and the largest remaining disagreement
+    /// between offset and deflection across the path, µm.
     pub closed_loop_passes: usize,
     pub closed_loop_residual_um: f64,
+    /// Steps whose offset and deflection still disagree by more than the tolerance.
+    pub closed_loop_unconverged_steps: usize,
     /// Largest von Mises stress in the tool, MPa, and the allowable stress.
     pub peak_stress_mpa: f64,
     pub stress_limit_mpa: f64,
@@ -648,6 +802,16 @@ impl Run {
         out.from_lines(WarningKind::Force, &stress, "MPa", false, |v, lines| {
             format!("the cutting force and torque stress the tool to {v:.0} MPa at {lines}, above the allowable {limit:.0} MPa ([tool] stress_limit_mpa, docs/MODEL.md §4.4): lower the feed or the engagement, or use a shorter or stiffer tool")
         });
+        if self.closed_loop.enabled && !self.closed_loop.converged {
+            let mut stalled = LineTally::new();
+            for &(i, r) in &self.closed_loop.unconverged {
+                warnings::tally(&mut stalled, self.steps[i].line, r);
+            }
+            let passes = self.closed_loop.passes;
+            out.from_lines(WarningKind::ClosedLoop, &stalled, "µm", false, |v, lines| {
+                format!("the tool's offset and its deflection still differ by up to {v:.1} µm after {passes} sweeps at {lines} (docs/MODEL.md §5.1): force, deflection and error there are approximate; the error map stays within the stock")
+            });
+        }
         if self.record.total_volume_mm3() <= NOTHING_MM3 {
             out.push(warnings::Warning {
                 kind: WarningKind::NoRemoval,
@@ -696,10 +860,10 @@ impl Run {
     pub fn summary(&self) -> Summary {
         let n = self.steps.len();
         let errors: Vec<f64> = self
-            .error_map_um(&self.stock.top_heights())
-            .into_iter()
+            .error_um
+            .iter()
             .filter(|e| e.is_finite())
-            .map(f64::from)
+            .map(|&e| f64::from(e))
             .collect();
         let final_volume_mm3 = self.stock.volume_mm3();
         let collisions: Vec<usize> = (0..n)
@@ -732,8 +896,11 @@ impl Run {
             rigid_peak_deflection_um: self.rigid_peak_deflection_um,
             max_error_um: errors.iter().fold(0.0, |a, &e| if e > a { e } else { a }),
             min_error_um: errors.iter().fold(0.0, |a, &e| if e < a { e } else { a }),
-            closed_loop_passes: self.passes,
-            closed_loop_residual_um: self.loop_residual_um,
+            closed_loop: self.closed_loop.enabled,
+            closed_loop_converged: self.closed_loop.converged,
+            closed_loop_passes: self.closed_loop.passes,
+            closed_loop_residual_um: self.closed_loop.residual_um,
+            closed_loop_unconverged_steps: self.closed_loop.unconverged.len(),
             peak_stress_mpa: self.loads.iter().map(|l| l.stress_mpa).fold(0.0, f64::max),
             stress_limit_mpa: self.stress_limit_mpa(),
             steps: n,
@@ -780,29 +947,6 @@ impl Run {
             p.peak_deflection_um = p.peak_deflection_um.max(self.loads[i].deflection_um);
         }
         out
-    }
-
-    /// Predicted shape error per column, µm (MODEL.md §5): the offset of the
-    /// deflected tool (its converged deflection at the contact height) at the
-    /// step that last cut the column, projected on the normal of the final
-    /// surface `tops` (the stock's top heights); positive = material left. NaN
-    /// where no step cut.
-    pub fn error_map_um(&self, tops: &[f32]) -> Vec<f32> {
-        let grid = *self.stock.grid();
-        let normals =
-            cutting::surface_normals_from_heights(tops, grid.nx, grid.ny, grid.spacing_mm);
-        self.stock
-            .last_cut()
-            .iter()
-            .zip(&normals)
-            .map(|(&step, n)| {
-                if step == NEVER_CUT || n.iter().any(|v| v.is_nan()) {
-                    return f32::NAN;
-                }
-                let offset = self.offsets_um[step as usize];
-                cutting::surface_error_um(offset, n.map(f64::from)) as f32
-            })
-            .collect()
     }
 
     /// Write steps.csv.
@@ -915,7 +1059,7 @@ impl Run {
             .iter()
             .map(|&s| if s == NEVER_CUT { -1 } else { s as i32 })
             .collect();
-        let error = self.error_map_um(tops);
+        let error = &self.error_um;
         let grid = GridInfo::of(self.stock.grid()).export();
         let mut arrays = vec![
             export::GridArray {
@@ -936,7 +1080,7 @@ impl Run {
                 unit: "µm",
                 meaning:
                     "predicted shape error from tool deflection, + material left; NaN where not cut",
-                values: export::NpyValues::F32(&error),
+                values: export::NpyValues::F32(error),
             },
         ];
         if let Some(d) = design_diff_um {
@@ -971,7 +1115,7 @@ impl Run {
         let mut columns: Vec<(&str, &[f32])> = vec![
             ("top_mm", tops),
             ("last_step", &last_f),
-            ("error_um", &error),
+            ("error_um", error),
         ];
         if let Some(d) = design_diff_um {
             columns.push(("design_um", d));
@@ -1035,4 +1179,64 @@ pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
         w.write_all(b"\n")
     })
     .with_context(|| format!("cannot write {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn loop_direction_drops_the_component_along_the_motion() {
+        // Deflection (3, 4) on a move along +x: only +y is left.
+        assert_eq!(loop_direction(3.0, 4.0, [2.0, 0.0]), [0.0, 1.0]);
+        // Along a diagonal, (1, 0) keeps its part across it: (1, −1)/√2.
+        let d = loop_direction(1.0, 0.0, [1.0, 1.0]);
+        let r = std::f64::consts::FRAC_1_SQRT_2;
+        assert!(
+            (d[0] - r).abs() < 1e-12 && (d[1] + r).abs() < 1e-12,
+            "{d:?}"
+        );
+        // A plunge (no XY motion) keeps the whole deflection; nothing left: zero.
+        assert_eq!(loop_direction(0.0, -2.0, [0.0, 0.0]), [0.0, -1.0]);
+        assert_eq!(loop_direction(5.0, 0.0, [1.0, 0.0]), [0.0, 0.0]);
+    }
+
+    #[test]
+    fn relaxed_update_halves_on_overshoot() {
+        let mut r = Relaxed::START;
+        // g above x: move towards it by ω = 0.4 · 1.3.
+        let x1 = r.next(0.0, 100.0);
+        assert!((x1 - 52.0).abs() < 1e-12, "{x1}");
+        // Overshoot (g below x): ω halves to 0.26.
+        let x2 = r.next(x1, 40.0);
+        assert!((x2 - (52.0 - 0.26 * 12.0)).abs() < 1e-12, "{x2}");
+        // Never negative.
+        assert_eq!(r.next(1.0, -100.0), 0.0);
+    }
+
+    /// The stock outside a point along a direction, on a box: vertical, across
+    /// a wall and diagonal, each against its exact length.
+    #[test]
+    fn material_along_a_direction_matches_the_box() {
+        let stock = Stock::new_box([0.0, 0.0, 0.0], [10.0, 10.0, 5.0], 0.1).unwrap();
+        // Up from z = 2 at a column centre: 3 mm to the top.
+        let up = material_along_mm(&stock, [5.05, 5.05, 2.0], [0.0, 0.0, 1.0], 10.0);
+        assert!((up - 3.0).abs() < 1e-5, "{up}");
+        // Along +y from y = 9.85 to the face at 10: 0.15 mm.
+        let side = material_along_mm(&stock, [5.05, 9.85, 2.0], [0.0, 1.0, 0.0], 10.0);
+        assert!((side - 0.15).abs() < 1e-5, "{side}");
+        // Diagonal in x–z from 1 mm below the top: √2 mm.
+        let r = std::f64::consts::FRAC_1_SQRT_2;
+        let diag = material_along_mm(&stock, [5.05, 5.05, 4.0], [r, 0.0, r], 10.0);
+        assert!((diag - 2f64.sqrt()).abs() < 1e-5, "{diag}");
+        // Capped at max_mm, and zero from a point in the air.
+        assert_eq!(
+            material_along_mm(&stock, [5.05, 5.05, 2.0], [0.0, 0.0, 1.0], 0.5),
+            0.5
+        );
+        assert_eq!(
+            material_along_mm(&stock, [5.05, 5.05, 6.0], [0.0, 0.0, 1.0], 1.0),
+            0.0
+        );
+    }
 }

@@ -47,6 +47,8 @@ pub struct ToolSet {
     pub entries: Vec<ToolEntry>,
     /// A single `[tool]`: it cuts whatever T the program names.
     pub single: bool,
+    /// Close the loop between removal and deflection (`[cutting] closed_loop`, MODEL.md §5.1).
+    pub closed_loop: bool,
 }
 
 impl ToolSet {
@@ -67,7 +69,11 @@ impl ToolSet {
                 stress_limit_mpa: crate::simulate::stress_limit_mpa(spec, &tool),
             });
         }
-        Ok(ToolSet { entries, single })
+        Ok(ToolSet {
+            entries,
+            single,
+            closed_loop: job.cutting.closed_loop,
+        })
     }
 
     /// Gauge lengths by tool number for the G-code reader (empty for a

@@ -26,6 +26,8 @@ pub enum WarningKind {
     Force,
     /// Tool deflection above what is plausible for the tool.
     Deflection,
+    /// The closed loop of removal and deflection did not converge (MODEL.md §5.1).
+    ClosedLoop,
     /// A tool the program selects is not in the job's tool table.
     UnknownTool,
     /// A tool change the simulation does not follow.
