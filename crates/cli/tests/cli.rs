@@ -1980,10 +1980,58 @@ fn open_loop_error_is_clamped_to_the_stock() {
         );
     }
     let max_e = s["max_error_um"].as_f64().unwrap();
-    assert!(max_e <= 200.0 && max_e >= 175.0 - 0.01, "max error {max_e}");
+    assert!((175.0 - 0.01..=200.0).contains(&max_e), "max error {max_e}");
     // Every column's error is within the 0.2 mm of radial stock.
     assert!(cols["error_um"]
         .iter()
         .filter(|e| e.is_finite())
         .all(|e| *e <= 200.0));
+}
+
+/// A published worked example (MODEL.md §3.3): slab milling a mild steel block
+/// 20 mm wide, 5 mm deep, with a 75 mm cutter of 10 teeth at 60 rev/min and
+/// 100 mm/min, specific energy U = 1.4 J/mm³ · t_a^−0.4 (t_a the mean uncut
+/// thickness, mm). The book takes t_a = 0.043 mm and prints 817 W. Here the
+/// same cut is a side cut (a_e 5, a_p 20) with the book's law as Kienzle's
+/// (kc1_1 = 1400 N/mm², mc = 0.4); dexcut finds t_a from the removal itself.
+#[test]
+fn slab_milling_power_matches_the_textbook_example() {
+    let dir = tempdir();
+    write(
+        dir.path(),
+        "job.toml",
+        "[stock]\nkind = \"box\"\nmin = [0, 32.5, 0]\nmax = [100, 60, 20]\ngrid = 0.1\n\
+         [tool]\nkind = \"flat\"\ndiameter = 75\nflutes = 10\nflute_length = 30\nstickout = 60\n\
+         [program]\npath = \"slab.csv\"\nfeed = 100\n\
+         [cutting]\nband_height = 2.0\nspindle_rpm = 60\nkc1_1 = 1400\nmc = 0.4\nclosed_loop = false\n",
+    );
+    let csv: String = std::iter::once("x,y,z\n".to_string())
+        .chain((0..=360).map(|i| format!("{},0,-1\n", -40.0 + 0.5 * i as f64)))
+        .collect();
+    write(dir.path(), "slab.csv", &csv);
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
+    let steps = csv_columns(&dir.path().join("out/steps.csv"));
+    // Steady: the 18.7 mm contact arc wholly inside the 100 mm block.
+    let steady: Vec<usize> = (0..steps["x"].len())
+        .filter(|&i| (10.0..=70.0).contains(&steps["x"][i]))
+        .collect();
+    let mean = |k: &str| steady.iter().map(|&i| steps[k][i]).sum::<f64>() / steady.len() as f64;
+    // MRR = 20 · 5 · 100/60 mm³/s.
+    assert!(rel(mean("mrr_mm3_s"), 500.0 / 3.0) < 1e-3);
+    // Mean uncut thickness: the book's 0.043 mm (2 f_z √(t/D) / 2, rounded);
+    // exactly f_z (a_e/R)/arccos(1 − a_e/R) = 0.04255 mm (MODEL.md §3.2).
+    let fz: f64 = 100.0 / (60.0 * 10.0);
+    let ratio: f64 = 5.0 / 37.5;
+    let hm = fz * ratio / (1.0 - ratio).acos();
+    assert!(rel(mean("chip_mm"), hm) < 0.01, "t_a {}", mean("chip_mm"));
+    assert!(rel(mean("chip_mm"), 0.043) < 0.02);
+    // Power: the book's 817 W, within its 2 % rounding of t_a (0.4 · 2 %) and of U.
+    let power = mean("power_w");
+    assert!(
+        rel(power, 817.0) < 0.015,
+        "power {power:.1} W vs the book's 817 W"
+    );
 }
