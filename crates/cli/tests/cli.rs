@@ -1397,16 +1397,21 @@ fn optimized_program_simulates_as_the_summary_says() {
     for c in 1..=3 {
         assert_eq!(param(1000 + c * width - 1), 55.0);
     }
-    // The modes the program uses are kept around the split blocks.
+    // The modes the program uses are kept around the split blocks; the drilling
+    // cycle, whose feed moves run in air and in the stock, is written out.
     for kept in [
         "G91 G1 Z-",
         "G20 G1 X",
         "G93 G1 X",
-        "G98 G81 X50 Y20 Z8 R11",
+        "(dexcut: the canned cycle of line",
         "G3 X",
     ] {
         assert!(text.contains(kept), "{kept} lost:\n{text}");
     }
+    // The written program keeps to the plan it was written from (lines run
+    // more than once and the cycle included).
+    let vs_plan = s["written_vs_plan"].as_f64().unwrap();
+    assert!(vs_plan.abs() <= 0.01, "optimized.nc vs plan {vs_plan}");
     // Chip load: no step that removes material runs above fz_max·z·n = 0.1·2·10000.
     for (i, r) in step_rows(&dir.path().join("out/steps.csv"))
         .iter()

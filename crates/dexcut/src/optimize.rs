@@ -722,8 +722,8 @@ pub fn within_limits(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> bool {
 /// period is within the limits and its cycle time is within
 /// [`PLAN_TOLERANCE`] of the plan: periods over a limit lower the caps there,
 /// a written program slower than the plan gets finer blocks (down to
-/// [`MERGE_RATIO_MIN`]; what remains comes from lines that run more than
-/// once or drilling cycles, which take one feed per run). When the
+/// [`MERGE_RATIO_MIN`]; what remains comes from lines `nc::refeed` cannot
+/// split per run, which take one feed: MODEL.md §2.2). When the
 /// original program is within every limit and the result would be slower,
 /// the original is kept.
 pub fn write_verified(

@@ -16,16 +16,19 @@
 //!   F; where a run needs pieces, every run is split into as many blocks as
 //!   the run that needs most (the longest pieces of the others halved) and
 //!   the record holds each block's end point, arc centre and F.
-//! * Other lines that made several feed segments (a canned cycle, or a
-//!   program that names a parameter of that range) cannot be split: their F
-//!   becomes the lowest feed any of their pieces asks for.
+//! * Canned cycles whose feed moves need more than one feed are written out
+//!   as G0/G1/G4 blocks of their moves (all cycle lines of the program, or
+//!   none; see `cycle_lines`).
+//! * Other lines that made several feed segments (a canned cycle run more
+//!   than once, or in a program that names a parameter of that range) cannot
+//!   be split: their F becomes the lowest feed any of their pieces asks for.
 //! * Lines that cannot be split safely (G53, a dwell or a program stop in the
 //!   block, multi-turn arcs) are treated the same way.
 //!
 //! The output is parsed again and checked against the plan (same end points
 //! and lengths, feeds never above the plan) before it is returned.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 
 use thiserror::Error;
@@ -85,6 +88,7 @@ pub fn refeed(
         by_line.entry(t.line_index).or_default().push(i);
     }
     let mut tables = run_tables(source, &by_line, segments, &trace, plan);
+    let mut expanded = cycle_lines(&by_line, segments, &trace, plan);
     loop {
         // Runs of a line split into more blocks than they need: their pieces as written.
         let mut plan = plan.to_vec();
@@ -95,9 +99,14 @@ pub fn refeed(
                 }
             }
         }
-        let (out, written_pieces) = write(source, segments, &trace, &by_line, &plan, &tables);
+        let (out, written_pieces) = write(
+            source, segments, &trace, &by_line, &plan, &tables, &expanded,
+        );
         match verify(&out, file, options, segments, &plan, &written_pieces) {
             Ok(()) => return Ok(out),
+            // A canned cycle run more than once (its runs' moves would all be
+            // written in each run): keep the cycles as written.
+            Err(_) if !expanded.is_empty() => expanded.clear(),
             // A line that sometimes runs without moving (a zero-length move
             // makes no segment) counts a run the table does not have: write
             // those lines at their lowest feed instead.
@@ -115,6 +124,7 @@ fn write(
     by_line: &BTreeMap<usize, Vec<usize>>,
     plan: &[Vec<(f64, f64)>],
     tables: &BTreeMap<usize, RunTable>,
+    expanded: &BTreeSet<usize>,
 ) -> (String, Vec<usize>) {
     // How many blocks each segment becomes (for the verification).
     let mut written_pieces = vec![1usize; segments.len()];
@@ -182,6 +192,19 @@ fn write(
             out.push_str(eol);
             continue;
         };
+        if expanded.contains(&index) {
+            write_expanded(
+                &mut out,
+                index,
+                eol,
+                segs,
+                segments,
+                trace,
+                plan,
+                &mut written_pieces,
+            );
+            continue;
+        }
         let feeds: Vec<usize> = segs
             .iter()
             .copied()
@@ -400,6 +423,142 @@ fn run_tables(
         next += needed;
     }
     tables
+}
+
+/// Canned cycles to write out as plain moves: when a cycle's feed moves need
+/// more than one feed (a piece in air above the stock, another in it), every
+/// line that makes rapid and feed moves in one block (the cycle lines up to
+/// G80) is written as G0/G1/G4 blocks of its moves, each feed move split as
+/// planned. All of them or none: a cycle line left as written would read its
+/// modal cycle from a line now written out. None when a cycle line carries
+/// other words than the cycle's (G73/G81–G89, G98/G99, X Y Z R Q P L F, N),
+/// runs under cutter compensation or G93, or (found when the result does not
+/// read back) runs more than once.
+fn cycle_lines(
+    by_line: &BTreeMap<usize, Vec<usize>>,
+    segments: &[Segment],
+    trace: &interp::Trace,
+    plan: &[Vec<(f64, f64)>],
+) -> BTreeSet<usize> {
+    let mut lines = BTreeSet::new();
+    let mut needed = false;
+    for (&index, segs) in by_line {
+        let feeds: Vec<usize> = segs
+            .iter()
+            .copied()
+            .filter(|&i| matches!(segments[i].motion, Motion::Feed { .. }))
+            .collect();
+        let rapid = segs
+            .iter()
+            .any(|&i| matches!(segments[i].motion, Motion::Rapid));
+        if feeds.is_empty() || !rapid {
+            continue;
+        }
+        let Some(syntax::Line {
+            kind: LineKind::Block(items),
+            ..
+        }) = &trace.lines[index]
+        else {
+            return BTreeSet::new();
+        };
+        let cycle_words = items.iter().all(|it| match &it.kind {
+            ItemKind::Word {
+                letter: 'g',
+                value: Expr::Num(v),
+            } => [73.0, 81.0, 82.0, 83.0, 85.0, 86.0, 89.0, 98.0, 99.0].contains(v),
+            ItemKind::Word { letter, .. } => {
+                matches!(letter, 'x' | 'y' | 'z' | 'r' | 'q' | 'p' | 'l' | 'f' | 'n')
+            }
+            ItemKind::Assign { .. } => false,
+        });
+        let plain = segs.iter().all(|&i| {
+            let t = &trace.segments[i];
+            !t.compensated && !t.inverse_time && matches!(segments[i].geometry, Geometry::Line)
+        });
+        if !cycle_words || !plain {
+            return BTreeSet::new();
+        }
+        // The line's own moves need more than one F.
+        let lo = feeds
+            .iter()
+            .map(|&i| lowest(&plan[i]))
+            .fold(f64::INFINITY, f64::min);
+        needed |= feeds
+            .iter()
+            .any(|&i| plan[i].len() > 1 || lowest(&plan[i]) > lo * 1.001);
+        lines.insert(index);
+    }
+    if needed {
+        lines
+    } else {
+        BTreeSet::new()
+    }
+}
+
+/// A canned cycle line written out ([`cycle_lines`]): a comment, then one
+/// block per move (G0, G1 per planned piece, G4 for a dwell) with every axis.
+#[allow(clippy::too_many_arguments)]
+fn write_expanded(
+    out: &mut String,
+    index: usize,
+    eol: &str,
+    segs: &[usize],
+    segments: &[Segment],
+    trace: &interp::Trace,
+    plan: &[Vec<(f64, f64)>],
+    written_pieces: &mut [usize],
+) {
+    let nl = eol_or_newline(eol);
+    let _ = write!(
+        out,
+        "(dexcut: the canned cycle of line {}, written out){nl}",
+        index + 1
+    );
+    let text_of = |words: Vec<(char, f64)>| {
+        words_text(words.into_iter().map(|(l, v)| {
+            let text = if l == 'f' {
+                trim_number(&format!("{v:.8}"))
+            } else {
+                coord(v)
+            };
+            (l, text)
+        }))
+    };
+    let mut blocks: Vec<String> = Vec::new();
+    for &i in segs {
+        let (seg, t) = (&segments[i], &trace.segments[i]);
+        match seg.motion {
+            Motion::Rapid => {
+                let mut written: [f64; 3] =
+                    std::array::from_fn(|a| (seg.start[a] - t.offset_mm[a]) / t.scale);
+                let words = piece_values(
+                    seg,
+                    t,
+                    [true; 3],
+                    seg.start.into(),
+                    seg.end.into(),
+                    &mut written,
+                );
+                blocks.push(format!("G0 {}", text_of(words)));
+            }
+            Motion::Feed { .. } => {
+                written_pieces[i] = plan[i].len();
+                for words in block_values(seg, t, [true; 3], &plan[i]) {
+                    blocks.push(format!("G1 {}", text_of(words)));
+                }
+            }
+            Motion::Dwell { seconds } => {
+                blocks.push(format!("G4 P{}", trim_number(&format!("{seconds:.6}"))));
+            }
+        }
+    }
+    for (k, b) in blocks.iter().enumerate() {
+        out.push_str(b);
+        out.push_str(if k + 1 == blocks.len() { eol } else { nl });
+    }
+    if blocks.is_empty() {
+        out.push_str(eol);
+    }
 }
 
 /// `pieces` in `blocks` pieces: the longest halved (same feed) until there are as many.

@@ -184,8 +184,8 @@ fn inverse_time_pieces_get_their_own_times() {
 }
 
 /// The subroutine's feed line runs twice with different feeds: a counter and
-/// a table give each run its own F. The drilling cycle makes two feed moves
-/// on each of its lines: those lines take the lowest feed of their moves.
+/// a table give each run its own F. The drilling cycle's lines, one feed
+/// each, keep their text with their own F.
 #[test]
 fn repeated_lines_get_a_feed_per_run_and_cycles_the_lowest() {
     let src = "o100 sub\nG1 X[#1] F500\no100 endsub\nG0 Z5\no100 call [10]\no100 call [20]\nG98 G81 X30 Y0 Z-2 R1 F200\nX40\nG80\nM2\n";
@@ -194,11 +194,7 @@ fn repeated_lines_get_a_feed_per_run_and_cycles_the_lowest() {
     let mut next = 700.0;
     for (i, s) in path.segments.iter().enumerate() {
         if matches!(s.motion, Motion::Feed { .. }) {
-            plan[i] = if s.line == 2 {
-                vec![(1.0, next)]
-            } else {
-                vec![(0.5, next), (1.0, next + 50.0)]
-            };
+            plan[i] = vec![(1.0, next)];
             next -= 100.0;
         }
     }
@@ -406,4 +402,72 @@ fn arc_piece_shorter_than_the_written_digits_is_refused() {
     plan[1] = vec![(1e-9, 300.0), (1.0, 600.0)];
     let err = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap_err();
     assert!(matches!(err, nc::RefeedError::Verification { .. }), "{err}");
+}
+
+/// Canned cycles whose feed moves need two feeds (air above the stock fast,
+/// the hole slow) are written out as G0/G1/G4 blocks of their moves: the
+/// program reads back to the same moves, each feed move in its planned
+/// pieces, the dwell of G82 kept; a cycle in a loop keeps its line and the
+/// lowest feed.
+#[test]
+fn canned_cycles_needing_two_feeds_are_written_out() {
+    let src = "G21 G90 G17\nG0 X0 Y0 Z20\nG98 G81 X10 Y5 Z-3 R2 F150\nX20\nG99 G82 X30 Y5 Z-2 R2 P0.5\nG80\nG0 Z20\nM2\n";
+    let path = parse(src);
+    let plan: Vec<Vec<(f64, f64)>> = path
+        .segments
+        .iter()
+        .map(|s| match s.motion {
+            Motion::Feed { .. } => vec![(0.4, 3000.0), (1.0, 120.5)],
+            _ => vec![],
+        })
+        .collect();
+    let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
+    assert!(!out.contains("G81") && !out.contains("G82"), "{out}");
+    assert!(out.contains("G4 P0.5"), "{out}");
+    let new = parse(&out);
+    let mut j = 0;
+    for (s, pieces) in path.segments.iter().zip(&plan) {
+        match s.motion {
+            Motion::Feed { .. } => {
+                for &(frac, feed) in pieces {
+                    let p = &new.segments[j];
+                    let want = if frac >= 1.0 {
+                        s.end
+                    } else {
+                        s.point_at_fraction(frac)
+                    };
+                    assert!((p.end - want).norm() < 1e-6, "{out}");
+                    assert!(
+                        matches!(p.motion, Motion::Feed { feed_mm_min } if (feed_mm_min - feed).abs() < 1e-9),
+                        "{out}"
+                    );
+                    j += 1;
+                }
+            }
+            m => {
+                assert_eq!(
+                    std::mem::discriminant(&new.segments[j].motion),
+                    std::mem::discriminant(&m),
+                    "{out}"
+                );
+                assert!((new.segments[j].end - s.end).norm() < 1e-6, "{out}");
+                j += 1;
+            }
+        }
+    }
+    assert_eq!(j, new.segments.len());
+    // In a loop the cycle runs three times: written out it would run every
+    // run's moves each time, so the cycle line stays, at its lowest feed.
+    let src = "G0 X0 Y0 Z20\no1 repeat [3]\nG98 G81 X10 Y5 Z-3 R2 F150\no1 endrepeat\nG80\nM2\n";
+    let path = parse(src);
+    let plan: Vec<Vec<(f64, f64)>> = path
+        .segments
+        .iter()
+        .map(|s| match s.motion {
+            Motion::Feed { .. } => vec![(0.4, 3000.0), (1.0, 120.5)],
+            _ => vec![],
+        })
+        .collect();
+    let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
+    assert!(out.contains("G98 G81 X10 Y5 Z-3 R2 F120.5"), "{out}");
 }
