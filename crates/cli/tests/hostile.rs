@@ -452,6 +452,24 @@ fn d5_d10_report_refuses_mixed_and_damaged_folders() {
         f(&mut s["grid"]);
         s.to_string()
     };
+    // summary.json is read through its typed, versioned schema.
+    let mut old = summary.clone();
+    old.as_object_mut().unwrap().remove("schema_version");
+    damaged("summary.json", &old.to_string(), "no schema_version");
+    let mut newer = summary.clone();
+    newer["schema_version"] = 2.into();
+    damaged(
+        "summary.json",
+        &newer.to_string(),
+        "schema_version 2, but this dexcut reads version 1",
+    );
+    let mut untyped = summary.clone();
+    untyped["peak_force_n"] = "strong".into();
+    damaged(
+        "summary.json",
+        &untyped.to_string(),
+        "not a dexcut summary of version 1",
+    );
     damaged(
         "summary.json",
         &with_grid(&|g| g["nx"] = 0.into()),

@@ -8,7 +8,7 @@ use anyhow::{bail, Context, Result};
 use cutting::CuttingModel;
 use dexel::{Stock, Tool, NEVER_CUT};
 use schedule::Machine;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::job::Job;
 use crate::motion::{self, TimedStep};
@@ -187,7 +187,7 @@ impl Setup {
 }
 
 /// Design comparison (S1): the final surface against the design model.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct DesignInfo {
     pub path: String,
     /// Largest stock left (distance outside the design model), µm.
@@ -207,13 +207,32 @@ pub struct DesignInfo {
     pub uncut_stock_columns: usize,
 }
 
+/// Which side of the design a deviation lies on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DeviationKind {
+    /// Below the design surface: material cut that the part needs.
+    Gouge,
+    /// Above the design surface: material left.
+    Stock,
+}
+
+impl std::fmt::Display for DeviationKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            DeviationKind::Gouge => "gouge",
+            DeviationKind::Stock => "stock",
+        })
+    }
+}
+
 /// One program line's worst deviation from the design of one kind.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct LineDeviation {
     /// Program line of the step that last cut the columns.
     pub line: u32,
-    /// "gouge" (below the design) or "stock" (above it).
-    pub kind: &'static str,
+    /// Below the design (gouge) or above it (stock).
+    pub kind: DeviationKind,
     /// Worst signed distance, µm (negative for a gouge).
     pub worst_um: f64,
     /// Column centre of the worst one, mm.
@@ -266,9 +285,9 @@ fn line_deviations(
     let mut uncut = 0;
     for (line, d_um, x_mm, y_mm) in deviations {
         let kind = if d_um < -gouge_tolerance_um {
-            (0u8, "gouge")
+            (0u8, DeviationKind::Gouge)
         } else if d_um > stock_tolerance_um {
-            (1u8, "stock")
+            (1u8, DeviationKind::Stock)
         } else {
             continue;
         };
@@ -358,17 +377,24 @@ fn design_comparison(
     Ok(Some((diff_um, info)))
 }
 
-#[derive(Serialize)]
-struct SimulateSummary<'a> {
+/// summary.json of `simulate` (schema in [`crate::summary`]).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SimulateSummary {
+    /// Headline numbers of the run.
     #[serde(flatten)]
-    run: &'a Summary,
-    job: String,
-    program: String,
-    grid: GridInfo,
-    design: Option<DesignInfo>,
-    run_time_s: f64,
+    pub run: Summary,
+    /// Job file.
+    pub job: String,
+    /// Program file.
+    pub program: String,
+    /// Stock grid, so `report` can rebuild the maps.
+    pub grid: GridInfo,
+    /// The final surface against the `[design]` model.
+    pub design: Option<DesignInfo>,
+    /// Wall time of the command, s.
+    pub run_time_s: f64,
     /// The run that wrote the folder (as in manifest.json).
-    run_id: String,
+    pub run_id: String,
 }
 
 /// Write steps.csv and the per-column results of a run (the `.npy` grid, and
@@ -430,7 +456,7 @@ pub fn simulate(
     summary.warnings.0.splice(0..0, grid_warning);
     let design = write_run(&setup, &run, out_dir.path(), "steps.csv", columns_csv)?;
     let doc = SimulateSummary {
-        run: &summary,
+        run: summary.clone(),
         job: setup.job.name.clone(),
         program: setup.program.file.clone(),
         grid: GridInfo::of(run.stock.grid()),
@@ -438,7 +464,7 @@ pub fn simulate(
         run_time_s: started.elapsed().as_secs_f64(),
         run_id: out_dir.run_id(),
     };
-    simulate::write_json(&out_dir.path().join("summary.json"), &doc)?;
+    crate::summary::write_simulate(&out_dir.path().join("summary.json"), &doc)?;
     out_dir.commit("simulate")?;
     crate::outln!(
         "removed {:.1} mm³ of {:.1} mm³ in {} steps; cycle {:.2} s; peak MRR {:.2} mm³/s, force {:.1} N, power {:.3} kW, deflection {:.1} µm; error {:.1}…{:.1} µm; results in {}",
@@ -458,59 +484,63 @@ pub fn simulate(
     Ok(())
 }
 
-#[derive(Serialize)]
-struct OptimizeSummary {
-    job: String,
-    program: String,
-    grid: GridInfo,
-    before: Summary,
-    after: Summary,
-    limits: LimitsOut,
+/// summary.json of `optimize` (schema in [`crate::summary`]).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct OptimizeSummary {
+    pub job: String,
+    pub program: String,
+    pub grid: GridInfo,
+    pub before: Summary,
+    pub after: Summary,
+    pub limits: LimitsOut,
     /// Share of the re-timed program's time spent at each cap.
-    cap_time_share: Vec<optimize::CapShare>,
+    pub cap_time_share: Vec<optimize::CapShare>,
     /// Σ Δs / cap: no schedule under these caps can be faster.
-    lower_bound_time_s: f64,
+    pub lower_bound_time_s: f64,
     /// (after − bound) / bound.
-    optimality_gap: f64,
-    stations: usize,
-    station_spacing_mm: f64,
+    #[serde(deserialize_with = "crate::summary::f64_or_nan")]
+    pub optimality_gap: f64,
+    pub stations: usize,
+    pub station_spacing_mm: f64,
     /// Peak MRR per servo period of the written program / mrr_max (≤ 1.02 is the target).
-    peak_mrr_ratio: Option<f64>,
+    pub peak_mrr_ratio: Option<f64>,
     /// Cycle time of the plan as written (each block at its feed), s.
-    plan_time_s: f64,
+    pub plan_time_s: f64,
     /// Cycle time with feeds free to change every 0.05 mm under the same caps, s.
-    time_optimal_s: f64,
+    pub time_optimal_s: f64,
     /// (written program's cycle time − plan's) / plan's.
-    written_vs_plan: f64,
+    #[serde(deserialize_with = "crate::summary::f64_or_nan")]
+    pub written_vs_plan: f64,
     /// Rounds of writing, re-simulating and correcting the program.
-    rounds: usize,
+    pub rounds: usize,
     /// Feeds within this ratio share a block in optimized.nc.
-    merge_ratio: f64,
+    pub merge_ratio: f64,
     /// The program as given was within every limit and faster: optimized.nc is the original.
-    kept_original: bool,
+    pub kept_original: bool,
     /// Largest feed per tooth on cutting moves, mm/tooth.
-    fz_max_mm: Option<f64>,
-    /// Stations where feed_min forced a feed above a limit's cap.
-    design: Option<DesignInfo>,
-    run_time_s: f64,
-    time_engagement_s: f64,
-    time_plan_s: f64,
-    time_simulate_s: f64,
+    pub fz_max_mm: Option<f64>,
+    /// The final surface against the `[design]` model.
+    pub design: Option<DesignInfo>,
+    pub run_time_s: f64,
+    pub time_engagement_s: f64,
+    pub time_plan_s: f64,
+    pub time_simulate_s: f64,
     /// The run that wrote the folder (as in manifest.json).
-    run_id: String,
+    pub run_id: String,
 }
 
-#[derive(Serialize)]
-struct LimitsOut {
-    mrr_max_mm3_s: Option<f64>,
-    force_max_n: Option<f64>,
-    deflection_max_um: Option<f64>,
-    power_max_kw: Option<f64>,
-    feed_min_mm_min: Option<f64>,
-    feed_max_mm_min: f64,
+/// The limits optimize worked to, as summary.json records them.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct LimitsOut {
+    pub mrr_max_mm3_s: Option<f64>,
+    pub force_max_n: Option<f64>,
+    pub deflection_max_um: Option<f64>,
+    pub power_max_kw: Option<f64>,
+    pub feed_min_mm_min: Option<f64>,
+    pub feed_max_mm_min: f64,
     /// fz_max · flutes · spindle rpm, mm/min.
-    chip_load_feed_mm_min: Option<f64>,
-    feed_scale_max: Option<f64>,
+    pub chip_load_feed_mm_min: Option<f64>,
+    pub feed_scale_max: Option<f64>,
 }
 
 /// `dexcut optimize [JOB] --out DIR`.
@@ -703,7 +733,7 @@ pub fn optimize(
         time_simulate_s,
         run_id: out_dir.run_id(),
     };
-    simulate::write_json(&staged.join("summary.json"), &doc)?;
+    crate::summary::write_optimize(&staged.join("summary.json"), &doc)?;
     out_dir.commit("optimize")?;
     let (b, a) = (&doc.before, &doc.after);
     let after_label = if doc.kept_original {

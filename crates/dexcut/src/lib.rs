@@ -19,5 +19,6 @@ pub mod progress;
 pub mod report;
 pub mod simulate;
 pub mod stock;
+pub mod summary;
 pub mod tools;
 pub mod warnings;

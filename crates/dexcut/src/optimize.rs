@@ -840,7 +840,7 @@ pub fn write_verified(
 }
 
 /// Share of the optimised time spent at each kind of cap.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct CapShare {
     pub cap: String,
     pub share: f64,

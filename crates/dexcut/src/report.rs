@@ -8,9 +8,9 @@ use anyhow::{bail, Context, Result};
 use export::{
     HeatMapStyle, HeightField, PlotGroup, Report, ReportImage, ScalarMap, Series, SummaryRow,
 };
-use serde_json::Value;
 
-use crate::simulate::GridInfo;
+use crate::simulate::{GridInfo, Summary, ToolPeaks};
+use crate::summary::SummaryDoc;
 
 /// Named numeric columns of a CSV file (empty fields read as NaN).
 /// Every wanted column must be in the header, and at least one data row must follow.
@@ -174,43 +174,48 @@ const STEP_COLUMNS: [&str; 5] = [
     "deflection_um",
 ];
 
-/// Summary rows: (label, json key, unit, decimals).
-const ROWS: [(&str, &str, &str, usize); 10] = [
-    ("cycle time", "cycle_time_s", "s", 3),
-    (
-        "peak MRR (≥ 48 ms, ≥ 10 cells)",
-        "peak_mrr_windowed_mm3_s",
-        "mm³/s",
-        2,
-    ),
-    ("peak MRR per period", "peak_mrr_mm3_s", "mm³/s", 2),
-    ("peak force", "peak_force_n", "N", 1),
-    ("peak deflection", "peak_deflection_um", "µm", 1),
-    ("removed volume", "removed_volume_mm3", "mm³", 1),
-    ("initial volume", "initial_volume_mm3", "mm³", 1),
-    ("steps", "steps", "", 0),
-    ("shank contact steps", "shank_contact_steps", "", 0),
-    ("rapid collision steps", "rapid_collision_steps", "", 0),
+/// A summary row: label, unit, decimals and the value it shows.
+type Row<T> = (&'static str, &'static str, usize, fn(&T) -> f64);
+
+/// Summary rows of a run.
+const ROWS: [Row<Summary>; 10] = [
+    ("cycle time", "s", 3, |s| s.cycle_time_s),
+    ("peak MRR (≥ 48 ms, ≥ 10 cells)", "mm³/s", 2, |s| {
+        s.peak_mrr_windowed_mm3_s
+    }),
+    ("peak MRR per period", "mm³/s", 2, |s| s.peak_mrr_mm3_s),
+    ("peak force", "N", 1, |s| s.peak_force_n),
+    ("peak deflection", "µm", 1, |s| s.peak_deflection_um),
+    ("removed volume", "mm³", 1, |s| s.removed_volume_mm3),
+    ("initial volume", "mm³", 1, |s| s.initial_volume_mm3),
+    ("steps", "", 0, |s| s.steps as f64),
+    ("shank contact steps", "", 0, |s| {
+        s.shank_contact_steps as f64
+    }),
+    ("rapid collision steps", "", 0, |s| {
+        s.rapid_collision_steps as f64
+    }),
 ];
 
-/// Rows per tool: (label, key in summary `tools`, unit, decimals).
-const TOOL_ROWS: [(&str, &str, &str, usize); 4] = [
-    ("removed volume", "removed_volume_mm3", "mm³", 1),
-    ("peak MRR per period", "peak_mrr_mm3_s", "mm³/s", 2),
-    ("peak force", "peak_force_n", "N", 1),
-    ("peak deflection", "peak_deflection_um", "µm", 1),
+/// Rows per tool (summary `tools`).
+const TOOL_ROWS: [Row<ToolPeaks>; 4] = [
+    ("removed volume", "mm³", 1, |t| t.removed_volume_mm3),
+    ("peak MRR per period", "mm³/s", 2, |t| t.peak_mrr_mm3_s),
+    ("peak force", "N", 1, |t| t.peak_force_n),
+    ("peak deflection", "µm", 1, |t| t.peak_deflection_um),
 ];
 
-fn cell(v: &Value, key: &str, unit: &str, decimals: usize) -> String {
-    match v.get(key).and_then(Value::as_f64) {
-        Some(x) => format!("{x:.decimals$} {unit}").trim_end().to_string(),
-        None => "–".into(),
+fn cell(x: f64, unit: &str, decimals: usize) -> String {
+    if x.is_finite() {
+        format!("{x:.decimals$} {unit}").trim_end().to_string()
+    } else {
+        "–".into()
     }
 }
 
 /// Every file of the folder comes from the run its manifest names: the files
 /// it lists have their recorded sizes, and summary.json carries its run id.
-fn check_one_run(dir: &Path, summary: &Value) -> Result<()> {
+fn check_one_run(dir: &Path, summary: &SummaryDoc) -> Result<()> {
     let manifest_path = dir.join(export::atomic::MANIFEST);
     let text =
         crate::bounds::read_text(&manifest_path, "manifest", crate::bounds::MAX_SUMMARY_BYTES)
@@ -220,23 +225,28 @@ fn check_one_run(dir: &Path, summary: &Value) -> Result<()> {
             dir.display()
         )
             })?;
-    let manifest: Value = serde_json::from_str(&text)
-        .with_context(|| format!("{}: not valid JSON", manifest_path.display()))?;
-    let run_id = manifest.get("run_id").and_then(Value::as_str);
-    let files = manifest.get("files").and_then(Value::as_object);
-    let (Some(run_id), Some(files)) = (run_id, files) else {
-        bail!("{}: no run_id or files", manifest_path.display());
-    };
-    if summary.get("run_id").and_then(Value::as_str) != Some(run_id) {
+    /// manifest.json as `export::atomic::Staging` writes it.
+    #[derive(serde::Deserialize)]
+    struct Manifest {
+        run_id: String,
+        files: std::collections::BTreeMap<String, u64>,
+    }
+    let Manifest { run_id, files } = serde_json::from_str(&text).with_context(|| {
+        format!(
+            "{}: not a manifest with run_id and files",
+            manifest_path.display()
+        )
+    })?;
+    if summary.run_id() != run_id {
         bail!(
             "{}: summary.json is not from run {run_id} of the manifest: the folder mixes runs",
             dir.display()
         );
     }
     for (name, size) in files {
-        let path = dir.join(name);
+        let path = dir.join(&name);
         let actual = std::fs::metadata(&path).map(|m| m.len()).ok();
-        if actual != size.as_u64() {
+        if actual != Some(size) {
             bail!(
                 "{}: {name} is not the file run {run_id} wrote (size {actual:?}, manifest {size}): the folder mixes runs or was changed",
                 dir.display()
@@ -287,26 +297,20 @@ fn check_grid(grid: &GridInfo, path: &Path) -> Result<()> {
 /// `dexcut report DIR`.
 pub fn report(dir: &Path) -> Result<()> {
     let summary_path = dir.join("summary.json");
-    let text = crate::bounds::read_text(&summary_path, "summary", crate::bounds::MAX_SUMMARY_BYTES)
-        .with_context(|| {
-            format!(
-                "is {} a `dexcut simulate` or `optimize` output folder?",
-                dir.display()
-            )
-        })?;
-    let summary: Value = serde_json::from_str(&text)
-        .with_context(|| format!("{}: not valid JSON", summary_path.display()))?;
+    let summary = crate::summary::read(&summary_path).with_context(|| {
+        format!(
+            "is {} a `dexcut simulate` or `optimize` output folder?",
+            dir.display()
+        )
+    })?;
     check_one_run(dir, &summary)?;
-    let grid: GridInfo =
-        serde_json::from_value(summary.get("grid").cloned().unwrap_or(Value::Null))
-            .with_context(|| format!("{}: no grid description", summary_path.display()))?;
+    let grid = summary.grid().clone();
     check_grid(&grid, &summary_path)?;
-    let optimized = summary.get("after").is_some();
-    let (before_json, after_json) = if optimized {
-        (&summary["before"], Some(&summary["after"]))
-    } else {
-        (&summary, None)
+    let (before_run, after_run, optimize) = match &summary {
+        SummaryDoc::Simulate(s) => (&s.run, None, None),
+        SummaryDoc::Optimize(o) => (&o.before, Some(&o.after), Some(o)),
     };
+    let optimized = optimize.is_some();
 
     // Time series.
     let after_cols = read_csv_columns(&dir.join("steps.csv"), &STEP_COLUMNS, &[])?;
@@ -319,8 +323,7 @@ pub fn report(dir: &Path) -> Result<()> {
     } else {
         None
     };
-    let limits = summary.get("limits");
-    let limit = |k: &str| limits.and_then(|l| l.get(k)).and_then(Value::as_f64);
+    let limits = optimize.map(|o| &o.limits);
     let plot = |title: &str, label: &str, unit: &str, key: &str, limit: Option<f64>| {
         let mut group = PlotGroup {
             title: title.into(),
@@ -348,7 +351,7 @@ pub fn report(dir: &Path) -> Result<()> {
             "MRR",
             "mm³/s",
             "mrr_mm3_s",
-            limit("mrr_max_mm3_s"),
+            limits.and_then(|l| l.mrr_max_mm3_s),
         ),
         plot("Feed", "feed", "mm/min", "feed_mm_min", None),
         plot(
@@ -356,14 +359,14 @@ pub fn report(dir: &Path) -> Result<()> {
             "force",
             "N",
             "force_n",
-            limit("force_max_n"),
+            limits.and_then(|l| l.force_max_n),
         ),
         plot(
             "Tool tip deflection",
             "deflection",
             "µm",
             "deflection_um",
-            limit("deflection_max_um"),
+            limits.and_then(|l| l.deflection_max_um),
         ),
     ];
 
@@ -427,31 +430,22 @@ pub fn report(dir: &Path) -> Result<()> {
     // Summary table and notes.
     let mut rows: Vec<SummaryRow> = ROWS
         .iter()
-        .map(|(label, key, unit, d)| SummaryRow {
+        .map(|(label, unit, d, value)| SummaryRow {
             key: label.to_string(),
-            before: cell(before_json, key, unit, *d),
-            after: after_json.map(|a| cell(a, key, unit, *d)),
+            before: cell(value(before_run), unit, *d),
+            after: after_run.map(|a| cell(value(a), unit, *d)),
         })
         .collect();
     // Peaks per tool when more than one tool cuts (summary `tools`).
-    let per_tool = |v: &Value| {
-        v.get("tools")
-            .and_then(Value::as_array)
-            .cloned()
-            .unwrap_or_default()
-    };
-    let (tools_before, tools_after) = (per_tool(before_json), after_json.map(per_tool));
-    if tools_before.len() > 1 {
-        for (k, t) in tools_before.iter().enumerate() {
-            let number = t.get("tool").and_then(Value::as_u64).unwrap_or(0);
-            for (label, key, unit, d) in TOOL_ROWS {
+    if before_run.tools.len() > 1 {
+        for (k, t) in before_run.tools.iter().enumerate() {
+            for (label, unit, d, value) in TOOL_ROWS {
                 rows.push(SummaryRow {
-                    key: format!("T{number} {label}"),
-                    before: cell(t, key, unit, d),
-                    after: tools_after
-                        .as_ref()
-                        .and_then(|a| a.get(k))
-                        .map(|a| cell(a, key, unit, d)),
+                    key: format!("T{} {label}", t.tool),
+                    before: cell(value(t), unit, d),
+                    after: after_run
+                        .and_then(|a| a.tools.get(k))
+                        .map(|a| cell(value(a), unit, d)),
                 });
             }
         }
@@ -468,81 +462,56 @@ pub fn report(dir: &Path) -> Result<()> {
         "Force and spindle power from Kienzle's specific cutting force at the mean chip thickness the removal record gives (or S4's F = a·V^n with [cutting] model = \"power_law\"); deflection of the tool as a stepped cantilever (flutes, shank, holder spring) at the contact height, with the band loads superposed; the tool swept again offset by its deflection until removal and deflection agree, so the error map shows what the bent tool left (docs/MODEL.md §3.2, §4.2–4.3, §5.1). Material coefficients are published starting points: calibrate them for the machine at hand.".to_string(),
     ];
     for (label, run) in [
-        ("program", Some(before_json)),
-        ("optimised program", after_json),
+        ("program", Some(before_run)),
+        ("optimised program", after_run),
     ] {
-        let Some(list) = run
-            .and_then(|r| r.get("warnings"))
-            .and_then(Value::as_array)
-        else {
+        let Some(run) = run else {
             continue;
         };
-        for w in list {
-            let line = w.get("line").and_then(Value::as_u64);
-            let message = w.get("message").and_then(Value::as_str).unwrap_or("");
-            notes.push(match line {
-                Some(l) => format!("Warning ({label}), line {l}: {message}"),
-                None => format!("Warning ({label}): {message}"),
+        for w in run.warnings.iter() {
+            notes.push(match w.line {
+                Some(l) => format!("Warning ({label}), line {l}: {}", w.message),
+                None => format!("Warning ({label}): {}", w.message),
             });
         }
     }
-    if let Some(share) = summary.get("cap_time_share").and_then(Value::as_array) {
-        let parts: Vec<String> = share
+    if let Some(o) = optimize {
+        let parts: Vec<String> = o
+            .cap_time_share
             .iter()
-            .filter_map(|s| {
-                Some(format!(
-                    "{} {:.1} %",
-                    s.get("cap")?.as_str()?,
-                    100.0 * s.get("share")?.as_f64()?
-                ))
-            })
+            .map(|s| format!("{} {:.1} %", s.cap, 100.0 * s.share))
             .collect();
         notes.push(format!(
             "Time at each cap after optimisation: {}.",
             parts.join(", ")
         ));
     }
-    if let Some(d) = summary.get("design").filter(|d| !d.is_null()) {
+    if let Some(d) = summary.design() {
         notes.push(format!(
             "Design comparison: largest stock left {:.1} µm, worst gouge {:.1} µm{}.",
-            d.get("max_stock_left_um")
-                .and_then(Value::as_f64)
-                .unwrap_or(0.0),
-            d.get("worst_gouge_um")
-                .and_then(Value::as_f64)
-                .unwrap_or(0.0),
-            d.get("worst_gouge_line")
-                .and_then(Value::as_u64)
+            d.max_stock_left_um,
+            d.worst_gouge_um,
+            d.worst_gouge_line
                 .map_or(String::new(), |l| format!(" at program line {l}"))
         ));
         // S1 (MODEL.md §8): every program line beyond tolerance.
-        if let Some(lines) = d.get("lines").and_then(Value::as_array) {
-            let text: Vec<String> = lines
-                .iter()
-                .filter_map(|l| {
-                    Some(format!(
-                        "line {} {} {:.1} µm at ({:.2}, {:.2}) mm over {} columns",
-                        l.get("line")?.as_u64()?,
-                        l.get("kind")?.as_str()?,
-                        l.get("worst_um")?.as_f64()?,
-                        l.get("x_mm")?.as_f64()?,
-                        l.get("y_mm")?.as_f64()?,
-                        l.get("columns")?.as_u64()?
-                    ))
-                })
-                .collect();
-            if !text.is_empty() {
-                notes.push(format!(
-                    "Program lines beyond tolerance (gouge > {} µm, stock > {} µm): {}.",
-                    d.get("gouge_tolerance_um")
-                        .and_then(Value::as_f64)
-                        .unwrap_or(0.0),
-                    d.get("stock_tolerance_um")
-                        .and_then(Value::as_f64)
-                        .unwrap_or(0.0),
-                    text.join("; ")
-                ));
-            }
+        let text: Vec<String> = d
+            .lines
+            .iter()
+            .map(|l| {
+                format!(
+                    "line {} {} {:.1} µm at ({:.2}, {:.2}) mm over {} columns",
+                    l.line, l.kind, l.worst_um, l.x_mm, l.y_mm, l.columns
+                )
+            })
+            .collect();
+        if !text.is_empty() {
+            notes.push(format!(
+                "Program lines beyond tolerance (gouge > {} µm, stock > {} µm): {}.",
+                d.gouge_tolerance_um,
+                d.stock_tolerance_um,
+                text.join("; ")
+            ));
         }
     }
     let title = format!(
@@ -552,10 +521,7 @@ pub fn report(dir: &Path) -> Result<()> {
         } else {
             "simulation"
         },
-        summary
-            .get("program")
-            .and_then(Value::as_str)
-            .unwrap_or("program")
+        summary.program()
     );
     let report = Report {
         title,

@@ -550,7 +550,7 @@ pub fn cutting_model(
 }
 
 /// Headline numbers of a run (summary.json).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct Summary {
     pub initial_volume_mm3: f64,
     pub final_volume_mm3: f64,
@@ -588,11 +588,13 @@ pub struct Summary {
     /// Sweeps (the rigid one included) and the largest remaining disagreement
     /// between offset and deflection across the path, µm.
     pub closed_loop_passes: usize,
+    #[serde(deserialize_with = "crate::summary::f64_or_nan")]
     pub closed_loop_residual_um: f64,
     /// Steps whose offset and deflection still disagree by more than the tolerance.
     pub closed_loop_unconverged_steps: usize,
     /// Largest von Mises stress in the tool, MPa, and the allowable stress.
     pub peak_stress_mpa: f64,
+    #[serde(deserialize_with = "crate::summary::f64_or_nan")]
     pub stress_limit_mpa: f64,
     pub steps: usize,
     pub grid_mm: f64,
@@ -612,7 +614,7 @@ pub struct Summary {
 }
 
 /// Peaks of the steps one tool cut (summary.json `tools`).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct ToolPeaks {
     /// T number.
     pub tool: u32,

@@ -48,6 +48,7 @@ pub struct Warning {
     /// First program line (1-based) concerned; none for whole-program warnings.
     pub line: Option<u32>,
     /// The worst (or total, as the message says) value, in `unit`.
+    #[serde(deserialize_with = "crate::summary::f64_or_nan")]
     pub value: f64,
     pub unit: String,
     /// Steps (servo periods or moves) concerned; 0 where not counted by step.
