@@ -5,6 +5,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod progress;
+
 #[derive(Parser)]
 #[command(
     name = "dexcut",
@@ -106,6 +108,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    dexcut::progress::set_progress(progress::bar);
     let result = match cli.command {
         Command::Simulate {
             job,
@@ -138,7 +141,7 @@ fn main() -> ExitCode {
             sweep,
             settings,
             force,
-        } => dexcut::evaluate::evaluate(
+        } => dexcut::commands::evaluate(
             &job,
             &out,
             servo.as_deref(),
@@ -147,12 +150,12 @@ fn main() -> ExitCode {
             force,
         ),
         Command::Calibrate { csv } => dexcut::commands::calibrate(&csv),
-        Command::Example { out, force } => dexcut::example::write(&out, force),
+        Command::Example { out, force } => dexcut::commands::example(&out, force),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", dexcut::console::error_message(&e));
+            eprintln!("error: {}", dexcut::error_message(&e));
             ExitCode::FAILURE
         }
     }

@@ -1,5 +1,6 @@
 //! The commands behind the CLI. Each checks every input before work starts
-//! and writes its outputs only at the end, each file atomically.
+//! and writes its outputs only at the end, each file atomically; each prints
+//! its results on the console.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -12,22 +13,32 @@ use serde::{Deserialize, Serialize};
 
 use crate::job::Job;
 use crate::motion::{self, TimedStep};
-use crate::optimize;
+use crate::optimize::{self};
 use crate::outdir::OutDir;
 use crate::program::{self, Program};
 use crate::simulate::{self, GridInfo, Run, Summary};
 use crate::tools::ToolSet;
 
+pub use crate::evaluate::evaluate;
+pub use crate::example::write as example;
+
 /// Everything read and checked from a job before any work.
 pub struct Setup {
+    /// The job file it was loaded from.
+    pub job_path: PathBuf,
+    /// The job file's sections, checked.
     pub job: Job,
     /// The first tool the program uses and its model (the single [tool]).
     pub tool: Tool,
+    /// The program, read into a path of moves.
     pub program: Program,
+    /// The stock before any cut.
     pub stock: Stock,
+    /// The cutting model of the first tool.
     pub model: CuttingModel,
     /// Every tool of the job; each step is cut by its own (MODEL.md §9.1).
     pub tools: ToolSet,
+    /// Axis limits, servo period and feeds (`[machine]`).
     pub machine: Machine,
     /// The `[design]` model, read and checked before any work.
     pub design: Option<(PathBuf, mesh::DesignModel)>,
@@ -98,6 +109,7 @@ impl Setup {
             None => None,
         };
         Ok(Setup {
+            job_path: job_path.to_path_buf(),
             job,
             tool,
             program,
@@ -120,8 +132,8 @@ impl Setup {
         files
     }
 
-    /// The grid check of [`crate::warnings::grid_check`] for this job, printed
-    /// at once (before any work).
+    /// The grid check of [`crate::warnings::grid_check`] for this job (the
+    /// commands print it at once, before any work).
     pub fn grid_warning(&self) -> Option<crate::warnings::Warning> {
         let slowest = self
             .program
@@ -153,7 +165,6 @@ impl Setup {
             },
             self.machine.period_ms,
         )?;
-        eprintln!("warning: {w}");
         Some(w)
     }
 
@@ -189,6 +200,7 @@ impl Setup {
 /// Design comparison (S1): the final surface against the design model.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct DesignInfo {
+    /// Design model file.
     pub path: String,
     /// Largest stock left (distance outside the design model), µm.
     pub max_stock_left_um: f64,
@@ -196,9 +208,11 @@ pub struct DesignInfo {
     pub worst_gouge_um: f64,
     /// Program line of the step that last cut the worst gouge.
     pub worst_gouge_line: Option<u32>,
+    /// Column centre of the worst gouge, mm.
     pub worst_gouge_xy_mm: Option<[f64; 2]>,
     /// Tolerances the per-line lists use, µm.
     pub gouge_tolerance_um: f64,
+    /// Stock above the design beyond this is listed, µm.
     pub stock_tolerance_um: f64,
     /// Every program line whose cut left a gouge deeper than `gouge_tolerance_um` or stock
     /// above `stock_tolerance_um` (S1, MODEL.md §8), by line, gouges first.
@@ -237,6 +251,7 @@ pub struct LineDeviation {
     pub worst_um: f64,
     /// Column centre of the worst one, mm.
     pub x_mm: f64,
+    /// Column centre, y, mm.
     pub y_mm: f64,
     /// Number of columns beyond the tolerance whose last cut was on this line.
     pub columns: usize,
@@ -408,6 +423,23 @@ fn write_run(
 ) -> Result<Option<DesignInfo>> {
     let tops = run.stock.top_heights();
     let design = design_comparison(setup, run, &tops)?;
+    write_run_files(run, &tops, design.as_ref(), out, steps_name, columns_csv)?;
+    if let Some((_, info)) = &design {
+        print_line_deviations(info);
+    }
+    Ok(design.map(|d| d.1))
+}
+
+/// steps.csv (named `steps_name`) and the per-column results of a run (the
+/// `.npy` grid, and columns.csv when `columns_csv`) into `out`.
+fn write_run_files(
+    run: &Run,
+    tops: &[f32],
+    design: Option<&(Vec<f32>, DesignInfo)>,
+    out: &Path,
+    steps_name: &str,
+    columns_csv: bool,
+) -> Result<()> {
     run.write_steps_csv(&out.join(steps_name))?;
     // With a design model each column also names the program line that last cut it (S1).
     let lines: Option<Vec<i32>> = design.as_ref().map(|_| {
@@ -425,15 +457,65 @@ fn write_run(
     });
     run.write_columns(
         out,
-        &tops,
-        design.as_ref().map(|d| d.0.as_slice()),
+        tops,
+        design.map(|d| d.0.as_slice()),
         lines.as_deref(),
         columns_csv,
-    )?;
-    if let Some((_, info)) = &design {
-        print_line_deviations(info);
+    )
+}
+
+/// A simulated program: the run, its headline numbers and the comparison with
+/// the `[design]` model. Made by [`simulate_setup`].
+pub struct Simulation {
+    /// Steps, loads and final stock.
+    pub run: Run,
+    /// Headline numbers and warnings (summary.json's `run` part).
+    pub summary: Summary,
+    /// Signed distance of each column's top to the design model, µm
+    /// (positive = stock left), and the per-line comparison.
+    pub design: Option<(Vec<f32>, DesignInfo)>,
+}
+
+impl Simulation {
+    /// Write steps.csv and the per-column results (the `.npy` grid with
+    /// columns.json, and columns.csv when `columns_csv`) into `out`, an existing folder.
+    pub fn write_files(&self, out: &Path, columns_csv: bool) -> Result<()> {
+        let tops = self.run.stock.top_heights();
+        write_run_files(
+            &self.run,
+            &tops,
+            self.design.as_ref(),
+            out,
+            "steps.csv",
+            columns_csv,
+        )
     }
-    Ok(design.map(|d| d.1))
+}
+
+/// Sweep the job's program through its stock (the commanded path, or with
+/// `actual_path` the drive model's estimate of it): removal, loads, the closed
+/// loop, warnings and the design comparison. Writes nothing.
+pub fn simulate_setup(setup: &Setup, actual_path: bool) -> Result<Simulation> {
+    let grid_warning = setup.grid_warning();
+    let steps = setup.steps(actual_path)?;
+    let run = simulate::run(setup.stock.clone(), &setup.tools, steps, "simulate")?;
+    let mut summary = run.summary();
+    summary.check_finite()?;
+    summary.warnings.0.splice(0..0, grid_warning);
+    let tops = run.stock.top_heights();
+    let design = design_comparison(setup, &run, &tops)?;
+    Ok(Simulation {
+        run,
+        summary,
+        design,
+    })
+}
+
+/// Print the grid warning of a job at once, before the work.
+fn announce_grid(setup: &Setup) {
+    if let Some(w) = setup.grid_warning() {
+        eprintln!("warning: {w}");
+    }
 }
 
 /// `dexcut simulate JOB --out DIR`.
@@ -448,19 +530,19 @@ pub fn simulate(
     let started = Instant::now();
     let setup = Setup::load(job_path, grid_mm)?;
     let out_dir = OutDir::begin(out, &setup.input_files(job_path), force)?;
-    let grid_warning = setup.grid_warning();
-    let steps = setup.steps(actual_path)?;
-    let run = simulate::run(setup.stock.clone(), &setup.tools, steps, "simulate")?;
-    let mut summary = run.summary();
-    summary.check_finite()?;
-    summary.warnings.0.splice(0..0, grid_warning);
-    let design = write_run(&setup, &run, out_dir.path(), "steps.csv", columns_csv)?;
+    announce_grid(&setup);
+    let sim = simulate_setup(&setup, actual_path)?;
+    sim.write_files(out_dir.path(), columns_csv)?;
+    if let Some((_, info)) = &sim.design {
+        print_line_deviations(info);
+    }
+    let summary = &sim.summary;
     let doc = SimulateSummary {
         run: summary.clone(),
         job: setup.job.name.clone(),
         program: setup.program.file.clone(),
-        grid: GridInfo::of(run.stock.grid()),
-        design,
+        grid: GridInfo::of(sim.run.stock.grid()),
+        design: sim.design.as_ref().map(|d| d.1.clone()),
         run_time_s: started.elapsed().as_secs_f64(),
         run_id: out_dir.run_id(),
     };
@@ -487,11 +569,17 @@ pub fn simulate(
 /// summary.json of `optimize` (schema in [`crate::summary`]).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct OptimizeSummary {
+    /// Job file.
     pub job: String,
+    /// Program file.
     pub program: String,
+    /// Stock grid, so `report` can rebuild the maps.
     pub grid: GridInfo,
+    /// The program as given.
     pub before: Summary,
+    /// optimized.nc read back and simulated.
     pub after: Summary,
+    /// The limits it worked to.
     pub limits: LimitsOut,
     /// Share of the re-timed program's time spent at each cap.
     pub cap_time_share: Vec<optimize::CapShare>,
@@ -500,7 +588,9 @@ pub struct OptimizeSummary {
     /// (after − bound) / bound.
     #[serde(deserialize_with = "crate::summary::f64_or_nan")]
     pub optimality_gap: f64,
+    /// Planner stations along the path.
     pub stations: usize,
+    /// Spacing of the planner stations, mm.
     pub station_spacing_mm: f64,
     /// Peak MRR per servo period of the written program / mrr_max (≤ 1.02 is the target).
     pub peak_mrr_ratio: Option<f64>,
@@ -521,9 +611,13 @@ pub struct OptimizeSummary {
     pub fz_max_mm: Option<f64>,
     /// The final surface against the `[design]` model.
     pub design: Option<DesignInfo>,
+    /// Wall time of the command, s.
     pub run_time_s: f64,
+    /// Wall time of the engagement sweep, s.
     pub time_engagement_s: f64,
+    /// Wall time of planning and writing the program, s.
     pub time_plan_s: f64,
+    /// Wall time of simulating the program as given, s.
     pub time_simulate_s: f64,
     /// The run that wrote the folder (as in manifest.json).
     pub run_id: String,
@@ -532,14 +626,21 @@ pub struct OptimizeSummary {
 /// The limits optimize worked to, as summary.json records them.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct LimitsOut {
+    /// `mrr_max`, mm³/s.
     pub mrr_max_mm3_s: Option<f64>,
+    /// `force_max`, N.
     pub force_max_n: Option<f64>,
+    /// `deflection_max_um`, µm.
     pub deflection_max_um: Option<f64>,
+    /// `power_max_kw`, kW.
     pub power_max_kw: Option<f64>,
+    /// `feed_min`, mm/min.
     pub feed_min_mm_min: Option<f64>,
+    /// The machine's highest feed, mm/min.
     pub feed_max_mm_min: f64,
     /// fz_max · flutes · spindle rpm, mm/min.
     pub chip_load_feed_mm_min: Option<f64>,
+    /// `feed_scale_max`: at most this times the programmed feed.
     pub feed_scale_max: Option<f64>,
 }
 
@@ -590,6 +691,34 @@ pub fn optimize(
     {
         eprintln!("warning: [limits] sets no mrr_max, force_max, deflection_max_um, power_max_kw or angle_rule: cutting runs at feed_max");
     }
+    announce_grid(&setup);
+    let optimized = optimize_setup(&setup, out_dir, started, columns_csv)?;
+    print_optimize(&optimized, out);
+    Ok(())
+}
+
+/// What [`optimize_setup`] made: summary.json's document, and the drive
+/// pre-compensation when the job has `[servo]`.
+pub struct Optimized {
+    /// The document written as summary.json (before, after = optimized.nc
+    /// read back and simulated, limits, caps, timings).
+    pub summary: OptimizeSummary,
+    /// Drive error before and after pre-compensation (servo_compensated.csv).
+    pub precomp: Option<servo::Precomp>,
+}
+
+/// Re-time the job's program under its `[limits]` and write the results
+/// (optimized.nc, servo.csv, steps.csv, steps_before.csv, columns.csv,
+/// summary.json, the `.npy` column grid and with `columns_csv` columns.csv) into
+/// `out_dir`, committed whole at the end. `started` is when the run began (for
+/// `run_time_s`).
+pub fn optimize_setup(
+    setup: &Setup,
+    out_dir: OutDir,
+    started: Instant,
+    columns_csv: bool,
+) -> Result<Optimized> {
+    let limits = &setup.job.limits;
     let grid_warning = setup.grid_warning();
     // Before: the program as written.
     let t0 = Instant::now();
@@ -673,7 +802,7 @@ pub fn optimize(
         });
     }
     let staged = out_dir.path();
-    let design = write_run(&setup, after, staged, "steps.csv", columns_csv)?;
+    let design = write_run(setup, after, staged, "steps.csv", columns_csv)?;
     before.write_steps_csv(&staged.join("steps_before.csv"))?;
     write_servo_csv(&staged.join("servo.csv"), &written.samples)?;
     let precomp = if setup.job.servo_given {
@@ -735,6 +864,18 @@ pub fn optimize(
     };
     crate::summary::write_optimize(&staged.join("summary.json"), &doc)?;
     out_dir.commit("optimize")?;
+    Ok(Optimized {
+        summary: doc,
+        precomp,
+    })
+}
+
+/// The optimize results on the console.
+fn print_optimize(optimized: &Optimized, out: &Path) {
+    let doc = &optimized.summary;
+    let precomp = &optimized.precomp;
+    let fz_max_mm = doc.fz_max_mm;
+    let lower_bound_time_s = doc.lower_bound_time_s;
     let (b, a) = (&doc.before, &doc.after);
     let after_label = if doc.kept_original {
         "after (kept)"
@@ -767,16 +908,20 @@ pub fn optimize(
         0,
     );
     let limits_text: Vec<String> = [
-        limits.mrr_max.map(|v| format!("mrr_max {v} mm³/s")),
-        limits.force_max.map(|v| format!("force_max {v} N")),
-        limits
+        doc.limits
+            .mrr_max_mm3_s
+            .map(|v| format!("mrr_max {v} mm³/s")),
+        doc.limits.force_max_n.map(|v| format!("force_max {v} N")),
+        doc.limits
             .deflection_max_um
             .map(|v| format!("deflection_max_um {v}")),
         doc.limits
             .chip_load_feed_mm_min
             .zip(fz_max_mm)
             .map(|(f, fz)| format!("chip load {fz:.4} mm/tooth = {f:.0} mm/min on cutting moves")),
-        limits.feed_scale_max.map(|v| format!("feed_scale_max {v}")),
+        doc.limits
+            .feed_scale_max
+            .map(|v| format!("feed_scale_max {v}")),
     ]
     .into_iter()
     .flatten()
@@ -815,7 +960,6 @@ pub fn optimize(
     crate::outln!("results in {}", out.display());
     doc.before.warnings.print_after_work("program");
     doc.after.warnings.print_after_work("optimised");
-    Ok(())
 }
 
 /// servo.csv: commanded positions every period with path feed and axis velocities.
@@ -858,7 +1002,12 @@ fn write_servo_csv(path: &Path, samples: &[schedule::ServoSample]) -> Result<()>
     .with_context(|| format!("cannot write {}", path.display()))
 }
 
-pub use crate::report::report;
+/// `dexcut report DIR`.
+pub fn report(dir: &Path) -> Result<()> {
+    let files = crate::report::write_report(dir)?;
+    crate::outln!("wrote {}", files.html.display());
+    Ok(())
+}
 
 /// `dexcut calibrate CSV`: least-squares fit of F = a·V^n in log space.
 pub fn calibrate(path: &Path) -> Result<()> {

@@ -1,24 +1,117 @@
-//! The `dexcut` application: job files, the commands and the glue between the
-//! library crates. Each command reads its inputs and checks them all before any
-//! work, computes in memory, then writes every output file atomically.
+//! `dexcut`: Z-dexel cutting simulation and feed optimisation for 3-axis
+//! milling, as a library. The `dexcut` binary (crate `dexcut-cli`) is a thin
+//! layer of command-line arguments over it.
 //!
 //! Data flow: job → stock (dexel, mesh) + program (nc) → motion (schedule)
-//! → sweep (dexel) → loads (cutting) → outputs (export).
+//! → sweep (dexel) → loads (cutting) → outputs (export). The models are stated
+//! in `docs/MODEL.md`.
+//!
+//! The pipeline, each step returning typed results:
+//!
+//! * [`load`] a job file and everything it names, checked before any work ([`Setup`]);
+//! * [`simulate`] it: removal, loads, closed loop, warnings, design comparison
+//!   ([`Simulation`], its numbers in a [`Summary`]); nothing is written until
+//!   [`Simulation::write_files`];
+//! * [`optimize`] it: re-time the program under the job's `[limits]` and write
+//!   the results folder ([`Optimized`], its summary.json document an
+//!   [`summary::OptimizeSummary`]);
+//! * [`report`] a results folder: report.html, heat maps, stock.glb ([`ReportFiles`]);
+//! * read any summary.json back through the same types: [`summary::read`].
+//!
+//! ```
+//! # fn main() -> anyhow::Result<()> {
+//! // A 100 mm slot, 2 mm deep, cut by a Ø10 ball end mill in a box.
+//! let dir = std::env::temp_dir().join(format!("dexcut-doc-{}", std::process::id()));
+//! std::fs::create_dir_all(&dir)?;
+//! std::fs::write(dir.join("slot.csv"), "x,y,z\n-10,0,28\n110,0,28\n")?;
+//! std::fs::write(
+//!     dir.join("job.toml"),
+//!     r#"
+//! [stock]
+//! kind = "box"
+//! min = [0, -20, 0]
+//! max = [100, 20, 30]
+//! grid = 0.1
+//! [tool]
+//! kind = "ball"
+//! diameter = 10
+//! [program]
+//! path = "slot.csv"
+//! feed = 1200
+//! "#,
+//! )?;
+//! let setup = dexcut::load(&dir.join("job.toml"), None)?;
+//! let sim = dexcut::simulate(&setup, false)?;
+//! // The cross-section is a circular segment of r = 5, h = 2.
+//! let (r, h) = (5.0f64, 2.0f64);
+//! let exact = (r * r * ((r - h) / r).acos() - (r - h) * (2.0 * r * h - h * h).sqrt()) * 100.0;
+//! assert!((sim.summary.removed_volume_mm3 - exact).abs() < 3e-3 * exact);
+//! // 120 mm at 1200 mm/min.
+//! assert!((sim.summary.cycle_time_s - 6.0).abs() < 1e-12);
+//! # std::fs::remove_dir_all(&dir)?;
+//! # Ok(())
+//! # }
+//! ```
+#![warn(missing_docs)]
 
-pub mod bounds;
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::Result;
+
+mod bounds;
 pub mod commands;
-pub mod console;
-pub mod evaluate;
-pub mod example;
-pub mod job;
-pub mod motion;
+mod console;
+mod evaluate;
+mod example;
+mod job;
+mod motion;
+/// Building blocks of the optimisation (engagement, caps, re-feed). Not part
+/// of the stable API: public only for the S3 integration tests
+/// (`tests/source_methods.rs`).
+#[doc(hidden)]
 pub mod optimize;
-pub mod outdir;
-pub mod program;
+mod outdir;
+mod program;
 pub mod progress;
-pub mod report;
-pub mod simulate;
-pub mod stock;
+mod report;
+mod simulate;
+mod stock;
 pub mod summary;
-pub mod tools;
-pub mod warnings;
+mod tools;
+mod warnings;
+
+pub use commands::{Optimized, Setup, Simulation};
+pub use console::error_message;
+pub use report::ReportFiles;
+pub use simulate::{Run, Summary};
+pub use warnings::{Warning, WarningKind, Warnings};
+
+/// Load a job file (TOML) and everything it names (program, stock mesh, design
+/// model, tool table), each checked before any work. `grid_mm` overrides the
+/// stock's column spacing.
+pub fn load(job: &Path, grid_mm: Option<f64>) -> Result<Setup> {
+    Setup::load(job, grid_mm)
+}
+
+/// Simulate the job's program as written (`actual_path`: along the drive
+/// model's estimate of the axes' path instead). Writes nothing.
+pub fn simulate(setup: &Setup, actual_path: bool) -> Result<Simulation> {
+    commands::simulate_setup(setup, actual_path)
+}
+
+/// Re-time the job's program under its `[limits]` and write the results into
+/// the folder `out` (whole, at the end; `force` allows a folder that holds the
+/// job's inputs). Column results are the `.npy` grid with columns.json. The numbers after optimisation are those of optimized.nc
+/// read back and simulated.
+pub fn optimize(setup: &Setup, out: &Path, force: bool) -> Result<Optimized> {
+    let started = Instant::now();
+    let out_dir = outdir::OutDir::begin(out, &setup.input_files(&setup.job_path), force)?;
+    commands::optimize_setup(setup, out_dir, started, false)
+}
+
+/// Build the report (report.html, error_map.png, stock.glb) of a folder written
+/// by `simulate` or [`optimize`], from its files alone.
+pub fn report(dir: &Path) -> Result<ReportFiles> {
+    report::write_report(dir)
+}

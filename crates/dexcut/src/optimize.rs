@@ -842,7 +842,9 @@ pub fn write_verified(
 /// Share of the optimised time spent at each kind of cap.
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct CapShare {
+    /// The cap, in a user's words.
     pub cap: String,
+    /// Share of the cycle time, 0…1.
     pub share: f64,
 }
 

@@ -1,23 +1,38 @@
-//! Progress bars on a terminal; silent in CI and when output is piped.
+//! Progress of long sweeps, reported to whatever the program installs with
+//! [`set_progress`] (the dexcut binary draws bars on a terminal); silent by default.
 
-use std::io::IsTerminal;
+use std::sync::OnceLock;
 
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+/// Receives the progress of one long computation.
+pub trait Progress: Send + Sync {
+    /// `done` items of the work are finished.
+    fn set_position(&self, done: u64);
+    /// The work has ended: remove any display.
+    fn finish_and_clear(&self);
+}
 
-/// A bar over `len` items, drawn only when stderr is a terminal and CI is not set.
-pub fn bar(len: u64, what: &str) -> ProgressBar {
-    let visible = std::io::stderr().is_terminal() && std::env::var_os("CI").is_none();
-    let target = if visible {
-        ProgressDrawTarget::stderr()
-    } else {
-        ProgressDrawTarget::hidden()
-    };
-    let bar = ProgressBar::with_draw_target(Some(len), target);
-    bar.set_style(
-        ProgressStyle::with_template("{msg:>12} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    bar.set_message(what.to_string());
-    bar
+/// Makes a [`Progress`] for `len` items of work named `what`.
+pub type ProgressFactory = fn(len: u64, what: &str) -> Box<dyn Progress>;
+
+static FACTORY: OnceLock<ProgressFactory> = OnceLock::new();
+
+/// Install the progress display of this process. The first call wins; later
+/// ones are ignored.
+pub fn set_progress(factory: ProgressFactory) {
+    let _ = FACTORY.set(factory);
+}
+
+struct Silent;
+
+impl Progress for Silent {
+    fn set_position(&self, _done: u64) {}
+    fn finish_and_clear(&self) {}
+}
+
+/// A progress display for `len` items: the installed one, or none.
+pub fn bar(len: u64, what: &str) -> Box<dyn Progress> {
+    match FACTORY.get() {
+        Some(make) => make(len, what),
+        None => Box::new(Silent),
+    }
 }

@@ -294,8 +294,22 @@ fn check_grid(grid: &GridInfo, path: &Path) -> Result<()> {
     )
 }
 
-/// `dexcut report DIR`.
-pub fn report(dir: &Path) -> Result<()> {
+/// The files [`write_report`] wrote into a results folder.
+#[derive(Clone, Debug)]
+pub struct ReportFiles {
+    /// report.html: tables, plots, maps and the 3D view in one page.
+    pub html: std::path::PathBuf,
+    /// error_map.png: the predicted shape error.
+    pub error_map_png: std::path::PathBuf,
+    /// design_map.png, when the run has a `[design]` model.
+    pub design_map_png: Option<std::path::PathBuf>,
+    /// stock.glb: the final stock coloured by the error.
+    pub stock_glb: std::path::PathBuf,
+}
+
+/// Build report.html, error_map.png (design_map.png) and stock.glb in `dir`, a
+/// folder written by `simulate` or `optimize`, from its files alone.
+pub fn write_report(dir: &Path) -> Result<ReportFiles> {
     let summary_path = dir.join("summary.json");
     let summary = crate::summary::read(&summary_path).with_context(|| {
         format!(
@@ -385,6 +399,7 @@ pub fn report(dir: &Path) -> Result<()> {
         range: None,
     };
     let mut images = Vec::new();
+    let mut design_map_png = None;
     let error_png = export::heat_map_png_bytes(&error, &error_style)?;
     export::atomic::write_bytes(&dir.join("error_map.png"), &error_png)
         .context("cannot write error_map.png")?;
@@ -410,6 +425,7 @@ pub fn report(dir: &Path) -> Result<()> {
         let png = export::heat_map_png_bytes(&map, &style)?;
         export::atomic::write_bytes(&dir.join("design_map.png"), &png)
             .context("cannot write design_map.png")?;
+        design_map_png = Some(dir.join("design_map.png"));
         images.push(ReportImage {
             name: "Final surface against the design model (µm)".into(),
             png,
@@ -532,6 +548,10 @@ pub fn report(dir: &Path) -> Result<()> {
         notes,
     };
     export::write_report_html(&dir.join("report.html"), &report)?;
-    crate::outln!("wrote {}", dir.join("report.html").display());
-    Ok(())
+    Ok(ReportFiles {
+        html: dir.join("report.html"),
+        error_map_png: dir.join("error_map.png"),
+        design_map_png,
+        stock_glb: dir.join("stock.glb"),
+    })
 }

@@ -66,15 +66,18 @@ impl Period {
 
 /// Everything a run produced, in memory.
 pub struct Run {
+    /// The steps, timed, each with its program line and tool.
     pub steps: Vec<TimedStep>,
     /// What the (deflected) tool removed, per step.
     pub record: RemovalRecord,
+    /// Force, power, deflection and stress per step.
     pub loads: Vec<StepLoad>,
     /// Per step, the lateral offset of the tool in the final pass, µm: its converged
     /// deflection at the contact height (MODEL.md §5.1).
     pub offsets_um: Vec<[f64; 2]>,
     /// Predicted shape error per column, µm, clamped to the stock (MODEL.md §5).
     pub error_um: Vec<f32>,
+    /// Stock volume before the run, mm³.
     pub initial_volume_mm3: f64,
     /// The stock the deflected tool leaves.
     pub stock: Stock,
@@ -552,9 +555,13 @@ pub fn cutting_model(
 /// Headline numbers of a run (summary.json).
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct Summary {
+    /// Stock volume before the run, mm³.
     pub initial_volume_mm3: f64,
+    /// Stock volume after the run, mm³.
     pub final_volume_mm3: f64,
+    /// Volume the program removed, mm³.
     pub removed_volume_mm3: f64,
+    /// Time the program runs, s.
     pub cycle_time_s: f64,
     /// Largest MRR of a single step (servo period), mm³/s.
     pub peak_mrr_mm3_s: f64,
@@ -563,9 +570,11 @@ pub struct Summary {
     /// carries the dexel grid's column quantisation (±15 % for a slot at 0.8
     /// cells per period), which this average resolves.
     pub peak_mrr_windowed_mm3_s: f64,
+    /// Largest cutting force on the tool, N.
     pub peak_force_n: f64,
     /// Largest spindle cutting power, W, and torque, N·m.
     pub peak_power_w: f64,
+    /// Largest spindle torque, N·m.
     pub peak_torque_nm: f64,
     /// Largest deflection at the contact height (closed loop), µm.
     pub peak_deflection_um: f64,
@@ -589,15 +598,20 @@ pub struct Summary {
     /// between offset and deflection across the path, µm.
     pub closed_loop_passes: usize,
     #[serde(deserialize_with = "crate::summary::f64_or_nan")]
+    /// Largest disagreement left between applied offset and deflection, µm.
     pub closed_loop_residual_um: f64,
     /// Steps whose offset and deflection still disagree by more than the tolerance.
     pub closed_loop_unconverged_steps: usize,
     /// Largest von Mises stress in the tool, MPa, and the allowable stress.
     pub peak_stress_mpa: f64,
     #[serde(deserialize_with = "crate::summary::f64_or_nan")]
+    /// Allowable stress of the weakest tool, MPa (null in JSON when no tool has one).
     pub stress_limit_mpa: f64,
+    /// Steps swept (servo periods or moves).
     pub steps: usize,
+    /// Column spacing, mm.
     pub grid_mm: f64,
+    /// Columns of the stock.
     pub columns: usize,
     /// Steps that removed material above the flute length.
     pub shank_contact_steps: usize,
@@ -607,7 +621,9 @@ pub struct Summary {
     pub first_collision_line: Option<u32>,
     /// What a user must look at, each with its program line.
     pub warnings: Warnings,
+    /// Column visits of the sweep kernel.
     pub columns_evaluated: u64,
+    /// Wall time of the sweeps, s.
     pub sweep_time_s: f64,
     /// The same peaks per tool, in order of first use.
     pub tools: Vec<ToolPeaks>,
@@ -618,12 +634,17 @@ pub struct Summary {
 pub struct ToolPeaks {
     /// T number.
     pub tool: u32,
+    /// Steps cut with this tool.
     pub steps: usize,
+    /// Volume this tool removed, mm³.
     pub removed_volume_mm3: f64,
     /// Time the tool is in the spindle, s.
     pub time_s: f64,
+    /// Largest MRR per period, mm³/s.
     pub peak_mrr_mm3_s: f64,
+    /// Largest cutting force, N.
     pub peak_force_n: f64,
+    /// Largest deflection at the contact height, µm.
     pub peak_deflection_um: f64,
 }
 
@@ -859,6 +880,7 @@ impl Run {
         peak
     }
 
+    /// The headline numbers of the run.
     pub fn summary(&self) -> Summary {
         let n = self.steps.len();
         let errors: Vec<f64> = self
@@ -1134,15 +1156,20 @@ impl Run {
 /// Grid geometry recorded in summary.json so `report` can rebuild maps.
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct GridInfo {
+    /// Columns along X.
     pub nx: usize,
+    /// Columns along Y.
     pub ny: usize,
     /// Centre of column (0, 0), mm.
     pub x0_mm: f64,
+    /// Centre of column (0, 0), y, mm.
     pub y0_mm: f64,
+    /// Column spacing, mm.
     pub spacing_mm: f64,
 }
 
 impl GridInfo {
+    /// The geometry of a dexel grid.
     pub fn of(g: &dexel::Grid) -> GridInfo {
         GridInfo {
             nx: g.nx,

@@ -44,17 +44,20 @@ pub enum WarningKind {
 /// message in plain words.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Warning {
+    /// What kind of problem.
     pub kind: WarningKind,
     /// First program line (1-based) concerned; none for whole-program warnings.
     pub line: Option<u32>,
     /// The worst (or total, as the message says) value, in `unit`.
     #[serde(deserialize_with = "crate::summary::f64_or_nan")]
     pub value: f64,
+    /// Unit of `value`.
     pub unit: String,
     /// Steps (servo periods or moves) concerned; 0 where not counted by step.
     pub steps: usize,
     /// All program lines concerned, in order (at most [`MAX_LINES`]).
     pub lines: Vec<u32>,
+    /// The warning in plain words.
     pub message: String,
 }
 
@@ -79,18 +82,22 @@ pub struct Warnings(pub Vec<Warning>);
 pub type LineTally = BTreeMap<u32, (usize, f64, f64)>;
 
 impl Warnings {
+    /// Add a warning.
     pub fn push(&mut self, w: Warning) {
         self.0.push(w);
     }
 
+    /// No warning.
     pub fn is_empty(&self) -> bool {
         self.0.is_empty()
     }
 
+    /// The warnings in order.
     pub fn iter(&self) -> std::slice::Iter<'_, Warning> {
         self.0.iter()
     }
 
+    /// The first warning of `kind`.
     pub fn of_kind(&self, kind: WarningKind) -> Option<&Warning> {
         self.0.iter().find(|w| w.kind == kind)
     }

@@ -1,0 +1,109 @@
+//! The library API end to end: load → simulate → optimize → report, with
+//! summary.json read back through its types, checked against exact answers.
+
+use dexcut::summary::{self, SummaryDoc};
+
+/// A box, a Ø6 flat end mill, a G-code slot 2 mm deep and 100 mm long.
+const JOB: &str = r#"
+[stock]
+kind = "box"
+min = [0, -20, 0]
+max = [100, 20, 30]
+grid = 0.1
+[tool]
+kind = "flat"
+diameter = 6
+[program]
+path = "slot.nc"
+[machine]
+feed_max = 3000
+[limits]
+mrr_max = 20
+"#;
+
+const SLOT: &str = "G21 G90 G17\nG0 X-10 Y0 Z35\nG0 Z28\nG1 X110 F1200\nG0 Z35\nM2\n";
+
+fn job_dir() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("job.toml"), JOB).unwrap();
+    std::fs::write(dir.path().join("slot.nc"), SLOT).unwrap();
+    dir
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+#[test]
+fn simulate_returns_typed_results_and_writes_nothing() {
+    let dir = job_dir();
+    let setup = dexcut::load(&dir.path().join("job.toml"), None).unwrap();
+    let sim = dexcut::simulate(&setup, false).unwrap();
+    // The tool enters at X-10 and leaves at X110: a straight slot 6 wide × 2 deep × 100 long.
+    let exact = 6.0 * 2.0 * 100.0;
+    assert!(
+        rel(sim.summary.removed_volume_mm3, exact) < 2e-3,
+        "removed {} vs {exact}",
+        sim.summary.removed_volume_mm3
+    );
+    let s = &sim.summary;
+    assert!((s.initial_volume_mm3 - 120_000.0).abs() < 1e-6);
+    assert!(
+        (s.initial_volume_mm3 - s.final_volume_mm3 - s.removed_volume_mm3).abs() < 1e-6 * 1.2e5
+    );
+    assert_eq!(sim.run.steps.len(), s.steps);
+    // simulate wrote nothing.
+    let mut names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["job.toml", "slot.nc"]);
+    // ... until asked.
+    let out = dir.path().join("files");
+    std::fs::create_dir(&out).unwrap();
+    sim.write_files(&out, true).unwrap();
+    for f in ["steps.csv", "columns.json", "columns.csv"] {
+        assert!(out.join(f).is_file(), "{f}");
+    }
+}
+
+#[test]
+fn optimize_report_and_summary_agree() {
+    let dir = job_dir();
+    let setup = dexcut::load(&dir.path().join("job.toml"), None).unwrap();
+    let out = dir.path().join("out");
+    let optimized = dexcut::optimize(&setup, &out, false).unwrap();
+    let doc = &optimized.summary;
+    // MRR of a full slot is width × depth × feed: 12 mm² × 20 mm/s = 240 mm³/s
+    // as given; under mrr_max = 20 the feed falls to 20/12 mm/s = 100 mm/min.
+    assert!(
+        rel(doc.before.peak_mrr_windowed_mm3_s, 240.0) < 0.02,
+        "{}",
+        doc.before.peak_mrr_windowed_mm3_s
+    );
+    assert!(
+        doc.after.peak_mrr_windowed_mm3_s <= 20.0 * 1.02,
+        "{}",
+        doc.after.peak_mrr_windowed_mm3_s
+    );
+    assert!(doc.after.cycle_time_s > doc.before.cycle_time_s);
+    assert_eq!(doc.limits.mrr_max_mm3_s, Some(20.0));
+    // The file says what the API returned, through the same types.
+    let SummaryDoc::Optimize(back) = summary::read(&out.join("summary.json")).unwrap() else {
+        panic!("not an optimize summary");
+    };
+    assert_eq!(back.after.cycle_time_s, doc.after.cycle_time_s);
+    assert_eq!(
+        back.before.removed_volume_mm3,
+        doc.before.removed_volume_mm3
+    );
+    assert_eq!(back.run_id, doc.run_id);
+    let files = dexcut::report(&out).unwrap();
+    for f in [&files.html, &files.error_map_png, &files.stock_glb] {
+        assert!(f.is_file(), "{}", f.display());
+    }
+    assert!(files.design_map_png.is_none());
+    let html = std::fs::read_to_string(&files.html).unwrap();
+    assert!(html.contains("slot.nc"));
+}
