@@ -322,7 +322,7 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
     check_grid(&grid, &summary_path)?;
     let (before_run, after_run, optimize) = match &summary {
         SummaryDoc::Simulate(s) => (&s.run, None, None),
-        SummaryDoc::Optimize(o) => (&o.before, Some(&o.after), Some(o)),
+        SummaryDoc::Optimize(o) => (&o.before, Some(&o.after), Some(o.as_ref())),
     };
     let optimized = optimize.is_some();
 

@@ -27,9 +27,9 @@ pub const SCHEMA_VERSION: u32 = 1;
 #[serde(tag = "command", rename_all = "lowercase")]
 pub enum SummaryDoc {
     /// Written by `simulate`.
-    Simulate(SimulateSummary),
+    Simulate(Box<SimulateSummary>),
     /// Written by `optimize`.
-    Optimize(OptimizeSummary),
+    Optimize(Box<OptimizeSummary>),
 }
 
 impl SummaryDoc {
