@@ -1,7 +1,10 @@
 //! Ball end: the swept ball is a capsule, its lower envelope a closed-form
 //! ray–capsule intersection, with a square-root-free skip bound.
 
-use super::{torus_edge, Edge, Envelope, EnvelopeHit, Prepared, ABOVE_MARGIN_MM, PLUNGE_H2};
+use super::{
+    torus_edge, torus_mean_inv_sin_k, Edge, Envelope, EnvelopeHit, Prepared, ABOVE_MARGIN_MM,
+    PLUNGE_H2,
+};
 
 pub(super) struct BallEnd {
     pub(super) r: f64,
@@ -81,6 +84,31 @@ impl Envelope for BallEnd {
     fn side(&self, h: f64) -> Edge {
         // The torus with ring 0 and corner radius R: r = √(h (2R − h)), sin κ = r / R.
         torus_edge(h, self.r, self.r, 0.0)
+    }
+
+    /// On a ball sin κ cos θ = √(r² − e²)/R and r² = R² − (R − h)², so
+    /// ∫ dh / (sin κ cos θ) = R asin((h − R)/a), a = √(R² − e²), up to the
+    /// equator; above it R/a per mm (MODEL.md §3.2).
+    #[inline]
+    fn mean_inv_side(&self, h_bot: f64, h_top: f64, e: f64) -> Option<f64> {
+        let r = self.r;
+        let (lo, hi) = (h_bot.max(0.0), h_top.max(0.0));
+        let span = hi - lo;
+        let a2 = r * r - e * e;
+        if span <= 1e-6 * r || a2 <= 0.0 {
+            return None;
+        }
+        let a = a2.sqrt();
+        let asin = |h: f64| ((h.min(r) - r) / a).clamp(-1.0, 1.0).asin();
+        let corner = r * (asin(hi) - asin(lo));
+        let flank = (hi - lo.max(r)).max(0.0) * r / a;
+        Some((corner + flank) / span)
+    }
+
+    #[inline]
+    fn mean_inv_sin_k(&self, h_bot: f64, h_top: f64) -> f64 {
+        torus_mean_inv_sin_k(h_bot, h_top, self.r)
+            .unwrap_or_else(|| self.side(h_top.max(0.0)).inv_sin_k)
     }
 
     #[inline]

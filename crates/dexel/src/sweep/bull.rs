@@ -1,7 +1,10 @@
 //! Bull nose (torus corner): the lower surface over a column is convex along
 //! the move, so a golden-section search finds its minimum.
 
-use super::{disc_interval, torus_edge, Edge, Envelope, EnvelopeHit, Prepared, Span, BOTTOM_MM};
+use super::{
+    disc_interval, torus_edge, torus_mean_inv_sin_k, Edge, Envelope, EnvelopeHit, Prepared, Span,
+    BOTTOM_MM,
+};
 
 pub(super) struct BullNose {
     pub(super) r: f64,
@@ -75,6 +78,12 @@ impl Envelope for BullNose {
     #[inline]
     fn side(&self, h: f64) -> Edge {
         torus_edge(h, self.r, self.rc, self.ring)
+    }
+
+    #[inline]
+    fn mean_inv_sin_k(&self, h_bot: f64, h_top: f64) -> f64 {
+        torus_mean_inv_sin_k(h_bot, h_top, self.rc)
+            .unwrap_or_else(|| self.side(h_top.max(0.0)).inv_sin_k)
     }
 
     #[inline]

@@ -365,6 +365,38 @@ trait Envelope: Sync {
     /// cos κ of the tool surface at height `h` ≥ 0 above the tip, where the
     /// lowest point of a removed piece lies (1 on a flat bottom).
     fn bottom_cos(&self, h: f64) -> f64;
+
+    /// Mean of 1/sin κ over the heights `[h_bot, h_top]` above the tip that a
+    /// piece was cut across (MODEL.md §3.2): each height is cut at its own
+    /// chip thickness L sin κ cos θ; 1/sin κ at `h_top` where κ does not vary.
+    #[inline]
+    fn mean_inv_sin_k(&self, _h_bot: f64, h_top: f64) -> f64 {
+        self.side(h_top).inv_sin_k
+    }
+
+    /// Mean of 1/(sin κ cos θ) over the heights `[h_bot, h_top]` of a column at
+    /// signed offset `e` from the move's line, where θ too varies with the
+    /// height (sin θ = e / r(h)); `None` where no closed form is used.
+    #[inline]
+    fn mean_inv_side(&self, _h_bot: f64, _h_top: f64, _e: f64) -> Option<f64> {
+        None
+    }
+}
+
+/// [`Envelope::mean_inv_sin_k`] of a torus corner of radius `rc` (a ball: rc =
+/// R) below its flank: with h = rc (1 − cos κ), ∫ dh / sin κ = rc dκ, so the
+/// mean over `[h_bot, h_top]` is rc Δκ / Δh on the corner plus 1 per mm of flank.
+#[inline]
+fn torus_mean_inv_sin_k(h_bot: f64, h_top: f64, rc: f64) -> Option<f64> {
+    let (lo, hi) = (h_bot.max(0.0), h_top.max(0.0));
+    let span = hi - lo;
+    if span <= 1e-6 * rc || lo >= rc {
+        return None;
+    }
+    let kappa = |h: f64| (1.0 - h.min(rc) / rc).clamp(-1.0, 1.0).acos();
+    let corner = rc * (kappa(hi) - kappa(lo));
+    let flank = (hi - rc).max(0.0);
+    Some((corner + flank) / span)
 }
 
 /// Heights above the tip below this (mm) count as the tool's flat bottom.

@@ -136,11 +136,8 @@ impl<E: Envelope> StripJob<'_, E> {
     /// heights `h_top` (its top before the cut) down to `h_bot` above the tip.
     #[inline]
     fn contact(&self, m: &Prepared, x: f64, y: f64, t: f64, h_top: f64, h_bot: f64) -> Contact {
-        let Edge {
-            r_mm,
-            inv_r,
-            inv_sin_k,
-        } = self.env.side(h_top.max(0.0));
+        let Edge { r_mm, inv_r, .. } = self.env.side(h_top.max(0.0));
+        let inv_sin_k = self.env.mean_inv_sin_k(h_bot, h_top);
         // 1/h of the floor and of the bottom's cut (descending moves only).
         let mut inv_h = m.inv_floor;
         if m.d[2] < 0.0 {
@@ -184,7 +181,12 @@ impl<E: Envelope> StripJob<'_, E> {
             let (lo, hi) = ((sin_t - half).max(-1.0), (sin_t + half).min(1.0));
             (hi.asin() - lo.asin()) / (2.0 * half)
         };
-        let inv_side = inv_cos * inv_sin_k * m.inv_len_xy;
+        // Away from the flank, a closed form over the piece's heights where the
+        // tool has one (a ball: κ and θ both vary with the height).
+        let inv_side = match self.env.mean_inv_side(h_bot, h_top, ux * wy - uy * wx) {
+            Some(mean) if 1.0 - sin_t.abs() > 4.0 * half => mean,
+            _ => inv_cos * inv_sin_k,
+        } * m.inv_len_xy;
         let side_cut = inv_side <= inv_h;
         inv_h = inv_h.min(inv_side);
         let shares = if self.smooth && side_cut {
