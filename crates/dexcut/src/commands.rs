@@ -44,6 +44,10 @@ pub struct Setup {
     pub design: Option<(PathBuf, mesh::DesignModel)>,
 }
 
+/// Most segments a program may have once its arcs are linearised (`arcs_as_lines`): the
+/// interpreter's own limit on moves.
+pub const MAX_LINEARISED_SEGMENTS: usize = 5_000_000;
+
 impl Setup {
     /// Load the job (with an optional grid override) and everything it names.
     pub fn load(job_path: &Path, grid_mm: Option<f64>) -> Result<Setup> {
@@ -64,7 +68,19 @@ impl Setup {
         if let Some(path) = settings {
             crate::evaluate::Settings::load(path)?.apply(&mut job, path)?;
         }
-        let program = program::load(&job)?;
+        let mut program = program::load(&job)?;
+        if let (true, Some(tb)) = (job.machine.arcs_as_lines, job.machine.block_time_ms) {
+            // MODEL.md §6.2 (S0): the control reads each arc as chords within the chord
+            // tolerance of its feed and block time.
+            program.path = schedule::linearise_arcs(&program.path, tb, 1.0);
+            if program.path.segments.len() > MAX_LINEARISED_SEGMENTS {
+                bail!(
+                    "{}: machine.arcs_as_lines writes the arcs as {} blocks, more than {MAX_LINEARISED_SEGMENTS}",
+                    job.name,
+                    program.path.segments.len()
+                );
+            }
+        }
         let tools = ToolSet::from_job(&job, &program)?;
         // Every move's tool is in the table (an error names the line).
         tools.indices(program.path.segments.iter().map(|s| (s.tool, s.line)))?;
@@ -657,6 +673,9 @@ pub fn optimize(
     let (setup, out_dir) = match job_path {
         Some(p) => {
             let setup = Setup::load_with(p, grid_mm, settings)?;
+            if setup.job.machine.arcs_as_lines {
+                bail!("{}: machine.arcs_as_lines is for simulate and evaluate: optimize re-feeds the program's own blocks and writes arcs as G2/G3", setup.job.name);
+            }
             let mut inputs = setup.input_files(p);
             inputs.extend(settings.map(Path::to_path_buf));
             let out_dir = OutDir::begin(out, &inputs, force)?;

@@ -209,6 +209,10 @@ pub struct MachineSpec {
     pub jerk: Option<[f64; 3]>,
     /// Block processing time of the control, ms (S0); none by default.
     pub block_time_ms: Option<f64>,
+    /// The control runs each feed arc as straight blocks, linearised within S0's chord
+    /// tolerance for its feed and `block_time_ms` (MODEL.md §6.2); off by default.
+    #[serde(default)]
+    pub arcs_as_lines: bool,
     /// Tool-tip position (x, y, z), mm, machine frame, when the program
     /// starts. Default: above the program's first point, at the highest Z
     /// the program reaches, so the first move is a straight rapid down.
@@ -237,6 +241,7 @@ impl Default for MachineSpec {
             accel: default_accel(),
             jerk: None,
             block_time_ms: None,
+            arcs_as_lines: false,
             start: None,
         }
     }
@@ -611,6 +616,9 @@ impl Job {
             for v in j {
                 range("machine.jerk (mm/s³)", v, 1e-3, 1e12)?;
             }
+        }
+        if m.arcs_as_lines && m.block_time_ms.is_none() {
+            bail!("machine.arcs_as_lines needs machine.block_time_ms (ms), the time the control takes per block (S0)");
         }
         if let Some(b) = m.block_time_ms {
             range("machine.block_time_ms", b, f64::MIN_POSITIVE, 1000.0)?;

@@ -20,7 +20,9 @@ mod stations;
 
 pub use machine::{Machine, ScheduleError};
 pub use plan::{axis_velocity_mm_s, plan, Profile, ServoSample, MAX_SAMPLES};
-pub use rules::{angle_rule_feed_mm_min, block_feed_cap_mm_min, chord_tolerance_mm};
+pub use rules::{
+    angle_rule_feed_mm_min, block_feed_cap_mm_min, chord_count, chord_tolerance_mm, linearise_arcs,
+};
 pub use stations::{
     lower_bound_time_s, rest_to_rest_time_s, station_count, CapKind, FeedPolicy, Stations, Stop,
     BYTES_PER_STATION, MAX_STATIONS,

@@ -20,6 +20,54 @@ pub fn chord_tolerance_mm(radius_mm: f64, feed_mm_min: f64, block_time_ms: f64, 
     ce.max(CHORD_TOLERANCE_FLOOR_MM)
 }
 
+/// S0: how many equal chords an arc of radius `radius_mm` sweeping `sweep_rad` is written
+/// as, for chord tolerance `chord_tolerance_mm` (from [`chord_tolerance_mm`]). MODEL.md §6.2:
+/// the most chords whose sagitta is still at least the tolerance, `⌊sweep / θ⌋` with
+/// `θ = 2·acos(1 − Ce/r)` the angle of one chord on the chord-error surface, so each block is
+/// at least `kf·F·Tb/60000` long and the control reads the next in time. At least 1.
+pub fn chord_count(radius_mm: f64, sweep_rad: f64, chord_tolerance_mm: f64) -> usize {
+    let ratio = (1.0 - chord_tolerance_mm / radius_mm).clamp(-1.0, 1.0);
+    let theta = 2.0 * ratio.acos();
+    if !(theta > 0.0) {
+        return 1;
+    }
+    // A hair of slack so that an exact multiple is not lost to rounding.
+    ((sweep_rad / theta) * (1.0 + 1e-12)).floor().max(1.0) as usize
+}
+
+/// S0: the path with every feed arc written as equal chords within S0's chord tolerance
+/// for its programmed feed (MODEL.md §6.2, [`chord_count`]), as a CAM or a control
+/// without arc interpolation would run it. Other segments are kept.
+pub fn linearise_arcs(path: &nc::Path, block_time_ms: f64, kf: f64) -> nc::Path {
+    let mut segments = Vec::with_capacity(path.segments.len());
+    for seg in &path.segments {
+        match (seg.geometry, seg.motion) {
+            (nc::Geometry::Arc { sweep_rad, .. }, nc::Motion::Feed { feed_mm_min }) => {
+                let r = seg.radius_mm();
+                let ce = chord_tolerance_mm(r, feed_mm_min, block_time_ms, kf);
+                let n = chord_count(r, sweep_rad, ce);
+                let mut from = seg.start;
+                for i in 1..=n {
+                    let to = if i == n {
+                        seg.end
+                    } else {
+                        seg.point_at_fraction(i as f64 / n as f64)
+                    };
+                    segments.push(nc::Segment {
+                        start: from,
+                        end: to,
+                        geometry: nc::Geometry::Line,
+                        ..*seg
+                    });
+                    from = to;
+                }
+            }
+            _ => segments.push(*seg),
+        }
+    }
+    nc::Path { segments }
+}
+
 /// S0 feed cap in mm/min of a block of length `len_mm` when each block takes
 /// `block_time_ms` to process.
 pub fn block_feed_cap_mm_min(len_mm: f64, block_time_ms: f64) -> f64 {

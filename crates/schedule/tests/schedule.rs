@@ -915,25 +915,74 @@ fn polygon(r_mm: f64, sides: usize, feed_mm_min: f64) -> Vec<Segment> {
         .collect()
 }
 
+/// S0's experiment (JP 2019-148931 A, case 1 and case 2): a circle of r = 50 mm at
+/// F = 10 000 mm/min on a control with Tb = 4 ms. The chord tolerance on the chord-error
+/// surface is 0.00111 mm, the circle then has 471 chords ("about 471-gon"); the usual
+/// 0.01 mm gives 157 ("about 157-gon"). The 471-gon's blocks are just long enough
+/// (block cap ≥ F, a 472-gon's is not).
 #[test]
-#[ignore = "exploration"]
-fn s0_polygons_explore() {
-    for accel in [300.0, 500.0, 700.0, 1000.0, 1500.0, 2000.0, 3000.0] {
-        for sides in [157usize, 471] {
-            let machine = Machine {
-                feed_max_mm_min: 10000.0,
-                accel_mm_s2: [accel; 3],
-                block_time_ms: Some(4.0),
-                ..Machine::default()
-            };
-            let st = stations(polygon(50.0, sides, 10000.0), &machine, 0.05);
-            let profile = plan(&st);
-            let len = *st.s_mm().last().unwrap();
-            let vmax = profile.speed_mm_s().iter().copied().fold(0.0, f64::max) * 60.0;
-            println!(
-                "a {accel} sides {sides}: mean {:.0} mm/min, top {vmax:.0}",
-                60.0 * len / profile.cycle_time_s()
-            );
+fn s0_experiment_polygons_are_reproduced() {
+    let (r, f, tb) = (50.0, 10_000.0, 4.0);
+    let ce = chord_tolerance_mm(r, f, tb, 1.0);
+    close(ce, 50.0 - (2500.0f64 - 16.0 * 1e8 / 1.44e10).sqrt(), 1e-15);
+    close(ce, 0.00111, 5e-6);
+    assert_eq!(chord_count(r, 2.0 * PI, 0.01), 157);
+    assert_eq!(chord_count(r, 2.0 * PI, ce), 471);
+    let cap = |n: f64| block_feed_cap_mm_min(2.0 * r * (PI / n).sin(), tb);
+    assert!(
+        cap(471.0) >= f && cap(472.0) < f,
+        "{} {}",
+        cap(471.0),
+        cap(472.0)
+    );
+    // The 157-gon's 2 mm blocks could be read at three times the feed.
+    close(cap(157.0), 60000.0 * 100.0 * (PI / 157.0).sin() / 4.0, 1e-9);
+    assert!(cap(157.0) > 2.9 * f);
+}
+
+/// Cruise speed (mm/min) of a planned path: the highest speed, on a machine whose axes
+/// are quick enough (1e5 mm/s²) that only feeds and block times bind.
+fn cruise_mm_min(segments: Vec<Segment>, block_time_ms: f64) -> f64 {
+    let machine = Machine {
+        feed_max_mm_min: 10_000.0,
+        accel_mm_s2: [1e5; 3],
+        block_time_ms: Some(block_time_ms),
+        ..Machine::default()
+    };
+    let st = stations(segments, &machine, 0.05);
+    plan(&st).speed_mm_s().iter().copied().fold(0.0, f64::max) * 60.0
+}
+
+/// S0 wired into planning: a block of length Lb is read in Tb, so F ≤ 60000·Lb/Tb.
+/// With Tb = 4 ms both of S0's polygons cruise at F = 10 000 (the 471-gon's cap is
+/// 10 004.9). With Tb = 12 ms the 471-gon's 0.667 mm blocks starve the control at
+/// 60000·Lb/12 = 3 335 mm/min while the 157-gon still runs at F; the arc linearised
+/// by S0 for Tb = 12 ms has exactly 157 chords (2 mm blocks) and runs at F; for
+/// Tb = 4 ms, 471 chords at F.
+#[test]
+fn s0_block_time_limits_the_finer_polygon() {
+    let f = 10_000.0;
+    close(cruise_mm_min(polygon(50.0, 157, f), 4.0), f, 1e-6);
+    close(cruise_mm_min(polygon(50.0, 471, f), 4.0), f, 1e-6);
+    close(cruise_mm_min(polygon(50.0, 157, f), 12.0), f, 1e-6);
+    let lb = 100.0 * (PI / 471.0).sin();
+    close(
+        cruise_mm_min(polygon(50.0, 471, f), 12.0),
+        60000.0 * lb / 12.0,
+        1e-6,
+    );
+    for (tb, sides) in [(12.0, 157), (4.0, 471)] {
+        let lines = linearise_arcs(&path(vec![circle(50.0, f)]), tb, 1.0);
+        assert_eq!(lines.segments.len(), sides);
+        let chord = 100.0 * (PI / sides as f64).sin();
+        for seg in &lines.segments {
+            assert_eq!(seg.geometry, Geometry::Line);
+            close((seg.end - seg.start).norm(), chord, 1e-9);
+            // Chord ends lie on the circle.
+            close(seg.end.coords.norm(), 50.0, 1e-9);
         }
+        // Each block is at least as long as the control needs at F (kf = 1).
+        assert!(chord >= f * tb / 60000.0 - 1e-12);
+        close(cruise_mm_min(lines.segments, tb), f, 1e-6);
     }
 }
