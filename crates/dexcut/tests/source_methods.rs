@@ -192,3 +192,37 @@ fn s3_slope_of_45_degrees_runs_at_half_the_programmed_feed() {
         }
     }
 }
+
+/// The jerk-limited planner against its lower bound (MODEL.md §6.1) on the two example
+/// programs as written, jerk 20 000 mm/s³: `cargo test --release -p dexcut --test
+/// source_methods jerk_gap -- --ignored --nocapture`.
+#[test]
+#[ignore = "measurement; run with --ignored --nocapture"]
+fn jerk_gap_on_the_examples() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    for job in [
+        "examples/boss_contour/job.toml",
+        "examples/3d_chips/job.toml",
+    ] {
+        let setup = Setup::load(&root.join(job), None).unwrap();
+        for jerk_mm_s3 in [None, Some([20_000.0; 3])] {
+            let machine = schedule::Machine {
+                jerk_mm_s3,
+                ..setup.machine
+            };
+            let st = schedule::Stations::new(
+                &setup.program.path,
+                &machine,
+                dexcut::motion::STATION_DS_MM,
+                schedule::FeedPolicy::Programmed,
+            )
+            .unwrap();
+            let cycle = schedule::plan(&st).cycle_time_s();
+            let bound = schedule::lower_bound_time_s(&st);
+            println!(
+            "{job}, jerk {jerk_mm_s3:?}: cycle {cycle:.4} s, lower bound {bound:.4} s, gap {:.2} %",
+            100.0 * (cycle / bound - 1.0)
+        );
+        }
+    }
+}
