@@ -213,7 +213,7 @@ fn jerk_gap_on_the_examples() {
             let st = schedule::Stations::new(
                 &setup.program.path,
                 &machine,
-                dexcut::motion::STATION_DS_MM,
+                0.05, // the planner's station spacing (motion::STATION_DS_MM)
                 schedule::FeedPolicy::Programmed,
             )
             .unwrap();
