@@ -86,10 +86,8 @@ impl Setup {
         tools.indices(program.path.segments.iter().map(|s| (s.tool, s.line)))?;
         let first = tools.entry(program.path.segments.first().map_or(1, |s| s.tool));
         let (tool, model) = (first.tool, first.model);
+        // Checked with the job (Job::validate, through schedule::MACHINE_RANGES).
         let machine = motion::machine(&job);
-        machine
-            .validate()
-            .with_context(|| format!("{}: invalid [machine]", job.name))?;
         if program.gcode.is_some() {
             // Stations and samples are bounded before planning (2 runs: optimize's before and after).
             let estimate =
@@ -135,6 +133,52 @@ impl Setup {
             machine,
             design,
         })
+    }
+
+    /// Material, tools, machine and limits, as summary.json records them.
+    pub fn info(&self) -> crate::summary::SetupInfo {
+        let l = &self.job.limits;
+        let limits = [
+            ("mrr_max", l.mrr_max, "mm³/s"),
+            ("force_max", l.force_max, "N"),
+            ("deflection_max_um", l.deflection_max_um, "µm"),
+            ("power_max_kw", l.power_max_kw, "kW"),
+            ("feed_min", l.feed_min, "mm/min"),
+            ("feed_max", l.feed_max, "mm/min"),
+            ("feed_scale_max", l.feed_scale_max, "×"),
+        ]
+        .into_iter()
+        .filter_map(|(k, v, u)| v.map(|v| (k.to_string(), v, u.to_string())))
+        .collect();
+        crate::summary::SetupInfo {
+            material: self.job.cutting.material.clone(),
+            spindle_rpm: self.model.spindle_rpm,
+            tools: self
+                .tools
+                .entries
+                .iter()
+                .map(|e| crate::summary::ToolInfo {
+                    number: e.number,
+                    shape: match e.tool.shape {
+                        dexel::ToolShape::Ball => "ball".into(),
+                        dexel::ToolShape::Flat => "flat".into(),
+                        dexel::ToolShape::Bull { corner_radius_mm } => {
+                            format!("bull r={corner_radius_mm}")
+                        }
+                    },
+                    diameter_mm: e.tool.diameter_mm,
+                    flutes: e.tool.flutes,
+                    stickout_mm: e.tool.stickout_mm,
+                    fz_max_mm: e.fz_max_mm,
+                })
+                .collect(),
+            period_ms: self.machine.period_ms,
+            feed_max_mm_min: self.machine.feed_max_mm_min,
+            rapid_mm_min: self.machine.rapid_mm_min,
+            accel_mm_s2: self.machine.accel_mm_s2,
+            jerk_mm_s3: self.machine.jerk_mm_s3,
+            limits,
+        }
     }
 
     /// Every file the run reads: the job, its program, stock mesh and design model.
@@ -422,6 +466,9 @@ pub struct SimulateSummary {
     pub grid: GridInfo,
     /// The final surface against the `[design]` model.
     pub design: Option<DesignInfo>,
+    /// Material, tools, machine and limits of the job.
+    #[serde(default)]
+    pub setup: Option<crate::summary::SetupInfo>,
     /// Wall time of the command, s.
     pub run_time_s: f64,
     /// The run that wrote the folder (as in manifest.json).
@@ -559,6 +606,7 @@ pub fn simulate(
         program: setup.program.file.clone(),
         grid: GridInfo::of(sim.run.stock.grid()),
         design: sim.design.as_ref().map(|d| d.1.clone()),
+        setup: Some(setup.info()),
         run_time_s: started.elapsed().as_secs_f64(),
         run_id: out_dir.run_id(),
     };
@@ -627,6 +675,9 @@ pub struct OptimizeSummary {
     pub fz_max_mm: Option<f64>,
     /// The final surface against the `[design]` model.
     pub design: Option<DesignInfo>,
+    /// Material, tools, machine and limits of the job.
+    #[serde(default)]
+    pub setup: Option<crate::summary::SetupInfo>,
     /// Wall time of the command, s.
     pub run_time_s: f64,
     /// Wall time of the engagement sweep, s.
@@ -875,6 +926,7 @@ pub fn optimize_setup(
         stations: stations.len(),
         station_spacing_mm: motion::STATION_DS_MM,
         design,
+        setup: Some(setup.info()),
         run_time_s: started.elapsed().as_secs_f64(),
         time_engagement_s,
         time_plan_s,

@@ -606,22 +606,38 @@ impl Job {
             }
         }
         let m = &self.machine;
-        range("machine.period_ms", m.period_ms, 0.01, 1000.0)?;
-        feed_opt("machine.feed_max (mm/min)", Some(m.feed_max))?;
-        feed_opt("machine.rapid (mm/min)", Some(m.rapid))?;
-        for a in m.accel {
-            range("machine.accel (mm/s²)", a, 1e-3, 1e8)?;
-        }
-        if let Some(j) = m.jerk {
-            for v in j {
-                range("machine.jerk (mm/s³)", v, 1e-3, 1e12)?;
+        // The machine model's own check (schedule::MACHINE_RANGES), told in job keys.
+        if let Err(e) = crate::motion::machine(self).validate() {
+            let (name, value, lo, hi) = match e {
+                schedule::ScheduleError::MachineOutOfRange {
+                    name,
+                    value,
+                    lo,
+                    hi,
+                } => (name, value, lo, hi),
+                schedule::ScheduleError::InvalidMachine { name, value } => {
+                    (name, value, f64::NAN, f64::NAN)
+                }
+                e => bail!("invalid [machine]: {e}"),
+            };
+            let key = match name {
+                "period_ms" => "machine.period_ms",
+                "feed_max_mm_min" => "machine.feed_max (mm/min)",
+                "rapid_mm_min" => "machine.rapid (mm/min)",
+                "accel_mm_s2" => "machine.accel (mm/s²)",
+                "jerk_mm_s3" => "machine.jerk (mm/s³)",
+                "block_time_ms" => "machine.block_time_ms",
+                other => other,
+            };
+            if lo.is_nan() {
+                // Not a finite positive number.
+                positive_opt(key, Some(value), f64::INFINITY)?;
+                bail!("{key} must be a finite number, got {value}");
             }
+            range(key, value, lo, hi)?;
         }
         if m.arcs_as_lines && m.block_time_ms.is_none() {
             bail!("machine.arcs_as_lines needs machine.block_time_ms (ms), the time the control takes per block (S0)");
-        }
-        if let Some(b) = m.block_time_ms {
-            range("machine.block_time_ms", b, f64::MIN_POSITIVE, 1000.0)?;
         }
         if let Some(p) = m.start {
             coordinates("machine.start (mm)", &p)?;
@@ -834,6 +850,47 @@ feed = 1000
         assert_eq!(job.machine.period_ms, 16.0);
         assert_eq!(job.resolve(&job.program.path), PathBuf::from("/jobs/p.csv"));
         assert_eq!(job.tool().unwrap().flute_length_mm, 12.0);
+    }
+
+    /// `[machine]` is checked once, by the machine model's own table
+    /// (`schedule::MACHINE_RANGES`): every range it names is refused beyond
+    /// either end under its job key, and accepted at its ends.
+    #[test]
+    fn machine_ranges_come_from_the_machine_model() {
+        for (name, lo, hi) in schedule::MACHINE_RANGES {
+            let (key, shown) = match name {
+                "period_ms" => ("period_ms", "machine.period_ms"),
+                "feed_max_mm_min" => ("feed_max", "machine.feed_max (mm/min)"),
+                "rapid_mm_min" => ("rapid", "machine.rapid (mm/min)"),
+                "accel_mm_s2" => ("accel", "machine.accel (mm/s²)"),
+                "jerk_mm_s3" => ("jerk", "machine.jerk (mm/s³)"),
+                "block_time_ms" => ("block_time_ms", "machine.block_time_ms"),
+                other => panic!("no job key for {other}"),
+            };
+            let job_with = |v: f64| {
+                let value = if matches!(key, "accel" | "jerk") {
+                    format!("[{v:e}, {v:e}, {v:e}]")
+                } else {
+                    format!("{v:e}")
+                };
+                let text = MINIMAL.replace(
+                    "[program]",
+                    &format!("[machine]\n{key} = {value}\n[program]"),
+                );
+                Job::parse(&text, "job.toml", Path::new("."))
+            };
+            for v in [hi * 10.0, lo / 10.0] {
+                let e = format!("{:#}", job_with(v).unwrap_err());
+                assert!(
+                    e.contains(&format!("{shown} must lie in")),
+                    "{name} = {v}: {e}"
+                );
+            }
+            if lo > 1e-300 {
+                job_with(lo).unwrap_or_else(|e| panic!("{name} = {lo}: {e:#}"));
+            }
+            job_with(hi).unwrap_or_else(|e| panic!("{name} = {hi}: {e:#}"));
+        }
     }
 
     #[test]

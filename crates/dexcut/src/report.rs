@@ -6,7 +6,8 @@ use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 use export::{
-    HeatMapStyle, HeightField, PlotGroup, Report, ReportImage, ScalarMap, Series, SummaryRow,
+    HeatMapStyle, HeightField, HotSpot, PlotGroup, ProgramExcerpt, Report, ReportImage, ScalarMap,
+    Series, SummaryRow,
 };
 
 use crate::simulate::{GridInfo, Summary, ToolPeaks};
@@ -174,6 +175,172 @@ const STEP_COLUMNS: [&str; 5] = [
     "deflection_um",
 ];
 
+/// Optional step columns the hot spots need (position, program line, rapid).
+const STEP_PLACES: [&str; 4] = ["x", "y", "line", "rapid"];
+
+/// Vertices of the stock embedded in report.html (stock.glb keeps 250 000).
+const PAGE_GLB_VERTICES: usize = 40_000;
+
+/// The steps of the largest force, deflection and MRR per period, the deepest
+/// gouge and the warnings' lines: what a process engineer looks at first.
+fn hot_spots(
+    cols: &HashMap<String, Vec<f64>>,
+    run: &Summary,
+    design: Option<&crate::summary::DesignInfo>,
+) -> Vec<HotSpot> {
+    let col = |k: &str| cols.get(k).map(Vec::as_slice).unwrap_or(&[]);
+    let at = |i: usize| {
+        let get = |k: &str| col(k).get(i).copied().filter(|v| v.is_finite());
+        (
+            get("line").map(|l| l as u32),
+            get("t_s"),
+            get("x").zip(get("y")).map(|(x, y)| [x, y]),
+        )
+    };
+    let mut spots = Vec::new();
+    for (what, key, unit, d) in [
+        ("largest force", "force_n", "N", 1),
+        ("largest deflection", "deflection_um", "µm", 1),
+        ("largest MRR per period", "mrr_mm3_s", "mm³/s", 2),
+    ] {
+        let worst = col(key)
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| v.is_finite() && **v > 0.0)
+            .max_by(|a, b| a.1.total_cmp(b.1));
+        if let Some((i, v)) = worst {
+            let (line, t_s, xy_mm) = at(i);
+            spots.push(HotSpot {
+                what: what.into(),
+                value: format!("{v:.d$} {unit}"),
+                line,
+                t_s,
+                xy_mm,
+            });
+        }
+    }
+    if let Some(d) = design.filter(|d| d.worst_gouge_um < 0.0) {
+        spots.push(HotSpot {
+            what: "deepest gouge".into(),
+            value: format!("{:.1} µm", d.worst_gouge_um),
+            line: d.worst_gouge_line,
+            t_s: None,
+            xy_mm: d.worst_gouge_xy_mm,
+        });
+    }
+    // Warnings at a program line: where the line's first step is.
+    let lines = col("line");
+    for w in run.warnings.iter().take(MAX_WARNING_SPOTS) {
+        let Some(l) = w.line else { continue };
+        let first = lines.iter().position(|&v| v == f64::from(l));
+        let (t_s, xy_mm) = first.map_or((None, None), |i| {
+            let (_, t, xy) = at(i);
+            (t, xy)
+        });
+        spots.push(HotSpot {
+            what: format!("warning: {}", w.message),
+            value: if w.value.is_finite() {
+                format!("{:.1} {}", w.value, w.unit)
+            } else {
+                "–".into()
+            },
+            line: Some(l),
+            t_s,
+            xy_mm,
+        });
+    }
+    spots
+}
+
+/// Warnings listed among the hot spots (all are in the notes).
+const MAX_WARNING_SPOTS: usize = 8;
+
+/// Program lines around each hot spot's line (2 either side), read from the
+/// program the steps belong to: optimized.nc for `optimize`, the job's program
+/// for `simulate`. None if that file cannot be read any more.
+fn program_excerpt(dir: &Path, summary: &SummaryDoc, spots: &[HotSpot]) -> Option<ProgramExcerpt> {
+    let file = match summary {
+        SummaryDoc::Optimize(_) => dir.join("optimized.nc"),
+        SummaryDoc::Simulate(s) => std::path::PathBuf::from(&s.program),
+    };
+    let text = crate::bounds::read_text(&file, "program", crate::bounds::MAX_PROGRAM_BYTES).ok()?;
+    let wanted: std::collections::BTreeSet<u32> = spots
+        .iter()
+        .filter_map(|s| s.line)
+        .flat_map(|l| l.saturating_sub(2).max(1)..=l + 2)
+        .collect();
+    let lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, t)| (i as u32 + 1, t))
+        .filter(|(n, _)| wanted.contains(n))
+        .map(|(n, t)| (n, t.chars().take(200).collect()))
+        .collect();
+    Some(ProgramExcerpt {
+        file: file.display().to_string(),
+        lines,
+    })
+}
+
+/// The set-up table: job, program, material, tools, machine, limits.
+fn setup_rows(summary: &SummaryDoc) -> Vec<(String, String)> {
+    let (job, program, setup) = match summary {
+        SummaryDoc::Simulate(s) => (&s.job, &s.program, s.setup.as_ref()),
+        SummaryDoc::Optimize(o) => (&o.job, &o.program, o.setup.as_ref()),
+    };
+    let mut rows = vec![
+        ("job".to_string(), job.clone()),
+        ("program".to_string(), program.clone()),
+    ];
+    let Some(s) = setup else {
+        return rows;
+    };
+    rows.push((
+        "material".into(),
+        format!("{}, spindle {} rev/min", s.material, s.spindle_rpm),
+    ));
+    for t in &s.tools {
+        rows.push((
+            format!("tool T{}", t.number),
+            format!(
+                "{} Ø{} mm, {} flutes, stickout {} mm{}",
+                t.shape,
+                t.diameter_mm,
+                t.flutes,
+                t.stickout_mm,
+                t.fz_max_mm
+                    .map_or(String::new(), |f| format!(", fz_max {f} mm/tooth"))
+            ),
+        ));
+    }
+    let axes = |v: [f64; 3]| format!("{} / {} / {}", v[0], v[1], v[2]);
+    rows.push((
+        "machine".into(),
+        format!(
+            "servo period {} ms, feed_max {} mm/min, rapid {} mm/min, accel X/Y/Z {} mm/s²{}",
+            s.period_ms,
+            s.feed_max_mm_min,
+            s.rapid_mm_min,
+            axes(s.accel_mm_s2),
+            s.jerk_mm_s3
+                .map_or(String::new(), |j| format!(", jerk {} mm/s³", axes(j)))
+        ),
+    ));
+    rows.push((
+        "limits".into(),
+        if s.limits.is_empty() {
+            "none".into()
+        } else {
+            s.limits
+                .iter()
+                .map(|(k, v, u)| format!("{k} {v} {u}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        },
+    ));
+    rows
+}
+
 /// A summary row: label, unit, decimals and the value it shows.
 type Row<T> = (&'static str, &'static str, usize, fn(&T) -> f64);
 
@@ -327,12 +494,12 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
     let optimized = optimize.is_some();
 
     // Time series.
-    let after_cols = read_csv_columns(&dir.join("steps.csv"), &STEP_COLUMNS, &[])?;
+    let after_cols = read_csv_columns(&dir.join("steps.csv"), &STEP_COLUMNS, &STEP_PLACES)?;
     let before_cols = if optimized {
         Some(read_csv_columns(
             &dir.join("steps_before.csv"),
             &STEP_COLUMNS,
-            &[],
+            &STEP_PLACES,
         )?)
     } else {
         None
@@ -359,6 +526,47 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
         }
         group
     };
+    // Feed: cutting moves and rapids apart (a rapid's feed is the machine's, not the program's).
+    let feed_plot = {
+        let mut group = plot("Feed (rapids apart)", "feed", "mm/min", "feed_mm_min", None);
+        let mut split = Vec::new();
+        for (s, cols) in group.series.drain(..).zip(
+            [before_cols.as_ref(), Some(&after_cols)]
+                .into_iter()
+                .flatten(),
+        ) {
+            let rapid = cols.get("rapid");
+            let pick = |want_rapid: bool| -> Vec<f64> {
+                s.values
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &v)| {
+                        let is_rapid = rapid.and_then(|r| r.get(i)).is_some_and(|&r| r > 0.5);
+                        if is_rapid == want_rapid {
+                            v
+                        } else {
+                            f64::NAN
+                        }
+                    })
+                    .collect()
+            };
+            let any_rapid = rapid.is_some_and(|r| r.iter().any(|&v| v > 0.5));
+            split.push(Series {
+                name: s.name.clone(),
+                values: pick(false),
+                ..s.clone()
+            });
+            if any_rapid {
+                split.push(Series {
+                    name: format!("{} G0", s.name),
+                    values: pick(true),
+                    ..s
+                });
+            }
+        }
+        group.series = split;
+        group
+    };
     let plots = vec![
         plot(
             "Material removal rate",
@@ -367,7 +575,7 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
             "mrr_mm3_s",
             limits.and_then(|l| l.mrr_max_mm3_s),
         ),
-        plot("Feed", "feed", "mm/min", "feed_mm_min", None),
+        feed_plot,
         plot(
             "Cutting force",
             "force",
@@ -392,20 +600,22 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
         values: maps.get("error_um").cloned().unwrap_or_default(),
         unit: "µm".into(),
     };
+    // Titles are the page's captions, not the image's bitmap font.
     let error_style = HeatMapStyle {
-        title: "Predicted error (+ material left)".into(),
+        title: String::new(),
         unit: "µm".into(),
         symmetric: true,
         range: None,
     };
     let mut images = Vec::new();
     let mut design_map_png = None;
-    let error_png = export::heat_map_png_bytes(&error, &error_style)?;
+    let (error_png, error_frame) = export::heat_map_png_framed(&error, &error_style)?;
     export::atomic::write_bytes(&dir.join("error_map.png"), &error_png)
         .context("cannot write error_map.png")?;
     images.push(ReportImage {
         name: "Predicted shape error from tool deflection (µm, positive = material left)".into(),
         png: error_png,
+        frame: Some(error_frame),
     });
     if let Some(design) = maps
         .get("design_um")
@@ -417,18 +627,19 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
             unit: "µm".into(),
         };
         let style = HeatMapStyle {
-            title: "Distance to design (+ stock left, - gouge)".into(),
+            title: String::new(),
             unit: "µm".into(),
             symmetric: true,
             range: None,
         };
-        let png = export::heat_map_png_bytes(&map, &style)?;
+        let (png, frame) = export::heat_map_png_framed(&map, &style)?;
         export::atomic::write_bytes(&dir.join("design_map.png"), &png)
             .context("cannot write design_map.png")?;
         design_map_png = Some(dir.join("design_map.png"));
         images.push(ReportImage {
             name: "Final surface against the design model (µm)".into(),
             png,
+            frame: Some(frame),
         });
     }
     let height = HeightField {
@@ -442,6 +653,15 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
     };
     let (glb, _) = export::stock_glb_bytes(&height, Some(&error), &glb_options)?;
     export::atomic::write_bytes(&dir.join("stock.glb"), &glb).context("cannot write stock.glb")?;
+    // The page embeds a lighter stock so it stays under 3 MB; stock.glb keeps the detail.
+    let (page_glb, _) = export::stock_glb_bytes(
+        &height,
+        Some(&error),
+        &export::GlbOptions {
+            max_vertices: PAGE_GLB_VERTICES,
+            ..export::GlbOptions::default()
+        },
+    )?;
 
     // Summary table and notes.
     let mut rows: Vec<SummaryRow> = ROWS
@@ -539,12 +759,21 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
         },
         summary.program()
     );
+    let hot_spots = hot_spots(
+        &after_cols,
+        after_run.unwrap_or(before_run),
+        summary.design(),
+    );
+    let program = program_excerpt(dir, &summary, &hot_spots);
     let report = Report {
         title,
+        setup: setup_rows(&summary),
+        hot_spots,
+        program,
         summary: rows,
         plots,
         images,
-        glb: Some(glb),
+        glb: Some(page_glb),
         notes,
     };
     export::write_report_html(&dir.join("report.html"), &report)?;

@@ -19,6 +19,46 @@ pub use crate::optimize::CapShare;
 pub use crate::simulate::{GridInfo, Summary, ToolPeaks};
 pub use crate::warnings::{Warning, WarningKind, Warnings};
 
+/// The set-up a run used, for the report's set-up table.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct SetupInfo {
+    /// Workpiece material (`[cutting] material`).
+    pub material: String,
+    /// Spindle speed, rev/min.
+    pub spindle_rpm: f64,
+    /// The tools, in table order.
+    pub tools: Vec<ToolInfo>,
+    /// Servo period, ms.
+    pub period_ms: f64,
+    /// Highest programmable feed, mm/min.
+    pub feed_max_mm_min: f64,
+    /// Rapid feed, mm/min.
+    pub rapid_mm_min: f64,
+    /// Axis accelerations X, Y, Z, mm/s².
+    pub accel_mm_s2: [f64; 3],
+    /// Axis jerks X, Y, Z, mm/s³, if limited.
+    pub jerk_mm_s3: Option<[f64; 3]>,
+    /// The job's `[limits]` (what optimize holds to; simulate only reports).
+    pub limits: Vec<(String, f64, String)>,
+}
+
+/// One tool of the set-up.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ToolInfo {
+    /// T number.
+    pub number: u32,
+    /// `"ball"`, `"flat"` or `"bull r=R"`.
+    pub shape: String,
+    /// Diameter, mm.
+    pub diameter_mm: f64,
+    /// Flutes.
+    pub flutes: u32,
+    /// Holder face to tip, mm.
+    pub stickout_mm: f64,
+    /// Largest feed per tooth, mm/tooth, if capped.
+    pub fz_max_mm: Option<f64>,
+}
+
 /// The version of summary.json this build writes and reads.
 pub const SCHEMA_VERSION: u32 = 1;
 
@@ -238,6 +278,11 @@ mod tests {
                 }],
                 uncut_stock_columns: 0,
             }),
+            setup: Some(SetupInfo {
+                material: "al6061".into(),
+                limits: vec![("mrr_max".into(), 8.0, "mm³/s".into())],
+                ..SetupInfo::default()
+            }),
             run_time_s: 0.5,
             run_id: "abc".into(),
         };
@@ -262,6 +307,9 @@ mod tests {
         assert_eq!(back.grid.nx, 20);
         assert_eq!(back.design.unwrap().lines[0].kind, DeviationKind::Gouge);
         assert_eq!(back.run_id, "abc");
+        let setup = back.setup.unwrap();
+        assert_eq!(setup.material, "al6061");
+        assert_eq!(setup.limits[0].1, 8.0);
     }
 
     #[test]
@@ -302,6 +350,7 @@ mod tests {
             kept_original: false,
             fz_max_mm: Some(0.03),
             design: None,
+            setup: None,
             run_time_s: 1.0,
             time_engagement_s: 0.1,
             time_plan_s: 0.1,

@@ -107,3 +107,88 @@ fn optimize_report_and_summary_agree() {
     let html = std::fs::read_to_string(&files.html).unwrap();
     assert!(html.contains("slot.nc"));
 }
+
+/// The process engineer's report of a 100 000-step program: under 3 MB, one
+/// column of values for a simulation, the set-up table, and hot spots whose
+/// program-line links reach the quoted program text.
+#[test]
+fn report_of_a_100k_step_program_is_small_and_linked() {
+    let dir = tempfile::tempdir().unwrap();
+    // A zigzag of 100 000 short moves (CSV points: one step per move), 1 mm deep.
+    let mut csv = String::from("x,y,z\n");
+    let n = 100_000;
+    for k in 0..=n {
+        let row = k / 1000;
+        let along = (k % 1000) as f64 * 0.038;
+        let x = if row % 2 == 0 {
+            1.0 + along
+        } else {
+            39.0 - along
+        };
+        csv.push_str(&format!("{x:.4},{:.4},29\n", 1.0 + 0.38 * row as f64));
+    }
+    std::fs::write(dir.path().join("zigzag.csv"), csv).unwrap();
+    std::fs::write(
+        dir.path().join("job.toml"),
+        r#"
+[stock]
+kind = "box"
+min = [0, 0, 0]
+max = [40, 40, 30]
+grid = 0.25
+[tool]
+kind = "flat"
+diameter = 2
+[program]
+path = "zigzag.csv"
+feed = 600
+[cutting]
+material = "al6061"
+"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    dexcut::commands::simulate(
+        &dir.path().join("job.toml"),
+        &out,
+        None,
+        false,
+        false,
+        false,
+    )
+    .unwrap();
+    let doc = match summary::read(&out.join("summary.json")).unwrap() {
+        SummaryDoc::Simulate(s) => s,
+        SummaryDoc::Optimize(_) => panic!("not a simulate summary"),
+    };
+    assert_eq!(doc.run.steps, n);
+    let files = dexcut::report(&out).unwrap();
+    let html = std::fs::read_to_string(&files.html).unwrap();
+    let size = html.len();
+    eprintln!("report.html of {n} steps: {size} bytes");
+    assert!(size < 3_000_000, "report.html is {size} bytes");
+    // A simulation: one column of values, no lone "before".
+    assert!(html.contains("<th>value</th>") && !html.contains("<th>before</th>"));
+    // The set-up table names the material and the tool.
+    assert!(html.contains("al6061") && html.contains("flat Ø2 mm"));
+    // Hot spots: the largest force is a step of the program; its line link has
+    // the quoted program line as target.
+    assert!(html.contains("largest force"));
+    let links: Vec<&str> = html
+        .match_indices("href=\"#line-")
+        .map(|(i, _)| {
+            let rest = &html[i + "href=\"#line-".len()..];
+            &rest[..rest.find('"').unwrap()]
+        })
+        .collect();
+    assert!(!links.is_empty(), "no hot-spot links to program lines");
+    for l in links {
+        assert!(
+            html.contains(&format!("id=\"line-{l}\"")),
+            "line {l} not quoted"
+        );
+    }
+    // Marks on the map link back to the hot-spot rows.
+    assert!(html.contains("class=\"mark\" href=\"#hot-1\""));
+    assert!(html.contains("X (mm)"));
+}

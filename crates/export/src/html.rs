@@ -12,7 +12,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::svg::{plot_svg, PlotGroup};
-use crate::{b64, escape_html as esc, render_and_write, Error};
+use crate::ticks::{format_tick, nice_ticks};
+use crate::{b64, escape_html as esc, render_and_write, Error, Grid, HeatMapLayout};
 
 /// One row of the summary table, values already formatted with units.
 #[derive(Clone, Debug, PartialEq)]
@@ -32,6 +33,96 @@ pub struct ReportImage {
     pub name: String,
     /// PNG file content.
     pub png: Vec<u8>,
+    /// Where the map's columns lie in the image: with it the page draws X/Y
+    /// axes in mm and marks the hot spots over the image.
+    pub frame: Option<MapFrame>,
+}
+
+/// Where a heat map's columns lie in its image, in pixels and in mm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MapFrame {
+    /// Image width and height, px.
+    pub size_px: [u32; 2],
+    /// The map area in the image: left, top, width, height, px.
+    pub map_px: [u32; 4],
+    /// The map area in the machine XY plane: x_min, x_max, y_min, y_max, mm.
+    pub extent_mm: [f64; 4],
+}
+
+impl MapFrame {
+    /// The frame of a heat map drawn by [`crate::heat_map_image`] over `grid`.
+    pub fn of(layout: &HeatMapLayout, grid: &Grid) -> MapFrame {
+        let cell_mm = layout.cols_per_cell as f64 * grid.spacing_mm;
+        let x_min = grid.x0_mm - 0.5 * grid.spacing_mm;
+        let y_min = grid.y0_mm - 0.5 * grid.spacing_mm;
+        MapFrame {
+            size_px: [layout.width, layout.height],
+            map_px: [
+                layout.map_left,
+                layout.map_top,
+                layout.cells_x as u32 * layout.px_per_cell,
+                layout.cells_y as u32 * layout.px_per_cell,
+            ],
+            extent_mm: [
+                x_min,
+                x_min + layout.cells_x as f64 * cell_mm,
+                y_min,
+                y_min + layout.cells_y as f64 * cell_mm,
+            ],
+        }
+    }
+
+    /// Image pixel of the machine position (x, y) mm, if it lies on the map.
+    pub fn pixel_of_mm(&self, x_mm: f64, y_mm: f64) -> Option<(f64, f64)> {
+        let [x0, x1, y0, y1] = self.extent_mm;
+        let [left, top, w, h] = self.map_px.map(f64::from);
+        if !(x_mm >= x0 && x_mm <= x1 && y_mm >= y0 && y_mm <= y1) {
+            return None;
+        }
+        Some((
+            left + (x_mm - x0) / (x1 - x0) * w,
+            top + (y1 - y_mm) / (y1 - y0) * h,
+        ))
+    }
+}
+
+/// Render a heat map as PNG bytes, with the frame the report needs to draw its
+/// axes in mm and marks over it.
+pub fn heat_map_png_framed(
+    map: &crate::ScalarMap,
+    style: &crate::HeatMapStyle,
+) -> Result<(Vec<u8>, MapFrame), Error> {
+    let (img, layout) = crate::heat_map_image(map, style)?;
+    Ok((
+        crate::heatmap::encode_png(&img)?,
+        MapFrame::of(&layout, &map.grid),
+    ))
+}
+
+/// A step or program line worth a look: listed in the hot-spot table (anchor
+/// `hot-K`), marked on the maps, linked to its program line (anchor `line-N`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct HotSpot {
+    /// What is worst here, e.g. `"peak force"`.
+    pub what: String,
+    /// The value with its unit, e.g. `"17.5 N"`.
+    pub value: String,
+    /// Program line (1-based), if known.
+    pub line: Option<u32>,
+    /// Time in the program, s.
+    pub t_s: Option<f64>,
+    /// Tool position or column centre, mm.
+    pub xy_mm: Option<[f64; 2]>,
+}
+
+/// Program lines quoted in the report (those of the hot spots and their
+/// neighbours), each with the anchor `line-N`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ProgramExcerpt {
+    /// The program file.
+    pub file: String,
+    /// (line number, text), ascending; a gap in the numbers is shown as "…".
+    pub lines: Vec<(u32, String)>,
 }
 
 /// Everything in a report.
@@ -39,8 +130,14 @@ pub struct ReportImage {
 pub struct Report {
     /// Page title.
     pub title: String,
+    /// The set-up: job, tools, material, machine, limits, as (what, value).
+    pub setup: Vec<(String, String)>,
     /// Summary table rows.
     pub summary: Vec<SummaryRow>,
+    /// The worst steps and lines, linked to the program and marked on the maps.
+    pub hot_spots: Vec<HotSpot>,
+    /// The program lines the hot spots link to.
+    pub program: Option<ProgramExcerpt>,
     /// Plots: MRR, feed, force, deflection vs time, before and after overlaid.
     pub plots: Vec<PlotGroup>,
     /// Images, e.g. error heat maps.
@@ -62,6 +159,9 @@ table.summary td.v{text-align:right;font-variant-numeric:tabular-nums}\
 .plots{display:grid;grid-template-columns:repeat(auto-fit,minmax(560px,1fr));gap:12px}\
 .images{display:flex;flex-wrap:wrap;gap:16px}figure{margin:0}figure img{max-width:100%;height:auto;border:1px solid #ddd;image-rendering:pixelated}\
 figcaption{font-size:.9em;color:#555;margin-top:4px}\
+svg.map{max-width:100%;height:auto;font-size:13px}svg.map text{fill:#222}svg.map .mark circle{fill:none;stroke:#000;stroke-width:2.5}svg.map .mark text{font-weight:bold;paint-order:stroke;stroke:#fff;stroke-width:3px}\
+pre.program{background:#fafafa;border:1px solid #e4e4e4;padding:6px 0;overflow-x:auto;line-height:1.45}pre.program span.pl{display:block;padding:0 10px}pre.program span.ln{display:inline-block;min-width:5em;color:#888}pre.program span.gap{display:block;padding:0 10px;color:#aaa}\
+:target{background:#ffe14d !important;outline:2px solid #c9a800}\
 #stock-view canvas{width:100%;height:520px;display:block;border:1px solid #ddd;background:#f5f7fa;cursor:grab;touch-action:none}\
 .viewer-note{font-size:.9em;color:#555;margin:4px 0}.notes p{margin:.4em 0}";
 
@@ -85,12 +185,22 @@ pub fn report_html(report: &Report) -> String {
     h.push_str("<body data-status=\"loading\">\n<script>window.__dexcutErrors=[];window.onerror=function(m,s,l,c){var t='error: '+m+(l?' (line '+l+')':'');window.__dexcutErrors.push(t);document.body.dataset.status=t;};</script>\n");
     let _ = writeln!(h, "<h1>{}</h1>", esc(title));
 
+    if !report.setup.is_empty() {
+        h.push_str("<h2>Set-up</h2><table class=\"summary setup\"><tbody>");
+        for (k, v) in &report.setup {
+            let _ = write!(h, "<tr><th>{}</th><td>{}</td></tr>", esc(k), esc(v));
+        }
+        h.push_str("</tbody></table>\n");
+    }
+
     if !report.summary.is_empty() {
         let with_after = report.summary.iter().any(|r| r.after.is_some());
-        h.push_str("<h2>Summary</h2><table class=\"summary\"><thead><tr><th></th><th>before</th>");
-        if with_after {
-            h.push_str("<th>after</th>");
-        }
+        // A simulation has one column of values, not a lone "before".
+        h.push_str(if with_after {
+            "<h2>Summary</h2><table class=\"summary\"><thead><tr><th></th><th>before</th><th>after</th>"
+        } else {
+            "<h2>Summary</h2><table class=\"summary\"><thead><tr><th></th><th>value</th>"
+        });
         h.push_str("</tr></thead><tbody>");
         for r in &report.summary {
             let _ = write!(
@@ -111,6 +221,34 @@ pub fn report_html(report: &Report) -> String {
         h.push_str("</tbody></table>\n");
     }
 
+    let quoted = |line: u32| {
+        report
+            .program
+            .as_ref()
+            .is_some_and(|p| p.lines.iter().any(|(n, _)| *n == line))
+    };
+    if !report.hot_spots.is_empty() {
+        h.push_str("<h2>Hot spots</h2><table class=\"summary hot\"><thead><tr><th>#</th><th>what</th><th>value</th><th>program line</th><th>time</th><th>X, Y (mm)</th></tr></thead><tbody>");
+        for (k, s) in report.hot_spots.iter().enumerate() {
+            let line = match s.line {
+                Some(l) if quoted(l) => format!("<a href=\"#line-{l}\">{l}</a>"),
+                Some(l) => l.to_string(),
+                None => "–".into(),
+            };
+            let _ = write!(
+                h,
+                "<tr id=\"hot-{n}\"><td>{n}</td><td>{}</td><td class=\"v\">{}</td><td class=\"v\">{line}</td><td class=\"v\">{}</td><td class=\"v\">{}</td></tr>",
+                esc(&s.what),
+                esc(&s.value),
+                s.t_s.map_or("–".into(), |t| format!("{t:.3} s")),
+                s.xy_mm
+                    .map_or("–".into(), |[x, y]| format!("{x:.2}, {y:.2}")),
+                n = k + 1,
+            );
+        }
+        h.push_str("</tbody></table>\n");
+    }
+
     if !report.plots.is_empty() {
         h.push_str("<h2>Over time</h2><div class=\"plots\">\n");
         for (k, p) in report.plots.iter().enumerate() {
@@ -122,12 +260,24 @@ pub fn report_html(report: &Report) -> String {
     if !report.images.is_empty() {
         h.push_str("<h2>Maps</h2><div class=\"images\">\n");
         for img in &report.images {
-            let _ = writeln!(
-                h,
-                "<figure><img alt=\"{name}\" src=\"data:image/png;base64,{data}\"><figcaption>{name}</figcaption></figure>",
-                name = esc(&img.name),
-                data = b64::encode(&img.png)
-            );
+            match &img.frame {
+                Some(frame) => {
+                    let _ = writeln!(
+                        h,
+                        "<figure>{}<figcaption>{}</figcaption></figure>",
+                        map_svg(img, frame, &report.hot_spots),
+                        esc(&img.name)
+                    );
+                }
+                None => {
+                    let _ = writeln!(
+                        h,
+                        "<figure><img alt=\"{name}\" src=\"data:image/png;base64,{data}\"><figcaption>{name}</figcaption></figure>",
+                        name = esc(&img.name),
+                        data = b64::encode(&img.png)
+                    );
+                }
+            }
         }
         h.push_str("</div>\n");
     }
@@ -140,6 +290,27 @@ pub fn report_html(report: &Report) -> String {
             b64::encode(glb)
         );
         let _ = writeln!(h, "<script>\n{}\n</script>", include_str!("viewer.js"));
+    }
+
+    if let Some(p) = report.program.as_ref().filter(|p| !p.lines.is_empty()) {
+        let _ = write!(
+            h,
+            "<h2>Program lines</h2><p class=\"viewer-note\">{} (the lines of the hot spots and their neighbours)</p><pre class=\"program\">",
+            esc(&p.file)
+        );
+        let mut last = None;
+        for (n, text) in &p.lines {
+            if last.is_some_and(|l: u32| *n > l + 1) {
+                h.push_str("<span class=\"gap\">…</span>");
+            }
+            let _ = write!(
+                h,
+                "<span class=\"pl\" id=\"line-{n}\"><span class=\"ln\">{n}</span>{}</span>",
+                esc(text)
+            );
+            last = Some(*n);
+        }
+        h.push_str("</pre>\n");
     }
 
     if !report.notes.is_empty() {
@@ -157,4 +328,85 @@ pub fn report_html(report: &Report) -> String {
 /// Write the report to the HTML file `path`.
 pub fn write_report_html(path: &Path, report: &Report) -> Result<(), Error> {
     render_and_write(path, || Ok(report_html(report)))
+}
+
+/// Axis margins around a map image in its SVG, px.
+const MAP_LEFT: f64 = 64.0;
+const MAP_BOTTOM: f64 = 46.0;
+const MAP_TOP: f64 = 8.0;
+
+/// A heat map as SVG: the image, X and Y axes in mm with ticks, and the hot
+/// spots that lie on it as numbered marks linking to their table rows.
+fn map_svg(img: &ReportImage, frame: &MapFrame, spots: &[HotSpot]) -> String {
+    let [w, hgt] = frame.size_px.map(f64::from);
+    let [left, top, mw, mh] = frame.map_px.map(f64::from);
+    let [x0, x1, y0, y1] = frame.extent_mm;
+    let mut s = String::new();
+    let _ = write!(
+        s,
+        "<svg class=\"map\" xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"{} {} {} {}\" width=\"{}\" role=\"img\" aria-label=\"{}\">",
+        -MAP_LEFT,
+        -MAP_TOP,
+        w + MAP_LEFT,
+        hgt + MAP_TOP + MAP_BOTTOM,
+        w + MAP_LEFT,
+        esc(&img.name)
+    );
+    let _ = write!(
+        s,
+        "<image x=\"0\" y=\"0\" width=\"{w}\" height=\"{hgt}\" href=\"data:image/png;base64,{}\"/>",
+        b64::encode(&img.png)
+    );
+    // X axis under the map, Y axis left of it, ticks in mm.
+    let bottom = top + mh;
+    let _ = write!(
+        s,
+        "<g stroke=\"#444\" fill=\"none\"><path d=\"M{left} {bottom}H{}M{left} {top}V{bottom}\"/></g>",
+        left + mw
+    );
+    let (ticks, step) = nice_ticks(x0, x1, 6);
+    for t in ticks {
+        let px = left + (t - x0) / (x1 - x0) * mw;
+        let _ = write!(
+            s,
+            "<path d=\"M{px:.1} {bottom}v6\" stroke=\"#444\"/><text x=\"{px:.1}\" y=\"{:.1}\" text-anchor=\"middle\">{}</text>",
+            // Under the whole image (its scale bar sits under the map).
+            hgt + 16.0,
+            format_tick(t, step)
+        );
+    }
+    let (ticks, step) = nice_ticks(y0, y1, 6);
+    for t in ticks {
+        let py = top + (y1 - t) / (y1 - y0) * mh;
+        let _ = write!(
+            s,
+            "<path d=\"M{left} {py:.1}h-6\" stroke=\"#444\"/><text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"end\">{}</text>",
+            left - 9.0,
+            py + 4.0,
+            format_tick(t, step)
+        );
+    }
+    let _ = write!(
+        s,
+        "<text x=\"{:.1}\" y=\"{:.1}\" text-anchor=\"middle\">X (mm)</text><text transform=\"translate({:.1} {:.1}) rotate(-90)\" text-anchor=\"middle\">Y (mm)</text>",
+        left + 0.5 * mw,
+        hgt + 36.0,
+        -MAP_LEFT + 14.0,
+        top + 0.5 * mh
+    );
+    for (k, spot) in spots.iter().enumerate() {
+        let Some((px, py)) = spot.xy_mm.and_then(|[x, y]| frame.pixel_of_mm(x, y)) else {
+            continue;
+        };
+        let _ = write!(
+            s,
+            "<a class=\"mark\" href=\"#hot-{n}\"><title>{n}: {}</title><circle cx=\"{px:.1}\" cy=\"{py:.1}\" r=\"9\"/><text x=\"{:.1}\" y=\"{:.1}\">{n}</text></a>",
+            esc(&format!("{} {}", spot.what, spot.value)),
+            px + 10.0,
+            py - 8.0,
+            n = k + 1
+        );
+    }
+    s.push_str("</svg>");
+    s
 }

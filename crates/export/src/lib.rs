@@ -45,7 +45,10 @@ pub use glb::{stock_glb_bytes, write_stock_glb, write_stock_glb_with, GlbOptions
 pub use heatmap::{
     heat_map_image, heat_map_png_bytes, write_heat_map_png, HeatMapLayout, HeatMapStyle, NAN_RGBA,
 };
-pub use html::{report_html, write_report_html, Report, ReportImage, SummaryRow};
+pub use html::{
+    heat_map_png_framed, report_html, write_report_html, HotSpot, MapFrame, ProgramExcerpt, Report,
+    ReportImage, SummaryRow,
+};
 pub use npy::{
     npy_bytes, npy_header, parse_npy, read_column_grid_info, read_grid_array_f32,
     write_column_grid, write_npy, ColumnGridInfo, GridArray, GridArrayInfo, Npy, NpyArray,

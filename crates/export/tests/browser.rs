@@ -238,3 +238,115 @@ fn report_renders_in_headless_chromium() {
         println!("kept {} and {}", html.display(), shot.display());
     }
 }
+
+/// The report of a process engineer: hot spots linked to their program lines
+/// and marked on a map with axes in mm. A screenshot of the page opened at a
+/// hot spot's program-line link shows that line highlighted (`:target`), below
+/// the table; one opened at a map mark's link shows the hot-spot row. (The
+/// window holds the whole page: headless Chromium does not paint a scrolled
+/// viewport into its screenshot.)
+#[test]
+fn hot_spot_links_reach_their_program_line_and_row() {
+    let Some(bin) = chromium_or_skip() else {
+        return;
+    };
+    let map = common::error_map();
+    let (png, frame) =
+        export::heat_map_png_framed(&map, &export::HeatMapStyle::new("", "µm", true)).unwrap();
+    let mut report = common::report();
+    report.images = vec![export::ReportImage {
+        name: "Predicted shape error (µm)".into(),
+        png,
+        frame: Some(frame),
+    }];
+    let [x0, x1, y0, y1] = frame.extent_mm;
+    let mid = [0.5 * (x0 + x1), 0.5 * (y0 + y1)];
+    report.hot_spots = vec![
+        export::HotSpot {
+            what: "largest force".into(),
+            value: "17.5 N".into(),
+            line: Some(40),
+            t_s: Some(3.2),
+            xy_mm: Some(mid),
+        },
+        export::HotSpot {
+            what: "deepest gouge".into(),
+            value: "-12.0 µm".into(),
+            line: Some(100),
+            t_s: None,
+            xy_mm: Some([x0 + 0.1 * (x1 - x0), y0 + 0.1 * (y1 - y0)]),
+        },
+    ];
+    report.program = Some(export::ProgramExcerpt {
+        file: "pocket.nc".into(),
+        lines: (1..=120)
+            .map(|n| (n, format!("N{n} G1 X{n}.5 Y2 F900")))
+            .collect(),
+    });
+    let dir = tempfile::tempdir().unwrap();
+    let html = dir.path().join("report.html");
+    export::write_report_html(&html, &report).unwrap();
+    let url = format!("file://{}", html.canonicalize().unwrap().display());
+
+    let run = chromium(&bin, &url, &["--dump-dom".to_string()]);
+    let dom = &run.stdout;
+    assert_eq!(
+        attr(dom, "<body", "data-status").as_deref(),
+        Some("ok"),
+        "stderr:\n{}",
+        run.stderr
+    );
+    // Every link of the hot-spot table and of the map marks has its target.
+    for (href, id) in [
+        ("href=\"#line-40\"", "id=\"line-40\""),
+        ("href=\"#line-100\"", "id=\"line-100\""),
+        ("href=\"#hot-1\"", "id=\"hot-1\""),
+        ("href=\"#hot-2\"", "id=\"hot-2\""),
+    ] {
+        assert!(dom.contains(href) && dom.contains(id), "{href} → {id}");
+    }
+    // Axes in mm in the page's text, not in the image.
+    assert!(dom.contains(">X (mm)</text>") && dom.contains(">Y (mm)</text>"));
+
+    // Highlight colour of `:target` (#ffe14d) in a screenshot of the page at `fragment`.
+    let highlighted = |fragment: &str| {
+        let shot = dir.path().join(format!("{fragment}.png"));
+        let run = chromium(
+            &bin,
+            &format!("{url}#{fragment}"),
+            &[
+                format!("--screenshot={}", shot.display()),
+                "--hide-scrollbars".into(),
+                "--window-size=1400,9000".into(),
+            ],
+        );
+        let img = image::open(&shot)
+            .unwrap_or_else(|e| panic!("no screenshot ({e}); stderr:\n{}", run.stderr))
+            .to_rgba8();
+        let rows: Vec<u32> = img
+            .enumerate_pixels()
+            .filter(|(_, _, p)| p.0[0] == 0xff && p.0[1] == 0xe1 && p.0[2] == 0x4d)
+            .map(|(_, y, _)| y)
+            .collect();
+        let span = rows
+            .iter()
+            .min()
+            .zip(rows.iter().max())
+            .map(|(a, b)| (*a, *b));
+        (rows.len(), span)
+    };
+    // Without a fragment nothing is highlighted; each link's target is.
+    assert_eq!(highlighted("none").0, 0);
+    let (line, line_rows) = highlighted("line-100");
+    assert!(line > 5_000, "line 100 highlighted over {line} pixels");
+    let (row, row_rows) = highlighted("hot-2");
+    assert!(row > 5_000, "hot-spot row 2 highlighted over {row} pixels");
+    // One line's height each, the program line below the hot-spot table.
+    let (l0, l1) = line_rows.unwrap();
+    let (r0, r1) = row_rows.unwrap();
+    assert!(l1 - l0 < 60 && r1 - r0 < 60, "{line_rows:?} {row_rows:?}");
+    assert!(
+        l0 > r1,
+        "program line {line_rows:?} below the table row {row_rows:?}"
+    );
+}

@@ -18,7 +18,7 @@ mod range_min;
 mod rules;
 mod stations;
 
-pub use machine::{Machine, ScheduleError};
+pub use machine::{Machine, ScheduleError, MACHINE_RANGES};
 pub use plan::{axis_velocity_mm_s, plan, Profile, ServoSample, MAX_SAMPLES};
 pub use rules::{
     angle_rule_feed_mm_min, block_feed_cap_mm_min, chord_count, chord_tolerance_mm, linearise_arcs,

@@ -9,6 +9,18 @@ pub enum ScheduleError {
     /// A machine parameter is not a finite positive number.
     #[error("machine parameter `{name}` must be finite and > 0, got {value}")]
     InvalidMachine { name: &'static str, value: f64 },
+    /// A machine parameter is outside the range a real machine can have.
+    #[error("machine parameter `{name}` must lie in {lo}..{hi}, got {value}")]
+    MachineOutOfRange {
+        /// Field of [`Machine`].
+        name: &'static str,
+        /// The value given.
+        value: f64,
+        /// Smallest plausible value.
+        lo: f64,
+        /// Largest plausible value.
+        hi: f64,
+    },
     /// The station spacing is not a finite positive number.
     #[error("station spacing must be finite and > 0 mm, got {0}")]
     InvalidSpacing(f64),
@@ -71,14 +83,38 @@ impl Default for Machine {
     }
 }
 
+/// The plausible range of each machine parameter (field, lowest, highest), in
+/// the field's unit: what [`Machine::validate`] accepts. A job file's
+/// `[machine]` is checked through it, so this table is the one source of truth.
+pub const MACHINE_RANGES: [(&str, f64, f64); 6] = [
+    ("period_ms", 0.01, 1000.0),
+    ("feed_max_mm_min", 1e-3, 1e7),
+    ("rapid_mm_min", 1e-3, 1e7),
+    ("accel_mm_s2", 1e-3, 1e8),
+    ("jerk_mm_s3", 1e-3, 1e12),
+    ("block_time_ms", f64::MIN_POSITIVE, 1000.0),
+];
+
 impl Machine {
-    /// Checks that every limit is finite and > 0.
+    /// Checks that every limit is finite, > 0 and within [`MACHINE_RANGES`].
     pub fn validate(&self) -> Result<(), ScheduleError> {
         let check = |name: &'static str, value: f64| {
-            if value.is_finite() && value > 0.0 {
-                Ok(())
-            } else {
+            let (_, lo, hi) = MACHINE_RANGES
+                .iter()
+                .copied()
+                .find(|r| r.0 == name)
+                .expect("every checked field has a range");
+            if !(value.is_finite() && value > 0.0) {
                 Err(ScheduleError::InvalidMachine { name, value })
+            } else if !(lo..=hi).contains(&value) {
+                Err(ScheduleError::MachineOutOfRange {
+                    name,
+                    value,
+                    lo,
+                    hi,
+                })
+            } else {
+                Ok(())
             }
         };
         check("period_ms", self.period_ms)?;

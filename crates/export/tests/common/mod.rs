@@ -131,8 +131,9 @@ pub fn report() -> Report {
             },
             PlotGroup { title: "Tool deflection".into(), y_label: "deflection".into(), unit: "µm".into(), series: vec![], limit: None },
         ],
-        images: vec![ReportImage { name: "Shape error (µm)".into(), png }],
+        images: vec![ReportImage { name: "Shape error (µm)".into(), png, frame: None }],
         glb: Some(glb),
         notes: vec!["Deflection is a cantilever estimate; measured values were about half in the source study.".into(), "<b>escaped</b> & safe".into()],
+        ..Report::default()
     }
 }
