@@ -120,6 +120,10 @@ pub(super) struct StripJob<'a, E> {
     pub(super) smooth: bool,
 }
 
+/// Height span of a column's piece above which its chip thickness is
+/// averaged over the heights it spans (MODEL.md §3.2), mm.
+const THICK_PIECE_MM: f64 = 0.02;
+
 impl<E: Envelope> StripJob<'_, E> {
     /// Accumulator width per entry: this step's sums, then (smoothing) the head
     /// values moved to the previous and to the next step.
@@ -136,8 +140,14 @@ impl<E: Envelope> StripJob<'_, E> {
     /// heights `h_top` (its top before the cut) down to `h_bot` above the tip.
     #[inline]
     fn contact(&self, m: &Prepared, x: f64, y: f64, t: f64, h_top: f64, h_bot: f64) -> Contact {
-        let Edge { r_mm, inv_r, .. } = self.env.side(h_top.max(0.0));
-        let inv_sin_k = self.env.mean_inv_sin_k(h_bot, h_top);
+        let Edge {
+            r_mm,
+            inv_r,
+            inv_sin_k,
+        } = self.env.side(h_top.max(0.0));
+        // A piece across more than THICK_PIECE_MM of height is credited over its
+        // heights (MODEL.md §3.2); a thinner one at its top, as the sliver it is.
+        let thick = h_top - h_bot > THICK_PIECE_MM;
         // 1/h of the floor and of the bottom's cut (descending moves only).
         let mut inv_h = m.inv_floor;
         if m.d[2] < 0.0 {
@@ -183,9 +193,13 @@ impl<E: Envelope> StripJob<'_, E> {
         };
         // Away from the flank, a closed form over the piece's heights where the
         // tool has one (a ball: κ and θ both vary with the height).
-        let inv_side = match self.env.mean_inv_side(h_bot, h_top, ux * wy - uy * wx) {
-            Some(mean) if 1.0 - sin_t.abs() > 4.0 * half => mean,
-            _ => inv_cos * inv_sin_k,
+        let inv_side = if !thick {
+            inv_cos * inv_sin_k
+        } else {
+            match self.env.mean_inv_side(h_bot, h_top, ux * wy - uy * wx) {
+                Some(mean) if 1.0 - sin_t.abs() > 4.0 * half => mean,
+                _ => inv_cos * self.env.mean_inv_sin_k(h_bot, h_top),
+            }
         } * m.inv_len_xy;
         let side_cut = inv_side <= inv_h;
         inv_h = inv_h.min(inv_side);
