@@ -7,6 +7,9 @@ use std::process::{Command, Output};
 
 use serde_json::Value;
 
+mod common;
+use common::assert_refused;
+
 fn dexcut(args: &[&str], cwd: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_dexcut"))
         .args(args)
@@ -193,16 +196,11 @@ fn bad_job_gives_file_line_column_and_no_output() {
         &SLOT_JOB.replace("feed = 1200", "feed = 1200\nsped = 3"),
     );
     write(dir.path(), "slot.csv", "x,y,z\n-10,0,28\n110,0,28\n");
-    let out = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
-    assert!(!out.status.success());
-    assert!(
-        stderr(&out).contains("job.toml:13:1: unknown field `sped`"),
-        "{}",
-        stderr(&out)
-    );
-    assert!(
-        !dir.path().join("out").exists(),
-        "no output folder on error"
+    assert_refused(
+        dir.path(),
+        &["simulate", "job.toml", "--out", "out"],
+        &["job.toml:13:1: unknown field `sped`"],
+        Some("out"),
     );
 }
 
@@ -211,14 +209,12 @@ fn bad_program_names_line_and_column() {
     let dir = tempdir();
     write(dir.path(), "job.toml", SLOT_JOB);
     write(dir.path(), "slot.csv", "x,y,z\n-10,0,28\n110,zero,28\n");
-    let out = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
-    assert!(!out.status.success());
-    assert!(
-        stderr(&out).contains("slot.csv:3:5: y is not a number"),
-        "{}",
-        stderr(&out)
+    assert_refused(
+        dir.path(),
+        &["simulate", "job.toml", "--out", "out"],
+        &["slot.csv:3:5: y is not a number"],
+        Some("out"),
     );
-    assert!(!dir.path().join("out").exists());
 }
 
 #[test]
@@ -226,46 +222,39 @@ fn grid_too_large_for_memory_is_refused_before_work() {
     let dir = tempdir();
     write(dir.path(), "job.toml", SLOT_JOB);
     write(dir.path(), "slot.csv", "x,y,z\n-10,0,28\n110,0,28\n");
-    let out = dexcut(
+    let err = assert_refused(
+        dir.path(),
         &["simulate", "job.toml", "--out", "out", "--grid", "0.0001"],
-        dir.path(),
+        &[],
+        Some("out"),
     );
-    assert!(!out.status.success());
     assert!(
-        stderr(&out).contains("MB of memory, more than the")
-            || stderr(&out).contains("use a coarser grid"),
-        "{}",
-        stderr(&out)
+        err.contains("MB of memory, more than the") || err.contains("use a coarser grid"),
+        "{err}"
     );
-    assert!(!dir.path().join("out").exists());
-    let out = dexcut(
+    assert_refused(
+        dir.path(),
         &["simulate", "job.toml", "--out", "out", "--grid=-1"],
-        dir.path(),
-    );
-    assert!(!out.status.success());
-    assert!(
-        stderr(&out).contains("stock.grid (mm) must lie in 0.0001..1000000, got -1"),
-        "{}",
-        stderr(&out)
+        &["stock.grid (mm) must lie in 0.0001..1000000, got -1"],
+        Some("out"),
     );
 }
 
 #[test]
 fn missing_files_are_clear_errors() {
     let dir = tempdir();
-    let out = dexcut(&["simulate", "nope.toml"], dir.path());
-    assert!(!out.status.success());
-    assert!(
-        stderr(&out).contains("cannot read job file nope.toml"),
-        "{}",
-        stderr(&out)
+    assert_refused(
+        dir.path(),
+        &["simulate", "nope.toml"],
+        &["cannot read job file nope.toml"],
+        Some("out"),
     );
     write(dir.path(), "job.toml", SLOT_JOB);
-    let out = dexcut(&["simulate", "job.toml"], dir.path());
-    assert!(
-        stderr(&out).contains("cannot read program"),
-        "{}",
-        stderr(&out)
+    assert_refused(
+        dir.path(),
+        &["simulate", "job.toml"],
+        &["cannot read program"],
+        Some("out"),
     );
 }
 
@@ -723,12 +712,11 @@ fn column_grid_by_default_csv_on_request_and_report_reads_both() {
     }
     // With neither, report says what is missing.
     forget(&["columns.csv".to_string()]);
-    let r = dexcut(&["report", "both"], dir.path());
-    assert!(!r.status.success());
-    assert!(
-        String::from_utf8_lossy(&r.stderr).contains("no columns.json (nor columns.csv)"),
-        "{}",
-        String::from_utf8_lossy(&r.stderr)
+    assert_refused(
+        dir.path(),
+        &["report", "both"],
+        &["no columns.json (nor columns.csv)"],
+        None,
     );
 }
 
@@ -915,15 +903,15 @@ fn gcode_errors_name_file_line_and_column() {
         "slot.ngc",
         "G21 G90\nG0 X-10 Y0 Z40\nG1 X110 Y[2 +] F1200\nG41 X5\n",
     );
-    let out = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
-    assert!(!out.status.success());
-    let err = stderr(&out);
-    assert!(err.contains("slot.ngc:3:"), "{err}");
-    assert!(
-        err.contains("slot.ngc:4:1: file ended with no program end"),
-        "{err}"
+    assert_refused(
+        dir.path(),
+        &["simulate", "job.toml", "--out", "out"],
+        &[
+            "slot.ngc:3:",
+            "slot.ngc:4:1: file ended with no program end",
+        ],
+        Some("out"),
     );
-    assert!(!dir.path().join("out").exists());
 }
 
 /// `dexcut optimize` with no job: the boss_contour example. The verification
@@ -1586,14 +1574,12 @@ accel = [1000, 1000, 1000]
         "two.nc",
         "G21 G90\nT1 M6\nG0 X-10 Y0 Z40\nT3 M6\nG0 X0\nM30\n",
     );
-    let out = dexcut(&["simulate", "job.toml", "--out", "bad"], dir.path());
-    assert!(!out.status.success());
-    assert!(
-        stderr(&out).contains("two.nc:4:1: tool T3 is not in the job's tool table"),
-        "{}",
-        stderr(&out)
+    assert_refused(
+        dir.path(),
+        &["simulate", "job.toml", "--out", "bad"],
+        &["two.nc:4:1: tool T3 is not in the job's tool table"],
+        Some("bad"),
     );
-    assert!(!dir.path().join("bad").exists());
 }
 
 /// `optimize` with `[servo]` writes servo_compensated.csv (MODEL.md §7.3, S4). Read back

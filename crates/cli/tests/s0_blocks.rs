@@ -8,6 +8,8 @@ use std::process::{Command, Output};
 
 use serde_json::Value;
 
+mod common;
+
 fn dexcut(args: &[&str], cwd: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_dexcut"))
         .args(args)
@@ -85,10 +87,12 @@ fn arcs_as_lines_runs_the_arc_as_s0_chords() {
     );
     assert!(s0 < 0.6 * starved);
     // optimize refuses the key (it re-feeds the program's own blocks), before any output.
-    let out = dexcut(&["optimize", "job.toml", "--out", "opt"], d);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("arcs_as_lines"));
-    assert!(!d.join("opt").exists());
+    common::assert_refused(
+        d,
+        &["optimize", "job.toml", "--out", "opt"],
+        &["arcs_as_lines"],
+        Some("opt"),
+    );
     // The key needs a block time.
     std::fs::write(
         d.join("job.toml"),
@@ -97,7 +101,10 @@ fn arcs_as_lines_runs_the_arc_as_s0_chords() {
          [machine]\narcs_as_lines = true\n",
     )
     .unwrap();
-    let out = dexcut(&["simulate", "job.toml", "--out", "o2"], d);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("block_time_ms"));
+    common::assert_refused(
+        d,
+        &["simulate", "job.toml", "--out", "o2"],
+        &["block_time_ms"],
+        Some("o2"),
+    );
 }
