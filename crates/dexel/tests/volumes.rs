@@ -285,31 +285,55 @@ fn identical_results_for_one_and_many_threads() {
             )
         })
         .collect();
-    let run_with = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
-            let mut stock = Stock::new_box([0.0, 0.0, 0.0], [60.0, 60.0, 20.0], 0.1).unwrap();
-            let opts = SweepOptions {
-                band_height_mm: 0.5,
-                strip_rows: 4,
-                batch_steps: 97,
-                ..SweepOptions::default()
-            };
-            let record = sweep(&mut stock, &Tool::ball(6.0), &steps, &opts, &|_| {}).unwrap();
-            (record, stock.top_heights(), stock.last_cut().to_vec())
-        })
-    };
-    let (r1, h1, l1) = run_with(1);
-    let (r4, h4, l4) = run_with(4);
-    assert_eq!(r1, r4);
-    assert_eq!(
-        h1.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-        h4.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
-    );
-    assert_eq!(l1, l4);
+    // Every envelope: ball, flat, bull nose (the torus edge with a ring).
+    for tool in [Tool::ball(6.0), Tool::flat(6.0), Tool::bull(6.0, 1.0)] {
+        let run_with = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let mut stock = Stock::new_box([0.0, 0.0, 0.0], [60.0, 60.0, 20.0], 0.1).unwrap();
+                let opts = SweepOptions {
+                    band_height_mm: 0.5,
+                    strip_rows: 4,
+                    batch_steps: 97,
+                    ..SweepOptions::default()
+                };
+                let record = sweep(&mut stock, &tool, &steps, &opts, &|_| {}).unwrap();
+                (record, stock.top_heights(), stock.last_cut().to_vec())
+            })
+        };
+        let (r1, h1, l1) = run_with(1);
+        let (r4, h4, l4) = run_with(4);
+        assert!(r1.total_volume_mm3() > 100.0, "{tool:?} cuts");
+        // Bit for bit: every per-step value, every top, every last cut.
+        let bits = |r: &RemovalRecord| -> Vec<u64> {
+            (0..r.len())
+                .flat_map(|i| {
+                    let [cx, cy] = r.contact_resultant(i);
+                    [
+                        r.volume_mm3(i),
+                        r.shank_volume_mm3(i),
+                        cx,
+                        cy,
+                        r.chip_edge_area_mm2(i),
+                        r.volume_over_radius_mm2(i),
+                    ]
+                    .into_iter()
+                    .chain(r.band_volumes_mm3(i).iter().copied())
+                    .map(f64::to_bits)
+                    .collect::<Vec<_>>()
+                })
+                .collect()
+        };
+        assert_eq!(bits(&r1), bits(&r4), "{tool:?}");
+        assert_eq!(
+            h1.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+            h4.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+        );
+        assert_eq!(l1, l4);
+    }
 }
 
 #[test]

@@ -109,6 +109,17 @@ fn trapezoid_cdf(x: f64, a: f64, b: f64) -> f64 {
     }
 }
 
+/// A column cut on the current row, before its contact is computed.
+struct Cut {
+    x: f64,
+    t: f64,
+    /// Heights above the tip of the column's top before the cut and of the cut, mm.
+    h_top: f64,
+    h_bot: f64,
+    /// Material removed, mm.
+    removed: f64,
+}
+
 /// Everything one strip needs to run its moves.
 pub(super) struct StripJob<'a, E> {
     pub(super) env: &'a E,
@@ -248,6 +259,8 @@ impl<E: Envelope> StripJob<'_, E> {
         let width = self.width();
         let area = self.grid.cell_area_mm2();
         let mut visited = 0u64;
+        // Cut columns of the current row, awaiting their contact (one allocation per strip).
+        let mut cuts: Vec<Cut> = Vec::with_capacity(nx);
         for (j, &mi) in entries.iter().enumerate() {
             let m = &self.moves[mi as usize];
             let all = &mut out[j * width..(j + 1) * width];
@@ -291,32 +304,46 @@ impl<E: Envelope> StripJob<'_, E> {
                         continue;
                     }
                     let z_tip = m.p0[2] + t * m.d[2];
-                    let c = self.contact(m, x, y, t, top as f64 - z_tip, z as f64 - z_tip);
                     let mut removed = 0.0;
                     cut_above(col, z, |a, b| {
                         removed += self.banding.credit(all, z_tip, a as f64, b as f64);
                     });
                     if removed > 0.0 {
                         last_cut[base + ix] = step_index;
-                        let column = [
+                        cuts.push(Cut {
+                            x,
+                            t,
+                            h_top: top as f64 - z_tip,
+                            h_bot: z as f64 - z_tip,
                             removed,
-                            0.0,
-                            removed * c.r_hat[0],
-                            removed * c.r_hat[1],
-                            removed * c.inv_h,
-                            removed * c.inv_r,
-                        ];
-                        for (d, v) in all[..HEAD].iter_mut().zip(column) {
-                            *d += v;
-                        }
-                        // Shares for the neighbours: head values only; bands and shank
-                        // follow in proportion when the strips are reduced.
-                        for (k, slot) in [(0, stride), (1, stride + HEAD)] {
-                            let share = c.shares[k];
-                            if share > 0.0 {
-                                for (d, v) in all[slot..slot + HEAD].iter_mut().zip(column) {
-                                    *d += share * v;
-                                }
+                        });
+                    }
+                }
+                // The row's contacts in a second pass, in column order (the same
+                // sums in the same order as one pass; the bands and shank credited
+                // above are other slots): a loop of independent square roots and
+                // divisions, free of the cut's branches.
+                for cut in cuts.drain(..) {
+                    let c = self.contact(m, cut.x, y, cut.t, cut.h_top, cut.h_bot);
+                    let removed = cut.removed;
+                    let column = [
+                        removed,
+                        0.0,
+                        removed * c.r_hat[0],
+                        removed * c.r_hat[1],
+                        removed * c.inv_h,
+                        removed * c.inv_r,
+                    ];
+                    for (d, v) in all[..HEAD].iter_mut().zip(column) {
+                        *d += v;
+                    }
+                    // Shares for the neighbours: head values only; bands and shank
+                    // follow in proportion when the strips are reduced.
+                    for (k, slot) in [(0, stride), (1, stride + HEAD)] {
+                        let share = c.shares[k];
+                        if share > 0.0 {
+                            for (d, v) in all[slot..slot + HEAD].iter_mut().zip(column) {
+                                *d += share * v;
                             }
                         }
                     }
