@@ -3,21 +3,14 @@
 use std::collections::HashMap;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use serde_json::Value;
 
 mod common;
 use common::assert_refused;
 
-fn dexcut(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_dexcut"))
-        .args(args)
-        .current_dir(cwd)
-        .env("CI", "1")
-        .output()
-        .expect("run dexcut")
-}
+use common::run as dexcut;
 
 fn ok(out: &Output) {
     assert!(

@@ -2,20 +2,13 @@
 //! writes it as a job fragment, which `evaluate` and `optimize` take with `--settings`.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use serde_json::Value;
 
 mod common;
 
-fn dexcut(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_dexcut"))
-        .args(args)
-        .current_dir(cwd)
-        .env("CI", "1")
-        .output()
-        .expect("run dexcut")
-}
+use common::run as dexcut;
 
 fn ok(out: &Output) {
     assert!(

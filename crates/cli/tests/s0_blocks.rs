@@ -4,20 +4,12 @@
 
 use std::f64::consts::PI;
 use std::path::Path;
-use std::process::{Command, Output};
 
 use serde_json::Value;
 
 mod common;
 
-fn dexcut(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_dexcut"))
-        .args(args)
-        .current_dir(cwd)
-        .env("CI", "1")
-        .output()
-        .expect("run dexcut")
-}
+use common::run as dexcut;
 
 /// Cycle time of `simulate` on `program` with block time `tb_ms`, optionally arcs as lines.
 fn cycle_s(dir: &Path, program: &str, tb_ms: f64, arcs_as_lines: bool) -> f64 {
