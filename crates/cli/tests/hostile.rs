@@ -360,11 +360,17 @@ fn d5_killed_runs_leave_complete_results() {
     let run_ms = first.elapsed.as_millis() as u64;
     let mut seed: u64 = 0x9e37_79b9_7f4a_7c15;
     let mut kills = 0;
-    for _ in 0..10 {
+    // A loaded machine makes the first run slower than later ones, so a kill point late in the
+    // first run can miss a later one: keep trying (30 runs at most) until 10 runs were killed
+    // while running, over the first 80 % of the first run's length.
+    for _ in 0..30 {
+        if kills >= 10 {
+            break;
+        }
         seed ^= seed << 13;
         seed ^= seed >> 7;
         seed ^= seed << 17;
-        let delay_ms = seed % (run_ms * 9 / 10).max(1);
+        let delay_ms = seed % (run_ms * 8 / 10).max(1);
         let mut child = command(&["optimize", "--out", "res"], dir.path(), AS_LIMIT)
             .stdout(Stdio::null())
             .stderr(Stdio::null())
@@ -378,7 +384,10 @@ fn d5_killed_runs_leave_complete_results() {
         child.wait().unwrap();
         assert_complete(&out);
     }
-    assert!(kills >= 5, "only {kills} runs were killed while running");
+    assert!(
+        kills >= 10,
+        "only {kills} of 30 runs were killed while running"
+    );
     // A complete run after the kills: one folder, no staging or old copies left.
     dexcut(&["optimize", "--out", "res"], dir.path()).ok();
     assert_complete(&out);
