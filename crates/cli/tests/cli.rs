@@ -1246,6 +1246,11 @@ fn rapid_through_the_stock_is_blamed_on_its_line() {
         err.contains("warning: line 5: rapid moves (G0) removed"),
         "{err}"
     );
+    // The collision is a warning, not the peak removal rate: the peak per period
+    // is the feed cut's, the slot's cross-section at F1200 (MODEL.md §2.3).
+    let feed_mrr = ball_slot_area_mm2(5.0, 2.0) * 1200.0 / 60.0;
+    let peak = s["peak_mrr_mm3_s"].as_f64().unwrap();
+    assert!(rel(peak, feed_mrr) < 0.05, "peak {peak} vs {feed_mrr}");
 }
 
 /// Flutes 1 mm long in a 2 mm deep slot: the shank removes the slot's

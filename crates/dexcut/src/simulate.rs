@@ -42,7 +42,9 @@ pub struct Period {
     pub first_step: usize,
     pub last_step: usize,
     /// Path and removal the MRR is measured over (the period itself, or the
-    /// run of periods covering one grid cell around it), mm, mm³, s.
+    /// run of periods covering [`SUB_CELL_WINDOW_CELLS`] grid cells around
+    /// it; in a period part feed, part rapid only the feed parts' removal),
+    /// mm, mm³, s.
     pub s_from_mm: f64,
     pub s_to_mm: f64,
     pub volume_mm3: f64,
@@ -563,7 +565,9 @@ pub struct Summary {
     pub removed_volume_mm3: f64,
     /// Time the program runs, s.
     pub cycle_time_s: f64,
-    /// Largest MRR of a single step (servo period), mm³/s.
+    /// Largest MRR of a servo period, mm³/s: a period under one grid cell of
+    /// path measured over the periods around it, all-rapid periods left out
+    /// ([`Run::peak_period_mrr_mm3_s`], MODEL.md §2.3).
     pub peak_mrr_mm3_s: f64,
     /// Largest MRR averaged over at least [`MRR_WINDOW_S`] and
     /// [`MRR_WINDOW_CELLS`] grid cells of path, mm³/s: the per-period value
@@ -689,8 +693,17 @@ impl Run {
             while j < self.steps.len() && self.steps[j].continues {
                 j += 1;
             }
+            let cutting = !self.steps[i..j].iter().all(|s| s.step.rapid);
+            // A period that is part feed, part rapid counts its feed parts'
+            // removal: what a rapid removes is a collision (rapid_cut warning).
             let (volume_mm3, dt_s) = (i..j).fold((0.0, 0.0), |(v, t), k| {
-                (v + self.record.volume_mm3(k), t + self.steps[k].dt_s)
+                let counted = !cutting || !self.steps[k].step.rapid;
+                let dv = if counted {
+                    self.record.volume_mm3(k)
+                } else {
+                    0.0
+                };
+                (v + dv, t + self.steps[k].dt_s)
             });
             let s_to = self.steps[j - 1].s_end_mm;
             own.push(Period {
@@ -700,7 +713,7 @@ impl Run {
                 s_to_mm: s_to,
                 volume_mm3,
                 dt_s,
-                cutting: !self.steps[i..j].iter().all(|s| s.step.rapid),
+                cutting,
                 window: (own.len(), own.len()),
             });
             s_prev = s_to;
@@ -780,10 +793,14 @@ impl Run {
             .fold(0.0, f64::max)
     }
 
-    /// Largest MRR of a servo period resolved to the grid, mm³/s.
+    /// Largest MRR of a servo period resolved to the grid, mm³/s, over the
+    /// periods that are not all rapid: a rapid move that removes stock is a
+    /// collision, told by the rapid_cut warning with its volume and line, not
+    /// a removal rate the feed sets.
     pub fn peak_period_mrr_mm3_s(&self) -> f64 {
         self.periods()
             .iter()
+            .filter(|p| p.cutting)
             .map(Period::mrr_mm3_s)
             .fold(0.0, f64::max)
     }
@@ -966,7 +983,9 @@ impl Run {
             p.steps += 1;
             p.removed_volume_mm3 += self.record.volume_mm3(i);
             p.time_s += s.dt_s;
-            p.peak_mrr_mm3_s = p.peak_mrr_mm3_s.max(mrr[i]);
+            if !s.step.rapid {
+                p.peak_mrr_mm3_s = p.peak_mrr_mm3_s.max(mrr[i]);
+            }
             p.peak_force_n = p.peak_force_n.max(self.loads[i].force_n);
             p.peak_deflection_um = p.peak_deflection_um.max(self.loads[i].deflection_um);
         }
