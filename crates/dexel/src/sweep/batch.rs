@@ -51,36 +51,12 @@ pub fn sweep(
     };
     let radius = tool.radius_mm();
     let mut record = RemovalRecord::new(steps.len(), n_bands, options.band_height_mm);
-    match tool.shape {
-        ToolShape::Ball => run_batches(
-            stock,
-            &BallEnd { r: radius },
-            radius,
-            &banding,
-            steps,
-            options,
-            &mut record,
-            progress,
-        ),
-        ToolShape::Flat => run_batches(
-            stock,
-            &FlatEnd { r: radius },
-            radius,
-            &banding,
-            steps,
-            options,
-            &mut record,
-            progress,
-        ),
-        ToolShape::Bull { corner_radius_mm } => {
-            let env = BullNose {
-                r: radius,
-                rc: corner_radius_mm,
-                ring: radius - corner_radius_mm,
-            };
+    // One call per tool shape: `run_batches` is generic over the envelope.
+    macro_rules! run {
+        ($env:expr) => {
             run_batches(
                 stock,
-                &env,
+                &$env,
                 radius,
                 &banding,
                 steps,
@@ -88,7 +64,16 @@ pub fn sweep(
                 &mut record,
                 progress,
             )
-        }
+        };
+    }
+    match tool.shape {
+        ToolShape::Ball => run!(BallEnd { r: radius }),
+        ToolShape::Flat => run!(FlatEnd { r: radius }),
+        ToolShape::Bull { corner_radius_mm } => run!(BullNose {
+            r: radius,
+            rc: corner_radius_mm,
+            ring: radius - corner_radius_mm,
+        }),
     }
     Ok(record)
 }
