@@ -20,14 +20,16 @@ fn feeds(path: &nc::Path) -> Vec<f64> {
 
 /// One piece at `feed` for every feed segment.
 fn uniform(path: &nc::Path, feed: f64) -> Vec<Vec<(f64, f64)>> {
+    every_feed(path, &[(1.0, feed)])
+}
+
+/// The same `pieces` for every feed segment, none for the others.
+fn every_feed(path: &nc::Path, pieces: &[(f64, f64)]) -> Vec<Vec<(f64, f64)>> {
     path.segments
         .iter()
-        .map(|s| {
-            if matches!(s.motion, Motion::Feed { .. }) {
-                vec![(1.0, feed)]
-            } else {
-                vec![]
-            }
+        .map(|s| match s.motion {
+            Motion::Feed { .. } => pieces.to_vec(),
+            _ => vec![],
         })
         .collect()
 }
@@ -413,14 +415,7 @@ fn arc_piece_shorter_than_the_written_digits_is_refused() {
 fn canned_cycles_needing_two_feeds_are_written_out() {
     let src = "G21 G90 G17\nG0 X0 Y0 Z20\nG98 G81 X10 Y5 Z-3 R2 F150\nX20\nG99 G82 X30 Y5 Z-2 R2 P0.5\nG80\nG0 Z20\nM2\n";
     let path = parse(src);
-    let plan: Vec<Vec<(f64, f64)>> = path
-        .segments
-        .iter()
-        .map(|s| match s.motion {
-            Motion::Feed { .. } => vec![(0.4, 3000.0), (1.0, 120.5)],
-            _ => vec![],
-        })
-        .collect();
+    let plan = every_feed(&path, &[(0.4, 3000.0), (1.0, 120.5)]);
     let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
     assert!(!out.contains("G81") && !out.contains("G82"), "{out}");
     assert!(out.contains("G4 P0.5"), "{out}");
@@ -460,14 +455,7 @@ fn canned_cycles_needing_two_feeds_are_written_out() {
     // run's moves each time, so the cycle line stays, at its lowest feed.
     let src = "G0 X0 Y0 Z20\no1 repeat [3]\nG98 G81 X10 Y5 Z-3 R2 F150\no1 endrepeat\nG80\nM2\n";
     let path = parse(src);
-    let plan: Vec<Vec<(f64, f64)>> = path
-        .segments
-        .iter()
-        .map(|s| match s.motion {
-            Motion::Feed { .. } => vec![(0.4, 3000.0), (1.0, 120.5)],
-            _ => vec![],
-        })
-        .collect();
+    let plan = every_feed(&path, &[(0.4, 3000.0), (1.0, 120.5)]);
     let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
     assert!(out.contains("G98 G81 X10 Y5 Z-3 R2 F120.5"), "{out}");
 }
