@@ -243,20 +243,11 @@ impl CuttingModel {
             dx_um: deflection_um * ux,
             dy_um: deflection_um * uy,
             tip_deflection_um,
-            stress_mpa: self.stress_mpa(bands, force, 1000.0 * torque_nm),
+            // Peak von Mises stress: the band loads' resultant at the contact height.
+            stress_mpa: self
+                .beam
+                .peak_stress_mpa(&[(contact_height_mm, force)], 1000.0 * torque_nm),
         }
-    }
-
-    /// Peak von Mises stress for `force_n` spread over the bands and `torque_nmm`.
-    fn stress_mpa(&self, band_volumes_mm3: &[f64], force_n: f64, torque_nmm: f64) -> f64 {
-        let total: f64 = band_volumes_mm3.iter().filter(|v| **v > 0.0).sum();
-        // Lever of the band loads: their resultant at the contact height.
-        let height = if total > 0.0 {
-            self.contact_height_mm(band_volumes_mm3)
-        } else {
-            0.0
-        };
-        self.beam.peak_stress_mpa(&[(height, force_n)], torque_nmm)
     }
 
     /// The highest feed (mm/min) at which `quantity_at(feed)` stays at or under `limit`,
