@@ -537,16 +537,18 @@ pub struct Simulation {
     /// Signed distance of each column's top to the design model, µm
     /// (positive = stock left), and the per-line comparison.
     pub design: Option<(Vec<f32>, DesignInfo)>,
+    /// Top of each column of the final stock, mm (the design comparison's and
+    /// the `.npy` grid's `top_mm`), computed once.
+    tops: Vec<f32>,
 }
 
 impl Simulation {
     /// Write steps.csv and the per-column results (the `.npy` grid with
     /// columns.json, and columns.csv when `columns_csv`) into `out`, an existing folder.
     pub fn write_files(&self, out: &Path, columns_csv: bool) -> Result<()> {
-        let tops = self.run.stock.top_heights();
         write_run_files(
             &self.run,
-            &tops,
+            &self.tops,
             self.design.as_ref(),
             out,
             "steps.csv",
@@ -571,6 +573,7 @@ pub fn simulate_setup(setup: &Setup, actual_path: bool) -> Result<Simulation> {
         run,
         summary,
         design,
+        tops,
     })
 }
 
