@@ -899,12 +899,149 @@ fn gcode_errors_name_file_line_and_column() {
     assert_refused(
         dir.path(),
         &["simulate", "job.toml", "--out", "out"],
-        &[
-            "slot.ngc:3:",
-            "slot.ngc:4:1: file ended with no program end",
-        ],
+        &["slot.ngc:3:"],
         Some("out"),
     );
+}
+
+/// A program that changes tools, run with a job of one `[tool]`: every move
+/// is cut by that tool, and the summary and console say so, naming each tool
+/// and the line it is first used from; with one tool in the program, nothing.
+#[test]
+fn a_tool_change_the_single_tool_cannot_follow_is_a_warning() {
+    let dir = tempdir();
+    write(dir.path(), "job.toml", &gcode_slot_job());
+    let two_tools = "G21 G90 G17 G54\nT1 M6\nG0 X-10 Y0 Z40\nG0 Z28\nG1 X50 F1200\nG0 Z40\nT2 M6\nG0 X50 Y0 Z40\nG0 Z28\nG1 X110 F1200\nG0 Z40\nM30\n";
+    write(dir.path(), "slot.ngc", two_tools);
+    let out = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
+    ok(&out);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(
+        stderr.matches("T1 from line 4, T2 from line 9").count(),
+        1,
+        "{stderr}"
+    );
+    let s = summary(&dir.path().join("out"));
+    let w: Vec<&Value> = s["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|w| w["kind"] == "ignored_tool")
+        .collect();
+    assert_eq!(w.len(), 1, "{}", s["warnings"]);
+    assert_eq!(w[0]["line"], 9);
+    assert_eq!(w[0]["value"], 2.0);
+    // The same slot with one tool: no such warning.
+    write(dir.path(), "slot.ngc", GCODE_SLOT);
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "one"],
+        dir.path(),
+    ));
+    let s = summary(&dir.path().join("one"));
+    assert!(
+        !s["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w["kind"] == "ignored_tool"),
+        "{}",
+        s["warnings"]
+    );
+}
+
+/// A program as CAM posts (BlenderCAM) and Windows editors write it, with a
+/// UTF-8 byte-order mark and no M2/M30: read as most controls read it, with a
+/// warning per form at its line in summary.json and on the console, and the
+/// same removal as the program with an end. The re-fed optimized.nc has no
+/// mark and ends with M2, so LinuxCNC's rs274 reads it; simulated as a
+/// program of its own it warns of nothing and does what the summary says.
+#[test]
+fn programs_without_an_end_or_with_a_byte_order_mark_run_with_warnings() {
+    let dir = tempdir();
+    let job = gcode_slot_job() + "[limits]\nmrr_max = 100\n";
+    write(dir.path(), "job.toml", &job);
+    let body = "G21 G90 G17 G54\nG0 X-10 Y0 Z40\nG0 Z28\nG1 X110 F1200\nG0 Z40\n";
+    write(dir.path(), "slot.ngc", &format!("\u{feff}{body}"));
+    let out = dexcut(&["simulate", "job.toml", "--out", "sim"], dir.path());
+    ok(&out);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.matches("byte-order mark").count(), 1, "{stderr}");
+    assert_eq!(stderr.matches("no program end").count(), 1, "{stderr}");
+    let s = summary(&dir.path().join("sim"));
+    let form: Vec<(u64, String)> = s["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|w| w["kind"] == "program_form")
+        .map(|w| {
+            (
+                w["line"].as_u64().unwrap(),
+                w["message"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    assert_eq!(form.len(), 2, "{form:?}");
+    assert_eq!(form[0].0, 1);
+    assert!(form[0].1.contains("byte-order mark"), "{form:?}");
+    assert_eq!(form[1].0, 5);
+    assert!(form[1].1.contains("no program end"), "{form:?}");
+    let exact = ball_slot_area_mm2(5.0, 2.0) * 100.0;
+    let removed = s["removed_volume_mm3"].as_f64().unwrap();
+    assert!(rel(removed, exact) < 3e-3, "removed {removed} vs {exact}");
+
+    ok(&dexcut(
+        &["optimize", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
+    let text = std::fs::read_to_string(dir.path().join("out/optimized.nc")).unwrap();
+    assert!(!text.starts_with('\u{feff}'), "{text}");
+    assert!(
+        text.trim_end().lines().last().unwrap().starts_with("M2"),
+        "{text}"
+    );
+    if std::process::Command::new("rs274")
+        .arg("-h")
+        .output()
+        .is_ok()
+    {
+        let rs = std::process::Command::new("rs274")
+            .arg("-g")
+            .arg(dir.path().join("out/optimized.nc"))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&rs.stderr);
+        assert!(!err.contains("no percent sign or program end"), "{err}");
+        assert!(!err.contains("Bad character"), "{err}");
+    } else {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "rs274 missing but CI is set"
+        );
+    }
+    write(
+        dir.path(),
+        "refed.toml",
+        &job.replace("path = \"slot.ngc\"", "path = \"out/optimized.nc\""),
+    );
+    ok(&dexcut(
+        &["simulate", "refed.toml", "--out", "refed"],
+        dir.path(),
+    ));
+    let r = summary(&dir.path().join("refed"));
+    assert!(
+        !r["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w["kind"] == "program_form"),
+        "{}",
+        r["warnings"]
+    );
+    let after = &summary(&dir.path().join("out"))["after"];
+    for key in ["cycle_time_s", "removed_volume_mm3", "peak_mrr_mm3_s"] {
+        let (a, b) = (after[key].as_f64().unwrap(), r[key].as_f64().unwrap());
+        assert!(rel(a, b) < 1e-9, "{key}: summary {a}, optimized.nc {b}");
+    }
 }
 
 /// `dexcut optimize` with no job: the boss_contour example. The verification

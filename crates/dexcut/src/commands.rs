@@ -192,9 +192,68 @@ impl Setup {
         files
     }
 
-    /// The grid check of [`crate::warnings::grid_check`] for this job (the
-    /// commands print it at once, before any work).
-    pub fn grid_warning(&self) -> Option<crate::warnings::Warning> {
+    /// What the job's set-up warns of before any work, in this order: the
+    /// program's file form ([`nc::FileForm::Tolerant`]), a tool change the
+    /// single `[tool]` cannot follow, and the grid check. The commands print
+    /// them at once and put them first in summary.json.
+    pub fn setup_warnings(&self) -> Vec<crate::warnings::Warning> {
+        use crate::warnings::{Warning, WarningKind};
+        let mut out: Vec<Warning> = self
+            .program
+            .read_warnings
+            .iter()
+            .map(|d| Warning {
+                kind: WarningKind::ProgramForm,
+                line: Some(d.line),
+                value: 0.0,
+                unit: String::new(),
+                steps: 0,
+                lines: vec![d.line],
+                message: d.message.clone(),
+            })
+            .collect();
+        out.extend(self.ignored_tool_change());
+        out.extend(self.grid_warning());
+        out
+    }
+
+    /// With a single `[tool]`, every move is cut by it: a program that loads
+    /// several tools (T… M6) is simulated with one, which the user must know.
+    fn ignored_tool_change(&self) -> Option<crate::warnings::Warning> {
+        if !self.tools.single || self.program.gcode.is_none() {
+            return None;
+        }
+        // First line of each tool number the program cuts with, in order.
+        let mut first: Vec<(u32, u32)> = Vec::new();
+        for s in &self.program.path.segments {
+            if s.tool != 0 && !first.iter().any(|&(t, _)| t == s.tool) {
+                first.push((s.tool, s.line));
+            }
+        }
+        if first.len() < 2 {
+            return None;
+        }
+        let listed = first
+            .iter()
+            .map(|(t, l)| format!("T{t} from line {l}"))
+            .collect::<Vec<_>>()
+            .join(", ");
+        Some(crate::warnings::Warning {
+            kind: crate::warnings::WarningKind::IgnoredTool,
+            line: Some(first[1].1),
+            value: first.len() as f64,
+            unit: "tools".into(),
+            steps: 0,
+            lines: first.iter().map(|&(_, l)| l).take(crate::warnings::MAX_LINES).collect(),
+            message: format!(
+                "the program uses {} tools ({listed}) but the job gives one [tool]: every move is simulated with it; give a tool table ([[tools]] with number = …) to follow the tool changes",
+                first.len()
+            ),
+        })
+    }
+
+    /// The grid check of [`crate::warnings::grid_check`] for this job.
+    fn grid_warning(&self) -> Option<crate::warnings::Warning> {
         let slowest = self
             .program
             .path
@@ -561,12 +620,12 @@ impl Simulation {
 /// `actual_path` the drive model's estimate of it): removal, loads, the closed
 /// loop, warnings and the design comparison. Writes nothing.
 pub fn simulate_setup(setup: &Setup, actual_path: bool) -> Result<Simulation> {
-    let grid_warning = setup.grid_warning();
+    let setup_warnings = setup.setup_warnings();
     let steps = setup.steps(actual_path)?;
     let run = simulate::run(setup.stock.clone(), &setup.tools, steps, "simulate")?;
     let mut summary = run.summary();
     summary.check_finite()?;
-    summary.warnings.0.splice(0..0, grid_warning);
+    summary.warnings.0.splice(0..0, setup_warnings);
     let tops = run.stock.top_heights();
     let design = design_comparison(setup, &run, &tops)?;
     Ok(Simulation {
@@ -577,9 +636,9 @@ pub fn simulate_setup(setup: &Setup, actual_path: bool) -> Result<Simulation> {
     })
 }
 
-/// Print the grid warning of a job at once, before the work.
-fn announce_grid(setup: &Setup) {
-    if let Some(w) = setup.grid_warning() {
+/// Print the set-up warnings of a job at once, before the work.
+fn announce_setup_warnings(setup: &Setup) {
+    for w in setup.setup_warnings() {
         eprintln!("warning: {w}");
     }
 }
@@ -596,7 +655,7 @@ pub fn simulate(
     let started = Instant::now();
     let setup = Setup::load(job_path, grid_mm)?;
     let out_dir = OutDir::begin(out, &setup.input_files(job_path), force)?;
-    announce_grid(&setup);
+    announce_setup_warnings(&setup);
     let sim = simulate_setup(&setup, actual_path)?;
     sim.write_files(out_dir.path(), columns_csv)?;
     if let Some((_, info)) = &sim.design {
@@ -764,7 +823,7 @@ pub fn optimize(
     {
         eprintln!("warning: [limits] sets no mrr_max, force_max, deflection_max_um, power_max_kw or angle_rule: cutting runs at feed_max");
     }
-    announce_grid(&setup);
+    announce_setup_warnings(&setup);
     let optimized = optimize_setup(&setup, out_dir, started, columns_csv)?;
     print_optimize(&optimized, out);
     Ok(())
@@ -792,7 +851,7 @@ pub fn optimize_setup(
     columns_csv: bool,
 ) -> Result<Optimized> {
     let limits = &setup.job.limits;
-    let grid_warning = setup.grid_warning();
+    let setup_warnings = setup.setup_warnings();
     // Before: the program as written.
     let t0 = Instant::now();
     let before_steps = setup.machine_steps()?;
@@ -847,7 +906,7 @@ pub fn optimize_setup(
             ),
         });
     }
-    after_summary.warnings.0.splice(0..0, grid_warning);
+    after_summary.warnings.0.splice(0..0, setup_warnings);
     let mut unresolved = crate::warnings::LineTally::new();
     for e in &written.unresolved {
         crate::warnings::tally(&mut unresolved, e.line, 100.0 * e.over_limit);

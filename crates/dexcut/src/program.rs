@@ -16,6 +16,11 @@ pub struct Program {
     pub gcode: Option<String>,
     /// Interpreter settings the path was read with (G-code only).
     pub nc_options: nc::Options,
+    /// What the reader warned of: where LinuxCNC would refuse the file (no
+    /// program end, a byte-order mark) but most controls read it.
+    pub read_warnings: Vec<nc::Diagnostic>,
+    /// The program ends with M2, M30 or a closing `%` (true for CSV point lists).
+    pub has_program_end: bool,
 }
 
 impl Program {
@@ -26,6 +31,23 @@ impl Program {
             .iter()
             .map(|s| s.spindle_rpm)
             .fold(0.0, f64::max)
+    }
+
+    /// A re-fed text of this program as written for a machine: with no
+    /// byte-order mark, and ending with `M2` when the program had no end, so
+    /// that every control (LinuxCNC included) reads it. Neither changes a move.
+    pub fn machine_text(&self, text: String) -> String {
+        let mut text = match text.strip_prefix('\u{feff}') {
+            Some(rest) => rest.to_string(),
+            None => text,
+        };
+        if !self.has_program_end {
+            if !text.is_empty() && !text.ends_with('\n') {
+                text.push('\n');
+            }
+            text.push_str("M2 (program end added by dexcut: the original had none)\n");
+        }
+        text
     }
 }
 
@@ -52,6 +74,8 @@ pub fn load(job: &Job) -> Result<Program> {
             file,
             gcode: None,
             nc_options: nc::Options::default(),
+            read_warnings: Vec::new(),
+            has_program_end: true,
         })
     } else {
         parse_gcode(&text, &file, job)
@@ -79,7 +103,9 @@ pub fn is_points_csv(text: &str) -> bool {
 pub fn parse_gcode(text: &str, file: &str, job: &Job) -> Result<Program> {
     let mut options = nc::Options {
         work_offsets_mm: job.offsets.as_array(),
-        require_program_end: true,
+        // Read as most controls read a file: no program end and a byte-order
+        // mark are warnings, not errors as in LinuxCNC.
+        file_form: nc::FileForm::Tolerant,
         tool_lengths_mm: job
             .tools
             .iter()
@@ -122,14 +148,17 @@ pub fn parse_gcode(text: &str, file: &str, job: &Job) -> Result<Program> {
         options.initial_position_mm = default_start(&parsed.path);
         parsed = nc::parse(text, file, &options);
     }
-    for d in parsed.diagnostics.iter().filter(|d| !d.is_error()) {
-        eprintln!("warning: {d}");
-    }
     Ok(Program {
         path: parsed.path,
         file: file.to_string(),
         gcode: Some(text.to_string()),
         nc_options: options,
+        read_warnings: parsed
+            .diagnostics
+            .into_iter()
+            .filter(|d| !d.is_error())
+            .collect(),
+        has_program_end: parsed.has_program_end,
     })
 }
 

@@ -38,6 +38,9 @@ pub enum WarningKind {
     LimitExceeded,
     /// The written program is slower than the plan it was written from.
     PlanNotMet,
+    /// The program file has a form LinuxCNC refuses but most controls read
+    /// (no program end, a byte-order mark); read as they read it.
+    ProgramForm,
 }
 
 /// One warning: kind, the first program line concerned, the worst value and a
@@ -59,6 +62,19 @@ pub struct Warning {
     pub lines: Vec<u32>,
     /// The warning in plain words.
     pub message: String,
+}
+
+impl Warning {
+    /// A warning of the job's set-up, printed before any work: the program
+    /// file's form, a tool change a single tool cannot follow, the grid check
+    /// (see `Setup::setup_warnings`).
+    pub fn of_setup(&self) -> bool {
+        match self.kind {
+            WarningKind::ProgramForm | WarningKind::IgnoredTool => true,
+            WarningKind::CoarseGrid => self.line.is_none(),
+            _ => false,
+        }
+    }
 }
 
 /// Lines listed per warning.
@@ -147,17 +163,10 @@ impl Warnings {
         });
     }
 
-    /// Print the warnings found by the work (those of [`grid_check`] were
+    /// Print the warnings found by the work (those of the set-up were
     /// printed before it), each prefixed by `label` when given.
     pub fn print_after_work(&self, label: &str) {
-        Warnings(
-            self.0
-                .iter()
-                .filter(|w| !(w.kind == WarningKind::CoarseGrid && w.line.is_none()))
-                .cloned()
-                .collect(),
-        )
-        .print(label);
+        Warnings(self.0.iter().filter(|w| !w.of_setup()).cloned().collect()).print(label);
     }
 
     /// Print every warning on stderr, each prefixed by `label` when given.

@@ -17,6 +17,9 @@ use crate::expr::Params;
 use crate::path::{Geometry, Motion, Path, Plane, Segment};
 use crate::syntax::{self, Item, ItemKind, LineKind, OKeyword, OLabel, OStmt, SyntaxError};
 
+/// The UTF-8 byte-order mark some editors write before the first line.
+const BYTE_ORDER_MARK: char = '\u{feff}';
+
 /// Settings the program cannot know by itself.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
@@ -45,9 +48,30 @@ pub struct Options {
     pub initial_tool: Option<u32>,
     /// Errors kept per program; the rest are counted in a last "and K more".
     pub max_errors: usize,
-    /// A file that ends without M2, M30 or a closing `%` is an error, as in
-    /// LinuxCNC (off by default for program fragments).
-    pub require_program_end: bool,
+    /// What the reader asks of the file as a whole: its program end and a
+    /// leading byte-order mark (a fragment by default).
+    pub file_form: FileForm,
+}
+
+/// What the reader asks of a file as a whole, beyond its blocks.
+///
+/// LinuxCNC refuses a file that ends without `M2`, `M30` or a closing `%`,
+/// and a UTF-8 byte-order mark before the first line. GRBL, Mach3 and
+/// simulators such as CAMotics read both, and CAM posts (BlenderCAM among
+/// them) and Windows editors write them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FileForm {
+    /// A program fragment (tests, snippets): no program end is needed; a
+    /// byte-order mark is an error, as any character the language lacks.
+    #[default]
+    Fragment,
+    /// As LinuxCNC's interpreter: a missing program end and a byte-order mark
+    /// are errors.
+    LinuxCnc,
+    /// As most controls: the program ends at its last line when it has no
+    /// program end, and a leading byte-order mark is skipped; each is a
+    /// warning naming what LinuxCNC would refuse.
+    Tolerant,
 }
 
 impl Default for Options {
@@ -65,7 +89,7 @@ impl Default for Options {
             default_tool_diameter_mm: 0.0,
             initial_tool: None,
             max_errors: 20,
-            require_program_end: false,
+            file_form: FileForm::Fragment,
         }
     }
 }
@@ -75,6 +99,9 @@ impl Default for Options {
 pub struct Parsed {
     pub path: Path,
     pub diagnostics: Vec<Diagnostic>,
+    /// The program ended with M2, M30, a closing `%` (or M99 outside any
+    /// subprogram), rather than at the end of the file.
+    pub has_program_end: bool,
 }
 
 /// Per-segment facts the re-feed writer needs (modes in force at the block).
@@ -304,6 +331,8 @@ struct Interp<'a> {
     selected_tool: Option<u32>,
     /// First tool loaded by M6/M61.
     first_loaded: Option<u32>,
+    /// Execution stopped at a program end (M2, M30, closing '%').
+    ended: bool,
     /// Active tool length offset (G43, G43.1, G43.2) in mm; `pos` is the
     /// gauge point = program + work offset + G92 + this.
     tlo_mm: [f64; 3],
@@ -385,6 +414,7 @@ fn run_once(source: &str, file: &str, options: &Options) -> (Parsed, Trace, Opti
         tool_length_mm,
         selected_tool: None,
         first_loaded: None,
+        ended: false,
         tlo_mm: [0.0; 3],
         tlo_on: false,
         canon_mm: pos,
@@ -398,6 +428,17 @@ fn run_once(source: &str, file: &str, options: &Options) -> (Parsed, Trace, Opti
             first: true,
             ..comp::Comp::default()
         },
+    };
+    let source = match source.strip_prefix(BYTE_ORDER_MARK) {
+        Some(rest) if options.file_form == FileForm::Tolerant => {
+            it.warn(
+                1,
+                "UTF-8 byte-order mark before the first line skipped (LinuxCNC would refuse the file)"
+                    .into(),
+            );
+            rest
+        }
+        _ => source,
     };
     let mut lines = Vec::new();
     for (i, (text, _)) in syntax::split_lines(source).enumerate() {
@@ -444,6 +485,7 @@ fn run_once(source: &str, file: &str, options: &Options) -> (Parsed, Trace, Opti
         Parsed {
             path: it.path,
             diagnostics: it.diagnostics,
+            has_program_end: it.ended,
         },
         trace,
         it.first_loaded,
@@ -463,6 +505,17 @@ impl Interp<'_> {
             column: col.max(1),
             message,
             severity: Severity::Error,
+        });
+    }
+
+    /// A warning: the program is read, but the user should know.
+    fn warn(&mut self, col: u32, message: String) {
+        self.diagnostics.push(Diagnostic {
+            file: self.file.to_owned(),
+            line: self.line_index as u32 + 1,
+            column: col.max(1),
+            message,
+            severity: Severity::Warning,
         });
     }
 
@@ -532,20 +585,28 @@ impl Interp<'_> {
             };
             match next {
                 Ok(Some(n)) => pc = n,
-                Ok(None) => return,
+                Ok(None) => {
+                    self.ended = true;
+                    return;
+                }
                 Err(f) => {
                     self.report(f.col, f.msg);
                     pc += 1;
                 }
             }
         }
-        if self.options.require_program_end {
-            // As LinuxCNC: a program ends with M2, M30 or a closing '%'.
-            self.line_index = lines.len().saturating_sub(1);
-            self.report(
+        // As LinuxCNC: a program ends with M2, M30 or a closing '%'.
+        self.line_index = lines.len().saturating_sub(1);
+        match self.options.file_form {
+            FileForm::Fragment => {}
+            FileForm::LinuxCnc => self.report(
                 1,
                 "file ended with no program end (M2 or M30) or closing '%'".into(),
-            );
+            ),
+            FileForm::Tolerant => self.warn(
+                1,
+                "file ended with no program end (M2 or M30) or closing '%': the program ends at its last line (LinuxCNC would refuse the file)".into(),
+            ),
         }
     }
 

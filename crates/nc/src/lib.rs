@@ -12,7 +12,7 @@ mod refeed;
 mod syntax;
 
 pub use diag::{Diagnostic, Severity};
-pub use interp::{Options, Parsed};
+pub use interp::{FileForm, Options, Parsed};
 pub use path::{Geometry, Motion, Path, Plane, Segment};
 pub use refeed::{refeed, RefeedError};
 

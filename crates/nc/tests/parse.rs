@@ -258,12 +258,47 @@ fn lines_after_the_program_end_are_not_read() {
     let e = errors("G0 X1\nN2490%");
     assert!(e[0].starts_with("t.ngc:2:6"), "{e:?}");
     let strict = Options {
-        require_program_end: true,
+        file_form: nc::FileForm::LinuxCnc,
         ..Options::default()
     };
     let d = nc::parse("G0 X1\n", "t.ngc", &strict).diagnostics;
     assert_eq!(d.len(), 1);
     assert!(d[0].message.contains("no program end"), "{}", d[0]);
+    assert!(d[0].is_error());
+}
+
+/// Read as most controls read a file, a missing program end and a leading
+/// UTF-8 byte-order mark are warnings at the line concerned, and the path is
+/// the one of the file with `M2` added and the mark dropped; as LinuxCNC
+/// reads it, each is an error there.
+#[test]
+fn tolerant_file_form_warns_where_linuxcnc_refuses() {
+    let form = |file_form| Options {
+        file_form,
+        ..Options::default()
+    };
+    let src = "\u{feff}G21 G90\nG1 X10 Y5 F600\nG0 Z5\n";
+    let tolerant = nc::parse(src, "t.ngc", &form(nc::FileForm::Tolerant));
+    let d = &tolerant.diagnostics;
+    assert_eq!(d.len(), 2, "{d:?}");
+    assert!(d.iter().all(|d| !d.is_error()), "{d:?}");
+    assert_eq!((d[0].line, d[0].column), (1, 1), "{}", d[0]);
+    assert!(d[0].message.contains("byte-order mark"), "{}", d[0]);
+    assert_eq!((d[1].line, d[1].column), (3, 1), "{}", d[1]);
+    assert!(d[1].message.contains("no program end"), "{}", d[1]);
+    let amended = nc::parse(
+        "G21 G90\nG1 X10 Y5 F600\nG0 Z5\nM2\n",
+        "t.ngc",
+        &form(nc::FileForm::LinuxCnc),
+    );
+    assert!(amended.diagnostics.is_empty(), "{:?}", amended.diagnostics);
+    assert_eq!(tolerant.path, amended.path);
+    let strict = nc::parse(src, "t.ngc", &form(nc::FileForm::LinuxCnc)).diagnostics;
+    assert!(
+        strict.len() >= 2 && strict.iter().all(|d| d.is_error()),
+        "{strict:?}"
+    );
+    assert_eq!((strict[0].line, strict[0].column), (1, 1), "{}", strict[0]);
 }
 
 /// At most `max_errors` errors are listed, then one line with the count.

@@ -20,7 +20,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use nc::{Geometry, Motion, Options, Plane};
+use nc::{FileForm, Geometry, Motion, Options, Plane};
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Kind {
@@ -284,12 +284,17 @@ fn first_tool(rs274_output: &str) -> u32 {
 /// Options of both readers: the tool table, and the first tool's tip where
 /// rs274 starts its gauge point (the origin).
 fn options(first_tool: u32) -> Options {
+    options_as(first_tool, FileForm::LinuxCnc)
+}
+
+/// [`options`] with another [`FileForm`] (ours only: rs274 reads as LinuxCNC).
+fn options_as(first_tool: u32, file_form: FileForm) -> Options {
     Options {
         tool_lengths_mm: tool_table(),
         tool_diameters_mm: TOOLS.map(|t| (t, tool_diameter_mm(t))).collect(),
         initial_position_mm: [0.0, 0.0, -tool_length_mm(first_tool)],
         max_blocks: 1_000_000,
-        require_program_end: true,
+        file_form,
         ..Options::default()
     }
 }
@@ -299,9 +304,9 @@ fn options(first_tool: u32) -> Options {
 /// moves below its resolution (0.0001 in) may print as zero-length.
 const SUB_RESOLUTION_MM: f64 = 0.0016;
 
-fn our_moves(source: &str, name: &str, first_tool: u32) -> Vec<Move> {
-    let parsed = nc::parse(source, name, &options(first_tool));
-    if let Some(d) = parsed.diagnostics.first() {
+fn our_moves(source: &str, name: &str, options: &Options) -> Vec<Move> {
+    let parsed = nc::parse(source, name, options);
+    if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
         panic!("{d}");
     }
     let mut last = parsed
@@ -358,11 +363,20 @@ fn our_moves(source: &str, name: &str, first_tool: u32) -> Vec<Move> {
 
 fn compare(file: &Path) -> Result<usize, String> {
     let source = std::fs::read_to_string(file).map_err(|e| e.to_string())?;
+    compare_as(&source, FileForm::LinuxCnc, file)
+}
+
+/// Our moves of `source` read as `form` against rs274's moves of `file`.
+fn compare_as(source: &str, form: FileForm, file: &Path) -> Result<usize, String> {
     let (theirs, first_tool, error) = rs274_moves(file);
     if let Some(e) = error {
         return Err(format!("{}: rs274 refuses it: {e}", file.display()));
     }
-    let ours = our_moves(&source, &file.display().to_string(), first_tool);
+    let ours = our_moves(
+        source,
+        &file.display().to_string(),
+        &options_as(first_tool, form),
+    );
     if ours.len() != theirs.len() {
         return Err(format!(
             "{}: {} moves vs rs274's {}",
@@ -576,6 +590,48 @@ fn outcome(file: &Path) -> Outcome {
     }
 }
 
+/// A program LinuxCNC refuses, read as most controls read it
+/// ([`FileForm::Tolerant`]): where rs274 reads the same file with its
+/// byte-order mark dropped and `M2` added, we read the original with warnings
+/// only, through the same moves; where rs274 still refuses it, so do we.
+fn tolerant_outcome(file: &Path, dir: &Path) -> Outcome {
+    let Ok(source) = std::fs::read_to_string(file) else {
+        return Outcome::Differ(format!("{}: unreadable", file.display()));
+    };
+    let amended = dir.join(file.file_name().expect("file name"));
+    let body = source.strip_prefix('\u{feff}').unwrap_or(&source);
+    std::fs::write(&amended, format!("{}\nM2\n", body.trim_end())).expect("write amended copy");
+    let (_, first_tool, rs274_error) = rs274_moves(&amended);
+    let parsed = nc::parse(
+        &source,
+        &file.display().to_string(),
+        &options_as(first_tool, FileForm::Tolerant),
+    );
+    let ours = parsed.diagnostics.iter().find(|d| d.is_error());
+    match (ours, rs274_error) {
+        (Some(d), Some(e)) => Outcome::BothRefuse(d.to_string(), e),
+        (Some(d), None) => Outcome::Differ(format!(
+            "read as most controls read it, we refuse what rs274 reads once M2 is added: {d}"
+        )),
+        (None, Some(e)) => Outcome::Differ(format!(
+            "{}: rs274 refuses ({e}) even with M2 added what we read with warnings",
+            file.display()
+        )),
+        (None, None) => {
+            if !parsed.diagnostics.iter().any(|d| !d.is_error()) {
+                return Outcome::Differ(format!(
+                    "{}: read with no warning although LinuxCNC refuses it",
+                    file.display()
+                ));
+            }
+            match compare_as(&source, FileForm::Tolerant, &amended) {
+                Ok(n) => Outcome::Agree(n),
+                Err(e) => Outcome::Differ(e),
+            }
+        }
+    }
+}
+
 /// Real programs from other CAM systems and people (tests/data/real, sources
 /// in its README; `DEXCUT_REAL_DIR` reads another folder): each one rs274
 /// reads, we read and move through the same path; each one rs274 refuses,
@@ -595,22 +651,33 @@ fn real_programs_match_linuxcnc_rs274() {
         .filter(|p| p.file_name().is_some_and(|n| n != "README.md"))
         .collect();
     files.sort();
-    let (mut read, mut refused, mut failures) = (0, 0, Vec::new());
+    let amended_dir = tempfile::tempdir().expect("temp dir");
+    let (mut read, mut tolerant, mut refused, mut failures) = (0, 0, 0, Vec::new());
     for f in &files {
         match outcome(f) {
             Outcome::Agree(n) => {
                 read += 1;
                 println!("read, {n} moves agree: {}", f.display());
             }
-            Outcome::BothRefuse(ours, theirs) => {
-                refused += 1;
-                println!("refused by both: {ours}\n    rs274: {theirs}");
-            }
+            Outcome::BothRefuse(ours, theirs) => match tolerant_outcome(f, amended_dir.path()) {
+                Outcome::Agree(n) => {
+                    tolerant += 1;
+                    println!(
+                        "read with a warning, {n} moves agree with rs274 on the file with M2 added and no byte-order mark: {}",
+                        f.display()
+                    );
+                }
+                Outcome::BothRefuse(..) => {
+                    refused += 1;
+                    println!("refused by both: {ours}\n    rs274: {theirs}");
+                }
+                Outcome::Differ(e) => failures.push(e),
+            },
             Outcome::Differ(e) => failures.push(e),
         }
     }
     println!(
-        "{read} read and agree, {refused} refused by both, {} differ",
+        "{read} read and agree, {tolerant} read with a file-form warning and agree, {refused} refused by both, {} differ",
         failures.len()
     );
     assert!(failures.is_empty(), "{}", failures.join("\n"));
