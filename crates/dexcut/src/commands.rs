@@ -928,7 +928,7 @@ pub fn optimize_setup(
             steps: 0,
             lines: Vec::new(),
             message: format!(
-                "optimized.nc takes {:.1} % longer than the plan it was written from: a line that makes several moves per run (a drilling cycle run more than once) or a line the table of runs could not take (the program uses parameters 1000–4999) takes one feed, the lowest its moves need",
+                "optimized.nc takes {:.1} % longer than the plan it was written from: a line that makes several moves per run (a drilling cycle run more than once) or a line the table of runs could not take (the program uses parameters 1000–4999, or a subroutine's calls need more records than fit) takes one feed, the lowest its moves need",
                 100.0 * written_vs_plan
             ),
         });

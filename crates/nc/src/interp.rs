@@ -350,26 +350,60 @@ struct Interp<'a> {
     contexts: Vec<Context>,
     /// Cutter radius compensation.
     comp: comp::Comp,
+    /// Every line executed, in order, with the call depth it ran at
+    /// (`Some` only for [`run_recorded`]).
+    executed: Option<Vec<Executed>>,
+}
+
+/// A line as executed: its 0-based index and the call depth it ran at
+/// (0 in the main program, +1 per o-word or M98 call).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Executed {
+    pub line_index: u32,
+    pub depth: u32,
+    /// Segments made before the line ran (the line made those up to the next
+    /// entry's count).
+    pub segments_before: u32,
 }
 
 /// Parses and runs a program. Without an initial tool, the first tool the
 /// program loads is taken to be in the spindle from the start.
 pub fn run(source: &str, file: &str, options: &Options) -> (Parsed, Trace) {
-    let (parsed, trace, first) = run_once(source, file, options);
+    let (parsed, trace, _) = run_and_record(source, file, options, false);
+    (parsed, trace)
+}
+
+/// [`run`], and every line executed in the order it ran (for unrolling loops).
+pub fn run_recorded(source: &str, file: &str, options: &Options) -> (Parsed, Trace, Vec<Executed>) {
+    run_and_record(source, file, options, true)
+}
+
+fn run_and_record(
+    source: &str,
+    file: &str,
+    options: &Options,
+    record: bool,
+) -> (Parsed, Trace, Vec<Executed>) {
+    let (parsed, trace, first, executed) = run_once(source, file, options, record);
     match (options.initial_tool, first) {
         (None, Some(tool)) if tool != 0 => {
             let options = Options {
                 initial_tool: Some(tool),
                 ..options.clone()
             };
-            let (parsed, trace, _) = run_once(source, file, &options);
-            (parsed, trace)
+            let (parsed, trace, _, executed) = run_once(source, file, &options, record);
+            (parsed, trace, executed)
         }
-        _ => (parsed, trace),
+        _ => (parsed, trace, executed),
     }
 }
 
-fn run_once(source: &str, file: &str, options: &Options) -> (Parsed, Trace, Option<u32>) {
+fn run_once(
+    source: &str,
+    file: &str,
+    options: &Options,
+    record: bool,
+) -> (Parsed, Trace, Option<u32>, Vec<Executed>) {
     let tool = options.initial_tool.unwrap_or(0);
     let tool_length_mm = options.tool_lengths_mm.get(&tool).copied().unwrap_or(0.0);
     let mut pos = options.initial_position_mm;
@@ -428,6 +462,7 @@ fn run_once(source: &str, file: &str, options: &Options) -> (Parsed, Trace, Opti
             first: true,
             ..comp::Comp::default()
         },
+        executed: record.then(Vec::new),
     };
     let source = match source.strip_prefix(BYTE_ORDER_MARK) {
         Some(rest) if options.file_form == FileForm::Tolerant => {
@@ -489,6 +524,7 @@ fn run_once(source: &str, file: &str, options: &Options) -> (Parsed, Trace, Opti
         },
         trace,
         it.first_loaded,
+        it.executed.unwrap_or_default(),
     )
 }
 
@@ -566,6 +602,13 @@ impl Interp<'_> {
             if line.block_delete && self.options.block_delete {
                 pc += 1;
                 continue;
+            }
+            if let Some(executed) = &mut self.executed {
+                executed.push(Executed {
+                    line_index: pc as u32,
+                    depth: self.frames.len() as u32,
+                    segments_before: self.path.segments.len() as u32,
+                });
             }
             let next = match &line.kind {
                 LineKind::Empty | LineKind::ProgramNumber(_) => Ok(Some(pc + 1)),

@@ -10,6 +10,7 @@ mod interp;
 mod path;
 mod refeed;
 mod syntax;
+mod unroll;
 
 pub use diag::{Diagnostic, Severity};
 pub use interp::{FileForm, Options, Parsed};

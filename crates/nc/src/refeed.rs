@@ -15,7 +15,11 @@
 //!   parameters 1000–4999). Where every run is one block, the record is its
 //!   F; where a run needs pieces, every run is split into as many blocks as
 //!   the run that needs most (the longest pieces of the others halved) and
-//!   the record holds each block's end point, arc centre and F.
+//!   the record holds each block's end point, arc centre and F. A run that
+//!   does not move keeps its record (any F; blocks to where the tool is).
+//! * Where the records do not fit, the o-word loops around those lines are
+//!   written out in full ([`crate::unroll`]), and every line of them runs
+//!   once.
 //! * Canned cycles whose feed moves need more than one feed are written out
 //!   as G0/G1/G4 blocks of their moves (all cycle lines of the program, or
 //!   none; see `cycle_lines`).
@@ -31,10 +35,11 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 
+use nalgebra::Point3;
 use thiserror::Error;
 
 use crate::expr::Expr;
-use crate::interp::{self, Options, SegmentTrace};
+use crate::interp::{self, Executed, Options, SegmentTrace};
 use crate::path::{Geometry, Motion, Segment};
 use crate::syntax::{self, Item, ItemKind, LineKind};
 
@@ -62,7 +67,7 @@ pub fn refeed(
     options: &Options,
     plan: &[Vec<(f64, f64)>],
 ) -> Result<String, RefeedError> {
-    let (parsed, trace) = interp::run(source, file, options);
+    let (parsed, trace, executed) = interp::run_recorded(source, file, options);
     if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
         return Err(RefeedError::Program(d.clone()));
     }
@@ -82,13 +87,63 @@ pub fn refeed(
             });
         }
     }
-    // Segments made by each line.
+    let by_line = lines_segments(&trace);
+    let (tables, unfit) = run_tables(source, &by_line, segments, &trace, &executed, plan);
+    if !unfit.is_empty() {
+        // Records that do not fit the table: the loops around those lines
+        // written out in full, if the result makes the same path.
+        if let Some(unrolled) = crate::unroll::unroll(source, &trace.lines, &executed, &unfit) {
+            let (p, t, e) = interp::run_recorded(&unrolled, file, options);
+            if same_path(segments, &p.path.segments) && !p.diagnostics.iter().any(|d| d.is_error())
+            {
+                let by_line = lines_segments(&t);
+                let (tables, _) = run_tables(&unrolled, &by_line, segments, &t, &e, plan);
+                if let Ok(out) = write_checked(
+                    &unrolled, file, options, segments, &t, &by_line, plan, tables,
+                ) {
+                    return Ok(out);
+                }
+            }
+        }
+    }
+    write_checked(
+        source, file, options, segments, &trace, &by_line, plan, tables,
+    )
+}
+
+/// Segments made by each line.
+fn lines_segments(trace: &interp::Trace) -> BTreeMap<usize, Vec<usize>> {
     let mut by_line: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     for (i, t) in trace.segments.iter().enumerate() {
         by_line.entry(t.line_index).or_default().push(i);
     }
-    let mut tables = run_tables(source, &by_line, segments, &trace, plan);
-    let mut expanded = cycle_lines(&by_line, segments, &trace, plan);
+    by_line
+}
+
+/// The same moves: kind, end point and length of every segment.
+fn same_path(a: &[Segment], b: &[Segment]) -> bool {
+    a.len() == b.len()
+        && a.iter().zip(b).all(|(x, y)| {
+            std::mem::discriminant(&x.motion) == std::mem::discriminant(&y.motion)
+                && (x.end - y.end).norm() <= 1e-9
+                && (x.length_mm() - y.length_mm()).abs() <= 1e-9
+        })
+}
+
+/// Writes the program with `tables` and the canned cycles written out where
+/// needed, dropping either when the result does not read back as planned.
+#[allow(clippy::too_many_arguments)]
+fn write_checked(
+    source: &str,
+    file: &str,
+    options: &Options,
+    segments: &[Segment],
+    trace: &interp::Trace,
+    by_line: &BTreeMap<usize, Vec<usize>>,
+    plan: &[Vec<(f64, f64)>],
+    mut tables: BTreeMap<usize, RunTable>,
+) -> Result<String, RefeedError> {
+    let mut expanded = cycle_lines(by_line, segments, trace, plan);
     loop {
         // Runs of a line split into more blocks than they need: their pieces as written.
         let mut plan = plan.to_vec();
@@ -99,17 +154,17 @@ pub fn refeed(
                 }
             }
         }
-        let (out, written_pieces) = write(
-            source, segments, &trace, &by_line, &plan, &tables, &expanded,
-        );
+        let (out, written_pieces) =
+            write(source, segments, trace, by_line, &plan, &tables, &expanded);
         match verify(&out, file, options, segments, &plan, &written_pieces) {
             Ok(()) => return Ok(out),
             // A canned cycle run more than once (its runs' moves would all be
             // written in each run): keep the cycles as written.
             Err(_) if !expanded.is_empty() => expanded.clear(),
-            // A line that sometimes runs without moving (a zero-length move
-            // makes no segment) counts a run the table does not have: write
-            // those lines at their lowest feed instead.
+            // A run that should stay still moves after all (its point as
+            // written is not quite where the tool is): those lines at their
+            // lowest feed, then every line.
+            Err(_) if tables.values().any(|t| t.idle) => tables.retain(|_, t| !t.idle),
             Err(_) if !tables.is_empty() => tables.clear(),
             Err(e) => return Err(e),
         }
@@ -278,6 +333,8 @@ struct RunTable {
     letters: Vec<Vec<char>>,
     /// Values, `width()` per run, in the order the runs run.
     values: Vec<f64>,
+    /// Some run of the line does not move (its record keeps it still).
+    idle: bool,
 }
 
 impl RunTable {
@@ -322,28 +379,84 @@ fn named_parameters(source: &str) -> Vec<u32> {
     out
 }
 
+/// What one run (execution) of a line made.
+#[derive(Clone, Copy, Debug)]
+enum Run {
+    /// One segment.
+    Moved(usize),
+    /// Nothing: a move to where the tool already was (at this point, `None`
+    /// before any move).
+    Idle(Option<Point3<f64>>),
+    /// More than one segment.
+    Several,
+}
+
+/// Per line that made a segment, its runs in the order they ran. `None` when
+/// a segment was made while another line ran (moves held back by cutter
+/// compensation): then every segment is taken for a run.
+fn line_runs(
+    executed: &[Executed],
+    trace: &interp::Trace,
+    segments: &[Segment],
+    by_line: &BTreeMap<usize, Vec<usize>>,
+) -> Option<BTreeMap<usize, Vec<Run>>> {
+    let mut runs: BTreeMap<usize, Vec<Run>> = BTreeMap::new();
+    let mut at: Option<Point3<f64>> = None;
+    for (k, e) in executed.iter().enumerate() {
+        let line = e.line_index as usize;
+        let from = e.segments_before as usize;
+        let to = executed
+            .get(k + 1)
+            .map_or(segments.len(), |n| n.segments_before as usize);
+        if (from..to).any(|j| trace.segments[j].line_index != line) {
+            return None;
+        }
+        if by_line.contains_key(&line) {
+            runs.entry(line).or_default().push(match to - from {
+                0 => Run::Idle(at),
+                1 => Run::Moved(from),
+                _ => Run::Several,
+            });
+        }
+        if to > from {
+            at = Some(segments[to - 1].end);
+        }
+    }
+    Some(runs)
+}
+
 /// Lines that run more than once as one plain feed move per run, with runs
 /// that need different feeds or more than one block: each gets a counter and
 /// a table, one record per run ([`RunTable`]), instead of the lowest feed of
 /// all runs. A run that needs fewer blocks than another has its longest
-/// pieces halved (same feed) until it has as many. None when the program
-/// names a parameter of [`TABLE_PARAMS`] itself, or the tables do not fit.
+/// pieces halved (same feed) until it has as many; a run that does not move
+/// gets a record that keeps it still (its F, or its point when the line is
+/// split). None when the program names a parameter of [`TABLE_PARAMS`]
+/// itself. Also returns the lines whose records did not fit (in line
+/// order), to be unrolled ([`crate::unroll`]).
 fn run_tables(
     source: &str,
     by_line: &BTreeMap<usize, Vec<usize>>,
     segments: &[Segment],
     trace: &interp::Trace,
+    executed: &[Executed],
     plan: &[Vec<(f64, f64)>],
-) -> BTreeMap<usize, RunTable> {
+) -> (BTreeMap<usize, RunTable>, Vec<usize>) {
     let mut tables = BTreeMap::new();
+    let mut unfit = Vec::new();
     if named_parameters(source)
         .iter()
         .any(|n| TABLE_PARAMS.contains(n))
     {
-        return tables;
+        return (tables, unfit);
     }
+    let all_runs = line_runs(executed, trace, segments, by_line);
     let mut next = *TABLE_PARAMS.start();
     for (&index, segs) in by_line {
+        let runs: Vec<Run> = match &all_runs {
+            Some(r) => r[&index].clone(),
+            None => segs.iter().map(|&i| Run::Moved(i)).collect(),
+        };
         let all_feeds = segs
             .iter()
             .all(|&i| matches!(segments[i].motion, Motion::Feed { .. }));
@@ -355,6 +468,7 @@ fn run_tables(
             continue;
         };
         if segs.len() < 2
+            || runs.iter().any(|r| matches!(r, Run::Several))
             || !all_feeds
             || segs
                 .iter()
@@ -362,9 +476,10 @@ fn run_tables(
         {
             continue;
         }
+        let idle = runs.len() > segs.len();
         let blocks = segs.iter().map(|&i| plan[i].len()).max().unwrap_or(1);
         let (letters, values) = if blocks == 1 {
-            let values: Vec<f64> = segs
+            let moved: Vec<f64> = segs
                 .iter()
                 .map(|&i| {
                     f_value(&f_word(
@@ -375,10 +490,21 @@ fn run_tables(
                     ))
                 })
                 .collect();
-            let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
-            if values.iter().all(|v| *v <= lo * 1.001) {
+            let lo = moved.iter().copied().fold(f64::INFINITY, f64::min);
+            if moved.iter().all(|v| *v <= lo * 1.001) {
                 continue;
             }
+            let mut k = 0;
+            let values = runs
+                .iter()
+                .map(|r| match r {
+                    Run::Moved(_) => {
+                        k += 1;
+                        moved[k - 1]
+                    }
+                    _ => lo,
+                })
+                .collect();
             (vec![vec!['f']], values)
         } else {
             // Every run the same kind of move (a line may take its motion mode from before it).
@@ -387,16 +513,38 @@ fn run_tables(
                 motion_word(&segments[i].geometry) == motion_word(&first.geometry)
                     && plane_of(&segments[i].geometry) == plane_of(&first.geometry)
             });
-            if !same_kind {
+            // A run that stays still is written as straight moves to where the tool is.
+            let still = !idle
+                || (matches!(first.geometry, Geometry::Line)
+                    && segs.iter().all(|&i| !trace.segments[i].inverse_time)
+                    && runs.iter().all(|r| !matches!(r, Run::Idle(None))));
+            if !same_kind || !still {
                 continue;
             }
             let axes: [bool; 3] =
                 std::array::from_fn(|a| segs.iter().any(|&i| block_axes(items, &segments[i])[a]));
             let mut letters: Vec<Vec<char>> = Vec::new();
             let mut values = Vec::new();
-            for &i in segs {
-                let pieces = padded(&plan[i], blocks);
-                let words = block_values(&segments[i], &trace.segments[i], axes, &pieces);
+            // The run whose modes a still run is written in: the last that moved, else the first.
+            let mut reference = segs[0];
+            for r in &runs {
+                let words = match *r {
+                    Run::Moved(i) => {
+                        reference = i;
+                        let pieces = padded(&plan[i], blocks);
+                        block_values(&segments[i], &trace.segments[i], axes, &pieces)
+                    }
+                    Run::Idle(Some(at)) => {
+                        let seg = Segment {
+                            start: at,
+                            end: at,
+                            ..segments[reference]
+                        };
+                        let pieces = padded(&[(1.0, lowest(&plan[reference]))], blocks);
+                        block_values(&seg, &trace.segments[reference], axes, &pieces)
+                    }
+                    Run::Idle(None) | Run::Several => unreachable!("checked above"),
+                };
                 if letters.is_empty() {
                     letters = words
                         .iter()
@@ -409,6 +557,7 @@ fn run_tables(
         };
         let needed = values.len() as u32 + 1;
         if next + needed - 1 > *TABLE_PARAMS.end() {
+            unfit.push(index);
             continue;
         }
         tables.insert(
@@ -418,11 +567,12 @@ fn run_tables(
                 first: next + 1,
                 letters,
                 values,
+                idle,
             },
         );
         next += needed;
     }
-    tables
+    (tables, unfit)
 }
 
 /// Canned cycles to write out as plain moves: when a cycle's feed moves need

@@ -303,28 +303,41 @@ fn repeated_lines_get_their_own_pieces_per_run() {
 }
 
 /// A line that once runs without moving (a zero-length move makes no
-/// segment) would read the wrong table entry: it falls back to the lowest feed.
+/// segment) still counts that run: its record keeps it still (any F; the
+/// point where the tool is when the line is split), and every run that moves
+/// reads its own pieces. Where that point cannot be written exactly (the
+/// tool at X10/3 from a line not re-fed), the split line falls back to its
+/// lowest feed.
 #[test]
-fn a_run_without_motion_falls_back_to_the_lowest_feed() {
-    let src = "o100 sub\nG1 X[#1] F500\no100 endsub\nG0 X0\no100 call [10]\no100 call [10]\no100 call [20]\nM2\n";
-    let path = parse(src);
-    let plan: Vec<Vec<(f64, f64)>> = path
-        .segments
-        .iter()
-        .enumerate()
-        .map(|(i, s)| match s.motion {
-            Motion::Feed { .. } => vec![(1.0, 300.0 + 100.0 * i as f64)],
-            _ => vec![],
-        })
-        .collect();
-    assert_eq!(feeds(&path).len(), 2);
-    let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
-    assert!(!out.contains("#1000"), "{out}");
-    let lowest = plan
-        .iter()
-        .filter_map(|p| p.first().map(|x| x.1))
-        .fold(f64::INFINITY, f64::min);
-    assert_eq!(feeds(&parse(&out)), vec![lowest, lowest], "{out}");
+fn a_run_without_motion_keeps_its_record() {
+    for (x, split) in [("10", false), ("10", true), ("[10 / 3]", true)] {
+        let src = format!("o100 sub\nG1 X[#1] F500\no100 endsub\nG0 X{x}\no100 call [{x}]\no100 call [20]\no100 call [30]\nM2\n");
+        let path = parse(&src);
+        let plan: Vec<Vec<(f64, f64)>> = path
+            .segments
+            .iter()
+            .enumerate()
+            .map(|(i, s)| match s.motion {
+                Motion::Feed { .. } if split => {
+                    vec![(0.5, 1000.0 + 100.0 * i as f64), (1.0, 300.0)]
+                }
+                Motion::Feed { .. } => vec![(1.0, 300.0 + 100.0 * i as f64)],
+                _ => vec![],
+            })
+            .collect();
+        assert_eq!(feeds(&path).len(), 2);
+        let out = nc::refeed(&src, "t.ngc", &Options::default(), &plan).unwrap();
+        let new = feeds(&parse(&out));
+        let planned: Vec<f64> = plan.iter().flatten().map(|p| p.1).collect();
+        if x == "10" {
+            assert!(out.contains("#1000 = [#1000 + 1]"), "{out}");
+            assert_eq!(new, planned, "{out}");
+        } else {
+            assert!(!out.contains("#1000"), "{out}");
+            let lowest = planned.iter().copied().fold(f64::INFINITY, f64::min);
+            assert!(new.iter().all(|f| *f == lowest), "{out}");
+        }
+    }
 }
 
 #[test]
@@ -458,4 +471,103 @@ fn canned_cycles_needing_two_feeds_are_written_out() {
     let plan = every_feed(&path, &[(0.4, 3000.0), (1.0, 120.5)]);
     let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
     assert!(out.contains("G98 G81 X10 Y5 Z-3 R2 F120.5"), "{out}");
+}
+
+/// A loop with an `if`, a nested `do`/`while` and a subroutine call in it,
+/// whose two cutting lines run 400 times each.
+pub const MANY_RUNS: &str = "o100 sub\nG0 Z[#1]\no100 endsub\nG0 X0 Y0 Z1\n#1 = 0\n\
+    o1 while [#1 LT 800]\no2 if [[#1 MOD 2] EQ 0]\nG1 X[#1 / 10] Y1 F500\no2 else\nG1 X[#1 / 10] Y0 F500\no2 endif\n\
+    #2 = 0\no4 do\n#2 = [#2 + 1]\no4 while [#2 LT 2]\n\
+    o3 if [[#1 MOD 100] EQ 0]\no100 call [[#1 / 100 + 1]]\no3 endif\n#1 = [#1 + 1]\no1 endwhile\nM2\n";
+
+/// Run `k` of a feed move: in air at a high feed up to a fraction that moves
+/// with `k`, then the cut at its own feed.
+fn run_pieces(k: usize) -> Vec<(f64, f64)> {
+    vec![
+        (0.3 + 0.08 * (k % 5) as f64, 3000.0 - k as f64),
+        (1.0, 250.0 + 0.5 * k as f64),
+    ]
+}
+
+/// [`run_pieces`] for every feed segment in turn.
+fn runs_plan(path: &nc::Path) -> Vec<Vec<(f64, f64)>> {
+    let mut run = 0;
+    path.segments
+        .iter()
+        .map(|s| match s.motion {
+            Motion::Feed { .. } => {
+                run += 1;
+                run_pieces(run - 1)
+            }
+            _ => vec![],
+        })
+        .collect()
+}
+
+/// A loop whose runs need their own pieces, with more records than the
+/// numbered parameters 1000–4999 hold (800 runs × 2 blocks × X, Y, F): the
+/// loop is written out in full, as its lines ran, and every run reads back
+/// to its own pieces exactly.
+#[test]
+fn loops_whose_records_do_not_fit_are_unrolled() {
+    let path = parse(MANY_RUNS);
+    let plan = runs_plan(&path);
+    assert_eq!(plan.iter().filter(|p| !p.is_empty()).count(), 800);
+    let out = nc::refeed(MANY_RUNS, "t.ngc", &Options::default(), &plan).unwrap();
+    // No loop or branch is left; the subroutine stays one, called as before.
+    for gone in [
+        "o1 while",
+        "o1 endwhile",
+        "o2 if",
+        "o2 else",
+        "o4 do",
+        "o3 if",
+    ] {
+        assert!(!out.contains(gone), "{gone} left");
+    }
+    assert_eq!(out.matches("o100 call").count(), 8);
+    assert!(
+        out.starts_with("o100 sub\nG0 Z[#1]\no100 endsub\n"),
+        "{}",
+        &out[..200]
+    );
+    let new = parse(&out);
+    let (mut j, mut run) = (0, 0);
+    for s in &path.segments {
+        if !matches!(s.motion, Motion::Feed { .. }) {
+            assert!((new.segments[j].end - s.end).norm() < 1e-9);
+            j += 1;
+            continue;
+        }
+        for (frac, feed) in run_pieces(run) {
+            let p = &new.segments[j];
+            let want = if frac >= 1.0 {
+                s.end
+            } else {
+                s.point_at_fraction(frac)
+            };
+            assert!(
+                (p.end - want).norm() < 2e-6,
+                "run {run} at {frac}: {:?} vs {want:?}",
+                p.end
+            );
+            assert!(
+                matches!(p.motion, Motion::Feed { feed_mm_min } if (feed_mm_min - feed).abs() < 1e-9),
+                "run {run}: {:?} vs {feed}",
+                p.motion
+            );
+            j += 1;
+        }
+        run += 1;
+    }
+    assert_eq!(j, new.segments.len());
+    // The same loop with few runs keeps its loop and reads a table.
+    let few = MANY_RUNS.replace("LT 800", "LT 80");
+    let path = parse(&few);
+    let plan = runs_plan(&path);
+    let out = nc::refeed(&few, "t.ngc", &Options::default(), &plan).unwrap();
+    assert!(
+        out.contains("o1 while") && out.contains("#1000 = [#1000 + 1]"),
+        "{out}"
+    );
 }

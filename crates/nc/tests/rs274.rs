@@ -472,6 +472,40 @@ fn refed_programs_match_linuxcnc_rs274() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// A loop whose records do not fit the table of numbered parameters is
+/// written out in full (unrolled): rs274 reads the written program as our
+/// interpreter does, move for move, with every run's own pieces.
+#[test]
+fn unrolled_loops_match_linuxcnc_rs274() {
+    if !have_rs274() {
+        return;
+    }
+    let source = "G21 G90\nG0 X0 Y0 Z1\n#1 = 0\no1 repeat [700]\no2 if [[#1 MOD 2] EQ 0]\n\
+        G1 X[#1 / 10] Y1 Z-1 F500\no2 else\nG1 X[#1 / 10] Y0 Z-1 F500\no2 endif\n#1 = [#1 + 1]\n\
+        o1 endrepeat\nG0 Z5\nM2\n";
+    let path = nc::parse(source, "in.ngc", &Options::default()).path;
+    let mut run = 0;
+    let plan: Vec<Vec<(f64, f64)>> = path
+        .segments
+        .iter()
+        .map(|s| match s.motion {
+            Motion::Feed { .. } => {
+                run += 1;
+                let k = run as f64;
+                vec![(0.25 + 0.01 * (k % 40.0), 3000.0 - k), (1.0, 200.0 + k)]
+            }
+            _ => vec![],
+        })
+        .collect();
+    let out = nc::refeed(source, "in.ngc", &Options::default(), &plan).expect("re-fed");
+    assert!(!out.contains("repeat"), "not unrolled");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let written = dir.path().join("unrolled.ngc");
+    std::fs::write(&written, out).expect("write");
+    let n = compare(&written).unwrap_or_else(|e| panic!("{e}"));
+    assert!(n >= 1400, "{n} moves");
+}
+
 /// LinuxCNC's own sample programs (installed with the package): every one
 /// our interpreter accepts without a diagnostic must read the same in rs274.
 /// Those it rejects (lathe cycles, cutter compensation, probing, remaps, …)
