@@ -1,7 +1,10 @@
 //! One benchmark workload run outside criterion: wall time, column
 //! evaluations and moves per second, and the peak resident memory per column.
 //!
-//! `cargo run --release -p dexel --example sweep_stats -- <roughing|finishing> [threads] [repeats]`
+//! `cargo run --release -p dexel --example sweep_stats -- <roughing|finishing> [threads] [repeats] [ball|flat|bull]`
+//!
+//! The tool is the workloads' Ø10 ball, or a Ø10 flat end, or a Ø10 bull nose
+//! with a 2 mm corner.
 //!
 //! Peak memory is the process's VmHWM (Linux `/proc/self/status`), read
 //! before the stock is built, after it is built and after the sweeps; run one
@@ -10,7 +13,7 @@
 
 use std::time::Instant;
 
-use dexel::{sweep, SweepOptions};
+use dexel::{sweep, SweepOptions, Tool};
 
 #[path = "../benches/workloads/mod.rs"]
 mod workloads;
@@ -57,7 +60,12 @@ fn main() {
     };
     let (hwm_stock, _) = memory_bytes();
     let n_columns = prepared.grid().len() as f64;
-    let tool = workloads::tool();
+    let tool = match args.get(4).map_or("ball", String::as_str) {
+        "ball" => workloads::tool(),
+        "flat" => Tool::flat(10.0),
+        "bull" => Tool::bull(10.0, 2.0),
+        other => panic!("unknown tool {other}; use ball, flat or bull"),
+    };
     let options = SweepOptions::default();
 
     let mut times = Vec::new();
@@ -102,7 +110,8 @@ fn main() {
     let best = times[0];
     let median = times[times.len() / 2];
     println!(
-        "{workload}, {threads} thread(s): {} moves, {columns} column evaluations, {volume:.6} mm³ removed, result fingerprint {fingerprint:016x}",
+        "{workload} ({:?}), {threads} thread(s): {} moves, {columns} column evaluations, {volume:.6} mm³ removed, result fingerprint {fingerprint:016x}",
+        tool.shape,
         steps.len()
     );
     println!(

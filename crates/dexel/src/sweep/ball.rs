@@ -74,6 +74,11 @@ impl Envelope for BallEnd {
         ex * ex + ey * ey >= 2.0 * self.r * (top - m.zmin + ABOVE_MARGIN_MM)
     }
 
+    #[inline]
+    fn has_reach(&self) -> bool {
+        true
+    }
+
     /// The same bound for a whole row: ρ² ≥ 2R·(depth + margin) stays above.
     #[inline]
     fn reach(&self, _m: &Prepared, depth: f64) -> Option<f64> {

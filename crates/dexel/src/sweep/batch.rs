@@ -6,6 +6,7 @@ use rayon::prelude::*;
 use super::ball::BallEnd;
 use super::bull::BullNose;
 use super::flat::FlatEnd;
+use super::slot::{SHANK, VOLUME};
 use super::strip::{Banding, StripJob};
 use super::{Envelope, Prepared, RemovalRecord, Step, SweepOptions, HEAD};
 use crate::{Error, Stock, Tool, ToolShape};
@@ -68,7 +69,7 @@ pub fn sweep(
     }
     match tool.shape {
         ToolShape::Ball => run!(BallEnd { r: radius }),
-        ToolShape::Flat => run!(FlatEnd { r: radius }),
+        ToolShape::Flat => run!(FlatEnd::new(radius)),
         ToolShape::Bull { corner_radius_mm } => run!(BullNose {
             r: radius,
             rc: corner_radius_mm,
@@ -272,37 +273,54 @@ fn run_batches<E: Envelope>(
 /// recorded per column, the shank and the bands in proportion to the volume
 /// moved. A share moves only where the motion continues into the neighbour
 /// and the neighbour removes material of its own, else it stays.
+///
+/// The shares are taken from each step's row as swept. Step i moves values
+/// only into rows i − 1 and i + 1, so when step i is handled row i + 1 is
+/// still as swept and row i has received only step i − 1's shares: two rows
+/// kept aside (step i's as swept, and the volume of i − 1 as swept) stand in
+/// for a copy of the whole record.
 fn apply_spill(record: &mut RemovalRecord, steps: &[Step], spill: &[f64]) {
     let stride = record.stride();
-    let own = record.data.clone();
     let n = steps.len();
+    if n == 0 {
+        return;
+    }
+    let mut row = record.data[..stride].to_vec();
+    let mut next = vec![0.0; stride];
+    let mut prev_volume = 0.0;
     for i in 0..n {
-        let row = &own[i * stride..(i + 1) * stride];
-        let volume = row[0];
-        if volume <= 0.0 {
-            continue;
+        if i + 1 < n {
+            next.copy_from_slice(&record.data[(i + 1) * stride..(i + 2) * stride]);
         }
-        let targets = [
-            (i > 0 && continues(&steps[i - 1], &steps[i])).then(|| i - 1),
-            (i + 1 < n && continues(&steps[i], &steps[i + 1])).then_some(i + 1),
-        ];
-        for (side, target) in targets.into_iter().enumerate() {
-            let Some(t) = target.filter(|&t| own[t * stride] > 0.0) else {
-                continue;
-            };
-            let moved = &spill[(2 * i + side) * HEAD..(2 * i + side + 1) * HEAD];
-            if moved[0] <= 0.0 {
-                continue;
-            }
-            let f = (moved[0] / volume).min(1.0);
-            for k in 0..stride {
-                let v = match k {
-                    0 | 2..=5 => moved[k],
-                    _ => f * row[k],
+        let volume = row[VOLUME];
+        if volume > 0.0 {
+            let targets = [
+                (i > 0 && continues(&steps[i - 1], &steps[i]) && prev_volume > 0.0).then(|| i - 1),
+                (i + 1 < n && continues(&steps[i], &steps[i + 1]) && next[VOLUME] > 0.0)
+                    .then_some(i + 1),
+            ];
+            for (side, target) in targets.into_iter().enumerate() {
+                let Some(t) = target else {
+                    continue;
                 };
-                record.data[i * stride + k] -= v;
-                record.data[t * stride + k] += v;
+                let moved = &spill[(2 * i + side) * HEAD..(2 * i + side + 1) * HEAD];
+                if moved[VOLUME] <= 0.0 {
+                    continue;
+                }
+                let f = (moved[VOLUME] / volume).min(1.0);
+                for k in 0..stride {
+                    // Head values as recorded per column; shank and bands in proportion.
+                    let v = if k < HEAD && k != SHANK {
+                        moved[k]
+                    } else {
+                        f * row[k]
+                    };
+                    record.data[i * stride + k] -= v;
+                    record.data[t * stride + k] += v;
+                }
             }
         }
+        prev_volume = volume;
+        std::mem::swap(&mut row, &mut next);
     }
 }

@@ -1,10 +1,15 @@
 //! Bull nose (torus corner): the lower surface over a column is convex along
-//! the move, so a golden-section search finds its minimum.
+//! the move, so a golden-section search finds its minimum; a level move and
+//! a plunge have it in closed form.
 
 use super::{
     disc_interval, torus_edge, torus_mean_inv_sin_k, Edge, Envelope, EnvelopeHit, Prepared, Span,
-    BOTTOM_MM,
+    ABOVE_MARGIN_MM, BOTTOM_MM, PLUNGE_H2,
 };
+
+/// The golden-section search stops when its bracket is this short along the
+/// move, mm (far below an f32 height's resolution).
+const GOLDEN_TOL_MM: f64 = 1e-9;
 
 pub(super) struct BullNose {
     pub(super) r: f64,
@@ -40,12 +45,33 @@ impl Envelope for BullNose {
             lo: mut a,
             hi: mut b,
         } = disc_interval(m, x, y, self.r)?;
-        // Golden-section search of a convex function on [a, b].
+        if m.d[2] == 0.0 || m.h2 <= PLUNGE_H2 {
+            // Closed forms: a level move is lowest where the axis passes
+            // closest to the column (the profile does not decrease with ρ; that
+            // point lies in the disc interval), a plunge at its lower end.
+            let t = if m.h2 <= PLUNGE_H2 {
+                if m.d[2] >= 0.0 {
+                    a
+                } else {
+                    b
+                }
+            } else {
+                ((x - m.p0[0]) * m.d[0] + (y - m.p0[1]) * m.d[1]) * m.inv_h2
+            }
+            .clamp(a, b);
+            return Some(EnvelopeHit {
+                z_mm: self.height(m, x, y, t),
+                t,
+            });
+        }
+        // Golden-section search of a convex function on [a, b], to
+        // GOLDEN_TOL_MM of the move's length.
         const INV_PHI: f64 = 0.618_033_988_749_894_8;
+        let tol_t = GOLDEN_TOL_MM * m.inv_dd.sqrt();
         let mut c = b - INV_PHI * (b - a);
         let mut d = a + INV_PHI * (b - a);
         let (mut fc, mut fd) = (self.height(m, x, y, c), self.height(m, x, y, d));
-        while b - a > 1e-10 {
+        while b - a > tol_t {
             if fc <= fd {
                 b = d;
                 d = c;
@@ -73,6 +99,31 @@ impl Envelope for BullNose {
             }
         }
         Some(best)
+    }
+
+    /// The ball's bound moved out by the ring: over a column at XY distance ρ
+    /// from the move's axis segment the lower surface is at least
+    /// z_min + profile(ρ) (the profile does not decrease), and on the corner
+    /// profile(ρ) = rc − √(rc² − e²) ≥ e²/(2 rc) with e = ρ − ring; so the
+    /// swept tool stays above `top` where ρ ≥ ring + √(2 rc (top − z_min + margin)).
+    #[inline]
+    fn stays_above(&self, m: &Prepared, x: f64, y: f64, top: f64) -> bool {
+        let (wx, wy) = (x - m.p0[0], y - m.p0[1]);
+        let t = ((wx * m.d[0] + wy * m.d[1]) * m.inv_h2).clamp(0.0, 1.0);
+        let (ex, ey) = (wx - t * m.d[0], wy - t * m.d[1]);
+        let reach = self.ring + (2.0 * self.rc * (top - m.zmin + ABOVE_MARGIN_MM)).sqrt();
+        ex * ex + ey * ey >= reach * reach
+    }
+
+    #[inline]
+    fn has_reach(&self) -> bool {
+        true
+    }
+
+    /// The same bound for a whole row.
+    #[inline]
+    fn reach(&self, _m: &Prepared, depth: f64) -> Option<f64> {
+        Some(self.ring + (2.0 * self.rc * (depth + ABOVE_MARGIN_MM)).sqrt())
     }
 
     #[inline]
@@ -118,7 +169,7 @@ mod tests {
     #[test]
     fn bull_nose_limits_are_ball_and_flat() {
         let mut seed = 11;
-        let (ball, flat) = (BallEnd { r: 5.0 }, FlatEnd { r: 5.0 });
+        let (ball, flat) = (BallEnd { r: 5.0 }, FlatEnd::new(5.0));
         let near_ball = BullNose {
             r: 5.0,
             rc: 5.0 - 1e-12,

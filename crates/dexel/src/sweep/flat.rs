@@ -4,7 +4,15 @@
 use super::{disc_interval, Edge, Envelope, EnvelopeHit, Prepared, BOTTOM_MM};
 
 pub(super) struct FlatEnd {
-    pub(super) r: f64,
+    r: f64,
+    /// 1 / r, once (the edge of every cut column).
+    inv_r: f64,
+}
+
+impl FlatEnd {
+    pub(super) fn new(r: f64) -> FlatEnd {
+        FlatEnd { r, inv_r: 1.0 / r }
+    }
 }
 
 impl Envelope for FlatEnd {
@@ -23,7 +31,7 @@ impl Envelope for FlatEnd {
     fn side(&self, _h: f64) -> Edge {
         Edge {
             r_mm: self.r,
-            inv_r: 1.0 / self.r,
+            inv_r: self.inv_r,
             inv_sin_k: 1.0,
         }
     }
@@ -47,6 +55,6 @@ mod tests {
     fn flat_envelope_matches_brute_force() {
         let r = 5.0;
         let profile = move |rho: f64| (rho <= r).then_some(0.0);
-        check_against_brute_force(&FlatEnd { r }, &profile, 1e-3);
+        check_against_brute_force(&FlatEnd::new(r), &profile, 1e-3);
     }
 }

@@ -10,11 +10,15 @@
 //! * bull nose: the tool's lower surface height at horizontal distance ρ from
 //!   the axis, `f(ρ)`, is convex and non-decreasing, and ρ(t) is convex along
 //!   the move, so `f(ρ(t)) + z_tip(t)` is convex in t: a golden-section search
-//!   finds the minimum to 1e-10 of the move (no sub-sampling of positions).
+//!   finds the minimum to 1e-9 mm along the move (no sub-sampling of
+//!   positions); on a level move it is where ρ is least, on a plunge at the
+//!   lower end.
 //!
 //! Before the exact envelope, a ball end rules out columns with a square-root
 //! free bound (z ≥ z_min + ρ²/2R, ρ the XY distance to the move's axis): per
 //! row against the row's highest top, then per column against its own top.
+//! A bull nose uses the same bound moved out by its ring (z ≥ z_min +
+//! (ρ − ring)²/2r_c, one square root per column instead of a search).
 //! The bound skips only columns that the envelope would not cut, so results
 //! are the same with or without it.
 //!
@@ -71,8 +75,23 @@ impl Default for SweepOptions {
     }
 }
 
-/// Values stored per step before the band volumes: volume, shank volume, contact x, contact y,
-/// chip edge area, volume over edge radius.
+/// Slots of a step's row in a [`RemovalRecord`] (and of the sweep's per-step
+/// sums) before the band volumes.
+mod slot {
+    /// Total volume removed (bands plus shank).
+    pub(super) const VOLUME: usize = 0;
+    /// Volume removed above the flute length.
+    pub(super) const SHANK: usize = 1;
+    /// Contact-direction resultant, x and y.
+    pub(super) const CONTACT_X: usize = 2;
+    pub(super) const CONTACT_Y: usize = 3;
+    /// Σ dV / h (chip edge area).
+    pub(super) const CHIP_AREA: usize = 4;
+    /// Σ dV / r (volume over edge radius).
+    pub(super) const OVER_RADIUS: usize = 5;
+}
+
+/// Values stored per step before the band volumes (the [`slot`]s).
 const HEAD: usize = 6;
 
 /// What a sweep removed, per step.
@@ -117,12 +136,12 @@ impl RemovalRecord {
 
     /// Total volume removed by `step`, mm³ (bands plus shank).
     pub fn volume_mm3(&self, step: usize) -> f64 {
-        self.row(step)[0]
+        self.row(step)[slot::VOLUME]
     }
 
     /// Volume removed above the flute length (shank contact), mm³.
     pub fn shank_volume_mm3(&self, step: usize) -> f64 {
-        self.row(step)[1]
+        self.row(step)[slot::SHANK]
     }
 
     /// Volume removed per tool height band, mm³.
@@ -135,7 +154,7 @@ impl RemovalRecord {
     /// removed volume (mm³). The cutting force on the tool points the other way.
     pub fn contact_resultant(&self, step: usize) -> [f64; 2] {
         let r = self.row(step);
-        [r[2], r[3]]
+        [r[slot::CONTACT_X], r[slot::CONTACT_Y]]
     }
 
     /// Σ over removed volume of dV / h, where h is the thickness the edge cut
@@ -143,14 +162,14 @@ impl RemovalRecord {
     /// §3.2). The step's mean chip thickness is `volume / this`; divided by the
     /// tooth passes of the step it is the mean chip thickness per tooth.
     pub fn chip_edge_area_mm2(&self, step: usize) -> f64 {
-        self.row(step)[4]
+        self.row(step)[slot::CHIP_AREA]
     }
 
     /// Σ over removed volume of dV / r, r the tool's radius where the edge cut
     /// it (mm²): turns specific cutting energy into mean tangential force
     /// (MODEL.md §3.2).
     pub fn volume_over_radius_mm2(&self, step: usize) -> f64 {
-        self.row(step)[5]
+        self.row(step)[slot::OVER_RADIUS]
     }
 
     /// Sum of all step volumes, mm³.
@@ -348,6 +367,13 @@ trait Envelope: Sync {
     /// `top` over `(x, y)` (so the column cannot be cut); `false` when unsure.
     #[inline]
     fn stays_above(&self, _m: &Prepared, _x: f64, _y: f64, _top: f64) -> bool {
+        false
+    }
+
+    /// Whether [`Envelope::reach`] gives a bound (a constant per tool shape,
+    /// so the strip loop does not ask `reach` per row).
+    #[inline]
+    fn has_reach(&self) -> bool {
         false
     }
 

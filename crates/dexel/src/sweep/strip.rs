@@ -1,6 +1,7 @@
 //! One strip of rows: every move of a batch that reaches it, column by column
 //! (envelope, removal, bands, contact and smoothing shares).
 
+use super::slot::{CHIP_AREA, CONTACT_X, CONTACT_Y, OVER_RADIUS, SHANK, VOLUME};
 use super::{Edge, Envelope, EnvelopeHit, Prepared, HEAD, PLUNGE_H2};
 use crate::{Column, Grid};
 
@@ -32,7 +33,7 @@ impl Banding {
             k += 1;
         }
         if lo < hi {
-            acc[1] += hi - lo;
+            acc[SHANK] += hi - lo;
         }
         length
     }
@@ -326,14 +327,12 @@ impl<E: Envelope> StripJob<'_, E> {
                 for cut in cuts.drain(..) {
                     let c = self.contact(m, cut.x, y, cut.t, cut.h_top, cut.h_bot);
                     let removed = cut.removed;
-                    let column = [
-                        removed,
-                        0.0,
-                        removed * c.r_hat[0],
-                        removed * c.r_hat[1],
-                        removed * c.inv_h,
-                        removed * c.inv_r,
-                    ];
+                    let mut column = [0.0; HEAD];
+                    column[VOLUME] = removed;
+                    column[CONTACT_X] = removed * c.r_hat[0];
+                    column[CONTACT_Y] = removed * c.r_hat[1];
+                    column[CHIP_AREA] = removed * c.inv_h;
+                    column[OVER_RADIUS] = removed * c.inv_r;
                     for (d, v) in all[..HEAD].iter_mut().zip(column) {
                         *d += v;
                     }
@@ -369,7 +368,7 @@ impl<E: Envelope> StripJob<'_, E> {
         ix0: usize,
         ix1: usize,
     ) -> Option<(usize, usize)> {
-        if self.env.reach(m, 0.0).is_none() {
+        if !self.env.has_reach() {
             return Some((ix0, ix1));
         }
         let top = row_top(row);
