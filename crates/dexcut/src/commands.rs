@@ -877,6 +877,8 @@ pub fn optimize_setup(
     let t2 = Instant::now();
     let fz_max_mm = setup.job.fz_max_mm();
     let caps = optimize::interval_caps(&engagement, &stations, limits, &setup.tools);
+    // Only the caps are needed from here on (per station: loads, areas, angles).
+    drop(engagement);
     let written = optimize::write_verified(setup, &machine, &stations, caps, &before)?;
     let time_plan_s = t2.elapsed().as_secs_f64();
     let after_run = match written.run {

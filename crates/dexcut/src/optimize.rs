@@ -739,23 +739,41 @@ pub fn write_verified(
     let mut round = 0;
     loop {
         round += 1;
-        let mut stations = free.clone();
-        apply_interval_caps(&mut stations, &caps)?;
-        let optimum = schedule::plan(&stations);
-        let time_optimal_s = optimum.cycle_time_s();
-        let lower_bound_time_s = schedule::lower_bound_time_s(&stations);
-        let plan = refeed_plan(&stations, &caps, machine, merge_ratio);
-        // The plan as written: every interval at its block's feed.
-        let mut blocks = free.clone();
-        apply_interval_caps(&mut blocks, &block_caps(free, &plan, &caps))?;
-        let profile = schedule::plan(&blocks);
-        let plan_time_s = profile.cycle_time_s();
-        // Caps from tiny limits (mrr_max 1e-4) would make the written program run for days.
-        crate::bounds::check_samples(
-            plan_time_s.max(time_optimal_s),
-            machine.period_ms,
-            "the re-timed program ([limits] caps: mrr_max, force_max, deflection_max_um)",
-        )?;
+        // The two plans (two copies of the stations and their profiles) are
+        // dropped before the written program is simulated: what the rounds
+        // keep of them is their times, the refeed plan, the cap shares and,
+        // for a point list, the servo samples.
+        let (plan, time_optimal_s, lower_bound_time_s, plan_time_s, shares, optimum_samples) = {
+            let mut stations = free.clone();
+            apply_interval_caps(&mut stations, &caps)?;
+            let optimum = schedule::plan(&stations);
+            let time_optimal_s = optimum.cycle_time_s();
+            let lower_bound_time_s = schedule::lower_bound_time_s(&stations);
+            let plan = refeed_plan(&stations, &caps, machine, merge_ratio);
+            // The plan as written: every interval at its block's feed.
+            let mut blocks = free.clone();
+            apply_interval_caps(&mut blocks, &block_caps(free, &plan, &caps))?;
+            let profile = schedule::plan(&blocks);
+            let plan_time_s = profile.cycle_time_s();
+            // Caps from tiny limits (mrr_max 1e-4) would make the written program run for days.
+            crate::bounds::check_samples(
+                plan_time_s.max(time_optimal_s),
+                machine.period_ms,
+                "the re-timed program ([limits] caps: mrr_max, force_max, deflection_max_um)",
+            )?;
+            let optimum_samples = match &setup.program.gcode {
+                Some(_) => None,
+                None => Some(optimum.sample(machine.period_ms)?),
+            };
+            (
+                plan,
+                time_optimal_s,
+                lower_bound_time_s,
+                plan_time_s,
+                cap_shares(&profile),
+                optimum_samples,
+            )
+        };
         let (text, samples, path) = match &setup.program.gcode {
             Some(src) => {
                 let text = nc::refeed(src, &setup.program.file, &setup.program.nc_options, &plan)
@@ -772,7 +790,7 @@ pub fn write_verified(
             }
             None => (
                 None,
-                optimum.sample(machine.period_ms)?,
+                optimum_samples.expect("sampled for a point list"),
                 setup.program.path.clone(),
             ),
         };
@@ -817,7 +835,7 @@ pub fn write_verified(
                 plan_time_s,
                 time_optimal_s,
                 lower_bound_time_s,
-                cap_shares: cap_shares(&profile),
+                cap_shares: shares,
                 rounds: round,
                 merge_ratio,
                 excesses_left: left.len(),

@@ -178,7 +178,17 @@ fn run_batches<E: Envelope>(
     let mut done = 0;
     for (b, chunk) in steps.chunks(batch).enumerate() {
         let first_step = b * batch;
-        let moves: Vec<Prepared> = chunk.iter().map(Prepared::new).collect();
+        let moves: Vec<Prepared> = chunk
+            .iter()
+            .enumerate()
+            .map(|(i, step)| {
+                let g = first_step + i;
+                Prepared {
+                    follows: g > 0 && steps[g - 1].to_mm == step.from_mm,
+                    ..Prepared::new(step)
+                }
+            })
+            .collect();
         // Bin moves by strip (CSR): a move joins every strip its footprint's rows touch.
         let mut counts = vec![0u32; n_strips + 1];
         let strip_span = |m: &Prepared| {

@@ -198,6 +198,10 @@ struct Prepared {
     inv_floor: f64,
     /// Lowest tip z along the move: nothing at or below this top can be cut.
     zmin: f64,
+    /// The sweep's previous move (same tool) ended exactly where this one
+    /// starts, so its end tool has already cut every column down to this
+    /// move's start tool at most.
+    follows: bool,
 }
 
 /// Floor of the cut thickness as a share of the step length (flanks, where
@@ -241,7 +245,36 @@ impl Prepared {
             inv_len_xy: if h2 > PLUNGE_H2 { 1.0 / len_xy } else { 0.0 },
             inv_floor: 1.0 / (MIN_THICKNESS_SHARE * dd.sqrt()).max(1e-12),
             zmin: p0[2].min(step.to_mm[2]),
+            follows: false,
         }
+    }
+
+    /// Whether the move leaves every column behind its start as it is: it
+    /// follows the previous move and does not descend, so over a column
+    /// behind the start (w · d_xy ≤ 0, w from the start to the column) the
+    /// distance to the axis and the tip height both grow along the move, and
+    /// the swept tool there is lowest at its start, where the previous move's
+    /// end tool already cut (MODEL.md §1.2). A plunge that does not descend
+    /// leaves every column.
+    #[inline]
+    fn only_ahead(&self) -> bool {
+        self.follows && self.d[2] >= 0.0
+    }
+
+    /// X-interval of the row at `y` ahead of the move's start (w · d_xy ≥ 0),
+    /// widened by a nanometre (a column on the boundary is evaluated, not
+    /// skipped); `None` for a plunge.
+    #[inline]
+    fn ahead_span(&self, y: f64) -> Option<Span> {
+        if self.h2 <= PLUNGE_H2 {
+            return None;
+        }
+        let [ux, uy] = self.u;
+        let (a, b) = linear_range(ux, uy * (y - self.p0[1]), -1e-9, f64::INFINITY);
+        (a <= b).then_some(Span {
+            lo: self.p0[0] + a,
+            hi: self.p0[0] + b,
+        })
     }
 
     /// X-interval of the move's footprint (stadium of radius `r`) on the row at `y`.

@@ -271,6 +271,7 @@ impl<E: Envelope> StripJob<'_, E> {
             };
             let (iy0, iy1) = (iy0.max(row0), iy1.min(row0 + rows - 1));
             let zmin = m.zmin as f32;
+            let only_ahead = m.only_ahead();
             for iy in iy0..=iy1 {
                 let y = self.grid.y_mm(iy);
                 let Some(span) = m.row_span(y, self.radius) else {
@@ -281,6 +282,20 @@ impl<E: Envelope> StripJob<'_, E> {
                 };
                 visited += (ix1 - ix0 + 1) as u64;
                 let base = (iy - row0) * nx;
+                // Behind the start, the previous move's end tool has cut already.
+                let (ix0, ix1) = if only_ahead {
+                    let Some((a, b)) = m.ahead_span(y).and_then(|s| self.grid.ix_range(s.lo, s.hi))
+                    else {
+                        continue;
+                    };
+                    let (a, b) = (a.max(ix0), b.min(ix1));
+                    if a > b {
+                        continue;
+                    }
+                    (a, b)
+                } else {
+                    (ix0, ix1)
+                };
                 // Narrow the row to where the tool can reach below the row's highest top.
                 let Some((ix0, ix1)) =
                     self.reachable(m, y, &cols[base + ix0..=base + ix1], ix0, ix1)
