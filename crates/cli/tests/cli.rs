@@ -2107,10 +2107,8 @@ mrr_max = 1e6
         "%\nG21 G90 G17\nS10000 M3\nT1 M6\nG0 G43 H1 Z40\nG0 X-10 Y-8\nG0 Z29.5\nG1 X110 F1200\nG0 Z40\n\
          T2 M6\nG43 H2 Z40\nG0 X-10 Y8\nG0 Z29.5\nG1 X110 F1200\nG0 Z40\nM30\n%\n",
     );
-    ok(&dexcut(
-        &["optimize", "job.toml", "--out", "out"],
-        dir.path(),
-    ));
+    let out = dexcut(&["optimize", "job.toml", "--out", "out"], dir.path());
+    ok(&out);
     let s = summary(&dir.path().join("out"));
     assert_eq!(s["kept_original"], false, "{s}");
     let steps = csv_columns(&dir.path().join("out/steps.csv"));
@@ -2128,6 +2126,103 @@ mrr_max = 1e6
         }
     }
     assert!(top[0] > 0.99 * 2000.0 && top[1] > 0.99 * 400.0, "{top:?}");
+    // Every tool's cap in summary.json and on the console, not only the first's.
+    let caps = s["limits"]["chip_load"]
+        .as_array()
+        .expect("limits.chip_load");
+    assert_eq!(caps.len(), 2, "{caps:?}");
+    for (c, (tool, fz, feed)) in caps.iter().zip([(1, 0.1, 2000.0), (2, 0.02, 400.0)]) {
+        assert_eq!(c["tool"], tool);
+        assert_eq!(c["fz_max_mm"].as_f64().unwrap(), fz);
+        assert_eq!(c["spindle_rpm"].as_f64().unwrap(), 10_000.0);
+        assert!(rel(c["feed_mm_min"].as_f64().unwrap(), feed) < 1e-12, "{c}");
+        assert!(
+            rel(c["programmed_feed_mm_min"].as_f64().unwrap(), 1200.0) < 1e-6,
+            "{c}"
+        );
+    }
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    for t in [
+        "T1 0.1000 mm/tooth = 2000 mm/min at 10000 rev/min",
+        "T2 0.0200 mm/tooth = 400 mm/min at 10000 rev/min",
+    ] {
+        assert!(stdout.contains(t), "{t} not in {stdout}");
+    }
+    // T2's cap is a third of its programmed feed: not "far below" (1/5).
+    assert!(warning(&s["after"], "chip_load").is_none());
+}
+
+/// A 2 mm end mill at S100 (0.63 m/min at the edge: a spindle override in
+/// percent, not rev/min) and F2000: the S word is named and not used, the
+/// chip-load cap takes the 10 000 rev/min default, 0.015 mm/tooth (al6061,
+/// Ø2 mm: between 0.010 at 1.5 mm and 0.025 at 3 mm) · 2 · 10 000 = 300 mm/min,
+/// and the warning says it is 6.7× below the programmed cut, with the keys
+/// that change it. `[cutting] spindle_rpm` overrides the S word; the job's
+/// own fz_max silences the chip-load warning.
+#[test]
+fn implausible_spindle_speed_and_a_far_lower_chip_load_cap_are_told() {
+    let job = "[stock]\nkind = \"box\"\nmin = [0, -3, -1]\nmax = [20, 3, 0]\ngrid = 0.1\n\
+        [tool]\nkind = \"flat\"\ndiameter = 2\nflutes = 2\n{tool}\n[program]\npath = \"p.ngc\"\n\
+        [cutting]\nmaterial = \"al6061\"\n{cutting}\n[machine]\nfeed_max = 3000\n[limits]\nmrr_max = 1000\n";
+    let program = "G21 G90\nM3 S100\nG0 X-3 Y0 Z1\nG1 Z-0.5 F100\nG1 X23 F2000\nG0 Z5\nM2\n";
+    let run = |tool: &str, cutting: &str| {
+        let dir = tempdir();
+        write(
+            dir.path(),
+            "job.toml",
+            &job.replace("{tool}", tool).replace("{cutting}", cutting),
+        );
+        write(dir.path(), "p.ngc", program);
+        let out = dexcut(&["optimize", "job.toml", "--out", "out"], dir.path());
+        ok(&out);
+        let err = String::from_utf8_lossy(&out.stderr).to_string();
+        (summary(&dir.path().join("out")), err)
+    };
+    let (s, err) = run("", "");
+    let w = warning(&s["after"], "spindle_speed").expect("spindle_speed warning");
+    assert_eq!(w["line"], 4);
+    assert!(
+        rel(
+            w["value"].as_f64().unwrap(),
+            std::f64::consts::PI * 2.0 * 100.0 / 1000.0
+        ) < 1e-12
+    );
+    assert!(
+        err.contains("S100 at lines 4, 5 gives 0.63 m/min at the edge of tool 1"),
+        "{err}"
+    );
+    let fz = 0.010 + 0.5 / 1.5 * 0.015;
+    let cap = &s["limits"]["chip_load"][0];
+    assert!(
+        rel(cap["feed_mm_min"].as_f64().unwrap(), fz * 2.0 * 10_000.0) < 1e-12,
+        "{cap}"
+    );
+    assert_eq!(cap["spindle_rpm"].as_f64().unwrap(), 10_000.0);
+    let w = warning(&s["after"], "chip_load").expect("chip_load warning");
+    let programmed = cap["programmed_feed_mm_min"].as_f64().unwrap();
+    assert!(rel(programmed, 2000.0) < 1e-6, "{programmed}");
+    assert!(
+        rel(w["value"].as_f64().unwrap(), 2000.0 / 300.0) < 1e-6,
+        "{w}"
+    );
+    for words in [
+        "tool 1 (Ø2 mm, 2 flutes) cuts at F2000, 0.1000 mm/tooth at 10000 rev/min",
+        "its chip-load cap is 0.0150 mm/tooth (default for al6061, Ø2 mm) = 300 mm/min, 6.7× lower",
+        "set fz_max",
+        "[cutting] spindle_rpm",
+    ] {
+        assert!(err.contains(words), "{words} not in {err}");
+    }
+    // The job's spindle speed is taken over the S word, and nothing is warned.
+    let (s, _) = run("fz_max = 0.05", "spindle_rpm = 20000");
+    assert!(warning(&s["after"], "spindle_speed").is_none());
+    assert!(warning(&s["after"], "chip_load").is_none());
+    let cap = &s["limits"]["chip_load"][0];
+    assert!(
+        rel(cap["feed_mm_min"].as_f64().unwrap(), 0.05 * 2.0 * 20_000.0) < 1e-12,
+        "{cap}"
+    );
+    assert_eq!(cap["fz_max_from"], "fz_max");
 }
 
 /// Open loop (`closed_loop = false`, MODEL.md §5): the slender tool of the test

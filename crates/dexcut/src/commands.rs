@@ -213,6 +213,10 @@ impl Setup {
             })
             .collect();
         out.extend(self.ignored_tool_change());
+        out.extend(crate::warnings::spindle_check(
+            &self.program.path,
+            &self.tools,
+        ));
         out.extend(self.grid_warning());
         out
     }
@@ -767,8 +771,12 @@ pub struct LimitsOut {
     pub feed_min_mm_min: Option<f64>,
     /// The machine's highest feed, mm/min.
     pub feed_max_mm_min: f64,
-    /// fz_max · flutes · spindle rpm, mm/min.
+    /// fz_max · flutes · spindle rpm of the first tool, mm/min (`chip_load`
+    /// gives every tool's).
     pub chip_load_feed_mm_min: Option<f64>,
+    /// Every tool's chip-load cap against its programmed cutting feed.
+    #[serde(default)]
+    pub chip_load: Vec<optimize::ToolChipLoad>,
     /// `feed_scale_max`: at most this times the programmed feed.
     pub feed_scale_max: Option<f64>,
 }
@@ -857,6 +865,17 @@ pub fn optimize_setup(
     let before_steps = setup.machine_steps()?;
     let mut before = simulate::run(setup.stock.clone(), &setup.tools, before_steps, "before")?;
     let before_summary = before.summary();
+    // Every tool's chip-load cap against what the program feeds it, told before the rounds.
+    let chip_load = optimize::chip_loads(
+        &before,
+        &setup.tools,
+        &setup.program,
+        &setup.job.cutting.material,
+    );
+    let chip_warnings = crate::warnings::chip_load_check(&chip_load);
+    for w in &chip_warnings {
+        eprintln!("warning: {w}");
+    }
     // The program as given keeps its steps and loads; its stock is not needed
     // again (unless it is kept, then it is simulated again): free it for the
     // rounds of optimize::write_verified. One column on the same grid.
@@ -908,7 +927,10 @@ pub fn optimize_setup(
             ),
         });
     }
-    after_summary.warnings.0.splice(0..0, setup_warnings);
+    after_summary
+        .warnings
+        .0
+        .splice(0..0, setup_warnings.into_iter().chain(chip_warnings));
     let mut unresolved = crate::warnings::LineTally::new();
     for e in &written.unresolved {
         crate::warnings::tally(&mut unresolved, e.line, 100.0 * e.over_limit);
@@ -984,6 +1006,7 @@ pub fn optimize_setup(
                 )
             }),
             feed_scale_max: limits.feed_scale_max,
+            chip_load,
         },
         cap_time_share: written.cap_shares,
         lower_bound_time_s,
@@ -1005,11 +1028,33 @@ pub fn optimize_setup(
     })
 }
 
+/// Every tool's chip-load cap for the console's limits line: "chip load
+/// 0.0250 mm/tooth = 500 mm/min at S10000 on cutting moves" for one tool,
+/// "chip load on cutting moves: T1 …, T2 …" for several.
+fn chip_load_text(limits: &LimitsOut) -> Option<String> {
+    let each = |c: &optimize::ToolChipLoad| {
+        format!(
+            "{:.4} mm/tooth = {:.0} mm/min at {:.0} rev/min",
+            c.fz_max_mm, c.feed_mm_min, c.spindle_rpm
+        )
+    };
+    match limits.chip_load.as_slice() {
+        [] => None,
+        [c] => Some(format!("chip load {} on cutting moves", each(c))),
+        all => Some(format!(
+            "chip load on cutting moves: {}",
+            all.iter()
+                .map(|c| format!("T{} {}", c.tool, each(c)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )),
+    }
+}
+
 /// The optimize results on the console.
 fn print_optimize(optimized: &Optimized, out: &Path) {
     let doc = &optimized.summary;
     let precomp = &optimized.precomp;
-    let fz_max_mm = doc.fz_max_mm;
     let lower_bound_time_s = doc.lower_bound_time_s;
     let (b, a) = (&doc.before, &doc.after);
     let after_label = if doc.kept_original {
@@ -1050,10 +1095,7 @@ fn print_optimize(optimized: &Optimized, out: &Path) {
         doc.limits
             .deflection_max_um
             .map(|v| format!("deflection_max_um {v}")),
-        doc.limits
-            .chip_load_feed_mm_min
-            .zip(fz_max_mm)
-            .map(|(f, fz)| format!("chip load {fz:.4} mm/tooth = {f:.0} mm/min on cutting moves")),
+        chip_load_text(&doc.limits),
         doc.limits
             .feed_scale_max
             .map(|v| format!("feed_scale_max {v}")),

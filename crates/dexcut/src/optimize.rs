@@ -858,6 +858,92 @@ pub fn write_verified(
     }
 }
 
+/// One tool's chip-load cap (MODEL.md §2.1) against what the program asks
+/// of it: summary.json's `limits.chip_load`, one per tool of the job.
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+pub struct ToolChipLoad {
+    /// T number (1 for the single `[tool]`).
+    pub tool: u32,
+    /// Nominal diameter, mm.
+    pub diameter_mm: f64,
+    pub flutes: u32,
+    /// Largest feed per tooth, mm/tooth.
+    pub fz_max_mm: f64,
+    /// Where `fz_max_mm` comes from, in words (the job's `fz_max`, or the
+    /// default for the material and diameter).
+    pub fz_max_from: String,
+    /// Spindle speed the cap is taken at, rev/min (that of the tool's
+    /// fastest cutting step, or of a block without S where it cuts nothing).
+    pub spindle_rpm: f64,
+    /// Where `spindle_rpm` comes from, in words.
+    pub spindle_from: String,
+    /// The cap f_z,max · z · n, mm/min.
+    pub feed_mm_min: f64,
+    /// Highest programmed feed of a step the tool cuts, mm/min; None where it cuts nothing.
+    pub programmed_feed_mm_min: Option<f64>,
+    /// That feed per tooth at `spindle_rpm`, mm/tooth.
+    pub programmed_fz_mm: Option<f64>,
+    /// Program line of that step.
+    pub line: Option<u32>,
+}
+
+/// Every tool's chip-load cap, at the spindle speed of its fastest cutting
+/// step in `run` (the program as given); empty without chip-load limits.
+pub fn chip_loads(
+    run: &Run,
+    tools: &ToolSet,
+    program: &crate::program::Program,
+    material: &str,
+) -> Vec<ToolChipLoad> {
+    let top = run.top_cutting_step_by_tool(tools);
+    tools
+        .entries
+        .iter()
+        .zip(top)
+        .filter_map(|(e, top)| {
+            let fz_max_mm = e.fz_max_mm?;
+            let step = top.map(|i| &run.steps[i]);
+            let block_rpm = step.map_or(0.0, |s| s.spindle_rpm);
+            let rpm = e.spindle_rpm(block_rpm);
+            let fallback = match program.spindle_rpm_for(e.tool.diameter_mm) {
+                p if p > 0.0 => format!("taken from the program's highest plausible S{p}"),
+                _ => "assumed 10000 rev/min, the default".to_string(),
+            };
+            let spindle_from = if e.job_rpm.is_some() {
+                "[cutting] spindle_rpm".to_string()
+            } else if crate::tools::plausible_rpm(e.tool.diameter_mm, block_rpm) {
+                format!("S{block_rpm}")
+            } else if block_rpm > 0.0 {
+                format!(
+                    "S{block_rpm} is {:.2} m/min at the edge, not a spindle speed: {fallback}",
+                    crate::tools::cutting_speed_m_min(e.tool.diameter_mm, block_rpm)
+                )
+            } else {
+                format!("no S word: {fallback}")
+            };
+            let feed_mm_min = e.chip_load_feed_mm_min(block_rpm)?;
+            let programmed = step.map(|s| s.feed_mm_min);
+            Some(ToolChipLoad {
+                tool: e.number,
+                diameter_mm: e.tool.diameter_mm,
+                flutes: e.model.flutes,
+                fz_max_mm,
+                fz_max_from: if e.fz_max_given {
+                    "fz_max".into()
+                } else {
+                    format!("default for {material}, Ø{} mm", e.tool.diameter_mm)
+                },
+                spindle_rpm: rpm,
+                spindle_from,
+                feed_mm_min,
+                programmed_feed_mm_min: programmed,
+                programmed_fz_mm: programmed.map(|f| f / (f64::from(e.model.flutes) * rpm)),
+                line: step.map(|s| s.line),
+            })
+        })
+        .collect()
+}
+
 /// Share of the optimised time spent at each kind of cap.
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct CapShare {

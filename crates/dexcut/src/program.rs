@@ -24,12 +24,15 @@ pub struct Program {
 }
 
 impl Program {
-    /// Highest spindle speed the program sets, rev/min (0 if none).
-    pub fn spindle_rpm(&self) -> f64 {
+    /// Highest spindle speed the program sets that a tool `diameter_mm`
+    /// wide plausibly runs at ([`crate::tools::plausible_rpm`]), rev/min (0
+    /// if none).
+    pub fn spindle_rpm_for(&self, diameter_mm: f64) -> f64 {
         self.path
             .segments
             .iter()
             .map(|s| s.spindle_rpm)
+            .filter(|&rpm| crate::tools::plausible_rpm(diameter_mm, rpm))
             .fold(0.0, f64::max)
     }
 

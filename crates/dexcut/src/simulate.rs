@@ -517,7 +517,8 @@ pub fn cutting_model(
             names.join(", ")
         )
     })?;
-    let program_rpm = program.spindle_rpm();
+    // The highest S word a tool this wide plausibly runs at (MODEL.md §2.1).
+    let program_rpm = program.spindle_rpm_for(tool.diameter_mm);
     let force_model = match c.model {
         ForceModelKind::PowerLaw => cutting::ForceModel::PowerLaw {
             a: c.force_a.unwrap_or(material.force_coef_a),
@@ -783,6 +784,24 @@ impl Run {
             out[p.first_step..=p.last_step].fill(p.mrr_mm3_s());
         }
         out
+    }
+
+    /// Per entry of `tools`, the step of that tool with the highest mean
+    /// path speed among those that removed material (not rapids): its index,
+    /// or None where the tool cuts nothing.
+    pub fn top_cutting_step_by_tool(&self, tools: &ToolSet) -> Vec<Option<usize>> {
+        let mut top: Vec<Option<usize>> = vec![None; tools.entries.len()];
+        for i in 0..self.steps.len() {
+            let s = &self.steps[i];
+            if s.step.rapid || self.record.volume_mm3(i) <= NOTHING_MM3 {
+                continue;
+            }
+            let k = tools.index_of(s.tool).unwrap_or(0);
+            if top[k].is_none_or(|j| s.feed_mm_min > self.steps[j].feed_mm_min) {
+                top[k] = Some(i);
+            }
+        }
+        top
     }
 
     /// Highest mean path speed of a step that removed material (not a rapid), mm/min.

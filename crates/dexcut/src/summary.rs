@@ -332,6 +332,19 @@ mod tests {
                 feed_max_mm_min: 3000.0,
                 chip_load_feed_mm_min: Some(2160.0),
                 feed_scale_max: None,
+                chip_load: vec![crate::optimize::ToolChipLoad {
+                    tool: 2,
+                    diameter_mm: 1.0,
+                    flutes: 2,
+                    fz_max_mm: 0.007,
+                    fz_max_from: "default for al6061, Ø1 mm".into(),
+                    spindle_rpm: 10_000.0,
+                    spindle_from: "no S word".into(),
+                    feed_mm_min: 140.0,
+                    programmed_feed_mm_min: Some(1016.0),
+                    programmed_fz_mm: Some(0.0508),
+                    line: Some(12),
+                }],
             },
             cap_time_share: vec![CapShare {
                 cap: "MRR".into(),
@@ -369,6 +382,16 @@ mod tests {
         assert_eq!(back.limits.force_max_n, None);
         assert_eq!(back.cap_time_share[0].cap, "MRR");
         assert_eq!(back.run_id, "xyz");
+        assert_eq!(back.limits.chip_load, doc.limits.chip_load);
+        // A version-1 file written before `limits.chip_load` existed still reads.
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        v["limits"].as_object_mut().unwrap().remove("chip_load");
+        std::fs::write(&path, v.to_string()).unwrap();
+        let SummaryDoc::Optimize(old) = read(&path).unwrap() else {
+            panic!("not read as an optimize summary")
+        };
+        assert!(old.limits.chip_load.is_empty());
     }
 
     /// Another version, or none, is refused by name before the body is read.

@@ -24,20 +24,53 @@ pub struct ToolEntry {
     pub fz_max_mm: Option<f64>,
     /// Allowable stress in the tool, MPa (MODEL.md §4.4).
     pub stress_limit_mpa: f64,
+    /// `[cutting] spindle_rpm` when the job gives it: it overrides S words.
+    pub job_rpm: Option<f64>,
+    /// `fz_max` is the job's (not the default of MODEL.md §2.1's table).
+    pub fz_max_given: bool,
+}
+
+/// Slowest cutting speed at the tool's edge that an S word is taken for,
+/// m/min (MODEL.md §2.1): below the slowest published starting speed for
+/// milling (HSS in hardened steel, about 10–15 m/min), an S word is not a
+/// spindle speed in rev/min (a percentage, a laser's power).
+pub const MIN_CUTTING_SPEED_M_MIN: f64 = 10.0;
+
+/// Cutting speed at the edge of a tool `diameter_mm` wide at `rpm`, m/min.
+pub fn cutting_speed_m_min(diameter_mm: f64, rpm: f64) -> f64 {
+    std::f64::consts::PI * diameter_mm * rpm / 1000.0
+}
+
+/// An S word a milling cutter of `diameter_mm` plausibly runs at
+/// ([`MIN_CUTTING_SPEED_M_MIN`]); 0 (no S word) is not one.
+pub fn plausible_rpm(diameter_mm: f64, rpm: f64) -> bool {
+    rpm > 0.0 && cutting_speed_m_min(diameter_mm, rpm) >= MIN_CUTTING_SPEED_M_MIN
 }
 
 impl ToolEntry {
-    /// The chip-load feed cap F = f_z,max · z · n (MODEL.md §2.1) at a block's
-    /// spindle speed `block_rpm` (its S word; 0 when none: the job's
-    /// `spindle_rpm`), mm/min; None without a chip-load limit.
+    /// The spindle speed the tool's loads and chip load take for a block
+    /// whose S word is `block_rpm` (0 when none), rev/min: the job's
+    /// `spindle_rpm`, else a plausible S word, else the cutting model's
+    /// (MODEL.md §2.1).
+    pub fn spindle_rpm(&self, block_rpm: f64) -> f64 {
+        match self.job_rpm {
+            Some(rpm) => rpm,
+            None if plausible_rpm(self.tool.diameter_mm, block_rpm) => block_rpm,
+            None => self.model.spindle_rpm,
+        }
+    }
+
+    /// The chip-load feed cap F = f_z,max · z · n (MODEL.md §2.1) at the
+    /// spindle speed [`ToolEntry::spindle_rpm`] takes for a block whose S word
+    /// is `block_rpm`, mm/min; None without a chip-load limit.
     pub fn chip_load_feed_mm_min(&self, block_rpm: f64) -> Option<f64> {
-        let rpm = if block_rpm > 0.0 {
-            block_rpm
-        } else {
-            self.model.spindle_rpm
-        };
-        self.fz_max_mm
-            .map(|fz| cutting::chipload::chip_load_feed_mm_min(fz, self.model.flutes, rpm))
+        self.fz_max_mm.map(|fz| {
+            cutting::chipload::chip_load_feed_mm_min(
+                fz,
+                self.model.flutes,
+                self.spindle_rpm(block_rpm),
+            )
+        })
     }
 }
 
@@ -67,6 +100,8 @@ impl ToolSet {
                 model,
                 fz_max_mm: spec.fz_max_mm(&job.cutting.material),
                 stress_limit_mpa: crate::simulate::stress_limit_mpa(spec, &tool),
+                job_rpm: job.cutting.spindle_rpm,
+                fz_max_given: spec.fz_max.is_some(),
             });
         }
         Ok(ToolSet {

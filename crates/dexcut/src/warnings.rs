@@ -41,6 +41,11 @@ pub enum WarningKind {
     /// The program file has a form LinuxCNC refuses but most controls read
     /// (no program end, a byte-order mark); read as they read it.
     ProgramForm,
+    /// An S word too slow to be a milling spindle speed for the tool
+    /// (MODEL.md §2.1): not taken as rev/min.
+    SpindleSpeed,
+    /// A tool's chip-load cap far below the feed the program cuts with.
+    ChipLoad,
 }
 
 /// One warning: kind, the first program line concerned, the worst value and a
@@ -66,11 +71,16 @@ pub struct Warning {
 
 impl Warning {
     /// A warning of the job's set-up, printed before any work: the program
-    /// file's form, a tool change a single tool cannot follow, the grid check
-    /// (see `Setup::setup_warnings`).
+    /// file's form, a tool change a single tool cannot follow, S words that
+    /// are no spindle speed, the grid check (see `Setup::setup_warnings`),
+    /// and optimize's chip-load check (printed once the program as given is
+    /// simulated, before the rounds).
     pub fn of_setup(&self) -> bool {
         match self.kind {
-            WarningKind::ProgramForm | WarningKind::IgnoredTool => true,
+            WarningKind::ProgramForm
+            | WarningKind::IgnoredTool
+            | WarningKind::SpindleSpeed
+            | WarningKind::ChipLoad => true,
             WarningKind::CoarseGrid => self.line.is_none(),
             _ => false,
         }
@@ -241,6 +251,87 @@ pub fn grid_check(
             trim(suggest)
         ),
     })
+}
+
+/// S words of cutting moves that are too slow to be a spindle speed for
+/// their tool ([`crate::tools::plausible_rpm`]), when the job gives no
+/// `[cutting] spindle_rpm`: one warning with their lines.
+pub fn spindle_check(path: &nc::Path, tools: &crate::tools::ToolSet) -> Option<Warning> {
+    let mut t = LineTally::new();
+    let mut worst: Option<(f64, u32, f64)> = None;
+    for s in &path.segments {
+        let e = tools.entry(s.tool);
+        let d = e.tool.diameter_mm;
+        if !matches!(s.motion, nc::Motion::Feed { .. })
+            || e.job_rpm.is_some()
+            || s.spindle_rpm <= 0.0
+            || crate::tools::plausible_rpm(d, s.spindle_rpm)
+        {
+            continue;
+        }
+        let v = crate::tools::cutting_speed_m_min(d, s.spindle_rpm);
+        tally(&mut t, s.line, v);
+        if worst.is_none_or(|w| v < w.0) {
+            worst = Some((v, e.number, s.spindle_rpm));
+        }
+    }
+    let (v, number, rpm) = worst?;
+    let e = tools.entry(number);
+    let taken = e.model.spindle_rpm;
+    let mut w = Warnings::default();
+    w.from_lines(WarningKind::SpindleSpeed, &t, "m/min", false, |_, lines| {
+        format!(
+            "S{rpm} at {lines} gives {v:.2} m/min at the edge of tool {number} (Ø{} mm), below {MIN} m/min, slower than any milling cutter runs: it is not taken as rev/min (a spindle override in percent, or a laser's power?); forces and the chip-load cap take {taken} rev/min ({}); set [cutting] spindle_rpm to the real spindle speed",
+            e.tool.diameter_mm,
+            if taken == 10_000.0 { "the default" } else { "the program's highest plausible S" },
+            MIN = crate::tools::MIN_CUTTING_SPEED_M_MIN,
+        )
+    });
+    let mut w = w.0.pop()?;
+    w.value = v;
+    Some(w)
+}
+
+/// A chip-load cap below this share of the tool's programmed cutting feed is
+/// warned of ([`chip_load_check`]).
+pub const CHIP_LOAD_FAR_BELOW: f64 = 0.2;
+
+/// One warning per tool whose chip-load cap is below
+/// [`CHIP_LOAD_FAR_BELOW`] of the feed the program cuts with: optimize will
+/// slow its cuts many times, which a machinist trusts only if the cap is
+/// right for the stock and the tool.
+pub fn chip_load_check(loads: &[crate::optimize::ToolChipLoad]) -> Vec<Warning> {
+    loads
+        .iter()
+        .filter_map(|c| {
+            let programmed = c.programmed_feed_mm_min?;
+            if c.feed_mm_min >= CHIP_LOAD_FAR_BELOW * programmed {
+                return None;
+            }
+            let line = c.line?;
+            Some(Warning {
+                kind: WarningKind::ChipLoad,
+                line: Some(line),
+                value: programmed / c.feed_mm_min,
+                unit: "×".into(),
+                steps: 0,
+                lines: vec![line],
+                message: format!(
+                    "tool {} (Ø{} mm, {} flutes) cuts at F{programmed:.0}, {:.4} mm/tooth at {:.0} rev/min ({}), but its chip-load cap is {:.4} mm/tooth ({}) = {:.0} mm/min, {:.1}× lower: optimize slows its cuts to the cap. If the stock is wood or plastic, or the tool is made for more, set fz_max for the tool ([tool] or its [[tools]] entry) or [cutting] material (the default table has metals only, MODEL.md §2.1); if the spindle speed is wrong, set [cutting] spindle_rpm",
+                    c.tool,
+                    c.diameter_mm,
+                    c.flutes,
+                    c.programmed_fz_mm.unwrap_or(f64::NAN),
+                    c.spindle_rpm,
+                    c.spindle_from,
+                    c.fz_max_mm,
+                    c.fz_max_from,
+                    c.feed_mm_min,
+                    programmed / c.feed_mm_min,
+                ),
+            })
+        })
+        .collect()
 }
 
 /// Columns a tool's diameter should span for its removal to be resolved.
