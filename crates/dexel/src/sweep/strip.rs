@@ -132,6 +132,9 @@ pub(super) struct StripJob<'a, E> {
     pub(super) smooth: bool,
 }
 
+/// Columns per tile of a strip whose highest top is kept (air skip).
+const TILE_COLS: usize = 64;
+
 /// Height span of a column's piece above which its chip thickness is
 /// averaged over the heights it spans (MODEL.md §3.2), mm.
 const THICK_PIECE_MM: f64 = 0.02;
@@ -262,6 +265,18 @@ impl<E: Envelope> StripJob<'_, E> {
         let mut visited = 0u64;
         // Cut columns of the current row, awaiting their contact (one allocation per strip).
         let mut cuts: Vec<Cut> = Vec::with_capacity(nx);
+        // Highest top per tile of TILE_COLS columns across the strip's rows, taken
+        // once: cuts only lower tops, so it bounds them for all the moves. A row
+        // whose tiles all lie at or below a move's lowest tip is air to it.
+        let mut tile_top = vec![f32::NEG_INFINITY; nx.div_ceil(TILE_COLS)];
+        for row in cols.chunks_exact(nx) {
+            for (t, tile) in tile_top.iter_mut().zip(row.chunks(TILE_COLS)) {
+                let top = row_top(tile);
+                if top > *t {
+                    *t = top;
+                }
+            }
+        }
         for (j, &mi) in entries.iter().enumerate() {
             let m = &self.moves[mi as usize];
             let all = &mut out[j * width..(j + 1) * width];
@@ -296,6 +311,10 @@ impl<E: Envelope> StripJob<'_, E> {
                 } else {
                     (ix0, ix1)
                 };
+                let tiles = &tile_top[ix0 / TILE_COLS..=ix1 / TILE_COLS];
+                if tiles.iter().all(|&t| t <= zmin) {
+                    continue;
+                }
                 // Narrow the row to where the tool can reach below the row's highest top.
                 let Some((ix0, ix1)) =
                     self.reachable(m, y, &cols[base + ix0..=base + ix1], ix0, ix1)
