@@ -2,8 +2,8 @@
 //! ray–capsule intersection, with a square-root-free skip bound.
 
 use super::{
-    torus_edge, torus_mean_inv_sin_k, Edge, Envelope, EnvelopeHit, Prepared, ABOVE_MARGIN_MM,
-    PLUNGE_H2,
+    sphere_reach2, torus_edge, torus_mean_inv_sin_k, Edge, Envelope, EnvelopeHit, Prepared,
+    ABOVE_MARGIN_MM, PLUNGE_H2,
 };
 
 pub(super) struct BallEnd {
@@ -65,13 +65,14 @@ impl Envelope for BallEnd {
 
     /// No square root: with ρ the XY distance from the column to the move's
     /// axis segment, the ball's lower surface over the column is at least
-    /// z_min + R − √(R² − ρ²) ≥ z_min + ρ²/(2R).
+    /// z_min + R − √(R² − ρ²), which is at least z_min + δ where
+    /// ρ² ≥ [`sphere_reach2`]`(R, δ)`.
     #[inline]
     fn stays_above(&self, m: &Prepared, x: f64, y: f64, top: f64) -> bool {
         let (wx, wy) = (x - m.p0[0], y - m.p0[1]);
         let t = ((wx * m.d[0] + wy * m.d[1]) * m.inv_h2).clamp(0.0, 1.0);
         let (ex, ey) = (wx - t * m.d[0], wy - t * m.d[1]);
-        ex * ex + ey * ey >= 2.0 * self.r * (top - m.zmin + ABOVE_MARGIN_MM)
+        ex * ex + ey * ey >= sphere_reach2(self.r, top - m.zmin + ABOVE_MARGIN_MM)
     }
 
     #[inline]
@@ -79,10 +80,10 @@ impl Envelope for BallEnd {
         true
     }
 
-    /// The same bound for a whole row: ρ² ≥ 2R·(depth + margin) stays above.
+    /// The same bound for a whole row.
     #[inline]
     fn reach(&self, _m: &Prepared, depth: f64) -> Option<f64> {
-        Some((2.0 * self.r * (depth + ABOVE_MARGIN_MM)).sqrt())
+        Some(sphere_reach2(self.r, depth + ABOVE_MARGIN_MM).sqrt())
     }
 
     #[inline]

@@ -3,8 +3,8 @@
 //! a plunge have it in closed form.
 
 use super::{
-    disc_interval, torus_edge, torus_mean_inv_sin_k, Edge, Envelope, EnvelopeHit, Prepared, Span,
-    ABOVE_MARGIN_MM, BOTTOM_MM, PLUNGE_H2,
+    disc_interval, sphere_reach2, torus_edge, torus_mean_inv_sin_k, Edge, Envelope, EnvelopeHit,
+    Prepared, Span, ABOVE_MARGIN_MM, BOTTOM_MM, PLUNGE_H2,
 };
 
 /// The golden-section search stops when its bracket is this short along the
@@ -104,14 +104,14 @@ impl Envelope for BullNose {
     /// The ball's bound moved out by the ring: over a column at XY distance ρ
     /// from the move's axis segment the lower surface is at least
     /// z_min + profile(ρ) (the profile does not decrease), and on the corner
-    /// profile(ρ) = rc − √(rc² − e²) ≥ e²/(2 rc) with e = ρ − ring; so the
-    /// swept tool stays above `top` where ρ ≥ ring + √(2 rc (top − z_min + margin)).
+    /// profile(ρ) = rc − √(rc² − e²) with e = ρ − ring; so the swept tool stays
+    /// above `top` where e² ≥ [`sphere_reach2`]`(rc, top − z_min + margin)`.
     #[inline]
     fn stays_above(&self, m: &Prepared, x: f64, y: f64, top: f64) -> bool {
         let (wx, wy) = (x - m.p0[0], y - m.p0[1]);
         let t = ((wx * m.d[0] + wy * m.d[1]) * m.inv_h2).clamp(0.0, 1.0);
         let (ex, ey) = (wx - t * m.d[0], wy - t * m.d[1]);
-        let reach = self.ring + (2.0 * self.rc * (top - m.zmin + ABOVE_MARGIN_MM)).sqrt();
+        let reach = self.ring + sphere_reach2(self.rc, top - m.zmin + ABOVE_MARGIN_MM).sqrt();
         ex * ex + ey * ey >= reach * reach
     }
 
@@ -123,7 +123,7 @@ impl Envelope for BullNose {
     /// The same bound for a whole row.
     #[inline]
     fn reach(&self, _m: &Prepared, depth: f64) -> Option<f64> {
-        Some(self.ring + (2.0 * self.rc * (depth + ABOVE_MARGIN_MM)).sqrt())
+        Some(self.ring + sphere_reach2(self.rc, depth + ABOVE_MARGIN_MM).sqrt())
     }
 
     #[inline]

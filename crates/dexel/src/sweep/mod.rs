@@ -15,10 +15,10 @@
 //!   lower end.
 //!
 //! Before the exact envelope, a ball end rules out columns with a square-root
-//! free bound (z ≥ z_min + ρ²/2R, ρ the XY distance to the move's axis): per
-//! row against the row's highest top, then per column against its own top.
-//! A bull nose uses the same bound moved out by its ring (z ≥ z_min +
-//! (ρ − ring)²/2r_c, one square root per column instead of a search).
+//! free bound (z ≥ z_min + R − √(R² − ρ²), ρ the XY distance to the move's
+//! axis, tested as ρ² ≥ δ(2R − δ)): per row against the row's highest top,
+//! then per column against its own top. A bull nose uses the same bound
+//! moved out by its ring (one square root per column instead of a search).
 //! The bound skips only columns that the envelope would not cut, so results
 //! are the same with or without it.
 //!
@@ -456,6 +456,20 @@ fn torus_mean_inv_sin_k(h_bot: f64, h_top: f64, rc: f64) -> Option<f64> {
     let corner = rc * (kappa(hi) - kappa(lo));
     let flank = (hi - rc).max(0.0);
     Some((corner + flank) / span)
+}
+
+/// Squared XY distance from a sphere's axis beyond which its lower surface
+/// (radius `r`) lies at least `depth` above its lowest point:
+/// r − √(r² − ρ²) ≥ δ ⟺ ρ² ≥ δ (2r − δ) for δ ≤ r. Used up to δ = r/2, where
+/// the rounding of ρ² moves the height by far less than the margin; deeper, the
+/// parabola's 2rδ (the sphere lies above the parabola ρ²/2r).
+#[inline]
+fn sphere_reach2(r: f64, depth: f64) -> f64 {
+    if depth <= 0.5 * r {
+        depth * (2.0 * r - depth)
+    } else {
+        2.0 * r * depth
+    }
 }
 
 /// Heights above the tip below this (mm) count as the tool's flat bottom.
