@@ -187,7 +187,9 @@ impl Setup {
             job_path.to_path_buf(),
             self.job.resolve(&self.job.program.path),
         ];
-        files.extend(self.job.stock.path.as_deref().map(|p| self.job.resolve(p)));
+        if let crate::job::StockSpec::Mesh { path, .. } = &self.job.stock {
+            files.push(self.job.resolve(path));
+        }
         files.extend(self.design.as_ref().map(|(p, _)| p.clone()));
         files
     }

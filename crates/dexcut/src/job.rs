@@ -41,49 +41,93 @@ pub struct Job {
     pub name: String,
 }
 
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum StockKind {
-    Box,
-    Cylinder,
-    Mesh,
+/// `[stock]`: the blank, one shape per `kind`. Each shape takes its own keys,
+/// all required, and no other: a box with `radius` or a cylinder without
+/// `z_max` is refused at the `[stock]` line with the key's name.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+pub enum StockSpec {
+    /// `kind = "box"`: an axis-aligned box.
+    Box {
+        /// Lowest corner (x, y, z), mm.
+        min: [f64; 3],
+        /// Highest corner (x, y, z), mm.
+        max: [f64; 3],
+        /// Column spacing, mm.
+        #[serde(alias = "grid_mm")]
+        grid: f64,
+    },
+    /// `kind = "cylinder"`: a cylinder with its axis along Z.
+    Cylinder {
+        /// Axis position (x, y), mm.
+        center: [f64; 2],
+        /// mm.
+        radius: f64,
+        /// Bottom and top, mm.
+        z_min: f64,
+        z_max: f64,
+        /// Column spacing, mm.
+        #[serde(alias = "grid_mm")]
+        grid: f64,
+    },
+    /// `kind = "mesh"`: a closed mesh (STL or OBJ), relative to the job file.
+    Mesh {
+        path: PathBuf,
+        /// Column spacing, mm.
+        #[serde(alias = "grid_mm")]
+        grid: f64,
+    },
 }
 
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct StockSpec {
-    pub kind: StockKind,
-    /// Box corners, mm.
-    pub min: Option<[f64; 3]>,
-    pub max: Option<[f64; 3]>,
-    /// Cylinder axis position (x, y), radius and z range, mm.
-    pub center: Option<[f64; 2]>,
-    pub radius: Option<f64>,
-    pub z_min: Option<f64>,
-    pub z_max: Option<f64>,
-    /// Mesh file (STL or OBJ), relative to the job file.
-    pub path: Option<PathBuf>,
+impl StockSpec {
     /// Column spacing, mm.
-    #[serde(alias = "grid_mm")]
-    pub grid: f64,
+    pub fn grid_mm(&self) -> f64 {
+        match *self {
+            StockSpec::Box { grid, .. }
+            | StockSpec::Cylinder { grid, .. }
+            | StockSpec::Mesh { grid, .. } => grid,
+        }
+    }
+
+    fn grid_mut(&mut self) -> &mut f64 {
+        match self {
+            StockSpec::Box { grid, .. }
+            | StockSpec::Cylinder { grid, .. }
+            | StockSpec::Mesh { grid, .. } => grid,
+        }
+    }
 }
 
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum ToolKind {
-    Ball,
-    Flat,
-    Bull,
+/// `[tool]` or a `[[tools]]` entry: the shape named by `kind`, with its own
+/// keys (`corner_radius` for a bull nose only, required there), and the keys
+/// every shape shares.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum ToolSpec {
+    /// `kind = "ball"`: ball-end mill.
+    Ball(ToolBody),
+    /// `kind = "flat"`: flat-end mill.
+    Flat(ToolBody),
+    /// `kind = "bull"`: bull-nose (torus) mill.
+    Bull(BullSpec),
 }
 
+/// The bull nose's own key beside the shared ones.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct ToolSpec {
-    pub kind: ToolKind,
+pub struct BullSpec {
+    /// mm, up to half the diameter.
+    pub corner_radius: f64,
+    #[serde(flatten)]
+    pub body: ToolBody,
+}
+
+/// The keys every tool shape shares.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolBody {
     /// mm.
     pub diameter: f64,
-    /// mm; required for bull-nose tools.
-    pub corner_radius: Option<f64>,
     /// mm; default 2 × diameter.
     pub flute_length: Option<f64>,
     /// Holder face to tip, mm; default 8 × diameter.
@@ -108,6 +152,18 @@ pub struct ToolSpec {
     /// Allowable von Mises stress in the tool, MPa (plausibility warnings); default
     /// 1200 for carbide (E ≥ 400 000 MPa), 1000 otherwise (MODEL.md §4.4).
     pub stress_limit_mpa: Option<f64>,
+}
+
+impl std::ops::Deref for ToolSpec {
+    type Target = ToolBody;
+
+    /// The keys every shape shares.
+    fn deref(&self) -> &ToolBody {
+        match self {
+            ToolSpec::Ball(b) | ToolSpec::Flat(b) => b,
+            ToolSpec::Bull(b) => &b.body,
+        }
+    }
 }
 
 fn default_flutes() -> u32 {
@@ -477,7 +533,7 @@ impl Job {
 
     /// Override the stock's column spacing (`--grid`) and check the job again.
     pub fn set_grid(&mut self, grid_mm: f64) -> Result<()> {
-        self.stock.grid = grid_mm;
+        *self.stock.grid_mut() = grid_mm;
         self.validate()
             .with_context(|| format!("--grid {grid_mm}: invalid for {}", self.name))
     }
@@ -495,13 +551,14 @@ impl Job {
     /// with its key: non-finite values (toml reads `inf` and `nan`) and absurd
     /// ones (a 1e-9 mm/s² acceleration, a 1e9 ms period) never reach the work.
     pub(crate) fn validate(&self) -> Result<()> {
-        let s = &self.stock;
-        range("stock.grid (mm)", s.grid, MIN_GRID_MM, MAX_LENGTH_MM)?;
-        match s.kind {
-            StockKind::Box => {
-                let (Some(min), Some(max)) = (s.min, s.max) else {
-                    bail!("stock kind \"box\" needs min = [x, y, z] and max = [x, y, z]")
-                };
+        range(
+            "stock.grid (mm)",
+            self.stock.grid_mm(),
+            MIN_GRID_MM,
+            MAX_LENGTH_MM,
+        )?;
+        match self.stock {
+            StockSpec::Box { min, max, grid } => {
                 coordinates("stock.min (mm)", &min)?;
                 coordinates("stock.max (mm)", &max)?;
                 for k in 0..3 {
@@ -509,27 +566,30 @@ impl Job {
                         bail!("stock box max must exceed min on every axis, got min {min:?}, max {max:?}");
                     }
                 }
-                grid_resolves("box", s.grid, (max[0] - min[0]).min(max[1] - min[1]))?;
+                grid_resolves("box", grid, (max[0] - min[0]).min(max[1] - min[1]))?;
             }
-            StockKind::Cylinder => {
-                let (Some(c), Some(r), Some(lo), Some(hi)) = (s.center, s.radius, s.z_min, s.z_max)
-                else {
-                    bail!("stock kind \"cylinder\" needs center = [x, y], radius, z_min and z_max")
-                };
-                coordinates("stock.center (mm)", &c)?;
-                range("stock.radius (mm)", r, f64::MIN_POSITIVE, MAX_LENGTH_MM)?;
-                coordinates("stock.z_min (mm)", &[lo])?;
-                coordinates("stock.z_max (mm)", &[hi])?;
-                if !(hi > lo) {
-                    bail!("stock cylinder z_max ({hi}) must exceed z_min ({lo})");
+            StockSpec::Cylinder {
+                center,
+                radius,
+                z_min,
+                z_max,
+                grid,
+            } => {
+                coordinates("stock.center (mm)", &center)?;
+                range(
+                    "stock.radius (mm)",
+                    radius,
+                    f64::MIN_POSITIVE,
+                    MAX_LENGTH_MM,
+                )?;
+                coordinates("stock.z_min (mm)", &[z_min])?;
+                coordinates("stock.z_max (mm)", &[z_max])?;
+                if !(z_max > z_min) {
+                    bail!("stock cylinder z_max ({z_max}) must exceed z_min ({z_min})");
                 }
-                grid_resolves("cylinder", s.grid, 2.0 * r)?;
+                grid_resolves("cylinder", grid, 2.0 * radius)?;
             }
-            StockKind::Mesh => {
-                if s.path.is_none() {
-                    bail!("stock kind \"mesh\" needs path = \"FILE.stl\" (or .obj)");
-                }
-            }
+            StockSpec::Mesh { .. } => {}
         }
         match (&self.tool, self.tools.is_empty()) {
             (None, true) => {
@@ -753,10 +813,10 @@ impl ToolSpec {
             MIN_GRID_MM,
             1000.0,
         )?;
-        if let Some(r) = t.corner_radius {
+        if let ToolSpec::Bull(b) = self {
             range(
                 &format!("{key}.corner_radius (mm)"),
-                r,
+                b.corner_radius,
                 0.0,
                 t.diameter / 2.0,
             )?;
@@ -792,9 +852,6 @@ impl ToolSpec {
             1e12,
         )?;
         positive_opt(&format!("{key}.stress_limit_mpa"), t.stress_limit_mpa, 1e6)?;
-        if t.kind == ToolKind::Bull && t.corner_radius.is_none() {
-            bail!("{key}: kind \"bull\" needs corner_radius (mm)");
-        }
         Ok(())
     }
 
@@ -808,10 +865,10 @@ impl ToolSpec {
     /// The tool as the kernel and the beam model see it.
     pub fn dexel_tool(&self) -> Result<dexel::Tool> {
         let t = self;
-        let base = match t.kind {
-            ToolKind::Ball => dexel::Tool::ball(t.diameter),
-            ToolKind::Flat => dexel::Tool::flat(t.diameter),
-            ToolKind::Bull => dexel::Tool::bull(t.diameter, t.corner_radius.unwrap_or(0.0)),
+        let base = match t {
+            ToolSpec::Ball(b) => dexel::Tool::ball(b.diameter),
+            ToolSpec::Flat(b) => dexel::Tool::flat(b.diameter),
+            ToolSpec::Bull(b) => dexel::Tool::bull(b.body.diameter, b.corner_radius),
         };
         let tool = dexel::Tool {
             flute_length_mm: t.flute_length.unwrap_or(base.flute_length_mm),
@@ -903,6 +960,77 @@ feed = 1000
             err.starts_with("job.toml:13:1: unknown field `speed`"),
             "{err}"
         );
+    }
+
+    /// Stock and tool shapes are tagged by `kind`: each takes its own keys and
+    /// no other, and a missing or foreign key is refused at the section's line.
+    #[test]
+    fn shapes_take_their_own_keys_only() {
+        let err = |from: &str, to: &str| {
+            assert!(MINIMAL.contains(from), "{from}");
+            let text = MINIMAL.replacen(from, to, 1);
+            Job::parse(&text, "job.toml", Path::new("."))
+                .unwrap_err()
+                .to_string()
+        };
+        let cases = [
+            (
+                "max = [10, 10, 10]\n",
+                "",
+                "job.toml:2:1: missing field `max`",
+            ),
+            (
+                "grid = 0.5",
+                "grid = 0.5\nradius = 3",
+                "job.toml:2:1: unknown field `radius`, expected one of `min`, `max`, `grid`",
+            ),
+            (
+                "kind = \"box\"",
+                "kind = \"cylinder\"",
+                "job.toml:2:1: unknown field `max`, expected one of `center`",
+            ),
+            (
+                "kind = \"box\"",
+                "kind = \"cube\"",
+                "job.toml:3:8: unknown variant `cube`, expected one of `box`, `cylinder`, `mesh`",
+            ),
+            (
+                "diameter = 6",
+                "diameter = 6\ncorner_radius = 1",
+                "job.toml:7:1: unknown field `corner_radius`",
+            ),
+            (
+                "kind = \"ball\"",
+                "kind = \"bull\"",
+                "job.toml:7:1: missing field `corner_radius`",
+            ),
+            (
+                "kind = \"ball\"\n",
+                "",
+                "job.toml:7:1: missing field `kind`",
+            ),
+        ];
+        for (from, to, expected) in cases {
+            let e = err(from, to);
+            assert!(e.starts_with(expected), "{to}: {e}");
+        }
+        let bull = MINIMAL.replace("kind = \"ball\"", "kind = \"bull\"\ncorner_radius = 1.5");
+        let job = Job::parse(&bull, "job.toml", Path::new(".")).unwrap();
+        assert_eq!(job.tool().unwrap(), dexel::Tool::bull(6.0, 1.5));
+        let wide = bull.replace("corner_radius = 1.5", "corner_radius = 3.5");
+        let e = format!(
+            "{:#}",
+            Job::parse(&wide, "job.toml", Path::new(".")).unwrap_err()
+        );
+        assert!(
+            e.contains("tool.corner_radius (mm) must lie in 0..3, got 3.5"),
+            "{e}"
+        );
+        let cylinder = "[stock]\nkind = \"cylinder\"\ncenter = [0, 0]\nradius = 5\nz_min = 0\nz_max = 4\ngrid = 0.5\n";
+        let text = MINIMAL.replacen(&MINIMAL[..MINIMAL.find("[tool]").unwrap()], cylinder, 1);
+        let job = Job::parse(&text, "job.toml", Path::new(".")).unwrap();
+        assert!(matches!(job.stock, StockSpec::Cylinder { radius, .. } if radius == 5.0));
+        assert_eq!(job.stock.grid_mm(), 0.5);
     }
 
     #[test]
@@ -1192,7 +1320,7 @@ feed = 1000
                         accepted.fetch_add(1, Ordering::Relaxed);
                         let m = &job.machine;
                         let mut numbers = vec![
-                            job.stock.grid,
+                            job.stock.grid_mm(),
                             job.tool_specs()[0].1.diameter,
                             m.period_ms,
                             m.feed_max,

@@ -3,7 +3,7 @@
 use anyhow::{Context, Result};
 use dexel::{Grid, Stock};
 
-use crate::job::{Job, StockKind};
+use crate::job::{Job, StockSpec};
 
 /// Refuse a grid whose columns would not fit in the memory this process may use.
 fn check_fits(grid: &Grid, what: &str) -> Result<()> {
@@ -14,44 +14,43 @@ fn check_fits(grid: &Grid, what: &str) -> Result<()> {
 pub fn build(job: &Job) -> Result<Stock> {
     let s = &job.stock;
     let what = format!("{}: [stock]", job.name);
-    match s.kind {
-        StockKind::Box => {
-            let (min, max) = (s.min.unwrap_or_default(), s.max.unwrap_or_default());
+    match s {
+        &StockSpec::Box { min, max, grid } => {
             check_fits(
-                &Grid::covering(min[0], min[1], max[0], max[1], s.grid)?,
+                &Grid::covering(min[0], min[1], max[0], max[1], grid)?,
                 &what,
             )?;
-            Ok(Stock::new_box(min, max, s.grid)?)
+            Ok(Stock::new_box(min, max, grid)?)
         }
-        StockKind::Cylinder => {
-            let ([cx, cy], r) = (s.center.unwrap_or_default(), s.radius.unwrap_or_default());
+        &StockSpec::Cylinder {
+            center: [cx, cy],
+            radius: r,
+            z_min,
+            z_max,
+            grid,
+        } => {
             check_fits(
-                &Grid::covering(cx - r, cy - r, cx + r, cy + r, s.grid)?,
+                &Grid::covering(cx - r, cy - r, cx + r, cy + r, grid)?,
                 &what,
             )?;
-            Ok(Stock::new_cylinder(
-                [cx, cy],
-                r,
-                s.z_min.unwrap_or_default(),
-                s.z_max.unwrap_or_default(),
-                s.grid,
-            )?)
+            Ok(Stock::new_cylinder([cx, cy], r, z_min, z_max, grid)?)
         }
-        StockKind::Mesh => {
-            let path = job.resolve(s.path.as_deref().unwrap_or(std::path::Path::new("")));
+        StockSpec::Mesh { path, grid } => {
+            let grid_mm = *grid;
+            let path = job.resolve(path);
             crate::bounds::check_input_file(&path, "stock mesh", crate::bounds::MAX_MESH_BYTES)?;
             let (mesh, _info) = mesh::load_solid(&path)?;
             let (lo, hi) = mesh
                 .bounds_mm()
                 .with_context(|| format!("{}: the stock mesh is empty", path.display()))?;
             let extent_mm = (hi[0] - lo[0]).min(hi[1] - lo[1]);
-            if s.grid * 4.0 > extent_mm {
+            if grid_mm * 4.0 > extent_mm {
                 anyhow::bail!(
                     "{what}: grid ({} mm) is too coarse for the mesh's {extent_mm:.3} mm XY extent: at least 4 columns across are needed",
-                    s.grid
+                    grid_mm
                 );
             }
-            let grid = Grid::covering(lo[0], lo[1], hi[0], hi[1], s.grid)?;
+            let grid = Grid::covering(lo[0], lo[1], hi[0], hi[1], grid_mm)?;
             check_fits(&grid, &what)?;
             let (stock, stats) = mesh::stock_on_grid(&mesh, grid)?;
             // A self-intersecting mesh has overlapping shells (or unbalanced
@@ -65,7 +64,7 @@ pub fn build(job: &Job) -> Result<Stock> {
                     0.5 * (b - a).cross(&(c - a)).norm()
                 })
                 .sum();
-            let discretisation_mm3 = area_mm2 * s.grid;
+            let discretisation_mm3 = area_mm2 * grid_mm;
             if stats.overlap_columns > 0
                 || stats.unpaired_columns > 0
                 || (filled - signed).abs() > discretisation_mm3 + 1e-9 * signed
