@@ -12,18 +12,19 @@
 //! [`plan`] computes the time-optimal speed profile, [`Profile::sample`] gives servo data.
 //! [`lower_bound_time_s`] bounds every profile from below, for the optimality gap.
 
+mod bound;
 mod machine;
 mod plan;
 mod range_min;
 mod rules;
 mod stations;
 
+pub use bound::{lower_bound_time_s, rest_to_rest_time_s};
 pub use machine::{Machine, ScheduleError, MACHINE_RANGES};
 pub use plan::{axis_velocity_mm_s, plan, Profile, ServoSample, MAX_SAMPLES};
 pub use rules::{
     angle_rule_feed_mm_min, block_feed_cap_mm_min, chord_count, chord_tolerance_mm, linearise_arcs,
 };
 pub use stations::{
-    lower_bound_time_s, rest_to_rest_time_s, station_count, CapKind, FeedPolicy, Stations, Stop,
-    BYTES_PER_STATION, MAX_STATIONS,
+    station_count, CapKind, FeedPolicy, Stations, Stop, BYTES_PER_STATION, MAX_STATIONS,
 };

@@ -986,3 +986,96 @@ fn s0_block_time_limits_the_finer_polygon() {
         close(cruise_mm_min(lines.segments, tb), f, 1e-6);
     }
 }
+
+/// Time-optimal jerk-limited change of speed from `v1` to `v2` (v1 < v2) with no
+/// acceleration at either end, by the S-curve's closed form: (time s, distance mm).
+fn speed_change(v1: f64, v2: f64, a: f64, j: f64) -> (f64, f64) {
+    let dv = v2 - v1;
+    let t = if dv >= a * a / j {
+        dv / a + a / j
+    } else {
+        2.0 * (dv / j).sqrt()
+    };
+    (t, (v1 + v2) / 2.0 * t)
+}
+
+/// The jerk-limited lower bound (MODEL.md §6.1) against motions whose optimum is known in
+/// closed form: it never exceeds the optimum (validity), comes within 3 % of it (the
+/// per-dip jerk term at work), and the plan never beats it.
+#[test]
+fn jerk_lower_bound_meets_known_optima() {
+    // Rest-to-rest moves: the optimum is the S-curve.
+    for (len, feed, jerk) in [
+        (100.0, 3000.0, 20000.0),
+        (20.0, 10000.0, 20000.0),
+        (0.5, 3000.0, 20000.0),
+        (5.0, 600.0, 5000.0),
+        (2.0, 6000.0, 100000.0),
+    ] {
+        let machine = Machine {
+            jerk_mm_s3: Some([jerk; 3]),
+            feed_max_mm_min: 20000.0,
+            ..Machine::default()
+        };
+        let st = stations(
+            vec![line(p(0.0, 0.0, 0.0), p(len, 0.0, 0.0), feed)],
+            &machine,
+            0.05,
+        );
+        let optimum_s = rest_to_rest_time_s(len, feed / 60.0, ACCEL, jerk);
+        let bound_s = lower_bound_time_s(&st);
+        assert!(
+            bound_s <= optimum_s * (1.0 + 1e-9),
+            "L {len}: {bound_s} > {optimum_s}"
+        );
+        close(bound_s, optimum_s, 1e-9 * optimum_s);
+    }
+    // A 40 mm line at 3000 mm/min whose middle station is capped at c: the optimum
+    // accelerates to V, slows to c at the dip with no acceleration there, and back
+    // (symmetric, so the dip is the profile's minimum).
+    for (dip_mm_min, jerk) in [
+        (500.0, 20000.0),
+        (1500.0, 20000.0),
+        (2800.0, 20000.0),
+        (500.0, 5000.0),
+        (1000.0, 100000.0),
+    ] {
+        let machine = Machine {
+            jerk_mm_s3: Some([jerk; 3]),
+            ..Machine::default()
+        };
+        let mut st = Stations::new(
+            &path(vec![line(p(0.0, 0.0, 0.0), p(40.0, 0.0, 0.0), FEED)]),
+            &machine,
+            0.05,
+            FeedPolicy::Programmed,
+        )
+        .unwrap();
+        let middle = st
+            .s_mm()
+            .iter()
+            .position(|&s| (s - 20.0).abs() < 1e-9)
+            .unwrap();
+        st.apply_cap(middle, dip_mm_min, CapKind::Removal).unwrap();
+        let (v, c) = (FEED / 60.0, dip_mm_min / 60.0);
+        let (t_start, d_start) = speed_change(0.0, v, ACCEL, jerk);
+        let (t_dip, d_dip) = speed_change(c, v, ACCEL, jerk);
+        let cruise_mm = 20.0 - d_start - d_dip;
+        assert!(cruise_mm >= 0.0);
+        let optimum_s = 2.0 * (t_start + t_dip + cruise_mm / v);
+        let bound_s = lower_bound_time_s(&st);
+        let cycle_s = plan(&st).cycle_time_s();
+        println!(
+            "dip {dip_mm_min} j {jerk}: bound {bound_s:.5} s, optimum {optimum_s:.5} s, plan {cycle_s:.5} s"
+        );
+        assert!(
+            bound_s <= optimum_s * (1.0 + 1e-9),
+            "dip {dip_mm_min}: {bound_s} > {optimum_s}"
+        );
+        assert!(
+            bound_s >= 0.97 * optimum_s,
+            "dip {dip_mm_min}: {bound_s} ≪ {optimum_s}"
+        );
+        assert!(cycle_s >= optimum_s * (1.0 - 1e-9));
+    }
+}

@@ -1,0 +1,461 @@
+//! Lower bound on the time of any motion along the stations (MODEL.md §6.1, "Lower bound").
+
+use crate::stations::Stations;
+
+/// Acceleration bins a dip's unknown acceleration is first split into, and how many times
+/// the most promising bin is then halved (see [`dip_piece_s`]).
+const DIP_ACCEL_BINS: usize = 6;
+const DIP_ACCEL_REFINEMENTS: usize = 8;
+
+/// A lower bound on the time in s of any motion along the stations that keeps every station
+/// at or under its cap, the speed inside an interval at or under the larger cap of its two
+/// stations, the tangential acceleration and jerk within each interval's limits, and rests
+/// at every stop for its dwell (MODEL.md §6.1):
+///
+/// * the forward/backward passes give, at every station, the highest speed u_k any such
+///   motion can have there (v_k+1² ≤ v_k² + 2 a Δs holds for every motion, not only for the
+///   plan);
+/// * inside an interval the speed is at most min(√(u_k² + 2a·x), √(u_k+1² + 2a·(Δs − x)), cap),
+///   whose time integral t_k is closed form;
+/// * with a jerk limit, each run is split at the local maxima of u into pieces around one
+///   dip each, and the time in a piece is bounded with the jerk the motion needs to turn
+///   at the dip ([`dip_piece_s`]); a run also takes at least the rest-to-rest time of the
+///   7-segment S-curve ([`rest_to_rest_time_s`]) with its highest cap, acceleration and jerk.
+///
+/// The planned profile is never faster, so `cycle / bound − 1` is an upper bound on how far
+/// the plan is from the optimum.
+pub fn lower_bound_time_s(stations: &Stations) -> f64 {
+    let s = stations.s_mm();
+    let caps: Vec<f64> = stations.cap_mm_min().iter().map(|c| c / 60.0).collect();
+    let accel = stations.interval_accel_mm_s2();
+    let jerk = stations.interval_jerk_mm_s3();
+    let mut u = caps.clone();
+    let stops = stations.stops();
+    for stop in stops {
+        u[stop.station] = 0.0;
+    }
+    let n = u.len();
+    for k in 0..n.saturating_sub(1) {
+        u[k + 1] = u[k + 1].min((u[k] * u[k] + 2.0 * accel[k] * (s[k + 1] - s[k])).sqrt());
+    }
+    for k in (0..n.saturating_sub(1)).rev() {
+        u[k] = u[k].min((u[k + 1] * u[k + 1] + 2.0 * accel[k] * (s[k + 1] - s[k])).sqrt());
+    }
+    // Per interval: the closed-form time and the highest speed allowed inside.
+    let intervals: Vec<Interval> = (0..n.saturating_sub(1))
+        .map(|k| {
+            let cap = caps[k].max(caps[k + 1]);
+            let len_mm = s[k + 1] - s[k];
+            Interval {
+                len_mm,
+                time_s: interval_bound_s(len_mm, u[k], u[k + 1], accel[k], cap),
+                peak_mm_s: interval_peak_mm_s(len_mm, u[k], u[k + 1], accel[k], cap),
+                accel_mm_s2: accel[k],
+                jerk_mm_s3: jerk[k],
+            }
+        })
+        .collect();
+    let mut total_s: f64 = stops.iter().map(|s| s.dwell_s).sum();
+    for pair in stops.windows(2) {
+        let (first, last) = (pair[0].station, pair[1].station);
+        let run = &intervals[first..last];
+        let mut run_s: f64 = run.iter().map(|i| i.time_s).sum();
+        let v_max = (first..last).fold(0.0f64, |m, k| m.max(caps[k].max(caps[k + 1])));
+        let a_max = run.iter().fold(0.0f64, |m, i| m.max(i.accel_mm_s2));
+        let j_max = run.iter().fold(0.0f64, |m, i| m.max(i.jerk_mm_s3));
+        if j_max.is_finite() && last > first {
+            run_s = run_s.max(rest_to_rest_time_s(s[last] - s[first], v_max, a_max, j_max));
+            run_s = run_s.max(dip_pieces_s(&u[first..=last], run));
+        }
+        total_s += run_s;
+    }
+    total_s
+}
+
+/// One interval k → k+1 as the bound sees it.
+#[derive(Clone, Copy, Debug)]
+struct Interval {
+    len_mm: f64,
+    /// Least time over the interval (acceleration limit only), s.
+    time_s: f64,
+    /// Highest speed any motion can have inside the interval, mm/s.
+    peak_mm_s: f64,
+    accel_mm_s2: f64,
+    jerk_mm_s3: f64,
+}
+
+/// Least time of a run with a jerk limit: the run (stations `u`, ends at rest, intervals
+/// `run`) split into pieces, each bounded by [`dip_piece_s`] around its lowest station.
+/// Any split gives a valid bound, so the larger of two is taken: splits in the middle of
+/// each local maximum (plateau) of `u`, which leave each dip room to turn on both sides,
+/// and splits at the last station before every fall of `u`, which also cut descending
+/// staircases at each step.
+fn dip_pieces_s(u: &[f64], run: &[Interval]) -> f64 {
+    let last = u.len() - 1;
+    let mut middles = vec![0];
+    let mut k = 1;
+    while k < last {
+        let a = k;
+        let mut b = k;
+        while b + 1 < last && u[b + 1] == u[a] {
+            b += 1;
+        }
+        if u[a] > u[a - 1] && u[b] > u[b + 1] {
+            middles.push((a + b) / 2);
+        }
+        k = b + 1;
+    }
+    middles.push(last);
+    let mut falls = vec![0];
+    falls.extend((1..last).filter(|&k| u[k] >= u[k - 1] && u[k] > u[k + 1]));
+    falls.push(last);
+    pieces_s(u, run, &middles).max(pieces_s(u, run, &falls))
+}
+
+/// Sum of [`dip_piece_s`] over the pieces between consecutive `splits` (station indices).
+fn pieces_s(u: &[f64], run: &[Interval], splits: &[usize]) -> f64 {
+    let last = u.len() - 1;
+    splits
+        .windows(2)
+        .map(|w| {
+            let (p, q) = (w[0], w[1]);
+            let m = (p..=q).fold(p, |m, k| if u[k] < u[m] { k } else { m });
+            let at_rest = m == 0 || m == last;
+            dip_piece_s(u[m], at_rest, &run[p..m], &run[m..q])
+        })
+        .sum()
+}
+
+/// Least time over the stations on both sides of a dip: a station where the speed is at
+/// most `c` (mm/s), with the intervals `left` before it (in path order) and `right` after.
+///
+/// Whatever the motion's acceleration a_m at the dip, the jerk limit J bounds its
+/// acceleration σ later by a_m + J·σ (and by A), and σ earlier by −(a_m − J·σ): so σ after
+/// the dip the speed is at most c + ∫₀^σ min(A, a_m + Jρ) dρ, and σ before it at most
+/// c + ∫₀^σ min(A, −a_m + Jρ) dρ. With the speed also under each interval's peak, a
+/// comparison motion that always moves at the smaller of the two reaches every station no
+/// later than the real one, station by station (if the real motion enters an interval
+/// later, it has less time at speeds no higher). Each interval also takes at least its
+/// closed-form time. a_m is unknown within ±A (0 at rest): the bound is the least over bins
+/// of a_m, each bin bounded with its extremes (the highest a_m for the side after the dip,
+/// the lowest for the side before), so it holds for every a_m.
+fn dip_piece_s(c: f64, at_rest: bool, left: &[Interval], right: &[Interval]) -> f64 {
+    let left: Vec<Interval> = left.iter().rev().copied().collect();
+    let sides = [Side::new(&left), Side::new(right)];
+    let a_dip = [left.first(), right.first()]
+        .into_iter()
+        .flatten()
+        .fold(0.0f64, |m, i| m.max(i.accel_mm_s2));
+    let bin = |lo: f64, hi: f64| sides[0].time_s(c, -lo) + sides[1].time_s(c, hi);
+    if at_rest || a_dip == 0.0 {
+        return bin(0.0, 0.0);
+    }
+    let width = 2.0 * a_dip / DIP_ACCEL_BINS as f64;
+    let mut bins: Vec<(f64, f64, f64)> = (0..DIP_ACCEL_BINS)
+        .map(|i| {
+            let lo = -a_dip + i as f64 * width;
+            let hi = lo + width;
+            (lo, hi, bin(lo, hi))
+        })
+        .collect();
+    for _ in 0..DIP_ACCEL_REFINEMENTS {
+        let best = (0..bins.len())
+            .min_by(|&x, &y| bins[x].2.total_cmp(&bins[y].2))
+            .unwrap_or(0);
+        let (lo, hi, _) = bins.swap_remove(best);
+        let mid = 0.5 * (lo + hi);
+        bins.push((lo, mid, bin(lo, mid)));
+        bins.push((mid, hi, bin(mid, hi)));
+    }
+    bins.iter().map(|b| b.2).fold(f64::INFINITY, f64::min)
+}
+
+/// The intervals on one side of a dip, in the order the comparison motion crosses them.
+struct Side<'a> {
+    intervals: &'a [Interval],
+    /// Highest interval peak from each interval on, mm/s.
+    peak_after: Vec<f64>,
+    /// Sum of closed-form times from each interval on, s.
+    time_after: Vec<f64>,
+    accel_mm_s2: f64,
+    jerk_mm_s3: f64,
+}
+
+impl<'a> Side<'a> {
+    fn new(intervals: &'a [Interval]) -> Self {
+        let n = intervals.len();
+        let (mut peak_after, mut time_after) = (vec![0.0f64; n + 1], vec![0.0f64; n + 1]);
+        for k in (0..n).rev() {
+            peak_after[k] = peak_after[k + 1].max(intervals[k].peak_mm_s);
+            time_after[k] = time_after[k + 1] + intervals[k].time_s;
+        }
+        Side {
+            intervals,
+            peak_after,
+            time_after,
+            accel_mm_s2: intervals.iter().fold(0.0f64, |m, i| m.max(i.accel_mm_s2)),
+            jerk_mm_s3: intervals.iter().fold(0.0f64, |m, i| m.max(i.jerk_mm_s3)),
+        }
+    }
+
+    /// Time for the comparison motion to cross the side from the dip at speed `c` with
+    /// acceleration at most `a0` there, s.
+    fn time_s(&self, c: f64, a0: f64) -> f64 {
+        if self.intervals.is_empty() {
+            return 0.0;
+        }
+        let env = Envelope::new(
+            c,
+            a0.min(self.accel_mm_s2),
+            self.accel_mm_s2,
+            self.jerk_mm_s3,
+        );
+        let mut t = 0.0;
+        for (k, interval) in self.intervals.iter().enumerate() {
+            if t >= env.rising_from_s() && env.speed(t) >= self.peak_after[k] {
+                // The envelope no longer binds: the closed-form times from here on.
+                return t + self.time_after[k];
+            }
+            let step = if t >= env.rising_from_s() && env.speed(t) >= interval.peak_mm_s {
+                interval.len_mm / interval.peak_mm_s
+            } else {
+                env.time_to_cover_s(t, interval.len_mm, interval.peak_mm_s)
+            };
+            t += step.max(interval.time_s);
+        }
+        t
+    }
+}
+
+/// Highest speed σ after the dip: c + ∫₀^σ min(A, a0 + Jρ) dρ (a0 ≤ A).
+#[derive(Clone, Copy, Debug)]
+struct Envelope {
+    c: f64,
+    a0: f64,
+    a: f64,
+    j: f64,
+    /// When the acceleration reaches A, and the speed and distance then.
+    t1: f64,
+    v1: f64,
+    x1: f64,
+}
+
+impl Envelope {
+    fn new(c: f64, a0: f64, a: f64, j: f64) -> Self {
+        let t1 = (a - a0) / j;
+        Envelope {
+            c,
+            a0,
+            a,
+            j,
+            t1,
+            v1: c + a0 * t1 + j * t1 * t1 / 2.0,
+            x1: c * t1 + a0 * t1 * t1 / 2.0 + j * t1 * t1 * t1 / 6.0,
+        }
+    }
+
+    /// From this time on the speed only grows.
+    fn rising_from_s(&self) -> f64 {
+        (-self.a0 / self.j).max(0.0)
+    }
+
+    fn speed(&self, t: f64) -> f64 {
+        if t <= self.t1 {
+            self.c + self.a0 * t + self.j * t * t / 2.0
+        } else {
+            self.v1 + self.a * (t - self.t1)
+        }
+    }
+
+    /// ∫₀^t speed (negative speeds included).
+    fn distance(&self, t: f64) -> f64 {
+        if t <= self.t1 {
+            self.c * t + self.a0 * t * t / 2.0 + self.j * t * t * t / 6.0
+        } else {
+            let h = t - self.t1;
+            self.x1 + self.v1 * h + self.a * h * h / 2.0
+        }
+    }
+
+    /// Times in (t0, t1) where the speed equals `level`, pushed onto `cuts`.
+    fn crossings(&self, level: f64, t0: f64, t1: f64, cuts: &mut Cuts) {
+        // Jerk phase: J t²/2 + a0 t + (c − level) = 0.
+        let disc = self.a0 * self.a0 - 2.0 * self.j * (self.c - level);
+        if disc >= 0.0 {
+            for root in [
+                (-self.a0 - disc.sqrt()) / self.j,
+                (-self.a0 + disc.sqrt()) / self.j,
+            ] {
+                if root > 0.0 && root < self.t1 {
+                    cuts.push_within(root, t0, t1);
+                }
+            }
+        }
+        let root = self.t1 + (level - self.v1) / self.a;
+        if root > self.t1 {
+            cuts.push_within(root, t0, t1);
+        }
+    }
+
+    /// ∫ from t0 to t1 of min(max(speed, 0), cap).
+    fn covered_mm(&self, t0: f64, t1: f64, cap: f64) -> f64 {
+        let mut cuts = Cuts {
+            at: [0.0; 8],
+            len: 0,
+        };
+        cuts.push_within(self.t1, t0, t1);
+        self.crossings(cap, t0, t1, &mut cuts);
+        self.crossings(0.0, t0, t1, &mut cuts);
+        let inner = &mut cuts.at[..cuts.len];
+        inner.sort_by(f64::total_cmp);
+        let mut total = 0.0;
+        let mut from = t0;
+        for to in inner.iter().copied().chain([t1]) {
+            let speed = self.speed(0.5 * (from + to));
+            total += if speed >= cap {
+                cap * (to - from)
+            } else if speed <= 0.0 {
+                0.0
+            } else {
+                self.distance(to) - self.distance(from)
+            };
+            from = to;
+        }
+        total
+    }
+
+    /// Least time after `t0` to cover `len_mm` at min(max(speed, 0), cap): the lower end of a
+    /// bracket on the root (the distance covered only grows with the time).
+    fn time_to_cover_s(&self, t0: f64, len_mm: f64, cap: f64) -> f64 {
+        let mut lo = 0.0;
+        let mut hi = len_mm / cap;
+        let mut g_hi = self.covered_mm(t0, t0 + hi, cap);
+        let mut g_lo = 0.0;
+        let mut grow = 0;
+        while g_hi < len_mm {
+            lo = hi;
+            g_lo = g_hi;
+            hi *= 2.0;
+            g_hi = self.covered_mm(t0, t0 + hi, cap);
+            grow += 1;
+            if grow > 200 {
+                return lo;
+            }
+        }
+        // Illinois regula falsi, keeping the bracket.
+        let (mut f_lo, mut f_hi) = (g_lo - len_mm, g_hi - len_mm);
+        let mut side = 0;
+        for _ in 0..60 {
+            if hi - lo <= 1e-12 * hi || f_hi - f_lo <= 0.0 {
+                break;
+            }
+            let mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo);
+            let mid = if mid > lo && mid < hi {
+                mid
+            } else {
+                0.5 * (lo + hi)
+            };
+            let f_mid = self.covered_mm(t0, t0 + mid, cap) - len_mm;
+            if f_mid.abs() <= 1e-13 * len_mm {
+                // Within rounding of the root; step back to stay below it.
+                return mid * (1.0 - 1e-12);
+            }
+            if f_mid < 0.0 {
+                lo = mid;
+                f_lo = f_mid;
+                if side == -1 {
+                    f_hi /= 2.0;
+                }
+                side = -1;
+            } else {
+                hi = mid;
+                f_hi = f_mid;
+                if side == 1 {
+                    f_lo /= 2.0;
+                }
+                side = 1;
+            }
+        }
+        lo
+    }
+}
+
+/// Times inside an integration range where the integrand changes form (at most 5).
+struct Cuts {
+    at: [f64; 8],
+    len: usize,
+}
+
+impl Cuts {
+    fn push_within(&mut self, t: f64, t0: f64, t1: f64) {
+        if t > t0 && t < t1 && self.len < self.at.len() {
+            self.at[self.len] = t;
+            self.len += 1;
+        }
+    }
+}
+
+/// Where, inside an interval of length `len_mm` entered at no more than `v0` and left at no
+/// more than `v1` with acceleration ≤ `a`, the rising and falling limits meet, mm from its start.
+fn interval_apex_mm(len_mm: f64, v0: f64, v1: f64, a: f64) -> f64 {
+    ((v1 * v1 - v0 * v0 + 2.0 * a * len_mm) / (4.0 * a)).clamp(0.0, len_mm)
+}
+
+/// Highest speed inside such an interval under speed cap `cap`, mm/s.
+fn interval_peak_mm_s(len_mm: f64, v0: f64, v1: f64, a: f64, cap: f64) -> f64 {
+    let x = interval_apex_mm(len_mm, v0, v1, a);
+    cap.min((v0 * v0 + 2.0 * a * x).sqrt()).max(v0).max(v1)
+}
+
+/// Least time over an interval of length `len_mm` entered at no more than `v0`, left at no
+/// more than `v1`, with acceleration ≤ `a` and speed ≤ `cap` (mm/s).
+fn interval_bound_s(len_mm: f64, v0: f64, v1: f64, a: f64, cap: f64) -> f64 {
+    if len_mm <= 0.0 {
+        return 0.0;
+    }
+    // Where the rising and falling limits meet.
+    let x_peak = interval_apex_mm(len_mm, v0, v1, a);
+    // Time over x ∈ [0, x_end] at speed min(√(u² + 2a·x), cap).
+    let half = |u: f64, x_end: f64| {
+        let x_cap = ((cap * cap - u * u) / (2.0 * a)).max(0.0);
+        let x_ramp = x_end.min(x_cap);
+        let ramp_s = if x_ramp > 0.0 {
+            ((u * u + 2.0 * a * x_ramp).sqrt() - u) / a
+        } else {
+            0.0
+        };
+        ramp_s + (x_end - x_ramp).max(0.0) / cap
+    };
+    half(v0, x_peak) + half(v1, len_mm - x_peak)
+}
+
+/// Least time in s of a rest-to-rest move of length `len_mm` under speed `v`, acceleration `a`
+/// and jerk `j` limits: the closed form of the 7-segment S-curve (MODEL.md §6.1).
+///
+/// Accelerating to a speed u and back takes τ(u) = u/a + a/j when u ≥ a²/j (the acceleration
+/// limit is reached) and 2√(u/j) otherwise, and covers u·τ(u). If L ≥ v·τ(v) the move
+/// cruises: T = L/v + τ(v). Otherwise it peaks at the u with u·τ(u) = L and T = 2τ(u).
+pub fn rest_to_rest_time_s(len_mm: f64, v: f64, a: f64, j: f64) -> f64 {
+    if len_mm <= 0.0 {
+        return 0.0;
+    }
+    let tau = |u: f64| {
+        if u * j >= a * a {
+            u / a + a / j
+        } else {
+            2.0 * (u / j).sqrt()
+        }
+    };
+    if len_mm >= v * tau(v) {
+        return len_mm / v + tau(v);
+    }
+    // Peak with the acceleration limit reached: u²/a + u·a/j = L.
+    let u = a * (-a / j + (a * a / (j * j) + 4.0 * len_mm / a).sqrt()) / 2.0;
+    let u = if u * j >= a * a {
+        u
+    } else {
+        // Pure jerk phases: L = 2u·√(u/j).
+        (len_mm * j.sqrt() / 2.0).powf(2.0 / 3.0)
+    };
+    2.0 * tau(u)
+}
