@@ -86,10 +86,11 @@ const LAMBDA_SEARCH_MAX_STATIONS: usize = 4000;
 /// scaled by λ ≤ 1 and its speed v(t) is then averaged over a sliding window
 /// W = λ·max_k a_k/j_k. The filtered jerk is (a(t) − a(t−W))/W, at most λ·a/W ≤ j as long as
 /// the planned acceleration never changes sign within W. The plan makes sure of that:
-/// * every local minimum of the speed is a cap; each station's cap c is extended over
-///   c·W/2 on either side (c·(W + 3T)/2 at a corner), so the plan rests at that speed for
-///   W (W + 3T at a corner: the filtered speed is then constant for 3T around the corner,
-///   the sampling stencil of its velocity step);
+/// * every local minimum of the speed is a cap; the cap c of each corner and of each
+///   station the plan without holds touches is extended over c·W/2 on either side
+///   (c·(W + 3T)/2 at a corner), so the plan rests at that speed for W (W + 3T at a
+///   corner: the filtered speed is then constant for 3T around the corner, the sampling
+///   stencil of its velocity step); caps the plan without holds stays below need no hold;
 /// * every local maximum that is held for less than W is cut flat at the highest level c
 ///   where it is held for c·W.
 ///
@@ -249,21 +250,14 @@ impl<'a> RunPlanner<'a> {
         v: &mut [f64],
     ) -> f64 {
         let s = self.stations.s_mm();
-        let accel = self.stations.interval_accel_mm_s2();
         v[first..=last].copy_from_slice(&self.caps_mm_s[first..=last]);
         if window_s > 0.0 {
-            self.extend_caps(first, last, window_s, v);
+            // The plan without holds: only the caps it touches need them.
+            let mut free = self.caps_mm_s[first..=last].to_vec();
+            self.passes(first, lambda, &mut free);
+            self.extend_caps(first, last, window_s, &free, v);
         }
-        v[first] = 0.0;
-        v[last] = 0.0;
-        for k in first..last {
-            let reach = (v[k] * v[k] + 2.0 * lambda * accel[k] * (s[k + 1] - s[k])).sqrt();
-            v[k + 1] = v[k + 1].min(reach);
-        }
-        for k in (first..last).rev() {
-            let reach = (v[k + 1] * v[k + 1] + 2.0 * lambda * accel[k] * (s[k + 1] - s[k])).sqrt();
-            v[k] = v[k].min(reach);
-        }
+        self.passes(first, lambda, &mut v[first..=last]);
         if window_s > 0.0 {
             self.cut_peaks(first, last, window_s, v);
         }
@@ -272,15 +266,39 @@ impl<'a> RunPlanner<'a> {
             .sum()
     }
 
-    /// Each station's cap c holds over c·W/2 + Δs_max on either side (c·(W + 3T)/2 + Δs_max
-    /// at a corner): c'_k = min { c_j : |s_j − s_k| ≤ r_j }. n·log n through a range-minimum
-    /// tree.
-    fn extend_caps(&self, first: usize, last: usize, window_s: f64, v: &mut [f64]) {
+    /// The forward/backward passes over stations `first..first + v.len()` (a run: rest at
+    /// both ends), accelerations scaled by `lambda`: v becomes the highest speed profile
+    /// under the caps it holds.
+    fn passes(&self, first: usize, lambda: f64, v: &mut [f64]) {
+        let s = &self.stations.s_mm()[first..first + v.len()];
+        let accel = &self.stations.interval_accel_mm_s2()[first..];
+        let last = v.len() - 1;
+        v[0] = 0.0;
+        v[last] = 0.0;
+        for k in 0..last {
+            let reach = (v[k] * v[k] + 2.0 * lambda * accel[k] * (s[k + 1] - s[k])).sqrt();
+            v[k + 1] = v[k + 1].min(reach);
+        }
+        for k in (0..last).rev() {
+            let reach = (v[k + 1] * v[k + 1] + 2.0 * lambda * accel[k] * (s[k + 1] - s[k])).sqrt();
+            v[k] = v[k].min(reach);
+        }
+    }
+
+    /// The cap c of each station that the plan without holds touches (`free`, from the run's
+    /// first station), and of every corner, holds over c·W/2 + Δs_max on either side
+    /// (c·(W + 3T)/2 + Δs_max at a corner): c'_k = min { c_j : |s_j − s_k| ≤ r_j, j held }.
+    /// A cap the plan stays below needs no hold: holding lowers the plan, so it stays below
+    /// it. n·log n through a range-minimum tree.
+    fn extend_caps(&self, first: usize, last: usize, window_s: f64, free: &[f64], v: &mut [f64]) {
         let s = &self.stations.s_mm()[first..=last];
         let period_s = self.stations.machine().period_s();
         let mut tree = RangeMin::<1>::new(s.len());
         for (j, &s_j) in s.iter().enumerate() {
             let cap = self.caps_mm_s[first + j];
+            if !self.is_corner[first + j] && free[j] < cap * (1.0 - 1e-9) {
+                continue;
+            }
             let hold_s = if self.is_corner[first + j] {
                 window_s + 3.0 * period_s
             } else {

@@ -1079,3 +1079,66 @@ fn jerk_lower_bound_meets_known_optima() {
         assert!(cycle_s >= optimum_s * (1.0 - 1e-9));
     }
 }
+
+/// Holds go only where the plan without them touches a cap (MODEL.md §6.1): caps just above
+/// that plan, on both sides of a held dip, are kept at every 1 ms sample, and every axis
+/// keeps its acceleration and jerk limits.
+#[test]
+fn caps_just_above_the_plan_need_no_hold() {
+    for (jerk, dip_mm_min, margin) in [
+        (20000.0, 500.0, 1e-3),
+        (20000.0, 1500.0, 1e-6),
+        (5000.0, 300.0, 1e-3),
+        (100000.0, 800.0, 1e-6),
+    ] {
+        let machine = Machine {
+            jerk_mm_s3: Some([jerk; 3]),
+            ..Machine::default()
+        };
+        let mut st = Stations::new(
+            &path(vec![line(p(0.0, 0.0, 0.0), p(20.0, 0.0, 0.0), FEED)]),
+            &machine,
+            0.05,
+            FeedPolicy::MachineMax,
+        )
+        .unwrap();
+        // The dip on [9.9, 10.1]; around it, caps (1 + margin) above the speed reachable
+        // from it at full acceleration (the plan without holds).
+        let c = dip_mm_min / 60.0;
+        let caps: Vec<f64> = st
+            .s_mm()
+            .iter()
+            .map(|&s| {
+                let from_dip = (s - 10.1).max(9.9 - s).max(0.0);
+                60.0 * (c * c + 2.0 * ACCEL * from_dip).sqrt() * (1.0 + margin)
+            })
+            .map(|cap| {
+                if cap < dip_mm_min * 1.01 {
+                    dip_mm_min
+                } else {
+                    cap
+                }
+            })
+            .collect();
+        st.apply_caps(&caps, CapKind::Removal).unwrap();
+        let profile = plan(&st);
+        let (s, caps) = (st.s_mm(), st.cap_mm_min());
+        let samples = profile.sample(1.0).unwrap();
+        for sample in &samples {
+            let k = s
+                .partition_point(|&sk| sk <= sample.s_mm)
+                .clamp(1, s.len() - 1);
+            let cap = caps[k - 1].max(caps[k]);
+            assert!(
+                sample.feed_mm_min <= cap * (1.0 + 1e-9),
+                "j {jerk}: s {} feed {} cap {cap}",
+                sample.s_mm,
+                sample.feed_mm_min
+            );
+        }
+        let (a, j) = sampled_axis_peaks(&samples, 0.001);
+        assert!(a[0] <= ACCEL * (1.0 + 1e-6), "j {jerk}: accel {a:?}");
+        assert!(j[0] <= jerk * (1.0 + 1e-6), "j {jerk}: jerk {j:?}");
+        assert!(profile.cycle_time_s() >= lower_bound_time_s(&st));
+    }
+}
