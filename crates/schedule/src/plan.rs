@@ -557,13 +557,19 @@ impl Sampler<'_, '_> {
         }
         let (s_mm, v_mm_s) = match runs.get(self.run) {
             None => (0.0, 0.0),
+            Some(run)
+                if run.window_s > 0.0 && t_s >= run.start_s + run.duration_s + run.window_s =>
+            {
+                (stations.s_mm()[run.last], 0.0)
+            }
             Some(run) if run.window_s > 0.0 => {
                 let w = run.window_s;
                 let now = profile.run_state(run, t_s, &mut self.now);
                 let lagged = profile.run_state(run, t_s - w, &mut self.lagged);
-                let s_first = stations.s_mm()[run.first];
+                let (s_first, s_last) = (stations.s_mm()[run.first], stations.s_mm()[run.last]);
+                // The average never passes the run's end; rounding could by 1e-12 mm.
                 (
-                    s_first + (now.integral_mm_s - lagged.integral_mm_s) / w,
+                    (s_first + (now.integral_mm_s - lagged.integral_mm_s) / w).min(s_last),
                     (now.s_mm - lagged.s_mm) / w,
                 )
             }
