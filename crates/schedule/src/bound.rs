@@ -115,13 +115,37 @@ fn dip_pieces_s(u: &[f64], run: &[Interval]) -> f64 {
 /// Sum of [`dip_piece_s`] over the pieces between consecutive `splits` (station indices).
 fn pieces_s(u: &[f64], run: &[Interval], splits: &[usize]) -> f64 {
     let last = u.len() - 1;
+    // While its acceleration falls back to zero a motion travels at most v_max·A/J_min:
+    // the ceiling of a side is the highest interval peak within that reach beyond it.
+    let v_max = run.iter().fold(0.0f64, |m, i| m.max(i.peak_mm_s));
+    let a_max = run.iter().fold(0.0f64, |m, i| m.max(i.accel_mm_s2));
+    let j_min = run.iter().fold(f64::INFINITY, |m, i| m.min(i.jerk_mm_s3));
+    let reach_mm = v_max * a_max / j_min;
+    let ceiling = |intervals: &mut dyn Iterator<Item = &Interval>, inside: usize| {
+        let mut peak = 0.0f64;
+        let mut beyond_mm = 0.0;
+        for (i, interval) in intervals.enumerate() {
+            if i >= inside {
+                if beyond_mm > reach_mm {
+                    break;
+                }
+                beyond_mm += interval.len_mm;
+            }
+            peak = peak.max(interval.peak_mm_s);
+        }
+        peak
+    };
     splits
         .windows(2)
         .map(|w| {
             let (p, q) = (w[0], w[1]);
             let m = (p..=q).fold(p, |m, k| if u[k] < u[m] { k } else { m });
             let at_rest = m == 0 || m == last;
-            dip_piece_s(u[m], at_rest, &run[p..m], &run[m..q])
+            let ceilings = [
+                ceiling(&mut run[..m].iter().rev(), m - p),
+                ceiling(&mut run[m..].iter(), q - m),
+            ];
+            dip_piece_s(u[m], at_rest, &run[p..m], &run[m..q], ceilings)
         })
         .sum()
 }
@@ -139,9 +163,18 @@ fn pieces_s(u: &[f64], run: &[Interval], splits: &[usize]) -> f64 {
 /// closed-form time. a_m is unknown within ±A (0 at rest): the bound is the least over bins
 /// of a_m, each bin bounded with its extremes (the highest a_m for the side after the dip,
 /// the lowest for the side before), so it holds for every a_m.
-fn dip_piece_s(c: f64, at_rest: bool, left: &[Interval], right: &[Interval]) -> f64 {
+fn dip_piece_s(
+    c: f64,
+    at_rest: bool,
+    left: &[Interval],
+    right: &[Interval],
+    ceilings_mm_s: [f64; 2],
+) -> f64 {
     let left: Vec<Interval> = left.iter().rev().copied().collect();
-    let sides = [Side::new(&left), Side::new(right)];
+    let sides = [
+        Side::new(&left, ceilings_mm_s[0]),
+        Side::new(right, ceilings_mm_s[1]),
+    ];
     let a_dip = [left.first(), right.first()]
         .into_iter()
         .flatten()
@@ -179,10 +212,12 @@ struct Side<'a> {
     time_after: Vec<f64>,
     accel_mm_s2: f64,
     jerk_mm_s3: f64,
+    /// Highest speed the motion may reach while on this side or within its reach beyond.
+    ceiling_mm_s: f64,
 }
 
 impl<'a> Side<'a> {
-    fn new(intervals: &'a [Interval]) -> Self {
+    fn new(intervals: &'a [Interval], ceiling_mm_s: f64) -> Self {
         let n = intervals.len();
         let (mut peak_after, mut time_after) = (vec![0.0f64; n + 1], vec![0.0f64; n + 1]);
         for k in (0..n).rev() {
@@ -195,6 +230,7 @@ impl<'a> Side<'a> {
             time_after,
             accel_mm_s2: intervals.iter().fold(0.0f64, |m, i| m.max(i.accel_mm_s2)),
             jerk_mm_s3: intervals.iter().fold(0.0f64, |m, i| m.max(i.jerk_mm_s3)),
+            ceiling_mm_s,
         }
     }
 
@@ -209,6 +245,7 @@ impl<'a> Side<'a> {
             a0.min(self.accel_mm_s2),
             self.accel_mm_s2,
             self.jerk_mm_s3,
+            self.ceiling_mm_s.max(c),
         );
         let mut t = 0.0;
         for (k, interval) in self.intervals.iter().enumerate() {
@@ -227,83 +264,162 @@ impl<'a> Side<'a> {
     }
 }
 
-/// Highest speed σ after the dip: c + ∫₀^σ min(A, a0 + Jρ) dρ (a0 ≤ A).
+/// Highest speed σ after the dip: c + ∫₀^σ a(ρ) dρ with a(ρ) = min(A, a0 + Jρ), until the
+/// speed plus the a²/2J it still gains while its acceleration falls back to zero reaches the
+/// ceiling V; from there a falls at rate J and the speed levels off at V. Every motion that
+/// never exceeds V is at or below it (it can gain no more speed than the all-out one, and
+/// above the switch it would pass V).
 #[derive(Clone, Copy, Debug)]
 struct Envelope {
-    c: f64,
+    /// Pieces of constant jerk: start time, speed, acceleration, jerk and distance there.
+    phases: [Phase; 4],
+    len: usize,
+    rising_from_s: f64,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct Phase {
+    t0: f64,
+    v0: f64,
     a0: f64,
-    a: f64,
     j: f64,
-    /// When the acceleration reaches A, and the speed and distance then.
-    t1: f64,
-    v1: f64,
-    x1: f64,
+    x0: f64,
+}
+
+impl Phase {
+    fn speed(&self, t: f64) -> f64 {
+        let h = t - self.t0;
+        self.v0 + self.a0 * h + self.j * h * h / 2.0
+    }
+
+    fn distance(&self, t: f64) -> f64 {
+        let h = t - self.t0;
+        self.x0 + self.v0 * h + self.a0 * h * h / 2.0 + self.j * h * h * h / 6.0
+    }
+
+    fn accel(&self, t: f64) -> f64 {
+        self.a0 + self.j * (t - self.t0)
+    }
+
+    /// The phase continued to time `t` with jerk `j`.
+    fn then(&self, t: f64, j: f64) -> Phase {
+        Phase {
+            t0: t,
+            v0: self.speed(t),
+            a0: self.accel(t),
+            j,
+            x0: self.distance(t),
+        }
+    }
 }
 
 impl Envelope {
-    fn new(c: f64, a0: f64, a: f64, j: f64) -> Self {
-        let t1 = (a - a0) / j;
-        Envelope {
-            c,
+    /// From speed `c` with acceleration at most `a0` (≤ `a`), jerk `j`, ceiling `ceiling`
+    /// (≥ c; infinite: none).
+    fn new(c: f64, a0: f64, a: f64, j: f64, ceiling: f64) -> Self {
+        // A motion accelerating at a0 > 0 gains a0²/2J more before it can level off.
+        let a0 = if a0 > 0.0 && ceiling.is_finite() {
+            a0.min((2.0 * j * (ceiling - c).max(0.0)).sqrt())
+        } else {
+            a0
+        };
+        let rise = Phase {
+            t0: 0.0,
+            v0: c,
             a0,
-            a,
             j,
-            t1,
-            v1: c + a0 * t1 + j * t1 * t1 / 2.0,
-            x1: c * t1 + a0 * t1 * t1 / 2.0 + j * t1 * t1 * t1 / 6.0,
+            x0: 0.0,
+        };
+        let t_full = (a - a0) / j;
+        let full = rise.then(t_full, 0.0);
+        let mut phases = [Phase::default(); 4];
+        let len = if ceiling.is_finite() {
+            // v + a²/2J = V: in the rise, J t² + 2 a0 t + c + a0²/2J − V = 0.
+            let t_rise = (-a0 + (a0 * a0 / 2.0 + j * (ceiling - c)).max(0.0).sqrt()) / j;
+            let (t_switch, before) = if t_rise <= t_full {
+                (t_rise.max(0.0), rise)
+            } else {
+                (t_full + (ceiling - a * a / (2.0 * j) - full.v0) / a, full)
+            };
+            let fall = before.then(t_switch, -j);
+            let level = fall.then(t_switch + fall.a0 / j, 0.0);
+            let level = Phase {
+                v0: ceiling,
+                a0: 0.0,
+                ..level
+            };
+            if t_rise <= t_full {
+                phases[..3].copy_from_slice(&[rise, fall, level]);
+                3
+            } else {
+                phases.copy_from_slice(&[rise, full, fall, level]);
+                4
+            }
+        } else {
+            phases[..2].copy_from_slice(&[rise, full]);
+            2
+        };
+        Envelope {
+            phases,
+            len,
+            rising_from_s: (-a0 / j).max(0.0),
         }
     }
 
-    /// From this time on the speed only grows.
+    /// From this time on the speed never falls.
     fn rising_from_s(&self) -> f64 {
-        (-self.a0 / self.j).max(0.0)
+        self.rising_from_s
+    }
+
+    fn phase(&self, t: f64) -> &Phase {
+        let phases = &self.phases[..self.len];
+        let i = phases.partition_point(|p| p.t0 <= t).max(1) - 1;
+        &phases[i]
     }
 
     fn speed(&self, t: f64) -> f64 {
-        if t <= self.t1 {
-            self.c + self.a0 * t + self.j * t * t / 2.0
-        } else {
-            self.v1 + self.a * (t - self.t1)
-        }
+        self.phase(t).speed(t)
     }
 
     /// ∫₀^t speed (negative speeds included).
     fn distance(&self, t: f64) -> f64 {
-        if t <= self.t1 {
-            self.c * t + self.a0 * t * t / 2.0 + self.j * t * t * t / 6.0
-        } else {
-            let h = t - self.t1;
-            self.x1 + self.v1 * h + self.a * h * h / 2.0
-        }
+        self.phase(t).distance(t)
     }
 
     /// Times in (t0, t1) where the speed equals `level`, pushed onto `cuts`.
     fn crossings(&self, level: f64, t0: f64, t1: f64, cuts: &mut Cuts) {
-        // Jerk phase: J t²/2 + a0 t + (c − level) = 0.
-        let disc = self.a0 * self.a0 - 2.0 * self.j * (self.c - level);
-        if disc >= 0.0 {
-            for root in [
-                (-self.a0 - disc.sqrt()) / self.j,
-                (-self.a0 + disc.sqrt()) / self.j,
-            ] {
-                if root > 0.0 && root < self.t1 {
-                    cuts.push_within(root, t0, t1);
+        for (i, p) in self.phases[..self.len].iter().enumerate() {
+            let end = self.phases[..self.len]
+                .get(i + 1)
+                .map_or(f64::INFINITY, |n| n.t0);
+            let mut push = |h: f64| {
+                let t = p.t0 + h;
+                if h > 0.0 && t < end {
+                    cuts.push_within(t, t0, t1);
                 }
+            };
+            // j h²/2 + a0 h + (v0 − level) = 0.
+            if p.j != 0.0 {
+                let disc = p.a0 * p.a0 - 2.0 * p.j * (p.v0 - level);
+                if disc >= 0.0 {
+                    push((-p.a0 - disc.sqrt()) / p.j);
+                    push((-p.a0 + disc.sqrt()) / p.j);
+                }
+            } else if p.a0 != 0.0 {
+                push((level - p.v0) / p.a0);
             }
-        }
-        let root = self.t1 + (level - self.v1) / self.a;
-        if root > self.t1 {
-            cuts.push_within(root, t0, t1);
         }
     }
 
     /// ∫ from t0 to t1 of min(max(speed, 0), cap).
     fn covered_mm(&self, t0: f64, t1: f64, cap: f64) -> f64 {
         let mut cuts = Cuts {
-            at: [0.0; 8],
+            at: [0.0; 16],
             len: 0,
         };
-        cuts.push_within(self.t1, t0, t1);
+        for p in &self.phases[1..self.len] {
+            cuts.push_within(p.t0, t0, t1);
+        }
         self.crossings(cap, t0, t1, &mut cuts);
         self.crossings(0.0, t0, t1, &mut cuts);
         let inner = &mut cuts.at[..cuts.len];
@@ -380,9 +496,9 @@ impl Envelope {
     }
 }
 
-/// Times inside an integration range where the integrand changes form (at most 5).
+/// Times inside an integration range where the integrand changes form (at most 15).
 struct Cuts {
-    at: [f64; 8],
+    at: [f64; 16],
     len: usize,
 }
 
