@@ -120,6 +120,7 @@ fn pieces_s(u: &[f64], run: &[Interval], splits: &[usize]) -> f64 {
     let v_max = run.iter().fold(0.0f64, |m, i| m.max(i.peak_mm_s));
     let a_max = run.iter().fold(0.0f64, |m, i| m.max(i.accel_mm_s2));
     let j_min = run.iter().fold(f64::INFINITY, |m, i| m.min(i.jerk_mm_s3));
+    let j_max = run.iter().fold(0.0f64, |m, i| m.max(i.jerk_mm_s3));
     let reach_mm = v_max * a_max / j_min;
     let ceiling = |intervals: &mut dyn Iterator<Item = &Interval>, inside: usize| {
         let mut peak = 0.0f64;
@@ -145,7 +146,7 @@ fn pieces_s(u: &[f64], run: &[Interval], splits: &[usize]) -> f64 {
                 ceiling(&mut run[..m].iter().rev(), m - p),
                 ceiling(&mut run[m..].iter(), q - m),
             ];
-            dip_piece_s(u[m], at_rest, &run[p..m], &run[m..q], ceilings)
+            dip_piece_s(u[m], at_rest, &run[p..m], &run[m..q], ceilings, j_max)
         })
         .sum()
 }
@@ -169,11 +170,12 @@ fn dip_piece_s(
     left: &[Interval],
     right: &[Interval],
     ceilings_mm_s: [f64; 2],
+    jerk_fall_mm_s3: f64,
 ) -> f64 {
     let left: Vec<Interval> = left.iter().rev().copied().collect();
     let sides = [
-        Side::new(&left, ceilings_mm_s[0]),
-        Side::new(right, ceilings_mm_s[1]),
+        Side::new(&left, ceilings_mm_s[0], jerk_fall_mm_s3),
+        Side::new(right, ceilings_mm_s[1], jerk_fall_mm_s3),
     ];
     let a_dip = [left.first(), right.first()]
         .into_iter()
@@ -214,10 +216,12 @@ struct Side<'a> {
     jerk_mm_s3: f64,
     /// Highest speed the motion may reach while on this side or within its reach beyond.
     ceiling_mm_s: f64,
+    /// Highest jerk limit of the run: the fastest a motion can level off, mm/s³.
+    jerk_fall_mm_s3: f64,
 }
 
 impl<'a> Side<'a> {
-    fn new(intervals: &'a [Interval], ceiling_mm_s: f64) -> Self {
+    fn new(intervals: &'a [Interval], ceiling_mm_s: f64, jerk_fall_mm_s3: f64) -> Self {
         let n = intervals.len();
         let (mut peak_after, mut time_after) = (vec![0.0f64; n + 1], vec![0.0f64; n + 1]);
         for k in (0..n).rev() {
@@ -231,6 +235,7 @@ impl<'a> Side<'a> {
             accel_mm_s2: intervals.iter().fold(0.0f64, |m, i| m.max(i.accel_mm_s2)),
             jerk_mm_s3: intervals.iter().fold(0.0f64, |m, i| m.max(i.jerk_mm_s3)),
             ceiling_mm_s,
+            jerk_fall_mm_s3,
         }
     }
 
@@ -245,6 +250,7 @@ impl<'a> Side<'a> {
             a0.min(self.accel_mm_s2),
             self.accel_mm_s2,
             self.jerk_mm_s3,
+            self.jerk_fall_mm_s3.max(self.jerk_mm_s3),
             self.ceiling_mm_s.max(c),
         );
         let mut t = 0.0;
@@ -265,10 +271,11 @@ impl<'a> Side<'a> {
 }
 
 /// Highest speed σ after the dip: c + ∫₀^σ a(ρ) dρ with a(ρ) = min(A, a0 + Jρ), until the
-/// speed plus the a²/2J it still gains while its acceleration falls back to zero reaches the
-/// ceiling V; from there a falls at rate J and the speed levels off at V. Every motion that
-/// never exceeds V is at or below it (it can gain no more speed than the all-out one, and
-/// above the switch it would pass V).
+/// speed plus the a²/2J_fall it still gains while its acceleration falls back to zero (at a
+/// jerk of at most J_fall, the run's highest limit) reaches the ceiling V; from there a falls
+/// at rate J_fall and the speed levels off at V. Every motion that never exceeds V is at or
+/// below it (it can gain no more speed than the all-out one, and above the switch it would
+/// pass V).
 #[derive(Clone, Copy, Debug)]
 struct Envelope {
     /// Pieces of constant jerk: start time, speed, acceleration, jerk and distance there.
@@ -314,12 +321,13 @@ impl Phase {
 }
 
 impl Envelope {
-    /// From speed `c` with acceleration at most `a0` (≤ `a`), jerk `j`, ceiling `ceiling`
-    /// (≥ c; infinite: none).
-    fn new(c: f64, a0: f64, a: f64, j: f64, ceiling: f64) -> Self {
-        // A motion accelerating at a0 > 0 gains a0²/2J more before it can level off.
+    /// From speed `c` with acceleration at most `a0` (≤ `a`), jerk at most `j` while the
+    /// envelope rises, and a ceiling `ceiling` (≥ c; infinite: none) that the motion cannot
+    /// pass while its acceleration falls back to zero at a jerk of at most `j_fall` (≥ j).
+    fn new(c: f64, a0: f64, a: f64, j: f64, j_fall: f64, ceiling: f64) -> Self {
+        // A motion accelerating at a0 > 0 gains at least a0²/2J_fall before it levels off.
         let a0 = if a0 > 0.0 && ceiling.is_finite() {
-            a0.min((2.0 * j * (ceiling - c).max(0.0)).sqrt())
+            a0.min((2.0 * j_fall * (ceiling - c).max(0.0)).sqrt())
         } else {
             a0
         };
@@ -334,15 +342,25 @@ impl Envelope {
         let full = rise.then(t_full, 0.0);
         let mut phases = [Phase::default(); 4];
         let len = if ceiling.is_finite() {
-            // v + a²/2J = V: in the rise, J t² + 2 a0 t + c + a0²/2J − V = 0.
-            let t_rise = (-a0 + (a0 * a0 / 2.0 + j * (ceiling - c)).max(0.0).sqrt()) / j;
+            // v + a²/2J_fall = V, from where the acceleration is no longer negative:
+            // α h² + β h + γ = 0 with α = J/2·(1 + J/J_fall), β = a(1 + J/J_fall).
+            let t_start = (-a0 / j).max(0.0);
+            let start = rise.then(t_start, j);
+            let ratio = 1.0 + j / j_fall;
+            let (alpha, beta) = (j / 2.0 * ratio, start.a0 * ratio);
+            let gamma = start.v0 + start.a0 * start.a0 / (2.0 * j_fall) - ceiling;
+            let h = (-beta + (beta * beta - 4.0 * alpha * gamma).max(0.0).sqrt()) / (2.0 * alpha);
+            let t_rise = t_start + h.max(0.0);
             let (t_switch, before) = if t_rise <= t_full {
-                (t_rise.max(0.0), rise)
+                (t_rise, rise)
             } else {
-                (t_full + (ceiling - a * a / (2.0 * j) - full.v0) / a, full)
+                (
+                    t_full + (ceiling - a * a / (2.0 * j_fall) - full.v0) / a,
+                    full,
+                )
             };
-            let fall = before.then(t_switch, -j);
-            let level = fall.then(t_switch + fall.a0 / j, 0.0);
+            let fall = before.then(t_switch, -j_fall);
+            let level = fall.then(t_switch + fall.a0 / j_fall, 0.0);
             let level = Phase {
                 v0: ceiling,
                 a0: 0.0,
