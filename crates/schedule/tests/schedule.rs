@@ -382,21 +382,25 @@ fn jerk_limited_profile_keeps_caps_at_every_sample() {
     };
     let st = dip_stations(&machine);
     let profile = plan(&st);
+    assert_samples_under_caps(&st, &profile.sample(1.0).unwrap(), "dip");
+    assert!(profile.cycle_time_s() >= lower_bound_time_s(&st));
+}
+
+/// Every sample's feed is at or under the larger cap of the interval it lies in.
+fn assert_samples_under_caps(st: &Stations, samples: &[ServoSample], label: &str) {
     let (s, caps) = (st.s_mm(), st.cap_mm_min());
-    let samples = profile.sample(1.0).unwrap();
-    for sample in &samples {
+    for sample in samples {
         let k = s
             .partition_point(|&sk| sk <= sample.s_mm)
             .clamp(1, s.len() - 1);
         let cap = caps[k - 1].max(caps[k]);
         assert!(
             sample.feed_mm_min <= cap * (1.0 + 1e-9),
-            "s {} feed {}",
+            "{label}: s {} feed {} cap {cap}",
             sample.s_mm,
             sample.feed_mm_min
         );
     }
-    assert!(profile.cycle_time_s() >= lower_bound_time_s(&st));
 }
 
 #[test]
@@ -1122,20 +1126,8 @@ fn caps_just_above_the_plan_need_no_hold() {
             .collect();
         st.apply_caps(&caps, CapKind::Removal).unwrap();
         let profile = plan(&st);
-        let (s, caps) = (st.s_mm(), st.cap_mm_min());
         let samples = profile.sample(1.0).unwrap();
-        for sample in &samples {
-            let k = s
-                .partition_point(|&sk| sk <= sample.s_mm)
-                .clamp(1, s.len() - 1);
-            let cap = caps[k - 1].max(caps[k]);
-            assert!(
-                sample.feed_mm_min <= cap * (1.0 + 1e-9),
-                "j {jerk}: s {} feed {} cap {cap}",
-                sample.s_mm,
-                sample.feed_mm_min
-            );
-        }
+        assert_samples_under_caps(&st, &samples, &format!("j {jerk}"));
         let (a, j) = sampled_axis_peaks(&samples, 0.001);
         assert!(a[0] <= ACCEL * (1.0 + 1e-6), "j {jerk}: accel {a:?}");
         assert!(j[0] <= jerk * (1.0 + 1e-6), "j {jerk}: jerk {j:?}");
