@@ -15,11 +15,13 @@ pub enum CycleMove {
 /// Retract step of G73/G83 above the last peck (LinuxCNC: 0.010 in).
 const RAPID_DELTA_MM: f64 = 0.254;
 
+use crate::GCode;
+
 /// A cycle to expand.
 #[derive(Clone, Debug)]
 pub struct Cycle {
-    /// G-code ×10 (730, 810, 820, 830).
-    pub code: i32,
+    /// G73, G81, G82 or G83.
+    pub code: GCode,
     /// Hole positions (mm), one per repeat.
     pub holes: Vec<[f64; 2]>,
     /// Tool Z before the cycle, R plane, hole bottom (mm).
@@ -48,11 +50,11 @@ pub fn expand(c: &Cycle, current_xy: [f64; 2]) -> Vec<CycleMove> {
         if old_z != c.r_z {
             moves.push(CycleMove::Rapid([x, y, c.r_z]));
         }
-        if c.code == 730 || c.code == 830 {
+        if c.code == GCode::G73 || c.code == GCode::G83 {
             let mut depth = c.r_z - c.peck_mm;
             while depth > c.bottom_z {
                 moves.push(CycleMove::Feed([x, y, depth]));
-                if c.code == 830 {
+                if c.code == GCode::G83 {
                     moves.push(CycleMove::Rapid([x, y, c.r_z]));
                 }
                 moves.push(CycleMove::Rapid([x, y, depth + RAPID_DELTA_MM]));
@@ -60,7 +62,7 @@ pub fn expand(c: &Cycle, current_xy: [f64; 2]) -> Vec<CycleMove> {
             }
         }
         moves.push(CycleMove::Feed([x, y, c.bottom_z]));
-        if c.code == 820 && c.dwell_s > 0.0 {
+        if c.code == GCode::G82 && c.dwell_s > 0.0 {
             moves.push(CycleMove::Dwell(c.dwell_s));
         }
         moves.push(CycleMove::Rapid([x, y, clear_z]));

@@ -5,19 +5,24 @@ use std::fmt;
 /// How bad a diagnostic is; any `Error` means the program must not be used.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Severity {
+    /// The program cannot be run as written (LinuxCNC would refuse it).
     Error,
+    /// The program runs, but something in it is likely a mistake.
     Warning,
 }
 
 /// One problem found in a program.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Diagnostic {
+    /// The file name given to [`crate::parse`].
     pub file: String,
     /// 1-based line.
     pub line: u32,
     /// 1-based character column.
     pub column: u32,
+    /// What is wrong, in LinuxCNC's words where it has them.
     pub message: String,
+    /// Error or warning.
     pub severity: Severity,
 }
 

@@ -12,10 +12,10 @@ pub struct GCode(i32);
 
 /// Named constants `G<number>` and `G<number>_<decimal>`.
 macro_rules! named {
-    ($($name:ident = $number:literal . $decimal:literal),* $(,)?) => {
+    ($($name:ident = ($number:literal, $decimal:literal)),* $(,)?) => {
         impl GCode {
             $(
-                #[doc = concat!("G", stringify!($number), ".", stringify!($decimal), " (", stringify!($name), ").")]
+                #[doc = concat!("G", stringify!($number), " with decimal digit ", stringify!($decimal), ".")]
                 pub const $name: GCode = GCode::new($number, $decimal);
             )*
         }
@@ -23,20 +23,20 @@ macro_rules! named {
 }
 
 named! {
-    G0 = 0.0, G1 = 1.0, G2 = 2.0, G3 = 3.0, G4 = 4.0, G10 = 10.0,
-    G17 = 17.0, G18 = 18.0, G19 = 19.0, G20 = 20.0, G21 = 21.0,
-    G28 = 28.0, G28_1 = 28.1, G30 = 30.0, G30_1 = 30.1, G33 = 33.0,
-    G38_2 = 38.2, G38_3 = 38.3, G38_4 = 38.4, G38_5 = 38.5,
-    G40 = 40.0, G41 = 41.0, G41_1 = 41.1, G42 = 42.0, G42_1 = 42.1,
-    G43 = 43.0, G43_1 = 43.1, G43_2 = 43.2, G49 = 49.0, G53 = 53.0,
-    G54 = 54.0, G55 = 55.0, G56 = 56.0, G57 = 57.0, G58 = 58.0, G59 = 59.0,
-    G59_1 = 59.1, G59_2 = 59.2, G59_3 = 59.3,
-    G61 = 61.0, G61_1 = 61.1, G64 = 64.0, G73 = 73.0, G76 = 76.0,
-    G80 = 80.0, G81 = 81.0, G82 = 82.0, G83 = 83.0, G84 = 84.0, G85 = 85.0,
-    G86 = 86.0, G87 = 87.0, G88 = 88.0, G89 = 89.0,
-    G90 = 90.0, G90_1 = 90.1, G91 = 91.0, G91_1 = 91.1,
-    G92 = 92.0, G92_1 = 92.1, G92_2 = 92.2, G92_3 = 92.3,
-    G93 = 93.0, G94 = 94.0, G95 = 95.0, G96 = 96.0, G97 = 97.0, G98 = 98.0, G99 = 99.0,
+    G0 = (0, 0), G1 = (1, 0), G2 = (2, 0), G3 = (3, 0), G4 = (4, 0), G10 = (10, 0),
+    G17 = (17, 0), G18 = (18, 0), G19 = (19, 0), G20 = (20, 0), G21 = (21, 0),
+    G28 = (28, 0), G28_1 = (28, 1), G30 = (30, 0), G30_1 = (30, 1), G33 = (33, 0),
+    G38_2 = (38, 2), G38_3 = (38, 3), G38_4 = (38, 4), G38_5 = (38, 5),
+    G40 = (40, 0), G41 = (41, 0), G41_1 = (41, 1), G42 = (42, 0), G42_1 = (42, 1),
+    G43 = (43, 0), G43_1 = (43, 1), G43_2 = (43, 2), G49 = (49, 0), G53 = (53, 0),
+    G54 = (54, 0), G55 = (55, 0), G56 = (56, 0), G57 = (57, 0), G58 = (58, 0), G59 = (59, 0),
+    G59_1 = (59, 1), G59_2 = (59, 2), G59_3 = (59, 3),
+    G61 = (61, 0), G61_1 = (61, 1), G64 = (64, 0), G73 = (73, 0), G76 = (76, 0),
+    G80 = (80, 0), G81 = (81, 0), G82 = (82, 0), G83 = (83, 0), G84 = (84, 0), G85 = (85, 0),
+    G86 = (86, 0), G87 = (87, 0), G88 = (88, 0), G89 = (89, 0),
+    G90 = (90, 0), G90_1 = (90, 1), G91 = (91, 0), G91_1 = (91, 1),
+    G92 = (92, 0), G92_1 = (92, 1), G92_2 = (92, 2), G92_3 = (92, 3),
+    G93 = (93, 0), G94 = (94, 0), G95 = (95, 0), G96 = (96, 0), G97 = (97, 0), G98 = (98, 0), G99 = (99, 0),
 }
 
 impl GCode {
@@ -51,7 +51,8 @@ impl GCode {
     /// within ±1e5.
     pub fn from_value(value: f64) -> Option<GCode> {
         let tenths = (value * 10.0).round();
-        ((value * 10.0 - tenths).abs() <= 1e-6 && tenths.abs() <= 1e6).then_some(GCode(tenths as i32))
+        ((value * 10.0 - tenths).abs() <= 1e-6 && tenths.abs() <= 1e6)
+            .then_some(GCode(tenths as i32))
     }
 
     /// The code as a number times ten (G38.2 → 382): the key of the modal-group table.
@@ -73,7 +74,11 @@ impl GCode {
 impl fmt::Display for GCode {
     /// `G1`, `G38.2`; a negative code as `G-1`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let (sign, t) = if self.0 < 0 { ("-", -self.0) } else { ("", self.0) };
+        let (sign, t) = if self.0 < 0 {
+            ("-", -self.0)
+        } else {
+            ("", self.0)
+        };
         if t % 10 == 0 {
             write!(f, "G{sign}{}", t / 10)
         } else {

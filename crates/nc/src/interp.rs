@@ -16,6 +16,7 @@ use crate::diag::{Diagnostic, Severity};
 use crate::expr::Params;
 use crate::path::{Geometry, Motion, Path, Plane, Segment};
 use crate::syntax::{self, Item, ItemKind, LineKind, OKeyword, OLabel, OStmt, SyntaxError};
+use crate::GCode;
 
 /// The UTF-8 byte-order mark some editors write before the first line.
 const BYTE_ORDER_MARK: char = '\u{feff}';
@@ -27,8 +28,9 @@ pub struct Options {
     pub work_offsets_mm: [[f64; 3]; 6],
     /// Tool tip at program start (mm, machine frame).
     pub initial_position_mm: [f64; 3],
-    /// G28 / G30 home positions (mm, machine frame).
+    /// G28 home position (mm, machine frame).
     pub g28_home_mm: [f64; 3],
+    /// G30 home position (mm, machine frame).
     pub g30_home_mm: [f64; 3],
     /// Skip lines starting with `/` (block delete switch on).
     pub block_delete: bool,
@@ -97,7 +99,10 @@ impl Default for Options {
 /// Result of [`crate::parse`]: the path and every diagnostic found.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Parsed {
+    /// The motion, as far as the program could be read (a block with an
+    /// error adds no motion; later blocks start where it meant to end).
     pub path: Path,
+    /// Errors and warnings, in program order.
     pub diagnostics: Vec<Diagnostic>,
     /// The program ended with M2, M30, a closing `%` (or M99 outside any
     /// subprogram), rather than at the end of the file.
@@ -152,8 +157,8 @@ fn fail<T>(col: u32, msg: impl Into<String>) -> Result<T, Fail> {
 /// A block after evaluation of its words.
 #[derive(Default)]
 struct Block {
-    /// G codes ×10 with columns.
-    g: Vec<(i32, u32)>,
+    /// G codes with columns.
+    g: Vec<(GCode, u32)>,
     m: Vec<(i32, u32)>,
     /// Letter values and columns, indexed by [`slot`].
     words: [Option<(f64, u32)>; 28],
@@ -176,7 +181,7 @@ impl Block {
     fn col(&self, letter: char) -> u32 {
         self.words[slot(letter)].map_or(self.first_col, |w| w.1)
     }
-    fn has_g(&self, code: i32) -> Option<u32> {
+    fn has_g(&self, code: GCode) -> Option<u32> {
         self.g.iter().find(|g| g.0 == code).map(|g| g.1)
     }
     fn has_m(&self, code: i32) -> bool {
@@ -189,7 +194,7 @@ impl Block {
     }
     /// Sets a two-state mode from the block's G code for it, if any (the two
     /// codes share a modal group, so at most one is present).
-    fn set_mode(&self, mode: &mut bool, off_code: i32, on_code: i32) {
+    fn set_mode(&self, mode: &mut bool, off_code: GCode, on_code: GCode) {
         if self.has_g(on_code).is_some() {
             *mode = true;
         } else if self.has_g(off_code).is_some() {
@@ -202,9 +207,10 @@ impl Block {
 /// chord may exceed R by this much, and a shorter radius is zero.
 const RADIUS_TOLERANCE_MM: f64 = 0.00127;
 
-/// Modal group of a G code ×10, `None` when unknown.
-fn g_group(code: i32) -> Option<u8> {
-    Some(match code {
+/// Modal group of a G code, `None` when unknown (LinuxCNC's table, keyed by
+/// the code ×10).
+fn g_group(code: GCode) -> Option<u8> {
+    Some(match code.tenths() {
         40 | 100 | 280 | 281 | 300 | 301 | 920 | 921 | 922 | 923 => 0,
         530 => 99,
         0 | 10 | 20 | 30 | 330 | 382 | 383 | 384 | 385 | 730 | 760 | 800..=890 => 1,
@@ -234,14 +240,6 @@ fn m_group(code: i32) -> Option<u8> {
         98 | 99 => 11,
         _ => return None,
     })
-}
-
-fn g_name(code: i32) -> String {
-    if code % 10 == 0 {
-        format!("G{}", code / 10)
-    } else {
-        format!("G{}.{}", code / 10, code % 10)
-    }
 }
 
 enum Frame {
@@ -292,7 +290,7 @@ struct Interp<'a> {
     arc_incremental: bool,
     inverse_time: bool,
     plane: Plane,
-    motion: i32,
+    motion: GCode,
     coord: usize,
     work: [[f64; 3]; 6],
     g92: [f64; 3],
@@ -419,7 +417,7 @@ fn run_once(
         arc_incremental: true,
         inverse_time: false,
         plane: Plane::XY,
-        motion: 800,
+        motion: GCode::G80,
         coord: 0,
         work: options.work_offsets_mm,
         g92: [0.0; 3],
@@ -851,21 +849,19 @@ impl Interp<'_> {
                 ItemKind::Word { letter, value } => {
                     let v = self.params.eval(value).map_err(err)?;
                     match letter {
-                        'g' | 'm' => {
+                        'g' => {
+                            let Some(code) = GCode::from_value(v) else {
+                                return fail(item.col, format!("G{v} is not a valid code"));
+                            };
+                            b.g.push((code, item.col));
+                        }
+                        'm' => {
                             let code = (v * 10.0).round();
                             if (v * 10.0 - code).abs() > 1e-6 || code.abs() > 1e6 {
-                                return fail(
-                                    item.col,
-                                    format!(
-                                        "{}{v} is not a valid code",
-                                        letter.to_ascii_uppercase()
-                                    ),
-                                );
+                                return fail(item.col, format!("M{v} is not a valid code"));
                             }
                             let code = code as i32;
-                            if *letter == 'g' {
-                                b.g.push((code, item.col));
-                            } else if code % 10 != 0 {
+                            if code % 10 != 0 {
                                 return fail(item.col, format!("unknown M code M{v}"));
                             } else {
                                 b.m.push((code / 10, item.col));
@@ -890,17 +886,20 @@ impl Interp<'_> {
         }
         for &(code, col) in &b.g {
             if g_group(code).is_none() {
-                return fail(col, format!("unknown G code {}", g_name(code)));
+                return fail(col, format!("unknown G code {code}"));
             }
         }
         // As in LinuxCNC, G80 gives way to another motion code in the block.
-        if b.g.iter().any(|g| g_group(g.0) == Some(1) && g.0 != 800) {
-            b.g.retain(|g| g.0 != 800);
-        } else if let Some(i) = b.g.iter().position(|g| g.0 == 800) {
+        if b.g
+            .iter()
+            .any(|g| g_group(g.0) == Some(1) && g.0 != GCode::G80)
+        {
+            b.g.retain(|g| g.0 != GCode::G80);
+        } else if let Some(i) = b.g.iter().position(|g| g.0 == GCode::G80) {
             let mut k = 0;
             b.g.retain(|g| {
                 k += 1;
-                g.0 != 800 || k - 1 == i
+                g.0 != GCode::G80 || k - 1 == i
             });
         }
         for (i, &(code, col)) in b.g.iter().enumerate() {
@@ -908,11 +907,7 @@ impl Interp<'_> {
             if let Some(&(other, _)) = b.g[..i].iter().find(|g| g_group(g.0) == group) {
                 return fail(
                     col,
-                    format!(
-                        "{} and {} are in the same modal group",
-                        g_name(other),
-                        g_name(code)
-                    ),
+                    format!("{other} and {code} are in the same modal group"),
                 );
             }
         }
@@ -952,10 +947,10 @@ impl Interp<'_> {
         self.feed_scale = self.scale;
         let g_col = |code| b.has_g(code);
         // Feed mode, feed, speed, tool, spindle.
-        if let Some(col) = g_col(950) {
+        if let Some(col) = g_col(GCode::G95) {
             return fail(col, "G95 feed per revolution is not supported");
         }
-        b.set_mode(&mut self.inverse_time, 940, 930);
+        b.set_mode(&mut self.inverse_time, GCode::G94, GCode::G93);
         if let Some(f) = b.get('f') {
             if f < 0.0 {
                 return fail(b.col('f'), "negative feed rate");
@@ -997,7 +992,7 @@ impl Interp<'_> {
             self.spindle_on = false;
         }
         self.m70_m73(&b)?;
-        if let Some(col) = g_col(40) {
+        if let Some(col) = g_col(GCode::G4) {
             let p = b.get('p').ok_or(Fail {
                 col,
                 msg: "G4 needs a P word (seconds)".into(),
@@ -1013,21 +1008,25 @@ impl Interp<'_> {
                 true,
             );
         }
-        for (code, plane) in [(170, Plane::XY), (180, Plane::ZX), (190, Plane::YZ)] {
+        for (code, plane) in [
+            (GCode::G17, Plane::XY),
+            (GCode::G18, Plane::ZX),
+            (GCode::G19, Plane::YZ),
+        ] {
             if g_col(code).is_some() {
                 self.plane = plane;
             }
         }
-        if g_col(200).is_some() {
+        if g_col(GCode::G20).is_some() {
             self.scale = 25.4;
         }
-        if g_col(210).is_some() {
+        if g_col(GCode::G21).is_some() {
             self.scale = 1.0;
         }
-        if g_col(400).is_some() {
+        if g_col(GCode::G40).is_some() {
             self.comp_off()?;
         }
-        let comp_code = [410, 420, 411, 421]
+        let comp_code = [GCode::G41, GCode::G42, GCode::G41_1, GCode::G42_1]
             .into_iter()
             .find_map(|c| g_col(c).map(|col| (c, col)));
         match comp_code {
@@ -1038,49 +1037,79 @@ impl Interp<'_> {
             None => {}
         }
         self.tool_length_offset(&b)?;
-        for (i, code) in [540, 550, 560, 570, 580, 590].into_iter().enumerate() {
+        for (i, code) in [
+            GCode::G54,
+            GCode::G55,
+            GCode::G56,
+            GCode::G57,
+            GCode::G58,
+            GCode::G59,
+        ]
+        .into_iter()
+        .enumerate()
+        {
             if g_col(code).is_some() {
                 self.coord = i;
             }
         }
         for code in [
-            591, 592, 593, 960, 330, 382, 383, 384, 385, 760, 840, 850, 860, 870, 880, 890, 922,
-            923, 281, 301,
+            GCode::G59_1,
+            GCode::G59_2,
+            GCode::G59_3,
+            GCode::G96,
+            GCode::G33,
+            GCode::G38_2,
+            GCode::G38_3,
+            GCode::G38_4,
+            GCode::G38_5,
+            GCode::G76,
+            GCode::G84,
+            GCode::G85,
+            GCode::G86,
+            GCode::G87,
+            GCode::G88,
+            GCode::G89,
+            GCode::G92_2,
+            GCode::G92_3,
+            GCode::G28_1,
+            GCode::G30_1,
         ] {
             if let Some(col) = g_col(code) {
-                return fail(col, format!("{} is not supported", g_name(code)));
+                return fail(col, format!("{code} is not supported"));
             }
         }
-        b.set_mode(&mut self.incremental, 900, 910);
-        b.set_mode(&mut self.arc_incremental, 901, 911);
-        b.set_mode(&mut self.retract_to_start, 990, 980);
+        b.set_mode(&mut self.incremental, GCode::G90, GCode::G91);
+        b.set_mode(&mut self.arc_incremental, GCode::G90_1, GCode::G91_1);
+        b.set_mode(&mut self.retract_to_start, GCode::G99, GCode::G98);
         // Non-modal group 0.
-        let axis_user =
-            b.g.iter()
-                .find(|g| matches!(g.0, 100 | 280 | 300 | 920 | 431 | 432));
+        let axis_user = b.g.iter().find(|g| {
+            matches!(
+                g.0,
+                GCode::G10 | GCode::G28 | GCode::G30 | GCode::G92 | GCode::G43_1 | GCode::G43_2
+            )
+        });
         let motion_code = b.g.iter().find(|g| g_group(g.0) == Some(1)).copied();
         if let (Some(&(a, col)), Some((m, _))) = (axis_user, motion_code) {
-            if m != 800 && b.has_axes() {
-                return fail(
-                    col,
-                    format!("{} and {} both use axis words", g_name(a), g_name(m)),
-                );
+            if m != GCode::G80 && b.has_axes() {
+                return fail(col, format!("{a} and {m} both use axis words"));
             }
         }
-        if let Some(&(code, col)) = axis_user.filter(|g| !matches!(g.0, 431 | 432)) {
+        if let Some(&(code, col)) =
+            axis_user.filter(|g| !matches!(g.0, GCode::G43_1 | GCode::G43_2))
+        {
             self.modal0(code, col, &b, pc)?;
-        } else if g_col(921).is_some() {
+        } else if g_col(GCode::G92_1).is_some() {
             self.g92 = [0.0; 3];
         }
         if let Some((code, _)) = motion_code {
             self.motion = code;
-            if !matches!(code, 730 | 810 | 820 | 830) {
+            if !matches!(code, GCode::G73 | GCode::G81 | GCode::G82 | GCode::G83) {
                 self.cycle_initial_z = None;
             }
         }
         let use_motion = axis_user.is_none() && (motion_code.is_some() || b.has_axes());
         if use_motion {
-            if self.motion == 800 {
+            if self.motion == GCode::G80 {
                 if b.has_axes() {
                     return fail(
                         b.first_col,
@@ -1089,11 +1118,11 @@ impl Interp<'_> {
                 }
                 self.cycle_r = None;
                 self.cycle_z = None;
-            } else if b.has_axes() || matches!(self.motion, 20 | 30) {
+            } else if b.has_axes() || matches!(self.motion, GCode::G2 | GCode::G3) {
                 self.motion_block(&b, pc)?;
             }
         }
-        if !matches!(self.motion, 20 | 30) || !use_motion {
+        if !matches!(self.motion, GCode::G2 | GCode::G3) || !use_motion {
             for l in ['i', 'j', 'k'] {
                 if b.get(l).is_some() {
                     return fail(
@@ -1296,7 +1325,7 @@ impl Interp<'_> {
     /// G43 [H], G43.1, G43.2 and G49 (LinuxCNC's `convert_tool_length_offset`).
     fn tool_length_offset(&mut self, b: &Block) -> Result<(), Fail> {
         let code = b.g.iter().find(|g| g_group(g.0) == Some(8)).copied();
-        if b.get('h').is_some() && !matches!(code, Some((430 | 432, _))) {
+        if b.get('h').is_some() && !matches!(code, Some((GCode::G43 | GCode::G43_2, _))) {
             return fail(b.col('h'), "H word with no G43 to use it");
         }
         let Some((code, col)) = code else {
@@ -1318,30 +1347,34 @@ impl Interp<'_> {
             }
         };
         match code {
-            490 => {
+            GCode::G49 => {
                 self.tlo_mm = [0.0; 3];
                 self.tlo_on = false;
             }
-            430 => {
+            GCode::G43 => {
                 let t = h_tool(self)?;
                 self.tlo_mm = [0.0, 0.0, self.length_of(t)];
                 self.tlo_on = true;
             }
-            431 | 432 => {
-                if code == 432 && b.get('h').is_some() {
+            GCode::G43_1 | GCode::G43_2 => {
+                if code == GCode::G43_2 && b.get('h').is_some() {
                     if b.has_axes() {
                         return fail(col, "G43.2: cannot have both H and axis words");
                     }
                     let t = h_tool(self)?;
                     self.tlo_mm[2] += self.length_of(t);
                 } else {
-                    if code == 432 && !b.has_axes() {
+                    if code == GCode::G43_2 && !b.has_axes() {
                         return fail(col, "G43.2: no axes specified and H word missing");
                     }
                     for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
                         if let Some(v) = b.get(l) {
                             let v = v * self.scale;
-                            self.tlo_mm[i] = if code == 431 { v } else { self.tlo_mm[i] + v };
+                            self.tlo_mm[i] = if code == GCode::G43_1 {
+                                v
+                            } else {
+                                self.tlo_mm[i] + v
+                            };
                         }
                     }
                 }
@@ -1431,10 +1464,10 @@ impl Interp<'_> {
         }
     }
 
-    fn modal0(&mut self, code: i32, col: u32, b: &Block, pc: usize) -> Result<(), Fail> {
+    fn modal0(&mut self, code: GCode, col: u32, b: &Block, pc: usize) -> Result<(), Fail> {
         match code {
-            280 | 300 => {
-                let home = if code == 280 {
+            GCode::G28 | GCode::G30 => {
+                let home = if code == GCode::G28 {
                     self.options.g28_home_mm
                 } else {
                     self.options.g30_home_mm
@@ -1449,7 +1482,7 @@ impl Interp<'_> {
                 }
                 self.rapid(end, pc);
             }
-            920 => {
+            GCode::G92 => {
                 let w = self.work[self.coord];
                 for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
                     if let Some(v) = b.get(l) {
@@ -1457,7 +1490,7 @@ impl Interp<'_> {
                     }
                 }
             }
-            100 => {
+            GCode::G10 => {
                 let l = b.get('l').unwrap_or(0.0);
                 let p = b.get('p').unwrap_or(0.0);
                 if l != 2.0 || !(1.0..=6.0).contains(&p) || p.fract() != 0.0 {
@@ -1470,7 +1503,7 @@ impl Interp<'_> {
                     }
                 }
             }
-            _ => return fail(col, format!("{} is not supported", g_name(code))),
+            _ => return fail(col, format!("{code} is not supported")),
         }
         Ok(())
     }
@@ -1572,15 +1605,15 @@ impl Interp<'_> {
     }
 
     fn motion_block(&mut self, b: &Block, pc: usize) -> Result<(), Fail> {
-        let machine = b.has_g(530).is_some();
-        if machine && !matches!(self.motion, 0 | 10) {
-            return fail(b.has_g(530).unwrap_or(1), "G53 needs G0 or G1");
+        let machine = b.has_g(GCode::G53).is_some();
+        if machine && !matches!(self.motion, GCode::G0 | GCode::G1) {
+            return fail(b.has_g(GCode::G53).unwrap_or(1), "G53 needs G0 or G1");
         }
         let t = self.target(b, machine)?;
         if self.comp_active() {
             if machine {
                 return fail(
-                    b.has_g(530).unwrap_or(1),
+                    b.has_g(GCode::G53).unwrap_or(1),
                     "cannot use G53 with cutter radius compensation",
                 );
             }
@@ -1591,12 +1624,12 @@ impl Interp<'_> {
                 );
             }
             match self.motion {
-                0 => return self.straight_comp(b, t, Motion::Rapid, pc),
-                10 => {
+                GCode::G0 => return self.straight_comp(b, t, Motion::Rapid, pc),
+                GCode::G1 => {
                     let m = self.feed_motion(b, 1.0)?;
                     return self.straight_comp(b, t, m, pc);
                 }
-                730 | 810 | 820 | 830 => {
+                GCode::G73 | GCode::G81 | GCode::G82 | GCode::G83 => {
                     return fail(
                         b.first_col,
                         "cannot use canned cycles with cutter radius compensation",
@@ -1605,15 +1638,15 @@ impl Interp<'_> {
                 _ => {}
             }
         }
-        if matches!(self.motion, 0 | 10) {
+        if matches!(self.motion, GCode::G0 | GCode::G1) {
             self.comp.arc_not_allowed = false;
         }
         let done = match self.motion {
-            0 => {
+            GCode::G0 => {
                 self.rapid(t, pc);
                 Ok(())
             }
-            10 => {
+            GCode::G1 => {
                 let len = (Point3::from(t) - Point3::from(self.pos)).norm();
                 if len > 0.0 {
                     let m = self.feed_motion(b, len)?;
@@ -1621,14 +1654,9 @@ impl Interp<'_> {
                 }
                 Ok(())
             }
-            20 | 30 => self.arc(b, t, pc),
-            730 | 810 | 820 | 830 => return self.cycle(b, pc),
-            _ => {
-                return fail(
-                    b.first_col,
-                    format!("{} is not supported", g_name(self.motion)),
-                )
-            }
+            GCode::G2 | GCode::G3 => self.arc(b, t, pc),
+            GCode::G73 | GCode::G81 | GCode::G82 | GCode::G83 => return self.cycle(b, pc),
+            _ => return fail(b.first_col, format!("{} is not supported", self.motion)),
         };
         if done.is_err() {
             // Later blocks start where this one meant to end: one error per
@@ -1639,7 +1667,7 @@ impl Interp<'_> {
     }
 
     fn arc(&mut self, b: &Block, end: [f64; 3], pc: usize) -> Result<(), Fail> {
-        let clockwise = self.motion == 20;
+        let clockwise = self.motion == GCode::G2;
         let (a, bb, n) = self.plane.axes();
         let letters = ['i', 'j', 'k'];
         let off_word = letters[n];
@@ -1687,7 +1715,7 @@ impl Interp<'_> {
     /// Centre (gauge frame) of the block's arc from `start` to `end`, with
     /// LinuxCNC's R and I/J/K tolerances.
     fn arc_center(&self, b: &Block, start: [f64; 3], end: [f64; 3]) -> Result<[f64; 3], Fail> {
-        let clockwise = self.motion == 20;
+        let clockwise = self.motion == GCode::G2;
         let (a, bb, _) = self.plane.axes();
         let letters = ['i', 'j', 'k'];
         let mut center = start;
@@ -1837,7 +1865,7 @@ impl Interp<'_> {
             );
         }
         let mut peck_mm = 0.0;
-        if matches!(self.motion, 730 | 830) {
+        if matches!(self.motion, GCode::G73 | GCode::G83) {
             let q = b.get('q').or(self.cycle_q).ok_or(Fail {
                 col: b.first_col,
                 msg: "G73/G83 need a Q word (peck depth)".into(),
@@ -1848,7 +1876,7 @@ impl Interp<'_> {
             self.cycle_q = Some(q);
             peck_mm = q * self.scale;
         }
-        if self.motion == 820 {
+        if self.motion == GCode::G82 {
             self.cycle_p = b.get('p').unwrap_or(self.cycle_p);
         }
         if self.feed_mm_min <= 0.0 {

@@ -3,9 +3,11 @@
 //!
 //! Entry points: [`parse`], and [`refeed`] to write a program back with new feeds. The reader never stops at the first problem and
 //! never panics; every problem is a [`Diagnostic`] with file, line and column.
+#![warn(missing_docs)]
 mod cycles;
 mod diag;
 mod expr;
+mod gcode;
 mod interp;
 mod path;
 mod refeed;
@@ -13,6 +15,7 @@ mod syntax;
 mod unroll;
 
 pub use diag::{Diagnostic, Severity};
+pub use gcode::GCode;
 pub use interp::{FileForm, Options, Parsed};
 pub use path::{Geometry, Motion, Path, Plane, Segment};
 pub use refeed::{refeed, RefeedError};

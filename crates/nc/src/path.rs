@@ -38,8 +38,11 @@ pub enum Geometry {
     /// Circular (or helical) arc. `center` lies in the plane of `start`;
     /// the end may differ from the start plane along the plane normal (helix).
     Arc {
+        /// Centre, mm, machine frame.
         center: Point3<f64>,
+        /// Plane the arc turns in (G17/G18/G19).
         plane: Plane,
+        /// G2 (true) or G3, seen from the positive plane normal.
         clockwise: bool,
         /// Total swept angle, positive, full turns included (2π for a full circle).
         sweep_rad: f64,
@@ -52,17 +55,27 @@ pub enum Motion {
     /// G0 at the machine's rapid rate.
     Rapid,
     /// Feed motion at the programmed feed (G93 inverse time already converted).
-    Feed { feed_mm_min: f64 },
+    Feed {
+        /// Programmed feed along the path, mm/min.
+        feed_mm_min: f64,
+    },
     /// G4: no motion for a time.
-    Dwell { seconds: f64 },
+    Dwell {
+        /// Dwell time, s.
+        seconds: f64,
+    },
 }
 
 /// One piece of the path.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Segment {
+    /// Tool tip where the segment starts, mm, machine frame.
     pub start: Point3<f64>,
+    /// Tool tip where it ends, mm, machine frame.
     pub end: Point3<f64>,
+    /// Line or arc.
     pub geometry: Geometry,
+    /// Rapid, feed or dwell.
     pub motion: Motion,
     /// 1-based line in the source file of the block that made this segment.
     pub line: u32,
@@ -178,6 +191,7 @@ fn arc_radius(center: &Point3<f64>, plane: Plane, point: &Point3<f64>) -> f64 {
 /// old one is a rapid from the old tool's tip to the new tool's tip.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Path {
+    /// The segments in the order the machine runs them.
     pub segments: Vec<Segment>,
 }
 

@@ -46,18 +46,36 @@ use crate::syntax::{self, Item, ItemKind, LineKind};
 /// Why a program could not be re-fed.
 #[derive(Debug, Error)]
 pub enum RefeedError {
+    /// The source program has an error (the first one).
     #[error("{0}")]
     Program(crate::Diagnostic),
+    /// The plan does not have one entry per segment of the program.
     #[error("the feed plan has {plan} entries but the program has {segments} segments")]
-    PlanLength { plan: usize, segments: usize },
+    PlanLength {
+        /// Entries in the plan.
+        plan: usize,
+        /// Segments in the program's path.
+        segments: usize,
+    },
+    /// A feed segment's pieces are not (fraction, feed) pairs with fractions
+    /// rising to 1 and positive feeds.
     #[error("{file}:{line}: feed plan for segment {segment} is not pieces with increasing fractions ending at 1 and positive feeds")]
     BadPlan {
+        /// Program file name.
         file: String,
+        /// 1-based program line of the segment.
         line: u32,
+        /// 0-based segment index.
         segment: usize,
     },
+    /// The written program, read back, does not give the same path or feeds.
     #[error("{file}: the re-fed program does not reproduce the original path: {detail}")]
-    Verification { file: String, detail: String },
+    Verification {
+        /// Program file name.
+        file: String,
+        /// The first difference found.
+        detail: String,
+    },
 }
 
 /// Writes `source` with the feeds of `plan` (see the module docs).

@@ -14,6 +14,7 @@ use nalgebra::Point3;
 
 use super::{fail, Block, Fail, Interp};
 use crate::path::{Geometry, Motion, Plane};
+use crate::GCode;
 
 /// Which side of the contour the tool runs on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -76,7 +77,7 @@ impl Interp<'_> {
 
     /// G41/G42 (radius from the D tool's diameter, or the tool in the
     /// spindle) and G41.1/G42.1 (D is the diameter).
-    pub(super) fn comp_on(&mut self, code: i32, b: &Block, col: u32) -> Result<(), Fail> {
+    pub(super) fn comp_on(&mut self, code: GCode, b: &Block, col: u32) -> Result<(), Fail> {
         if self.plane != Plane::XY {
             return fail(
                 col,
@@ -89,15 +90,15 @@ impl Interp<'_> {
                 "cannot turn cutter radius compensation on when it is already on",
             );
         }
-        let mut side = if code == 410 || code == 411 {
+        let mut side = if code == GCode::G41 || code == GCode::G41_1 {
             Side::Left
         } else {
             Side::Right
         };
-        let radius_mm = if code == 411 || code == 421 {
+        let radius_mm = if code == GCode::G41_1 || code == GCode::G42_1 {
             let d = b.get('d').ok_or(Fail {
                 col,
-                msg: format!("G{}.1 with no D word", code / 10),
+                msg: format!("{code} with no D word"),
             })?;
             d * self.scale / 2.0
         } else {
@@ -107,7 +108,7 @@ impl Interp<'_> {
                     if (d - d.round()).abs() >= 1e-4 || d < -0.5 {
                         return fail(
                             b.col('d'),
-                            format!("G{} requires D word to be a whole number", code / 10),
+                            format!("{code} requires D word to be a whole number"),
                         );
                     }
                     let t = self.tool_number(d.round(), b.col('d'), 'D')?;
@@ -446,7 +447,7 @@ impl Interp<'_> {
         let tool_radius = self.comp.radius_mm;
         let [opx, opy, _] = self.comp.program;
         let [cx, cy, cz] = self.pos;
-        let ccw = self.motion == 30;
+        let ccw = self.motion == GCode::G3;
         let turn = if ccw { turns } else { -turns };
         let arc_radius = (center[0] - p[0]).hypot(center[1] - p[1]);
         let mut theta = (cy - opy).atan2(cx - opx);
@@ -590,7 +591,7 @@ impl Interp<'_> {
         let side = self.comp.side.expect("compensation on");
         let tool_radius = self.comp.radius_mm;
         let [cx, cy, _] = self.pos;
-        let ccw = self.motion == 30;
+        let ccw = self.motion == GCode::G3;
         let turn = if ccw { turns } else { -turns };
         let arc_radius = (center[0] - cx).hypot(center[1] - cy);
         if arc_radius <= tool_radius && tool_inside_arc(side, turn) {
