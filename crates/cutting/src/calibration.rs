@@ -30,15 +30,23 @@ pub enum FitError {
     NonPositive {
         /// 0-based index of the point.
         index: usize,
+        /// Its volume per tooth pass, mm³.
         v_mm3: f64,
+        /// Its measured force, N.
         force_n: f64,
     },
     /// Fewer than two points were given.
     #[error("need at least 2 points to fit F = a·V^n, got {points}")]
-    TooFewPoints { points: usize },
+    TooFewPoints {
+        /// Points given.
+        points: usize,
+    },
     /// All volumes are equal, so the exponent is undetermined.
     #[error("all {points} points have the same volume; the exponent n is undetermined")]
-    SameVolume { points: usize },
+    SameVolume {
+        /// Points given.
+        points: usize,
+    },
 }
 
 /// Least-squares fit of `ln F = ln a + n · ln V` to `(v_mm3, measured_force_n)` pairs.

@@ -14,6 +14,7 @@
 //!   normals of a height field.
 //!
 //! Units (MODEL.md): mm, s, N, MPa (= N/mm²); deflections in reports in µm.
+#![warn(missing_docs)]
 
 pub mod beam;
 pub mod calibration;

@@ -102,6 +102,7 @@ pub struct StepRemoval<'a> {
 /// The parameters that turn a step's removed volume into force and deflection.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CuttingModel {
+    /// How removed volume becomes cutting force (S4's power law or Kienzle).
     pub force_model: ForceModel,
     /// Spindle speed, rev/min.
     pub spindle_rpm: f64,

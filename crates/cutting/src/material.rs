@@ -8,6 +8,7 @@ use crate::kienzle::Kienzle;
 /// (MODEL.md §3.2): between aluminium's 0.21 / 0.28 (Altintas, *Manufacturing Automation*,
 /// Al7075-T6 with a 30° helix end mill: K_tc 796, K_rc 168, K_ac 222 N/mm²) and steels' ≈ 0.4.
 pub const RADIAL_RATIO: f64 = 0.3;
+/// Axial over tangential force for every built-in material (see [`RADIAL_RATIO`]).
 pub const AXIAL_RATIO: f64 = 0.25;
 
 /// A work material with the coefficients of S4's force law `F = a · V^n`

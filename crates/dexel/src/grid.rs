@@ -11,12 +11,15 @@ pub const BYTES_PER_COLUMN: usize =
 /// `spacing × spacing` cell around it. Columns are stored row-major (x fastest).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Grid {
-    /// Lower-left corner of the covered area, mm.
+    /// Left edge (lowest x) of the covered area, mm.
     pub x0_mm: f64,
+    /// Bottom edge (lowest y) of the covered area, mm.
     pub y0_mm: f64,
     /// Column spacing, mm.
     pub spacing_mm: f64,
+    /// Columns along x.
     pub nx: usize,
+    /// Columns along y.
     pub ny: usize,
 }
 
@@ -69,6 +72,7 @@ impl Grid {
         self.nx * self.ny
     }
 
+    /// No columns (zero extent along x or y).
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }

@@ -5,6 +5,7 @@
 //! tip; [`sweep`] removes, per column, the material at and above the lower
 //! envelope of the swept tool and records the removed volume per step and per
 //! tool height band. No I/O happens here.
+#![warn(missing_docs)]
 pub mod grid;
 pub mod stock;
 pub mod surface;
@@ -17,10 +18,18 @@ pub use surface::{angle_to_axis_deg, surface_normal_near};
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
+    /// A size, position or count that is not finite, not positive or out of
+    /// range; the message names it.
     #[error("invalid parameter: {0}")]
     InvalidParameter(String),
+    /// The grid would not fit in memory.
     #[error("the grid would need {columns:.3e} columns ({:.1} GiB); use a coarser grid", bytes / 1073741824.0)]
-    TooLarge { columns: f64, bytes: f64 },
+    TooLarge {
+        /// Columns the grid would have.
+        columns: f64,
+        /// Memory they would take, bytes.
+        bytes: f64,
+    },
 }
 pub mod sweep;
 pub mod tool;

@@ -11,12 +11,17 @@ pub const NEVER_CUT: u32 = u32::MAX;
 /// An empty column has `lo > hi`.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Column {
+    /// Bottom of the lowest interval, mm.
     pub lo: f32,
+    /// Top of the lowest interval, mm.
     pub hi: f32,
+    /// The intervals above the lowest, `[bottom, top]` in mm; `None` for the
+    /// usual single interval.
     pub upper: Option<Box<Vec<[f32; 2]>>>,
 }
 
 impl Column {
+    /// A column with no material (`lo` = +∞ above `hi` = −∞).
     pub const EMPTY: Column = Column {
         lo: f32::INFINITY,
         hi: f32::NEG_INFINITY,
@@ -40,6 +45,7 @@ impl Column {
         }
     }
 
+    /// No material in the column.
     #[inline]
     pub fn is_empty(&self) -> bool {
         !(self.lo < self.hi)
@@ -189,6 +195,7 @@ impl Stock {
         })
     }
 
+    /// The grid the columns stand on.
     pub fn grid(&self) -> &Grid {
         &self.grid
     }

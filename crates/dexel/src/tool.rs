@@ -10,7 +10,10 @@ pub enum ToolShape {
     /// Flat-end mill: corner radius 0.
     Flat,
     /// Bull-nose (torus) mill with corner radius in (0, diameter/2).
-    Bull { corner_radius_mm: f64 },
+    Bull {
+        /// Radius of the torus' tube, mm.
+        corner_radius_mm: f64,
+    },
 }
 
 /// A milling tool. The sweep treats the tool as its cutting end plus a
@@ -19,12 +22,15 @@ pub enum ToolShape {
 /// is reported as shank contact).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tool {
+    /// Shape of the cutting end.
     pub shape: ToolShape,
+    /// Cutting diameter, mm.
     pub diameter_mm: f64,
     /// Length of the fluted part above the tip.
     pub flute_length_mm: f64,
     /// Length from the holder face to the tip (cantilever length).
     pub stickout_mm: f64,
+    /// Number of cutting edges (teeth).
     pub flutes: u32,
     /// Young's modulus of the tool material, MPa (N/mm²).
     pub youngs_modulus_mpa: f64,
@@ -62,6 +68,7 @@ impl Tool {
         }
     }
 
+    /// Half the diameter, mm.
     pub fn radius_mm(&self) -> f64 {
         0.5 * self.diameter_mm
     }

@@ -24,6 +24,7 @@
 //! * no text rendering depends on system fonts (PNG text uses the built-in
 //!   5×8 bitmap font of the private `font` module); the HTML report loads
 //!   nothing from the network.
+#![warn(missing_docs)]
 
 pub mod atomic;
 mod b64;

@@ -11,6 +11,7 @@
 //! Architecture invariant: a column centre lying exactly on an edge or vertex
 //! shared by several triangles is counted by exactly one of them (half-open
 //! fill rule with edge functions evaluated identically from both sides).
+#![warn(missing_docs)]
 mod distance;
 mod fill;
 mod load;
@@ -131,28 +132,56 @@ pub(crate) fn bounds_of(
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum MeshError {
+    /// The file cannot be read.
     #[error("cannot read mesh file {}: {error}", path.display())]
     Read {
+        /// The mesh file.
         path: PathBuf,
+        /// What the system said.
         error: std::io::Error,
     },
+    /// The file is not valid STL or OBJ.
     #[error("cannot parse mesh file {}: {message}", path.display())]
-    Parse { path: PathBuf, message: String },
+    Parse {
+        /// The mesh file.
+        path: PathBuf,
+        /// What the parser found, with its position where known.
+        message: String,
+    },
+    /// The file name ends in neither `.stl` nor `.obj`.
     #[error("mesh file {}: unknown extension (expected .stl or .obj)", path.display())]
-    UnknownExtension { path: PathBuf },
+    UnknownExtension {
+        /// The mesh file.
+        path: PathBuf,
+    },
+    /// The file holds no triangles.
     #[error("mesh file {}: holds no triangles", path.display())]
-    Empty { path: PathBuf },
+    Empty {
+        /// The mesh file.
+        path: PathBuf,
+    },
+    /// A vertex has a NaN or infinite coordinate.
     #[error("mesh file {}: vertex {vertex} has a non-finite coordinate {coordinates:?}", path.display())]
     NonFinite {
+        /// The mesh file.
         path: PathBuf,
+        /// 0-based vertex index.
         vertex: usize,
+        /// Its coordinates as read, mm.
         coordinates: [f64; 3],
     },
+    /// The triangles do not bound a solid (open, non-manifold, mis-oriented, flat).
     #[error("mesh file {}: not a valid solid: {error}", path.display())]
-    NotSolid { path: PathBuf, error: SolidError },
+    NotSolid {
+        /// The mesh file.
+        path: PathBuf,
+        /// What is wrong with it.
+        error: SolidError,
+    },
     /// An in-memory mesh that cannot be used (bad indices, empty, non-finite).
     #[error("invalid mesh: {0}")]
     Invalid(#[from] SolidError),
+    /// The stock grid cannot be built (too fine, too large).
     #[error(transparent)]
     Stock(#[from] dexel::Error),
 }

@@ -7,31 +7,58 @@ use crate::{bounds_of, TriMesh};
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum SolidError {
+    /// No triangles at all.
     #[error("mesh has no triangles")]
     Empty,
+    /// A triangle names a vertex the mesh does not have.
     #[error("triangle {triangle} refers to vertex {vertex}, but the mesh has {vertices} vertices")]
     IndexOutOfRange {
+        /// 0-based triangle index.
         triangle: usize,
+        /// The vertex index it names.
         vertex: u32,
+        /// Vertices in the mesh.
         vertices: usize,
     },
+    /// A vertex has a NaN or infinite coordinate.
     #[error("vertex {vertex} has a non-finite coordinate {coordinates:?}")]
     NonFinite {
+        /// 0-based vertex index.
         vertex: usize,
+        /// Its coordinates, mm.
         coordinates: [f64; 3],
     },
     #[error(
         "mesh is not closed: {edges} boundary edges, first near {}",
         Near(near_mm)
     )]
-    NotClosed { edges: usize, near_mm: [f64; 3] },
+    /// Some edges belong to one triangle only: the surface has holes.
+    NotClosed {
+        /// Boundary edges.
+        edges: usize,
+        /// A point of the first one, mm.
+        near_mm: [f64; 3],
+    },
     #[error(
         "non-manifold edge: {edges} edges are shared by more than two triangles, first near {}",
         Near(near_mm)
     )]
-    NonManifold { edges: usize, near_mm: [f64; 3] },
+    /// Some edges belong to more than two triangles.
+    NonManifold {
+        /// Such edges.
+        edges: usize,
+        /// A point of the first one, mm.
+        near_mm: [f64; 3],
+    },
+    /// Neighbouring triangles disagree on which side is outside.
     #[error("inconsistent orientation: {edges} edges are traversed in the same direction by both of their triangles, first near {}", Near(near_mm))]
-    InconsistentOrientation { edges: usize, near_mm: [f64; 3] },
+    InconsistentOrientation {
+        /// Edges traversed the same way by both their triangles.
+        edges: usize,
+        /// A point of the first one, mm.
+        near_mm: [f64; 3],
+    },
+    /// The closed surface has zero signed volume.
     #[error("mesh encloses no volume")]
     ZeroVolume,
 }

@@ -11,6 +11,7 @@
 //! Flow: [`Stations::new`] discretises the path and sets the caps, the caller may lower caps,
 //! [`plan`] computes the time-optimal speed profile, [`Profile::sample`] gives servo data.
 //! [`lower_bound_time_s`] bounds every profile from below, for the optimality gap.
+#![warn(missing_docs)]
 
 mod bound;
 mod machine;

@@ -8,7 +8,12 @@ use thiserror::Error;
 pub enum ScheduleError {
     /// A machine parameter is not a finite positive number.
     #[error("machine parameter `{name}` must be finite and > 0, got {value}")]
-    InvalidMachine { name: &'static str, value: f64 },
+    InvalidMachine {
+        /// Field of [`Machine`].
+        name: &'static str,
+        /// The value given.
+        value: f64,
+    },
     /// A machine parameter is outside the range a real machine can have.
     #[error("machine parameter `{name}` must lie in {lo}..{hi}, got {value}")]
     MachineOutOfRange {
@@ -27,8 +32,11 @@ pub enum ScheduleError {
     /// A segment of the path has a feed or dwell time that cannot be run.
     #[error("segment {segment} (line {line}): {what}")]
     InvalidSegment {
+        /// 0-based segment index in the path.
         segment: usize,
+        /// 1-based program line of the segment.
         line: u32,
+        /// What is wrong with it.
         what: &'static str,
     },
     /// The path has no segment at all, so there is no position to start from.
@@ -36,21 +44,40 @@ pub enum ScheduleError {
     EmptyPath,
     /// A feed cap is NaN or not > 0.
     #[error("feed cap at station {station} must be > 0 mm/min, got {cap_mm_min}")]
-    InvalidCap { station: usize, cap_mm_min: f64 },
+    InvalidCap {
+        /// 0-based station index.
+        station: usize,
+        /// The cap given, mm/min.
+        cap_mm_min: f64,
+    },
     /// The path needs more stations than the planner allows.
     #[error("the path needs {needed} planner stations, more than the limit of {limit} (a very long move or a very fine station spacing)")]
-    TooManyStations { needed: usize, limit: usize },
+    TooManyStations {
+        /// Stations the path would need.
+        needed: usize,
+        /// `MAX_STATIONS`.
+        limit: usize,
+    },
     /// The profile needs more servo samples than allowed.
     #[error("the motion needs {needed} servo samples, more than the limit of {limit} (cycle time {cycle_time_s:.1} s at period {period_ms} ms)")]
     TooManySamples {
+        /// Samples the profile would need (cycle time over period).
         needed: f64,
+        /// `MAX_SAMPLES`.
         limit: usize,
+        /// The profile's cycle time, s.
         cycle_time_s: f64,
+        /// The servo period, ms.
         period_ms: f64,
     },
     /// A caps slice does not have one value per station.
     #[error("expected {expected} caps (one per station), got {got}")]
-    CapCount { expected: usize, got: usize },
+    CapCount {
+        /// Stations.
+        expected: usize,
+        /// Caps given.
+        got: usize,
+    },
 }
 
 /// Limits of the machine and its control.

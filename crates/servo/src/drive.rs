@@ -46,7 +46,12 @@ pub enum DriveError {
     FeedForward(f64),
     /// Damping ratio and natural frequency must be positive and finite.
     #[error("second-order loop needs ζ > 0 and ω > 0, got ζ = {zeta}, ω = {omega_n_rad_s} rad/s")]
-    SecondOrder { zeta: f64, omega_n_rad_s: f64 },
+    SecondOrder {
+        /// Damping ratio given.
+        zeta: f64,
+        /// Natural frequency given, rad/s.
+        omega_n_rad_s: f64,
+    },
 }
 
 impl Drive {

@@ -10,6 +10,7 @@
 //!
 //! Positions are in mm in the machine frame, one `[x, y, z]` sample per servo period (s).
 //! Pure: values in, values out.
+#![warn(missing_docs)]
 
 pub mod drive;
 pub mod evaluation;

@@ -42,7 +42,9 @@ use crate::Grid;
 /// One straight tool move, tip positions in mm.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Step {
+    /// Tool tip at the start of the move, mm.
     pub from_mm: [f64; 3],
+    /// Tool tip at the end of the move, mm.
     pub to_mm: [f64; 3],
     /// A rapid (G0) move: any material it removes is a collision.
     pub rapid: bool,
@@ -97,7 +99,9 @@ const HEAD: usize = 6;
 /// What a sweep removed, per step.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RemovalRecord {
+    /// Height of one tool band above the tip, mm (band k spans k·h to (k+1)·h).
     pub band_height_mm: f64,
+    /// Bands over the flute length; removal above them is shank volume.
     pub n_bands: usize,
     /// Per step: [volume, shank volume, contact x, contact y, chip edge area,
     /// volume over radius, band 0 … band K−1].
@@ -130,6 +134,7 @@ impl RemovalRecord {
         self.data.len() / self.stride()
     }
 
+    /// No steps recorded.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
