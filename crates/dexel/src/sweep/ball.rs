@@ -86,6 +86,21 @@ impl Envelope for BallEnd {
         Some(sphere_reach2(self.r, depth + ABOVE_MARGIN_MM).sqrt())
     }
 
+    /// Descending too: the lower end of the ball at t, L(t) = c_z(t) −
+    /// √(R² − ρ(t)²), is convex, and L'(0) = d_z − (w · d_xy)/√(R² − ρ₀²) ≥ 0
+    /// wherever w · u ≤ −|d_z| R / |d_xy| (√(R² − ρ₀²) ≤ R): there it is
+    /// lowest at the start.
+    #[inline]
+    fn behind_mm(&self, m: &Prepared) -> Option<f64> {
+        if m.d[2] >= 0.0 {
+            Some(0.0)
+        } else if m.h2 > PLUNGE_H2 {
+            Some(-m.d[2] * self.r * m.inv_len_xy)
+        } else {
+            None
+        }
+    }
+
     #[inline]
     fn side(&self, h: f64) -> Edge {
         // The torus with ring 0 and corner radius R: r = √(h (2R − h)), sin κ = r / R.

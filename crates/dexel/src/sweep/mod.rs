@@ -254,28 +254,17 @@ impl Prepared {
         }
     }
 
-    /// Whether the move leaves every column behind its start as it is: it
-    /// follows the previous move and does not descend, so over a column
-    /// behind the start (w · d_xy ≤ 0, w from the start to the column) the
-    /// distance to the axis and the tip height both grow along the move, and
-    /// the swept tool there is lowest at its start, where the previous move's
-    /// end tool already cut (MODEL.md §1.2). A plunge that does not descend
-    /// leaves every column.
+    /// X-interval of the row at `y` less than `behind_mm` behind the move's
+    /// start (w · u ≥ −behind_mm, w from the start to the column, u the unit
+    /// XY direction), widened by a nanometre (a column on the boundary is
+    /// evaluated, not skipped); `None` for a plunge.
     #[inline]
-    fn only_ahead(&self) -> bool {
-        self.follows && self.d[2] >= 0.0
-    }
-
-    /// X-interval of the row at `y` ahead of the move's start (w · d_xy ≥ 0),
-    /// widened by a nanometre (a column on the boundary is evaluated, not
-    /// skipped); `None` for a plunge.
-    #[inline]
-    fn ahead_span(&self, y: f64) -> Option<Span> {
+    fn ahead_span(&self, y: f64, behind_mm: f64) -> Option<Span> {
         if self.h2 <= PLUNGE_H2 {
             return None;
         }
         let [ux, uy] = self.u;
-        let (a, b) = linear_range(ux, uy * (y - self.p0[1]), -1e-9, f64::INFINITY);
+        let (a, b) = linear_range(ux, uy * (y - self.p0[1]), -behind_mm - 1e-9, f64::INFINITY);
         (a <= b).then_some(Span {
             lo: self.p0[0] + a,
             hi: self.p0[0] + b,
@@ -421,6 +410,19 @@ trait Envelope: Sync {
     #[inline]
     fn reach(&self, _m: &Prepared, _depth: f64) -> Option<f64> {
         None
+    }
+
+    /// For a move that follows the previous one (same tool, starting where it
+    /// ended): the distance behind its start, along its XY direction, beyond
+    /// which the swept tool is lowest at its start over every column, so the
+    /// previous move's end tool has already cut there (MODEL.md §1.2); `None`
+    /// where there is no such region. Any tool on a move that does not
+    /// descend: 0 (behind the start the distance to the axis and the tip
+    /// height both grow along the move); a plunge that does not descend
+    /// cuts nothing new anywhere.
+    #[inline]
+    fn behind_mm(&self, m: &Prepared) -> Option<f64> {
+        (m.d[2] >= 0.0).then_some(0.0)
     }
 
     /// The cutting edge at height `h` ≥ 0 above the tip.

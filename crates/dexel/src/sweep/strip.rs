@@ -286,7 +286,11 @@ impl<E: Envelope> StripJob<'_, E> {
             };
             let (iy0, iy1) = (iy0.max(row0), iy1.min(row0 + rows - 1));
             let zmin = m.zmin as f32;
-            let only_ahead = m.only_ahead();
+            let behind = if m.follows {
+                self.env.behind_mm(m)
+            } else {
+                None
+            };
             for iy in iy0..=iy1 {
                 let y = self.grid.y_mm(iy);
                 let Some(span) = m.row_span(y, self.radius) else {
@@ -298,8 +302,10 @@ impl<E: Envelope> StripJob<'_, E> {
                 visited += (ix1 - ix0 + 1) as u64;
                 let base = (iy - row0) * nx;
                 // Behind the start, the previous move's end tool has cut already.
-                let (ix0, ix1) = if only_ahead {
-                    let Some((a, b)) = m.ahead_span(y).and_then(|s| self.grid.ix_range(s.lo, s.hi))
+                let (ix0, ix1) = if let Some(behind_mm) = behind {
+                    let Some((a, b)) = m
+                        .ahead_span(y, behind_mm)
+                        .and_then(|s| self.grid.ix_range(s.lo, s.hi))
                     else {
                         continue;
                     };
