@@ -2225,6 +2225,57 @@ fn implausible_spindle_speed_and_a_far_lower_chip_load_cap_are_told() {
     assert_eq!(cap["fz_max_from"], "fz_max");
 }
 
+/// A tool the rigid cut overloads beyond its allowable stress has no elastic
+/// balance: the closed loop keeps the rigid estimate there and bounds every
+/// trial offset (MODEL.md §5.1). The real program gcodes_simple_mill (a 20 mm
+/// deep slot at F100, S500) cut by a Ø3 mm flat end mill: the closed loop
+/// removes what the rigid tool removes and predicts no larger force, where the
+/// unbounded loop swept the tool into stock it could not reach (6× the
+/// volume, 372 kN). The force warning names the lines.
+#[test]
+fn an_overloaded_tool_keeps_the_rigid_estimate_in_the_closed_loop() {
+    let dir = tempdir();
+    let program = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../nc/tests/data/real/gcodes_simple_mill.gcode");
+    let job = |cutting: &str| {
+        format!(
+            "[stock]\nkind = \"box\"\nmin = [-78.5, -78.5, -21]\nmax = [43.5, 43.5, 0]\ngrid = 0.1\n\
+             [tool]\nkind = \"flat\"\ndiameter = 3.0\nflute_length = 22\nstickout = 32\n\
+             [program]\npath = {program:?}\n[cutting]\nmaterial = \"al6061\"\n{cutting}\n"
+        )
+    };
+    let run = |name: &str, cutting: &str| {
+        write(dir.path(), &format!("{name}.toml"), &job(cutting));
+        ok(&dexcut(
+            &["simulate", &format!("{name}.toml"), "--out", name],
+            dir.path(),
+        ));
+        summary(&dir.path().join(name))
+    };
+    let open = run("open", "closed_loop = false");
+    let closed = run("closed", "");
+    let stress = open["peak_stress_mpa"].as_f64().unwrap();
+    let limit = open["stress_limit_mpa"].as_f64().unwrap();
+    assert!(stress > limit, "stress {stress} MPa, limit {limit} MPa");
+    assert!(warning(&closed, "force").is_some());
+    let (v_open, v_closed) = (
+        open["removed_volume_mm3"].as_f64().unwrap(),
+        closed["removed_volume_mm3"].as_f64().unwrap(),
+    );
+    assert!(
+        rel(v_closed, v_open) < 0.01,
+        "removed {v_closed} vs rigid {v_open} mm³"
+    );
+    let (f_open, f_closed) = (
+        open["peak_force_n"].as_f64().unwrap(),
+        closed["peak_force_n"].as_f64().unwrap(),
+    );
+    assert!(
+        f_closed <= f_open * 1.001,
+        "force {f_closed} N vs rigid {f_open} N"
+    );
+}
+
 /// Open loop (`closed_loop = false`, MODEL.md §5): the slender tool of the test
 /// above, swept once rigid, would bend by more than the 0.2 mm stock; the error
 /// map is clamped to the stock that was there. On the wall (the outermost cut

@@ -257,13 +257,28 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
     let mut final_stock = Some(rigid_stock);
     let mut step_loads = loads(tools, &tool_of_step, &record, &steps);
     let n = steps.len();
+    let stress_limits_mpa: Vec<f64> = tool_of_step
+        .iter()
+        .map(|&t| tools.entries[t].stress_limit_mpa)
+        .collect();
+    // A tool the rigid cut overloads beyond its allowable stress anywhere would
+    // break there: no elastic balance exists, so the loop leaves that tool's
+    // steps rigid (the open-loop estimate, which the force warning names)
+    // rather than mixing bent and unbent steps along its path (MODEL.md §5.1).
+    let mut overloaded = vec![false; tools.entries.len()];
+    for (i, l) in step_loads.iter().enumerate() {
+        if !steps[i].step.rapid && l.stress_mpa > stress_limits_mpa[i] {
+            overloaded[tool_of_step[i]] = true;
+        }
+    }
     // Directions of the loop's offsets (unit, fixed from the rigid sweep):
     // across the path; rapids are not moved (a collision's load means nothing).
     let dirs: Vec<[f64; 2]> = step_loads
         .iter()
         .zip(&steps)
-        .map(|(l, s)| {
-            if s.step.rapid {
+        .zip(&tool_of_step)
+        .map(|((l, s), &t)| {
+            if s.step.rapid || overloaded[t] {
                 return [0.0, 0.0];
             }
             let m = [
@@ -277,6 +292,13 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
         loads[i].dx_um * dirs[i][0] + loads[i].dy_um * dirs[i][1]
     };
     let rigid: Vec<f64> = (0..n).map(|i| along(&step_loads, i).max(0.0)).collect();
+    // The largest offset a step may be tried at (MODEL.md §5.1): its tool's
+    // radius. A trial beyond it would sweep the tool into stock it cannot
+    // reach and feed the loop ever larger loads.
+    let offset_cap_um: Vec<f64> = tool_of_step
+        .iter()
+        .map(|&t| 500.0 * tools.entries[t].tool.diameter_mm)
+        .collect();
     let rigid_peak_deflection_um = step_loads
         .iter()
         .map(|l| l.deflection_um)
@@ -292,7 +314,9 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
     };
     if tools.closed_loop && !report.converged {
         let mut relaxed = vec![Relaxed::START; n];
-        let mut trial: Vec<f64> = rigid.iter().map(|g| LOOP_RELAX_START * g).collect();
+        let mut trial: Vec<f64> = (0..n)
+            .map(|i| (LOOP_RELAX_START * rigid[i]).min(offset_cap_um[i]))
+            .collect();
         // Steps out of tolerance after each sweep, to see the loop stall.
         let mut out_counts: Vec<usize> = Vec::new();
         let mut residuals: Vec<f64> = Vec::new();
@@ -340,7 +364,7 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
             }
             for i in 0..n {
                 if dirs[i] != [0.0, 0.0] {
-                    trial[i] = relaxed[i].next(x[i], g[i]);
+                    trial[i] = relaxed[i].next(x[i], g[i]).min(offset_cap_um[i]);
                 }
             }
         }
@@ -372,10 +396,7 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
         sweep_s,
         closed_loop: report,
         rigid_peak_deflection_um,
-        stress_limits_mpa: tool_of_step
-            .iter()
-            .map(|&t| tools.entries[t].stress_limit_mpa)
-            .collect(),
+        stress_limits_mpa,
     })
 }
 
@@ -858,8 +879,13 @@ impl Run {
             format!("the tool above its flute length (shank or holder) removed {v:.3} mm³ at {lines}: raise the flute length or stick-out, or change the program")
         });
         let limit = self.stress_limit_mpa();
+        let rigid_kept = if self.closed_loop.enabled {
+            "; the closed loop keeps the rigid tool's force, deflection and error for it (no elastic balance, docs/MODEL.md §5.1)"
+        } else {
+            ""
+        };
         out.from_lines(WarningKind::Force, &stress, "MPa", false, |v, lines| {
-            format!("the cutting force and torque stress the tool to {v:.0} MPa at {lines}, above the allowable {limit:.0} MPa ([tool] stress_limit_mpa, docs/MODEL.md §4.4): lower the feed or the engagement, or use a shorter or stiffer tool")
+            format!("the cutting force and torque stress the tool to {v:.0} MPa at {lines}, above the allowable {limit:.0} MPa ([tool] stress_limit_mpa, docs/MODEL.md §4.4): lower the feed or the engagement, or use a shorter or stiffer tool{rigid_kept}")
         });
         if self.closed_loop.enabled && !self.closed_loop.converged {
             let mut stalled = LineTally::new();
