@@ -105,6 +105,17 @@ pub fn heat_map_image(
     map: &ScalarMap,
     style: &HeatMapStyle,
 ) -> Result<(RgbaImage, HeatMapLayout), Error> {
+    draw_heat_map(map, style, true)
+}
+
+/// [`heat_map_image`], with the title, the colour bar's unit, ticks and labels
+/// and the scale bar left out when `text` is false (the HTML report sets them
+/// as page text over the image, [`crate::MapFrame`]); the layout is the same.
+pub(crate) fn draw_heat_map(
+    map: &ScalarMap,
+    style: &HeatMapStyle,
+    text: bool,
+) -> Result<(RgbaImage, HeatMapLayout), Error> {
     let grid = map.grid;
     grid.check_len("heat map values", map.values.len())?;
     // An empty grid is drawn as one NaN cell, so title, bar and frame still appear.
@@ -159,7 +170,7 @@ pub fn heat_map_image(
     let height = map_top + bar_height + 12 + scale_bar_h + MARGIN; // bar_height ≥ map_h
 
     let mut img = RgbaImage::from_pixel(width, height, BACKGROUND);
-    if !style.title.is_empty() {
+    if text && !style.title.is_empty() {
         draw_text(
             &mut img,
             i64::from(MARGIN),
@@ -198,14 +209,17 @@ pub fn heat_map_image(
         );
     }
     frame(&mut img, bar_left, bar_top, BAR_WIDTH, bar_height);
-    draw_text(
-        &mut img,
-        i64::from(bar_left),
-        i64::from(bar_top) - i64::from(th) - 6,
-        unit,
-        TEXT_SCALE,
-        INK,
-    );
+    let labels = if text { labels } else { Vec::new() };
+    if text {
+        draw_text(
+            &mut img,
+            i64::from(bar_left),
+            i64::from(bar_top) - i64::from(th) - 6,
+            unit,
+            TEXT_SCALE,
+            INK,
+        );
+    }
     for (v, label) in ticks.iter().zip(&labels) {
         let t = scale.fraction(*v);
         let y = bar_top + ((1.0 - t) * f64::from(bar_height - 1)).round() as u32;
@@ -223,7 +237,7 @@ pub fn heat_map_image(
 
     // Scale bar in mm under the map.
     let mm_per_px = grid.spacing_mm * cols_per_cell as f64 / f64::from(px_per_cell);
-    if mm_per_px.is_finite() && mm_per_px > 0.0 {
+    if text && mm_per_px.is_finite() && mm_per_px > 0.0 {
         let len_mm = nice_floor(f64::from(map_w) * mm_per_px / 3.0);
         let len_px = (len_mm / mm_per_px).round() as u32;
         if len_px >= 2 {

@@ -7,6 +7,9 @@
 //! as soon as any script error reaches `window.onerror`. The viewer element
 //! `#stock-view` gets `data-viewer` (`webgl2`, `webgl1`, `no-webgl`, `empty`)
 //! and `data-mesh-pixels` (pixels drawn that differ from the background).
+//! The time plots share one range (`#plot-range`, `data-range="A,B"` in s):
+//! drag across a plot, type it, or open the page at `#t=A,B` or `#t=T`; the
+//! hot-spot table's times link there.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -38,8 +41,9 @@ pub struct ReportImage {
     pub frame: Option<MapFrame>,
 }
 
-/// Where a heat map's columns lie in its image, in pixels and in mm.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Where a heat map's columns and colour bar lie in its image, in pixels and
+/// in mm, with the bar's labels: the page writes them as text over the image.
+#[derive(Clone, Debug, PartialEq)]
 pub struct MapFrame {
     /// Image width and height, px.
     pub size_px: [u32; 2],
@@ -47,11 +51,18 @@ pub struct MapFrame {
     pub map_px: [u32; 4],
     /// The map area in the machine XY plane: x_min, x_max, y_min, y_max, mm.
     pub extent_mm: [f64; 4],
+    /// The colour bar in the image: left, top, width, height, px.
+    pub bar_px: [u32; 4],
+    /// The colour bar's ticks: image row (px) and label, top to bottom.
+    pub bar_ticks: Vec<(f64, String)>,
+    /// Unit written above the colour bar, e.g. `"µm"`.
+    pub unit: String,
 }
 
 impl MapFrame {
-    /// The frame of a heat map drawn by [`crate::heat_map_image`] over `grid`.
-    pub fn of(layout: &HeatMapLayout, grid: &Grid) -> MapFrame {
+    /// The frame of a heat map drawn by [`crate::heat_map_image`] over `grid`,
+    /// its colour bar labelled in `unit`.
+    pub fn of(layout: &HeatMapLayout, grid: &Grid, unit: &str) -> MapFrame {
         let cell_mm = layout.cols_per_cell as f64 * grid.spacing_mm;
         let x_min = grid.x0_mm - 0.5 * grid.spacing_mm;
         let y_min = grid.y0_mm - 0.5 * grid.spacing_mm;
@@ -69,6 +80,26 @@ impl MapFrame {
                 y_min,
                 y_min + layout.cells_y as f64 * cell_mm,
             ],
+            bar_px: [
+                layout.bar_left,
+                layout.bar_top,
+                layout.bar_width,
+                layout.bar_height,
+            ],
+            bar_ticks: {
+                let scale = &layout.scale;
+                let (ticks, step) = nice_ticks(scale.min, scale.max, 6);
+                ticks
+                    .iter()
+                    .map(|&v| {
+                        // The row the image's colour for `v` is drawn at.
+                        let row = f64::from(layout.bar_top)
+                            + (1.0 - scale.fraction(v)) * f64::from(layout.bar_height - 1);
+                        (row, format_tick(v, step))
+                    })
+                    .collect()
+            },
+            unit: unit.to_string(),
         }
     }
 
@@ -86,16 +117,22 @@ impl MapFrame {
     }
 }
 
-/// Render a heat map as PNG bytes, with the frame the report needs to draw its
-/// axes in mm and marks over it.
+/// Render a heat map as PNG bytes without text (title, colour-bar labels,
+/// scale bar), with the frame the report needs to draw its axes in mm, the
+/// colour bar's labels and the hot-spot marks over it as page text.
 pub fn heat_map_png_framed(
     map: &crate::ScalarMap,
     style: &crate::HeatMapStyle,
 ) -> Result<(Vec<u8>, MapFrame), Error> {
-    let (img, layout) = crate::heat_map_image(map, style)?;
+    let (img, layout) = crate::heatmap::draw_heat_map(map, style, false)?;
+    let unit = if style.unit.is_empty() {
+        &map.unit
+    } else {
+        &style.unit
+    };
     Ok((
         crate::heatmap::encode_png(&img)?,
-        MapFrame::of(&layout, &map.grid),
+        MapFrame::of(&layout, &map.grid, unit),
     ))
 }
 
@@ -162,6 +199,7 @@ figcaption{font-size:.9em;color:#555;margin-top:4px}\
 svg.map{max-width:100%;height:auto;font-size:13px}svg.map text{fill:#222}svg.map .mark circle{fill:none;stroke:#000;stroke-width:2.5}svg.map .mark text{font-weight:bold;paint-order:stroke;stroke:#fff;stroke-width:3px}\
 pre.program{background:#fafafa;border:1px solid #e4e4e4;padding:6px 0;overflow-x:auto;line-height:1.45}pre.program span.pl{display:block;padding:0 10px}pre.program span.ln{display:inline-block;min-width:5em;color:#888}pre.program span.gap{display:block;padding:0 10px;color:#aaa}\
 :target{background:#ffe14d !important;outline:2px solid #c9a800}\
+.plot-range{margin:0 0 8px}.plot-range input{width:7em}svg.plot{cursor:crosshair;user-select:none}\
 #stock-view canvas{width:100%;height:520px;display:block;border:1px solid #ddd;background:#f5f7fa;cursor:grab;touch-action:none}\
 .viewer-note{font-size:.9em;color:#555;margin:4px 0}.notes p{margin:.4em 0}";
 
@@ -235,12 +273,19 @@ pub fn report_html(report: &Report) -> String {
                 Some(l) => l.to_string(),
                 None => "–".into(),
             };
+            // A time links to the plots zoomed around it.
+            let time = match s.t_s {
+                Some(t) if !report.plots.is_empty() => {
+                    format!("<a href=\"#t={t:.3}\">{t:.3} s</a>")
+                }
+                Some(t) => format!("{t:.3} s"),
+                None => "–".into(),
+            };
             let _ = write!(
                 h,
-                "<tr id=\"hot-{n}\"><td>{n}</td><td>{}</td><td class=\"v\">{}</td><td class=\"v\">{line}</td><td class=\"v\">{}</td><td class=\"v\">{}</td></tr>",
+                "<tr id=\"hot-{n}\"><td>{n}</td><td>{}</td><td class=\"v\">{}</td><td class=\"v\">{line}</td><td class=\"v\">{time}</td><td class=\"v\">{}</td></tr>",
                 esc(&s.what),
                 esc(&s.value),
-                s.t_s.map_or("–".into(), |t| format!("{t:.3} s")),
                 s.xy_mm
                     .map_or("–".into(), |[x, y]| format!("{x:.2}, {y:.2}")),
                 n = k + 1,
@@ -250,11 +295,12 @@ pub fn report_html(report: &Report) -> String {
     }
 
     if !report.plots.is_empty() {
-        h.push_str("<h2>Over time</h2><div class=\"plots\">\n");
+        h.push_str("<h2>Over time</h2><div id=\"plot-range\" class=\"plot-range\">time from <input id=\"range-from\" type=\"number\" step=\"any\"> to <input id=\"range-to\" type=\"number\" step=\"any\"> s <button id=\"range-reset\" type=\"button\">whole program</button> <span class=\"viewer-note\">drag across a plot to zoom all plots to a time range; double-click to zoom out</span></div><div class=\"plots\">\n");
         for (k, p) in report.plots.iter().enumerate() {
             let _ = writeln!(h, "<div class=\"plot-box\">{}</div>", plot_svg(p, k));
         }
         h.push_str("</div>\n");
+        let _ = writeln!(h, "<script>\n{}\n</script>", include_str!("plots.js"));
     }
 
     if !report.images.is_empty() {
@@ -394,6 +440,25 @@ fn map_svg(img: &ReportImage, frame: &MapFrame, spots: &[HotSpot]) -> String {
         -MAP_LEFT + 14.0,
         top + 0.5 * mh
     );
+    // The colour bar's unit above it, ticks and labels right of it.
+    let [bl, bt, bw, _] = frame.bar_px.map(f64::from);
+    let _ = write!(
+        s,
+        "<g class=\"colour-bar\"><text x=\"{bl:.1}\" y=\"{:.1}\">{}</text>",
+        bt - 8.0,
+        esc(&frame.unit)
+    );
+    for (row, label) in &frame.bar_ticks {
+        let _ = write!(
+            s,
+            "<path d=\"M{:.1} {row:.1}h5\" stroke=\"#222\"/><text x=\"{:.1}\" y=\"{:.1}\">{}</text>",
+            bl + bw,
+            bl + bw + 8.0,
+            row + 4.5,
+            esc(label)
+        );
+    }
+    s.push_str("</g>");
     for (k, spot) in spots.iter().enumerate() {
         let Some((px, py)) = spot.xy_mm.and_then(|[x, y]| frame.pixel_of_mm(x, y)) else {
             continue;

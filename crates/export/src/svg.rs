@@ -1,13 +1,20 @@
 //! Line plots of time series as inline SVG (axes, ticks, labels, legend,
 //! optional limit line), with min/max decimation so spikes survive.
+//!
+//! Each plot carries its time range and plot area (`data-t0`, `data-t1`,
+//! `data-x`, `data-w`), its series in a `g.zoom` group and its time ticks in
+//! `g.xticks`, so the report's script (`plots.js`) can zoom all plots to a
+//! time range by scaling the series group and writing new ticks.
 
 use std::fmt::Write as _;
 
 use crate::ticks::{format_tick, nice_ticks};
 use crate::{escape_html as esc, Series};
 
-/// Most points drawn per series in one plot.
-pub const MAX_PLOT_POINTS: usize = 2000;
+/// Most points drawn per series in one plot: about 6 per pixel of the plot's
+/// width, so a range zoomed 6× still shows every bucket's minimum and maximum
+/// at one per pixel.
+pub const MAX_PLOT_POINTS: usize = 4000;
 
 /// Series colours, in order: "before", "after", then others.
 const COLORS: [&str; 6] = [
@@ -143,7 +150,7 @@ pub fn plot_svg(group: &PlotGroup, id: usize) -> String {
     let mut s = String::new();
     let _ = write!(
         s,
-        r#"<svg class="plot" xmlns="http://www.w3.org/2000/svg" viewBox="0 0 {WIDTH} {HEIGHT}" width="100%" role="img" aria-label="{title}" font-family="sans-serif" font-size="12">"#,
+        r#"<svg class="plot" xmlns="http://www.w3.org/2000/svg" viewBox="0 0 {WIDTH} {HEIGHT}" width="100%" role="img" aria-label="{title}" font-family="sans-serif" font-size="12" data-t0="{t0}" data-t1="{t1}" data-x="{LEFT}" data-w="{pw}" data-y="{TOP}" data-h="{ph}">"#,
         title = esc(&group.title)
     );
     let _ = write!(
@@ -158,7 +165,8 @@ pub fn plot_svg(group: &PlotGroup, id: usize) -> String {
         esc(&group.title)
     );
 
-    // Grid, ticks and labels.
+    // Grid, ticks and labels; the time ticks in their own group (rewritten on zoom).
+    s.push_str(r#"<g class="xticks">"#);
     let (xt, xstep) = nice_ticks(t0, t1, 8);
     for t in &xt {
         let x = sx(*t);
@@ -171,6 +179,7 @@ pub fn plot_svg(group: &PlotGroup, id: usize) -> String {
             label = format_tick(*t, xstep)
         );
     }
+    s.push_str("</g>");
     let (yt, ystep) = nice_ticks(y0, y1, 6);
     for v in &yt {
         let y = sy(*v);
@@ -208,7 +217,7 @@ pub fn plot_svg(group: &PlotGroup, id: usize) -> String {
     // Series.
     let _ = write!(
         s,
-        r#"<defs><clipPath id="plot-clip-{id}"><rect x="{LEFT}" y="{TOP}" width="{pw}" height="{ph}"/></clipPath></defs><g clip-path="url(#plot-clip-{id})">"#
+        r#"<defs><clipPath id="plot-clip-{id}"><rect x="{LEFT}" y="{TOP}" width="{pw}" height="{ph}"/></clipPath></defs><g clip-path="url(#plot-clip-{id})"><g class="zoom">"#
     );
     for (k, pts) in decimated.iter().enumerate() {
         let color = COLORS[k % COLORS.len()];
@@ -231,12 +240,17 @@ pub fn plot_svg(group: &PlotGroup, id: usize) -> String {
         if !d.is_empty() {
             let _ = write!(
                 s,
-                r#"<path class="series" d="{}" fill="none" stroke="{color}" stroke-width="1.5" stroke-linejoin="round"/>"#,
+                r#"<path class="series" d="{}" fill="none" stroke="{color}" stroke-width="1.5" stroke-linejoin="round" vector-effect="non-scaling-stroke"/>"#,
                 d.trim()
             );
         }
     }
-    s.push_str("</g>");
+    s.push_str("</g></g>");
+    // The range being selected by a drag (plots.js).
+    let _ = write!(
+        s,
+        r##"<rect class="brush" x="{LEFT}" y="{TOP}" width="0" height="{ph}" fill="#4c78a8" fill-opacity="0.18" visibility="hidden"/>"##
+    );
     if let Some(l) = group.limit.filter(|l| l.is_finite()) {
         let y = sy(l);
         let _ = write!(

@@ -257,7 +257,7 @@ fn hot_spot_links_reach_their_program_line_and_row() {
     report.images = vec![export::ReportImage {
         name: "Predicted shape error (µm)".into(),
         png,
-        frame: Some(frame),
+        frame: Some(frame.clone()),
     }];
     let [x0, x1, y0, y1] = frame.extent_mm;
     let mid = [0.5 * (x0 + x1), 0.5 * (y0 + y1)];
@@ -305,8 +305,14 @@ fn hot_spot_links_reach_their_program_line_and_row() {
     ] {
         assert!(dom.contains(href) && dom.contains(id), "{href} → {id}");
     }
-    // Axes in mm in the page's text, not in the image.
+    // Axes in mm and the colour bar's labels in the page's text, not in the image.
     assert!(dom.contains(">X (mm)</text>") && dom.contains(">Y (mm)</text>"));
+    assert!(dom.contains("<g class=\"colour-bar\"><text") && dom.contains(">µm</text>"));
+    for (_, label) in &frame.bar_ticks {
+        assert!(dom.contains(&format!(">{label}</text>")), "{label}");
+    }
+    // The hot spot's time links to the plots zoomed around it.
+    assert!(dom.contains("<a href=\"#t=3.200\">3.200 s</a>"));
 
     // Highlight colour of `:target` (#ffe14d) in a screenshot of the page at `fragment`.
     let highlighted = |fragment: &str| {
@@ -349,4 +355,82 @@ fn hot_spot_links_reach_their_program_line_and_row() {
         l0 > r1,
         "program line {line_rows:?} below the table row {row_rows:?}"
     );
+}
+
+/// The time plots zoom together: opened at `#t=10,20`, every plot's series
+/// are scaled to show 10–20 s across the plot, and its time axis is rewritten
+/// with ticks every 2 s; opened without it, the whole program is shown.
+#[test]
+fn time_plots_zoom_to_a_range() {
+    let Some(bin) = chromium_or_skip() else {
+        return;
+    };
+    let report = common::report();
+    let dir = tempfile::tempdir().unwrap();
+    let html = dir.path().join("report.html");
+    export::write_report_html(&html, &report).unwrap();
+    let url = format!("file://{}", html.canonicalize().unwrap().display());
+    let open = |fragment: &str| {
+        let run = chromium(
+            &bin,
+            &format!("{url}{fragment}"),
+            &["--dump-dom".to_string()],
+        );
+        assert_eq!(
+            attr(&run.stdout, "<body", "data-status").as_deref(),
+            Some("ok"),
+            "stderr:\n{}",
+            run.stderr
+        );
+        run.stdout
+    };
+    let whole = open("");
+    let range = |dom: &str| -> Vec<f64> {
+        attr(dom, "<div id=\"plot-range\"", "data-range")
+            .unwrap()
+            .split(',')
+            .map(|v| v.parse().unwrap())
+            .collect()
+    };
+    // The whole program: from the earliest to the latest time any plot draws.
+    let span = |name: &str| -> Vec<f64> {
+        whole
+            .split("<svg class=\"plot\"")
+            .skip(1)
+            .map(|p| attr(p, "", name).unwrap().parse().unwrap())
+            .collect()
+    };
+    let t0 = span("data-t0").into_iter().fold(f64::INFINITY, f64::min);
+    let t1 = span("data-t1")
+        .into_iter()
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert!(t0 < 10.0 && t1 > 20.0, "{t0}..{t1}");
+    assert_eq!(range(&whole), [t0, t1]);
+    let zoomed = open("#t=10,20");
+    assert_eq!(range(&zoomed), [10.0, 20.0]);
+    let plots: Vec<&str> = zoomed.split("<svg class=\"plot\"").skip(1).collect();
+    assert_eq!(plots.len(), report.plots.len());
+    for p in plots {
+        // x' = k·x + c maps 10 s to the plot's left edge and 20 s to its right.
+        let m = attr(p, "<g class=\"zoom\"", "transform").unwrap();
+        let m: Vec<f64> = m
+            .trim_start_matches("matrix(")
+            .trim_end_matches(')')
+            .split(' ')
+            .map(|v| v.parse().unwrap())
+            .collect();
+        let num = |name: &str| -> f64 { attr(p, "", name).unwrap().parse().unwrap() };
+        let (pt0, pt1, x, w) = (num("data-t0"), num("data-t1"), num("data-x"), num("data-w"));
+        let drawn = |t: f64| x + (t - pt0) / (pt1 - pt0) * w;
+        let (k, c) = (m[0], m[4]);
+        assert!((k * drawn(10.0) + c - x).abs() < 1e-6, "{m:?}");
+        assert!((k * drawn(20.0) + c - (x + w)).abs() < 1e-6, "{m:?}");
+        let ticks = p.split("<g class=\"xticks\">").nth(1).unwrap();
+        let ticks = &ticks[..ticks.find("</g>").unwrap()];
+        let labels: Vec<&str> = ticks
+            .split("</text>")
+            .filter_map(|t| t.rsplit('>').next().filter(|l| !l.is_empty()))
+            .collect();
+        assert_eq!(labels, ["10", "12", "14", "16", "18", "20"], "{ticks}");
+    }
 }

@@ -434,6 +434,59 @@ mod report {
         }
     }
 
+    /// The report's heat map image holds no text: the colour bar's unit,
+    /// ticks and labels are page text (SVG) at the rows of their colours,
+    /// while the standalone PNG keeps them in the image.
+    #[test]
+    fn colour_bar_labels_are_page_text() {
+        let map = common::error_map();
+        let style = HeatMapStyle::new("", "µm", true);
+        let (png, frame) = export::heat_map_png_framed(&map, &style).unwrap();
+        let [bar_left, bar_top, bar_w, bar_h] = frame.bar_px;
+        // Right of the bar (its frame included) the image is blank.
+        let right_of_bar = |img: &image::RgbaImage| {
+            img.enumerate_pixels()
+                .filter(|(x, _, p)| *x > bar_left + bar_w && p.0 != [255, 255, 255, 255])
+                .count()
+        };
+        let framed = image::load_from_memory(&png).unwrap().to_rgba8();
+        assert_eq!(right_of_bar(&framed), 0, "text in the report's image");
+        let standalone =
+            image::load_from_memory(&export::heat_map_png_bytes(&map, &style).unwrap())
+                .unwrap()
+                .to_rgba8();
+        assert!(
+            right_of_bar(&standalone) > 50,
+            "the PNG file keeps its labels"
+        );
+        assert_eq!(
+            (framed.width(), framed.height()),
+            (standalone.width(), standalone.height())
+        );
+        // Ticks at the rows of their colours inside the bar, each label in the page.
+        assert!(frame.bar_ticks.len() >= 3, "{:?}", frame.bar_ticks);
+        assert!(
+            frame.bar_ticks.windows(2).all(|w| w[0].0 > w[1].0),
+            "ascending values, rising rows"
+        );
+        for (row, _) in &frame.bar_ticks {
+            assert!(*row >= f64::from(bar_top) && *row <= f64::from(bar_top + bar_h));
+        }
+        let mut report = export::Report::default();
+        report.images.push(export::ReportImage {
+            name: "error".into(),
+            png,
+            frame: Some(frame.clone()),
+        });
+        let html = export::report_html(&report);
+        let bar = html.split("<g class=\"colour-bar\">").nth(1).unwrap();
+        let bar = &bar[..bar.find("</g>").unwrap()];
+        assert!(bar.contains(">µm</text>"), "{bar}");
+        for (_, label) in &frame.bar_ticks {
+            assert!(bar.contains(&format!(">{label}</text>")), "{label}: {bar}");
+        }
+    }
+
     #[test]
     fn empty_report_is_valid() {
         let html = export::report_html(&export::Report::default());
