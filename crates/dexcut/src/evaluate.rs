@@ -206,17 +206,46 @@ impl Settings {
     }
 }
 
-#[derive(Serialize)]
-struct SweepRow {
-    accel_mm_s2: [f64; 3],
-    jerk_mm_s3: Option<[f64; 3]>,
-    kp_per_s: f64,
+/// One set of machine settings tried by `evaluate --sweep`, with its score.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SweepRow {
+    /// Per-axis acceleration limit, mm/s².
+    pub accel_mm_s2: [f64; 3],
+    /// Per-axis jerk limit, mm/s³; `None`: no jerk limit.
+    pub jerk_mm_s3: Option<[f64; 3]>,
+    /// Position loop gain, 1/s.
+    pub kp_per_s: f64,
+    /// The score of the program planned and run with these settings.
     #[serde(flatten)]
-    evaluation: Evaluation,
+    pub evaluation: Evaluation,
+}
+
+/// What the axes do with a program's servo data (MODEL.md §7.2, S2 and S4),
+/// as [`crate::evaluate`] returns it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DriveEvaluation {
+    /// The drive model of the job's `[servo]`.
+    pub drive: Drive,
+    /// S2's weights and references; Vb's reference time is that of the
+    /// program as written, so the program as written scores Vb = 1/2.
+    pub weights: Weights,
+    /// Trajectory error, machining time, jerk and S2's V of the commanded data.
+    pub evaluation: Evaluation,
+    /// The estimated actual tool position every servo period, mm.
+    pub actual_mm: Vec<[f64; 3]>,
+    /// S4's pre-compensated command and its sample-wise errors.
+    pub precomp: servo::Precomp,
+    /// Trajectory error of the pre-compensated command's actual motion, mm.
+    pub precomp_trajectory_error_mm: f64,
+    /// With `sweep`: every setting tried (accel ×0.5/1/2, with and without
+    /// jerk, kp ×0.5/1/2).
+    pub sweep: Vec<SweepRow>,
+    /// Index in [`DriveEvaluation::sweep`] of the largest V.
+    pub best: Option<usize>,
 }
 
 #[derive(Serialize)]
-struct EvaluationDoc {
+struct EvaluationDoc<'a> {
     job: String,
     drive: String,
     weights: Weights,
@@ -228,34 +257,27 @@ struct EvaluationDoc {
     precomp_iterations: usize,
     /// Trajectory error of the compensated command's actual motion, mm.
     precomp_trajectory_error_mm: f64,
-    sweep: Vec<SweepRow>,
+    sweep: &'a [SweepRow],
     best: Option<usize>,
 }
 
-/// `dexcut evaluate JOB --out DIR [--servo FILE] [--sweep]`.
-pub fn evaluate(
-    job_path: &Path,
-    out: &Path,
+/// Run the job's servo data (the program as planned, or `servo_csv`) through
+/// its drive model and score it; with `sweep`, also every setting of the grid.
+pub fn evaluate_setup(
+    setup: &Setup,
     servo_csv: Option<&Path>,
     sweep: bool,
-    settings: Option<&Path>,
-    force: bool,
-) -> Result<()> {
-    let setup = Setup::load_with(job_path, None, settings)?;
+) -> Result<DriveEvaluation> {
     let drive = drive(&setup.job)?;
     if sweep && servo_csv.is_some() {
         bail!("--sweep re-plans the program, so it cannot be combined with --servo");
     }
-    let mut inputs = setup.input_files(job_path);
-    inputs.extend(servo_csv.map(Path::to_path_buf));
-    inputs.extend(settings.map(Path::to_path_buf));
-    let out_dir = crate::outdir::OutDir::begin(out, &inputs, force)?;
     let period_s = setup.machine.period_s();
     let as_written = setup
         .program
         .gcode
         .is_some()
-        .then(|| commanded(&setup, &setup.machine))
+        .then(|| commanded(setup, &setup.machine))
         .transpose()?;
     let command = match (servo_csv, &as_written) {
         (Some(p), _) => read_servo_csv(p, setup.machine.period_ms)?,
@@ -305,7 +327,7 @@ pub fn evaluate(
                         kp_per_s: kp0 * kp_factor,
                         ..drive
                     };
-                    let c = commanded(&setup, &machine)?;
+                    let c = commanded(setup, &machine)?;
                     let a = actual_of(&c, &d);
                     rows.push(SweepRow {
                         accel_mm_s2: accel,
@@ -337,7 +359,48 @@ pub fn evaluate(
             bail!("the evaluation's {key} is {v}: the inputs give no finite result");
         }
     }
-    write_positions_csv(&out_dir.path().join("actual.csv"), &actual, period_s)?;
+    Ok(DriveEvaluation {
+        drive,
+        weights: w,
+        evaluation,
+        actual_mm: actual,
+        precomp: pre,
+        precomp_trajectory_error_mm: precomp_traj,
+        sweep: rows,
+        best,
+    })
+}
+
+/// `dexcut evaluate JOB --out DIR [--servo FILE] [--sweep]`.
+pub fn evaluate(
+    job_path: &Path,
+    out: &Path,
+    servo_csv: Option<&Path>,
+    sweep: bool,
+    settings: Option<&Path>,
+    force: bool,
+) -> Result<()> {
+    let setup = Setup::load_with(job_path, None, settings)?;
+    drive(&setup.job)?;
+    if sweep && servo_csv.is_some() {
+        bail!("--sweep re-plans the program, so it cannot be combined with --servo");
+    }
+    let mut inputs = setup.input_files(job_path);
+    inputs.extend(servo_csv.map(Path::to_path_buf));
+    inputs.extend(settings.map(Path::to_path_buf));
+    let out_dir = crate::outdir::OutDir::begin(out, &inputs, force)?;
+    let period_s = setup.machine.period_s();
+    let DriveEvaluation {
+        drive,
+        weights,
+        evaluation,
+        actual_mm,
+        precomp: pre,
+        precomp_trajectory_error_mm: precomp_traj,
+        sweep: rows,
+        best,
+    } = evaluate_setup(&setup, servo_csv, sweep)?;
+    write_positions_csv(&out_dir.path().join("actual.csv"), &actual_mm, period_s)?;
     write_positions_csv(
         &out_dir.path().join("compensated.csv"),
         &pre.command,
@@ -346,13 +409,13 @@ pub fn evaluate(
     let doc = EvaluationDoc {
         job: setup.job.name.clone(),
         drive: format!("{:?}", drive),
-        weights: w,
+        weights,
         evaluation,
         precomp_error_before_mm: pre.error_before_mm,
         precomp_error_after_mm: pre.error_after_mm,
         precomp_iterations: pre.iterations,
         precomp_trajectory_error_mm: precomp_traj,
-        sweep: rows,
+        sweep: &rows,
         best,
     };
     write_json(&out_dir.path().join("evaluation.json"), &doc)?;

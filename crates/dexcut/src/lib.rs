@@ -83,6 +83,7 @@ mod warnings;
 
 pub use commands::{Optimized, Setup, Simulation};
 pub use console::error_message;
+pub use evaluate::{DriveEvaluation, SweepRow};
 pub use report::ReportFiles;
 pub use simulate::{Run, Summary};
 pub use warnings::{Warning, WarningKind, Warnings};
@@ -108,6 +109,14 @@ pub fn optimize(setup: &Setup, out: &Path, force: bool) -> Result<Optimized> {
     let started = Instant::now();
     let out_dir = outdir::OutDir::begin(out, &setup.input_files(&setup.job_path), force)?;
     commands::optimize_setup(setup, out_dir, started, false)
+}
+
+/// Run the job's program, as planned, through its drive model (`[servo]`) and
+/// score the estimated actual motion by S2's trajectory error, time and jerk,
+/// with S4's pre-compensation (MODEL.md §7.2); with `sweep`, also a grid of
+/// acceleration, jerk and gain settings. Writes nothing.
+pub fn evaluate(setup: &Setup, sweep: bool) -> Result<DriveEvaluation> {
+    evaluate::evaluate_setup(setup, None, sweep)
 }
 
 /// Build the report (report.html, error_map.png, stock.glb) of a folder written

@@ -192,3 +192,40 @@ material = "al6061"
     assert!(html.contains("class=\"mark\" href=\"#hot-1\""));
     assert!(html.contains("X (mm)"));
 }
+
+/// The typed evaluate API: the program as written is S2's time reference, so
+/// it scores Vb = 1/2 exactly; the estimated motion has one sample per servo
+/// period and ends at the program's end; the sweep's best row has the largest
+/// V; and the command `evaluate` writes the same numbers to evaluation.json.
+#[test]
+fn evaluate_returns_typed_results() {
+    let dir = job_dir();
+    let job = dir.path().join("job.toml");
+    let setup = dexcut::load(&job, None).unwrap();
+    let e = dexcut::evaluate(&setup, true).unwrap();
+    assert_eq!(e.evaluation.vb, 0.5);
+    // The motion runs until it settles near the program's end (X110 Z35),
+    // stopping at the last sample outside the tolerance.
+    let end = *e.actual_mm.last().unwrap();
+    let miss_mm = (end[0] - 110.0).hypot(end[1]).hypot(end[2] - 35.0);
+    assert!(miss_mm < 10.0 * e.weights.tolerance_mm, "{end:?}");
+    assert!(e.precomp.error_after_mm <= e.precomp.error_before_mm);
+    assert_eq!(e.sweep.len(), 18);
+    let best = &e.sweep[e.best.unwrap()];
+    assert!(e
+        .sweep
+        .iter()
+        .all(|r| r.evaluation.evaluation <= best.evaluation.evaluation));
+    let out = dir.path().join("eval");
+    dexcut::commands::evaluate(&job, &out, None, false, None, false).unwrap();
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("evaluation.json")).unwrap())
+            .unwrap();
+    assert_eq!(
+        doc["trajectory_error_mm"].as_f64(),
+        Some(e.evaluation.trajectory_error_mm)
+    );
+    assert_eq!(doc["evaluation"].as_f64(), Some(e.evaluation.evaluation));
+    let rows = std::fs::read_to_string(out.join("actual.csv")).unwrap();
+    assert_eq!(rows.lines().count(), 1 + e.actual_mm.len());
+}
