@@ -2231,7 +2231,7 @@ fn implausible_spindle_speed_and_a_far_lower_chip_load_cap_are_told() {
 /// deep slot at F100, S500) cut by a Ø3 mm flat end mill: the closed loop
 /// removes what the rigid tool removes and predicts no larger force, where the
 /// unbounded loop swept the tool into stock it could not reach (6× the
-/// volume, 372 kN). The force warning names the lines.
+/// volume, 372 kN). The force warning names the lines and says so.
 #[test]
 fn an_overloaded_tool_keeps_the_rigid_estimate_in_the_closed_loop() {
     let dir = tempdir();
@@ -2257,7 +2257,14 @@ fn an_overloaded_tool_keeps_the_rigid_estimate_in_the_closed_loop() {
     let stress = open["peak_stress_mpa"].as_f64().unwrap();
     let limit = open["stress_limit_mpa"].as_f64().unwrap();
     assert!(stress > limit, "stress {stress} MPa, limit {limit} MPa");
-    assert!(warning(&closed, "force").is_some());
+    let w = warning(&closed, "force").expect("force warning");
+    assert!(
+        w["message"]
+            .as_str()
+            .unwrap()
+            .contains("the closed loop keeps the rigid tool's"),
+        "{w}"
+    );
     let (v_open, v_closed) = (
         open["removed_volume_mm3"].as_f64().unwrap(),
         closed["removed_volume_mm3"].as_f64().unwrap(),
@@ -2273,7 +2280,12 @@ fn an_overloaded_tool_keeps_the_rigid_estimate_in_the_closed_loop() {
     assert!(
         f_closed <= f_open * 1.001,
         "force {f_closed} N vs rigid {f_open} N"
-    );
+    ); // The one tool is overloaded: nothing is swept again, and the error map is
+       // the rigid tool's, as with the loop off.
+    assert_eq!(closed["closed_loop_passes"], 1);
+    for key in ["max_error_um", "min_error_um", "peak_deflection_um"] {
+        assert_eq!(closed[key], open[key], "{key}");
+    }
 }
 
 /// Open loop (`closed_loop = false`, MODEL.md §5): the slender tool of the test

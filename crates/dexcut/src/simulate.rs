@@ -276,9 +276,8 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
     let dirs: Vec<[f64; 2]> = step_loads
         .iter()
         .zip(&steps)
-        .zip(&tool_of_step)
-        .map(|((l, s), &t)| {
-            if s.step.rapid || overloaded[t] {
+        .map(|(l, s)| {
+            if s.step.rapid {
                 return [0.0, 0.0];
             }
             let m = [
@@ -287,6 +286,12 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
             ];
             loop_direction(l.dx_um, l.dy_um, m)
         })
+        .collect();
+    // Steps whose offset the loop seeks (the others keep offset 0: rapids,
+    // steps not pushed across the path, and every step of an overloaded tool,
+    // whose error map is the rigid tool's as with the loop off).
+    let in_loop: Vec<bool> = (0..steps.len())
+        .map(|i| dirs[i] != [0.0, 0.0] && !overloaded[tool_of_step[i]])
         .collect();
     let along = |loads: &[StepLoad], i: usize| -> f64 {
         loads[i].dx_um * dirs[i][0] + loads[i].dy_um * dirs[i][1]
@@ -303,7 +308,12 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
         .iter()
         .map(|l| l.deflection_um)
         .fold(0.0, f64::max);
-    let rigid_across_peak_um = rigid.iter().copied().fold(0.0, f64::max);
+    // Open loop: the largest deflection across the path nothing compensated;
+    // closed loop: that of the steps the loop moves (none moved: nothing to do).
+    let rigid_across_peak_um = (0..n)
+        .filter(|&i| !tools.closed_loop || in_loop[i])
+        .map(|i| rigid[i])
+        .fold(0.0, f64::max);
     let mut x: Vec<f64> = vec![0.0; n];
     let mut report = LoopReport {
         enabled: tools.closed_loop,
@@ -315,7 +325,13 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
     if tools.closed_loop && !report.converged {
         let mut relaxed = vec![Relaxed::START; n];
         let mut trial: Vec<f64> = (0..n)
-            .map(|i| (LOOP_RELAX_START * rigid[i]).min(offset_cap_um[i]))
+            .map(|i| {
+                if in_loop[i] {
+                    (LOOP_RELAX_START * rigid[i]).min(offset_cap_um[i])
+                } else {
+                    0.0
+                }
+            })
             .collect();
         // Steps out of tolerance after each sweep, to see the loop stall.
         let mut out_counts: Vec<usize> = Vec::new();
@@ -336,12 +352,12 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
             // g: the deflection the removal at the trial offset causes, across the path.
             let g: Vec<f64> = (0..n).map(|i| along(&step_loads, i)).collect();
             report.unconverged = (0..n)
-                .filter(|&i| dirs[i] != [0.0, 0.0])
+                .filter(|&i| in_loop[i])
                 .map(|i| (i, (g[i] - x[i]).abs()))
                 .filter(|&(i, r)| r > LOOP_TOL_UM + LOOP_REL_TOL * x[i].abs())
                 .collect();
             report.residual_um = (0..n)
-                .filter(|&i| dirs[i] != [0.0, 0.0])
+                .filter(|&i| in_loop[i])
                 .map(|i| (g[i] - x[i]).abs())
                 .fold(0.0, f64::max);
             report.converged = report.unconverged.is_empty();
@@ -363,7 +379,7 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
                 break;
             }
             for i in 0..n {
-                if dirs[i] != [0.0, 0.0] {
+                if in_loop[i] {
                     trial[i] = relaxed[i].next(x[i], g[i]).min(offset_cap_um[i]);
                 }
             }
