@@ -229,3 +229,33 @@ fn evaluate_returns_typed_results() {
     let rows = std::fs::read_to_string(out.join("actual.csv")).unwrap();
     assert_eq!(rows.lines().count(), 1 + e.actual_mm.len());
 }
+
+/// The API's errors are typed by step and keep the command line's message:
+/// a bad job key is a `Load` error naming the file, line and column; a folder
+/// without results is a `Report` error naming summary.json.
+#[test]
+fn api_errors_name_their_step_and_place() {
+    let dir = job_dir();
+    let job = dir.path().join("job.toml");
+    std::fs::write(
+        &job,
+        JOB.replace("feed_max = 3000", "feed_max = 3000\nspeed = 1"),
+    )
+    .unwrap();
+    match dexcut::load(&job, None) {
+        Err(e @ dexcut::Error::Load { .. }) => {
+            let at = format!("{}:14:1: unknown field `speed`", job.display());
+            assert!(e.message().starts_with(&at), "{e}");
+            assert_eq!(e.to_string(), e.message());
+        }
+        other => panic!("{:?}", other.err()),
+    }
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    match dexcut::report(&empty) {
+        Err(e @ dexcut::Error::Report { .. }) => {
+            assert!(e.message().contains("summary.json"), "{e}")
+        }
+        other => panic!("{:?}", other.err()),
+    }
+}
