@@ -19,7 +19,9 @@
 //!   does not move keeps its record (any F; blocks to where the tool is).
 //! * Where the records do not fit, the o-word loops around those lines are
 //!   written out in full ([`crate::unroll`]), and every line of them runs
-//!   once.
+//!   once; a line in no loop to unroll is split into fewer blocks per run
+//!   (the cheapest neighbouring pieces merged at the lower feed) until its
+//!   records fit.
 //! * Canned cycles whose feed moves need more than one feed are written out
 //!   as G0/G1/G4 blocks of their moves (all cycle lines of the program, or
 //!   none; see `cycle_lines`).
@@ -168,7 +170,7 @@ fn write_checked(
         for (index, t) in &tables {
             for &i in &by_line[index] {
                 if t.blocks() > 1 {
-                    plan[i] = padded(&plan[i], t.blocks());
+                    plan[i] = padded(&coarsened(&plan[i], t.blocks()), t.blocks());
                 }
             }
         }
@@ -541,6 +543,25 @@ fn run_tables(
             }
             let axes: [bool; 3] =
                 std::array::from_fn(|a| segs.iter().any(|&i| block_axes(items, &segments[i])[a]));
+            // Values per block: the axes, an arc's centre, F.
+            let per_block = axes.iter().filter(|&&a| a).count()
+                + if plane_of(&first.geometry).is_some() {
+                    2
+                } else {
+                    0
+                }
+                + 1;
+            let available = (*TABLE_PARAMS.end() - next) as usize;
+            let mut blocks = blocks;
+            if runs.len() * blocks * per_block > available {
+                // Too many records: the loops around the line may be written
+                // out instead; failing that, every run in fewer blocks.
+                unfit.push(index);
+                blocks = available / (runs.len() * per_block);
+                if blocks < 2 {
+                    continue;
+                }
+            }
             let mut letters: Vec<Vec<char>> = Vec::new();
             let mut values = Vec::new();
             // The run whose modes a still run is written in: the last that moved, else the first.
@@ -549,7 +570,7 @@ fn run_tables(
                 let words = match *r {
                     Run::Moved(i) => {
                         reference = i;
-                        let pieces = padded(&plan[i], blocks);
+                        let pieces = padded(&coarsened(&plan[i], blocks), blocks);
                         block_values(&segments[i], &trace.segments[i], axes, &pieces)
                     }
                     Run::Idle(Some(at)) => {
@@ -575,7 +596,9 @@ fn run_tables(
         };
         let needed = values.len() as u32 + 1;
         if next + needed - 1 > *TABLE_PARAMS.end() {
-            unfit.push(index);
+            if !unfit.contains(&index) {
+                unfit.push(index);
+            }
             continue;
         }
         tables.insert(
@@ -727,6 +750,27 @@ fn write_expanded(
     if blocks.is_empty() {
         out.push_str(eol);
     }
+}
+
+/// `pieces` in at most `blocks` pieces: the two neighbours whose merge at the
+/// lower of their feeds costs least time merged, until there are no more.
+fn coarsened(pieces: &[(f64, f64)], blocks: usize) -> Vec<(f64, f64)> {
+    let mut out = pieces.to_vec();
+    while out.len() > blocks.max(1) {
+        let start = |k: usize, out: &[(f64, f64)]| if k == 0 { 0.0 } else { out[k - 1].0 };
+        let (k, _) = (0..out.len() - 1)
+            .map(|k| {
+                let (a, b) = (out[k], out[k + 1]);
+                let f = a.1.min(b.1);
+                let (la, lb) = (a.0 - start(k, &out), b.0 - a.0);
+                (k, (la + lb) / f - la / a.1 - lb / b.1)
+            })
+            .min_by(|x, y| x.1.total_cmp(&y.1))
+            .expect("two pieces");
+        out[k] = (out[k + 1].0, out[k].1.min(out[k + 1].1));
+        out.remove(k + 1);
+    }
+    out
 }
 
 /// `pieces` in `blocks` pieces: the longest halved (same feed) until there are as many.
