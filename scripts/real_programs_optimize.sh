@@ -49,6 +49,20 @@ TOOLS = {
     "fusion_led_floor_bore": ("flat", 2.7, 0.1),
     "fusion_led_floor_light": ("flat", 2.7, 0.1),
     "fusion_led_floor_surface": ("flat", 40.0, 0.5),
+    "cambam_piezagopro": ("flat", 3.0, 0.1),
+    "cambam_communicator": ("flat", 3.175, 0.1),
+    "cambam_electric_turtle": ("flat", 3.175, 0.1),
+    "cambam_shapeoko_engrave": ("flat", 1.0, 0.1),
+    "pycam_shapeoko": ("flat", 1.0, 0.1),
+    "sketchucam_arc_rword": ("flat", 3.175, 0.1),
+    "ugs_designer": ("flat", 3.0, 0.1),
+    "estlcam_backplate": ("flat", 3.175, 0.1),
+    "estlcam_enclosure": ("flat", 2.0, 0.1),
+    "estlcam_spool_fixture": ("flat", 2.0, 0.1),
+    "freecad_corner_20_20": ("flat", 3.0, 0.1),
+    "freecad_hole_7mm": ("flat", 6.0, 0.1),
+    "freecad_plate8": ("flat", 3.0, 0.1),
+    "fusion_tap_heatsink": ("flat", 3.175, 0.1),
 }
 DEFAULT_TOOL = ("flat", 3.0, 0.1)
 
@@ -133,11 +147,11 @@ for f in sorted(os.listdir(data)):
     open(os.path.join(d, "refed.toml"), "w").write(job(written, limits))
     r = run(["simulate", "refed.toml", "--out", "refed", "--force"], d)
     R = json.load(open(os.path.join(d, "refed/summary.json"))) if r.returncode == 0 else {}
-    programmed = max(
+    programmed = max((
         float(x["feed_mm_min"])
         for x in csv.DictReader(open(os.path.join(d, "opt/steps_before.csv")))
         if x["rapid"] == "0" and float(x["volume_mm3"]) > 1e-6
-    )
+    ), default=float("nan"))
     after = O["after"]
     rows.append(
         dict(
