@@ -533,23 +533,22 @@ impl Interp<'_> {
             self.first_dropped.get_or_insert((self.line_index, col));
             return;
         }
-        self.diagnostics.push(Diagnostic {
-            file: self.file.to_owned(),
-            line: self.line_index as u32 + 1,
-            column: col.max(1),
-            message,
-            severity: Severity::Error,
-        });
+        self.push_diagnostic(col, message, Severity::Error);
     }
 
     /// A warning: the program is read, but the user should know.
     fn warn(&mut self, col: u32, message: String) {
+        self.push_diagnostic(col, message, Severity::Warning);
+    }
+
+    /// A diagnostic at column `col` of the line being read.
+    fn push_diagnostic(&mut self, col: u32, message: String, severity: Severity) {
         self.diagnostics.push(Diagnostic {
             file: self.file.to_owned(),
             line: self.line_index as u32 + 1,
             column: col.max(1),
             message,
-            severity: Severity::Warning,
+            severity,
         });
     }
 
