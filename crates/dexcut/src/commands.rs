@@ -42,6 +42,9 @@ pub struct Setup {
     pub machine: Machine,
     /// The `[design]` model, read and checked before any work.
     pub design: Option<(PathBuf, mesh::DesignModel)>,
+    /// What the set-up warns of before any work (see [`Setup::load`]): the
+    /// commands print them at once and put them first in summary.json.
+    pub warnings: Vec<crate::warnings::Warning>,
 }
 
 /// Most segments a program may have once its arcs are linearised (`arcs_as_lines`): the
@@ -122,7 +125,7 @@ impl Setup {
             }
             None => None,
         };
-        Ok(Setup {
+        let mut setup = Setup {
             job_path: job_path.to_path_buf(),
             job,
             tool,
@@ -132,7 +135,10 @@ impl Setup {
             tools,
             machine,
             design,
-        })
+            warnings: Vec::new(),
+        };
+        setup.warnings = setup.setup_warnings();
+        Ok(setup)
     }
 
     /// Material, tools, machine and limits, as summary.json records them.
@@ -196,9 +202,9 @@ impl Setup {
 
     /// What the job's set-up warns of before any work, in this order: the
     /// program's file form ([`nc::FileForm::Tolerant`]), a tool change the
-    /// single `[tool]` cannot follow, and the grid check. The commands print
-    /// them at once and put them first in summary.json.
-    pub fn setup_warnings(&self) -> Vec<crate::warnings::Warning> {
+    /// single `[tool]` cannot follow, spindle speeds not used, and the grid
+    /// check. Computed once, into [`Setup::warnings`].
+    fn setup_warnings(&self) -> Vec<crate::warnings::Warning> {
         use crate::warnings::{Warning, WarningKind};
         let mut out: Vec<Warning> = self
             .program
@@ -626,12 +632,14 @@ impl Simulation {
 /// `actual_path` the drive model's estimate of it): removal, loads, the closed
 /// loop, warnings and the design comparison. Writes nothing.
 pub fn simulate_setup(setup: &Setup, actual_path: bool) -> Result<Simulation> {
-    let setup_warnings = setup.setup_warnings();
     let steps = setup.steps(actual_path)?;
     let run = simulate::run(setup.stock.clone(), &setup.tools, steps, "simulate")?;
     let mut summary = run.summary();
     summary.check_finite()?;
-    summary.warnings.0.splice(0..0, setup_warnings);
+    summary
+        .warnings
+        .0
+        .splice(0..0, setup.warnings.iter().cloned());
     let tops = run.stock.top_heights();
     let design = design_comparison(setup, &run, &tops)?;
     Ok(Simulation {
@@ -644,7 +652,7 @@ pub fn simulate_setup(setup: &Setup, actual_path: bool) -> Result<Simulation> {
 
 /// Print the set-up warnings of a job at once, before the work.
 fn announce_setup_warnings(setup: &Setup) {
-    for w in setup.setup_warnings() {
+    for w in &setup.warnings {
         eprintln!("warning: {w}");
     }
 }
@@ -861,7 +869,6 @@ pub fn optimize_setup(
     columns_csv: bool,
 ) -> Result<Optimized> {
     let limits = &setup.job.limits;
-    let setup_warnings = setup.setup_warnings();
     // Before: the program as written.
     let t0 = Instant::now();
     let before_steps = setup.machine_steps()?;
@@ -932,7 +939,7 @@ pub fn optimize_setup(
     after_summary
         .warnings
         .0
-        .splice(0..0, setup_warnings.into_iter().chain(chip_warnings));
+        .splice(0..0, setup.warnings.iter().cloned().chain(chip_warnings));
     let mut unresolved = crate::warnings::LineTally::new();
     for e in &written.unresolved {
         crate::warnings::tally(&mut unresolved, e.line, 100.0 * e.over_limit);

@@ -780,7 +780,6 @@ pub fn write_verified(
                     .with_context(|| {
                     format!("{}: cannot write the re-fed program", setup.program.file)
                 })?;
-                let text = setup.program.machine_text(text);
                 let parsed = nc::parse(&text, &setup.program.file, &setup.program.nc_options);
                 if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
                     bail!("the re-fed program does not read back: {d}");

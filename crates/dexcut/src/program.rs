@@ -19,8 +19,6 @@ pub struct Program {
     /// What the reader warned of: where LinuxCNC would refuse the file (no
     /// program end, a byte-order mark) but most controls read it.
     pub read_warnings: Vec<nc::Diagnostic>,
-    /// The program ends with M2, M30 or a closing `%` (true for CSV point lists).
-    pub has_program_end: bool,
 }
 
 impl Program {
@@ -34,23 +32,6 @@ impl Program {
             .map(|s| s.spindle_rpm)
             .filter(|&rpm| crate::tools::plausible_rpm(diameter_mm, rpm))
             .fold(0.0, f64::max)
-    }
-
-    /// A re-fed text of this program as written for a machine: with no
-    /// byte-order mark, and ending with `M2` when the program had no end, so
-    /// that every control (LinuxCNC included) reads it. Neither changes a move.
-    pub fn machine_text(&self, text: String) -> String {
-        let mut text = match text.strip_prefix('\u{feff}') {
-            Some(rest) => rest.to_string(),
-            None => text,
-        };
-        if !self.has_program_end {
-            if !text.is_empty() && !text.ends_with('\n') {
-                text.push('\n');
-            }
-            text.push_str("M2 (program end added by dexcut: the original had none)\n");
-        }
-        text
     }
 }
 
@@ -78,7 +59,6 @@ pub fn load(job: &Job) -> Result<Program> {
             gcode: None,
             nc_options: nc::Options::default(),
             read_warnings: Vec::new(),
-            has_program_end: true,
         })
     } else {
         parse_gcode(&text, &file, job)
@@ -161,7 +141,6 @@ pub fn parse_gcode(text: &str, file: &str, job: &Job) -> Result<Program> {
             .into_iter()
             .filter(|d| !d.is_error())
             .collect(),
-        has_program_end: parsed.has_program_end,
     })
 }
 

@@ -72,7 +72,7 @@ pub struct Warning {
 impl Warning {
     /// A warning of the job's set-up, printed before any work: the program
     /// file's form, a tool change a single tool cannot follow, S words that
-    /// are no spindle speed, the grid check (see `Setup::setup_warnings`),
+    /// are no spindle speed, the grid check (see `Setup::warnings`),
     /// and optimize's chip-load check (printed once the program as given is
     /// simulated, before the rounds).
     pub fn of_setup(&self) -> bool {

@@ -19,7 +19,7 @@ use crate::syntax::{self, Item, ItemKind, LineKind, OKeyword, OLabel, OStmt, Syn
 use crate::GCode;
 
 /// The UTF-8 byte-order mark some editors write before the first line.
-const BYTE_ORDER_MARK: char = '\u{feff}';
+pub(crate) const BYTE_ORDER_MARK: char = '\u{feff}';
 
 /// Settings the program cannot know by itself.
 #[derive(Clone, Debug, PartialEq)]

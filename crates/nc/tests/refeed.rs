@@ -655,3 +655,53 @@ fn subroutine_lines_with_too_many_records_are_split_in_fewer_blocks() {
         length / lowest
     );
 }
+
+/// A file read as most controls read it (no program end, a byte-order mark)
+/// is written as LinuxCNC reads it too: the mark dropped, `M2` added in the
+/// file's own line ending, every move and feed as planned.
+#[test]
+fn tolerant_files_are_written_with_an_end_and_no_byte_order_mark() {
+    let tolerant = Options {
+        file_form: nc::FileForm::Tolerant,
+        ..Options::default()
+    };
+    let linuxcnc = Options {
+        file_form: nc::FileForm::LinuxCnc,
+        ..Options::default()
+    };
+    for (src, eol) in [
+        ("\u{feff}G0 X0 Y0 Z5\nG1 Z0 F300\nX10", "\n"),
+        ("G0 X0 Y0 Z5\r\nG1 Z0 F300\r\nX10\r\n", "\r\n"),
+    ] {
+        let read = nc::parse(src, "t.ngc", &tolerant);
+        assert!(!read.has_program_end);
+        let plan = uniform(&read.path, 420.0);
+        let out = nc::refeed(src, "t.ngc", &tolerant, &plan).unwrap();
+        assert!(!out.starts_with('\u{feff}'), "{out:?}");
+        assert!(
+            out.ends_with(&format!(
+                "X10 F420{eol}M2 (program end added by dexcut: the original had none){eol}"
+            )),
+            "{out:?}"
+        );
+        let back = nc::parse(&out, "t.ngc", &linuxcnc);
+        assert!(back.diagnostics.is_empty(), "{:?}", back.diagnostics);
+        assert!(back.has_program_end);
+        assert_eq!(feeds(&back.path), vec![420.0, 420.0]);
+        let ends = |p: &nc::Path| p.segments.iter().map(|s| s.end).collect::<Vec<_>>();
+        assert_eq!(ends(&back.path), ends(&read.path));
+    }
+    // A whole file as LinuxCNC reads it, and a fragment, are written as they were.
+    let src = "G1 X10 F300\nM2\n";
+    let path = nc::parse(src, "t.ngc", &tolerant).path;
+    let out = nc::refeed(src, "t.ngc", &tolerant, &uniform(&path, 500.0)).unwrap();
+    assert_eq!(out, "G1 X10 F500\nM2\n");
+    let out = nc::refeed(
+        "G1 X10 F300\n",
+        "t.ngc",
+        &Options::default(),
+        &uniform(&path, 500.0),
+    )
+    .unwrap();
+    assert_eq!(out, "G1 X10 F500\n");
+}
