@@ -922,12 +922,7 @@ fn a_tool_change_the_single_tool_cannot_follow_is_a_warning() {
         "{stderr}"
     );
     let s = summary(&dir.path().join("out"));
-    let w: Vec<&Value> = s["warnings"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter(|w| w["kind"] == "ignored_tool")
-        .collect();
+    let w = warnings(&s, "ignored_tool");
     assert_eq!(w.len(), 1, "{}", s["warnings"]);
     assert_eq!(w[0]["line"], 9);
     assert_eq!(w[0]["value"], 2.0);
@@ -938,15 +933,7 @@ fn a_tool_change_the_single_tool_cannot_follow_is_a_warning() {
         dir.path(),
     ));
     let s = summary(&dir.path().join("one"));
-    assert!(
-        !s["warnings"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .any(|w| w["kind"] == "ignored_tool"),
-        "{}",
-        s["warnings"]
-    );
+    assert!(warning(&s, "ignored_tool").is_none(), "{}", s["warnings"]);
 }
 
 /// A program as CAM posts (BlenderCAM) and Windows editors write it, with a
@@ -968,11 +955,8 @@ fn programs_without_an_end_or_with_a_byte_order_mark_run_with_warnings() {
     assert_eq!(stderr.matches("byte-order mark").count(), 1, "{stderr}");
     assert_eq!(stderr.matches("no program end").count(), 1, "{stderr}");
     let s = summary(&dir.path().join("sim"));
-    let form: Vec<(u64, String)> = s["warnings"]
-        .as_array()
-        .unwrap()
+    let form: Vec<(u64, String)> = warnings(&s, "program_form")
         .iter()
-        .filter(|w| w["kind"] == "program_form")
         .map(|w| {
             (
                 w["line"].as_u64().unwrap(),
@@ -1028,15 +1012,7 @@ fn programs_without_an_end_or_with_a_byte_order_mark_run_with_warnings() {
         dir.path(),
     ));
     let r = summary(&dir.path().join("refed"));
-    assert!(
-        !r["warnings"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .any(|w| w["kind"] == "program_form"),
-        "{}",
-        r["warnings"]
-    );
+    assert!(warning(&r, "program_form").is_none(), "{}", r["warnings"]);
     let after = &summary(&dir.path().join("out"))["after"];
     for key in ["cycle_time_s", "removed_volume_mm3", "peak_mrr_mm3_s"] {
         let (a, b) = (after[key].as_f64().unwrap(), r[key].as_f64().unwrap());
@@ -1323,13 +1299,19 @@ fn machine_start_is_where_the_tool_begins() {
     assert!(t_given > t_default);
 }
 
-/// The warnings of a simulate run (summary.json `warnings`), by kind.
+/// The first warning of a kind in a simulate run (summary.json `warnings`).
 fn warning<'a>(s: &'a Value, kind: &str) -> Option<&'a Value> {
+    warnings(s, kind).into_iter().next()
+}
+
+/// Every warning of a kind in a simulate run (summary.json `warnings`).
+fn warnings<'a>(s: &'a Value, kind: &str) -> Vec<&'a Value> {
     s["warnings"]
         .as_array()
         .unwrap()
         .iter()
-        .find(|w| w["kind"] == kind)
+        .filter(|w| w["kind"] == kind)
+        .collect()
 }
 
 /// Simulate `program` with the G-code slot job, `edit` = (from, to) replaced in the job.

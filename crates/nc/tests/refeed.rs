@@ -25,10 +25,19 @@ fn uniform(path: &nc::Path, feed: f64) -> Vec<Vec<(f64, f64)>> {
 
 /// The same `pieces` for every feed segment, none for the others.
 fn every_feed(path: &nc::Path, pieces: &[(f64, f64)]) -> Vec<Vec<(f64, f64)>> {
+    feed_plan(path, |_, _| pieces.to_vec())
+}
+
+/// A plan of `pieces(index, segment)` for every feed segment, none for the others.
+fn feed_plan(
+    path: &nc::Path,
+    mut pieces: impl FnMut(usize, &nc::Segment) -> Vec<(f64, f64)>,
+) -> Vec<Vec<(f64, f64)>> {
     path.segments
         .iter()
-        .map(|s| match s.motion {
-            Motion::Feed { .. } => pieces.to_vec(),
+        .enumerate()
+        .map(|(i, s)| match s.motion {
+            Motion::Feed { .. } => pieces(i, s),
             _ => vec![],
         })
         .collect()
@@ -228,15 +237,7 @@ fn repeated_lines_get_a_feed_per_run_and_cycles_the_lowest() {
     let src =
         "#1500 = 2\no100 sub\nG1 X[#1] F500\no100 endsub\no100 call [10]\no100 call [20]\nM2\n";
     let path = parse(src);
-    let plan: Vec<Vec<(f64, f64)>> = path
-        .segments
-        .iter()
-        .enumerate()
-        .map(|(i, s)| match s.motion {
-            Motion::Feed { .. } => vec![(1.0, 300.0 + 100.0 * i as f64)],
-            _ => vec![],
-        })
-        .collect();
+    let plan = feed_plan(&path, |i, _| vec![(1.0, 300.0 + 100.0 * i as f64)]);
     let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
     let lowest = plan
         .iter()
@@ -313,18 +314,10 @@ fn a_run_without_motion_keeps_its_record() {
     for (x, split) in [("10", false), ("10", true), ("[10 / 3]", true)] {
         let src = format!("o100 sub\nG1 X[#1] F500\no100 endsub\nG0 X{x}\no100 call [{x}]\no100 call [20]\no100 call [30]\nM2\n");
         let path = parse(&src);
-        let plan: Vec<Vec<(f64, f64)>> = path
-            .segments
-            .iter()
-            .enumerate()
-            .map(|(i, s)| match s.motion {
-                Motion::Feed { .. } if split => {
-                    vec![(0.5, 1000.0 + 100.0 * i as f64), (1.0, 300.0)]
-                }
-                Motion::Feed { .. } => vec![(1.0, 300.0 + 100.0 * i as f64)],
-                _ => vec![],
-            })
-            .collect();
+        let plan = feed_plan(&path, |i, _| match split {
+            true => vec![(0.5, 1000.0 + 100.0 * i as f64), (1.0, 300.0)],
+            false => vec![(1.0, 300.0 + 100.0 * i as f64)],
+        });
         assert_eq!(feeds(&path).len(), 2);
         let out = nc::refeed(&src, "t.ngc", &Options::default(), &plan).unwrap();
         let new = feeds(&parse(&out));
@@ -375,18 +368,10 @@ fn corpus_round_trip_with_split_blocks() {
         }
         let src = std::fs::read_to_string(&file).unwrap();
         let path = parse(&src);
-        let plan: Vec<Vec<(f64, f64)>> = path
-            .segments
-            .iter()
-            .enumerate()
-            .map(|(i, s)| match s.motion {
-                Motion::Feed { .. } if s.length_mm() > 1.0 => {
-                    vec![(0.2, 100.0 + i as f64), (0.7, 2000.0), (1.0, 900.5)]
-                }
-                Motion::Feed { .. } => vec![(1.0, 321.0)],
-                _ => vec![],
-            })
-            .collect();
+        let plan = feed_plan(&path, |i, s| match s.length_mm() > 1.0 {
+            true => vec![(0.2, 100.0 + i as f64), (0.7, 2000.0), (1.0, 900.5)],
+            false => vec![(1.0, 321.0)],
+        });
         let out = nc::refeed(
             &src,
             &file.display().to_string(),
@@ -595,23 +580,16 @@ fn subroutine_lines_with_too_many_records_are_split_in_fewer_blocks() {
         o1 while [#3 LT 300]\no100 call [[#3 MOD 2] * 20] [#3 / 10]\n#3 = [#3 + 1]\no1 endwhile\nM2\n";
     let path = parse(src);
     let mut run = 0.0;
-    let plan: Vec<Vec<(f64, f64)>> = path
-        .segments
-        .iter()
-        .map(|s| match s.motion {
-            Motion::Feed { .. } => {
-                run += 1.0;
-                vec![
-                    (0.2, 3000.0 - run),
-                    (0.5, 800.0),
-                    (0.55, 790.0),
-                    (0.7, 2000.0),
-                    (1.0, 300.0 + run),
-                ]
-            }
-            _ => vec![],
-        })
-        .collect();
+    let plan = feed_plan(&path, |_, _| {
+        run += 1.0;
+        vec![
+            (0.2, 3000.0 - run),
+            (0.5, 800.0),
+            (0.55, 790.0),
+            (0.7, 2000.0),
+            (1.0, 300.0 + run),
+        ]
+    });
     assert_eq!(run, 300.0);
     let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
     assert!(out.contains("F#[#1000 * 12 + "), "not four blocks of X Y F");
