@@ -39,7 +39,8 @@ pub enum WarningKind {
     /// The written program is slower than the plan it was written from.
     PlanNotMet,
     /// The program file has a form LinuxCNC refuses but most controls read
-    /// (no program end, a byte-order mark); read as they read it.
+    /// (no program end, a byte-order mark, a dialect word real posts write;
+    /// see `nc::amend`); read as they read it.
     ProgramForm,
     /// An S word too slow to be a milling spindle speed for the tool
     /// (MODEL.md §2.1): not taken as rev/min.

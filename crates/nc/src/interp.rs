@@ -11,6 +11,7 @@ use nalgebra::Point3;
 
 mod comp;
 
+use crate::amend::{self, Amendment};
 use crate::cycles::{self, Cycle, CycleMove};
 use crate::diag::{Diagnostic, Severity};
 use crate::expr::Params;
@@ -71,8 +72,10 @@ pub enum FileForm {
     /// are errors.
     LinuxCnc,
     /// As most controls: the program ends at its last line when it has no
-    /// program end, and a leading byte-order mark is skipped; each is a
-    /// warning naming what LinuxCNC would refuse.
+    /// program end, a leading byte-order mark is skipped, and three dialects
+    /// real posts write are read as their controls read them (see
+    /// [`crate::amend`]); each is a warning naming what LinuxCNC would
+    /// refuse, and an [`Amendment`] in [`Parsed::amendments`].
     Tolerant,
 }
 
@@ -107,6 +110,9 @@ pub struct Parsed {
     /// The program ended with M2, M30, a closing `%` (or M99 outside any
     /// subprogram), rather than at the end of the file.
     pub has_program_end: bool,
+    /// What makes a tolerantly read file one LinuxCNC reads with the same
+    /// moves ([`crate::amend`]); empty in the other file forms.
+    pub amendments: Vec<Amendment>,
 }
 
 /// Per-segment facts the re-feed writer needs (modes in force at the block).
@@ -279,6 +285,8 @@ struct Context {
 }
 
 struct Interp<'a> {
+    /// What the tolerant file form accepted beyond LinuxCNC, as amendments.
+    tolerated: Tolerated,
     file: &'a str,
     options: &'a Options,
     /// Shared so that executing a line needs no copy of it.
@@ -407,6 +415,7 @@ fn run_once(
     let mut pos = options.initial_position_mm;
     pos[2] += tool_length_mm;
     let mut it = Interp {
+        tolerated: Tolerated::default(),
         file,
         options,
         lines: Rc::new([]),
@@ -464,6 +473,7 @@ fn run_once(
     };
     let source = match source.strip_prefix(BYTE_ORDER_MARK) {
         Some(rest) if options.file_form == FileForm::Tolerant => {
+            it.tolerated.amendments.push(Amendment::DropByteOrderMark);
             it.warn(
                 1,
                 "UTF-8 byte-order mark before the first line skipped (LinuxCNC would refuse the file)"
@@ -489,8 +499,40 @@ fn run_once(
                 lines.push(Some(line));
             }
             Err(e) => {
-                it.syntax_errors.insert(i, e);
-                lines.push(None);
+                // Parentheses nested in a comment that closes on the line.
+                let flat = (options.file_form == FileForm::Tolerant)
+                    .then(|| amend::flatten_nested_comments(text))
+                    .flatten()
+                    .and_then(|(flat, col)| Some((syntax::parse_line(&flat).ok()?, flat, col)));
+                match flat {
+                    Some((line, flat, col)) => {
+                        it.line_index = i;
+                        let start = flat
+                            .bytes()
+                            .zip(text.bytes())
+                            .position(|(a, b)| a != b)
+                            .unwrap_or(0);
+                        let end = flat.len()
+                            - flat
+                                .bytes()
+                                .rev()
+                                .zip(text.bytes().rev())
+                                .position(|(a, b)| a != b)
+                                .unwrap_or(0);
+                        it.tolerate(
+                            start..end,
+                            flat[start..end].to_owned(),
+                            col,
+                            "parentheses nested in a comment read as one comment, written as [ ]"
+                                .into(),
+                        );
+                        lines.push(Some(line));
+                    }
+                    None => {
+                        it.syntax_errors.insert(i, e);
+                        lines.push(None);
+                    }
+                }
             }
         }
     }
@@ -519,6 +561,7 @@ fn run_once(
             path: it.path,
             diagnostics: it.diagnostics,
             has_program_end: it.ended,
+            amendments: it.tolerated.amendments,
         },
         trace,
         it.first_loaded,
@@ -526,7 +569,49 @@ fn run_once(
     )
 }
 
+/// What the tolerant file form read beyond LinuxCNC ([`FileForm::Tolerant`]).
+#[derive(Default)]
+struct Tolerated {
+    amendments: Vec<Amendment>,
+    /// (line, byte) of every edit made, each made and warned of once.
+    edited: std::collections::HashSet<(usize, usize)>,
+    /// The last G0/G1/G2/G3 mode set: what a Fanuc-style control moves in
+    /// after G80.
+    plain_motion: Option<GCode>,
+}
+
 impl Interp<'_> {
+    /// In the tolerant file form, reads what LinuxCNC refuses by editing the
+    /// line (once per line and place), with a warning; else `false`.
+    fn tolerate(
+        &mut self,
+        range: std::ops::Range<usize>,
+        text: String,
+        col: u32,
+        what: String,
+    ) -> bool {
+        if self.options.file_form != FileForm::Tolerant {
+            return false;
+        }
+        if self.tolerated.edited.insert((self.line_index, range.start)) {
+            self.tolerated.amendments.push(Amendment::Edit {
+                line_index: self.line_index,
+                range,
+                text,
+            });
+            self.warn(col, format!("{what} (LinuxCNC would refuse the line)"));
+        }
+        true
+    }
+
+    /// Byte range of the item of line `pc` at column `col`.
+    fn item_span(&self, pc: usize, col: u32) -> Option<std::ops::Range<usize>> {
+        match &self.lines.get(pc)?.as_ref()?.kind {
+            LineKind::Block(items) => items.iter().find(|i| i.col == col).map(|i| i.span.clone()),
+            _ => None,
+        }
+    }
+
     fn report(&mut self, col: u32, message: String) {
         self.error_count += 1;
         if self.error_count > self.options.max_errors {
@@ -643,10 +728,13 @@ impl Interp<'_> {
                 1,
                 "file ended with no program end (M2 or M30) or closing '%'".into(),
             ),
-            FileForm::Tolerant => self.warn(
-                1,
-                "file ended with no program end (M2 or M30) or closing '%': the program ends at its last line (LinuxCNC would refuse the file)".into(),
-            ),
+            FileForm::Tolerant => {
+                self.tolerated.amendments.push(Amendment::AppendProgramEnd);
+                self.warn(
+                    1,
+                    "file ended with no program end (M2 or M30) or closing '%': the program ends at its last line (LinuxCNC would refuse the file)".into(),
+                )
+            }
         }
     }
 
@@ -1102,19 +1190,19 @@ impl Interp<'_> {
         }
         if let Some((code, _)) = motion_code {
             self.motion = code;
+            if matches!(code, GCode::G0 | GCode::G1 | GCode::G2 | GCode::G3) {
+                self.tolerated.plain_motion = Some(code);
+            }
             if !matches!(code, GCode::G73 | GCode::G81 | GCode::G82 | GCode::G83) {
                 self.cycle_initial_z = None;
             }
         }
         let use_motion = axis_user.is_none() && (motion_code.is_some() || b.has_axes());
         if use_motion {
+            if self.motion == GCode::G80 && b.has_axes() {
+                self.axis_words_after_g80(&b, pc)?;
+            }
             if self.motion == GCode::G80 {
-                if b.has_axes() {
-                    return fail(
-                        b.first_col,
-                        "axis words without a motion mode (G80 is active)",
-                    );
-                }
                 self.cycle_r = None;
                 self.cycle_z = None;
             } else if b.has_axes() || matches!(self.motion, GCode::G2 | GCode::G3) {
@@ -1665,12 +1753,42 @@ impl Interp<'_> {
         done
     }
 
+    /// Axis words with G80 in force: an error, as in LinuxCNC; read
+    /// tolerantly, a move in the G0/G1 mode set before the canned cycle, as
+    /// Fanuc-style controls (Mach3) make it, written with that G code.
+    fn axis_words_after_g80(&mut self, b: &Block, pc: usize) -> Result<(), Fail> {
+        let col = ['x', 'y', 'z', '@', '^']
+            .iter()
+            .filter(|&&c| b.get(c).is_some())
+            .map(|&c| b.col(c))
+            .min()
+            .unwrap_or(b.first_col);
+        if let (Some(code), Some(span)) = (self.tolerated.plain_motion, self.item_span(pc, col)) {
+            let what = format!("axis words after G80 moved in {code}, the mode before the canned cycle, as Fanuc-style controls do; written with {code}");
+            if self.tolerate(span.start..span.start, format!("{code} "), col, what) {
+                self.motion = code;
+                return Ok(());
+            }
+        }
+        fail(
+            b.first_col,
+            "axis words without a motion mode (G80 is active)",
+        )
+    }
+
     fn arc(&mut self, b: &Block, end: [f64; 3], pc: usize) -> Result<(), Fail> {
         let clockwise = self.motion == GCode::G2;
         let (a, bb, n) = self.plane.axes();
         let letters = ['i', 'j', 'k'];
         let off_word = letters[n];
-        if b.get(off_word).is_some() {
+        let tolerated = b.get(off_word).is_some_and(|v| {
+            let col = b.col(off_word);
+            let letter = off_word.to_ascii_uppercase();
+            self.item_span(pc, col).is_some_and(|span| {
+                self.tolerate(span, String::new(), col, format!("{letter}{v} on an arc in this plane ignored, as GRBL does; written without it"))
+            })
+        });
+        if b.get(off_word).is_some() && !tolerated {
             return fail(
                 b.col(off_word),
                 format!(

@@ -4,6 +4,7 @@
 //! Entry points: [`parse`], and [`refeed`] to write a program back with new feeds. The reader never stops at the first problem and
 //! never panics; every problem is a [`Diagnostic`] with file, line and column.
 #![warn(missing_docs)]
+mod amend;
 mod cycles;
 mod diag;
 mod expr;
@@ -14,6 +15,7 @@ mod refeed;
 mod syntax;
 mod unroll;
 
+pub use amend::{amend, Amendment};
 pub use diag::{Diagnostic, Severity};
 pub use gcode::GCode;
 pub use interp::{FileForm, Options, Parsed};

@@ -32,8 +32,9 @@
 //!   block, multi-turn arcs) are treated the same way.
 //!
 //! * A file read tolerantly ([`crate::FileForm::Tolerant`]) is written as
-//!   every control reads it: without its byte-order mark, and ending with
-//!   `M2` when it had no program end.
+//!   every control reads it, with the reader's amendments ([`crate::amend`]):
+//!   no byte-order mark, `M2` where it had no program end, and the dialect
+//!   words LinuxCNC refuses written as it reads them.
 //!
 //! The output is parsed again and checked against the plan (same end points
 //! and lengths, feeds never above the plan) before it is returned.
@@ -93,28 +94,13 @@ pub fn refeed(
 ) -> Result<String, RefeedError> {
     let (mut parsed, mut trace, mut executed) = interp::run_recorded(source, file, options);
     // A file read as most controls read it is written as every control reads
-    // it: without a byte-order mark, and ending with M2 when it had no end.
-    // Neither changes a move; the amended source is what is re-fed and checked.
+    // it ([`crate::amend`]); the amended source is what is re-fed and checked.
     let amended;
     let mut source = source;
-    if options.file_form == interp::FileForm::Tolerant {
-        let body = source
-            .strip_prefix(interp::BYTE_ORDER_MARK)
-            .unwrap_or(source);
-        if !parsed.has_program_end || body.len() != source.len() {
-            let mut text = body.to_owned();
-            if !parsed.has_program_end {
-                let eol = if text.contains("\r\n") { "\r\n" } else { "\n" };
-                if !text.is_empty() && !text.ends_with('\n') {
-                    text.push_str(eol);
-                }
-                text.push_str(PROGRAM_END_ADDED);
-                text.push_str(eol);
-            }
-            amended = text;
-            source = &amended;
-            (parsed, trace, executed) = interp::run_recorded(source, file, options);
-        }
+    if !parsed.amendments.is_empty() && !parsed.diagnostics.iter().any(|d| d.is_error()) {
+        amended = crate::amend(source, &parsed.amendments);
+        source = &amended;
+        (parsed, trace, executed) = interp::run_recorded(source, file, options);
     }
     if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
         return Err(RefeedError::Program(d.clone()));
@@ -158,9 +144,6 @@ pub fn refeed(
         source, file, options, segments, &trace, &by_line, plan, tables,
     )
 }
-
-/// The block appended to a file that had no program end.
-const PROGRAM_END_ADDED: &str = "M2 (program end added by dexcut: the original had none)";
 
 /// Segments made by each line.
 fn lines_segments(trace: &interp::Trace) -> BTreeMap<usize, Vec<usize>> {

@@ -473,3 +473,62 @@ fn inverse_time_and_dwell() {
     assert_eq!(s[1].motion, Motion::Dwell { seconds: 2.5 });
     assert!(!errors("G93 G1 X10").is_empty());
 }
+
+/// Three dialects real posts write and LinuxCNC refuses, read as the
+/// controls they were written for read them, each with a warning at its line
+/// and column: Estlcam's parentheses nested in a comment, FreeCAD's GRBL post
+/// `K0` on XY arcs (GRBL ignores it), and Fusion's `.tap` axis words after
+/// G80 (Fanuc-style controls move in the G0/G1 mode set before the cycle).
+/// The amended text ([`nc::amend`]) reads as LinuxCNC reads it, through the
+/// same path, with no further amendment; each line is warned of once.
+#[test]
+fn dialects_real_posts_write_are_read_tolerantly_and_amended() {
+    let form = |file_form| Options {
+        file_form,
+        ..Options::default()
+    };
+    let cases = [
+        (
+            "(Tools: (HSS Twist Drill, 3mm (R)))\nG0 X0 Y0 Z5\nG1 Z-1 F100\nM2\n",
+            (1, 9),
+            "nested in a comment",
+            "(Tools: [HSS Twist Drill, 3mm [R]])\nG0 X0 Y0 Z5\nG1 Z-1 F100\nM2\n",
+        ),
+        (
+            "G17 G0 X0 Y0 Z1\nG1 X1 F300\nG3 X2 Y1 I0 J1 K0.000\nM2\n",
+            (3, 16),
+            "K0 on an arc in this plane ignored",
+            "G17 G0 X0 Y0 Z1\nG1 X1 F300\nG3 X2 Y1 I0 J1\nM2\n",
+        ),
+        (
+            "G0 X0 Y0 Z5\nG98 G81 X1 Y1 Z-1 R2 F100\nX2\nG80\nX0 Y-2 Z6\no1 repeat [2]\nX1 Y1\no1 endrepeat\nM2\n",
+            (5, 1),
+            "axis words after G80 moved in G0",
+            "G0 X0 Y0 Z5\nG98 G81 X1 Y1 Z-1 R2 F100\nX2\nG80\nG0 X0 Y-2 Z6\no1 repeat [2]\nX1 Y1\no1 endrepeat\nM2\n",
+        ),
+    ];
+    for (src, (line, column), what, written) in cases {
+        let strict = nc::parse(src, "t.ngc", &form(nc::FileForm::LinuxCnc));
+        assert!(strict.diagnostics.iter().any(|d| d.is_error()), "{src}");
+        let tolerant = nc::parse(src, "t.ngc", &form(nc::FileForm::Tolerant));
+        let d = &tolerant.diagnostics;
+        assert_eq!(d.len(), 1, "{d:?}");
+        assert!(!d[0].is_error() && d[0].message.contains(what), "{}", d[0]);
+        assert_eq!((d[0].line, d[0].column), (line, column), "{}", d[0]);
+        let amended = nc::amend(src, &tolerant.amendments);
+        assert_eq!(amended, written);
+        let linuxcnc = nc::parse(&amended, "t.ngc", &form(nc::FileForm::LinuxCnc));
+        assert!(
+            linuxcnc.diagnostics.is_empty(),
+            "{:?}",
+            linuxcnc.diagnostics
+        );
+        assert_eq!(linuxcnc.path, tolerant.path);
+        let again = nc::parse(&amended, "t.ngc", &form(nc::FileForm::Tolerant));
+        assert!(again.amendments.is_empty() && again.diagnostics.is_empty());
+    }
+    // After G80 with no G0/G1 set before the cycle, there is no mode to fall back to.
+    let src = "G98 G81 X1 Y1 Z-1 R2 F100\nG80\nX0 Y-2 Z6\nM2\n";
+    let d = nc::parse(src, "t.ngc", &form(nc::FileForm::Tolerant)).diagnostics;
+    assert!(d.iter().any(|d| d.is_error() && d.line == 3), "{d:?}");
+}

@@ -669,6 +669,15 @@ fn tolerant_files_are_written_with_an_end_and_no_byte_order_mark() {
         let ends = |p: &nc::Path| p.segments.iter().map(|s| s.end).collect::<Vec<_>>();
         assert_eq!(ends(&back.path), ends(&read.path));
     }
+    // A dialect word LinuxCNC refuses (FreeCAD's K0 on an XY arc) is written as it reads it.
+    let src = "G17 G0 X0 Y0 Z1\nG1 X1 F300\nG3 X2 Y1 I0 J1 K0.000\nM2\n";
+    let read = nc::parse(src, "t.ngc", &tolerant);
+    let out = nc::refeed(src, "t.ngc", &tolerant, &uniform(&read.path, 420.0)).unwrap();
+    assert_eq!(
+        out,
+        "G17 G0 X0 Y0 Z1\nG1 X1 F420\nG3 X2 Y1 I0 J1 F420\nM2\n"
+    );
+    assert!(nc::parse(&out, "t.ngc", &linuxcnc).diagnostics.is_empty());
     // A whole file as LinuxCNC reads it, and a fragment, are written as they were.
     let src = "G1 X10 F300\nM2\n";
     let path = nc::parse(src, "t.ngc", &tolerant).path;
