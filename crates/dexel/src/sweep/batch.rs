@@ -176,21 +176,26 @@ fn run_batches<E: Envelope>(
         Vec::new()
     };
     let mut done = 0;
+    // Buffers kept from batch to batch: a fresh allocation of the partial sums
+    // (tens of MB when a move spans many strips) is paged in again each time.
+    let mut moves: Vec<Prepared> = Vec::new();
+    let mut counts: Vec<u32> = Vec::new();
+    let mut fill: Vec<u32> = Vec::new();
+    let mut entries: Vec<u32> = Vec::new();
+    let mut partial: Vec<f64> = Vec::new();
     for (b, chunk) in steps.chunks(batch).enumerate() {
         let first_step = b * batch;
-        let moves: Vec<Prepared> = chunk
-            .iter()
-            .enumerate()
-            .map(|(i, step)| {
-                let g = first_step + i;
-                Prepared {
-                    follows: g > 0 && steps[g - 1].to_mm == step.from_mm,
-                    ..Prepared::new(step)
-                }
-            })
-            .collect();
+        moves.clear();
+        moves.extend(chunk.iter().enumerate().map(|(i, step)| {
+            let g = first_step + i;
+            Prepared {
+                follows: g > 0 && steps[g - 1].to_mm == step.from_mm,
+                ..Prepared::new(step)
+            }
+        }));
         // Bin moves by strip (CSR): a move joins every strip its footprint's rows touch.
-        let mut counts = vec![0u32; n_strips + 1];
+        counts.clear();
+        counts.resize(n_strips + 1, 0);
         let strip_span = |m: &Prepared| {
             m.row_range(&grid, radius)
                 .map(|(a, b)| (a / strip_rows, b / strip_rows))
@@ -205,8 +210,10 @@ fn run_batches<E: Envelope>(
         for s in 0..n_strips {
             counts[s + 1] += counts[s];
         }
-        let mut entries = vec![0u32; counts[n_strips] as usize];
-        let mut fill = counts.clone();
+        entries.clear();
+        entries.resize(counts[n_strips] as usize, 0);
+        fill.clear();
+        fill.extend_from_slice(&counts);
         for (i, m) in moves.iter().enumerate() {
             if let Some((s0, s1)) = strip_span(m) {
                 for s in s0..=s1 {
@@ -225,7 +232,8 @@ fn run_batches<E: Envelope>(
             smooth: options.smooth,
         };
         let width = job.width();
-        let mut partial = vec![0.0f64; entries.len() * width];
+        partial.clear();
+        partial.resize(entries.len() * width, 0.0);
         // Split columns, last-cut marks and partial sums into per-strip pieces.
         let strip_len = strip_rows * grid.nx;
         let mut partial_pieces: Vec<&mut [f64]> = Vec::with_capacity(n_strips);
