@@ -100,9 +100,17 @@ impl Column {
 }
 
 /// The stock: a grid of columns plus, per column, the step that last cut it.
+///
+/// A stock holds either every row of its grid or one band of rows
+/// (`rows()`, a tile band of a stock too large for memory): the grid stays
+/// the whole stock's, so a band's columns stand exactly where the whole
+/// stock's do, and sweeping the bands one after the other with one
+/// [`crate::sweep::Sweep`] gives the whole stock's columns and removal record.
 #[derive(Clone, Debug)]
 pub struct Stock {
     grid: Grid,
+    /// First grid row held.
+    row0: usize,
     pub(crate) columns: Vec<Column>,
     pub(crate) last_cut: Vec<u32>,
 }
@@ -130,22 +138,46 @@ impl Stock {
     where
         F: Fn(usize, usize, &mut Vec<[f32; 2]>) + Sync,
     {
+        Stock::from_columns_in_rows(grid, 0..grid.ny, fill)
+    }
+
+    /// The band of grid rows `rows` of the stock whose columns `fill` makes
+    /// (see [`Stock::from_columns`]; `iy` is the grid row).
+    pub fn from_columns_in_rows<F>(
+        grid: Grid,
+        rows: std::ops::Range<usize>,
+        fill: F,
+    ) -> Result<Stock, Error>
+    where
+        F: Fn(usize, usize, &mut Vec<[f32; 2]>) + Sync,
+    {
         use rayon::prelude::*;
-        Stock::check_memory(&grid, DEFAULT_MEMORY_LIMIT_BYTES)?;
-        let mut columns = vec![Column::EMPTY; grid.len()];
+        if !(rows.start <= rows.end && rows.end <= grid.ny) {
+            return Err(Error::InvalidParameter(format!(
+                "rows {}..{} of a grid of {} rows",
+                rows.start, rows.end, grid.ny
+            )));
+        }
+        let band = Grid {
+            ny: rows.len(),
+            ..grid
+        };
+        Stock::check_memory(&band, DEFAULT_MEMORY_LIMIT_BYTES)?;
+        let mut columns = vec![Column::EMPTY; band.len()];
         columns
-            .par_chunks_mut(grid.nx)
+            .par_chunks_mut(grid.nx.max(1))
             .enumerate()
-            .for_each_init(Vec::new, |buf, (iy, row)| {
+            .for_each_init(Vec::new, |buf, (j, row)| {
                 for (ix, col) in row.iter_mut().enumerate() {
                     buf.clear();
-                    fill(ix, iy, buf);
+                    fill(ix, rows.start + j, buf);
                     *col = Column::from_intervals(buf);
                 }
             });
-        let last_cut = vec![NEVER_CUT; grid.len()];
+        let last_cut = vec![NEVER_CUT; band.len()];
         Ok(Stock {
             grid,
+            row0: rows.start,
             columns,
             last_cut,
         })
@@ -153,6 +185,16 @@ impl Stock {
 
     /// Axis-aligned box `[min, max]` (mm); the grid covers its XY extent.
     pub fn new_box(min: [f64; 3], max: [f64; 3], spacing_mm: f64) -> Result<Stock, Error> {
+        Stock::new_box_in_rows(min, max, spacing_mm, None)
+    }
+
+    /// [`Stock::new_box`], only the grid rows `rows` (all with `None`).
+    pub fn new_box_in_rows(
+        min: [f64; 3],
+        max: [f64; 3],
+        spacing_mm: f64,
+        rows: Option<std::ops::Range<usize>>,
+    ) -> Result<Stock, Error> {
         if !(max[2] > min[2]) {
             return Err(Error::InvalidParameter(format!(
                 "box height must be positive, got z {}..{}",
@@ -161,7 +203,9 @@ impl Stock {
         }
         let grid = Grid::covering(min[0], min[1], max[0], max[1], spacing_mm)?;
         let (lo, hi) = (min[2] as f32, max[2] as f32);
-        Stock::from_columns(grid, |_, _, out| out.push([lo, hi]))
+        Stock::from_columns_in_rows(grid, rows.unwrap_or(0..grid.ny), |_, _, out| {
+            out.push([lo, hi])
+        })
     }
 
     /// Vertical cylinder with axis through `(cx, cy)`, radius `r`, z from `z_lo` to `z_hi`.
@@ -172,6 +216,18 @@ impl Stock {
         z_lo: f64,
         z_hi: f64,
         spacing_mm: f64,
+    ) -> Result<Stock, Error> {
+        Stock::new_cylinder_in_rows(center_xy, radius_mm, z_lo, z_hi, spacing_mm, None)
+    }
+
+    /// [`Stock::new_cylinder`], only the grid rows `rows` (all with `None`).
+    pub fn new_cylinder_in_rows(
+        center_xy: [f64; 2],
+        radius_mm: f64,
+        z_lo: f64,
+        z_hi: f64,
+        spacing_mm: f64,
+        rows: Option<std::ops::Range<usize>>,
     ) -> Result<Stock, Error> {
         if !(radius_mm > 0.0) || !(z_hi > z_lo) {
             return Err(Error::InvalidParameter(format!(
@@ -187,7 +243,7 @@ impl Stock {
             spacing_mm,
         )?;
         let (lo, hi) = (z_lo as f32, z_hi as f32);
-        Stock::from_columns(grid, |ix, iy, out| {
+        Stock::from_columns_in_rows(grid, rows.unwrap_or(0..grid.ny), |ix, iy, out| {
             let (dx, dy) = (grid.x_mm(ix) - cx, grid.y_mm(iy) - cy);
             if dx * dx + dy * dy <= radius_mm * radius_mm {
                 out.push([lo, hi]);
@@ -195,38 +251,48 @@ impl Stock {
         })
     }
 
-    /// The grid the columns stand on.
+    /// The grid the columns stand on (the whole stock's, also for a band).
     pub fn grid(&self) -> &Grid {
         &self.grid
     }
 
-    /// Column at `(ix, iy)`.
-    pub fn column(&self, ix: usize, iy: usize) -> &Column {
-        &self.columns[iy * self.grid.nx + ix]
+    /// The grid rows this stock holds (all of them unless it is a band).
+    pub fn rows(&self) -> std::ops::Range<usize> {
+        self.row0..self.row0 + self.columns.len() / self.grid.nx.max(1)
     }
 
-    /// All columns, row-major.
+    /// Column at `(ix, iy)` (`iy` a grid row this stock holds).
+    pub fn column(&self, ix: usize, iy: usize) -> &Column {
+        &self.columns[(iy - self.row0) * self.grid.nx + ix]
+    }
+
+    /// The columns held, row-major (of the rows in [`Stock::rows`]).
     pub fn columns(&self) -> &[Column] {
         &self.columns
     }
 
-    /// Per column, the index of the step that last removed material there
-    /// ([`NEVER_CUT`] if none).
+    /// Per column held, the index of the step that last removed material
+    /// there ([`NEVER_CUT`] if none).
     pub fn last_cut(&self) -> &[u32] {
         &self.last_cut
     }
 
-    /// Material volume, mm³ (f64, summed row by row in a fixed order).
+    /// Material volume held, mm³ (f64, summed row by row in a fixed order).
     pub fn volume_mm3(&self) -> f64 {
-        let area = self.grid.cell_area_mm2();
+        self.add_row_lengths_mm(0.0) * self.grid.cell_area_mm2()
+    }
+
+    /// `sum` plus each held row's material length, row by row in order, mm:
+    /// carried from band to band it gives the whole stock's
+    /// [`Stock::volume_mm3`] (times the cell area) bit for bit.
+    pub fn add_row_lengths_mm(&self, sum: f64) -> f64 {
         self.columns
             .chunks(self.grid.nx.max(1))
             .map(|row| row.iter().map(Column::length_mm).sum::<f64>())
-            .sum::<f64>()
-            * area
+            .fold(sum, |a, r| a + r)
     }
 
-    /// Top surface height per column (NaN where empty), row-major.
+    /// Top surface height per column held (NaN where empty), row-major.
     pub fn top_heights(&self) -> Vec<f32> {
         self.columns
             .iter()

@@ -308,26 +308,7 @@ fn identical_results_for_one_and_many_threads() {
         let (r4, h4, l4) = run_with(4);
         assert!(r1.total_volume_mm3() > 100.0, "{tool:?} cuts");
         // Bit for bit: every per-step value, every top, every last cut.
-        let bits = |r: &RemovalRecord| -> Vec<u64> {
-            (0..r.len())
-                .flat_map(|i| {
-                    let [cx, cy] = r.contact_resultant(i);
-                    [
-                        r.volume_mm3(i),
-                        r.shank_volume_mm3(i),
-                        cx,
-                        cy,
-                        r.chip_edge_area_mm2(i),
-                        r.volume_over_radius_mm2(i),
-                    ]
-                    .into_iter()
-                    .chain(r.band_volumes_mm3(i).iter().copied())
-                    .map(f64::to_bits)
-                    .collect::<Vec<_>>()
-                })
-                .collect()
-        };
-        assert_eq!(bits(&r1), bits(&r4), "{tool:?}");
+        assert_eq!(record_bits(&r1), record_bits(&r4), "{tool:?}");
         assert_eq!(
             h1.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
             h4.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
@@ -538,4 +519,121 @@ fn mean_chip_thickness_of_side_cuts() {
         assert_rel(ratio, expected, 0.02, "mean chip thickness per feed");
         assert_rel(v_over_r, v / R, 1e-9, "flat end: volume over radius");
     }
+}
+
+/// Every per-step value of a record, as bits.
+fn record_bits(r: &RemovalRecord) -> Vec<u64> {
+    (0..r.len())
+        .flat_map(|i| {
+            let [cx, cy] = r.contact_resultant(i);
+            [
+                r.volume_mm3(i),
+                r.shank_volume_mm3(i),
+                cx,
+                cy,
+                r.chip_edge_area_mm2(i),
+                r.volume_over_radius_mm2(i),
+            ]
+            .into_iter()
+            .chain(r.band_volumes_mm3(i).iter().copied())
+            .map(f64::to_bits)
+            .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+/// A stock swept band of rows by band of rows (a tiled stock too large for
+/// memory) gives the whole stock's record bit for bit when the bands start on
+/// strip boundaries, and the same columns, last cuts and volume, with moves
+/// that cross the band edges in every direction, two tools and smoothing.
+#[test]
+fn banded_sweep_equals_the_whole_stock() {
+    let tools = [Tool::bull(6.0, 1.0), Tool::ball(4.0)];
+    let mut steps: Vec<Step> = (0..300)
+        .map(|i| {
+            let a = i as f64 * 0.05;
+            line(
+                [
+                    30.0 + 22.0 * a.cos(),
+                    30.0 + 22.0 * a.sin(),
+                    18.0 - 0.01 * i as f64,
+                ],
+                [
+                    30.0 + 21.0 * (a + 0.05).cos(),
+                    30.0 + 21.0 * (a + 0.05).sin(),
+                    17.0,
+                ],
+            )
+        })
+        .collect();
+    // Long passes across every band: along y, diagonal, and a plunge on an edge.
+    steps.push(line([10.0, -5.0, 16.0], [12.0, 65.0, 15.5]));
+    steps.push(line([12.0, 65.0, 15.5], [55.0, 2.0, 14.0]));
+    steps.push(line([55.0, 2.0, 14.0], [55.0, 2.0, 20.0]));
+    steps.push(line([40.0, 16.0, 25.0], [40.0, 16.0, 12.0]));
+    let which: Vec<usize> = (0..steps.len()).map(|i| usize::from(i >= 150)).collect();
+    let options = SweepOptions {
+        band_height_mm: 0.5,
+        strip_rows: 4,
+        batch_steps: 53,
+        ..SweepOptions::default()
+    };
+    let (min, max, g) = ([0.0, 0.0, 0.0], [60.0, 60.0, 20.0], 0.2);
+    let mut whole = Stock::new_box(min, max, g).unwrap();
+    let all = dexel::sweep_tools(&mut whole, &tools, &which, &steps, &options, &|_| {}).unwrap();
+    assert!(all.total_volume_mm3() > 1000.0);
+    let ny = whole.grid().ny;
+    assert_eq!(ny, 300);
+    // Bands of 8 and 36 rows (strip-aligned), and a last band shorter than the others.
+    for band_rows in [8usize, 36, 296] {
+        let mut sweep = dexel::Sweep::new(&tools, &which, &steps, &options).unwrap();
+        let (mut tops, mut last, mut length_mm) = (Vec::new(), Vec::new(), 0.0);
+        for r0 in (0..ny).step_by(band_rows) {
+            let rows = r0..(r0 + band_rows).min(ny);
+            let mut band = Stock::new_box_in_rows(min, max, g, Some(rows.clone())).unwrap();
+            assert_eq!(band.rows(), rows);
+            assert_eq!(band.columns().len(), rows.len() * whole.grid().nx);
+            sweep.band(&mut band, &|_| {});
+            tops.extend(band.top_heights());
+            last.extend_from_slice(band.last_cut());
+            length_mm = band.add_row_lengths_mm(length_mm);
+        }
+        let banded = sweep.finish();
+        assert_eq!(
+            record_bits(&banded),
+            record_bits(&all),
+            "bands of {band_rows}"
+        );
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(
+            bits(&tops),
+            bits(&whole.top_heights()),
+            "bands of {band_rows}"
+        );
+        assert_eq!(last, whole.last_cut(), "bands of {band_rows}");
+        assert_eq!(
+            (length_mm * whole.grid().cell_area_mm2()).to_bits(),
+            whole.volume_mm3().to_bits()
+        );
+    }
+    // A band that does not start on a strip boundary: the same columns, the
+    // per-step sums equal within rounding (a strip's sum is then added in two parts).
+    let mut sweep = dexel::Sweep::new(&tools, &which, &steps, &options).unwrap();
+    let mut tops = Vec::new();
+    for rows in [0..7, 7..150, 150..300] {
+        let mut band = Stock::new_box_in_rows(min, max, g, Some(rows)).unwrap();
+        sweep.band(&mut band, &|_| {});
+        tops.extend(band.top_heights());
+    }
+    let banded = sweep.finish();
+    assert_eq!(tops, whole.top_heights());
+    for i in 0..all.len() {
+        let (a, b) = (all.volume_mm3(i), banded.volume_mm3(i));
+        assert!(
+            (a - b).abs() <= 1e-9 * a.abs().max(1e-9),
+            "step {i}: {a} vs {b}"
+        );
+    }
+    // Rows beyond the grid are refused.
+    assert!(Stock::new_box_in_rows(min, max, g, Some(290..301)).is_err());
 }

@@ -9,7 +9,7 @@ use super::flat::FlatEnd;
 use super::slot::{SHANK, VOLUME};
 use super::strip::{Banding, StripJob};
 use super::{Envelope, Prepared, RemovalRecord, Step, SweepOptions, HEAD};
-use crate::{Error, Stock, Tool, ToolShape};
+use crate::{Column, Error, Stock, Tool, ToolShape};
 
 /// Sweep `tool` along `steps` through `stock`, removing material and recording
 /// what each step removed. `progress(done)` is called after each batch with
@@ -21,62 +21,10 @@ pub fn sweep(
     options: &SweepOptions,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<RemovalRecord, Error> {
-    tool.validate()?;
-    if !(options.band_height_mm > 0.0 && options.band_height_mm.is_finite()) {
-        return Err(Error::InvalidParameter(format!(
-            "band height must be positive, got {} mm",
-            options.band_height_mm
-        )));
-    }
-    if let Some((i, _)) = steps
-        .iter()
-        .enumerate()
-        .find(|(_, s)| !s.from_mm.iter().chain(&s.to_mm).all(|v| v.is_finite()))
-    {
-        return Err(Error::InvalidParameter(format!(
-            "step {i} has a non-finite coordinate"
-        )));
-    }
-    let n_bands = ((tool.flute_length_mm / options.band_height_mm).ceil() as usize).max(1);
-    if n_bands > 10_000 {
-        return Err(Error::InvalidParameter(format!(
-            "band height {} mm gives {n_bands} bands over the flute length; use a larger band height",
-            options.band_height_mm
-        )));
-    }
-    let banding = Banding {
-        n_bands,
-        band_h: options.band_height_mm,
-        inv_band_h: 1.0 / options.band_height_mm,
-        flute_len: tool.flute_length_mm,
-    };
-    let radius = tool.radius_mm();
-    let mut record = RemovalRecord::new(steps.len(), n_bands, options.band_height_mm);
-    // One call per tool shape: `run_batches` is generic over the envelope.
-    macro_rules! run {
-        ($env:expr) => {
-            run_batches(
-                stock,
-                &$env,
-                radius,
-                &banding,
-                steps,
-                options,
-                &mut record,
-                progress,
-            )
-        };
-    }
-    match tool.shape {
-        ToolShape::Ball => run!(BallEnd { r: radius }),
-        ToolShape::Flat => run!(FlatEnd::new(radius)),
-        ToolShape::Bull { corner_radius_mm } => run!(BullNose {
-            r: radius,
-            rc: corner_radius_mm,
-            ring: radius - corner_radius_mm,
-        }),
-    }
-    Ok(record)
+    let tools = std::slice::from_ref(tool);
+    let mut sweep = Sweep::with_parts(tools, steps, options, vec![(0, steps.len(), 0)])?;
+    sweep.band(stock, progress);
+    Ok(sweep.finish())
 }
 
 /// Sweep steps cut by several tools: step `i` is cut by `tools[tool_of_step[i]]`.
@@ -91,53 +39,205 @@ pub fn sweep_tools(
     options: &SweepOptions,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<RemovalRecord, Error> {
-    if tool_of_step.len() != steps.len() {
-        return Err(Error::InvalidParameter(format!(
-            "{} tool indices for {} steps",
-            tool_of_step.len(),
-            steps.len()
-        )));
+    let mut sweep = Sweep::new(tools, tool_of_step, steps, options)?;
+    sweep.band(stock, progress);
+    Ok(sweep.finish())
+}
+
+/// One run of consecutive steps cut by one tool, and what they removed so far.
+struct Part {
+    start: usize,
+    end: usize,
+    tool: usize,
+    banding: Banding,
+    record: RemovalRecord,
+    /// Per step: head values to move to the previous and to the next step.
+    spill: Vec<f64>,
+}
+
+/// A sweep of a program through a stock held band by band (a tile band of a
+/// stock too large for memory, see [`Stock::rows`]): [`Sweep::band`] sweeps
+/// every step through one band of rows and adds what it removes there to the
+/// per-step record; [`Sweep::finish`] gives the record once every band is
+/// swept. The bands must be swept in row order and must not overlap: each
+/// step's sums are then added strip by strip in the same order as one sweep
+/// of the whole stock, so the record is the whole stock's bit for bit.
+/// [`sweep_tools`] is one band holding every row.
+pub struct Sweep<'a> {
+    tools: &'a [Tool],
+    steps: &'a [Step],
+    options: SweepOptions,
+    parts: Vec<Part>,
+}
+
+impl<'a> Sweep<'a> {
+    /// Check the steps, tools and options and set up an empty record: step
+    /// `i` is cut by `tools[tool_of_step[i]]` (see [`sweep_tools`]).
+    pub fn new(
+        tools: &'a [Tool],
+        tool_of_step: &[usize],
+        steps: &'a [Step],
+        options: &SweepOptions,
+    ) -> Result<Sweep<'a>, Error> {
+        if tool_of_step.len() != steps.len() {
+            return Err(Error::InvalidParameter(format!(
+                "{} tool indices for {} steps",
+                tool_of_step.len(),
+                steps.len()
+            )));
+        }
+        if let Some(&bad) = tool_of_step.iter().find(|&&t| t >= tools.len()) {
+            return Err(Error::InvalidParameter(format!(
+                "tool index {bad} with {} tools",
+                tools.len()
+            )));
+        }
+        let mut runs = Vec::new();
+        let mut start = 0;
+        while start < steps.len() {
+            let t = tool_of_step[start];
+            let end = start
+                + tool_of_step[start..]
+                    .iter()
+                    .position(|&u| u != t)
+                    .unwrap_or(steps.len() - start);
+            runs.push((start, end, t));
+            start = end;
+        }
+        Sweep::with_parts(tools, steps, options, runs)
     }
-    if let Some(&bad) = tool_of_step.iter().find(|&&t| t >= tools.len()) {
-        return Err(Error::InvalidParameter(format!(
-            "tool index {bad} with {} tools",
-            tools.len()
-        )));
-    }
-    let mut parts = Vec::new();
-    let mut start = 0;
-    while start < steps.len() {
-        let t = tool_of_step[start];
-        let end = start
-            + tool_of_step[start..]
+
+    /// [`Sweep::new`] with the runs of one tool given as `(start, end, tool)`.
+    fn with_parts(
+        tools: &'a [Tool],
+        steps: &'a [Step],
+        options: &SweepOptions,
+        runs: Vec<(usize, usize, usize)>,
+    ) -> Result<Sweep<'a>, Error> {
+        let mut parts = Vec::with_capacity(runs.len());
+        for (start, end, t) in runs {
+            let tool = &tools[t];
+            tool.validate()?;
+            if !(options.band_height_mm > 0.0 && options.band_height_mm.is_finite()) {
+                return Err(Error::InvalidParameter(format!(
+                    "band height must be positive, got {} mm",
+                    options.band_height_mm
+                )));
+            }
+            if let Some((i, _)) = steps[start..end]
                 .iter()
-                .position(|&u| u != t)
-                .unwrap_or(steps.len() - start);
-        let done = start;
-        parts.push((
-            start,
-            sweep(stock, &tools[t], &steps[start..end], options, &|d| {
-                progress(done + d)
-            })?,
-        ));
-        start = end;
+                .enumerate()
+                .find(|(_, s)| !s.from_mm.iter().chain(&s.to_mm).all(|v| v.is_finite()))
+            {
+                return Err(Error::InvalidParameter(format!(
+                    "step {i} has a non-finite coordinate"
+                )));
+            }
+            let n_bands = ((tool.flute_length_mm / options.band_height_mm).ceil() as usize).max(1);
+            if n_bands > 10_000 {
+                return Err(Error::InvalidParameter(format!(
+                    "band height {} mm gives {n_bands} bands over the flute length; use a larger band height",
+                    options.band_height_mm
+                )));
+            }
+            let banding = Banding {
+                n_bands,
+                band_h: options.band_height_mm,
+                inv_band_h: 1.0 / options.band_height_mm,
+                flute_len: tool.flute_length_mm,
+            };
+            let spill = if options.smooth {
+                vec![0.0f64; (end - start) * 2 * HEAD]
+            } else {
+                Vec::new()
+            };
+            parts.push(Part {
+                start,
+                end,
+                tool: t,
+                banding,
+                record: RemovalRecord::new(end - start, n_bands, options.band_height_mm),
+                spill,
+            });
+        }
+        Ok(Sweep {
+            tools,
+            steps,
+            options: *options,
+            parts,
+        })
     }
-    if parts.len() == 1 {
-        // One tool: the record as it is (no copy).
-        return Ok(parts.pop().expect("one part").1);
-    }
-    let n_bands = parts.iter().map(|(_, r)| r.n_bands).max().unwrap_or(1);
-    let mut record = RemovalRecord::new(steps.len(), n_bands, options.band_height_mm);
-    let stride = record.stride();
-    for (offset, part) in &parts {
-        record.columns_evaluated += part.columns_evaluated;
-        for j in 0..part.len() {
-            let row = part.row(j);
-            let at = (offset + j) * stride;
-            record.data[at..at + row.len()].copy_from_slice(row);
+
+    /// Sweep every step through `stock` (the next band of rows, or the whole
+    /// stock), removing material there and adding what each step removes to
+    /// the record. `progress(done)` is called after each batch with the
+    /// number of steps finished in this band.
+    pub fn band(&mut self, stock: &mut Stock, progress: &(dyn Fn(usize) + Sync)) {
+        for part in &mut self.parts {
+            let tool = &self.tools[part.tool];
+            let radius = tool.radius_mm();
+            let done = part.start;
+            let progress = |d: usize| progress(done + d);
+            let steps = &self.steps[part.start..part.end];
+            // One call per tool shape: `run_batches` is generic over the envelope.
+            macro_rules! run {
+                ($env:expr) => {
+                    run_batches(
+                        stock,
+                        &$env,
+                        radius,
+                        &part.banding,
+                        steps,
+                        &self.options,
+                        &mut part.record,
+                        &mut part.spill,
+                        &progress,
+                    )
+                };
+            }
+            match tool.shape {
+                ToolShape::Ball => run!(BallEnd { r: radius }),
+                ToolShape::Flat => run!(FlatEnd::new(radius)),
+                ToolShape::Bull { corner_radius_mm } => run!(BullNose {
+                    r: radius,
+                    rc: corner_radius_mm,
+                    ring: radius - corner_radius_mm,
+                }),
+            }
         }
     }
-    Ok(record)
+
+    /// The record of every band swept: smoothing shares applied, the runs of
+    /// each tool in one record with the band count of the tool with the most
+    /// bands (the others' higher bands are zero).
+    pub fn finish(self) -> RemovalRecord {
+        let mut parts = self.parts;
+        if self.options.smooth {
+            for part in &mut parts {
+                apply_spill(
+                    &mut part.record,
+                    &self.steps[part.start..part.end],
+                    &part.spill,
+                );
+            }
+        }
+        if parts.len() == 1 {
+            // One tool: the record as it is (no copy).
+            return parts.pop().expect("one part").record;
+        }
+        let n_bands = parts.iter().map(|p| p.record.n_bands).max().unwrap_or(1);
+        let mut record = RemovalRecord::new(self.steps.len(), n_bands, self.options.band_height_mm);
+        let stride = record.stride();
+        for part in &parts {
+            record.columns_evaluated += part.record.columns_evaluated;
+            for j in 0..part.record.len() {
+                let row = part.record.row(j);
+                let at = (part.start + j) * stride;
+                record.data[at..at + row.len()].copy_from_slice(row);
+            }
+        }
+        record
+    }
 }
 
 /// Whether `b` continues `a`'s motion: it starts where `a` ends, is of the same
@@ -162,19 +262,23 @@ fn run_batches<E: Envelope>(
     steps: &[Step],
     options: &SweepOptions,
     record: &mut RemovalRecord,
+    spill: &mut [f64],
     progress: &(dyn Fn(usize) + Sync),
 ) {
     let grid = *stock.grid();
+    let rows = stock.rows();
+    if rows.is_empty() {
+        progress(steps.len());
+        return;
+    }
     let strip_rows = options.strip_rows.max(1);
-    let n_strips = grid.ny.div_ceil(strip_rows);
+    // The strips are the whole grid's (strip s: rows s·strip_rows ..): those
+    // the band holds, cut at its edges.
+    let first_strip = rows.start / strip_rows;
+    let n_strips = (rows.end - 1) / strip_rows + 1 - first_strip;
+    let strip_row0 = |s: usize| ((first_strip + s) * strip_rows).max(rows.start);
     let stride = HEAD + banding.n_bands;
     let batch = options.batch_steps.max(1);
-    // Per step: head values to move to the previous and to the next step.
-    let mut spill = if options.smooth {
-        vec![0.0f64; steps.len() * 2 * HEAD]
-    } else {
-        Vec::new()
-    };
     let mut done = 0;
     // Buffers kept from batch to batch: a fresh allocation of the partial sums
     // (tens of MB when a move spans many strips) is paged in again each time.
@@ -193,12 +297,15 @@ fn run_batches<E: Envelope>(
                 ..Prepared::new(step)
             }
         }));
-        // Bin moves by strip (CSR): a move joins every strip its footprint's rows touch.
+        // Bin moves by strip (CSR): a move joins every strip of the band its
+        // footprint's rows touch.
         counts.clear();
         counts.resize(n_strips + 1, 0);
         let strip_span = |m: &Prepared| {
-            m.row_range(&grid, radius)
-                .map(|(a, b)| (a / strip_rows, b / strip_rows))
+            m.row_range(&grid, radius).and_then(|(a, b)| {
+                let (a, b) = (a.max(rows.start), b.min(rows.end - 1));
+                (a <= b).then(|| (a / strip_rows - first_strip, b / strip_rows - first_strip))
+            })
         };
         for m in &moves {
             if let Some((s0, s1)) = strip_span(m) {
@@ -209,6 +316,12 @@ fn run_batches<E: Envelope>(
         }
         for s in 0..n_strips {
             counts[s + 1] += counts[s];
+        }
+        if counts[n_strips] == 0 {
+            // No move of the batch reaches the band.
+            done += chunk.len();
+            progress(done);
+            continue;
         }
         entries.clear();
         entries.resize(counts[n_strips] as usize, 0);
@@ -235,27 +348,31 @@ fn run_batches<E: Envelope>(
         partial.clear();
         partial.resize(entries.len() * width, 0.0);
         // Split columns, last-cut marks and partial sums into per-strip pieces.
-        let strip_len = strip_rows * grid.nx;
-        let mut partial_pieces: Vec<&mut [f64]> = Vec::with_capacity(n_strips);
+        let mut pieces: Vec<(&mut [Column], &mut [u32], &mut [f64])> = Vec::with_capacity(n_strips);
         let mut rest: &mut [f64] = &mut partial;
+        let mut cols_rest: &mut [Column] = &mut stock.columns;
+        let mut last_rest: &mut [u32] = &mut stock.last_cut;
         for s in 0..n_strips {
             let n = (counts[s + 1] - counts[s]) as usize * width;
             let (head, tail) = rest.split_at_mut(n);
-            partial_pieces.push(head);
             rest = tail;
+            let strip_end = ((first_strip + s + 1) * strip_rows).min(rows.end);
+            let len = (strip_end - strip_row0(s)) * grid.nx;
+            let (cols, cols_tail) = cols_rest.split_at_mut(len);
+            cols_rest = cols_tail;
+            let (last, last_tail) = last_rest.split_at_mut(len);
+            last_rest = last_tail;
+            pieces.push((cols, last, head));
         }
-        let visited: u64 = stock
-            .columns
-            .par_chunks_mut(strip_len)
-            .zip(stock.last_cut.par_chunks_mut(strip_len))
-            .zip(partial_pieces.into_par_iter())
+        let visited: u64 = pieces
+            .into_par_iter()
             .enumerate()
-            .map(|(s, ((cols, last), out))| {
+            .map(|(s, (cols, last, out))| {
                 let ents = &entries[counts[s] as usize..counts[s + 1] as usize];
                 if ents.is_empty() {
                     0
                 } else {
-                    job.run(s * strip_rows, cols, last, ents, out)
+                    job.run(strip_row0(s), cols, last, ents, out)
                 }
             })
             .sum();
@@ -281,9 +398,6 @@ fn run_batches<E: Envelope>(
         }
         done += chunk.len();
         progress(done);
-    }
-    if options.smooth {
-        apply_spill(record, steps, &spill);
     }
 }
 

@@ -35,7 +35,7 @@ mod bull;
 mod flat;
 mod strip;
 
-pub use batch::{sweep, sweep_tools};
+pub use batch::{sweep, sweep_tools, Sweep};
 
 use crate::Grid;
 
