@@ -43,6 +43,11 @@ enum Command {
         /// column: large on fine grids; the .npy arrays are always written).
         #[arg(long)]
         columns_csv: bool,
+        /// Memory for the stock, MB (default: what this process may use). A box
+        /// or cylinder stock whose columns need more is swept band of rows by
+        /// band of rows, with the same results, and its .npy grid streamed.
+        #[arg(long, value_name = "MB")]
+        memory_budget_mb: Option<f64>,
     },
     /// Re-time the program so MRR, force and deflection stay under [limits]
     /// while running as fast as the machine allows; with no job, runs the
@@ -117,7 +122,16 @@ fn main() -> ExitCode {
             actual_path,
             force,
             columns_csv,
-        } => dexcut::commands::simulate(&job, &out, grid, actual_path, force, columns_csv),
+            memory_budget_mb,
+        } => dexcut::commands::simulate(
+            &job,
+            &out,
+            grid,
+            actual_path,
+            force,
+            columns_csv,
+            memory_budget_mb,
+        ),
         Command::Optimize {
             job,
             out,

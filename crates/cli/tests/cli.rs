@@ -2424,3 +2424,112 @@ fn ball_slot_power_matches_the_integrated_chip_thickness() {
         "power {power:.1} W vs {expected_w:.1} W"
     );
 }
+
+/// A stock larger than `--memory-budget-mb` is swept band of rows by band of
+/// rows (here 25 bands of 16 rows), the closed loop's passes too, and gives the
+/// in-memory run's files byte for byte: steps.csv, the `.npy` grid and
+/// columns.json, and summary.json but for its timings and run id. A budget
+/// smaller than one band is refused, and so are the design comparison and
+/// columns.csv on a tiled stock.
+#[test]
+fn tiled_stock_gives_the_in_memory_results() {
+    let dir = tempdir();
+    write(
+        dir.path(),
+        "job.toml",
+        &SLOT_JOB
+            .replace("min = [0, -20, 0]", "min = [0, 0, 0]")
+            .replace("max = [100, 20, 30]", "max = [60, 40, 30]"),
+    );
+    // Passes along y and diagonals, each across many bands, and one along x
+    // through a band edge (row 160 starts at y = 16).
+    write(
+        dir.path(),
+        "slot.csv",
+        "x,y,z\n10,-6,28\n12,46,27\n30,46,27\n50,-6,28.5\n50,16,28.5\n-6,16,27.5\n66,16,27.5\n",
+    );
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "whole"],
+        dir.path(),
+    ));
+    let o = dexcut(
+        &[
+            "simulate",
+            "job.toml",
+            "--out",
+            "tiled",
+            "--memory-budget-mb",
+            "1",
+        ],
+        dir.path(),
+    );
+    ok(&o);
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(said.contains("swept in 25 bands of 16 rows"), "{said}");
+    let (whole, tiled) = (dir.path().join("whole"), dir.path().join("tiled"));
+    for name in [
+        "steps.csv",
+        "columns.json",
+        "top_mm.npy",
+        "last_step.npy",
+        "error_um.npy",
+    ] {
+        assert!(
+            std::fs::read(whole.join(name)).unwrap() == std::fs::read(tiled.join(name)).unwrap(),
+            "{name} differs"
+        );
+    }
+    let timeless = |mut v: Value| {
+        fn strip(v: &mut Value) {
+            match v {
+                Value::Object(m) => {
+                    for k in ["sweep_time_s", "run_time_s", "run_id"] {
+                        m.remove(k);
+                    }
+                    m.values_mut().for_each(strip);
+                }
+                Value::Array(a) => a.iter_mut().for_each(strip),
+                _ => {}
+            }
+        }
+        strip(&mut v);
+        v
+    };
+    let s = summary(&tiled);
+    assert!(
+        s["closed_loop_passes"].as_u64().unwrap() > 1,
+        "the loop ran: {s}"
+    );
+    assert!(s["removed_volume_mm3"].as_f64().unwrap() > 100.0);
+    assert_eq!(timeless(summary(&whole)), timeless(s));
+    // report reads the tiled folder as any other.
+    ok(&dexcut(&["report", "tiled"], dir.path()));
+    // Less than one band of 8 rows (8 × 600 columns × 104 B = 0.5 MB).
+    assert_refused(
+        dir.path(),
+        &[
+            "simulate",
+            "job.toml",
+            "--out",
+            "small",
+            "--memory-budget-mb",
+            "0.4",
+        ],
+        &["even one band of 8 rows", "MB of memory"],
+        Some("small"),
+    );
+    assert_refused(
+        dir.path(),
+        &[
+            "simulate",
+            "job.toml",
+            "--out",
+            "csv",
+            "--memory-budget-mb",
+            "1",
+            "--columns-csv",
+        ],
+        &["--columns-csv with a stock too large"],
+        Some("csv"),
+    );
+}

@@ -221,14 +221,15 @@ fn d2_memory_guard_follows_measured_cost_and_ulimit() {
             .replace("min = [0, -20, 0]", "min = [0, 0, 0]")
             .replace("grid = 0.5", &format!("grid = {g}"))
     };
-    // The example: 60×60 mm at 0.004 mm (225 M columns, 23 GB).
+    // The example: 60×60 mm at 0.004 mm (225 M columns, 23 GB):
+    // optimize needs every column at once (simulate would sweep it in bands).
     let dir = job_dir(|_| job("0.004"), SLOT_NC);
-    let r = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
+    let r = dexcut(&["optimize", "job.toml", "--out", "out"], dir.path());
     r.clear_error("MB of memory, more than the");
     // 9 M columns need about 940 MB: more than 1 GiB of address space leaves.
     let dir = job_dir(|_| job("0.02"), SLOT_NC);
     let r = run_limited(
-        &["simulate", "job.toml", "--out", "out"],
+        &["optimize", "job.toml", "--out", "out"],
         dir.path(),
         1 << 30,
         60,

@@ -186,9 +186,14 @@ pub fn memory_room_bytes() -> f64 {
 /// The share of the room a run plans to use (the rest: allocator slack, threads, libraries).
 const USABLE_SHARE: f64 = 0.8;
 
+/// The bytes a run plans to use at most: a share of [`memory_room_bytes`].
+pub fn usable_memory_bytes() -> f64 {
+    USABLE_SHARE * memory_room_bytes()
+}
+
 /// Refuse work that would need more than the usable memory.
 pub fn check_memory(bytes: f64, what: &str) -> Result<()> {
-    let room = USABLE_SHARE * memory_room_bytes();
+    let room = usable_memory_bytes();
     if !(bytes <= room) {
         bail!(
             "{what} needs about {:.0} MB of memory, more than the {:.0} MB this process may use (available memory, cgroup memory.max and ulimit)",

@@ -32,8 +32,11 @@ pub struct Setup {
     pub tool: Tool,
     /// The program, read into a path of moves.
     pub program: Program,
-    /// The stock before any cut.
+    /// The stock before any cut (with `tiling`, an empty stock on the whole grid).
     pub stock: Stock,
+    /// How the stock is made band by band when it does not fit the memory
+    /// budget (only `simulate` runs such a stock).
+    pub tiling: Option<crate::stock::Tiling>,
     /// The cutting model of the first tool.
     pub model: CuttingModel,
     /// Every tool of the job; each step is cut by its own (MODEL.md §9.1).
@@ -64,6 +67,20 @@ impl Setup {
         grid_mm: Option<f64>,
         settings: Option<&Path>,
     ) -> Result<Setup> {
+        Setup::load_within(job_path, grid_mm, settings, None)
+    }
+
+    /// [`Setup::load_with`] with a memory budget for the stock in MB
+    /// (`--memory-budget-mb`; by default what this process may use): a box or
+    /// cylinder stock whose columns exceed it is made band by band
+    /// ([`Setup::tiling`]).
+    pub fn load_within(
+        job_path: &Path,
+        grid_mm: Option<f64>,
+        settings: Option<&Path>,
+        budget_mb: Option<f64>,
+    ) -> Result<Setup> {
+        let budget_bytes = crate::stock::budget_bytes(budget_mb)?;
         let mut job = Job::load(job_path)?;
         if let Some(g) = grid_mm {
             job.set_grid(g)?;
@@ -109,7 +126,7 @@ impl Setup {
                 crate::bounds::bytes_per_sample(bands),
             )?;
         }
-        let stock = crate::stock::build(&job)?;
+        let (stock, tiling) = crate::stock::build_within(&job, budget_bytes)?;
         let design = match &job.design {
             Some(d) => {
                 let path = job.resolve(&d.path);
@@ -131,6 +148,7 @@ impl Setup {
             tool,
             program,
             stock,
+            tiling,
             model,
             tools,
             machine,
@@ -139,6 +157,23 @@ impl Setup {
         };
         setup.warnings = setup.setup_warnings();
         Ok(setup)
+    }
+
+    /// Refuse a stock too large for the memory budget for `what`, which needs
+    /// every column at once (only `simulate` runs such a stock band by band).
+    pub fn require_whole_stock(&self, what: &str) -> Result<()> {
+        if let Some(t) = &self.tiling {
+            bail!(
+                "{}: [stock] {}×{} columns at grid {} mm need about {:.0} MB of memory, more than the {:.0} MB this process may use (available memory, cgroup memory.max and ulimit, or --memory-budget-mb): only `dexcut simulate` runs such a stock, band by band; {what} needs every column at once: use a coarser grid",
+                self.job.name,
+                t.grid.nx,
+                t.grid.ny,
+                t.grid.spacing_mm,
+                t.grid.len() as f64 * crate::bounds::BYTES_PER_COLUMN / 1e6,
+                t.budget_bytes / 1e6
+            );
+        }
+        Ok(())
     }
 
     /// Material, tools, machine and limits, as summary.json records them.
@@ -632,6 +667,7 @@ impl Simulation {
 /// `actual_path` the drive model's estimate of it): removal, loads, the closed
 /// loop, warnings and the design comparison. Writes nothing.
 pub fn simulate_setup(setup: &Setup, actual_path: bool) -> Result<Simulation> {
+    setup.require_whole_stock("the simulation API (it keeps every column in memory; `dexcut simulate` writes a tiled stock's grid band by band)")?;
     let steps = setup.steps(actual_path)?;
     let run = simulate::run(setup.stock.clone(), &setup.tools, steps, "simulate")?;
     let mut summary = run.summary();
@@ -657,7 +693,56 @@ fn announce_setup_warnings(setup: &Setup) {
     }
 }
 
-/// `dexcut simulate JOB --out DIR`.
+/// A stock too large for memory (ARCHITECTURE.md "Large stocks"): the program
+/// is swept band by band (the closed loop's passes too), then the bands are
+/// made and swept once more to write steps.csv and the `.npy` grid row block
+/// by row block. The design comparison and columns.csv need every column at
+/// once and are refused.
+fn simulate_tiled(
+    setup: &Setup,
+    tiling: &crate::stock::Tiling,
+    actual_path: bool,
+    columns_csv: bool,
+    out: &Path,
+) -> Result<Simulation> {
+    if setup.design.is_some() {
+        bail!("{}: [design] with a stock too large for the memory budget ({} rows in bands of {}): the design comparison needs every column at once; use a coarser grid or a larger --memory-budget-mb", setup.job.name, tiling.grid.ny, tiling.band_rows);
+    }
+    if columns_csv {
+        bail!("{}: --columns-csv with a stock too large for the memory budget ({} rows in bands of {}): the .npy grid is written band by band, columns.csv is not", setup.job.name, tiling.grid.ny, tiling.band_rows);
+    }
+    crate::outln!(
+        "the stock's {}×{} columns exceed the memory budget of {:.0} MB: swept in {} bands of {} rows",
+        tiling.grid.nx,
+        tiling.grid.ny,
+        tiling.budget_bytes / 1e6,
+        tiling.bands().count(),
+        tiling.band_rows
+    );
+    let steps = setup.steps(actual_path)?;
+    let mut run = simulate::run_on(
+        simulate::StockSource::Tiled(tiling),
+        &setup.tools,
+        steps,
+        "simulate",
+    )?;
+    run.write_steps_csv(&out.join("steps.csv"))?;
+    simulate::write_tiled_columns(&mut run, tiling, &setup.tools, out)?;
+    let mut summary = run.summary();
+    summary.check_finite()?;
+    summary
+        .warnings
+        .0
+        .splice(0..0, setup.warnings.iter().cloned());
+    Ok(Simulation {
+        run,
+        summary,
+        design: None,
+        tops: Vec::new(),
+    })
+}
+
+/// `dexcut simulate JOB --out DIR` (`memory_budget_mb`: `--memory-budget-mb`).
 pub fn simulate(
     job_path: &Path,
     out: &Path,
@@ -665,13 +750,20 @@ pub fn simulate(
     actual_path: bool,
     force: bool,
     columns_csv: bool,
+    memory_budget_mb: Option<f64>,
 ) -> Result<()> {
     let started = Instant::now();
-    let setup = Setup::load(job_path, grid_mm)?;
+    let setup = Setup::load_within(job_path, grid_mm, None, memory_budget_mb)?;
     let out_dir = OutDir::begin(out, &setup.input_files(job_path), force)?;
     announce_setup_warnings(&setup);
-    let sim = simulate_setup(&setup, actual_path)?;
-    sim.write_files(out_dir.path(), columns_csv)?;
+    let sim = match &setup.tiling {
+        None => {
+            let sim = simulate_setup(&setup, actual_path)?;
+            sim.write_files(out_dir.path(), columns_csv)?;
+            sim
+        }
+        Some(tiling) => simulate_tiled(&setup, tiling, actual_path, columns_csv, out_dir.path())?,
+    };
     if let Some((_, info)) = &sim.design {
         print_line_deviations(info);
     }
@@ -868,6 +960,7 @@ pub fn optimize_setup(
     started: Instant,
     columns_csv: bool,
 ) -> Result<Optimized> {
+    setup.require_whole_stock("optimize")?;
     let limits = &setup.job.limits;
     // Before: the program as written.
     let t0 = Instant::now();

@@ -81,8 +81,17 @@ pub struct Run {
     pub error_um: Vec<f32>,
     /// Stock volume before the run, mm³.
     pub initial_volume_mm3: f64,
-    /// The stock the deflected tool leaves.
+    /// Stock volume after the run, mm³.
+    pub final_volume_mm3: f64,
+    /// The stock the deflected tool leaves (for a tiled stock, none of its
+    /// rows: [`write_tiled_columns`] makes the bands again).
     pub stock: Stock,
+    /// Per step, the deflection across the path its final removal causes, µm
+    /// (the error map's model, MODEL.md §5).
+    pub model_um: Vec<[f64; 2]>,
+    /// Least and greatest error of the map when it is not kept in `error_um`
+    /// (a tiled stock's, set by [`write_tiled_columns`]), µm.
+    pub error_range_um: Option<[f64; 2]>,
     /// Wall-clock time of the sweeps, s.
     pub sweep_s: f64,
     /// How the closed loop between removal and deflection ended.
@@ -107,27 +116,62 @@ const LOOP_RELAX_START: f64 = 0.4;
 const LOOP_RELAX_MAX: f64 = 1.0;
 const LOOP_RELAX_MIN: f64 = 0.02;
 
-/// One sweep of `steps` through a copy of `stock`, each step with its tool.
+/// The stock a run sweeps: whole in memory, or too large for the memory
+/// budget and made band of rows by band of rows for each sweep (ARCHITECTURE.md
+/// "Large stocks").
+pub enum StockSource<'a> {
+    /// The whole stock.
+    Whole(Stock),
+    /// The bands of a tiled stock.
+    Tiled(&'a crate::stock::Tiling),
+}
+
+/// One sweep of `steps` through a copy of `stock`, each step with its tool;
+/// with a tiled stock, band by band in row order (the record is the whole
+/// stock's bit for bit, no stock is kept).
 fn sweep_pass(
-    stock: &Stock,
+    stock: &StockSource,
     tools: &ToolSet,
     tool_of_step: &[usize],
     steps: &[dexel::Step],
     options: &SweepOptions,
     label: &str,
-) -> Result<(Stock, RemovalRecord)> {
-    let mut work = stock.clone();
-    let bar = progress::bar(steps.len() as u64, label);
-    let record = dexel::sweep_tools(
-        &mut work,
-        &tools.tools(),
-        tool_of_step,
-        steps,
-        options,
-        &|done| bar.set_position(done as u64),
-    )?;
-    bar.finish_and_clear();
-    Ok((work, record))
+) -> Result<(Option<Stock>, RemovalRecord)> {
+    let tools = tools.tools();
+    let mut sweep = dexel::Sweep::new(&tools, tool_of_step, steps, options)?;
+    let kept = match stock {
+        StockSource::Whole(stock) => {
+            let mut work = stock.clone();
+            let bar = progress::bar(steps.len() as u64, label);
+            sweep.band(&mut work, &|done| bar.set_position(done as u64));
+            bar.finish_and_clear();
+            Some(work)
+        }
+        StockSource::Tiled(tiling) => {
+            for rows in tiling.bands() {
+                let label = format!(
+                    "{label} rows {}..{} of {}",
+                    rows.start, rows.end, tiling.grid.ny
+                );
+                let mut band = tiling.band(rows)?;
+                let bar = progress::bar(steps.len() as u64, &label);
+                sweep.band(&mut band, &|done| bar.set_position(done as u64));
+                bar.finish_and_clear();
+            }
+            None
+        }
+    };
+    Ok((kept, sweep.finish()))
+}
+
+/// Each step's tool and the sweep options of a run.
+fn sweep_setup(tools: &ToolSet, steps: &[TimedStep]) -> Result<(Vec<usize>, SweepOptions)> {
+    let tool_of_step = tools.indices(steps.iter().map(|s| (s.tool, s.line)))?;
+    let options = SweepOptions {
+        band_height_mm: tools.entries[0].model.band_height_mm,
+        ..SweepOptions::default()
+    };
+    Ok((tool_of_step, options))
 }
 
 /// The steps with the tool moved sideways by `offsets_mm` (per step, at its end; a
@@ -243,18 +287,29 @@ pub struct LoopReport {
 /// deflection the removal causes until they agree. Each step is cut by its own
 /// tool (MODEL.md §9.1). The error map is then clamped to the stock (MODEL.md §5).
 pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) -> Result<Run> {
-    let initial_volume_mm3 = stock.volume_mm3();
-    let rigid_steps: Vec<dexel::Step> = steps.iter().map(|s| s.step).collect();
-    let tool_of_step = tools.indices(steps.iter().map(|s| (s.tool, s.line)))?;
-    let options = SweepOptions {
-        band_height_mm: tools.entries[0].model.band_height_mm,
-        ..SweepOptions::default()
+    run_on(StockSource::Whole(stock), tools, steps, label)
+}
+
+/// [`run`] on a stock held whole or in bands. With a tiled stock the run
+/// keeps no stock, no error map and no volumes (NaN): [`write_tiled_columns`]
+/// makes them band by band.
+pub fn run_on(
+    stock: StockSource,
+    tools: &ToolSet,
+    steps: Vec<TimedStep>,
+    label: &str,
+) -> Result<Run> {
+    let initial_volume_mm3 = match &stock {
+        StockSource::Whole(s) => s.volume_mm3(),
+        StockSource::Tiled(_) => f64::NAN,
     };
+    let rigid_steps: Vec<dexel::Step> = steps.iter().map(|s| s.step).collect();
+    let (tool_of_step, options) = sweep_setup(tools, &steps)?;
     let started = Instant::now();
     let (rigid_stock, mut record) =
         sweep_pass(&stock, tools, &tool_of_step, &rigid_steps, &options, label)?;
     // At most two stocks at a time: the initial one and the last pass's.
-    let mut final_stock = Some(rigid_stock);
+    let mut final_stock = rigid_stock;
     let mut step_loads = loads(tools, &tool_of_step, &record, &steps);
     let n = steps.len();
     let stress_limits_mpa: Vec<f64> = tool_of_step
@@ -345,7 +400,7 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
             drop(final_stock.take());
             let (pass_stock, pass_record) =
                 sweep_pass(&stock, tools, &tool_of_step, &shifted, &options, label)?;
-            (final_stock, record) = (Some(pass_stock), pass_record);
+            (final_stock, record) = (pass_stock, pass_record);
             step_loads = loads(tools, &tool_of_step, &record, &steps);
             report.passes += 1;
             x.clone_from(&trial);
@@ -399,8 +454,15 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
             }
         })
         .collect();
-    let final_stock = final_stock.expect("a pass ran");
-    let error_um = clamped_error_map_um(&stock, &final_stock, &offsets_um, &model_um);
+    let (final_stock, error_um, final_volume_mm3) = match (&stock, final_stock) {
+        (StockSource::Whole(initial), Some(last)) => {
+            let error_um = clamped_error_map_um(initial, &last, &offsets_um, &model_um);
+            let volume = last.volume_mm3();
+            (last, error_um, volume)
+        }
+        (StockSource::Tiled(tiling), _) => (tiling.empty()?, Vec::new(), f64::NAN),
+        (StockSource::Whole(_), None) => unreachable!("a whole stock's pass keeps its stock"),
+    };
     Ok(Run {
         steps,
         record,
@@ -408,6 +470,9 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
         offsets_um,
         error_um,
         initial_volume_mm3,
+        final_volume_mm3,
+        model_um,
+        error_range_um: None,
         stock: final_stock,
         sweep_s,
         closed_loop: report,
@@ -416,13 +481,139 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
     })
 }
 
+/// `range` widened to the finite values of `error_um` (a map's least and
+/// greatest error from `[0, 0]`).
+fn error_range_um(error_um: &[f32], range: [f64; 2]) -> [f64; 2] {
+    error_um
+        .iter()
+        .filter(|e| e.is_finite())
+        .map(|&e| f64::from(e))
+        .fold(range, |[lo, hi], e| {
+            [if e < lo { e } else { lo }, if e > hi { e } else { hi }]
+        })
+}
+
+/// The per-column results of a run on a tiled stock, written band by band
+/// into the `.npy` grid in `dir` (ARCHITECTURE.md "Large stocks"). Each band
+/// of the initial stock is made again with halo rows on each side (the error
+/// map's surface normals and its clamp to the stock look that far), swept
+/// with the final pass's steps (a column's material depends only on the
+/// steps, so it is the whole stock's column), and its own rows of `top_mm`,
+/// `last_step` and `error_um` are appended to the files. Sets the run's
+/// volumes (summed row by row in order, as the whole stock's) and error range.
+pub fn write_tiled_columns(
+    run: &mut Run,
+    tiling: &crate::stock::Tiling,
+    tools: &ToolSet,
+    dir: &Path,
+) -> Result<()> {
+    let grid = tiling.grid;
+    let (tool_of_step, options) = sweep_setup(tools, &run.steps)?;
+    // The final pass's steps: the rigid ones, or moved by the loop's offsets.
+    let steps: Vec<dexel::Step> = if run.closed_loop.passes > 1 {
+        let offsets_mm: Vec<[f64; 2]> = run
+            .offsets_um
+            .iter()
+            .map(|&[x, y]| [1e-3 * x, 1e-3 * y])
+            .collect();
+        offset_steps(&run.steps, &offsets_mm)
+    } else {
+        run.steps.iter().map(|s| s.step).collect()
+    };
+    let largest_um = |v: &[[f64; 2]]| {
+        v.iter()
+            .map(|&[x, y]| x.hypot(y))
+            .filter(|d| d.is_finite())
+            .fold(0.0, f64::max)
+    };
+    let reach_mm = 1e-3 * (largest_um(&run.model_um) + largest_um(&run.offsets_um));
+    let halo = (reach_mm / grid.spacing_mm).ceil() as usize + 2;
+    let meta = |name, unit, meaning, values| export::GridArray {
+        name,
+        unit,
+        meaning,
+        values,
+    };
+    let mut writer = export::ColumnGridWriter::begin(
+        dir,
+        &GridInfo::of(&grid).export(),
+        &[
+            meta("top_mm", "mm", TOP_MEANING, export::NpyValues::F32(&[])),
+            meta(
+                "last_step",
+                "1",
+                LAST_STEP_MEANING,
+                export::NpyValues::I32(&[]),
+            ),
+            meta("error_um", "µm", ERROR_MEANING, export::NpyValues::F32(&[])),
+        ],
+    )
+    .with_context(|| format!("cannot write the column grid in {}", dir.display()))?;
+    let tools_list = tools.tools();
+    let (mut initial_mm, mut final_mm) = (0.0, 0.0);
+    let mut range = [0.0, 0.0];
+    for rows in tiling.bands() {
+        let held = rows.start.saturating_sub(halo)..(rows.end + halo).min(grid.ny);
+        let initial = tiling.band(held.clone())?;
+        let mut last = initial.clone();
+        let mut sweep = dexel::Sweep::new(&tools_list, &tool_of_step, &steps, &options)?;
+        let label = format!("columns rows {}..{} of {}", rows.start, rows.end, grid.ny);
+        let bar = progress::bar(steps.len() as u64, &label);
+        sweep.band(&mut last, &|done| bar.set_position(done as u64));
+        bar.finish_and_clear();
+        drop(sweep);
+        let error = clamped_error_map_um(&initial, &last, &run.offsets_um, &run.model_um);
+        initial_mm = initial.add_row_lengths_mm(rows.clone(), initial_mm);
+        final_mm = last.add_row_lengths_mm(rows.clone(), final_mm);
+        drop(initial);
+        let own = (rows.start - held.start) * grid.nx..(rows.end - held.start) * grid.nx;
+        let error = &error[own.clone()];
+        range = error_range_um(error, range);
+        let tops: Vec<f32> = last.columns()[own.clone()]
+            .iter()
+            .map(|c| c.top().unwrap_or(f32::NAN))
+            .collect();
+        let steps_cut = last_steps(&last.last_cut()[own]);
+        writer
+            .write_rows(&[
+                export::NpyValues::F32(&tops),
+                export::NpyValues::I32(&steps_cut),
+                export::NpyValues::F32(error),
+            ])
+            .with_context(|| format!("cannot write the column grid in {}", dir.display()))?;
+    }
+    writer
+        .finish()
+        .with_context(|| format!("cannot write the column grid in {}", dir.display()))?;
+    let area = grid.cell_area_mm2();
+    run.initial_volume_mm3 = initial_mm * area;
+    run.final_volume_mm3 = final_mm * area;
+    run.error_range_um = Some(range);
+    Ok(())
+}
+
+/// `last_step` of the column grid: the step that last cut each column, −1 if none.
+fn last_steps(last_cut: &[u32]) -> Vec<i32> {
+    last_cut
+        .iter()
+        .map(|&s| if s == NEVER_CUT { -1 } else { s as i32 })
+        .collect()
+}
+
+const TOP_MEANING: &str = "top of the material after the run; NaN where the column holds none";
+const LAST_STEP_MEANING: &str =
+    "index of the step (row of steps.csv) that last cut the column; -1 if never cut";
+const ERROR_MEANING: &str =
+    "predicted shape error from tool deflection, + material left; NaN where not cut";
+
 /// Whether the point `p` (mm) lies in `stock`'s material (the column whose
 /// cell holds its XY; outside the grid: no).
 fn in_material(stock: &Stock, p: [f64; 3]) -> bool {
     let g = stock.grid();
     let fx = ((p[0] - g.x0_mm) / g.spacing_mm).floor();
     let fy = ((p[1] - g.y0_mm) / g.spacing_mm).floor();
-    if !(fx >= 0.0 && fy >= 0.0 && fx < g.nx as f64 && fy < g.ny as f64) {
+    let rows = stock.rows();
+    if !(fx >= 0.0 && fy >= rows.start as f64 && fx < g.nx as f64 && fy < rows.end as f64) {
         return false;
     }
     let z = p[2] as f32;
@@ -476,9 +667,11 @@ fn clamped_error_map_um(
     model_um: &[[f64; 2]],
 ) -> Vec<f32> {
     let grid = *last.grid();
+    let rows = last.rows();
     let tops = last.top_heights();
-    let normals = cutting::surface_normals_from_heights(&tops, grid.nx, grid.ny, grid.spacing_mm);
-    let cells: Vec<usize> = (0..grid.len()).collect();
+    let normals =
+        cutting::surface_normals_from_heights(&tops, grid.nx, rows.len(), grid.spacing_mm);
+    let cells: Vec<usize> = (0..tops.len()).collect();
     cells
         .par_iter()
         .map(|&c| {
@@ -493,7 +686,7 @@ fn clamped_error_map_um(
             if model <= applied {
                 return model as f32;
             }
-            let (ix, iy) = (c % grid.nx, c / grid.nx);
+            let (ix, iy) = (c % grid.nx, rows.start + c / grid.nx);
             let p = [grid.x_mm(ix), grid.y_mm(iy), f64::from(tops[c])];
             let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
             let unit = n.map(|v| v / len);
@@ -961,13 +1154,10 @@ impl Run {
     /// The headline numbers of the run.
     pub fn summary(&self) -> Summary {
         let n = self.steps.len();
-        let errors: Vec<f64> = self
-            .error_um
-            .iter()
-            .filter(|e| e.is_finite())
-            .map(|&e| f64::from(e))
-            .collect();
-        let final_volume_mm3 = self.stock.volume_mm3();
+        let [min_error_um, max_error_um] = self
+            .error_range_um
+            .unwrap_or_else(|| error_range_um(&self.error_um, [0.0, 0.0]));
+        let final_volume_mm3 = self.final_volume_mm3;
         let collisions: Vec<usize> = (0..n)
             .filter(|&i| self.steps[i].step.rapid && self.record.volume_mm3(i) > NOTHING_MM3)
             .collect();
@@ -996,8 +1186,8 @@ impl Run {
                 .map(|l| l.tip_deflection_um)
                 .fold(0.0, f64::max),
             rigid_peak_deflection_um: self.rigid_peak_deflection_um,
-            max_error_um: errors.iter().fold(0.0, |a, &e| if e > a { e } else { a }),
-            min_error_um: errors.iter().fold(0.0, |a, &e| if e < a { e } else { a }),
+            max_error_um,
+            min_error_um,
             closed_loop: self.closed_loop.enabled,
             closed_loop_converged: self.closed_loop.converged,
             closed_loop_passes: self.closed_loop.passes,
@@ -1157,33 +1347,26 @@ impl Run {
         line: Option<&[i32]>,
         csv: bool,
     ) -> Result<()> {
-        let last: Vec<i32> = self
-            .stock
-            .last_cut()
-            .iter()
-            .map(|&s| if s == NEVER_CUT { -1 } else { s as i32 })
-            .collect();
+        let last = last_steps(self.stock.last_cut());
         let error = &self.error_um;
         let grid = GridInfo::of(self.stock.grid()).export();
         let mut arrays = vec![
             export::GridArray {
                 name: "top_mm",
                 unit: "mm",
-                meaning: "top of the material after the run; NaN where the column holds none",
+                meaning: TOP_MEANING,
                 values: export::NpyValues::F32(tops),
             },
             export::GridArray {
                 name: "last_step",
                 unit: "1",
-                meaning:
-                    "index of the step (row of steps.csv) that last cut the column; -1 if never cut",
+                meaning: LAST_STEP_MEANING,
                 values: export::NpyValues::I32(&last),
             },
             export::GridArray {
                 name: "error_um",
                 unit: "µm",
-                meaning:
-                    "predicted shape error from tool deflection, + material left; NaN where not cut",
+                meaning: ERROR_MEANING,
                 values: export::NpyValues::F32(error),
             },
         ];

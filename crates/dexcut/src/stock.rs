@@ -1,6 +1,10 @@
-//! Building the initial stock from the job, after checking it fits in memory.
+//! Building the initial stock from the job, after checking it fits in memory;
+//! a box or cylinder that does not fit the memory budget is made band of rows
+//! by band of rows instead ([`Tiling`], ARCHITECTURE.md "Large stocks").
 
-use anyhow::{Context, Result};
+use std::ops::Range;
+
+use anyhow::{bail, Context, Result};
 use dexel::{Grid, Stock};
 
 use crate::job::{Job, StockSpec};
@@ -10,7 +14,105 @@ fn check_fits(grid: &Grid, what: &str) -> Result<()> {
     crate::bounds::check_columns(grid.nx, grid.ny, grid.spacing_mm, what)
 }
 
-/// The job's stock.
+/// A stock too large for the memory budget, held band of rows by band of
+/// rows: `band_rows` grid rows at a time (a multiple of the sweep's strip
+/// rows, so the banded record equals the whole stock's bit for bit).
+#[derive(Clone, Debug)]
+pub struct Tiling {
+    spec: StockSpec,
+    /// The whole stock's grid.
+    pub grid: Grid,
+    /// Grid rows per band.
+    pub band_rows: usize,
+    /// The memory budget the bands were sized for, bytes.
+    pub budget_bytes: f64,
+}
+
+impl Tiling {
+    /// The bands' row ranges, in order.
+    pub fn bands(&self) -> impl Iterator<Item = Range<usize>> + '_ {
+        (0..self.grid.ny)
+            .step_by(self.band_rows)
+            .map(|r0| r0..(r0 + self.band_rows).min(self.grid.ny))
+    }
+
+    /// The initial stock's grid rows `rows`.
+    pub fn band(&self, rows: Range<usize>) -> Result<Stock> {
+        Ok(match self.spec {
+            StockSpec::Box { min, max, grid } => {
+                Stock::new_box_in_rows(min, max, grid, Some(rows))?
+            }
+            StockSpec::Cylinder {
+                center,
+                radius,
+                z_min,
+                z_max,
+                grid,
+            } => Stock::new_cylinder_in_rows(center, radius, z_min, z_max, grid, Some(rows))?,
+            StockSpec::Mesh { .. } => unreachable!("mesh stocks are never tiled"),
+        })
+    }
+
+    /// A stock holding no row of the grid (what a tiled run keeps as its stock).
+    pub fn empty(&self) -> Result<Stock> {
+        self.band(0..0)
+    }
+}
+
+/// The memory budget of the stock, bytes: `budget_mb` (`--memory-budget-mb`)
+/// or by default the share of the memory this process may use that the
+/// checks allow, never more than that share.
+pub fn budget_bytes(budget_mb: Option<f64>) -> Result<f64> {
+    let room = crate::bounds::usable_memory_bytes();
+    match budget_mb {
+        None => Ok(room),
+        Some(mb) if mb > 0.0 && mb.is_finite() => Ok((mb * 1e6).min(room)),
+        Some(mb) => bail!("--memory-budget-mb must be a positive number of MB, got {mb}"),
+    }
+}
+
+/// The job's stock, whole when its columns fit `budget_bytes`; else, for a
+/// box or a cylinder, an empty stock on the whole grid and the [`Tiling`]
+/// that makes it band by band. Refused when even one band of the sweep's
+/// strip rows does not fit.
+pub fn build_within(job: &Job, budget_bytes: f64) -> Result<(Stock, Option<Tiling>)> {
+    let what = format!("{}: [stock]", job.name);
+    let grid = match job.stock {
+        StockSpec::Box { min, max, grid } => Grid::covering(min[0], min[1], max[0], max[1], grid)?,
+        StockSpec::Cylinder {
+            center: [cx, cy],
+            radius: r,
+            grid,
+            ..
+        } => Grid::covering(cx - r, cy - r, cx + r, cy + r, grid)?,
+        StockSpec::Mesh { .. } => return Ok((build(job)?, None)),
+    };
+    let row_bytes = grid.nx as f64 * crate::bounds::BYTES_PER_COLUMN;
+    if grid.ny as f64 * row_bytes <= budget_bytes {
+        return Ok((build(job)?, None));
+    }
+    let strip = dexel::SweepOptions::default().strip_rows;
+    let band_rows = ((budget_bytes / row_bytes) as usize / strip) * strip;
+    if band_rows == 0 {
+        bail!(
+            "{what}: {}×{} columns at grid {} mm: even one band of {strip} rows needs about {:.0} MB of memory, more than the {:.0} MB this process may use (available memory, cgroup memory.max and ulimit, or --memory-budget-mb); use a coarser grid",
+            grid.nx,
+            grid.ny,
+            grid.spacing_mm,
+            strip as f64 * row_bytes / 1e6,
+            budget_bytes / 1e6
+        );
+    }
+    let tiling = Tiling {
+        spec: job.stock.clone(),
+        grid,
+        band_rows,
+        budget_bytes,
+    };
+    Ok((tiling.empty()?, Some(tiling)))
+}
+
+/// The job's stock, refused when it does not fit in memory.
 pub fn build(job: &Job) -> Result<Stock> {
     let s = &job.stock;
     let what = format!("{}: [stock]", job.name);

@@ -155,6 +155,7 @@ material = "al6061"
         false,
         false,
         false,
+        None,
     )
     .unwrap();
     let doc = match summary::read(&out.join("summary.json")).unwrap() {

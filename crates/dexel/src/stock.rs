@@ -279,15 +279,18 @@ impl Stock {
 
     /// Material volume held, mm³ (f64, summed row by row in a fixed order).
     pub fn volume_mm3(&self) -> f64 {
-        self.add_row_lengths_mm(0.0) * self.grid.cell_area_mm2()
+        self.add_row_lengths_mm(self.rows(), 0.0) * self.grid.cell_area_mm2()
     }
 
-    /// `sum` plus each held row's material length, row by row in order, mm:
-    /// carried from band to band it gives the whole stock's
-    /// [`Stock::volume_mm3`] (times the cell area) bit for bit.
-    pub fn add_row_lengths_mm(&self, sum: f64) -> f64 {
-        self.columns
-            .chunks(self.grid.nx.max(1))
+    /// `sum` plus the material length of each grid row in `rows` (rows this
+    /// stock holds), row by row in order, mm: carried from band to band it
+    /// gives the whole stock's [`Stock::volume_mm3`] (times the cell area) bit
+    /// for bit.
+    pub fn add_row_lengths_mm(&self, rows: std::ops::Range<usize>, sum: f64) -> f64 {
+        let nx = self.grid.nx.max(1);
+        let at = (rows.start - self.row0) * nx..(rows.end - self.row0) * nx;
+        self.columns[at]
+            .chunks(nx)
             .map(|row| row.iter().map(Column::length_mm).sum::<f64>())
             .fold(sum, |a, r| a + r)
     }

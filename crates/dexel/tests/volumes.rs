@@ -596,7 +596,7 @@ fn banded_sweep_equals_the_whole_stock() {
             sweep.band(&mut band, &|_| {});
             tops.extend(band.top_heights());
             last.extend_from_slice(band.last_cut());
-            length_mm = band.add_row_lengths_mm(length_mm);
+            length_mm = band.add_row_lengths_mm(band.rows(), length_mm);
         }
         let banded = sweep.finish();
         assert_eq!(

@@ -26,25 +26,61 @@ pub fn write_file<F>(path: &Path, write: F) -> io::Result<()>
 where
     F: FnOnce(&mut dyn Write) -> io::Result<()>,
 {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = path.file_name().ok_or_else(|| {
-        io::Error::new(io::ErrorKind::InvalidInput, "output path has no file name")
-    })?;
-    // O_EXCL with a random name: a planted file or link is never written through.
-    let tmp = tempfile::Builder::new()
-        .prefix(&format!(".{}.", name.to_string_lossy()))
-        .suffix(".tmp")
-        .tempfile_in(dir)?;
-    let mut buf = io::BufWriter::new(tmp);
-    write(&mut buf)?;
-    let tmp = buf.into_inner().map_err(|e| e.into_error())?;
-    tmp.as_file().sync_all()?;
-    // On error the temporary file is removed when dropped.
-    tmp.persist(path).map_err(|e| e.error)?;
-    Ok(())
+    let mut file = PendingFile::create(path)?;
+    write(&mut file)?;
+    file.commit()
+}
+
+/// A file written piece by piece that appears at its path only on
+/// [`PendingFile::commit`] (dropped before: nothing appears).
+pub struct PendingFile {
+    buf: io::BufWriter<tempfile::NamedTempFile>,
+    path: PathBuf,
+}
+
+impl PendingFile {
+    /// Start writing `path` (a fresh temporary file beside it).
+    pub fn create(path: &Path) -> io::Result<PendingFile> {
+        let dir = path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let name = path.file_name().ok_or_else(|| {
+            io::Error::new(io::ErrorKind::InvalidInput, "output path has no file name")
+        })?;
+        // O_EXCL with a random name: a planted file or link is never written through.
+        let tmp = tempfile::Builder::new()
+            .prefix(&format!(".{}.", name.to_string_lossy()))
+            .suffix(".tmp")
+            .tempfile_in(dir)?;
+        Ok(PendingFile {
+            buf: io::BufWriter::new(tmp),
+            path: path.to_path_buf(),
+        })
+    }
+
+    /// Sync the file and rename it over its path.
+    pub fn commit(self) -> io::Result<()> {
+        let tmp = self.buf.into_inner().map_err(|e| e.into_error())?;
+        tmp.as_file().sync_all()?;
+        // On error the temporary file is removed when dropped.
+        tmp.persist(&self.path).map_err(|e| e.error)?;
+        Ok(())
+    }
+}
+
+impl Write for PendingFile {
+    fn write(&mut self, bytes: &[u8]) -> io::Result<usize> {
+        self.buf.write(bytes)
+    }
+
+    fn write_all(&mut self, bytes: &[u8]) -> io::Result<()> {
+        self.buf.write_all(bytes)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.buf.flush()
+    }
 }
 
 /// Write `bytes` to `path` atomically.

@@ -52,8 +52,8 @@ pub use html::{
 };
 pub use npy::{
     npy_bytes, npy_header, parse_npy, read_column_grid_info, read_grid_array_f32,
-    write_column_grid, write_npy, ColumnGridInfo, GridArray, GridArrayInfo, Npy, NpyArray,
-    NpyValues, COLUMN_GRID_FORMAT, COLUMN_GRID_JSON,
+    write_column_grid, write_npy, ColumnGridInfo, ColumnGridWriter, GridArray, GridArrayInfo, Npy,
+    NpyArray, NpyValues, COLUMN_GRID_FORMAT, COLUMN_GRID_JSON,
 };
 pub use svg::{PlotGroup, MAX_PLOT_POINTS};
 

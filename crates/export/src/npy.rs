@@ -313,44 +313,143 @@ impl ColumnGridInfo {
 /// Write `columns.json` and one `<name>.npy` per array (shape `(ny, nx)`) into
 /// the folder `dir`. Each array must have one value per grid column.
 pub fn write_column_grid(dir: &Path, grid: &Grid, arrays: &[GridArray]) -> Result<(), Error> {
-    let json_path = dir.join(COLUMN_GRID_JSON);
     for a in arrays {
         grid.check_len(&format!("grid array {:?}", a.name), a.values.len())
             .map_err(|e| e.at(&dir.join(format!("{}.npy", a.name))))?;
     }
-    let info = ColumnGridInfo {
-        format: COLUMN_GRID_FORMAT.into(),
-        version: 1,
-        units: "mm".into(),
-        nx: grid.nx,
-        ny: grid.ny,
-        x0_mm: grid.x0_mm,
-        y0_mm: grid.y0_mm,
-        spacing_mm: grid.spacing_mm,
-        layout: "each array has shape (ny, nx), C order: element [iy, ix] is the column centred at (x0_mm + ix·spacing_mm, y0_mm + iy·spacing_mm)".into(),
-        arrays: arrays
-            .iter()
-            .map(|a| GridArrayInfo {
-                name: a.name.into(),
-                file: format!("{}.npy", a.name),
-                dtype: a.values.descr().into(),
-                unit: a.unit.into(),
-                meaning: a.meaning.into(),
-            })
-            .collect(),
-    };
-    for a in arrays {
-        write_npy(
-            &dir.join(format!("{}.npy", a.name)),
-            &[grid.ny, grid.nx],
-            a.values,
-        )?;
+    let mut writer = ColumnGridWriter::begin(dir, grid, arrays)?;
+    let values: Vec<NpyValues> = arrays.iter().map(|a| a.values).collect();
+    writer.write_rows(&values)?;
+    writer.finish()
+}
+
+/// A column grid written block of rows by block of rows, in row order (the
+/// bands of a stock too large for memory): each `.npy` file is its header
+/// then the rows as they come (C order), and appears, with `columns.json`,
+/// only when [`ColumnGridWriter::finish`] finds every row written.
+pub struct ColumnGridWriter {
+    dir: std::path::PathBuf,
+    grid: Grid,
+    info: ColumnGridInfo,
+    files: Vec<crate::atomic::PendingFile>,
+    rows_written: usize,
+}
+
+impl ColumnGridWriter {
+    /// Start the files of `arrays` (their names, units, meanings and types;
+    /// their values are not written here) on `grid` in the folder `dir`.
+    pub fn begin(dir: &Path, grid: &Grid, arrays: &[GridArray]) -> Result<Self, Error> {
+        let info = ColumnGridInfo {
+            format: COLUMN_GRID_FORMAT.into(),
+            version: 1,
+            units: "mm".into(),
+            nx: grid.nx,
+            ny: grid.ny,
+            x0_mm: grid.x0_mm,
+            y0_mm: grid.y0_mm,
+            spacing_mm: grid.spacing_mm,
+            layout: "each array has shape (ny, nx), C order: element [iy, ix] is the column centred at (x0_mm + ix·spacing_mm, y0_mm + iy·spacing_mm)".into(),
+            arrays: arrays
+                .iter()
+                .map(|a| GridArrayInfo {
+                    name: a.name.into(),
+                    file: format!("{}.npy", a.name),
+                    dtype: a.values.descr().into(),
+                    unit: a.unit.into(),
+                    meaning: a.meaning.into(),
+                })
+                .collect(),
+        };
+        let mut files = Vec::with_capacity(arrays.len());
+        for a in &info.arrays {
+            let path = dir.join(&a.file);
+            let io = |source| Error::Io {
+                path: path.clone(),
+                source,
+            };
+            let mut file = crate::atomic::PendingFile::create(&path).map_err(io)?;
+            file.write_all(&npy_header(&a.dtype, &[grid.ny, grid.nx]))
+                .map_err(io)?;
+            files.push(file);
+        }
+        Ok(ColumnGridWriter {
+            dir: dir.to_path_buf(),
+            grid: *grid,
+            info,
+            files,
+            rows_written: 0,
+        })
     }
-    let json = serde_json::to_vec_pretty(&info).map_err(|e| Error::Invalid {
-        what: COLUMN_GRID_JSON.into(),
-        reason: e.to_string(),
-    })?;
-    crate::render_and_write(&json_path, || Ok(json))
+
+    /// Append the next rows: one value slice per array, in the order and of
+    /// the types given to [`ColumnGridWriter::begin`], each of the same whole
+    /// number of rows.
+    pub fn write_rows(&mut self, values: &[NpyValues]) -> Result<(), Error> {
+        let nx = self.grid.nx.max(1);
+        let rows = values.first().map_or(0, |v| v.len() / nx);
+        for (a, v) in self.info.arrays.iter().zip(values) {
+            let path = self.dir.join(&a.file);
+            if v.descr() != a.dtype || v.len() != rows * nx {
+                return Err(Error::Invalid {
+                    what: format!("grid array {:?}", a.name),
+                    reason: format!(
+                        "{} values of {} for rows of {nx} {}",
+                        v.len(),
+                        v.descr(),
+                        a.dtype
+                    ),
+                }
+                .at(&path));
+            }
+            if self.rows_written + rows > self.grid.ny {
+                return Err(Error::Invalid {
+                    what: format!("grid array {:?}", a.name),
+                    reason: format!(
+                        "{} rows past the grid's {}",
+                        self.rows_written + rows,
+                        self.grid.ny
+                    ),
+                }
+                .at(&path));
+            }
+        }
+        if values.len() != self.files.len() {
+            return Err(Error::Invalid {
+                what: "column grid".into(),
+                reason: format!("{} arrays for {}", values.len(), self.files.len()),
+            });
+        }
+        for ((file, v), a) in self.files.iter_mut().zip(values).zip(&self.info.arrays) {
+            v.write_data(file).map_err(|source| Error::Io {
+                path: self.dir.join(&a.file),
+                source,
+            })?;
+        }
+        self.rows_written += rows;
+        Ok(())
+    }
+
+    /// Check that every row was written, then let the files and `columns.json` appear.
+    pub fn finish(self) -> Result<(), Error> {
+        if self.rows_written != self.grid.ny {
+            return Err(Error::Invalid {
+                what: "column grid".into(),
+                reason: format!("{} of {} rows written", self.rows_written, self.grid.ny),
+            }
+            .at(&self.dir));
+        }
+        for (file, a) in self.files.into_iter().zip(&self.info.arrays) {
+            file.commit().map_err(|source| Error::Io {
+                path: self.dir.join(&a.file),
+                source,
+            })?;
+        }
+        let json = serde_json::to_vec_pretty(&self.info).map_err(|e| Error::Invalid {
+            what: COLUMN_GRID_JSON.into(),
+            reason: e.to_string(),
+        })?;
+        crate::render_and_write(&self.dir.join(COLUMN_GRID_JSON), || Ok(json))
+    }
 }
 
 /// Read `columns.json` of the folder `dir`; `max_bytes` bounds the file size.

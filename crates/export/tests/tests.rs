@@ -702,4 +702,81 @@ mod npy {
         .is_err());
         assert_eq!(std::fs::read_dir(empty.path()).unwrap().count(), 0);
     }
+
+    /// A grid written band by band of rows is the same files, byte for byte,
+    /// as written at once; a grid with rows missing or too many leaves nothing.
+    #[test]
+    fn column_grid_written_by_rows_equals_written_at_once() {
+        let grid = Grid {
+            nx: 5,
+            ny: 7,
+            x0_mm: 0.5,
+            y0_mm: -3.0,
+            spacing_mm: 0.1,
+        };
+        let top: Vec<f32> = (0..35).map(|i| i as f32 * 0.25 - 3.0).collect();
+        let last: Vec<i32> = (0..35).map(|i| 7 * i - 10).collect();
+        let arrays = |top: &'static [f32], last: &'static [i32]| {
+            [
+                GridArray {
+                    name: "top_mm",
+                    unit: "mm",
+                    meaning: "top",
+                    values: NpyValues::F32(top),
+                },
+                GridArray {
+                    name: "last_step",
+                    unit: "1",
+                    meaning: "step",
+                    values: NpyValues::I32(last),
+                },
+            ]
+        };
+        let (top, last): (&'static [f32], &'static [i32]) = (top.leak(), last.leak());
+        let whole = tmp();
+        export::write_column_grid(whole.path(), &grid, &arrays(top, last)).unwrap();
+        let banded = tmp();
+        let mut w =
+            export::ColumnGridWriter::begin(banded.path(), &grid, &arrays(&[], &[])).unwrap();
+        for rows in [0..2, 2..3, 3..7] {
+            let r = rows.start * 5..rows.end * 5;
+            w.write_rows(&[NpyValues::F32(&top[r.clone()]), NpyValues::I32(&last[r])])
+                .unwrap();
+        }
+        // Nothing appears before the end.
+        assert_eq!(
+            std::fs::read_dir(banded.path())
+                .unwrap()
+                .filter(|e| !e
+                    .as_ref()
+                    .unwrap()
+                    .file_name()
+                    .to_string_lossy()
+                    .starts_with('.'))
+                .count(),
+            0
+        );
+        w.finish().unwrap();
+        for name in ["top_mm.npy", "last_step.npy", "columns.json"] {
+            assert_eq!(
+                std::fs::read(whole.path().join(name)).unwrap(),
+                std::fs::read(banded.path().join(name)).unwrap(),
+                "{name}"
+            );
+        }
+        // Rows missing, too many rows or a wrong type: refused, no file left.
+        let short = tmp();
+        let mut w =
+            export::ColumnGridWriter::begin(short.path(), &grid, &arrays(&[], &[])).unwrap();
+        w.write_rows(&[NpyValues::F32(&top[..10]), NpyValues::I32(&last[..10])])
+            .unwrap();
+        assert!(w
+            .write_rows(&[NpyValues::I32(&last[..10]), NpyValues::I32(&last[..10])])
+            .is_err());
+        assert!(w
+            .write_rows(&[NpyValues::F32(&top[..30]), NpyValues::I32(&last[..30])])
+            .is_err());
+        assert!(w.finish().unwrap_err().to_string().contains("2 of 7 rows"));
+        assert_eq!(std::fs::read_dir(short.path()).unwrap().count(), 0);
+    }
 }
