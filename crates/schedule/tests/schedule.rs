@@ -1134,3 +1134,70 @@ fn caps_just_above_the_plan_need_no_hold() {
         assert!(profile.cycle_time_s() >= lower_bound_time_s(&st));
     }
 }
+
+/// Runs longer than the golden-section search covers (> 4 000 stations) choose λ from a
+/// grid (MODEL.md §6.1): a 500 mm move at 600 mm/min never reaches the acceleration limit
+/// (v·j < a²), so its ramps take τ(v) = 2√(v/j) in total, not the v/a + a/j of λ = 1
+/// (+34 % here). The ramp time (cycle − L/v) is within 2 % of the closed form, and a long
+/// zigzag of short chords with corners every 0.25 mm keeps every limit at every sample.
+#[test]
+fn long_runs_choose_the_acceleration_share() {
+    let jerk = 20000.0;
+    let machine = Machine {
+        jerk_mm_s3: Some([jerk; 3]),
+        ..Machine::default()
+    };
+    let (len, feed) = (500.0, 600.0);
+    let st = stations(
+        vec![line(p(0.0, 0.0, 0.0), p(len, 0.0, 0.0), feed)],
+        &machine,
+        0.1,
+    );
+    assert!(st.len() > 4001);
+    let profile = plan(&st);
+    let v = feed / 60.0;
+    let ramps_s = profile.cycle_time_s() - len / v;
+    let optimum_s = rest_to_rest_time_s(len, v, ACCEL, jerk) - len / v;
+    close(optimum_s, 2.0 * (v / jerk).sqrt(), 1e-12);
+    let gap = ramps_s / optimum_s - 1.0;
+    println!(
+        "ramps {ramps_s:.5} s against {optimum_s:.5} s ({:.2} %)",
+        100.0 * gap
+    );
+    assert!((-1e-9..=0.02).contains(&gap), "ramp gap {gap}");
+    assert!(profile.cycle_time_s() >= lower_bound_time_s(&st) * (1.0 - 1e-12));
+    // 4 ms samples: at 1 ms the rounding of positions 500 mm from the start (the filter's
+    // integrals reach 25 000 mm·s) shows as 0.2 mm/s³ in the third differences.
+    let samples = profile.sample(4.0).unwrap();
+    let (a, j) = sampled_axis_peaks(&samples, 0.004);
+    assert!(
+        a[0] <= ACCEL * (1.0 + 1e-6) && j[0] <= jerk * (1.0 + 1e-6),
+        "{a:?} {j:?}"
+    );
+
+    // Zigzag: 1 600 chords of 0.25 mm turning by ±10°.
+    let mut segments = Vec::new();
+    let mut at = p(0.0, 0.0, 0.0);
+    for i in 0..1600 {
+        let angle = if i % 2 == 0 { 0.087 } else { -0.087 };
+        let next = at + Vector3::new(f64::cos(angle), f64::sin(angle), 0.0) * 0.25;
+        segments.push(line(at, next, 3000.0));
+        at = next;
+    }
+    let st = stations(segments, &machine, 0.05);
+    assert!(st.len() > 4001);
+    let profile = plan(&st);
+    let bound_s = lower_bound_time_s(&st);
+    println!(
+        "zigzag: cycle {:.4} s, bound {bound_s:.4} s",
+        profile.cycle_time_s()
+    );
+    assert!(profile.cycle_time_s() >= bound_s * (1.0 - 1e-12));
+    let samples = profile.sample(16.0).unwrap();
+    assert_samples_under_caps(&st, &samples, "zigzag");
+    let (a, j) = sampled_axis_peaks(&samples, 0.016);
+    for i in 0..3 {
+        assert!(a[i] <= ACCEL * (1.0 + 1e-6) + 1e-6, "accel {a:?}");
+        assert!(j[i] <= jerk * (1.0 + 1e-6) + 1e-6, "jerk {j:?}");
+    }
+}
