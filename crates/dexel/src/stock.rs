@@ -303,3 +303,38 @@ impl Stock {
             .collect()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Bands of rows of a box and a cylinder, put end to end, are the whole
+    /// stock: the same columns and, summed band after band, the same volume bit for bit.
+    #[test]
+    fn bands_of_rows_make_the_whole_stock() {
+        let box_band = |rows| Stock::new_box_in_rows([0.0, 0.0, -1.0], [7.0, 5.0, 2.0], 0.1, rows);
+        let cyl_band = |rows| Stock::new_cylinder_in_rows([1.0, 2.0], 3.3, 0.5, 4.0, 0.1, rows);
+        for make in [&box_band as &dyn Fn(_) -> _, &cyl_band] {
+            let whole: Stock = make(None).unwrap();
+            let ny = whole.grid().ny;
+            assert_eq!(whole.rows(), 0..ny);
+            let mut columns = Vec::new();
+            let mut length_mm = 0.0;
+            for r0 in (0..ny).step_by(13) {
+                let rows = r0..(r0 + 13).min(ny);
+                let band: Stock = make(Some(rows.clone())).unwrap();
+                assert_eq!(band.rows(), rows);
+                assert_eq!(band.column(4, rows.start), whole.column(4, rows.start));
+                columns.extend_from_slice(band.columns());
+                length_mm = band.add_row_lengths_mm(rows, length_mm);
+            }
+            assert_eq!(columns, whole.columns());
+            assert_eq!(
+                (length_mm * whole.grid().cell_area_mm2()).to_bits(),
+                whole.volume_mm3().to_bits()
+            );
+            let empty: Stock = make(Some(3..3)).unwrap();
+            assert!(empty.columns().is_empty() && empty.volume_mm3() == 0.0);
+        }
+    }
+}
