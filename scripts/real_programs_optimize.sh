@@ -63,6 +63,20 @@ TOOLS = {
     "freecad_hole_7mm": ("flat", 6.0, 0.1),
     "freecad_plate8": ("flat", 3.0, 0.1),
     "fusion_tap_heatsink": ("flat", 3.175, 0.1),
+    "fusion_haas_rebels5": ("flat", 3.175, 0.1),
+    "haas_cline_maze": ("flat", 3.175, 0.1),
+    "haas_smiley": ("flat", 3.175, 0.1),
+    "haas_writing_a_program": ("flat", 3.175, 0.1),
+    "linuxcnc_3dtest": ("flat", 3.175, 0.2),
+    "linuxcnc_arcspiral": ("flat", 3.175, 0.2),
+    "linuxcnc_flowsnake": ("flat", 3.175, 0.2),
+    "linuxcnc_hk_ba20": ("flat", 6.0, 0.2),
+    "linuxcnc_hole_circle": ("flat", 6.35, 0.2),
+    "linuxcnc_polar": ("flat", 6.35, 0.2),
+    "linuxcnc_skeleton": ("flat", 3.175, 0.2),
+    "linuxcnc_spiral": ("flat", 3.175, 0.2),
+    "linuxcnc_tort": ("ball", 3.175, 0.2),
+    "uccnc_sensor_v4": ("flat", 0.397, 0.05),
 }
 DEFAULT_TOOL = ("flat", 3.0, 0.1)
 
