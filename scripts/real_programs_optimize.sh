@@ -77,6 +77,13 @@ TOOLS = {
     "linuxcnc_spiral": ("flat", 3.175, 0.2),
     "linuxcnc_tort": ("ball", 3.175, 0.2),
     "uccnc_sensor_v4": ("flat", 0.397, 0.05),
+    "fusion_haas_sprayer_face": ("flat", 152.4, 1.0),
+    "fusion_sprayer_output": ("flat", 152.4, 1.0),
+    "fusion_sprayer_working": ("flat", 50.8, 0.5),
+    "pcb2gcode_outline": ("flat", 1.5, 0.05),
+    "pcb2gcode_drill": ("flat", 0.4, 0.05),
+    "pcb2gcode_milldrill": ("flat", 1.0, 0.05),
+    "pcb2gcode_back": ("flat", 0.2, 0.05),
 }
 DEFAULT_TOOL = ("flat", 3.0, 0.1)
 
