@@ -84,6 +84,8 @@ TOOLS = {
     "pcb2gcode_drill": ("flat", 0.4, 0.05),
     "pcb2gcode_milldrill": ("flat", 1.0, 0.05),
     "pcb2gcode_back": ("flat", 0.2, 0.05),
+    "bcnc_sample": ("flat", 0.6, 0.05),
+    "escriba_grbl": ("flat", 0.5, 0.05),
 }
 DEFAULT_TOOL = ("flat", 3.0, 0.1)
 

@@ -937,8 +937,8 @@ fn a_tool_change_the_single_tool_cannot_follow_is_a_warning() {
 }
 
 /// A program as CAM posts (BlenderCAM) and Windows editors write it, with a
-/// UTF-8 byte-order mark, nested comment parentheses and no M2/M30: read as
-/// most controls read it, with a
+/// UTF-8 byte-order mark, a GRBL `$I` line, nested comment parentheses and
+/// no M2/M30: read as most controls read it, with a
 /// warning per form at its line in summary.json and on the console, and the
 /// same removal as the program with an end. The re-fed optimized.nc has no
 /// mark and ends with M2, so LinuxCNC's rs274 reads it; simulated as a
@@ -948,7 +948,7 @@ fn programs_without_an_end_or_with_a_byte_order_mark_run_with_warnings() {
     let dir = tempdir();
     let job = gcode_slot_job() + "[limits]\nmrr_max = 100\n";
     write(dir.path(), "job.toml", &job);
-    let body = "G21 G90 G17 G54\nG0 X-10 Y0 Z40 (start (above the stock))\nG0 Z28\nG1 X110 F1200\nG0 Z40\n";
+    let body = "G21 G90 G17 G54\n$I (build info)\nG0 X-10 Y0 Z40 (start (above the stock))\nG0 Z28\nG1 X110 F1200\nG0 Z40\n";
     write(dir.path(), "slot.ngc", &format!("\u{feff}{body}"));
     let out = dexcut(&["simulate", "job.toml", "--out", "sim"], dir.path());
     ok(&out);
@@ -965,13 +965,15 @@ fn programs_without_an_end_or_with_a_byte_order_mark_run_with_warnings() {
             )
         })
         .collect();
-    assert_eq!(form.len(), 3, "{form:?}");
+    assert_eq!(form.len(), 4, "{form:?}");
     assert_eq!(form[0].0, 1);
     assert!(form[0].1.contains("byte-order mark"), "{form:?}");
     assert_eq!(form[1].0, 2);
-    assert!(form[1].1.contains("nested in a comment"), "{form:?}");
-    assert_eq!(form[2].0, 5);
-    assert!(form[2].1.contains("no program end"), "{form:?}");
+    assert!(form[1].1.contains("GRBL system command"), "{form:?}");
+    assert_eq!(form[2].0, 3);
+    assert!(form[2].1.contains("nested in a comment"), "{form:?}");
+    assert_eq!(form[3].0, 6);
+    assert!(form[3].1.contains("no program end"), "{form:?}");
     let exact = ball_slot_area_mm2(5.0, 2.0) * 100.0;
     let removed = s["removed_volume_mm3"].as_f64().unwrap();
     assert!(rel(removed, exact) < 3e-3, "removed {removed} vs {exact}");

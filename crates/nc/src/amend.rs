@@ -14,7 +14,11 @@
 //!   XY arcs; GRBL ignores it) is dropped;
 //! * axis words after `G80` with no motion word (Fanuc-style posts such as
 //!   Fusion's `.tap`), which those controls move in the G0/G1 mode in force
-//!   before the canned cycle, get that G code.
+//!   before the canned cycle, get that G code;
+//! * GRBL's system commands that report or unlock (`$$ $# $G $I $N $X`, a
+//!   bare `$`) and the `?` status query, which senders stream with the
+//!   program and GRBL answers outside its G-code parser, are written as
+//!   comments.
 
 use std::ops::Range;
 
@@ -100,6 +104,35 @@ pub fn amend(source: &str, amendments: &[Amendment]) -> String {
     out
 }
 
+/// GRBL's `$` lines and `?` that leave the machine where it is and the
+/// program read as it was: `$$` `$#` `$G` `$I` `$N` (reports), `$X`
+/// (alarm unlock), `$` (help) and `?` (status query). GRBL reads a line
+/// that starts with `$` as a system command, not G-code, and `?` as a
+/// real-time command ("Grbl v1.1 Commands", gnea/grbl
+/// doc/markdown/commands.md). `$H` (homing) and `$J=` (jogging) move the
+/// machine, `$C` (check mode) stops it moving, `$x=` and `$Nx=` change
+/// settings and start-up blocks, and `$SLP` sleeps: those stay refused.
+///
+/// The line with the command in parentheses (a comment for every control)
+/// and the 1-based column of the command; `None` for any other line.
+pub(crate) fn comment_grbl_system_command(text: &str) -> Option<(String, u32)> {
+    const QUIET: [&str; 8] = ["?", "$", "$$", "$#", "$G", "$I", "$N", "$X"];
+    let lead = text.len() - text.trim_start_matches([' ', '\t']).len();
+    let rest = &text[lead..];
+    let command = rest[..rest.find([';', '(']).unwrap_or(rest.len())].trim_end_matches([' ', '\t']);
+    let key: String = command
+        .chars()
+        .filter(|c| !c.is_whitespace())
+        .collect::<String>()
+        .to_ascii_uppercase();
+    QUIET.contains(&key.as_str()).then(|| {
+        (
+            format!("{}({command}){}", &text[..lead], &rest[command.len()..]),
+            lead as u32 + 1,
+        )
+    })
+}
+
 /// Where a line's comments nest parentheses but each comment closes on the
 /// line: the line with every inner `(` `)` written as `[` `]` (the same
 /// byte length, so columns and spans stay), and the 1-based column of the
@@ -138,6 +171,37 @@ pub(crate) fn flatten_nested_comments(text: &str) -> Option<(String, u32)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn grbl_system_commands_that_neither_move_nor_set_become_comments() {
+        assert_eq!(
+            comment_grbl_system_command("$I  ; View build info"),
+            Some(("($I)  ; View build info".into(), 1))
+        );
+        assert_eq!(
+            comment_grbl_system_command("  ?"),
+            Some(("  (?)".into(), 3))
+        );
+        assert_eq!(
+            comment_grbl_system_command("$x (unlock)"),
+            Some(("($x) (unlock)".into(), 1))
+        );
+        for moves_or_sets in [
+            "$H",
+            "$J=G91 X10 F100",
+            "$C",
+            "$100=80",
+            "$N0=G20",
+            "$SLP",
+            "G0 X1",
+        ] {
+            assert_eq!(
+                comment_grbl_system_command(moves_or_sets),
+                None,
+                "{moves_or_sets}"
+            );
+        }
+    }
 
     #[test]
     fn nested_comments_flatten_only_when_they_close() {

@@ -72,7 +72,7 @@ pub enum FileForm {
     /// are errors.
     LinuxCnc,
     /// As most controls: the program ends at its last line when it has no
-    /// program end, a leading byte-order mark is skipped, and three dialects
+    /// program end, a leading byte-order mark is skipped, and four dialects
     /// real posts write are read as their controls read them (see
     /// [`crate::amend`]); each is a warning naming what LinuxCNC would
     /// refuse, and an [`Amendment`] in [`Parsed::amendments`].
@@ -499,32 +499,43 @@ fn run_once(
                 lines.push(Some(line));
             }
             Err(e) => {
-                // Parentheses nested in a comment that closes on the line.
-                let flat = (options.file_form == FileForm::Tolerant)
-                    .then(|| amend::flatten_nested_comments(text))
+                // Parentheses nested in a comment that closes on the line, or
+                // a GRBL system command that neither moves nor sets anything.
+                let fixed = (options.file_form == FileForm::Tolerant)
+                    .then(|| {
+                        amend::flatten_nested_comments(text)
+                            .map(|(fixed, col)| (fixed, col, "parentheses nested in a comment read as one comment, written as [ ]".to_owned()))
+                            .or_else(|| {
+                                amend::comment_grbl_system_command(text).map(|(fixed, col)| {
+                                    (fixed, col, "GRBL system command skipped, as GRBL runs it outside the program (it neither moves the machine nor changes how the program reads); written as a comment".to_owned())
+                                })
+                            })
+                    })
                     .flatten()
-                    .and_then(|(flat, col)| Some((syntax::parse_line(&flat).ok()?, flat, col)));
-                match flat {
-                    Some((line, flat, col)) => {
+                    .and_then(|(fixed, col, what)| {
+                        Some((syntax::parse_line(&fixed).ok()?, fixed, col, what))
+                    });
+                match fixed {
+                    Some((line, fixed, col, what)) => {
                         it.line_index = i;
-                        let start = flat
+                        let start = fixed
                             .bytes()
                             .zip(text.bytes())
                             .position(|(a, b)| a != b)
                             .unwrap_or(0);
-                        let end = flat.len()
-                            - flat
-                                .bytes()
-                                .rev()
-                                .zip(text.bytes().rev())
-                                .position(|(a, b)| a != b)
-                                .unwrap_or(0);
+                        // The common tail, not reaching back past `start`.
+                        let tail = fixed
+                            .bytes()
+                            .rev()
+                            .zip(text.bytes().rev())
+                            .take(fixed.len().min(text.len()) - start)
+                            .take_while(|(a, b)| a == b)
+                            .count();
                         it.tolerate(
-                            start..end,
-                            flat[start..end].to_owned(),
+                            start..text.len() - tail,
+                            fixed[start..fixed.len() - tail].to_owned(),
                             col,
-                            "parentheses nested in a comment read as one comment, written as [ ]"
-                                .into(),
+                            what,
                         );
                         lines.push(Some(line));
                     }

@@ -506,6 +506,12 @@ fn dialects_real_posts_write_are_read_tolerantly_and_amended() {
             "axis words after G80 moved in G0",
             "G0 X0 Y0 Z5\nG98 G81 X1 Y1 Z-1 R2 F100\nX2\nG80\nG0 X0 Y-2 Z6\no1 repeat [2]\nX1 Y1\no1 endrepeat\nM2\n",
         ),
+        (
+            "G21 G90\n  $I  ; build info\nG0 X0 Y0 Z5\nG1 Z-1 F100\nM2\n",
+            (2, 3),
+            "GRBL system command skipped",
+            "G21 G90\n  ($I)  ; build info\nG0 X0 Y0 Z5\nG1 Z-1 F100\nM2\n",
+        ),
     ];
     for (src, (line, column), what, written) in cases {
         let strict = nc::parse(src, "t.ngc", &form(nc::FileForm::LinuxCnc));
@@ -531,4 +537,9 @@ fn dialects_real_posts_write_are_read_tolerantly_and_amended() {
     let src = "G98 G81 X1 Y1 Z-1 R2 F100\nG80\nX0 Y-2 Z6\nM2\n";
     let d = nc::parse(src, "t.ngc", &form(nc::FileForm::Tolerant)).diagnostics;
     assert!(d.iter().any(|d| d.is_error() && d.line == 3), "{d:?}");
+    // GRBL's homing and jogging move the machine where the program cannot say.
+    for src in ["$H\nG0 X1\nM2\n", "$J=G91 X10 F100\nG0 X1\nM2\n"] {
+        let d = nc::parse(src, "t.ngc", &form(nc::FileForm::Tolerant)).diagnostics;
+        assert!(d.iter().any(|d| d.is_error() && d.line == 1), "{d:?}");
+    }
 }
