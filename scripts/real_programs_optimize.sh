@@ -86,6 +86,9 @@ TOOLS = {
     "pcb2gcode_back": ("flat", 0.2, 0.05),
     "bcnc_sample": ("flat", 0.6, 0.05),
     "escriba_grbl": ("flat", 0.5, 0.05),
+    "jscut_": ("flat", 3.175, 0.1),
+    "openbuilds_cam": ("flat", 1.0, 0.05),
+    "estlcam11": ("flat", 3.0, 0.1),
 }
 DEFAULT_TOOL = ("flat", 3.0, 0.1)
 
