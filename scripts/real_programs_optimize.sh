@@ -64,18 +64,18 @@ TOOLS = {
     "freecad_plate8": ("flat", 3.0, 0.1),
     "fusion_tap_heatsink": ("flat", 3.175, 0.1),
     "fusion_haas_rebels5": ("flat", 3.175, 0.1),
-    "haas_cline_maze": ("flat", 3.175, 0.1),
-    "haas_smiley": ("flat", 3.175, 0.1),
-    "haas_writing_a_program": ("flat", 3.175, 0.1),
-    "linuxcnc_3dtest": ("flat", 3.175, 0.2),
-    "linuxcnc_arcspiral": ("flat", 3.175, 0.2),
-    "linuxcnc_flowsnake": ("flat", 3.175, 0.2),
-    "linuxcnc_hk_ba20": ("flat", 6.0, 0.2),
-    "linuxcnc_hole_circle": ("flat", 6.35, 0.2),
-    "linuxcnc_polar": ("flat", 6.35, 0.2),
-    "linuxcnc_skeleton": ("flat", 3.175, 0.2),
-    "linuxcnc_spiral": ("flat", 3.175, 0.2),
-    "linuxcnc_tort": ("ball", 3.175, 0.2),
+    "haas_cline_maze": ("flat", 3.175, 0.1),  # no diameter in the program: assumed
+    "haas_smiley": ("flat", 3.175, 0.1),  # no diameter in the program: assumed
+    "haas_writing_a_program": ("flat", 3.175, 0.1),  # no diameter in the program: assumed
+    "linuxcnc_3dtest": ("flat", 3.175, 0.2),  # no diameter in the program: assumed
+    "linuxcnc_arcspiral": ("flat", 3.175, 0.2),  # no diameter in the program: assumed
+    "linuxcnc_flowsnake": ("flat", 3.175, 0.2),  # no diameter in the program: assumed
+    "linuxcnc_hk_ba20": ("flat", 6.0, 0.2),  # no diameter in the program: assumed
+    "linuxcnc_hole_circle": ("flat", 6.35, 0.2),  # no diameter in the program: assumed
+    "linuxcnc_polar": ("flat", 6.35, 0.2),  # no diameter in the program: assumed
+    "linuxcnc_skeleton": ("flat", 3.175, 0.2),  # no diameter in the program: assumed
+    "linuxcnc_spiral": ("flat", 3.175, 0.2),  # no diameter in the program: assumed
+    "linuxcnc_tort": ("ball", 3.175, 0.2),  # no diameter in the program: assumed
     "uccnc_sensor_v4": ("flat", 0.397, 0.05),
     "fusion_haas_sprayer_face": ("flat", 152.4, 1.0),
     "fusion_sprayer_output": ("flat", 152.4, 1.0),
@@ -84,9 +84,9 @@ TOOLS = {
     "pcb2gcode_drill": ("flat", 0.4, 0.05),
     "pcb2gcode_milldrill": ("flat", 1.0, 0.05),
     "pcb2gcode_back": ("flat", 0.2, 0.05),
-    "bcnc_sample": ("flat", 0.6, 0.05),
-    "escriba_grbl": ("flat", 0.5, 0.05),
-    "jscut_": ("flat", 3.175, 0.1),
+    "bcnc_sample": ("flat", 0.6, 0.05),  # no diameter in the program: assumed
+    "escriba_grbl": ("flat", 0.5, 0.05),  # no diameter in the program: assumed
+    "jscut_": ("flat", 3.175, 0.1),  # no diameter in the program: assumed
     "openbuilds_cam": ("flat", 1.0, 0.05),
     "estlcam11": ("flat", 3.0, 0.1),
 }
