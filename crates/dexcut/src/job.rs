@@ -154,11 +154,9 @@ pub struct ToolBody {
     pub stress_limit_mpa: Option<f64>,
 }
 
-impl std::ops::Deref for ToolSpec {
-    type Target = ToolBody;
-
-    /// The keys every shape shares.
-    fn deref(&self) -> &ToolBody {
+impl ToolSpec {
+    /// The keys every shape shares (diameter, flutes, stick-out, …).
+    pub fn body(&self) -> &ToolBody {
         match self {
             ToolSpec::Ball(b) | ToolSpec::Flat(b) => b,
             ToolSpec::Bull(b) => &b.body,
@@ -597,7 +595,7 @@ impl Job {
             }
             (Some(_), false) => bail!("give either one [tool] or a tool table [[tools]], not both"),
             (Some(t), true) => {
-                if t.number.is_some() || t.length.is_some() {
+                if t.body().number.is_some() || t.body().length.is_some() {
                     bail!("tool.number and tool.length belong to [[tools]] entries: a single [tool] is every T, with no gauge length");
                 }
                 t.validate("tool")?;
@@ -606,7 +604,7 @@ impl Job {
                 let mut seen = std::collections::BTreeSet::new();
                 for (i, t) in self.tools.iter().enumerate() {
                     let key = format!("tools[{i}]");
-                    let Some(n) = t.number else {
+                    let Some(n) = t.body().number else {
                         bail!("{key}.number is missing: each [[tools]] entry needs the tool number (T word)");
                     };
                     if n == 0 {
@@ -615,7 +613,7 @@ impl Job {
                     if !seen.insert(n) {
                         bail!("{key}.number: tool {n} is in the table twice");
                     }
-                    if let Some(l) = t.length {
+                    if let Some(l) = t.body().length {
                         range(&format!("{key}.length (mm)"), l, 0.0, MAX_LENGTH_MM)?;
                     }
                     t.validate(&key)?;
@@ -634,7 +632,7 @@ impl Job {
             .tool
             .iter()
             .chain(&self.tools)
-            .map(|t| t.flute_length.unwrap_or(2.0 * t.diameter))
+            .map(|t| t.body().flute_length.unwrap_or(2.0 * t.body().diameter))
             .fold(0.0, f64::max);
         if flute_mm / c.band_height > MAX_BANDS {
             bail!(
@@ -792,7 +790,7 @@ impl Job {
     pub fn tool_specs(&self) -> Vec<(Option<u32>, &ToolSpec)> {
         match &self.tool {
             Some(t) => vec![(None, t)],
-            None => self.tools.iter().map(|t| (t.number, t)).collect(),
+            None => self.tools.iter().map(|t| (t.body().number, t)).collect(),
         }
     }
 
@@ -809,7 +807,7 @@ impl ToolSpec {
         let t = self;
         range(
             &format!("{key}.diameter (mm)"),
-            t.diameter,
+            t.body().diameter,
             MIN_GRID_MM,
             1000.0,
         )?;
@@ -818,48 +816,48 @@ impl ToolSpec {
                 &format!("{key}.corner_radius (mm)"),
                 b.corner_radius,
                 0.0,
-                t.diameter / 2.0,
+                t.body().diameter / 2.0,
             )?;
         }
         positive_opt(
             &format!("{key}.flute_length (mm)"),
-            t.flute_length,
+            t.body().flute_length,
             MAX_LENGTH_MM,
         )?;
-        positive_opt(&format!("{key}.stickout (mm)"), t.stickout, MAX_LENGTH_MM)?;
+        positive_opt(&format!("{key}.stickout (mm)"), t.body().stickout, MAX_LENGTH_MM)?;
         positive_opt(
             &format!("{key}.youngs_modulus_mpa"),
-            t.youngs_modulus_mpa,
+            t.body().youngs_modulus_mpa,
             1e7,
         )?;
         positive_opt(
             &format!("{key}.effective_diameter (mm)"),
-            t.effective_diameter,
+            t.body().effective_diameter,
             1000.0,
         )?;
-        if !(1..=MAX_FLUTES).contains(&t.flutes) {
-            bail!("{key}.flutes must be 1..{MAX_FLUTES}, got {}", t.flutes);
+        if !(1..=MAX_FLUTES).contains(&t.body().flutes) {
+            bail!("{key}.flutes must be 1..{MAX_FLUTES}, got {}", t.body().flutes);
         }
-        positive_opt(&format!("{key}.fz_max (mm/tooth)"), t.fz_max, 10.0)?;
+        positive_opt(&format!("{key}.fz_max (mm/tooth)"), t.body().fz_max, 10.0)?;
         positive_opt(
             &format!("{key}.shank_diameter (mm)"),
-            t.shank_diameter,
+            t.body().shank_diameter,
             1000.0,
         )?;
         positive_opt(
             &format!("{key}.holder_stiffness_n_per_um"),
-            t.holder_stiffness_n_per_um,
+            t.body().holder_stiffness_n_per_um,
             1e12,
         )?;
-        positive_opt(&format!("{key}.stress_limit_mpa"), t.stress_limit_mpa, 1e6)?;
+        positive_opt(&format!("{key}.stress_limit_mpa"), t.body().stress_limit_mpa, 1e6)?;
         Ok(())
     }
 
     /// Largest feed per tooth, mm/tooth: `fz_max`, else the default for the
     /// diameter and the work material `material` (MODEL.md §2.1).
     pub fn fz_max_mm(&self, material: &str) -> Option<f64> {
-        self.fz_max
-            .or_else(|| cutting::chipload::default_fz_max_mm(material, self.diameter))
+        self.body().fz_max
+            .or_else(|| cutting::chipload::default_fz_max_mm(material, self.body().diameter))
     }
 
     /// The tool as the kernel and the beam model see it.
@@ -871,11 +869,11 @@ impl ToolSpec {
             ToolSpec::Bull(b) => dexel::Tool::bull(b.body.diameter, b.corner_radius),
         };
         let tool = dexel::Tool {
-            flute_length_mm: t.flute_length.unwrap_or(base.flute_length_mm),
-            stickout_mm: t.stickout.unwrap_or(base.stickout_mm),
-            flutes: t.flutes,
-            youngs_modulus_mpa: t.youngs_modulus_mpa.unwrap_or(base.youngs_modulus_mpa),
-            effective_diameter_mm: t.effective_diameter.unwrap_or(base.effective_diameter_mm),
+            flute_length_mm: t.body().flute_length.unwrap_or(base.flute_length_mm),
+            stickout_mm: t.body().stickout.unwrap_or(base.stickout_mm),
+            flutes: t.body().flutes,
+            youngs_modulus_mpa: t.body().youngs_modulus_mpa.unwrap_or(base.youngs_modulus_mpa),
+            effective_diameter_mm: t.body().effective_diameter.unwrap_or(base.effective_diameter_mm),
             ..base
         };
         tool.validate().context("invalid [tool]")?;
@@ -1321,7 +1319,7 @@ feed = 1000
                         let m = &job.machine;
                         let mut numbers = vec![
                             job.stock.grid_mm(),
-                            job.tool_specs()[0].1.diameter,
+                            job.tool_specs()[0].1.body().diameter,
                             m.period_ms,
                             m.feed_max,
                             m.rapid,

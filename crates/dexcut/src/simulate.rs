@@ -722,7 +722,7 @@ pub fn loads(
 
 /// Allowable stress of a tool (MODEL.md §4.4).
 pub fn stress_limit_mpa(spec: &ToolSpec, tool: &Tool) -> f64 {
-    spec.stress_limit_mpa
+    spec.body().stress_limit_mpa
         .unwrap_or(if tool.youngs_modulus_mpa >= 400_000.0 {
             1200.0
         } else {
@@ -778,9 +778,9 @@ pub fn cutting_model(
             stickout_mm: tool.stickout_mm,
             flute_length_mm: tool.flute_length_mm,
             flute_diameter_mm: tool.effective_diameter_mm,
-            shank_diameter_mm: spec.shank_diameter.unwrap_or(tool.diameter_mm),
+            shank_diameter_mm: spec.body().shank_diameter.unwrap_or(tool.diameter_mm),
             youngs_modulus_mpa: tool.youngs_modulus_mpa,
-            holder_stiffness_n_per_um: spec.holder_stiffness_n_per_um,
+            holder_stiffness_n_per_um: spec.body().holder_stiffness_n_per_um,
         },
     })
 }

@@ -96,12 +96,12 @@ impl ToolSet {
             entries.push(ToolEntry {
                 number: number.unwrap_or(1),
                 tool,
-                length_mm: spec.length.unwrap_or(0.0),
+                length_mm: spec.body().length.unwrap_or(0.0),
                 model,
                 fz_max_mm: spec.fz_max_mm(&job.cutting.material),
                 stress_limit_mpa: crate::simulate::stress_limit_mpa(spec, &tool),
                 job_rpm: job.cutting.spindle_rpm,
-                fz_max_given: spec.fz_max.is_some(),
+                fz_max_given: spec.body().fz_max.is_some(),
             });
         }
         Ok(ToolSet {
