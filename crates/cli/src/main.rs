@@ -169,7 +169,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", dexcut::error_message(&e));
+            eprintln!("error: {}", e.chain_message());
             ExitCode::FAILURE
         }
     }

@@ -7,7 +7,7 @@
 
 use std::path::PathBuf;
 
-fn main() -> anyhow::Result<()> {
+fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args_os().skip(1);
     let job = PathBuf::from(
         args.next()
@@ -42,7 +42,9 @@ fn main() -> anyhow::Result<()> {
             assert_eq!(doc.after.cycle_time_s, a.cycle_time_s);
             println!("summary.json: schema {}", dexcut::summary::SCHEMA_VERSION);
         }
-        dexcut::summary::SummaryDoc::Simulate(_) => anyhow::bail!("expected an optimize summary"),
+        dexcut::summary::SummaryDoc::Simulate(_) => {
+            return Err("expected an optimize summary".into())
+        }
     }
     Ok(())
 }

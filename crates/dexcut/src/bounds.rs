@@ -22,7 +22,7 @@
 use std::io::Read;
 use std::path::Path;
 
-use anyhow::{bail, Context, Result};
+use crate::error::{fail, Error, Result};
 
 /// Peak bytes per stock column (measured, see the module notes; rounded up).
 pub const BYTES_PER_COLUMN: f64 = 104.0;
@@ -54,16 +54,18 @@ pub const MAX_SUMMARY_BYTES: u64 = 16 << 20;
 /// Check that `path` is a regular file of at most `cap` bytes (no device,
 /// FIFO or folder: `/dev/zero` would read for ever, a FIFO would block).
 pub fn check_input_file(path: &Path, what: &str, cap: u64) -> Result<u64> {
-    let meta = std::fs::metadata(path)
-        .with_context(|| format!("cannot read {what} {}", path.display()))?;
+    let meta =
+        std::fs::metadata(path).map_err(|e| Error::io(format!("cannot read {what}"), path, e))?;
     if !meta.is_file() {
-        bail!(
+        fail!(
+            limits,
             "{what} {} is not a regular file (devices, FIFOs and folders are refused)",
             path.display()
         );
     }
     if meta.len() > cap {
-        bail!(
+        fail!(
+            limits,
             "{what} {} is {} bytes, more than the limit of {} bytes",
             path.display(),
             meta.len(),
@@ -76,15 +78,16 @@ pub fn check_input_file(path: &Path, what: &str, cap: u64) -> Result<u64> {
 /// Read a regular text file of at most `cap` bytes.
 pub fn read_text(path: &Path, what: &str, cap: u64) -> Result<String> {
     check_input_file(path, what, cap)?;
-    let file = std::fs::File::open(path)
-        .with_context(|| format!("cannot read {what} {}", path.display()))?;
+    let file =
+        std::fs::File::open(path).map_err(|e| Error::io(format!("cannot read {what}"), path, e))?;
     // Read at most cap + 1 bytes: a file that grows while read is still bounded.
     let mut text = String::new();
     file.take(cap + 1)
         .read_to_string(&mut text)
-        .with_context(|| format!("cannot read {what} {}", path.display()))?;
+        .map_err(|e| Error::io(format!("cannot read {what}"), path, e))?;
     if text.len() as u64 > cap {
-        bail!(
+        fail!(
+            limits,
             "{what} {} grew past the limit of {cap} bytes while read",
             path.display()
         );
@@ -95,8 +98,8 @@ pub fn read_text(path: &Path, what: &str, cap: u64) -> Result<String> {
 /// Open a regular file of at most `cap` bytes for streaming.
 pub fn open(path: &Path, what: &str, cap: u64) -> Result<std::io::Take<std::fs::File>> {
     check_input_file(path, what, cap)?;
-    let file = std::fs::File::open(path)
-        .with_context(|| format!("cannot read {what} {}", path.display()))?;
+    let file =
+        std::fs::File::open(path).map_err(|e| Error::io(format!("cannot read {what}"), path, e))?;
     Ok(file.take(cap))
 }
 
@@ -195,7 +198,7 @@ pub fn usable_memory_bytes() -> f64 {
 pub fn check_memory(bytes: f64, what: &str) -> Result<()> {
     let room = usable_memory_bytes();
     if !(bytes <= room) {
-        bail!(
+        fail!(limits,
             "{what} needs about {:.0} MB of memory, more than the {:.0} MB this process may use (available memory, cgroup memory.max and ulimit)",
             bytes / 1e6,
             room / 1e6
@@ -258,13 +261,13 @@ pub fn check_motion(
     bytes_per_sample: f64,
 ) -> Result<()> {
     if !(e.stations <= MAX_STATIONS) {
-        bail!(
+        fail!(limits,
             "{file}: the path needs {:.3e} planner stations (one per 0.05 mm), more than the limit of {MAX_STATIONS:.0e}: the program is too long",
             e.stations
         );
     }
     if !(e.samples <= MAX_SAMPLES) {
-        bail!(
+        fail!(limits,
             "{file}: the program takes at least {:.3e} s, {:.3e} servo samples at period_ms = {period_ms}, more than the limit of {MAX_SAMPLES:.0e} (check the feeds, dwells and [machine] limits)",
             e.time_s,
             e.samples
@@ -284,7 +287,7 @@ pub fn check_motion(
 pub fn check_samples(time_s: f64, period_ms: f64, what: &str) -> Result<()> {
     let samples = time_s / (period_ms * 1e-3) + 2.0;
     if !(samples <= MAX_SAMPLES) {
-        bail!(
+        fail!(limits,
             "{what}: the planned motion takes {time_s:.3e} s, {samples:.3e} servo samples at period_ms = {period_ms}, more than the limit of {MAX_SAMPLES:.0e}"
         );
     }

@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{bail, Context, Result};
+use crate::error::{fail, Context as _, Error, Result, ResultExt as _};
 use cutting::CuttingModel;
 use dexel::{Stock, Tool, NEVER_CUT};
 use schedule::Machine;
@@ -94,7 +94,7 @@ impl Setup {
             // tolerance of its feed and block time.
             program.path = schedule::linearise_arcs(&program.path, tb, 1.0);
             if program.path.segments.len() > MAX_LINEARISED_SEGMENTS {
-                bail!(
+                fail!(limits,
                     "{}: machine.arcs_as_lines writes the arcs as {} blocks, more than {MAX_LINEARISED_SEGMENTS}",
                     job.name,
                     program.path.segments.len()
@@ -137,7 +137,8 @@ impl Setup {
                 )?;
                 let (mesh, _) = mesh::load_solid(&path)?;
                 let model = mesh::DesignModel::new(&mesh)
-                    .with_context(|| format!("{}: design model", path.display()))?;
+                    .map_err(|e| Error::Mesh(e.into()))
+                    .context_with(|| format!("{}: design model", path.display()))?;
                 Some((path, model))
             }
             None => None,
@@ -163,7 +164,8 @@ impl Setup {
     /// every column at once (only `simulate` runs such a stock band by band).
     pub fn require_whole_stock(&self, what: &str) -> Result<()> {
         if let Some(t) = &self.tiling {
-            bail!(
+            fail!(
+                limits,
                 "{}: [stock] {}×{} columns at grid {} mm need about {:.0} MB of memory, more than the {:.0} MB this process may use (available memory, cgroup memory.max and ulimit, or --memory-budget-mb): only `dexcut simulate` runs such a stock, band by band; {what} needs every column at once: use a coarser grid",
                 self.job.name,
                 t.grid.nx,
@@ -356,7 +358,10 @@ impl Setup {
             }
             Ok(motion::steps_from_samples(&self.program.path, &samples))
         } else if actual_path {
-            bail!("--actual-path needs a G-code program (CSV point lists have no servo timing)")
+            fail!(
+                request,
+                "--actual-path needs a G-code program (CSV point lists have no servo timing)"
+            )
         } else {
             Ok(motion::direct_steps(&self.program.path))
         }
@@ -706,10 +711,10 @@ fn simulate_tiled(
     out: &Path,
 ) -> Result<Simulation> {
     if setup.design.is_some() {
-        bail!("{}: [design] with a stock too large for the memory budget ({} rows in bands of {}): the design comparison needs every column at once; use a coarser grid or a larger --memory-budget-mb", setup.job.name, tiling.grid.ny, tiling.band_rows);
+        fail!(limits, "{}: [design] with a stock too large for the memory budget ({} rows in bands of {}): the design comparison needs every column at once; use a coarser grid or a larger --memory-budget-mb", setup.job.name, tiling.grid.ny, tiling.band_rows);
     }
     if columns_csv {
-        bail!("{}: --columns-csv with a stock too large for the memory budget ({} rows in bands of {}): the .npy grid is written band by band, columns.csv is not", setup.job.name, tiling.grid.ny, tiling.band_rows);
+        fail!(limits, "{}: --columns-csv with a stock too large for the memory budget ({} rows in bands of {}): the .npy grid is written band by band, columns.csv is not", setup.job.name, tiling.grid.ny, tiling.band_rows);
     }
     crate::outln!(
         "the stock's {}×{} columns exceed the memory budget of {:.0} MB: swept in {} bands of {} rows",
@@ -897,7 +902,7 @@ pub fn optimize(
         Some(p) => {
             let setup = Setup::load_with(p, grid_mm, settings)?;
             if setup.job.machine.arcs_as_lines {
-                bail!("{}: machine.arcs_as_lines is for simulate and evaluate: optimize re-feeds the program's own blocks and writes arcs as G2/G3", setup.job.name);
+                fail!(request, "{}: machine.arcs_as_lines is for simulate and evaluate: optimize re-feeds the program's own blocks and writes arcs as G2/G3", setup.job.name);
             }
             let mut inputs = setup.input_files(p);
             inputs.extend(settings.map(Path::to_path_buf));
@@ -1075,7 +1080,7 @@ pub fn optimize_setup(
     };
     if let Some(text) = &written.text {
         export::atomic::write_bytes(&staged.join("optimized.nc"), text.as_bytes())
-            .with_context(|| "cannot write optimized.nc")?;
+            .map_err(|e| Error::io("cannot write", &staged.join("optimized.nc"), e))?;
     }
     let lower_bound_time_s = written.lower_bound_time_s;
     let doc = OptimizeSummary {
@@ -1278,7 +1283,7 @@ fn write_servo_csv(path: &Path, samples: &[schedule::ServoSample]) -> Result<()>
         }
         out.flush()
     })
-    .with_context(|| format!("cannot write {}", path.display()))
+    .map_err(|e| Error::io("cannot write", path, e))
 }
 
 /// `dexcut report DIR`.
@@ -1292,8 +1297,8 @@ pub fn report(dir: &Path) -> Result<()> {
 pub fn calibrate(path: &Path) -> Result<()> {
     let text = crate::bounds::read_text(path, "measurements", crate::bounds::MAX_CSV_BYTES)?;
     let points = read_calibration(&text, &path.display().to_string())?;
-    let fit = cutting::fit_force_law(&points)
-        .with_context(|| format!("{}: cannot fit", path.display()))?;
+    let fit =
+        cutting::fit_force_law(&points).or_run(|| format!("{}: cannot fit", path.display()))?;
     crate::outln!("F = a·V^n fitted to {} points:", fit.points);
     crate::outln!("  force_a = {:.6}", fit.a);
     crate::outln!("  force_n = {:.6}", fit.n);
@@ -1313,28 +1318,35 @@ pub fn read_calibration(text: &str, file: &str) -> Result<Vec<(f64, f64)>> {
         .from_reader(text.as_bytes());
     let headers = reader
         .headers()
-        .with_context(|| format!("{file}:1:1: cannot read the header"))?
+        .or_input(file, 1, 1, || "cannot read the header".into())?
         .clone();
     let find = |n: &str| headers.iter().position(|h| h.eq_ignore_ascii_case(n));
     let (Some(iv), Some(if_)) = (find("v_mm3"), find("force_n")) else {
-        bail!("{file}:1:1: the header must name columns v_mm3 and force_n");
+        return Err(Error::input(
+            file,
+            1,
+            1,
+            "the header must name columns v_mm3 and force_n",
+        ));
     };
     let mut points = Vec::new();
     for rec in reader.records() {
-        let rec = rec.with_context(|| format!("{file}: bad row"))?;
+        let rec = rec.or_results(|| format!("{file}: bad row"))?;
         let line = rec.position().map_or(0, |p| p.line());
         let num = |i: usize| -> Result<f64> {
             let raw = rec.get(i).unwrap_or("");
             let col = rec.range(i).map_or(1, |r| r.start + i + 1);
+            let col = col as u64;
             let v: f64 = raw
                 .parse()
-                .with_context(|| format!("{file}:{line}:{col}: not a number: {raw:?}"))?;
+                .or_input(file, line, col, || format!("not a number: {raw:?}"))?;
             // The law F = a·V^n is fitted in logs: only positive, finite values mean anything.
             if !(v > 0.0 && v.is_finite()) {
-                bail!(
-                    "{file}:{line}:{col}: {} must be a positive, finite number, got {raw}",
+                let message = format!(
+                    "{} must be a positive, finite number, got {raw}",
                     headers.get(i).unwrap_or("value")
                 );
+                return Err(Error::input(file, line, col, message));
             }
             Ok(v)
         };

@@ -17,20 +17,3 @@ macro_rules! outln {
         $crate::console::line(format_args!($($arg)*))
     };
 }
-
-/// The message of an error and its causes, each cause once (an I/O error
-/// wrapped by a CSV or JSON error would otherwise print twice).
-pub fn error_message(e: &anyhow::Error) -> String {
-    let mut msg = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string();
-        if msg.contains(&text) {
-            continue;
-        }
-        if !msg.is_empty() {
-            msg.push_str(": ");
-        }
-        msg.push_str(&text);
-    }
-    msg
-}

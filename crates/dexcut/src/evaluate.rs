@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use anyhow::{bail, Context, Result};
+use crate::error::{fail, Context as _, Error, Result, ResultExt as _};
 use schedule::Machine;
 use serde::Serialize;
 use servo::{Drive, DriveOrder, Evaluation, Weights};
@@ -32,7 +32,7 @@ pub fn drive(job: &Job) -> Result<Drive> {
     };
     drive
         .validate()
-        .with_context(|| format!("{}: invalid [servo]", job.name))?;
+        .or_job(|| format!("{}: invalid [servo]", job.name))?;
     Ok(drive)
 }
 
@@ -73,18 +73,18 @@ fn read_servo_csv(path: &Path, period_ms: f64) -> Result<Vec<[f64; 3]>> {
     let mut last_t: Option<f64> = None;
     for (i, rec) in reader.records().enumerate() {
         let line = i + 2;
-        let rec = rec.with_context(|| format!("{}:{line}: bad row", path.display()))?;
+        let rec = rec.or_input(&path.display().to_string(), line as u64, 1, || {
+            "bad row".into()
+        })?;
         let num = |k: usize| -> Result<f64> {
             let raw = rec.get(k).unwrap_or("");
-            let v: f64 = raw.parse().with_context(|| {
-                format!("{}:{line}:{}: not a number: {raw:?}", path.display(), k + 1)
-            })?;
+            let (file, line, col) = (path.display().to_string(), line as u64, k as u64 + 1);
+            let v: f64 = raw
+                .parse()
+                .or_input(&file, line, col, || format!("not a number: {raw:?}"))?;
             if !(v.abs() <= 1e9) {
-                bail!(
-                    "{}:{line}:{}: {raw:?} is not a finite number within ±1e9",
-                    path.display(),
-                    k + 1
-                );
+                let message = format!("{raw:?} is not a finite number within ±1e9");
+                return Err(Error::input(&file, line, col, message));
             }
             Ok(v)
         };
@@ -102,11 +102,19 @@ fn read_servo_csv(path: &Path, period_ms: f64) -> Result<Vec<[f64; 3]>> {
         let last = k + 1 == intervals.len();
         let ok = (dt_ms - period_ms).abs() <= tol || (last && dt_ms > 0.0 && dt_ms < period_ms);
         if !ok {
-            bail!("{}:{line}: samples must be every {period_ms} ms (the job's period_ms), got {dt_ms:.6} ms", path.display());
+            let message = format!(
+                "samples must be every {period_ms} ms (the job's period_ms), got {dt_ms:.6} ms"
+            );
+            return Err(Error::input(
+                &path.display().to_string(),
+                line as u64,
+                1,
+                message,
+            ));
         }
     }
     if out.len() < 2 {
-        bail!("{}: need at least two samples", path.display());
+        fail!(request, "{}: need at least two samples", path.display());
     }
     Ok(out)
 }
@@ -144,7 +152,7 @@ fn write_positions_csv(path: &Path, positions: &[[f64; 3]], period_s: f64) -> Re
         }
         out.flush()
     })
-    .with_context(|| format!("cannot write {}", path.display()))
+    .map_err(|e| Error::io("cannot write", path, e))
 }
 
 /// The machine and drive settings that `evaluate --sweep` varies, as a job
@@ -187,7 +195,7 @@ impl Settings {
                 || name.clone(),
                 |s| crate::job::location(&name, &text, s.start),
             );
-            anyhow::anyhow!("{at}: {}", e.message())
+            Error::job(format!("{at}: {}", e.message()))
         })
     }
 
@@ -197,12 +205,12 @@ impl Settings {
         job.machine.jerk = self.machine.jerk;
         job.servo.kp = self.servo.kp;
         job.validate()
-            .with_context(|| format!("{}: invalid settings for {}", source.display(), job.name))
+            .context_with(|| format!("{}: invalid settings for {}", source.display(), job.name))
     }
 
     /// The fragment as TOML text.
     pub fn to_toml(&self) -> Result<String> {
-        Ok(toml::to_string(self)?)
+        toml::to_string(self).or_run(|| "cannot write the settings as TOML".into())
     }
 }
 
@@ -270,7 +278,10 @@ pub fn evaluate_setup(
 ) -> Result<DriveEvaluation> {
     let drive = drive(&setup.job)?;
     if sweep && servo_csv.is_some() {
-        bail!("--sweep re-plans the program, so it cannot be combined with --servo");
+        fail!(
+            request,
+            "--sweep re-plans the program, so it cannot be combined with --servo"
+        );
     }
     let period_s = setup.machine.period_s();
     let as_written = setup
@@ -282,7 +293,7 @@ pub fn evaluate_setup(
     let command = match (servo_csv, &as_written) {
         (Some(p), _) => read_servo_csv(p, setup.machine.period_ms)?,
         (None, Some(c)) => c.clone(),
-        (None, None) => bail!("evaluate needs a G-code program or --servo data"),
+        (None, None) => fail!(request, "evaluate needs a G-code program or --servo data"),
     };
     // MODEL.md §7.2 (S2): times of the estimated actual motion, which is done when the axes
     // settle within the tolerance of the end. Vb's reference is the program as written with
@@ -356,7 +367,10 @@ pub fn evaluate_setup(
         ("pre-compensated error (mm)", pre.error_after_mm),
     ] {
         if !v.is_finite() {
-            bail!("the evaluation's {key} is {v}: the inputs give no finite result");
+            fail!(
+                run,
+                "the evaluation's {key} is {v}: the inputs give no finite result"
+            );
         }
     }
     Ok(DriveEvaluation {
@@ -383,7 +397,10 @@ pub fn evaluate(
     let setup = Setup::load_with(job_path, None, settings)?;
     drive(&setup.job)?;
     if sweep && servo_csv.is_some() {
-        bail!("--sweep re-plans the program, so it cannot be combined with --servo");
+        fail!(
+            request,
+            "--sweep re-plans the program, so it cannot be combined with --servo"
+        );
     }
     let mut inputs = setup.input_files(job_path);
     inputs.extend(servo_csv.map(Path::to_path_buf));
@@ -436,7 +453,7 @@ pub fn evaluate(
         export::atomic::write_file(&out_dir.path().join("best.toml"), |w| {
             w.write_all(text.as_bytes())
         })
-        .context("cannot write best.toml")?;
+        .map_err(|e| Error::io("cannot write", &out_dir.path().join("best.toml"), e))?;
     }
     out_dir.commit("evaluate")?;
     let e = &doc.evaluation;

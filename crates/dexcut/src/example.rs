@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use crate::error::{fail, Error, Result};
 
 /// (file name, content) of the example's files.
 pub const FILES: [(&str, &[u8]); 3] = [
@@ -23,10 +23,10 @@ pub const FILES: [(&str, &[u8]); 3] = [
 
 /// Write the example into `dir`; returns the job file's path.
 pub fn write_files(dir: &Path) -> Result<PathBuf> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    std::fs::create_dir_all(dir).map_err(|e| Error::io("cannot create", dir, e))?;
     for (name, bytes) in FILES {
         export::atomic::write_bytes(&dir.join(name), bytes)
-            .with_context(|| format!("cannot write {}", dir.join(name).display()))?;
+            .map_err(|e| Error::io("cannot write", &dir.join(name), e))?;
     }
     Ok(dir.join("job.toml"))
 }
@@ -46,7 +46,7 @@ pub fn write(dir: &Path, force: bool) -> Result<()> {
         .map(|p| p.display().to_string())
         .collect();
     if !edited.is_empty() && !force {
-        bail!(
+        fail!(request,
             "{} already exist(s) and differ(s) from the example (edited?); not overwritten: choose another --out or give --force",
             edited.join(", ")
         );

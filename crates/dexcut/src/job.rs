@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use crate::error::{fail, Context as _, Error, Result, ResultExt as _};
 use serde::Deserialize;
 
 #[derive(Clone, Debug, Deserialize)]
@@ -443,9 +443,15 @@ fn num(v: f64) -> String {
 fn range(key: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
     if !(v >= lo && v <= hi) {
         if !v.is_finite() {
-            bail!("{key} must be a finite number, got {v}");
+            fail!(job, "{key} must be a finite number, got {v}");
         }
-        bail!("{key} must lie in {}..{}, got {}", num(lo), num(hi), num(v));
+        fail!(
+            job,
+            "{key} must lie in {}..{}, got {}",
+            num(lo),
+            num(hi),
+            num(v)
+        );
     }
     Ok(())
 }
@@ -455,9 +461,9 @@ fn positive_opt(key: &str, v: Option<f64>, hi: f64) -> Result<()> {
     match v {
         Some(v) if !(v > 0.0) => {
             if v.is_nan() {
-                bail!("{key} must be a finite number, got {v}");
+                fail!(job, "{key} must be a finite number, got {v}");
             }
-            bail!("{key} must be a positive number, got {}", num(v))
+            fail!(job, "{key} must be a positive number, got {}", num(v))
         }
         Some(v) => range(key, v, 0.0, hi),
         None => Ok(()),
@@ -481,9 +487,10 @@ fn coordinates(key: &str, v: &[f64]) -> Result<()> {
                 key.to_string()
             };
             if !x.is_finite() {
-                bail!("{at} must be a finite number, got {x}");
+                fail!(job, "{at} must be a finite number, got {x}");
             }
-            bail!(
+            fail!(
+                job,
                 "{at} must lie within ±{} mm, got {}",
                 num(MAX_LENGTH_MM),
                 num(*x)
@@ -496,7 +503,7 @@ fn coordinates(key: &str, v: &[f64]) -> Result<()> {
 /// The grid must resolve the stock: at least [`MIN_COLUMNS_ACROSS`] columns across.
 fn grid_resolves(kind: &str, grid_mm: f64, extent_mm: f64) -> Result<()> {
     if grid_mm * MIN_COLUMNS_ACROSS > extent_mm {
-        bail!(
+        fail!(job,
             "stock.grid ({grid_mm} mm) is too coarse for the {kind}'s {extent_mm} mm XY extent: at least {MIN_COLUMNS_ACROSS} columns across are needed"
         );
     }
@@ -517,7 +524,7 @@ impl Job {
             let at = e
                 .span()
                 .map_or_else(|| name.to_string(), |s| location(name, text, s.start));
-            anyhow::anyhow!("{at}: {}", e.message())
+            Error::job(format!("{at}: {}", e.message()))
         })?;
         job.base_dir = base_dir.to_path_buf();
         job.name = name.to_string();
@@ -525,7 +532,7 @@ impl Job {
             .map(|t| t.contains_key("servo"))
             .unwrap_or(false);
         job.validate()
-            .with_context(|| format!("{name}: invalid job"))?;
+            .context_with(|| format!("{name}: invalid job"))?;
         Ok(job)
     }
 
@@ -533,7 +540,7 @@ impl Job {
     pub fn set_grid(&mut self, grid_mm: f64) -> Result<()> {
         *self.stock.grid_mut() = grid_mm;
         self.validate()
-            .with_context(|| format!("--grid {grid_mm}: invalid for {}", self.name))
+            .context_with(|| format!("--grid {grid_mm}: invalid for {}", self.name))
     }
 
     /// Resolve a path from the job file against its folder.
@@ -561,7 +568,7 @@ impl Job {
                 coordinates("stock.max (mm)", &max)?;
                 for k in 0..3 {
                     if !(max[k] > min[k]) {
-                        bail!("stock box max must exceed min on every axis, got min {min:?}, max {max:?}");
+                        fail!(job, "stock box max must exceed min on every axis, got min {min:?}, max {max:?}");
                     }
                 }
                 grid_resolves("box", grid, (max[0] - min[0]).min(max[1] - min[1]))?;
@@ -583,7 +590,10 @@ impl Job {
                 coordinates("stock.z_min (mm)", &[z_min])?;
                 coordinates("stock.z_max (mm)", &[z_max])?;
                 if !(z_max > z_min) {
-                    bail!("stock cylinder z_max ({z_max}) must exceed z_min ({z_min})");
+                    fail!(
+                        job,
+                        "stock cylinder z_max ({z_max}) must exceed z_min ({z_min})"
+                    );
                 }
                 grid_resolves("cylinder", grid, 2.0 * radius)?;
             }
@@ -591,12 +601,18 @@ impl Job {
         }
         match (&self.tool, self.tools.is_empty()) {
             (None, true) => {
-                bail!("the job needs a [tool] or a tool table ([[tools]] with number = …)")
+                fail!(
+                    job,
+                    "the job needs a [tool] or a tool table ([[tools]] with number = …)"
+                )
             }
-            (Some(_), false) => bail!("give either one [tool] or a tool table [[tools]], not both"),
+            (Some(_), false) => fail!(
+                job,
+                "give either one [tool] or a tool table [[tools]], not both"
+            ),
             (Some(t), true) => {
                 if t.body().number.is_some() || t.body().length.is_some() {
-                    bail!("tool.number and tool.length belong to [[tools]] entries: a single [tool] is every T, with no gauge length");
+                    fail!(job, "tool.number and tool.length belong to [[tools]] entries: a single [tool] is every T, with no gauge length");
                 }
                 t.validate("tool")?;
             }
@@ -605,13 +621,16 @@ impl Job {
                 for (i, t) in self.tools.iter().enumerate() {
                     let key = format!("tools[{i}]");
                     let Some(n) = t.body().number else {
-                        bail!("{key}.number is missing: each [[tools]] entry needs the tool number (T word)");
+                        fail!(job, "{key}.number is missing: each [[tools]] entry needs the tool number (T word)");
                     };
                     if n == 0 {
-                        bail!("{key}.number must be 1 or more (T0 is the empty spindle), got 0");
+                        fail!(
+                            job,
+                            "{key}.number must be 1 or more (T0 is the empty spindle), got 0"
+                        );
                     }
                     if !seen.insert(n) {
-                        bail!("{key}.number: tool {n} is in the table twice");
+                        fail!(job, "{key}.number: tool {n} is in the table twice");
                     }
                     if let Some(l) = t.body().length {
                         range(&format!("{key}.length (mm)"), l, 0.0, MAX_LENGTH_MM)?;
@@ -635,7 +654,7 @@ impl Job {
             .map(|t| t.body().flute_length.unwrap_or(2.0 * t.body().diameter))
             .fold(0.0, f64::max);
         if flute_mm / c.band_height > MAX_BANDS {
-            bail!(
+            fail!(job,
                 "cutting.band_height ({} mm) gives {:.0} bands over the {} mm flute length, more than {MAX_BANDS}: use a larger band height",
                 num(c.band_height),
                 (flute_mm / c.band_height).ceil(),
@@ -650,7 +669,7 @@ impl Job {
         positive_opt("cutting.kc1_1 (N/mm²)", c.kc1_1, 1e6)?;
         if let Some(mc) = c.mc {
             if !(0.0..1.0).contains(&mc) {
-                bail!("cutting.mc must lie in 0..1, got {mc}");
+                fail!(job, "cutting.mc must lie in 0..1, got {mc}");
             }
         }
         for (what, v) in [
@@ -659,7 +678,7 @@ impl Job {
         ] {
             if let Some(v) = v {
                 if !(0.0..=100.0).contains(&v) {
-                    bail!("{what} must be a number from 0 to 100, got {v}");
+                    fail!(job, "{what} must be a number from 0 to 100, got {v}");
                 }
             }
         }
@@ -676,7 +695,7 @@ impl Job {
                 schedule::ScheduleError::InvalidMachine { name, value } => {
                     (name, value, f64::NAN, f64::NAN)
                 }
-                e => bail!("invalid [machine]: {e}"),
+                e => fail!(job, "invalid [machine]: {e}"),
             };
             let key = match name {
                 "period_ms" => "machine.period_ms",
@@ -690,12 +709,12 @@ impl Job {
             if lo.is_nan() {
                 // Not a finite positive number.
                 positive_opt(key, Some(value), f64::INFINITY)?;
-                bail!("{key} must be a finite number, got {value}");
+                fail!(job, "{key} must be a finite number, got {value}");
             }
             range(key, value, lo, hi)?;
         }
         if m.arcs_as_lines && m.block_time_ms.is_none() {
-            bail!("machine.arcs_as_lines needs machine.block_time_ms (ms), the time the control takes per block (S0)");
+            fail!(job, "machine.arcs_as_lines needs machine.block_time_ms (ms), the time the control takes per block (S0)");
         }
         if let Some(p) = m.start {
             coordinates("machine.start (mm)", &p)?;
@@ -718,11 +737,17 @@ impl Job {
         positive_opt("limits.feed_scale_max", l.feed_scale_max, 1000.0)?;
         if let (Some(lo), Some(hi)) = (l.feed_min, l.feed_max.or(Some(m.feed_max))) {
             if lo > hi {
-                bail!("limits.feed_min ({lo}) exceeds the highest feed ({hi})");
+                fail!(
+                    job,
+                    "limits.feed_min ({lo}) exceeds the highest feed ({hi})"
+                );
             }
         }
         if l.angle_rule && l.v0.is_none() {
-            bail!("limits.angle_rule needs v0 (mm/min), the feed near the ball tip");
+            fail!(
+                job,
+                "limits.angle_rule needs v0 (mm/min), the feed near the ball tip"
+            );
         }
         if let Some(d) = &self.design {
             range("design.gouge_tolerance_um", d.gouge_tolerance_um, 0.0, 1e6)?;
@@ -744,7 +769,8 @@ impl Job {
             MAX_LENGTH_MM,
         )?;
         if sv.precomp_iterations > MAX_PRECOMP_ITERATIONS {
-            bail!(
+            fail!(
+                job,
                 "servo.precomp_iterations must be at most {MAX_PRECOMP_ITERATIONS}, got {}",
                 sv.precomp_iterations
             );
@@ -759,7 +785,10 @@ impl Job {
             range(key, v, 0.0, 1e6)?;
         }
         if sv.zeta.is_some() != sv.omega_n.is_some() {
-            bail!("servo: a second-order drive needs both zeta and omega_n");
+            fail!(
+                job,
+                "servo: a second-order drive needs both zeta and omega_n"
+            );
         }
         range("servo.feedforward", sv.feedforward, 0.0, 1.0)?;
         for (i, o) in [
@@ -824,7 +853,11 @@ impl ToolSpec {
             t.body().flute_length,
             MAX_LENGTH_MM,
         )?;
-        positive_opt(&format!("{key}.stickout (mm)"), t.body().stickout, MAX_LENGTH_MM)?;
+        positive_opt(
+            &format!("{key}.stickout (mm)"),
+            t.body().stickout,
+            MAX_LENGTH_MM,
+        )?;
         positive_opt(
             &format!("{key}.youngs_modulus_mpa"),
             t.body().youngs_modulus_mpa,
@@ -836,7 +869,11 @@ impl ToolSpec {
             1000.0,
         )?;
         if !(1..=MAX_FLUTES).contains(&t.body().flutes) {
-            bail!("{key}.flutes must be 1..{MAX_FLUTES}, got {}", t.body().flutes);
+            fail!(
+                job,
+                "{key}.flutes must be 1..{MAX_FLUTES}, got {}",
+                t.body().flutes
+            );
         }
         positive_opt(&format!("{key}.fz_max (mm/tooth)"), t.body().fz_max, 10.0)?;
         positive_opt(
@@ -849,14 +886,19 @@ impl ToolSpec {
             t.body().holder_stiffness_n_per_um,
             1e12,
         )?;
-        positive_opt(&format!("{key}.stress_limit_mpa"), t.body().stress_limit_mpa, 1e6)?;
+        positive_opt(
+            &format!("{key}.stress_limit_mpa"),
+            t.body().stress_limit_mpa,
+            1e6,
+        )?;
         Ok(())
     }
 
     /// Largest feed per tooth, mm/tooth: `fz_max`, else the default for the
     /// diameter and the work material `material` (MODEL.md §2.1).
     pub fn fz_max_mm(&self, material: &str) -> Option<f64> {
-        self.body().fz_max
+        self.body()
+            .fz_max
             .or_else(|| cutting::chipload::default_fz_max_mm(material, self.body().diameter))
     }
 
@@ -872,11 +914,17 @@ impl ToolSpec {
             flute_length_mm: t.body().flute_length.unwrap_or(base.flute_length_mm),
             stickout_mm: t.body().stickout.unwrap_or(base.stickout_mm),
             flutes: t.body().flutes,
-            youngs_modulus_mpa: t.body().youngs_modulus_mpa.unwrap_or(base.youngs_modulus_mpa),
-            effective_diameter_mm: t.body().effective_diameter.unwrap_or(base.effective_diameter_mm),
+            youngs_modulus_mpa: t
+                .body()
+                .youngs_modulus_mpa
+                .unwrap_or(base.youngs_modulus_mpa),
+            effective_diameter_mm: t
+                .body()
+                .effective_diameter
+                .unwrap_or(base.effective_diameter_mm),
             ..base
         };
-        tool.validate().context("invalid [tool]")?;
+        tool.validate().or_job(|| "invalid [tool]".into())?;
         Ok(tool)
     }
 }

@@ -19,7 +19,7 @@
 //! * read any summary.json back through the same types: [`summary::read`].
 //!
 //! ```
-//! # fn main() -> anyhow::Result<()> {
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! // A 100 mm slot, 2 mm deep, cut by a Ø10 ball end mill in a box.
 //! let dir = std::env::temp_dir().join(format!("dexcut-doc-{}", std::process::id()));
 //! std::fs::create_dir_all(&dir)?;
@@ -60,6 +60,7 @@ use std::time::Instant;
 mod bounds;
 pub mod commands;
 mod console;
+mod error;
 mod evaluate;
 mod example;
 mod job;
@@ -80,81 +81,23 @@ mod tools;
 mod warnings;
 
 pub use commands::{Optimized, Setup, Simulation};
-pub use console::error_message;
+pub use error::{Error, Result, Source};
 pub use evaluate::{DriveEvaluation, SweepRow};
 pub use report::ReportFiles;
 pub use simulate::{Run, Summary};
 pub use warnings::{Warning, WarningKind, Warnings};
 
-/// Why a step of the library API failed: the variant names the step, the
-/// message is the whole account, outermost first, as the command line prints it
-/// (`FILE:LINE:COL: …`, or the job key and its allowed range).
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum Error {
-    /// [`load`]: the job file or a file it names is missing, too large or invalid.
-    #[error("{message}")]
-    Load {
-        /// What is wrong, naming the file and line or the job key.
-        message: String,
-    },
-    /// [`simulate`]: the program could not be planned or swept.
-    #[error("{message}")]
-    Simulate {
-        /// What went wrong.
-        message: String,
-    },
-    /// [`optimize`]: the output folder, the re-timing or its written program failed.
-    #[error("{message}")]
-    Optimize {
-        /// What went wrong.
-        message: String,
-    },
-    /// [`evaluate`]: the drive model or the servo data gave no result.
-    #[error("{message}")]
-    Evaluate {
-        /// What went wrong.
-        message: String,
-    },
-    /// [`report`]: the results folder is incomplete or invalid, or the report could not be written.
-    #[error("{message}")]
-    Report {
-        /// What went wrong, naming the file.
-        message: String,
-    },
-}
-
-impl Error {
-    /// The message, whatever the step.
-    pub fn message(&self) -> &str {
-        match self {
-            Error::Load { message }
-            | Error::Simulate { message }
-            | Error::Optimize { message }
-            | Error::Evaluate { message }
-            | Error::Report { message } => message,
-        }
-    }
-}
-
-/// The step's error with its whole chain of context as the message.
-fn step<T>(result: anyhow::Result<T>, kind: fn(String) -> Error) -> std::result::Result<T, Error> {
-    result.map_err(|e| kind(format!("{e:#}")))
-}
-
 /// Load a job file (TOML) and everything it names (program, stock mesh, design
 /// model, tool table), each checked before any work. `grid_mm` overrides the
 /// stock's column spacing.
 pub fn load(job: &Path, grid_mm: Option<f64>) -> Result<Setup, Error> {
-    step(Setup::load(job, grid_mm), |message| Error::Load { message })
+    Setup::load(job, grid_mm)
 }
 
 /// Simulate the job's program as written (`actual_path`: along the drive
 /// model's estimate of the axes' path instead). Writes nothing.
 pub fn simulate(setup: &Setup, actual_path: bool) -> Result<Simulation, Error> {
-    step(commands::simulate_setup(setup, actual_path), |message| {
-        Error::Simulate { message }
-    })
+    commands::simulate_setup(setup, actual_path)
 }
 
 /// Re-time the job's program under its `[limits]` and write the results into
@@ -163,11 +106,8 @@ pub fn simulate(setup: &Setup, actual_path: bool) -> Result<Simulation, Error> {
 /// read back and simulated.
 pub fn optimize(setup: &Setup, out: &Path, force: bool) -> Result<Optimized, Error> {
     let started = Instant::now();
-    let run = || {
-        let out_dir = outdir::OutDir::begin(out, &setup.input_files(&setup.job_path), force)?;
-        commands::optimize_setup(setup, out_dir, started, false)
-    };
-    step(run(), |message| Error::Optimize { message })
+    let out_dir = outdir::OutDir::begin(out, &setup.input_files(&setup.job_path), force)?;
+    commands::optimize_setup(setup, out_dir, started, false)
 }
 
 /// Run the job's program, as planned, through its drive model (`[servo]`) and
@@ -175,15 +115,11 @@ pub fn optimize(setup: &Setup, out: &Path, force: bool) -> Result<Optimized, Err
 /// with S4's pre-compensation (MODEL.md §7.2); with `sweep`, also a grid of
 /// acceleration, jerk and gain settings. Writes nothing.
 pub fn evaluate(setup: &Setup, sweep: bool) -> Result<DriveEvaluation, Error> {
-    step(evaluate::evaluate_setup(setup, None, sweep), |message| {
-        Error::Evaluate { message }
-    })
+    evaluate::evaluate_setup(setup, None, sweep)
 }
 
 /// Build the report (report.html, error_map.png, stock.glb) of a folder written
 /// by `simulate` or [`optimize`], from its files alone.
 pub fn report(dir: &Path) -> Result<ReportFiles, Error> {
-    step(report::write_report(dir), |message| Error::Report {
-        message,
-    })
+    report::write_report(dir)
 }

@@ -1,7 +1,7 @@
 //! From a motion path to sweep steps with times: servo periods for G-code
 //! (through the `schedule` planner), one step per move for CSV point lists.
 
-use anyhow::Result;
+use crate::error::Result;
 use nc::Motion;
 use schedule::{FeedPolicy, Machine, ServoSample, Stations};
 

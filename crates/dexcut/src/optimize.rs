@@ -10,7 +10,7 @@
 //!   reference feed gives the cap F ≤ F_ref·(limit/Q(F_ref))^(1/p);
 //! * S3's angle rule on ball-end mills; feed_min/feed_max; S0's block time.
 
-use anyhow::{bail, Context, Result};
+use crate::error::{fail, Result, ResultExt as _};
 use cutting::CuttingModel;
 use dexel::{Stock, SweepOptions};
 use nc::Motion;
@@ -777,12 +777,12 @@ pub fn write_verified(
         let (text, samples, path) = match &setup.program.gcode {
             Some(src) => {
                 let text = nc::refeed(src, &setup.program.file, &setup.program.nc_options, &plan)
-                    .with_context(|| {
+                    .or_run(|| {
                     format!("{}: cannot write the re-fed program", setup.program.file)
                 })?;
                 let parsed = nc::parse(&text, &setup.program.file, &setup.program.nc_options);
                 if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
-                    bail!("the re-fed program does not read back: {d}");
+                    fail!(run, "the re-fed program does not read back: {d}");
                 }
                 let samples = crate::motion::machine_motion(&parsed.path, &setup.machine)?;
                 (Some(text), samples, parsed.path)
@@ -1000,7 +1000,7 @@ pub fn free_stations(path: &nc::Path, machine: &Machine) -> Result<Stations> {
         .iter()
         .all(|s| !matches!(s.motion, Motion::Feed { .. }))
     {
-        bail!("the program has no feed moves to optimise");
+        fail!(run, "the program has no feed moves to optimise");
     }
     Ok(Stations::new(
         path,

@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use crate::error::{fail, Error, Result};
 use export::atomic::Staging;
 
 /// A results folder being written.
@@ -43,14 +43,14 @@ impl OutDir {
                 .iter()
                 .map(|(a, _)| a.display().to_string())
                 .collect();
-            bail!(
+            fail!(request,
                 "output folder {} holds this run's inputs ({}); the run would replace them: choose another --out, or give --force to keep the inputs in the new results",
                 out.display(),
                 names.join(", ")
             );
         }
-        let stage = Staging::begin(out)
-            .with_context(|| format!("cannot use output folder {}", out.display()))?;
+        let stage =
+            Staging::begin(out).map_err(|e| Error::io("cannot use output folder", out, e))?;
         Ok(OutDir {
             stage,
             kept: inside,
@@ -80,15 +80,15 @@ impl OutDir {
                 continue;
             }
             if let Some(parent) = dest.parent() {
-                std::fs::create_dir_all(parent)?;
+                std::fs::create_dir_all(parent)
+                    .map_err(|e| Error::io("cannot create", parent, e))?;
             }
-            std::fs::copy(abs, &dest)
-                .with_context(|| format!("cannot keep input {}", abs.display()))?;
+            std::fs::copy(abs, &dest).map_err(|e| Error::io("cannot keep input", abs, e))?;
         }
         let target = self.stage.target().to_path_buf();
         self.stage
             .commit(command)
-            .with_context(|| format!("cannot move the results into {}", target.display()))?;
+            .map_err(|e| Error::io("cannot move the results into", &target, e))?;
         Ok(())
     }
 }

@@ -1,6 +1,6 @@
 //! Reading the program: G-code through `nc`, or a CSV of tool-tip points.
 
-use anyhow::{bail, Context, Result};
+use crate::error::{fail, Error, Result, ResultExt as _};
 use nalgebra::Point3;
 use nc::{Geometry, Motion, Segment};
 
@@ -110,21 +110,19 @@ pub fn parse_gcode(text: &str, file: &str, job: &Job) -> Result<Program> {
     };
     options.initial_position_mm = job.machine.start.unwrap_or_default();
     let mut parsed = nc::parse(text, file, &options);
-    let errors: Vec<String> = parsed
+    let errors: Vec<nc::Diagnostic> = parsed
         .diagnostics
         .iter()
         .filter(|d| d.is_error())
-        .map(|d| d.to_string())
+        .cloned()
         .collect();
     if !errors.is_empty() {
-        bail!(
-            "{} error(s) in the program:\n{}",
-            errors.len(),
-            errors.join("\n")
-        );
+        return Err(Error::Program {
+            diagnostics: errors,
+        });
     }
     if parsed.path.segments.is_empty() {
-        bail!("{file}: the program has no motion");
+        fail!(request, "{file}: the program has no motion");
     }
     if job.machine.start.is_none() {
         // The default start depends on the path read from the origin: read it again from there.
@@ -164,36 +162,48 @@ pub fn read_points_csv(text: &str, file: &str, default_feed: Option<f64>) -> Res
         .from_reader(text.as_bytes());
     let headers = reader
         .headers()
-        .with_context(|| format!("{file}:1:1: cannot read the CSV header"))?
+        .or_input(file, 1, 1, || "cannot read the CSV header".into())?
         .clone();
     let find = |name: &str| headers.iter().position(|h| h.eq_ignore_ascii_case(name));
     let (Some(ix), Some(iy), Some(iz)) = (find("x"), find("y"), find("z")) else {
-        bail!(
-            "{file}:1:1: the header must name columns x, y, z (and optionally feed); found {:?}",
-            headers.iter().collect::<Vec<_>>()
-        );
+        return Err(Error::input(
+            file,
+            1,
+            1,
+            format!(
+                "the header must name columns x, y, z (and optionally feed); found {:?}",
+                headers.iter().collect::<Vec<_>>()
+            ),
+        ));
     };
     let ifeed = find("feed").or_else(|| find("feed_mm_min"));
     if ifeed.is_none() && default_feed.is_none() {
-        bail!("{file}:1:1: no feed column and no [program] feed in the job");
+        return Err(Error::input(
+            file,
+            1,
+            1,
+            "no feed column and no [program] feed in the job",
+        ));
     }
     let mut segments = Vec::new();
     let mut prev: Option<Point3<f64>> = None;
     for record in reader.records() {
         let record = record.map_err(|e| {
             let line = e.position().map_or(0, |p| p.line());
-            anyhow::anyhow!("{file}:{line}:1: {e}")
+            Error::input(file, line, 1, e.to_string())
         })?;
         let line = record.position().map_or(0, |p| p.line()) as u32;
         let field = |i: usize, what: &str| -> Result<f64> {
             // Field ranges exclude delimiters: add one per preceding field.
             let col = record.range(i).map_or(1, |r| r.start + i + 1);
             let raw = record.get(i).unwrap_or("");
-            let v: f64 = raw.parse().map_err(|_| {
-                anyhow::anyhow!("{file}:{line}:{col}: {what} is not a number: {raw:?}")
+            let (line, col) = (line as u64, col as u64);
+            let v: f64 = raw.parse().or_input(file, line, col, || {
+                format!("{what} is not a number: {raw:?}")
             })?;
             if !v.is_finite() {
-                bail!("{file}:{line}:{col}: {what} must be finite, got {raw}");
+                let message = format!("{what} must be finite, got {raw}");
+                return Err(Error::input(file, line, col, message));
             }
             Ok(v)
         };
@@ -206,7 +216,8 @@ pub fn read_points_csv(text: &str, file: &str, default_feed: Option<f64>) -> Res
             let col = ifeed
                 .and_then(|i| record.range(i).map(|r| r.start + i + 1))
                 .unwrap_or(1);
-            bail!("{file}:{line}:{col}: feed must be positive, got {feed}");
+            let message = format!("feed must be positive, got {feed}");
+            return Err(Error::input(file, line as u64, col as u64, message));
         }
         if let Some(start) = prev {
             segments.push(Segment {
@@ -222,7 +233,7 @@ pub fn read_points_csv(text: &str, file: &str, default_feed: Option<f64>) -> Res
         prev = Some(p);
     }
     if segments.is_empty() {
-        bail!("{file}: need at least two points to make a move");
+        fail!(request, "{file}: need at least two points to make a move");
     }
     Ok(nc::Path { segments })
 }

@@ -4,7 +4,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use anyhow::{bail, Context, Result};
+use crate::error::{fail, Context as _, Error, Result, ResultExt as _};
 use export::{
     HeatMapStyle, HeightField, HotSpot, PlotGroup, ProgramExcerpt, Report, ReportImage, ScalarMap,
     Series, SummaryRow,
@@ -27,15 +27,16 @@ fn read_csv_columns(
     )?);
     let headers = reader
         .headers()
-        .with_context(|| format!("{}: no header", path.display()))?
+        .or_results(|| format!("{}: no header", path.display()))?
         .clone();
     if headers.is_empty() {
-        bail!("{}: empty file, no header", path.display());
+        fail!(results, "{}: empty file, no header", path.display());
     }
     let mut index: Vec<(String, usize)> = Vec::new();
     for w in wanted {
         let Some(i) = headers.iter().position(|h| h == *w) else {
-            bail!(
+            fail!(
+                results,
                 "{}:1: no column {w} in the header (not a dexcut results file, or damaged)",
                 path.display()
             );
@@ -50,13 +51,13 @@ fn read_csv_columns(
     let mut cols: HashMap<String, Vec<f64>> =
         index.iter().map(|(n, _)| (n.clone(), Vec::new())).collect();
     for (row, record) in reader.records().enumerate() {
-        let record = record.with_context(|| format!("{}: bad row {}", path.display(), row + 2))?;
+        let record = record.or_results(|| format!("{}: bad row {}", path.display(), row + 2))?;
         for (name, i) in &index {
             let raw = record.get(*i).unwrap_or("");
             let v = if raw.is_empty() {
                 f64::NAN
             } else {
-                raw.parse().with_context(|| {
+                raw.parse().or_results(|| {
                     format!(
                         "{}:{}: {name} is not a number: {raw:?}",
                         path.display(),
@@ -68,7 +69,7 @@ fn read_csv_columns(
         }
     }
     if cols.values().all(Vec::is_empty) {
-        bail!("{}: no data rows", path.display());
+        fail!(results, "{}: no data rows", path.display());
     }
     Ok(cols)
 }
@@ -85,7 +86,8 @@ fn read_maps(
     let cols = read_csv_columns(path, &wanted, optional)?;
     let rows = cols.get("ix").map_or(0, Vec::len);
     if rows > grid.nx * grid.ny {
-        bail!(
+        fail!(
+            results,
             "{}: {rows} rows for a {}×{} grid",
             path.display(),
             grid.nx,
@@ -93,7 +95,7 @@ fn read_maps(
         );
     }
     let (Some(ix), Some(iy)) = (cols.get("ix"), cols.get("iy")) else {
-        bail!("{}: missing ix/iy columns", path.display())
+        fail!(results, "{}: missing ix/iy columns", path.display())
     };
     let mut maps = HashMap::new();
     for name in names.iter().chain(optional) {
@@ -120,7 +122,8 @@ fn read_column_maps(dir: &Path, grid: &GridInfo) -> Result<HashMap<String, Vec<f
     if !json.exists() {
         let csv = dir.join("columns.csv");
         if !csv.exists() {
-            bail!(
+            fail!(
+                results,
                 "{}: no {} (nor columns.csv): the per-column results are missing",
                 dir.display(),
                 export::COLUMN_GRID_JSON
@@ -130,7 +133,7 @@ fn read_column_maps(dir: &Path, grid: &GridInfo) -> Result<HashMap<String, Vec<f
     }
     let info = export::read_column_grid_info(dir, crate::bounds::MAX_SUMMARY_BYTES)?;
     if info.grid() != grid.export() {
-        bail!(
+        fail!(results,
             "{}: grid {}×{} at {} mm from ({}, {}) differs from summary.json's {}×{} at {} mm from ({}, {})",
             json.display(),
             info.nx,
@@ -151,7 +154,7 @@ fn read_column_maps(dir: &Path, grid: &GridInfo) -> Result<HashMap<String, Vec<f
             Some(values) => {
                 maps.insert(name.to_string(), values);
             }
-            None if required => bail!("{}: lists no array {name}", json.display()),
+            None if required => fail!(results, "{}: lists no array {name}", json.display()),
             None => {}
         }
     }
@@ -386,7 +389,7 @@ fn check_one_run(dir: &Path, summary: &SummaryDoc) -> Result<()> {
     let manifest_path = dir.join(export::atomic::MANIFEST);
     let text =
         crate::bounds::read_text(&manifest_path, "manifest", crate::bounds::MAX_SUMMARY_BYTES)
-            .with_context(|| {
+            .context_with(|| {
                 format!(
             "{} is not a complete dexcut results folder (written by an older or interrupted run?)",
             dir.display()
@@ -398,14 +401,15 @@ fn check_one_run(dir: &Path, summary: &SummaryDoc) -> Result<()> {
         run_id: String,
         files: std::collections::BTreeMap<String, u64>,
     }
-    let Manifest { run_id, files } = serde_json::from_str(&text).with_context(|| {
+    let Manifest { run_id, files } = serde_json::from_str(&text).or_results(|| {
         format!(
             "{}: not a manifest with run_id and files",
             manifest_path.display()
         )
     })?;
     if summary.run_id() != run_id {
-        bail!(
+        fail!(
+            results,
             "{}: summary.json is not from run {run_id} of the manifest: the folder mixes runs",
             dir.display()
         );
@@ -414,7 +418,7 @@ fn check_one_run(dir: &Path, summary: &SummaryDoc) -> Result<()> {
         let path = dir.join(&name);
         let actual = std::fs::metadata(&path).map(|m| m.len()).ok();
         if actual != Some(size) {
-            bail!(
+            fail!(results,
                 "{}: {name} is not the file run {run_id} wrote (size {actual:?}, manifest {size}): the folder mixes runs or was changed",
                 dir.display()
             );
@@ -430,7 +434,8 @@ const REPORT_BYTES_PER_COLUMN: f64 = 96.0;
 /// The grid of summary.json must describe a real grid that fits in memory.
 fn check_grid(grid: &GridInfo, path: &Path) -> Result<()> {
     if grid.nx == 0 || grid.ny == 0 {
-        bail!(
+        fail!(
+            results,
             "{}: grid nx and ny must be at least 1, got {}×{}",
             path.display(),
             grid.nx,
@@ -438,17 +443,28 @@ fn check_grid(grid: &GridInfo, path: &Path) -> Result<()> {
         );
     }
     if !(grid.spacing_mm > 0.0 && grid.spacing_mm.is_finite()) {
-        bail!(
+        fail!(
+            results,
             "{}: grid spacing_mm must be a positive number, got {}",
             path.display(),
             grid.spacing_mm
         );
     }
     if !(grid.x0_mm.is_finite() && grid.y0_mm.is_finite()) {
-        bail!("{}: grid x0_mm and y0_mm must be finite", path.display());
+        fail!(
+            results,
+            "{}: grid x0_mm and y0_mm must be finite",
+            path.display()
+        );
     }
     let Some(columns) = grid.nx.checked_mul(grid.ny) else {
-        bail!("{}: grid {}×{} overflows", path.display(), grid.nx, grid.ny);
+        fail!(
+            results,
+            "{}: grid {}×{} overflows",
+            path.display(),
+            grid.nx,
+            grid.ny
+        );
     };
     crate::bounds::check_memory(
         columns as f64 * REPORT_BYTES_PER_COLUMN,
@@ -478,7 +494,7 @@ pub struct ReportFiles {
 /// folder written by `simulate` or `optimize`, from its files alone.
 pub fn write_report(dir: &Path) -> Result<ReportFiles> {
     let summary_path = dir.join("summary.json");
-    let summary = crate::summary::read(&summary_path).with_context(|| {
+    let summary = crate::summary::read(&summary_path).context_with(|| {
         format!(
             "is {} a `dexcut simulate` or `optimize` output folder?",
             dir.display()
@@ -611,7 +627,7 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
     let mut design_map_png = None;
     let (error_png, error_frame) = export::heat_map_png_framed(&error, &error_style)?;
     export::atomic::write_bytes(&dir.join("error_map.png"), &error_png)
-        .context("cannot write error_map.png")?;
+        .map_err(|e| Error::io("cannot write", &dir.join("error_map.png"), e))?;
     images.push(ReportImage {
         name: "Predicted shape error from tool deflection (µm, positive = material left)".into(),
         png: error_png,
@@ -634,7 +650,7 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
         };
         let (png, frame) = export::heat_map_png_framed(&map, &style)?;
         export::atomic::write_bytes(&dir.join("design_map.png"), &png)
-            .context("cannot write design_map.png")?;
+            .map_err(|e| Error::io("cannot write", &dir.join("design_map.png"), e))?;
         design_map_png = Some(dir.join("design_map.png"));
         images.push(ReportImage {
             name: "Final surface against the design model (µm)".into(),
@@ -652,7 +668,8 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
         ..export::GlbOptions::default()
     };
     let (glb, _) = export::stock_glb_bytes(&height, Some(&error), &glb_options)?;
-    export::atomic::write_bytes(&dir.join("stock.glb"), &glb).context("cannot write stock.glb")?;
+    export::atomic::write_bytes(&dir.join("stock.glb"), &glb)
+        .map_err(|e| Error::io("cannot write", &dir.join("stock.glb"), e))?;
     // The page embeds a lighter stock so it stays under 3 MB; stock.glb keeps the detail.
     let (page_glb, _) = export::stock_glb_bytes(
         &height,

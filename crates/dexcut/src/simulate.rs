@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use crate::error::{fail, Error, Result};
 use cutting::{CuttingModel, StepLoad};
 use dexel::{RemovalRecord, Stock, SweepOptions, Tool, NEVER_CUT};
 use rayon::prelude::*;
@@ -548,7 +548,9 @@ pub fn write_tiled_columns(
             meta("error_um", "µm", ERROR_MEANING, export::NpyValues::F32(&[])),
         ],
     )
-    .with_context(|| format!("cannot write the column grid in {}", dir.display()))?;
+    .map_err(|e| {
+        Error::from(e).context(format!("cannot write the column grid in {}", dir.display()))
+    })?;
     let tools_list = tools.tools();
     let (mut initial_mm, mut final_mm) = (0.0, 0.0);
     let mut range = [0.0, 0.0];
@@ -580,11 +582,13 @@ pub fn write_tiled_columns(
                 export::NpyValues::I32(&steps_cut),
                 export::NpyValues::F32(error),
             ])
-            .with_context(|| format!("cannot write the column grid in {}", dir.display()))?;
+            .map_err(|e| {
+                Error::from(e).context(format!("cannot write the column grid in {}", dir.display()))
+            })?;
     }
-    writer
-        .finish()
-        .with_context(|| format!("cannot write the column grid in {}", dir.display()))?;
+    writer.finish().map_err(|e| {
+        Error::from(e).context(format!("cannot write the column grid in {}", dir.display()))
+    })?;
     let area = grid.cell_area_mm2();
     run.initial_volume_mm3 = initial_mm * area;
     run.final_volume_mm3 = final_mm * area;
@@ -722,7 +726,8 @@ pub fn loads(
 
 /// Allowable stress of a tool (MODEL.md §4.4).
 pub fn stress_limit_mpa(spec: &ToolSpec, tool: &Tool) -> f64 {
-    spec.body().stress_limit_mpa
+    spec.body()
+        .stress_limit_mpa
         .unwrap_or(if tool.youngs_modulus_mpa >= 400_000.0 {
             1200.0
         } else {
@@ -738,14 +743,14 @@ pub fn cutting_model(
     program: &Program,
 ) -> Result<CuttingModel> {
     let c = &job.cutting;
-    let material = cutting::Material::by_name(&c.material).with_context(|| {
+    let material = cutting::Material::by_name(&c.material).ok_or_else(|| {
         let names: Vec<&str> = cutting::Material::ALL.iter().map(|m| m.name).collect();
-        format!(
+        Error::job(format!(
             "{}: unknown cutting.material {:?}; known: {}",
             job.name,
             c.material,
             names.join(", ")
-        )
+        ))
     })?;
     // The highest S word a tool this wide plausibly runs at (MODEL.md §2.1).
     let program_rpm = program.spindle_rpm_for(tool.diameter_mm);
@@ -897,7 +902,10 @@ impl Summary {
             ("peak deflection (µm)", self.peak_deflection_um),
         ] {
             if !v.is_finite() {
-                anyhow::bail!("the run's {key} is {v}: the inputs give no finite result");
+                fail!(
+                    run,
+                    "the run's {key} is {v}: the inputs give no finite result"
+                );
             }
         }
         Ok(())
@@ -1331,7 +1339,7 @@ impl Run {
             out.flush()?;
             Ok(())
         })
-        .with_context(|| format!("cannot write {}", path.display()))
+        .map_err(|e| Error::io("cannot write", path, e))
     }
 
     /// Write the per-column results into the folder `dir`: final surface
@@ -1386,8 +1394,9 @@ impl Run {
                 values: export::NpyValues::I32(l),
             });
         }
-        export::write_column_grid(dir, &grid, &arrays)
-            .with_context(|| format!("cannot write the column grid in {}", dir.display()))?;
+        export::write_column_grid(dir, &grid, &arrays).map_err(|e| {
+            Error::Export(e).context(format!("cannot write the column grid in {}", dir.display()))
+        })?;
         if !csv {
             return Ok(());
         }
@@ -1412,7 +1421,7 @@ impl Run {
         }
         let path = dir.join("columns.csv");
         export::write_column_csv(&path, &grid, &columns)
-            .with_context(|| format!("cannot write {}", path.display()))
+            .map_err(|e| Error::Export(e).context(format!("cannot write {}", path.display())))
     }
 }
 
@@ -1470,7 +1479,7 @@ pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
         serde_json::to_writer_pretty(&mut *w, value).map_err(std::io::Error::other)?;
         w.write_all(b"\n")
     })
-    .with_context(|| format!("cannot write {}", path.display()))
+    .map_err(|e| Error::io("cannot write", path, e))
 }
 
 #[cfg(test)]

@@ -4,7 +4,7 @@
 
 use std::ops::Range;
 
-use anyhow::{bail, Context, Result};
+use crate::error::{fail, Error, Result};
 use dexel::{Grid, Stock};
 
 use crate::job::{Job, StockSpec};
@@ -67,7 +67,10 @@ pub fn budget_bytes(budget_mb: Option<f64>) -> Result<f64> {
     match budget_mb {
         None => Ok(room),
         Some(mb) if mb > 0.0 && mb.is_finite() => Ok((mb * 1e6).min(room)),
-        Some(mb) => bail!("--memory-budget-mb must be a positive number of MB, got {mb}"),
+        Some(mb) => fail!(
+            job,
+            "--memory-budget-mb must be a positive number of MB, got {mb}"
+        ),
     }
 }
 
@@ -94,7 +97,8 @@ pub fn build_within(job: &Job, budget_bytes: f64) -> Result<(Stock, Option<Tilin
     let strip = dexel::SweepOptions::default().strip_rows;
     let band_rows = ((budget_bytes / row_bytes) as usize / strip) * strip;
     if band_rows == 0 {
-        bail!(
+        fail!(
+            limits,
             "{what}: {}×{} columns at grid {} mm: even one band of {strip} rows needs about {:.0} MB of memory, more than the {:.0} MB this process may use (available memory, cgroup memory.max and ulimit, or --memory-budget-mb); use a coarser grid",
             grid.nx,
             grid.ny,
@@ -142,12 +146,12 @@ pub fn build(job: &Job) -> Result<Stock> {
             let path = job.resolve(path);
             crate::bounds::check_input_file(&path, "stock mesh", crate::bounds::MAX_MESH_BYTES)?;
             let (mesh, _info) = mesh::load_solid(&path)?;
-            let (lo, hi) = mesh
-                .bounds_mm()
-                .with_context(|| format!("{}: the stock mesh is empty", path.display()))?;
+            let (lo, hi) = mesh.bounds_mm().ok_or_else(|| {
+                Error::job(format!("{}: the stock mesh is empty", path.display()))
+            })?;
             let extent_mm = (hi[0] - lo[0]).min(hi[1] - lo[1]);
             if grid_mm * 4.0 > extent_mm {
-                anyhow::bail!(
+                fail!(job,
                     "{what}: grid ({} mm) is too coarse for the mesh's {extent_mm:.3} mm XY extent: at least 4 columns across are needed",
                     grid_mm
                 );
@@ -171,7 +175,7 @@ pub fn build(job: &Job) -> Result<Stock> {
                 || stats.unpaired_columns > 0
                 || (filled - signed).abs() > discretisation_mm3 + 1e-9 * signed
             {
-                anyhow::bail!(
+                fail!(job,
                     "{what}: the stock mesh {} intersects itself or overlaps ({} columns with overlapping shells, {} unbalanced; filled {filled:.1} mm³ against {signed:.1} mm³ enclosed): a stock must be one clean solid",
                     path.display(),
                     stats.overlap_columns,

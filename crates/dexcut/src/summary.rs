@@ -9,7 +9,7 @@
 
 use std::path::Path;
 
-use anyhow::{bail, Context, Result};
+use crate::error::{fail, Result, ResultExt as _};
 use serde::{Deserialize, Deserializer, Serialize};
 
 pub use crate::commands::{
@@ -157,18 +157,18 @@ pub fn parse(text: &str, file: &str) -> Result<SummaryDoc> {
         schema_version: Option<u32>,
     }
     let header: Header =
-        serde_json::from_str(text).with_context(|| format!("{file}: not valid JSON"))?;
+        serde_json::from_str(text).or_results(|| format!("{file}: not valid JSON"))?;
     match header.schema_version {
         Some(SCHEMA_VERSION) => {}
-        Some(v) => bail!(
+        Some(v) => fail!(results,
             "{file}: schema_version {v}, but this dexcut reads version {SCHEMA_VERSION}: run the command again with this dexcut"
         ),
-        None => bail!(
+        None => fail!(results,
             "{file}: no schema_version (written by an older dexcut): run the command again to write version {SCHEMA_VERSION}"
         ),
     }
     let parsed: SummaryFile = serde_json::from_str(text)
-        .with_context(|| format!("{file}: not a dexcut summary of version {SCHEMA_VERSION}"))?;
+        .or_results(|| format!("{file}: not a dexcut summary of version {SCHEMA_VERSION}"))?;
     Ok(parsed.doc)
 }
 

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use anyhow::{bail, Result};
+use crate::error::{fail, Result};
 use cutting::CuttingModel;
 use dexel::Tool;
 
@@ -144,11 +144,11 @@ impl ToolSet {
         numbers
             .map(|(number, line)| match self.index_of(number) {
                 Some(i) => Ok(i),
-                None if number == 0 => bail!(
+                None if number == 0 => fail!(job,
                     "line {line}: moves with no tool in the spindle (T0); load one of the job's tools ({}) with T… M6",
                     self.names()
                 ),
-                None => bail!(
+                None => fail!(job,
                     "line {line}: tool T{number} is not in the job's [[tools]] ({})",
                     self.names()
                 ),

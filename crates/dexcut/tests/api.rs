@@ -231,11 +231,14 @@ fn evaluate_returns_typed_results() {
     assert_eq!(rows.lines().count(), 1 + e.actual_mm.len());
 }
 
-/// The API's errors are typed by step and keep the command line's message:
-/// a bad job key is a `Load` error naming the file, line and column; a folder
-/// without results is a `Report` error naming summary.json.
+/// The API's errors are typed by kind of failure and keep their cause: a bad
+/// job key is a `Job` error naming the file, line and column; a program the
+/// reader refuses is a `Program` error with every diagnostic at its line and
+/// column; a missing program file is an `Io` error naming the path with the
+/// I/O error as its source; a folder without results is a `Results` error
+/// naming summary.json, whose source is the I/O error.
 #[test]
-fn api_errors_name_their_step_and_place() {
+fn api_errors_name_their_kind_place_and_source() {
     let dir = job_dir();
     let job = dir.path().join("job.toml");
     std::fs::write(
@@ -244,18 +247,52 @@ fn api_errors_name_their_step_and_place() {
     )
     .unwrap();
     match dexcut::load(&job, None) {
-        Err(e @ dexcut::Error::Load { .. }) => {
+        Err(e @ dexcut::Error::Job { .. }) => {
             let at = format!("{}:14:1: unknown field `speed`", job.display());
-            assert!(e.message().starts_with(&at), "{e}");
-            assert_eq!(e.to_string(), e.message());
+            assert!(e.to_string().starts_with(&at), "{e}");
+            assert_eq!(e.chain_message(), e.to_string());
+        }
+        other => panic!("{:?}", other.err()),
+    }
+    std::fs::write(&job, JOB).unwrap();
+    let program = dir.path().join("slot.nc");
+    let good = std::fs::read_to_string(&program).unwrap();
+    std::fs::write(&program, format!("G1 X1 Q\n{good}")).unwrap();
+    match dexcut::load(&job, None) {
+        Err(dexcut::Error::Program { diagnostics }) => {
+            assert!(!diagnostics.is_empty());
+            assert!(
+                diagnostics[0].to_string().contains("slot.nc:1:"),
+                "{diagnostics:?}"
+            );
+        }
+        other => panic!("{:?}", other.err()),
+    }
+    std::fs::remove_file(&program).unwrap();
+    match dexcut::load(&job, None) {
+        Err(e @ dexcut::Error::Io { .. }) => {
+            let source = std::error::Error::source(&e).expect("the I/O error is kept");
+            assert!(
+                source.downcast_ref::<std::io::Error>().is_some(),
+                "{source:?}"
+            );
+            assert!(e.to_string().contains("slot.nc"), "{e}");
         }
         other => panic!("{:?}", other.err()),
     }
     let empty = dir.path().join("empty");
     std::fs::create_dir(&empty).unwrap();
     match dexcut::report(&empty) {
-        Err(e @ dexcut::Error::Report { .. }) => {
-            assert!(e.message().contains("summary.json"), "{e}")
+        Err(e) => {
+            assert!(e.chain_message().contains("summary.json"), "{e}");
+            let mut cause: &dyn std::error::Error = &e;
+            while let Some(next) = cause.source() {
+                cause = next;
+            }
+            assert!(
+                cause.downcast_ref::<std::io::Error>().is_some(),
+                "{cause:?}"
+            );
         }
         other => panic!("{:?}", other.err()),
     }
