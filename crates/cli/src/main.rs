@@ -5,6 +5,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+#[macro_use]
+mod console;
 mod progress;
 
 #[derive(Parser)]
@@ -114,7 +116,19 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     dexcut::progress::set_progress(progress::bar);
-    let result = match cli.command {
+    match run(cli.command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {}", e.chain_message());
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Run one command through the library and print its results.
+fn run(command: Command) -> Result<(), dexcut::Error> {
+    let on_warning: dexcut::commands::OnWarning = &console::warning;
+    match command {
         Command::Simulate {
             job,
             out,
@@ -123,15 +137,19 @@ fn main() -> ExitCode {
             force,
             columns_csv,
             memory_budget_mb,
-        } => dexcut::commands::simulate(
-            &job,
-            &out,
-            grid,
-            actual_path,
-            force,
-            columns_csv,
-            memory_budget_mb,
-        ),
+        } => {
+            let doc = dexcut::commands::simulate(
+                &job,
+                &out,
+                grid,
+                actual_path,
+                force,
+                columns_csv,
+                memory_budget_mb,
+                on_warning,
+            )?;
+            console::simulate(&doc, &out);
+        }
         Command::Optimize {
             job,
             out,
@@ -139,15 +157,25 @@ fn main() -> ExitCode {
             force,
             columns_csv,
             settings,
-        } => dexcut::commands::optimize(
-            job.as_deref(),
-            &out,
-            grid,
-            force,
-            columns_csv,
-            settings.as_deref(),
-        ),
-        Command::Report { dir } => dexcut::commands::report(&dir),
+        } => {
+            if job.is_none() {
+                eprintln!(
+                    "no job given: running the built-in boss_contour example (inputs written to {})",
+                    out.join("input").display()
+                );
+            }
+            let optimized = dexcut::commands::optimize(
+                job.as_deref(),
+                &out,
+                grid,
+                force,
+                columns_csv,
+                settings.as_deref(),
+                on_warning,
+            )?;
+            console::optimize(&optimized, &out);
+        }
+        Command::Report { dir } => console::report(&dexcut::commands::report(&dir)?),
         Command::Evaluate {
             job,
             out,
@@ -155,22 +183,22 @@ fn main() -> ExitCode {
             sweep,
             settings,
             force,
-        } => dexcut::commands::evaluate(
-            &job,
-            &out,
-            servo.as_deref(),
-            sweep,
-            settings.as_deref(),
-            force,
-        ),
-        Command::Calibrate { csv } => dexcut::commands::calibrate(&csv),
-        Command::Example { out, force } => dexcut::commands::example(&out, force),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {}", e.chain_message());
-            ExitCode::FAILURE
+        } => {
+            let ev = dexcut::commands::evaluate(
+                &job,
+                &out,
+                servo.as_deref(),
+                sweep,
+                settings.as_deref(),
+                force,
+            )?;
+            console::evaluate(&ev, &out);
+        }
+        Command::Calibrate { csv } => console::calibrate(&dexcut::commands::calibrate(&csv)?),
+        Command::Example { out, force } => {
+            let job = dexcut::commands::example(&out, force)?;
+            console::example(&out, &job);
         }
     }
+    Ok(())
 }

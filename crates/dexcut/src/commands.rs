@@ -1,6 +1,8 @@
 //! The commands behind the CLI. Each checks every input before work starts
-//! and writes its outputs only at the end, each file atomically; each prints
-//! its results on the console.
+//! and writes its outputs only at the end, each file atomically. None prints:
+//! each returns its results as typed values, and what must be told before or
+//! during the work (warnings) goes to the caller's `on_warning`; the `dexcut`
+//! binary formats both.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -428,38 +430,6 @@ pub struct LineDeviation {
     pub columns: usize,
 }
 
-/// Lines to print on the console before "and K more".
-const PRINTED_LINES: usize = 20;
-
-/// The per-line design comparison on the console (S1).
-fn print_line_deviations(info: &DesignInfo) {
-    crate::outln!(
-        "design: {} program line(s) beyond tolerance (gouge > {} µm, stock > {} µm){}",
-        info.lines.len(),
-        info.gouge_tolerance_um,
-        info.stock_tolerance_um,
-        if info.uncut_stock_columns > 0 {
-            format!(", {} uncut columns with stock", info.uncut_stock_columns)
-        } else {
-            String::new()
-        }
-    );
-    for l in info.lines.iter().take(PRINTED_LINES) {
-        crate::outln!(
-            "  line {}: {} {:.1} µm at ({:.3}, {:.3}) mm, {} columns",
-            l.line,
-            l.kind,
-            l.worst_um,
-            l.x_mm,
-            l.y_mm,
-            l.columns
-        );
-    }
-    if info.lines.len() > PRINTED_LINES {
-        crate::outln!("  and {} more", info.lines.len() - PRINTED_LINES);
-    }
-}
-
 /// Per program line, the columns beyond tolerance (MODEL.md §8): `deviations` is
 /// `(line of the last cut or None, signed distance µm, x mm, y mm)` for each column.
 fn line_deviations(
@@ -598,9 +568,6 @@ fn write_run(
     let tops = run.stock.top_heights();
     let design = design_comparison(setup, run, &tops)?;
     write_run_files(run, &tops, design.as_ref(), out, steps_name, columns_csv)?;
-    if let Some((_, info)) = &design {
-        print_line_deviations(info);
-    }
     Ok(design.map(|d| d.1))
 }
 
@@ -691,10 +658,15 @@ pub fn simulate_setup(setup: &Setup, actual_path: bool) -> Result<Simulation> {
     })
 }
 
-/// Print the set-up warnings of a job at once, before the work.
-fn announce_setup_warnings(setup: &Setup) {
+/// Told at once, before or during a command's work: a warning the caller
+/// shows without waiting for the results (the `dexcut` binary prints
+/// `warning: …` on stderr).
+pub type OnWarning<'a> = &'a dyn Fn(&dyn std::fmt::Display);
+
+/// The set-up warnings of a job, told at once before the work.
+fn announce_setup_warnings(setup: &Setup, on_warning: OnWarning) {
     for w in &setup.warnings {
-        eprintln!("warning: {w}");
+        on_warning(w);
     }
 }
 
@@ -716,14 +688,6 @@ fn simulate_tiled(
     if columns_csv {
         fail!(limits, "{}: --columns-csv with a stock too large for the memory budget ({} rows in bands of {}): the .npy grid is written band by band, columns.csv is not", setup.job.name, tiling.grid.ny, tiling.band_rows);
     }
-    crate::outln!(
-        "the stock's {}×{} columns exceed the memory budget of {:.0} MB: swept in {} bands of {} rows",
-        tiling.grid.nx,
-        tiling.grid.ny,
-        tiling.budget_bytes / 1e6,
-        tiling.bands().count(),
-        tiling.band_rows
-    );
     let steps = setup.steps(actual_path)?;
     let mut run = simulate::run_on(
         simulate::StockSource::Tiled(tiling),
@@ -747,7 +711,32 @@ fn simulate_tiled(
     })
 }
 
+/// How a stock too large for the memory budget was swept: band by band.
+#[derive(Clone, Debug)]
+pub struct Banded {
+    /// Columns along X.
+    pub nx: usize,
+    /// Rows along Y.
+    pub ny: usize,
+    /// The memory budget, MB.
+    pub budget_mb: f64,
+    /// Bands swept.
+    pub bands: usize,
+    /// Rows per band.
+    pub band_rows: usize,
+}
+
+/// What `dexcut simulate` made.
+#[derive(Clone, Debug)]
+pub struct Simulated {
+    /// The document written as summary.json.
+    pub summary: SimulateSummary,
+    /// Set when the stock was swept band by band.
+    pub banded: Option<Banded>,
+}
+
 /// `dexcut simulate JOB --out DIR` (`memory_budget_mb`: `--memory-budget-mb`).
+#[allow(clippy::too_many_arguments)]
 pub fn simulate(
     job_path: &Path,
     out: &Path,
@@ -756,11 +745,12 @@ pub fn simulate(
     force: bool,
     columns_csv: bool,
     memory_budget_mb: Option<f64>,
-) -> Result<()> {
+    on_warning: OnWarning,
+) -> Result<Simulated> {
     let started = Instant::now();
     let setup = Setup::load_within(job_path, grid_mm, None, memory_budget_mb)?;
     let out_dir = OutDir::begin(out, &setup.input_files(job_path), force)?;
-    announce_setup_warnings(&setup);
+    announce_setup_warnings(&setup, on_warning);
     let sim = match &setup.tiling {
         None => {
             let sim = simulate_setup(&setup, actual_path)?;
@@ -769,9 +759,6 @@ pub fn simulate(
         }
         Some(tiling) => simulate_tiled(&setup, tiling, actual_path, columns_csv, out_dir.path())?,
     };
-    if let Some((_, info)) = &sim.design {
-        print_line_deviations(info);
-    }
     let summary = &sim.summary;
     let doc = SimulateSummary {
         run: summary.clone(),
@@ -785,22 +772,17 @@ pub fn simulate(
     };
     crate::summary::write_simulate(&out_dir.path().join("summary.json"), &doc)?;
     out_dir.commit("simulate")?;
-    crate::outln!(
-        "removed {:.1} mm³ of {:.1} mm³ in {} steps; cycle {:.2} s; peak MRR {:.2} mm³/s, force {:.1} N, power {:.3} kW, deflection {:.1} µm; error {:.1}…{:.1} µm; results in {}",
-        summary.removed_volume_mm3,
-        summary.initial_volume_mm3,
-        summary.steps,
-        summary.cycle_time_s,
-        summary.peak_mrr_mm3_s,
-        summary.peak_force_n,
-        summary.peak_power_w / 1000.0,
-        summary.peak_deflection_um,
-        summary.min_error_um,
-        summary.max_error_um,
-        out.display()
-    );
-    summary.warnings.print_after_work("");
-    Ok(())
+    let banded = setup.tiling.as_ref().map(|t| Banded {
+        nx: t.grid.nx,
+        ny: t.grid.ny,
+        budget_mb: t.budget_bytes / 1e6,
+        bands: t.bands().count(),
+        band_rows: t.band_rows,
+    });
+    Ok(Simulated {
+        summary: doc,
+        banded,
+    })
 }
 
 /// summary.json of `optimize` (schema in [`crate::summary`]).
@@ -889,6 +871,8 @@ pub struct LimitsOut {
 }
 
 /// `dexcut optimize [JOB] --out DIR`.
+/// With no job, the built-in boss_contour example, its inputs written into the
+/// results' `input/` folder.
 pub fn optimize(
     job_path: Option<&Path>,
     out: &Path,
@@ -896,7 +880,8 @@ pub fn optimize(
     force: bool,
     columns_csv: bool,
     settings: Option<&Path>,
-) -> Result<()> {
+    on_warning: OnWarning,
+) -> Result<Optimized> {
     let started = Instant::now();
     let (setup, out_dir) = match job_path {
         Some(p) => {
@@ -913,10 +898,6 @@ pub fn optimize(
             // The example's inputs go into the new results, in input/.
             let out_dir = OutDir::begin(out, &[], force)?;
             let dir = out.join("input");
-            eprintln!(
-                "no job given: running the built-in boss_contour example (inputs written to {})",
-                dir.display()
-            );
             let staged = out_dir.path().join("input");
             let mut setup =
                 Setup::load_with(&crate::example::write_files(&staged)?, grid_mm, settings)?;
@@ -936,12 +917,10 @@ pub fn optimize(
         && limits.power_max_kw.is_none()
         && !limits.angle_rule
     {
-        eprintln!("warning: [limits] sets no mrr_max, force_max, deflection_max_um, power_max_kw or angle_rule: cutting runs at feed_max");
+        on_warning(&"[limits] sets no mrr_max, force_max, deflection_max_um, power_max_kw or angle_rule: cutting runs at feed_max");
     }
-    announce_setup_warnings(&setup);
-    let optimized = optimize_setup(&setup, out_dir, started, columns_csv)?;
-    print_optimize(&optimized, out);
-    Ok(())
+    announce_setup_warnings(&setup, on_warning);
+    optimize_setup(&setup, out_dir, started, columns_csv, on_warning)
 }
 
 /// What [`optimize_setup`] made: summary.json's document, and the drive
@@ -964,6 +943,7 @@ pub fn optimize_setup(
     out_dir: OutDir,
     started: Instant,
     columns_csv: bool,
+    on_warning: OnWarning,
 ) -> Result<Optimized> {
     setup.require_whole_stock("optimize")?;
     let limits = &setup.job.limits;
@@ -981,7 +961,7 @@ pub fn optimize_setup(
     );
     let chip_warnings = crate::warnings::chip_load_check(&chip_load);
     for w in &chip_warnings {
-        eprintln!("warning: {w}");
+        on_warning(w);
     }
     // The program as given keeps its steps and loads; its stock is not needed
     // again (unless it is kept, then it is simulated again): free it for the
@@ -1135,117 +1115,6 @@ pub fn optimize_setup(
     })
 }
 
-/// Every tool's chip-load cap for the console's limits line: "chip load
-/// 0.0250 mm/tooth = 500 mm/min at S10000 on cutting moves" for one tool,
-/// "chip load on cutting moves: T1 …, T2 …" for several.
-fn chip_load_text(limits: &LimitsOut) -> Option<String> {
-    let each = |c: &optimize::ToolChipLoad| {
-        format!(
-            "{:.4} mm/tooth = {:.0} mm/min at {:.0} rev/min",
-            c.fz_max_mm, c.feed_mm_min, c.spindle_rpm
-        )
-    };
-    match limits.chip_load.as_slice() {
-        [] => None,
-        [c] => Some(format!("chip load {} on cutting moves", each(c))),
-        all => Some(format!(
-            "chip load on cutting moves: {}",
-            all.iter()
-                .map(|c| format!("T{} {}", c.tool, each(c)))
-                .collect::<Vec<_>>()
-                .join(", ")
-        )),
-    }
-}
-
-/// The optimize results on the console.
-fn print_optimize(optimized: &Optimized, out: &Path) {
-    let doc = &optimized.summary;
-    let precomp = &optimized.precomp;
-    let lower_bound_time_s = doc.lower_bound_time_s;
-    let (b, a) = (&doc.before, &doc.after);
-    let after_label = if doc.kept_original {
-        "after (kept)"
-    } else {
-        "optimized.nc"
-    };
-    crate::outln!("{:<24}{:>12}{:>14}", "", "as given", after_label);
-    let row = |name: &str, x: f64, y: f64, d: usize| {
-        crate::outln!("{name:<24}{x:>12.d$}{y:>14.d$}");
-    };
-    row("cycle time (s)", b.cycle_time_s, a.cycle_time_s, 3);
-    row("peak MRR per period", b.peak_mrr_mm3_s, a.peak_mrr_mm3_s, 3);
-    row(
-        "  (mm³/s) over ≥ 48 ms",
-        b.peak_mrr_windowed_mm3_s,
-        a.peak_mrr_windowed_mm3_s,
-        3,
-    );
-    row("peak force (N)", b.peak_force_n, a.peak_force_n, 2);
-    row(
-        "peak deflection (µm)",
-        b.peak_deflection_um,
-        a.peak_deflection_um,
-        2,
-    );
-    row(
-        "top cutting feed (mm/min)",
-        b.peak_cutting_feed_mm_min,
-        a.peak_cutting_feed_mm_min,
-        0,
-    );
-    let limits_text: Vec<String> = [
-        doc.limits
-            .mrr_max_mm3_s
-            .map(|v| format!("mrr_max {v} mm³/s")),
-        doc.limits.force_max_n.map(|v| format!("force_max {v} N")),
-        doc.limits
-            .deflection_max_um
-            .map(|v| format!("deflection_max_um {v}")),
-        chip_load_text(&doc.limits),
-        doc.limits
-            .feed_scale_max
-            .map(|v| format!("feed_scale_max {v}")),
-    ]
-    .into_iter()
-    .flatten()
-    .collect();
-    crate::outln!("limits: {}", limits_text.join(", "));
-    crate::outln!(
-        "time change {:+.1} %. The numbers after are optimized.nc read back and simulated as a program of its own ({} round(s)); the plan it was written from takes {:.3} s ({:+.2} %); with the feed free to change every 0.05 mm it would take {:.3} s.",
-        100.0 * (a.cycle_time_s / b.cycle_time_s - 1.0),
-        doc.rounds,
-        doc.plan_time_s,
-        100.0 * doc.written_vs_plan,
-        doc.time_optimal_s,
-    );
-    if doc.kept_original {
-        crate::outln!("The program as given is within every limit and faster than any re-timing: optimized.nc is the original.");
-    }
-    crate::outln!(
-        "No timing under these limits can beat {:.3} s (every point at its highest allowed feed, no time to speed up or slow down); the {:.1} % above it is acceleration, corners and arcs.",
-        lower_bound_time_s,
-        100.0 * doc.optimality_gap,
-    );
-    let shares: Vec<String> = doc
-        .cap_time_share
-        .iter()
-        .map(|c| format!("{} {:.0} %", c.cap, 100.0 * c.share))
-        .collect();
-    crate::outln!("time held by: {}", shares.join(", "));
-    if let Some(pre) = &precomp {
-        crate::outln!(
-            "servo_compensated.csv: drive error {:.4} mm before, {:.2e} mm after pre-compensation ({} corrections)",
-            pre.error_before_mm,
-            pre.error_after_mm,
-            pre.iterations
-        );
-    }
-    crate::outln!("results in {}", out.display());
-    doc.before.warnings.print_after_work("program");
-    doc.after.warnings.print_after_work("optimised");
-}
-
 /// servo.csv: commanded positions every period with path feed and axis velocities.
 fn write_servo_csv(path: &Path, samples: &[schedule::ServoSample]) -> Result<()> {
     let velocities = schedule::axis_velocity_mm_s(samples);
@@ -1287,28 +1156,17 @@ fn write_servo_csv(path: &Path, samples: &[schedule::ServoSample]) -> Result<()>
 }
 
 /// `dexcut report DIR`.
-pub fn report(dir: &Path) -> Result<()> {
-    let files = crate::report::write_report(dir)?;
-    crate::outln!("wrote {}", files.html.display());
-    Ok(())
+pub fn report(dir: &Path) -> Result<crate::ReportFiles> {
+    crate::report::write_report(dir)
 }
 
 /// `dexcut calibrate CSV`: least-squares fit of F = a·V^n in log space.
-pub fn calibrate(path: &Path) -> Result<()> {
+pub fn calibrate(path: &Path) -> Result<cutting::Fit> {
     let text = crate::bounds::read_text(path, "measurements", crate::bounds::MAX_CSV_BYTES)?;
     let points = read_calibration(&text, &path.display().to_string())?;
     let fit =
         cutting::fit_force_law(&points).or_run(|| format!("{}: cannot fit", path.display()))?;
-    crate::outln!("F = a·V^n fitted to {} points:", fit.points);
-    crate::outln!("  force_a = {:.6}", fit.a);
-    crate::outln!("  force_n = {:.6}", fit.n);
-    crate::outln!(
-        "  rms error: {:.4} (log), {:.2} % (relative)",
-        fit.rms_log_error,
-        100.0 * fit.rms_rel_error
-    );
-    crate::outln!("put force_a and force_n into the job's [cutting] section");
-    Ok(())
+    Ok(fit)
 }
 
 /// (volume per tooth mm³, force N) pairs from CSV text with columns v_mm3 and force_n.

@@ -393,7 +393,7 @@ pub fn evaluate(
     sweep: bool,
     settings: Option<&Path>,
     force: bool,
-) -> Result<()> {
+) -> Result<DriveEvaluation> {
     let setup = Setup::load_with(job_path, None, settings)?;
     drive(&setup.job)?;
     if sweep && servo_csv.is_some() {
@@ -407,17 +407,9 @@ pub fn evaluate(
     inputs.extend(settings.map(Path::to_path_buf));
     let out_dir = crate::outdir::OutDir::begin(out, &inputs, force)?;
     let period_s = setup.machine.period_s();
-    let DriveEvaluation {
-        drive,
-        weights,
-        evaluation,
-        actual_mm,
-        precomp: pre,
-        precomp_trajectory_error_mm: precomp_traj,
-        sweep: rows,
-        best,
-    } = evaluate_setup(&setup, servo_csv, sweep)?;
-    write_positions_csv(&out_dir.path().join("actual.csv"), &actual_mm, period_s)?;
+    let ev = evaluate_setup(&setup, servo_csv, sweep)?;
+    let pre = &ev.precomp;
+    write_positions_csv(&out_dir.path().join("actual.csv"), &ev.actual_mm, period_s)?;
     write_positions_csv(
         &out_dir.path().join("compensated.csv"),
         &pre.command,
@@ -425,18 +417,18 @@ pub fn evaluate(
     )?;
     let doc = EvaluationDoc {
         job: setup.job.name.clone(),
-        drive: format!("{:?}", drive),
-        weights,
-        evaluation,
+        drive: format!("{:?}", ev.drive),
+        weights: ev.weights,
+        evaluation: ev.evaluation,
         precomp_error_before_mm: pre.error_before_mm,
         precomp_error_after_mm: pre.error_after_mm,
         precomp_iterations: pre.iterations,
-        precomp_trajectory_error_mm: precomp_traj,
-        sweep: &rows,
-        best,
+        precomp_trajectory_error_mm: ev.precomp_trajectory_error_mm,
+        sweep: &ev.sweep,
+        best: ev.best,
     };
     write_json(&out_dir.path().join("evaluation.json"), &doc)?;
-    if let Some(b) = best.map(|i| &doc.sweep[i]) {
+    if let Some(b) = ev.best.map(|i| &doc.sweep[i]) {
         let fragment = Settings {
             machine: MachineSettings {
                 accel: b.accel_mm_s2,
@@ -456,42 +448,5 @@ pub fn evaluate(
         .map_err(|e| Error::io("cannot write", &out_dir.path().join("best.toml"), e))?;
     }
     out_dir.commit("evaluate")?;
-    let e = &doc.evaluation;
-    crate::outln!(
-        "trajectory error {:.4} mm, time {:.3} s, max jerk [{:.0}, {:.0}, {:.0}] mm/s³, V = {:.4} (Va {:.3}, Vb {:.3}, Vc {:.3})",
-        e.trajectory_error_mm, e.machining_time_s, e.max_jerk_mm_s3[0], e.max_jerk_mm_s3[1], e.max_jerk_mm_s3[2], e.evaluation, e.va, e.vb, e.vc
-    );
-    crate::outln!(
-        "pre-compensation: sample error {:.4} → {:.4} mm in {} iterations (trajectory error {:.4} mm)",
-        pre.error_before_mm, pre.error_after_mm, pre.iterations, precomp_traj
-    );
-    if !doc.sweep.is_empty() {
-        crate::outln!(
-            "{:>10} {:>10} {:>7} {:>10} {:>9} {:>12} {:>8}",
-            "accel",
-            "jerk",
-            "kp",
-            "error_mm",
-            "time_s",
-            "jerk_mm_s3",
-            "V"
-        );
-        for (i, r) in doc.sweep.iter().enumerate() {
-            let e = &r.evaluation;
-            crate::outln!(
-                "{:>10.0} {:>10} {:>7.1} {:>10.4} {:>9.3} {:>12.0} {:>8.4}{}",
-                r.accel_mm_s2[0],
-                r.jerk_mm_s3
-                    .map_or("none".to_string(), |j| format!("{:.0}", j[0])),
-                r.kp_per_s,
-                e.trajectory_error_mm,
-                e.machining_time_s,
-                e.max_jerk_mm_s3.iter().fold(0.0f64, |m, v| m.max(*v)),
-                e.evaluation,
-                if Some(i) == doc.best { "  <- best" } else { "" }
-            );
-        }
-    }
-    crate::outln!("results in {}", out.display());
-    Ok(())
+    Ok(ev)
 }

@@ -33,7 +33,8 @@ pub fn write_files(dir: &Path) -> Result<PathBuf> {
 
 /// `dexcut example`: write the example to edit and run. A file of the folder
 /// that differs from the example (an edited job) is overwritten only with `force`.
-pub fn write(dir: &Path, force: bool) -> Result<()> {
+/// Returns the job file's path.
+pub fn write(dir: &Path, force: bool) -> Result<PathBuf> {
     let edited: Vec<String> = FILES
         .iter()
         .map(|(name, _)| dir.join(name))
@@ -51,11 +52,5 @@ pub fn write(dir: &Path, force: bool) -> Result<()> {
             edited.join(", ")
         );
     }
-    let job = write_files(dir)?;
-    crate::outln!(
-        "wrote the boss_contour example to {}; run it with: dexcut optimize {}",
-        dir.display(),
-        job.display()
-    );
-    Ok(())
+    write_files(dir)
 }

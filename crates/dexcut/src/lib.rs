@@ -59,7 +59,6 @@ use std::time::Instant;
 
 mod bounds;
 pub mod commands;
-mod console;
 mod error;
 mod evaluate;
 mod example;
@@ -107,7 +106,7 @@ pub fn simulate(setup: &Setup, actual_path: bool) -> Result<Simulation, Error> {
 pub fn optimize(setup: &Setup, out: &Path, force: bool) -> Result<Optimized, Error> {
     let started = Instant::now();
     let out_dir = outdir::OutDir::begin(out, &setup.input_files(&setup.job_path), force)?;
-    commands::optimize_setup(setup, out_dir, started, false)
+    commands::optimize_setup(setup, out_dir, started, false, &|_| {})
 }
 
 /// Run the job's program, as planned, through its drive model (`[servo]`) and

@@ -173,23 +173,6 @@ impl Warnings {
             message: describe(value, &lines_text),
         });
     }
-
-    /// Print the warnings found by the work (those of the set-up were
-    /// printed before it), each prefixed by `label` when given.
-    pub fn print_after_work(&self, label: &str) {
-        Warnings(self.0.iter().filter(|w| !w.of_setup()).cloned().collect()).print(label);
-    }
-
-    /// Print every warning on stderr, each prefixed by `label` when given.
-    pub fn print(&self, label: &str) {
-        for w in &self.0 {
-            if label.is_empty() {
-                eprintln!("warning: {w}");
-            } else {
-                eprintln!("warning ({label}): {w}");
-            }
-        }
-    }
 }
 
 /// Add `value` at `line` to a tally.

@@ -148,7 +148,8 @@ material = "al6061"
     )
     .unwrap();
     let out = dir.path().join("out");
-    dexcut::commands::simulate(
+    let warned = std::cell::Cell::new(0);
+    let simulated = dexcut::commands::simulate(
         &dir.path().join("job.toml"),
         &out,
         None,
@@ -156,6 +157,7 @@ material = "al6061"
         false,
         false,
         None,
+        &|_| warned.set(warned.get() + 1),
     )
     .unwrap();
     let doc = match summary::read(&out.join("summary.json")).unwrap() {
@@ -163,6 +165,12 @@ material = "al6061"
         SummaryDoc::Optimize(_) => panic!("not a simulate summary"),
     };
     assert_eq!(doc.run.steps, n);
+    // The command returns the document it wrote, and told each set-up warning once.
+    assert_eq!(simulated.summary.run.steps, n);
+    assert_eq!(simulated.summary.run_id, doc.run_id);
+    assert!(simulated.banded.is_none());
+    let setup_warnings = doc.run.warnings.iter().filter(|w| w.of_setup()).count();
+    assert_eq!(warned.get(), setup_warnings);
     let files = dexcut::report(&out).unwrap();
     let html = std::fs::read_to_string(&files.html).unwrap();
     let size = html.len();

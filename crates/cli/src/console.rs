@@ -1,0 +1,288 @@
+//! What the commands print: their typed results formatted for a terminal.
+//! stdout carries the results, stderr the warnings; a closed stdout
+//! (`dexcut calibrate m.csv | true`) ends the output quietly instead of
+//! aborting the command.
+
+use std::io::Write;
+use std::path::Path;
+
+use dexcut::commands::{DesignInfo, LimitsOut, Simulated};
+use dexcut::optimize::ToolChipLoad;
+use dexcut::{DriveEvaluation, Optimized, Warnings};
+
+/// Write one line to stdout; a closed or failing stdout is ignored (the
+/// results are in files, the console only repeats them).
+pub fn line(args: std::fmt::Arguments) {
+    let mut out = std::io::stdout().lock();
+    let _ = out.write_fmt(args).and_then(|()| out.write_all(b"\n"));
+}
+
+/// `println!` that does not panic on a closed pipe.
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        $crate::console::line(format_args!($($arg)*))
+    };
+}
+
+/// A warning told at once, before or during the work.
+pub fn warning(w: &dyn std::fmt::Display) {
+    eprintln!("warning: {w}");
+}
+
+/// The warnings found by the work (those of the set-up were told before it),
+/// each prefixed by `label` when given.
+pub fn warnings_after_work(warnings: &Warnings, label: &str) {
+    for w in warnings.iter().filter(|w| !w.of_setup()) {
+        if label.is_empty() {
+            eprintln!("warning: {w}");
+        } else {
+            eprintln!("warning ({label}): {w}");
+        }
+    }
+}
+
+/// The simulate results: the bands of a large stock, the design comparison,
+/// the headline line, then the warnings.
+pub fn simulate(simulated: &Simulated, out: &Path) {
+    if let Some(b) = &simulated.banded {
+        outln!(
+            "the stock's {}×{} columns exceed the memory budget of {:.0} MB: swept in {} bands of {} rows",
+            b.nx, b.ny, b.budget_mb, b.bands, b.band_rows
+        );
+    }
+    let doc = &simulated.summary;
+    if let Some(info) = &doc.design {
+        line_deviations(info);
+    }
+    let summary = &doc.run;
+    outln!(
+        "removed {:.1} mm³ of {:.1} mm³ in {} steps; cycle {:.2} s; peak MRR {:.2} mm³/s, force {:.1} N, power {:.3} kW, deflection {:.1} µm; error {:.1}…{:.1} µm; results in {}",
+        summary.removed_volume_mm3,
+        summary.initial_volume_mm3,
+        summary.steps,
+        summary.cycle_time_s,
+        summary.peak_mrr_mm3_s,
+        summary.peak_force_n,
+        summary.peak_power_w / 1000.0,
+        summary.peak_deflection_um,
+        summary.min_error_um,
+        summary.max_error_um,
+        out.display()
+    );
+    warnings_after_work(&summary.warnings, "");
+}
+
+/// The evaluate results: the score, the pre-compensation, the sweep table.
+pub fn evaluate(ev: &DriveEvaluation, out: &Path) {
+    let e = &ev.evaluation;
+    let (pre, precomp_traj) = (&ev.precomp, ev.precomp_trajectory_error_mm);
+    outln!(
+        "trajectory error {:.4} mm, time {:.3} s, max jerk [{:.0}, {:.0}, {:.0}] mm/s³, V = {:.4} (Va {:.3}, Vb {:.3}, Vc {:.3})",
+        e.trajectory_error_mm, e.machining_time_s, e.max_jerk_mm_s3[0], e.max_jerk_mm_s3[1], e.max_jerk_mm_s3[2], e.evaluation, e.va, e.vb, e.vc
+    );
+    outln!(
+        "pre-compensation: sample error {:.4} → {:.4} mm in {} iterations (trajectory error {:.4} mm)",
+        pre.error_before_mm, pre.error_after_mm, pre.iterations, precomp_traj
+    );
+    if !ev.sweep.is_empty() {
+        outln!(
+            "{:>10} {:>10} {:>7} {:>10} {:>9} {:>12} {:>8}",
+            "accel",
+            "jerk",
+            "kp",
+            "error_mm",
+            "time_s",
+            "jerk_mm_s3",
+            "V"
+        );
+        for (i, r) in ev.sweep.iter().enumerate() {
+            let e = &r.evaluation;
+            outln!(
+                "{:>10.0} {:>10} {:>7.1} {:>10.4} {:>9.3} {:>12.0} {:>8.4}{}",
+                r.accel_mm_s2[0],
+                r.jerk_mm_s3
+                    .map_or("none".to_string(), |j| format!("{:.0}", j[0])),
+                r.kp_per_s,
+                e.trajectory_error_mm,
+                e.machining_time_s,
+                e.max_jerk_mm_s3.iter().fold(0.0f64, |m, v| m.max(*v)),
+                e.evaluation,
+                if Some(i) == ev.best { "  <- best" } else { "" }
+            );
+        }
+    }
+    outln!("results in {}", out.display());
+}
+
+/// The force-law fit of `calibrate`.
+pub fn calibrate(fit: &cutting::Fit) {
+    outln!("F = a·V^n fitted to {} points:", fit.points);
+    outln!("  force_a = {:.6}", fit.a);
+    outln!("  force_n = {:.6}", fit.n);
+    outln!(
+        "  rms error: {:.4} (log), {:.2} % (relative)",
+        fit.rms_log_error,
+        100.0 * fit.rms_rel_error
+    );
+    outln!("put force_a and force_n into the job's [cutting] section");
+}
+
+/// The folder `example` wrote and how to run it.
+pub fn example(dir: &Path, job: &Path) {
+    outln!(
+        "wrote the boss_contour example to {}; run it with: dexcut optimize {}",
+        dir.display(),
+        job.display()
+    );
+}
+
+/// The report `report` wrote.
+pub fn report(files: &dexcut::ReportFiles) {
+    outln!("wrote {}", files.html.display());
+}
+
+/// Lines to print on the console before "and K more".
+const PRINTED_LINES: usize = 20;
+
+/// The per-line design comparison on the console (S1).
+pub fn line_deviations(info: &DesignInfo) {
+    outln!(
+        "design: {} program line(s) beyond tolerance (gouge > {} µm, stock > {} µm){}",
+        info.lines.len(),
+        info.gouge_tolerance_um,
+        info.stock_tolerance_um,
+        if info.uncut_stock_columns > 0 {
+            format!(", {} uncut columns with stock", info.uncut_stock_columns)
+        } else {
+            String::new()
+        }
+    );
+    for l in info.lines.iter().take(PRINTED_LINES) {
+        outln!(
+            "  line {}: {} {:.1} µm at ({:.3}, {:.3}) mm, {} columns",
+            l.line,
+            l.kind,
+            l.worst_um,
+            l.x_mm,
+            l.y_mm,
+            l.columns
+        );
+    }
+    if info.lines.len() > PRINTED_LINES {
+        outln!("  and {} more", info.lines.len() - PRINTED_LINES);
+    }
+}
+
+/// Every tool's chip-load cap for the console's limits line: "chip load
+/// 0.0250 mm/tooth = 500 mm/min at S10000 on cutting moves" for one tool,
+/// "chip load on cutting moves: T1 …, T2 …" for several.
+fn chip_load_text(limits: &LimitsOut) -> Option<String> {
+    let each = |c: &ToolChipLoad| {
+        format!(
+            "{:.4} mm/tooth = {:.0} mm/min at {:.0} rev/min",
+            c.fz_max_mm, c.feed_mm_min, c.spindle_rpm
+        )
+    };
+    match limits.chip_load.as_slice() {
+        [] => None,
+        [c] => Some(format!("chip load {} on cutting moves", each(c))),
+        all => Some(format!(
+            "chip load on cutting moves: {}",
+            all.iter()
+                .map(|c| format!("T{} {}", c.tool, each(c)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )),
+    }
+}
+
+/// The optimize results on the console.
+pub fn optimize(optimized: &Optimized, out: &Path) {
+    let doc = &optimized.summary;
+    if let Some(info) = &doc.design {
+        line_deviations(info);
+    }
+    let precomp = &optimized.precomp;
+    let lower_bound_time_s = doc.lower_bound_time_s;
+    let (b, a) = (&doc.before, &doc.after);
+    let after_label = if doc.kept_original {
+        "after (kept)"
+    } else {
+        "optimized.nc"
+    };
+    outln!("{:<24}{:>12}{:>14}", "", "as given", after_label);
+    let row = |name: &str, x: f64, y: f64, d: usize| {
+        outln!("{name:<24}{x:>12.d$}{y:>14.d$}");
+    };
+    row("cycle time (s)", b.cycle_time_s, a.cycle_time_s, 3);
+    row("peak MRR per period", b.peak_mrr_mm3_s, a.peak_mrr_mm3_s, 3);
+    row(
+        "  (mm³/s) over ≥ 48 ms",
+        b.peak_mrr_windowed_mm3_s,
+        a.peak_mrr_windowed_mm3_s,
+        3,
+    );
+    row("peak force (N)", b.peak_force_n, a.peak_force_n, 2);
+    row(
+        "peak deflection (µm)",
+        b.peak_deflection_um,
+        a.peak_deflection_um,
+        2,
+    );
+    row(
+        "top cutting feed (mm/min)",
+        b.peak_cutting_feed_mm_min,
+        a.peak_cutting_feed_mm_min,
+        0,
+    );
+    let limits_text: Vec<String> = [
+        doc.limits
+            .mrr_max_mm3_s
+            .map(|v| format!("mrr_max {v} mm³/s")),
+        doc.limits.force_max_n.map(|v| format!("force_max {v} N")),
+        doc.limits
+            .deflection_max_um
+            .map(|v| format!("deflection_max_um {v}")),
+        chip_load_text(&doc.limits),
+        doc.limits
+            .feed_scale_max
+            .map(|v| format!("feed_scale_max {v}")),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    outln!("limits: {}", limits_text.join(", "));
+    outln!(
+        "time change {:+.1} %. The numbers after are optimized.nc read back and simulated as a program of its own ({} round(s)); the plan it was written from takes {:.3} s ({:+.2} %); with the feed free to change every 0.05 mm it would take {:.3} s.",
+        100.0 * (a.cycle_time_s / b.cycle_time_s - 1.0),
+        doc.rounds,
+        doc.plan_time_s,
+        100.0 * doc.written_vs_plan,
+        doc.time_optimal_s,
+    );
+    if doc.kept_original {
+        outln!("The program as given is within every limit and faster than any re-timing: optimized.nc is the original.");
+    }
+    outln!(
+        "No timing under these limits can beat {:.3} s (every point at its highest allowed feed, no time to speed up or slow down); the {:.1} % above it is acceleration, corners and arcs.",
+        lower_bound_time_s,
+        100.0 * doc.optimality_gap,
+    );
+    let shares: Vec<String> = doc
+        .cap_time_share
+        .iter()
+        .map(|c| format!("{} {:.0} %", c.cap, 100.0 * c.share))
+        .collect();
+    outln!("time held by: {}", shares.join(", "));
+    if let Some(pre) = &precomp {
+        outln!(
+            "servo_compensated.csv: drive error {:.4} mm before, {:.2e} mm after pre-compensation ({} corrections)",
+            pre.error_before_mm,
+            pre.error_after_mm,
+            pre.iterations
+        );
+    }
+    outln!("results in {}", out.display());
+    warnings_after_work(&doc.before.warnings, "program");
+    warnings_after_work(&doc.after.warnings, "optimised");
+}
