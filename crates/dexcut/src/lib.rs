@@ -38,6 +38,8 @@
 //! [program]
 //! path = "slot.csv"
 //! feed = 1200
+//! [limits]
+//! mrr_max = 100
 //! "#,
 //! )?;
 //! let setup = dexcut::load(&dir.join("job.toml"), None)?;
@@ -48,6 +50,21 @@
 //! assert!((sim.summary.removed_volume_mm3 - exact).abs() < 3e-3 * exact);
 //! // 120 mm at 1200 mm/min.
 //! assert!((sim.summary.cycle_time_s - 6.0).abs() < 1e-12);
+//!
+//! // Re-time it under mrr_max = 100 mm³/s into the folder out (servo.csv,
+//! // steps.csv, summary.json; a G-code program also gets optimized.nc, read
+//! // back and simulated for the numbers after). Nothing is printed.
+//! let optimized = dexcut::optimize(&setup, &dir.join("out"), false)?;
+//! let after = &optimized.summary.after;
+//! assert!(after.peak_mrr_mm3_s <= 1.02 * 100.0);
+//! // No schedule removes the volume faster than mrr_max allows.
+//! assert!(after.cycle_time_s >= sim.summary.removed_volume_mm3 / 100.0);
+//! assert!(after.cycle_time_s >= optimized.summary.lower_bound_time_s * (1.0 - 1e-9));
+//! // summary.json reads back through the same types.
+//! match dexcut::summary::read(&dir.join("out/summary.json"))? {
+//!     dexcut::summary::SummaryDoc::Optimize(doc) => assert_eq!(doc.after.cycle_time_s, after.cycle_time_s),
+//!     dexcut::summary::SummaryDoc::Simulate(_) => unreachable!("optimize wrote it"),
+//! }
 //! # std::fs::remove_dir_all(&dir)?;
 //! # Ok(())
 //! # }
