@@ -191,27 +191,24 @@ impl Error {
 
     /// This error with `context` before it: joined into the message of the
     /// kinds that carry one, as a [`Error::Context`] around the others.
-    pub(crate) fn context(self, context: impl std::fmt::Display) -> Error {
+    pub(crate) fn context(mut self, context: impl std::fmt::Display) -> Error {
         match self {
-            Error::Job { message, source } => Error::Job {
-                message: format!("{context}: {message}"),
-                source,
-            },
-            Error::Limits { message, source } => Error::Limits {
-                message: format!("{context}: {message}"),
-                source,
-            },
-            Error::Request { message } => Error::Request {
-                message: format!("{context}: {message}"),
-            },
-            Error::Run { message, source } => Error::Run {
-                message: format!("{context}: {message}"),
-                source,
-            },
-            Error::Results { message, source } => Error::Results {
-                message: format!("{context}: {message}"),
-                source,
-            },
+            Error::Job {
+                ref mut message, ..
+            }
+            | Error::Limits {
+                ref mut message, ..
+            }
+            | Error::Request { ref mut message }
+            | Error::Run {
+                ref mut message, ..
+            }
+            | Error::Results {
+                ref mut message, ..
+            } => {
+                *message = format!("{context}: {message}");
+                self
+            }
             other => Error::Context {
                 context: context.to_string(),
                 source: Box::new(other),
