@@ -69,14 +69,10 @@ pub struct Profile<'a> {
 /// Most servo samples one profile may produce (about 60 bytes each, 1.2 GB at the bound).
 pub const MAX_SAMPLES: usize = 20_000_000;
 
-/// Runs with at most this many stations get the jerk-limited golden-section search over the
-/// acceleration share λ; longer runs take the best λ of [`LAMBDA_GRID`].
+/// Runs with at most this many stations get the jerk-limited search over the acceleration
+/// share λ (short moves, where the time-optimal profile does not reach the full acceleration);
+/// longer runs plan at λ = 1.
 const LAMBDA_SEARCH_MAX_STATIONS: usize = 4000;
-
-/// The shares λ a long run tries (each trial plans the whole run, so a few): geometric, ratio
-/// about √2, so the best of them is within 1.5 % of the best λ in [0.18, 1] on a ramp whose
-/// time is c/(λa) + λa/j (MODEL.md §6.1). λ = 1 is kept on a tie.
-const LAMBDA_GRID: [f64; 6] = [1.0, 0.7, 0.5, 0.35, 0.25, 0.18];
 
 /// Plans the time-optimal speed profile over `stations` (MODEL.md §6.1).
 ///
@@ -100,9 +96,8 @@ const LAMBDA_GRID: [f64; 6] = [1.0, 0.7, 0.5, 0.35, 0.25, 0.18];
 ///
 /// A trapezoid with accelerations of at least W filtered this way is exactly the 7-segment
 /// S-curve, so a rest-to-rest move is time-optimal for the best λ; λ is searched on short
-/// runs (golden section) and chosen from a geometric grid on long ones (six plans of the
-/// run). Averaging keeps the path geometry exact (the filter acts on s(t), not on the axes),
-/// keeps stops and dwells exact, and costs W per run.
+/// runs (golden section), λ = 1 elsewhere. Averaging keeps the path geometry exact (the
+/// filter acts on s(t), not on the axes), keeps stops and dwells exact, and costs W per run.
 /// On curved paths the jerk bound is tangential only (the normal jerk d(v²κ)/dt is not
 /// limited).
 pub fn plan(stations: &Stations) -> Profile<'_> {
@@ -122,12 +117,10 @@ pub fn plan(stations: &Stations) -> Profile<'_> {
     let mut windows = Vec::with_capacity(stops.len());
     for pair in stops.windows(2) {
         let (first, last) = (pair[0].station, pair[1].station);
-        let lambda = if base_window_s <= 0.0 {
-            1.0
-        } else if last - first <= LAMBDA_SEARCH_MAX_STATIONS {
+        let lambda = if base_window_s > 0.0 && last - first <= LAMBDA_SEARCH_MAX_STATIONS {
             planner.best_lambda(first, last, base_window_s)
         } else {
-            planner.best_lambda_on_grid(first, last, base_window_s)
+            1.0
         };
         let window_s = lambda * base_window_s;
         planner.plan_run(first, last, lambda, window_s, &mut v);
@@ -243,22 +236,6 @@ impl<'a> RunPlanner<'a> {
         } else {
             best
         }
-    }
-
-    /// The λ of [`LAMBDA_GRID`] that minimises the run's time (planned time + W), the first
-    /// (largest) on a tie.
-    fn best_lambda_on_grid(&mut self, first: usize, last: usize, base_window_s: f64) -> f64 {
-        let mut trial = std::mem::take(&mut self.trial);
-        let mut best = (f64::INFINITY, 1.0);
-        for lambda in LAMBDA_GRID {
-            let w = lambda * base_window_s;
-            let time_s = self.plan_run(first, last, lambda, w, &mut trial) + w;
-            if time_s < best.0 {
-                best = (time_s, lambda);
-            }
-        }
-        self.trial = trial;
-        best.1
     }
 
     /// Plans stations `first..=last` (a run between two stops) into `v`, with the
