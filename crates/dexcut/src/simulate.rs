@@ -148,15 +148,18 @@ fn sweep_pass(
             Some(work)
         }
         StockSource::Tiled(tiling) => {
+            // Each band made in the memory of the one before.
+            let mut previous = None;
             for rows in tiling.bands() {
                 let label = format!(
                     "{label} rows {}..{} of {}",
                     rows.start, rows.end, tiling.grid.ny
                 );
-                let mut band = tiling.band(rows)?;
+                let mut band = tiling.band(rows, previous.take())?;
                 let bar = progress::bar(steps.len() as u64, &label);
                 sweep.band(&mut band, &|done| bar.set_position(done as u64));
                 bar.finish_and_clear();
+                previous = Some(band);
             }
             None
         }
@@ -554,10 +557,12 @@ pub fn write_tiled_columns(
     let tools_list = tools.tools();
     let (mut initial_mm, mut final_mm) = (0.0, 0.0);
     let mut range = [0.0, 0.0];
+    // The bands are made in the memory of the ones before.
+    let (mut previous_initial, mut previous_last) = (None, None);
     for rows in tiling.bands() {
         let held = rows.start.saturating_sub(halo)..(rows.end + halo).min(grid.ny);
-        let initial = tiling.band(held.clone())?;
-        let mut last = initial.clone();
+        let initial = tiling.band(held.clone(), previous_initial.take())?;
+        let mut last = tiling.band(held.clone(), previous_last.take())?;
         let mut sweep = dexel::Sweep::new(&tools_list, &tool_of_step, &steps, &options)?;
         let label = format!("columns rows {}..{} of {}", rows.start, rows.end, grid.ny);
         let bar = progress::bar(steps.len() as u64, &label);
@@ -567,7 +572,7 @@ pub fn write_tiled_columns(
         let error = clamped_error_map_um(&initial, &last, &run.offsets_um, &run.model_um);
         initial_mm = initial.add_row_lengths_mm(rows.clone(), initial_mm);
         final_mm = last.add_row_lengths_mm(rows.clone(), final_mm);
-        drop(initial);
+        previous_initial = Some(initial);
         let own = (rows.start - held.start) * grid.nx..(rows.end - held.start) * grid.nx;
         let error = &error[own.clone()];
         range = error_range_um(error, range);
@@ -585,6 +590,7 @@ pub fn write_tiled_columns(
             .map_err(|e| {
                 Error::from(e).context(format!("cannot write the column grid in {}", dir.display()))
             })?;
+        previous_last = Some(last);
     }
     writer.finish().map_err(|e| {
         Error::from(e).context(format!("cannot write the column grid in {}", dir.display()))
@@ -675,10 +681,9 @@ fn clamped_error_map_um(
     let tops = last.top_heights();
     let normals =
         cutting::surface_normals_from_heights(&tops, grid.nx, rows.len(), grid.spacing_mm);
-    let cells: Vec<usize> = (0..tops.len()).collect();
-    cells
-        .par_iter()
-        .map(|&c| {
+    (0..tops.len())
+        .into_par_iter()
+        .map(|c| {
             let step = last.last_cut()[c];
             let n = normals[c].map(f64::from);
             if step == NEVER_CUT || n.iter().any(|v| v.is_nan()) {

@@ -36,11 +36,12 @@ impl Tiling {
             .map(|r0| r0..(r0 + self.band_rows).min(self.grid.ny))
     }
 
-    /// The initial stock's grid rows `rows`.
-    pub fn band(&self, rows: Range<usize>) -> Result<Stock> {
+    /// The initial stock's grid rows `rows`, made in the memory of `reuse`
+    /// (a band no longer needed) when given.
+    pub fn band(&self, rows: Range<usize>, reuse: Option<Stock>) -> Result<Stock> {
         Ok(match self.spec {
             StockSpec::Box { min, max, grid } => {
-                Stock::new_box_in_rows(min, max, grid, Some(rows))?
+                Stock::new_box_in_rows(min, max, grid, Some(rows), reuse)?
             }
             StockSpec::Cylinder {
                 center,
@@ -48,14 +49,16 @@ impl Tiling {
                 z_min,
                 z_max,
                 grid,
-            } => Stock::new_cylinder_in_rows(center, radius, z_min, z_max, grid, Some(rows))?,
+            } => {
+                Stock::new_cylinder_in_rows(center, radius, z_min, z_max, grid, Some(rows), reuse)?
+            }
             StockSpec::Mesh { .. } => unreachable!("mesh stocks are never tiled"),
         })
     }
 
     /// A stock holding no row of the grid (what a tiled run keeps as its stock).
     pub fn empty(&self) -> Result<Stock> {
-        self.band(0..0)
+        self.band(0..0, None)
     }
 }
 

@@ -138,15 +138,18 @@ impl Stock {
     where
         F: Fn(usize, usize, &mut Vec<[f32; 2]>) + Sync,
     {
-        Stock::from_columns_in_rows(grid, 0..grid.ny, fill)
+        Stock::from_columns_in_rows(grid, 0..grid.ny, fill, None)
     }
 
     /// The band of grid rows `rows` of the stock whose columns `fill` makes
-    /// (see [`Stock::from_columns`]; `iy` is the grid row).
+    /// (see [`Stock::from_columns`]; `iy` is the grid row). With `reuse`, a
+    /// stock no longer needed (the previous band), its memory holds the new
+    /// one: no fresh pages are mapped and faulted in for each band.
     pub fn from_columns_in_rows<F>(
         grid: Grid,
         rows: std::ops::Range<usize>,
         fill: F,
+        reuse: Option<Stock>,
     ) -> Result<Stock, Error>
     where
         F: Fn(usize, usize, &mut Vec<[f32; 2]>) + Sync,
@@ -163,7 +166,12 @@ impl Stock {
             ..grid
         };
         Stock::check_memory(&band, DEFAULT_MEMORY_LIMIT_BYTES)?;
-        let mut columns = vec![Column::EMPTY; band.len()];
+        let (mut columns, mut last_cut) =
+            reuse.map_or((Vec::new(), Vec::new()), |s| (s.columns, s.last_cut));
+        columns.clear();
+        columns.resize(band.len(), Column::EMPTY);
+        last_cut.clear();
+        last_cut.resize(band.len(), NEVER_CUT);
         columns
             .par_chunks_mut(grid.nx.max(1))
             .enumerate()
@@ -174,7 +182,6 @@ impl Stock {
                     *col = Column::from_intervals(buf);
                 }
             });
-        let last_cut = vec![NEVER_CUT; band.len()];
         Ok(Stock {
             grid,
             row0: rows.start,
@@ -185,15 +192,17 @@ impl Stock {
 
     /// Axis-aligned box `[min, max]` (mm); the grid covers its XY extent.
     pub fn new_box(min: [f64; 3], max: [f64; 3], spacing_mm: f64) -> Result<Stock, Error> {
-        Stock::new_box_in_rows(min, max, spacing_mm, None)
+        Stock::new_box_in_rows(min, max, spacing_mm, None, None)
     }
 
-    /// [`Stock::new_box`], only the grid rows `rows` (all with `None`).
+    /// [`Stock::new_box`], only the grid rows `rows` (all with `None`), in
+    /// the memory of `reuse` (see [`Stock::from_columns_in_rows`]).
     pub fn new_box_in_rows(
         min: [f64; 3],
         max: [f64; 3],
         spacing_mm: f64,
         rows: Option<std::ops::Range<usize>>,
+        reuse: Option<Stock>,
     ) -> Result<Stock, Error> {
         if !(max[2] > min[2]) {
             return Err(Error::InvalidParameter(format!(
@@ -203,9 +212,12 @@ impl Stock {
         }
         let grid = Grid::covering(min[0], min[1], max[0], max[1], spacing_mm)?;
         let (lo, hi) = (min[2] as f32, max[2] as f32);
-        Stock::from_columns_in_rows(grid, rows.unwrap_or(0..grid.ny), |_, _, out| {
-            out.push([lo, hi])
-        })
+        Stock::from_columns_in_rows(
+            grid,
+            rows.unwrap_or(0..grid.ny),
+            |_, _, out| out.push([lo, hi]),
+            reuse,
+        )
     }
 
     /// Vertical cylinder with axis through `(cx, cy)`, radius `r`, z from `z_lo` to `z_hi`.
@@ -217,10 +229,12 @@ impl Stock {
         z_hi: f64,
         spacing_mm: f64,
     ) -> Result<Stock, Error> {
-        Stock::new_cylinder_in_rows(center_xy, radius_mm, z_lo, z_hi, spacing_mm, None)
+        Stock::new_cylinder_in_rows(center_xy, radius_mm, z_lo, z_hi, spacing_mm, None, None)
     }
 
-    /// [`Stock::new_cylinder`], only the grid rows `rows` (all with `None`).
+    /// [`Stock::new_cylinder`], only the grid rows `rows` (all with `None`),
+    /// in the memory of `reuse` (see [`Stock::from_columns_in_rows`]).
+    #[allow(clippy::too_many_arguments)]
     pub fn new_cylinder_in_rows(
         center_xy: [f64; 2],
         radius_mm: f64,
@@ -228,6 +242,7 @@ impl Stock {
         z_hi: f64,
         spacing_mm: f64,
         rows: Option<std::ops::Range<usize>>,
+        reuse: Option<Stock>,
     ) -> Result<Stock, Error> {
         if !(radius_mm > 0.0) || !(z_hi > z_lo) {
             return Err(Error::InvalidParameter(format!(
@@ -243,12 +258,17 @@ impl Stock {
             spacing_mm,
         )?;
         let (lo, hi) = (z_lo as f32, z_hi as f32);
-        Stock::from_columns_in_rows(grid, rows.unwrap_or(0..grid.ny), |ix, iy, out| {
-            let (dx, dy) = (grid.x_mm(ix) - cx, grid.y_mm(iy) - cy);
-            if dx * dx + dy * dy <= radius_mm * radius_mm {
-                out.push([lo, hi]);
-            }
-        })
+        Stock::from_columns_in_rows(
+            grid,
+            rows.unwrap_or(0..grid.ny),
+            |ix, iy, out| {
+                let (dx, dy) = (grid.x_mm(ix) - cx, grid.y_mm(iy) - cy);
+                if dx * dx + dy * dy <= radius_mm * radius_mm {
+                    out.push([lo, hi]);
+                }
+            },
+            reuse,
+        )
     }
 
     /// The grid the columns stand on (the whole stock's, also for a band).
@@ -312,28 +332,34 @@ mod tests {
     /// stock: the same columns and, summed band after band, the same volume bit for bit.
     #[test]
     fn bands_of_rows_make_the_whole_stock() {
-        let box_band = |rows| Stock::new_box_in_rows([0.0, 0.0, -1.0], [7.0, 5.0, 2.0], 0.1, rows);
-        let cyl_band = |rows| Stock::new_cylinder_in_rows([1.0, 2.0], 3.3, 0.5, 4.0, 0.1, rows);
-        for make in [&box_band as &dyn Fn(_) -> _, &cyl_band] {
-            let whole: Stock = make(None).unwrap();
+        let box_band = |rows, reuse| {
+            Stock::new_box_in_rows([0.0, 0.0, -1.0], [7.0, 5.0, 2.0], 0.1, rows, reuse)
+        };
+        let cyl_band =
+            |rows, reuse| Stock::new_cylinder_in_rows([1.0, 2.0], 3.3, 0.5, 4.0, 0.1, rows, reuse);
+        for make in [&box_band as &dyn Fn(_, _) -> _, &cyl_band] {
+            let whole: Stock = make(None, None).unwrap();
             let ny = whole.grid().ny;
             assert_eq!(whole.rows(), 0..ny);
             let mut columns = Vec::new();
             let mut length_mm = 0.0;
+            // Each band in the memory of the one before (the last one shorter).
+            let mut previous: Option<Stock> = None;
             for r0 in (0..ny).step_by(13) {
                 let rows = r0..(r0 + 13).min(ny);
-                let band: Stock = make(Some(rows.clone())).unwrap();
+                let band: Stock = make(Some(rows.clone()), previous.take()).unwrap();
                 assert_eq!(band.rows(), rows);
                 assert_eq!(band.column(4, rows.start), whole.column(4, rows.start));
                 columns.extend_from_slice(band.columns());
                 length_mm = band.add_row_lengths_mm(rows, length_mm);
+                previous = Some(band);
             }
             assert_eq!(columns, whole.columns());
             assert_eq!(
                 (length_mm * whole.grid().cell_area_mm2()).to_bits(),
                 whole.volume_mm3().to_bits()
             );
-            let empty: Stock = make(Some(3..3)).unwrap();
+            let empty: Stock = make(Some(3..3), None).unwrap();
             assert!(empty.columns().is_empty() && empty.volume_mm3() == 0.0);
         }
     }

@@ -588,15 +588,19 @@ fn banded_sweep_equals_the_whole_stock() {
     for band_rows in [8usize, 36, 296] {
         let mut sweep = dexel::Sweep::new(&tools, &which, &steps, &options).unwrap();
         let (mut tops, mut last, mut length_mm) = (Vec::new(), Vec::new(), 0.0);
+        // Each band made in the memory of the swept band before it.
+        let mut previous = None;
         for r0 in (0..ny).step_by(band_rows) {
             let rows = r0..(r0 + band_rows).min(ny);
-            let mut band = Stock::new_box_in_rows(min, max, g, Some(rows.clone())).unwrap();
+            let mut band =
+                Stock::new_box_in_rows(min, max, g, Some(rows.clone()), previous.take()).unwrap();
             assert_eq!(band.rows(), rows);
             assert_eq!(band.columns().len(), rows.len() * whole.grid().nx);
             sweep.band(&mut band, &|_| {});
             tops.extend(band.top_heights());
             last.extend_from_slice(band.last_cut());
             length_mm = band.add_row_lengths_mm(band.rows(), length_mm);
+            previous = Some(band);
         }
         let banded = sweep.finish();
         assert_eq!(
@@ -621,7 +625,7 @@ fn banded_sweep_equals_the_whole_stock() {
     let mut sweep = dexel::Sweep::new(&tools, &which, &steps, &options).unwrap();
     let mut tops = Vec::new();
     for rows in [0..7, 7..150, 150..300] {
-        let mut band = Stock::new_box_in_rows(min, max, g, Some(rows)).unwrap();
+        let mut band = Stock::new_box_in_rows(min, max, g, Some(rows), None).unwrap();
         sweep.band(&mut band, &|_| {});
         tops.extend(band.top_heights());
     }
@@ -635,5 +639,5 @@ fn banded_sweep_equals_the_whole_stock() {
         );
     }
     // Rows beyond the grid are refused.
-    assert!(Stock::new_box_in_rows(min, max, g, Some(290..301)).is_err());
+    assert!(Stock::new_box_in_rows(min, max, g, Some(290..301), None).is_err());
 }
