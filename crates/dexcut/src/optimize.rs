@@ -178,6 +178,8 @@ fn reference_loads<'a>(
             let len_mm = s_mm[k + 1] - s_mm[k];
             let volume = area_mm2[k] * len_mm;
             let scale = volume / record.volume_mm3(j);
+            // The record keeps a step's bands up to its highest nonzero one.
+            bands.fill(0.0);
             for (b, v) in bands.iter_mut().zip(record.band_volumes_mm3(j)) {
                 *b = v * scale;
             }

@@ -1316,7 +1316,7 @@ impl Run {
                     ]
                     .map(fmt),
                 );
-                row.extend(self.record.band_volumes_mm3(i).iter().map(|v| fmt(*v)));
+                row.extend((0..n_bands).map(|k| fmt(self.record.band_volume_mm3(i, k))));
                 row.push(fmt(self.record.shank_volume_mm3(i)));
                 row.extend(
                     [

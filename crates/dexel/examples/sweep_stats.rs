@@ -99,7 +99,7 @@ fn main() {
                         record.volume_over_radius_mm2(i),
                     ]
                     .into_iter()
-                    .chain(record.band_volumes_mm3(i).iter().copied())
+                    .chain((0..record.n_bands).map(|k| record.band_volume_mm3(i, k)))
                     .map(f64::to_bits)
                     .collect::<Vec<_>>()
                 })),

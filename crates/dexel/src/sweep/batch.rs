@@ -221,20 +221,18 @@ impl<'a> Sweep<'a> {
                 );
             }
         }
+        // The record in compact columns (issue 16), part by part.
+        for part in &mut parts {
+            part.record.compact();
+        }
         if parts.len() == 1 {
             // One tool: the record as it is (no copy).
             return parts.pop().expect("one part").record;
         }
         let n_bands = parts.iter().map(|p| p.record.n_bands).max().unwrap_or(1);
-        let mut record = RemovalRecord::new(self.steps.len(), n_bands, self.options.band_height_mm);
-        let stride = record.stride();
+        let mut record = RemovalRecord::compact_empty(n_bands, self.options.band_height_mm);
         for part in &parts {
-            record.columns_evaluated += part.record.columns_evaluated;
-            for j in 0..part.record.len() {
-                let row = part.record.row(j);
-                let at = (part.start + j) * stride;
-                record.data[at..at + row.len()].copy_from_slice(row);
-            }
+            record.append(&part.record);
         }
         record
     }

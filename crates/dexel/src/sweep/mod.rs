@@ -97,6 +97,12 @@ mod slot {
 const HEAD: usize = 6;
 
 /// What a sweep removed, per step.
+///
+/// Stored in compact columns (issue 16): per step the [`slot`] values, and the
+/// band volumes of all steps end to end without each step's trailing zero
+/// bands (a finishing cut touches one or two of a tool's bands), so a long
+/// program keeps about 60 bytes per step instead of 8 per band. The values are
+/// the sweep's own f64 sums, unchanged.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RemovalRecord {
     /// Height of one tool band above the tip, mm (band k spans k·h to (k+1)·h).
@@ -104,8 +110,14 @@ pub struct RemovalRecord {
     /// Bands over the flute length; removal above them is shank volume.
     pub n_bands: usize,
     /// Per step: [volume, shank volume, contact x, contact y, chip edge area,
-    /// volume over radius, band 0 … band K−1].
+    /// volume over radius], then while the sweep runs band 0 … band K−1.
     data: Vec<f64>,
+    /// Once the sweep is done: the band volumes, step after step, each without
+    /// its trailing zero bands.
+    bands: Vec<f64>,
+    /// Step i's bands are `bands[band_start[i]..band_start[i + 1]]`; empty
+    /// while the sweep runs (full rows in `data`).
+    band_start: Vec<usize>,
     /// Columns visited (inside a step's footprint) over the whole sweep.
     pub columns_evaluated: u64,
 }
@@ -116,17 +128,80 @@ impl RemovalRecord {
             band_height_mm,
             n_bands,
             data: vec![0.0; steps * (HEAD + n_bands)],
+            bands: Vec::new(),
+            band_start: Vec::new(),
             columns_evaluated: 0,
         }
     }
 
+    /// An empty record in compact form, to append compact records to.
+    fn compact_empty(n_bands: usize, band_height_mm: f64) -> Self {
+        RemovalRecord {
+            band_height_mm,
+            n_bands,
+            data: Vec::new(),
+            bands: Vec::new(),
+            band_start: vec![0],
+            columns_evaluated: 0,
+        }
+    }
+
+    fn is_compact(&self) -> bool {
+        !self.band_start.is_empty()
+    }
+
     fn stride(&self) -> usize {
-        HEAD + self.n_bands
+        if self.is_compact() {
+            HEAD
+        } else {
+            HEAD + self.n_bands
+        }
     }
 
     fn row(&self, step: usize) -> &[f64] {
         let s = self.stride();
         &self.data[step * s..(step + 1) * s]
+    }
+
+    /// Turn the full rows the sweep filled into the compact columns, in place:
+    /// the head values move down, the bands up to the last nonzero one (bit
+    /// pattern not +0.0) are copied out. Nothing else changes.
+    fn compact(&mut self) {
+        if self.is_compact() {
+            return;
+        }
+        let stride = HEAD + self.n_bands;
+        let n = self.data.len() / stride;
+        let mut bands = Vec::new();
+        let mut band_start = Vec::with_capacity(n + 1);
+        band_start.push(0);
+        for i in 0..n {
+            let row = &self.data[i * stride..(i + 1) * stride];
+            let kept = row[HEAD..]
+                .iter()
+                .rposition(|v| v.to_bits() != 0)
+                .map_or(0, |k| k + 1);
+            bands.extend_from_slice(&row[HEAD..HEAD + kept]);
+            band_start.push(bands.len());
+            self.data
+                .copy_within(i * stride..i * stride + HEAD, i * HEAD);
+        }
+        self.data.truncate(n * HEAD);
+        self.data.shrink_to_fit();
+        bands.shrink_to_fit();
+        self.bands = bands;
+        self.band_start = band_start;
+    }
+
+    /// Append the compact record `other` (its steps after this one's).
+    fn append(&mut self, other: &RemovalRecord) {
+        debug_assert!(self.is_compact() && other.is_compact());
+        let base = self.bands.len();
+        self.data.extend_from_slice(&other.data);
+        self.bands.extend_from_slice(&other.bands);
+        self.band_start
+            .extend(other.band_start[1..].iter().map(|&s| base + s));
+        self.columns_evaluated += other.columns_evaluated;
     }
 
     /// Number of steps recorded.
@@ -149,9 +224,23 @@ impl RemovalRecord {
         self.row(step)[slot::SHANK]
     }
 
-    /// Volume removed per tool height band, mm³.
+    /// Volume removed per tool height band, mm³, from band 0 up to the
+    /// highest band that is not zero (the bands above it, up to
+    /// [`n_bands`](Self::n_bands), removed nothing; see
+    /// [`band_volume_mm3`](Self::band_volume_mm3)).
     pub fn band_volumes_mm3(&self, step: usize) -> &[f64] {
-        &self.row(step)[HEAD..]
+        if self.is_compact() {
+            &self.bands[self.band_start[step]..self.band_start[step + 1]]
+        } else {
+            let s = self.stride();
+            &self.data[step * s + HEAD..(step + 1) * s]
+        }
+    }
+
+    /// Volume removed by `step` in band `k` (0 for a band above the ones
+    /// stored), mm³.
+    pub fn band_volume_mm3(&self, step: usize, k: usize) -> f64 {
+        self.band_volumes_mm3(step).get(k).copied().unwrap_or(0.0)
     }
 
     /// S4's contact-direction resultant in XY: Σ over cut columns of the unit
@@ -605,6 +694,52 @@ pub(super) mod testing {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The compact columns give back every value of the full rows, bit for
+    /// bit: trailing +0.0 bands dropped (read as 0), a trailing −0.0 kept;
+    /// appending compact records equals compacting the rows together.
+    #[test]
+    fn compact_record_keeps_every_value() {
+        let rows: [[f64; HEAD + 4]; 4] = [
+            [1.0, 0.0, 0.5, -0.5, 2.0, 3.0, 0.75, 0.25, 0.0, 0.0],
+            [0.0; HEAD + 4],
+            [2.0, 0.1, 0.0, 1.0, 4.0, 5.0, 0.0, 1.0, 0.0, 0.9],
+            [1e-9, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-9, 0.0, -0.0, 0.0],
+        ];
+        let full = |rows: &[[f64; HEAD + 4]]| {
+            let mut r = RemovalRecord::new(rows.len(), 4, 1.0);
+            for (i, row) in rows.iter().enumerate() {
+                r.data[i * (HEAD + 4)..(i + 1) * (HEAD + 4)].copy_from_slice(row);
+            }
+            r
+        };
+        let mut r = full(&rows);
+        let before = r.clone();
+        r.compact();
+        assert_eq!(r.len(), 4);
+        assert_eq!(r.data.len(), 4 * HEAD);
+        assert_eq!(r.band_volumes_mm3(0), &[0.75, 0.25]);
+        assert!(r.band_volumes_mm3(1).is_empty());
+        assert_eq!(r.band_volumes_mm3(2).len(), 4);
+        assert_eq!(r.band_volumes_mm3(3).len(), 3, "−0.0 is kept");
+        for i in 0..4 {
+            assert_eq!(r.row(i), &before.row(i)[..HEAD]);
+            for k in 0..4 {
+                assert_eq!(
+                    r.band_volume_mm3(i, k).to_bits(),
+                    before.band_volumes_mm3(i)[k].to_bits(),
+                    "step {i} band {k}"
+                );
+            }
+        }
+        let mut joined = RemovalRecord::compact_empty(4, 1.0);
+        for part in [&rows[..1], &rows[1..3], &rows[3..]] {
+            let mut p = full(part);
+            p.compact();
+            joined.append(&p);
+        }
+        assert_eq!(joined, r);
+    }
 
     #[test]
     fn row_span_is_the_stadium() {
