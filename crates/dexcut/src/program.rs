@@ -61,7 +61,7 @@ pub fn load(job: &Job) -> Result<Program> {
             read_warnings: Vec::new(),
         })
     } else {
-        parse_gcode(&text, &file, job)
+        parse_gcode(text, &file, job)
     }
 }
 
@@ -82,8 +82,9 @@ pub fn is_points_csv(text: &str) -> bool {
 
 /// Parse G-code text; every error diagnostic is reported at once. The tool
 /// starts at `[machine] start`, or by default above the first programmed
-/// point at the highest Z of the program (see [`default_start`]).
-pub fn parse_gcode(text: &str, file: &str, job: &Job) -> Result<Program> {
+/// point at the highest Z of the program (see [`default_start`]). The text
+/// is kept as the program's source (not copied).
+pub fn parse_gcode(text: String, file: &str, job: &Job) -> Result<Program> {
     let mut options = nc::Options {
         work_offsets_mm: job.offsets.as_array(),
         // Read as most controls read a file: no program end and a byte-order
@@ -109,7 +110,7 @@ pub fn parse_gcode(text: &str, file: &str, job: &Job) -> Result<Program> {
         ..nc::Options::default()
     };
     options.initial_position_mm = job.machine.start.unwrap_or_default();
-    let mut parsed = nc::parse(text, file, &options);
+    let mut parsed = nc::parse(&text, file, &options);
     let errors: Vec<nc::Diagnostic> = parsed
         .diagnostics
         .iter()
@@ -127,12 +128,15 @@ pub fn parse_gcode(text: &str, file: &str, job: &Job) -> Result<Program> {
     if job.machine.start.is_none() {
         // The default start depends on the path read from the origin: read it again from there.
         options.initial_position_mm = default_start(&parsed.path);
-        parsed = nc::parse(text, file, &options);
+        // The first reading is not needed any more: free its path before
+        // the second one is made (one path in memory at a time).
+        drop(parsed);
+        parsed = nc::parse(&text, file, &options);
     }
     Ok(Program {
         path: parsed.path,
         file: file.to_string(),
-        gcode: Some(text.to_string()),
+        gcode: Some(text),
         nc_options: options,
         read_warnings: parsed
             .diagnostics

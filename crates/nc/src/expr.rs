@@ -16,7 +16,8 @@ pub const MAX_NUMBERED: usize = 5601;
 /// Tolerance of `EQ`/`NE` and friends (LinuxCNC's TOLERANCE_EQUAL).
 const TOLERANCE_EQUAL: f64 = 1e-4;
 
-/// An unevaluated expression.
+/// An unevaluated expression: 16 bytes, a number inline, everything else
+/// behind one box (a parsed program keeps one per word of every line).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Expr {
     Num(f64),
@@ -24,10 +25,13 @@ pub enum Expr {
     Neg(Box<Expr>),
     Func(Func, Box<Expr>),
     /// `ATAN[y]/[x]`, degrees.
-    Atan(Box<Expr>, Box<Expr>),
-    Bin(BinOp, Box<Expr>, Box<Expr>),
-    /// `EXISTS[#<name>]`.
-    Exists(String),
+    Atan(Box<[Expr; 2]>),
+    /// Operator, left and right operand.
+    Bin(BinOp, Box<[Expr; 2]>),
+    /// `EXISTS[#<name>]` (a thin box: `Box<str>` would make every
+    /// expression 24 bytes).
+    #[allow(clippy::box_collection)]
+    Exists(Box<String>),
 }
 
 /// A parameter reference: `#5`, `#[expr]`, `##1` or `#<name>`.
@@ -197,7 +201,7 @@ fn parse_bracketed(cur: &mut Cursor, depth: u32) -> Result<Expr, SyntaxError> {
 
 fn reduce(operands: &mut Vec<Expr>, operators: &mut Vec<BinOp>) {
     if let (Some(op), Some(rhs), Some(lhs)) = (operators.pop(), operands.pop(), operands.pop()) {
-        operands.push(Expr::Bin(op, Box::new(lhs), Box::new(rhs)));
+        operands.push(Expr::Bin(op, Box::new([lhs, rhs])));
     }
 }
 
@@ -219,7 +223,7 @@ fn parse_function(cur: &mut Cursor, depth: u32) -> Result<Expr, SyntaxError> {
             return Err(cur.error("ATAN needs the form ATAN[y]/[x]"));
         }
         let x = parse_bracketed(cur, depth + 1)?;
-        return Ok(Expr::Atan(Box::new(y), Box::new(x)));
+        return Ok(Expr::Atan(Box::new([y, x])));
     }
     if cur.eat_str("exists") {
         expect_bracket(cur)?;
@@ -233,7 +237,7 @@ fn parse_function(cur: &mut Cursor, depth: u32) -> Result<Expr, SyntaxError> {
         if !cur.eat_str("]") {
             return Err(cur.error("expected ']'"));
         }
-        return Ok(Expr::Exists(name));
+        return Ok(Expr::Exists(Box::new(name)));
     }
     if let Some(f) = cur.eat_any(&FUNCS) {
         expect_bracket(cur)?;
@@ -362,9 +366,11 @@ impl Params {
             },
             Expr::Neg(inner) => -self.eval(inner)?,
             Expr::Exists(name) => f64::from(u8::from(self.named(name).is_some())),
-            Expr::Atan(y, x) => self.eval(y)?.atan2(self.eval(x)?).to_degrees(),
+            Expr::Atan(yx) => self.eval(&yx[0])?.atan2(self.eval(&yx[1])?).to_degrees(),
             Expr::Func(f, arg) => apply_func(*f, self.eval(arg)?)?,
-            Expr::Bin(op, lhs, rhs) => apply_op(*op, self.eval(lhs)?, self.eval(rhs)?)?,
+            Expr::Bin(op, operands) => {
+                apply_op(*op, self.eval(&operands[0])?, self.eval(&operands[1])?)?
+            }
         };
         if v.is_finite() {
             Ok(v)

@@ -141,7 +141,7 @@ pub struct Trace {
     pub segments: Vec<SegmentTrace>,
     /// Every source line as parsed (`None`: syntax error), split at `\n`
     /// with a trailing `\r` removed.
-    pub lines: Rc<[Option<syntax::Line>]>,
+    pub lines: Rc<syntax::Lines>,
 }
 
 /// An execution error at a column.
@@ -290,7 +290,7 @@ struct Interp<'a> {
     file: &'a str,
     options: &'a Options,
     /// Shared so that executing a line needs no copy of it.
-    lines: Rc<[Option<syntax::Line>]>,
+    lines: Rc<syntax::Lines>,
     params: Params,
     pos: [f64; 3],
     scale: f64,
@@ -418,7 +418,7 @@ fn run_once(
         tolerated: Tolerated::default(),
         file,
         options,
-        lines: Rc::new([]),
+        lines: Rc::default(),
         params: Params::default(),
         pos,
         scale: 1.0,
@@ -483,71 +483,68 @@ fn run_once(
         }
         _ => source,
     };
-    let mut lines = Vec::new();
+    let mut lines = syntax::Lines::default();
     for (i, (text, _)) in syntax::split_lines(source).enumerate() {
-        match syntax::parse_line(text) {
-            Ok(line) => {
-                match &line.kind {
-                    LineKind::OWord(stmt) => {
+        let e = match lines.push_parsed(text) {
+            Ok(()) => {
+                match lines.last().and_then(Option::as_ref).map(|l| &l.kind) {
+                    Some(LineKind::OWord(stmt)) => {
                         it.olines.entry(stmt.label.clone()).or_default().push(i)
                     }
-                    LineKind::ProgramNumber(n) => {
+                    Some(LineKind::ProgramNumber(n)) => {
                         it.programs.entry(*n).or_insert(i);
                     }
                     _ => {}
                 }
-                lines.push(Some(line));
+                continue;
             }
-            Err(e) => {
-                // Parentheses nested in a comment that closes on the line, or
-                // a GRBL system command that neither moves nor sets anything.
-                let fixed = (options.file_form == FileForm::Tolerant)
-                    .then(|| {
-                        amend::flatten_nested_comments(text)
-                            .map(|(fixed, col)| (fixed, col, "parentheses nested in a comment read as one comment, written as [ ]".to_owned()))
-                            .or_else(|| {
-                                amend::comment_grbl_system_command(text).map(|(fixed, col)| {
-                                    (fixed, col, "GRBL system command skipped, as GRBL runs it outside the program (it neither moves the machine nor changes how the program reads); written as a comment".to_owned())
-                                })
-                            })
+            Err(e) => e,
+        };
+        // Parentheses nested in a comment that closes on the line, or
+        // a GRBL system command that neither moves nor sets anything.
+        let fixed = (options.file_form == FileForm::Tolerant)
+            .then(|| {
+                amend::flatten_nested_comments(text)
+                    .map(|(fixed, col)| (fixed, col, "parentheses nested in a comment read as one comment, written as [ ]".to_owned()))
+                    .or_else(|| {
+                        amend::comment_grbl_system_command(text).map(|(fixed, col)| {
+                            (fixed, col, "GRBL system command skipped, as GRBL runs it outside the program (it neither moves the machine nor changes how the program reads); written as a comment".to_owned())
+                        })
                     })
-                    .flatten()
-                    .and_then(|(fixed, col, what)| {
-                        Some((syntax::parse_line(&fixed).ok()?, fixed, col, what))
-                    });
-                match fixed {
-                    Some((line, fixed, col, what)) => {
-                        it.line_index = i;
-                        let start = fixed
-                            .bytes()
-                            .zip(text.bytes())
-                            .position(|(a, b)| a != b)
-                            .unwrap_or(0);
-                        // The common tail, not reaching back past `start`.
-                        let tail = fixed
-                            .bytes()
-                            .rev()
-                            .zip(text.bytes().rev())
-                            .take(fixed.len().min(text.len()) - start)
-                            .take_while(|(a, b)| a == b)
-                            .count();
-                        it.tolerate(
-                            start..text.len() - tail,
-                            fixed[start..fixed.len() - tail].to_owned(),
-                            col,
-                            what,
-                        );
-                        lines.push(Some(line));
-                    }
-                    None => {
-                        it.syntax_errors.insert(i, e);
-                        lines.push(None);
-                    }
-                }
+            })
+            .flatten()
+            .filter(|(fixed, _, _)| lines.push_parsed(fixed).is_ok());
+        match fixed {
+            Some((fixed, col, what)) => {
+                it.line_index = i;
+                let start = fixed
+                    .bytes()
+                    .zip(text.bytes())
+                    .position(|(a, b)| a != b)
+                    .unwrap_or(0);
+                // The common tail, not reaching back past `start`.
+                let tail = fixed
+                    .bytes()
+                    .rev()
+                    .zip(text.bytes().rev())
+                    .take(fixed.len().min(text.len()) - start)
+                    .take_while(|(a, b)| a == b)
+                    .count();
+                it.tolerate(
+                    start..text.len() - tail,
+                    fixed[start..fixed.len() - tail].to_owned(),
+                    col,
+                    what,
+                );
+            }
+            None => {
+                it.syntax_errors.insert(i, e);
+                lines.push_error();
             }
         }
     }
-    it.lines = lines.into();
+    lines.shrink_to_fit();
+    it.lines = Rc::new(lines);
     it.execute();
     if let Some((line, col)) = it.first_dropped {
         let more = it.error_count - it.options.max_errors;
@@ -618,7 +615,12 @@ impl Interp<'_> {
     /// Byte range of the item of line `pc` at column `col`.
     fn item_span(&self, pc: usize, col: u32) -> Option<std::ops::Range<usize>> {
         match &self.lines.get(pc)?.as_ref()?.kind {
-            LineKind::Block(items) => items.iter().find(|i| i.col == col).map(|i| i.span.clone()),
+            LineKind::Block(items) => self
+                .lines
+                .items(*items)
+                .iter()
+                .find(|i| i.col == col)
+                .map(|i| i.span()),
             _ => None,
         }
     }
@@ -717,7 +719,7 @@ impl Interp<'_> {
                     msg: "'%' is allowed only on the first line and to close a program opened with it".into(),
                 }),
                 LineKind::OWord(stmt) => self.oword(pc, stmt),
-                LineKind::Block(items) => self.block(pc, items),
+                LineKind::Block(items) => self.block(pc, lines.items(*items)),
             };
             match next {
                 Ok(Some(n)) => pc = n,
@@ -939,7 +941,8 @@ impl Interp<'_> {
         for item in items {
             let err = |msg| Fail { col: item.col, msg };
             match &item.kind {
-                ItemKind::Assign { target, value } => {
+                ItemKind::Assign(assign) => {
+                    let (target, value) = &**assign;
                     let t = self.params.resolve(target).map_err(err)?;
                     let v = self.params.eval(value).map_err(err)?;
                     assignments.push((t, v));

@@ -239,6 +239,7 @@ fn write(
             else {
                 unreachable!("a table line is a block")
             };
+            let items = trace.lines.items(*items);
             let _ = write!(
                 out,
                 "#{c} = [#{c} + 1]{}",
@@ -313,6 +314,7 @@ fn write(
             out.push_str(eol);
             continue;
         };
+        let items = trace.lines.items(*items);
         let single = segs.len() == 1
             && splittable(items, &segments[feeds[0]])
             && !trace.segments[feeds[0]].compensated;
@@ -501,6 +503,7 @@ fn run_tables(
         else {
             continue;
         };
+        let items = trace.lines.items(*items);
         if segs.len() < 2
             || runs.iter().any(|r| matches!(r, Run::Several))
             || !all_feeds
@@ -666,6 +669,7 @@ fn cycle_lines(
         else {
             return BTreeSet::new();
         };
+        let items = trace.lines.items(*items);
         let cycle_words = items.iter().all(|it| match &it.kind {
             ItemKind::Word {
                 letter: 'g',
@@ -920,9 +924,14 @@ fn coord(v: f64) -> String {
 /// The line with its F word replaced by (or, without one, followed by) `f`.
 fn with_f_word(text: &str, items: &[Item], f: &str) -> String {
     if let Some(it) = items.iter().find(|it| word_letter(it) == Some('f')) {
-        format!("{}{}{}", &text[..it.span.start], f, &text[it.span.end..])
+        format!(
+            "{}{}{}",
+            &text[..it.span().start],
+            f,
+            &text[it.span().end..]
+        )
     } else {
-        let end = items.last().map_or(text.len(), |it| it.span.end);
+        let end = items.last().map_or(text.len(), |it| it.span().end);
         format!("{} {}{}", &text[..end], f, &text[end..])
     }
 }
@@ -1103,7 +1112,7 @@ fn write_blocks(
     let mut line = String::with_capacity(text.len() + first.len());
     let mut at = 0;
     for (k, it) in replaced.iter().enumerate() {
-        let gap = &text[at..it.span.start];
+        let gap = &text[at..it.span().start];
         // Blanks between two rewritten words go with them.
         if k == 0 || !gap.trim().is_empty() {
             line.push_str(gap);
@@ -1111,10 +1120,10 @@ fn write_blocks(
         if k == 0 {
             line.push_str(first);
         }
-        at = it.span.end;
+        at = it.span().end;
     }
     if replaced.is_empty() {
-        let end = items.last().map_or(text.len(), |it| it.span.end);
+        let end = items.last().map_or(text.len(), |it| it.span().end);
         line.push_str(&text[..end]);
         line.push(' ');
         line.push_str(first);
