@@ -413,20 +413,29 @@ impl Stations {
         let period_s = self.machine.period_s();
         let accel = self.machine.accel_mm_s2;
         let jerk = self.machine.jerk_mm_s3;
+        // Caps and interval accelerations are written station by station while the
+        // closures below read the geometry (nothing here reads them but station k's own).
+        let mut caps = std::mem::take(&mut self.cap_mm_min);
+        let mut kinds = std::mem::take(&mut self.cap_kind);
+        let mut interval_accel = std::mem::take(&mut self.interval_accel_mm_s2);
         // The run (stop to stop) of each station; a window reaching past a stop continues
         // straight along the run's end tangent (the tool rests there, so nothing beyond it
-        // is sampled at speed).
+        // is sampled at speed). Stops are in station order: a station strictly between two
+        // consecutive stops is in their run (a stop itself is never sampled here).
         let mut is_stop = vec![false; n];
         for stop in &self.stops {
             is_stop[stop.station] = true;
         }
-        let mut run_of = vec![(0usize, n - 1); n];
-        for pair in self.stops.windows(2) {
-            for r in &mut run_of[pair[0].station..=pair[1].station] {
-                *r = (pair[0].station, pair[1].station);
+        let run_of = |k: usize| {
+            let after = self.stops.partition_point(|stop| stop.station <= k);
+            match (after.checked_sub(1), self.stops.get(after)) {
+                (Some(before), Some(next)) => (self.stops[before].station, next.station),
+                _ => (0, n - 1),
             }
-        }
-        // Arc length to the nearest turn (tangent change or arc) before and after each station.
+        };
+        // The intervals k → k+1 where the path turns (tangent change or arc), ascending:
+        // the arc length to the nearest turn before and after each station is read from
+        // them as the stations are visited in order (no per-station arrays).
         let turns = |k: usize| {
             !is_stop[k]
                 && ((self.tangent[k + 1] - self.tangent[k]).norm() > 1e-12
@@ -435,26 +444,34 @@ impl Stations {
                         Geometry::Arc { .. }
                     ))
         };
-        let mut last_turn = vec![f64::NEG_INFINITY; n];
-        let mut at = f64::NEG_INFINITY;
-        for (k, last) in last_turn.iter_mut().enumerate().take(n - 1) {
-            *last = at;
-            if turns(k) {
-                at = self.s_mm[k + 1];
-                *last = self.s_mm[k];
+        let turning: Vec<usize> = (0..n - 1).filter(|&k| turns(k)).collect();
+        // Station k: the last turn ends at s[k] if the interval k → k+1 turns, else at
+        // the end s[j+1] of the last turning interval j < k; the next one starts at s[k]
+        // if the interval k−1 → k turns, else at the start s[i] of the first turning
+        // interval i ≥ k.
+        let mut first_at_or_after = 0usize;
+        let mut turn_window = |k: usize| {
+            while first_at_or_after < turning.len() && turning[first_at_or_after] < k {
+                first_at_or_after += 1;
             }
-        }
-        last_turn[n - 1] = at;
-        let mut next_turn = vec![f64::INFINITY; n];
-        let mut at = f64::INFINITY;
-        for k in (1..n).rev() {
-            next_turn[k] = at;
-            if turns(k - 1) {
-                at = self.s_mm[k - 1];
-                next_turn[k] = self.s_mm[k];
-            }
-        }
-        next_turn[0] = at;
+            let here = turning.get(first_at_or_after) == Some(&k);
+            let last = if here {
+                self.s_mm[k]
+            } else {
+                first_at_or_after
+                    .checked_sub(1)
+                    .map_or(f64::NEG_INFINITY, |j| self.s_mm[turning[j] + 1])
+            };
+            let next = if k > 0 && first_at_or_after > 0 && turning[first_at_or_after - 1] == k - 1
+            {
+                self.s_mm[k]
+            } else {
+                turning
+                    .get(first_at_or_after)
+                    .map_or(f64::INFINITY, |&i| self.s_mm[i])
+            };
+            (last, next)
+        };
         let position = |run: (usize, usize), x: f64| {
             let (lo, hi) = run;
             if x <= self.s_mm[lo] {
@@ -468,7 +485,7 @@ impl Stations {
             self.locate(k, x).0.coords
         };
         let differences = |k: usize, v: f64| {
-            let (s, l, run) = (self.s_mm[k], v * period_s, run_of[k]);
+            let (s, l, run) = (self.s_mm[k], v * period_s, run_of(k));
             let p0 = self.position[k].coords;
             let (pm, p1) = (position(run, s - l), position(run, s + l));
             let d = (p1 - 2.0 * p0 + pm).map(f64::abs) / (period_s * period_s);
@@ -487,14 +504,11 @@ impl Stations {
                     && jerk.is_none_or(|j| e[i] <= 0.5 * j[i] * (1.0 + 1e-9))
             })
         };
-        let mut second = vec![Vector3::zeros(); n];
-        let mut lowered: Vec<(usize, f64)> = Vec::new();
         for k in 0..n {
-            let cap = self.cap_mm_min[k] / 60.0;
+            let cap = caps[k] / 60.0;
             let reach = 2.0 * cap * period_s + 1e-9;
-            if is_stop[k]
-                || self.s_mm[k] - last_turn[k] > reach && next_turn[k] - self.s_mm[k] > reach
-            {
+            let (last_turn, next_turn) = turn_window(k);
+            if is_stop[k] || self.s_mm[k] - last_turn > reach && next_turn - self.s_mm[k] > reach {
                 continue;
             }
             let mut v = cap;
@@ -509,33 +523,39 @@ impl Stations {
                     }
                 }
                 v = lo;
-                lowered.push((k, v));
+                // Station k's cap is final from here (no other station lowers it).
+                if 60.0 * v < caps[k] {
+                    caps[k] = 60.0 * v;
+                    kinds[k] = CapKind::Curvature;
+                }
             }
-            second[k] = differences(k, v).0;
-        }
-        for (k, v) in lowered {
-            self.lower_cap(k, 60.0 * v, CapKind::Curvature);
-        }
-        for k in 0..n - 1 {
-            for m in [k, k + 1] {
-                let d = second[m];
-                if d == Vector3::zeros() {
+            // The intervals k−1 → k and k → k+1 take station k's budget (each interval
+            // the minimum of its two stations', in station order).
+            let d = differences(k, v).0;
+            if d == Vector3::zeros() {
+                continue;
+            }
+            let v = caps[k] / 60.0;
+            let budget: [f64; 3] = std::array::from_fn(|i| {
+                let left = accel[i] - d[i];
+                match jerk {
+                    Some(j) if d[i] > 0.0 => left.min(0.25 * j[i] * v / (3.0 * d[i])),
+                    _ => left,
+                }
+            });
+            for interval in [k.wrapping_sub(1), k] {
+                if interval >= n - 1 {
                     continue;
                 }
-                let v = self.cap_mm_min[m] / 60.0;
-                let budget: [f64; 3] = std::array::from_fn(|i| {
-                    let left = accel[i] - d[i];
-                    match jerk {
-                        Some(j) if d[i] > 0.0 => left.min(0.25 * j[i] * v / (3.0 * d[i])),
-                        _ => left,
-                    }
-                });
-                let limit =
-                    along(&self.tangent[k], budget).min(along(&self.tangent[k + 1], budget));
-                let a = &mut self.interval_accel_mm_s2[k];
+                let limit = along(&self.tangent[interval], budget)
+                    .min(along(&self.tangent[interval + 1], budget));
+                let a = &mut interval_accel[interval];
                 *a = a.min(limit);
             }
         }
+        self.cap_mm_min = caps;
+        self.cap_kind = kinds;
+        self.interval_accel_mm_s2 = interval_accel;
     }
 
     #[allow(clippy::too_many_arguments)]
