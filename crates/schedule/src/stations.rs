@@ -370,29 +370,47 @@ impl Stations {
         let period_s = self.machine.period_s();
         let a = self.machine.accel_mm_s2;
         let a_max = a.iter().copied().fold(0.0, f64::max);
-        let mut budgets = RangeMin::<3>::new(intervals);
-        for &(c, jump) in corners {
+        // Each corner's budgets and the intervals k → k+1 overlapping [s_c − reach,
+        // s_c + reach]: from the last station at or before s_c − reach to the last one
+        // before s_c + reach.
+        let corner = |&(c, jump): &(usize, Vector3<f64>)| {
             let v_c = self.cap_mm_min[c] / 60.0;
             let budget: [f64; 3] =
                 std::array::from_fn(|i| (a[i] - v_c * jump[i].abs() / period_s).max(0.5 * a[i]));
             let (s_c, reach) = (self.s_mm[c], (v_c + a_max * period_s) * period_s);
-            // Intervals k → k+1 overlapping [s_c − reach, s_c + reach]: from the last station
-            // at or before s_c − reach to the last one before s_c + reach.
             let lo = self.s_mm[..=c]
                 .partition_point(|&s| s <= s_c - reach)
                 .saturating_sub(1);
             let hi = c + self.s_mm[c..].partition_point(|&s| s < s_c + reach);
-            budgets.lower(lo, hi.min(intervals), budget);
-        }
-        for k in 0..intervals {
-            let budget = budgets.get(k);
-            if budget[0].is_finite() {
-                let limit =
-                    along(&self.tangent[k], budget).min(along(&self.tangent[k + 1], budget));
-                let accel = &mut self.interval_accel_mm_s2[k];
-                *accel = accel.min(limit);
+            (lo, hi.min(intervals), budget)
+        };
+        // along(t, b) = min over the moving axes of b_i/|t_i|: the limit of an interval is
+        // the minimum over the axes of each axis' share, so the axes are taken one at a
+        // time, each with a tree of one value per slot (a third of the memory of one tree
+        // of three), in the same minima. An interval is limited where a corner reaches it.
+        let mut reached: Vec<bool> = Vec::new();
+        let mut accel = std::mem::take(&mut self.interval_accel_mm_s2);
+        for axis in 0..3 {
+            let mut budgets = RangeMin::<1>::new(intervals);
+            for c in corners {
+                let (lo, hi, budget) = corner(c);
+                budgets.lower(lo, hi, [budget[axis]]);
+            }
+            if axis == 0 {
+                reached = (0..intervals)
+                    .map(|k| budgets.get(k)[0].is_finite())
+                    .collect();
+            }
+            for k in (0..intervals).filter(|&k| reached[k]) {
+                let b = budgets.get(k)[0];
+                for t in [&self.tangent[k], &self.tangent[k + 1]] {
+                    if t[axis] != 0.0 {
+                        accel[k] = accel[k].min(b / t[axis].abs());
+                    }
+                }
             }
         }
+        self.interval_accel_mm_s2 = accel;
     }
 
     /// MODEL.md §6.1 sampled geometry: at constant speed v a sample at arc length s and its
