@@ -222,7 +222,7 @@ fn applied_offsets_um(steps: &[TimedStep], magnitude: &[f64], dirs: &[[f64; 2]])
 /// Per-step relaxed update of the closed loop's offset (MODEL.md §5.1): the
 /// next trial is `x + ω (g − x)`; ω halves when the step's residual g − x
 /// changes sign (it overshot) and grows by 30 % while it keeps its sign.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct Relaxed {
     omega: f64,
     sign: f64,
@@ -234,7 +234,7 @@ impl Relaxed {
         sign: 1.0,
     };
 
-    /// Record g at x and return the next x to try (µm, ≥ 0).
+    /// Record g at x and return the next x to try (µm).
     fn next(&mut self, x: f64, g: f64) -> f64 {
         let r = g - x;
         let sign = if r < 0.0 { -1.0 } else { 1.0 };
@@ -244,7 +244,188 @@ impl Relaxed {
             (0.5 * self.omega).max(LOOP_RELAX_MIN)
         };
         self.sign = sign;
-        (x + self.omega * r).max(0.0)
+        x + self.omega * r
+    }
+}
+
+/// One bound of a step's bracket: the offset, its residual g − x where a
+/// sweep measured it (NaN where the bound is only inferred), and the sweep
+/// that gave it.
+#[derive(Clone, Copy, Debug)]
+struct Bound {
+    at: f64,
+    r: f64,
+    pass: usize,
+}
+
+impl Bound {
+    fn measured(&self) -> bool {
+        self.r.is_finite()
+    }
+}
+
+/// One step's search for its offset x = g(x) in the closed loop (MODEL.md
+/// §5.1), kept inside a bracket. g falls as x grows (a tool moved out of the
+/// material cuts less), so r = g − x falls strictly: a trial with r ≥ 0 is a
+/// lower bound of the root, one with r < 0 an upper bound. The relaxed update
+/// is taken where it lands inside the bracket or the step is within the
+/// tolerance (so a loop that converged before takes the same trials);
+/// otherwise (it overshot: a slender tool, g' ≪ −1, where x ← g(x) diverges)
+/// the Illinois variant of false position between two measured bounds, or
+/// the middle of the bracket; the middle too where the bracket has not
+/// halved in three sweeps (a root at a jump of g, where the edge crosses a
+/// column centre). The other steps' offsets move g too (a step starts where
+/// the one before it ended): a bound a trial contradicts gives way to g(x)
+/// (with the other steps as they are the root lies between x and g(x)), and
+/// a bracket closed around a bound measured more than two sweeps before
+/// drops that bound.
+#[derive(Clone, Copy, Debug)]
+struct Bracketed {
+    relaxed: Relaxed,
+    /// Offsets stay within ± this (the tool's radius), µm.
+    cap: f64,
+    lo: Bound,
+    hi: Bound,
+    /// Residuals false position weighs the measured bounds with (Illinois: a
+    /// bound kept twice in a row has its weight halved).
+    w_lo: f64,
+    w_hi: f64,
+    /// The bound the last trial replaced: −1 lower, 1 upper, 0 none.
+    replaced: i8,
+    /// Bracket width when it last halved, and sweeps since.
+    width_mark: f64,
+    since_halved: u32,
+}
+
+impl Bracketed {
+    /// A step whose rigid sweep (offset 0, sweep 1) gave the deflection
+    /// `rigid` ≥ 0 across the path.
+    fn new(rigid: f64, cap: f64) -> Bracketed {
+        let hi = cap;
+        Bracketed {
+            relaxed: Relaxed::START,
+            cap,
+            lo: Bound {
+                at: 0.0,
+                r: rigid,
+                pass: 1,
+            },
+            hi: Bound {
+                at: hi,
+                r: f64::NAN,
+                pass: 0,
+            },
+            w_lo: rigid,
+            w_hi: f64::NAN,
+            replaced: 0,
+            width_mark: hi,
+            since_halved: 0,
+        }
+    }
+
+    /// Record the residual `r` = g − x of the trial `x` measured by sweep `pass`.
+    fn observe(&mut self, x: f64, r: f64, pass: usize) {
+        let cap = self.cap;
+        if r >= 0.0 {
+            if x >= self.hi.at {
+                // The upper bound no longer holds (the steps before moved):
+                // the root is now in [x, g(x)].
+                self.hi = Bound {
+                    at: (x + r).min(cap),
+                    r: f64::NAN,
+                    pass,
+                };
+            }
+            self.lo = Bound { at: x, r, pass };
+            if self.replaced == -1 {
+                self.w_hi *= 0.5;
+            }
+            (self.w_lo, self.replaced) = (r, -1);
+        } else {
+            if x <= self.lo.at {
+                // In [g(x), x].
+                self.lo = Bound {
+                    at: (x + r).max(-cap),
+                    r: f64::NAN,
+                    pass,
+                };
+            }
+            self.hi = Bound { at: x, r, pass };
+            if self.replaced == 1 {
+                self.w_lo *= 0.5;
+            }
+            (self.w_hi, self.replaced) = (r, 1);
+        }
+        if self.hi.at - self.lo.at <= LOOP_TOL_UM {
+            // Closed around a bound measured long ago: it may be stale.
+            if self.lo.pass + 2 < pass {
+                self.lo = Bound {
+                    at: -cap,
+                    r: f64::NAN,
+                    pass,
+                };
+            }
+            if self.hi.pass + 2 < pass {
+                self.hi = Bound {
+                    at: cap,
+                    r: f64::NAN,
+                    pass,
+                };
+            }
+        }
+        if !self.lo.measured() {
+            self.w_lo = f64::NAN;
+        }
+        if !self.hi.measured() {
+            self.w_hi = f64::NAN;
+        }
+        let width = self.hi.at - self.lo.at;
+        if width <= 0.5 * self.width_mark || width > self.width_mark {
+            (self.width_mark, self.since_halved) = (width, 0);
+        } else {
+            self.since_halved += 1;
+        }
+    }
+
+    /// Both bounds measured in the last two sweeps and within the tolerance
+    /// of each other: the root lies between them, at a jump of g if the
+    /// residual there is larger.
+    fn closed(&self, pass: usize) -> bool {
+        let tol = LOOP_TOL_UM + LOOP_REL_TOL * self.lo.at.abs().max(self.hi.at.abs());
+        self.lo.measured()
+            && self.hi.measured()
+            && self.hi.at - self.lo.at <= tol
+            && self.lo.pass + 2 >= pass
+            && self.hi.pass + 2 >= pass
+    }
+
+    /// The next offset to try after `x` gave `g` (observed first).
+    fn next(&mut self, x: f64, g: f64) -> f64 {
+        let p = self.relaxed.next(x, g);
+        let (lo, hi) = (self.lo, self.hi);
+        let middle = 0.5 * (lo.at + hi.at);
+        // A step within the tolerance takes the relaxed update (it moves
+        // little, and x may sit on a bound: g = x there).
+        if (g - x).abs() <= LOOP_TOL_UM + LOOP_REL_TOL * x.abs() {
+            return p;
+        }
+        let measured = lo.measured() && hi.measured();
+        if measured && self.since_halved >= 3 {
+            return middle;
+        }
+        let above = p > lo.at || (!lo.measured() && p >= lo.at);
+        let below = p < hi.at || (!hi.measured() && p <= hi.at);
+        if above && below {
+            return p;
+        }
+        if measured {
+            // Illinois: false position on the weighted residuals.
+            let t = self.w_lo / (self.w_lo - self.w_hi);
+            if t.is_finite() && t > 0.0 && t < 1.0 {
+                return lo.at + t * (hi.at - lo.at);
+            }
+        }
+        middle
     }
 }
 
@@ -381,7 +562,9 @@ pub fn run_on(
         unconverged: Vec::new(),
     };
     if tools.closed_loop && !report.converged {
-        let mut relaxed = vec![Relaxed::START; n];
+        let mut search: Vec<Bracketed> = (0..n)
+            .map(|i| Bracketed::new(rigid[i], offset_cap_um[i]))
+            .collect();
         let mut trial: Vec<f64> = (0..n)
             .map(|i| {
                 if in_loop[i] {
@@ -409,14 +592,28 @@ pub fn run_on(
             x.clone_from(&trial);
             // g: the deflection the removal at the trial offset causes, across the path.
             let g: Vec<f64> = (0..n).map(|i| along(&step_loads, i)).collect();
+            let pass = report.passes;
+            for i in (0..n).filter(|&i| in_loop[i]) {
+                search[i].observe(x[i], g[i] - x[i], pass);
+            }
+            // A step's residual: |g − x|, or where its bracket has closed around
+            // a jump of g, the bracket's width (how far x is from the root).
+            let residual = |i: usize| {
+                let r = (g[i] - x[i]).abs();
+                if search[i].closed(pass) {
+                    r.min(search[i].hi.at - search[i].lo.at)
+                } else {
+                    r
+                }
+            };
             report.unconverged = (0..n)
                 .filter(|&i| in_loop[i])
-                .map(|i| (i, (g[i] - x[i]).abs()))
+                .map(|i| (i, residual(i)))
                 .filter(|&(i, r)| r > LOOP_TOL_UM + LOOP_REL_TOL * x[i].abs())
                 .collect();
             report.residual_um = (0..n)
                 .filter(|&i| in_loop[i])
-                .map(|i| (g[i] - x[i]).abs())
+                .map(residual)
                 .fold(0.0, f64::max);
             report.converged = report.unconverged.is_empty();
             out_counts.push(report.unconverged.len());
@@ -438,7 +635,9 @@ pub fn run_on(
             }
             for i in 0..n {
                 if in_loop[i] {
-                    trial[i] = relaxed[i].next(x[i], g[i]).min(offset_cap_um[i]);
+                    trial[i] = search[i]
+                        .next(x[i], g[i])
+                        .clamp(-offset_cap_um[i], offset_cap_um[i]);
                 }
             }
         }
@@ -1516,8 +1715,60 @@ mod tests {
         // Overshoot (g below x): ω halves to 0.26.
         let x2 = r.next(x1, 40.0);
         assert!((x2 - (52.0 - 0.26 * 12.0)).abs() < 1e-12, "{x2}");
-        // Never negative.
-        assert_eq!(r.next(1.0, -100.0), 0.0);
+    }
+
+    /// The bracketed search on g(x) = c (a − x)⁺/k alone (no other steps):
+    /// root c a/(k + c). For c/k = 25 plain iteration x ← g(x) jumps between
+    /// 0 and 5 000 µm; the search converges within the loop's tolerance in
+    /// under 16 sweeps, for c/k from 0.01 to 25 (c/k = 100 takes more: the
+    /// relaxed trials creep down the side where g = 0), and at a jump of g (a
+    /// staircase of 10 µm steps) its bracket closes around the jump.
+    #[test]
+    fn bracketed_search_converges_where_plain_iteration_diverges() {
+        let a = 200.0;
+        for ratio in [0.01, 1.0, 4.9, 25.0] {
+            let g = |x: f64| ratio * (a - x).max(0.0);
+            let root = ratio * a / (1.0 + ratio);
+            let mut s = Bracketed::new(g(0.0), 5000.0);
+            let mut x = (LOOP_RELAX_START * g(0.0)).min(5000.0);
+            let mut passes = 1;
+            loop {
+                passes += 1;
+                s.observe(x, g(x) - x, passes);
+                // The loop's test: within tolerance, or bracketed as closely.
+                if (g(x) - x).abs() <= LOOP_TOL_UM + LOOP_REL_TOL * x.abs() || s.closed(passes) {
+                    break;
+                }
+                assert!(
+                    passes < 16,
+                    "c/k {ratio}: x {x} after {passes} sweeps, root {root}"
+                );
+                x = s.next(x, g(x)).clamp(-5000.0, 5000.0);
+            }
+            assert!(
+                (x - root).abs() <= 1.0 + 0.03 * root,
+                "c/k {ratio}: {x} vs {root}"
+            );
+        }
+        // Staircase: g = 4.9 · (a − 10 ⌈x/10⌉): 196 up to x = 160, 147 beyond,
+        // so the root is the jump at x = 160.
+        let g = |x: f64| 4.9 * (a - 10.0 * (x / 10.0).ceil()).max(0.0);
+        let mut s = Bracketed::new(g(0.0), 5000.0);
+        let mut x = LOOP_RELAX_START * g(0.0);
+        let mut passes = 1;
+        loop {
+            passes += 1;
+            s.observe(x, g(x) - x, passes);
+            if s.closed(passes) {
+                break;
+            }
+            assert!(passes < 16, "staircase: x {x} after {passes} sweeps");
+            x = s.next(x, g(x));
+        }
+        assert!(
+            (s.lo.at - 160.0).abs() < 4.0 && s.lo.at <= 160.0 && s.hi.at >= 160.0,
+            "{s:?}"
+        );
     }
 
     /// The stock outside a point along a direction, on a box: vertical, across
