@@ -378,10 +378,9 @@ impl Stations {
             let budget: [f64; 3] =
                 std::array::from_fn(|i| (a[i] - v_c * jump[i].abs() / period_s).max(0.5 * a[i]));
             let (s_c, reach) = (self.s_mm[c], (v_c + a_max * period_s) * period_s);
-            let lo = self.s_mm[..=c]
-                .partition_point(|&s| s <= s_c - reach)
-                .saturating_sub(1);
-            let hi = c + self.s_mm[c..].partition_point(|&s| s < s_c + reach);
+            let lo =
+                partition_point_near(&self.s_mm[..=c], c, |s| s <= s_c - reach).saturating_sub(1);
+            let hi = c + partition_point_near(&self.s_mm[c..], 0, |s| s < s_c + reach);
             (lo, hi.min(intervals), budget)
         };
         // along(t, b) = min over the moving axes of b_i/|t_i|: the limit of an interval is
@@ -490,7 +489,9 @@ impl Stations {
             };
             (last, next)
         };
-        let position = |run: (usize, usize), x: f64| {
+        // Where the path is at arc length x (station `near` is close by: the stations are
+        // searched outwards from it).
+        let position = |run: (usize, usize), x: f64, near: usize| {
             let (lo, hi) = run;
             if x <= self.s_mm[lo] {
                 return self.position[lo].coords
@@ -499,17 +500,17 @@ impl Stations {
             if x >= self.s_mm[hi] {
                 return self.position[hi].coords + (x - self.s_mm[hi]) * self.tangent[hi];
             }
-            let k = self.s_mm.partition_point(|&sk| sk <= x).clamp(1, n - 1) - 1;
+            let k = partition_point_near(&self.s_mm, near, |sk| sk <= x).clamp(1, n - 1) - 1;
             self.locate(k, x).0.coords
         };
         let differences = |k: usize, v: f64| {
             let (s, l, run) = (self.s_mm[k], v * period_s, run_of(k));
             let p0 = self.position[k].coords;
-            let (pm, p1) = (position(run, s - l), position(run, s + l));
+            let (pm, p1) = (position(run, s - l, k), position(run, s + l, k));
             let d = (p1 - 2.0 * p0 + pm).map(f64::abs) / (period_s * period_s);
             let e = match jerk {
                 Some(_) => {
-                    let p2 = position(run, s + 2.0 * l);
+                    let p2 = position(run, s + 2.0 * l, k);
                     (p2 - 3.0 * p1 + 3.0 * p0 - pm).map(f64::abs) / period_s.powi(3)
                 }
                 None => Vector3::zeros(),
@@ -739,7 +740,70 @@ impl Stations {
     }
 }
 
+/// `s.partition_point(pred)` (`pred` true on a prefix of `s`), found by galloping out
+/// from `hint`: the same index in O(log distance) rather than O(log len), for searches
+/// that land near a known station.
+fn partition_point_near(s: &[f64], hint: usize, pred: impl Fn(f64) -> bool) -> usize {
+    let n = s.len();
+    let hint = hint.min(n);
+    if hint < n && pred(s[hint]) {
+        // The boundary lies after `hint`; every index before `lo` satisfies `pred`.
+        let (mut lo, mut step) = (hint + 1, 1);
+        loop {
+            let hi = lo + step;
+            if hi >= n {
+                return lo + s[lo..].partition_point(|&v| pred(v));
+            }
+            if !pred(s[hi]) {
+                return lo + s[lo..hi].partition_point(|&v| pred(v));
+            }
+            lo = hi + 1;
+            step *= 2;
+        }
+    }
+    // The boundary lies at or before `hint`; no index from `hi` on satisfies `pred`.
+    let (mut hi, mut step) = (hint, 1);
+    loop {
+        if hi < step {
+            return s[..hi].partition_point(|&v| pred(v));
+        }
+        let probe = hi - step;
+        if pred(s[probe]) {
+            return probe + 1 + s[probe + 1..hi].partition_point(|&v| pred(v));
+        }
+        hi = probe;
+        step *= 2;
+    }
+}
+
 /// A cap must be > 0 mm/min (+∞ is allowed and changes nothing); NaN is rejected.
 fn invalid_cap(cap_mm_min: f64) -> bool {
     cap_mm_min.is_nan() || cap_mm_min <= 0.0
+}
+
+#[cfg(test)]
+mod partition_tests {
+    use super::partition_point_near;
+
+    #[test]
+    fn partition_near_matches_partition_point() {
+        let s = [0.0, 0.5, 0.5, 1.0, 2.0, 2.0, 2.0, 3.5, 7.0, 7.0, 9.0];
+        for hint in 0..=s.len() + 2 {
+            for x in [
+                -1.0, 0.0, 0.25, 0.5, 0.75, 1.0, 2.0, 3.0, 3.5, 7.0, 8.0, 9.0, 10.0,
+            ] {
+                assert_eq!(
+                    partition_point_near(&s, hint, |v| v <= x),
+                    s.partition_point(|&v| v <= x),
+                    "hint {hint} x {x} (<=)"
+                );
+                assert_eq!(
+                    partition_point_near(&s, hint, |v| v < x),
+                    s.partition_point(|&v| v < x),
+                    "hint {hint} x {x} (<)"
+                );
+            }
+        }
+        assert_eq!(partition_point_near(&[], 0, |v: f64| v < 1.0), 0);
+    }
 }
