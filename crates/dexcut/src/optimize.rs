@@ -57,17 +57,17 @@ pub fn engagement(
     tools: &ToolSet,
     surface: SurfaceFrom,
 ) -> Result<Engagement> {
-    let pos = stations.position();
     let segs = stations.segments();
     let seg_of = stations.segment();
-    let steps: Vec<dexel::Step> = (1..pos.len())
+    let n = stations.len();
+    let steps: Vec<dexel::Step> = (1..n)
         .map(|k| dexel::Step {
-            from_mm: pos[k - 1].coords.into(),
-            to_mm: pos[k].coords.into(),
+            from_mm: stations.position_at(k - 1).coords.into(),
+            to_mm: stations.position_at(k).coords.into(),
             rapid: matches!(segs[seg_of[k] as usize].motion, Motion::Rapid),
         })
         .collect();
-    let tool_index = tools.indices((1..pos.len()).map(|k| {
+    let tool_index = tools.indices((1..n).map(|k| {
         let seg = &segs[seg_of[k] as usize];
         (seg.tool, seg.line)
     }))?;
@@ -116,7 +116,6 @@ fn surface_angles_deg(
     surface: SurfaceFrom,
 ) -> Vec<f64> {
     use rayon::prelude::*;
-    let pos = stations.position();
     let g = stock.grid().spacing_mm;
     (0..area_mm2.len())
         .into_par_iter()
@@ -126,9 +125,10 @@ fn surface_angles_deg(
                 return f64::NAN;
             }
             let r = tool.radius_mm();
-            let mid = nalgebra::center(&pos[k], &pos[k + 1]);
+            let (from, to) = (stations.position_at(k), stations.position_at(k + 1));
+            let mid = nalgebra::center(&from, &to);
             let centre = [mid.x, mid.y, mid.z + r];
-            let along: [f64; 3] = (pos[k + 1] - pos[k]).into();
+            let along: [f64; 3] = (to - from).into();
             let normal = match surface {
                 SurfaceFrom::Nothing => None,
                 SurfaceFrom::Design(model) => model.normal_towards_mm(centre),

@@ -36,12 +36,11 @@ fn caps_where(
     let engagement =
         optimize::engagement(&stations, &setup.stock, &setup.tools, surface(&setup)).unwrap();
     let caps = optimize::interval_caps(&engagement, &stations, limits, &setup.tools);
-    let pos = stations.position();
     let kept: Vec<_> = caps
         .iter()
         .enumerate()
         .filter(|&(k, _)| {
-            let m = nalgebra::center(&pos[k], &pos[k + 1]);
+            let m = nalgebra::center(&stations.position_at(k), &stations.position_at(k + 1));
             engagement.area_mm2[k] > 0.0 && keep([m.x, m.y, m.z])
         })
         .map(|(_, c)| *c)

@@ -579,7 +579,7 @@ impl Sampler<'_, '_> {
             }
         };
         let (pos, segment) = if stations.len() < 2 {
-            (stations.position()[0], stations.segment()[0])
+            (stations.position_at(0), stations.segment()[0])
         } else {
             let s = stations.s_mm();
             while self.place + 2 < stations.len() && s[self.place + 1] < s_mm {

@@ -109,8 +109,8 @@ pub struct Stations {
     s_mm: Vec<f64>,
     segment: Vec<u32>,
     fraction: Vec<f64>,
-    position: Vec<Point3<f64>>,
-    tangent: Vec<Vector3<f64>>,
+    /// Nothing moves: the one station stands still (tangent zero).
+    still: bool,
     cap_mm_min: Vec<f64>,
     cap_kind: Vec<CapKind>,
     interval_accel_mm_s2: Vec<f64>,
@@ -179,7 +179,7 @@ impl Stations {
         if !(ds_mm.is_finite() && ds_mm > 0.0) {
             return Err(ScheduleError::InvalidSpacing(ds_mm));
         }
-        let first = path.segments.first().ok_or(ScheduleError::EmptyPath)?;
+        path.segments.first().ok_or(ScheduleError::EmptyPath)?;
         let estimate = station_count(path, ds_mm);
         if estimate > MAX_STATIONS {
             return Err(ScheduleError::TooManyStations {
@@ -193,8 +193,7 @@ impl Stations {
             s_mm: Vec::with_capacity(estimate),
             segment: Vec::with_capacity(estimate),
             fraction: Vec::with_capacity(estimate),
-            position: Vec::with_capacity(estimate),
-            tangent: Vec::with_capacity(estimate),
+            still: false,
             cap_mm_min: Vec::with_capacity(estimate),
             cap_kind: Vec::with_capacity(estimate),
             interval_accel_mm_s2: Vec::with_capacity(estimate),
@@ -259,7 +258,7 @@ impl Stations {
             let start_tangent = seg.tangent_at_fraction(0.0);
             let s_start_mm = match previous {
                 None => {
-                    st.push(0.0, index, 0.0, seg.start, start_tangent, cap_mm_min, kind);
+                    st.push(0.0, index, 0.0, cap_mm_min, kind);
                     st.stops.push(Stop {
                         station: 0,
                         dwell_s: pending_dwell_s.take().unwrap_or(0.0),
@@ -307,20 +306,9 @@ impl Stations {
                     .min(machine.tangential_jerk_mm_s3(&tangent));
                 st.interval_accel_mm_s2.push(accel);
                 st.interval_jerk_mm_s3.push(jerk);
-                let position = if j == intervals {
-                    seg.end
-                } else {
-                    seg.point_at_fraction(u)
-                };
-                st.push(
-                    s_start_mm + len_mm * u,
-                    index,
-                    u,
-                    position,
-                    tangent,
-                    cap_mm_min,
-                    kind,
-                );
+                // Its position and tangent are [`Stations::position_at`] and
+                // [`Stations::tangent_at`] of (segment, u): u = 1 exactly at the end.
+                st.push(s_start_mm + len_mm * u, index, u, cap_mm_min, kind);
                 tangent_before = tangent;
             }
             previous = Some(index);
@@ -329,15 +317,8 @@ impl Stations {
         st.corners = corners.iter().map(|&(c, _)| c).collect();
         if st.s_mm.is_empty() {
             // Nothing moves: one station where the program starts, standing for its dwells.
-            st.push(
-                0.0,
-                0,
-                0.0,
-                first.start,
-                Vector3::zeros(),
-                machine.feed_max_mm_min,
-                CapKind::Dwell,
-            );
+            st.still = true;
+            st.push(0.0, 0, 0.0, machine.feed_max_mm_min, CapKind::Dwell);
             st.stops.push(Stop {
                 station: 0,
                 dwell_s: pending_dwell_s.take().unwrap_or(0.0),
@@ -402,9 +383,9 @@ impl Stations {
             }
             for k in (0..intervals).filter(|&k| reached[k]) {
                 let b = budgets.get(k)[0];
-                for t in [&self.tangent[k], &self.tangent[k + 1]] {
-                    if t[axis] != 0.0 {
-                        accel[k] = accel[k].min(b / t[axis].abs());
+                for t in [self.tangent_at(k)[axis], self.tangent_at(k + 1)[axis]] {
+                    if t != 0.0 {
+                        accel[k] = accel[k].min(b / t.abs());
                     }
                 }
             }
@@ -455,7 +436,7 @@ impl Stations {
         // them as the stations are visited in order (no per-station arrays).
         let turns = |k: usize| {
             !is_stop[k]
-                && ((self.tangent[k + 1] - self.tangent[k]).norm() > 1e-12
+                && ((self.tangent_at(k + 1) - self.tangent_at(k)).norm() > 1e-12
                     || matches!(
                         self.segments[self.segment[k + 1] as usize].geometry,
                         Geometry::Arc { .. }
@@ -494,18 +475,18 @@ impl Stations {
         let position = |run: (usize, usize), x: f64, near: usize| {
             let (lo, hi) = run;
             if x <= self.s_mm[lo] {
-                return self.position[lo].coords
-                    - (self.s_mm[lo] - x) * self.tangent[(lo + 1).min(n - 1)];
+                return self.position_at(lo).coords
+                    - (self.s_mm[lo] - x) * self.tangent_at((lo + 1).min(n - 1));
             }
             if x >= self.s_mm[hi] {
-                return self.position[hi].coords + (x - self.s_mm[hi]) * self.tangent[hi];
+                return self.position_at(hi).coords + (x - self.s_mm[hi]) * self.tangent_at(hi);
             }
             let k = partition_point_near(&self.s_mm, near, |sk| sk <= x).clamp(1, n - 1) - 1;
             self.locate(k, x).0.coords
         };
         let differences = |k: usize, v: f64| {
             let (s, l, run) = (self.s_mm[k], v * period_s, run_of(k));
-            let p0 = self.position[k].coords;
+            let p0 = self.position_at(k).coords;
             let (pm, p1) = (position(run, s - l, k), position(run, s + l, k));
             let d = (p1 - 2.0 * p0 + pm).map(f64::abs) / (period_s * period_s);
             let e = match jerk {
@@ -566,8 +547,8 @@ impl Stations {
                 if interval >= n - 1 {
                     continue;
                 }
-                let limit = along(&self.tangent[interval], budget)
-                    .min(along(&self.tangent[interval + 1], budget));
+                let limit = along(&self.tangent_at(interval), budget)
+                    .min(along(&self.tangent_at(interval + 1), budget));
                 let a = &mut interval_accel[interval];
                 *a = a.min(limit);
             }
@@ -577,22 +558,10 @@ impl Stations {
         self.interval_accel_mm_s2 = interval_accel;
     }
 
-    #[allow(clippy::too_many_arguments)]
-    fn push(
-        &mut self,
-        s_mm: f64,
-        segment: usize,
-        fraction: f64,
-        position: Point3<f64>,
-        tangent: Vector3<f64>,
-        cap_mm_min: f64,
-        kind: CapKind,
-    ) {
+    fn push(&mut self, s_mm: f64, segment: usize, fraction: f64, cap_mm_min: f64, kind: CapKind) {
         self.s_mm.push(s_mm);
         self.segment.push(segment as u32);
         self.fraction.push(fraction);
-        self.position.push(position);
-        self.tangent.push(tangent);
         self.cap_mm_min.push(cap_mm_min);
         self.cap_kind.push(kind);
     }
@@ -681,14 +650,25 @@ impl Stations {
         &self.fraction
     }
 
-    /// Tool-tip position of each station, mm.
-    pub fn position(&self) -> &[Point3<f64>] {
-        &self.position
+    /// Tool-tip position of station `k`, mm: its segment's start at fraction 0, its end at
+    /// fraction 1, else the point at its fraction (made from the segment when asked, not
+    /// stored: 24 bytes a station less).
+    pub fn position_at(&self, k: usize) -> Point3<f64> {
+        let seg = &self.segments[self.segment[k] as usize];
+        match self.fraction[k] {
+            0.0 => seg.start,
+            1.0 => seg.end,
+            u => seg.point_at_fraction(u),
+        }
     }
 
-    /// Unit tangent of each station's segment there (incoming side at a corner).
-    pub fn tangent(&self) -> &[Vector3<f64>] {
-        &self.tangent
+    /// Unit tangent of station `k`'s segment there (incoming side at a corner; zero where
+    /// nothing moves), made from the segment when asked.
+    pub fn tangent_at(&self, k: usize) -> Vector3<f64> {
+        if self.still {
+            return Vector3::zeros();
+        }
+        self.segments[self.segment[k] as usize].tangent_at_fraction(self.fraction[k])
     }
 
     /// Feed cap of each station, mm/min.
