@@ -348,17 +348,8 @@ impl Setup {
     /// drive model's estimate of where the axes really are (G-code only).
     pub fn steps(&self, actual_path: bool) -> Result<Vec<TimedStep>> {
         if self.program.gcode.is_some() {
-            let mut samples = motion::machine_motion(&self.program.path, &self.machine)?;
-            if actual_path {
-                let drive = crate::evaluate::drive(&self.job)?;
-                let commanded: Vec<[f64; 3]> =
-                    samples.iter().map(|s| s.pos.coords.into()).collect();
-                let actual = servo::simulate_actual(&commanded, self.machine.period_s(), &drive);
-                for (s, a) in samples.iter_mut().zip(actual) {
-                    s.pos = nalgebra::Point3::from(a);
-                }
-            }
-            Ok(motion::steps_from_samples(&self.program.path, &samples))
+            let samples = motion::machine_motion(&self.program.path, &self.machine)?;
+            self.steps_of(samples, actual_path)
         } else if actual_path {
             fail!(
                 request,
@@ -367,6 +358,36 @@ impl Setup {
         } else {
             Ok(motion::direct_steps(&self.program.path))
         }
+    }
+
+    /// [`Setup::steps`] with the program's path lent to the planner rather than copied
+    /// (its stations hold it while the servo samples are made, then give it back).
+    pub fn steps_lending_path(&mut self, actual_path: bool) -> Result<Vec<TimedStep>> {
+        if self.program.gcode.is_none() {
+            return self.steps(actual_path);
+        }
+        let path = std::mem::take(&mut self.program.path);
+        let (samples, path) = motion::machine_motion_of(path, &self.machine);
+        self.program.path = path;
+        self.steps_of(samples?, actual_path)
+    }
+
+    /// The timed steps of the program's servo samples (`actual_path`: moved to where
+    /// the drive model says the machine is).
+    fn steps_of(
+        &self,
+        mut samples: Vec<schedule::ServoSample>,
+        actual_path: bool,
+    ) -> Result<Vec<TimedStep>> {
+        if actual_path {
+            let drive = crate::evaluate::drive(&self.job)?;
+            let commanded: Vec<[f64; 3]> = samples.iter().map(|s| s.pos.coords.into()).collect();
+            let actual = servo::simulate_actual(&commanded, self.machine.period_s(), &drive);
+            for (s, a) in samples.iter_mut().zip(actual) {
+                s.pos = nalgebra::Point3::from(a);
+            }
+        }
+        Ok(motion::steps_from_samples(&self.program.path, &samples))
     }
 }
 
@@ -641,6 +662,11 @@ impl Simulation {
 pub fn simulate_setup(setup: &Setup, actual_path: bool) -> Result<Simulation> {
     setup.require_whole_stock("the simulation API (it keeps every column in memory; `dexcut simulate` writes a tiled stock's grid band by band)")?;
     let steps = setup.steps(actual_path)?;
+    simulate_steps(setup, steps)
+}
+
+/// [`simulate_setup`] of the program's timed steps.
+fn simulate_steps(setup: &Setup, steps: Vec<TimedStep>) -> Result<Simulation> {
     let run = simulate::run(setup.stock.clone(), &setup.tools, steps, "simulate")?;
     let mut summary = run.summary();
     summary.check_finite()?;
@@ -748,12 +774,14 @@ pub fn simulate(
     on_warning: OnWarning,
 ) -> Result<Simulated> {
     let started = Instant::now();
-    let setup = Setup::load_within(job_path, grid_mm, None, memory_budget_mb)?;
+    let mut setup = Setup::load_within(job_path, grid_mm, None, memory_budget_mb)?;
     let out_dir = OutDir::begin(out, &setup.input_files(job_path), force)?;
     announce_setup_warnings(&setup, on_warning);
     let sim = match &setup.tiling {
         None => {
-            let sim = simulate_setup(&setup, actual_path)?;
+            // The planner borrows the path instead of a copy (the peak of a long program).
+            let steps = setup.steps_lending_path(actual_path)?;
+            let sim = simulate_steps(&setup, steps)?;
             sim.write_files(out_dir.path(), columns_csv)?;
             sim
         }

@@ -139,7 +139,27 @@ pub fn steps_from_samples(path: &nc::Path, samples: &[ServoSample]) -> Vec<Timed
 /// How the machine runs the program as written: servo samples every period.
 pub fn machine_motion(path: &nc::Path, machine: &Machine) -> Result<Vec<ServoSample>> {
     let stations = Stations::new(path, machine, STATION_DS_MM, FeedPolicy::Programmed)?;
-    let profile = schedule::plan(&stations);
+    samples(&stations, machine)
+}
+
+/// [`machine_motion`] with the path handed to the planner's stations rather than
+/// copied into them; the path comes back in every case.
+pub fn machine_motion_of(
+    path: nc::Path,
+    machine: &Machine,
+) -> (Result<Vec<ServoSample>>, nc::Path) {
+    match Stations::from_path(path, machine, STATION_DS_MM, FeedPolicy::Programmed) {
+        Ok(stations) => {
+            let samples = samples(&stations, machine);
+            (samples, stations.into_path())
+        }
+        Err((e, path)) => (Err(e.into()), path),
+    }
+}
+
+/// The servo samples of the time-optimal plan along `stations`.
+fn samples(stations: &Stations, machine: &Machine) -> Result<Vec<ServoSample>> {
+    let profile = schedule::plan(stations);
     crate::bounds::check_samples(profile.cycle_time_s(), machine.period_ms, "the program")?;
     Ok(profile.sample(machine.period_ms)?)
 }

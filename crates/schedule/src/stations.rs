@@ -175,6 +175,35 @@ impl Stations {
         ds_mm: f64,
         policy: FeedPolicy,
     ) -> Result<Self, ScheduleError> {
+        let estimate = Self::check(path, machine, ds_mm)?;
+        Self::build(path.segments.clone(), machine, ds_mm, policy, estimate).map_err(|(e, _)| e)
+    }
+
+    /// [`Stations::new`] on a path handed to the stations rather than copied (a
+    /// million-block path is about 120 MB); [`Stations::into_path`] gives it back, and an
+    /// error comes with it.
+    pub fn from_path(
+        path: Path,
+        machine: &Machine,
+        ds_mm: f64,
+        policy: FeedPolicy,
+    ) -> Result<Self, (ScheduleError, Path)> {
+        match Self::check(&path, machine, ds_mm) {
+            Ok(estimate) => Self::build(path.segments, machine, ds_mm, policy, estimate)
+                .map_err(|(e, segments)| (e, Path { segments })),
+            Err(e) => Err((e, path)),
+        }
+    }
+
+    /// The path the stations were made from.
+    pub fn into_path(self) -> Path {
+        Path {
+            segments: self.segments,
+        }
+    }
+
+    /// What is checked before anything is allocated; the number of stations.
+    fn check(path: &Path, machine: &Machine, ds_mm: f64) -> Result<usize, ScheduleError> {
         machine.validate()?;
         if !(ds_mm.is_finite() && ds_mm > 0.0) {
             return Err(ScheduleError::InvalidSpacing(ds_mm));
@@ -187,9 +216,21 @@ impl Stations {
                 limit: MAX_STATIONS,
             });
         }
+        Ok(estimate)
+    }
+
+    /// The stations of `segments` (checked by [`Stations::check`]); on an error the
+    /// segments come back.
+    fn build(
+        segments: Vec<Segment>,
+        machine: &Machine,
+        ds_mm: f64,
+        policy: FeedPolicy,
+        estimate: usize,
+    ) -> Result<Self, (ScheduleError, Vec<Segment>)> {
         let mut st = Stations {
             machine: *machine,
-            segments: path.segments.clone(),
+            segments,
             s_mm: Vec::with_capacity(estimate),
             segment: Vec::with_capacity(estimate),
             fraction: Vec::with_capacity(estimate),
@@ -201,12 +242,22 @@ impl Stations {
             stops: Vec::new(),
             corners: Vec::new(),
         };
+        match st.fill(ds_mm, policy) {
+            Ok(()) => Ok(st),
+            Err(e) => Err((e, st.segments)),
+        }
+    }
+
+    /// Sets the stations, caps and stops of the segments (the body of [`Stations::new`]).
+    fn fill(&mut self, ds_mm: f64, policy: FeedPolicy) -> Result<(), ScheduleError> {
+        let machine = self.machine;
         // A dwell (or run of dwells) waiting for the next station: total seconds.
         let mut pending_dwell_s: Option<f64> = None;
         let mut previous: Option<usize> = None;
         // Corner stations and their tangent jumps.
         let mut corners: Vec<(usize, Vector3<f64>)> = Vec::new();
-        for (index, seg) in path.segments.iter().enumerate() {
+        for index in 0..self.segments.len() {
+            let seg = self.segments[index];
             let invalid = |what| ScheduleError::InvalidSegment {
                 segment: index,
                 line: seg.line,
@@ -258,23 +309,23 @@ impl Stations {
             let start_tangent = seg.tangent_at_fraction(0.0);
             let s_start_mm = match previous {
                 None => {
-                    st.push(0.0, index, 0.0, cap_mm_min, kind);
-                    st.stops.push(Stop {
+                    self.push(0.0, index, 0.0, cap_mm_min, kind);
+                    self.stops.push(Stop {
                         station: 0,
                         dwell_s: pending_dwell_s.take().unwrap_or(0.0),
                     });
                     0.0
                 }
                 Some(prev) => {
-                    let junction = st.len() - 1;
-                    st.lower_cap(junction, cap_mm_min, kind);
+                    let junction = self.len() - 1;
+                    self.lower_cap(junction, cap_mm_min, kind);
                     match pending_dwell_s.take() {
-                        Some(dwell_s) => st.stops.push(Stop {
+                        Some(dwell_s) => self.stops.push(Stop {
                             station: junction,
                             dwell_s,
                         }),
                         None => {
-                            let jump = start_tangent - st.segments[prev].tangent_at_fraction(1.0);
+                            let jump = start_tangent - self.segments[prev].tangent_at_fraction(1.0);
                             // MODEL.md §6.1 corner rule: v·|Δt_i| ≤ a_i·T/2 on every axis,
                             // and ≤ j_i·T²/2 with a jerk limit.
                             let period_s = machine.period_s();
@@ -285,11 +336,11 @@ impl Stations {
                                 })
                             });
                             let corner_mm_s = along(&jump, step_mm_s);
-                            st.lower_cap(junction, 60.0 * corner_mm_s, CapKind::Corner);
+                            self.lower_cap(junction, 60.0 * corner_mm_s, CapKind::Corner);
                             corners.push((junction, jump));
                         }
                     }
-                    st.s_mm[junction]
+                    self.s_mm[junction]
                 }
             };
 
@@ -304,37 +355,37 @@ impl Stations {
                 let jerk = machine
                     .tangential_jerk_mm_s3(&tangent_before)
                     .min(machine.tangential_jerk_mm_s3(&tangent));
-                st.interval_accel_mm_s2.push(accel);
-                st.interval_jerk_mm_s3.push(jerk);
+                self.interval_accel_mm_s2.push(accel);
+                self.interval_jerk_mm_s3.push(jerk);
                 // Its position and tangent are [`Stations::position_at`] and
                 // [`Stations::tangent_at`] of (segment, u): u = 1 exactly at the end.
-                st.push(s_start_mm + len_mm * u, index, u, cap_mm_min, kind);
+                self.push(s_start_mm + len_mm * u, index, u, cap_mm_min, kind);
                 tangent_before = tangent;
             }
             previous = Some(index);
         }
-        st.share_corner_budgets(&corners);
-        st.corners = corners.iter().map(|&(c, _)| c).collect();
-        if st.s_mm.is_empty() {
+        self.share_corner_budgets(&corners);
+        self.corners = corners.iter().map(|&(c, _)| c).collect();
+        if self.s_mm.is_empty() {
             // Nothing moves: one station where the program starts, standing for its dwells.
-            st.still = true;
-            st.push(0.0, 0, 0.0, machine.feed_max_mm_min, CapKind::Dwell);
-            st.stops.push(Stop {
+            self.still = true;
+            self.push(0.0, 0, 0.0, machine.feed_max_mm_min, CapKind::Dwell);
+            self.stops.push(Stop {
                 station: 0,
                 dwell_s: pending_dwell_s.take().unwrap_or(0.0),
             });
         }
-        let last = st.len() - 1;
+        let last = self.len() - 1;
         let dwell_s = pending_dwell_s.unwrap_or(0.0);
-        match st.stops.last_mut() {
+        match self.stops.last_mut() {
             Some(stop) if stop.station == last => stop.dwell_s += dwell_s,
-            _ => st.stops.push(Stop {
+            _ => self.stops.push(Stop {
                 station: last,
                 dwell_s,
             }),
         }
-        st.limit_sampled_geometry();
-        Ok(st)
+        self.limit_sampled_geometry();
+        Ok(())
     }
 
     /// Within one period of a corner, each axis' velocity step there (v·|Δt_i|, at most
