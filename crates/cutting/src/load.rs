@@ -57,6 +57,29 @@ pub struct StepLoad {
     pub stress_mpa: f64,
 }
 
+impl StepLoad {
+    /// The load times `s`: forces, power, torque, deflections and stress
+    /// (bending ∝ force, torsion ∝ torque), at the same chip thickness and
+    /// contact height. The closed loop's load at a root that lies at a jump
+    /// of the removal (MODEL.md §5.1).
+    pub fn scaled(&self, s: f64) -> StepLoad {
+        StepLoad {
+            force_n: s * self.force_n,
+            fx_n: s * self.fx_n,
+            fy_n: s * self.fy_n,
+            fz_n: s * self.fz_n,
+            power_w: s * self.power_w,
+            torque_nm: s * self.torque_nm,
+            deflection_um: s * self.deflection_um,
+            dx_um: s * self.dx_um,
+            dy_um: s * self.dy_um,
+            tip_deflection_um: s * self.tip_deflection_um,
+            stress_mpa: s * self.stress_mpa,
+            ..*self
+        }
+    }
+}
+
 /// How removed volume turns into force.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum ForceModel {
@@ -266,6 +289,41 @@ impl CuttingModel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn scaled_load_scales_forces_and_keeps_the_chip() {
+        let l = StepLoad {
+            force_n: 10.0,
+            fx_n: 6.0,
+            fy_n: -8.0,
+            fz_n: 2.5,
+            power_w: 100.0,
+            torque_nm: 0.2,
+            chip_thickness_mm: 0.05,
+            contact_height_mm: 1.5,
+            deflection_um: 40.0,
+            dx_um: 24.0,
+            dy_um: -32.0,
+            tip_deflection_um: 50.0,
+            stress_mpa: 300.0,
+        };
+        let h = l.scaled(0.25);
+        assert_eq!(
+            (h.force_n, h.fx_n, h.fy_n, h.fz_n, h.power_w, h.torque_nm),
+            (2.5, 1.5, -2.0, 0.625, 25.0, 0.05)
+        );
+        assert_eq!(
+            (
+                h.deflection_um,
+                h.dx_um,
+                h.dy_um,
+                h.tip_deflection_um,
+                h.stress_mpa
+            ),
+            (10.0, 6.0, -8.0, 12.5, 75.0)
+        );
+        assert_eq!((h.chip_thickness_mm, h.contact_height_mm), (0.05, 1.5));
+    }
     use crate::beam::Cantilever;
 
     fn model(force_model: ForceModel) -> CuttingModel {

@@ -462,6 +462,9 @@ pub struct LoopReport {
     pub converged: bool,
     /// Steps left out of tolerance, with their |g − x| in µm.
     pub unconverged: Vec<(usize, f64)>,
+    /// Some tool's steps were kept rigid: its rigid cut overloaded it
+    /// (MODEL.md §5.1).
+    pub rigid_kept: bool,
 }
 
 /// Sweep `steps` through `stock` and compute the loads, closing the loop between
@@ -560,6 +563,7 @@ pub fn run_on(
         residual_um: rigid_across_peak_um,
         converged: rigid_across_peak_um <= LOOP_TOL_UM,
         unconverged: Vec::new(),
+        rigid_kept: tools.closed_loop && overloaded.iter().any(|&o| o),
     };
     if tools.closed_loop && !report.converged {
         let mut search: Vec<Bracketed> = (0..n)
@@ -631,6 +635,18 @@ pub fn run_on(
                     && best(&residuals[k - 3..]) > LOOP_STALL_RATIO * best(&residuals[..k - 3])
             };
             if report.converged || stalled || report.passes >= LOOP_MAX_PASSES {
+                // A root at a jump of g (the edge crossing a column centre):
+                // the sweep's load is that of one side of the jump, the
+                // equilibrium's lies between. Where the sweep's is the larger
+                // one (g > x) it is scaled down so that the deflection across
+                // the path is the offset (MODEL.md §5.1); a load is never
+                // scaled up beyond what a sweep removed.
+                for i in (0..n).filter(|&i| in_loop[i]) {
+                    let off = g[i] - x[i] > LOOP_TOL_UM + LOOP_REL_TOL * x[i].abs();
+                    if off && search[i].closed(pass) && x[i] > 0.0 {
+                        step_loads[i] = step_loads[i].scaled(x[i] / g[i]);
+                    }
+                }
                 break;
             }
             for i in 0..n {
@@ -1300,7 +1316,7 @@ impl Run {
             format!("the tool above its flute length (shank or holder) removed {v:.3} mm³ at {lines}: raise the flute length or stick-out, or change the program")
         });
         let limit = self.stress_limit_mpa();
-        let rigid_kept = if self.closed_loop.enabled {
+        let rigid_kept = if self.closed_loop.rigid_kept {
             "; the closed loop keeps the rigid tool's force, deflection and error for it (no elastic balance, docs/MODEL.md §5.1)"
         } else {
             ""

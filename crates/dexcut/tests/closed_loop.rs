@@ -98,6 +98,13 @@ fn closed_loop_finds_the_equilibrium_of_a_force_linear_in_the_engaged_width() {
                 "{holder}: step {i} at offset {dy} µm, closed form {expected} µm (δ₀ {delta0} µm)"
             );
             assert!(dx.abs() < 1e-9, "{holder}: offset along the path {dx}");
+            // The deflection reported is the equilibrium's too (at a root on
+            // a jump of the removal, the load scaled to it).
+            let bent = run.loads[i].dy_um;
+            assert!(
+                (bent - expected).abs() <= 5.0 + 0.02 * expected,
+                "{holder}: step {i} deflects {bent} µm, closed form {expected} µm"
+            );
         }
         // Every steady step within the loop's tolerance; what is left out
         // (the compliant tool) lies where the tool enters or leaves the wall.
