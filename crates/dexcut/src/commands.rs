@@ -781,6 +781,9 @@ pub fn simulate(
         None => {
             // The planner borrows the path instead of a copy (the peak of a long program).
             let steps = setup.steps_lending_path(actual_path)?;
+            // The steps carry what the run needs of the program (lines, tools, spindle
+            // speeds); nothing after this reads the path: freed before the sweep.
+            setup.program.path = nc::Path::default();
             let sim = simulate_steps(&setup, steps)?;
             sim.write_files(out_dir.path(), columns_csv)?;
             sim
