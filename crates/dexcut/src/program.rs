@@ -110,7 +110,9 @@ pub fn parse_gcode(text: String, file: &str, job: &Job) -> Result<Program> {
         ..nc::Options::default()
     };
     options.initial_position_mm = job.machine.start.unwrap_or_default();
-    let mut parsed = nc::parse(&text, file, &options);
+    // Read once: with the default start the program runs again from there.
+    let reader = nc::Reader::new(&text, file, &options);
+    let mut parsed = reader.parse();
     let errors: Vec<nc::Diagnostic> = parsed
         .diagnostics
         .iter()
@@ -126,12 +128,12 @@ pub fn parse_gcode(text: String, file: &str, job: &Job) -> Result<Program> {
         fail!(request, "{file}: the program has no motion");
     }
     if job.machine.start.is_none() {
-        // The default start depends on the path read from the origin: read it again from there.
+        // The default start depends on the path run from the origin: run it again from there.
         options.initial_position_mm = default_start(&parsed.path);
-        // The first reading is not needed any more: free its path before
-        // the second one is made (one path in memory at a time).
+        // The first run is not needed any more: free its path before the
+        // second one is made (one path in memory at a time).
         drop(parsed);
-        parsed = nc::parse(&text, file, &options);
+        parsed = reader.parse_from(options.initial_position_mm);
     }
     Ok(Program {
         path: parsed.path,

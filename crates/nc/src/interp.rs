@@ -390,31 +390,51 @@ fn run_and_record(
     options: &Options,
     record: bool,
 ) -> (Parsed, Trace, Vec<Executed>) {
-    let (parsed, trace, first, executed) = run_once(source, file, options, record);
+    run_read_and_record(&read(source, file, options), file, options, record)
+}
+
+/// [`run_and_record`] of a program already read (the lines are parsed once).
+pub(crate) fn run_read_and_record(
+    read: &Read,
+    file: &str,
+    options: &Options,
+    record: bool,
+) -> (Parsed, Trace, Vec<Executed>) {
+    let (parsed, trace, first, executed) = run_read(read, file, options, record);
     match (options.initial_tool, first) {
         (None, Some(tool)) if tool != 0 => {
+            // Dropped before the run again: one path at a time.
+            drop((parsed, trace, executed));
             let options = Options {
                 initial_tool: Some(tool),
                 ..options.clone()
             };
-            let (parsed, trace, _, executed) = run_once(source, file, &options, record);
+            let (parsed, trace, _, executed) = run_read(read, file, &options, record);
             (parsed, trace, executed)
         }
         _ => (parsed, trace, executed),
     }
 }
 
-fn run_once(
-    source: &str,
-    file: &str,
-    options: &Options,
-    record: bool,
-) -> (Parsed, Trace, Option<u32>, Vec<Executed>) {
+/// A program's lines as read before it runs, and what reading them found:
+/// the same for every run of the program whatever its start.
+#[derive(Clone)]
+pub(crate) struct Read {
+    lines: Rc<syntax::Lines>,
+    olines: HashMap<OLabel, Vec<usize>>,
+    programs: HashMap<i64, usize>,
+    syntax_errors: HashMap<usize, SyntaxError>,
+    tolerated: Tolerated,
+    diagnostics: Vec<Diagnostic>,
+}
+
+/// A fresh interpreter at the start `options` give.
+fn interp<'a>(file: &'a str, options: &'a Options, record: bool) -> Interp<'a> {
     let tool = options.initial_tool.unwrap_or(0);
     let tool_length_mm = options.tool_lengths_mm.get(&tool).copied().unwrap_or(0.0);
     let mut pos = options.initial_position_mm;
     pos[2] += tool_length_mm;
-    let mut it = Interp {
+    Interp {
         tolerated: Tolerated::default(),
         file,
         options,
@@ -470,7 +490,12 @@ fn run_once(
             ..comp::Comp::default()
         },
         executed: record.then(Vec::new),
-    };
+    }
+}
+
+/// Reads every line of `source` (syntax, the tolerant form's amendments, o-word labels).
+pub(crate) fn read(source: &str, file: &str, options: &Options) -> Read {
+    let mut it = interp(file, options, false);
     let source = match source.strip_prefix(BYTE_ORDER_MARK) {
         Some(rest) if options.file_form == FileForm::Tolerant => {
             it.tolerated.amendments.push(Amendment::DropByteOrderMark);
@@ -544,7 +569,30 @@ fn run_once(
         }
     }
     lines.shrink_to_fit();
-    it.lines = Rc::new(lines);
+    Read {
+        lines: Rc::new(lines),
+        olines: it.olines,
+        programs: it.programs,
+        syntax_errors: it.syntax_errors,
+        tolerated: it.tolerated,
+        diagnostics: it.diagnostics,
+    }
+}
+
+/// Runs a program read by [`read`] (with the same file form) from the start `options` give.
+pub(crate) fn run_read(
+    read: &Read,
+    file: &str,
+    options: &Options,
+    record: bool,
+) -> (Parsed, Trace, Option<u32>, Vec<Executed>) {
+    let mut it = interp(file, options, record);
+    it.lines = Rc::clone(&read.lines);
+    it.olines = read.olines.clone();
+    it.programs = read.programs.clone();
+    it.syntax_errors = read.syntax_errors.clone();
+    it.tolerated = read.tolerated.clone();
+    it.diagnostics = read.diagnostics.clone();
     it.execute();
     if let Some((line, col)) = it.first_dropped {
         let more = it.error_count - it.options.max_errors;
@@ -578,7 +626,7 @@ fn run_once(
 }
 
 /// What the tolerant file form read beyond LinuxCNC ([`FileForm::Tolerant`]).
-#[derive(Default)]
+#[derive(Clone, Default)]
 struct Tolerated {
     amendments: Vec<Amendment>,
     /// (line, byte) of every edit made, each made and warned of once.
