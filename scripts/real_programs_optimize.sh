@@ -8,8 +8,9 @@
 # The job per program: a box stock around the program's feed moves (tool
 # radius + 2 mm each side, from 1 mm under the deepest feed move to z = 0, or
 # 0.5 mm above an engraving that runs at z ≥ 0), the tool from the table below
-# (from the program's comments or its makers' examples; flute length deep
-# enough for the program), aluminium 6061 (chip-load default of MODEL.md §2.1),
+# (from the program's comments or its makers' examples; flute length the
+# stock's depth the program cuts + 0.2 mm, at least 3 diameters; cutters under
+# 1/8" on a 1/8" shank), aluminium 6061 (chip-load default of MODEL.md §2.1),
 # feed_max 5000 mm/min, rapid 10000 mm/min, and mrr_max = half the program's
 # own peak MRR over ≥ 48 ms, so the limit binds.
 #
@@ -91,6 +92,8 @@ TOOLS = {
     "estlcam11": ("flat", 3.0, 0.1),
 }
 DEFAULT_TOOL = ("flat", 3.0, 0.1)
+# Shank of the tools smaller than it, mm (1/8").
+SHANK_MM = 3.175
 
 
 def tool_of(name):
@@ -141,13 +144,20 @@ for f in sorted(os.listdir(data)):
     margin = dia / 2 + 2
     top = 0.0 if lo[2] < 0 else lo[2] + 0.5
     bottom = lo[2] - 1.0
-    flute = max(3 * dia, top - lo[2] + 2)
+    # Flutes as long as the program cuts deep (the stock from its top to the
+    # deepest feed move, and 0.2 mm more), at least 3 diameters: a tool made
+    # for the cut, not a 2 mm longer sliver (a Ø0.2 tool had 15 diameters of
+    # flutes). Cutters under 1/8" have a 1/8" (3.175 mm) shank, as PCB and
+    # hobby micro tools do, rather than a shank as thin as the cutter.
+    flute = max(3 * dia, top - lo[2] + 0.2)
+    shank = f"shank_diameter = {SHANK_MM}\n" if dia < SHANK_MM else ""
 
     def job(path, limits):
         return (
             f'[stock]\nkind = "box"\nmin = [{lo[0]-margin:.3f}, {lo[1]-margin:.3f}, {bottom:.3f}]\n'
             f'max = [{hi[0]+margin:.3f}, {hi[1]+margin:.3f}, {top:.3f}]\ngrid = {grid}\n'
             f'[tool]\nkind = "{kind}"\ndiameter = {dia}\nflute_length = {flute:.3f}\nstickout = {flute + 10:.3f}\n'
+            f"{shank}"
             f'[program]\npath = "{path}"\n[cutting]\nmaterial = "al6061"\n'
             f"[machine]\nfeed_max = 5000\nrapid = 10000\n[limits]\n{limits}"
         )
