@@ -1534,6 +1534,60 @@ fn optimized_program_simulates_as_the_summary_says() {
     }
 }
 
+/// optimize on LinuxCNC's sample drilling programs: a G81 repeated by L under
+/// G91 with an incremental polar angle (`^60 L6`, hole_circle), and polar
+/// holes under G90 and G91 with L repeats (polar), in inches, job as
+/// scripts/real_programs_optimize.sh makes it (a box stock round the holes,
+/// mrr_max half the program's peak). Each repeat's holes are written out as
+/// their own moves at their own feeds: the written program keeps to the plan
+/// (before: +17.27 % and +12.24 %, the cycles at the lowest feed of all their
+/// repeats, and a plan_not_met warning).
+#[test]
+fn cycles_repeated_by_l_and_polar_cycles_keep_to_the_plan() {
+    for (name, min, max, mrr_max) in [
+        (
+            "linuxcnc_hole_circle",
+            "[-43.275, -38.171, -11.160]",
+            "[43.275, 38.171, 0]",
+            67.3947,
+        ),
+        (
+            "linuxcnc_polar",
+            "[-55.110, -60.168, -13.700]",
+            "[132.988, 88.178, 0]",
+            405.892,
+        ),
+    ] {
+        let dir = tempdir();
+        let program =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../nc/tests/data/real/{name}.ngc"));
+        let job = format!(
+            "[stock]\nkind = \"box\"\nmin = {min}\nmax = {max}\ngrid = 0.2\n\
+             [tool]\nkind = \"flat\"\ndiameter = 6.35\nflute_length = 19.05\nstickout = 29.05\n\
+             [program]\npath = {program:?}\n[cutting]\nmaterial = \"al6061\"\n\
+             [machine]\nfeed_max = 5000\nrapid = 10000\n[limits]\nmrr_max = {mrr_max}\n"
+        );
+        write(dir.path(), "job.toml", &job);
+        ok(&dexcut(
+            &["optimize", "job.toml", "--out", "out"],
+            dir.path(),
+        ));
+        let s = summary(&dir.path().join("out"));
+        let text = std::fs::read_to_string(dir.path().join("out/optimized.nc")).unwrap();
+        assert!(!text.contains("G81"), "{name}: a cycle kept:\n{text}");
+        let vs_plan = s["written_vs_plan"].as_f64().unwrap();
+        assert!(
+            vs_plan.abs() <= 0.002,
+            "{name}: optimized.nc vs plan {vs_plan}"
+        );
+        assert!(
+            warning(&s["after"], "plan_not_met").is_none(),
+            "{name}: {}",
+            s["after"]["warnings"]
+        );
+    }
+}
+
 /// A loop of 800 ramps, each partly in air: 800 runs × 2 blocks × X, Z, F
 /// do not fit the table of numbered parameters 1000–4999.
 const MANY_RUNS_NGC: &str = "G21 G90\nG0 Z2\n#1 = 0\no1 while [#1 LT 800]\n\

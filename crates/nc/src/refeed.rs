@@ -24,10 +24,15 @@
 //!   records fit.
 //! * Canned cycles whose feed moves need more than one feed are written out
 //!   as G0/G1/G4 blocks of their moves (all cycle lines of the program, or
-//!   none; see `cycle_lines`).
+//!   none; see `cycle_lines`). A line repeated by L (under G91 each repeat a
+//!   step in X/Y and polar `@`/`^`) is written as every repeat's moves in
+//!   X Y Z, after a block with the modal G codes of the line (G17, G20/G21,
+//!   G90/G91, G98/G99: its moves are written in them, and they stay in force
+//!   after it).
 //! * Other lines that made several feed segments (a canned cycle run more
-//!   than once, or in a program that names a parameter of that range) cannot
-//!   be split: their F becomes the lowest feed any of their pieces asks for.
+//!   than once by a loop, or in a program that names a parameter of that
+//!   range) cannot be split: their F becomes the lowest feed any of their
+//!   pieces asks for.
 //! * Lines that cannot be split safely (G53, a dwell or a program stop in the
 //!   block, multi-turn arcs) are treated the same way.
 //!
@@ -633,15 +638,24 @@ fn run_tables(
     (tables, unfit)
 }
 
+/// The canned cycles' G codes.
+const CYCLE_CODES: [f64; 7] = [73.0, 81.0, 82.0, 83.0, 85.0, 86.0, 89.0];
+
+/// Modal G codes a cycle line written out may carry: they are written in a
+/// block of their own before its moves (G17, G20/G21, G90/G91, G98/G99).
+const CYCLE_MODES: [f64; 7] = [17.0, 20.0, 21.0, 90.0, 91.0, 98.0, 99.0];
+
 /// Canned cycles to write out as plain moves: when a cycle's feed moves need
 /// more than one feed (a piece in air above the stock, another in it), every
 /// line that makes rapid and feed moves in one block (the cycle lines up to
 /// G80) is written as G0/G1/G4 blocks of its moves, each feed move split as
 /// planned. All of them or none: a cycle line left as written would read its
-/// modal cycle from a line now written out. None when a cycle line carries
-/// other words than the cycle's (G73/G81–G89, G98/G99, X Y Z R Q P L F, N),
-/// runs under cutter compensation or G93, or (found when the result does not
-/// read back) runs more than once.
+/// modal cycle from a line now written out. Every repeat of an L count and
+/// every hole of polar words (`@`, `^`, incremental too) is written as the
+/// moves it made, in X Y Z. None when a cycle line carries other words than
+/// the cycle's (G73/G81–G89, [`CYCLE_MODES`], X Y Z @ ^ R Q P L F, N), runs
+/// under cutter compensation or G93, or (found when the result does not read
+/// back) runs more than once.
 fn cycle_lines(
     by_line: &BTreeMap<usize, Vec<usize>>,
     segments: &[Segment],
@@ -674,10 +688,11 @@ fn cycle_lines(
             ItemKind::Word {
                 letter: 'g',
                 value: Expr::Num(v),
-            } => [73.0, 81.0, 82.0, 83.0, 85.0, 86.0, 89.0, 98.0, 99.0].contains(v),
-            ItemKind::Word { letter, .. } => {
-                matches!(letter, 'x' | 'y' | 'z' | 'r' | 'q' | 'p' | 'l' | 'f' | 'n')
-            }
+            } => CYCLE_CODES.contains(v) || CYCLE_MODES.contains(v),
+            ItemKind::Word { letter, .. } => matches!(
+                letter,
+                'x' | 'y' | 'z' | '@' | '^' | 'r' | 'q' | 'p' | 'l' | 'f' | 'n'
+            ),
             ItemKind::Assign { .. } => false,
         });
         let plain = segs.iter().all(|&i| {
@@ -704,8 +719,13 @@ fn cycle_lines(
     }
 }
 
-/// A canned cycle line written out ([`cycle_lines`]): a comment, then one
-/// block per move (G0, G1 per planned piece, G4 for a dwell) with every axis.
+/// A canned cycle line written out ([`cycle_lines`]): a comment, the modal
+/// G codes of the line in a block of their own ([`CYCLE_MODES`]: the moves
+/// are written in the distance mode and units the line sets, and the modes
+/// stay in force after it as they did), then one block per move (G0, G1 per
+/// planned piece, G4 for a dwell) with every axis. Under G91 each block's
+/// increments run from where the block before ends as written, so rounding
+/// never accumulates over the line's repeats.
 #[allow(clippy::too_many_arguments)]
 fn write_expanded(
     out: &mut String,
@@ -734,25 +754,43 @@ fn write_expanded(
         }))
     };
     let mut blocks: Vec<String> = Vec::new();
+    if let Some(syntax::Line {
+        kind: LineKind::Block(items),
+        ..
+    }) = &trace.lines[index]
+    {
+        let modes: Vec<String> = trace
+            .lines
+            .items(*items)
+            .iter()
+            .filter_map(|it| match &it.kind {
+                ItemKind::Word {
+                    letter: 'g',
+                    value: Expr::Num(v),
+                } if CYCLE_MODES.contains(v) => Some(format!("G{}", trim_number(&v.to_string()))),
+                _ => None,
+            })
+            .collect();
+        if !modes.is_empty() {
+            blocks.push(modes.join(" "));
+        }
+    }
+    // Program coordinates as written so far (the increments under G91).
+    let mut written: Option<[f64; 3]> = None;
     for &i in segs {
         let (seg, t) = (&segments[i], &trace.segments[i]);
+        let written = written.get_or_insert_with(|| {
+            std::array::from_fn(|a| (seg.start[a] - t.offset_mm[a]) / t.scale)
+        });
         match seg.motion {
             Motion::Rapid => {
-                let mut written: [f64; 3] =
-                    std::array::from_fn(|a| (seg.start[a] - t.offset_mm[a]) / t.scale);
-                let words = piece_values(
-                    seg,
-                    t,
-                    [true; 3],
-                    seg.start.into(),
-                    seg.end.into(),
-                    &mut written,
-                );
+                let words =
+                    piece_values(seg, t, [true; 3], seg.start.into(), seg.end.into(), written);
                 blocks.push(format!("G0 {}", text_of(words)));
             }
             Motion::Feed { .. } => {
                 written_pieces[i] = plan[i].len();
-                for words in block_values(seg, t, [true; 3], &plan[i]) {
+                for words in pieces_values(seg, t, [true; 3], &plan[i], written, false) {
                     blocks.push(format!("G1 {}", text_of(words)));
                 }
             }
@@ -990,6 +1028,23 @@ fn block_values(
     axes: [bool; 3],
     pieces: &[(f64, f64)],
 ) -> Vec<Vec<(char, f64)>> {
+    // Program coordinates written so far (for increments under G91).
+    let mut written: [f64; 3] = std::array::from_fn(|i| (seg.start[i] - t.offset_mm[i]) / t.scale);
+    pieces_values(seg, t, axes, pieces, &mut written, true)
+}
+
+/// [`block_values`] from the position `written` so far (program
+/// coordinates, updated to the last block's end as written);
+/// `in_original_line`: the first block's F is read in the units in force
+/// before the line ([`f_word`]), else every F in the segment's own units.
+fn pieces_values(
+    seg: &Segment,
+    t: &SegmentTrace,
+    axes: [bool; 3],
+    pieces: &[(f64, f64)],
+    written: &mut [f64; 3],
+    in_original_line: bool,
+) -> Vec<Vec<(char, f64)>> {
     let fractions: Vec<f64> = std::iter::once(0.0)
         .chain(pieces.iter().map(|p| p.0))
         .collect();
@@ -1005,16 +1060,14 @@ fn block_values(
         .collect();
     // Lines and arcs (helices included) run at constant speed in the fraction.
     let length_mm = seg.length_mm();
-    // Program coordinates written so far (for increments under G91).
-    let mut written: [f64; 3] = std::array::from_fn(|i| (seg.start[i] - t.offset_mm[i]) / t.scale);
     (0..pieces.len())
         .map(|k| {
-            let mut words = piece_values(seg, t, axes, points[k], points[k + 1], &mut written);
+            let mut words = piece_values(seg, t, axes, points[k], points[k + 1], written);
             let f = f_word(
                 t,
                 pieces[k].1,
                 length_mm * (fractions[k + 1] - fractions[k]),
-                k == 0,
+                in_original_line && k == 0,
             );
             words.push(('f', f_value(&f)));
             words

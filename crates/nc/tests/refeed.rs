@@ -417,38 +417,7 @@ fn canned_cycles_needing_two_feeds_are_written_out() {
     let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
     assert!(!out.contains("G81") && !out.contains("G82"), "{out}");
     assert!(out.contains("G4 P0.5"), "{out}");
-    let new = parse(&out);
-    let mut j = 0;
-    for (s, pieces) in path.segments.iter().zip(&plan) {
-        match s.motion {
-            Motion::Feed { .. } => {
-                for &(frac, feed) in pieces {
-                    let p = &new.segments[j];
-                    let want = if frac >= 1.0 {
-                        s.end
-                    } else {
-                        s.point_at_fraction(frac)
-                    };
-                    assert!((p.end - want).norm() < 1e-6, "{out}");
-                    assert!(
-                        matches!(p.motion, Motion::Feed { feed_mm_min } if (feed_mm_min - feed).abs() < 1e-9),
-                        "{out}"
-                    );
-                    j += 1;
-                }
-            }
-            m => {
-                assert_eq!(
-                    std::mem::discriminant(&new.segments[j].motion),
-                    std::mem::discriminant(&m),
-                    "{out}"
-                );
-                assert!((new.segments[j].end - s.end).norm() < 1e-6, "{out}");
-                j += 1;
-            }
-        }
-    }
-    assert_eq!(j, new.segments.len());
+    assert_as_planned(&path, &plan, &parse(&out), 1e-6, &out);
     // In a loop the cycle runs three times: written out it would run every
     // run's moves each time, so the cycle line stays, at its lowest feed.
     let src = "G0 X0 Y0 Z20\no1 repeat [3]\nG98 G81 X10 Y5 Z-3 R2 F150\no1 endrepeat\nG80\nM2\n";
@@ -456,6 +425,154 @@ fn canned_cycles_needing_two_feeds_are_written_out() {
     let plan = every_feed(&path, &[(0.4, 3000.0), (1.0, 120.5)]);
     let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
     assert!(out.contains("G98 G81 X10 Y5 Z-3 R2 F120.5"), "{out}");
+}
+
+/// `new` (a re-fed program read back) makes the moves of `path`, every feed
+/// move in the pieces of `plan`: each piece ends where the plan says (within
+/// `tol_mm`), the pieces of a move are as long as it, each runs at its
+/// planned feed rounded down to the digits written (never above it), and the
+/// feed moves take the plan's time within 0.1 %.
+fn assert_as_planned(
+    path: &nc::Path,
+    plan: &[Vec<(f64, f64)>],
+    new: &nc::Path,
+    tol_mm: f64,
+    out: &str,
+) {
+    let mut j = 0;
+    let mut plan_min = 0.0;
+    for (s, pieces) in path.segments.iter().zip(plan) {
+        match s.motion {
+            Motion::Feed { .. } => {
+                let mut length_mm = 0.0;
+                let mut from = 0.0;
+                for &(frac, feed) in pieces {
+                    let p = new
+                        .segments
+                        .get(j)
+                        .unwrap_or_else(|| panic!("too few moves:\n{out}"));
+                    let want = if frac >= 1.0 {
+                        s.end
+                    } else {
+                        s.point_at_fraction(frac)
+                    };
+                    assert!(
+                        (p.end - want).norm() < tol_mm,
+                        "line {}: ends at {} instead of {want}:\n{out}",
+                        s.line,
+                        p.end
+                    );
+                    assert!(
+                        matches!(p.motion, Motion::Feed { feed_mm_min } if feed_mm_min <= feed * (1.0 + 1e-12) && feed_mm_min >= feed * (1.0 - 1e-5)),
+                        "line {}: {:?} instead of {feed}:\n{out}",
+                        s.line,
+                        p.motion
+                    );
+                    length_mm += p.length_mm();
+                    plan_min += s.length_mm() * (frac - from) / feed;
+                    from = frac;
+                    j += 1;
+                }
+                assert!(
+                    (length_mm - s.length_mm()).abs() < tol_mm,
+                    "line {}:\n{out}",
+                    s.line
+                );
+            }
+            m => {
+                let p = new
+                    .segments
+                    .get(j)
+                    .unwrap_or_else(|| panic!("too few moves:\n{out}"));
+                assert_eq!(
+                    std::mem::discriminant(&p.motion),
+                    std::mem::discriminant(&m),
+                    "{out}"
+                );
+                assert!((p.end - s.end).norm() < tol_mm, "line {}:\n{out}", s.line);
+                assert!(
+                    (p.length_mm() - s.length_mm()).abs() < tol_mm,
+                    "line {}:\n{out}",
+                    s.line
+                );
+                j += 1;
+            }
+        }
+    }
+    assert_eq!(j, new.segments.len(), "{out}");
+    let written_min = feed_time_min(new);
+    assert!(
+        (written_min / plan_min - 1.0).abs() < 1e-3,
+        "written {written_min} min, planned {plan_min} min"
+    );
+}
+
+/// The plan of drilling into a stock whose top is at z = 0 under the holes
+/// where `stock(x, y)` holds, nothing under the others: feed moves in air at
+/// 3000 mm/min, in the stock at 100 mm/min + |x| (each hole its own), a move
+/// that enters the stock split where it does.
+fn drill_plan(path: &nc::Path, stock: impl Fn(f64, f64) -> bool) -> Vec<Vec<(f64, f64)>> {
+    feed_plan(path, |_, s| {
+        let (z0, z1) = (s.start.z, s.end.z);
+        let slow = 100.0 + s.end.x.abs();
+        if !stock(s.end.x, s.end.y) || z1 >= 0.0 {
+            vec![(1.0, 3000.0)]
+        } else if z0 <= 0.0 {
+            vec![(1.0, slow)]
+        } else {
+            vec![(z0 / (z0 - z1), 3000.0), (1.0, slow)]
+        }
+    })
+}
+
+/// Canned cycles repeated by L under G91 (a G81 in mm, a G83 peck cycle in
+/// inches, G20 in its line) and polar ones (`^` and `@` increments repeated by L, a polar
+/// hole under G90), over a stock under only some of their holes: every
+/// repeat is written out as its own G0/G1 blocks, in the distance mode and
+/// units its line sets (which stay in force after it), and the program reads
+/// back to the same moves, each repeat's feed moves in its own pieces, in
+/// the plan's time. (Before, a line with G91 or polar words kept its cycle
+/// at the lowest feed of all its repeats.)
+#[test]
+fn cycles_repeated_by_l_and_polar_cycles_are_written_out_per_repeat() {
+    type Stock = fn(f64, f64) -> bool;
+    let cases: [(&str, Stock, &[&str]); 3] = [
+        (
+            "G21 G90 G17\nG0 X0 Y0 Z10\nG91 G98 G81 X10 Y2 R-8 Z-5 L4 F150\nG80\nG0 X5 Z5\nG90 G0 Z20\nM2\n",
+            |x, _| x > 25.0,
+            &["G91 G98\nG0 X10 Y2 Z0\n", "G80\nG0 X5 Z5\n"],
+        ),
+        (
+            "G21 G90 G17\nG0 X0 Y0 Z12.7\nG20 G91 G99 G83 X0.4 Y0.1 R-0.4 Z-0.3 Q0.08 L3 F6\nG80\nG90 G0 Z1\nM2\n",
+            |x, _| x > 15.0,
+            &["G20 G91 G99\nG0 X0.4 Y0.1 Z0\nG0 X0 Y0 Z-0.4\n"],
+        ),
+        (
+            "G20 G90\nG0 X1.5 Y0 Z0\nG91 G81 R.1 Z-.5 ^60 L6 F10\nG90 @1 ^33\nG91 G81 @0.5 R.1 Z-0.5 L3\nG80\nM2\n",
+            |_, y| y > 0.0,
+            &["G91\nG0 X0 Y0 Z0.1\nG0 X-0.75 Y1.299038 Z0\n", "G90\nG0 X0.838671 Y0.544639 Z"],
+        ),
+    ];
+    for (src, stock, written) in cases {
+        let path = parse(src);
+        let plan = drill_plan(&path, stock);
+        // The repeats need different pieces.
+        let distinct: std::collections::BTreeSet<String> = plan
+            .iter()
+            .filter(|p| !p.is_empty())
+            .map(|p| format!("{p:?}"))
+            .collect();
+        assert!(distinct.len() >= 3, "{distinct:?}");
+        let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
+        for cycle in ["G81", "G83", "L", "@", "^"] {
+            assert!(!out.contains(cycle), "{cycle} kept:\n{out}");
+        }
+        for w in written {
+            assert!(out.contains(w), "no {w:?}:\n{out}");
+        }
+        // Inch coordinates are written to 6 decimals (25 nm).
+        assert_as_planned(&path, &plan, &parse(&out), 1e-4, &out);
+    }
 }
 
 /// A loop with an `if`, a nested `do`/`while` and a subroutine call in it,

@@ -472,6 +472,63 @@ fn refed_programs_match_linuxcnc_rs274() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// Canned cycles repeated by L under G91 and polar ones (`@`, `^`, under G20),
+/// each repeat needing its own feeds: written out as G0/G1/G4 blocks of
+/// their moves, the programs read the same in rs274 as in our interpreter,
+/// move for move.
+#[test]
+fn repeated_and_polar_cycles_written_out_match_linuxcnc_rs274() {
+    if !have_rs274() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let here = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let peck = dir.path().join("peck_g91.ngc");
+    std::fs::write(
+        &peck,
+        "G21 G90 G17\nG0 X0 Y0 Z12.7\nG20 G91 G99 G83 X0.4 Y0.1 R-0.4 Z-0.3 Q0.08 L3 F6\nG80\nG0 X0.1 Z0.2\nG90 G0 Z1\nM2\n",
+    )
+    .expect("write");
+    let mut failures = Vec::new();
+    for f in [
+        peck,
+        here.join("../../toolpaths/drill_g93.ngc"),
+        here.join("tests/data/real/linuxcnc_hole_circle.ngc"),
+        here.join("tests/data/real/linuxcnc_polar.ngc"),
+    ] {
+        let source = std::fs::read_to_string(&f).expect("read");
+        let path = nc::parse(&source, "in.ngc", &Options::default()).path;
+        let plan: Vec<Vec<(f64, f64)>> = path
+            .segments
+            .iter()
+            .enumerate()
+            .map(|(i, s)| match s.motion {
+                Motion::Feed { .. } if s.length_mm() > 1.0 => {
+                    vec![(0.3, 2000.0 - i as f64), (1.0, 150.0 + i as f64)]
+                }
+                Motion::Feed { .. } => vec![(1.0, 300.0 + i as f64)],
+                _ => vec![],
+            })
+            .collect();
+        let out = nc::refeed(&source, "in.ngc", &Options::default(), &plan)
+            .unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        let cycle = out.lines().find(|l| {
+            !l.starts_with('(') && ["G73", "G81", "G82", "G83"].iter().any(|g| l.contains(g))
+        });
+        assert!(cycle.is_none(), "{}: {cycle:?} kept:\n{out}", f.display());
+        let written = dir.path().join(format!(
+            "refed_{}",
+            f.file_name().expect("name").to_string_lossy()
+        ));
+        std::fs::write(&written, out).expect("write");
+        match compare(&written) {
+            Ok(n) => println!("{} re-fed: {n} moves agree", f.display()),
+            Err(e) => failures.push(e),
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 /// A loop whose records do not fit the table of numbered parameters is
 /// written out in full (unrolled): rs274 reads the written program as our
 /// interpreter does, move for move, with every run's own pieces.
