@@ -56,7 +56,7 @@ pub fn simulate(simulated: &Simulated, out: &Path) {
     }
     let summary = &doc.run;
     outln!(
-        "removed {:.1} mm³ of {:.1} mm³ in {} steps; cycle {:.2} s; peak MRR {:.2} mm³/s, force {:.1} N, power {:.3} kW, deflection {:.1} µm; error {:.1}…{:.1} µm; results in {}",
+        "removed {:.1} mm³ of {:.1} mm³ in {} steps; cycle {:.2} s; peak MRR {:.2} mm³/s, force {:.1} N, power {:.3} kW, deflection {:.1} µm{}; error {:.1}…{:.1} µm; results in {}",
         summary.removed_volume_mm3,
         summary.initial_volume_mm3,
         summary.steps,
@@ -65,11 +65,25 @@ pub fn simulate(simulated: &Simulated, out: &Path) {
         summary.peak_force_n,
         summary.peak_power_w / 1000.0,
         summary.peak_deflection_um,
+        at_rupture(summary),
         summary.min_error_um,
         summary.max_error_um,
         out.display()
     );
     warnings_after_work(&summary.warnings, "");
+}
+
+/// What the console adds to a peak deflection capped where the tool breaks
+/// (MODEL.md §4.4).
+fn at_rupture(summary: &dexcut::summary::Summary) -> String {
+    if summary.peak_deflection_at_rupture {
+        format!(
+            " (capped at breaking: the tool breaks at {} steps, tool_breaks)",
+            summary.tool_breaks_steps
+        )
+    } else {
+        String::new()
+    }
 }
 
 /// The evaluate results: the score, the pre-compensation, the sweep table.
@@ -229,6 +243,11 @@ pub fn optimize(optimized: &Optimized, out: &Path) {
         a.peak_deflection_um,
         2,
     );
+    for (label, s) in [("as given", b), (after_label, a)] {
+        if s.peak_deflection_at_rupture {
+            outln!("  {label}: peak deflection{}", at_rupture(s));
+        }
+    }
     row(
         "top cutting feed (mm/min)",
         b.peak_cutting_feed_mm_min,

@@ -2330,6 +2330,201 @@ fn an_overloaded_tool_keeps_the_rigid_estimate_in_the_closed_loop() {
     }
 }
 
+/// Where the tool's stress passes its rupture strength it breaks (MODEL.md
+/// §4.4). A Ø10 flat end mill (stick-out 60, flutes 20 of d_f 8, shank 10,
+/// carbide) slots 2 mm deep in s50c (the default material) at 6000 rpm: lines 3–112 at F300, 113 on at
+/// F1200 (f_z 0.1 mm), in 0.5 mm moves. Kienzle's mean slot force (MODEL.md §3.2) at F1200 is
+/// F = z a_p f_z kc(2f_z/π)/4 · √(1 + k_r²) = 287.05 N with torque
+/// T = kc a_p z f_z R/π = 1750.3 N·mm; two equal bands put it at 1.0 mm above
+/// the tip, so the holder face carries M = 59 F and σ = √((M/Z)² + 3(T/2Z)²)
+/// = 173.20 MPa (Z = π 10³/32). With rupture_strength_mpa = 70 the tool
+/// breaks at F_R = 287.05 · 70/173.20 = 116.0 N: from line 113, never before
+/// (F300: 97.4 N, 58.7 MPa). The steps that break report the deflection at rupture, the
+/// linear one times 70/σ (28.26 µm on the steady slot, 40.51 µm linear), bit
+/// for bit what the linear run reports scaled so; the others are the linear
+/// run's bit for bit, and a tool that never breaks is unchanged bit for bit.
+#[test]
+fn a_tool_past_its_rupture_strength_breaks_and_reports_the_deflection_at_rupture() {
+    let dir = tempdir();
+    // 0.5 mm moves, one step each: F300 up to x = 45 (lines 3 to 112), F1200
+    // from line 113 on.
+    let csv: String = std::iter::once("x,y,z,feed\n-10,0,28,\n".to_string())
+        .chain((1..=240).map(|k| {
+            let feed = if k <= 110 { 300 } else { 1200 };
+            format!("{},0,28,{feed}\n", -10.0 + 0.5 * k as f64)
+        }))
+        .collect();
+    write(dir.path(), "slot.csv", &csv);
+    let run = |name: &str, tool_extra: &str, cutting_extra: &str| {
+        let job = SLOT_JOB
+            .replace(
+                "kind = \"ball\"\ndiameter = 10",
+                &format!(
+                    "kind = \"flat\"\ndiameter = 10\nflute_length = 20\nstickout = 60\n{tool_extra}"
+                ),
+            )
+            .replace(
+                "band_height = 1.0",
+                &format!("band_height = 1.0\nspindle_rpm = 6000\n{cutting_extra}"),
+            )
+            .replace("grid = 0.1", "grid = 0.05");
+        write(dir.path(), &format!("{name}.toml"), &job);
+        let out = dexcut(
+            &["simulate", &format!("{name}.toml"), "--out", name],
+            dir.path(),
+        );
+        ok(&out);
+        let d = dir.path().join(name);
+        (
+            csv_columns(&d.join("steps.csv")),
+            summary(&d),
+            std::fs::read(d.join("steps.csv")).unwrap(),
+            std::fs::read(d.join("error_um.npy")).unwrap(),
+            format!(
+                "{}{}",
+                String::from_utf8_lossy(&out.stdout),
+                String::from_utf8_lossy(&out.stderr)
+            ),
+        )
+    };
+    let breaking = "stress_limit_mpa = 50\nrupture_strength_mpa = 70";
+    let (steps, s, _, error_npy, console) = run("breaks", breaking, "");
+    let (linear, sl, _, _, _) = run(
+        "linear",
+        "stress_limit_mpa = 50\nrupture_strength_mpa = 1e6",
+        "",
+    );
+    let rupture = 70.0;
+    // Kienzle's slot in closed form and the load where the tool breaks.
+    let fz = 0.1;
+    let kc = 1500.0 * (2.0 * fz / PI).powf(-0.22);
+    let force = 2.0 * 2.0 * fz * kc / 4.0 * 1.09f64.sqrt();
+    let torque = kc * 2.0 * 2.0 * fz * 5.0 / PI;
+    let z = PI * 1000.0 / 32.0;
+    let stress = ((59.0 * force / z).powi(2) + 3.0 * (torque / (2.0 * z)).powi(2)).sqrt();
+    assert!((stress - 173.195).abs() < 1e-3, "{stress} MPa");
+    let f_rupture = force * rupture / stress;
+    // The stepped beam (MODEL.md §4.2) under F/2 at 0.5 and 1.5 mm, at 1.0 mm.
+    let deflection_per_n_mm = {
+        let (l, lf, e) = (60.0, 20.0, 600_000.0);
+        let ei = |d: f64| e * PI * d.powi(4) / 64.0;
+        let at = |a: f64, x: f64| {
+            let (b, u) = (l - a, l - x);
+            let m = f64::min(u, b);
+            let g = |t: f64| b * u * t - 0.5 * (b + u) * t * t + t * t * t / 3.0;
+            let sb = f64::min(l - lf, m);
+            (g(sb) - g(0.0)) / ei(10.0) + (g(m) - g(sb)) / ei(8.0)
+        };
+        0.5 * at(0.5, 1.0) + 0.5 * at(1.5, 1.0)
+    };
+    let at_rupture_um = 1000.0 * deflection_per_n_mm * f_rupture;
+    assert!((at_rupture_um - 28.265).abs() < 1e-3, "{at_rupture_um} µm");
+    let n = steps["x"].len();
+    assert_eq!(n, linear["x"].len());
+    let (mut broke, mut steady) = (0, 0);
+    for i in 0..n {
+        let (line, f, x) = (steps["line"][i], steps["force_n"][i], steps["x"][i]);
+        let breaks = steps["breaks"][i] == 1.0;
+        // Force and stress are what the cut asks, the same as the linear run's.
+        for k in ["force_n", "stress_mpa", "torque_nm", "volume_mm3"] {
+            assert_eq!(steps[k][i], linear[k][i], "{k} of step {i}");
+        }
+        assert_eq!(breaks, steps["stress_mpa"][i] > rupture, "step {i}");
+        assert_eq!(linear["breaks"][i], 0.0);
+        if line < 113.0 {
+            assert!(!breaks, "step {i} of line {line} (F300) at {f} N");
+        }
+        // The crossing at the closed-form load (grid and chip within 3 %).
+        if (5.0..95.0).contains(&x) && f > 1.03 * f_rupture {
+            assert!(breaks, "step {i}: {f} N > F_R {f_rupture} N");
+        }
+        if f < 0.97 * f_rupture {
+            assert!(!breaks, "step {i}: {f} N < F_R {f_rupture} N");
+        }
+        let scale = if breaks {
+            rupture / steps["stress_mpa"][i]
+        } else {
+            1.0
+        };
+        for k in ["deflection_um", "dx_um", "dy_um", "tip_deflection_um"] {
+            let expected = scale * linear[k][i];
+            if breaks {
+                assert!(
+                    (steps[k][i] - expected).abs() <= 1e-12 * expected.abs(),
+                    "{k} of step {i}: {} vs {expected}",
+                    steps[k][i]
+                );
+            } else {
+                assert_eq!(steps[k][i], linear[k][i], "{k} of step {i}");
+            }
+        }
+        if breaks {
+            broke += 1;
+            // The steady slot at F1200: the closed-form deflection at rupture.
+            if (60.0..95.0).contains(&x) {
+                steady += 1;
+                assert!(rel(f, force) < 1e-3, "step {i}: {f} N vs {force} N");
+                let sigma = steps["stress_mpa"][i];
+                assert!(rel(sigma, stress) < 1e-3, "step {i}: {sigma} MPa");
+                let d = steps["deflection_um"][i];
+                assert!(rel(d, at_rupture_um) < 2e-3, "step {i}: {d} µm");
+            }
+        }
+    }
+    assert!(
+        broke > 0 && steady > 50,
+        "{broke} steps break, {steady} steady"
+    );
+    // The warning names line 4, the highest stress and the rupture strength.
+    let w = warning(&s, "tool_breaks").expect("tool_breaks warning");
+    assert_eq!(w["line"], 113);
+    assert_eq!(w["lines"][0], 113);
+    assert_eq!(w["steps"].as_u64().unwrap() as usize, broke);
+    let peak_stress = s["peak_stress_mpa"].as_f64().unwrap();
+    assert_eq!(w["value"].as_f64().unwrap(), peak_stress);
+    let message = w["message"].as_str().unwrap();
+    for words in [
+        &format!("{peak_stress:.0} MPa at lines 113, 114,"),
+        "rupture strength of 70 MPa",
+        "the tool breaks",
+    ] {
+        assert!(message.contains(words), "{words} not in {message}");
+    }
+    assert!(
+        console.contains("warning: line 113: the tool breaks"),
+        "{console}"
+    );
+    // summary.json: the peak deflection is the capped one and says so.
+    assert_eq!(s["tool_breaks_steps"].as_u64().unwrap() as usize, broke);
+    assert_eq!(s["peak_deflection_at_rupture"], true);
+    let peak = steps["deflection_um"].iter().copied().fold(0.0, f64::max);
+    assert_eq!(s["peak_deflection_um"].as_f64().unwrap(), peak);
+    assert!(peak < sl["peak_deflection_um"].as_f64().unwrap());
+    assert!(console.contains("capped at breaking"), "{console}");
+    assert_eq!(sl["tool_breaks_steps"], 0);
+    assert_eq!(sl["peak_deflection_at_rupture"], false);
+    assert!(warning(&sl, "tool_breaks").is_none());
+    // The error map takes the deflection at rupture: no column shows more.
+    for key in ["max_error_um", "min_error_um"] {
+        let e = s[key].as_f64().unwrap().abs();
+        assert!(e <= peak * (1.0 + 1e-6), "{key} {e} µm > {peak} µm");
+    }
+    // An overloaded tool stays out of the closed loop (MODEL.md §5.1): one
+    // sweep, converged, the open loop's results.
+    assert_eq!(s["closed_loop_passes"], 1);
+    assert_eq!(s["closed_loop_converged"], true);
+    let (_, _, _, open_npy, _) = run("open", breaking, "closed_loop = false");
+    assert_eq!(error_npy, open_npy);
+    // A tool below its rupture strength: the default rupture strength and a
+    // lifted one give the same files, byte for byte (closed loop included).
+    let (_, d, d_csv, d_npy, _) = run("default", "", "");
+    let (_, _, l_csv, l_npy, _) = run("lifted", "rupture_strength_mpa = 1e6", "");
+    assert!(d["peak_stress_mpa"].as_f64().unwrap() < 3500.0);
+    assert!(d["closed_loop_passes"].as_u64().unwrap() > 1);
+    assert_eq!(d_csv, l_csv);
+    assert_eq!(d_npy, l_npy);
+}
+
 /// Open loop (`closed_loop = false`, MODEL.md §5): the slender tool of the test
 /// above, swept once rigid, would bend by more than the 0.2 mm stock; the error
 /// map is clamped to the stock that was there. On the wall (the outermost cut

@@ -78,6 +78,45 @@ impl StepLoad {
             ..*self
         }
     }
+
+    /// The tool breaks in this step: its stress exceeds the rupture
+    /// strength `rupture_mpa` (MODEL.md §4.4).
+    pub fn breaks(&self, rupture_mpa: f64) -> bool {
+        self.stress_mpa > rupture_mpa
+    }
+
+    /// The load as reported for a tool of rupture strength `rupture_mpa`
+    /// (MODEL.md §4.4): where the step's stress σ exceeds it, the tool breaks
+    /// and its deflections are the elastic ones at rupture, `δ · σ_R / σ`
+    /// (bending stress, torsion and deflection grow together with the
+    /// load), not the linear beam's; force, power, torque, chip, contact
+    /// height and stress stay what the cut asks. At or under the rupture
+    /// strength the load is returned as it is, bit for bit.
+    pub fn at_rupture(&self, rupture_mpa: f64) -> StepLoad {
+        if !self.breaks(rupture_mpa) {
+            return *self;
+        }
+        let s = rupture_mpa / self.stress_mpa;
+        StepLoad {
+            deflection_um: s * self.deflection_um,
+            dx_um: s * self.dx_um,
+            dy_um: s * self.dy_um,
+            tip_deflection_um: s * self.tip_deflection_um,
+            ..*self
+        }
+    }
+
+    /// The linear beam's deflection at the contact height of a load
+    /// reported by [`StepLoad::at_rupture`] with `rupture_mpa`, µm: the
+    /// deflection the load would cause if the tool did not break (what a
+    /// limit on the deflection scales with the feed).
+    pub fn linear_deflection_um(&self, rupture_mpa: f64) -> f64 {
+        if self.breaks(rupture_mpa) {
+            self.deflection_um * self.stress_mpa / rupture_mpa
+        } else {
+            self.deflection_um
+        }
+    }
 }
 
 /// How removed volume turns into force.
@@ -323,6 +362,53 @@ mod tests {
             (10.0, 6.0, -8.0, 12.5, 75.0)
         );
         assert_eq!((h.chip_thickness_mm, h.contact_height_mm), (0.05, 1.5));
+    }
+
+    /// A uniform cantilever (L 80, d 10, E 210 000) loaded at the tip, no
+    /// torque: σ = F L/(π d³/32) reaches σ_R = 3000 MPa at F_R = σ_R π d³/(32 L)
+    /// = 3681.55 N, and the tip deflection at rupture is
+    /// F_R L³/(3EI) = σ_R L²/(3 E d/2) = 6.0952 mm, whatever the load beyond.
+    #[test]
+    fn a_load_past_rupture_reports_the_deflection_at_rupture() {
+        let beam = SteppedBeam::uniform(&Cantilever {
+            stickout_mm: 80.0,
+            effective_diameter_mm: 10.0,
+            youngs_modulus_mpa: 210_000.0,
+        });
+        let rupture = 3000.0;
+        let f_r = rupture * std::f64::consts::PI * 1000.0 / (32.0 * 80.0);
+        let at = |f: f64| {
+            let d = 1000.0 * beam.deflection_mm(f, 0.0, 0.0);
+            StepLoad {
+                force_n: f,
+                fx_n: f,
+                deflection_um: d,
+                dx_um: d,
+                tip_deflection_um: d,
+                stress_mpa: beam.peak_stress_mpa(&[(0.0, f)], 0.0),
+                ..StepLoad::default()
+            }
+        };
+        let closed_um = 1000.0 * rupture * 80.0 * 80.0 / (3.0 * 210_000.0 * 5.0);
+        assert!((closed_um - 6_095.238_095_238).abs() < 1e-6, "{closed_um}");
+        // The closed-form crossing: just under F_R nothing changes (bit for bit),
+        // just over it and far past it the deflection is the one at rupture.
+        let under = at(f_r * (1.0 - 1e-9));
+        assert!(!under.breaks(rupture));
+        assert_eq!(under.at_rupture(rupture), under);
+        assert_eq!(under.linear_deflection_um(rupture), under.deflection_um);
+        for f in [f_r * (1.0 + 1e-9), 2.0 * f_r, 1e3 * f_r] {
+            let l = at(f);
+            assert!(l.breaks(rupture), "{f} N");
+            let r = l.at_rupture(rupture);
+            for d in [r.deflection_um, r.dx_um, r.tip_deflection_um] {
+                assert!((d - closed_um).abs() < 1e-9 * closed_um, "{f} N: {d} µm");
+            }
+            assert_eq!((r.force_n, r.stress_mpa), (l.force_n, l.stress_mpa));
+            assert!(
+                (r.linear_deflection_um(rupture) - l.deflection_um).abs() < 1e-12 * l.deflection_um
+            );
+        }
     }
     use crate::beam::Cantilever;
 

@@ -150,8 +150,14 @@ pub struct ToolBody {
     /// Lateral stiffness of holder and spindle at the holder face, N/µm; default rigid.
     pub holder_stiffness_n_per_um: Option<f64>,
     /// Allowable von Mises stress in the tool, MPa (plausibility warnings); default
-    /// 1200 for carbide (E ≥ 400 000 MPa), 1000 otherwise (MODEL.md §4.4).
+    /// 1200 for carbide (E ≥ 400 000 MPa), 1000 otherwise, at most the rupture
+    /// strength (MODEL.md §4.4).
     pub stress_limit_mpa: Option<f64>,
+    /// Transverse rupture strength of the tool, MPa: above it the tool breaks
+    /// (`tool_breaks` warning, deflection reported at rupture); default 3500
+    /// for carbide (E ≥ 400 000 MPa), 3000 otherwise, at least the allowable
+    /// stress (MODEL.md §4.4).
+    pub rupture_strength_mpa: Option<f64>,
 }
 
 impl ToolSpec {
@@ -891,6 +897,21 @@ impl ToolSpec {
             t.body().stress_limit_mpa,
             1e6,
         )?;
+        positive_opt(
+            &format!("{key}.rupture_strength_mpa"),
+            t.body().rupture_strength_mpa,
+            1e6,
+        )?;
+        if let (Some(limit), Some(rupture)) =
+            (t.body().stress_limit_mpa, t.body().rupture_strength_mpa)
+        {
+            if rupture < limit {
+                fail!(
+                    job,
+                    "{key}.rupture_strength_mpa ({rupture} MPa) is below {key}.stress_limit_mpa ({limit} MPa): the stress a tool breaks at cannot be below the one it may carry (docs/MODEL.md §4.4)"
+                );
+            }
+        }
         Ok(())
     }
 
@@ -1130,11 +1151,21 @@ feed = 1000
     /// at parse time, each with its key.
     #[test]
     fn non_finite_and_absurd_numbers_name_their_key() {
-        let cases: [(&str, &str, &str); 24] = [
+        let cases: [(&str, &str, &str); 26] = [
             (
                 "max = [10, 10, 10]",
                 "max = [10, 10, inf]",
                 "stock.max (mm)[2] must be a finite number, got inf",
+            ),
+            (
+                "diameter = 6",
+                "diameter = 6\nrupture_strength_mpa = -1",
+                "tool.rupture_strength_mpa must",
+            ),
+            (
+                "diameter = 6",
+                "diameter = 6\nstress_limit_mpa = 1500\nrupture_strength_mpa = 1400",
+                "tool.rupture_strength_mpa (1400 MPa) is below tool.stress_limit_mpa (1500 MPa)",
             ),
             (
                 "min = [0, 0, 0]",
@@ -1272,7 +1303,7 @@ feed = 1000
         use proptest::prelude::*;
         use proptest::test_runner::{Config, TestRunner};
         use std::sync::atomic::{AtomicUsize, Ordering};
-        const KEYS: [(&str, &str, usize); 33] = [
+        const KEYS: [(&str, &str, usize); 35] = [
             ("stock", "grid", 1),
             ("stock", "min", 3),
             ("stock", "max", 3),
@@ -1281,6 +1312,8 @@ feed = 1000
             ("tool", "stickout", 1),
             ("tool", "youngs_modulus_mpa", 1),
             ("tool", "effective_diameter", 1),
+            ("tool", "stress_limit_mpa", 1),
+            ("tool", "rupture_strength_mpa", 1),
             ("program", "feed", 1),
             ("cutting", "band_height", 1),
             ("cutting", "spindle_rpm", 1),

@@ -513,7 +513,9 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
             let load = &run.loads[k];
             for (w, (value, limit)) in worst.iter_mut().zip([
                 (load.force_n, limits.force_max),
-                (load.deflection_um, limits.deflection_max_um),
+                // Where the tool breaks, the linear deflection: the one at
+                // rupture does not scale with the feed (MODEL.md §4.4).
+                (run.linear_deflection_um(k), limits.deflection_max_um),
                 (load.power_w, limits.power_max_kw.map(|kw| 1000.0 * kw)),
             ]) {
                 if let Some(limit) = limit {

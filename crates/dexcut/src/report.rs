@@ -348,7 +348,7 @@ fn setup_rows(summary: &SummaryDoc) -> Vec<(String, String)> {
 type Row<T> = (&'static str, &'static str, usize, fn(&T) -> f64);
 
 /// Summary rows of a run.
-const ROWS: [Row<Summary>; 10] = [
+const ROWS: [Row<Summary>; 11] = [
     ("cycle time", "s", 3, |s| s.cycle_time_s),
     ("peak MRR (≥ 48 ms, ≥ 10 cells)", "mm³/s", 2, |s| {
         s.peak_mrr_windowed_mm3_s
@@ -364,6 +364,10 @@ const ROWS: [Row<Summary>; 10] = [
     }),
     ("rapid collision steps", "", 0, |s| {
         s.rapid_collision_steps as f64
+    }),
+    // Their deflection is the one at rupture (MODEL.md §4.4).
+    ("steps where the tool breaks", "", 0, |s| {
+        s.tool_breaks_steps as f64
     }),
 ];
 

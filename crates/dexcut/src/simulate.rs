@@ -100,6 +100,10 @@ pub struct Run {
     pub rigid_peak_deflection_um: f64,
     /// Allowable tool stress of each step's tool, MPa.
     pub stress_limits_mpa: Vec<f64>,
+    /// Rupture strength of each step's tool, MPa: a step whose stress exceeds
+    /// it breaks the tool, and its deflections are those at rupture
+    /// (MODEL.md §4.4, [`cutting::StepLoad::at_rupture`]).
+    pub rupture_strengths_mpa: Vec<f64>,
 }
 
 /// Closed loop (MODEL.md §5.1): at most this many sweeps...
@@ -503,6 +507,20 @@ pub fn run_on(
         .iter()
         .map(|&t| tools.entries[t].stress_limit_mpa)
         .collect();
+    let rupture_strengths_mpa: Vec<f64> = tool_of_step
+        .iter()
+        .map(|&t| tools.entries[t].rupture_strength_mpa)
+        .collect();
+    // The rigid sweep's loads as reported: a step that breaks its tool
+    // deflects by its elastic deflection at rupture (MODEL.md §4.4). Such a
+    // tool is overloaded (its rupture strength is at least its allowable
+    // stress) and stays out of the loop below, so the steps the loop moves
+    // start from the same loads with or without the cap.
+    let rigid_loads: Vec<StepLoad> = step_loads
+        .iter()
+        .zip(&rupture_strengths_mpa)
+        .map(|(l, &r)| l.at_rupture(r))
+        .collect();
     // A tool the rigid cut overloads beyond its allowable stress anywhere would
     // break there: no elastic balance exists, so the loop leaves that tool's
     // steps rigid (the open-loop estimate, which the force warning names)
@@ -538,7 +556,7 @@ pub fn run_on(
     let along = |loads: &[StepLoad], i: usize| -> f64 {
         loads[i].dx_um * dirs[i][0] + loads[i].dy_um * dirs[i][1]
     };
-    let rigid: Vec<f64> = (0..n).map(|i| along(&step_loads, i).max(0.0)).collect();
+    let rigid: Vec<f64> = (0..n).map(|i| along(&rigid_loads, i).max(0.0)).collect();
     // The largest offset a step may be tried at (MODEL.md §5.1): its tool's
     // radius. A trial beyond it would sweep the tool into stock it cannot
     // reach and feed the loop ever larger loads.
@@ -546,10 +564,11 @@ pub fn run_on(
         .iter()
         .map(|&t| 500.0 * tools.entries[t].tool.diameter_mm)
         .collect();
-    let rigid_peak_deflection_um = step_loads
+    let rigid_peak_deflection_um = rigid_loads
         .iter()
         .map(|l| l.deflection_um)
         .fold(0.0, f64::max);
+    drop(rigid_loads);
     // Open loop: the largest deflection across the path nothing compensated;
     // closed loop: that of the steps the loop moves (none moved: nothing to do).
     let rigid_across_peak_um = (0..n)
@@ -659,6 +678,11 @@ pub fn run_on(
         }
     }
     let sweep_s = started.elapsed().as_secs_f64();
+    // The final loads as reported (MODEL.md §4.4): where a step breaks its
+    // tool, the deflections at rupture; the error map takes them below.
+    for (l, &r) in step_loads.iter_mut().zip(&rupture_strengths_mpa) {
+        *l = l.at_rupture(r);
+    }
     let offsets_um = applied_offsets_um(&steps, &x, &dirs);
     // The deflection across the path that the final removal causes (rapids:
     // the offset they carry).
@@ -696,6 +720,7 @@ pub fn run_on(
         closed_loop: report,
         rigid_peak_deflection_um,
         stress_limits_mpa,
+        rupture_strengths_mpa,
     })
 }
 
@@ -944,15 +969,35 @@ pub fn loads(
         .collect()
 }
 
-/// Allowable stress of a tool (MODEL.md §4.4).
+/// Allowable stress of a tool (MODEL.md §4.4): `stress_limit_mpa`, else 1200
+/// MPa for carbide (E ≥ 400 000 MPa) and 1000 MPa otherwise, and never above
+/// a rupture strength the job gives.
 pub fn stress_limit_mpa(spec: &ToolSpec, tool: &Tool) -> f64 {
-    spec.body()
-        .stress_limit_mpa
-        .unwrap_or(if tool.youngs_modulus_mpa >= 400_000.0 {
+    spec.body().stress_limit_mpa.unwrap_or_else(|| {
+        let default = if tool.youngs_modulus_mpa >= 400_000.0 {
             1200.0
         } else {
             1000.0
-        })
+        };
+        spec.body()
+            .rupture_strength_mpa
+            .map_or(default, |r| default.min(r))
+    })
+}
+
+/// Rupture strength of a tool (MODEL.md §4.4): `rupture_strength_mpa`, else
+/// 3500 MPa for carbide (E ≥ 400 000 MPa, the middle of a fine-grain
+/// carbide's transverse rupture strength of 3000–4000 MPa) and 3000 MPa
+/// otherwise (HSS), and never below the allowable stress.
+pub fn rupture_strength_mpa(spec: &ToolSpec, tool: &Tool) -> f64 {
+    spec.body().rupture_strength_mpa.unwrap_or_else(|| {
+        let default: f64 = if tool.youngs_modulus_mpa >= 400_000.0 {
+            3500.0
+        } else {
+            3000.0
+        };
+        default.max(stress_limit_mpa(spec, tool))
+    })
 }
 
 /// The force and beam model from the job's [cutting] and a tool's spec.
@@ -1036,8 +1081,17 @@ pub struct Summary {
     pub peak_power_w: f64,
     /// Largest spindle torque, N·m.
     pub peak_torque_nm: f64,
-    /// Largest deflection at the contact height (closed loop), µm.
+    /// Largest deflection at the contact height (closed loop), µm; where the
+    /// tool breaks, the deflection at rupture (MODEL.md §4.4).
     pub peak_deflection_um: f64,
+    /// The peak deflection is a step's that breaks the tool: capped at its
+    /// elastic deflection at rupture (MODEL.md §4.4).
+    #[serde(default)]
+    pub peak_deflection_at_rupture: bool,
+    /// Steps whose stress exceeds their tool's rupture strength: the tool
+    /// breaks (`tool_breaks` warning, MODEL.md §4.4).
+    #[serde(default)]
+    pub tool_breaks_steps: usize,
     /// Highest mean path speed of a step that removed material (not a rapid), mm/min.
     pub peak_cutting_feed_mm_min: f64,
     /// Largest tip deflection (closed loop), µm.
@@ -1282,6 +1336,32 @@ impl Run {
             .fold(0.0, f64::max)
     }
 
+    /// Step `i` breaks its tool: its stress exceeds the tool's rupture
+    /// strength (MODEL.md §4.4).
+    pub fn breaks(&self, i: usize) -> bool {
+        self.loads[i].breaks(self.rupture_strengths_mpa[i])
+    }
+
+    /// The linear beam's deflection of step `i` at the contact height, µm:
+    /// its reported deflection, or where the step breaks the tool, the one it
+    /// would have if the tool did not break (what a deflection limit scales
+    /// with the feed, MODEL.md §4.4).
+    pub fn linear_deflection_um(&self, i: usize) -> f64 {
+        self.loads[i].linear_deflection_um(self.rupture_strengths_mpa[i])
+    }
+
+    /// The step with the largest reported deflection breaks its tool: the
+    /// peak is capped at rupture.
+    pub fn peak_deflection_at_rupture(&self) -> bool {
+        let mut peak: Option<(usize, f64)> = None;
+        for (i, l) in self.loads.iter().enumerate() {
+            if peak.is_none_or(|(_, d)| l.deflection_um > d) {
+                peak = Some((i, l.deflection_um));
+            }
+        }
+        peak.is_some_and(|(i, _)| self.breaks(i))
+    }
+
     /// The lowest allowable stress of the tools the run uses, MPa.
     pub fn stress_limit_mpa(&self) -> f64 {
         self.stress_limits_mpa
@@ -1295,10 +1375,19 @@ impl Run {
     pub fn warnings(&self) -> Warnings {
         let mut out = Warnings::default();
         let (mut rapid, mut shank) = (LineTally::new(), LineTally::new());
-        let mut stress = LineTally::new();
+        let (mut stress, mut breaks) = (LineTally::new(), LineTally::new());
+        // The step that breaks its tool furthest past its rupture strength.
+        let mut worst_break: Option<(usize, f64)> = None;
         for (i, s) in self.steps.iter().enumerate() {
             if self.loads[i].stress_mpa > self.stress_limits_mpa[i] {
                 warnings::tally(&mut stress, s.line, self.loads[i].stress_mpa);
+            }
+            if self.breaks(i) {
+                warnings::tally(&mut breaks, s.line, self.loads[i].stress_mpa);
+                let ratio = self.loads[i].stress_mpa / self.rupture_strengths_mpa[i];
+                if worst_break.is_none_or(|(_, r)| ratio > r) {
+                    worst_break = Some((i, ratio));
+                }
             }
             let v = self.record.volume_mm3(i);
             if s.step.rapid && v > NOTHING_MM3 {
@@ -1324,6 +1413,17 @@ impl Run {
         out.from_lines(WarningKind::Force, &stress, "MPa", false, |v, lines| {
             format!("the cutting force and torque stress the tool to {v:.0} MPa at {lines}, above the allowable {limit:.0} MPa ([tool] stress_limit_mpa, docs/MODEL.md §4.4): lower the feed or the engagement, or use a shorter or stiffer tool{rigid_kept}")
         });
+        if let Some((w, ratio)) = worst_break {
+            let rupture = self.rupture_strengths_mpa[w];
+            let (tool, line, force) = (
+                self.steps[w].tool,
+                self.steps[w].line,
+                self.loads[w].force_n,
+            );
+            out.from_lines(WarningKind::ToolBreaks, &breaks, "MPa", false, |v, lines| {
+                format!("the tool breaks: the cutting force and torque stress tool {tool} to {v:.0} MPa at {lines}, {ratio:.1}× its rupture strength of {rupture:.0} MPa ([tool] rupture_strength_mpa, docs/MODEL.md §4.4; {force:.1} N at line {line}); the deflection and error of these steps are the tool's elastic ones at rupture, not the linear beam's: lower the feed or the engagement, or use a stronger tool")
+            });
+        }
         if self.closed_loop.enabled && !self.closed_loop.converged {
             let mut stalled = LineTally::new();
             for &(i, r) in &self.closed_loop.unconverged {
@@ -1407,6 +1507,8 @@ impl Run {
                 .iter()
                 .map(|l| l.deflection_um)
                 .fold(0.0, f64::max),
+            peak_deflection_at_rupture: self.peak_deflection_at_rupture(),
+            tool_breaks_steps: (0..n).filter(|&i| self.breaks(i)).count(),
             peak_cutting_feed_mm_min: self.peak_cutting_feed_mm_min(),
             peak_tip_deflection_um: self
                 .loads
@@ -1505,6 +1607,7 @@ impl Run {
                     "dy_um",
                     "tip_deflection_um",
                     "stress_mpa",
+                    "breaks",
                     "line",
                     "rapid",
                     "tool",
@@ -1551,6 +1654,7 @@ impl Run {
                     ]
                     .map(fmt),
                 );
+                row.push(u8::from(self.breaks(i)).to_string());
                 row.push(s.line.to_string());
                 row.push(u8::from(s.step.rapid).to_string());
                 row.push(s.tool.to_string());

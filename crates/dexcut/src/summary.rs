@@ -200,6 +200,8 @@ mod tests {
             peak_power_w: 100.0,
             peak_torque_nm: 0.1,
             peak_deflection_um: 3.0,
+            peak_deflection_at_rupture: false,
+            tool_breaks_steps: 0,
             peak_cutting_feed_mm_min: 600.0,
             peak_tip_deflection_um: 4.0,
             rigid_peak_deflection_um: 3.5,

@@ -24,6 +24,8 @@ pub struct ToolEntry {
     pub fz_max_mm: Option<f64>,
     /// Allowable stress in the tool, MPa (MODEL.md §4.4).
     pub stress_limit_mpa: f64,
+    /// Stress at which the tool breaks, MPa (MODEL.md §4.4).
+    pub rupture_strength_mpa: f64,
     /// `[cutting] spindle_rpm` when the job gives it: it overrides S words.
     pub job_rpm: Option<f64>,
     /// `fz_max` is the job's (not the default of MODEL.md §2.1's table).
@@ -100,6 +102,7 @@ impl ToolSet {
                 model,
                 fz_max_mm: spec.fz_max_mm(&job.cutting.material),
                 stress_limit_mpa: crate::simulate::stress_limit_mpa(spec, &tool),
+                rupture_strength_mpa: crate::simulate::rupture_strength_mpa(spec, &tool),
                 job_rpm: job.cutting.spindle_rpm,
                 fz_max_given: spec.body().fz_max.is_some(),
             });

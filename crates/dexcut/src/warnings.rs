@@ -26,6 +26,9 @@ pub enum WarningKind {
     Force,
     /// Tool deflection above what is plausible for the tool.
     Deflection,
+    /// The tool's stress above its rupture strength: the tool breaks there
+    /// (MODEL.md §4.4).
+    ToolBreaks,
     /// The closed loop of removal and deflection did not converge (MODEL.md §5.1).
     ClosedLoop,
     /// A tool the program selects is not in the job's tool table.
