@@ -4,10 +4,21 @@ use nalgebra::{Point3, Vector3};
 
 use crate::machine::ScheduleError;
 use crate::range_min::RangeMin;
-use crate::stations::{CapKind, Stations};
+use crate::stations::{CapKind, Stations, Stop};
 
 /// A speed within this share below the cap counts as running at the cap.
 const AT_CAP_SHARE: f64 = 0.005;
+
+/// A stencil of servo samples whose second or third difference broke an axis' limit.
+#[derive(Clone, Copy, Debug)]
+struct Violation {
+    /// Arc lengths of its first and last sample, mm.
+    s_mm: (f64, f64),
+    /// Highest sampled speed in it, mm/s.
+    speed_mm_s: f64,
+    /// Its difference over the limit.
+    ratio: f64,
+}
 
 /// One servo sample: where the tool tip is commanded at time `t_s`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -46,6 +57,8 @@ struct Run {
     integral_mm_s: f64,
     /// Width of the run's jerk filter, s (0 without a jerk limit).
     window_s: f64,
+    /// Rest added before the run by the slowed fallback (see [`plan`]), s.
+    pause_s: f64,
 }
 
 /// A planned speed profile over [`Stations`].
@@ -100,10 +113,14 @@ const LAMBDA_SEARCH_MAX_STATIONS: usize = 4000;
 /// filter acts on s(t), not on the axes), keeps stops and dwells exact, and costs W per run.
 /// On curved paths the jerk bound is tangential only (the normal jerk d(v²κ)/dt is not
 /// limited).
+///
+/// Verified runs (MODEL.md §6.1): these rules bound the sampled axis differences only
+/// approximately, so each run is kept only once its servo samples (those
+/// [`Profile::sample`] makes at the machine's period) have every per-axis second difference
+/// within a_i and third difference within j_i: the candidate λ values in order, then the
+/// first one repaired (filter widened, or caps lowered around the failing stencils), then
+/// slowed in time until it verifies.
 pub fn plan(stations: &Stations) -> Profile<'_> {
-    let n = stations.len();
-    let s = stations.s_mm();
-    let caps_mm_s: Vec<f64> = stations.cap_mm_min().iter().map(|c| c / 60.0).collect();
     let base_window_s = stations
         .interval_accel_mm_s2()
         .iter()
@@ -111,69 +128,68 @@ pub fn plan(stations: &Stations) -> Profile<'_> {
         .map(|(a, j)| a / j)
         .fold(0.0, f64::max);
     let stops = stations.stops();
-    let mut planner = RunPlanner::new(stations, &caps_mm_s);
-
-    let mut v = vec![0.0; n];
-    let mut windows = Vec::with_capacity(stops.len());
+    let mut planner = RunPlanner::new(stations);
+    let mut profile = Profile::empty(stations);
+    let mut candidates = Vec::new();
     for pair in stops.windows(2) {
         let (first, last) = (pair[0].station, pair[1].station);
-        let lambda = if base_window_s > 0.0 && last - first <= LAMBDA_SEARCH_MAX_STATIONS {
-            planner.best_lambda(first, last, base_window_s)
+        candidates.clear();
+        if base_window_s > 0.0 && last - first <= LAMBDA_SEARCH_MAX_STATIONS {
+            planner.lambda_candidates(first, last, base_window_s, &mut candidates);
         } else {
-            1.0
-        };
-        let window_s = lambda * base_window_s;
-        planner.plan_run(first, last, lambda, window_s, &mut v);
-        windows.push(window_s);
-    }
-
-    // Time line: dwell at a stop, then the run to the next stop (stretched by W if filtered).
-    let intervals = n.saturating_sub(1);
-    let mut interval_start_s = Vec::with_capacity(intervals);
-    let mut interval_dt_s = Vec::with_capacity(intervals);
-    let mut interval_integral_mm_s = Vec::with_capacity(intervals);
-    let mut runs = Vec::with_capacity(stops.len().saturating_sub(1));
-    let mut t_s = stops[0].dwell_s;
-    for (pair, &window_s) in stops.windows(2).zip(&windows) {
-        let (first, last) = (pair[0].station, pair[1].station);
-        let start_s = t_s;
-        let mut integral_mm_s = 0.0;
-        for k in first..last {
-            let ds = s[k + 1] - s[k];
-            let dt = 2.0 * ds / (v[k] + v[k + 1]);
-            interval_start_s.push(t_s);
-            interval_dt_s.push(dt);
-            interval_integral_mm_s.push(integral_mm_s);
-            let a = (v[k + 1] - v[k]) / dt;
-            integral_mm_s += integral_over_mm_s(s[k] - s[first], v[k], a, dt);
-            t_s += dt;
+            candidates.push(1.0);
         }
-        runs.push(Run {
-            first,
-            last,
-            start_s,
-            duration_s: t_s - start_s,
-            integral_mm_s,
-            window_s,
-        });
-        t_s += window_s + pair[1].dwell_s;
+        let (end_s, _) = planner.verified_run(
+            &mut profile,
+            (pair[0], pair[1]),
+            base_window_s,
+            &candidates,
+            REPAIR_MAX_TRIES,
+        );
+        let window_s = profile.runs.last().map_or(0.0, |run| run.window_s);
+        profile.cycle_time_s = end_s + (window_s + pair[1].dwell_s);
     }
-
-    Profile {
-        stations,
-        speed_mm_s: v,
-        interval_start_s,
-        interval_dt_s,
-        interval_integral_mm_s,
-        runs,
-        cycle_time_s: t_s,
-    }
+    profile
 }
+
+/// Which plan of a run [`RunPlanner::verified_run`] kept.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Verified {
+    /// The candidate λ of this index.
+    Candidate(usize),
+    /// The first candidate repaired (filter widened or caps lowered) this many times.
+    Repaired(usize),
+    /// That plan slowed in time by σ, after this many tries.
+    Slowed {
+        /// Tries.
+        tries: usize,
+        /// σ.
+        slow: f64,
+    },
+}
+
+/// Tries of the first fallback (caps lowered where samples break a limit).
+const REPAIR_MAX_TRIES: usize = 8;
+/// ... which divides the filter's width by this (its jerk then at most 0.98·j) where more
+/// than [`FEW_VIOLATIONS`] stencils break a limit, and lowers the caps around them where
+/// no more do.
+const WIDEN: f64 = 0.98;
+/// See [`WIDEN`].
+const FEW_VIOLATIONS: usize = 3;
+/// The slowed fallback multiplies σ by at most this each try (and the first fallback a
+/// cap over the speed of the samples that break a limit).
+const SLOW_STEP: f64 = 0.95;
+/// ... and by this over the worst ratio of a sampled difference to its limit, if less.
+const SLOW_MARGIN: f64 = 0.99;
+/// Guard on the slowed fallback's tries: σ = 0.95^300 ≈ 2·10⁻⁷ (MODEL.md §6.1 argues that
+/// σ ≤ 1/K verifies, K the run's own bound).
+const SLOW_MAX_TRIES: usize = 300;
 
 /// Plans single runs; reuses its buffers between runs and between trials of λ.
 struct RunPlanner<'a> {
     stations: &'a Stations,
-    caps_mm_s: &'a [f64],
+    /// The stations' caps, mm/s; lowered where a run's samples broke a limit.
+    caps_mm_s: Vec<f64>,
     /// Largest station spacing of the path, mm.
     ds_max_mm: f64,
     is_corner: Vec<bool>,
@@ -181,7 +197,8 @@ struct RunPlanner<'a> {
 }
 
 impl<'a> RunPlanner<'a> {
-    fn new(stations: &'a Stations, caps_mm_s: &'a [f64]) -> Self {
+    fn new(stations: &'a Stations) -> Self {
+        let caps_mm_s = stations.cap_mm_min().iter().map(|c| c / 60.0).collect();
         let n = stations.len();
         let mut is_corner = vec![false; n];
         for &c in stations.corners() {
@@ -200,13 +217,137 @@ impl<'a> RunPlanner<'a> {
         }
     }
 
-    /// λ in (0, 1] that minimises the run's time (planned time + W): golden section, with
-    /// λ = 1 kept when nothing beats it.
-    fn best_lambda(&mut self, first: usize, last: usize, base_window_s: f64) -> f64 {
+    /// Plans the run between the stops `stops` into `profile` (appended, leaving at the
+    /// profile's current end) so that its servo samples keep every axis' limits
+    /// ([`Profile::last_run_axis_ratio`]; MODEL.md §6.1): the first of `candidates` (values
+    /// of λ) that verifies; else the first candidate with its caps lowered around the
+    /// samples that break a limit, up to `repair_tries` times; else that plan slowed in time
+    /// by σ, σ lowered each try, after a rest that keeps the samples' stencils off the run
+    /// before. Returns when the planned motion reaches the run's last stop, s, and which
+    /// plan was kept.
+    fn verified_run(
+        &mut self,
+        profile: &mut Profile<'_>,
+        stops: (Stop, Stop),
+        base_window_s: f64,
+        candidates: &[f64],
+        repair_tries: usize,
+    ) -> (f64, Verified) {
+        let (first, last) = (stops.0.station, stops.1.station);
+        let start_s = profile.cycle_time_s;
+        let runs_before = profile.runs.len();
+        // Plans the run into the profile (replacing a trial), returns its end and ratio.
+        let plan = |planner: &Self,
+                    profile: &mut Profile<'_>,
+                    (lambda, window_s, slow, pause_s): (f64, f64, f64, f64),
+                    violations: Option<&mut Vec<Violation>>| {
+            if profile.runs.len() > runs_before {
+                profile.pop_run();
+            }
+            planner.plan_run(first, last, lambda, window_s, slow, &mut profile.speed_mm_s);
+            let end_s = profile.push_run(first, last, start_s + pause_s, window_s, pause_s);
+            (end_s, profile.last_run_axis_ratio(violations))
+        };
+        // Where the stencils of the first candidate break a limit.
+        let mut violations = Vec::new();
+        for (index, &lambda) in candidates.iter().enumerate() {
+            let (end_s, ratio) = plan(
+                self,
+                profile,
+                (lambda, lambda * base_window_s, 1.0, 0.0),
+                (index == 0).then_some(&mut violations),
+            );
+            if ratio <= 1.0 {
+                return (end_s, Verified::Candidate(index));
+            }
+        }
+        // Fallback 1, from the first candidate: where many stencils break a limit (the
+        // filter's jerk meeting corners along the run), widen the filter by 2 % (a jerk
+        // margin); where a few do, lower the caps around them.
+        let lambda = candidates[0];
+        let mut window_s = lambda * base_window_s;
+        for repairs in 1..=repair_tries {
+            if violations.len() > FEW_VIOLATIONS {
+                window_s /= WIDEN;
+            } else {
+                self.lower_caps(first, last, &violations);
+            }
+            violations.clear();
+            let (end_s, ratio) = plan(
+                self,
+                profile,
+                (lambda, window_s, 1.0, 0.0),
+                Some(&mut violations),
+            );
+            if ratio <= 1.0 {
+                return (end_s, Verified::Repaired(repairs));
+            }
+        }
+        // Fallback 2: that plan slowed in time by σ.
+        let pause_s = if runs_before > 0 {
+            (3.0 * self.stations.machine().period_s() - stops.0.dwell_s).max(0.0)
+        } else {
+            0.0
+        };
+        let mut slow = 1.0;
+        for tries in 1.. {
+            let (end_s, ratio) = plan(
+                self,
+                profile,
+                (lambda, window_s / slow, slow, pause_s),
+                None,
+            );
+            if ratio <= 1.0 || tries >= SLOW_MAX_TRIES {
+                debug_assert!(
+                    ratio <= 1.0,
+                    "run {first}..{last}: ratio {ratio} at σ {slow}"
+                );
+                return (end_s, Verified::Slowed { tries, slow });
+            }
+            slow *= (SLOW_MARGIN / ratio).min(SLOW_STEP);
+        }
+        unreachable!("the loop returns")
+    }
+
+    /// Lowers the caps of the run `first..=last` around every stencil that broke a limit:
+    /// each station within one period's travel of the stencil's samples gets at most the
+    /// stencil's highest sampled speed times min(0.95, 0.99/ratio). The plan then touches
+    /// the lowered cap, so it holds it flat there (no filter jerk) and the geometric part
+    /// of the sampled differences (v²κ, v·Δt/T, ...) falls with the speed.
+    fn lower_caps(&mut self, first: usize, last: usize, violations: &[Violation]) {
+        let s = &self.stations.s_mm()[first..=last];
+        let period_s = self.stations.machine().period_s();
+        for violation in violations {
+            let target = violation.speed_mm_s * (SLOW_MARGIN / violation.ratio).min(SLOW_STEP);
+            if target <= 0.0 {
+                continue;
+            }
+            let reach = violation.speed_mm_s * period_s;
+            let lo = s.partition_point(|&x| x < violation.s_mm.0 - reach);
+            let hi = s.partition_point(|&x| x <= violation.s_mm.1 + reach);
+            for cap in &mut self.caps_mm_s[first + lo..first + hi] {
+                *cap = cap.min(target);
+            }
+        }
+    }
+
+    /// The values of λ in (0, 1] to try on a run, best first: the one that minimises the run's
+    /// time (planned time + W) by golden section, λ = 1 when nothing beats it; then every
+    /// other λ the search evaluated, by run time; λ = 1 among them.
+    fn lambda_candidates(
+        &mut self,
+        first: usize,
+        last: usize,
+        base_window_s: f64,
+        candidates: &mut Vec<f64>,
+    ) {
         let mut trial = std::mem::take(&mut self.trial);
+        let mut evaluated: Vec<(f64, f64)> = Vec::with_capacity(28);
         let mut time = |lambda: f64| {
             let w = lambda * base_window_s;
-            self.plan_run(first, last, lambda, w, &mut trial) + w
+            let t = self.plan_run(first, last, lambda, w, 1.0, &mut trial) + w;
+            evaluated.push((t, lambda));
+            t
         };
         let ratio = (5f64.sqrt() - 1.0) / 2.0;
         let (mut lo, mut hi) = (0.02, 1.0);
@@ -231,31 +372,45 @@ impl<'a> RunPlanner<'a> {
         let (best, best_time) = if f1 <= f2 { (x1, f1) } else { (x2, f2) };
         let at_one = time(1.0);
         self.trial = trial;
-        if at_one <= best_time {
-            1.0
-        } else {
-            best
+        let chosen = if at_one <= best_time { 1.0 } else { best };
+        evaluated.sort_by(|a, b| a.0.total_cmp(&b.0));
+        candidates.push(chosen);
+        for (_, lambda) in evaluated {
+            if !candidates.contains(&lambda) {
+                candidates.push(lambda);
+            }
         }
     }
 
     /// Plans stations `first..=last` (a run between two stops) into `v`, with the
     /// acceleration limits scaled by `lambda` and, when `window_s` > 0, the plateaus the jerk
     /// filter needs (see [`plan`]). Returns the planned (unfiltered) time, s.
+    ///
+    /// `slow` = σ ≤ 1 slows the run in time: caps σ·c, accelerations σ²·λ·a, the corners'
+    /// 3T of hold 3T/σ; with `window_s` = W/σ the planned and filtered motions are the σ = 1
+    /// ones run σ times slower (speeds σ·v, accelerations σ², jerks σ³).
     fn plan_run(
         &self,
         first: usize,
         last: usize,
         lambda: f64,
         window_s: f64,
+        slow: f64,
         v: &mut [f64],
     ) -> f64 {
         let s = self.stations.s_mm();
-        v[first..=last].copy_from_slice(&self.caps_mm_s[first..=last]);
+        for (vk, cap) in v[first..=last]
+            .iter_mut()
+            .zip(&self.caps_mm_s[first..=last])
+        {
+            *vk = cap * slow;
+        }
+        let lambda = lambda * slow * slow;
         if window_s > 0.0 {
             // The plan without holds: only the caps it touches need them.
-            let mut free = self.caps_mm_s[first..=last].to_vec();
+            let mut free = v[first..=last].to_vec();
             self.passes(first, lambda, &mut free);
-            self.extend_caps(first, last, window_s, &free, v);
+            self.extend_caps(first, last, window_s, slow, &free, v);
         }
         self.passes(first, lambda, &mut v[first..=last]);
         if window_s > 0.0 {
@@ -290,12 +445,20 @@ impl<'a> RunPlanner<'a> {
     /// (c·(W + 3T)/2 + Δs_max at a corner): c'_k = min { c_j : |s_j − s_k| ≤ r_j, j held }.
     /// A cap the plan stays below needs no hold: holding lowers the plan, so it stays below
     /// it. n·log n through a range-minimum tree.
-    fn extend_caps(&self, first: usize, last: usize, window_s: f64, free: &[f64], v: &mut [f64]) {
+    fn extend_caps(
+        &self,
+        first: usize,
+        last: usize,
+        window_s: f64,
+        slow: f64,
+        free: &[f64],
+        v: &mut [f64],
+    ) {
         let s = &self.stations.s_mm()[first..=last];
-        let period_s = self.stations.machine().period_s();
+        let period_s = self.stations.machine().period_s() / slow;
         let mut tree = RangeMin::<1>::new(s.len());
         for (j, &s_j) in s.iter().enumerate() {
-            let cap = self.caps_mm_s[first + j];
+            let cap = self.caps_mm_s[first + j] * slow;
             if !self.is_corner[first + j] && free[j] < cap * (1.0 - 1e-9) {
                 continue;
             }
@@ -383,7 +546,125 @@ struct RunState {
     integral_mm_s: f64,
 }
 
-impl Profile<'_> {
+impl<'a> Profile<'a> {
+    /// A profile of no run yet, ending after the first stop's dwell.
+    fn empty(stations: &'a Stations) -> Self {
+        let n = stations.len();
+        let intervals = n.saturating_sub(1);
+        Profile {
+            stations,
+            speed_mm_s: vec![0.0; n],
+            interval_start_s: Vec::with_capacity(intervals),
+            interval_dt_s: Vec::with_capacity(intervals),
+            interval_integral_mm_s: Vec::with_capacity(intervals),
+            runs: Vec::with_capacity(stations.stops().len().saturating_sub(1)),
+            // Time line: dwell at a stop, then the run to the next stop (stretched by W if
+            // filtered); the profile's end while it is being built.
+            cycle_time_s: stations.stops()[0].dwell_s,
+        }
+    }
+
+    /// Appends the run `first..=last` planned into `speed_mm_s`, leaving its first station at
+    /// `start_s`: its intervals' times and integrals, and the run. Returns the time the
+    /// planned (unfiltered) motion reaches `last`, s.
+    fn push_run(
+        &mut self,
+        first: usize,
+        last: usize,
+        start_s: f64,
+        window_s: f64,
+        pause_s: f64,
+    ) -> f64 {
+        let s = self.stations.s_mm();
+        let v = &self.speed_mm_s;
+        let mut t_s = start_s;
+        let mut integral_mm_s = 0.0;
+        for k in first..last {
+            let ds = s[k + 1] - s[k];
+            let dt = 2.0 * ds / (v[k] + v[k + 1]);
+            self.interval_start_s.push(t_s);
+            self.interval_dt_s.push(dt);
+            self.interval_integral_mm_s.push(integral_mm_s);
+            let a = (v[k + 1] - v[k]) / dt;
+            integral_mm_s += integral_over_mm_s(s[k] - s[first], v[k], a, dt);
+            t_s += dt;
+        }
+        self.runs.push(Run {
+            first,
+            last,
+            start_s,
+            duration_s: t_s - start_s,
+            integral_mm_s,
+            window_s,
+            pause_s,
+        });
+        t_s
+    }
+
+    /// Removes the run [`Profile::push_run`] appended last.
+    fn pop_run(&mut self) {
+        if let Some(run) = self.runs.pop() {
+            let intervals = self.interval_start_s.len() - (run.last - run.first);
+            self.interval_start_s.truncate(intervals);
+            self.interval_dt_s.truncate(intervals);
+            self.interval_integral_mm_s.truncate(intervals);
+        }
+    }
+
+    /// Verification of the last run appended (MODEL.md §6.1): the largest ratio, over the
+    /// servo samples every machine period whose stencil reaches into the run's motion, of
+    /// a per-axis second difference |P(t+T) − 2P(t) + P(t−T)|/T² to the axis' acceleration
+    /// limit and (with a jerk limit) of a third difference
+    /// |P(t+2T) − 3P(t+T) + 3P(t) − P(t−T)|/T³ to its jerk limit, each limit with the
+    /// tests' tolerance (1 + 10⁻⁶)·limit + 10⁻⁶. The samples are those [`Profile::sample`]
+    /// makes, bit for bit: the runs before are as planned, and after the run the tool rests
+    /// (the run after checks the stencils that reach into it). 0 when nothing moves.
+    fn last_run_axis_ratio(&self, mut violations: Option<&mut Vec<Violation>>) -> f64 {
+        let Some(run) = self.runs.last() else {
+            return 0.0;
+        };
+        let machine = self.stations.machine();
+        let period_s = machine.period_s();
+        let tolerance = |limit: f64| limit * (1.0 + 1e-6) + 1e-6;
+        let accel = machine.accel_mm_s2.map(tolerance);
+        let jerk = machine.jerk_mm_s3.map(|j| j.map(tolerance));
+        let moving_from_s = run.start_s;
+        let moving_to_s = run.start_s + run.duration_s + run.window_s;
+        let lo = ((moving_from_s / period_s).floor() - 3.0).max(0.0) as usize;
+        let hi = (moving_to_s / period_s).ceil() as usize + 3;
+        let mut sampler = Sampler::starting_at(self, lo as f64 * period_s);
+        // The last four samples, oldest first.
+        let mut p = [sampler.at(lo as f64 * period_s); 4];
+        let mut worst: f64 = 0.0;
+        for (count, j) in (lo + 1..=hi).enumerate() {
+            p.rotate_left(1);
+            p[3] = sampler.at(j as f64 * period_s);
+            let mut ratio: f64 = 0.0;
+            for i in 0..3 {
+                let x = p.map(|sample| sample.pos[i]);
+                if count >= 1 {
+                    let second = (x[3] - 2.0 * x[2] + x[1]) / period_s.powi(2);
+                    ratio = ratio.max(second.abs() / accel[i]);
+                }
+                if let (Some(jerk), true) = (jerk, count >= 2) {
+                    let third = (x[3] - 3.0 * x[2] + 3.0 * x[1] - x[0]) / period_s.powi(3);
+                    ratio = ratio.max(third.abs() / jerk[i]);
+                }
+            }
+            if ratio > 1.0 {
+                if let Some(violations) = violations.as_deref_mut() {
+                    violations.push(Violation {
+                        s_mm: (p[0].s_mm, p[3].s_mm),
+                        speed_mm_s: p.iter().map(|x| x.feed_mm_min / 60.0).fold(0.0, f64::max),
+                        ratio,
+                    });
+                }
+            }
+            worst = worst.max(ratio);
+        }
+        worst
+    }
+
     /// Planned speed at each station, mm/s (before the jerk filter, if any).
     pub fn speed_mm_s(&self) -> &[f64] {
         &self.speed_mm_s
@@ -425,7 +706,8 @@ impl Profile<'_> {
         }
         time_s[CapKind::Acceleration.index()] += self.runs.iter().map(|r| r.window_s).sum::<f64>();
         time_s[CapKind::Dwell.index()] +=
-            self.stations.stops().iter().map(|s| s.dwell_s).sum::<f64>();
+            self.stations.stops().iter().map(|s| s.dwell_s).sum::<f64>()
+                + self.runs.iter().map(|r| r.pause_s).sum::<f64>();
         let total: f64 = time_s.iter().sum();
         CapKind::ALL
             .iter()
@@ -463,13 +745,7 @@ impl Profile<'_> {
         let period_s = period_ms * 1e-3;
         let count = count as usize;
         let mut samples = Vec::with_capacity(count);
-        let mut sampler = Sampler {
-            profile: self,
-            run: 0,
-            now: 0,
-            lagged: 0,
-            place: 0,
-        };
+        let mut sampler = Sampler::starting_at(self, 0.0);
         for j in 0..count {
             let t_s = j as f64 * period_s;
             if t_s >= self.cycle_time_s {
@@ -547,7 +823,39 @@ struct Sampler<'p, 'a> {
     place: usize,
 }
 
-impl Sampler<'_, '_> {
+impl<'p, 'a> Sampler<'p, 'a> {
+    /// A sampler whose first sample is at `t_s` or later; its cursors stand where a sampler
+    /// walked from t = 0 would stand, so the samples are the same, bit for bit. O(log n).
+    fn starting_at(profile: &'p Profile<'a>, t_s: f64) -> Self {
+        let runs = &profile.runs;
+        let run = runs.partition_point(|r| r.start_s <= t_s).saturating_sub(1);
+        let (now, lagged, place) = match runs.get(run) {
+            None => (0, 0, 0),
+            Some(r) => {
+                // The interval the run is in at t (and t − W), as run_state would walk to it.
+                let starts = &profile.interval_start_s[r.first..r.last];
+                let interval =
+                    |t: f64| r.first + starts.partition_point(|&x| x <= t).saturating_sub(1);
+                // The place cursor stops at the first station interval whose end reaches s;
+                // s is at least the run's first station's.
+                let s = profile.stations.s_mm();
+                let place = s[1.min(s.len())..].partition_point(|&x| x < s[r.first]);
+                (
+                    interval(t_s),
+                    interval(t_s - r.window_s),
+                    place.min(s.len().saturating_sub(2)),
+                )
+            }
+        };
+        Sampler {
+            profile,
+            run,
+            now,
+            lagged,
+            place,
+        }
+    }
+
     fn at(&mut self, t_s: f64) -> ServoSample {
         let profile = self.profile;
         let stations = profile.stations;
@@ -593,6 +901,195 @@ impl Sampler<'_, '_> {
             feed_mm_min: v_mm_s * 60.0,
             s_mm,
             segment,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::Point3;
+    use nc::{Geometry, Motion, Path, Segment};
+
+    use super::*;
+    use crate::machine::Machine;
+    use crate::stations::FeedPolicy;
+
+    fn line(start: Point3<f64>, end: Point3<f64>, motion: Motion) -> Segment {
+        Segment {
+            start,
+            end,
+            geometry: Geometry::Line,
+            motion,
+            line: 1,
+            spindle_rpm: 10000.0,
+            tool: 1,
+        }
+    }
+
+    /// The sine of the integration test `chord_approximated_sine_keeps_axis_limits` (0.2 mm
+    /// chords) at F3000, jerk 20 000 mm/s³.
+    fn sine() -> Stations {
+        let points: Vec<Point3<f64>> = (0..=500)
+            .map(|i| {
+                let x = i as f64 * 0.2;
+                Point3::new(x, 5.0 * (x / 4.0).sin(), 0.0)
+            })
+            .collect();
+        let feed = Motion::Feed {
+            feed_mm_min: 3000.0,
+        };
+        let segments = points.windows(2).map(|w| line(w[0], w[1], feed)).collect();
+        let machine = Machine {
+            jerk_mm_s3: Some([20000.0; 3]),
+            feed_max_mm_min: 10000.0,
+            ..Machine::default()
+        };
+        Stations::new(&Path { segments }, &machine, 0.05, FeedPolicy::Programmed).unwrap()
+    }
+
+    /// Largest ratio of a sampled per-axis second or third difference to its limit over
+    /// `samples` on the grid (the last one, at the cycle end, left out), computed here
+    /// from the samples [`Profile::sample`] makes, not by the planner's check.
+    fn worst_ratio(machine: &Machine, samples: &[ServoSample]) -> f64 {
+        let t = machine.period_s();
+        let on_grid = &samples[..samples.len() - 1];
+        let mut worst: f64 = 0.0;
+        for i in 0..3 {
+            let x: Vec<f64> = on_grid.iter().map(|s| s.pos[i]).collect();
+            for w in x.windows(3) {
+                worst =
+                    worst.max((w[2] - 2.0 * w[1] + w[0]).abs() / t / t / machine.accel_mm_s2[i]);
+            }
+            for w in x.windows(4) {
+                let third = (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs() / t / t / t;
+                worst = worst.max(third / machine.jerk_mm_s3.unwrap()[i]);
+            }
+        }
+        worst
+    }
+
+    /// One run planned by [`RunPlanner::verified_run`] from `candidates` (λ values).
+    fn run<'a>(
+        st: &'a Stations,
+        candidates: &[f64],
+        repair_tries: usize,
+    ) -> (Profile<'a>, Verified) {
+        let window_s = st.interval_accel_mm_s2()[0] / st.interval_jerk_mm_s3()[0];
+        let stops = st.stops();
+        let mut planner = RunPlanner::new(st);
+        let mut profile = Profile::empty(st);
+        let (end_s, verified) = planner.verified_run(
+            &mut profile,
+            (stops[0], stops[1]),
+            window_s,
+            candidates,
+            repair_tries,
+        );
+        profile.cycle_time_s = end_s + profile.runs[0].window_s;
+        (profile, verified)
+    }
+
+    /// At λ = 1 the sine's samples break the jerk limit; the check sees it, and both
+    /// fallbacks give a plan whose samples keep every limit. The slowed one is the λ = 1
+    /// plan run σ times slower: speeds σ·v, duration and window over σ.
+    #[test]
+    fn fallbacks_keep_the_limits_where_lambda_one_breaks_them() {
+        let st = sine();
+        let machine = *st.machine();
+        let (at_one, verified) = run(&st, &[1.0], 0);
+        let Verified::Slowed { tries, slow } = verified else {
+            panic!("{verified:?}");
+        };
+        assert!(tries >= 2 && slow < 1.0, "{verified:?}");
+        assert!(worst_ratio(&machine, &at_one.sample(machine.period_ms).unwrap()) <= 1.0 + 1e-6);
+
+        // The λ = 1 plan itself, at σ = 1: it breaks the limit.
+        let planner = RunPlanner::new(&st);
+        let mut plain = Profile::empty(&st);
+        let window_s = at_one.runs[0].window_s * slow;
+        let last = st.len() - 1;
+        planner.plan_run(0, last, 1.0, window_s, 1.0, &mut plain.speed_mm_s);
+        let end_s = plain.push_run(0, last, 0.0, window_s, 0.0);
+        plain.cycle_time_s = end_s + window_s;
+        let ratio = plain.last_run_axis_ratio(None);
+        assert!(ratio > 1.0, "{ratio}");
+        // The planner's check measures what the samples show (up to its tolerance).
+        let measured = worst_ratio(&machine, &plain.sample(machine.period_ms).unwrap());
+        assert!(
+            (measured - ratio).abs() <= 2e-6 * measured,
+            "{measured} vs {ratio}"
+        );
+        for (slowed, v) in at_one.speed_mm_s.iter().zip(&plain.speed_mm_s) {
+            assert!(
+                (slowed - slow * v).abs() <= 1e-9 * v,
+                "{slowed} vs {slow}·{v}"
+            );
+        }
+        let (a, b) = (at_one.runs[0], plain.runs[0]);
+        assert!((a.duration_s * slow - b.duration_s).abs() <= 1e-9 * b.duration_s);
+        assert!((a.window_s * slow - b.window_s).abs() <= 1e-12 * b.window_s);
+
+        // Lowering the caps where the samples break a limit verifies too, and is quicker.
+        let (lowered, verified) = run(&st, &[1.0], REPAIR_MAX_TRIES);
+        assert!(matches!(verified, Verified::Repaired(_)), "{verified:?}");
+        assert!(worst_ratio(&machine, &lowered.sample(machine.period_ms).unwrap()) <= 1.0 + 1e-6);
+        assert!(lowered.cycle_time_s < at_one.cycle_time_s);
+        println!(
+            "λ = 1: ratio {ratio:.4}, cycle {:.4} s; lowered caps {verified:?}: {:.4} s; slowed σ = {slow:.4} ({tries} tries): {:.4} s",
+            plain.cycle_time_s, lowered.cycle_time_s, at_one.cycle_time_s
+        );
+    }
+
+    /// A sampler started anywhere makes the samples of one started at t = 0, bit for bit
+    /// (the check's samples are the servo samples), on a path of several runs and dwells.
+    #[test]
+    fn a_sampler_started_late_makes_the_same_samples() {
+        let feed = Motion::Feed {
+            feed_mm_min: 2000.0,
+        };
+        let p = |x: f64, y: f64| Point3::new(x, y, 0.0);
+        let segments = vec![
+            line(p(0.0, 0.0), p(10.0, 0.0), feed),
+            line(p(10.0, 0.0), p(10.0, 5.0), feed),
+            line(p(10.0, 5.0), p(10.0, 5.0), Motion::Dwell { seconds: 0.1 }),
+            line(p(10.0, 5.0), p(0.0, 7.0), feed),
+            line(p(0.0, 7.0), p(0.0, 7.0), Motion::Dwell { seconds: 0.01 }),
+            line(p(0.0, 7.0), p(3.0, 0.0), feed),
+        ];
+        for jerk_mm_s3 in [None, Some([20000.0; 3])] {
+            let machine = Machine {
+                jerk_mm_s3,
+                period_ms: 4.0,
+                ..Machine::default()
+            };
+            let st = Stations::new(
+                &Path {
+                    segments: segments.clone(),
+                },
+                &machine,
+                0.05,
+                FeedPolicy::Programmed,
+            )
+            .unwrap();
+            let profile = plan(&st);
+            assert!(profile.runs.len() >= 3);
+            let samples = profile.sample(4.0).unwrap();
+            let period_s = machine.period_s();
+            for from in (0..samples.len() - 1).step_by(7) {
+                let mut sampler = Sampler::starting_at(&profile, from as f64 * period_s);
+                for (j, expected) in samples
+                    .iter()
+                    .enumerate()
+                    .take(samples.len() - 1)
+                    .skip(from)
+                {
+                    assert_eq!(
+                        sampler.at(j as f64 * period_s),
+                        *expected,
+                        "from {from}, sample {j}"
+                    );
+                }
+            }
         }
     }
 }

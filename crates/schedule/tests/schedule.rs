@@ -1179,3 +1179,47 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// Short runs of dense corners (issue 14): chains of 40-200 chords of 0.1-1.5 mm with
+    /// random turns, feed dips and a jerk limit, mostly short enough for the search over λ.
+    /// Every servo sample's per-axis second and third differences stay within the limits.
+    #[test]
+    fn dense_corner_runs_keep_axis_limits_at_every_sample(
+        chords in prop::collection::vec((0.1..1.5f64, -0.5..0.5f64, -0.2..0.2f64), 40..200),
+        feed in 300.0..6000.0f64,
+        dips in prop::collection::vec((0.0..1.0f64, 0.0..3.0f64, 20.0..3000.0f64), 0..6),
+        jerk in 5000.0..100000.0f64,
+    ) {
+        let mut segments = Vec::with_capacity(chords.len());
+        let (mut at, mut heading) = (p(0.0, 0.0, 0.0), 0.0f64);
+        for &(len, turn, dz) in &chords {
+            heading += turn;
+            let next = at + Vector3::new(heading.cos() * len, heading.sin() * len, dz);
+            segments.push(line(at, next, feed));
+            at = next;
+        }
+        let machine = Machine { jerk_mm_s3: Some([jerk; 3]), accel_mm_s2: [800.0, 1000.0, 500.0], ..Machine::default() };
+        let mut st = Stations::new(&path(segments), &machine, 0.05, FeedPolicy::Programmed).unwrap();
+        let total = *st.s_mm().last().unwrap();
+        for (from, len, cap) in dips {
+            let (lo, hi) = (from * total, from * total + len);
+            for k in 0..st.len() {
+                if (lo..=hi).contains(&st.s_mm()[k]) {
+                    st.apply_cap(k, cap, CapKind::Removal).unwrap();
+                }
+            }
+        }
+        let profile = plan(&st);
+        prop_assert!(profile.cycle_time_s() >= lower_bound_time_s(&st) * (1.0 - 1e-12));
+        let samples = profile.sample(machine.period_ms).unwrap();
+        prop_assert!((samples.last().unwrap().s_mm - total).abs() < 1e-9);
+        assert_samples_under_caps(&st, &samples, "dense corners");
+        let (accel, jerk_peak) = sampled_axis_peaks(&samples, machine.period_ms * 1e-3);
+        for i in 0..3 {
+            prop_assert!(accel[i] <= machine.accel_mm_s2[i] * (1.0 + 1e-6) + 1e-6, "axis {} accel {:?}", i, accel);
+            prop_assert!(jerk_peak[i] <= jerk * (1.0 + 1e-6) + 1e-6, "axis {} jerk {:?}", i, jerk_peak);
+        }
+    }
+}
