@@ -127,7 +127,8 @@ for f in sorted(os.listdir(data)):
     # Probe: where the feed moves are (a far-away one-cell stock, nothing removed).
     probe = f'[stock]\nkind = "box"\nmin = [-5000, -5000, -9000]\nmax = [5000, 5000, -8990]\ngrid = 50\n[tool]\nkind = "flat"\ndiameter = 3\n[program]\npath = "{prog}"\n'
     open(os.path.join(d, "probe.toml"), "w").write(probe)
-    p = run(["simulate", "probe.toml", "--out", "probe", "--force"], d)
+    # steps.csv whatever the length (read below; --steps-format auto writes .npy above 200 000 steps).
+    p = run(["simulate", "probe.toml", "--out", "probe", "--force", "--steps-format", "csv"], d)
     if p.returncode:
         rows.append(dict(name=name, status="not read: " + last_line(p.stderr)))
         continue
@@ -174,7 +175,7 @@ for f in sorted(os.listdir(data)):
     mrr = 0.5 * S["peak_mrr_windowed_mm3_s"]
     limits = f"mrr_max = {mrr:.6g}\n"
     open(os.path.join(d, "job.toml"), "w").write(job(prog, limits))
-    o = run(["optimize", "job.toml", "--out", "opt", "--force"], d)
+    o = run(["optimize", "job.toml", "--out", "opt", "--force", "--steps-format", "csv"], d)
     if o.returncode:
         rows.append(dict(name=name, status="optimize failed: " + last_line(o.stderr)))
         continue

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use dexcut::commands::{DesignInfo, LimitsOut, Simulated};
 use dexcut::optimize::ToolChipLoad;
-use dexcut::{DriveEvaluation, Optimized, Warnings};
+use dexcut::{DriveEvaluation, Optimized, StepsFormat, Warnings};
 
 /// Write one line to stdout; a closed or failing stdout is ignored (the
 /// results are in files, the console only repeats them).
@@ -43,7 +43,7 @@ pub fn warnings_after_work(warnings: &Warnings, label: &str) {
 
 /// The simulate results: the bands of a large stock, the design comparison,
 /// the headline line, then the warnings.
-pub fn simulate(simulated: &Simulated, out: &Path) {
+pub fn simulate(simulated: &Simulated, out: &Path, asked: StepsFormat) {
     if let Some(b) = &simulated.banded {
         outln!(
             "the stock's {}×{} columns exceed the memory budget of {:.0} MB: swept in {} bands of {} rows",
@@ -70,6 +70,7 @@ pub fn simulate(simulated: &Simulated, out: &Path) {
         summary.max_error_um,
         out.display()
     );
+    steps_format(asked, simulated.steps_format, summary.steps, &["steps"]);
     warnings_after_work(&summary.warnings, "");
 }
 
@@ -83,6 +84,21 @@ fn at_rupture(summary: &dexcut::summary::Summary) -> String {
         )
     } else {
         String::new()
+    }
+}
+
+/// Say so when `--steps-format auto` wrote the steps as `.npy` arrays.
+fn steps_format(asked: StepsFormat, written: StepsFormat, steps: usize, stems: &[&str]) {
+    if asked == StepsFormat::Auto && written == StepsFormat::Npy {
+        let files: Vec<String> = stems
+            .iter()
+            .map(|s| format!("{s}.json and {s}_*.npy"))
+            .collect();
+        outln!(
+            "{steps} steps, more than {}: the per-step results are written as NumPy arrays ({}, one array per column) instead of CSV; --steps-format csv writes the CSV",
+            dexcut::AUTO_NPY_STEPS,
+            files.join("; ")
+        );
     }
 }
 
@@ -211,7 +227,7 @@ fn chip_load_text(limits: &LimitsOut) -> Option<String> {
 }
 
 /// The optimize results on the console.
-pub fn optimize(optimized: &Optimized, out: &Path) {
+pub fn optimize(optimized: &Optimized, out: &Path, asked: StepsFormat) {
     let doc = &optimized.summary;
     if let Some(info) = &doc.design {
         line_deviations(info);
@@ -302,6 +318,12 @@ pub fn optimize(optimized: &Optimized, out: &Path) {
         );
     }
     outln!("results in {}", out.display());
+    steps_format(
+        asked,
+        optimized.steps_format,
+        doc.before.steps.max(doc.after.steps),
+        &["steps", "steps_before"],
+    );
     warnings_after_work(&doc.before.warnings, "program");
     warnings_after_work(&doc.after.warnings, "optimised");
 }

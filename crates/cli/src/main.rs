@@ -45,6 +45,14 @@ enum Command {
         /// column: large on fine grids; the .npy arrays are always written).
         #[arg(long)]
         columns_csv: bool,
+        /// How to write the per-step results (one row per servo period):
+        /// `csv`: steps.csv, one text row per step (for a spreadsheet);
+        /// `npy`: steps.json and one NumPy .npy array per column of steps.csv
+        /// (float64 in the CSV's units, line and tool uint32, rapid uint8),
+        /// faster to write and read; `both`; `auto`: csv up to 200 000 steps,
+        /// npy above.
+        #[arg(long, value_enum, default_value_t = StepsFormatArg::Auto, value_name = "FORMAT")]
+        steps_format: StepsFormatArg,
         /// Memory for the stock, MB (default: what this process may use). A box
         /// or cylinder stock whose columns need more is swept band of rows by
         /// band of rows, with the same results, and its .npy grid streamed.
@@ -69,6 +77,14 @@ enum Command {
         /// column: large on fine grids; the .npy arrays are always written).
         #[arg(long)]
         columns_csv: bool,
+        /// How to write the per-step results, after and before (steps, steps_before):
+        /// `csv`: steps.csv, one text row per step (for a spreadsheet);
+        /// `npy`: steps.json and one NumPy .npy array per column of steps.csv
+        /// (float64 in the CSV's units, line and tool uint32, rapid uint8),
+        /// faster to write and read; `both`; `auto`: csv up to 200 000 steps,
+        /// npy above.
+        #[arg(long, value_enum, default_value_t = StepsFormatArg::Auto, value_name = "FORMAT")]
+        steps_format: StepsFormatArg,
         /// Machine and drive settings written by `evaluate --sweep` (best.toml), over the job's.
         #[arg(long, value_name = "FILE")]
         settings: Option<PathBuf>,
@@ -113,6 +129,30 @@ enum Command {
     },
 }
 
+/// `--steps-format`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum StepsFormatArg {
+    /// steps.csv up to 200 000 steps, the .npy arrays above.
+    Auto,
+    /// steps.csv.
+    Csv,
+    /// steps.json and steps_<column>.npy.
+    Npy,
+    /// Both.
+    Both,
+}
+
+impl From<StepsFormatArg> for dexcut::StepsFormat {
+    fn from(f: StepsFormatArg) -> Self {
+        match f {
+            StepsFormatArg::Auto => dexcut::StepsFormat::Auto,
+            StepsFormatArg::Csv => dexcut::StepsFormat::Csv,
+            StepsFormatArg::Npy => dexcut::StepsFormat::Npy,
+            StepsFormatArg::Both => dexcut::StepsFormat::Both,
+        }
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     dexcut::progress::set_progress(progress::bar);
@@ -136,6 +176,7 @@ fn run(command: Command) -> Result<(), dexcut::Error> {
             actual_path,
             force,
             columns_csv,
+            steps_format,
             memory_budget_mb,
         } => {
             let doc = dexcut::commands::simulate(
@@ -145,10 +186,11 @@ fn run(command: Command) -> Result<(), dexcut::Error> {
                 actual_path,
                 force,
                 columns_csv,
+                steps_format.into(),
                 memory_budget_mb,
                 on_warning,
             )?;
-            console::simulate(&doc, &out);
+            console::simulate(&doc, &out, steps_format.into());
         }
         Command::Optimize {
             job,
@@ -156,6 +198,7 @@ fn run(command: Command) -> Result<(), dexcut::Error> {
             grid,
             force,
             columns_csv,
+            steps_format,
             settings,
         } => {
             if job.is_none() {
@@ -170,10 +213,11 @@ fn run(command: Command) -> Result<(), dexcut::Error> {
                 grid,
                 force,
                 columns_csv,
+                steps_format.into(),
                 settings.as_deref(),
                 on_warning,
             )?;
-            console::optimize(&optimized, &out);
+            console::optimize(&optimized, &out, steps_format.into());
         }
         Command::Report { dir } => console::report(&dexcut::commands::report(&dir)?),
         Command::Evaluate {

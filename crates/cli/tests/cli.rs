@@ -72,6 +72,7 @@ fn grid_columns(out: &Path) -> HashMap<String, Vec<f64>> {
                     .iter()
                     .map(|&i| if i < 0 { f64::NAN } else { i as f64 })
                     .collect(),
+                other => panic!("{}: {:?} in the grid", a.file, other.dtype()),
             };
             (a.name.clone(), values)
         })
@@ -2782,5 +2783,309 @@ fn tiled_stock_gives_the_in_memory_results() {
         ],
         &["--columns-csv with a stock too large"],
         Some("csv"),
+    );
+}
+
+/// The steps' binary form of the results folder `dir`: `<stem>.json` and its
+/// `.npy` arrays, checked against the CSV file `csv`: every column of the CSV
+/// has its values in the arrays, exactly (the CSV prints each f64 in its
+/// shortest round-trip form; −0 prints as 0), the step number is the row, the
+/// band columns are one `(steps, K)` array (the CSV's bands from K on are 0),
+/// and the arrays hold nothing else.
+fn assert_npy_steps_equal_csv(csv: &Path, dir: &Path, stem: &str) {
+    let cols = csv_columns(csv);
+    let info = export::read_npy_table_info(dir, stem, 1 << 20).unwrap();
+    let n = cols["step"].len();
+    assert!(n > 0);
+    assert_eq!(info.rows, n);
+    for (i, s) in cols["step"].iter().enumerate() {
+        assert_eq!(*s, i as f64, "step of row {i}");
+    }
+    let read = |name: &str| {
+        export::read_npy_table_column(dir, &info, name, 1 << 30)
+            .unwrap()
+            .unwrap_or_else(|| panic!("{stem}.json has no column {name}"))
+    };
+    let bands = read("band_mm3");
+    let k = bands.shape[1];
+    let band = bands.data.to_f64();
+    let mut csv_bands = 0;
+    for (name, values) in &cols {
+        if name == "step" {
+            continue;
+        }
+        let expected: Vec<f64> = match name
+            .strip_prefix("band_")
+            .and_then(|b| b.strip_suffix("_mm3"))
+        {
+            Some(b) => {
+                csv_bands += 1;
+                let b: usize = b.parse().unwrap();
+                (0..n)
+                    .map(|i| if b < k { band[i * k + b] } else { 0.0 })
+                    .collect()
+            }
+            None => {
+                let npy = read(name);
+                assert_eq!(npy.shape, vec![n], "{name}");
+                npy.data.to_f64()
+            }
+        };
+        for (i, (c, v)) in values.iter().zip(&expected).enumerate() {
+            assert!(
+                c == v,
+                "{name} of step {i}: {c} in the CSV, {v} in the array"
+            );
+        }
+    }
+    assert!(k <= csv_bands);
+    // The arrays hold the CSV's columns and nothing else, with their types.
+    assert_eq!(info.columns.len(), cols.len() - 1 - csv_bands + 1);
+    for c in &info.columns {
+        let dtype = match c.name.as_str() {
+            "line" | "tool" => "<u4",
+            "rapid" | "breaks" => "|u1",
+            _ => "<f8",
+        };
+        assert_eq!(c.dtype, dtype, "{}", c.name);
+        assert_eq!(c.file, format!("{stem}_{}.npy", c.name));
+    }
+}
+
+/// Two flat tools, each cutting a slot (2 and 3 mm deep: bands 0–2 of 1 mm),
+/// with rapids between, deflecting (closed loop on).
+const TWO_SLOTS_JOB: &str = r#"
+[stock]
+kind = "box"
+min = [0, -20, 0]
+max = [100, 20, 30]
+grid = 0.2
+[[tools]]
+number = 1
+kind = "flat"
+diameter = 6
+length = 40
+[[tools]]
+number = 2
+kind = "flat"
+diameter = 10
+length = 60
+[program]
+path = "two.nc"
+[cutting]
+material = "al6061"
+[machine]
+accel = [1000, 1000, 1000]
+[limits]
+mrr_max = 60
+"#;
+
+const TWO_SLOTS_NC: &str =
+    "%\nG21 G90 G17\nT1 M6\nG0 G43 H1 Z40\nG0 X-10 Y-8\nG0 Z28\nG1 X110 F1200\nG0 Z40\n\
+     T2 M6\nG43 H2 Z40\nG0 X-10 Y8\nG0 Z27\nG1 X110 F1200\nG0 Z40\nM30\n%\n";
+
+/// Visible files of a folder, sorted.
+fn file_names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// summary.json without what differs from run to run (wall times, run id;
+/// the cycle time is kept).
+fn summary_values(dir: &Path) -> Value {
+    let mut s = summary(dir);
+    let strip = |v: &mut Value| {
+        if let Some(o) = v.as_object_mut() {
+            o.retain(|k, _| !(k.starts_with("time_") || k.ends_with("time_s") || k == "run_id"));
+        }
+    };
+    strip(&mut s);
+    s
+}
+
+/// `--steps-format`: `npy` writes steps.json and one `.npy` array per column
+/// holding exactly the values of steps.csv (the same run written both ways,
+/// and two runs one each way), with NumPy's header; every other file is the
+/// same byte for byte; `auto` writes steps.csv for a short program; `report`
+/// reads a folder without steps.csv and gives the same report.
+#[test]
+fn steps_npy_holds_exactly_the_values_of_steps_csv() {
+    let dir = tempdir();
+    write(dir.path(), "job.toml", TWO_SLOTS_JOB);
+    write(dir.path(), "two.nc", TWO_SLOTS_NC);
+    for (out, format) in [
+        ("csv", Some("csv")),
+        ("npy", Some("npy")),
+        ("both", Some("both")),
+        ("auto", None),
+    ] {
+        let mut args = vec!["simulate", "job.toml", "--out", out];
+        args.extend(format.map(|f| ["--steps-format", f]).into_iter().flatten());
+        let r = dexcut(&args, dir.path());
+        ok(&r);
+        // Only auto above 200 000 steps says the format.
+        assert!(!String::from_utf8_lossy(&r.stdout).contains("NumPy arrays"));
+    }
+    let d = |name: &str| dir.path().join(name);
+    let names = file_names(&d("both"));
+    let arrays: Vec<&String> = names
+        .iter()
+        .filter(|n| n.starts_with("steps_") && n.ends_with(".npy"))
+        .collect();
+    assert_eq!(arrays.len(), 26, "{names:?}");
+    let without = |skip: &dyn Fn(&str) -> bool| -> Vec<String> {
+        names.iter().filter(|n| !skip(n)).cloned().collect()
+    };
+    let npy_form = |n: &str| n == "steps.json" || (n.starts_with("steps_") && n.ends_with(".npy"));
+    assert_eq!(file_names(&d("csv")), without(&npy_form));
+    assert_eq!(file_names(&d("auto")), without(&npy_form));
+    assert_eq!(file_names(&d("npy")), without(&|n| n == "steps.csv"));
+    // The same run's CSV and arrays, and the arrays of a run of their own.
+    assert_npy_steps_equal_csv(&d("both/steps.csv"), &d("both"), "steps");
+    assert_npy_steps_equal_csv(&d("csv/steps.csv"), &d("npy"), "steps");
+    let info = export::read_npy_table_info(&d("npy"), "steps", 1 << 20).unwrap();
+    let band = info.columns.iter().find(|c| c.name == "band_mm3").unwrap();
+    assert_eq!(
+        band.shape,
+        vec![info.rows, 3],
+        "the 3 mm slot cuts bands 0–2"
+    );
+    // NumPy's .npy 1.0 header: magic, version, length, the dict, data 64-aligned.
+    for (file, dict) in [
+        (
+            "steps_t_s.npy",
+            format!(
+                "{{'descr': '<f8', 'fortran_order': False, 'shape': ({},), }}",
+                info.rows
+            ),
+        ),
+        (
+            "steps_band_mm3.npy",
+            format!(
+                "{{'descr': '<f8', 'fortran_order': False, 'shape': ({}, 3), }}",
+                info.rows
+            ),
+        ),
+        (
+            "steps_rapid.npy",
+            format!(
+                "{{'descr': '|u1', 'fortran_order': False, 'shape': ({},), }}",
+                info.rows
+            ),
+        ),
+    ] {
+        let b = std::fs::read(d("npy").join(file)).unwrap();
+        assert_eq!(&b[..8], b"\x93NUMPY\x01\x00", "{file}");
+        let len = u16::from_le_bytes([b[8], b[9]]) as usize;
+        assert_eq!((10 + len) % 64, 0, "{file}");
+        assert!(
+            std::str::from_utf8(&b[10..10 + len])
+                .unwrap()
+                .starts_with(&dict),
+            "{file}"
+        );
+    }
+    // Everything else is the same, byte for byte, whatever the steps' format.
+    for n in &names {
+        if n == "manifest.json" || n == "summary.json" {
+            continue;
+        }
+        let both = std::fs::read(d("both").join(n)).unwrap();
+        let other = if npy_form(n) { "npy" } else { "csv" };
+        assert_eq!(
+            both,
+            std::fs::read(d(other).join(n)).unwrap(),
+            "{n} of {other}"
+        );
+        if !npy_form(n) {
+            assert_eq!(
+                both,
+                std::fs::read(d("auto").join(n)).unwrap(),
+                "{n} of auto"
+            );
+        }
+    }
+    for other in ["npy", "both", "auto"] {
+        assert_eq!(
+            summary_values(&d(other)),
+            summary_values(&d("csv")),
+            "{other}"
+        );
+    }
+    // report reads either form, and the report is the same.
+    for out in ["csv", "npy"] {
+        ok(&dexcut(&["report", out], dir.path()));
+    }
+    for f in ["error_map.png", "stock.glb"] {
+        assert!(
+            std::fs::read(d("npy").join(f)).unwrap() == std::fs::read(d("csv").join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    assert_same_report(&d("npy"), &d("csv"));
+}
+
+/// `optimize --steps-format npy` writes the steps after and before as arrays
+/// (steps.json, steps_before.json), equal to the CSV files of a run with
+/// `--steps-format csv`, and `report` reads them.
+#[test]
+fn optimize_writes_both_step_tables_as_npy() {
+    let dir = tempdir();
+    write(dir.path(), "job.toml", TWO_SLOTS_JOB);
+    write(dir.path(), "two.nc", TWO_SLOTS_NC);
+    for format in ["csv", "npy"] {
+        ok(&dexcut(
+            &[
+                "optimize",
+                "job.toml",
+                "--out",
+                format,
+                "--steps-format",
+                format,
+            ],
+            dir.path(),
+        ));
+    }
+    let d = |name: &str| dir.path().join(name);
+    let npy_names = file_names(&d("npy"));
+    for f in [
+        "steps.json",
+        "steps_before.json",
+        "steps_force_n.npy",
+        "steps_before_force_n.npy",
+    ] {
+        assert!(npy_names.iter().any(|n| n == f), "{f} in {npy_names:?}");
+    }
+    assert!(!npy_names
+        .iter()
+        .any(|n| n.ends_with(".csv") && n.starts_with("steps")));
+    assert_npy_steps_equal_csv(&d("csv/steps.csv"), &d("npy"), "steps");
+    assert_npy_steps_equal_csv(&d("csv/steps_before.csv"), &d("npy"), "steps_before");
+    // The optimised run differs from the program as given.
+    let s = summary(&d("npy"));
+    assert!(s["after"]["cycle_time_s"].as_f64() > s["before"]["cycle_time_s"].as_f64());
+    for out in ["csv", "npy"] {
+        ok(&dexcut(&["report", out], dir.path()));
+    }
+    assert_same_report(&d("npy"), &d("csv"));
+}
+
+/// report.html of the folders `a` and `b` are the same but for the folders' names.
+fn assert_same_report(a: &Path, b: &Path) {
+    let name = |d: &Path| format!("{}/", d.file_name().unwrap().to_string_lossy());
+    let html_a = std::fs::read_to_string(a.join("report.html")).unwrap();
+    let html_b = std::fs::read_to_string(b.join("report.html")).unwrap();
+    let html_a = html_a.replace(&name(a), &name(b));
+    assert!(html_a.len() > 10_000 && html_a.contains("<svg"));
+    let first = html_a.bytes().zip(html_b.bytes()).position(|(x, y)| x != y);
+    assert!(
+        html_a == html_b,
+        "report.html of {} and {} differ from byte {first:?}",
+        a.display(),
+        b.display()
     );
 }

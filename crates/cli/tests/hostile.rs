@@ -508,6 +508,125 @@ fn d5_d10_report_refuses_mixed_and_damaged_folders() {
     );
 }
 
+/// D5, D10: report refuses damaged step arrays (`--steps-format npy`) with a
+/// clear error naming the file, and a step array from another run.
+#[test]
+fn d5_d10_report_refuses_damaged_step_arrays() {
+    let dir = job_dir(str::to_string, SLOT_NC);
+    dexcut(
+        &[
+            "simulate",
+            "job.toml",
+            "--out",
+            "a",
+            "--steps-format",
+            "npy",
+        ],
+        dir.path(),
+    )
+    .ok();
+    let a = dir.path().join("a");
+    assert!(!a.join("steps.csv").exists());
+    dexcut(&["report", "a"], dir.path()).ok();
+    let table = json(&a.join("steps.json"));
+    let rows = table["rows"].as_u64().unwrap() as usize;
+    // A step array from a run of another program (another length).
+    write(
+        dir.path(),
+        "p2.nc",
+        "G0 X-10 Y5 Z35\nG0 Z29\nG1 X40 F900\nM2\n",
+    );
+    std::fs::write(
+        dir.path().join("job2.toml"),
+        BOX_JOB.replace("p.nc", "p2.nc"),
+    )
+    .unwrap();
+    dexcut(
+        &[
+            "simulate",
+            "job2.toml",
+            "--out",
+            "b",
+            "--steps-format",
+            "npy",
+        ],
+        dir.path(),
+    )
+    .ok();
+    let mixed = dir.path().join("mixed");
+    std::fs::create_dir(&mixed).unwrap();
+    for f in names(&a) {
+        std::fs::copy(a.join(&f), mixed.join(&f)).unwrap();
+    }
+    let b = dir.path().join("b");
+    std::fs::copy(b.join("steps_force_n.npy"), mixed.join("steps_force_n.npy")).unwrap();
+    dexcut(&["report", "mixed"], dir.path()).clear_error("the folder mixes runs");
+
+    // Damaged files with a manifest that matches them.
+    let damaged = |file: &str, content: &[u8], needle: &str| {
+        let d = dir.path().join("damaged");
+        if d.exists() {
+            std::fs::remove_dir_all(&d).unwrap();
+        }
+        std::fs::create_dir(&d).unwrap();
+        for f in names(&a) {
+            std::fs::copy(a.join(&f), d.join(&f)).unwrap();
+        }
+        std::fs::write(d.join(file), content).unwrap();
+        let mut manifest = json(&d.join("manifest.json"));
+        manifest["files"][file] = Value::from(content.len() as u64);
+        std::fs::write(d.join("manifest.json"), manifest.to_string()).unwrap();
+        dexcut(&["report", "damaged"], dir.path()).clear_error(needle);
+    };
+    damaged("steps.json", b"", "not a table description");
+    let mut other = table.clone();
+    other["format"] = "dexcut column grid".into();
+    damaged(
+        "steps.json",
+        other.to_string().as_bytes(),
+        "not \"dexcut npy table\"",
+    );
+    let mut no_t = table.clone();
+    no_t["columns"]
+        .as_array_mut()
+        .unwrap()
+        .retain(|c| c["name"] != "t_s");
+    damaged("steps.json", no_t.to_string().as_bytes(), "no column t_s");
+    let mut zero = table.clone();
+    zero["rows"] = 0.into();
+    damaged("steps.json", zero.to_string().as_bytes(), "no rows");
+    let mut outside = table.clone();
+    outside["columns"][0]["file"] = "../a/steps_t_s.npy".into();
+    damaged(
+        "steps.json",
+        outside.to_string().as_bytes(),
+        "not a plain file name",
+    );
+    let force = std::fs::read(a.join("steps_force_n.npy")).unwrap();
+    damaged("steps_force_n.npy", &force[..force.len() - 8], "data bytes");
+    damaged("steps_force_n.npy", b"PK\x03\x04", "magic");
+    let line = export::npy_bytes(&[rows], export::NpyValues::I32(&vec![3; rows])).unwrap();
+    damaged("steps_line.npy", &line, "dtype <i4, the table lists <u4");
+    let short =
+        export::npy_bytes(&[rows - 1], export::NpyValues::F64(&vec![0.5; rows - 1])).unwrap();
+    damaged(
+        "steps_t_s.npy",
+        &short,
+        &format!("shape [{}], the table lists [{rows}]", rows - 1),
+    );
+    // No steps at all.
+    let d = dir.path().join("damaged");
+    std::fs::remove_file(d.join("steps.json")).unwrap();
+    let mut manifest = json(&d.join("manifest.json"));
+    manifest["files"]
+        .as_object_mut()
+        .unwrap()
+        .remove("steps.json");
+    std::fs::write(d.join("manifest.json"), manifest.to_string()).unwrap();
+    dexcut(&["report", "damaged"], dir.path())
+        .clear_error("neither steps.csv nor steps.json (the per-step results) is there");
+}
+
 /// D6: a missing [design] file and an unusable --out are found before the work.
 #[test]
 fn d6_checks_come_before_the_work() {
@@ -823,5 +942,44 @@ fn disk_full_keeps_previous_results_and_says_so_once() {
     );
     assert_complete(&mnt.join("res"));
     assert_eq!(names(&mnt), ["fine.toml", "job.toml", "p.nc", "res"]);
+    // The steps' arrays of a long program do not fit either (30 000 steps ×
+    // 25 arrays of 8 B): the run fails there, nothing of it is left.
+    write(&mnt, "slow.nc", &SLOT_NC.replace("F1200", "F10"));
+    write(
+        &mnt,
+        "slow.toml",
+        &BOX_JOB
+            .replace("grid = 0.5", "grid = 2")
+            .replace("p.nc", "slow.nc"),
+    );
+    let r = dexcut(
+        &[
+            "simulate",
+            "slow.toml",
+            "--out",
+            "res",
+            "--steps-format",
+            "npy",
+        ],
+        &mnt,
+    );
+    r.clear_error("No space left on device");
+    assert!(r.stderr.contains("steps_"), "{}", r.stderr);
+    assert_eq!(
+        std::fs::read(mnt.join("res/manifest.json")).unwrap(),
+        previous
+    );
+    assert_complete(&mnt.join("res"));
+    assert_eq!(
+        names(&mnt),
+        [
+            "fine.toml",
+            "job.toml",
+            "p.nc",
+            "res",
+            "slow.nc",
+            "slow.toml"
+        ]
+    );
     let _ = std::io::stderr().flush();
 }

@@ -19,6 +19,7 @@ use crate::optimize::{self};
 use crate::outdir::OutDir;
 use crate::program::{self, Program};
 use crate::simulate::{self, GridInfo, Run, Summary};
+use crate::steps_out::StepsFormat;
 use crate::tools::ToolSet;
 
 pub use crate::evaluate::evaluate;
@@ -577,32 +578,34 @@ pub struct SimulateSummary {
     pub run_id: String,
 }
 
-/// Write steps.csv and the per-column results of a run (the `.npy` grid, and
-/// columns.csv when `columns_csv`); returns the design comparison.
+/// Write the steps (steps.csv and/or the steps' `.npy` arrays, as
+/// `steps_format` says) and the per-column results of a run (the `.npy` grid,
+/// and columns.csv when `columns_csv`); returns the design comparison.
 fn write_run(
     setup: &Setup,
     run: &Run,
     out: &Path,
-    steps_name: &str,
+    steps_format: StepsFormat,
     columns_csv: bool,
 ) -> Result<Option<DesignInfo>> {
     let tops = run.stock.top_heights();
     let design = design_comparison(setup, run, &tops)?;
-    write_run_files(run, &tops, design.as_ref(), out, steps_name, columns_csv)?;
+    write_run_files(run, &tops, design.as_ref(), out, steps_format, columns_csv)?;
     Ok(design.map(|d| d.1))
 }
 
-/// steps.csv (named `steps_name`) and the per-column results of a run (the
-/// `.npy` grid, and columns.csv when `columns_csv`) into `out`.
+/// The steps (`steps.csv` and/or `steps.json` with its `.npy` arrays, as
+/// `steps_format` says) and the per-column results of a run (the `.npy` grid,
+/// and columns.csv when `columns_csv`) into `out`.
 fn write_run_files(
     run: &Run,
     tops: &[f32],
     design: Option<&(Vec<f32>, DesignInfo)>,
     out: &Path,
-    steps_name: &str,
+    steps_format: StepsFormat,
     columns_csv: bool,
-) -> Result<()> {
-    run.write_steps_csv(&out.join(steps_name))?;
+) -> Result<StepsFormat> {
+    let steps_format = run.write_steps(out, "steps", steps_format)?;
     // With a design model each column also names the program line that last cut it (S1).
     let lines: Option<Vec<i32>> = design.as_ref().map(|_| {
         run.stock
@@ -623,7 +626,8 @@ fn write_run_files(
         design.map(|d| d.0.as_slice()),
         lines.as_deref(),
         columns_csv,
-    )
+    )?;
+    Ok(steps_format)
 }
 
 /// A simulated program: the run, its headline numbers and the comparison with
@@ -642,15 +646,23 @@ pub struct Simulation {
 }
 
 impl Simulation {
-    /// Write steps.csv and the per-column results (the `.npy` grid with
-    /// columns.json, and columns.csv when `columns_csv`) into `out`, an existing folder.
-    pub fn write_files(&self, out: &Path, columns_csv: bool) -> Result<()> {
+    /// Write the steps (steps.csv, or for [`StepsFormat::Npy`] steps.json
+    /// and one `.npy` array per column; [`StepsFormat::Auto`] chooses by the
+    /// number of steps) and the per-column results (the `.npy` grid with
+    /// columns.json, and columns.csv when `columns_csv`) into `out`, an
+    /// existing folder. Returns the steps' format written.
+    pub fn write_files(
+        &self,
+        out: &Path,
+        columns_csv: bool,
+        steps_format: StepsFormat,
+    ) -> Result<StepsFormat> {
         write_run_files(
             &self.run,
             &self.tops,
             self.design.as_ref(),
             out,
-            "steps.csv",
+            steps_format,
             columns_csv,
         )
     }
@@ -706,8 +718,9 @@ fn simulate_tiled(
     tiling: &crate::stock::Tiling,
     actual_path: bool,
     columns_csv: bool,
+    steps_format: StepsFormat,
     out: &Path,
-) -> Result<Simulation> {
+) -> Result<(Simulation, StepsFormat)> {
     if setup.design.is_some() {
         fail!(limits, "{}: [design] with a stock too large for the memory budget ({} rows in bands of {}): the design comparison needs every column at once; use a coarser grid or a larger --memory-budget-mb", setup.job.name, tiling.grid.ny, tiling.band_rows);
     }
@@ -721,7 +734,7 @@ fn simulate_tiled(
         steps,
         "simulate",
     )?;
-    run.write_steps_csv(&out.join("steps.csv"))?;
+    let steps_format = run.write_steps(out, "steps", steps_format)?;
     simulate::write_tiled_columns(&mut run, tiling, &setup.tools, out)?;
     let mut summary = run.summary();
     summary.check_finite()?;
@@ -729,12 +742,15 @@ fn simulate_tiled(
         .warnings
         .0
         .splice(0..0, setup.warnings.iter().cloned());
-    Ok(Simulation {
-        run,
-        summary,
-        design: None,
-        tops: Vec::new(),
-    })
+    Ok((
+        Simulation {
+            run,
+            summary,
+            design: None,
+            tops: Vec::new(),
+        },
+        steps_format,
+    ))
 }
 
 /// How a stock too large for the memory budget was swept: band by band.
@@ -759,9 +775,12 @@ pub struct Simulated {
     pub summary: SimulateSummary,
     /// Set when the stock was swept band by band.
     pub banded: Option<Banded>,
+    /// How the steps were written ([`StepsFormat::Auto`] resolved).
+    pub steps_format: StepsFormat,
 }
 
-/// `dexcut simulate JOB --out DIR` (`memory_budget_mb`: `--memory-budget-mb`).
+/// `dexcut simulate JOB --out DIR` (`memory_budget_mb`: `--memory-budget-mb`;
+/// `steps_format`: `--steps-format`).
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
     job_path: &Path,
@@ -770,6 +789,7 @@ pub fn simulate(
     actual_path: bool,
     force: bool,
     columns_csv: bool,
+    steps_format: StepsFormat,
     memory_budget_mb: Option<f64>,
     on_warning: OnWarning,
 ) -> Result<Simulated> {
@@ -777,7 +797,7 @@ pub fn simulate(
     let mut setup = Setup::load_within(job_path, grid_mm, None, memory_budget_mb)?;
     let out_dir = OutDir::begin(out, &setup.input_files(job_path), force)?;
     announce_setup_warnings(&setup, on_warning);
-    let sim = match &setup.tiling {
+    let (sim, steps_format) = match &setup.tiling {
         None => {
             // The planner borrows the path instead of a copy (the peak of a long program).
             let steps = setup.steps_lending_path(actual_path)?;
@@ -785,10 +805,17 @@ pub fn simulate(
             // speeds); nothing after this reads the path: freed before the sweep.
             setup.program.path = nc::Path::default();
             let sim = simulate_steps(&setup, steps)?;
-            sim.write_files(out_dir.path(), columns_csv)?;
-            sim
+            let written = sim.write_files(out_dir.path(), columns_csv, steps_format)?;
+            (sim, written)
         }
-        Some(tiling) => simulate_tiled(&setup, tiling, actual_path, columns_csv, out_dir.path())?,
+        Some(tiling) => simulate_tiled(
+            &setup,
+            tiling,
+            actual_path,
+            columns_csv,
+            steps_format,
+            out_dir.path(),
+        )?,
     };
     let summary = &sim.summary;
     let doc = SimulateSummary {
@@ -813,6 +840,7 @@ pub fn simulate(
     Ok(Simulated {
         summary: doc,
         banded,
+        steps_format,
     })
 }
 
@@ -901,15 +929,18 @@ pub struct LimitsOut {
     pub feed_scale_max: Option<f64>,
 }
 
-/// `dexcut optimize [JOB] --out DIR`.
+/// `dexcut optimize [JOB] --out DIR` (`steps_format`: `--steps-format`, for
+/// steps and steps_before alike).
 /// With no job, the built-in boss_contour example, its inputs written into the
 /// results' `input/` folder.
+#[allow(clippy::too_many_arguments)]
 pub fn optimize(
     job_path: Option<&Path>,
     out: &Path,
     grid_mm: Option<f64>,
     force: bool,
     columns_csv: bool,
+    steps_format: StepsFormat,
     settings: Option<&Path>,
     on_warning: OnWarning,
 ) -> Result<Optimized> {
@@ -951,7 +982,14 @@ pub fn optimize(
         on_warning(&"[limits] sets no mrr_max, force_max, deflection_max_um, power_max_kw or angle_rule: cutting runs at feed_max");
     }
     announce_setup_warnings(&setup, on_warning);
-    optimize_setup(&setup, out_dir, started, columns_csv, on_warning)
+    optimize_setup(
+        &setup,
+        out_dir,
+        started,
+        columns_csv,
+        steps_format,
+        on_warning,
+    )
 }
 
 /// What [`optimize_setup`] made: summary.json's document, and the drive
@@ -962,18 +1000,23 @@ pub struct Optimized {
     pub summary: OptimizeSummary,
     /// Drive error before and after pre-compensation (servo_compensated.csv).
     pub precomp: Option<servo::Precomp>,
+    /// How steps and steps_before were written ([`StepsFormat::Auto`]
+    /// resolved by the longer of the two).
+    pub steps_format: StepsFormat,
 }
 
 /// Re-time the job's program under its `[limits]` and write the results
-/// (optimized.nc, servo.csv, steps.csv, steps_before.csv, columns.csv,
-/// summary.json, the `.npy` column grid and with `columns_csv` columns.csv) into
-/// `out_dir`, committed whole at the end. `started` is when the run began (for
-/// `run_time_s`).
+/// (optimized.nc, servo.csv, the steps after and before as `steps_format`
+/// says: steps.csv and steps_before.csv, or steps.json and steps_before.json
+/// with their `.npy` arrays; summary.json, the `.npy` column grid and with
+/// `columns_csv` columns.csv) into `out_dir`, committed whole at the end.
+/// `started` is when the run began (for `run_time_s`).
 pub fn optimize_setup(
     setup: &Setup,
     out_dir: OutDir,
     started: Instant,
     columns_csv: bool,
+    steps_format: StepsFormat,
     on_warning: OnWarning,
 ) -> Result<Optimized> {
     setup.require_whole_stock("optimize")?;
@@ -1076,8 +1119,10 @@ pub fn optimize_setup(
         });
     }
     let staged = out_dir.path();
-    let design = write_run(setup, after, staged, "steps.csv", columns_csv)?;
-    before.write_steps_csv(&staged.join("steps_before.csv"))?;
+    // One format for both (Auto: by the longer), so the folder reads alike.
+    let steps_format = steps_format.resolve(after.steps.len().max(before.steps.len()));
+    let design = write_run(setup, after, staged, steps_format, columns_csv)?;
+    before.write_steps(staged, "steps_before", steps_format)?;
     write_servo_csv(&staged.join("servo.csv"), &written.samples)?;
     let precomp = if setup.job.servo_given {
         Some(crate::evaluate::write_compensated_servo(
@@ -1143,6 +1188,7 @@ pub fn optimize_setup(
     Ok(Optimized {
         summary: doc,
         precomp,
+        steps_format,
     })
 }
 

@@ -91,6 +91,7 @@ mod program;
 pub mod progress;
 mod report;
 mod simulate;
+mod steps_out;
 mod stock;
 pub mod summary;
 mod tools;
@@ -101,6 +102,7 @@ pub use error::{Error, Result, Source};
 pub use evaluate::{DriveEvaluation, SweepRow};
 pub use report::ReportFiles;
 pub use simulate::{Run, Summary};
+pub use steps_out::{StepsFormat, AUTO_NPY_STEPS};
 pub use warnings::{Warning, WarningKind, Warnings};
 
 /// Load a job file (TOML) and everything it names (program, stock mesh, design
@@ -118,12 +120,14 @@ pub fn simulate(setup: &Setup, actual_path: bool) -> Result<Simulation, Error> {
 
 /// Re-time the job's program under its `[limits]` and write the results into
 /// the folder `out` (whole, at the end; `force` allows a folder that holds the
-/// job's inputs). Column results are the `.npy` grid with columns.json. The numbers after optimisation are those of optimized.nc
-/// read back and simulated.
+/// job's inputs). Column results are the `.npy` grid with columns.json; the
+/// steps are steps.csv and steps_before.csv, or above [`AUTO_NPY_STEPS`] steps
+/// their `.npy` arrays ([`StepsFormat::Auto`]). The numbers after optimisation
+/// are those of optimized.nc read back and simulated.
 pub fn optimize(setup: &Setup, out: &Path, force: bool) -> Result<Optimized, Error> {
     let started = Instant::now();
     let out_dir = outdir::OutDir::begin(out, &setup.input_files(&setup.job_path), force)?;
-    commands::optimize_setup(setup, out_dir, started, false, &|_| {})
+    commands::optimize_setup(setup, out_dir, started, false, StepsFormat::Auto, &|_| {})
 }
 
 /// Run the job's program, as planned, through its drive model (`[servo]`) and

@@ -74,6 +74,59 @@ fn read_csv_columns(
     Ok(cols)
 }
 
+/// Named step columns of the results table `stem` of a folder: from its
+/// `.npy` arrays (`<stem>.json`, the binary form) when written, else from
+/// `<stem>.csv`. Every wanted column must be there, with at least one row.
+fn read_step_columns(
+    dir: &Path,
+    stem: &str,
+    wanted: &[&str],
+    optional: &[&str],
+) -> Result<HashMap<String, Vec<f64>>> {
+    let json = dir.join(export::npy_table_json(stem));
+    let csv = dir.join(format!("{stem}.csv"));
+    if !json.exists() {
+        if !csv.exists() {
+            fail!(
+                results,
+                "{}: neither {stem}.csv nor {} (the per-step results) is there",
+                dir.display(),
+                export::npy_table_json(stem)
+            );
+        }
+        return read_csv_columns(&csv, wanted, optional);
+    }
+    let info = export::read_npy_table_info(dir, stem, crate::bounds::MAX_SUMMARY_BYTES)?;
+    if info.rows == 0 {
+        fail!(results, "{}: no rows", json.display());
+    }
+    let mut cols = HashMap::new();
+    for (name, required) in wanted
+        .iter()
+        .map(|w| (w, true))
+        .chain(optional.iter().map(|o| (o, false)))
+    {
+        match export::read_npy_table_column(dir, &info, name, crate::bounds::MAX_CSV_BYTES)? {
+            Some(npy) if npy.shape.len() == 1 => {
+                cols.insert(name.to_string(), npy.data.to_f64());
+            }
+            Some(npy) => fail!(
+                results,
+                "{}: column {name} has shape {:?}, one value per step expected",
+                json.display(),
+                npy.shape
+            ),
+            None if required => fail!(
+                results,
+                "{}: no column {name} (not a dexcut results table, or damaged)",
+                json.display()
+            ),
+            None => {}
+        }
+    }
+    Ok(cols)
+}
+
 /// Per-column maps from columns.csv (results without the `.npy` grid), laid out on the grid.
 fn read_maps(
     path: &Path,
@@ -514,10 +567,11 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
     let optimized = optimize.is_some();
 
     // Time series.
-    let after_cols = read_csv_columns(&dir.join("steps.csv"), &STEP_COLUMNS, &STEP_PLACES)?;
+    let after_cols = read_step_columns(dir, "steps", &STEP_COLUMNS, &STEP_PLACES)?;
     let before_cols = if optimized {
-        Some(read_csv_columns(
-            &dir.join("steps_before.csv"),
+        Some(read_step_columns(
+            dir,
+            "steps_before",
             &STEP_COLUMNS,
             &STEP_PLACES,
         )?)

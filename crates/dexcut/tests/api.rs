@@ -62,7 +62,12 @@ fn simulate_returns_typed_results_and_writes_nothing() {
     // ... until asked.
     let out = dir.path().join("files");
     std::fs::create_dir(&out).unwrap();
-    sim.write_files(&out, true).unwrap();
+    // Short: steps.csv (StepsFormat::Auto writes .npy arrays above AUTO_NPY_STEPS steps).
+    assert_eq!(
+        sim.write_files(&out, true, dexcut::StepsFormat::Auto)
+            .unwrap(),
+        dexcut::StepsFormat::Csv
+    );
     for f in ["steps.csv", "columns.json", "columns.csv"] {
         assert!(out.join(f).is_file(), "{f}");
     }
@@ -156,6 +161,7 @@ material = "al6061"
         false,
         false,
         false,
+        dexcut::StepsFormat::Auto,
         None,
         &|_| warned.set(warned.get() + 1),
     )

@@ -11,6 +11,7 @@
 //! | [`write_stock_glb`] | binary glTF of the stock's top surface with vertex colours |
 //! | [`write_column_grid`] | `columns.json` and one NumPy `.npy` array per quantity (the default column output) |
 //! | [`write_column_csv`] | one CSV row per grid column (on request) |
+//! | [`NpyTableWriter`] | a table of named columns as `.npy` arrays and a JSON description (steps in binary form) |
 //! | [`write_report_html`] | one self-contained offline HTML report (SVG plots, PNG maps, WebGL 3D view) |
 //!
 //! Every `write_*` function has a pure counterpart returning bytes or a string
@@ -35,6 +36,7 @@ mod glb;
 mod heatmap;
 mod html;
 mod npy;
+mod npy_table;
 mod svg;
 mod ticks;
 
@@ -53,7 +55,11 @@ pub use html::{
 pub use npy::{
     npy_bytes, npy_header, parse_npy, read_column_grid_info, read_grid_array_f32,
     write_column_grid, write_npy, ColumnGridInfo, ColumnGridWriter, GridArray, GridArrayInfo, Npy,
-    NpyArray, NpyValues, COLUMN_GRID_FORMAT, COLUMN_GRID_JSON,
+    NpyArray, NpyType, NpyValues, COLUMN_GRID_FORMAT, COLUMN_GRID_JSON,
+};
+pub use npy_table::{
+    npy_table_json, read_npy_table_column, read_npy_table_info, NpyTableWriter, TableColumn,
+    TableColumnInfo, TableInfo, NPY_TABLE_FORMAT,
 };
 pub use svg::{PlotGroup, MAX_PLOT_POINTS};
 
@@ -206,6 +212,14 @@ pub enum Error {
         /// The I/O error.
         source: std::io::Error,
     },
+    /// A file could not be read back.
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
     /// Producing the content of a file failed.
     #[error("{}: {source}", path.display())]
     AtPath {
@@ -220,7 +234,7 @@ impl Error {
     /// Attach the output path to an error from a pure rendering function.
     pub(crate) fn at(self, path: &Path) -> Error {
         match self {
-            e @ (Error::Io { .. } | Error::AtPath { .. }) => e,
+            e @ (Error::Io { .. } | Error::Read { .. } | Error::AtPath { .. }) => e,
             e => Error::AtPath {
                 path: path.to_path_buf(),
                 source: Box::new(e),

@@ -24,14 +24,28 @@ pub enum NpyValues<'a> {
     F32(&'a [f32]),
     /// `<i4`: little-endian int32.
     I32(&'a [i32]),
+    /// `<f8`: little-endian float64.
+    F64(&'a [f64]),
+    /// `<u4`: little-endian uint32.
+    U32(&'a [u32]),
+    /// `|u1`: bytes (uint8).
+    U8(&'a [u8]),
 }
 
 impl NpyValues<'_> {
     /// NumPy type string of the values.
     pub fn descr(&self) -> &'static str {
+        self.dtype().descr()
+    }
+
+    /// Type of the values.
+    pub fn dtype(&self) -> NpyType {
         match self {
-            NpyValues::F32(_) => "<f4",
-            NpyValues::I32(_) => "<i4",
+            NpyValues::F32(_) => NpyType::F32,
+            NpyValues::I32(_) => NpyType::I32,
+            NpyValues::F64(_) => NpyType::F64,
+            NpyValues::U32(_) => NpyType::U32,
+            NpyValues::U8(_) => NpyType::U8,
         }
     }
 
@@ -40,6 +54,9 @@ impl NpyValues<'_> {
         match self {
             NpyValues::F32(v) => v.len(),
             NpyValues::I32(v) => v.len(),
+            NpyValues::F64(v) => v.len(),
+            NpyValues::U32(v) => v.len(),
+            NpyValues::U8(v) => v.len(),
         }
     }
 
@@ -51,7 +68,7 @@ impl NpyValues<'_> {
     /// Stream the values, little-endian, in blocks (no copy of the whole array).
     fn write_data(&self, out: &mut dyn Write) -> std::io::Result<()> {
         const BLOCK: usize = 16 * 1024;
-        let mut buf = Vec::with_capacity(4 * BLOCK);
+        let mut buf = Vec::with_capacity(self.dtype().size() * BLOCK);
         macro_rules! blocks {
             ($v:expr) => {
                 for chunk in $v.chunks(BLOCK) {
@@ -66,8 +83,62 @@ impl NpyValues<'_> {
         match self {
             NpyValues::F32(v) => blocks!(v),
             NpyValues::I32(v) => blocks!(v),
+            NpyValues::F64(v) => blocks!(v),
+            NpyValues::U32(v) => blocks!(v),
+            NpyValues::U8(v) => out.write_all(v)?,
         }
         Ok(())
+    }
+}
+
+/// The element types written and read: NumPy's little-endian `float32`,
+/// `int32`, `float64`, `uint32` and `uint8`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NpyType {
+    /// `<f4`.
+    F32,
+    /// `<i4`.
+    I32,
+    /// `<f8`.
+    F64,
+    /// `<u4`.
+    U32,
+    /// `|u1`.
+    U8,
+}
+
+impl NpyType {
+    const ALL: [NpyType; 5] = [
+        NpyType::F32,
+        NpyType::I32,
+        NpyType::F64,
+        NpyType::U32,
+        NpyType::U8,
+    ];
+
+    /// NumPy type string (`descr` of the header).
+    pub fn descr(self) -> &'static str {
+        match self {
+            NpyType::F32 => "<f4",
+            NpyType::I32 => "<i4",
+            NpyType::F64 => "<f8",
+            NpyType::U32 => "<u4",
+            NpyType::U8 => "|u1",
+        }
+    }
+
+    /// Bytes per value.
+    pub fn size(self) -> usize {
+        match self {
+            NpyType::F64 => 8,
+            NpyType::F32 | NpyType::I32 | NpyType::U32 => 4,
+            NpyType::U8 => 1,
+        }
+    }
+
+    /// The type of a NumPy type string, if it is one of these.
+    pub fn from_descr(descr: &str) -> Option<NpyType> {
+        NpyType::ALL.into_iter().find(|t| t.descr() == descr)
     }
 }
 
@@ -78,6 +149,52 @@ pub enum NpyArray {
     F32(Vec<f32>),
     /// `<i4` values.
     I32(Vec<i32>),
+    /// `<f8` values.
+    F64(Vec<f64>),
+    /// `<u4` values.
+    U32(Vec<u32>),
+    /// `|u1` values.
+    U8(Vec<u8>),
+}
+
+impl NpyArray {
+    /// Number of values.
+    pub fn len(&self) -> usize {
+        match self {
+            NpyArray::F32(v) => v.len(),
+            NpyArray::I32(v) => v.len(),
+            NpyArray::F64(v) => v.len(),
+            NpyArray::U32(v) => v.len(),
+            NpyArray::U8(v) => v.len(),
+        }
+    }
+
+    /// True when there are no values.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Type of the values.
+    pub fn dtype(&self) -> NpyType {
+        match self {
+            NpyArray::F32(_) => NpyType::F32,
+            NpyArray::I32(_) => NpyType::I32,
+            NpyArray::F64(_) => NpyType::F64,
+            NpyArray::U32(_) => NpyType::U32,
+            NpyArray::U8(_) => NpyType::U8,
+        }
+    }
+
+    /// The values as f64 (exact for every type read).
+    pub fn to_f64(&self) -> Vec<f64> {
+        match self {
+            NpyArray::F32(v) => v.iter().map(|&x| f64::from(x)).collect(),
+            NpyArray::I32(v) => v.iter().map(|&x| f64::from(x)).collect(),
+            NpyArray::F64(v) => v.clone(),
+            NpyArray::U32(v) => v.iter().map(|&x| f64::from(x)).collect(),
+            NpyArray::U8(v) => v.iter().map(|&x| f64::from(x)).collect(),
+        }
+    }
 }
 
 /// A parsed `.npy` file: its shape and values (C order).
@@ -182,7 +299,7 @@ fn dict_value<'a>(dict: &'a str, key: &str) -> Result<&'a str, Error> {
     Ok(rest[..end].trim())
 }
 
-/// Parse a `.npy` file of version 1.0–3.0 holding `<f4` or `<i4` values in C order.
+/// Parse a `.npy` file of version 1.0–3.0 holding values of an [`NpyType`] in C order.
 pub fn parse_npy(bytes: &[u8]) -> Result<Npy, Error> {
     if bytes.len() < 10 || &bytes[..6] != MAGIC {
         return Err(bad("not a .npy file (no \\x93NUMPY magic)"));
@@ -202,6 +319,12 @@ pub fn parse_npy(bytes: &[u8]) -> Result<Npy, Error> {
     let dict = std::str::from_utf8(&bytes[dict_start..data_start])
         .map_err(|_| bad("header is not text"))?;
     let descr = dict_value(dict, "descr")?.trim_matches(['\'', '"']);
+    let dtype = NpyType::from_descr(descr).ok_or_else(|| {
+        bad(format!(
+            "dtype {descr} is not read (only {})",
+            NpyType::ALL.map(NpyType::descr).join(", ")
+        ))
+    })?;
     if dict_value(dict, "fortran_order")? != "False" {
         return Err(bad("Fortran-ordered arrays are not read"));
     }
@@ -222,18 +345,25 @@ pub fn parse_npy(bytes: &[u8]) -> Result<Npy, Error> {
         .try_fold(1usize, |a, &d| a.checked_mul(d))
         .ok_or_else(|| bad(format!("shape {dims} overflows")))?;
     let data = &bytes[data_start..];
-    if Some(data.len()) != n.checked_mul(4) {
+    let size = dtype.size();
+    if Some(data.len()) != n.checked_mul(size) {
         return Err(bad(format!(
-            "shape {dims} of 4-byte values needs {} data bytes, the file has {}",
-            n.saturating_mul(4),
+            "shape {dims} of {size}-byte values needs {} data bytes, the file has {}",
+            n.saturating_mul(size),
             data.len()
         )));
     }
-    let words = data.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]);
-    let data = match descr {
-        "<f4" => NpyArray::F32(words.map(f32::from_le_bytes).collect()),
-        "<i4" => NpyArray::I32(words.map(i32::from_le_bytes).collect()),
-        other => return Err(bad(format!("dtype {other} is not read (only <f4 and <i4)"))),
+    let words = || data.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]);
+    let data = match dtype {
+        NpyType::F32 => NpyArray::F32(words().map(f32::from_le_bytes).collect()),
+        NpyType::I32 => NpyArray::I32(words().map(i32::from_le_bytes).collect()),
+        NpyType::U32 => NpyArray::U32(words().map(u32::from_le_bytes).collect()),
+        NpyType::F64 => NpyArray::F64(
+            data.chunks_exact(8)
+                .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+                .collect(),
+        ),
+        NpyType::U8 => NpyArray::U8(data.to_vec()),
     };
     Ok(Npy { shape, data })
 }
@@ -323,16 +453,128 @@ pub fn write_column_grid(dir: &Path, grid: &Grid, arrays: &[GridArray]) -> Resul
     writer.finish()
 }
 
+/// `.npy` files that share their first axis (rows), written block of rows by
+/// block of rows in row order: each file is its header then the rows as they
+/// come (C order), and appears only when [`NpyRowsWriter::finish`] finds every
+/// row written (dropped before: no file appears).
+pub(crate) struct NpyRowsWriter {
+    /// What the arrays are, for messages (`"grid array"`, `"step array"`).
+    kind: &'static str,
+    /// Per file: its path, array name, type and values per row.
+    arrays: Vec<(std::path::PathBuf, String, NpyType, usize)>,
+    files: Vec<crate::atomic::PendingFile>,
+    rows: usize,
+    rows_written: usize,
+}
+
+impl NpyRowsWriter {
+    /// Start one file per `(path, name, type, trailing shape)`, each of shape
+    /// `(rows, ..trailing)`; `kind` names the arrays in messages.
+    pub(crate) fn begin(
+        kind: &'static str,
+        rows: usize,
+        arrays: &[(std::path::PathBuf, String, NpyType, Vec<usize>)],
+    ) -> Result<Self, Error> {
+        let mut files = Vec::with_capacity(arrays.len());
+        let mut kept = Vec::with_capacity(arrays.len());
+        for (path, name, dtype, tail) in arrays {
+            let io = |source| Error::Io {
+                path: path.clone(),
+                source,
+            };
+            let mut shape = vec![rows];
+            shape.extend_from_slice(tail);
+            let mut file = crate::atomic::PendingFile::create(path).map_err(io)?;
+            file.write_all(&npy_header(dtype.descr(), &shape))
+                .map_err(io)?;
+            files.push(file);
+            kept.push((path.clone(), name.clone(), *dtype, tail.iter().product()));
+        }
+        Ok(NpyRowsWriter {
+            kind,
+            arrays: kept,
+            files,
+            rows,
+            rows_written: 0,
+        })
+    }
+
+    /// Append the next rows: one value slice per file, in the order and of
+    /// the types given to [`NpyRowsWriter::begin`], each of the same whole
+    /// number of rows.
+    pub(crate) fn write_rows(&mut self, values: &[NpyValues]) -> Result<(), Error> {
+        if values.len() != self.files.len() {
+            return Err(Error::Invalid {
+                what: format!("{}s", self.kind),
+                reason: format!("{} arrays for {}", values.len(), self.files.len()),
+            });
+        }
+        let rows = match (values.first(), self.arrays.first()) {
+            (Some(v), Some(a)) => v.len() / a.3.max(1),
+            _ => 0,
+        };
+        for ((path, name, dtype, width), v) in self.arrays.iter().zip(values) {
+            let invalid = |reason: String| {
+                Err(Error::Invalid {
+                    what: format!("{} {name:?}", self.kind),
+                    reason,
+                }
+                .at(path))
+            };
+            if v.dtype() != *dtype || v.len() != rows * width {
+                return invalid(format!(
+                    "{} values of {} for {rows} rows of {width} {}",
+                    v.len(),
+                    v.descr(),
+                    dtype.descr()
+                ));
+            }
+            if self.rows_written + rows > self.rows {
+                return invalid(format!(
+                    "{} rows past the {} of the array",
+                    self.rows_written + rows,
+                    self.rows
+                ));
+            }
+        }
+        for (file, (v, (path, ..))) in self.files.iter_mut().zip(values.iter().zip(&self.arrays)) {
+            v.write_data(file).map_err(|source| Error::Io {
+                path: path.clone(),
+                source,
+            })?;
+        }
+        self.rows_written += rows;
+        Ok(())
+    }
+
+    /// Check that every row was written, then let the files appear.
+    /// `what` and `at` name the whole set in the message of rows missing.
+    pub(crate) fn finish(self, what: &str, at: &Path) -> Result<(), Error> {
+        if self.rows_written != self.rows {
+            return Err(Error::Invalid {
+                what: what.into(),
+                reason: format!("{} of {} rows written", self.rows_written, self.rows),
+            }
+            .at(at));
+        }
+        for (file, (path, ..)) in self.files.into_iter().zip(&self.arrays) {
+            file.commit().map_err(|source| Error::Io {
+                path: path.clone(),
+                source,
+            })?;
+        }
+        Ok(())
+    }
+}
+
 /// A column grid written block of rows by block of rows, in row order (the
 /// bands of a stock too large for memory): each `.npy` file is its header
 /// then the rows as they come (C order), and appears, with `columns.json`,
 /// only when [`ColumnGridWriter::finish`] finds every row written.
 pub struct ColumnGridWriter {
     dir: std::path::PathBuf,
-    grid: Grid,
     info: ColumnGridInfo,
-    files: Vec<crate::atomic::PendingFile>,
-    rows_written: usize,
+    rows: NpyRowsWriter,
 }
 
 impl ColumnGridWriter {
@@ -360,24 +602,22 @@ impl ColumnGridWriter {
                 })
                 .collect(),
         };
-        let mut files = Vec::with_capacity(arrays.len());
-        for a in &info.arrays {
-            let path = dir.join(&a.file);
-            let io = |source| Error::Io {
-                path: path.clone(),
-                source,
-            };
-            let mut file = crate::atomic::PendingFile::create(&path).map_err(io)?;
-            file.write_all(&npy_header(&a.dtype, &[grid.ny, grid.nx]))
-                .map_err(io)?;
-            files.push(file);
-        }
+        let files: Vec<_> = arrays
+            .iter()
+            .zip(&info.arrays)
+            .map(|(a, i)| {
+                (
+                    dir.join(&i.file),
+                    a.name.to_string(),
+                    a.values.dtype(),
+                    vec![grid.nx],
+                )
+            })
+            .collect();
         Ok(ColumnGridWriter {
             dir: dir.to_path_buf(),
-            grid: *grid,
             info,
-            files,
-            rows_written: 0,
+            rows: NpyRowsWriter::begin("grid array", grid.ny, &files)?,
         })
     }
 
@@ -385,65 +625,12 @@ impl ColumnGridWriter {
     /// the types given to [`ColumnGridWriter::begin`], each of the same whole
     /// number of rows.
     pub fn write_rows(&mut self, values: &[NpyValues]) -> Result<(), Error> {
-        let nx = self.grid.nx.max(1);
-        let rows = values.first().map_or(0, |v| v.len() / nx);
-        for (a, v) in self.info.arrays.iter().zip(values) {
-            let path = self.dir.join(&a.file);
-            if v.descr() != a.dtype || v.len() != rows * nx {
-                return Err(Error::Invalid {
-                    what: format!("grid array {:?}", a.name),
-                    reason: format!(
-                        "{} values of {} for rows of {nx} {}",
-                        v.len(),
-                        v.descr(),
-                        a.dtype
-                    ),
-                }
-                .at(&path));
-            }
-            if self.rows_written + rows > self.grid.ny {
-                return Err(Error::Invalid {
-                    what: format!("grid array {:?}", a.name),
-                    reason: format!(
-                        "{} rows past the grid's {}",
-                        self.rows_written + rows,
-                        self.grid.ny
-                    ),
-                }
-                .at(&path));
-            }
-        }
-        if values.len() != self.files.len() {
-            return Err(Error::Invalid {
-                what: "column grid".into(),
-                reason: format!("{} arrays for {}", values.len(), self.files.len()),
-            });
-        }
-        for ((file, v), a) in self.files.iter_mut().zip(values).zip(&self.info.arrays) {
-            v.write_data(file).map_err(|source| Error::Io {
-                path: self.dir.join(&a.file),
-                source,
-            })?;
-        }
-        self.rows_written += rows;
-        Ok(())
+        self.rows.write_rows(values)
     }
 
     /// Check that every row was written, then let the files and `columns.json` appear.
     pub fn finish(self) -> Result<(), Error> {
-        if self.rows_written != self.grid.ny {
-            return Err(Error::Invalid {
-                what: "column grid".into(),
-                reason: format!("{} of {} rows written", self.rows_written, self.grid.ny),
-            }
-            .at(&self.dir));
-        }
-        for (file, a) in self.files.into_iter().zip(&self.info.arrays) {
-            file.commit().map_err(|source| Error::Io {
-                path: self.dir.join(&a.file),
-                source,
-            })?;
-        }
+        self.rows.finish("column grid", &self.dir)?;
         let json = serde_json::to_vec_pretty(&self.info).map_err(|e| Error::Invalid {
             what: COLUMN_GRID_JSON.into(),
             reason: e.to_string(),
@@ -469,8 +656,8 @@ pub fn read_column_grid_info(dir: &Path, max_bytes: u64) -> Result<ColumnGridInf
     Ok(info)
 }
 
-fn read_bounded(path: &Path, max_bytes: u64) -> Result<Vec<u8>, Error> {
-    let io = |source| Error::Io {
+pub(crate) fn read_bounded(path: &Path, max_bytes: u64) -> Result<Vec<u8>, Error> {
+    let io = |source| Error::Read {
         path: path.to_path_buf(),
         source,
     };
@@ -521,6 +708,9 @@ pub fn read_grid_array_f32(
     }
     match npy.data {
         NpyArray::F32(v) => Ok(Some(v)),
-        NpyArray::I32(_) => Err(invalid("dtype <i4, expected <f4".into())),
+        other => Err(invalid(format!(
+            "dtype {}, expected <f4",
+            other.dtype().descr()
+        ))),
     }
 }

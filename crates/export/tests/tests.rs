@@ -598,10 +598,10 @@ mod npy {
                 {
                     let mut b = good.clone();
                     let s = b.windows(3).position(|w| w == b"<f4").unwrap();
-                    b[s..s + 3].copy_from_slice(b"<f8");
+                    b[s..s + 3].copy_from_slice(b"<c8");
                     b
                 },
-                "dtype <f8",
+                "dtype <c8",
             ),
             (
                 {
@@ -620,6 +620,16 @@ mod npy {
                     b
                 },
                 "tuple of sizes",
+            ),
+            (
+                // Read as 8-byte values, the 16 data bytes are two, not four.
+                {
+                    let mut b = good.clone();
+                    let s = b.windows(3).position(|w| w == b"<f4").unwrap();
+                    b[s..s + 3].copy_from_slice(b"<f8");
+                    b
+                },
+                "8-byte values needs 32 data bytes, the file has 16",
             ),
         ];
         for (bytes, needle) in cases {
@@ -777,6 +787,240 @@ mod npy {
             .write_rows(&[NpyValues::F32(&top[..30]), NpyValues::I32(&last[..30])])
             .is_err());
         assert!(w.finish().unwrap_err().to_string().contains("2 of 7 rows"));
+        assert_eq!(std::fs::read_dir(short.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn f64_u32_and_u8_round_trip_bit_exactly() {
+        let f = [
+            0.0,
+            -0.0,
+            0.1 + 0.2,
+            -1.234_567_890_123_456_7e-300,
+            f64::MIN_POSITIVE / 8.0,
+            f64::MAX,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        let b = export::npy_bytes(&[4, 2], NpyValues::F64(&f)).unwrap();
+        let dict = std::str::from_utf8(&b[10..128]).unwrap();
+        assert!(dict.starts_with("{'descr': '<f8', 'fortran_order': False, 'shape': (4, 2), }"));
+        // 1.0f64 is 0x3ff0000000000000, little-endian.
+        let one = export::npy_bytes(&[1], NpyValues::F64(&[1.0])).unwrap();
+        assert_eq!(&one[128..], &[0, 0, 0, 0, 0, 0, 0xf0, 0x3f]);
+        let Npy { shape, data } = export::parse_npy(&b).unwrap();
+        assert_eq!(shape, vec![4, 2]);
+        let NpyArray::F64(back) = data else {
+            panic!("not f64")
+        };
+        assert_eq!(
+            back.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+            f.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+        );
+        let u = [0, 1, 7, u32::MAX];
+        let b = export::npy_bytes(&[4], NpyValues::U32(&u)).unwrap();
+        assert!(std::str::from_utf8(&b[10..128])
+            .unwrap()
+            .contains("'descr': '<u4'"));
+        assert_eq!(
+            export::parse_npy(&b).unwrap().data,
+            NpyArray::U32(u.to_vec())
+        );
+        let bytes = [0u8, 1, 255];
+        let b = export::npy_bytes(&[3], NpyValues::U8(&bytes)).unwrap();
+        // NumPy writes one-byte types without byte order: '|u1'.
+        assert!(std::str::from_utf8(&b[10..128])
+            .unwrap()
+            .contains("'descr': '|u1'"));
+        assert_eq!(b.len(), 128 + 3);
+        let back = export::parse_npy(&b).unwrap().data;
+        assert_eq!(back, NpyArray::U8(bytes.to_vec()));
+        assert_eq!(back.to_f64(), vec![0.0, 1.0, 255.0]);
+    }
+
+    fn table_columns(width: usize) -> Vec<export::TableColumn<'static>> {
+        use export::{NpyType, TableColumn};
+        vec![
+            TableColumn {
+                name: "t_s",
+                unit: "s",
+                meaning: "time",
+                dtype: NpyType::F64,
+                width: None,
+            },
+            TableColumn {
+                name: "band_mm3",
+                unit: "mm³",
+                meaning: "bands",
+                dtype: NpyType::F64,
+                width: Some(width),
+            },
+            TableColumn {
+                name: "line",
+                unit: "1",
+                meaning: "line",
+                dtype: NpyType::U32,
+                width: None,
+            },
+            TableColumn {
+                name: "rapid",
+                unit: "1",
+                meaning: "flag",
+                dtype: NpyType::U8,
+                width: None,
+            },
+        ]
+    }
+
+    /// Files of a folder, without the writers' temporary files.
+    fn visible(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| !n.starts_with('.'))
+            .collect();
+        v.sort();
+        v
+    }
+
+    /// A table written in blocks of rows reads back value for value, its
+    /// files are those written at once, and one with rows missing, too many
+    /// rows or a wrong type leaves nothing.
+    #[test]
+    fn npy_table_round_trips_block_by_block() {
+        let rows = 7;
+        let t: Vec<f64> = (0..rows).map(|i| i as f64 * 0.004 - 1e-17).collect();
+        let bands: Vec<f64> = (0..rows * 3)
+            .map(|i| if i % 4 == 0 { 0.0 } else { 1.0 / i as f64 })
+            .collect();
+        let line: Vec<u32> = (0..rows as u32).map(|i| 10 * i + 3).collect();
+        let rapid: Vec<u8> = (0..rows).map(|i| u8::from(i % 3 == 0)).collect();
+        let values = |r: std::ops::Range<usize>| {
+            [
+                NpyValues::F64(&t[r.clone()]),
+                NpyValues::F64(&bands[3 * r.start..3 * r.end]),
+                NpyValues::U32(&line[r.clone()]),
+                NpyValues::U8(&rapid[r]),
+            ]
+        };
+        let layout = "row i is step i";
+        let whole = tmp();
+        let mut w =
+            export::NpyTableWriter::begin(whole.path(), "steps", rows, layout, &table_columns(3))
+                .unwrap();
+        w.write_rows(&values(0..rows)).unwrap();
+        w.finish().unwrap();
+        let blocks = tmp();
+        let mut w =
+            export::NpyTableWriter::begin(blocks.path(), "steps", rows, layout, &table_columns(3))
+                .unwrap();
+        for r in [0..2, 2..2, 2..3, 3..7] {
+            w.write_rows(&values(r)).unwrap();
+        }
+        assert!(
+            visible(blocks.path()).is_empty(),
+            "nothing appears before the end"
+        );
+        w.finish().unwrap();
+        let names = visible(whole.path());
+        assert_eq!(
+            names,
+            [
+                "steps.json",
+                "steps_band_mm3.npy",
+                "steps_line.npy",
+                "steps_rapid.npy",
+                "steps_t_s.npy"
+            ]
+        );
+        assert_eq!(visible(blocks.path()), names);
+        for n in &names {
+            assert_eq!(
+                std::fs::read(whole.path().join(n)).unwrap(),
+                std::fs::read(blocks.path().join(n)).unwrap(),
+                "{n}"
+            );
+        }
+        let info = export::read_npy_table_info(blocks.path(), "steps", 1 << 20).unwrap();
+        assert_eq!((info.rows, info.layout.as_str()), (rows, layout));
+        assert_eq!(info.columns[1].shape, vec![rows, 3]);
+        assert_eq!(info.columns[3].dtype, "|u1");
+        let read = |name: &str| {
+            export::read_npy_table_column(blocks.path(), &info, name, 1 << 20)
+                .unwrap()
+                .unwrap()
+        };
+        assert_eq!(read("t_s").data, NpyArray::F64(t.clone()));
+        assert_eq!(read("band_mm3").shape, vec![rows, 3]);
+        assert_eq!(read("band_mm3").data, NpyArray::F64(bands.clone()));
+        assert_eq!(read("line").data, NpyArray::U32(line.clone()));
+        assert_eq!(read("rapid").data, NpyArray::U8(rapid.clone()));
+        assert!(
+            export::read_npy_table_column(blocks.path(), &info, "force_n", 1 << 20)
+                .unwrap()
+                .is_none()
+        );
+        // A description that does not match its files is refused, naming the file.
+        let mut other = info.clone();
+        other.rows = 6;
+        other.columns[0].shape = vec![6];
+        let e = export::read_npy_table_column(blocks.path(), &other, "t_s", 1 << 20)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("steps_t_s.npy") && e.contains("shape [7]"),
+            "{e}"
+        );
+        let mut other = info.clone();
+        other.columns[2].dtype = "<i4".into();
+        let e = export::read_npy_table_column(blocks.path(), &other, "line", 1 << 20)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("dtype <u4, the table lists <i4"), "{e}");
+        other.columns[2].file = "../steps_line.npy".into();
+        assert!(
+            export::read_npy_table_column(blocks.path(), &other, "line", 1 << 20)
+                .unwrap_err()
+                .to_string()
+                .contains("not a plain file name")
+        );
+        assert!(export::read_npy_table_column(blocks.path(), &info, "t_s", 100).is_err());
+
+        // Rows missing, too many rows, a wrong type or width: refused, nothing left.
+        let short = tmp();
+        let mut w =
+            export::NpyTableWriter::begin(short.path(), "steps", rows, layout, &table_columns(3))
+                .unwrap();
+        w.write_rows(&values(0..2)).unwrap();
+        let mut wrong = values(2..4);
+        wrong[2] = NpyValues::I32(&[1, 2]);
+        assert!(w.write_rows(&wrong).is_err());
+        let mut narrow = values(2..4);
+        narrow[1] = NpyValues::F64(&bands[..4]);
+        assert!(w
+            .write_rows(&narrow)
+            .unwrap_err()
+            .to_string()
+            .contains("band_mm3"));
+        assert!(w
+            .write_rows(&values(0..7))
+            .unwrap_err()
+            .to_string()
+            .contains("9 rows past the 7"));
+        assert!(w.finish().unwrap_err().to_string().contains("2 of 7 rows"));
+        assert_eq!(std::fs::read_dir(short.path()).unwrap().count(), 0);
+        // Names that are not plain are refused before any file is made.
+        let mut bad = table_columns(3);
+        bad[0].name = "../t";
+        assert!(export::NpyTableWriter::begin(short.path(), "steps", rows, layout, &bad).is_err());
+        assert!(export::NpyTableWriter::begin(
+            short.path(),
+            "a/b",
+            rows,
+            layout,
+            &table_columns(3)
+        )
+        .is_err());
         assert_eq!(std::fs::read_dir(short.path()).unwrap().count(), 0);
     }
 }
