@@ -316,3 +316,40 @@ impl Run {
         writer.finish().map_err(export_err)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn auto_writes_the_arrays_above_the_step_count_only() {
+        assert_eq!(StepsFormat::default(), StepsFormat::Auto);
+        assert_eq!(StepsFormat::Auto.resolve(0), StepsFormat::Csv);
+        assert_eq!(StepsFormat::Auto.resolve(AUTO_NPY_STEPS), StepsFormat::Csv);
+        assert_eq!(
+            StepsFormat::Auto.resolve(AUTO_NPY_STEPS + 1),
+            StepsFormat::Npy
+        );
+        for f in [StepsFormat::Csv, StepsFormat::Npy, StepsFormat::Both] {
+            assert_eq!(f.resolve(1), f);
+            assert_eq!(f.resolve(10 * AUTO_NPY_STEPS), f);
+        }
+        assert!(StepsFormat::Both.csv() && StepsFormat::Both.npy());
+        assert!(!StepsFormat::Csv.npy() && !StepsFormat::Npy.csv());
+    }
+
+    /// steps.csv's header is the column lists in order: one list for both forms.
+    #[test]
+    fn the_column_lists_are_steps_csv_order() {
+        let names: Vec<&str> = HEAD
+            .iter()
+            .chain(&LOADS)
+            .chain(&[BREAKS, LINE, RAPID, TOOL])
+            .map(|c| c.0)
+            .collect();
+        assert_eq!(
+            names.join(","),
+            "t_s,x,y,z,feed_mm_min,volume_mm3,mrr_mm3_s,shank_mm3,force_n,fx_n,fy_n,fz_n,power_w,torque_nm,chip_mm,contact_height_mm,deflection_um,dx_um,dy_um,tip_deflection_um,stress_mpa,breaks,line,rapid,tool"
+        );
+    }
+}
