@@ -618,7 +618,9 @@ impl<'a> Profile<'a> {
     /// |P(t+2T) − 3P(t+T) + 3P(t) − P(t−T)|/T³ to its jerk limit, each limit with the
     /// tests' tolerance (1 + 10⁻⁶)·limit + 10⁻⁶. The samples are those [`Profile::sample`]
     /// makes, bit for bit: the runs before are as planned, and after the run the tool rests
-    /// (the run after checks the stencils that reach into it). 0 when nothing moves.
+    /// (the run after checks the stencils that reach into it). 0 when nothing moves, and
+    /// when the run ends past [`MAX_SAMPLES`] periods: [`Profile::sample`] refuses such a
+    /// profile, so its samples are never made (and checking them would take hours).
     fn last_run_axis_ratio(&self, mut violations: Option<&mut Vec<Violation>>) -> f64 {
         let Some(run) = self.runs.last() else {
             return 0.0;
@@ -630,6 +632,9 @@ impl<'a> Profile<'a> {
         let jerk = machine.jerk_mm_s3.map(|j| j.map(tolerance));
         let moving_from_s = run.start_s;
         let moving_to_s = run.start_s + run.duration_s + run.window_s;
+        if !(moving_to_s / period_s <= MAX_SAMPLES as f64) {
+            return 0.0;
+        }
         let lo = ((moving_from_s / period_s).floor() - 3.0).max(0.0) as usize;
         let hi = (moving_to_s / period_s).ceil() as usize + 3;
         let mut sampler = Sampler::starting_at(self, lo as f64 * period_s);
@@ -1038,6 +1043,31 @@ mod tests {
             "λ = 1: ratio {ratio:.4}, cycle {:.4} s; lowered caps {verified:?}: {:.4} s; slowed σ = {slow:.4} ({tries} tries): {:.4} s",
             plain.cycle_time_s, lowered.cycle_time_s, at_one.cycle_time_s
         );
+    }
+
+    /// A run that ends past [`MAX_SAMPLES`] periods is not checked (its samples are never
+    /// made: [`Profile::sample`] refuses the profile), so a program whose caps make it run
+    /// for months is refused at once instead of being checked sample by sample.
+    #[test]
+    fn runs_past_the_sample_limit_are_not_checked() {
+        let st = sine();
+        let machine = *st.machine();
+        let last = st.len() - 1;
+        let window_s = st.interval_accel_mm_s2()[0] / st.interval_jerk_mm_s3()[0];
+        let planner = RunPlanner::new(&st);
+        let ratio_from = |start_s: f64| {
+            let mut profile = Profile::empty(&st);
+            planner.plan_run(0, last, 1.0, window_s, 1.0, &mut profile.speed_mm_s);
+            let end_s = profile.push_run(0, last, start_s, window_s, 0.0);
+            profile.cycle_time_s = end_s + window_s;
+            (profile.last_run_axis_ratio(None), profile.sample(machine.period_ms).is_err())
+        };
+        // The sine at λ = 1 breaks the jerk limit (see the test above) ...
+        let (ratio, refused) = ratio_from(0.0);
+        assert!(ratio > 1.0 && !refused, "{ratio}");
+        // ... but started after MAX_SAMPLES periods it is not checked, and not sampled.
+        let (ratio, refused) = ratio_from(MAX_SAMPLES as f64 * machine.period_s());
+        assert!(ratio == 0.0 && refused, "{ratio}");
     }
 
     /// A sampler started anywhere makes the samples of one started at t = 0, bit for bit
