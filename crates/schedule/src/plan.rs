@@ -1060,7 +1060,10 @@ mod tests {
             planner.plan_run(0, last, 1.0, window_s, 1.0, &mut profile.speed_mm_s);
             let end_s = profile.push_run(0, last, start_s, window_s, 0.0);
             profile.cycle_time_s = end_s + window_s;
-            (profile.last_run_axis_ratio(None), profile.sample(machine.period_ms).is_err())
+            (
+                profile.last_run_axis_ratio(None),
+                profile.sample(machine.period_ms).is_err(),
+            )
         };
         // The sine at λ = 1 breaks the jerk limit (see the test above) ...
         let (ratio, refused) = ratio_from(0.0);
