@@ -282,6 +282,10 @@ pub fn optimize(optimized: &Optimized, out: &Path, asked: StepsFormat) {
         doc.limits
             .feed_scale_max
             .map(|v| format!("feed_scale_max {v}")),
+        doc.limits
+            .stress_limit_mpa
+            .filter(|v| v.is_finite())
+            .map(|v| format!("stress_limit_mpa {v} MPa")),
     ]
     .into_iter()
     .flatten()

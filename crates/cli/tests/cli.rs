@@ -2526,6 +2526,128 @@ fn a_tool_past_its_rupture_strength_breaks_and_reports_the_deflection_at_rupture
     assert_eq!(d_npy, l_npy);
 }
 
+/// `optimize` holds the tool under its allowable stress (MODEL.md §2, §4.4).
+/// The slot of the rupture test above (Ø10 carbide flat end, stick-out 60,
+/// flutes 20, 2 mm deep in s50c at 6000 rpm, z = 2) as one G-code line at
+/// F1200: 173.20 MPa at the holder face. With stress_limit_mpa = 80 and no
+/// other limit, the stress ∝ f_z^(1−mc) (Kienzle, mc 0.22; the torque and the
+/// moment arm scale alike), so the slot may run at
+/// F* = 1200 · (80/173.20)^(1/0.78) = 445.78 mm/min: optimized.nc runs the steady
+/// slot within 3 % under F*, its stress within 3 % under 80 MPa. `stress = false`
+/// gives the optimized.nc of a limit that never binds, byte for byte. With
+/// feed_min = 1000 the slot stays over the limit, at the closed-form
+/// 173.20 · (1000/1200)^0.78 MPa, and a limit_exceeded warning names the
+/// lines of optimized.nc that cut it.
+#[test]
+fn optimize_holds_the_tool_under_its_allowable_stress() {
+    let dir = tempdir();
+    write(
+        dir.path(),
+        "slot.ngc",
+        "G21 G90 G94\nG0 X-10 Y0 Z28\nG1 X110 F1200\nG0 Z40\nM2\n",
+    );
+    let run = |name: &str, tool_extra: &str, limits: &str| {
+        let job = SLOT_JOB
+            .replace(
+                "kind = \"ball\"\ndiameter = 10",
+                &format!(
+                    "kind = \"flat\"\ndiameter = 10\nflute_length = 20\nstickout = 60\nfz_max = 0.5\n{tool_extra}"
+                ),
+            )
+            .replace("path = \"slot.csv\"", "path = \"slot.ngc\"")
+            .replace(
+                "band_height = 1.0",
+                &format!("band_height = 1.0\nspindle_rpm = 6000\n[limits]\n{limits}"),
+            )
+            .replace("grid = 0.1", "grid = 0.05");
+        write(dir.path(), &format!("{name}.toml"), &job);
+        let out = dexcut(
+            &["optimize", &format!("{name}.toml"), "--out", name],
+            dir.path(),
+        );
+        ok(&out);
+        let d = dir.path().join(name);
+        (
+            csv_columns(&d.join("steps.csv")),
+            summary(&d),
+            std::fs::read(d.join("optimized.nc")).unwrap(),
+        )
+    };
+    let (limit, mc, stress_1200): (f64, f64, f64) = (80.0, 0.22, 173.195);
+    let p = 1.0 - mc;
+    let feed_star = 1200.0 * (limit / stress_1200).powf(1.0 / p);
+    assert!((feed_star - 445.78).abs() < 0.01, "{feed_star} mm/min");
+    let (steps, s, _) = run("held", "stress_limit_mpa = 80", "");
+    let before = s["before"]["peak_stress_mpa"].as_f64().unwrap();
+    assert!(rel(before, stress_1200) < 2e-3, "before {before} MPa");
+    let after = s["after"]["peak_stress_mpa"].as_f64().unwrap();
+    assert!(
+        after <= limit * (1.0 + 0.02) && after >= limit * 0.97,
+        "after {after} MPa"
+    );
+    let mut steady = 0;
+    let columns = (&steps["x"], &steps["feed_mm_min"], &steps["stress_mpa"]);
+    for (i, ((&x, &f), &sigma)) in columns.0.iter().zip(columns.1).zip(columns.2).enumerate() {
+        assert!(sigma <= limit * 1.02, "step {i} at x {x}: {sigma} MPa");
+        if (10.0..90.0).contains(&x) {
+            steady += 1;
+            assert!(
+                f <= feed_star * 1.005 && f >= feed_star * 0.97,
+                "step {i} at x {x}: {f} mm/min vs F* {feed_star}"
+            );
+            assert!(sigma >= limit * 0.97, "step {i} at x {x}: {sigma} MPa");
+        }
+    }
+    assert!(steady > 100, "{steady} steady steps");
+    assert!(warning(&s["after"], "limit_exceeded").is_none());
+    assert_eq!(s["after"]["tool_breaks_steps"], 0);
+    // The key off: the optimized.nc of a stress limit that never binds.
+    let (_, off, off_nc) = run("off", "stress_limit_mpa = 80", "stress = false");
+    let (_, _, loose_nc) = run("loose", "stress_limit_mpa = 3000", "");
+    assert_eq!(off_nc, loose_nc);
+    let off_peak = off["after"]["peak_stress_mpa"].as_f64().unwrap();
+    assert!(off_peak > 1.2 * stress_1200, "{off_peak} MPa at feed_max");
+    // feed_min above F*: the slot stays over the limit, and the warning says so.
+    let (steps, s, _) = run("floor", "stress_limit_mpa = 80", "feed_min = 1000");
+    let at_floor = stress_1200 * (1000.0f64 / 1200.0).powf(p);
+    let mut slot_lines = std::collections::BTreeSet::new();
+    let columns = (&steps["x"], &steps["line"], &steps["feed_mm_min"]);
+    for (((&x, &line), &f), &sigma) in columns
+        .0
+        .iter()
+        .zip(columns.1)
+        .zip(columns.2)
+        .zip(&steps["stress_mpa"])
+    {
+        if (10.0..90.0).contains(&x) {
+            slot_lines.insert(line as u64);
+            assert!((f - 1000.0).abs() < 1e-6, "{f} mm/min");
+            assert!(rel(sigma, at_floor) < 3e-3, "{sigma} vs {at_floor} MPa");
+        }
+    }
+    let w = warnings(&s["after"], "limit_exceeded")
+        .into_iter()
+        .find(|w| w["unit"] == "MPa")
+        .expect("a stress warning");
+    // The lines of optimized.nc (line 3 as re-fed) that cut the slot.
+    let named: Vec<u64> = w["lines"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l.as_u64().unwrap())
+        .collect();
+    assert!(slot_lines.iter().all(|l| named.contains(l)), "{named:?}");
+    assert_eq!(w["line"].as_u64(), named.first().copied());
+    let message = w["message"].as_str().unwrap();
+    for words in [
+        &format!("at {}", if named.len() == 1 { "line" } else { "lines" }),
+        "feed_min (1000 mm/min)",
+        "allowable 80 MPa",
+    ] {
+        assert!(message.contains(words), "{words} not in {message}");
+    }
+}
+
 /// Open loop (`closed_loop = false`, MODEL.md §5): the slender tool of the test
 /// above, swept once rigid, would bend by more than the 0.2 mm stock; the error
 /// map is clamped to the stock that was there. On the wall (the outermost cut

@@ -927,6 +927,10 @@ pub struct LimitsOut {
     pub chip_load: Vec<optimize::ToolChipLoad>,
     /// `feed_scale_max`: at most this times the programmed feed.
     pub feed_scale_max: Option<f64>,
+    /// The lowest `stress_limit_mpa` of the job's tools, MPa, where `[limits]
+    /// stress` holds the tools to it (each tool is held to its own); None when off.
+    #[serde(default)]
+    pub stress_limit_mpa: Option<f64>,
 }
 
 /// `dexcut optimize [JOB] --out DIR` (`steps_format`: `--steps-format`, for
@@ -979,7 +983,11 @@ pub fn optimize(
         && limits.power_max_kw.is_none()
         && !limits.angle_rule
     {
-        on_warning(&"[limits] sets no mrr_max, force_max, deflection_max_um, power_max_kw or angle_rule: cutting runs at feed_max");
+        on_warning(&if limits.stress {
+            "[limits] sets no mrr_max, force_max, deflection_max_um, power_max_kw or angle_rule: cutting runs at feed_max where the tool's stress_limit_mpa allows"
+        } else {
+            "[limits] sets no mrr_max, force_max, deflection_max_um, power_max_kw or angle_rule, and stress = false: cutting runs at feed_max"
+        });
     }
     announce_setup_warnings(&setup, on_warning);
     optimize_setup(
@@ -1092,6 +1100,7 @@ pub fn optimize_setup(
         .warnings
         .0
         .splice(0..0, setup.warnings.iter().cloned().chain(chip_warnings));
+    optimize::stress_left(after, limits, written.rounds, &mut after_summary.warnings);
     let mut unresolved = crate::warnings::LineTally::new();
     for e in &written.unresolved {
         crate::warnings::tally(&mut unresolved, e.line, 100.0 * e.over_limit);
@@ -1170,6 +1179,7 @@ pub fn optimize_setup(
             }),
             feed_scale_max: limits.feed_scale_max,
             chip_load,
+            stress_limit_mpa: limits.stress.then(|| before.stress_limit_mpa()),
         },
         cap_time_share: written.cap_shares,
         lower_bound_time_s,

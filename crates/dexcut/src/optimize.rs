@@ -319,6 +319,14 @@ pub fn interval_caps(
                 if let Some(p_kw) = limits.power_max_kw {
                     lower(cap(at_ref.power_w, 1000.0 * p_kw), CapKind::Power);
                 }
+                // The stress grows with the step's load (force and torque) at its
+                // contact height (MODEL.md §4.4): a force limit of F·σ_limit/σ.
+                if limits.stress {
+                    lower(
+                        cap(at_ref.stress_mpa, entry.stress_limit_mpa),
+                        CapKind::Stress,
+                    );
+                }
                 // S3 (MODEL.md §6.3): θ between the surface normal at the contact and the
                 // tool axis, applied to the programmed (set) feed.
                 let theta_deg = engagement.surface_angle_deg[k];
@@ -492,7 +500,7 @@ pub const CHIP_LOAD_TOLERANCE: f64 = 1e-3;
 pub const LIMIT_MARGIN: f64 = 0.01;
 
 /// Servo periods of `run` (per period, as the summary prints them) whose MRR,
-/// force, deflection or spindle power exceeds the limits, and steps that
+/// force, deflection, spindle power or tool stress exceeds the limits, and steps that
 /// remove material (however little: any step in contact with the stock is a
 /// cutting move) above their tool's chip-load feed f_z,max·z·n at the block's
 /// spindle speed (MODEL.md §2.1). MRR scales with the feed; force, deflection
@@ -503,7 +511,7 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
     let grid_mm = run.stock.grid().spacing_mm;
     for period in run.periods().iter().filter(|p| p.cutting) {
         // Per load: the largest value / limit in the period, and the feed exponent of its tool.
-        let mut worst = [(0.0f64, 1.0f64); 3];
+        let mut worst = [(0.0f64, 1.0f64); 4];
         // Largest step feed / its chip-load feed among the steps that cut.
         let mut chip: Option<(f64, f64)> = None;
         for k in period.first_step..=period.last_step {
@@ -517,6 +525,10 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
                 // rupture does not scale with the feed (MODEL.md §4.4).
                 (run.linear_deflection_um(k), limits.deflection_max_um),
                 (load.power_w, limits.power_max_kw.map(|kw| 1000.0 * kw)),
+                (
+                    load.stress_mpa,
+                    limits.stress.then_some(run.stress_limits_mpa[k]),
+                ),
             ]) {
                 if let Some(limit) = limit {
                     if value / limit > w.0 {
@@ -562,11 +574,12 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
                 );
             }
         }
-        for ((ratio, p), kind) in
-            worst
-                .into_iter()
-                .zip([CapKind::Force, CapKind::Deflection, CapKind::Power])
-        {
+        for ((ratio, p), kind) in worst.into_iter().zip([
+            CapKind::Force,
+            CapKind::Deflection,
+            CapKind::Power,
+            CapKind::Stress,
+        ]) {
             if ratio > 1.0 + 0.5 * LIMIT_MARGIN {
                 lower(
                     feed * ((1.0 - LIMIT_MARGIN) / ratio).powf(1.0 / p),
@@ -712,13 +725,55 @@ pub struct Written {
 }
 
 /// Whether a run (of the program as written) is within every limit: no
-/// period above mrr_max, force_max, deflection_max_um or power_max_kw by more
+/// period above mrr_max, force_max, deflection_max_um, power_max_kw or the tool's
+/// stress_limit_mpa (with `stress`) by more
 /// than [`LIMIT_TOLERANCE`], no cutting step above its tool's chip-load feed
 /// by more than [`CHIP_LOAD_TOLERANCE`].
 pub fn within_limits(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> bool {
     excesses(run, limits, tools)
         .iter()
         .all(|e| !e.beyond_tolerance)
+}
+
+/// The steps of `run` (the written program) whose tool stress is still above
+/// its allowable stress (`stress_limit_mpa`, MODEL.md §4.4) by more than
+/// [`LIMIT_TOLERANCE`], told per line as a `limit_exceeded` warning. Force
+/// and stress fall with the feed only as F^p (Kienzle's h^(1−mc), MODEL.md
+/// §3.2) at the depth and width of cut the program sets, so where `feed_min`
+/// holds those steps up no feed optimize may write brings them under: the
+/// warning says so.
+pub fn stress_left(
+    run: &Run,
+    limits: &LimitsSpec,
+    rounds: usize,
+    out: &mut crate::warnings::Warnings,
+) {
+    if !limits.stress {
+        return;
+    }
+    let mut tally = crate::warnings::LineTally::new();
+    let mut fastest = 0.0f64;
+    for (k, s) in run.steps.iter().enumerate() {
+        let limit = run.stress_limits_mpa[k];
+        if !s.step.rapid && run.loads[k].stress_mpa > limit * (1.0 + LIMIT_TOLERANCE) {
+            crate::warnings::tally(&mut tally, s.line, run.loads[k].stress_mpa);
+            fastest = fastest.max(s.feed_mm_min);
+        }
+    }
+    let limit = run.stress_limit_mpa();
+    let held = limits
+        .feed_min
+        .filter(|&lo| fastest <= lo * (1.0 + LIMIT_TOLERANCE));
+    out.from_lines(
+        crate::warnings::WarningKind::LimitExceeded,
+        &tally,
+        "MPa",
+        false,
+        |v, lines| match held {
+            Some(lo) => format!("optimized.nc still stresses the tool to {v:.0} MPa at {lines}, above its allowable {limit:.0} MPa ([tool] stress_limit_mpa), at feed_min ({lo} mm/min), the lowest feed optimize may write: the depth and width of cut the program gives these lines are too much for the tool at that feed (the stress falls only as the feed to the power 1 − mc, docs/MODEL.md §4.4); lower [limits] feed_min, or cut shallower or narrower there"),
+            None => format!("optimized.nc still stresses the tool to {v:.0} MPa at {lines}, above its allowable {limit:.0} MPa ([tool] stress_limit_mpa), after {rounds} rounds of slowing them (docs/MODEL.md §4.4)"),
+        },
+    );
 }
 
 /// Write the re-timed program, simulate it as a program of its own (parsed
@@ -763,7 +818,7 @@ pub fn write_verified(
             crate::bounds::check_samples(
                 plan_time_s.max(time_optimal_s),
                 machine.period_ms,
-                "the re-timed program ([limits] caps: mrr_max, force_max, deflection_max_um)",
+                "the re-timed program ([limits] caps: mrr_max, force_max, deflection_max_um, the tool's stress_limit_mpa)",
             )?;
             let optimum_samples = match &setup.program.gcode {
                 Some(_) => None,
@@ -981,6 +1036,7 @@ pub fn cap_words(kind: CapKind) -> &'static str {
         CapKind::Force => "force limit (force_max)",
         CapKind::Deflection => "deflection limit (deflection_max_um)",
         CapKind::Power => "spindle power limit (power_max_kw)",
+        CapKind::Stress => "tool stress limit (stress_limit_mpa)",
         CapKind::SurfaceAngle => "surface-angle rule (S3)",
         CapKind::ChipLoad => "chip-load limit (fz_max)",
         CapKind::FeedScale => "programmed feed × feed_scale_max",

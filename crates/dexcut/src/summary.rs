@@ -334,6 +334,7 @@ mod tests {
                 feed_max_mm_min: 3000.0,
                 chip_load_feed_mm_min: Some(2160.0),
                 feed_scale_max: None,
+                stress_limit_mpa: None,
                 chip_load: vec![crate::optimize::ToolChipLoad {
                     tool: 2,
                     diameter_mm: 1.0,

@@ -40,6 +40,8 @@ pub enum CapKind {
     Deflection,
     /// Caller's cap from the spindle cutting power.
     Power,
+    /// Caller's cap from the tool's allowable stress.
+    Stress,
     /// Caller's cap from the cutting-surface angle (S3).
     SurfaceAngle,
     /// Caller's cap from the largest feed per tooth (chip load).
@@ -54,7 +56,7 @@ pub enum CapKind {
 
 impl CapKind {
     /// Every kind, in the order [`crate::Profile::time_at_cap_share`] reports them.
-    pub const ALL: [CapKind; 15] = [
+    pub const ALL: [CapKind; 16] = [
         CapKind::Programmed,
         CapKind::FeedMax,
         CapKind::Rapid,
@@ -65,6 +67,7 @@ impl CapKind {
         CapKind::Force,
         CapKind::Deflection,
         CapKind::Power,
+        CapKind::Stress,
         CapKind::SurfaceAngle,
         CapKind::ChipLoad,
         CapKind::FeedScale,
