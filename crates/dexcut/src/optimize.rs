@@ -574,6 +574,12 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
                 );
             }
         }
+        // Where the tool advances less than a grid cell per period, a step's
+        // removal, and with it its load, comes in whole columns (MODEL.md §1.5):
+        // a slower feed does not lower it. The tool's stress is not corrected
+        // there (an infinite cap: nothing to lower, told as coarse_grid); the
+        // interval caps from the windowed engagement hold its steady value.
+        let sub_cell = period.window.0 != period.window.1;
         for ((ratio, p), kind) in worst.into_iter().zip([
             CapKind::Force,
             CapKind::Deflection,
@@ -581,11 +587,12 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
             CapKind::Stress,
         ]) {
             if ratio > 1.0 + 0.5 * LIMIT_MARGIN {
-                lower(
-                    feed * ((1.0 - LIMIT_MARGIN) / ratio).powf(1.0 / p),
-                    kind,
-                    ratio - 1.0,
-                );
+                let cap = if sub_cell && kind == CapKind::Stress {
+                    f64::INFINITY
+                } else {
+                    feed * ((1.0 - LIMIT_MARGIN) / ratio).powf(1.0 / p)
+                };
+                lower(cap, kind, ratio - 1.0);
             }
         }
         if let Some((ratio, cap)) = chip {
@@ -603,8 +610,8 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
                 over_limit,
                 beyond_tolerance,
                 line: run.steps[period.last_step].line,
-                resolved: s_hi - s_lo >= grid_mm,
-                sub_cell: period.window.0 != period.window.1,
+                resolved: s_hi - s_lo >= grid_mm && cap.is_finite(),
+                sub_cell,
             });
         }
     }
@@ -752,12 +759,14 @@ pub fn stress_left(
         return;
     }
     let mut tally = crate::warnings::LineTally::new();
-    let mut fastest = 0.0f64;
+    let (mut fastest, mut sub_cell) = (0.0f64, true);
+    let grid_mm = run.stock.grid().spacing_mm;
     for (k, s) in run.steps.iter().enumerate() {
         let limit = run.stress_limits_mpa[k];
         if !s.step.rapid && run.loads[k].stress_mpa > limit * (1.0 + LIMIT_TOLERANCE) {
             crate::warnings::tally(&mut tally, s.line, run.loads[k].stress_mpa);
             fastest = fastest.max(s.feed_mm_min);
+            sub_cell &= s.feed_mm_min * s.dt_s / 60.0 < grid_mm;
         }
     }
     let limit = run.stress_limit_mpa();
@@ -771,6 +780,7 @@ pub fn stress_left(
         false,
         |v, lines| match held {
             Some(lo) => format!("optimized.nc still stresses the tool to {v:.0} MPa at {lines}, above its allowable {limit:.0} MPa ([tool] stress_limit_mpa), at feed_min ({lo} mm/min), the lowest feed optimize may write: the depth and width of cut the program gives these lines are too much for the tool at that feed (the stress falls only as the feed to the power 1 − mc, docs/MODEL.md §4.4); lower [limits] feed_min, or cut shallower or narrower there"),
+            None if sub_cell => format!("optimized.nc stresses the tool to {v:.0} MPa at {lines}, above its allowable {limit:.0} MPa ([tool] stress_limit_mpa), in servo periods where the tool advances less than one grid column: their load comes in whole columns (docs/MODEL.md §1.5), which a slower feed does not lower, so optimize holds the stress of the steady cut there, not these peaks; use a finer grid to measure them"),
             None => format!("optimized.nc still stresses the tool to {v:.0} MPa at {lines}, above its allowable {limit:.0} MPa ([tool] stress_limit_mpa), after {rounds} rounds of slowing them (docs/MODEL.md §4.4)"),
         },
     );
@@ -865,8 +875,12 @@ pub fn write_verified(
         let refine_blocks = slow && merge_ratio > MERGE_RATIO_MIN;
         // Every period over a limit lowers its caps; the rounds end when none
         // is over by more than its tolerance.
-        let done =
-            (!over.iter().any(|e| e.beyond_tolerance) && !refine_blocks) || round >= MAX_ROUNDS;
+        // (An excess without a finite cap has nothing to lower.)
+        let done = (!over
+            .iter()
+            .any(|e| e.beyond_tolerance && e.cap_mm_min.is_finite())
+            && !refine_blocks)
+            || round >= MAX_ROUNDS;
         if done {
             let cycle = run.steps.last().map_or(0.0, |s| s.t_end_s);
             let before_cycle = before.steps.last().map_or(0.0, |s| s.t_end_s);
