@@ -2534,7 +2534,7 @@ fn a_tool_past_its_rupture_strength_breaks_and_reports_the_deflection_at_rupture
 /// moment arm scale alike), so the slot may run at
 /// F* = 1200 · (80/173.20)^(1/0.78) = 445.78 mm/min: optimized.nc runs the steady
 /// slot within 3 % under F*, its stress within 3 % under 80 MPa. `stress = false`
-/// gives the optimized.nc of a limit that never binds, byte for byte. With
+/// (the default) gives the optimized.nc of a limit that never binds, byte for byte. With
 /// feed_min = 1000 the slot stays over the limit, at the closed-form
 /// 173.20 · (1000/1200)^0.78 MPa, and a limit_exceeded warning names the
 /// lines of optimized.nc that cut it.
@@ -2577,7 +2577,7 @@ fn optimize_holds_the_tool_under_its_allowable_stress() {
     let p = 1.0 - mc;
     let feed_star = 1200.0 * (limit / stress_1200).powf(1.0 / p);
     assert!((feed_star - 445.78).abs() < 0.01, "{feed_star} mm/min");
-    let (steps, s, _) = run("held", "stress_limit_mpa = 80", "");
+    let (steps, s, _) = run("held", "stress_limit_mpa = 80", "stress = true");
     let before = s["before"]["peak_stress_mpa"].as_f64().unwrap();
     assert!(rel(before, stress_1200) < 2e-3, "before {before} MPa");
     let after = s["after"]["peak_stress_mpa"].as_f64().unwrap();
@@ -2603,12 +2603,18 @@ fn optimize_holds_the_tool_under_its_allowable_stress() {
     assert_eq!(s["after"]["tool_breaks_steps"], 0);
     // The key off: the optimized.nc of a stress limit that never binds.
     let (_, off, off_nc) = run("off", "stress_limit_mpa = 80", "stress = false");
-    let (_, _, loose_nc) = run("loose", "stress_limit_mpa = 3000", "");
+    let (_, _, loose_nc) = run("loose", "stress_limit_mpa = 3000", "stress = true");
+    let (_, _, default_nc) = run("default", "stress_limit_mpa = 80", "");
+    assert_eq!(off_nc, default_nc);
     assert_eq!(off_nc, loose_nc);
     let off_peak = off["after"]["peak_stress_mpa"].as_f64().unwrap();
     assert!(off_peak > 1.2 * stress_1200, "{off_peak} MPa at feed_max");
     // feed_min above F*: the slot stays over the limit, and the warning says so.
-    let (steps, s, _) = run("floor", "stress_limit_mpa = 80", "feed_min = 1000");
+    let (steps, s, _) = run(
+        "floor",
+        "stress_limit_mpa = 80",
+        "stress = true\nfeed_min = 1000",
+    );
     let at_floor = stress_1200 * (1000.0f64 / 1200.0).powf(p);
     let mut slot_lines = std::collections::BTreeSet::new();
     let columns = (&steps["x"], &steps["line"], &steps["feed_mm_min"]);
