@@ -48,8 +48,8 @@ enum Command {
         /// How to write the per-step results (one row per servo period):
         /// `csv`: steps.csv, one text row per step (for a spreadsheet);
         /// `npy`: steps.json and one NumPy .npy array per column of steps.csv
-        /// (float64 in the CSV's units, line and tool uint32, rapid uint8),
-        /// faster to write and read; `both`; `auto`: csv up to 200 000 steps,
+        /// (float64 in the CSV's units, line and tool uint32, rapid and breaks
+        /// uint8, the band volumes one (steps, K) array), faster to write and read; `both`; `auto`: csv up to 200 000 steps,
         /// npy above.
         #[arg(long, value_enum, default_value_t = StepsFormatArg::Auto, value_name = "FORMAT")]
         steps_format: StepsFormatArg,
@@ -80,8 +80,8 @@ enum Command {
         /// How to write the per-step results, after and before (steps, steps_before):
         /// `csv`: steps.csv, one text row per step (for a spreadsheet);
         /// `npy`: steps.json and one NumPy .npy array per column of steps.csv
-        /// (float64 in the CSV's units, line and tool uint32, rapid uint8),
-        /// faster to write and read; `both`; `auto`: csv up to 200 000 steps,
+        /// (float64 in the CSV's units, line and tool uint32, rapid and breaks
+        /// uint8, the band volumes one (steps, K) array), faster to write and read; `both`; `auto`: csv up to 200 000 steps,
         /// npy above.
         #[arg(long, value_enum, default_value_t = StepsFormatArg::Auto, value_name = "FORMAT")]
         steps_format: StepsFormatArg,
