@@ -969,6 +969,22 @@ pub fn loads(
         .collect()
 }
 
+/// The step the `tool_breaks` warning describes (MODEL.md §4.4): of the steps
+/// whose stress exceeds their tool's rupture strength (`ruptures_mpa`, per
+/// step), the one of the highest stress (the warning's value; the first of
+/// equals), with its stress over its rupture strength. Its tool, line, force
+/// and rupture strength are the message's, so that with tools of different
+/// strengths the message speaks of one step. `None` when no step breaks.
+fn breaking_step(loads: &[StepLoad], ruptures_mpa: &[f64]) -> Option<(usize, f64)> {
+    let mut worst: Option<usize> = None;
+    for (i, (l, &r)) in loads.iter().zip(ruptures_mpa).enumerate() {
+        if l.breaks(r) && worst.is_none_or(|w| l.stress_mpa > loads[w].stress_mpa) {
+            worst = Some(i);
+        }
+    }
+    worst.map(|w| (w, loads[w].stress_mpa / ruptures_mpa[w]))
+}
+
 /// Allowable stress of a tool (MODEL.md §4.4): `stress_limit_mpa`, else 1200
 /// MPa for carbide (E ≥ 400 000 MPa) and 1000 MPa otherwise, and never above
 /// a rupture strength the job gives.
@@ -1376,18 +1392,12 @@ impl Run {
         let mut out = Warnings::default();
         let (mut rapid, mut shank) = (LineTally::new(), LineTally::new());
         let (mut stress, mut breaks) = (LineTally::new(), LineTally::new());
-        // The step that breaks its tool furthest past its rupture strength.
-        let mut worst_break: Option<(usize, f64)> = None;
         for (i, s) in self.steps.iter().enumerate() {
             if self.loads[i].stress_mpa > self.stress_limits_mpa[i] {
                 warnings::tally(&mut stress, s.line, self.loads[i].stress_mpa);
             }
             if self.breaks(i) {
                 warnings::tally(&mut breaks, s.line, self.loads[i].stress_mpa);
-                let ratio = self.loads[i].stress_mpa / self.rupture_strengths_mpa[i];
-                if worst_break.is_none_or(|(_, r)| ratio > r) {
-                    worst_break = Some((i, ratio));
-                }
             }
             let v = self.record.volume_mm3(i);
             if s.step.rapid && v > NOTHING_MM3 {
@@ -1413,7 +1423,7 @@ impl Run {
         out.from_lines(WarningKind::Force, &stress, "MPa", false, |v, lines| {
             format!("the cutting force and torque stress the tool to {v:.0} MPa at {lines}, above the allowable {limit:.0} MPa ([tool] stress_limit_mpa, docs/MODEL.md §4.4): lower the feed or the engagement, or use a shorter or stiffer tool{rigid_kept}")
         });
-        if let Some((w, ratio)) = worst_break {
+        if let Some((w, ratio)) = breaking_step(&self.loads, &self.rupture_strengths_mpa) {
             let rupture = self.rupture_strengths_mpa[w];
             let (tool, line, force) = (
                 self.steps[w].tool,
@@ -1716,6 +1726,28 @@ pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two tools: an HSS one (σ_R 3000 MPa) at 4000 MPa, 1.33× its rupture
+    /// strength, and a carbide one (3500 MPa) at 4200 MPa, 1.2×. The warning's
+    /// value is the highest stress, 4200 MPa: the step it describes is the
+    /// carbide tool's, with its ratio 1.2 (it named the HSS tool's step, 1.3×
+    /// of 3000 MPa, beside 4200 MPa, a stress that tool never reached).
+    #[test]
+    fn the_breaking_step_named_is_the_one_of_the_highest_stress() {
+        let load = |stress_mpa| StepLoad {
+            stress_mpa,
+            ..StepLoad::default()
+        };
+        let loads = [load(100.0), load(4000.0), load(4200.0), load(4200.0)];
+        let ruptures = [3000.0, 3000.0, 3500.0, 3500.0];
+        assert_eq!(breaking_step(&loads, &ruptures), Some((2, 1.2)));
+        assert_eq!(
+            breaking_step(&loads[..2], &ruptures[..2]),
+            Some((1, 4.0 / 3.0))
+        );
+        assert_eq!(breaking_step(&loads[..1], &ruptures[..1]), None);
+        assert_eq!(breaking_step(&[], &[]), None);
+    }
 
     #[test]
     fn loop_direction_drops_the_component_along_the_motion() {
