@@ -38,15 +38,47 @@ pub struct ToolEntry {
 /// spindle speed in rev/min (a percentage, a laser's power).
 pub const MIN_CUTTING_SPEED_M_MIN: f64 = 10.0;
 
+/// An S word of at least this many rev/min is a spindle speed whatever the
+/// tool (MODEL.md §2.1): above GRBL's default laser scale ($30 = 1000) and any
+/// percent override, and what micro tools run at (pcb2gcode's S12000 on a
+/// Ø0.2 mm tool gives 7.5 m/min).
+pub const MIN_SPINDLE_RPM: f64 = 5000.0;
+
 /// Cutting speed at the edge of a tool `diameter_mm` wide at `rpm`, m/min.
 pub fn cutting_speed_m_min(diameter_mm: f64, rpm: f64) -> f64 {
     std::f64::consts::PI * diameter_mm * rpm / 1000.0
 }
 
 /// An S word a milling cutter of `diameter_mm` plausibly runs at
-/// ([`MIN_CUTTING_SPEED_M_MIN`]); 0 (no S word) is not one.
+/// ([`MIN_CUTTING_SPEED_M_MIN`] at its edge, or [`MIN_SPINDLE_RPM`]); 0 (no
+/// S word) is not one.
 pub fn plausible_rpm(diameter_mm: f64, rpm: f64) -> bool {
-    rpm > 0.0 && cutting_speed_m_min(diameter_mm, rpm) >= MIN_CUTTING_SPEED_M_MIN
+    rpm > 0.0
+        && (cutting_speed_m_min(diameter_mm, rpm) >= MIN_CUTTING_SPEED_M_MIN
+            || rpm >= MIN_SPINDLE_RPM)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Both sides of each rule (MODEL.md §2.1): 10 m/min at the edge is
+    /// n = 10 000/(π D) rev/min; at and above 5000 rev/min any tool.
+    #[test]
+    fn s_words_are_spindle_speeds_at_10_m_min_or_5000_rev_min() {
+        // Ø2: 10 m/min at 1591.55 rev/min; S100 (0.63 m/min) is not one.
+        let n10 = 10_000.0 / (std::f64::consts::PI * 2.0);
+        assert!(plausible_rpm(2.0, n10 * (1.0 + 1e-12)));
+        assert!(!plausible_rpm(2.0, n10 * (1.0 - 1e-9)));
+        assert!(!plausible_rpm(2.0, 100.0));
+        // Ø0.2: 10 m/min needs 15 915 rev/min; S12000 (7.5 m/min) is kept
+        // by the second rule, S4999 (3.1 m/min) and S1000 (a laser's power) are not.
+        assert!(plausible_rpm(0.2, 12_000.0));
+        assert!(plausible_rpm(0.2, 5000.0));
+        assert!(!plausible_rpm(0.2, 4999.0));
+        assert!(!plausible_rpm(0.2, 1000.0));
+        assert!(!plausible_rpm(0.2, 0.0));
+    }
 }
 
 impl ToolEntry {

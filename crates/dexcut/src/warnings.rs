@@ -268,10 +268,11 @@ pub fn spindle_check(path: &nc::Path, tools: &crate::tools::ToolSet) -> Option<W
     let mut w = Warnings::default();
     w.from_lines(WarningKind::SpindleSpeed, &t, "m/min", false, |_, lines| {
         format!(
-            "S{rpm} at {lines} gives {v:.2} m/min at the edge of tool {number} (Ø{} mm), below {MIN} m/min, slower than any milling cutter runs: it is not taken as rev/min (a spindle override in percent, or a laser's power?); forces and the chip-load cap take {taken} rev/min ({}); set [cutting] spindle_rpm to the real spindle speed",
+            "S{rpm} at {lines} gives {v:.2} m/min at the edge of tool {number} (Ø{} mm), below {MIN} m/min and under {RPM} rev/min, slower than any milling cutter runs: it is not taken as rev/min (a spindle override in percent, or a laser's power?); forces and the chip-load cap take {taken} rev/min ({}); set [cutting] spindle_rpm to the real spindle speed",
             e.tool.diameter_mm,
             if taken == 10_000.0 { "the default" } else { "the program's highest plausible S" },
             MIN = crate::tools::MIN_CUTTING_SPEED_M_MIN,
+            RPM = crate::tools::MIN_SPINDLE_RPM,
         )
     });
     let mut w = w.0.pop()?;
