@@ -145,11 +145,12 @@ fn sweep_pass(
     let mut sweep = dexel::Sweep::new(&tools, tool_of_step, steps, options)?;
     let kept = match stock {
         StockSource::Whole(stock) => {
+            // The record made final and compact batch by batch.
             let mut work = stock.clone();
             let bar = progress::bar(steps.len() as u64, label);
-            sweep.band(&mut work, &|done| bar.set_position(done as u64));
+            let record = sweep.whole(&mut work, &|done| bar.set_position(done as u64));
             bar.finish_and_clear();
-            Some(work)
+            return Ok((Some(work), record));
         }
         StockSource::Tiled(tiling) => {
             // Each band made in the memory of the one before.

@@ -641,3 +641,59 @@ fn banded_sweep_equals_the_whole_stock() {
     // Rows beyond the grid are refused.
     assert!(Stock::new_box_in_rows(min, max, g, Some(290..301), None).is_err());
 }
+
+/// A whole-stock sweep keeps its record compact while it runs (each batch's
+/// steps made final as soon as their neighbours are swept, `Sweep::whole`):
+/// the same record bit for bit, and the same columns, as sweeping the stock
+/// as one band and finishing the record at the end, with and without
+/// smoothing, for batches of 1, 2, 53 and every step, two tools, plunges,
+/// rapids and moves that do not continue each other.
+#[test]
+fn whole_sweep_record_equals_the_finished_band() {
+    let tools = [Tool::bull(6.0, 1.0), Tool::ball(4.0)];
+    let mut steps: Vec<Step> = (0..240)
+        .map(|i| {
+            let a = i as f64 * 0.05;
+            let from = [30.0 + 20.0 * a.cos(), 30.0 + 20.0 * a.sin(), 18.0];
+            let b = a + 0.05;
+            let to = [30.0 + 20.0 * b.cos(), 30.0 + 20.0 * b.sin(), 18.0];
+            Step {
+                from_mm: from,
+                to_mm: to,
+                rapid: i % 97 == 96,
+            }
+        })
+        .collect();
+    steps.push(line([55.0, 2.0, 14.0], [55.0, 2.0, 20.0]));
+    steps.push(line([40.0, 16.0, 25.0], [40.0, 16.0, 12.0]));
+    steps.push(line([40.0, 16.0, 12.0], [40.0, 30.0, 12.0]));
+    steps.push(line([40.0, 30.0, 12.0], [40.0, 16.0, 12.0]));
+    let which: Vec<usize> = (0..steps.len()).map(|i| usize::from(i >= 120)).collect();
+    for smooth in [true, false] {
+        for batch_steps in [1, 2, 53, 100_000] {
+            let options = SweepOptions {
+                band_height_mm: 0.5,
+                strip_rows: 4,
+                batch_steps,
+                smooth,
+            };
+            let new = || Stock::new_box([0.0; 3], [60.0, 60.0, 20.0], 0.2).unwrap();
+            let mut whole = new();
+            let streamed =
+                dexel::sweep_tools(&mut whole, &tools, &which, &steps, &options, &|_| {}).unwrap();
+            let mut one = new();
+            let mut sweep = dexel::Sweep::new(&tools, &which, &steps, &options).unwrap();
+            sweep.band(&mut one, &|_| {});
+            let finished = sweep.finish();
+            assert!(finished.total_volume_mm3() > 1000.0);
+            assert_eq!(streamed.len(), steps.len());
+            assert_eq!(
+                record_bits(&streamed),
+                record_bits(&finished),
+                "smooth {smooth}, batches of {batch_steps}"
+            );
+            assert_eq!(streamed.columns_evaluated, finished.columns_evaluated);
+            assert_eq!(whole.top_heights(), one.top_heights());
+        }
+    }
+}

@@ -22,9 +22,8 @@ pub fn sweep(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<RemovalRecord, Error> {
     let tools = std::slice::from_ref(tool);
-    let mut sweep = Sweep::with_parts(tools, steps, options, vec![(0, steps.len(), 0)])?;
-    sweep.band(stock, progress);
-    Ok(sweep.finish())
+    let sweep = Sweep::with_parts(tools, steps, options, vec![(0, steps.len(), 0)])?;
+    Ok(sweep.whole(stock, progress))
 }
 
 /// Sweep steps cut by several tools: step `i` is cut by `tools[tool_of_step[i]]`.
@@ -39,9 +38,8 @@ pub fn sweep_tools(
     options: &SweepOptions,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<RemovalRecord, Error> {
-    let mut sweep = Sweep::new(tools, tool_of_step, steps, options)?;
-    sweep.band(stock, progress);
-    Ok(sweep.finish())
+    let sweep = Sweep::new(tools, tool_of_step, steps, options)?;
+    Ok(sweep.whole(stock, progress))
 }
 
 /// One run of consecutive steps cut by one tool, and what they removed so far.
@@ -50,8 +48,11 @@ struct Part {
     end: usize,
     tool: usize,
     banding: Banding,
+    /// Full rows of every step (made at the first band), or once finished
+    /// (or swept by [`Sweep::whole`]) the compact record.
     record: RemovalRecord,
-    /// Per step: head values to move to the previous and to the next step.
+    /// Per step: head values to move to the previous and to the next step
+    /// (made at the first band; empty without smoothing).
     spill: Vec<f64>,
 }
 
@@ -148,18 +149,13 @@ impl<'a> Sweep<'a> {
                 inv_band_h: 1.0 / options.band_height_mm,
                 flute_len: tool.flute_length_mm,
             };
-            let spill = if options.smooth {
-                vec![0.0f64; (end - start) * 2 * HEAD]
-            } else {
-                Vec::new()
-            };
             parts.push(Part {
                 start,
                 end,
                 tool: t,
                 banding,
-                record: RemovalRecord::new(end - start, n_bands, options.band_height_mm),
-                spill,
+                record: RemovalRecord::new(0, n_bands, options.band_height_mm),
+                spill: Vec::new(),
             });
         }
         Ok(Sweep {
@@ -176,13 +172,44 @@ impl<'a> Sweep<'a> {
     /// the record. `progress(done)` is called after each batch with the
     /// number of steps finished in this band.
     pub fn band(&mut self, stock: &mut Stock, progress: &(dyn Fn(usize) + Sync)) {
+        self.sweep_band(stock, progress, false);
+    }
+
+    /// Sweep every step through the whole stock (one band holding every
+    /// row) and give the record: [`band`](Self::band) then
+    /// [`finish`](Self::finish), with each batch's steps made final
+    /// (smoothing shares, plunges unbiased) and kept in compact columns as
+    /// the sweep goes, so the full rows of only one batch are held at a time
+    /// (issue 16). The same record bit for bit.
+    pub fn whole(mut self, stock: &mut Stock, progress: &(dyn Fn(usize) + Sync)) -> RemovalRecord {
+        self.sweep_band(stock, progress, true);
+        self.finish()
+    }
+
+    fn sweep_band(&mut self, stock: &mut Stock, progress: &(dyn Fn(usize) + Sync), whole: bool) {
         self.grid = Some(*stock.grid());
+        let grid = *stock.grid();
         for part in &mut self.parts {
             let tool = &self.tools[part.tool];
             let radius = tool.radius_mm();
             let done = part.start;
             let progress = |d: usize| progress(done + d);
             let steps = &self.steps[part.start..part.end];
+            let n = steps.len();
+            let stride = HEAD + part.banding.n_bands;
+            // A stream only on a part no band of which was swept yet (else `band`).
+            let mut stream = if whole && part.record.data.is_empty() && !part.record.is_compact() {
+                Some(Stream::new(&part.record, grid, radius, self.options.smooth))
+            } else {
+                // Full rows of every step, zero until swept (pages touched as they are written).
+                if part.record.data.len() != n * stride {
+                    part.record.data = vec![0.0; n * stride];
+                }
+                if self.options.smooth && part.spill.len() != n * 2 * HEAD {
+                    part.spill = vec![0.0; n * 2 * HEAD];
+                }
+                None
+            };
             // One call per tool shape: `run_batches` is generic over the envelope.
             macro_rules! run {
                 ($env:expr) => {
@@ -195,6 +222,7 @@ impl<'a> Sweep<'a> {
                         &self.options,
                         &mut part.record,
                         &mut part.spill,
+                        stream.as_mut(),
                         &progress,
                     )
                 };
@@ -208,6 +236,12 @@ impl<'a> Sweep<'a> {
                     ring: radius - corner_radius_mm,
                 }),
             }
+            if let Some(stream) = stream {
+                let evaluated = part.record.columns_evaluated;
+                part.record = stream.out;
+                part.record.columns_evaluated = evaluated;
+                part.spill = Vec::new();
+            }
         }
     }
 
@@ -216,8 +250,19 @@ impl<'a> Sweep<'a> {
     /// bands (the others' higher bands are zero).
     pub fn finish(self) -> RemovalRecord {
         let mut parts = self.parts;
+        // Parts swept by `whole` are final and compact already; those of no
+        // band swept removed nothing.
+        for part in parts.iter_mut().filter(|p| !p.record.is_compact()) {
+            let n = part.end - part.start;
+            if part.record.data.len() != n * (HEAD + part.banding.n_bands) {
+                part.record.data = vec![0.0; n * (HEAD + part.banding.n_bands)];
+            }
+            if self.options.smooth && part.spill.len() != n * 2 * HEAD {
+                part.spill = vec![0.0; n * 2 * HEAD];
+            }
+        }
         if self.options.smooth {
-            for part in &mut parts {
+            for part in parts.iter_mut().filter(|p| !p.record.is_compact()) {
                 apply_spill(
                     &mut part.record,
                     &self.steps[part.start..part.end],
@@ -227,7 +272,7 @@ impl<'a> Sweep<'a> {
         }
         // A plunge's contact resultant without the lattice's own bias (MODEL.md §1.4).
         if let Some(grid) = &self.grid {
-            for part in &mut parts {
+            for part in parts.iter_mut().filter(|p| !p.record.is_compact()) {
                 let radius = self.tools[part.tool].radius_mm();
                 unbias_plunges(
                     &mut part.record,
@@ -240,6 +285,7 @@ impl<'a> Sweep<'a> {
         // The record in compact columns (issue 16), part by part.
         for part in &mut parts {
             part.record.compact();
+            part.spill = Vec::new();
         }
         if parts.len() == 1 {
             // One tool: the record as it is (no copy).
@@ -307,14 +353,80 @@ pub(super) fn lattice_disc_bias(grid: &Grid, cx: f64, cy: f64, r: f64) -> [f64; 
 fn unbias_plunges(record: &mut RemovalRecord, steps: &[Step], grid: &Grid, radius: f64) {
     let stride = record.stride();
     for (i, step) in steps.iter().enumerate() {
-        let m = Prepared::new(step);
-        let row = &mut record.data[i * stride..(i + 1) * stride];
-        if m.h2 > PLUNGE_H2 || row[VOLUME] <= 0.0 {
-            continue;
+        unbias_plunge(
+            &mut record.data[i * stride..(i + 1) * stride],
+            step,
+            grid,
+            radius,
+        );
+    }
+}
+
+/// [`unbias_plunges`] for one step's row.
+fn unbias_plunge(row: &mut [f64], step: &Step, grid: &Grid, radius: f64) {
+    let m = Prepared::new(step);
+    if m.h2 > PLUNGE_H2 || row[VOLUME] <= 0.0 {
+        return;
+    }
+    let [bx, by] = lattice_disc_bias(grid, m.p0[0], m.p0[1], radius);
+    row[CONTACT_X] -= row[VOLUME] * bx;
+    row[CONTACT_Y] -= row[VOLUME] * by;
+}
+
+/// A part's record made final and compact batch by batch ([`Sweep::whole`]):
+/// `run_batches` holds full rows (and smoothing shares) only for the steps
+/// from `first` on; after each batch the steps whose rows can no longer
+/// change get their neighbours' shares, their plunges unbiased, and go into
+/// `out` in compact columns, in the order [`Sweep::finish`] does all this
+/// for a whole record, so the values are the same bit for bit.
+struct Stream {
+    /// First step whose full row is held.
+    first: usize,
+    spill: SpillCursor,
+    grid: Grid,
+    radius: f64,
+    smooth: bool,
+    out: RemovalRecord,
+}
+
+impl Stream {
+    fn new(record: &RemovalRecord, grid: Grid, radius: f64, smooth: bool) -> Self {
+        Stream {
+            first: 0,
+            spill: SpillCursor::default(),
+            grid,
+            radius,
+            smooth,
+            out: RemovalRecord::compact_empty(record.n_bands, record.band_height_mm),
         }
-        let [bx, by] = lattice_disc_bias(grid, m.p0[0], m.p0[1], radius);
-        row[CONTACT_X] -= row[VOLUME] * bx;
-        row[CONTACT_Y] -= row[VOLUME] * by;
+    }
+
+    /// Steps before `swept` are swept (their rows and shares, from `first`
+    /// on, in `rows` and `spill`): make final and move out those that are.
+    fn advance(&mut self, rows: &mut Vec<f64>, spill: &mut Vec<f64>, steps: &[Step], swept: usize) {
+        let n = steps.len();
+        let stride = HEAD + self.out.n_bands;
+        // Step i's shares move once row i + 1 is swept; rows up to i − 1 are then final.
+        let final_end = if !self.smooth || swept == n {
+            if self.smooth {
+                self.spill.run(rows, self.first, stride, steps, spill, n);
+            }
+            swept
+        } else {
+            self.spill
+                .run(rows, self.first, stride, steps, spill, swept - 1);
+            (swept - 1).saturating_sub(1).max(self.first)
+        };
+        let done = final_end - self.first;
+        for (j, row) in rows[..done * stride].chunks_exact_mut(stride).enumerate() {
+            unbias_plunge(row, &steps[self.first + j], &self.grid, self.radius);
+            self.out.push_row(row);
+        }
+        rows.drain(..done * stride);
+        if self.smooth {
+            spill.drain(..done * 2 * HEAD);
+        }
+        self.first = final_end;
     }
 }
 
@@ -340,12 +452,22 @@ fn run_batches<E: Envelope>(
     steps: &[Step],
     options: &SweepOptions,
     record: &mut RemovalRecord,
-    spill: &mut [f64],
+    spill: &mut Vec<f64>,
+    mut stream: Option<&mut Stream>,
     progress: &(dyn Fn(usize) + Sync),
 ) {
     let grid = *stock.grid();
     let rows = stock.rows();
     if rows.is_empty() {
+        if let Some(stream) = stream {
+            // Nothing to cut: every step's row is zero.
+            let stride = HEAD + banding.n_bands;
+            record.data.resize(steps.len() * stride, 0.0);
+            if options.smooth {
+                spill.resize(steps.len() * 2 * HEAD, 0.0);
+            }
+            stream.advance(&mut record.data, spill, steps, steps.len());
+        }
         progress(steps.len());
         return;
     }
@@ -367,6 +489,16 @@ fn run_batches<E: Envelope>(
     let mut partial: Vec<f64> = Vec::new();
     for (b, chunk) in steps.chunks(batch).enumerate() {
         let first_step = b * batch;
+        // Rows (and shares) held from step `base` on: every step, or from the
+        // first step a stream has not made final.
+        let base = stream.as_ref().map_or(0, |s| s.first);
+        if stream.is_some() {
+            let held = first_step + chunk.len() - base;
+            record.data.resize(held * stride, 0.0);
+            if options.smooth {
+                spill.resize(held * 2 * HEAD, 0.0);
+            }
+        }
         moves.clear();
         moves.extend(chunk.iter().enumerate().map(|(i, step)| {
             let g = first_step + i;
@@ -397,6 +529,9 @@ fn run_batches<E: Envelope>(
         }
         if counts[n_strips] == 0 {
             // No move of the batch reaches the band.
+            if let Some(stream) = stream.as_deref_mut() {
+                stream.advance(&mut record.data, spill, steps, first_step + chunk.len());
+            }
             done += chunk.len();
             progress(done);
             continue;
@@ -457,9 +592,10 @@ fn run_batches<E: Envelope>(
         record.columns_evaluated += visited;
         // Reduce in strip order: the same sums whatever the thread count. The
         // shares for the neighbouring steps are summed per step and applied
-        // once the whole program is swept (`apply_spill`).
+        // once the whole program is swept (`apply_spill`), or by a stream
+        // once the next step is swept.
         for (e, &mi) in entries.iter().enumerate() {
-            let i = first_step + mi as usize;
+            let i = first_step + mi as usize - base;
             let src = &partial[e * width..(e + 1) * width];
             let dst = i * stride;
             for (d, s) in record.data[dst..dst + stride].iter_mut().zip(src) {
@@ -473,6 +609,9 @@ fn run_batches<E: Envelope>(
                     *d += s;
                 }
             }
+        }
+        if let Some(stream) = stream.as_deref_mut() {
+            stream.advance(&mut record.data, spill, steps, first_step + chunk.len());
         }
         done += chunk.len();
         progress(done);
@@ -491,46 +630,83 @@ fn run_batches<E: Envelope>(
 /// for a copy of the whole record.
 fn apply_spill(record: &mut RemovalRecord, steps: &[Step], spill: &[f64]) {
     let stride = record.stride();
-    let n = steps.len();
-    if n == 0 {
-        return;
-    }
-    let mut row = record.data[..stride].to_vec();
-    let mut next = vec![0.0; stride];
-    let mut prev_volume = 0.0;
-    for i in 0..n {
-        if i + 1 < n {
-            next.copy_from_slice(&record.data[(i + 1) * stride..(i + 2) * stride]);
+    SpillCursor::default().run(&mut record.data, 0, stride, steps, spill, steps.len());
+}
+
+/// [`apply_spill`] from step to step: where it stands, so it can go on once
+/// more rows are swept ([`Stream`]).
+#[derive(Default)]
+struct SpillCursor {
+    /// Next step whose shares move.
+    i: usize,
+    /// Step i's row as swept (empty before step 0).
+    row: Vec<f64>,
+    next: Vec<f64>,
+    /// Step i − 1's volume as swept.
+    prev_volume: f64,
+}
+
+impl SpillCursor {
+    /// Move the shares of steps `self.i .. until`: `rows` holds the full rows
+    /// of steps `first ..` (every step up to `until`, and step `until` unless
+    /// it is the last), `spill` their shares.
+    fn run(
+        &mut self,
+        rows: &mut [f64],
+        first: usize,
+        stride: usize,
+        steps: &[Step],
+        spill: &[f64],
+        until: usize,
+    ) {
+        let n = steps.len();
+        if self.i >= until {
+            return;
         }
-        let volume = row[VOLUME];
-        if volume > 0.0 {
-            let targets = [
-                (i > 0 && continues(&steps[i - 1], &steps[i]) && prev_volume > 0.0).then(|| i - 1),
-                (i + 1 < n && continues(&steps[i], &steps[i + 1]) && next[VOLUME] > 0.0)
-                    .then_some(i + 1),
-            ];
-            for (side, target) in targets.into_iter().enumerate() {
-                let Some(t) = target else {
-                    continue;
-                };
-                let moved = &spill[(2 * i + side) * HEAD..(2 * i + side + 1) * HEAD];
-                if moved[VOLUME] <= 0.0 {
-                    continue;
-                }
-                let f = (moved[VOLUME] / volume).min(1.0);
-                for k in 0..stride {
-                    // Head values as recorded per column; shank and bands in proportion.
-                    let v = if k < HEAD && k != SHANK {
-                        moved[k]
-                    } else {
-                        f * row[k]
+        if self.row.is_empty() {
+            debug_assert_eq!((self.i, first), (0, 0));
+            self.row = rows[..stride].to_vec();
+            self.next = vec![0.0; stride];
+        }
+        let (row, next) = (&mut self.row, &mut self.next);
+        let at = |i: usize| (i - first) * stride;
+        for i in self.i..until {
+            if i + 1 < n {
+                next.copy_from_slice(&rows[at(i + 1)..at(i + 1) + stride]);
+            }
+            let volume = row[VOLUME];
+            if volume > 0.0 {
+                let targets = [
+                    (i > 0 && continues(&steps[i - 1], &steps[i]) && self.prev_volume > 0.0)
+                        .then(|| i - 1),
+                    (i + 1 < n && continues(&steps[i], &steps[i + 1]) && next[VOLUME] > 0.0)
+                        .then_some(i + 1),
+                ];
+                for (side, target) in targets.into_iter().enumerate() {
+                    let Some(t) = target else {
+                        continue;
                     };
-                    record.data[i * stride + k] -= v;
-                    record.data[t * stride + k] += v;
+                    let sh = 2 * (i - first) + side;
+                    let moved = &spill[sh * HEAD..(sh + 1) * HEAD];
+                    if moved[VOLUME] <= 0.0 {
+                        continue;
+                    }
+                    let f = (moved[VOLUME] / volume).min(1.0);
+                    for k in 0..stride {
+                        // Head values as recorded per column; shank and bands in proportion.
+                        let v = if k < HEAD && k != SHANK {
+                            moved[k]
+                        } else {
+                            f * row[k]
+                        };
+                        rows[at(i) + k] -= v;
+                        rows[at(t) + k] += v;
+                    }
                 }
             }
+            self.prev_volume = volume;
+            std::mem::swap(row, next);
         }
-        prev_volume = volume;
-        std::mem::swap(&mut row, &mut next);
+        self.i = until;
     }
 }

@@ -177,11 +177,7 @@ impl RemovalRecord {
         band_start.push(0);
         for i in 0..n {
             let row = &self.data[i * stride..(i + 1) * stride];
-            let kept = row[HEAD..]
-                .iter()
-                .rposition(|v| v.to_bits() != 0)
-                .map_or(0, |k| k + 1);
-            bands.extend_from_slice(&row[HEAD..HEAD + kept]);
+            bands.extend_from_slice(&row[HEAD..HEAD + kept_bands(row)]);
             band_start.push(bands.len());
             self.data
                 .copy_within(i * stride..i * stride + HEAD, i * HEAD);
@@ -191,6 +187,16 @@ impl RemovalRecord {
         bands.shrink_to_fit();
         self.bands = bands;
         self.band_start = band_start;
+    }
+
+    /// Append one step's full row (head values, then every band) to a
+    /// compact record, as [`compact`](Self::compact) keeps it.
+    fn push_row(&mut self, row: &[f64]) {
+        debug_assert!(self.is_compact() && row.len() == HEAD + self.n_bands);
+        self.data.extend_from_slice(&row[..HEAD]);
+        self.bands
+            .extend_from_slice(&row[HEAD..HEAD + kept_bands(row)]);
+        self.band_start.push(self.bands.len());
     }
 
     /// Append the compact record `other` (its steps after this one's).
@@ -270,6 +276,15 @@ impl RemovalRecord {
     pub fn total_volume_mm3(&self) -> f64 {
         (0..self.len()).map(|i| self.volume_mm3(i)).sum()
     }
+}
+
+/// Bands of a full row (head values, then every band) that a compact record
+/// keeps: up to the last one whose bit pattern is not +0.0.
+fn kept_bands(row: &[f64]) -> usize {
+    row[HEAD..]
+        .iter()
+        .rposition(|v| v.to_bits() != 0)
+        .map_or(0, |k| k + 1)
 }
 
 /// Per-move values computed once.
