@@ -1054,7 +1054,7 @@ pub fn optimize_setup(
     // Engagement along fine stations, caps, re-timing.
     let t1 = Instant::now();
     let machine = optimize::optimising_machine(&setup.machine, limits);
-    let stations = optimize::free_stations(&setup.program.path, &machine)?;
+    let mut stations = optimize::free_stations(&setup.program.path, &machine)?;
     let surface = match (&setup.design, limits.angle_rule) {
         (_, false) => optimize::SurfaceFrom::Nothing,
         (Some((_, model)), true) => optimize::SurfaceFrom::Design(model),
@@ -1067,7 +1067,7 @@ pub fn optimize_setup(
     let caps = optimize::interval_caps(&engagement, &stations, limits, &setup.tools);
     // Only the caps are needed from here on (per station: loads, areas, angles).
     drop(engagement);
-    let written = optimize::write_verified(setup, &machine, &stations, caps, &before)?;
+    let written = optimize::write_verified(setup, &machine, &mut stations, caps, &before)?;
     let time_plan_s = t2.elapsed().as_secs_f64();
     let after_run = match written.run {
         Some(run) => run,

@@ -86,7 +86,9 @@ pub fn engagement(
         &|d| bar.set_position(d as u64),
     )?;
     bar.finish_and_clear();
-    let volumes: Vec<f64> = (0..steps.len()).map(|k| record.volume_mm3(k)).collect();
+    // The moves are not needed again (56 B per station).
+    drop(steps);
+    let volumes: Vec<f64> = (0..record.len()).map(|k| record.volume_mm3(k)).collect();
     let window_mm = (ENGAGEMENT_WINDOW_CELLS * stock.grid().spacing_mm).max(2.0 * STATION_DS_MM);
     let area_mm2 = windowed_area(stations.s_mm(), &volumes, window_mm);
 
@@ -798,7 +800,7 @@ pub fn stress_left(
 pub fn write_verified(
     setup: &Setup,
     machine: &Machine,
-    free: &Stations,
+    free: &mut Stations,
     mut caps: Vec<(f64, CapKind)>,
     before: &Run,
 ) -> Result<Written> {
@@ -808,40 +810,40 @@ pub fn write_verified(
     let mut round = 0;
     loop {
         round += 1;
-        // The two plans (two copies of the stations and their profiles) are
-        // dropped before the written program is simulated: what the rounds
-        // keep of them is their times, the refeed plan, the cap shares and,
-        // for a point list, the servo samples.
-        let (plan, time_optimal_s, lower_bound_time_s, plan_time_s, shares, optimum_samples) = {
-            let mut stations = free.clone();
-            apply_interval_caps(&mut stations, &caps)?;
-            let optimum = schedule::plan(&stations);
+        // The two plans are made one after the other on the stations
+        // themselves, their caps put back after each (no copy of the
+        // stations), and dropped before the written program is simulated:
+        // what the rounds keep of them is their times, the refeed plan, the
+        // cap shares and, for a point list, the servo samples.
+        let (plan, time_optimal_s, lower_bound_time_s) = free.with_caps_restored(|stations| {
+            apply_interval_caps(stations, &caps)?;
+            let optimum = schedule::plan(stations);
             let time_optimal_s = optimum.cycle_time_s();
-            let lower_bound_time_s = schedule::lower_bound_time_s(&stations);
-            let plan = refeed_plan(&stations, &caps, machine, merge_ratio);
-            // The plan as written: every interval at its block's feed.
-            let mut blocks = free.clone();
-            apply_interval_caps(&mut blocks, &block_caps(free, &plan, &caps))?;
-            let profile = schedule::plan(&blocks);
-            let plan_time_s = profile.cycle_time_s();
-            // Caps from tiny limits (mrr_max 1e-4) would make the written program run for days.
-            crate::bounds::check_samples(
-                plan_time_s.max(time_optimal_s),
-                machine.period_ms,
-                "the re-timed program ([limits] caps: mrr_max, force_max, deflection_max_um, the tool's stress_limit_mpa)",
-            )?;
-            let optimum_samples = match &setup.program.gcode {
-                Some(_) => None,
-                None => Some(optimum.sample(machine.period_ms)?),
-            };
-            (
-                plan,
-                time_optimal_s,
-                lower_bound_time_s,
-                plan_time_s,
-                cap_shares(&profile),
-                optimum_samples,
-            )
+            let lower_bound_time_s = schedule::lower_bound_time_s(stations);
+            let plan = refeed_plan(stations, &caps, machine, merge_ratio);
+            Ok::<_, crate::error::Error>((plan, time_optimal_s, lower_bound_time_s))
+        })?;
+        // The plan as written: every interval at its block's feed.
+        let written_caps = block_caps(free, &plan, &caps);
+        let (plan_time_s, shares) = free.with_caps_restored(|blocks| {
+            apply_interval_caps(blocks, &written_caps)?;
+            let profile = schedule::plan(blocks);
+            Ok::<_, crate::error::Error>((profile.cycle_time_s(), cap_shares(&profile)))
+        })?;
+        drop(written_caps);
+        // Caps from tiny limits (mrr_max 1e-4) would make the written program run for days.
+        crate::bounds::check_samples(
+            plan_time_s.max(time_optimal_s),
+            machine.period_ms,
+            "the re-timed program ([limits] caps: mrr_max, force_max, deflection_max_um, the tool's stress_limit_mpa)",
+        )?;
+        // A point list is written as the optimum's servo samples: that plan again.
+        let optimum_samples = match &setup.program.gcode {
+            Some(_) => None,
+            None => Some(free.with_caps_restored(|stations| {
+                apply_interval_caps(stations, &caps)?;
+                Ok::<_, crate::error::Error>(schedule::plan(stations).sample(machine.period_ms)?)
+            })?),
         };
         let (text, samples, path) = match &setup.program.gcode {
             Some(src) => {

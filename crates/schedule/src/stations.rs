@@ -669,6 +669,18 @@ impl Stations {
         Ok(())
     }
 
+    /// Runs `f` on the stations (to apply caps and plan under them) and puts
+    /// their caps and the kinds that set them back as they were afterwards:
+    /// a trial plan without a copy of the stations (issue 16; a copy of a
+    /// million-block program's stations and path is about 250 MB).
+    pub fn with_caps_restored<R>(&mut self, f: impl FnOnce(&mut Stations) -> R) -> R {
+        let (caps, kinds) = (self.cap_mm_min.clone(), self.cap_kind.clone());
+        let r = f(self);
+        self.cap_mm_min = caps;
+        self.cap_kind = kinds;
+        r
+    }
+
     /// Number of stations (at least 1).
     pub fn len(&self) -> usize {
         self.s_mm.len()
