@@ -30,10 +30,32 @@ pub struct Engagement {
     /// Per interval: index into the tool set of the tool cutting it.
     pub tool_index: Vec<usize>,
     /// Per interval: the load at [`REFERENCE_FEED_MM_MIN`] with the windowed engagement.
-    pub reference_loads: Vec<cutting::StepLoad>,
+    pub reference_loads: Vec<ReferenceLoad>,
     /// Per interval: S3's cutting-surface angle of a ball-end mill, degrees
     /// (NaN where not asked for, not a ball, no cut or no surface within reach).
     pub surface_angle_deg: Vec<f64>,
+}
+
+/// What the caps take of a load at [`REFERENCE_FEED_MM_MIN`] (a
+/// `cutting::StepLoad`'s force, deflection, power and stress; 32 B per
+/// interval instead of the whole load's 104 B, issue 16).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ReferenceLoad {
+    pub force_n: f64,
+    pub deflection_um: f64,
+    pub power_w: f64,
+    pub stress_mpa: f64,
+}
+
+impl From<cutting::StepLoad> for ReferenceLoad {
+    fn from(l: cutting::StepLoad) -> Self {
+        ReferenceLoad {
+            force_n: l.force_n,
+            deflection_um: l.deflection_um,
+            power_w: l.power_w,
+            stress_mpa: l.stress_mpa,
+        }
+    }
 }
 
 /// Where S3's surface normal comes from (MODEL.md §6.3).
@@ -153,7 +175,7 @@ fn reference_loads<'a>(
     area_mm2: &[f64],
     s_mm: &[f64],
     model_of: impl Fn(usize) -> &'a CuttingModel,
-) -> Vec<cutting::StepLoad> {
+) -> Vec<ReferenceLoad> {
     let n = area_mm2.len();
     let mut last = None;
     let mut source: Vec<Option<usize>> = (0..n)
@@ -175,7 +197,7 @@ fn reference_loads<'a>(
     (0..n)
         .map(|k| {
             let (Some(j), true) = (source[k], area_mm2[k] > 0.0) else {
-                return cutting::StepLoad::default();
+                return cutting::StepLoad::default().into();
             };
             let len_mm = s_mm[k + 1] - s_mm[k];
             let volume = area_mm2[k] * len_mm;
@@ -186,7 +208,7 @@ fn reference_loads<'a>(
                 *b = v * scale;
             }
             let [cx, cy] = record.contact_resultant(j);
-            model_of(k).step_load(&cutting::StepRemoval {
+            let load = model_of(k).step_load(&cutting::StepRemoval {
                 volume_mm3: volume,
                 band_volumes_mm3: &bands,
                 contact_resultant: [cx * scale, cy * scale],
@@ -196,7 +218,8 @@ fn reference_loads<'a>(
                     / len_mm,
                 volume_over_radius_mm2: record.volume_over_radius_mm2(j) * scale,
                 dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
-            })
+            });
+            ReferenceLoad::from(load)
         })
         .collect()
 }
