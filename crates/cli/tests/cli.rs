@@ -1450,6 +1450,38 @@ fn resimulate_optimized(dir: &Path, job: &str) -> Value {
     summary(&dir.join("refed"))
 }
 
+/// A program whose first block moves to the origin (no motion, read from
+/// there) and whose first feed move is split by optimize: optimized.nc read on
+/// its own starts where the program as given did (above the machine origin,
+/// not above the end of its first, now shorter, feed block), so it takes the
+/// summary's time.
+#[test]
+fn optimized_program_starts_where_the_program_did() {
+    let job = MIX_JOB
+        .replace("min = [0, 0, 0]", "min = [-5, -5, -10]")
+        .replace("max = [60, 40, 10]", "max = [60, 40, 0]");
+    let dir = mix_dir(&job);
+    write(
+        dir.path(),
+        "mix.ngc",
+        "G21 G90\nG0 X0 Y0 Z0\nG1 X30 Y20 Z-3 F1500\nG1 X55\nG0 Z5\nM2\n",
+    );
+    ok(&dexcut(
+        &["optimize", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
+    let s = summary(&dir.path().join("out"));
+    let text = std::fs::read_to_string(dir.path().join("out/optimized.nc")).unwrap();
+    // The ramp is split: its first block ends short of X30 Y20.
+    let first_feed = text.lines().find(|l| l.starts_with("G1")).unwrap();
+    assert!(!first_feed.contains("X30 "), "{text}");
+    let r = resimulate_optimized(dir.path(), &job);
+    for key in ["cycle_time_s", "removed_volume_mm3", "peak_mrr_mm3_s"] {
+        let (a, b) = (s["after"][key].as_f64().unwrap(), r[key].as_f64().unwrap());
+        assert!(rel(a, b) < 1e-9, "{key}: summary {a}, optimized.nc {b}");
+    }
+}
+
 /// optimize on a program with an o-word subprogram called in a loop with
 /// deeper cuts each run, G91, G20, G93, arcs and a drilling cycle: the
 /// summary's `after` is optimized.nc simulated as a program of its own, and

@@ -274,8 +274,9 @@ pub struct MachineSpec {
     #[serde(default)]
     pub arcs_as_lines: bool,
     /// Tool-tip position (x, y, z), mm, machine frame, when the program
-    /// starts. Default: above the program's first point, at the highest Z
-    /// the program reaches, so the first move is a straight rapid down.
+    /// starts. Default: at the highest Z the program reaches, above the end
+    /// of its first move when that is a rapid (so that move is a straight
+    /// rapid down), else above the machine origin.
     pub start: Option<[f64; 3]>,
 }
 

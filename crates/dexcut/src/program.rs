@@ -81,8 +81,8 @@ pub fn is_points_csv(text: &str) -> bool {
 }
 
 /// Parse G-code text; every error diagnostic is reported at once. The tool
-/// starts at `[machine] start`, or by default above the first programmed
-/// point at the highest Z of the program (see [`default_start`]). The text
+/// starts at `[machine] start`, or by default at the highest Z of the
+/// program above its first rapid's end or the origin (see [`default_start`]). The text
 /// is kept as the program's source (not copied).
 pub fn parse_gcode(text: String, file: &str, job: &Job) -> Result<Program> {
     let mut options = nc::Options {
@@ -148,10 +148,20 @@ pub fn parse_gcode(text: String, file: &str, job: &Job) -> Result<Program> {
     })
 }
 
-/// Start above the end of the first move (read from the machine origin), at
-/// the highest Z of the path: the machine arrives from a safe height.
+/// Start at the highest Z of the path (the machine arrives from a safe
+/// height), above the end of the first move when it is a rapid, else above
+/// where the program was read from (the machine origin): a rapid is never
+/// split when the program is re-fed, a feed move may be, so the written
+/// program (optimized.nc) read on its own starts where the original did.
 fn default_start(path: &nc::Path) -> [f64; 3] {
-    let first = path.segments[0].end;
+    let first = match path.segments[0] {
+        nc::Segment {
+            motion: nc::Motion::Rapid,
+            end,
+            ..
+        } => end,
+        nc::Segment { start, .. } => start,
+    };
     let top = path
         .segments
         .iter()
