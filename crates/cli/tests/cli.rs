@@ -3044,6 +3044,47 @@ const TWO_SLOTS_NC: &str =
     "%\nG21 G90 G17\nT1 M6\nG0 G43 H1 Z40\nG0 X-10 Y-8\nG0 Z28\nG1 X110 F1200\nG0 Z40\n\
      T2 M6\nG43 H2 Z40\nG0 X-10 Y8\nG0 Z27\nG1 X110 F1200\nG0 Z40\nM30\n%\n";
 
+/// The `force` warning quotes the highest stress over its own tool's allowable
+/// stress, with that tool's limit (not the lowest limit of all tools).
+#[test]
+fn force_warning_quotes_the_limit_of_the_tool_it_names() {
+    let run = |limits: [f64; 2]| {
+        let dir = tempdir();
+        let job = TWO_SLOTS_JOB
+            .replace(
+                "diameter = 6\n",
+                &format!("diameter = 6\nstress_limit_mpa = {}\n", limits[0]),
+            )
+            .replace(
+                "diameter = 10\n",
+                &format!("diameter = 10\nstress_limit_mpa = {}\n", limits[1]),
+            );
+        write(dir.path(), "job.toml", &job);
+        write(dir.path(), "two.nc", TWO_SLOTS_NC);
+        let out = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
+        ok(&out);
+        let steps = csv_columns(&dir.path().join("out/steps.csv"));
+        let peak = |tool: f64| {
+            (0..steps["tool"].len())
+                .filter(|&i| steps["tool"][i] == tool)
+                .map(|i| steps["stress_mpa"][i])
+                .fold(0.0, f64::max)
+        };
+        (summary(&dir.path().join("out")), [peak(1.0), peak(2.0)])
+    };
+    let (_, peaks) = run([1.0, 1.0]);
+    assert!(peaks[0] > 2.0 && peaks[1] > 2.0, "{peaks:?}");
+    // The tool of the higher stress gets the higher limit (2 MPa, still exceeded).
+    let high = if peaks[0] > peaks[1] { 0 } else { 1 };
+    let mut limits = [1.0, 1.0];
+    limits[high] = 2.0;
+    let (s, _) = run(limits);
+    let w = warning(&s, "force").expect("force warning");
+    let text = w["message"].as_str().unwrap();
+    assert!(text.contains("above the allowable 2 MPa"), "{text}");
+    assert!(rel(w["value"].as_f64().unwrap(), peaks[high]) < 1e-6, "{w}");
+}
+
 /// Visible files of a folder, sorted.
 fn file_names(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)

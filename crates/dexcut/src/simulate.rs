@@ -1415,7 +1415,16 @@ impl Run {
         out.from_lines(WarningKind::ShankContact, &shank, "mm³", true, |v, lines| {
             format!("the tool above its flute length (shank or holder) removed {v:.3} mm³ at {lines}: raise the flute length or stick-out, or change the program")
         });
-        let limit = self.stress_limit_mpa();
+        // The allowable stress of the step the message quotes (the highest stress over
+        // its own tool's limit), not the lowest of all tools.
+        let limit = (0..self.steps.len())
+            .filter(|&i| self.loads[i].stress_mpa > self.stress_limits_mpa[i])
+            .max_by(|&a, &b| {
+                self.loads[a]
+                    .stress_mpa
+                    .total_cmp(&self.loads[b].stress_mpa)
+            })
+            .map_or_else(|| self.stress_limit_mpa(), |i| self.stress_limits_mpa[i]);
         let rigid_kept = if self.closed_loop.rigid_kept {
             "; the closed loop keeps the rigid tool's force, deflection and error for it (no elastic balance, docs/MODEL.md §5.1)"
         } else {
