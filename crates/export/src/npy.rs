@@ -641,19 +641,44 @@ impl ColumnGridWriter {
 
 /// Read `columns.json` of the folder `dir`; `max_bytes` bounds the file size.
 pub fn read_column_grid_info(dir: &Path, max_bytes: u64) -> Result<ColumnGridInfo, Error> {
-    let path = dir.join(COLUMN_GRID_JSON);
-    let bytes = read_bounded(&path, max_bytes)?;
-    let info: ColumnGridInfo = serde_json::from_slice(&bytes).map_err(|e| Error::Invalid {
+    read_description(
+        &dir.join(COLUMN_GRID_JSON),
+        max_bytes,
+        "column grid",
+        COLUMN_GRID_FORMAT,
+        |info: &ColumnGridInfo| &info.format,
+    )
+}
+
+/// A JSON description of arrays (`columns.json`, `steps.json`) at `path`, at
+/// most `max_bytes`, whose `format` field (read by `format_of`) must be
+/// `format`; `kind` names it in errors ("not a {kind} description").
+pub(crate) fn read_description<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    max_bytes: u64,
+    kind: &str,
+    format: &str,
+    format_of: impl Fn(&T) -> &str,
+) -> Result<T, Error> {
+    let bytes = read_bounded(path, max_bytes)?;
+    let info: T = serde_json::from_slice(&bytes).map_err(|e| Error::Invalid {
         what: path.display().to_string(),
-        reason: format!("not a column grid description: {e}"),
+        reason: format!("not a {kind} description: {e}"),
     })?;
-    if info.format != COLUMN_GRID_FORMAT {
+    let found = format_of(&info);
+    if found != format {
         return Err(Error::Invalid {
             what: path.display().to_string(),
-            reason: format!("format is {:?}, not {COLUMN_GRID_FORMAT:?}", info.format),
+            reason: format!("format is {found:?}, not {format:?}"),
         });
     }
     Ok(info)
+}
+
+/// Whether `file`, as an array description lists it, names a file in the
+/// description's own folder (no separator, not hidden, not `..`).
+pub(crate) fn is_plain_file_name(file: &str) -> bool {
+    !(file.contains(['/', '\\']) || file.starts_with('.'))
 }
 
 pub(crate) fn read_bounded(path: &Path, max_bytes: u64) -> Result<Vec<u8>, Error> {
@@ -682,7 +707,7 @@ pub fn read_grid_array_f32(
     let Some(entry) = info.arrays.iter().find(|a| a.name == name) else {
         return Ok(None);
     };
-    if entry.file.contains(['/', '\\']) || entry.file.starts_with('.') {
+    if !is_plain_file_name(&entry.file) {
         return Err(Error::Invalid {
             what: COLUMN_GRID_JSON.into(),
             reason: format!("array file {:?} is not a plain file name", entry.file),

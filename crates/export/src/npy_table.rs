@@ -162,19 +162,13 @@ impl NpyTableWriter {
 /// Read the description `<stem>.json` of a table in the folder `dir`;
 /// `max_bytes` bounds its size.
 pub fn read_npy_table_info(dir: &Path, stem: &str, max_bytes: u64) -> Result<TableInfo, Error> {
-    let path = dir.join(npy_table_json(stem));
-    let bytes = read_bounded(&path, max_bytes)?;
-    let info: TableInfo = serde_json::from_slice(&bytes).map_err(|e| Error::Invalid {
-        what: path.display().to_string(),
-        reason: format!("not a table description: {e}"),
-    })?;
-    if info.format != NPY_TABLE_FORMAT {
-        return Err(Error::Invalid {
-            what: path.display().to_string(),
-            reason: format!("format is {:?}, not {NPY_TABLE_FORMAT:?}", info.format),
-        });
-    }
-    Ok(info)
+    crate::npy::read_description(
+        &dir.join(npy_table_json(stem)),
+        max_bytes,
+        "table",
+        NPY_TABLE_FORMAT,
+        |info: &TableInfo| &info.format,
+    )
 }
 
 /// The column `name` of the table in `dir` described by `info`, checked
@@ -194,7 +188,7 @@ pub fn read_npy_table_column(
         what: what.display().to_string(),
         reason,
     };
-    if entry.file.contains(['/', '\\']) || entry.file.starts_with('.') {
+    if !crate::npy::is_plain_file_name(&entry.file) {
         return Err(invalid(
             dir,
             format!(
