@@ -1266,8 +1266,8 @@ fn evaluate_accepts_optimize_servo_data() {
     assert!(vb > 0.5);
 }
 
-/// `[machine] start` is where the tool begins; by default it begins above the
-/// first programmed point at the program's highest Z.
+/// `[machine] start` is where the tool begins; by default it begins at the
+/// program's highest Z above the end of its first move, a rapid here.
 #[test]
 fn machine_start_is_where_the_tool_begins() {
     let dir = tempdir();
