@@ -2363,6 +2363,24 @@ fn an_overloaded_tool_keeps_the_rigid_estimate_in_the_closed_loop() {
     }
 }
 
+/// SLOT_JOB with a Ø10 flat end mill (flutes 20 mm, stick-out 60 mm, then
+/// `tool_extra`), spindle 6000 rev/min, `after_cutting` after the [cutting]
+/// keys, grid 0.05 mm: the closed-form Kienzle slot of the stress tests.
+fn flat_slot_job(tool_extra: &str, after_cutting: &str) -> String {
+    SLOT_JOB
+        .replace(
+            "kind = \"ball\"\ndiameter = 10",
+            &format!(
+                "kind = \"flat\"\ndiameter = 10\nflute_length = 20\nstickout = 60\n{tool_extra}"
+            ),
+        )
+        .replace(
+            "band_height = 1.0",
+            &format!("band_height = 1.0\nspindle_rpm = 6000\n{after_cutting}"),
+        )
+        .replace("grid = 0.1", "grid = 0.05")
+}
+
 /// Where the tool's stress passes its rupture strength it breaks (MODEL.md
 /// §4.4). A Ø10 flat end mill (stick-out 60, flutes 20 of d_f 8, shank 10,
 /// carbide) slots 2 mm deep in s50c (the default material) at 6000 rpm: lines 3–112 at F300, 113 on at
@@ -2389,18 +2407,7 @@ fn a_tool_past_its_rupture_strength_breaks_and_reports_the_deflection_at_rupture
         .collect();
     write(dir.path(), "slot.csv", &csv);
     let run = |name: &str, tool_extra: &str, cutting_extra: &str| {
-        let job = SLOT_JOB
-            .replace(
-                "kind = \"ball\"\ndiameter = 10",
-                &format!(
-                    "kind = \"flat\"\ndiameter = 10\nflute_length = 20\nstickout = 60\n{tool_extra}"
-                ),
-            )
-            .replace(
-                "band_height = 1.0",
-                &format!("band_height = 1.0\nspindle_rpm = 6000\n{cutting_extra}"),
-            )
-            .replace("grid = 0.1", "grid = 0.05");
+        let job = flat_slot_job(tool_extra, cutting_extra);
         write(dir.path(), &format!("{name}.toml"), &job);
         let out = dexcut(
             &["simulate", &format!("{name}.toml"), "--out", name],
@@ -2579,19 +2586,11 @@ fn optimize_holds_the_tool_under_its_allowable_stress() {
         "G21 G90 G94\nG0 X-10 Y0 Z28\nG1 X110 F1200\nG0 Z40\nM2\n",
     );
     let run = |name: &str, tool_extra: &str, limits: &str| {
-        let job = SLOT_JOB
-            .replace(
-                "kind = \"ball\"\ndiameter = 10",
-                &format!(
-                    "kind = \"flat\"\ndiameter = 10\nflute_length = 20\nstickout = 60\nfz_max = 0.5\n{tool_extra}"
-                ),
-            )
-            .replace("path = \"slot.csv\"", "path = \"slot.ngc\"")
-            .replace(
-                "band_height = 1.0",
-                &format!("band_height = 1.0\nspindle_rpm = 6000\n[limits]\n{limits}"),
-            )
-            .replace("grid = 0.1", "grid = 0.05");
+        let job = flat_slot_job(
+            &format!("fz_max = 0.5\n{tool_extra}"),
+            &format!("[limits]\n{limits}"),
+        )
+        .replace("path = \"slot.csv\"", "path = \"slot.ngc\"");
         write(dir.path(), &format!("{name}.toml"), &job);
         let out = dexcut(
             &["optimize", &format!("{name}.toml"), "--out", name],
