@@ -4,7 +4,9 @@
 #   * the raster finish (200 rows × 202 points, 40 399 moves, 100 × 100 mm,
 #     Ø10 ball) as a CSV point list and as G-code, simulate at grid 0.25 / 0.1 / 0.05;
 #   * the 1 M-block program (1000 × 1000 points, 999 999 G1 blocks) at grid 0.1,
-#     simulate and optimize.
+#     simulate and optimize;
+#   * the free path (240 G1 moves over an 80 × 60 mm block, Ø6 ball) at grid
+#     0.05, simulate with the closed loop (the default) and without.
 # Programs and jobs are written by `examples/bench_programs.rs` (the same
 # generator as the criterion benches). Prints one Markdown table row per run,
 # with the load average before it, as BENCHMARKS.md records them.
@@ -47,5 +49,8 @@ done
 for g in 0.25 0.1 0.05; do
     run "raster_gcode_$g" simulate raster_ngc.toml --grid "$g" --out "out_raster_ngc_$g" --force
 done
+run "free_path_0.05" simulate free_path_ngc.toml --out out_free_path --force
+sed 's/^\[cutting\]/[cutting]\nclosed_loop = false/' free_path_ngc.toml > free_path_open.toml
+run "free_path_0.05_open_loop" simulate free_path_open.toml --out out_free_path_open --force
 run "1m_simulate_0.1" simulate finish_1m_ngc.toml --out out_1m_simulate --force
 run "1m_optimize_0.1" optimize finish_1m_ngc.toml --out out_1m_optimize --force

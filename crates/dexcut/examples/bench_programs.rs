@@ -1,7 +1,9 @@
 //! Write the benchmark programs and jobs of `scripts/bench_runs.sh` into a folder:
 //! `raster.csv` / `raster.ngc` (200 rows × 202 points: 40 399 moves) and
 //! `finish_1m.ngc` (1000 rows × 1000 points: 999 999 G1 blocks), each with a
-//! job at grid 0.1 mm (the script overrides it with `--grid`).
+//! job at grid 0.1 mm (the script overrides it with `--grid`), and
+//! `free_path.ngc` (240 G1 moves over an 80 × 60 mm block, Ø6 ball) with its
+//! job at grid 0.05 mm.
 //!
 //! `cargo run --release -p dexcut --example bench_programs -- DIR`
 
@@ -25,5 +27,11 @@ fn main() -> std::io::Result<()> {
         )?;
         println!("{}", dir.join(name).display());
     }
+    std::fs::write(dir.join("free_path.ngc"), programs::free_path_gcode(240))?;
+    std::fs::write(
+        dir.join("free_path_ngc.toml"),
+        programs::free_path_job_toml("free_path.ngc", 0.05),
+    )?;
+    println!("{}", dir.join("free_path.ngc").display());
     Ok(())
 }

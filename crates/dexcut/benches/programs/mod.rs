@@ -94,3 +94,63 @@ force_max = 400
 "#
     )
 }
+
+/// The free path of issue 16's table: `moves` G1 moves of a Lissajous curve
+/// wandering over the 80 × 60 mm top of [`free_path_job_toml`]'s block,
+/// 0.5–2 mm deep, at F1500 (240 moves: about 2.3 mm each).
+#[allow(dead_code)] // used by examples/bench_programs.rs, not by the bench
+pub fn free_path_gcode(moves: usize) -> String {
+    let point = |i: usize| {
+        let t = std::f64::consts::TAU * i as f64 / moves as f64;
+        let x = 40.0 + 34.0 * (3.0 * t).sin();
+        let y = 30.0 + 24.0 * (2.0 * t + 0.5).sin();
+        let z = -1.25 + 0.75 * (5.0 * t).cos();
+        [x, y, z]
+    };
+    let mut s = String::from("(dexcut benchmark free path)\nG21 G90 G17 G94\nG0 Z5\n");
+    let [x0, y0, z0] = point(0);
+    writeln!(s, "G0 X{x0:.4} Y{y0:.4}\nG1 Z{z0:.4} F1500").expect("write to String");
+    for i in 1..=moves {
+        let [x, y, z] = point(i);
+        writeln!(s, "G1 X{x:.4} Y{y:.4} Z{z:.4}").expect("write to String");
+    }
+    s.push_str("G0 Z5\nM2\n");
+    s
+}
+
+/// The job of [`free_path_gcode`]: an 80 × 60 × 20 mm block (top z = 0), a
+/// Ø6 ball, at grid `grid_mm`.
+#[allow(dead_code)] // used by examples/bench_programs.rs, not by the bench
+pub fn free_path_job_toml(program: &str, grid_mm: f64) -> String {
+    format!(
+        r#"# dexcut benchmark job (written by examples/bench_programs.rs)
+[stock]
+kind = "box"
+min = [0, 0, -20]
+max = [80, 60, 0]
+grid = {grid_mm}
+
+[tool]
+kind = "ball"
+diameter = 6
+flute_length = 18
+stickout = 30
+flutes = 2
+
+[program]
+path = "{program}"
+
+[cutting]
+band_height = 1.0
+material = "al6061"
+
+[machine]
+period_ms = 4
+feed_max = 3000
+accel = [1000, 1000, 1000]
+
+[limits]
+mrr_max = 200
+"#
+    )
+}
