@@ -3289,3 +3289,92 @@ fn assert_same_report(a: &Path, b: &Path) {
         b.display()
     );
 }
+
+/// A Ø2 flat end slotting `depth` mm deep in s50c at 6000 rpm on a 0.1 mm
+/// grid (20 columns across the tool), x from −3 to 12 in moves of
+/// `step_mm`, each one step, at `feed` mm/min: the steps.csv columns.
+fn small_slot_steps(dir: &Path, name: &str, step_mm: f64, feed: f64) -> HashMap<String, Vec<f64>> {
+    let n = (15.0 / step_mm).round() as usize;
+    let csv: String = std::iter::once("x,y,z,feed\n-3,0,9.5,\n".to_string())
+        .chain((1..=n).map(|k| format!("{},0,9.5,{feed}\n", -3.0 + 15.0 * k as f64 / n as f64)))
+        .collect();
+    write(dir, &format!("{name}.csv"), &csv);
+    let job = format!(
+        r#"
+[stock]
+kind = "box"
+min = [0, -4, 0]
+max = [10, 4, 10]
+grid = 0.1
+[tool]
+kind = "flat"
+diameter = 2
+flute_length = 6
+stickout = 20
+[program]
+path = "{name}.csv"
+feed = {feed}
+[cutting]
+band_height = 0.25
+spindle_rpm = 6000
+closed_loop = false
+"#
+    );
+    write(dir, &format!("{name}.toml"), &job);
+    ok(&dexcut(
+        &["simulate", &format!("{name}.toml"), "--out", name],
+        dir,
+    ));
+    csv_columns(&dir.join(name).join("steps.csv"))
+}
+
+/// Where the tool advances less than a grid cell per step, each step's load
+/// is the steady cut's at its own feed (MODEL.md §1.6): a Ø2 flat end slots
+/// 0.5 mm deep on a 0.1 mm grid in steps of 1/10 and 1/3 of a cell. Every
+/// steady step (x 3…7, the tool wholly in the slot and the window of six
+/// cells too) has Kienzle's mean slot force (MODEL.md §3.2)
+/// F = z a_p f_z kc(2 f_z/π)/4 · √(1 + k_r²) at its f_z within 1.5 %, where
+/// whole columns gave 0 or several times it; halving the feed lowers it by
+/// 2^(1 − mc) = 1.717 (f_z 0.02 → 0.01 mm: 20.45 → 11.91 N).
+#[test]
+fn sub_cell_steps_carry_the_steady_slot_force() {
+    let dir = tempdir();
+    let kienzle = |fz: f64| {
+        let kc = 1500.0 * (2.0 * fz / PI).powf(-0.22);
+        2.0 * 0.5 * fz * kc / 4.0 * 1.09f64.sqrt()
+    };
+    assert!((kienzle(0.02) - 20.450).abs() < 1e-3, "{}", kienzle(0.02));
+    let mut steady_mean = Vec::new();
+    for (name, step_mm, feed) in [
+        ("tenth", 0.01, 240.0),
+        ("third", 0.1 / 3.0, 240.0),
+        ("tenth_half", 0.01, 120.0),
+    ] {
+        let steps = small_slot_steps(dir.path(), name, step_mm, feed);
+        let fz = feed / (2.0 * 6000.0);
+        let exact = kienzle(fz);
+        let (mut count, mut sum, mut worst) = (0, 0.0, 0.0f64);
+        for (&x, &f) in steps["x"].iter().zip(&steps["force_n"]) {
+            if (3.0..7.0).contains(&x) {
+                count += 1;
+                sum += f;
+                worst = worst.max(rel(f, exact));
+            }
+        }
+        assert!(count as f64 > 3.9 / step_mm, "{name}: {count} steady steps");
+        eprintln!(
+            "{name}: {count} steps, mean {} N, worst {worst:.4} off {exact} N",
+            sum / count as f64
+        );
+        steady_mean.push(sum / count as f64);
+        assert!(
+            worst < 0.015,
+            "{name}: a steady step {worst:.4} off {exact} N"
+        );
+    }
+    let ratio = steady_mean[0] / steady_mean[2];
+    assert!(
+        rel(ratio, 2f64.powf(0.78)) < 2e-3,
+        "halving the feed: {ratio}"
+    );
+}

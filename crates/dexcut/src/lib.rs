@@ -93,6 +93,7 @@ mod report;
 mod simulate;
 mod steps_out;
 mod stock;
+mod subcell;
 pub mod summary;
 mod tools;
 mod warnings;

@@ -491,9 +491,9 @@ pub fn run_on(
     steps: Vec<TimedStep>,
     label: &str,
 ) -> Result<Run> {
-    let initial_volume_mm3 = match &stock {
-        StockSource::Whole(s) => s.volume_mm3(),
-        StockSource::Tiled(_) => f64::NAN,
+    let (initial_volume_mm3, grid_mm) = match &stock {
+        StockSource::Whole(s) => (s.volume_mm3(), s.grid().spacing_mm),
+        StockSource::Tiled(t) => (f64::NAN, t.grid.spacing_mm),
     };
     let rigid_steps: Vec<dexel::Step> = steps.iter().map(|s| s.step).collect();
     let (tool_of_step, options) = sweep_setup(tools, &steps)?;
@@ -502,7 +502,7 @@ pub fn run_on(
         sweep_pass(&stock, tools, &tool_of_step, &rigid_steps, &options, label)?;
     // At most two stocks at a time: the initial one and the last pass's.
     let mut final_stock = rigid_stock;
-    let mut step_loads = loads(tools, &tool_of_step, &record, &steps);
+    let mut step_loads = loads(tools, &tool_of_step, &record, &steps, grid_mm);
     let n = steps.len();
     let stress_limits_mpa: Vec<f64> = tool_of_step
         .iter()
@@ -611,7 +611,7 @@ pub fn run_on(
             let (pass_stock, pass_record) =
                 sweep_pass(&stock, tools, &tool_of_step, &shifted, &options, label)?;
             (final_stock, record) = (pass_stock, pass_record);
-            step_loads = loads(tools, &tool_of_step, &record, &steps);
+            step_loads = loads(tools, &tool_of_step, &record, &steps, grid_mm);
             report.passes += 1;
             x.clone_from(&trial);
             // g: the deflection the removal at the trial offset causes, across the path.
@@ -946,14 +946,17 @@ fn clamped_error_map_um(
         .collect()
 }
 
-/// Per-step force, power and deflection (MODEL.md §3, §4), each step with its tool's model.
+/// Per-step force, power and deflection (MODEL.md §3, §4), each step with
+/// its tool's model; a step shorter than a grid cell (`grid_mm`) has the
+/// load of the steady cut around it (MODEL.md §1.6).
 pub fn loads(
     tools: &ToolSet,
     tool_of_step: &[usize],
     record: &RemovalRecord,
     steps: &[TimedStep],
+    grid_mm: f64,
 ) -> Vec<StepLoad> {
-    steps
+    let mut out: Vec<StepLoad> = steps
         .iter()
         .enumerate()
         .map(|(i, s)| {
@@ -967,7 +970,9 @@ pub fn loads(
                 dt_s: s.dt_s,
             })
         })
-        .collect()
+        .collect();
+    crate::subcell::window_loads(&mut out, tools, tool_of_step, record, steps, grid_mm);
+    out
 }
 
 /// The step the `tool_breaks` warning describes (MODEL.md §4.4): of the steps

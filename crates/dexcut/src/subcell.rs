@@ -1,0 +1,217 @@
+//! Loads of steps in which the tool advances less than a grid cell (MODEL.md
+//! §1.6): the removal record gives such a step whole columns or nothing, so
+//! its load is taken from the removal per unit length over
+//! [`SUB_CELL_WINDOW_CELLS`] cells of path around it, at its own length and
+//! duration.
+
+use cutting::{StepLoad, StepRemoval};
+use dexel::RemovalRecord;
+
+use crate::motion::TimedStep;
+use crate::simulate::SUB_CELL_WINDOW_CELLS;
+use crate::tools::ToolSet;
+
+/// Head values summed over a window: volume, contact along and left of each
+/// step's own feed direction, chip edge area times step length, volume over
+/// radius (MODEL.md §1.6).
+const SUMS: usize = 5;
+const VOL: usize = 0;
+const ALONG: usize = 1;
+const LEFT: usize = 2;
+const EDGE_LEN: usize = 3;
+const OVER_R: usize = 4;
+
+/// A step's length (mm) and XY feed direction where it can be windowed: a
+/// feed step whose motion is at least half horizontal (plunges are resolved
+/// in Z, MODEL.md §10 coarse_grid).
+fn geometry(s: &TimedStep) -> Option<(f64, [f64; 2])> {
+    if s.step.rapid {
+        return None;
+    }
+    let [fx, fy, fz] = s.step.from_mm;
+    let [tx, ty, tz] = s.step.to_mm;
+    let (dx, dy, dz) = (tx - fx, ty - fy, tz - fz);
+    let xy = dx.hypot(dy);
+    (xy > 0.0 && xy >= dz.abs()).then(|| (xy.hypot(dz), [dx / xy, dy / xy]))
+}
+
+/// Window sums of one run of steps (MODEL.md §1.6): the steps of the run
+/// from `lo` on whose end lies before the window's start, and from `hi` on
+/// whose end lies before its end, so the steps `lo..hi` are summed whole and
+/// the step at each end of the window is added or taken off by its share.
+struct Window {
+    lo: usize,
+    hi: usize,
+    head: [f64; SUMS],
+    bands: Vec<f64>,
+    /// Steps in `lo..hi` that removed material: where none did, the sums are
+    /// set to exactly zero (no rounding left over from the steps taken off).
+    cutting: usize,
+}
+
+impl Window {
+    fn add(&mut self, head: &[f64; SUMS], bands: &[f64], w: f64) {
+        for (s, v) in self.head.iter_mut().zip(head) {
+            *s += w * v;
+        }
+        for (s, v) in self.bands.iter_mut().zip(bands) {
+            *s += w * v;
+        }
+    }
+}
+
+/// One step's head values for the window ([`SUMS`]), its contact turned into
+/// its own feed frame `u`.
+fn head_of(record: &RemovalRecord, k: usize, len: f64, u: [f64; 2]) -> [f64; SUMS] {
+    let [cx, cy] = record.contact_resultant(k);
+    let mut h = [0.0; SUMS];
+    h[VOL] = record.volume_mm3(k);
+    h[ALONG] = cx * u[0] + cy * u[1];
+    h[LEFT] = cy * u[0] - cx * u[1];
+    h[EDGE_LEN] = record.chip_edge_area_mm2(k) * len;
+    h[OVER_R] = record.volume_over_radius_mm2(k);
+    h
+}
+
+/// Replace the loads of the steps shorter than a grid cell (`grid_mm`) by
+/// the steady cut's: per run of windowable steps (feed, at least half
+/// horizontal, one tool, each starting where the one before ended), the
+/// removal per unit length over [`SUB_CELL_WINDOW_CELLS`] cells of path
+/// centred on the step (shifted to lie within the run, or the whole run
+/// where it is shorter), at the step's own length, feed direction and
+/// duration (MODEL.md §1.6). Steps of a cell or more keep their loads bit
+/// for bit. Allocates per call, not per step.
+pub fn window_loads(
+    loads: &mut [StepLoad],
+    tools: &ToolSet,
+    tool_of_step: &[usize],
+    record: &RemovalRecord,
+    steps: &[TimedStep],
+    grid_mm: f64,
+) {
+    let n = steps.len();
+    let width_mm = SUB_CELL_WINDOW_CELLS * grid_mm;
+    // Per step of the current run: its start along the run, mm.
+    let mut start: Vec<f64> = Vec::new();
+    let mut geo: Vec<(f64, [f64; 2])> = Vec::new();
+    let mut bands = vec![0.0; record.n_bands];
+    let mut win = Window {
+        lo: 0,
+        hi: 0,
+        head: [0.0; SUMS],
+        bands: vec![0.0; record.n_bands],
+        cutting: 0,
+    };
+    let mut k = 0;
+    while k < n {
+        // The run k..end.
+        let Some(first) = geometry(&steps[k]) else {
+            k += 1;
+            continue;
+        };
+        start.clear();
+        geo.clear();
+        start.push(0.0);
+        geo.push(first);
+        let mut end = k + 1;
+        while end < n
+            && tool_of_step[end] == tool_of_step[k]
+            && steps[end - 1].step.to_mm == steps[end].step.from_mm
+        {
+            let Some(g) = geometry(&steps[end]) else {
+                break;
+            };
+            start.push(start[start.len() - 1] + geo[geo.len() - 1].0);
+            geo.push(g);
+            end += 1;
+        }
+        let run_mm = start[start.len() - 1] + geo[geo.len() - 1].0;
+        if geo.iter().all(|g| g.0 >= grid_mm) {
+            k = end;
+            continue;
+        }
+        let model = &tools.entries[tool_of_step[k]].model;
+        win.lo = 0;
+        win.hi = 0;
+        win.head = [0.0; SUMS];
+        win.bands.fill(0.0);
+        win.cutting = 0;
+        // Step j of the run (0-based): record index k + j.
+        let head = |j: usize| head_of(record, k + j, geo[j].0, geo[j].1);
+        let m = geo.len();
+        for t in 0..m {
+            let (len, u) = geo[t];
+            if len >= grid_mm {
+                continue;
+            }
+            let mid = start[t] + 0.5 * len;
+            let (a, b) = if run_mm <= width_mm {
+                (0.0, run_mm)
+            } else {
+                let a = (mid - 0.5 * width_mm).clamp(0.0, run_mm - width_mm);
+                (a, a + width_mm)
+            };
+            // Steps wholly before a leave, steps wholly before b enter.
+            while win.hi < m && start[win.hi] + geo[win.hi].0 <= b {
+                let j = win.hi;
+                win.add(&head(j), record.band_volumes_mm3(k + j), 1.0);
+                win.cutting += usize::from(record.volume_mm3(k + j) > 0.0);
+                win.hi += 1;
+            }
+            while win.lo < win.hi && start[win.lo] + geo[win.lo].0 <= a {
+                let j = win.lo;
+                win.add(&head(j), record.band_volumes_mm3(k + j), -1.0);
+                win.cutting -= usize::from(record.volume_mm3(k + j) > 0.0);
+                win.lo += 1;
+            }
+            if win.cutting == 0 {
+                win.head = [0.0; SUMS];
+                win.bands.fill(0.0);
+            }
+            // The window's sums: whole steps lo..hi, plus the part of step hi
+            // before b, less the part of step lo before a.
+            let mut sum = win.head;
+            bands.copy_from_slice(&win.bands);
+            let mut part = |j: usize, x: f64, sign: f64| {
+                if j < m {
+                    let share = ((x - start[j]) / geo[j].0).clamp(0.0, 1.0);
+                    if share > 0.0 {
+                        for (s, v) in sum.iter_mut().zip(head(j)) {
+                            *s += sign * share * v;
+                        }
+                        for (s, v) in bands.iter_mut().zip(record.band_volumes_mm3(k + j)) {
+                            *s += sign * share * v;
+                        }
+                    }
+                }
+            };
+            part(win.hi, b, 1.0);
+            part(win.lo, a, -1.0);
+            let scale = len / (b - a);
+            let volume = sum[VOL] * scale;
+            let i = k + t;
+            if !(volume > 0.0) {
+                loads[i] = StepLoad::default();
+                continue;
+            }
+            for v in bands.iter_mut() {
+                *v = (*v * scale).max(0.0);
+            }
+            let left = [-u[1], u[0]];
+            loads[i] = model.step_load(&StepRemoval {
+                volume_mm3: volume,
+                band_volumes_mm3: &bands,
+                contact_resultant: [
+                    (sum[ALONG] * u[0] + sum[LEFT] * left[0]) * scale,
+                    (sum[ALONG] * u[1] + sum[LEFT] * left[1]) * scale,
+                ],
+                // Σ dV/h over a step does not depend on its length (dV and h
+                // both grow with it): the window's Σ (dV/h)·L over its length.
+                chip_edge_area_mm2: sum[EDGE_LEN] / (b - a),
+                volume_over_radius_mm2: sum[OVER_R] * scale,
+                dt_s: steps[i].dt_s,
+            });
+        }
+        k = end;
+    }
+}
