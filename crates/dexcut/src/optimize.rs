@@ -599,11 +599,9 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
                 );
             }
         }
-        // Where the tool advances less than a grid cell per period, a step's
-        // removal, and with it its load, comes in whole columns (MODEL.md §1.5):
-        // a slower feed does not lower it. The tool's stress is not corrected
-        // there (an infinite cap: nothing to lower, told as coarse_grid); the
-        // interval caps from the windowed engagement hold its steady value.
+        // Where the tool advances less than a grid cell per period, the loads
+        // are the steady cut's at the step's feed (MODEL.md §1.6), so they
+        // scale with the feed like any other.
         let sub_cell = period.window.0 != period.window.1;
         for ((ratio, p), kind) in worst.into_iter().zip([
             CapKind::Force,
@@ -612,11 +610,7 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
             CapKind::Stress,
         ]) {
             if ratio > 1.0 + 0.5 * LIMIT_MARGIN {
-                let cap = if sub_cell && kind == CapKind::Stress {
-                    f64::INFINITY
-                } else {
-                    feed * ((1.0 - LIMIT_MARGIN) / ratio).powf(1.0 / p)
-                };
+                let cap = feed * ((1.0 - LIMIT_MARGIN) / ratio).powf(1.0 / p);
                 lower(cap, kind, ratio - 1.0);
             }
         }
@@ -784,14 +778,12 @@ pub fn stress_left(
         return;
     }
     let mut tally = crate::warnings::LineTally::new();
-    let (mut fastest, mut sub_cell) = (0.0f64, true);
-    let grid_mm = run.stock.grid().spacing_mm;
+    let mut fastest = 0.0f64;
     for (k, s) in run.steps.iter().enumerate() {
         let limit = run.stress_limits_mpa[k];
         if !s.step.rapid && run.loads[k].stress_mpa > limit * (1.0 + LIMIT_TOLERANCE) {
             crate::warnings::tally(&mut tally, s.line, run.loads[k].stress_mpa);
             fastest = fastest.max(s.feed_mm_min);
-            sub_cell &= s.feed_mm_min * s.dt_s / 60.0 < grid_mm;
         }
     }
     let limit = run.stress_limit_mpa();
@@ -805,7 +797,6 @@ pub fn stress_left(
         false,
         |v, lines| match held {
             Some(lo) => format!("optimized.nc still stresses the tool to {v:.0} MPa at {lines}, above its allowable {limit:.0} MPa ([tool] stress_limit_mpa), at feed_min ({lo} mm/min), the lowest feed optimize may write: the depth and width of cut the program gives these lines are too much for the tool at that feed (the stress falls only as the feed to the power 1 − mc, docs/MODEL.md §4.4); lower [limits] feed_min, or cut shallower or narrower there"),
-            None if sub_cell => format!("optimized.nc stresses the tool to {v:.0} MPa at {lines}, above its allowable {limit:.0} MPa ([tool] stress_limit_mpa), in servo periods where the tool advances less than one grid column: their load comes in whole columns (docs/MODEL.md §1.5), which a slower feed does not lower, so optimize holds the stress of the steady cut there, not these peaks; use a finer grid to measure them"),
             None => format!("optimized.nc still stresses the tool to {v:.0} MPa at {lines}, above its allowable {limit:.0} MPa ([tool] stress_limit_mpa), after {rounds} rounds of slowing them (docs/MODEL.md §4.4)"),
         },
     );
