@@ -3,7 +3,9 @@
 # and prints, per program, the closing-note table of issue 12: cycle time
 # before and after, the written program (optimized.nc) simulated again as a
 # program of its own, the peak MRR per period against mrr_max, the top cutting
-# feed against the programmed one and the chip-load feed.
+# feed against the programmed one and the chip-load feed. servo.csv is also
+# simulated as a program (results.json: servo_s, servo_removed, servo_peak,
+# servo_force against after_s, removed_after, peak_after, force_after).
 #
 # The job per program: a box stock around the program's feed moves (tool
 # radius + 2 mm each side, from 1 mm under the deepest feed move to z = 0, or
@@ -184,6 +186,10 @@ for f in sorted(os.listdir(data)):
     open(os.path.join(d, "refed.toml"), "w").write(job(written, limits))
     r = run(["simulate", "refed.toml", "--out", "refed", "--force"], d)
     R = json.load(open(os.path.join(d, "refed/summary.json"))) if r.returncode == 0 else {}
+    # servo.csv read back as a program (a point list timed by t_s) and simulated.
+    open(os.path.join(d, "servo.toml"), "w").write(job(os.path.join(d, "opt/servo.csv"), limits))
+    v = run(["simulate", "servo.toml", "--out", "servo", "--force"], d)
+    V = json.load(open(os.path.join(d, "servo/summary.json"))) if v.returncode == 0 else {}
     programmed = max((
         float(x["feed_mm_min"])
         for x in csv.DictReader(open(os.path.join(d, "opt/steps_before.csv")))
@@ -205,6 +211,12 @@ for f in sorted(os.listdir(data)):
             peak_before=O["before"]["peak_mrr_mm3_s"],
             peak_after=after["peak_mrr_mm3_s"],
             peak_resim=R.get("peak_mrr_mm3_s"),
+            removed_after=after["removed_volume_mm3"],
+            servo_s=V.get("cycle_time_s"),
+            servo_removed=V.get("removed_volume_mm3"),
+            servo_peak=V.get("peak_mrr_mm3_s"),
+            servo_force=V.get("peak_force_n"),
+            force_after=after["peak_force_n"],
             feed_programmed=programmed,
             feed_after=after["peak_cutting_feed_mm_min"],
             chip_feed=O["limits"]["chip_load_feed_mm_min"],

@@ -2139,6 +2139,69 @@ mrr_max = 2
     }
 }
 
+/// Simulate the servo.csv `optimize` wrote as the program of its job: the job
+/// file `job` (relative to `dir`) with its program file `program` replaced by
+/// `servo` (relative to the job's folder); results in `dir/servo_run`.
+fn simulate_servo_csv(dir: &Path, job: &str, program: &str, servo: &str) -> Value {
+    let job_path = dir.join(job);
+    let text = std::fs::read_to_string(&job_path).unwrap();
+    let quoted = format!("\"{program}\"");
+    assert_eq!(text.matches(&quoted).count(), 1, "{text}");
+    let servo_job = write(
+        job_path.parent().unwrap(),
+        "servo_job.toml",
+        &text.replace(&quoted, &format!("\"{servo}\"")),
+    );
+    let servo_job = servo_job.to_str().unwrap();
+    ok(&dexcut(&["simulate", servo_job, "--out", "servo_run"], dir));
+    summary(&dir.join("servo_run"))
+}
+
+/// servo.csv does what the summary says: read back as a program (a point list
+/// timed by its `t_s`, each sample with its tool and spindle speed) and
+/// simulated, it removes what the summary's `after` run removed, in the same
+/// time, with the same peaks and error map. (The optimised run has two more
+/// steps: periods where a rapid starts or ends are swept in two parts
+/// through the path's corner; both corners are in air.)
+#[test]
+fn servo_csv_simulated_as_a_program_is_the_optimised_run() {
+    let dir = tempdir();
+    ok(&dexcut(&["optimize", "--out", "opt"], dir.path()));
+    let after = summary(&dir.path().join("opt"))["after"].clone();
+    let servo = simulate_servo_csv(
+        dir.path(),
+        "opt/input/job.toml",
+        "boss_contour.nc",
+        "../servo.csv",
+    );
+    for key in [
+        "removed_volume_mm3",
+        "cycle_time_s",
+        "peak_mrr_mm3_s",
+        "peak_force_n",
+        "peak_deflection_um",
+        "peak_stress_mpa",
+        "max_error_um",
+        "min_error_um",
+    ] {
+        let (a, b) = (after[key].as_f64().unwrap(), servo[key].as_f64().unwrap());
+        assert!(
+            (a - b).abs() <= 1e-9 * a.abs().max(1.0),
+            "{key}: summary {a}, servo.csv {b}"
+        );
+    }
+    // Without the spindle column the stream would be cut at the 10 000 rev/min
+    // default instead of the program's S6000: a smaller chip, a smaller force.
+    let servo_csv = std::fs::read_to_string(dir.path().join("opt/servo.csv")).unwrap();
+    assert!(
+        servo_csv.starts_with("t_s,x,y,z,feed_mm_min,vx_mm_s,vy_mm_s,vz_mm_s,tool,spindle_rpm\n")
+    );
+    assert!(
+        servo_csv.lines().nth(1).unwrap().ends_with(",6000"),
+        "{servo_csv:.200}"
+    );
+}
+
 /// Two tools, each with its own chip load: T1 fz 0.1 (2000 mm/min at
 /// S10000, 2 flutes), T2 fz 0.02 (400 mm/min), both programmed at F1200. The
 /// program as given runs T2 above its chip load, so it is not "within every
@@ -2225,6 +2288,31 @@ mrr_max = 1e6
     }
     // T2's cap is a third of its programmed feed: not "far below" (1/5).
     assert!(warning(&s["after"], "chip_load").is_none());
+    // servo.csv says which tool each period cuts with: simulated as a program,
+    // each tool removes what it removed in the optimised run.
+    let servo = simulate_servo_csv(dir.path(), "job.toml", "two.nc", "out/servo.csv");
+    let volumes = |s: &Value| -> Vec<(u64, f64)> {
+        s["tools"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|t| {
+                (
+                    t["tool"].as_u64().unwrap(),
+                    t["removed_volume_mm3"].as_f64().unwrap(),
+                )
+            })
+            .collect()
+    };
+    let (a, b) = (volumes(&s["after"]), volumes(&servo));
+    assert_eq!(a.len(), 2, "{a:?}");
+    assert_eq!(
+        a.iter().map(|t| t.0).collect::<Vec<_>>(),
+        b.iter().map(|t| t.0).collect::<Vec<_>>()
+    );
+    for ((_, va), (_, vb)) in a.iter().zip(&b) {
+        assert!(va > &100.0 && rel(*va, *vb) < 1e-9, "{a:?} vs {b:?}");
+    }
 }
 
 /// A 2 mm end mill at S100 (0.63 m/min at the edge: a spindle override in

@@ -1132,7 +1132,11 @@ pub fn optimize_setup(
     let steps_format = steps_format.resolve(after.steps.len().max(before.steps.len()));
     let design = write_run(setup, after, staged, steps_format, columns_csv)?;
     before.write_steps(staged, "steps_before", steps_format)?;
-    write_servo_csv(&staged.join("servo.csv"), &written.samples)?;
+    write_servo_csv(
+        &staged.join("servo.csv"),
+        &written.samples,
+        &written.sample_tools,
+    )?;
     let precomp = if setup.job.servo_given {
         Some(crate::evaluate::write_compensated_servo(
             &setup.job,
@@ -1202,8 +1206,14 @@ pub fn optimize_setup(
     })
 }
 
-/// servo.csv: commanded positions every period with path feed and axis velocities.
-fn write_servo_csv(path: &Path, samples: &[schedule::ServoSample]) -> Result<()> {
+/// servo.csv: commanded positions every period with path feed, axis
+/// velocities, and the tool and spindle speed of the block each lies on. Read
+/// as a program (a point list with `t_s`), it is simulated as the optimised run.
+fn write_servo_csv(
+    path: &Path,
+    samples: &[schedule::ServoSample],
+    tools: &[(u32, f64)],
+) -> Result<()> {
     let velocities = schedule::axis_velocity_mm_s(samples);
     export::atomic::write_file(path, |w| {
         let mut out = csv::Writer::from_writer(w);
@@ -1216,8 +1226,10 @@ fn write_servo_csv(path: &Path, samples: &[schedule::ServoSample]) -> Result<()>
             "vx_mm_s",
             "vy_mm_s",
             "vz_mm_s",
+            "tool",
+            "spindle_rpm",
         ])?;
-        for (i, s) in samples.iter().enumerate() {
+        for (i, (s, &(tool, rpm))) in samples.iter().zip(tools).enumerate() {
             let v = if i == 0 {
                 nalgebra::Vector3::zeros()
             } else {
@@ -1233,6 +1245,8 @@ fn write_servo_csv(path: &Path, samples: &[schedule::ServoSample]) -> Result<()>
                     v.x,
                     v.y,
                     v.z,
+                    tool as f64,
+                    rpm,
                 ]
                 .map(simulate::fmt),
             )?;

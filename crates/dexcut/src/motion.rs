@@ -164,20 +164,19 @@ fn samples(stations: &Stations, machine: &Machine) -> Result<Vec<ServoSample>> {
     Ok(profile.sample(machine.period_ms)?)
 }
 
-/// CSV point lists: one step per move, time = length / feed (no acceleration).
+/// CSV point lists: one step per move, time = length / feed (no acceleration);
+/// a dwell (a servo stream's row where the tool stays put) takes its time.
 pub fn direct_steps(path: &nc::Path) -> Vec<TimedStep> {
     let (mut t, mut s) = (0.0, 0.0);
     path.segments
         .iter()
         .map(|seg| {
-            let feed = match seg.motion {
-                Motion::Feed { feed_mm_min } => feed_mm_min,
-                _ => 0.0,
-            };
-            let dt = if feed > 0.0 {
-                seg.length_mm() / feed * 60.0
-            } else {
-                0.0
+            let (feed, dt) = match seg.motion {
+                Motion::Feed { feed_mm_min } if feed_mm_min > 0.0 => {
+                    (feed_mm_min, seg.length_mm() / feed_mm_min * 60.0)
+                }
+                Motion::Dwell { seconds } => (0.0, seconds),
+                _ => (0.0, 0.0),
             };
             t += dt;
             s += seg.length_mm();

@@ -727,6 +727,9 @@ pub struct Written {
     pub run: Option<Run>,
     /// Its servo samples (servo.csv).
     pub samples: Vec<schedule::ServoSample>,
+    /// Per sample, the tool number and spindle speed (rev/min, 0 if none
+    /// set) of the block it lies on (servo.csv's `tool`, `spindle_rpm`).
+    pub sample_tools: Vec<(u32, f64)>,
     /// Cycle time of the plan as written (each block at its feed, the
     /// machine's acceleration), s.
     pub plan_time_s: f64,
@@ -907,11 +910,19 @@ pub fn write_verified(
                 .into_iter()
                 .filter(|e| e.beyond_tolerance)
                 .partition(|e| e.resolved);
-            let samples = if kept_original {
-                crate::motion::machine_motion(&setup.program.path, &setup.machine)?
+            let (samples, sample_path) = if kept_original {
+                let path = &setup.program.path;
+                (crate::motion::machine_motion(path, &setup.machine)?, path)
             } else {
-                samples
+                (samples, &path)
             };
+            let sample_tools = samples
+                .iter()
+                .map(|s| {
+                    let seg = &sample_path.segments[s.segment as usize];
+                    (seg.tool, seg.spindle_rpm)
+                })
+                .collect();
             return Ok(Written {
                 text: if kept_original {
                     setup.program.gcode.clone()
@@ -920,6 +931,7 @@ pub fn write_verified(
                 },
                 run: (!kept_original).then_some(run),
                 samples,
+                sample_tools,
                 plan_time_s,
                 time_optimal_s,
                 lower_bound_time_s,

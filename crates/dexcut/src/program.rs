@@ -47,12 +47,9 @@ pub fn load(job: &Job) -> Result<Program> {
     let text = crate::bounds::read_text(&path, "program", crate::bounds::MAX_PROGRAM_BYTES)?;
     let file = path.display().to_string();
     if is_points_csv(&text) {
-        // A point list is cut by the job's first tool.
-        let mut path = read_points_csv(&text, &file, job.program.feed)?;
+        // A point list without a tool column is cut by the job's first tool.
         let tool = job.tool_specs()[0].0.unwrap_or(1);
-        for s in &mut path.segments {
-            s.tool = tool;
-        }
+        let path = read_points_csv(&text, &file, job.program.feed, tool)?;
         Ok(Program {
             path,
             file,
@@ -172,7 +169,19 @@ fn default_start(path: &nc::Path) -> [f64; 3] {
 
 /// Tool-tip points with header `x,y,z[,feed]` (mm, mm/min) become straight
 /// feed moves from each point to the next; the first point is the start.
-pub fn read_points_csv(text: &str, file: &str, default_feed: Option<f64>) -> Result<nc::Path> {
+/// With a `t_s` column (s) the list is a servo stream, such as optimize's
+/// servo.csv: each row is where the tool is at that time, a move takes the
+/// time between its rows (its feed is length / time), a row where the tool
+/// stays put is a dwell, and a feed column is not read. Optional columns
+/// `tool` (T number; else `default_tool`) and `spindle_rpm` (rev/min; else
+/// none given) say which tool cuts each move and at what spindle speed, as
+/// servo.csv's do.
+pub fn read_points_csv(
+    text: &str,
+    file: &str,
+    default_feed: Option<f64>,
+    default_tool: u32,
+) -> Result<nc::Path> {
     let mut reader = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .from_reader(text.as_bytes());
@@ -193,7 +202,11 @@ pub fn read_points_csv(text: &str, file: &str, default_feed: Option<f64>) -> Res
         ));
     };
     let ifeed = find("feed").or_else(|| find("feed_mm_min"));
-    if ifeed.is_none() && default_feed.is_none() {
+    // A servo stream (servo.csv): where the tool is at each time; the times
+    // time the moves, not a feed.
+    let it = find("t_s");
+    let (ispindle, itool) = (find("spindle_rpm"), find("tool"));
+    if it.is_none() && ifeed.is_none() && default_feed.is_none() {
         return Err(Error::input(
             file,
             1,
@@ -203,6 +216,7 @@ pub fn read_points_csv(text: &str, file: &str, default_feed: Option<f64>) -> Res
     }
     let mut segments = Vec::new();
     let mut prev: Option<Point3<f64>> = None;
+    let mut prev_t: Option<f64> = None;
     for record in reader.records() {
         let record = record.map_err(|e| {
             let line = e.position().map_or(0, |p| p.line());
@@ -224,26 +238,74 @@ pub fn read_points_csv(text: &str, file: &str, default_feed: Option<f64>) -> Res
             Ok(v)
         };
         let p = Point3::new(field(ix, "x")?, field(iy, "y")?, field(iz, "z")?);
-        let feed = match ifeed {
-            Some(i) if !record.get(i).unwrap_or("").is_empty() => field(i, "feed")?,
-            _ => default_feed.unwrap_or(0.0),
+        let col_of = |i: usize| record.range(i).map_or(1, |r| r.start + i + 1) as u64;
+        // The move from the previous row to this one.
+        let motion = if let Some(it) = it {
+            let t = field(it, "t_s")?;
+            let dt = prev_t.map(|t0| (t - t0, t0));
+            prev_t = Some(t);
+            match (prev, dt) {
+                (Some(start), Some((dt, t0))) => {
+                    if !(dt > 0.0) {
+                        let message =
+                            format!("t_s must increase from row to row: {t} s after {t0} s");
+                        return Err(Error::input(file, line as u64, col_of(it), message));
+                    }
+                    let length = (p - start).norm();
+                    // A row where the tool stays put is a dwell of its period.
+                    if length > 0.0 {
+                        Motion::Feed {
+                            feed_mm_min: 60.0 * length / dt,
+                        }
+                    } else {
+                        Motion::Dwell { seconds: dt }
+                    }
+                }
+                _ => Motion::Rapid,
+            }
+        } else {
+            let feed = match ifeed {
+                Some(i) if !record.get(i).unwrap_or("").is_empty() => field(i, "feed")?,
+                _ => default_feed.unwrap_or(0.0),
+            };
+            if !(feed > 0.0) {
+                let col = ifeed.map_or(1, col_of);
+                let message = format!("feed must be positive, got {feed}");
+                return Err(Error::input(file, line as u64, col, message));
+            }
+            Motion::Feed { feed_mm_min: feed }
         };
-        if !(feed > 0.0) {
-            let col = ifeed
-                .and_then(|i| record.range(i).map(|r| r.start + i + 1))
-                .unwrap_or(1);
-            let message = format!("feed must be positive, got {feed}");
-            return Err(Error::input(file, line as u64, col as u64, message));
-        }
+        let spindle_rpm = match ispindle {
+            Some(i) => {
+                let rpm = field(i, "spindle_rpm")?;
+                if rpm < 0.0 {
+                    let message = format!("spindle_rpm must not be negative, got {rpm}");
+                    return Err(Error::input(file, line as u64, col_of(i), message));
+                }
+                rpm
+            }
+            None => 0.0,
+        };
+        let tool = match itool {
+            Some(i) => {
+                let number = field(i, "tool")?;
+                if !(number >= 0.0 && number <= u32::MAX as f64 && number.fract() == 0.0) {
+                    let message = format!("tool must be a tool number, got {number}");
+                    return Err(Error::input(file, line as u64, col_of(i), message));
+                }
+                number as u32
+            }
+            None => default_tool,
+        };
         if let Some(start) = prev {
             segments.push(Segment {
                 start,
                 end: p,
                 geometry: Geometry::Line,
-                motion: Motion::Feed { feed_mm_min: feed },
+                motion,
                 line,
-                spindle_rpm: 0.0,
-                tool: 1,
+                spindle_rpm,
+                tool,
             });
         }
         prev = Some(p);
@@ -264,6 +326,7 @@ mod tests {
             "x,y,z,feed\n0,0,1,\n10,0,1,600\n10,5,1,\n",
             "p.csv",
             Some(1200.0),
+            1,
         )
         .unwrap();
         assert_eq!(path.segments.len(), 2);
@@ -279,6 +342,37 @@ mod tests {
     }
 
     #[test]
+    fn servo_streams_are_timed_by_their_times() {
+        let text =
+            "t_s,x,y,z,feed_mm_min\n0,0,0,1,0\n0.01,0.5,0,1,9\n0.02,0.5,0,1,0\n0.03,0.5,0.2,1,9\n";
+        let path = read_points_csv(text, "servo.csv", None, 1).unwrap();
+        assert_eq!(path.segments.len(), 3);
+        // 0.5 mm in 0.01 s is 3000 mm/min whatever the feed column says.
+        match path.segments[0].motion {
+            Motion::Feed { feed_mm_min } => assert!((feed_mm_min - 3000.0).abs() < 1e-9),
+            m => panic!("{m:?}"),
+        }
+        assert_eq!(path.segments[1].motion, Motion::Dwell { seconds: 0.01 });
+        let steps = crate::motion::direct_steps(&path);
+        let times: Vec<f64> = steps.iter().map(|s| s.t_end_s).collect();
+        for (t, want) in times.iter().zip([0.01, 0.02, 0.03]) {
+            assert!((t - want).abs() < 1e-12, "{times:?}");
+        }
+        let err = read_points_csv(
+            "t_s,x,y,z\n0,0,0,0\n0.1,1,0,0\n0.1,2,0,0\n",
+            "s.csv",
+            None,
+            1,
+        )
+        .unwrap_err()
+        .to_string();
+        assert_eq!(
+            err,
+            "s.csv:4:1: t_s must increase from row to row: 0.1 s after 0.1 s"
+        );
+    }
+
+    #[test]
     fn programs_are_told_apart_by_content() {
         assert!(is_points_csv("\n x, y ,Z,feed\n0,0,0,100\n"));
         assert!(!is_points_csv("%\nG0 X0 Y0 Z5\nM30\n%\n"));
@@ -288,15 +382,15 @@ mod tests {
 
     #[test]
     fn csv_errors_name_line_and_column() {
-        let err = read_points_csv("x,y,z\n0,0,1\n1,abc,1\n", "p.csv", Some(100.0))
+        let err = read_points_csv("x,y,z\n0,0,1\n1,abc,1\n", "p.csv", Some(100.0), 1)
             .unwrap_err()
             .to_string();
         assert_eq!(err, "p.csv:3:3: y is not a number: \"abc\"");
-        let err = read_points_csv("a,b\n0,0\n", "p.csv", Some(100.0))
+        let err = read_points_csv("a,b\n0,0\n", "p.csv", Some(100.0), 1)
             .unwrap_err()
             .to_string();
         assert!(err.starts_with("p.csv:1:1: the header must name"), "{err}");
-        let err = read_points_csv("x,y,z\n0,0,0\n1,1,1\n", "p.csv", None)
+        let err = read_points_csv("x,y,z\n0,0,0\n1,1,1\n", "p.csv", None, 1)
             .unwrap_err()
             .to_string();
         assert!(err.contains("no feed column"), "{err}");
