@@ -92,6 +92,13 @@ TOOLS = {
     "jscut_": ("flat", 3.175, 0.1),  # no diameter in the program: assumed
     "openbuilds_cam": ("flat", 1.0, 0.05),
     "estlcam11": ("flat", 3.0, 0.1),
+    "drl2gcode_kicad_T02": ("flat", 0.4, 0.05),
+    "dxf2gcode_erin7": ("flat", 3.0, 0.1),  # no diameter in the program: assumed
+    "fusion_proxxon_key": ("flat", 1.587, 0.05),
+    "mastercam_helix_bores": ("flat", 3.0, 0.1),
+    "ncefi_pockets": ("flat", 6.0, 0.2),  # no diameter in the program: assumed
+    "pycut_kasten": ("flat", 3.0, 0.1),
+    "pygen_norn93": ("flat", 3.0, 0.1),
 }
 DEFAULT_TOOL = ("flat", 3.0, 0.1)
 # Shank of the tools smaller than it, mm (1/8").

@@ -1071,12 +1071,17 @@ impl Interp<'_> {
                 );
             }
         }
+        // The other axes start at 0; a word of 0 keeps one there in every
+        // distance mode and offset (only 0 is read anywhere), so it moves
+        // nothing: 4-axis posts park the rotary with it (Mastercam's
+        // `G0 G90 G54 X… Y… A0.`). Any other value would move it.
         for l in ['a', 'b', 'c', 'u', 'v', 'w'] {
-            if b.get(l).is_some() {
+            if b.get(l).is_some_and(|v| v != 0.0) {
                 return fail(
                     b.col(l),
                     format!(
-                        "axis {} is not supported (3-axis X Y Z only)",
+                        "axis {} is not supported (3-axis X Y Z only; {}0, which keeps it at 0, is read)",
+                        l.to_ascii_uppercase(),
                         l.to_ascii_uppercase()
                     ),
                 );

@@ -398,6 +398,20 @@ fn parse_line_into(text: &str, arena: &mut Vec<Item>) -> Result<Line, SyntaxErro
     let mut cur = Cursor::new(text)?;
     let block_delete = cur.eat_str("/");
     if cur.eat_str("%") {
+        // As LinuxCNC ("Bad character '%' used"): the percent line holds
+        // nothing else, no word and no comment (Fusion's MPCNC post writes a
+        // user's start code with `% vfd enable` lines).
+        let percent = text.find('%').unwrap_or(0);
+        if let Some((i, _)) = text[percent + 1..]
+            .char_indices()
+            .find(|(_, c)| !c.is_whitespace())
+        {
+            let col = text[..percent + 1 + i].chars().count() as u32 + 1;
+            return Err(SyntaxError {
+                col,
+                message: "'%' with more on its line (a percent line holds only '%')".into(),
+            });
+        }
         return Ok(Line {
             block_delete,
             kind: LineKind::Percent,

@@ -267,6 +267,60 @@ fn lines_after_the_program_end_are_not_read() {
     assert!(d[0].is_error());
 }
 
+/// A rotary or secondary axis word of 0 keeps that axis where it starts
+/// (at 0) and moves nothing, in G90 and in G91: Mastercam's 4-axis post
+/// parks A with `G0 G90 G54 X… Y… A0.`; the path is the one without the A
+/// words. Any other value is refused, naming the axis and the column.
+#[test]
+fn an_axis_word_that_keeps_the_axis_at_0_is_read() {
+    let with = ok("G21 G0 G90 G54 X51.063 Y50.746 A0. F600\nG1 Z-1 B0 C-0\nG91 X1 A0\nU0 V0 W0");
+    let without = ok("G21 G0 G90 G54 X51.063 Y50.746 F600\nG1 Z-1\nG91 X1");
+    assert_eq!(with, without);
+    for (src, axis, col) in [
+        ("G0 X1 A0.5", 'A', 7),
+        ("G91 G1 X1 C-1 F100", 'C', 11),
+        ("G0 W2", 'W', 4),
+    ] {
+        let e = errors(src);
+        assert!(
+            e[0].starts_with(&format!("t.ngc:1:{col}: axis {axis} is not supported")),
+            "{src}: {e:?}"
+        );
+    }
+}
+
+/// A percent line holds only `%` (blanks around it allowed), as LinuxCNC
+/// reads it ("Bad character '%' used"): Fusion's MPCNC post writes a user's
+/// start code with `% vfd enable`, a comment or a `;` after the percent is
+/// refused too, in either file form; `%` alone still opens and closes.
+#[test]
+fn a_percent_line_with_text_is_refused() {
+    for form in [nc::FileForm::LinuxCnc, nc::FileForm::Tolerant] {
+        let options = Options {
+            file_form: form,
+            ..Options::default()
+        };
+        for (line, col) in [
+            ("% vfd enable", 3),
+            ("%( *** START end ***)", 2),
+            ("%;x", 2),
+            ("%%", 2),
+        ] {
+            let src = format!("%\nG21 G0 X1\n{line}\nG0 X2\nM2\n%\n");
+            let d = nc::parse(&src, "t.ngc", &options).diagnostics;
+            let e = d
+                .iter()
+                .find(|d| d.is_error())
+                .unwrap_or_else(|| panic!("{line}: {d:?}"));
+            assert_eq!((e.line, e.column), (3, col), "{line}: {e}");
+            assert!(e.message.contains("'%' with more on its line"), "{e}");
+        }
+        let p = nc::parse("%\nG21 G0 X1\n \t%\t\r\nG0 X2\n", "t.ngc", &options);
+        assert!(p.diagnostics.is_empty(), "{:?}", p.diagnostics);
+        assert_eq!(p.path.segments.len(), 1);
+    }
+}
+
 /// Read as most controls read a file, a missing program end and a leading
 /// UTF-8 byte-order mark are warnings at the line concerned, and the path is
 /// the one of the file with `M2` added and the mark dropped; as LinuxCNC

@@ -42,24 +42,35 @@ struct Move {
     tool: u32,
 }
 
-/// Gauge length (mm) of tool `t` in the tables of both readers.
+/// Gauge length (mm) of tool `t` in the tables of both readers: T1–T20
+/// from 38.1 to 279.4 mm, the higher numbers as the one of their rank in
+/// 1–20 (T212 as T12).
 fn tool_length_mm(t: u32) -> f64 {
     if t == 0 {
         0.0
     } else {
-        12.7 * t as f64 + 25.4
+        12.7 * rank(t) as f64 + 25.4
     }
 }
 
 /// Diameter (mm) of tool `t`.
 fn tool_diameter_mm(t: u32) -> f64 {
-    1.27 * t as f64 + 2.54
+    1.27 * rank(t) as f64 + 2.54
 }
 
-const TOOLS: std::ops::RangeInclusive<u32> = 1..=20;
+/// `t` (≥ 1) folded into 1–20.
+fn rank(t: u32) -> u32 {
+    (t - 1) % 20 + 1
+}
+
+/// The tools of both tables: T1–T20, and T212 that Mastercam posts call
+/// (tests/data/real/mastercam_*).
+fn tools() -> impl Iterator<Item = u32> {
+    (1..=20).chain([212])
+}
 
 fn tool_table() -> BTreeMap<u32, f64> {
-    TOOLS.map(|t| (t, tool_length_mm(t))).collect()
+    tools().map(|t| (t, tool_length_mm(t))).collect()
 }
 
 /// The tool table for rs274 (inches), written once.
@@ -68,7 +79,7 @@ fn rs274_tool_table() -> PathBuf {
     TABLE
         .get_or_init(|| {
             let path = Path::new(env!("CARGO_TARGET_TMPDIR")).join("rs274-tools.tbl");
-            let text: String = TOOLS
+            let text: String = tools()
                 .map(|t| {
                     format!(
                         "T{t} P{t} Z{} D{}\n",
@@ -182,7 +193,7 @@ fn rs274_moves(file: &Path) -> (Vec<Move>, u32, Option<String>) {
                 tlo = [v[0] * scale, v[1] * scale, v[2] * scale];
             }
             "CHANGE_TOOL" | "CHANGE_TOOL_NUMBER" => {
-                let new = v[0] as u32;
+                let new = tool_changed_to(name, v[0] as u32);
                 let jump = tool_length_mm(tool) - tool_length_mm(new);
                 if jump != 0.0 {
                     let mut end = pos;
@@ -270,15 +281,30 @@ fn first_tool(rs274_output: &str) -> u32 {
         .lines()
         .find_map(|l| {
             let (_, rest) = l.split_once("CHANGE_TOOL")?;
-            let rest = rest.strip_prefix("_NUMBER").unwrap_or(rest);
-            rest.trim_start_matches('(')
+            let (name, rest) = match rest.strip_prefix("_NUMBER") {
+                Some(rest) => ("CHANGE_TOOL_NUMBER", rest),
+                None => ("CHANGE_TOOL", rest),
+            };
+            let n = rest
+                .trim_start_matches('(')
                 .split(')')
                 .next()?
                 .trim()
                 .parse()
-                .ok()
+                .ok()?;
+            Some(tool_changed_to(name, n))
         })
         .unwrap_or(0)
+}
+
+/// The tool number of rs274's `CHANGE_TOOL(n)`, which prints the tool's
+/// index in its table (1-based, in [`tools`] order: T212 is 21), or of
+/// `CHANGE_TOOL_NUMBER(n)`, which prints the number.
+fn tool_changed_to(command: &str, n: u32) -> u32 {
+    match command {
+        "CHANGE_TOOL" if n > 0 => tools().nth(n as usize - 1).unwrap_or(n),
+        _ => n,
+    }
 }
 
 /// Options of both readers: the tool table, and the first tool's tip where
@@ -291,7 +317,7 @@ fn options(first_tool: u32) -> Options {
 fn options_as(first_tool: u32, file_form: FileForm) -> Options {
     Options {
         tool_lengths_mm: tool_table(),
-        tool_diameters_mm: TOOLS.map(|t| (t, tool_diameter_mm(t))).collect(),
+        tool_diameters_mm: tools().map(|t| (t, tool_diameter_mm(t))).collect(),
         initial_position_mm: [0.0, 0.0, -tool_length_mm(first_tool)],
         max_blocks: 1_000_000,
         file_form,
