@@ -70,6 +70,21 @@ pub enum ScheduleError {
         /// The servo period, ms.
         period_ms: f64,
     },
+    /// A run's servo samples still break an axis' acceleration or jerk limit after the
+    /// planner's last fallback (MODEL.md §6.1, "Verified runs"): its samples are not made.
+    #[error("the run from station {first} to {last} breaks an axis limit in its servo samples (ratio {ratio:.4} to the limit) even slowed {tries} times to {slow:.3e} of its speed")]
+    UnverifiedRun {
+        /// First station of the run (a stop).
+        first: usize,
+        /// Last station of the run (a stop).
+        last: usize,
+        /// Largest ratio of a sampled difference to its limit.
+        ratio: f64,
+        /// Tries of the slowed fallback.
+        tries: usize,
+        /// The last slowing factor σ tried.
+        slow: f64,
+    },
     /// A caps slice does not have one value per station.
     #[error("expected {expected} caps (one per station), got {got}")]
     CapCount {
