@@ -28,11 +28,13 @@
 //!   step in X/Y and polar `@`/`^`) is written as every repeat's moves in
 //!   X Y Z, after a block with the modal G codes of the line (G17, G20/G21,
 //!   G90/G91, G98/G99: its moves are written in them, and they stay in force
-//!   after it).
+//!   after it). A cycle line run more than once (a loop, a subroutine called
+//!   several times) is written out per run: a counter parameter (after the
+//!   tables) counts its runs and an o-word `if`/`elseif` chain on it runs
+//!   each run's own moves.
 //! * Other lines that made several feed segments (a canned cycle run more
-//!   than once by a loop, or in a program that names a parameter of that
-//!   range) cannot be split: their F becomes the lowest feed any of their
-//!   pieces asks for.
+//!   than once in a program that names a parameter of that range) cannot be
+//!   split: their F becomes the lowest feed any of their pieces asks for.
 //! * Lines that cannot be split safely (G53, a dwell or a program stop in the
 //!   block, multi-turn arcs) are treated the same way.
 //!
@@ -138,7 +140,7 @@ pub fn refeed(
                 let by_line = lines_segments(&t);
                 let (tables, _) = run_tables(&unrolled, &by_line, segments, &t, &e, plan);
                 if let Ok(out) = write_checked(
-                    &unrolled, file, options, segments, &t, &by_line, plan, tables,
+                    &unrolled, file, options, segments, &t, &e, &by_line, plan, tables,
                 ) {
                     return Ok(out);
                 }
@@ -146,7 +148,7 @@ pub fn refeed(
         }
     }
     write_checked(
-        source, file, options, segments, &trace, &by_line, plan, tables,
+        source, file, options, segments, &trace, &executed, &by_line, plan, tables,
     )
 }
 
@@ -178,12 +180,19 @@ fn write_checked(
     options: &Options,
     segments: &[Segment],
     trace: &interp::Trace,
+    executed: &[Executed],
     by_line: &BTreeMap<usize, Vec<usize>>,
     plan: &[Vec<(f64, f64)>],
     mut tables: BTreeMap<usize, RunTable>,
 ) -> Result<String, RefeedError> {
     let mut expanded = cycle_lines(by_line, segments, trace, plan);
     loop {
+        let Some(per_run) = cycle_runs(source, &expanded, executed, trace, &tables) else {
+            // A cycle run more than once with no counter to tell its runs
+            // apart: the cycles as written.
+            expanded.clear();
+            continue;
+        };
         // Runs of a line split into more blocks than they need: their pieces as written.
         let mut plan = plan.to_vec();
         for (index, t) in &tables {
@@ -193,12 +202,12 @@ fn write_checked(
                 }
             }
         }
-        let (out, written_pieces) =
-            write(source, segments, trace, by_line, &plan, &tables, &expanded);
+        let (out, written_pieces) = write(
+            source, segments, trace, by_line, &plan, &tables, &expanded, &per_run,
+        );
         match verify(&out, file, options, segments, &plan, &written_pieces) {
             Ok(()) => return Ok(out),
-            // A canned cycle run more than once (its runs' moves would all be
-            // written in each run): keep the cycles as written.
+            // Cycles written out that do not read back: keep them as written.
             Err(_) if !expanded.is_empty() => expanded.clear(),
             // A run that should stay still moves after all (its point as
             // written is not quite where the tool is): those lines at their
@@ -211,6 +220,7 @@ fn write_checked(
 }
 
 /// The re-fed text and how many blocks each segment became.
+#[allow(clippy::too_many_arguments)]
 fn write(
     source: &str,
     segments: &[Segment],
@@ -219,15 +229,16 @@ fn write(
     plan: &[Vec<(f64, f64)>],
     tables: &BTreeMap<usize, RunTable>,
     expanded: &BTreeSet<usize>,
+    per_run: &BTreeMap<usize, CycleRuns>,
 ) -> (String, Vec<usize>) {
     // How many blocks each segment becomes (for the verification).
     let mut written_pieces = vec![1usize; segments.len()];
     let mut out = String::with_capacity(source.len() + source.len() / 8);
     for (index, (text, eol)) in syntax::split_lines(source).enumerate() {
-        if index == 0 && !tables.is_empty() {
+        if index == 0 && !(tables.is_empty() && per_run.is_empty()) {
             // The tables are set before anything runs (after a leading `%`).
             let nl = eol_or_newline(eol);
-            let header = table_header(tables, nl);
+            let header = table_header(tables, per_run, nl);
             if text.trim() == "%" {
                 out.push_str(text);
                 out.push_str(nl);
@@ -293,6 +304,7 @@ fn write(
                 index,
                 eol,
                 segs,
+                per_run.get(&index),
                 segments,
                 trace,
                 plan,
@@ -719,19 +731,111 @@ fn cycle_lines(
     }
 }
 
-/// A canned cycle line written out ([`cycle_lines`]): a comment, the modal
-/// G codes of the line in a block of their own ([`CYCLE_MODES`]: the moves
-/// are written in the distance mode and units the line sets, and the modes
-/// stay in force after it as they did), then one block per move (G0, G1 per
-/// planned piece, G4 for a dwell) with every axis. Under G91 each block's
-/// increments run from where the block before ends as written, so rounding
-/// never accumulates over the line's repeats.
+/// A canned cycle line run more than once (in a loop, or a subroutine
+/// called several times), written out per run: a counter parameter counts
+/// its runs and an o-word `if`/`elseif` chain on it runs each run's own
+/// moves.
+struct CycleRuns {
+    /// Parameter counting the runs (from [`TABLE_PARAMS`], after the tables).
+    counter: u32,
+    /// Label of the `if` chain (above every numbered label of the program).
+    label: i64,
+    /// Each run's segments, in the order the runs ran.
+    runs: Vec<std::ops::Range<usize>>,
+}
+
+/// Per line of `expanded` run more than once, its runs ([`CycleRuns`]).
+/// None when such a line has no counter to tell its runs apart: the program
+/// names a parameter of [`TABLE_PARAMS`], or the tables leave none, or a
+/// run's moves were made by another line.
+fn cycle_runs(
+    source: &str,
+    expanded: &BTreeSet<usize>,
+    executed: &[Executed],
+    trace: &interp::Trace,
+    tables: &BTreeMap<usize, RunTable>,
+) -> Option<BTreeMap<usize, CycleRuns>> {
+    let mut runs: BTreeMap<usize, Vec<std::ops::Range<usize>>> = BTreeMap::new();
+    for (k, e) in executed.iter().enumerate() {
+        let index = e.line_index as usize;
+        if !expanded.contains(&index) {
+            continue;
+        }
+        let from = e.segments_before as usize;
+        let to = executed
+            .get(k + 1)
+            .map_or(trace.segments.len(), |n| n.segments_before as usize);
+        if (from..to).any(|j| trace.segments[j].line_index != index) {
+            return None;
+        }
+        runs.entry(index).or_default().push(from..to);
+    }
+    runs.retain(|_, r| r.len() > 1);
+    if runs.is_empty() {
+        return Some(BTreeMap::new());
+    }
+    if named_parameters(source)
+        .iter()
+        .any(|n| TABLE_PARAMS.contains(n))
+    {
+        return None;
+    }
+    let first = tables
+        .values()
+        .map(|t| t.first + t.values.len() as u32)
+        .max()
+        .unwrap_or(*TABLE_PARAMS.start());
+    if first + runs.len() as u32 - 1 > *TABLE_PARAMS.end() {
+        return None;
+    }
+    let last_label = trace
+        .lines
+        .iter()
+        .filter_map(|l| match l {
+            Some(syntax::Line {
+                kind: LineKind::OWord(s),
+                ..
+            }) => match s.label {
+                syntax::OLabel::Number(n) => Some(n),
+                syntax::OLabel::Name(_) => None,
+            },
+            _ => None,
+        })
+        .max()
+        .unwrap_or(0)
+        .max(9000);
+    Some(
+        runs.into_iter()
+            .enumerate()
+            .map(|(k, (index, runs))| {
+                (
+                    index,
+                    CycleRuns {
+                        counter: first + k as u32,
+                        label: last_label + 1 + k as i64,
+                        runs,
+                    },
+                )
+            })
+            .collect(),
+    )
+}
+
+/// A canned cycle line written out ([`cycle_lines`]): a comment, then per
+/// run (one, or each of [`CycleRuns`] in its branch of an `if` chain on the
+/// run counter) the modal G codes of the line in a block of their own
+/// ([`CYCLE_MODES`]: the moves are written in the distance mode and units
+/// the line sets, and the modes stay in force after it as they did), then
+/// one block per move (G0, G1 per planned piece, G4 for a dwell) with every
+/// axis. Under G91 each block's increments run from where the block before
+/// ends as written, so rounding never accumulates over the line's repeats.
 #[allow(clippy::too_many_arguments)]
 fn write_expanded(
     out: &mut String,
     index: usize,
     eol: &str,
     segs: &[usize],
+    per_run: Option<&CycleRuns>,
     segments: &[Segment],
     trace: &interp::Trace,
     plan: &[Vec<(f64, f64)>],
@@ -740,8 +844,9 @@ fn write_expanded(
     let nl = eol_or_newline(eol);
     let _ = write!(
         out,
-        "(dexcut: the canned cycle of line {}, written out){nl}",
-        index + 1
+        "(dexcut: the canned cycle of line {}, written out{}){nl}",
+        index + 1,
+        if per_run.is_some() { " per run" } else { "" }
     );
     let text_of = |words: Vec<(char, f64)>| {
         words_text(words.into_iter().map(|(l, v)| {
@@ -753,13 +858,13 @@ fn write_expanded(
             (l, text)
         }))
     };
-    let mut blocks: Vec<String> = Vec::new();
+    let mut modes = String::new();
     if let Some(syntax::Line {
         kind: LineKind::Block(items),
         ..
     }) = &trace.lines[index]
     {
-        let modes: Vec<String> = trace
+        let codes: Vec<String> = trace
             .lines
             .items(*items)
             .iter()
@@ -771,32 +876,54 @@ fn write_expanded(
                 _ => None,
             })
             .collect();
-        if !modes.is_empty() {
-            blocks.push(modes.join(" "));
-        }
+        modes = codes.join(" ");
     }
-    // Program coordinates as written so far (the increments under G91).
-    let mut written: Option<[f64; 3]> = None;
-    for &i in segs {
-        let (seg, t) = (&segments[i], &trace.segments[i]);
-        let written = written.get_or_insert_with(|| {
-            std::array::from_fn(|a| (seg.start[a] - t.offset_mm[a]) / t.scale)
-        });
-        match seg.motion {
-            Motion::Rapid => {
-                let words =
-                    piece_values(seg, t, [true; 3], seg.start.into(), seg.end.into(), written);
-                blocks.push(format!("G0 {}", text_of(words)));
-            }
-            Motion::Feed { .. } => {
-                written_pieces[i] = plan[i].len();
-                for words in pieces_values(seg, t, [true; 3], &plan[i], written, false) {
-                    blocks.push(format!("G1 {}", text_of(words)));
+    // The blocks of one run.
+    let mut run_blocks = |segs: &mut dyn Iterator<Item = usize>, blocks: &mut Vec<String>| {
+        if !modes.is_empty() {
+            blocks.push(modes.clone());
+        }
+        // Program coordinates as written so far (the increments under G91).
+        let mut written: Option<[f64; 3]> = None;
+        for i in segs {
+            let (seg, t) = (&segments[i], &trace.segments[i]);
+            let written = written.get_or_insert_with(|| {
+                std::array::from_fn(|a| (seg.start[a] - t.offset_mm[a]) / t.scale)
+            });
+            match seg.motion {
+                Motion::Rapid => {
+                    let words =
+                        piece_values(seg, t, [true; 3], seg.start.into(), seg.end.into(), written);
+                    blocks.push(format!("G0 {}", text_of(words)));
+                }
+                Motion::Feed { .. } => {
+                    written_pieces[i] = plan[i].len();
+                    for words in pieces_values(seg, t, [true; 3], &plan[i], written, false) {
+                        blocks.push(format!("G1 {}", text_of(words)));
+                    }
+                }
+                Motion::Dwell { seconds } => {
+                    blocks.push(format!("G4 P{}", trim_number(&format!("{seconds:.6}"))));
                 }
             }
-            Motion::Dwell { seconds } => {
-                blocks.push(format!("G4 P{}", trim_number(&format!("{seconds:.6}"))));
+        }
+    };
+    let mut blocks: Vec<String> = Vec::new();
+    match per_run {
+        None => run_blocks(&mut segs.iter().copied(), &mut blocks),
+        Some(c) => {
+            blocks.push(format!("#{n} = [#{n} + 1]", n = c.counter));
+            for (k, r) in c.runs.iter().enumerate() {
+                blocks.push(format!(
+                    "o{} {} [#{} EQ {}]",
+                    c.label,
+                    if k == 0 { "if" } else { "elseif" },
+                    c.counter,
+                    k + 1
+                ));
+                run_blocks(&mut r.clone(), &mut blocks);
             }
+            blocks.push(format!("o{} endif", c.label));
         }
     }
     for (k, b) in blocks.iter().enumerate() {
@@ -846,8 +973,28 @@ fn padded(pieces: &[(f64, f64)], blocks: usize) -> Vec<(f64, f64)> {
 }
 
 /// Lines that set every counter to 0 and every table entry to its feed.
-fn table_header(tables: &BTreeMap<usize, RunTable>, nl: &str) -> String {
-    let mut h = format!("(dexcut: feeds of lines run more than once, one per run){nl}");
+fn table_header(
+    tables: &BTreeMap<usize, RunTable>,
+    per_run: &BTreeMap<usize, CycleRuns>,
+    nl: &str,
+) -> String {
+    let mut h = String::new();
+    if !per_run.is_empty() {
+        let _ = write!(
+            h,
+            "(dexcut: counters of the canned cycles run more than once, written out per run){nl}"
+        );
+        for c in per_run.values() {
+            let _ = write!(h, "#{} = 0{nl}", c.counter);
+        }
+    }
+    if tables.is_empty() {
+        return h;
+    }
+    let _ = write!(
+        h,
+        "(dexcut: feeds of lines run more than once, one per run){nl}"
+    );
     if tables.values().any(|t| t.blocks() > 1) {
         let _ = write!(
             h,

@@ -407,8 +407,7 @@ fn arc_piece_shorter_than_the_written_digits_is_refused() {
 /// Canned cycles whose feed moves need two feeds (air above the stock fast,
 /// the hole slow) are written out as G0/G1/G4 blocks of their moves: the
 /// program reads back to the same moves, each feed move in its planned
-/// pieces, the dwell of G82 kept; a cycle in a loop keeps its line and the
-/// lowest feed.
+/// pieces, the dwell of G82 kept.
 #[test]
 fn canned_cycles_needing_two_feeds_are_written_out() {
     let src = "G21 G90 G17\nG0 X0 Y0 Z20\nG98 G81 X10 Y5 Z-3 R2 F150\nX20\nG99 G82 X30 Y5 Z-2 R2 P0.5\nG80\nG0 Z20\nM2\n";
@@ -418,13 +417,33 @@ fn canned_cycles_needing_two_feeds_are_written_out() {
     assert!(!out.contains("G81") && !out.contains("G82"), "{out}");
     assert!(out.contains("G4 P0.5"), "{out}");
     assert_as_planned(&path, &plan, &parse(&out), 1e-6, &out);
-    // In a loop the cycle runs three times: written out it would run every
-    // run's moves each time, so the cycle line stays, at its lowest feed.
-    let src = "G0 X0 Y0 Z20\no1 repeat [3]\nG98 G81 X10 Y5 Z-3 R2 F150\no1 endrepeat\nG80\nM2\n";
+}
+
+/// Canned cycle lines run more than once, each run needing its own feeds: in
+/// an o-word loop (the hole moves with the loop's parameter, a cycle line
+/// with only X continuing it) and in a subroutine called twice (under G91
+/// with an L repeat). Each run is written out as its own moves, chosen by a
+/// run counter, and the program reads back to every run's pieces in the
+/// plan's time. (Before, the cycle lines stayed, at the lowest feed of all
+/// their runs.)
+pub const CYCLES_RUN_MORE_THAN_ONCE: &str = "o100 sub\nG91 G98 G81 X6 Y0 R-8 Z-5 L2 F150\nG90 G80\no100 endsub\n\
+    G21 G90 G17\nG0 X0 Y0 Z10\n#1 = 0\no1 repeat [3]\nG99 G81 X[10 + 10 * #1] Y5 Z-3 R2 F150\nX[15 + 10 * #1]\n\
+    G80\n#1 = [#1 + 1]\no1 endrepeat\nG0 X0 Y20 Z10\no100 call\nG0 X30 Y20 Z10\no100 call\nM2\n";
+
+#[test]
+fn cycles_run_more_than_once_are_written_out_per_run() {
+    let src = CYCLES_RUN_MORE_THAN_ONCE;
     let path = parse(src);
-    let plan = every_feed(&path, &[(0.4, 3000.0), (1.0, 120.5)]);
+    let plan = drill_plan(&path, |x, _| x > 12.0 && x < 40.0);
+    let distinct: std::collections::BTreeSet<String> = plan
+        .iter()
+        .filter(|p| !p.is_empty())
+        .map(|p| format!("{p:?}"))
+        .collect();
+    assert!(distinct.len() >= 6, "{distinct:?}");
     let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
-    assert!(out.contains("G98 G81 X10 Y5 Z-3 R2 F120.5"), "{out}");
+    assert!(!out.contains("G81"), "a cycle kept:\n{out}");
+    assert_as_planned(&path, &plan, &parse(&out), 1e-6, &out);
 }
 
 /// `new` (a re-fed program read back) makes the moves of `path`, every feed

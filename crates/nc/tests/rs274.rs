@@ -555,6 +555,37 @@ fn repeated_and_polar_cycles_written_out_match_linuxcnc_rs274() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// Canned cycle lines run more than once (in an o-word loop, in a subroutine
+/// called twice under G91 with L), each run written out as its own moves
+/// behind an `if` chain on a run counter: rs274 reads the written program
+/// as our interpreter does, move for move.
+#[test]
+fn cycles_run_more_than_once_written_out_match_linuxcnc_rs274() {
+    if !have_rs274() {
+        return;
+    }
+    let source = "o100 sub\nG91 G98 G81 X6 Y0 R-8 Z-5 L2 F150\nG90 G80\no100 endsub\n\
+        G21 G90 G17\nG0 X0 Y0 Z10\n#1 = 0\no1 repeat [3]\nG99 G81 X[10 + 10 * #1] Y5 Z-3 R2 F150\nX[15 + 10 * #1]\n\
+        G80\n#1 = [#1 + 1]\no1 endrepeat\nG0 X0 Y20 Z10\no100 call\nG0 X30 Y20 Z10\no100 call\nM2\n";
+    let path = nc::parse(source, "in.ngc", &Options::default()).path;
+    let plan: Vec<Vec<(f64, f64)>> = path
+        .segments
+        .iter()
+        .enumerate()
+        .map(|(i, s)| match s.motion {
+            Motion::Feed { .. } => vec![(0.4, 2000.0 - i as f64), (1.0, 150.0 + i as f64)],
+            _ => vec![],
+        })
+        .collect();
+    let out = nc::refeed(source, "in.ngc", &Options::default(), &plan).expect("re-fed");
+    assert!(!out.contains("G81"), "a cycle kept:\n{out}");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let written = dir.path().join("cycles_per_run.ngc");
+    std::fs::write(&written, out).expect("write");
+    let n = compare(&written).unwrap_or_else(|e| panic!("{e}"));
+    assert!(n >= 40, "{n} moves");
+}
+
 /// A loop whose records do not fit the table of numbered parameters is
 /// written out in full (unrolled): rs274 reads the written program as our
 /// interpreter does, move for move, with every run's own pieces.
