@@ -1243,6 +1243,26 @@ impl Interp<'_> {
             )
         });
         let motion_code = b.g.iter().find(|g| g_group(g.0) == Some(1)).copied();
+        // As LinuxCNC: a P word needs something in the block to use it
+        // (Snapmaker's `M3 P100`, a spindle power in percent, is refused
+        // there and by GRBL). The motion it would serve is the block's
+        // own, or the modal one when the block has axis words.
+        if b.get('p').is_some() {
+            let motion = motion_code
+                .map(|m| m.0)
+                .or(b.has_axes().then_some(self.motion));
+            let used = matches!(motion, Some(GCode::G2 | GCode::G3 | GCode::G82))
+                || [GCode::G4, GCode::G10, GCode::G64]
+                    .into_iter()
+                    .any(|g| g_col(g).is_some())
+                || b.has_m(98);
+            if !used {
+                return fail(
+                    b.col('p'),
+                    "P word with no G2, G3, G4, G10, G64, G82 or M98 to use it",
+                );
+            }
+        }
         if let (Some(&(a, col)), Some((m, _))) = (axis_user, motion_code) {
             if m != GCode::G80 && b.has_axes() {
                 return fail(col, format!("{a} and {m} both use axis words"));

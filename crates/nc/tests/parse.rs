@@ -289,6 +289,31 @@ fn an_axis_word_that_keeps_the_axis_at_0_is_read() {
     }
 }
 
+/// A P word with nothing in its block to use it is refused, as LinuxCNC
+/// refuses it ("P word with no G2 G3 G4 G10 G64 … to use it"): Snapmaker's
+/// `M3 P100` (spindle power in percent), a P on G81. Where something uses
+/// it (dwell, G82, arc turns in the block's or the modal arc mode, G64,
+/// G10 L2, M98) it is read.
+#[test]
+fn a_p_word_with_nothing_to_use_it_is_refused() {
+    for (src, col) in [
+        ("G21 M3 P100", 8),
+        ("G21 G0 Z2\nG81 X1 Y1 Z-1 R1 P0.5 F100", 18),
+        ("G21 G1 X1 F100 P2", 16),
+        ("G21 G2 X2 Y0 I1 F100\nG0 Z1\nP2", 1),
+    ] {
+        let e = errors(src);
+        let line = src.lines().count();
+        assert!(
+            e.first()
+                .is_some_and(|e| e.starts_with(&format!("t.ngc:{line}:{col}: P word with no"))),
+            "{src}: {e:?}"
+        );
+    }
+    let s = ok("G21 G4 P0.5\nG64 P0.01\nG10 L2 P1 X0\nG0 Z2\nG82 X1 Y1 Z-1 R1 P0.5 F100\nG80\nG0 X0 Y0 Z0\nG2 X2 Y0 I1 P2 F100\nX0 Y0 I-1 P1");
+    assert!(!s.is_empty());
+}
+
 /// A percent line holds only `%` (blanks around it allowed), as LinuxCNC
 /// reads it ("Bad character '%' used"): Fusion's MPCNC post writes a user's
 /// start code with `% vfd enable`, a comment or a `;` after the percent is
