@@ -8,7 +8,9 @@
 //! * A line that made exactly one feed segment (and nothing else) gets the
 //!   first piece in place (its axis, centre and F words rewritten) and one
 //!   new block per further piece right after it, in the line's own modes
-//!   (units, G90/G91, G90.1/G91.1, G93/G94, plane, work offset).
+//!   (units, G90/G91, G90.1/G91.1, G93/G94, plane, work offset). A line in
+//!   polar coordinates (`@` radius, `^` angle) is written with the Cartesian
+//!   X and Y of each piece in place of its polar words.
 //! * A line run several times by a loop or subprogram, one plain feed move
 //!   per run, gets a record per run: a counter parameter counts its runs and
 //!   its words read a table set at the top of the program (numbered
@@ -1039,7 +1041,8 @@ fn word_letter(item: &Item) -> Option<char> {
 
 /// A line may be split when its one feed segment is a plain G1/G2/G3 move:
 /// no G53 (machine coordinates), no dwell or program stop in the block, G and
-/// M codes written as numbers, no multi-turn arc.
+/// M codes written as numbers, no multi-turn arc. Polar words (`@`, `^`) are
+/// written as the X and Y of each piece ([`block_axes`]).
 fn splittable(items: &[Item], seg: &Segment) -> bool {
     let plain_codes = items.iter().all(|it| match &it.kind {
         ItemKind::Word {
@@ -1052,10 +1055,6 @@ fn splittable(items: &[Item], seg: &Segment) -> bool {
         } => ![0.0, 1.0, 2.0, 30.0, 60.0].contains(v),
         ItemKind::Word {
             letter: 'g' | 'm', ..
-        } => false,
-        // Polar words: the pieces' end points would need polar words too.
-        ItemKind::Word {
-            letter: '@' | '^', ..
         } => false,
         _ => true,
     });
@@ -1250,14 +1249,19 @@ fn plane_of(geometry: &Geometry) -> Option<crate::path::Plane> {
     }
 }
 
-/// Axes a block of the line writes: those the line names, those that move,
-/// and an arc's plane axes.
+/// Axes a block of the line writes: those the line names (X and Y for polar
+/// `@`/`^` words, which the blocks replace), those that move, and an arc's
+/// plane axes.
 fn block_axes(items: &[Item], seg: &Segment) -> [bool; 3] {
     let plane_axes = plane_of(&seg.geometry).map(|p| p.axes());
+    let polar = items
+        .iter()
+        .any(|it| matches!(word_letter(it), Some('@' | '^')));
     std::array::from_fn(|i| {
         let named = items
             .iter()
-            .any(|it| word_letter(it) == Some(['x', 'y', 'z'][i]));
+            .any(|it| word_letter(it) == Some(['x', 'y', 'z'][i]))
+            || (polar && i < 2);
         named || seg.start[i] != seg.end[i] || plane_axes.is_some_and(|(a, b, _)| i == a || i == b)
     })
 }
@@ -1299,11 +1303,11 @@ fn write_blocks(
     blocks: &[String],
 ) {
     let arc = matches!(geometry, Geometry::Arc { .. });
-    // Words the pieces rewrite: axes, arc centre / radius / turns, feed.
+    // Words the pieces rewrite: axes (polar ones too), arc centre / radius / turns, feed.
     let replaced: Vec<&Item> = items
         .iter()
         .filter(|it| match word_letter(it) {
-            Some('x' | 'y' | 'z' | 'f') => true,
+            Some('x' | 'y' | 'z' | 'f' | '@' | '^') => true,
             Some('i' | 'j' | 'k' | 'r' | 'p') => arc,
             _ => false,
         })

@@ -625,6 +625,35 @@ fn runs_plan(path: &nc::Path) -> Vec<Vec<(f64, f64)>> {
         .collect()
 }
 
+/// Feed lines in polar coordinates (`G1 @ ^`, LinuxCNC): under G90 about
+/// the program origin, under G91 from the current point's radius and angle,
+/// in inches, one with Z, and one in a loop whose runs read their pieces
+/// from a table. Lines needing several feeds are split, each piece written
+/// as Cartesian X Y: the program reads back to the planned pieces in the
+/// plan's time. (Before, polar lines were never split: the lowest feed of
+/// their pieces.)
+pub const POLAR_FEEDS: &str = "G21 G90 G17\nG0 X0 Y0 Z1\nG1 @20 ^30 F600\nG1 @20 ^75 Z-1\nG91 G1 @-5 ^15\n\
+    G1 ^-40\nG90 G20 G1 @0.5 ^200\nG21\n#1 = 0\no1 repeat [3]\nG1 @[10 + 3 * #1] ^[100 + 20 * #1] F500\n#1 = [#1 + 1]\no1 endrepeat\nM2\n";
+
+#[test]
+fn polar_feed_lines_are_split_in_cartesian_pieces() {
+    let src = POLAR_FEEDS;
+    let path = parse(src);
+    let plan = feed_plan(&path, |i, _| {
+        vec![
+            (0.35 + 0.05 * i as f64, 2000.0 - i as f64),
+            (1.0, 200.0 + i as f64),
+        ]
+    });
+    let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
+    assert!(
+        !out.contains('@') && !out.contains('^'),
+        "polar words kept:\n{out}"
+    );
+    assert!(out.contains("G91 G1 X"), "{out}");
+    assert_as_planned(&path, &plan, &parse(&out), 1e-4, &out);
+}
+
 /// A loop whose runs need their own pieces, with more records than the
 /// numbered parameters 1000–4999 hold (800 runs × 2 blocks × X, Y, F): the
 /// loop is written out in full, as its lines ran, and every run reads back

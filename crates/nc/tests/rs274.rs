@@ -586,6 +586,38 @@ fn cycles_run_more_than_once_written_out_match_linuxcnc_rs274() {
     assert!(n >= 40, "{n} moves");
 }
 
+/// Feed lines in polar coordinates (`G1 @ ^`, under G90 and G91, in inches,
+/// in a loop reading a table) split into Cartesian pieces: rs274 reads the
+/// written program as our interpreter does, move for move.
+#[test]
+fn polar_feed_lines_split_match_linuxcnc_rs274() {
+    if !have_rs274() {
+        return;
+    }
+    let source = "G21 G90 G17\nG0 X0 Y0 Z1\nG1 @20 ^30 F600\nG1 @20 ^75 Z-1\nG91 G1 @-5 ^15\n\
+        G1 ^-40\nG90 G20 G1 @0.5 ^200\nG21\n#1 = 0\no1 repeat [3]\nG1 @[10 + 3 * #1] ^[100 + 20 * #1] F500\n#1 = [#1 + 1]\no1 endrepeat\nM2\n";
+    let path = nc::parse(source, "in.ngc", &Options::default()).path;
+    let plan: Vec<Vec<(f64, f64)>> = path
+        .segments
+        .iter()
+        .enumerate()
+        .map(|(i, s)| match s.motion {
+            Motion::Feed { .. } => vec![(0.4, 2000.0 - i as f64), (1.0, 150.0 + i as f64)],
+            _ => vec![],
+        })
+        .collect();
+    let out = nc::refeed(source, "in.ngc", &Options::default(), &plan).expect("re-fed");
+    assert!(
+        !out.contains('@') && !out.contains('^'),
+        "polar words kept:\n{out}"
+    );
+    let dir = tempfile::tempdir().expect("temp dir");
+    let written = dir.path().join("polar_split.ngc");
+    std::fs::write(&written, out).expect("write");
+    let n = compare(&written).unwrap_or_else(|e| panic!("{e}"));
+    assert!(n >= 17, "{n} moves");
+}
+
 /// A loop whose records do not fit the table of numbered parameters is
 /// written out in full (unrolled): rs274 reads the written program as our
 /// interpreter does, move for move, with every run's own pieces.
