@@ -95,6 +95,7 @@ TOOLS = {
     "drl2gcode_kicad_T02": ("flat", 0.4, 0.05),
     "dxf2gcode_erin7": ("flat", 3.0, 0.1),  # no diameter in the program: assumed
     "fusion_proxxon_key": ("flat", 1.587, 0.05),
+    "gcodekit4_designer": ("flat", 3.175, 0.2),
     "mastercam_helix_bores": ("flat", 3.0, 0.1),
     "ncefi_pockets": ("flat", 6.0, 0.2),  # no diameter in the program: assumed
     "pycut_kasten": ("flat", 3.0, 0.1),
