@@ -1,6 +1,7 @@
 //! CPU time of `schedule::plan` on a job's program (its machine, then the same machine
 //! with a jerk limit of 20 000 mm/s³): the best of 5 plans, and one plan with its servo
-//! samples; thread CPU time from `/proc/thread-self/schedstat` (Linux).
+//! samples; then one `schedule::lower_bound_time_s` and the bound; thread CPU time from
+//! `/proc/thread-self/schedstat` (Linux).
 //!
 //! `cargo run --release -p dexcut --example plan_time -- JOB.toml`
 
@@ -40,8 +41,11 @@ fn main() {
             .sample(machine.period_ms)
             .expect("samples");
         let sampled_s = thread_cpu_s() - t0;
+        let t0 = thread_cpu_s();
+        let bound_s = schedule::lower_bound_time_s(&st);
+        let bound_cpu_s = thread_cpu_s() - t0;
         println!(
-            "{job}, jerk {jerk_mm_s3:?}: {} stations, plan {best_s:.3} s CPU (best of 5), plan + samples {sampled_s:.3} s ({} samples), cycle {cycle_s:.4} s",
+            "{job}, jerk {jerk_mm_s3:?}: {} stations, plan {best_s:.3} s CPU (best of 5), plan + samples {sampled_s:.3} s ({} samples), cycle {cycle_s:.4} s; lower bound {bound_s:.4} s in {bound_cpu_s:.3} s CPU",
             st.len(),
             samples.len()
         );

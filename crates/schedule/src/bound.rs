@@ -7,6 +7,12 @@ use crate::stations::Stations;
 const DIP_ACCEL_BINS: usize = 6;
 const DIP_ACCEL_REFINEMENTS: usize = 8;
 
+/// The chain of dips ([`dip_chain_s`]) splits each dip's unknown acceleration in [−A, A]
+/// into this many equal bins (even: 0 is an edge). On 3D_Chips with jerk 20 000 mm/s³
+/// (from Z60, MODEL.md §6.1) 24 / 32 / 80 bins give 171.37 / 171.51 / 171.78 s; the pairs
+/// of bins compared at each gap grow with the square.
+const CHAIN_ACCEL_BINS: usize = 32;
+
 /// A lower bound on the time in s of any motion along the stations that keeps every station
 /// at or under its cap, the speed inside an interval at or under the larger cap of its two
 /// stations, the tangential acceleration and jerk within each interval's limits, and rests
@@ -109,20 +115,59 @@ fn dip_pieces_s(u: &[f64], run: &[Interval]) -> f64 {
     let mut falls = vec![0];
     falls.extend((1..last).filter(|&k| u[k] >= u[k - 1] && u[k] > u[k + 1]));
     falls.push(last);
-    pieces_s(u, run, &middles).max(pieces_s(u, run, &falls))
+    let mut dips: Vec<usize> = middles.windows(2).map(|w| lowest(u, w[0], w[1])).collect();
+    dips.dedup();
+    pieces_s(u, run, &middles)
+        .max(pieces_s(u, run, &falls))
+        .max(dip_chain_s(u, run, &dips))
+        .max(dip_chain_s(u, run, &without_shallow_dips(u, &dips)))
 }
 
-/// Sum of [`dip_piece_s`] over the pieces between consecutive `splits` (station indices).
-fn pieces_s(u: &[f64], run: &[Interval], splits: &[usize]) -> f64 {
-    let last = u.len() - 1;
-    // While its acceleration falls back to zero a motion travels at most v_max·A/J_min:
-    // the ceiling of a side is the highest interval peak within that reach beyond it.
-    let v_max = run.iter().fold(0.0f64, |m, i| m.max(i.peak_mm_s));
-    let a_max = run.iter().fold(0.0f64, |m, i| m.max(i.accel_mm_s2));
-    let j_min = run.iter().fold(f64::INFINITY, |m, i| m.min(i.jerk_mm_s3));
-    let j_max = run.iter().fold(0.0f64, |m, i| m.max(i.jerk_mm_s3));
-    let reach_mm = v_max * a_max / j_min;
-    let ceiling = |intervals: &mut dyn Iterator<Item = &Interval>, inside: usize| {
+/// `dips` less every dip whose u is above those of both dips beside it (the run's stops
+/// stay). A chain over fewer dips is as valid (it uses fewer of the caps), and where a
+/// higher dip lies between two low ones, its bins of acceleration let the motion turn
+/// faster than the low ones allow.
+fn without_shallow_dips(u: &[f64], dips: &[usize]) -> Vec<usize> {
+    let shallow = |i: usize| {
+        i > 0 && i + 1 < dips.len() && u[dips[i]] > u[dips[i - 1]] && u[dips[i]] > u[dips[i + 1]]
+    };
+    (0..dips.len())
+        .filter(|&i| !shallow(i))
+        .map(|i| dips[i])
+        .collect()
+}
+
+/// The station of least u in `p..=q` (the first of equals).
+fn lowest(u: &[f64], p: usize, q: usize) -> usize {
+    (p..=q).fold(p, |m, k| if u[k] < u[m] { k } else { m })
+}
+
+/// What bounds a side's speed in [`Side`]: the run's highest interval peak (mm/s), highest
+/// acceleration and jerk limits and least jerk limit.
+#[derive(Clone, Copy, Debug)]
+struct RunLimits {
+    v_max: f64,
+    a_max: f64,
+    j_min: f64,
+    j_max: f64,
+}
+
+impl RunLimits {
+    fn new(run: &[Interval]) -> Self {
+        RunLimits {
+            v_max: run.iter().fold(0.0f64, |m, i| m.max(i.peak_mm_s)),
+            a_max: run.iter().fold(0.0f64, |m, i| m.max(i.accel_mm_s2)),
+            j_min: run.iter().fold(f64::INFINITY, |m, i| m.min(i.jerk_mm_s3)),
+            j_max: run.iter().fold(0.0f64, |m, i| m.max(i.jerk_mm_s3)),
+        }
+    }
+
+    /// The ceiling of a side whose `inside` first intervals (of `intervals`, in the order
+    /// the comparison motion crosses them) are its own: the highest interval peak on it and
+    /// within v_max·A/J_min beyond it (how far a motion travels while its acceleration falls
+    /// back to zero).
+    fn ceiling(&self, intervals: &mut dyn Iterator<Item = &Interval>, inside: usize) -> f64 {
+        let reach_mm = self.v_max * self.a_max / self.j_min;
         let mut peak = 0.0f64;
         let mut beyond_mm = 0.0;
         for (i, interval) in intervals.enumerate() {
@@ -135,18 +180,123 @@ fn pieces_s(u: &[f64], run: &[Interval], splits: &[usize]) -> f64 {
             peak = peak.max(interval.peak_mm_s);
         }
         peak
+    }
+}
+
+/// Least time of a run with a jerk limit from the chain of its dips `dips` (stations, the
+/// first and last the run's stops), each dip's unknown acceleration shared by the gaps on
+/// both sides of it (MODEL.md §6.1, "Chain of dips").
+///
+/// Between consecutive dips k and k+1 any motion needs, for every station x of the gap, at
+/// least the forward comparison time from dip k to x ([`Side::excess_s`], with the highest
+/// acceleration of dip k's bin) plus the backward one from dip k+1 to x (with the lowest of
+/// dip k+1's bin): the gap's bound for that pair of bins is the largest such sum over x.
+/// Summed over the gaps it holds for the motion's own bins, so the least sum over all
+/// sequences of bins (a shortest path through the bins, dip by dip) bounds the run. The
+/// per-piece bound ([`pieces_s`]) splits each gap at one fixed station and lets each dip
+/// pick its acceleration alone; here the split moves to where the two dips' envelopes
+/// meet, so a high dip between two low ones 17 ms apart no longer lets the speed rise to
+/// its own cap.
+fn dip_chain_s(u: &[f64], run: &[Interval], dips: &[usize]) -> f64 {
+    let last = u.len() - 1;
+    let limits = RunLimits::new(run);
+    // Bins of a dip's acceleration: a stop has 0 only.
+    let bins = |m: usize| -> Vec<(f64, f64)> {
+        let a_dip = [m.checked_sub(1).map(|k| &run[k]), run.get(m)]
+            .into_iter()
+            .flatten()
+            .fold(0.0f64, |a, i| a.max(i.accel_mm_s2));
+        if m == 0 || m == last || a_dip == 0.0 {
+            return vec![(0.0, 0.0)];
+        }
+        let width = 2.0 * a_dip / CHAIN_ACCEL_BINS as f64;
+        (0..CHAIN_ACCEL_BINS)
+            .map(|i| (-a_dip + i as f64 * width, -a_dip + (i + 1) as f64 * width))
+            .collect()
     };
+    let mut cost: Vec<f64> = bins(dips[0]).iter().map(|_| 0.0).collect();
+    let (mut forward, mut backward) = (Vec::new(), Vec::new());
+    for pair in dips.windows(2) {
+        let (a, b) = (pair[0], pair[1]);
+        let gap = &run[a..b];
+        let reversed: Vec<Interval> = gap.iter().rev().copied().collect();
+        let floors_s: f64 = gap.iter().map(|i| i.time_s).sum();
+        let len = b - a;
+        let ahead = Side::new(gap, limits.ceiling(&mut run[a..].iter(), len), limits.j_max);
+        let behind = Side::new(
+            &reversed,
+            limits.ceiling(&mut run[..b].iter().rev(), len),
+            limits.j_max,
+        );
+        let (bins_a, bins_b) = (bins(a), bins(b));
+        forward.clear();
+        for &(_, hi) in &bins_a {
+            let mut excess = Vec::new();
+            ahead.excess_s(u[a], hi, &mut excess);
+            forward.push(excess);
+        }
+        backward.clear();
+        for &(lo, _) in &bins_b {
+            let mut excess = Vec::new();
+            behind.excess_s(u[b], -lo, &mut excess);
+            backward.push(excess);
+        }
+        let next: Vec<f64> = backward
+            .iter()
+            .map(|back| {
+                forward
+                    .iter()
+                    .zip(&cost)
+                    .map(|(ahead, cost)| cost + floors_s + meeting_excess_s(ahead, back, len))
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .collect();
+        cost = next;
+    }
+    cost.into_iter().fold(f64::INFINITY, f64::min)
+}
+
+/// Largest over the stations x = 0..=len of a gap of `ahead`(x) + `behind`(len − x): the
+/// excess times over the closed-form floors of the forward comparison motion from the dip
+/// at the gap's start to x and of the backward one from the dip at its end (each constant
+/// past its last entry, where its envelope no longer binds; both never fall).
+fn meeting_excess_s(ahead: &[f64], behind: &[f64], len: usize) -> f64 {
+    let at = |excess: &[f64], x: usize| excess[x.min(excess.len() - 1)];
+    let (from, to) = (
+        len.saturating_sub(behind.len() - 1),
+        (ahead.len() - 1).min(len),
+    );
+    if from > to {
+        // The envelopes do not meet: each binds only where the other does not.
+        return at(ahead, len) + at(behind, len);
+    }
+    (from..=to)
+        .map(|x| at(ahead, x) + at(behind, len - x))
+        .fold(0.0, f64::max)
+}
+
+/// Sum of [`dip_piece_s`] over the pieces between consecutive `splits` (station indices).
+fn pieces_s(u: &[f64], run: &[Interval], splits: &[usize]) -> f64 {
+    let last = u.len() - 1;
+    let limits = RunLimits::new(run);
     splits
         .windows(2)
         .map(|w| {
             let (p, q) = (w[0], w[1]);
-            let m = (p..=q).fold(p, |m, k| if u[k] < u[m] { k } else { m });
+            let m = lowest(u, p, q);
             let at_rest = m == 0 || m == last;
             let ceilings = [
-                ceiling(&mut run[..m].iter().rev(), m - p),
-                ceiling(&mut run[m..].iter(), q - m),
+                limits.ceiling(&mut run[..m].iter().rev(), m - p),
+                limits.ceiling(&mut run[m..].iter(), q - m),
             ];
-            dip_piece_s(u[m], at_rest, &run[p..m], &run[m..q], ceilings, j_max)
+            dip_piece_s(
+                u[m],
+                at_rest,
+                &run[p..m],
+                &run[m..q],
+                ceilings,
+                limits.j_max,
+            )
         })
         .sum()
 }
@@ -242,8 +392,21 @@ impl<'a> Side<'a> {
     /// Time for the comparison motion to cross the side from the dip at speed `c` with
     /// acceleration at most `a0` there, s.
     fn time_s(&self, c: f64, a0: f64) -> f64 {
+        let mut excess = Vec::new();
+        self.excess_s(c, a0, &mut excess);
+        excess.last().copied().unwrap_or(0.0) + self.time_after[0]
+    }
+
+    /// The comparison motion's time from the dip (speed `c`, acceleration at most `a0`) to
+    /// each station of the side, less the closed-form times of the intervals crossed, into
+    /// `out`: out[0] = 0 at the dip, then one entry per interval until the envelope no longer
+    /// binds (from there on every interval takes its closed-form time, so the excess stays
+    /// at the last entry). It never falls.
+    fn excess_s(&self, c: f64, a0: f64, out: &mut Vec<f64>) {
+        out.clear();
+        out.push(0.0);
         if self.intervals.is_empty() {
-            return 0.0;
+            return;
         }
         let env = Envelope::new(
             c,
@@ -253,11 +416,11 @@ impl<'a> Side<'a> {
             self.jerk_fall_mm_s3.max(self.jerk_mm_s3),
             self.ceiling_mm_s.max(c),
         );
-        let mut t = 0.0;
+        let (mut t, mut floors) = (0.0, 0.0);
         for (k, interval) in self.intervals.iter().enumerate() {
             if t >= env.rising_from_s() && env.speed(t) >= self.peak_after[k] {
                 // The envelope no longer binds: the closed-form times from here on.
-                return t + self.time_after[k];
+                return;
             }
             let step = if t >= env.rising_from_s() && env.speed(t) >= interval.peak_mm_s {
                 interval.len_mm / interval.peak_mm_s
@@ -265,8 +428,9 @@ impl<'a> Side<'a> {
                 env.time_to_cover_s(t, interval.len_mm, interval.peak_mm_s)
             };
             t += step.max(interval.time_s);
+            floors += interval.time_s;
+            out.push(t - floors);
         }
-        t
     }
 }
 
