@@ -115,7 +115,10 @@ fn dip_pieces_s(u: &[f64], run: &[Interval]) -> f64 {
     let mut falls = vec![0];
     falls.extend((1..last).filter(|&k| u[k] >= u[k - 1] && u[k] > u[k + 1]));
     falls.push(last);
-    let mut dips: Vec<usize> = middles.windows(2).map(|w| lowest(u, w[0], w[1])).collect();
+    // The run's stops are dips of the chain whatever the pieces' lowest stations are.
+    let mut dips = vec![0];
+    dips.extend(middles.windows(2).map(|w| lowest(u, w[0], w[1])));
+    dips.push(last);
     dips.dedup();
     pieces_s(u, run, &middles)
         .max(pieces_s(u, run, &falls))
