@@ -14,7 +14,8 @@
 # stock's depth the program cuts + 0.2 mm, at least 3 diameters; cutters under
 # 1/8" on a 1/8" shank), aluminium 6061 (chip-load default of MODEL.md §2.1),
 # feed_max 5000 mm/min, rapid 10000 mm/min, and mrr_max = half the program's
-# own peak MRR over ≥ 48 ms, so the limit binds.
+# own peak MRR over ≥ 48 ms, so the limit binds. EXTRA_LIMITS is added to
+# [limits] (e.g. EXTRA_LIMITS="stress = false" to run without the stress limit).
 #
 # Usage: scripts/real_programs_optimize.sh [OUT_DIR] [PROGRAM_NAME_PREFIX...]
 # Needs the release binary (cargo build --release) and python3.
@@ -183,7 +184,7 @@ for f in sorted(os.listdir(data)):
         rows.append(dict(name=name, status="removes nothing with this stock"))
         continue
     mrr = 0.5 * S["peak_mrr_windowed_mm3_s"]
-    limits = f"mrr_max = {mrr:.6g}\n"
+    limits = f"mrr_max = {mrr:.6g}\n{os.environ.get('EXTRA_LIMITS', '')}\n"
     open(os.path.join(d, "job.toml"), "w").write(job(prog, limits))
     o = run(["optimize", "job.toml", "--out", "opt", "--force", "--steps-format", "csv"], d)
     if o.returncode:
@@ -230,23 +231,28 @@ for f in sorted(os.listdir(data)):
             chip_feed=O["limits"]["chip_load_feed_mm_min"],
             kept=O["kept_original"],
             warnings=sorted({w["kind"] for w in after["warnings"]}),
+            stress_before=O["before"]["peak_stress_mpa"],
+            stress_after=after["peak_stress_mpa"],
+            breaks_before=O["before"]["tool_breaks_steps"],
+            breaks_after=after["tool_breaks_steps"],
             secs=time.time() - t0,
         )
     )
     print(name, json.dumps(rows[-1]), file=sys.stderr, flush=True)
 
 json.dump(rows, open(os.path.join(out, "results.json"), "w"), indent=1)
-print("| program | tool, grid | cycle before → after (s) | optimized.nc re-simulated (s) | vs plan | peak MRR per period before → after / mrr_max (mm³/s) | after / limit | top cutting feed programmed → after (chip-load feed) mm/min | rounds | warnings after |")
-print("|---|---|---|---|---|---|---|---|---|---|")
+print("| program | tool, grid | cycle before → after (s) | optimized.nc re-simulated (s) | vs plan | peak MRR per period before → after / mrr_max (mm³/s) | after / limit | top cutting feed programmed → after (chip-load feed) mm/min | rounds | peak stress before → after (MPa) | steps that break before → after | warnings after |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|")
 for x in rows:
     if x["status"] != "ok":
-        print(f"| {x['name']} | {x['status']} | | | | | | | | |")
+        print(f"| {x['name']} | {x['status']} | | | | | | | | | | |")
         continue
     resim = f"{x['resim_s']:.1f}" if x["resim_s"] is not None else "failed"
     print(
         f"| {x['name']} | {x['tool']}, {x['grid']} | {x['before_s']:.1f} → {x['after_s']:.1f} | {resim} | "
         f"{100 * (x['after_s'] / x['plan_s'] - 1):+.2f} % | {x['peak_before']:.2f} → {x['peak_after']:.2f} / {x['mrr_max']:.2f} | "
         f"{100 * (x['peak_after'] / x['mrr_max'] - 1):+.1f} % | {x['feed_programmed']:.0f} → {x['feed_after']:.0f} ({x['chip_feed']:.0f}) | "
-        f"{x['rounds']}{' kept' if x['kept'] else ''} | {', '.join(x['warnings'])} |"
+        f"{x['rounds']}{' kept' if x['kept'] else ''} | {x['stress_before']:.0f} → {x['stress_after']:.0f} | "
+        f"{x['breaks_before']} → {x['breaks_after']} | {', '.join(x['warnings'])} |"
     )
 PY

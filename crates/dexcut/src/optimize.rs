@@ -541,6 +541,11 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
         let mut chip: Option<(f64, f64)> = None;
         for k in period.first_step..=period.last_step {
             let step = &run.steps[k];
+            // A rapid's load is a collision (rapid_cut), not one a feed sets:
+            // a period part rapid, part feed is corrected for its feed part.
+            if step.step.rapid {
+                continue;
+            }
             let entry = tools.entry(step.tool);
             let p = entry.model.force_model.feed_exponent();
             let load = &run.loads[k];
@@ -561,7 +566,7 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
                     }
                 }
             }
-            if !step.step.rapid && run.record.volume_mm3(k) > crate::simulate::NOTHING_MM3 {
+            if run.record.volume_mm3(k) > crate::simulate::NOTHING_MM3 {
                 if let Some(cap) = entry.chip_load_feed_mm_min(step.spindle_rpm) {
                     if chip.is_none_or(|(r, _)| step.feed_mm_min / cap > r) {
                         chip = Some((step.feed_mm_min / cap, cap));

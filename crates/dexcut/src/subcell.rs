@@ -22,8 +22,9 @@ const EDGE_LEN: usize = 3;
 const OVER_R: usize = 4;
 
 /// A step's length (mm) and XY feed direction where it can be windowed: a
-/// feed step whose motion is at least half horizontal (plunges are resolved
-/// in Z, MODEL.md §10 coarse_grid).
+/// feed step that moves in XY, however steeply (its flank crosses column
+/// centres in XY; a plunge straight down is resolved in Z and has no feed
+/// direction).
 fn geometry(s: &TimedStep) -> Option<(f64, [f64; 2])> {
     if s.step.rapid {
         return None;
@@ -32,7 +33,7 @@ fn geometry(s: &TimedStep) -> Option<(f64, [f64; 2])> {
     let [tx, ty, tz] = s.step.to_mm;
     let (dx, dy, dz) = (tx - fx, ty - fy, tz - fz);
     let xy = dx.hypot(dy);
-    (xy > 0.0 && xy >= dz.abs()).then(|| (xy.hypot(dz), [dx / xy, dy / xy]))
+    (xy > 0.0).then(|| (xy.hypot(dz), [dx / xy, dy / xy]))
 }
 
 /// Window sums of one run of steps (MODEL.md §1.6): the steps of the run
@@ -74,8 +75,8 @@ fn head_of(record: &RemovalRecord, k: usize, len: f64, u: [f64; 2]) -> [f64; SUM
 }
 
 /// Replace the loads of the steps shorter than a grid cell (`grid_mm`) by
-/// the steady cut's: per run of windowable steps (feed, at least half
-/// horizontal, one tool, each starting where the one before ended), the
+/// the steady cut's: per run of windowable steps (feed steps that move in
+/// XY, one tool, each starting where the one before ended), the
 /// removal per unit length over [`SUB_CELL_WINDOW_CELLS`] cells of path
 /// centred on the step (shifted to lie within the run, or the whole run
 /// where it is shorter), at the step's own length, feed direction and
