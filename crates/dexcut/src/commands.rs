@@ -986,7 +986,7 @@ pub fn optimize(
         on_warning(&if limits.stress {
             "[limits] sets no mrr_max, force_max, deflection_max_um, power_max_kw or angle_rule: cutting runs at feed_max where the tool's stress_limit_mpa allows"
         } else {
-            "[limits] sets no mrr_max, force_max, deflection_max_um, power_max_kw or angle_rule: cutting runs at feed_max"
+            "[limits] sets no mrr_max, force_max, deflection_max_um, power_max_kw or angle_rule, and stress = false: cutting runs at feed_max"
         });
     }
     announce_setup_warnings(&setup, on_warning);

@@ -308,7 +308,7 @@ impl Default for MachineSpec {
     }
 }
 
-#[derive(Clone, Debug, Default, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LimitsSpec {
     /// Material removal rate limit, mm³/s.
@@ -331,10 +331,27 @@ pub struct LimitsSpec {
     /// Largest factor over the programmed feed on cutting moves (none by default).
     pub feed_scale_max: Option<f64>,
     /// Hold every cutting step's von Mises stress to its tool's
-    /// `stress_limit_mpa` (MPa, MODEL.md §4.4) like a force limit; off by
-    /// default (MODEL.md §4.4 says why).
-    #[serde(default)]
+    /// `stress_limit_mpa` (MPa, MODEL.md §4.4) like a force limit; on by
+    /// default (`stress = false` turns it off).
+    #[serde(default = "default_true")]
     pub stress: bool,
+}
+
+impl Default for LimitsSpec {
+    fn default() -> Self {
+        LimitsSpec {
+            mrr_max: None,
+            force_max: None,
+            deflection_max_um: None,
+            power_max_kw: None,
+            feed_min: None,
+            feed_max: None,
+            angle_rule: false,
+            v0: None,
+            feed_scale_max: None,
+            stress: true,
+        }
+    }
 }
 
 #[derive(Clone, Debug, Deserialize)]
