@@ -16,6 +16,8 @@
 # feed_max 5000 mm/min, rapid 10000 mm/min, and mrr_max = half the program's
 # own peak MRR over ≥ 48 ms, so the limit binds. EXTRA_LIMITS is added to
 # [limits] (e.g. EXTRA_LIMITS="stress = false" to run without the stress limit).
+# Programs for a machine whose Z points down (Z_DOWN) are read with
+# [machine] z_axis = "down".
 #
 # Usage: scripts/real_programs_optimize.sh [OUT_DIR] [PROGRAM_NAME_PREFIX...]
 # Needs the release binary (cargo build --release) and python3.
@@ -105,6 +107,11 @@ TOOLS = {
 DEFAULT_TOOL = ("flat", 3.0, 0.1)
 # Shank of the tools smaller than it, mm (1/8").
 SHANK_MM = 3.175
+# Programs written for a machine whose Z points down ([machine] z_axis =
+# "down"): Estlcam 10's custom post of Cluck2Sesame (its README row), whose
+# safe height is Z-25 / Z-20 and whose cuts go to +Z below "Z on top of the
+# sheet" (their header comments).
+Z_DOWN = ("estlcam_backplate", "estlcam_enclosure", "estlcam_spool_fixture")
 
 
 def tool_of(name):
@@ -134,9 +141,10 @@ for f in sorted(os.listdir(data)):
     os.makedirs(d, exist_ok=True)
     prog = os.path.join(data, f)
     kind, dia, grid = tool_of(name)
+    z_axis = 'z_axis = "down"\n' if name.startswith(Z_DOWN) else ""
     t0 = time.time()
     # Probe: where the feed moves are (a far-away one-cell stock, nothing removed).
-    probe = f'[stock]\nkind = "box"\nmin = [-5000, -5000, -9000]\nmax = [5000, 5000, -8990]\ngrid = 50\n[tool]\nkind = "flat"\ndiameter = 3\n[program]\npath = "{prog}"\n'
+    probe = f'[stock]\nkind = "box"\nmin = [-5000, -5000, -9000]\nmax = [5000, 5000, -8990]\ngrid = 50\n[tool]\nkind = "flat"\ndiameter = 3\n[program]\npath = "{prog}"\n[machine]\n{z_axis}'
     open(os.path.join(d, "probe.toml"), "w").write(probe)
     # steps.csv whatever the length (read below; --steps-format auto writes .npy above 200 000 steps).
     p = run(["simulate", "probe.toml", "--out", "probe", "--force", "--steps-format", "csv"], d)
@@ -171,7 +179,7 @@ for f in sorted(os.listdir(data)):
             f'[tool]\nkind = "{kind}"\ndiameter = {dia}\nflute_length = {flute:.3f}\nstickout = {flute + 10:.3f}\n'
             f"{shank}"
             f'[program]\npath = "{path}"\n[cutting]\nmaterial = "al6061"\n'
-            f"[machine]\nfeed_max = 5000\nrapid = 10000\n[limits]\n{limits}"
+            f"[machine]\nfeed_max = 5000\nrapid = 10000\n{z_axis}[limits]\n{limits}"
         )
 
     open(os.path.join(d, "sim.toml"), "w").write(job(prog, ""))

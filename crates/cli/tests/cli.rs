@@ -1656,6 +1656,124 @@ fn cycles_run_more_than_once_keep_to_the_plan() {
     );
 }
 
+/// The same part written for a machine whose Z points up and for one whose
+/// Z points down (every Z negated, a ZX-plane arc G2 ↔ G3, the tool length
+/// offset G43 of a tool table): with `[machine] z_axis = "down"` the second
+/// removes what the first does, in the same time; optimized.nc keeps the
+/// program's own Z (safe height still negative) and, read back as the job
+/// reads its program, makes what optimize reported. Read with Z up, the
+/// down program cuts only with rapids (rapid_cut).
+#[test]
+fn a_program_for_a_z_down_machine_is_read_and_written_in_its_own_z() {
+    let up =
+        "G21 G90 G17\nT1 M6 G43 H1\nG0 X-5 Y0 Z5\nG1 Z-1.5 F300\nG1 X20 F900\nG3 X30 Y10 I0 J10\n\
+        G18 G2 X35 Z-1.5 I2.5 K0\nG17 G1 Y15 Z-2\nG0 Z5\nM2\n";
+    let down =
+        "G21 G90 G17\nT1 M6 G43 H1\nG0 X-5 Y0 Z-5\nG1 Z1.5 F300\nG1 X20 F900\nG3 X30 Y10 I0 J10\n\
+        G18 G3 X35 Z1.5 I2.5 K0\nG17 G1 Y15 Z2\nG0 Z-5\nM2\n";
+    let dir = tempdir();
+    write(dir.path(), "up.nc", up);
+    write(dir.path(), "down.nc", down);
+    let job = |program: &str, z_axis: &str| {
+        format!(
+            "[stock]\nkind = \"box\"\nmin = [-10, -10, -6]\nmax = [45, 25, 0]\ngrid = 0.2\n\
+             [[tools]]\nnumber = 1\nkind = \"flat\"\ndiameter = 6\nflute_length = 15\nstickout = 30\nlength = 40\n\
+             [program]\npath = \"{program}\"\n[cutting]\nmaterial = \"al6061\"\n\
+             [machine]\nfeed_max = 5000\n{z_axis}\n[limits]\nmrr_max = 60\n"
+        )
+    };
+    write(dir.path(), "up.toml", &job("up.nc", ""));
+    write(
+        dir.path(),
+        "down.toml",
+        &job("down.nc", "z_axis = \"down\""),
+    );
+    write(dir.path(), "down_as_up.toml", &job("down.nc", ""));
+    for name in ["up", "down", "down_as_up"] {
+        ok(&dexcut(
+            &[
+                "simulate",
+                &format!("{name}.toml"),
+                "--out",
+                &format!("sim_{name}"),
+            ],
+            dir.path(),
+        ));
+    }
+    let (s_up, s_down) = (
+        summary(&dir.path().join("sim_up")),
+        summary(&dir.path().join("sim_down")),
+    );
+    let removed = s_up["removed_volume_mm3"].as_f64().unwrap();
+    assert!(removed > 500.0, "{removed}");
+    for key in ["removed_volume_mm3", "cycle_time_s"] {
+        let (a, b) = (s_up[key].as_f64().unwrap(), s_down[key].as_f64().unwrap());
+        assert!((a - b).abs() <= 1e-9 * a, "{key}: up {a}, down {b}");
+    }
+    assert!(warning(&s_down, "rapid_cut").is_none(), "{s_down}");
+    let as_up = summary(&dir.path().join("sim_down_as_up"));
+    assert!(warning(&as_up, "rapid_cut").is_some(), "{as_up}");
+    // optimize: the same times; optimized.nc in the program's own Z.
+    for name in ["up", "down"] {
+        ok(&dexcut(
+            &[
+                "optimize",
+                &format!("{name}.toml"),
+                "--out",
+                &format!("opt_{name}"),
+            ],
+            dir.path(),
+        ));
+    }
+    let (o_up, o_down) = (
+        summary(&dir.path().join("opt_up")),
+        summary(&dir.path().join("opt_down")),
+    );
+    for key in ["removed_volume_mm3", "cycle_time_s"] {
+        let (a, b) = (
+            o_up["after"][key].as_f64().unwrap(),
+            o_down["after"][key].as_f64().unwrap(),
+        );
+        assert!((a - b).abs() <= 1e-9 * a, "after {key}: up {a}, down {b}");
+    }
+    assert!(
+        o_up["after"]["cycle_time_s"].as_f64().unwrap()
+            != o_up["before"]["cycle_time_s"].as_f64().unwrap(),
+        "not re-timed"
+    );
+    let written = std::fs::read_to_string(dir.path().join("opt_down/optimized.nc")).unwrap();
+    assert!(
+        written.contains("G0 X-5 Y0 Z-5\n") && written.contains("G18 G3 "),
+        "{written}"
+    );
+    // Read back as the job reads a program: what optimize reported.
+    std::fs::copy(
+        dir.path().join("opt_down/optimized.nc"),
+        dir.path().join("written.nc"),
+    )
+    .unwrap();
+    write(
+        dir.path(),
+        "written.toml",
+        &job("written.nc", "z_axis = \"down\""),
+    );
+    ok(&dexcut(
+        &["simulate", "written.toml", "--out", "sim_written"],
+        dir.path(),
+    ));
+    let back = summary(&dir.path().join("sim_written"));
+    for key in ["removed_volume_mm3", "cycle_time_s"] {
+        let (a, b) = (
+            o_down["after"][key].as_f64().unwrap(),
+            back[key].as_f64().unwrap(),
+        );
+        assert!(
+            (a - b).abs() <= 1e-9 * a,
+            "{key}: reported {a}, read back {b}"
+        );
+    }
+}
+
 /// A loop of 800 ramps, each partly in air: 800 runs × 2 blocks × X, Z, F
 /// do not fit the table of numbered parameters 1000–4999.
 const MANY_RUNS_NGC: &str = "G21 G90\nG0 Z2\n#1 = 0\no1 while [#1 LT 800]\n\

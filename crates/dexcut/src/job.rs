@@ -278,6 +278,24 @@ pub struct MachineSpec {
     /// of its first move when that is a rapid (so that move is a straight
     /// rapid down), else above the machine origin.
     pub start: Option<[f64; 3]>,
+    /// Which way the machine's positive Z points, as its G-code programs are
+    /// written: "up" (away from the table, the ISO/LinuxCNC convention; the
+    /// default) or "down" (towards the table: a safe height such as `Z-20`).
+    /// dexcut works with Z up: a "down" program is read mirrored in Z and
+    /// optimized.nc is written back in the program's own Z.
+    #[serde(default)]
+    pub z_axis: ZAxis,
+}
+
+/// Direction of the machine's positive Z axis ([`MachineSpec::z_axis`]).
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum ZAxis {
+    /// Positive Z away from the table (the tool retracts to +Z).
+    #[default]
+    Up,
+    /// Positive Z towards the table (the tool plunges to +Z).
+    Down,
 }
 
 fn default_period() -> f64 {
@@ -304,6 +322,7 @@ impl Default for MachineSpec {
             block_time_ms: None,
             arcs_as_lines: false,
             start: None,
+            z_axis: ZAxis::Up,
         }
     }
 }

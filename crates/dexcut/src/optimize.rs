@@ -873,7 +873,7 @@ pub fn write_verified(
                     .or_run(|| {
                     format!("{}: cannot write the re-fed program", setup.program.file)
                 })?;
-                let parsed = nc::parse(&text, &setup.program.file, &setup.program.nc_options);
+                let parsed = setup.program.read_path(&text);
                 if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
                     fail!(run, "the re-fed program does not read back: {d}");
                 }

@@ -4,7 +4,7 @@ use crate::error::{fail, Error, Result, ResultExt as _};
 use nalgebra::Point3;
 use nc::{Geometry, Motion, Segment};
 
-use crate::job::Job;
+use crate::job::{Job, ZAxis};
 
 /// A program ready to run: its motion path and, for G-code, its source text.
 #[derive(Clone, Debug)]
@@ -14,14 +14,30 @@ pub struct Program {
     pub file: String,
     /// G-code source (None for CSV point lists).
     pub gcode: Option<String>,
-    /// Interpreter settings the path was read with (G-code only).
+    /// Interpreter settings the path was read with (G-code only), in the
+    /// program's own frame (Z as `[machine] z_axis` says).
     pub nc_options: nc::Options,
+    /// The program's Z points down (`[machine] z_axis = "down"`): its path,
+    /// and that of every program re-fed from it, is read mirrored in Z
+    /// ([`Program::read_path`]).
+    pub z_down: bool,
     /// What the reader warned of: where LinuxCNC would refuse the file (no
     /// program end, a byte-order mark) but most controls read it.
     pub read_warnings: Vec<nc::Diagnostic>,
 }
 
 impl Program {
+    /// `text` (this program, or one re-fed from it) read as this program
+    /// was: with its options, mirrored into dexcut's Z-up frame when its Z
+    /// points down.
+    pub fn read_path(&self, text: &str) -> nc::Parsed {
+        let mut parsed = nc::parse(text, &self.file, &self.nc_options);
+        if self.z_down {
+            parsed.path.mirror_z();
+        }
+        parsed
+    }
+
     /// Highest spindle speed the program sets that a tool `diameter_mm`
     /// wide plausibly runs at ([`crate::tools::plausible_rpm`]), rev/min (0
     /// if none).
@@ -47,6 +63,8 @@ pub fn load(job: &Job) -> Result<Program> {
     let text = crate::bounds::read_text(&path, "program", crate::bounds::MAX_PROGRAM_BYTES)?;
     let file = path.display().to_string();
     if is_points_csv(&text) {
+        // A point list gives tool tips in dexcut's frame, Z up, whatever
+        // `[machine] z_axis` (servo.csv reads back with the job that wrote it).
         // A point list without a tool column is cut by the job's first tool.
         let tool = job.tool_specs()[0].0.unwrap_or(1);
         let path = read_points_csv(&text, &file, job.program.feed, tool)?;
@@ -55,6 +73,7 @@ pub fn load(job: &Job) -> Result<Program> {
             file,
             gcode: None,
             nc_options: nc::Options::default(),
+            z_down: false,
             read_warnings: Vec::new(),
         })
     } else {
@@ -80,8 +99,15 @@ pub fn is_points_csv(text: &str) -> bool {
 /// Parse G-code text; every error diagnostic is reported at once. The tool
 /// starts at `[machine] start`, or by default at the highest Z of the
 /// program above its first rapid's end or the origin (see [`default_start`]). The text
-/// is kept as the program's source (not copied).
+/// is kept as the program's source (not copied). With `[machine] z_axis =
+/// "down"` the program is read in its own frame, tool lengths towards −Z
+/// (the tip below the gauge point is at its +Z), and its path mirrored in Z
+/// ([`nc::Path::mirror_z`]); `start` is in the program's frame.
 pub fn parse_gcode(text: String, file: &str, job: &Job) -> Result<Program> {
+    let z_down = job.machine.z_axis == ZAxis::Down;
+    // The tip is the gauge length below the gauge point: towards −Z, or +Z
+    // on a machine whose Z points down.
+    let length_sign = if z_down { -1.0 } else { 1.0 };
     let mut options = nc::Options {
         work_offsets_mm: job.offsets.as_array(),
         // Read as most controls read a file: no program end and a byte-order
@@ -90,7 +116,12 @@ pub fn parse_gcode(text: String, file: &str, job: &Job) -> Result<Program> {
         tool_lengths_mm: job
             .tools
             .iter()
-            .filter_map(|t| Some((t.body().number?, t.body().length.unwrap_or(0.0))))
+            .filter_map(|t| {
+                Some((
+                    t.body().number?,
+                    length_sign * t.body().length.unwrap_or(0.0),
+                ))
+            })
             .collect(),
         // Cutter compensation (G41/G42) takes the radius from these.
         tool_diameters_mm: job
@@ -110,6 +141,9 @@ pub fn parse_gcode(text: String, file: &str, job: &Job) -> Result<Program> {
     // Read once: with the default start the program runs again from there.
     let reader = nc::Reader::new(&text, file, &options);
     let mut parsed = reader.parse();
+    if z_down {
+        parsed.path.mirror_z();
+    }
     let errors: Vec<nc::Diagnostic> = parsed
         .diagnostics
         .iter()
@@ -126,17 +160,23 @@ pub fn parse_gcode(text: String, file: &str, job: &Job) -> Result<Program> {
     }
     if job.machine.start.is_none() {
         // The default start depends on the path run from the origin: run it again from there.
-        options.initial_position_mm = default_start(&parsed.path);
+        // Found in dexcut's frame, given in the program's.
+        let [x, y, z] = default_start(&parsed.path);
+        options.initial_position_mm = [x, y, if z_down { -z } else { z }];
         // The first run is not needed any more: free its path before the
         // second one is made (one path in memory at a time).
         drop(parsed);
         parsed = reader.parse_from(options.initial_position_mm);
+        if z_down {
+            parsed.path.mirror_z();
+        }
     }
     Ok(Program {
         path: parsed.path,
         file: file.to_string(),
         gcode: Some(text),
         nc_options: options,
+        z_down,
         read_warnings: parsed
             .diagnostics
             .into_iter()

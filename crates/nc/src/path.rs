@@ -200,6 +200,29 @@ impl Path {
     pub fn length_mm(&self) -> f64 {
         self.segments.iter().map(Segment::length_mm).sum()
     }
+
+    /// The path mirrored in Z (z ↦ −z): a program written for a machine whose
+    /// Z axis points down, in a frame whose Z points up, and back. Arcs in
+    /// the ZX and YZ planes turn the other way; XY arcs keep their direction
+    /// (their X and Y are not mirrored). Lengths and fractions are unchanged.
+    pub fn mirror_z(&mut self) {
+        for s in &mut self.segments {
+            s.start.z = -s.start.z;
+            s.end.z = -s.end.z;
+            if let Geometry::Arc {
+                center,
+                plane,
+                clockwise,
+                ..
+            } = &mut s.geometry
+            {
+                center.z = -center.z;
+                if *plane != Plane::XY {
+                    *clockwise = !*clockwise;
+                }
+            }
+        }
+    }
 }
 
 impl Path {
@@ -212,5 +235,37 @@ impl Path {
             }
         }
         tools
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// Mirrored in Z, every point of every segment (lines, a helix in XY,
+    /// arcs in ZX and YZ both ways) is the mirror of the original's at the
+    /// same fraction, lengths are kept, and mirroring twice gives the path back.
+    #[test]
+    fn a_path_mirrored_in_z_is_the_mirror_image_point_by_point() {
+        let source = "G0 X1 Y2 Z3\nG1 Z-1 F100\nG17 G2 X5 Y2 Z-2 I2 J0\nG1 Z-1\nG18 G2 X9 Z-1 I2 K0\nG3 X13 Z-1 I2 K0\n\
+            G19 G2 Y6 Z-1 J2 K0\nG3 Y10 Z-1 J2 K0\nM2\n";
+        let path = crate::parse(source, "m.ngc", &crate::Options::default()).path;
+        assert_eq!(path.segments.len(), 8);
+        let mut mirrored = path.clone();
+        mirrored.mirror_z();
+        for (a, b) in path.segments.iter().zip(&mirrored.segments) {
+            assert!((a.length_mm() - b.length_mm()).abs() < 1e-12);
+            for k in 0..=8 {
+                let u = k as f64 / 8.0;
+                let (p, q) = (a.point_at_fraction(u), b.point_at_fraction(u));
+                assert!(
+                    (p.x - q.x).abs() < 1e-12
+                        && (p.y - q.y).abs() < 1e-12
+                        && (p.z + q.z).abs() < 1e-12,
+                    "line {}: {p} vs {q} at {u}",
+                    a.line
+                );
+            }
+        }
+        mirrored.mirror_z();
+        assert_eq!(mirrored, path);
     }
 }
