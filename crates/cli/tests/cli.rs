@@ -2504,7 +2504,7 @@ fn implausible_spindle_speed_and_a_far_lower_chip_load_cap_are_told() {
         ) < 1e-12
     );
     assert!(
-        err.contains("S100 at lines 4, 5 gives 0.63 m/min at the edge of tool 1"),
+        err.contains("S100 at lines 4, 5 gives 0.63 m/min at the edge of the job's tool (Ø2 mm)"),
         "{err}"
     );
     let fz = 0.010 + 0.5 / 1.5 * 0.015;
@@ -2522,7 +2522,7 @@ fn implausible_spindle_speed_and_a_far_lower_chip_load_cap_are_told() {
         "{w}"
     );
     for words in [
-        "tool 1 (Ø2 mm, 2 flutes) cuts at F2000, 0.1000 mm/tooth at 10000 rev/min",
+        "the job's tool (Ø2 mm) with 2 flutes cuts at F2000, 0.1000 mm/tooth at 10000 rev/min",
         "its chip-load cap is 0.0150 mm/tooth (default for al6061, Ø2 mm) = 300 mm/min, 6.7× lower",
         "set fz_max",
         "[cutting] spindle_rpm",
@@ -2768,9 +2768,12 @@ fn a_tool_past_its_rupture_strength_breaks_and_reports_the_deflection_at_rupture
         &format!("{peak_stress:.0} MPa at lines 113, 114,"),
         "rupture strength of 70 MPa",
         "the tool breaks",
+        // The job's one [tool], in a program without T words: not "tool 0".
+        "stress the job's tool (Ø10 mm) to",
     ] {
         assert!(message.contains(words), "{words} not in {message}");
     }
+    assert!(!message.contains("tool 0"), "{message}");
     assert!(
         console.contains("warning: line 113: the tool breaks"),
         "{console}"

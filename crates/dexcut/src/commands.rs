@@ -1041,7 +1041,7 @@ pub fn optimize_setup(
         &setup.program,
         &setup.job.cutting.material,
     );
-    let chip_warnings = crate::warnings::chip_load_check(&chip_load);
+    let chip_warnings = crate::warnings::chip_load_check(&chip_load, &setup.tools);
     for w in &chip_warnings {
         on_warning(w);
     }

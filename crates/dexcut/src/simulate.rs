@@ -1,6 +1,7 @@
 //! `dexcut simulate`: sweep the program through the stock and record what
 //! every step removed, the load it puts on the tool and the error it leaves.
 
+use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
 
@@ -104,6 +105,9 @@ pub struct Run {
     /// it breaks the tool, and its deflections are those at rupture
     /// (MODEL.md §4.4, [`cutting::StepLoad::at_rupture`]).
     pub rupture_strengths_mpa: Vec<f64>,
+    /// Each tool number the steps carry as messages name it
+    /// ([`ToolSet::name`]: a single `[tool]` is "the job's tool").
+    pub tool_names: BTreeMap<u32, String>,
 }
 
 /// Closed loop (MODEL.md §5.1): at most this many sweeps...
@@ -512,6 +516,13 @@ pub fn run_on(
         .iter()
         .map(|&t| tools.entries[t].rupture_strength_mpa)
         .collect();
+    let tool_names: BTreeMap<u32, String> = steps
+        .iter()
+        .map(|s| s.tool)
+        .collect::<std::collections::BTreeSet<u32>>()
+        .into_iter()
+        .map(|t| (t, tools.name(t)))
+        .collect();
     // The rigid sweep's loads as reported: a step that breaks its tool
     // deflects by its elastic deflection at rupture (MODEL.md §4.4). Such a
     // tool is overloaded (its rupture strength is at least its allowable
@@ -722,6 +733,7 @@ pub fn run_on(
         rigid_peak_deflection_um,
         stress_limits_mpa,
         rupture_strengths_mpa,
+        tool_names,
     })
 }
 
@@ -1441,12 +1453,12 @@ impl Run {
         if let Some((w, ratio)) = breaking_step(&self.loads, &self.rupture_strengths_mpa) {
             let rupture = self.rupture_strengths_mpa[w];
             let (tool, line, force) = (
-                self.steps[w].tool,
+                &self.tool_names[&self.steps[w].tool],
                 self.steps[w].line,
                 self.loads[w].force_n,
             );
             out.from_lines(WarningKind::ToolBreaks, &breaks, "MPa", false, |v, lines| {
-                format!("the tool breaks: the cutting force and torque stress tool {tool} to {v:.0} MPa at {lines}, {ratio:.1}× its rupture strength of {rupture:.0} MPa ([tool] rupture_strength_mpa, docs/MODEL.md §4.4; {force:.1} N at line {line}); the deflection and error of these steps are the tool's elastic ones at rupture, not the linear beam's: lower the feed or the engagement, or use a stronger tool")
+                format!("the tool breaks: the cutting force and torque stress {tool} to {v:.0} MPa at {lines}, {ratio:.1}× its rupture strength of {rupture:.0} MPa ([tool] rupture_strength_mpa, docs/MODEL.md §4.4; {force:.1} N at line {line}); the deflection and error of these steps are the tool's elastic ones at rupture, not the linear beam's: lower the feed or the engagement, or use a stronger tool")
             });
         }
         if self.closed_loop.enabled && !self.closed_loop.converged {

@@ -191,6 +191,18 @@ impl ToolSet {
             .collect()
     }
 
+    /// Tool `number` as the user knows it, for messages: "the job's tool
+    /// (Ø6 mm)" for a single `[tool]` (which cuts whatever T the program
+    /// names, none included), else "tool T2 (Ø6 mm)".
+    pub fn name(&self, number: u32) -> String {
+        let d = self.entry(number).tool.diameter_mm;
+        if self.single {
+            format!("the job's tool (Ø{d} mm)")
+        } else {
+            format!("tool T{number} (Ø{d} mm)")
+        }
+    }
+
     /// "T1, T2, …".
     pub fn names(&self) -> String {
         self.entries

@@ -268,8 +268,8 @@ pub fn spindle_check(path: &nc::Path, tools: &crate::tools::ToolSet) -> Option<W
     let mut w = Warnings::default();
     w.from_lines(WarningKind::SpindleSpeed, &t, "m/min", false, |_, lines| {
         format!(
-            "S{rpm} at {lines} gives {v:.2} m/min at the edge of tool {number} (Ø{} mm), below {MIN} m/min and under {RPM} rev/min, slower than any milling cutter runs: it is not taken as rev/min (a spindle override in percent, or a laser's power?); forces and the chip-load cap take {taken} rev/min ({}); set [cutting] spindle_rpm to the real spindle speed",
-            e.tool.diameter_mm,
+            "S{rpm} at {lines} gives {v:.2} m/min at the edge of {}, below {MIN} m/min and under {RPM} rev/min, slower than any milling cutter runs: it is not taken as rev/min (a spindle override in percent, or a laser's power?); forces and the chip-load cap take {taken} rev/min ({}); set [cutting] spindle_rpm to the real spindle speed",
+            tools.name(number),
             if taken == 10_000.0 { "the default" } else { "the program's highest plausible S" },
             MIN = crate::tools::MIN_CUTTING_SPEED_M_MIN,
             RPM = crate::tools::MIN_SPINDLE_RPM,
@@ -288,7 +288,10 @@ pub const CHIP_LOAD_FAR_BELOW: f64 = 0.2;
 /// [`CHIP_LOAD_FAR_BELOW`] of the feed the program cuts with: optimize will
 /// slow its cuts many times, which a machinist trusts only if the cap is
 /// right for the stock and the tool.
-pub fn chip_load_check(loads: &[crate::optimize::ToolChipLoad]) -> Vec<Warning> {
+pub fn chip_load_check(
+    loads: &[crate::optimize::ToolChipLoad],
+    tools: &crate::tools::ToolSet,
+) -> Vec<Warning> {
     loads
         .iter()
         .filter_map(|c| {
@@ -305,9 +308,8 @@ pub fn chip_load_check(loads: &[crate::optimize::ToolChipLoad]) -> Vec<Warning> 
                 steps: 0,
                 lines: vec![line],
                 message: format!(
-                    "tool {} (Ø{} mm, {} flutes) cuts at F{programmed:.0}, {:.4} mm/tooth at {:.0} rev/min ({}), but its chip-load cap is {:.4} mm/tooth ({}) = {:.0} mm/min, {:.1}× lower: optimize slows its cuts to the cap. If the stock is wood or plastic, or the tool is made for more, set fz_max for the tool ([tool] or its [[tools]] entry) or [cutting] material (the default table has metals only, MODEL.md §2.1); if the spindle speed is wrong, set [cutting] spindle_rpm",
-                    c.tool,
-                    c.diameter_mm,
+                    "{} with {} flutes cuts at F{programmed:.0}, {:.4} mm/tooth at {:.0} rev/min ({}), but its chip-load cap is {:.4} mm/tooth ({}) = {:.0} mm/min, {:.1}× lower: optimize slows its cuts to the cap. If the stock is wood or plastic, or the tool is made for more, set fz_max for the tool ([tool] or its [[tools]] entry) or [cutting] material (the default table has metals only, MODEL.md §2.1); if the spindle speed is wrong, set [cutting] spindle_rpm",
+                    tools.name(c.tool),
                     c.flutes,
                     c.programmed_fz_mm.unwrap_or(f64::NAN),
                     c.spindle_rpm,
