@@ -119,6 +119,14 @@ pub const LOOP_REL_TOL: f64 = 0.02;
 /// ... or until it stalls: neither the steps out of tolerance nor the largest
 /// residual fell below this share of their value two sweeps before.
 pub const LOOP_STALL_RATIO: f64 = 0.8;
+/// A step the rigid tool bends across its path by no more than this, µm, has
+/// no sideways load: the loop leaves it where the program puts it (offset 0).
+/// An even plunge's resultant is zero but for round-off (f64 sums of the
+/// contact vectors: 10⁻¹⁵…10⁻¹⁴ µm on blendercam_Op_Cutout_Layers' Ø3 plunges;
+/// f32 heights: ≤ 10⁻⁶ of the load, MODEL.md §1.4), and a unit direction made
+/// from it is noise. By the bracket of [`Bracketed`], a step with g(0) ≥ 0 no
+/// larger than this has its root within this of 0, 500× inside the tolerance.
+pub const LOOP_NO_SIDE_LOAD_UM: f64 = 1e-3;
 /// Relaxation factor of a step's offset update: first, largest and smallest.
 const LOOP_RELAX_START: f64 = 0.4;
 const LOOP_RELAX_MAX: f64 = 1.0;
@@ -440,7 +448,8 @@ impl Bracketed {
 
 /// Unit direction in which the closed loop moves a step's tool: the rigid
 /// deflection `(dx, dy)` without its component along the step's XY motion
-/// `m` (MODEL.md §5.1); zero when nothing is left.
+/// `m` (MODEL.md §5.1); zero when no more than [`LOOP_NO_SIDE_LOAD_UM`] is
+/// left (an even plunge's round-off has no direction).
 fn loop_direction(dx: f64, dy: f64, m: [f64; 2]) -> [f64; 2] {
     let m2 = m[0] * m[0] + m[1] * m[1];
     let along = if m2 > 0.0 {
@@ -450,7 +459,7 @@ fn loop_direction(dx: f64, dy: f64, m: [f64; 2]) -> [f64; 2] {
     };
     let (px, py) = (dx - along * m[0], dy - along * m[1]);
     let len = (px * px + py * py).sqrt();
-    if len > 0.0 && len.is_finite() {
+    if len > LOOP_NO_SIDE_LOAD_UM && len.is_finite() {
         [px / len, py / len]
     } else {
         [0.0, 0.0]
@@ -587,6 +596,39 @@ pub fn run_on(
         .filter(|&i| !tools.closed_loop || in_loop[i])
         .map(|i| rigid[i])
         .fold(0.0, f64::max);
+    // Where a step advances less than one grid cell its load comes in whole
+    // columns (MODEL.md §1.5) and g jumps from step to step by the load of a
+    // row of columns; the grid resolves it over [`SUB_CELL_WINDOW_CELLS`]
+    // cells of path (§2.3). Such a step is also within tolerance where the
+    // residual over its window of the loop's steps is (MODEL.md §5.1).
+    let advance_mm: Vec<f64> = steps
+        .iter()
+        .map(|s| {
+            let [fx, fy, _] = s.step.from_mm;
+            let [tx, ty, _] = s.step.to_mm;
+            (tx - fx).hypot(ty - fy)
+        })
+        .collect();
+    let grid_mm = match &stock {
+        StockSource::Whole(s) => s.grid().spacing_mm,
+        StockSource::Tiled(t) => t.grid.spacing_mm,
+    };
+    // Windows over the feed steps of one cut (the steps out of the loop in
+    // it, such as cuts by the tool's bottom alone, weigh nothing below).
+    let feed: Vec<bool> = steps.iter().map(|s| !s.step.rapid).collect();
+    let windows = sub_cell_windows(
+        &advance_mm,
+        &feed,
+        |p| {
+            steps[p - 1].step.to_mm == steps[p].step.from_mm
+                && tool_of_step[p - 1] == tool_of_step[p]
+        },
+        grid_mm,
+        SUB_CELL_WINDOW_CELLS * grid_mm,
+    );
+    let sub_cell: Vec<bool> = (0..n)
+        .map(|i| in_loop[i] && advance_mm[i] < grid_mm && windows[i] != (i, i))
+        .collect();
     let mut x: Vec<f64> = vec![0.0; n];
     let mut report = LoopReport {
         enabled: tools.closed_loop,
@@ -631,24 +673,62 @@ pub fn run_on(
             for i in (0..n).filter(|&i| in_loop[i]) {
                 search[i].observe(x[i], g[i] - x[i], pass);
             }
-            // A step's residual: |g − x|, or where its bracket has closed around
-            // a jump of g, the bracket's width (how far x is from the root).
-            let residual = |i: usize| {
+            // Where a step advances less than a grid cell, g jumps from step to
+            // step by the load of a row of columns (MODEL.md §1.5), and the grid
+            // measures the load over the step's window of path only: such a step
+            // is also within tolerance where its window's path-weighted mean
+            // residual r̄ = mean(g − x) is within the tolerance of the mean offset
+            // once the grid's resolution of r̄ is taken off. That mean is known
+            // to ± |ḡ|·grid/path: the window's removal counts the rows of
+            // columns whose centres its path crosses, ± one row of the path/grid
+            // rows it covers (MODEL.md §5.1).
+            let mut sum_r = vec![0.0; n + 1];
+            let mut sum_x = vec![0.0; n + 1];
+            let mut sum_g = vec![0.0; n + 1];
+            let mut sum_w = vec![0.0; n + 1];
+            let mut path = vec![0.0; n + 1];
+            for i in 0..n {
+                let w = if in_loop[i] { advance_mm[i] } else { 0.0 };
+                sum_r[i + 1] = sum_r[i] + w * (g[i] - x[i]);
+                sum_x[i + 1] = sum_x[i] + w * x[i];
+                sum_g[i + 1] = sum_g[i] + w * g[i];
+                sum_w[i + 1] = sum_w[i] + w;
+                path[i + 1] = path[i] + advance_mm[i];
+            }
+            let within = |r: f64, x: f64| r <= LOOP_TOL_UM + LOOP_REL_TOL * x;
+            // A step's residual and the offset its tolerance scales with: |g −
+            // x|, or where its bracket has closed around a jump of g, the
+            // bracket's width (how far x is from the root); a sub-cell step out
+            // of tolerance so but within it over its window, the window's.
+            let residual = |i: usize| -> (f64, f64) {
                 let r = (g[i] - x[i]).abs();
-                if search[i].closed(pass) {
+                let own = if search[i].closed(pass) {
                     r.min(search[i].hi.at - search[i].lo.at)
                 } else {
                     r
+                };
+                let (a, b) = windows[i];
+                let w = sum_w[b + 1] - sum_w[a];
+                if sub_cell[i] && w > 0.0 && !within(own, x[i].abs()) {
+                    let resolution =
+                        ((sum_g[b + 1] - sum_g[a]) / w).abs() * grid_mm / (path[b + 1] - path[a]);
+                    let rw = (((sum_r[b + 1] - sum_r[a]) / w).abs() - resolution).max(0.0);
+                    let xw = ((sum_x[b + 1] - sum_x[a]) / w).abs();
+                    if within(rw, xw) {
+                        return (rw, xw);
+                    }
                 }
+                (own, x[i].abs())
             };
             report.unconverged = (0..n)
                 .filter(|&i| in_loop[i])
                 .map(|i| (i, residual(i)))
-                .filter(|&(i, r)| r > LOOP_TOL_UM + LOOP_REL_TOL * x[i].abs())
+                .filter(|&(_, (r, xr))| !within(r, xr))
+                .map(|(i, (r, _))| (i, r))
                 .collect();
             report.residual_um = (0..n)
                 .filter(|&i| in_loop[i])
-                .map(residual)
+                .map(|i| residual(i).0)
                 .fold(0.0, f64::max);
             report.converged = report.unconverged.is_empty();
             out_counts.push(report.unconverged.len());
@@ -735,6 +815,68 @@ pub fn run_on(
         rupture_strengths_mpa,
         tool_names,
     })
+}
+
+/// Per item (a servo period, or a step of the closed loop) with path advance
+/// `advance[p]`, the window `(a, b)` of items its value is resolved over
+/// (MODEL.md §2.3): an item of a run (`member[p]`; item p continues the run of
+/// p − 1 where `joins(p)`) that advances less than one grid cell `cell_mm`
+/// gets the shortest run of items centred on it, within its run, that covers
+/// `window_mm` of path (or the whole run); every other item, itself.
+fn sub_cell_windows(
+    advance: &[f64],
+    member: &[bool],
+    joins: impl Fn(usize) -> bool,
+    cell_mm: f64,
+    window_mm: f64,
+) -> Vec<(usize, usize)> {
+    let n = advance.len();
+    let mut adv = vec![0.0; n + 1];
+    for p in 0..n {
+        adv[p + 1] = adv[p] + advance[p];
+    }
+    // Last item of the run each item lies in.
+    let mut run_ends = vec![0; n];
+    for p in (0..n).rev() {
+        run_ends[p] = if p + 1 < n && member[p + 1] && member[p] && joins(p + 1) {
+            run_ends[p + 1]
+        } else {
+            p
+        };
+    }
+    let mut out: Vec<(usize, usize)> = (0..n).map(|p| (p, p)).collect();
+    let mut run_start = 0;
+    for p in 0..n {
+        if !member[p] {
+            run_start = p + 1;
+            continue;
+        }
+        if p > run_start && !joins(p) {
+            run_start = p;
+        }
+        if advance[p] >= cell_mm {
+            continue;
+        }
+        let run_end = run_ends[p];
+        let window = |k: usize| (p.saturating_sub(k).max(run_start), (p + k).min(run_end));
+        let covers = |k: usize| {
+            let (a, b) = window(k);
+            adv[b + 1] - adv[a] >= window_mm
+        };
+        // Smallest half-width that covers the window (or the whole run).
+        let k_max = (p - run_start).max(run_end - p);
+        let (mut lo, mut hi) = (0, k_max);
+        while lo < hi {
+            let mid = (lo + hi) / 2;
+            if covers(mid) {
+                hi = mid;
+            } else {
+                lo = mid + 1;
+            }
+        }
+        out[p] = window(lo);
+    }
+    out
 }
 
 /// `range` widened to the finite values of `error_um` (a map's least and
@@ -1266,51 +1408,21 @@ impl Run {
             s_prev = s_to;
             i = j;
         }
-        // Prefix sums of path, volume and time over periods.
+        // Prefix sums of volume and time over periods.
         let n = own.len();
-        let (mut adv, mut vol, mut time) = (vec![0.0; n + 1], vec![0.0; n + 1], vec![0.0; n + 1]);
+        let (mut vol, mut time) = (vec![0.0; n + 1], vec![0.0; n + 1]);
         for (p, q) in own.iter().enumerate() {
-            adv[p + 1] = adv[p] + (q.s_to_mm - q.s_from_mm);
             vol[p + 1] = vol[p] + q.volume_mm3;
             time[p + 1] = time[p] + q.dt_s;
         }
-        // Last period of the run of cutting periods each period lies in.
-        let mut run_ends = vec![0; n];
-        for p in (0..n).rev() {
-            run_ends[p] = if p + 1 < n && own[p + 1].cutting && own[p].cutting {
-                run_ends[p + 1]
-            } else {
-                p
-            };
-        }
+        let advance: Vec<f64> = own.iter().map(|q| q.s_to_mm - q.s_from_mm).collect();
+        let cutting: Vec<bool> = own.iter().map(|q| q.cutting).collect();
+        let windows = sub_cell_windows(&advance, &cutting, |p| cutting[p - 1], g, window_mm);
         let mut out = own.clone();
-        let mut run_start = 0;
-        for p in 0..n {
-            if !own[p].cutting {
-                run_start = p + 1;
+        for (p, &(a, b)) in windows.iter().enumerate() {
+            if !cutting[p] || advance[p] >= g {
                 continue;
             }
-            if own[p].s_to_mm - own[p].s_from_mm >= g {
-                continue;
-            }
-            let run_end = run_ends[p];
-            let window = |k: usize| (p.saturating_sub(k).max(run_start), (p + k).min(run_end));
-            let covers = |k: usize| {
-                let (a, b) = window(k);
-                adv[b + 1] - adv[a] >= window_mm
-            };
-            // Smallest half-width that covers a cell (or the whole run).
-            let k_max = (p - run_start).max(run_end - p);
-            let (mut lo, mut hi) = (0, k_max);
-            while lo < hi {
-                let mid = (lo + hi) / 2;
-                if covers(mid) {
-                    hi = mid;
-                } else {
-                    lo = mid + 1;
-                }
-            }
-            let (a, b) = window(lo);
             out[p] = Period {
                 s_from_mm: own[a].s_from_mm,
                 s_to_mm: own[b].s_to_mm,
@@ -1467,8 +1579,31 @@ impl Run {
                 warnings::tally(&mut stalled, self.steps[i].line, r);
             }
             let passes = self.closed_loop.passes;
+            let steps = self.closed_loop.unconverged.len();
+            // The columns of the final surface those steps made (their error
+            // map is uncertain by their residual); none known for a tiled stock.
+            let mut left = vec![false; self.steps.len()];
+            for &(i, _) in &self.closed_loop.unconverged {
+                left[i] = true;
+            }
+            let columns = self
+                .stock
+                .last_cut()
+                .iter()
+                .filter(|&&c| c != NEVER_CUT && left[c as usize])
+                .count();
+            let cell = self.stock.grid().spacing_mm;
+            let plural = if steps == 1 { "" } else { "s" };
+            let surface = if columns > 0 {
+                format!(
+                    " and the error map of the {columns} columns ({:.3} mm²) whose surface they made",
+                    columns as f64 * cell * cell
+                )
+            } else {
+                String::new()
+            };
             out.from_lines(WarningKind::ClosedLoop, &stalled, "µm", false, |v, lines| {
-                format!("the tool's offset and its deflection still differ by up to {v:.1} µm after {passes} sweeps at {lines} (docs/MODEL.md §5.1): force, deflection and error there are approximate; the error map stays within the stock")
+                format!("the closed loop did not settle at {steps} step{plural} after {passes} sweeps, at {lines} (docs/MODEL.md §5.1): there the tool's equilibrium lies between the offset tried and the deflection it caused, up to {v:.1} µm apart, so the deflection there{surface} are uncertain by up to {v:.1} µm, and their force in proportion (elsewhere the loop met 0.5 µm + 2 %); the error map stays within the stock")
             });
         }
         if self.record.total_volume_mm3() <= NOTHING_MM3 {
@@ -1790,6 +1925,40 @@ mod tests {
         // A plunge (no XY motion) keeps the whole deflection; nothing left: zero.
         assert_eq!(loop_direction(0.0, -2.0, [0.0, 0.0]), [0.0, -1.0]);
         assert_eq!(loop_direction(5.0, 0.0, [1.0, 0.0]), [0.0, 0.0]);
+        // An even plunge's round-off (blendercam_Op_Cutout_Layers: 2e-15 µm)
+        // has no direction; a nanometre and a half has one.
+        assert_eq!(loop_direction(1.2e-15, -1.5e-15, [0.0, 0.0]), [0.0, 0.0]);
+        assert_eq!(
+            loop_direction(0.0, LOOP_NO_SIDE_LOAD_UM, [0.0, 0.0]),
+            [0.0, 0.0]
+        );
+        assert_eq!(loop_direction(0.0, 1.5e-3, [0.0, 0.0]), [0.0, 1.0]);
+    }
+
+    #[test]
+    fn sub_cell_windows_cover_the_path_within_their_run() {
+        // Cell 1, window 3: a step of 0.5 takes the fewest steps centred on it
+        // that cover 3 mm of path; a whole step keeps itself; a run ends
+        // before an item that does not join (index 6) and at a non-member
+        // (index 9).
+        let advance = [0.5, 0.5, 0.5, 0.5, 2.0, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5];
+        let member = [
+            true, true, true, true, true, true, true, true, true, false, true,
+        ];
+        let w = sub_cell_windows(&advance, &member, |p| p != 6, 1.0, 3.0);
+        assert_eq!(w[0], (0, 4), "the run's start bounds the window");
+        assert_eq!(w[2], (0, 4), "(1, 3) covers 1.5 mm");
+        assert_eq!(w[3], (2, 4));
+        assert_eq!(w[4], (4, 4), "a step of a whole cell is its own window");
+        assert_eq!(w[5], (3, 5), "index 6 starts a new run");
+        assert_eq!(w[6], (6, 8));
+        assert_eq!(
+            w[7],
+            (6, 8),
+            "the run 6..=8 is shorter than the window: all of it"
+        );
+        assert_eq!(w[9], (9, 9), "not a member");
+        assert_eq!(w[10], (10, 10), "a run of one");
     }
 
     #[test]
