@@ -1736,6 +1736,34 @@ fn a_program_for_a_z_down_machine_is_read_and_written_in_its_own_z() {
         written.contains("G0 X-5 Y0 Z-5\n") && written.contains("G18 G3 "),
         "{written}"
     );
+    // servo.csv too is in the machine's own Z: the up run's mirrored, and read
+    // back with the down job it removes what the up run's servo.csv does with
+    // the up job, and what optimize reported but for the corners the stream
+    // cuts across between samples (MODEL.md §2.2).
+    let (servo_up, servo_down) = (
+        csv_columns(&dir.path().join("opt_up/servo.csv")),
+        csv_columns(&dir.path().join("opt_down/servo.csv")),
+    );
+    assert_eq!(servo_up["z"].len(), servo_down["z"].len());
+    assert!(servo_down["z"].iter().any(|&z| z < -4.9), "safe height Z-5");
+    for (a, b) in servo_up["z"].iter().zip(&servo_down["z"]) {
+        assert!((a + b).abs() <= 1e-9, "servo.csv z: up {a}, down {b}");
+    }
+    let removed_servo = |job: &str, program: &str, servo: &str| {
+        let s = simulate_servo_csv(dir.path(), job, program, servo);
+        s["removed_volume_mm3"].as_f64().unwrap()
+    };
+    let by_up = removed_servo("up.toml", "up.nc", "opt_up/servo.csv");
+    let by_down = removed_servo("down.toml", "down.nc", "opt_down/servo.csv");
+    let reported = o_down["after"]["removed_volume_mm3"].as_f64().unwrap();
+    assert!(
+        (by_up - by_down).abs() <= 1e-9 * by_up,
+        "servo.csv: up {by_up}, down {by_down}"
+    );
+    assert!(
+        (by_down - reported).abs() <= 1e-3 * reported,
+        "servo.csv removes {by_down}, optimize reported {reported}"
+    );
     // Read back as the job reads a program: what optimize reported.
     std::fs::copy(
         dir.path().join("opt_down/optimized.nc"),

@@ -1132,16 +1132,20 @@ pub fn optimize_setup(
     let steps_format = steps_format.resolve(after.steps.len().max(before.steps.len()));
     let design = write_run(setup, after, staged, steps_format, columns_csv)?;
     before.write_steps(staged, "steps_before", steps_format)?;
+    // Files for the machine are in its own Z, as optimized.nc is.
+    let z_sign = if setup.program.z_down { -1.0 } else { 1.0 };
     write_servo_csv(
         &staged.join("servo.csv"),
         &written.samples,
         &written.sample_tools,
+        z_sign,
     )?;
     let precomp = if setup.job.servo_given {
         Some(crate::evaluate::write_compensated_servo(
             &setup.job,
             &written.samples,
             setup.machine.period_ms,
+            z_sign,
             &staged.join("servo_compensated.csv"),
         )?)
     } else {
@@ -1209,10 +1213,12 @@ pub fn optimize_setup(
 /// servo.csv: commanded positions every period with path feed, axis
 /// velocities, and the tool and spindle speed of the block each lies on. Read
 /// as a program (a point list with `t_s`), it is simulated as the optimised run.
+/// Z and its velocity are in the machine's own Z (`z_sign` −1 where it points down).
 fn write_servo_csv(
     path: &Path,
     samples: &[schedule::ServoSample],
     tools: &[(u32, f64)],
+    z_sign: f64,
 ) -> Result<()> {
     let velocities = schedule::axis_velocity_mm_s(samples);
     export::atomic::write_file(path, |w| {
@@ -1240,11 +1246,11 @@ fn write_servo_csv(
                     s.t_s,
                     s.pos.x,
                     s.pos.y,
-                    s.pos.z,
+                    z_sign * s.pos.z,
                     s.feed_mm_min,
                     v.x,
                     v.y,
-                    v.z,
+                    z_sign * v.z,
                     tool as f64,
                     rpm,
                 ]

@@ -123,10 +123,14 @@ fn read_servo_csv(path: &Path, period_ms: f64) -> Result<Vec<[f64; 3]>> {
 /// `[servo]` drive model follow `samples` to within `precomp_threshold_mm`, written as
 /// `t_s,x,y,z` every period to `path`. The last sample (the cycle end, off the period grid)
 /// is taken at the next period, where the plan rests at the end point anyway.
+/// The commands are written in the machine's own Z (`z_sign` −1 where its Z points
+/// down): the drive model is the same on every axis direction, so they are the
+/// mirror of those compensated in dexcut's frame.
 pub fn write_compensated_servo(
     job: &Job,
     samples: &[schedule::ServoSample],
     period_ms: f64,
+    z_sign: f64,
     path: &Path,
 ) -> Result<servo::Precomp> {
     let drive = drive(job)?;
@@ -139,7 +143,12 @@ pub fn write_compensated_servo(
         job.servo.precomp_threshold_mm,
         job.servo.precomp_iterations,
     );
-    write_positions_csv(path, &pre.command, period_s)?;
+    let command: Vec<[f64; 3]> = pre
+        .command
+        .iter()
+        .map(|&[x, y, z]| [x, y, z_sign * z])
+        .collect();
+    write_positions_csv(path, &command, period_s)?;
     Ok(pre)
 }
 

@@ -63,17 +63,20 @@ pub fn load(job: &Job) -> Result<Program> {
     let text = crate::bounds::read_text(&path, "program", crate::bounds::MAX_PROGRAM_BYTES)?;
     let file = path.display().to_string();
     if is_points_csv(&text) {
-        // A point list gives tool tips in dexcut's frame, Z up, whatever
-        // `[machine] z_axis` (servo.csv reads back with the job that wrote it).
+        // A point list gives tool tips in the machine's own Z, as servo.csv
+        // writes them: mirrored where `[machine] z_axis = "down"`.
         // A point list without a tool column is cut by the job's first tool.
         let tool = job.tool_specs()[0].0.unwrap_or(1);
-        let path = read_points_csv(&text, &file, job.program.feed, tool)?;
+        let mut path = read_points_csv(&text, &file, job.program.feed, tool)?;
+        if job.machine.z_axis == ZAxis::Down {
+            path.mirror_z();
+        }
         Ok(Program {
             path,
             file,
             gcode: None,
             nc_options: nc::Options::default(),
-            z_down: false,
+            z_down: job.machine.z_axis == ZAxis::Down,
             read_warnings: Vec::new(),
         })
     } else {
