@@ -3723,4 +3723,14 @@ stress = true
     let after = s["after"]["peak_stress_mpa"].as_f64().unwrap();
     assert!(after <= limit * 1.02, "after {after} MPa");
     assert!(warning(&s["after"], "limit_exceeded").is_none());
+    // The report shows the stress held and the limit it was held to.
+    ok(&dexcut(&["report", "out"], dir.path()));
+    let html = std::fs::read_to_string(d.join("report.html")).unwrap();
+    let before = s["before"]["peak_stress_mpa"].as_f64().unwrap();
+    let row = format!(
+        "peak tool stress</th><td class=\"v\">{before:.0} MPa</td><td class=\"v\">{after:.0} MPa</td>"
+    );
+    assert!(html.contains(&row), "report lacks {row}");
+    assert!(html.contains("allowable stress 300 MPa"), "tool row");
+    assert!(html.contains("stress_limit_mpa 300 MPa"), "limits row");
 }

@@ -194,6 +194,20 @@ impl Setup {
             ("feed_scale_max", l.feed_scale_max, "×"),
         ]
         .into_iter()
+        .chain([(
+            "stress_limit_mpa",
+            // The weakest tool's allowable stress, held when `[limits] stress`.
+            l.stress
+                .then(|| {
+                    self.tools
+                        .entries
+                        .iter()
+                        .map(|e| e.stress_limit_mpa)
+                        .reduce(f64::min)
+                })
+                .flatten(),
+            "MPa",
+        )])
         .filter_map(|(k, v, u)| v.map(|v| (k.to_string(), v, u.to_string())))
         .collect();
         crate::summary::SetupInfo {
@@ -216,6 +230,7 @@ impl Setup {
                     flutes: e.tool.flutes,
                     stickout_mm: e.tool.stickout_mm,
                     fz_max_mm: e.fz_max_mm,
+                    stress_limit_mpa: Some(e.stress_limit_mpa),
                 })
                 .collect(),
             period_ms: self.machine.period_ms,

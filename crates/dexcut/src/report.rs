@@ -359,13 +359,15 @@ fn setup_rows(summary: &SummaryDoc) -> Vec<(String, String)> {
         rows.push((
             format!("tool T{}", t.number),
             format!(
-                "{} Ø{} mm, {} flutes, stickout {} mm{}",
+                "{} Ø{} mm, {} flutes, stickout {} mm{}{}",
                 t.shape,
                 t.diameter_mm,
                 t.flutes,
                 t.stickout_mm,
                 t.fz_max_mm
-                    .map_or(String::new(), |f| format!(", fz_max {f} mm/tooth"))
+                    .map_or(String::new(), |f| format!(", fz_max {f} mm/tooth")),
+                t.stress_limit_mpa
+                    .map_or(String::new(), |s| format!(", allowable stress {s:.0} MPa"))
             ),
         ));
     }
@@ -401,7 +403,7 @@ fn setup_rows(summary: &SummaryDoc) -> Vec<(String, String)> {
 type Row<T> = (&'static str, &'static str, usize, fn(&T) -> f64);
 
 /// Summary rows of a run.
-const ROWS: [Row<Summary>; 11] = [
+const ROWS: [Row<Summary>; 12] = [
     ("cycle time", "s", 3, |s| s.cycle_time_s),
     ("peak MRR (≥ 48 ms, ≥ 10 cells)", "mm³/s", 2, |s| {
         s.peak_mrr_windowed_mm3_s
@@ -409,6 +411,8 @@ const ROWS: [Row<Summary>; 11] = [
     ("peak MRR per period", "mm³/s", 2, |s| s.peak_mrr_mm3_s),
     ("peak force", "N", 1, |s| s.peak_force_n),
     ("peak deflection", "µm", 1, |s| s.peak_deflection_um),
+    // Von Mises, against the tool's allowable stress (MODEL.md §4.4).
+    ("peak tool stress", "MPa", 0, |s| s.peak_stress_mpa),
     ("removed volume", "mm³", 1, |s| s.removed_volume_mm3),
     ("initial volume", "mm³", 1, |s| s.initial_volume_mm3),
     ("steps", "", 0, |s| s.steps as f64),

@@ -57,6 +57,10 @@ pub struct ToolInfo {
     pub stickout_mm: f64,
     /// Largest feed per tooth, mm/tooth, if capped.
     pub fz_max_mm: Option<f64>,
+    /// Allowable von Mises stress, MPa (MODEL.md §4.4); absent in summaries
+    /// written before it was recorded.
+    #[serde(default)]
+    pub stress_limit_mpa: Option<f64>,
 }
 
 /// The version of summary.json this build writes and reads.
