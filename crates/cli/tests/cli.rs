@@ -1070,9 +1070,24 @@ fn default_example_optimizes_under_the_limit() {
         after["removed_volume_mm3"].as_f64().unwrap(),
     );
     assert!(rel(v1, v0) < 0.03, "removed {v0} before, {v1} after");
-    let servo = csv_columns(&out.join("servo.csv"));
+    // The servo samples (a row at a corner where a period changes between
+    // rapid and feed, sample = 0, is not one): every 16 ms.
+    let mut servo = csv_columns(&out.join("servo.csv"));
+    let is_sample = servo["sample"].clone();
+    assert!(is_sample.contains(&0.0));
+    for column in servo.values_mut() {
+        *column = column
+            .iter()
+            .zip(&is_sample)
+            .filter(|(_, &s)| s == 1.0)
+            .map(|(&v, _)| v)
+            .collect();
+    }
     let dt = servo["t_s"][1] - servo["t_s"][0];
     assert!((dt - 0.016).abs() < 1e-12);
+    for w in servo["t_s"].windows(2).take(servo["t_s"].len() - 2) {
+        assert!((w[1] - w[0] - dt).abs() < 1e-9, "samples {w:?}");
+    }
     // Feed moves within feed_max (rapids run at the rapid rate); the period
     // that crosses from a rapid into a feed move is skipped.
     let steps = csv_columns(&out.join("steps.csv"));
@@ -2329,11 +2344,10 @@ fn simulate_servo_csv(dir: &Path, job: &str, program: &str, servo: &str) -> Valu
 }
 
 /// servo.csv does what the summary says: read back as a program (a point list
-/// timed by its `t_s`, each sample with its tool and spindle speed) and
-/// simulated, it removes what the summary's `after` run removed, in the same
-/// time, with the same peaks and error map. (The optimised run has two more
-/// steps: periods where a rapid starts or ends are swept in two parts
-/// through the path's corner; both corners are in air.)
+/// timed by its `t_s`, each sample with its tool and spindle speed, each move
+/// with its kind, the corners where a period changes between rapid and feed
+/// as rows of their own) and simulated, it removes what the summary's `after`
+/// run removed, in the same time, with the same peaks and error map.
 #[test]
 fn servo_csv_simulated_as_a_program_is_the_optimised_run() {
     let dir = tempdir();
@@ -2364,13 +2378,100 @@ fn servo_csv_simulated_as_a_program_is_the_optimised_run() {
     // Without the spindle column the stream would be cut at the 10 000 rev/min
     // default instead of the program's S6000: a smaller chip, a smaller force.
     let servo_csv = std::fs::read_to_string(dir.path().join("opt/servo.csv")).unwrap();
+    assert!(servo_csv.starts_with(
+        "t_s,x,y,z,feed_mm_min,vx_mm_s,vy_mm_s,vz_mm_s,tool,spindle_rpm,rapid,sample\n"
+    ));
     assert!(
-        servo_csv.starts_with("t_s,x,y,z,feed_mm_min,vx_mm_s,vy_mm_s,vz_mm_s,tool,spindle_rpm\n")
-    );
-    assert!(
-        servo_csv.lines().nth(1).unwrap().ends_with(",6000"),
+        servo_csv.lines().nth(1).unwrap().ends_with(",6000,1,1"),
         "{servo_csv:.200}"
     );
+}
+
+/// A rapid that cuts (G0 into the stock's side) and servo periods that hold
+/// the end of a rapid and the start of a feed move: servo.csv marks its
+/// rapids (`rapid` = 1) and the corners inside periods (`sample` = 0), so read
+/// back it sweeps the run's own steps with their kinds. Its summary equals the
+/// run's (peak force, MRR, stress, removal, error map); read as feed moves
+/// from corner-less samples (before), the period chord into the cut took the
+/// steady cut's load over the rapid's length (MODEL.md §1.6).
+#[test]
+fn servo_csv_keeps_the_rapids_and_their_corners() {
+    let dir = tempdir();
+    write(
+        dir.path(),
+        "job.toml",
+        r#"
+[stock]
+kind = "box"
+min = [0, -10, 0]
+max = [40, 10, 10]
+grid = 0.2
+[tool]
+kind = "flat"
+diameter = 6
+flute_length = 20
+[program]
+path = "cut.nc"
+[machine]
+feed_max = 3000
+rapid = 6000
+[limits]
+mrr_max = 40
+"#,
+    );
+    write(
+        dir.path(),
+        "cut.nc",
+        "%\nG21 G90 G17\nS10000 M3\nG0 X-5 Y2 Z15\nG0 Z9\nG0 X4\nG1 X30 F1200\nG0 Z15\n\
+         G0 X10 Y-6\nG0 Z9.02\nG1 Z8 F300\nG1 X35 F1200\nG0 Z15\nM30\n%\n",
+    );
+    ok(&dexcut(
+        &["optimize", "job.toml", "--out", "opt"],
+        dir.path(),
+    ));
+    let after = summary(&dir.path().join("opt"))["after"].clone();
+    let kinds: Vec<&str> = after["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w["kind"].as_str().unwrap())
+        .collect();
+    assert!(kinds.contains(&"rapid_cut"), "{kinds:?}");
+    let servo = csv_columns(&dir.path().join("opt/servo.csv"));
+    let corners = servo["sample"].iter().filter(|&&s| s == 0.0).count();
+    assert!(corners >= 3, "{corners} corner rows");
+    assert!(servo["rapid"].contains(&1.0));
+    let again = simulate_servo_csv(dir.path(), "job.toml", "cut.nc", "opt/servo.csv");
+    for key in [
+        "removed_volume_mm3",
+        "cycle_time_s",
+        "peak_mrr_mm3_s",
+        "peak_force_n",
+        "peak_deflection_um",
+        "peak_stress_mpa",
+        "max_error_um",
+        "min_error_um",
+        "steps",
+        "rapid_collision_steps",
+    ] {
+        let (a, b) = (after[key].as_f64().unwrap(), again[key].as_f64().unwrap());
+        assert!(
+            (a - b).abs() <= 1e-9 * a.abs().max(1.0),
+            "{key}: summary {a}, servo.csv {b}"
+        );
+    }
+    // evaluate reads the samples alone (every period_ms).
+    ok(&dexcut(
+        &[
+            "evaluate",
+            "job.toml",
+            "--servo",
+            "opt/servo.csv",
+            "--out",
+            "ev",
+        ],
+        dir.path(),
+    ));
 }
 
 /// Two tools, each with its own chip load: T1 fz 0.1 (2000 mm/min at

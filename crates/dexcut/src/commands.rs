@@ -372,7 +372,10 @@ impl Setup {
                 "--actual-path needs a G-code program (CSV point lists have no servo timing)"
             )
         } else {
-            Ok(motion::direct_steps(&self.program.path))
+            Ok(motion::direct_steps(
+                &self.program.path,
+                self.program.stream.as_ref(),
+            ))
         }
     }
 
@@ -1153,6 +1156,7 @@ pub fn optimize_setup(
         &staged.join("servo.csv"),
         &written.samples,
         &written.sample_tools,
+        &after.steps,
         z_sign,
     )?;
     let precomp = if setup.job.servo_given {
@@ -1226,16 +1230,24 @@ pub fn optimize_setup(
 }
 
 /// servo.csv: commanded positions every period with path feed, axis
-/// velocities, and the tool and spindle speed of the block each lies on. Read
-/// as a program (a point list with `t_s`), it is simulated as the optimised run.
+/// velocities, the tool and spindle speed of the block each lies on, and
+/// whether the move to it is a rapid (`rapid`). A period that the run
+/// `steps` (swept from these samples) splits where the motion changes between
+/// rapid and feed also gets a row at each such corner, with the time the run
+/// gave it and `sample` = 0 (a servo sample: 1). Read as a program (a point
+/// list with `t_s`), it is simulated as the optimised run, step for step.
 /// Z and its velocity are in the machine's own Z (`z_sign` −1 where it points down).
 fn write_servo_csv(
     path: &Path,
     samples: &[schedule::ServoSample],
     tools: &[(u32, f64)],
+    steps: &[TimedStep],
     z_sign: f64,
 ) -> Result<()> {
     let velocities = schedule::axis_velocity_mm_s(samples);
+    // The run's steps, period by period: a period's steps up to the next
+    // one that does not continue it.
+    let mut next_step = 0;
     export::atomic::write_file(path, |w| {
         let mut out = csv::Writer::from_writer(w);
         out.write_record([
@@ -1249,13 +1261,67 @@ fn write_servo_csv(
             "vz_mm_s",
             "tool",
             "spindle_rpm",
+            "rapid",
+            "sample",
         ])?;
+        let flag = |b: bool| if b { 1.0 } else { 0.0 };
         for (i, (s, &(tool, rpm))) in samples.iter().zip(tools).enumerate() {
             let v = if i == 0 {
                 nalgebra::Vector3::zeros()
             } else {
                 velocities[i - 1]
             };
+            // The period's steps (none before the first sample).
+            let period = if i == 0 {
+                &steps[..0]
+            } else {
+                let first = next_step.min(steps.len());
+                let mut end = (first + 1).min(steps.len());
+                while end < steps.len() && steps[end].continues {
+                    end += 1;
+                }
+                next_step = end;
+                &steps[first..end]
+            };
+            // Its corners, each where a part of positive duration ends
+            // before the sample (a corner at the time of the row before it
+            // or of the sample adds nothing: that part is empty). The move to
+            // the sample takes the kind of its last part that moves.
+            let mut t_row = if i == 0 {
+                f64::NEG_INFINITY
+            } else {
+                samples[i - 1].t_s
+            };
+            let mut kind = steps.first().is_some_and(|p| p.step.rapid);
+            let mut moved = false;
+            for (j, c) in period.iter().enumerate() {
+                let corner = j + 1 < period.len() && c.t_end_s > t_row && c.t_end_s < s.t_s;
+                if corner {
+                    let [x, y, z] = c.step.to_mm;
+                    out.write_record(
+                        [
+                            c.t_end_s,
+                            x,
+                            y,
+                            z_sign * z,
+                            c.feed_mm_min,
+                            v.x,
+                            v.y,
+                            z_sign * v.z,
+                            c.tool as f64,
+                            c.spindle_rpm,
+                            flag(c.step.rapid),
+                            0.0,
+                        ]
+                        .map(simulate::fmt),
+                    )?;
+                    t_row = c.t_end_s;
+                    moved = false;
+                } else if !moved || c.step.from_mm != c.step.to_mm {
+                    kind = c.step.rapid;
+                    moved = c.step.from_mm != c.step.to_mm;
+                }
+            }
             out.write_record(
                 [
                     s.t_s,
@@ -1268,6 +1334,8 @@ fn write_servo_csv(
                     z_sign * v.z,
                     tool as f64,
                     rpm,
+                    flag(kind),
+                    1.0,
                 ]
                 .map(simulate::fmt),
             )?;

@@ -54,7 +54,8 @@ fn commanded(setup: &Setup, machine: &Machine) -> Result<Vec<[f64; 3]>> {
     Ok(samples.iter().map(|s| s.pos.coords.into()).collect())
 }
 
-/// Commanded positions from a servo.csv (`t_s,x,y,z,…`), e.g. from `optimize`.
+/// Commanded positions from a servo.csv (`t_s,x,y,z,…`), e.g. from `optimize`
+/// (its corner rows, `sample` = 0, left out).
 fn read_servo_csv(path: &Path, period_ms: f64) -> Result<Vec<[f64; 3]>> {
     let size = crate::bounds::check_input_file(path, "servo data", crate::bounds::MAX_CSV_BYTES)?;
     // A row is at least 8 bytes ("0,0,0,0\n"); each costs about BYTES_PER_SAMPLE while evaluated.
@@ -67,6 +68,12 @@ fn read_servo_csv(path: &Path, period_ms: f64) -> Result<Vec<[f64; 3]>> {
         "servo data",
         crate::bounds::MAX_CSV_BYTES,
     )?);
+    // optimize's corner rows (`sample` = 0: where a period changes between
+    // rapid and feed) are not servo samples.
+    let sample_column = reader.headers().ok().and_then(|h| {
+        h.iter()
+            .position(|c| c.trim().eq_ignore_ascii_case("sample"))
+    });
     let mut out = Vec::new();
     // Interval before each sample, ms, with its line (checked once the last row is known).
     let mut intervals: Vec<(usize, f64)> = Vec::new();
@@ -76,6 +83,9 @@ fn read_servo_csv(path: &Path, period_ms: f64) -> Result<Vec<[f64; 3]>> {
         let rec = rec.or_input(&path.display().to_string(), line as u64, 1, || {
             "bad row".into()
         })?;
+        if sample_column.is_some_and(|k| rec.get(k).is_some_and(|v| v.trim() == "0")) {
+            continue;
+        }
         let num = |k: usize| -> Result<f64> {
             let raw = rec.get(k).unwrap_or("");
             let (file, line, col) = (path.display().to_string(), line as u64, k as u64 + 1);

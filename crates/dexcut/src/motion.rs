@@ -165,33 +165,56 @@ fn samples(stations: &Stations, machine: &Machine) -> Result<Vec<ServoSample>> {
 }
 
 /// CSV point lists: one step per move, time = length / feed (no acceleration);
-/// a dwell (a servo stream's row where the tool stays put) takes its time.
-pub fn direct_steps(path: &nc::Path) -> Vec<TimedStep> {
+/// a dwell (a servo stream's row where the tool stays put) takes its time. A
+/// servo stream (`stream`: servo.csv read back) times each move by its rows'
+/// `t_s` and gives it its kind (rapid or feed) and whether it continues the
+/// servo period before it, as the run that wrote the stream swept it.
+pub fn direct_steps(
+    path: &nc::Path,
+    stream: Option<&crate::program::StreamTiming>,
+) -> Vec<TimedStep> {
     let (mut t, mut s) = (0.0, 0.0);
     path.segments
         .iter()
-        .map(|seg| {
-            let (feed, dt) = match seg.motion {
-                Motion::Feed { feed_mm_min } if feed_mm_min > 0.0 => {
-                    (feed_mm_min, seg.length_mm() / feed_mm_min * 60.0)
+        .enumerate()
+        .map(|(k, seg)| {
+            let (t_end, dt) = match stream {
+                Some(timing) => {
+                    let t_end = timing.t_end_s[k];
+                    let t0 = if k == 0 { 0.0 } else { timing.t_end_s[k - 1] };
+                    (t_end, t_end - t0)
                 }
-                Motion::Dwell { seconds } => (0.0, seconds),
-                _ => (0.0, 0.0),
+                None => {
+                    let dt = match seg.motion {
+                        Motion::Feed { feed_mm_min } if feed_mm_min > 0.0 => {
+                            seg.length_mm() / feed_mm_min * 60.0
+                        }
+                        Motion::Dwell { seconds } => seconds,
+                        _ => 0.0,
+                    };
+                    (t + dt, dt)
+                }
             };
-            t += dt;
+            let feed = match seg.motion {
+                Motion::Dwell { .. } => 0.0,
+                Motion::Feed { feed_mm_min } if stream.is_none() => feed_mm_min.max(0.0),
+                _ if dt > 0.0 => seg.length_mm() / dt * 60.0,
+                _ => 0.0,
+            };
+            t = t_end;
             s += seg.length_mm();
             TimedStep {
                 step: dexel::Step {
                     from_mm: seg.start.coords.into(),
                     to_mm: seg.end.coords.into(),
-                    rapid: false,
+                    rapid: matches!(seg.motion, Motion::Rapid),
                 },
                 t_end_s: t,
                 dt_s: dt,
                 feed_mm_min: feed,
                 line: seg.line,
                 s_end_mm: s,
-                continues: false,
+                continues: stream.is_some_and(|timing| timing.continues[k]),
                 tool: seg.tool,
                 spindle_rpm: seg.spindle_rpm,
             }

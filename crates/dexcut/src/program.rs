@@ -24,6 +24,21 @@ pub struct Program {
     /// What the reader warned of: where LinuxCNC would refuse the file (no
     /// program end, a byte-order mark) but most controls read it.
     pub read_warnings: Vec<nc::Diagnostic>,
+    /// A servo stream's own timing (a CSV point list with `t_s`, such as
+    /// servo.csv): its moves are timed by it, not by their feeds.
+    pub stream: Option<StreamTiming>,
+}
+
+/// The timing of a servo stream read as a program (a point list with a
+/// `t_s` column, such as optimize's servo.csv), per move of its path.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StreamTiming {
+    /// Time at the end of each move from the stream's first row, s.
+    pub t_end_s: Vec<f64>,
+    /// The move continues the servo period of the move before it: it starts
+    /// at a corner row (`sample` = 0), where the motion changes between
+    /// rapid and feed inside a period.
+    pub continues: Vec<bool>,
 }
 
 impl Program {
@@ -67,7 +82,7 @@ pub fn load(job: &Job) -> Result<Program> {
         // writes them: mirrored where `[machine] z_axis = "down"`.
         // A point list without a tool column is cut by the job's first tool.
         let tool = job.tool_specs()[0].0.unwrap_or(1);
-        let mut path = read_points_csv(&text, &file, job.program.feed, tool)?;
+        let (mut path, stream) = read_points_csv(&text, &file, job.program.feed, tool)?;
         if job.machine.z_axis == ZAxis::Down {
             path.mirror_z();
         }
@@ -78,6 +93,7 @@ pub fn load(job: &Job) -> Result<Program> {
             nc_options: nc::Options::default(),
             z_down: job.machine.z_axis == ZAxis::Down,
             read_warnings: Vec::new(),
+            stream,
         })
     } else {
         parse_gcode(text, &file, job)
@@ -185,6 +201,7 @@ pub fn parse_gcode(text: String, file: &str, job: &Job) -> Result<Program> {
             .into_iter()
             .filter(|d| !d.is_error())
             .collect(),
+        stream: None,
     })
 }
 
@@ -218,13 +235,17 @@ fn default_start(path: &nc::Path) -> [f64; 3] {
 /// stays put is a dwell, and a feed column is not read. Optional columns
 /// `tool` (T number; else `default_tool`) and `spindle_rpm` (rev/min; else
 /// none given) say which tool cuts each move and at what spindle speed, as
-/// servo.csv's do.
+/// servo.csv's do. A stream's optional column `rapid` (1: the move ending at
+/// the row is a rapid, G0) gives the moves their kind, and `sample` (0: the
+/// row is a corner inside a servo period, where the motion changes between
+/// rapid and feed; 1 or absent: a servo sample) says which move continues the
+/// period of the one before; the stream's timing comes back with the path.
 pub fn read_points_csv(
     text: &str,
     file: &str,
     default_feed: Option<f64>,
     default_tool: u32,
-) -> Result<nc::Path> {
+) -> Result<(nc::Path, Option<StreamTiming>)> {
     let mut reader = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .from_reader(text.as_bytes());
@@ -249,6 +270,9 @@ pub fn read_points_csv(
     // time the moves, not a feed.
     let it = find("t_s");
     let (ispindle, itool) = (find("spindle_rpm"), find("tool"));
+    let (irapid, isample) = (find("rapid"), find("sample"));
+    let mut timing = it.map(|_| StreamTiming::default());
+    let (mut t_first, mut prev_corner) = (None, false);
     if it.is_none() && ifeed.is_none() && default_feed.is_none() {
         return Err(Error::input(
             file,
@@ -282,11 +306,26 @@ pub fn read_points_csv(
         };
         let p = Point3::new(field(ix, "x")?, field(iy, "y")?, field(iz, "z")?);
         let col_of = |i: usize| record.range(i).map_or(1, |r| r.start + i + 1) as u64;
+        // A 0/1 column of a stream (absent: `absent`).
+        let flag = |i: Option<usize>, what: &str, absent: bool| -> Result<bool> {
+            let Some(i) = i.filter(|_| it.is_some()) else {
+                return Ok(absent);
+            };
+            let v = field(i, what)?;
+            if v != 0.0 && v != 1.0 {
+                let message = format!("{what} must be 0 or 1, got {v}");
+                return Err(Error::input(file, line as u64, col_of(i), message));
+            }
+            Ok(v == 1.0)
+        };
+        let rapid = flag(irapid, "rapid", false)?;
+        let corner = !flag(isample, "sample", true)?;
         // The move from the previous row to this one.
         let motion = if let Some(it) = it {
             let t = field(it, "t_s")?;
             let dt = prev_t.map(|t0| (t - t0, t0));
             prev_t = Some(t);
+            let t_first = *t_first.get_or_insert(t);
             match (prev, dt) {
                 (Some(start), Some((dt, t0))) => {
                     if !(dt > 0.0) {
@@ -294,9 +333,15 @@ pub fn read_points_csv(
                             format!("t_s must increase from row to row: {t} s after {t0} s");
                         return Err(Error::input(file, line as u64, col_of(it), message));
                     }
+                    if let Some(timing) = timing.as_mut() {
+                        timing.t_end_s.push(t - t_first);
+                        timing.continues.push(prev_corner);
+                    }
                     let length = (p - start).norm();
                     // A row where the tool stays put is a dwell of its period.
-                    if length > 0.0 {
+                    if rapid {
+                        Motion::Rapid
+                    } else if length > 0.0 {
                         Motion::Feed {
                             feed_mm_min: 60.0 * length / dt,
                         }
@@ -340,6 +385,7 @@ pub fn read_points_csv(
             }
             None => default_tool,
         };
+        prev_corner = corner;
         if let Some(start) = prev {
             segments.push(Segment {
                 start,
@@ -356,7 +402,7 @@ pub fn read_points_csv(
     if segments.is_empty() {
         fail!(request, "{file}: need at least two points to make a move");
     }
-    Ok(nc::Path { segments })
+    Ok((nc::Path { segments }, timing))
 }
 
 #[cfg(test)]
@@ -365,13 +411,14 @@ mod tests {
 
     #[test]
     fn csv_points_become_lines() {
-        let path = read_points_csv(
+        let (path, timing) = read_points_csv(
             "x,y,z,feed\n0,0,1,\n10,0,1,600\n10,5,1,\n",
             "p.csv",
             Some(1200.0),
             1,
         )
         .unwrap();
+        assert_eq!(timing, None);
         assert_eq!(path.segments.len(), 2);
         assert_eq!(path.segments[0].motion, Motion::Feed { feed_mm_min: 600.0 });
         assert_eq!(
@@ -388,7 +435,7 @@ mod tests {
     fn servo_streams_are_timed_by_their_times() {
         let text =
             "t_s,x,y,z,feed_mm_min\n0,0,0,1,0\n0.01,0.5,0,1,9\n0.02,0.5,0,1,0\n0.03,0.5,0.2,1,9\n";
-        let path = read_points_csv(text, "servo.csv", None, 1).unwrap();
+        let (path, timing) = read_points_csv(text, "servo.csv", None, 1).unwrap();
         assert_eq!(path.segments.len(), 3);
         // 0.5 mm in 0.01 s is 3000 mm/min whatever the feed column says.
         match path.segments[0].motion {
@@ -396,11 +443,10 @@ mod tests {
             m => panic!("{m:?}"),
         }
         assert_eq!(path.segments[1].motion, Motion::Dwell { seconds: 0.01 });
-        let steps = crate::motion::direct_steps(&path);
+        let steps = crate::motion::direct_steps(&path, timing.as_ref());
         let times: Vec<f64> = steps.iter().map(|s| s.t_end_s).collect();
-        for (t, want) in times.iter().zip([0.01, 0.02, 0.03]) {
-            assert!((t - want).abs() < 1e-12, "{times:?}");
-        }
+        assert_eq!(times, [0.01, 0.02, 0.03]);
+        assert!(steps.iter().all(|s| !s.step.rapid && !s.continues));
         let err = read_points_csv(
             "t_s,x,y,z\n0,0,0,0\n0.1,1,0,0\n0.1,2,0,0\n",
             "s.csv",
@@ -413,6 +459,38 @@ mod tests {
             err,
             "s.csv:4:1: t_s must increase from row to row: 0.1 s after 0.1 s"
         );
+    }
+
+    #[test]
+    fn servo_streams_keep_their_rapids_and_corners() {
+        // A rapid down to a corner row inside the period ending at 0.02 s,
+        // then the feed part of that period.
+        let text = "t_s,x,y,z,rapid,sample\n0,0,0,5,1,1\n0.01,0,0,1,1,1\n0.015,0,0,0,1,0\n0.02,0.4,0,0,0,1\n";
+        let (path, timing) = read_points_csv(text, "servo.csv", None, 1).unwrap();
+        let kinds: Vec<bool> = path
+            .segments
+            .iter()
+            .map(|s| s.motion == Motion::Rapid)
+            .collect();
+        assert_eq!(kinds, [true, true, false]);
+        let steps = crate::motion::direct_steps(&path, timing.as_ref());
+        let rapid: Vec<bool> = steps.iter().map(|s| s.step.rapid).collect();
+        let continues: Vec<bool> = steps.iter().map(|s| s.continues).collect();
+        let times: Vec<f64> = steps.iter().map(|s| s.t_end_s).collect();
+        assert_eq!(rapid, [true, true, false]);
+        assert_eq!(continues, [false, false, true]);
+        assert_eq!(times, [0.01, 0.015, 0.02]);
+        // 0.4 mm in 5 ms.
+        assert!((steps[2].feed_mm_min - 4800.0).abs() < 1e-9);
+        let err = read_points_csv(
+            "t_s,x,y,z,rapid\n0,0,0,0,0\n0.1,1,0,0,2\n",
+            "s.csv",
+            None,
+            1,
+        )
+        .unwrap_err()
+        .to_string();
+        assert_eq!(err, "s.csv:3:11: rapid must be 0 or 1, got 2");
     }
 
     #[test]
