@@ -103,10 +103,12 @@ const LAMBDA_SEARCH_MAX_STATIONS: usize = 4000;
 /// W = λ·max_k a_k/j_k. The filtered jerk is (a(t) − a(t−W))/W, at most λ·a/W ≤ j as long as
 /// the planned acceleration never changes sign within W. The plan makes sure of that:
 /// * every local minimum of the speed is a cap; the cap c of each corner and of each
-///   station the plan without holds touches is extended over c·W/2 on either side
-///   (c·(W + 3T)/2 at a corner), so the plan rests at that speed for W (W + 3T at a
-///   corner: the filtered speed is then constant for 3T around the corner, the sampling
-///   stencil of its velocity step); caps the plan without holds stays below need no hold;
+///   station the plan without holds touches is extended over c·W/2 on either side, so
+///   the plan rests at that speed for W and the filtered speed is at most c there; a
+///   corner whose samples need it gets c·(W + 3T)/2 (the filtered speed is then
+///   constant for 3T around the corner, the sampling stencil of its velocity step; see
+///   [`RunPlanner::restore_holds`]); caps the plan without holds stays below need no
+///   hold;
 /// * every local maximum that is held for less than W is cut flat at the highest level c
 ///   where it is held for c·W.
 ///
@@ -120,8 +122,9 @@ const LAMBDA_SEARCH_MAX_STATIONS: usize = 4000;
 /// Verified runs (MODEL.md §6.1): these rules bound the sampled axis differences only
 /// approximately, so each run is kept only once its servo samples (those
 /// [`Profile::sample`] makes at the machine's period) have every per-axis second difference
-/// within a_i and third difference within j_i: the candidate λ values in order, then the
-/// first one repaired (filter widened, or caps lowered around the failing stencils), then
+/// within a_i and third difference within j_i: the candidate λ values in order (the first
+/// one with the full holds restored at the corners near failing stencils), then the first
+/// one repaired (filter widened, or caps lowered around the failing stencils), then
 /// slowed in time until it verifies.
 pub fn plan(stations: &Stations) -> Profile<'_> {
     let base_window_s = stations
@@ -160,6 +163,9 @@ pub fn plan(stations: &Stations) -> Profile<'_> {
 enum Verified {
     /// The candidate λ of this index.
     Candidate(usize),
+    /// The first candidate with the full corner holds restored around the failing
+    /// stencils this many times.
+    Restored(usize),
     /// The first candidate repaired (filter widened or caps lowered) this many times.
     Repaired(usize),
     /// That plan slowed in time by σ, after this many tries.
@@ -171,8 +177,11 @@ enum Verified {
     },
 }
 
-/// Tries of the first fallback (caps lowered where samples break a limit).
+/// Tries of the first fallback (full corner holds restored where samples break a limit).
+const RESTORE_MAX_TRIES: usize = 4;
+/// Tries of the second fallback (caps lowered where samples break a limit).
 const REPAIR_MAX_TRIES: usize = 8;
+
 /// ... which divides the filter's width by this (its jerk then at most 0.98·j) where more
 /// than [`FEW_VIOLATIONS`] stencils break a limit, and lowers the caps around them where
 /// no more do.
@@ -197,6 +206,9 @@ struct RunPlanner<'a> {
     /// Largest station spacing of the path, mm.
     ds_max_mm: f64,
     is_corner: Vec<bool>,
+    /// Corners held over c·(W + 3T)/2 (the others over c·W/2, as touched caps): set where
+    /// a run's samples broke a limit (MODEL.md §6.1, "Local corner holds").
+    full_hold: Vec<bool>,
     trial: Vec<f64>,
 }
 
@@ -217,6 +229,7 @@ impl<'a> RunPlanner<'a> {
                 .map(|w| w[1] - w[0])
                 .fold(0.0, f64::max),
             is_corner,
+            full_hold: vec![false; n],
             trial: vec![0.0; n],
         }
     }
@@ -266,12 +279,32 @@ impl<'a> RunPlanner<'a> {
             if ratio <= 1.0 {
                 return (end_s, Verified::Candidate(index));
             }
+            if index > 0 {
+                continue;
+            }
+            // Fallback 1, on the first candidate: the corners near the stencils that break
+            // a limit get the 3T of their hold back (constant speed around the corner).
+            for restores in 1..=RESTORE_MAX_TRIES.min(repair_tries) {
+                if !self.restore_holds(first, last, lambda * base_window_s, &violations) {
+                    break;
+                }
+                violations.clear();
+                let (end_s, ratio) = plan(
+                    self,
+                    profile,
+                    (lambda, lambda * base_window_s, 1.0, 0.0),
+                    Some(&mut violations),
+                );
+                if ratio <= 1.0 {
+                    return (end_s, Verified::Restored(restores));
+                }
+            }
         }
-        // Fallback 1, from the first candidate: where many stencils break a limit (the
-        // filter's jerk meeting corners along the run), widen the filter by 2 % (a jerk
-        // margin); where a few do, lower the caps around them.
         let lambda = candidates[0];
         let mut window_s = lambda * base_window_s;
+        // Fallback 2, from the first candidate: where many stencils break a limit (the
+        // filter's jerk meeting corners along the run), widen the filter by 2 % (a jerk
+        // margin); where a few do, lower the caps around them.
         for repairs in 1..=repair_tries {
             if violations.len() > FEW_VIOLATIONS {
                 window_s /= WIDEN;
@@ -289,7 +322,7 @@ impl<'a> RunPlanner<'a> {
                 return (end_s, Verified::Repaired(repairs));
             }
         }
-        // Fallback 2: that plan slowed in time by σ.
+        // Fallback 3: that plan slowed in time by σ.
         let pause_s = if runs_before > 0 {
             (3.0 * self.stations.machine().period_s() - stops.0.dwell_s).max(0.0)
         } else {
@@ -318,6 +351,34 @@ impl<'a> RunPlanner<'a> {
             slow *= (SLOW_MARGIN / ratio).min(SLOW_STEP);
         }
         unreachable!("the loop returns")
+    }
+
+    /// Gives every corner of the run `first..=last` within reach of a stencil that broke a
+    /// limit its full hold c·(W + 3T)/2 back: those within the stencil's highest speed
+    /// times (W + 3T), plus the largest station spacing, of its samples (MODEL.md §6.1,
+    /// "Local corner holds"). Returns whether any corner changed.
+    fn restore_holds(
+        &mut self,
+        first: usize,
+        last: usize,
+        window_s: f64,
+        violations: &[Violation],
+    ) -> bool {
+        let s = &self.stations.s_mm()[first..=last];
+        let period_s = self.stations.machine().period_s();
+        let mut changed = false;
+        for violation in violations {
+            let reach = violation.speed_mm_s * (window_s + 3.0 * period_s) + self.ds_max_mm;
+            let lo = s.partition_point(|&x| x < violation.s_mm.0 - reach);
+            let hi = s.partition_point(|&x| x <= violation.s_mm.1 + reach);
+            for k in first + lo..first + hi {
+                if self.is_corner[k] && !self.full_hold[k] {
+                    self.full_hold[k] = true;
+                    changed = true;
+                }
+            }
+        }
+        changed
     }
 
     /// Lowers the caps of the run `first..=last` around every stencil that broke a limit:
@@ -453,7 +514,8 @@ impl<'a> RunPlanner<'a> {
 
     /// The cap c of each station that the plan without holds touches (`free`, from the run's
     /// first station), and of every corner, holds over c·W/2 + Δs_max on either side
-    /// (c·(W + 3T)/2 + Δs_max at a corner): c'_k = min { c_j : |s_j − s_k| ≤ r_j, j held }.
+    /// (c·(W + 3T)/2 + Δs_max at a corner whose full hold was restored):
+    /// c'_k = min { c_j : |s_j − s_k| ≤ r_j, j held }.
     /// A cap the plan stays below needs no hold: holding lowers the plan, so it stays below
     /// it. n·log n through a range-minimum tree.
     fn extend_caps(
@@ -473,7 +535,7 @@ impl<'a> RunPlanner<'a> {
             if !self.is_corner[first + j] && free[j] < cap * (1.0 - 1e-9) {
                 continue;
             }
-            let hold_s = if self.is_corner[first + j] {
+            let hold_s = if self.full_hold[first + j] {
                 window_s + 3.0 * period_s
             } else {
                 window_s
@@ -1181,5 +1243,62 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Local corner holds (MODEL.md §6.1): a run of short chords, 0.25 mm each, turning by
+    /// 1.5° to 6° in turn (caps of 790–3 000 mm/min from the corner rule), at F1500 with
+    /// jerk 20 000 mm/s³. Every corner held over c·W/2 only breaks no limit where the speed
+    /// changes little, and the samples decide: the plan keeps every limit at every sample,
+    /// restores the full hold c·(W + 3T)/2 only at corners near a failing stencil, and is
+    /// faster than the plan with every corner's full hold.
+    #[test]
+    fn corners_get_their_full_hold_only_where_the_samples_need_it() {
+        let mut points = vec![Point3::new(0.0, 0.0, 0.0)];
+        let mut heading: f64 = 0.0;
+        for i in 0..160 {
+            let turn: f64 = if i % 2 == 0 { 1.5 } else { 6.0 };
+            heading += turn.to_radians() * if (i / 20) % 2 == 0 { 1.0 } else { -1.0 };
+            let last = *points.last().unwrap();
+            points.push(last + 0.25 * Vector3::new(heading.cos(), heading.sin(), 0.0));
+        }
+        let feed = Motion::Feed {
+            feed_mm_min: 1500.0,
+        };
+        let segments = points.windows(2).map(|w| line(w[0], w[1], feed)).collect();
+        let machine = Machine {
+            jerk_mm_s3: Some([20000.0; 3]),
+            feed_max_mm_min: 3000.0,
+            ..Machine::default()
+        };
+        let st = Stations::new(&Path { segments }, &machine, 0.05, FeedPolicy::Programmed).unwrap();
+        let (local, verified) = run(&st, &[1.0], (REPAIR_MAX_TRIES, SLOW_MAX_TRIES));
+        assert!(
+            matches!(verified, Verified::Candidate(0) | Verified::Restored(_)),
+            "{verified:?}"
+        );
+        assert!(worst_ratio(&machine, &local.sample(machine.period_ms).unwrap()) <= 1.0 + 1e-6);
+
+        // Every corner with its full hold: the rule before, slower here.
+        let mut planner = RunPlanner::new(&st);
+        for &c in st.corners() {
+            planner.full_hold[c] = true;
+        }
+        let stops = st.stops();
+        let mut full = Profile::empty(&st);
+        let (end_s, _) = planner.verified_run(
+            &mut full,
+            (stops[0], stops[1]),
+            st.interval_accel_mm_s2()[0] / st.interval_jerk_mm_s3()[0],
+            &[1.0],
+            (REPAIR_MAX_TRIES, SLOW_MAX_TRIES),
+        );
+        full.cycle_time_s = end_s + full.runs[0].window_s;
+        println!(
+            "{} corners, local holds {verified:?}: {:.4} s; full holds: {:.4} s",
+            st.corners().len(),
+            local.cycle_time_s,
+            full.cycle_time_s
+        );
+        assert!(local.cycle_time_s < full.cycle_time_s);
     }
 }
