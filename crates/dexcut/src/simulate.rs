@@ -131,6 +131,12 @@ pub const LOOP_NO_SIDE_LOAD_UM: f64 = 1e-3;
 const LOOP_RELAX_START: f64 = 0.4;
 const LOOP_RELAX_MAX: f64 = 1.0;
 const LOOP_RELAX_MIN: f64 = 0.02;
+/// Where every step's deflection g has a slope s = Δg/Δx in this range
+/// between the rigid sweep and the first trial (g nearly flat: the relaxed
+/// trials would creep up on the root), the first update is the secant's root
+/// `x + (g − x)/(1 − s)` instead of the relaxed one (MODEL.md §5.1); a rising
+/// g (s > 0, the neighbours' offsets) is taken as flat.
+const LOOP_SECANT_SLOPES: std::ops::RangeInclusive<f64> = -0.5..=0.25;
 
 /// The stock a run sweeps: whole in memory, or too large for the memory
 /// budget and made band of rows by band of rows for each sweep (ARCHITECTURE.md
@@ -312,6 +318,8 @@ struct Bracketed {
     /// Bracket width when it last halved, and sweeps since.
     width_mark: f64,
     since_halved: u32,
+    /// The rigid sweep's (x, g) = (0, δ₀), until the first update takes it.
+    rigid: Option<(f64, f64)>,
 }
 
 impl Bracketed {
@@ -337,6 +345,7 @@ impl Bracketed {
             replaced: 0,
             width_mark: hi,
             since_halved: 0,
+            rigid: Some((0.0, rigid)),
         }
     }
 
@@ -416,9 +425,26 @@ impl Bracketed {
             && self.hi.pass + 2 >= pass
     }
 
-    /// The next offset to try after `x` gave `g` (observed first).
-    fn next(&mut self, x: f64, g: f64) -> f64 {
-        let p = self.relaxed.next(x, g);
+    /// After the first trial `x` gave `g`: the slope s = Δg/Δx of g between
+    /// the rigid sweep and this one, where they lie more than the tolerance
+    /// apart (None after the first update).
+    fn first_slope(&self, x: f64, g: f64) -> Option<f64> {
+        let (x0, g0) = self.rigid?;
+        ((x - x0).abs() > LOOP_TOL_UM).then(|| (g - g0) / (x - x0))
+    }
+
+    /// The next offset to try after `x` gave `g` (observed first). `secant`:
+    /// at the first update, take the secant's root where the slope of g is
+    /// in [`LOOP_SECANT_SLOPES`] (the loop allows it where every step's is).
+    fn next(&mut self, x: f64, g: f64, secant: bool) -> f64 {
+        let relaxed = self.relaxed.next(x, g);
+        let p = match self.first_slope(x, g) {
+            Some(s) if secant && LOOP_SECANT_SLOPES.contains(&s) => {
+                x + (g - x) / (1.0 - s.min(0.0))
+            }
+            _ => relaxed,
+        };
+        self.rigid = None;
         let (lo, hi) = (self.lo, self.hi);
         let middle = 0.5 * (lo.at + hi.at);
         // A step within the tolerance takes the relaxed update (it moves
@@ -760,10 +786,20 @@ pub fn run_on(
                 }
                 break;
             }
+            // The secant's root at the first update where every step's g
+            // fell or rose gently between the rigid sweep and the first
+            // trial (g nearly flat: the steps move together, and the
+            // relaxed trials would creep up on the root); otherwise none
+            // takes it (steps coupled to their neighbours move alike).
+            let secant = (0..n).filter(|&i| in_loop[i]).all(|i| {
+                search[i]
+                    .first_slope(x[i], g[i])
+                    .is_none_or(|s| LOOP_SECANT_SLOPES.contains(&s))
+            });
             for i in 0..n {
                 if in_loop[i] {
                     trial[i] = search[i]
-                        .next(x[i], g[i])
+                        .next(x[i], g[i], secant)
                         .clamp(-offset_cap_um[i], offset_cap_um[i]);
                 }
             }
@@ -1972,6 +2008,37 @@ mod tests {
         assert!((x2 - (52.0 - 0.26 * 12.0)).abs() < 1e-12, "{x2}");
     }
 
+    /// The first update of a step whose g falls gently is the secant's root,
+    /// exact for a linear g (g = 100 − 0.3 x: root 100/1.3), where the
+    /// relaxed update moves 0.52 of the residual; not where the loop does
+    /// not allow it, nor where g falls steeply (g = 100 − 2 x: the relaxed
+    /// update, since g may be far from linear there).
+    #[test]
+    fn the_first_update_is_the_secants_root_where_g_is_nearly_flat() {
+        let first = |g: &dyn Fn(f64) -> f64, secant: bool| {
+            let mut s = Bracketed::new(g(0.0), 5000.0);
+            let x = LOOP_RELAX_START * g(0.0);
+            s.observe(x, g(x) - x, 2);
+            (x, s.next(x, g(x), secant))
+        };
+        let gentle = |x: f64| 100.0 - 0.3 * x;
+        let (x, p) = first(&gentle, true);
+        assert!((p - 100.0 / 1.3).abs() < 1e-9, "{p}");
+        let relaxed = |x: f64, g: f64| {
+            let mut r = Relaxed::START;
+            r.next(x, g)
+        };
+        let (_, p) = first(&gentle, false);
+        assert!((p - relaxed(x, gentle(x))).abs() < 1e-9, "{p}");
+        let steep = |x: f64| 100.0 - 2.0 * x;
+        let (x, p) = first(&steep, true);
+        assert!((p - relaxed(x, steep(x))).abs() < 1e-9, "{p}");
+        // A rising g (the neighbours moved it) is taken as flat: x ← g.
+        let rising = |x: f64| 100.0 + 0.1 * x;
+        let (x, p) = first(&rising, true);
+        assert!((p - rising(x)).abs() < 1e-9, "{p}");
+    }
+
     /// The bracketed search on g(x) = c (a − x)⁺/k alone (no other steps):
     /// root c a/(k + c). For c/k = 25 plain iteration x ← g(x) jumps between
     /// 0 and 5 000 µm; the search converges within the loop's tolerance in
@@ -1998,7 +2065,7 @@ mod tests {
                     passes < 16,
                     "c/k {ratio}: x {x} after {passes} sweeps, root {root}"
                 );
-                x = s.next(x, g(x)).clamp(-5000.0, 5000.0);
+                x = s.next(x, g(x), true).clamp(-5000.0, 5000.0);
             }
             assert!(
                 (x - root).abs() <= 1.0 + 0.03 * root,
@@ -2018,7 +2085,7 @@ mod tests {
                 break;
             }
             assert!(passes < 16, "staircase: x {x} after {passes} sweeps");
-            x = s.next(x, g(x));
+            x = s.next(x, g(x), true);
         }
         assert!(
             (s.lo.at - 160.0).abs() < 4.0 && s.lo.at <= 160.0 && s.hi.at >= 160.0,
