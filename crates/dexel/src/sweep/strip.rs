@@ -23,11 +23,21 @@ impl Banding {
         let mut lo = (a - z_tip).max(0.0);
         let hi = (b - z_tip).max(lo);
         let length = hi - lo;
-        let mut k = (lo * self.inv_band_h) as usize;
-        while lo < hi && k < self.n_bands {
-            let top = (((k + 1) as f64) * self.band_h).min(self.flute_len).min(hi);
+        // Band indices and tops through i64 (one conversion instruction each
+        // way; band counts are small) and plain compares for the minima
+        // (nothing here is NaN): the same values as usize and `f64::min`.
+        let mut k = (lo * self.inv_band_h) as i64;
+        let n_bands = self.n_bands as i64;
+        while lo < hi && k < n_bands {
+            let mut top = ((k + 1) as f64) * self.band_h;
+            if self.flute_len < top {
+                top = self.flute_len;
+            }
+            if hi < top {
+                top = hi;
+            }
             if top > lo {
-                acc[HEAD + k] += top - lo;
+                acc[HEAD + k as usize] += top - lo;
                 lo = top;
             }
             k += 1;
@@ -199,22 +209,25 @@ impl<E: Envelope> StripJob<'_, E> {
         // take its mean over the cell's offsets, [e − g/2, e + g/2] ∩ [−r, r]
         // (mean of 1/cos = Δ arcsin · r / Δe).
         let half = 0.5 * self.grid.spacing_mm * inv_r;
-        let inv_cos = if 1.0 - sin_t.abs() > 4.0 * half {
-            // Away from the flank the cell mean is 1/cos θ to O(half²).
-            1.0 / cos_t
-        } else {
+        // Away from the flank the cell mean is 1/cos θ to O(half²).
+        let near_flank = 1.0 - sin_t.abs() <= 4.0 * half;
+        let inv_side = if near_flank {
             let (lo, hi) = ((sin_t - half).max(-1.0), (sin_t + half).min(1.0));
-            (hi.asin() - lo.asin()) / (2.0 * half)
-        };
-        // Away from the flank, a closed form over the piece's heights where the
-        // tool has one (a ball: κ and θ both vary with the height).
-        let inv_side = if !thick {
-            inv_cos * inv_sin_k
+            let inv_cos = (hi.asin() - lo.asin()) / (2.0 * half);
+            inv_cos
+                * if thick {
+                    self.env.mean_inv_sin_k(h_bot, h_top)
+                } else {
+                    inv_sin_k
+                }
+        } else if !thick {
+            (1.0 / cos_t) * inv_sin_k
         } else {
-            match self.env.mean_inv_side(h_bot, h_top, ux * wy - uy * wx) {
-                Some(mean) if 1.0 - sin_t.abs() > 4.0 * half => mean,
-                _ => inv_cos * self.env.mean_inv_sin_k(h_bot, h_top),
-            }
+            // Away from the flank, a closed form over the piece's heights where
+            // the tool has one (a ball: κ and θ both vary with the height).
+            self.env
+                .mean_inv_side(h_bot, h_top, ux * wy - uy * wx)
+                .unwrap_or_else(|| (1.0 / cos_t) * self.env.mean_inv_sin_k(h_bot, h_top))
         } * m.inv_len_xy;
         let side_cut = inv_side <= inv_h;
         inv_h = inv_h.min(inv_side);
