@@ -1,6 +1,7 @@
 //! Ball end: the swept ball is a capsule, its lower envelope a closed-form
 //! ray–capsule intersection, with a square-root-free skip bound.
 
+use super::arcsine::asin_diff;
 use super::{
     sphere_reach2, torus_edge, torus_mean_inv_sin_k, Edge, Envelope, EnvelopeHit, Prepared,
     ABOVE_MARGIN_MM, PLUNGE_H2,
@@ -120,8 +121,9 @@ impl Envelope for BallEnd {
             return None;
         }
         let a = a2.sqrt();
-        let asin = |h: f64| ((h.min(r) - r) / a).clamp(-1.0, 1.0).asin();
-        let corner = r * (asin(hi) - asin(lo));
+        // One difference of arcsines (`asin_diff`: one arcsine, not two).
+        let x = |h: f64| (h.min(r) - r) / a;
+        let corner = r * asin_diff(x(hi), x(lo));
         let flank = (hi - lo.max(r)).max(0.0) * r / a;
         Some((corner + flank) / span)
     }

@@ -29,6 +29,7 @@
 //! are reduced in a fixed strip order, so results do not depend on the number
 //! of threads.
 
+mod arcsine;
 mod ball;
 mod batch;
 mod bull;
@@ -563,8 +564,9 @@ fn torus_mean_inv_sin_k(h_bot: f64, h_top: f64, rc: f64) -> Option<f64> {
     if span <= 1e-6 * rc || lo >= rc {
         return None;
     }
-    let kappa = |h: f64| (1.0 - h.min(rc) / rc).clamp(-1.0, 1.0).acos();
-    let corner = rc * (kappa(hi) - kappa(lo));
+    // κ = acos u with u = 1 − h/rc: κ(hi) − κ(lo) = asin u(lo) − asin u(hi).
+    let u = |h: f64| 1.0 - h.min(rc) / rc;
+    let corner = rc * arcsine::asin_diff(u(lo), u(hi));
     let flank = (hi - rc).max(0.0);
     Some((corner + flank) / span)
 }

@@ -1,6 +1,7 @@
 //! One strip of rows: every move of a batch that reaches it, column by column
 //! (envelope, removal, bands, contact and smoothing shares).
 
+use super::arcsine::asin_diff;
 use super::slot::{CHIP_AREA, CONTACT_X, CONTACT_Y, OVER_RADIUS, SHANK, VOLUME};
 use super::{Edge, Envelope, EnvelopeHit, Prepared, HEAD, PLUNGE_H2};
 use crate::{Column, Grid};
@@ -213,7 +214,7 @@ impl<E: Envelope> StripJob<'_, E> {
         let near_flank = 1.0 - sin_t.abs() <= 4.0 * half;
         let inv_side = if near_flank {
             let (lo, hi) = ((sin_t - half).max(-1.0), (sin_t + half).min(1.0));
-            let inv_cos = (hi.asin() - lo.asin()) / (2.0 * half);
+            let inv_cos = asin_diff(hi, lo) / (2.0 * half);
             inv_cos
                 * if thick {
                     self.env.mean_inv_sin_k(h_bot, h_top)
