@@ -1,6 +1,8 @@
 //! `dexcut`: cutting simulation and feed optimisation for 3-axis milling.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+use dexcut::fitted_job;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -26,8 +28,15 @@ enum Command {
     /// deflection per step (steps.csv), final surface and predicted error per
     /// column (columns.json and .npy arrays), summary.json.
     Simulate {
-        /// Job file (TOML).
+        /// Job file (TOML), or a G-code program: a job is then fitted to it
+        /// (stock around its feed moves, tool from --tool or the program's
+        /// comments) and written to OUT/input/job.toml.
         job: PathBuf,
+        /// With a G-code program instead of a job: the cutter, KIND:DIAMETER in
+        /// mm (flat:6, ball:3.175, bull:10:1 with a 1 mm corner radius);
+        /// default: the one the program's comments name.
+        #[arg(long, value_name = "KIND:MM")]
+        tool: Option<String>,
         /// Output folder (created if missing).
         #[arg(long, default_value = "out/simulate")]
         out: PathBuf,
@@ -63,8 +72,13 @@ enum Command {
     /// while running as fast as the machine allows; with no job, runs the
     /// built-in boss_contour example.
     Optimize {
-        /// Job file (TOML); default: the built-in boss_contour example.
+        /// Job file (TOML), or a G-code program (a job is fitted to it, as for
+        /// simulate); default: the built-in boss_contour example.
         job: Option<PathBuf>,
+        /// With a G-code program instead of a job: the cutter, KIND:DIAMETER in
+        /// mm (flat:6, ball:3.175, bull:10:1); default: the one the program's comments name.
+        #[arg(long, value_name = "KIND:MM")]
+        tool: Option<String>,
         #[arg(long, default_value = "out/optimize")]
         out: PathBuf,
         /// Override the stock's column spacing, mm.
@@ -119,6 +133,26 @@ enum Command {
         /// Measurements CSV.
         csv: PathBuf,
     },
+    /// Write a job fitted to a G-code program, to edit: a box stock around its
+    /// feed moves, the tool from --tool or the program's comments, aluminium,
+    /// the machine defaults.
+    Job {
+        /// G-code program.
+        program: PathBuf,
+        /// The cutter, KIND:DIAMETER in mm (flat:6, ball:3.175, bull:10:1);
+        /// default: the one the program's comments name.
+        #[arg(long, value_name = "KIND:MM")]
+        tool: Option<String>,
+        /// Column spacing, mm (default: about 20 columns across the tool).
+        #[arg(long, value_name = "MM")]
+        grid: Option<f64>,
+        /// Job file to write.
+        #[arg(long, default_value = "job.toml")]
+        out: PathBuf,
+        /// Overwrite the job file if it exists.
+        #[arg(long)]
+        force: bool,
+    },
     /// Write the built-in example (job, stock mesh, program) to a folder to edit.
     Example {
         #[arg(long, default_value = "boss_contour")]
@@ -165,12 +199,56 @@ fn main() -> ExitCode {
     }
 }
 
+/// The job a command reads from `path`: the file itself, or the job fitted to it.
+fn job_arg<'a>(
+    path: &'a Path,
+    fitted: Option<&'a fitted_job::FittedJob>,
+) -> dexcut::commands::JobArg<'a> {
+    fitted.map_or(
+        dexcut::commands::JobArg::File(path),
+        dexcut::commands::JobArg::Fitted,
+    )
+}
+
+/// A job fitted to `path` when it is a G-code program rather than a job file
+/// (its guesses printed), else None; `--tool` is refused with a job file.
+fn fitted_job(
+    path: &Path,
+    tool: Option<&str>,
+    grid: Option<f64>,
+    out: &Path,
+) -> Result<Option<fitted_job::FittedJob>, dexcut::Error> {
+    if fitted_job::is_job_file(path) {
+        if tool.is_some() {
+            return Err(dexcut::Error::Request {
+                message: format!(
+                    "--tool is for a G-code program given instead of a job; {} is a job: its [tool] gives the tool",
+                    path.display()
+                ),
+            });
+        }
+        return Ok(None);
+    }
+    let tool = tool.map(fitted_job::parse_tool_arg).transpose()?;
+    let fitted = fitted_job::fit(path, tool.as_ref(), grid)?;
+    eprintln!(
+        "{} is a program, not a job: fitted a job to it (written to {}):",
+        path.display(),
+        out.join("input/job.toml").display()
+    );
+    for n in &fitted.notes {
+        eprintln!("  {n}");
+    }
+    Ok(Some(fitted))
+}
+
 /// Run one command through the library and print its results.
 fn run(command: Command) -> Result<(), dexcut::Error> {
     let on_warning: dexcut::commands::OnWarning = &console::warning;
     match command {
         Command::Simulate {
             job,
+            tool,
             out,
             grid,
             actual_path,
@@ -179,8 +257,9 @@ fn run(command: Command) -> Result<(), dexcut::Error> {
             steps_format,
             memory_budget_mb,
         } => {
+            let fitted = fitted_job(&job, tool.as_deref(), grid, &out)?;
             let doc = dexcut::commands::simulate(
-                &job,
+                job_arg(&job, fitted.as_ref()),
                 &out,
                 grid,
                 actual_path,
@@ -194,6 +273,7 @@ fn run(command: Command) -> Result<(), dexcut::Error> {
         }
         Command::Optimize {
             job,
+            tool,
             out,
             grid,
             force,
@@ -201,14 +281,26 @@ fn run(command: Command) -> Result<(), dexcut::Error> {
             steps_format,
             settings,
         } => {
-            if job.is_none() {
-                eprintln!(
-                    "no job given: running the built-in boss_contour example (inputs written to {})",
-                    out.join("input").display()
-                );
-            }
+            let fitted = match &job {
+                Some(job) => fitted_job(job, tool.as_deref(), grid, &out)?,
+                None => {
+                    if tool.is_some() {
+                        return Err(dexcut::Error::Request {
+                            message: "--tool is for a G-code program given instead of a job; the built-in example has its own tool".into(),
+                        });
+                    }
+                    eprintln!(
+                        "no job given: running the built-in boss_contour example (inputs written to {})",
+                        out.join("input").display()
+                    );
+                    None
+                }
+            };
             let optimized = dexcut::commands::optimize(
-                job.as_deref(),
+                job.as_deref()
+                    .map_or(dexcut::commands::JobArg::Example, |j| {
+                        job_arg(j, fitted.as_ref())
+                    }),
                 &out,
                 grid,
                 force,
@@ -239,6 +331,27 @@ fn run(command: Command) -> Result<(), dexcut::Error> {
             console::evaluate(&ev, &out);
         }
         Command::Calibrate { csv } => console::calibrate(&dexcut::commands::calibrate(&csv)?),
+        Command::Job {
+            program,
+            tool,
+            grid,
+            out,
+            force,
+        } => {
+            let tool = tool
+                .as_deref()
+                .map(fitted_job::parse_tool_arg)
+                .transpose()?;
+            let fitted = fitted_job::fit(&program, tool.as_ref(), grid)?;
+            fitted.write(&out, force)?;
+            for n in &fitted.notes {
+                eprintln!("  {n}");
+            }
+            println!(
+                "wrote {}: run `dexcut simulate {0}` or `dexcut optimize {0}`",
+                out.display()
+            );
+        }
         Command::Example { out, force } => {
             let job = dexcut::commands::example(&out, force)?;
             console::example(&out, &job);

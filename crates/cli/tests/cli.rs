@@ -3965,3 +3965,101 @@ stress = true
     assert!(html.contains("allowable stress 300 MPa"), "tool row");
     assert!(html.contains("stress_limit_mpa 300 MPa"), "limits row");
 }
+
+/// A G-code program given instead of a job runs with a job fitted to it: the
+/// tool its comments name, a box stock around its feed moves; the fitted job
+/// is kept in input/job.toml and gives the same run when run as a job. A
+/// program that names no cutter is refused with a pointer to --tool, and a
+/// slot cut with `--tool` removes the slot's exact volume.
+#[test]
+fn a_program_given_instead_of_a_job_runs_with_a_fitted_job() {
+    let dir = tempdir();
+    let real = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../nc/tests/data/real/fusion_led_floor_light_holder.nc");
+    std::fs::copy(real, dir.path().join("part.nc")).unwrap();
+    let run = dexcut(&["simulate", "part.nc", "--out", "a"], dir.path());
+    ok(&run);
+    assert!(
+        stderr(&run).contains("tool: flat Ø2.7 mm, from line"),
+        "{}",
+        stderr(&run)
+    );
+    let a = dir.path().join("a");
+    let job: toml::Table =
+        toml::from_str(&std::fs::read_to_string(a.join("input/job.toml")).unwrap()).unwrap();
+    assert_eq!(job["tool"]["diameter"].as_float(), Some(2.7));
+    ok(&dexcut(
+        &["simulate", "a/input/job.toml", "--out", "b"],
+        dir.path(),
+    ));
+    let (sa, sb) = (summary(&a), summary(&dir.path().join("b")));
+    assert!(sa["removed_volume_mm3"].as_f64().unwrap() > 1.0);
+    for k in ["removed_volume_mm3", "cycle_time_s", "peak_force_n"] {
+        assert_eq!(sa[k], sb[k], "{k}");
+    }
+    // Every feed step lies inside the stock, the tool's radius + 2 mm from its sides.
+    let bound = |k: &str, i: usize| job["stock"][k][i].as_float().unwrap();
+    let steps = csv_columns(&a.join("steps.csv"));
+    let mut feeds = 0;
+    for (i, &rapid) in steps["rapid"].iter().enumerate() {
+        if rapid == 0.0 {
+            feeds += 1;
+            for (axis, name) in ["x", "y"].into_iter().enumerate() {
+                let v = steps[name][i];
+                assert!(
+                    v >= bound("min", axis) + 3.35 - 1e-6 && v <= bound("max", axis) - 3.35 + 1e-6,
+                    "step {i}: {name} {v}"
+                );
+            }
+            assert!(steps["z"][i] >= bound("min", 2) + 1.0 - 1e-6);
+        }
+    }
+    assert!(feeds > 100);
+
+    // No cutter named: refused, pointing to --tool; nothing written.
+    write(
+        dir.path(),
+        "slot.nc",
+        "G21 G90 G94\nG0 X0 Y0 Z5\nG1 Z-1 F100\nG1 X10 F300\nG0 Z5\nM2\n",
+    );
+    assert_refused(
+        dir.path(),
+        &["simulate", "slot.nc", "--out", "c"],
+        &[
+            "slot.nc: no comment of the program names its cutter",
+            "--tool flat:3.175",
+        ],
+        Some("c"),
+    );
+    // With --tool: a Ø3 flat plunged 1 mm and moved 10 mm removes 10·3·1 + π·1.5²·1 mm³.
+    ok(&dexcut(
+        &["optimize", "slot.nc", "--tool", "flat:3", "--out", "d"],
+        dir.path(),
+    ));
+    let exact = 30.0 + PI * 1.5 * 1.5;
+    let removed = summary(&dir.path().join("d"))["after"]["removed_volume_mm3"]
+        .as_f64()
+        .unwrap();
+    assert!(rel(removed, exact) < 0.01, "{removed} mm³ against {exact}");
+    // `dexcut job` writes the job to edit, and keeps an existing file.
+    ok(&dexcut(
+        &["job", "slot.nc", "--tool", "ball:6", "--out", "slot.toml"],
+        dir.path(),
+    ));
+    let job: toml::Table =
+        toml::from_str(&std::fs::read_to_string(dir.path().join("slot.toml")).unwrap()).unwrap();
+    assert_eq!(job["tool"]["kind"].as_str(), Some("ball"));
+    assert_refused(
+        dir.path(),
+        &["job", "slot.nc", "--tool", "ball:6", "--out", "slot.toml"],
+        &["slot.toml exists: give --force"],
+        None,
+    );
+    // --tool with a job file is refused.
+    assert_refused(
+        dir.path(),
+        &["simulate", "slot.toml", "--tool", "flat:3", "--out", "e"],
+        &["--tool is for a G-code program"],
+        Some("e"),
+    );
+}

@@ -801,7 +801,7 @@ pub struct Simulated {
 /// `steps_format`: `--steps-format`).
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
-    job_path: &Path,
+    job: JobArg,
     out: &Path,
     grid_mm: Option<f64>,
     actual_path: bool,
@@ -812,8 +812,9 @@ pub fn simulate(
     on_warning: OnWarning,
 ) -> Result<Simulated> {
     let started = Instant::now();
-    let mut setup = Setup::load_within(job_path, grid_mm, None, memory_budget_mb)?;
-    let out_dir = OutDir::begin(out, &setup.input_files(job_path), force)?;
+    let (mut setup, out_dir) = begin_run(job, out, force, &[], |p| {
+        Setup::load_within(p, grid_mm, None, memory_budget_mb)
+    })?;
     announce_setup_warnings(&setup, on_warning);
     let (sim, steps_format) = match &setup.tiling {
         None => {
@@ -951,13 +952,72 @@ pub struct LimitsOut {
     pub stress_limit_mpa: Option<f64>,
 }
 
+/// The job a run reads: a job file, the built-in example, or a job fitted to
+/// a program ([`crate::fitted_job`]).
+#[derive(Clone, Copy)]
+pub enum JobArg<'a> {
+    /// A job file (TOML).
+    File(&'a Path),
+    /// The built-in boss_contour example.
+    Example,
+    /// A job fitted to a G-code program.
+    Fitted(&'a crate::fitted_job::FittedJob),
+}
+
+/// Load the job and begin the output folder. A job file is read where it is;
+/// the example's files and a fitted job are written into the results'
+/// `input/` folder (staged with the results) and read from there, and the
+/// setup names them where they will be once the results are in place.
+/// `extra_inputs`: files the run reads beside the job's.
+fn begin_run(
+    job: JobArg,
+    out: &Path,
+    force: bool,
+    extra_inputs: &[PathBuf],
+    load: impl Fn(&Path) -> Result<Setup>,
+) -> Result<(Setup, OutDir)> {
+    let written = match job {
+        JobArg::File(p) => {
+            let setup = load(p)?;
+            let mut inputs = setup.input_files(p);
+            inputs.extend_from_slice(extra_inputs);
+            let out_dir = OutDir::begin(out, &inputs, force)?;
+            return Ok((setup, out_dir));
+        }
+        JobArg::Example => None,
+        JobArg::Fitted(f) => Some(f),
+    };
+    let mut inputs = extra_inputs.to_vec();
+    inputs.extend(written.map(|f| f.program.clone()));
+    let out_dir = OutDir::begin(out, &inputs, force)?;
+    let dir = out.join("input");
+    let staged = out_dir.path().join("input");
+    let job_file = match written {
+        None => crate::example::write_files(&staged)?,
+        Some(f) => {
+            std::fs::create_dir_all(&staged).map_err(|e| Error::io("cannot create", &staged, e))?;
+            let path = staged.join("job.toml");
+            export::atomic::write_bytes(&path, f.toml.as_bytes())
+                .map_err(|e| Error::io("cannot write", &path, e))?;
+            path
+        }
+    };
+    let mut setup = load(&job_file)?;
+    setup.job.name = dir.join("job.toml").display().to_string();
+    setup.program.file = setup
+        .program
+        .file
+        .replace(&staged.display().to_string(), &dir.display().to_string());
+    Ok((setup, out_dir))
+}
+
 /// `dexcut optimize [JOB] --out DIR` (`steps_format`: `--steps-format`, for
 /// steps and steps_before alike).
 /// With no job, the built-in boss_contour example, its inputs written into the
 /// results' `input/` folder.
 #[allow(clippy::too_many_arguments)]
 pub fn optimize(
-    job_path: Option<&Path>,
+    job: JobArg,
     out: &Path,
     grid_mm: Option<f64>,
     force: bool,
@@ -967,33 +1027,13 @@ pub fn optimize(
     on_warning: OnWarning,
 ) -> Result<Optimized> {
     let started = Instant::now();
-    let (setup, out_dir) = match job_path {
-        Some(p) => {
-            let setup = Setup::load_with(p, grid_mm, settings)?;
-            if setup.job.machine.arcs_as_lines {
-                fail!(request, "{}: machine.arcs_as_lines is for simulate and evaluate: optimize re-feeds the program's own blocks and writes arcs as G2/G3", setup.job.name);
-            }
-            let mut inputs = setup.input_files(p);
-            inputs.extend(settings.map(Path::to_path_buf));
-            let out_dir = OutDir::begin(out, &inputs, force)?;
-            (setup, out_dir)
-        }
-        None => {
-            // The example's inputs go into the new results, in input/.
-            let out_dir = OutDir::begin(out, &[], force)?;
-            let dir = out.join("input");
-            let staged = out_dir.path().join("input");
-            let mut setup =
-                Setup::load_with(&crate::example::write_files(&staged)?, grid_mm, settings)?;
-            // Name the inputs where they will be once the results are in place.
-            setup.job.name = dir.join("job.toml").display().to_string();
-            setup.program.file = setup
-                .program
-                .file
-                .replace(&staged.display().to_string(), &dir.display().to_string());
-            (setup, out_dir)
-        }
-    };
+    let settings_input: Vec<PathBuf> = settings.map(Path::to_path_buf).into_iter().collect();
+    let (setup, out_dir) = begin_run(job, out, force, &settings_input, |p| {
+        Setup::load_with(p, grid_mm, settings)
+    })?;
+    if setup.job.machine.arcs_as_lines {
+        fail!(request, "{}: machine.arcs_as_lines is for simulate and evaluate: optimize re-feeds the program's own blocks and writes arcs as G2/G3", setup.job.name);
+    }
     let limits = &setup.job.limits;
     if limits.mrr_max.is_none()
         && limits.force_max.is_none()

@@ -79,6 +79,7 @@ pub mod commands;
 mod error;
 mod evaluate;
 mod example;
+pub mod fitted_job;
 mod job;
 mod motion;
 /// Building blocks of the optimisation (engagement, caps, re-feed). Not part

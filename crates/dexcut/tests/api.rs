@@ -155,7 +155,7 @@ material = "al6061"
     let out = dir.path().join("out");
     let warned = std::cell::Cell::new(0);
     let simulated = dexcut::commands::simulate(
-        &dir.path().join("job.toml"),
+        dexcut::commands::JobArg::File(&dir.path().join("job.toml")),
         &out,
         None,
         false,

@@ -1,0 +1,202 @@
+//! Jobs fitted to the real programs of the corpus (crates/nc/tests/data/real):
+//! the cutter each program's comments name, read as its post wrote it, and
+//! a stock that holds every feed move.
+
+use std::path::PathBuf;
+
+use dexcut::fitted_job::{fit, tools_in_comments, Shape};
+
+fn real(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../nc/tests/data/real")
+        .join(name)
+}
+
+/// The first cutter each program's comments name, against the comment read
+/// by hand (its post, the unit it is written in, the value in mm).
+#[test]
+fn real_programs_name_their_cutters_in_their_posts_forms() {
+    let inch = 25.4;
+    let expected: [(&str, Option<u32>, Shape, f64); 38] = [
+        // Fusion 360: (T1 D=… CR=… - ZMIN=… - kind), in the program's units.
+        ("fusion_led_floor_block.nc", Some(1), Shape::Flat, 1.4),
+        (
+            "fusion_led_floor_1022_block2x2_17bit.nc",
+            Some(1),
+            Shape::Flat,
+            1.7,
+        ),
+        (
+            "fusion_led_floor_1072_face_otherside.nc",
+            Some(1),
+            Shape::Flat,
+            40.0,
+        ),
+        ("fusion_led_floor_bore.nc", Some(1), Shape::Flat, 2.7),
+        (
+            "fusion_led_floor_light_holder.nc",
+            Some(1),
+            Shape::Flat,
+            2.7,
+        ),
+        ("fusion_led_floor_surface.nc", Some(1), Shape::Flat, 40.0),
+        (
+            "fusion_haas_rebels5_trimmed.nc",
+            Some(1),
+            Shape::Flat,
+            0.125 * inch,
+        ),
+        (
+            "fusion_haas_sprayer_face_inch.nc",
+            Some(1),
+            Shape::Flat,
+            6.0 * inch,
+        ),
+        (
+            "fusion_sprayer_working.tap",
+            Some(1),
+            Shape::Bull(0.125 * inch),
+            2.0 * inch,
+        ),
+        (
+            "fusion_mpcnc_wiggler_door_mill.gcode",
+            Some(2),
+            Shape::Flat,
+            3.175,
+        ),
+        ("fusion_proxxon_key_pockets.nc", Some(1), Shape::Flat, 1.587),
+        ("fusion_tap_heatsink_drill.tap", Some(1), Shape::Flat, 1.0),
+        (
+            "fusion_tap_heatsink_mill_trimmed.tap",
+            Some(2),
+            Shape::Flat,
+            3.175,
+        ),
+        // CamBam: ( T0 : 3.175 ), in the program's units (G20 for the engraving).
+        (
+            "cambam_communicator_trimmed.nc",
+            Some(0),
+            Shape::Flat,
+            3.175,
+        ),
+        ("cambam_piezagopro.nc", Some(3), Shape::Flat, 3.0),
+        (
+            "cambam_shapeoko_engrave.txt",
+            Some(0),
+            Shape::Flat,
+            0.0394 * inch,
+        ),
+        // BlenderCAM, Mastercam, drl2gcode, gcodekit4, OpenBuilds, pygen, SketchUCam, UGS.
+        ("blendercam_Op_Cutout_Layers.gcode", None, Shape::Flat, 3.0),
+        (
+            "mastercam_helix_bores_trimmed.gcode",
+            Some(212),
+            Shape::Flat,
+            3.0,
+        ),
+        ("drl2gcode_kicad_T02.gcode", Some(2), Shape::Flat, 0.4),
+        ("gcodekit4_designer.gcode", None, Shape::Flat, 3.175),
+        ("openbuilds_cam_ps2cnc_004.nc", None, Shape::Flat, 1.0),
+        ("pygen_norn93_peck_pockets.gcode", None, Shape::Flat, 3.0),
+        ("sketchucam_arc_rword_test.gcode", None, Shape::Flat, 3.175),
+        ("ugs_designer.gcode", None, Shape::Flat, 3.0),
+        // Estlcam's and FreeCAD's tool names.
+        ("estlcam11_ps2cnc_004.nc", None, Shape::Flat, 3.0),
+        ("estlcam_backplate.nc", None, Shape::Flat, 3.175),
+        ("estlcam_enclosure.nc", None, Shape::Flat, 2.0),
+        ("estlcam_spool_fixture.nc", None, Shape::Flat, 2.0),
+        ("freecad_corner_20_20_adaptive.nc", None, Shape::Flat, 3.0),
+        ("freecad_hole_7mm_adaptive.nc", None, Shape::Flat, 6.0),
+        // Shop and generator comments in inches.
+        (
+            "haas_enier_slot_assembly.nc",
+            Some(1),
+            Shape::Flat,
+            0.5 * inch,
+        ),
+        (
+            "camotics_genes_encoder.ngc",
+            None,
+            Shape::Flat,
+            0.049 * inch,
+        ),
+        (
+            "uccnc_sensor_v4_mill_015.nc",
+            None,
+            Shape::Flat,
+            inch / 64.0,
+        ),
+        (
+            "uccnc_sensor_v4_dimension.nc",
+            None,
+            Shape::Flat,
+            inch / 32.0,
+        ),
+        ("pcb2gcode_outline.ngc", None, Shape::Flat, 0.05906 * inch),
+        (
+            "pcb2gcode_back_trimmed.ngc",
+            None,
+            Shape::Flat,
+            0.00787 * inch,
+        ),
+        ("pcb2gcode_drill.ngc", None, Shape::Flat, 0.0157 * inch),
+        ("pcb2gcode_milldrill.ngc", None, Shape::Flat, 1.0),
+    ];
+    for (name, number, shape, d) in expected {
+        let text = String::from_utf8_lossy(&std::fs::read(real(name)).unwrap()).into_owned();
+        let found = tools_in_comments(&text);
+        let first = found
+            .first()
+            .unwrap_or_else(|| panic!("{name}: no cutter found"));
+        assert_eq!(
+            (first.number, first.shape),
+            (number, shape),
+            "{name}: {}",
+            first.source
+        );
+        assert!(
+            (first.diameter_mm - d).abs() < 1e-9,
+            "{name}: {} mm against {d} ({})",
+            first.diameter_mm,
+            first.source
+        );
+    }
+    // Programs that name no cutter give none (the user is asked for --tool).
+    for name in [
+        "camotics_heart.ngc",
+        "linuxcnc_hole_circle.ngc",
+        "haas_smiley.nc",
+    ] {
+        let text = std::fs::read_to_string(real(name)).unwrap();
+        assert!(tools_in_comments(&text).is_empty(), "{name}");
+    }
+}
+
+/// The fitted stock holds every feed move with the tool's radius + 2 mm
+/// around it, its top at Z0 and its floor 1 mm under the deepest feed move.
+#[test]
+fn fitted_stock_holds_the_feed_moves() {
+    let fitted = fit(&real("fusion_led_floor_bore.nc"), None, None).unwrap();
+    let job: toml::Table = toml::from_str(&fitted.toml).unwrap();
+    let stock = &job["stock"];
+    let v = |k: &str| -> Vec<f64> {
+        stock[k]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_float().unwrap())
+            .collect()
+    };
+    let (min, max) = (v("min"), v("max"));
+    assert_eq!(job["tool"]["diameter"].as_float(), Some(2.7));
+    assert_eq!(max[2], 0.0);
+    // The program's deepest feed move is its ZMIN, -13.3 (its Fusion tool comment).
+    assert!((min[2] - (-13.3 - 1.0)).abs() < 1e-9, "{min:?}");
+    // About 20 columns across the Ø2.7 tool: 0.1 mm (the largest of 1, 2, 5 × 10^k under 0.135).
+    assert_eq!(stock["grid"].as_float(), Some(0.1));
+    assert!(fitted
+        .notes
+        .iter()
+        .any(|n| n.contains("line ") && n.contains("D=2.7")));
+    assert!(max[0] - min[0] > 2.7 + 4.0 && max[1] - min[1] > 2.7 + 4.0);
+}
