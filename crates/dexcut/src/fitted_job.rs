@@ -458,7 +458,6 @@ pub fn fit(program: &Path, tool: Option<&ToolGuess>, grid_mm: Option<f64>) -> Re
         f(max),
         columns(grid)
     ));
-    let flute = (3.0 * largest).max(depth + 0.2);
     let several = tools.len() > 1;
     for (number, g) in &tools {
         let _ = writeln!(t);
@@ -476,7 +475,7 @@ pub fn fit(program: &Path, tool: Option<&ToolGuess>, grid_mm: Option<f64>) -> Re
                 format!("corner_radius = {}\n", r.min(g.diameter_mm / 2.0)),
             ),
         };
-        let flute = flute.max(3.0 * g.diameter_mm);
+        let flute = (3.0 * g.diameter_mm).max(depth + 0.2);
         let _ = write!(
             t,
             "kind = \"{kind}\"\ndiameter = {}\n{corner}flute_length = {flute:.3}   # the deepest cut + 0.2 mm, at least 3 diameters\nstickout = {:.3}\n",
