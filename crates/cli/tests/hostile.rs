@@ -307,6 +307,14 @@ fn d3_devices_fifos_and_huge_files_are_refused() {
             10,
         );
         r.clear_error("fifo.nc is not a regular file");
+        // Given in the job's place (a program to fit a job to), it is not read either.
+        let r = run_limited(
+            &["simulate", "fifo.nc", "--out", "o"],
+            dir.path(),
+            AS_LIMIT,
+            10,
+        );
+        r.clear_error("fifo.nc is not a regular file");
     }
     // A 300 MB program (sparse) is over the cap before a byte is read.
     let dir = job_dir(|j| j.replace("p.nc", "big.nc"), SLOT_NC);

@@ -531,7 +531,9 @@ impl FittedJob {
 }
 
 /// Whether `path` is a job file rather than a program: a `.toml` extension,
-/// or text that reads as TOML with a `[program]` table.
+/// or text that reads as TOML with a `[program]` table. Anything that is not
+/// a regular file counts as a job, so that the job reader refuses it (a FIFO
+/// or device is never read here); a file larger than a job may be is a program.
 pub fn is_job_file(path: &Path) -> bool {
     if path
         .extension()
@@ -539,10 +541,16 @@ pub fn is_job_file(path: &Path) -> bool {
     {
         return true;
     }
-    std::fs::read_to_string(path)
-        .ok()
-        .and_then(|t| toml::from_str::<toml::Table>(&t).ok())
-        .is_some_and(|t| t.contains_key("program"))
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_file() => {
+            m.len() <= crate::bounds::MAX_JOB_BYTES
+                && std::fs::read_to_string(path)
+                    .ok()
+                    .and_then(|t| toml::from_str::<toml::Table>(&t).ok())
+                    .is_some_and(|t| t.contains_key("program"))
+        }
+        _ => true,
+    }
 }
 
 #[cfg(test)]
