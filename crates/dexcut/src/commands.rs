@@ -354,6 +354,15 @@ impl Setup {
         Some(w)
     }
 
+    /// The job's stock, handed over: a run that sweeps it needs no copy. A
+    /// stock of one column on the same grid spacing is left in its place
+    /// (what [`Setup`] reads of it afterwards is the spacing).
+    pub fn take_stock(&mut self) -> Result<Stock> {
+        let spacing = self.stock.grid().spacing_mm;
+        let one = Stock::new_box([0.0; 3], [spacing; 3], spacing)?;
+        Ok(std::mem::replace(&mut self.stock, one))
+    }
+
     /// The program as the machine runs it: servo periods for G-code, one step
     /// per move for CSV point lists.
     pub fn machine_steps(&self) -> Result<Vec<TimedStep>> {
@@ -692,12 +701,13 @@ impl Simulation {
 pub fn simulate_setup(setup: &Setup, actual_path: bool) -> Result<Simulation> {
     setup.require_whole_stock("the simulation API (it keeps every column in memory; `dexcut simulate` writes a tiled stock's grid band by band)")?;
     let steps = setup.steps(actual_path)?;
-    simulate_steps(setup, steps)
+    simulate_steps(setup, setup.stock.clone(), steps)
 }
 
-/// [`simulate_setup`] of the program's timed steps.
-fn simulate_steps(setup: &Setup, steps: Vec<TimedStep>) -> Result<Simulation> {
-    let run = simulate::run(setup.stock.clone(), &setup.tools, steps, "simulate")?;
+/// [`simulate_setup`] of the program's timed steps through `stock` (the
+/// job's stock, or a copy of it).
+fn simulate_steps(setup: &Setup, stock: Stock, steps: Vec<TimedStep>) -> Result<Simulation> {
+    let run = simulate::run(stock, &setup.tools, steps, "simulate")?;
     let mut summary = run.summary();
     summary.check_finite()?;
     summary
@@ -823,7 +833,9 @@ pub fn simulate(
             // The steps carry what the run needs of the program (lines, tools, spindle
             // speeds); nothing after this reads the path: freed before the sweep.
             setup.program.path = nc::Path::default();
-            let sim = simulate_steps(&setup, steps)?;
+            // The run sweeps the job's stock itself, not a copy (one stock fewer held).
+            let stock = setup.take_stock()?;
+            let sim = simulate_steps(&setup, stock, steps)?;
             let written = sim.write_files(out_dir.path(), columns_csv, steps_format)?;
             (sim, written)
         }
@@ -1090,7 +1102,7 @@ pub fn optimize_setup(
     // Before: the program as written.
     let t0 = Instant::now();
     let before_steps = setup.machine_steps()?;
-    let mut before = simulate::run(setup.stock.clone(), &setup.tools, before_steps, "before")?;
+    let before = simulate::run_lent(&setup.stock, &setup.tools, before_steps, "before")?;
     let before_summary = before.summary();
     // Every tool's chip-load cap against what the program feeds it, told before the rounds.
     let chip_load = optimize::chip_loads(
@@ -1103,16 +1115,32 @@ pub fn optimize_setup(
     for w in &chip_warnings {
         on_warning(w);
     }
-    // The program as given keeps its steps and loads; its stock is not needed
-    // again (unless it is kept, then it is simulated again): free it for the
-    // rounds of optimize::write_verified. One column on the same grid.
-    let spacing = setup.stock.grid().spacing_mm;
-    before.stock = dexel::Stock::new_box([0.0; 3], [spacing; 3], spacing)?;
+    let given = optimize::Given::of(&before, limits, &setup.tools);
+    let stress_limit_mpa = limits.stress.then(|| before.stress_limit_mpa());
+    // The program as given is written out now (steps_before) where the
+    // format is known without the written program's step count (one format
+    // for both, Auto by the longer): then its run is not held through the
+    // rounds. Otherwise (Auto, at most AUTO_NPY_STEPS steps) it keeps its
+    // steps and loads until the end; its stock is not needed again (if the
+    // original is kept, it is simulated again).
+    let staged = out_dir.path();
+    let before_steps = before.steps.len();
+    let before_format = steps_format.resolve(before_steps);
+    let mut before = if steps_format != StepsFormat::Auto || before_format == StepsFormat::Npy {
+        before.write_steps(staged, "steps_before", before_format)?;
+        None
+    } else {
+        let mut before = before;
+        let spacing = setup.stock.grid().spacing_mm;
+        before.stock = dexel::Stock::new_box([0.0; 3], [spacing; 3], spacing)?;
+        Some(before)
+    };
     let time_simulate_s = t0.elapsed().as_secs_f64();
     // Engagement along fine stations, caps, re-timing.
     let t1 = Instant::now();
     let machine = optimize::optimising_machine(&setup.machine, limits);
     let mut stations = optimize::free_stations(&setup.program.path, &machine)?;
+    let n_stations = stations.len();
     let surface = match (&setup.design, limits.angle_rule) {
         (_, false) => optimize::SurfaceFrom::Nothing,
         (Some((_, model)), true) => optimize::SurfaceFrom::Design(model),
@@ -1125,12 +1153,14 @@ pub fn optimize_setup(
     let caps = optimize::interval_caps(&engagement, &stations, limits, &setup.tools);
     // Only the caps are needed from here on (per station: loads, areas, angles).
     drop(engagement);
-    let written = optimize::write_verified(setup, &machine, &mut stations, caps, &before)?;
+    let written = optimize::write_verified(setup, &machine, &mut stations, caps, given)?;
+    // The free stations (and the program's path they hold) are not needed again.
+    drop(stations);
     let time_plan_s = t2.elapsed().as_secs_f64();
     let after_run = match written.run {
         Some(run) => run,
-        None => simulate::run(
-            setup.stock.clone(),
+        None => simulate::run_lent(
+            &setup.stock,
             &setup.tools,
             setup.machine_steps()?,
             "as given",
@@ -1185,11 +1215,12 @@ pub fn optimize_setup(
             ),
         });
     }
-    let staged = out_dir.path();
     // One format for both (Auto: by the longer), so the folder reads alike.
-    let steps_format = steps_format.resolve(after.steps.len().max(before.steps.len()));
+    let steps_format = steps_format.resolve(after.steps.len().max(before_steps));
     let design = write_run(setup, after, staged, steps_format, columns_csv)?;
-    before.write_steps(staged, "steps_before", steps_format)?;
+    if let Some(before) = before.take() {
+        before.write_steps(staged, "steps_before", steps_format)?;
+    }
     // Files for the machine are in its own Z, as optimized.nc is.
     let z_sign = if setup.program.z_down { -1.0 } else { 1.0 };
     write_servo_csv(
@@ -1246,11 +1277,11 @@ pub fn optimize_setup(
             }),
             feed_scale_max: limits.feed_scale_max,
             chip_load,
-            stress_limit_mpa: limits.stress.then(|| before.stress_limit_mpa()),
+            stress_limit_mpa,
         },
         cap_time_share: written.cap_shares,
         lower_bound_time_s,
-        stations: stations.len(),
+        stations: n_stations,
         station_spacing_mm: motion::STATION_DS_MM,
         design,
         setup: Some(setup.info()),

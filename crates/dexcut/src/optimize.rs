@@ -810,6 +810,26 @@ pub fn stress_left(
     );
 }
 
+/// What [`write_verified`] needs of the program as given (its run need not
+/// be held through the rounds).
+#[derive(Clone, Copy, Debug)]
+pub struct Given {
+    /// Its cycle time, s.
+    pub cycle_s: f64,
+    /// It is within every limit ([`within_limits`]).
+    pub within_limits: bool,
+}
+
+impl Given {
+    /// What the rounds need of `run`, the program as given.
+    pub fn of(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Given {
+        Given {
+            cycle_s: run.steps.last().map_or(0.0, |s| s.t_end_s),
+            within_limits: within_limits(run, limits, tools),
+        }
+    }
+}
+
 /// Write the re-timed program, simulate it as a program of its own (parsed
 /// again and planned by the machine model), and correct it until every servo
 /// period is within the limits and its cycle time is within
@@ -824,7 +844,7 @@ pub fn write_verified(
     machine: &Machine,
     free: &mut Stations,
     mut caps: Vec<(f64, CapKind)>,
-    before: &Run,
+    before: Given,
 ) -> Result<Written> {
     let limits = &setup.job.limits;
     let margin_mm = 2.0 * setup.stock.grid().spacing_mm;
@@ -867,7 +887,9 @@ pub fn write_verified(
                 Ok::<_, crate::error::Error>(schedule::plan(stations).sample(machine.period_ms)?)
             })?),
         };
-        let (text, samples, path) = match &setup.program.gcode {
+        // The written program's path is lent to its planner, and dropped
+        // once its steps and the samples' tools are made (before the sweep).
+        let (text, samples, steps, tools_of_samples) = match &setup.program.gcode {
             Some(src) => {
                 let text = nc::refeed(src, &setup.program.file, &setup.program.nc_options, &plan)
                     .or_run(|| {
@@ -877,18 +899,23 @@ pub fn write_verified(
                 if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
                     fail!(run, "the re-fed program does not read back: {d}");
                 }
-                let samples = crate::motion::machine_motion(&parsed.path, &setup.machine)?;
-                (Some(text), samples, parsed.path)
+                let path = parsed.path;
+                let (samples, path) = crate::motion::machine_motion_of(path, &setup.machine);
+                let samples = samples?;
+                let steps = crate::motion::steps_from_samples(&path, &samples);
+                let tools = sample_tools(&path, &samples);
+                (Some(text), samples, steps, tools)
             }
-            None => (
-                None,
-                optimum_samples.expect("sampled for a point list"),
-                setup.program.path.clone(),
-            ),
+            None => {
+                let samples = optimum_samples.expect("sampled for a point list");
+                let path = &setup.program.path;
+                let steps = crate::motion::steps_from_samples(path, &samples);
+                let tools = sample_tools(path, &samples);
+                (None, samples, steps, tools)
+            }
         };
-        let steps = crate::motion::steps_from_samples(&path, &samples);
-        let run = crate::simulate::run(
-            setup.stock.clone(),
+        let run = crate::simulate::run_lent(
+            &setup.stock,
             &setup.tools,
             steps,
             &format!("verify {round}"),
@@ -907,27 +934,19 @@ pub fn write_verified(
             || round >= MAX_ROUNDS;
         if done {
             let cycle = run.steps.last().map_or(0.0, |s| s.t_end_s);
-            let before_cycle = before.steps.last().map_or(0.0, |s| s.t_end_s);
-            let kept_original = text.is_some()
-                && cycle > before_cycle
-                && within_limits(before, limits, &setup.tools);
+            let kept_original = text.is_some() && cycle > before.cycle_s && before.within_limits;
             let (left, unresolved): (Vec<Excess>, Vec<Excess>) = over
                 .into_iter()
                 .filter(|e| e.beyond_tolerance)
                 .partition(|e| e.resolved);
-            let (samples, sample_path) = if kept_original {
+            let (samples, sample_tools) = if kept_original {
                 let path = &setup.program.path;
-                (crate::motion::machine_motion(path, &setup.machine)?, path)
+                let samples = crate::motion::machine_motion(path, &setup.machine)?;
+                let tools = sample_tools(path, &samples);
+                (samples, tools)
             } else {
-                (samples, &path)
+                (samples, tools_of_samples)
             };
-            let sample_tools = samples
-                .iter()
-                .map(|s| {
-                    let seg = &sample_path.segments[s.segment as usize];
-                    (seg.tool, seg.spindle_rpm)
-                })
-                .collect();
             return Ok(Written {
                 text: if kept_original {
                     setup.program.gcode.clone()
@@ -961,6 +980,18 @@ pub fn write_verified(
             merge_ratio = (1.0 + (merge_ratio - 1.0) / 2.5).max(MERGE_RATIO_MIN);
         }
     }
+}
+
+/// Per servo sample, the tool number and spindle speed of the block of
+/// `path` it lies on ([`Written::sample_tools`]).
+fn sample_tools(path: &nc::Path, samples: &[schedule::ServoSample]) -> Vec<(u32, f64)> {
+    samples
+        .iter()
+        .map(|s| {
+            let seg = &path.segments[s.segment as usize];
+            (seg.tool, seg.spindle_rpm)
+        })
+        .collect()
 }
 
 /// One tool's chip-load cap (MODEL.md §2.1) against what the program asks

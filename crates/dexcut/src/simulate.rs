@@ -144,8 +144,23 @@ const LOOP_SECANT_SLOPES: std::ops::RangeInclusive<f64> = -0.2..=0.25;
 pub enum StockSource<'a> {
     /// The whole stock.
     Whole(Stock),
+    /// The whole stock, lent: every pass sweeps a copy of it (`optimize`'s
+    /// runs, whose job stock stays for the next one: one stock fewer held
+    /// than a copy handed over).
+    Lent(&'a Stock),
     /// The bands of a tiled stock.
     Tiled(&'a crate::stock::Tiling),
+}
+
+impl StockSource<'_> {
+    /// The stock held whole (handed over or lent); None for a tiled one.
+    fn whole(&self) -> Option<&Stock> {
+        match self {
+            StockSource::Whole(stock) => Some(stock),
+            StockSource::Lent(stock) => Some(stock),
+            StockSource::Tiled(_) => None,
+        }
+    }
 }
 
 /// One sweep of `steps` through a copy of `stock`, each step with its tool;
@@ -162,7 +177,7 @@ fn sweep_pass(
     let tools = tools.tools();
     let mut sweep = dexel::Sweep::new(&tools, tool_of_step, steps, options)?;
     let kept = match stock {
-        StockSource::Whole(stock) => {
+        StockSource::Whole(stock) | &StockSource::Lent(stock) => {
             // The record made final and compact batch by batch.
             let mut work = stock.clone();
             let bar = progress::bar(steps.len() as u64, label);
@@ -521,6 +536,12 @@ pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) ->
     run_on(StockSource::Whole(stock), tools, steps, label)
 }
 
+/// [`run`] on the lent `stock`: the passes sweep copies of it, and it is
+/// left as it was.
+pub fn run_lent(stock: &Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) -> Result<Run> {
+    run_on(StockSource::Lent(stock), tools, steps, label)
+}
+
 /// [`run`] on a stock held whole or in bands. With a tiled stock the run
 /// keeps no stock, no error map and no volumes (NaN): [`write_tiled_columns`]
 /// makes them band by band.
@@ -530,15 +551,17 @@ pub fn run_on(
     steps: Vec<TimedStep>,
     label: &str,
 ) -> Result<Run> {
-    let (initial_volume_mm3, grid_mm) = match &stock {
-        StockSource::Whole(s) => (s.volume_mm3(), s.grid().spacing_mm),
-        StockSource::Tiled(t) => (f64::NAN, t.grid.spacing_mm),
+    let (initial_volume_mm3, grid_mm) = match (&stock, stock.whole()) {
+        (_, Some(s)) => (s.volume_mm3(), s.grid().spacing_mm),
+        (StockSource::Tiled(t), None) => (f64::NAN, t.grid.spacing_mm),
+        (_, None) => unreachable!("only a tiled stock is not whole"),
     };
     let rigid_steps: Vec<dexel::Step> = steps.iter().map(|s| s.step).collect();
     let (tool_of_step, options) = sweep_setup(tools, &steps)?;
     let started = Instant::now();
     let (rigid_stock, mut record) =
         sweep_pass(&stock, tools, &tool_of_step, &rigid_steps, &options, label)?;
+    drop(rigid_steps);
     // At most two stocks at a time: the initial one and the last pass's.
     let mut final_stock = rigid_stock;
     let mut step_loads = loads(tools, &tool_of_step, &record, &steps, grid_mm);
@@ -635,10 +658,6 @@ pub fn run_on(
             (tx - fx).hypot(ty - fy)
         })
         .collect();
-    let grid_mm = match &stock {
-        StockSource::Whole(s) => s.grid().spacing_mm,
-        StockSource::Tiled(t) => t.grid.spacing_mm,
-    };
     // Windows over the feed steps of one cut (the steps out of the loop in
     // it, such as cuts by the tool's bottom alone, weigh nothing below).
     let feed: Vec<bool> = steps.iter().map(|s| !s.step.rapid).collect();
@@ -686,7 +705,11 @@ pub fn run_on(
                 .map(|[x, y]| [1e-3 * x, 1e-3 * y])
                 .collect();
             let shifted = offset_steps(&steps, &offsets_mm);
+            // The last pass's stock, record and loads are replaced by this
+            // pass's: freed before it is swept.
             drop(final_stock.take());
+            drop(std::mem::take(&mut record));
+            drop(std::mem::take(&mut step_loads));
             let (pass_stock, pass_record) =
                 sweep_pass(&stock, tools, &tool_of_step, &shifted, &options, label)?;
             (final_stock, record) = (pass_stock, pass_record);
@@ -825,13 +848,16 @@ pub fn run_on(
         })
         .collect();
     let (final_stock, error_um, final_volume_mm3) = match (&stock, final_stock) {
-        (StockSource::Whole(initial), Some(last)) => {
+        (StockSource::Whole(_) | StockSource::Lent(_), Some(last)) => {
+            let initial = stock.whole().expect("a whole stock");
             let error_um = clamped_error_map_um(initial, &last, &offsets_um, &model_um);
             let volume = last.volume_mm3();
             (last, error_um, volume)
         }
         (StockSource::Tiled(tiling), _) => (tiling.empty()?, Vec::new(), f64::NAN),
-        (StockSource::Whole(_), None) => unreachable!("a whole stock's pass keeps its stock"),
+        (StockSource::Whole(_) | StockSource::Lent(_), None) => {
+            unreachable!("a whole stock's pass keeps its stock")
+        }
     };
     Ok(Run {
         steps,

@@ -123,6 +123,14 @@ pub struct RemovalRecord {
     pub columns_evaluated: u64,
 }
 
+/// A record of no steps: a placeholder where a record is dropped before the
+/// next one is swept.
+impl Default for RemovalRecord {
+    fn default() -> Self {
+        RemovalRecord::compact_empty(0, 1.0)
+    }
+}
+
 impl RemovalRecord {
     fn new(steps: usize, n_bands: usize, band_height_mm: f64) -> Self {
         RemovalRecord {
