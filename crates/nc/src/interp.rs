@@ -137,7 +137,8 @@ pub struct SegmentTrace {
 
 /// What [`run`] returns besides the parse result.
 pub struct Trace {
-    /// One per path segment.
+    /// One per path segment of a recorded run ([`run_recorded`], the re-feed
+    /// writer's); empty otherwise.
     pub segments: Vec<SegmentTrace>,
     /// Every source line as parsed (`None`: syntax error), split at `\n`
     /// with a trailing `\r` removed.
@@ -1742,6 +1743,11 @@ impl Interp<'_> {
             },
             tool: self.tool,
         });
+        // Only the re-feed writer reads the trace, and only from a recorded
+        // run: a program parsed to be simulated keeps none (56 B a segment).
+        if self.executed.is_none() {
+            return;
+        }
         let mut offset_mm = self.offset();
         offset_mm[2] -= self.tool_length_mm;
         self.trace.push(SegmentTrace {
