@@ -3818,61 +3818,6 @@ fn sub_cell_steps_carry_the_steady_slot_force() {
     );
 }
 
-/// A tool entering the stock (MODEL.md §1.6): the Ø2 slot of
-/// [`sub_cell_steps_carry_the_steady_slot_force`] enters the block's face at
-/// x = 0 when its centre is at x = −1. At penetration p the edge is engaged
-/// over ±ψ_e, cos ψ_e = 1 − p/R, with chip f_z cos ψ, so the model's mean force
-/// (MODEL.md §3.2: kc at the mean chip h_m = f_z sin ψ_e/ψ_e, the resultant of
-/// the engaged arc) is F(p) = kc(h_m) z f_z a_p (ψ_e + sin ψ_e cos ψ_e)/(2π)
-/// · √(1 + k_r²), rising from 0 to the slot's 20.45 N at p = R. In steps of a
-/// cell, 1/3 and 1/10 of a cell: no step that ends more than a cell before the
-/// tool reaches the face has a force (the window of six cells had lent the
-/// cut ahead to steps up to 2.4 cells into the air, up to 2.1–3.1 N), every
-/// step from p = R/2 on is within 3 % of F(p), and the force integrated over
-/// the entry (x −1.5…0.5) is within 2 % of F's.
-#[test]
-fn entering_the_stock_the_force_rises_with_the_engagement() {
-    let dir = tempdir();
-    let closed = |p: f64, fz: f64| -> f64 {
-        if p <= 0.0 {
-            return 0.0;
-        }
-        let psi = (1.0 - p.min(1.0)).acos();
-        let hm = fz * psi.sin() / psi;
-        let kc = 1500.0 * hm.powf(-0.22);
-        kc * 2.0 * fz * 0.5 * (psi + psi.sin() * psi.cos()) / (2.0 * PI) * 1.09f64.sqrt()
-    };
-    assert!((closed(1.0, 0.02) - 20.450).abs() < 1e-3);
-    for (name, step_mm) in [("cell", 0.1), ("third", 0.1 / 3.0), ("tenth", 0.01)] {
-        let steps = small_slot_steps(dir.path(), name, step_mm, 240.0);
-        let fz = 0.02;
-        let (mut integral, mut exact) = (0.0, 0.0);
-        let mut x0 = -3.0;
-        for (&x1, &f) in steps["x"].iter().zip(&steps["force_n"]) {
-            let (mid, len) = (0.5 * (x0 + x1), x1 - x0);
-            let want = closed(mid + 1.0, fz);
-            if x1 < -1.1 + 1e-9 {
-                assert_eq!(f, 0.0, "{name}: a step ending at x {x1}, in air, has {f} N");
-            }
-            if (-0.5..7.0).contains(&mid) {
-                assert!(
-                    rel(f, want) < 0.03,
-                    "{name}: x {x1}: {f} N, closed form {want} N"
-                );
-            }
-            if (-1.5..0.5).contains(&x1) {
-                integral += f * len;
-                exact += want * len;
-            }
-            x0 = x1;
-        }
-        assert!(
-            rel(integral, exact) < 0.02,
-            "{name}: ∫F dx {integral} against {exact} N·mm"
-        );
-    }
-}
-
 /// optimize holds the tool under its allowable stress where the tool
 /// advances less than a grid cell per servo period (MODEL.md §1.6, §4.4):
 /// the Ø2 slot of [`sub_cell_steps_carry_the_steady_slot_force`] as G-code

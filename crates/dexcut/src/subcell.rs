@@ -80,10 +80,8 @@ fn head_of(record: &RemovalRecord, k: usize, len: f64, u: [f64; 2]) -> [f64; SUM
 /// removal per unit length over [`SUB_CELL_WINDOW_CELLS`] cells of path
 /// centred on the step (shifted to lie within the run, or the whole run
 /// where it is shorter), at the step's own length, feed direction and
-/// duration, scaled down to what the run's steps within a cell of path
-/// either side of it removed (a step in air where the tool enters the stock
-/// gets no load; MODEL.md §1.6). Steps of a cell or more keep their loads
-/// bit for bit. Allocates per call, not per step.
+/// duration (MODEL.md §1.6). Steps of a cell or more keep their loads bit
+/// for bit. Allocates per call, not per step.
 pub fn window_loads(
     loads: &mut [StepLoad],
     tools: &ToolSet,
@@ -97,8 +95,6 @@ pub fn window_loads(
     // Per step of the current run: its start along the run, mm.
     let mut start: Vec<f64> = Vec::new();
     let mut geo: Vec<(f64, [f64; 2])> = Vec::new();
-    // Per step of the current run: the volume its steps before it removed, mm³.
-    let mut removed_before: Vec<f64> = Vec::new();
     let mut bands = vec![0.0; record.n_bands];
     let mut win = Window {
         lo: 0,
@@ -135,18 +131,6 @@ pub fn window_loads(
             k = end;
             continue;
         }
-        removed_before.clear();
-        removed_before.push(0.0);
-        for j in 0..geo.len() {
-            removed_before.push(removed_before[j] + record.volume_mm3(k + j));
-        }
-        // What the run's steps removed from its start up to `x` mm along it
-        // (the step holding x by the share of its length before x).
-        let removed_up_to = |x: f64| -> f64 {
-            let j = start.partition_point(|&s0| s0 <= x).max(1) - 1;
-            let share = ((x - start[j]) / geo[j].0).clamp(0.0, 1.0);
-            removed_before[j] + share * record.volume_mm3(k + j)
-        };
         let model = &tools.entries[tool_of_step[k]].model;
         win.lo = 0;
         win.hi = 0;
@@ -204,19 +188,9 @@ pub fn window_loads(
             };
             part(win.hi, b, 1.0);
             part(win.lo, a, -1.0);
-            let steady = len / (b - a);
-            let i = k + t;
-            // No more than the steps within a cell of path either side of
-            // this one removed (MODEL.md §1.6): where the tool enters the
-            // stock the window would lend the cut ahead to steps still in
-            // air; the steady cut's chip thickness is kept (E scales too).
-            let near = removed_up_to(start[t] + len + grid_mm) - removed_up_to(start[t] - grid_mm);
-            let scale = if sum[VOL] * steady > near {
-                steady * (near.max(0.0) / (sum[VOL] * steady))
-            } else {
-                steady
-            };
+            let scale = len / (b - a);
             let volume = sum[VOL] * scale;
+            let i = k + t;
             if !(volume > 0.0) {
                 loads[i] = StepLoad::default();
                 continue;
@@ -234,7 +208,7 @@ pub fn window_loads(
                 ],
                 // Σ dV/h over a step does not depend on its length (dV and h
                 // both grow with it): the window's Σ (dV/h)·L over its length.
-                chip_edge_area_mm2: sum[EDGE_LEN] / (b - a) * (scale / steady),
+                chip_edge_area_mm2: sum[EDGE_LEN] / (b - a),
                 volume_over_radius_mm2: sum[OVER_R] * scale,
                 dt_s: steps[i].dt_s,
             });
