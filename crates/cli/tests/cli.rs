@@ -39,6 +39,28 @@ fn summary(dir: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
 }
 
+/// servo.csv simulated as a program (`servo`) gives the optimised run's
+/// (`after`) removal, cycle, peaks and error map within 1e-9, and `extra` keys too.
+fn assert_servo_csv_is_the_run(after: &Value, servo: &Value, extra: &[&str]) {
+    let keys = [
+        "removed_volume_mm3",
+        "cycle_time_s",
+        "peak_mrr_mm3_s",
+        "peak_force_n",
+        "peak_deflection_um",
+        "peak_stress_mpa",
+        "max_error_um",
+        "min_error_um",
+    ];
+    for key in keys.iter().chain(extra) {
+        let (a, b) = (after[key].as_f64().unwrap(), servo[key].as_f64().unwrap());
+        assert!(
+            (a - b).abs() <= 1e-9 * a.abs().max(1.0),
+            "{key}: summary {a}, servo.csv {b}"
+        );
+    }
+}
+
 /// Named numeric columns of a CSV file.
 fn csv_columns(path: &Path) -> std::collections::HashMap<String, Vec<f64>> {
     let mut r = csv::Reader::from_path(path).unwrap();
@@ -2359,22 +2381,7 @@ fn servo_csv_simulated_as_a_program_is_the_optimised_run() {
         "boss_contour.nc",
         "../servo.csv",
     );
-    for key in [
-        "removed_volume_mm3",
-        "cycle_time_s",
-        "peak_mrr_mm3_s",
-        "peak_force_n",
-        "peak_deflection_um",
-        "peak_stress_mpa",
-        "max_error_um",
-        "min_error_um",
-    ] {
-        let (a, b) = (after[key].as_f64().unwrap(), servo[key].as_f64().unwrap());
-        assert!(
-            (a - b).abs() <= 1e-9 * a.abs().max(1.0),
-            "{key}: summary {a}, servo.csv {b}"
-        );
-    }
+    assert_servo_csv_is_the_run(&after, &servo, &[]);
     // Without the spindle column the stream would be cut at the 10 000 rev/min
     // default instead of the program's S6000: a smaller chip, a smaller force.
     let servo_csv = std::fs::read_to_string(dir.path().join("opt/servo.csv")).unwrap();
@@ -2442,24 +2449,7 @@ mrr_max = 40
     assert!(corners >= 3, "{corners} corner rows");
     assert!(servo["rapid"].contains(&1.0));
     let again = simulate_servo_csv(dir.path(), "job.toml", "cut.nc", "opt/servo.csv");
-    for key in [
-        "removed_volume_mm3",
-        "cycle_time_s",
-        "peak_mrr_mm3_s",
-        "peak_force_n",
-        "peak_deflection_um",
-        "peak_stress_mpa",
-        "max_error_um",
-        "min_error_um",
-        "steps",
-        "rapid_collision_steps",
-    ] {
-        let (a, b) = (after[key].as_f64().unwrap(), again[key].as_f64().unwrap());
-        assert!(
-            (a - b).abs() <= 1e-9 * a.abs().max(1.0),
-            "{key}: summary {a}, servo.csv {b}"
-        );
-    }
+    assert_servo_csv_is_the_run(&after, &again, &["steps", "rapid_collision_steps"]);
     // evaluate reads the samples alone (every period_ms).
     ok(&dexcut(
         &[
