@@ -14,6 +14,9 @@
 //!   wider on every side, from 1 mm under the deepest feed move up to Z0 (CAM
 //!   posts put Z0 on the stock's top), or 0.5 mm above the lowest feed move when
 //!   every feed move is above Z0.
+//! * **Machine Z**: `z_axis = "down"` where every rapid across X/Y reaches below
+//!   every feed move's end ([`z_points_down`]; Estlcam 10's posts); the stock is
+//!   then fitted to the path mirrored into dexcut's Z-up frame.
 //! * **Grid**: about 20 columns across the tool, coarser where the stock would
 //!   need more than [`MAX_FITTED_COLUMNS`] columns.
 //! * Flutes as long as the deepest cut + 0.2 mm, at least 3 diameters; cutters
@@ -353,6 +356,46 @@ fn job_tools(
     Ok(vec![(None, first.clone())])
 }
 
+/// The program's feed moves (G1, G2, G3 and canned cycles' feeds).
+fn feed_moves(path: &nc::Path) -> impl Iterator<Item = &nc::Segment> {
+    path.segments
+        .iter()
+        .filter(|s| matches!(s.motion, nc::Motion::Feed { .. }))
+}
+
+/// Points along a segment: its ends, and 31 points between along an arc.
+fn points_along(s: &nc::Segment) -> impl Iterator<Item = nalgebra::Point3<f64>> + '_ {
+    let pieces = if matches!(s.geometry, nc::Geometry::Line) {
+        1
+    } else {
+        32
+    };
+    (0..=pieces).map(move |k| s.point_at_fraction(k as f64 / pieces as f64))
+}
+
+/// Whether the program is written for a machine whose +Z points to the table
+/// (`[machine] z_axis = "down"`; Estlcam 10's posts: safe height Z-20, cuts down
+/// to Z+2): it has at least two rapids that move in X or Y, and each of them
+/// reaches below the lowest point every feed move goes to (its start aside:
+/// Estlcam plunges at the feed from the safe height). Read with Z up, those
+/// rapids would travel under the cuts, through the stock. (A single one is
+/// not enough: a `G28` return to a home at Z0 before cuts above Z0, as the
+/// corpus's sprayer programs do, is one.)
+pub fn z_points_down(path: &nc::Path) -> bool {
+    let lowest_feed = feed_moves(path)
+        .flat_map(|s| points_along(s).skip(1))
+        .fold(f64::INFINITY, |m, p| m.min(p.z));
+    let (mut below, mut traverses) = (true, 0);
+    for s in path.segments.iter().filter(|s| {
+        matches!(s.motion, nc::Motion::Rapid)
+            && (s.end.x - s.start.x).hypot(s.end.y - s.start.y) > 1e-6
+    }) {
+        traverses += 1;
+        below &= s.start.z.min(s.end.z) < lowest_feed - 1e-6;
+    }
+    lowest_feed.is_finite() && traverses >= 2 && below
+}
+
 /// A grid spacing of 1, 2 or 5 × 10^k mm, the largest such not above `mm`.
 fn round_grid(mm: f64) -> f64 {
     let decade = 10f64.powf(mm.log10().floor());
@@ -376,22 +419,15 @@ pub fn fit(program: &Path, tool: Option<&ToolGuess>, grid_mm: Option<f64>) -> Re
         "[stock]\nkind = \"box\"\nmin = [-50000, -50000, -90000]\nmax = [50000, 50000, -89990]\ngrid = 500\n[tool]\nkind = \"flat\"\ndiameter = {probe_tool}\n[program]\npath = {path_toml}\n"
     );
     let job = Job::parse(&probe, &program.display().to_string(), Path::new(""))?;
-    let read = crate::program::load(&job)?;
+    let mut read = crate::program::load(&job)?;
+    let z_down = z_points_down(&read.path);
+    if z_down {
+        read.path.mirror_z();
+    }
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
-    for s in read
-        .path
-        .segments
-        .iter()
-        .filter(|s| matches!(s.motion, nc::Motion::Feed { .. }))
-    {
-        let pieces = if matches!(s.geometry, nc::Geometry::Line) {
-            1
-        } else {
-            32
-        };
-        for k in 0..=pieces {
-            let p = s.point_at_fraction(k as f64 / pieces as f64);
+    for s in feed_moves(&read.path) {
+        for p in points_along(s) {
             for a in 0..3 {
                 lo[a] = lo[a].min(p[a]);
                 hi[a] = hi[a].max(p[a]);
@@ -452,6 +488,14 @@ pub fn fit(program: &Path, tool: Option<&ToolGuess>, grid_mm: Option<f64>) -> Re
             format!("about 20 columns across the Ø{smallest} mm tool, at most {MAX_FITTED_COLUMNS:.0} columns")
         }
     );
+    if z_down {
+        let _ = writeln!(t);
+        let _ = writeln!(
+            t,
+            "[machine]\nz_axis = \"down\"   # every rapid across X/Y travels below the feed moves: +Z points to the table"
+        );
+        notes.push("machine: +Z points to the table (z_axis = \"down\"): every rapid that moves in X or Y travels below every feed move, as Estlcam's posts write safe heights (Z-20); set [machine] z_axis = \"up\" in the job if that is wrong".into());
+    }
     notes.push(format!(
         "stock: a box from {} to {} mm around the feed moves, top at Z{top}, grid {grid} mm ({:.0} columns): edit [stock] in the job to match your stock",
         f(min),

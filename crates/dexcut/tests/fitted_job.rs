@@ -200,3 +200,48 @@ fn fitted_stock_holds_the_feed_moves() {
         .any(|n| n.contains("line ") && n.contains("D=2.7")));
     assert!(max[0] - min[0] > 2.7 + 4.0 && max[1] - min[1] > 2.7 + 4.0);
 }
+
+/// A program whose every X/Y rapid travels below its feed moves is written for a
+/// machine whose +Z points to the table: the fitted job says `z_axis = "down"`.
+/// In the corpus these are exactly Estlcam 10's three programs (safe height Z-20
+/// or Z-25, cuts down to Z+2.5); Estlcam 11's post writes Z up (`G00 Z5`).
+/// The stock is fitted in dexcut's Z-up frame: top Z0, 1 mm under the deepest
+/// cut (backplate: Z+2.5 in its own frame).
+#[test]
+fn programs_whose_rapids_travel_under_their_cuts_are_fitted_z_down() {
+    let dir = real("");
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.ends_with(".md") && !n.ends_with(".txt"))
+        .collect();
+    names.sort();
+    let tool = dexcut::fitted_job::parse_tool_arg("flat:3").unwrap();
+    let mut down = Vec::new();
+    let mut fitted = 0;
+    for name in &names {
+        // Programs dexcut refuses (as LinuxCNC does) or with no feed move are skipped.
+        let Ok(job) = fit(&real(name), Some(&tool), Some(2.0)) else {
+            continue;
+        };
+        fitted += 1;
+        if job.toml.contains("z_axis = \"down\"") {
+            down.push(name.clone());
+        }
+    }
+    assert!(fitted > 70, "{fitted} programs fitted");
+    assert_eq!(
+        down,
+        [
+            "estlcam_backplate.nc",
+            "estlcam_enclosure.nc",
+            "estlcam_spool_fixture.nc"
+        ]
+    );
+    let job = fit(&real("estlcam_backplate.nc"), None, None).unwrap();
+    let table: toml::Table = toml::from_str(&job.toml).unwrap();
+    let z = |k: &str| table["stock"][k].as_array().unwrap()[2].as_float().unwrap();
+    assert_eq!(z("max"), 0.0);
+    assert!((z("min") - (-2.5 - 1.0)).abs() < 1e-9, "{}", z("min"));
+    assert_eq!(table["machine"]["z_axis"].as_str(), Some("down"));
+}
