@@ -18,6 +18,8 @@ struct Violation {
     speed_mm_s: f64,
     /// Its difference over the limit.
     ratio: f64,
+    /// Whether its newest sample's feed is over its cap.
+    over_cap: bool,
 }
 
 /// One servo sample: where the tool tip is commanded at time `t_s`.
@@ -116,7 +118,11 @@ const LAMBDA_GRID_MAX_STATIONS: usize = 500_000;
 ///   [`RunPlanner::restore_holds`]); caps the plan without holds stays below need no
 ///   hold;
 /// * every local maximum that is held for less than W is cut flat at the highest level c
-///   where it is held for c·W.
+///   where it is held for c·W;
+/// * except where the accelerations on both sides are so small that the filter's jerk
+///   across the sign change, at most (A₁ + A₂)/W, is within j/2: such a peak is not cut,
+///   and such a cap is lowered to a V at its station instead of held (slow dips and
+///   peaks, see [`RunPlanner::extend_caps`] and [`RunPlanner::cut_peaks`]).
 ///
 /// A trapezoid with accelerations of at least W filtered this way is exactly the 7-segment
 /// S-curve, so a rest-to-rest move is time-optimal for the best λ; λ is searched on short
@@ -128,8 +134,9 @@ const LAMBDA_GRID_MAX_STATIONS: usize = 500_000;
 /// Verified runs (MODEL.md §6.1): these rules bound the sampled axis differences only
 /// approximately, so each run is kept only once its servo samples (those
 /// [`Profile::sample`] makes at the machine's period) have every per-axis second difference
-/// within a_i and third difference within j_i: the candidate λ values in order (the first
-/// one with the full holds restored at the corners near failing stencils), then the first
+/// within a_i and third difference within j_i, and every feed within its cap: the
+/// candidate λ values in order (the first one with the full holds restored at the corners
+/// near failing stencils), then the first
 /// one repaired (filter widened, or caps lowered around the failing stencils), then
 /// slowed in time until it verifies.
 pub fn plan(stations: &Stations) -> Profile<'_> {
@@ -217,6 +224,10 @@ struct RunPlanner<'a> {
     /// Corners held over c·(W + 3T)/2 (the others over c·W/2, as touched caps): set where
     /// a run's samples broke a limit (MODEL.md §6.1, "Local corner holds").
     full_hold: Vec<bool>,
+    /// Stations planned by the plain rules (a hold at every held cap, every short peak
+    /// cut), not by the slow dips' and peaks' exceptions: set where a run's sample near
+    /// them was over its cap (MODEL.md §6.1, "Slow dips and peaks").
+    plain: Vec<bool>,
     trial: Vec<f64>,
 }
 
@@ -238,6 +249,7 @@ impl<'a> RunPlanner<'a> {
                 .fold(0.0, f64::max),
             is_corner,
             full_hold: vec![false; n],
+            plain: vec![false; n],
             trial: vec![0.0; n],
         }
     }
@@ -379,7 +391,9 @@ impl<'a> RunPlanner<'a> {
     /// Gives every corner of the run `first..=last` within reach of a stencil that broke a
     /// limit its full hold c·(W + 3T)/2 back: those within the stencil's highest speed
     /// times (W + 3T), plus the largest station spacing, of its samples (MODEL.md §6.1,
-    /// "Local corner holds"). Returns whether any corner changed.
+    /// "Local corner holds"); where the stencil's newest sample is over its cap, every
+    /// station there is also marked plain (no slow dip or uncut peak; MODEL.md §6.1, "Slow
+    /// dips and peaks"). Returns whether any station changed.
     fn restore_holds(
         &mut self,
         first: usize,
@@ -397,6 +411,10 @@ impl<'a> RunPlanner<'a> {
             for k in first + lo..first + hi {
                 if self.is_corner[k] && !self.full_hold[k] {
                     self.full_hold[k] = true;
+                    changed = true;
+                }
+                if violation.over_cap && !self.plain[k] {
+                    self.plain[k] = true;
                     changed = true;
                 }
             }
@@ -530,11 +548,11 @@ impl<'a> RunPlanner<'a> {
             // The plan without holds: only the caps it touches need them.
             let mut free = v[first..=last].to_vec();
             self.passes(first, lambda, &mut free);
-            self.extend_caps(first, last, window_s, slow, &free, v);
+            self.extend_caps(first, last, (lambda, window_s, slow), &free, v);
         }
         self.passes(first, lambda, &mut v[first..=last]);
         if window_s > 0.0 {
-            self.cut_peaks(first, last, window_s, v);
+            self.cut_peaks(first, last, window_s, slow, v);
         }
         (first..last)
             .map(|k| 2.0 * (s[k + 1] - s[k]) / (v[k] + v[k + 1]))
@@ -566,16 +584,27 @@ impl<'a> RunPlanner<'a> {
     /// c'_k = min { c_j : |s_j − s_k| ≤ r_j, j held }.
     /// A cap the plan stays below needs no hold: holding lowers the plan, so it stays below
     /// it. n·log n through a range-minimum tree.
+    ///
+    /// A slow dip (MODEL.md §6.1, "Slow dips and peaks"): where the accelerations A the
+    /// plan may use over the hold's stations (λ·a_k, `lambda` = λ) are so small that
+    /// 2A ≤ j·W/2 (j the least jerk limit there), the filter's jerk stays within j/2 even
+    /// though the plan's acceleration changes sign within W at the cap; the cap is then
+    /// lowered at its station alone to c − 1.1·A·W/4 (a V whose average over W, centred
+    /// on the station, is c − 0.1·A·W/4) instead of held, when that V crosses the hold's
+    /// stations in less time than the hold does (at a slow cap the hold takes whole
+    /// station intervals of Δs/c). Stations marked plain (a sample near them was over its
+    /// cap) are held.
     fn extend_caps(
         &self,
         first: usize,
         last: usize,
-        window_s: f64,
-        slow: f64,
+        (lambda, window_s, slow): (f64, f64, f64),
         free: &[f64],
         v: &mut [f64],
     ) {
         let s = &self.stations.s_mm()[first..=last];
+        let accel = &self.stations.interval_accel_mm_s2()[first..last];
+        let jerk = &self.stations.interval_jerk_mm_s3()[first..last];
         let period_s = self.stations.machine().period_s() / slow;
         let mut tree = RangeMin::<1>::new(s.len());
         for (j, &s_j) in s.iter().enumerate() {
@@ -591,6 +620,17 @@ impl<'a> RunPlanner<'a> {
             let reach = cap * hold_s / 2.0 + self.ds_max_mm;
             let lo = s[..=j].partition_point(|&x| x < s_j - reach);
             let hi = j + s[j..].partition_point(|&x| x <= s_j + reach);
+            if !self.plain[first + j] && hi - lo >= 2 {
+                if let Some(dip) = slow_dip_mm_s(
+                    cap,
+                    (s_j - s[lo], s[hi - 1] - s_j),
+                    (&accel[lo..hi - 1], &jerk[lo..hi - 1]),
+                    (lambda, window_s, slow),
+                ) {
+                    tree.lower(j, j + 1, [dip]);
+                    continue;
+                }
+            }
             tree.lower(lo, hi, [cap]);
         }
         for (j, vj) in v[first..=last].iter_mut().enumerate() {
@@ -601,8 +641,16 @@ impl<'a> RunPlanner<'a> {
     /// Cuts every local maximum of `v` on `first..=last` that is held for less than W
     /// flat at the highest level c where it is held for at least W (length ≥ c·W), but
     /// not below the higher of its two neighbouring minima.
-    fn cut_peaks(&self, first: usize, last: usize, window_s: f64, v: &mut [f64]) {
+    ///
+    /// A slow peak (MODEL.md §6.1, "Slow dips and peaks") is not cut: where the plan's
+    /// largest acceleration A1 on the rising side and deceleration A2 on the falling side
+    /// (to the neighbouring minima) have A1 + A2 ≤ j·W/2, the filter's jerk across the
+    /// peak, at most (A1 + A2)/W, is within j/2 (the least jerk limit there; `slow` = σ
+    /// scales it by σ³, so that the slowed plan is the σ = 1 plan run σ times slower),
+    /// unless a station of the peak is marked plain.
+    fn cut_peaks(&self, first: usize, last: usize, window_s: f64, slow: f64, v: &mut [f64]) {
         let s = self.stations.s_mm();
+        let jerk = self.stations.interval_jerk_mm_s3();
         let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.max(b);
         let mut k = first;
         while k < last {
@@ -625,6 +673,17 @@ impl<'a> RunPlanner<'a> {
             let mut right = b;
             while right < last && v[right + 1] <= v[right] {
                 right += 1;
+            }
+            let plan_accel =
+                |k: usize| (v[k + 1] * v[k + 1] - v[k] * v[k]) / (2.0 * (s[k + 1] - s[k]));
+            let rising = (left..a).map(plan_accel).fold(0.0f64, f64::max);
+            let falling = (b..right).map(|k| -plan_accel(k)).fold(0.0f64, f64::max);
+            let j_min = (left..right).map(|k| jerk[k]).fold(f64::INFINITY, f64::min);
+            if rising + falling <= JERK_SHARE * j_min * slow.powi(3) * window_s
+                && !self.plain[left..=right].contains(&true)
+            {
+                k = b + 1;
+                continue;
             }
             let floor = v[left].max(v[right]);
             // Held length at level c: outermost stations with v ≥ c on either side
@@ -651,6 +710,34 @@ impl<'a> RunPlanner<'a> {
             k = right;
         }
     }
+}
+
+/// Share of the jerk limit that a slow dip's or an uncut peak's filter jerk may take
+/// (MODEL.md §6.1, "Slow dips and peaks"): the other half is a corner's, whose velocity
+/// step shows as up to j/2 in the third differences (the corner rule).
+const JERK_SHARE: f64 = 0.5;
+
+/// A slow dip's lowered cap (see [`RunPlanner::extend_caps`]), mm/s, or `None` where the
+/// station is to be held: the cap `cap` (mm/s) of a station whose hold reaches `reach_mm`
+/// before and after it over intervals of tangential acceleration and jerk limits
+/// `limits`, planned with (λ, W, σ) = `plan`. A = λ·max a_k over those intervals; a dip
+/// needs 2A ≤ j·σ³·W/2 (j their least jerk limit), a lowered cap c − 1.1·A·W/4 > 0, and a
+/// V from it at A crossing the hold's reach in less time than the hold at c does.
+fn slow_dip_mm_s(
+    cap: f64,
+    reach_mm: (f64, f64),
+    (accel, jerk): (&[f64], &[f64]),
+    (lambda, window_s, slow): (f64, f64, f64),
+) -> Option<f64> {
+    let a = lambda * accel.iter().fold(0.0f64, |m, &x| m.max(x));
+    let j = jerk.iter().fold(f64::INFINITY, |m, &x| m.min(x)) * slow.powi(3);
+    let dip = cap - 1.1 * a * window_s / 4.0;
+    if !(a > 0.0 && 2.0 * a <= JERK_SHARE * j * window_s && dip > 0.0) {
+        return None;
+    }
+    let v_time = |d: f64| ((dip * dip + 2.0 * a * d).sqrt() - dip) / a;
+    let (before, after) = reach_mm;
+    (v_time(before) + v_time(after) < (before + after) / cap).then_some(dip)
 }
 
 /// ∫ (s − s_first) dt over the first `h_s` seconds of an interval that starts `offset_mm` past
@@ -738,7 +825,8 @@ impl<'a> Profile<'a> {
     /// a per-axis second difference |P(t+T) − 2P(t) + P(t−T)|/T² to the axis' acceleration
     /// limit and (with a jerk limit) of a third difference
     /// |P(t+2T) − 3P(t+T) + 3P(t) − P(t−T)|/T³ to its jerk limit, each limit with the
-    /// tests' tolerance (1 + 10⁻⁶)·limit + 10⁻⁶. The samples are those [`Profile::sample`]
+    /// tests' tolerance (1 + 10⁻⁶)·limit + 10⁻⁶, and of every sample's feed to the larger
+    /// cap of the two stations around it (with (1 + 10⁻⁹)). The samples are those [`Profile::sample`]
     /// makes, bit for bit: the runs before are as planned, and after the run the tool rests
     /// (the run after checks the stencils that reach into it). 0 when nothing moves, and
     /// when the run ends past [`MAX_SAMPLES`] periods: [`Profile::sample`] refuses such a
@@ -762,11 +850,24 @@ impl<'a> Profile<'a> {
         let mut sampler = Sampler::starting_at(self, lo as f64 * period_s);
         // The last four samples, oldest first.
         let mut p = [sampler.at(lo as f64 * period_s); 4];
-        let mut worst: f64 = 0.0;
+        // Caps, as the tests read them: a sample's feed is at or under the larger cap of
+        // the two stations around it (the first station past it, clamped to 1..n).
+        let (s, caps) = (self.stations.s_mm(), self.stations.cap_mm_min());
+        let mut past = s.partition_point(|&x| x <= p[3].s_mm);
+        let mut cap_ratio = |sample: &ServoSample| {
+            while past < s.len() && s[past] <= sample.s_mm {
+                past += 1;
+            }
+            let k = past.clamp(1, s.len().max(2) - 1);
+            let cap = caps[k - 1].max(caps[k]);
+            sample.feed_mm_min / (cap * (1.0 + 1e-9))
+        };
+        let mut worst: f64 = cap_ratio(&p[3]);
         for (count, j) in (lo + 1..=hi).enumerate() {
             p.rotate_left(1);
             p[3] = sampler.at(j as f64 * period_s);
-            let mut ratio: f64 = 0.0;
+            let over = cap_ratio(&p[3]);
+            let mut ratio: f64 = over;
             for i in 0..3 {
                 let x = p.map(|sample| sample.pos[i]);
                 if count >= 1 {
@@ -784,6 +885,7 @@ impl<'a> Profile<'a> {
                         s_mm: (p[0].s_mm, p[3].s_mm),
                         speed_mm_s: p.iter().map(|x| x.feed_mm_min / 60.0).fold(0.0, f64::max),
                         ratio,
+                        over_cap: over > 1.0,
                     });
                 }
             }
@@ -1355,6 +1457,62 @@ mod tests {
             full.cycle_time_s
         );
         assert!(local.cycle_time_s < full.cycle_time_s);
+    }
+
+    /// Slow dips and peaks (MODEL.md §6.1): a raster's row end, 10 mm along X, a 0.5 mm
+    /// step along Y and 10 mm back, at F3000 with T = 4 ms and jerk 20 000 mm/s³. The two
+    /// 90° corners are capped at j·T²/2 = 0.16 mm/s and the step's intervals limited to
+    /// j·T/12 = 6.67 mm/s² (MODEL.md §6.1, sampled geometry), so the filter's jerk at the
+    /// corners' dips and the step's peak, at most 2·6.67/W, is far under j: the corners
+    /// dip instead of being held over whole 0.05 mm intervals at 0.16 mm/s, and the peak
+    /// is not cut. Every sample keeps the axis limits and the caps, and the run is quicker
+    /// than with every station planned by the plain rules.
+    #[test]
+    fn slow_corners_dip_instead_of_being_held() {
+        let p = |x: f64, y: f64| Point3::new(x, y, 0.0);
+        let feed = Motion::Feed {
+            feed_mm_min: 3000.0,
+        };
+        let segments = vec![
+            line(p(0.0, 0.0), p(10.0, 0.0), feed),
+            line(p(10.0, 0.0), p(10.0, 0.5), feed),
+            line(p(10.0, 0.5), p(0.0, 0.5), feed),
+        ];
+        let machine = Machine {
+            jerk_mm_s3: Some([20000.0; 3]),
+            period_ms: 4.0,
+            ..Machine::default()
+        };
+        let st = Stations::new(&Path { segments }, &machine, 0.05, FeedPolicy::Programmed).unwrap();
+        let (dips, verified) = run(&st, &[1.0], (REPAIR_MAX_TRIES, SLOW_MAX_TRIES));
+        let samples = dips.sample(machine.period_ms).unwrap();
+        assert!(worst_ratio(&machine, &samples) <= 1.0 + 1e-6);
+        let (s, caps) = (st.s_mm(), st.cap_mm_min());
+        for sample in &samples {
+            let k = s
+                .partition_point(|&x| x <= sample.s_mm)
+                .clamp(1, s.len() - 1);
+            assert!(sample.feed_mm_min <= caps[k - 1].max(caps[k]) * (1.0 + 1e-9));
+        }
+
+        // Every station by the plain rules: the corners held, the peak cut.
+        let mut planner = RunPlanner::new(&st);
+        planner.plain.fill(true);
+        let stops = st.stops();
+        let mut plain = Profile::empty(&st);
+        let (end_s, _) = planner.verified_run(
+            &mut plain,
+            (stops[0], stops[1]),
+            st.interval_accel_mm_s2()[0] / st.interval_jerk_mm_s3()[0],
+            &[1.0],
+            (REPAIR_MAX_TRIES, SLOW_MAX_TRIES),
+        );
+        plain.cycle_time_s = end_s + plain.runs[0].window_s;
+        println!(
+            "slow dips {verified:?}: {:.4} s; plain rules: {:.4} s",
+            dips.cycle_time_s, plain.cycle_time_s
+        );
+        assert!(dips.cycle_time_s < plain.cycle_time_s - 0.5);
     }
 
     /// A run longer than the golden-section search takes tries the λ of [`LAMBDA_GRID`]
