@@ -72,7 +72,7 @@ impl Default for SweepOptions {
         SweepOptions {
             band_height_mm: 1.0,
             strip_rows: 8,
-            batch_steps: 16_384,
+            batch_steps: 2_048,
             smooth: true,
         }
     }

@@ -300,6 +300,14 @@ impl<E: Envelope> StripJob<'_, E> {
             };
             let (iy0, iy1) = (iy0.max(row0), iy1.min(row0 + rows - 1));
             let zmin = m.zmin as f32;
+            // Rows the move can reach below the strip's highest top over its
+            // footprint's X extent (the tiles bound every column it meets):
+            // further from its axis segment the tool stays above that top
+            // (`Envelope::reach`), where each row would be passed below
+            // (`reachable`, `stays_above`), so skipping them changes no result.
+            let Some((iy0, iy1)) = self.reachable_rows(m, &tile_top, iy0, iy1) else {
+                continue;
+            };
             let behind = if m.follows {
                 self.env.behind_mm(m)
             } else {
@@ -407,6 +415,45 @@ impl<E: Envelope> StripJob<'_, E> {
             }
         }
         visited
+    }
+
+    /// The rows `iy0..=iy1` of the strip that the move can cut, given the
+    /// highest top `tile_top` of each tile of the strip: those within the
+    /// tool's reach, below the highest top of the tiles under the move's
+    /// footprint, of the move's axis segment in Y (the stadium of that reach
+    /// spans the segment's Y range ± it). None where no tile under the
+    /// footprint rises above the move's lowest tip.
+    #[inline]
+    fn reachable_rows(
+        &self,
+        m: &Prepared,
+        tile_top: &[f32],
+        iy0: usize,
+        iy1: usize,
+    ) -> Option<(usize, usize)> {
+        if !self.env.has_reach() {
+            return Some((iy0, iy1));
+        }
+        let (x0, x1) = (m.p0[0], m.p0[0] + m.d[0]);
+        let (ix0, ix1) = self
+            .grid
+            .ix_range(x0.min(x1) - self.radius, x0.max(x1) + self.radius)?;
+        let max = |a: f32, b: f32| if b > a { b } else { a };
+        let top = tile_top[ix0 / TILE_COLS..=ix1 / TILE_COLS]
+            .iter()
+            .fold(f32::NEG_INFINITY, |a, &t| max(a, t));
+        if top <= m.zmin as f32 {
+            return None;
+        }
+        match self.env.reach(m, top as f64 - m.zmin) {
+            Some(r) if r < self.radius => {
+                let (y0, y1) = (m.p0[1], m.p0[1] + m.d[1]);
+                let (a, b) = self.grid.iy_range(y0.min(y1) - r, y0.max(y1) + r)?;
+                let (a, b) = (a.max(iy0), b.min(iy1));
+                (a <= b).then_some((a, b))
+            }
+            _ => Some((iy0, iy1)),
+        }
     }
 
     /// The columns `ix0..=ix1` of the row at `y` (`row` holds them) that the
