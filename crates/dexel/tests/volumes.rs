@@ -646,8 +646,10 @@ fn banded_sweep_equals_the_whole_stock() {
 /// steps made final as soon as their neighbours are swept, `Sweep::whole`):
 /// the same record bit for bit, and the same columns, as sweeping the stock
 /// as one band and finishing the record at the end, with and without
-/// smoothing, for batches of 1, 2, 53 and every step, two tools, plunges,
-/// rapids and moves that do not continue each other.
+/// smoothing, for batches of 1, 2, 53 and every step and batches bounded by
+/// the bytes of their partial sums (`SweepOptions::batch_bytes`), two tools,
+/// plunges, rapids and moves that do not continue each other; and every
+/// batching gives the record, tops and last cuts of one batch of every step.
 #[test]
 fn whole_sweep_record_equals_the_finished_band() {
     let tools = [Tool::bull(6.0, 1.0), Tool::ball(4.0)];
@@ -669,15 +671,38 @@ fn whole_sweep_record_equals_the_finished_band() {
     steps.push(line([40.0, 16.0, 12.0], [40.0, 30.0, 12.0]));
     steps.push(line([40.0, 30.0, 12.0], [40.0, 16.0, 12.0]));
     let which: Vec<usize> = (0..steps.len()).map(|i| usize::from(i >= 120)).collect();
+    let new = || Stock::new_box([0.0; 3], [60.0, 60.0, 20.0], 0.2).unwrap();
     for smooth in [true, false] {
-        for batch_steps in [1, 2, 53, 100_000] {
-            let options = SweepOptions {
-                band_height_mm: 0.5,
-                strip_rows: 4,
-                batch_steps,
-                smooth,
-            };
-            let new = || Stock::new_box([0.0; 3], [60.0, 60.0, 20.0], 0.2).unwrap();
+        // Every step in one batch.
+        let options = |batch_steps, batch_bytes| SweepOptions {
+            band_height_mm: 0.5,
+            strip_rows: 4,
+            batch_steps,
+            batch_bytes,
+            smooth,
+        };
+        let mut one_batch = new();
+        let reference = dexel::sweep_tools(
+            &mut one_batch,
+            &tools,
+            &which,
+            &steps,
+            &options(100_000, usize::MAX),
+            &|_| {},
+        )
+        .unwrap();
+        // Batches of a number of steps, and batches bounded by the bytes of
+        // their partial sums (1 byte: one move per batch; 40 000 bytes: a few
+        // moves, as many as their strips allow).
+        for (batch_steps, batch_bytes) in [
+            (1, usize::MAX),
+            (2, usize::MAX),
+            (53, usize::MAX),
+            (100_000, 1),
+            (100_000, 40_000),
+            (100_000, SweepOptions::default().batch_bytes),
+        ] {
+            let options = options(batch_steps, batch_bytes);
             let mut whole = new();
             let streamed =
                 dexel::sweep_tools(&mut whole, &tools, &which, &steps, &options, &|_| {}).unwrap();
@@ -687,13 +712,14 @@ fn whole_sweep_record_equals_the_finished_band() {
             let finished = sweep.finish();
             assert!(finished.total_volume_mm3() > 1000.0);
             assert_eq!(streamed.len(), steps.len());
-            assert_eq!(
-                record_bits(&streamed),
-                record_bits(&finished),
-                "smooth {smooth}, batches of {batch_steps}"
-            );
+            let what = format!("smooth {smooth}, batches of {batch_steps} steps, {batch_bytes} B");
+            assert_eq!(record_bits(&streamed), record_bits(&finished), "{what}");
+            assert_eq!(record_bits(&streamed), record_bits(&reference), "{what}");
             assert_eq!(streamed.columns_evaluated, finished.columns_evaluated);
+            assert_eq!(streamed.columns_evaluated, reference.columns_evaluated);
             assert_eq!(whole.top_heights(), one.top_heights());
+            assert_eq!(whole.top_heights(), one_batch.top_heights());
+            assert_eq!(whole.last_cut(), one_batch.last_cut());
         }
     }
 }

@@ -7,7 +7,7 @@ use super::ball::BallEnd;
 use super::bull::BullNose;
 use super::flat::FlatEnd;
 use super::slot::{CONTACT_X, CONTACT_Y, SHANK, VOLUME};
-use super::strip::{Banding, StripJob};
+use super::strip::{partial_width, Banding, StripJob};
 use super::{Envelope, Prepared, RemovalRecord, Step, SweepOptions, HEAD, PLUNGE_H2};
 use crate::{Column, Error, Grid, Stock, Tool, ToolShape};
 
@@ -478,50 +478,62 @@ fn run_batches<E: Envelope>(
     let n_strips = (rows.end - 1) / strip_rows + 1 - first_strip;
     let strip_row0 = |s: usize| ((first_strip + s) * strip_rows).max(rows.start);
     let stride = HEAD + banding.n_bands;
+    let width = partial_width(banding, options.smooth);
     let batch = options.batch_steps.max(1);
+    // A batch ends before its moves' strip entries would need more than
+    // `batch_bytes` of partial sums (a move across many strips, a wide tool
+    // on a fine grid, takes many), with at least one move in it.
+    let max_entries = (options.batch_bytes / (width * std::mem::size_of::<f64>())).max(1);
+    let strip_span = |m: &Prepared| {
+        m.row_range(&grid, radius).and_then(|(a, b)| {
+            let (a, b) = (a.max(rows.start), b.min(rows.end - 1));
+            (a <= b).then(|| (a / strip_rows - first_strip, b / strip_rows - first_strip))
+        })
+    };
     let mut done = 0;
     // Buffers kept from batch to batch: a fresh allocation of the partial sums
-    // (tens of MB when a move spans many strips) is paged in again each time.
+    // is paged in again each time.
     let mut moves: Vec<Prepared> = Vec::new();
     let mut counts: Vec<u32> = Vec::new();
     let mut fill: Vec<u32> = Vec::new();
     let mut entries: Vec<u32> = Vec::new();
     let mut partial: Vec<f64> = Vec::new();
-    for (b, chunk) in steps.chunks(batch).enumerate() {
-        let first_step = b * batch;
+    while done < steps.len() {
+        let first_step = done;
+        // The batch's moves, binned by strip (CSR): a move joins every strip
+        // of the band its footprint's rows touch.
+        moves.clear();
+        counts.clear();
+        counts.resize(n_strips + 1, 0);
+        let mut n_entries = 0;
+        while first_step + moves.len() < steps.len() && moves.len() < batch {
+            let g = first_step + moves.len();
+            let m = Prepared {
+                follows: g > 0 && steps[g - 1].to_mm == steps[g].from_mm,
+                ..Prepared::new(&steps[g])
+            };
+            let span = strip_span(&m);
+            let k = span.map_or(0, |(s0, s1)| s1 - s0 + 1);
+            if !moves.is_empty() && n_entries + k > max_entries {
+                break;
+            }
+            n_entries += k;
+            if let Some((s0, s1)) = span {
+                for s in s0..=s1 {
+                    counts[s + 1] += 1;
+                }
+            }
+            moves.push(m);
+        }
+        let chunk_len = moves.len();
         // Rows (and shares) held from step `base` on: every step, or from the
         // first step a stream has not made final.
         let base = stream.as_ref().map_or(0, |s| s.first);
         if stream.is_some() {
-            let held = first_step + chunk.len() - base;
+            let held = first_step + chunk_len - base;
             record.data.resize(held * stride, 0.0);
             if options.smooth {
                 spill.resize(held * 2 * HEAD, 0.0);
-            }
-        }
-        moves.clear();
-        moves.extend(chunk.iter().enumerate().map(|(i, step)| {
-            let g = first_step + i;
-            Prepared {
-                follows: g > 0 && steps[g - 1].to_mm == step.from_mm,
-                ..Prepared::new(step)
-            }
-        }));
-        // Bin moves by strip (CSR): a move joins every strip of the band its
-        // footprint's rows touch.
-        counts.clear();
-        counts.resize(n_strips + 1, 0);
-        let strip_span = |m: &Prepared| {
-            m.row_range(&grid, radius).and_then(|(a, b)| {
-                let (a, b) = (a.max(rows.start), b.min(rows.end - 1));
-                (a <= b).then(|| (a / strip_rows - first_strip, b / strip_rows - first_strip))
-            })
-        };
-        for m in &moves {
-            if let Some((s0, s1)) = strip_span(m) {
-                for s in s0..=s1 {
-                    counts[s + 1] += 1;
-                }
             }
         }
         for s in 0..n_strips {
@@ -530,9 +542,9 @@ fn run_batches<E: Envelope>(
         if counts[n_strips] == 0 {
             // No move of the batch reaches the band.
             if let Some(stream) = stream.as_deref_mut() {
-                stream.advance(&mut record.data, spill, steps, first_step + chunk.len());
+                stream.advance(&mut record.data, spill, steps, first_step + chunk_len);
             }
-            done += chunk.len();
+            done += chunk_len;
             progress(done);
             continue;
         }
@@ -557,7 +569,6 @@ fn run_batches<E: Envelope>(
             first_step,
             smooth: options.smooth,
         };
-        let width = job.width();
         partial.clear();
         partial.resize(entries.len() * width, 0.0);
         // Split columns, last-cut marks and partial sums into per-strip pieces.
@@ -611,9 +622,9 @@ fn run_batches<E: Envelope>(
             }
         }
         if let Some(stream) = stream.as_deref_mut() {
-            stream.advance(&mut record.data, spill, steps, first_step + chunk.len());
+            stream.advance(&mut record.data, spill, steps, first_step + chunk_len);
         }
-        done += chunk.len();
+        done += chunk_len;
         progress(done);
     }
 }

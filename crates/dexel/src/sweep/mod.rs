@@ -58,9 +58,15 @@ pub struct SweepOptions {
     pub band_height_mm: f64,
     /// Rows of columns per parallel strip.
     pub strip_rows: usize,
-    /// Steps handled per batch (bounds the memory of partial sums; progress is
-    /// reported after each batch).
+    /// Steps handled per batch at most (progress is reported after each batch).
     pub batch_steps: usize,
+    /// Bound on a batch's partial sums, bytes: a batch ends before its moves'
+    /// strip entries (a move joins every strip its footprint's rows touch)
+    /// would need more, with at least one move per batch. Batches change no
+    /// result (each strip cuts its moves in order, each step's sums are
+    /// reduced in strip order), only the memory and how often progress is
+    /// reported.
+    pub batch_bytes: usize,
     /// Credit a column's removal to the neighbouring steps by the share of its
     /// cell that the tool's edge sweeps in each (MODEL.md §1.5), so per-step
     /// removal does not alias with the grid. Totals are unchanged.
@@ -73,6 +79,7 @@ impl Default for SweepOptions {
             band_height_mm: 1.0,
             strip_rows: 8,
             batch_steps: 2_048,
+            batch_bytes: 16 << 20,
             smooth: true,
         }
     }

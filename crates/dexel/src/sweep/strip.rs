@@ -150,16 +150,22 @@ const TILE_COLS: usize = 64;
 /// averaged over the heights it spans (MODEL.md §3.2), mm.
 const THICK_PIECE_MM: f64 = 0.02;
 
+/// Accumulator width per strip entry of a move: its sums, then (smoothing)
+/// the head values moved to the previous and to the next step.
+pub(super) fn partial_width(banding: &Banding, smooth: bool) -> usize {
+    let stride = HEAD + banding.n_bands;
+    if smooth {
+        stride + 2 * HEAD
+    } else {
+        stride
+    }
+}
+
 impl<E: Envelope> StripJob<'_, E> {
     /// Accumulator width per entry: this step's sums, then (smoothing) the head
     /// values moved to the previous and to the next step.
     pub(super) fn width(&self) -> usize {
-        let stride = HEAD + self.banding.n_bands;
-        if self.smooth {
-            stride + 2 * HEAD
-        } else {
-            stride
-        }
+        partial_width(self.banding, self.smooth)
     }
 
     /// How the edge met the column at (x, y), cut at parameter t from the
