@@ -705,9 +705,15 @@ pub fn simulate_setup(setup: &Setup, actual_path: bool) -> Result<Simulation> {
 }
 
 /// [`simulate_setup`] of the program's timed steps through `stock` (the
-/// job's stock, or a copy of it).
+/// job's stock, or a copy of it). A box or a cylinder is made again from its
+/// closed form for each pass, in the memory of the stock handed over, so the
+/// run holds one stock (issue 16); a mesh stock is copied for each pass.
 fn simulate_steps(setup: &Setup, stock: Stock, steps: Vec<TimedStep>) -> Result<Simulation> {
-    let run = simulate::run(stock, &setup.tools, steps, "simulate")?;
+    let stock = match crate::stock::solid(&setup.job.stock) {
+        Some(solid) => simulate::StockSource::Made(stock, solid),
+        None => simulate::StockSource::Whole(stock),
+    };
+    let run = simulate::run_on(stock, &setup.tools, steps, "simulate")?;
     let mut summary = run.summary();
     summary.check_finite()?;
     summary

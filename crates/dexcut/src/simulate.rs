@@ -148,26 +148,46 @@ pub enum StockSource<'a> {
     /// runs, whose job stock stays for the next one: one stock fewer held
     /// than a copy handed over).
     Lent(&'a Stock),
+    /// The whole stock of a box or a cylinder (`dexel::Solid`), handed over:
+    /// every pass sweeps the stock made again from its closed form, in the
+    /// memory of the one before (the stock handed over, then the last
+    /// pass's), and the error map asks the closed form what material was
+    /// there, so one stock is held, not two (issue 16).
+    Made(Stock, dexel::Solid),
     /// The bands of a tiled stock.
     Tiled(&'a crate::stock::Tiling),
 }
 
-impl StockSource<'_> {
-    /// The stock held whole (handed over or lent); None for a tiled one.
-    fn whole(&self) -> Option<&Stock> {
+/// What each pass of a run starts from (a [`StockSource`] once its stock
+/// handed over is taken as the first pass's memory).
+enum Initial<'a> {
+    /// A stock held whole (handed over or lent): each pass sweeps a copy.
+    Held(std::borrow::Cow<'a, Stock>),
+    /// A closed form on its grid: each pass sweeps the stock made of it.
+    Made(dexel::Solid, dexel::Grid),
+    /// The bands of a tiled stock.
+    Tiled(&'a crate::stock::Tiling),
+}
+
+impl Initial<'_> {
+    /// The initial stock's columns as the error map reads them; None for a
+    /// tiled stock.
+    fn columns(&self) -> Option<Before<'_>> {
         match self {
-            StockSource::Whole(stock) => Some(stock),
-            StockSource::Lent(stock) => Some(stock),
-            StockSource::Tiled(_) => None,
+            Initial::Held(stock) => Some(Before::Stock(stock)),
+            Initial::Made(solid, grid) => Some(Before::Solid(solid, grid)),
+            Initial::Tiled(_) => None,
         }
     }
 }
 
-/// One sweep of `steps` through a copy of `stock`, each step with its tool;
+/// One sweep of `steps` through a copy of the initial stock (made in the
+/// memory of `spare` where it is a closed form), each step with its tool;
 /// with a tiled stock, band by band in row order (the record is the whole
 /// stock's bit for bit, no stock is kept).
 fn sweep_pass(
-    stock: &StockSource,
+    initial: &Initial,
+    spare: Option<Stock>,
     tools: &ToolSet,
     tool_of_step: &[usize],
     steps: &[dexel::Step],
@@ -176,16 +196,13 @@ fn sweep_pass(
 ) -> Result<(Option<Stock>, RemovalRecord)> {
     let tools = tools.tools();
     let mut sweep = dexel::Sweep::new(&tools, tool_of_step, steps, options)?;
-    let kept = match stock {
-        StockSource::Whole(stock) | &StockSource::Lent(stock) => {
-            // The record made final and compact batch by batch.
-            let mut work = stock.clone();
-            let bar = progress::bar(steps.len() as u64, label);
-            let record = sweep.whole(&mut work, &|done| bar.set_position(done as u64));
-            bar.finish_and_clear();
-            return Ok((Some(work), record));
+    let mut work = match initial {
+        Initial::Held(stock) => {
+            drop(spare);
+            stock.as_ref().clone()
         }
-        StockSource::Tiled(tiling) => {
+        Initial::Made(solid, grid) => solid.stock_in_rows(grid.spacing_mm, None, spare)?,
+        Initial::Tiled(tiling) => {
             // Each band made in the memory of the one before.
             let mut previous = None;
             for rows in tiling.bands() {
@@ -199,10 +216,14 @@ fn sweep_pass(
                 bar.finish_and_clear();
                 previous = Some(band);
             }
-            None
+            return Ok((None, sweep.finish()));
         }
     };
-    Ok((kept, sweep.finish()))
+    // The record made final and compact batch by batch.
+    let bar = progress::bar(steps.len() as u64, label);
+    let record = sweep.whole(&mut work, &|done| bar.set_position(done as u64));
+    bar.finish_and_clear();
+    Ok((Some(work), record))
 }
 
 /// Each step's tool and the sweep options of a run.
@@ -526,43 +547,54 @@ pub struct LoopReport {
     pub rigid_kept: bool,
 }
 
+/// [`run_on`] on the lent `stock`: the passes sweep copies of it, and it is
+/// left as it was.
+pub fn run_lent(stock: &Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) -> Result<Run> {
+    run_on(StockSource::Lent(stock), tools, steps, label)
+}
+
 /// Sweep `steps` through `stock` and compute the loads, closing the loop between
 /// removal and deflection (MODEL.md §5.1): the rigid tool's removal gives each
 /// step's deflection; the program is swept again with the tool moved across its
 /// path by a trial offset, and each step's offset is relaxed towards the
 /// deflection the removal causes until they agree. Each step is cut by its own
 /// tool (MODEL.md §9.1). The error map is then clamped to the stock (MODEL.md §5).
-pub fn run(stock: Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) -> Result<Run> {
-    run_on(StockSource::Whole(stock), tools, steps, label)
-}
-
-/// [`run`] on the lent `stock`: the passes sweep copies of it, and it is
-/// left as it was.
-pub fn run_lent(stock: &Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) -> Result<Run> {
-    run_on(StockSource::Lent(stock), tools, steps, label)
-}
-
-/// [`run`] on a stock held whole or in bands. With a tiled stock the run
-/// keeps no stock, no error map and no volumes (NaN): [`write_tiled_columns`]
-/// makes them band by band.
+/// The stock is held whole (handed over, lent or made of its closed form) or
+/// in bands. With a tiled stock the run keeps no stock, no error map and no
+/// volumes (NaN): [`write_tiled_columns`] makes them band by band.
 pub fn run_on(
     stock: StockSource,
     tools: &ToolSet,
     steps: Vec<TimedStep>,
     label: &str,
 ) -> Result<Run> {
-    let (initial_volume_mm3, grid_mm) = match (&stock, stock.whole()) {
-        (_, Some(s)) => (s.volume_mm3(), s.grid().spacing_mm),
-        (StockSource::Tiled(t), None) => (f64::NAN, t.grid.spacing_mm),
-        (_, None) => unreachable!("only a tiled stock is not whole"),
+    let (initial_volume_mm3, grid_mm) = match &stock {
+        StockSource::Whole(s) | StockSource::Made(s, _) => (s.volume_mm3(), s.grid().spacing_mm),
+        StockSource::Lent(s) => (s.volume_mm3(), s.grid().spacing_mm),
+        StockSource::Tiled(t) => (f64::NAN, t.grid.spacing_mm),
+    };
+    // The stock handed over with its closed form is the first pass's memory.
+    let (initial, spare) = match stock {
+        StockSource::Whole(s) => (Initial::Held(std::borrow::Cow::Owned(s)), None),
+        StockSource::Lent(s) => (Initial::Held(std::borrow::Cow::Borrowed(s)), None),
+        StockSource::Made(s, solid) => (Initial::Made(solid, *s.grid()), Some(s)),
+        StockSource::Tiled(t) => (Initial::Tiled(t), None),
     };
     let rigid_steps: Vec<dexel::Step> = steps.iter().map(|s| s.step).collect();
     let (tool_of_step, options) = sweep_setup(tools, &steps)?;
     let started = Instant::now();
-    let (rigid_stock, mut record) =
-        sweep_pass(&stock, tools, &tool_of_step, &rigid_steps, &options, label)?;
+    let (rigid_stock, mut record) = sweep_pass(
+        &initial,
+        spare,
+        tools,
+        &tool_of_step,
+        &rigid_steps,
+        &options,
+        label,
+    )?;
     drop(rigid_steps);
-    // At most two stocks at a time: the initial one and the last pass's.
+    // At most two stocks at a time: the initial one (none where it is made
+    // of its closed form) and the last pass's.
     let mut final_stock = rigid_stock;
     let mut step_loads = loads(tools, &tool_of_step, &record, &steps, grid_mm);
     let n = steps.len();
@@ -706,12 +738,20 @@ pub fn run_on(
                 .collect();
             let shifted = offset_steps(&steps, &offsets_mm);
             // The last pass's stock, record and loads are replaced by this
-            // pass's: freed before it is swept.
-            drop(final_stock.take());
+            // pass's: freed before it is swept (the stock's memory holds
+            // this pass's where it is made of its closed form).
+            let spare = final_stock.take();
             drop(std::mem::take(&mut record));
             drop(std::mem::take(&mut step_loads));
-            let (pass_stock, pass_record) =
-                sweep_pass(&stock, tools, &tool_of_step, &shifted, &options, label)?;
+            let (pass_stock, pass_record) = sweep_pass(
+                &initial,
+                spare,
+                tools,
+                &tool_of_step,
+                &shifted,
+                &options,
+                label,
+            )?;
             (final_stock, record) = (pass_stock, pass_record);
             step_loads = loads(tools, &tool_of_step, &record, &steps, grid_mm);
             report.passes += 1;
@@ -847,17 +887,15 @@ pub fn run_on(
             }
         })
         .collect();
-    let (final_stock, error_um, final_volume_mm3) = match (&stock, final_stock) {
-        (StockSource::Whole(_) | StockSource::Lent(_), Some(last)) => {
-            let initial = stock.whole().expect("a whole stock");
-            let error_um = clamped_error_map_um(initial, &last, &offsets_um, &model_um);
+    let (final_stock, error_um, final_volume_mm3) = match (&initial, final_stock) {
+        (Initial::Tiled(tiling), _) => (tiling.empty()?, Vec::new(), f64::NAN),
+        (_, Some(last)) => {
+            let before = initial.columns().expect("a whole stock");
+            let error_um = clamped_error_map_um(before, &last, &offsets_um, &model_um);
             let volume = last.volume_mm3();
             (last, error_um, volume)
         }
-        (StockSource::Tiled(tiling), _) => (tiling.empty()?, Vec::new(), f64::NAN),
-        (StockSource::Whole(_) | StockSource::Lent(_), None) => {
-            unreachable!("a whole stock's pass keeps its stock")
-        }
+        (_, None) => unreachable!("a whole stock's pass keeps its stock"),
     };
     Ok(Run {
         steps,
@@ -1026,7 +1064,12 @@ pub fn write_tiled_columns(
         sweep.band(&mut last, &|done| bar.set_position(done as u64));
         bar.finish_and_clear();
         drop(sweep);
-        let error = clamped_error_map_um(&initial, &last, &run.offsets_um, &run.model_um);
+        let error = clamped_error_map_um(
+            Before::Stock(&initial),
+            &last,
+            &run.offsets_um,
+            &run.model_um,
+        );
         initial_mm = initial.add_row_lengths_mm(rows.clone(), initial_mm);
         final_mm = last.add_row_lengths_mm(rows.clone(), final_mm);
         previous_initial = Some(initial);
@@ -1073,41 +1116,63 @@ const LAST_STEP_MEANING: &str =
 const ERROR_MEANING: &str =
     "predicted shape error from tool deflection, + material left; NaN where not cut";
 
-/// Whether the point `p` (mm) lies in `stock`'s material (the column whose
-/// cell holds its XY; outside the grid: no).
-fn in_material(stock: &Stock, p: [f64; 3]) -> bool {
-    let g = stock.grid();
-    let fx = ((p[0] - g.x0_mm) / g.spacing_mm).floor();
-    let fy = ((p[1] - g.y0_mm) / g.spacing_mm).floor();
-    let rows = stock.rows();
-    if !(fx >= 0.0 && fy >= rows.start as f64 && fx < g.nx as f64 && fy < rows.end as f64) {
-        return false;
+/// The initial stock's columns as the error map reads them: a stock (or a
+/// band of rows) held, or the closed form it was made of, on its grid.
+#[derive(Clone, Copy)]
+enum Before<'a> {
+    Stock(&'a Stock),
+    Solid(&'a dexel::Solid, &'a dexel::Grid),
+}
+
+impl Before<'_> {
+    fn grid(&self) -> &dexel::Grid {
+        match self {
+            Before::Stock(stock) => stock.grid(),
+            Before::Solid(_, grid) => grid,
+        }
     }
-    let z = p[2] as f32;
-    stock
-        .column(fx as usize, fy as usize)
-        .intervals()
-        .any(|[lo, hi]| lo <= z && z <= hi)
+
+    /// Whether the point `p` (mm) lies in the material (the column whose
+    /// cell holds its XY; outside the grid or the rows held: no).
+    fn in_material(&self, p: [f64; 3]) -> bool {
+        let g = self.grid();
+        let fx = ((p[0] - g.x0_mm) / g.spacing_mm).floor();
+        let fy = ((p[1] - g.y0_mm) / g.spacing_mm).floor();
+        let rows = match self {
+            Before::Stock(stock) => stock.rows(),
+            Before::Solid(_, grid) => 0..grid.ny,
+        };
+        if !(fx >= 0.0 && fy >= rows.start as f64 && fx < g.nx as f64 && fy < rows.end as f64) {
+            return false;
+        }
+        let z = p[2] as f32;
+        let (ix, iy) = (fx as usize, fy as usize);
+        let inside = |c: &dexel::Column| c.intervals().any(|[lo, hi]| lo <= z && z <= hi);
+        match self {
+            Before::Stock(stock) => inside(stock.column(ix, iy)),
+            Before::Solid(solid, grid) => inside(&solid.column(grid, ix, iy)),
+        }
+    }
 }
 
 /// Thickness of `initial`'s material from `p` along the unit direction `n`,
 /// mm, looked for up to `max_mm` (returned when the material goes on): the
 /// stock that was there outside the final surface point `p` (MODEL.md §5).
 /// Marches in quarter cells, then bisects the crossing to 1e-6 mm.
-fn material_along_mm(initial: &Stock, p: [f64; 3], n: [f64; 3], max_mm: f64) -> f64 {
+fn material_along_mm(initial: Before, p: [f64; 3], n: [f64; 3], max_mm: f64) -> f64 {
     let at = |t: f64| [p[0] + t * n[0], p[1] + t * n[1], p[2] + t * n[2]];
-    if !in_material(initial, p) {
+    if !initial.in_material(p) {
         return 0.0;
     }
     let ds = 0.25 * initial.grid().spacing_mm;
     let mut t_in = 0.0;
     while t_in < max_mm {
         let t_next = (t_in + ds).min(max_mm);
-        if !in_material(initial, at(t_next)) {
+        if !initial.in_material(at(t_next)) {
             let mut t_out = t_next;
             while t_out - t_in > 1e-6 {
                 let mid = 0.5 * (t_in + t_out);
-                if in_material(initial, at(mid)) {
+                if initial.in_material(at(mid)) {
                     t_in = mid;
                 } else {
                     t_out = mid;
@@ -1128,7 +1193,7 @@ fn material_along_mm(initial: &Stock, p: [f64; 3], n: [f64; 3], max_mm: f64) -> 
 /// along the normal), the excess is clamped to the stock that was there: the
 /// initial stock's thickness outside the final surface along the normal.
 fn clamped_error_map_um(
-    initial: &Stock,
+    initial: Before,
     last: &Stock,
     applied_um: &[[f64; 2]],
     model_um: &[[f64; 2]],
@@ -2119,29 +2184,108 @@ mod tests {
         );
     }
 
-    /// The stock outside a point along a direction, on a box: vertical, across
-    /// a wall and diagonal, each against its exact length.
+    /// The stock outside a point along a direction, on a box held and on its
+    /// closed form: vertical, across a wall and diagonal, each against its
+    /// exact length.
     #[test]
     fn material_along_a_direction_matches_the_box() {
-        let stock = Stock::new_box([0.0, 0.0, 0.0], [10.0, 10.0, 5.0], 0.1).unwrap();
-        // Up from z = 2 at a column centre: 3 mm to the top.
-        let up = material_along_mm(&stock, [5.05, 5.05, 2.0], [0.0, 0.0, 1.0], 10.0);
-        assert!((up - 3.0).abs() < 1e-5, "{up}");
-        // Along +y from y = 9.85 to the face at 10: 0.15 mm.
-        let side = material_along_mm(&stock, [5.05, 9.85, 2.0], [0.0, 1.0, 0.0], 10.0);
-        assert!((side - 0.15).abs() < 1e-5, "{side}");
-        // Diagonal in x–z from 1 mm below the top: √2 mm.
-        let r = std::f64::consts::FRAC_1_SQRT_2;
-        let diag = material_along_mm(&stock, [5.05, 5.05, 4.0], [r, 0.0, r], 10.0);
-        assert!((diag - 2f64.sqrt()).abs() < 1e-5, "{diag}");
-        // Capped at max_mm, and zero from a point in the air.
-        assert_eq!(
-            material_along_mm(&stock, [5.05, 5.05, 2.0], [0.0, 0.0, 1.0], 0.5),
-            0.5
-        );
-        assert_eq!(
-            material_along_mm(&stock, [5.05, 5.05, 6.0], [0.0, 0.0, 1.0], 1.0),
-            0.0
-        );
+        let solid = dexel::Solid::Box {
+            min: [0.0, 0.0, 0.0],
+            max: [10.0, 10.0, 5.0],
+        };
+        let stock = solid.stock_in_rows(0.1, None, None).unwrap();
+        for before in [Before::Stock(&stock), Before::Solid(&solid, stock.grid())] {
+            // Up from z = 2 at a column centre: 3 mm to the top.
+            let up = material_along_mm(before, [5.05, 5.05, 2.0], [0.0, 0.0, 1.0], 10.0);
+            assert!((up - 3.0).abs() < 1e-5, "{up}");
+            // Along +y from y = 9.85 to the face at 10: 0.15 mm.
+            let side = material_along_mm(before, [5.05, 9.85, 2.0], [0.0, 1.0, 0.0], 10.0);
+            assert!((side - 0.15).abs() < 1e-5, "{side}");
+            // Diagonal in x–z from 1 mm below the top: √2 mm.
+            let r = std::f64::consts::FRAC_1_SQRT_2;
+            let diag = material_along_mm(before, [5.05, 5.05, 4.0], [r, 0.0, r], 10.0);
+            assert!((diag - 2f64.sqrt()).abs() < 1e-5, "{diag}");
+            // Capped at max_mm, and zero from a point in the air.
+            assert_eq!(
+                material_along_mm(before, [5.05, 5.05, 2.0], [0.0, 0.0, 1.0], 0.5),
+                0.5
+            );
+            assert_eq!(
+                material_along_mm(before, [5.05, 5.05, 6.0], [0.0, 0.0, 1.0], 1.0),
+                0.0
+            );
+        }
+    }
+
+    /// A box or a cylinder made again from its closed form for each pass
+    /// (one stock held, `StockSource::Made`) gives the run of the stock held
+    /// and copied for each pass (`StockSource::Whole`) bit for bit: record,
+    /// loads, offsets, error map (clamped to the initial stock through the
+    /// closed form) and final stock, over a closed loop of several passes.
+    #[test]
+    fn a_stock_made_of_its_closed_form_runs_as_the_stock_held() {
+        let dir = tempfile::tempdir().unwrap();
+        // A Ø6 ball on a long stickout cutting 2 mm deep along a wall 1 mm
+        // inside the stock's edge, then across it.
+        std::fs::write(
+            dir.path().join("part.nc"),
+            "G21 G90\nG0 X-5 Y4 Z25\nG0 Z18\nG1 X45 F1200\nG1 Y16\nG1 X-5\nG0 Z25\nM2\n",
+        )
+        .unwrap();
+        for stock in [
+            "kind = \"box\"\nmin = [0, 2, 0]\nmax = [40, 30, 20]\ngrid = 0.2",
+            "kind = \"cylinder\"\ncenter = [20, 15]\nradius = 13\nz_min = 0\nz_max = 20\ngrid = 0.2",
+        ] {
+            let job = format!(
+                "[stock]\n{stock}\n[tool]\nkind = \"ball\"\ndiameter = 6\nstickout = 60\n\
+                 [program]\npath = \"part.nc\"\n[cutting]\nmaterial = \"al6061\"\n\
+                 [machine]\nfeed_max = 3000\nrapid = 10000\naccel = [1000, 1000, 1000]\n"
+            );
+            let path = dir.path().join("job.toml");
+            std::fs::write(&path, job).unwrap();
+            let setup = crate::commands::Setup::load(&path, None).unwrap();
+            let solid = crate::stock::solid(&setup.job.stock).unwrap();
+            let steps = setup.machine_steps().unwrap();
+            let held = run_on(
+                StockSource::Whole(setup.stock.clone()),
+                &setup.tools,
+                steps.clone(),
+                "held",
+            )
+            .unwrap();
+            let made = run_on(
+                StockSource::Made(setup.stock.clone(), solid),
+                &setup.tools,
+                steps,
+                "made",
+            )
+            .unwrap();
+            assert!(held.closed_loop.passes > 2, "{stock}: {} passes", held.closed_loop.passes);
+            assert!(held.final_volume_mm3 < held.initial_volume_mm3 - 100.0, "{stock}");
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert!(held.error_um.iter().any(|e| e.is_finite() && *e != 0.0), "{stock}");
+            assert_eq!(bits(&held.error_um), bits(&made.error_um), "{stock}");
+            assert_eq!(held.closed_loop.passes, made.closed_loop.passes);
+            assert_eq!(held.offsets_um, made.offsets_um);
+            assert_eq!(held.model_um, made.model_um);
+            assert_eq!(
+                held.initial_volume_mm3.to_bits(),
+                made.initial_volume_mm3.to_bits()
+            );
+            assert_eq!(held.final_volume_mm3.to_bits(), made.final_volume_mm3.to_bits());
+            assert_eq!(held.stock.columns(), made.stock.columns(), "{stock}");
+            assert_eq!(held.stock.last_cut(), made.stock.last_cut(), "{stock}");
+            for i in 0..held.steps.len() {
+                assert_eq!(
+                    held.record.volume_mm3(i).to_bits(),
+                    made.record.volume_mm3(i).to_bits()
+                );
+                assert_eq!(held.record.band_volumes_mm3(i), made.record.band_volumes_mm3(i));
+                assert_eq!(
+                    held.loads[i].deflection_um.to_bits(),
+                    made.loads[i].deflection_um.to_bits()
+                );
+            }
+        }
     }
 }

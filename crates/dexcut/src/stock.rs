@@ -5,7 +5,7 @@
 use std::ops::Range;
 
 use crate::error::{fail, Error, Result};
-use dexel::{Grid, Stock};
+use dexel::{Grid, Solid, Stock};
 
 use crate::job::{Job, StockSpec};
 
@@ -19,7 +19,7 @@ fn check_fits(grid: &Grid, what: &str) -> Result<()> {
 /// rows, so the banded record equals the whole stock's bit for bit).
 #[derive(Clone, Debug)]
 pub struct Tiling {
-    spec: StockSpec,
+    solid: Solid,
     /// The whole stock's grid.
     pub grid: Grid,
     /// Grid rows per band.
@@ -39,26 +39,35 @@ impl Tiling {
     /// The initial stock's grid rows `rows`, made in the memory of `reuse`
     /// (a band no longer needed) when given.
     pub fn band(&self, rows: Range<usize>, reuse: Option<Stock>) -> Result<Stock> {
-        Ok(match self.spec {
-            StockSpec::Box { min, max, grid } => {
-                Stock::new_box_in_rows(min, max, grid, Some(rows), reuse)?
-            }
-            StockSpec::Cylinder {
-                center,
-                radius,
-                z_min,
-                z_max,
-                grid,
-            } => {
-                Stock::new_cylinder_in_rows(center, radius, z_min, z_max, grid, Some(rows), reuse)?
-            }
-            StockSpec::Mesh { .. } => unreachable!("mesh stocks are never tiled"),
-        })
+        Ok(self
+            .solid
+            .stock_in_rows(self.grid.spacing_mm, Some(rows), reuse)?)
     }
 
     /// A stock holding no row of the grid (what a tiled run keeps as its stock).
     pub fn empty(&self) -> Result<Stock> {
         self.band(0..0, None)
+    }
+}
+
+/// The job's stock as a closed form of its grid (`dexel::Solid`): a box or a
+/// cylinder; `None` for a mesh, whose columns are only known once filled.
+pub fn solid(spec: &StockSpec) -> Option<Solid> {
+    match *spec {
+        StockSpec::Box { min, max, .. } => Some(Solid::Box { min, max }),
+        StockSpec::Cylinder {
+            center,
+            radius,
+            z_min,
+            z_max,
+            ..
+        } => Some(Solid::Cylinder {
+            center_xy: center,
+            radius_mm: radius,
+            z_lo: z_min,
+            z_hi: z_max,
+        }),
+        StockSpec::Mesh { .. } => None,
     }
 }
 
@@ -83,16 +92,10 @@ pub fn budget_bytes(budget_mb: Option<f64>) -> Result<f64> {
 /// strip rows does not fit.
 pub fn build_within(job: &Job, budget_bytes: f64) -> Result<(Stock, Option<Tiling>)> {
     let what = format!("{}: [stock]", job.name);
-    let grid = match job.stock {
-        StockSpec::Box { min, max, grid } => Grid::covering(min[0], min[1], max[0], max[1], grid)?,
-        StockSpec::Cylinder {
-            center: [cx, cy],
-            radius: r,
-            grid,
-            ..
-        } => Grid::covering(cx - r, cy - r, cx + r, cy + r, grid)?,
-        StockSpec::Mesh { .. } => return Ok((build(job)?, None)),
+    let Some(solid) = solid(&job.stock) else {
+        return Ok((build(job)?, None));
     };
+    let grid = solid.grid(job.stock.grid_mm())?;
     let row_bytes = grid.nx as f64 * crate::bounds::BYTES_PER_COLUMN;
     if grid.ny as f64 * row_bytes <= budget_bytes {
         return Ok((build(job)?, None));
@@ -111,7 +114,7 @@ pub fn build_within(job: &Job, budget_bytes: f64) -> Result<(Stock, Option<Tilin
         );
     }
     let tiling = Tiling {
-        spec: job.stock.clone(),
+        solid,
         grid,
         band_rows,
         budget_bytes,
@@ -123,69 +126,52 @@ pub fn build_within(job: &Job, budget_bytes: f64) -> Result<(Stock, Option<Tilin
 pub fn build(job: &Job) -> Result<Stock> {
     let s = &job.stock;
     let what = format!("{}: [stock]", job.name);
-    match s {
-        &StockSpec::Box { min, max, grid } => {
-            check_fits(
-                &Grid::covering(min[0], min[1], max[0], max[1], grid)?,
-                &what,
-            )?;
-            Ok(Stock::new_box(min, max, grid)?)
-        }
-        &StockSpec::Cylinder {
-            center: [cx, cy],
-            radius: r,
-            z_min,
-            z_max,
-            grid,
-        } => {
-            check_fits(
-                &Grid::covering(cx - r, cy - r, cx + r, cy + r, grid)?,
-                &what,
-            )?;
-            Ok(Stock::new_cylinder([cx, cy], r, z_min, z_max, grid)?)
-        }
-        StockSpec::Mesh { path, grid } => {
-            let grid_mm = *grid;
-            let path = job.resolve(path);
-            crate::bounds::check_input_file(&path, "stock mesh", crate::bounds::MAX_MESH_BYTES)?;
-            let (mesh, _info) = mesh::load_solid(&path)?;
-            let (lo, hi) = mesh.bounds_mm().ok_or_else(|| {
-                Error::job(format!("{}: the stock mesh is empty", path.display()))
-            })?;
-            let extent_mm = (hi[0] - lo[0]).min(hi[1] - lo[1]);
-            if grid_mm * 4.0 > extent_mm {
-                fail!(job,
-                    "{what}: grid ({} mm) is too coarse for the mesh's {extent_mm:.3} mm XY extent: at least 4 columns across are needed",
-                    grid_mm
-                );
-            }
-            let grid = Grid::covering(lo[0], lo[1], hi[0], hi[1], grid_mm)?;
-            check_fits(&grid, &what)?;
-            let (stock, stats) = mesh::stock_on_grid(&mesh, grid)?;
-            // A self-intersecting mesh has overlapping shells (or unbalanced
-            // crossings), and its signed volume counts the overlap twice.
-            let (filled, signed) = (stock.volume_mm3(), mesh.signed_volume_mm3().abs());
-            let area_mm2: f64 = mesh
-                .triangles
-                .iter()
-                .map(|t| {
-                    let [a, b, c] = t.map(|i| nalgebra::Vector3::from(mesh.vertices[i as usize]));
-                    0.5 * (b - a).cross(&(c - a)).norm()
-                })
-                .sum();
-            let discretisation_mm3 = area_mm2 * grid_mm;
-            if stats.overlap_columns > 0
-                || stats.unpaired_columns > 0
-                || (filled - signed).abs() > discretisation_mm3 + 1e-9 * signed
-            {
-                fail!(job,
-                    "{what}: the stock mesh {} intersects itself or overlaps ({} columns with overlapping shells, {} unbalanced; filled {filled:.1} mm³ against {signed:.1} mm³ enclosed): a stock must be one clean solid",
-                    path.display(),
-                    stats.overlap_columns,
-                    stats.unpaired_columns
-                );
-            }
-            Ok(stock)
-        }
+    if let Some(solid) = solid(s) {
+        check_fits(&solid.grid(s.grid_mm())?, &what)?;
+        return Ok(solid.stock_in_rows(s.grid_mm(), None, None)?);
     }
+    let StockSpec::Mesh { path, grid } = s else {
+        unreachable!("a box or a cylinder is a solid")
+    };
+    let grid_mm = *grid;
+    let path = job.resolve(path);
+    crate::bounds::check_input_file(&path, "stock mesh", crate::bounds::MAX_MESH_BYTES)?;
+    let (mesh, _info) = mesh::load_solid(&path)?;
+    let (lo, hi) = mesh
+        .bounds_mm()
+        .ok_or_else(|| Error::job(format!("{}: the stock mesh is empty", path.display())))?;
+    let extent_mm = (hi[0] - lo[0]).min(hi[1] - lo[1]);
+    if grid_mm * 4.0 > extent_mm {
+        fail!(job,
+                "{what}: grid ({} mm) is too coarse for the mesh's {extent_mm:.3} mm XY extent: at least 4 columns across are needed",
+                grid_mm
+            );
+    }
+    let grid = Grid::covering(lo[0], lo[1], hi[0], hi[1], grid_mm)?;
+    check_fits(&grid, &what)?;
+    let (stock, stats) = mesh::stock_on_grid(&mesh, grid)?;
+    // A self-intersecting mesh has overlapping shells (or unbalanced
+    // crossings), and its signed volume counts the overlap twice.
+    let (filled, signed) = (stock.volume_mm3(), mesh.signed_volume_mm3().abs());
+    let area_mm2: f64 = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| nalgebra::Vector3::from(mesh.vertices[i as usize]));
+            0.5 * (b - a).cross(&(c - a)).norm()
+        })
+        .sum();
+    let discretisation_mm3 = area_mm2 * grid_mm;
+    if stats.overlap_columns > 0
+        || stats.unpaired_columns > 0
+        || (filled - signed).abs() > discretisation_mm3 + 1e-9 * signed
+    {
+        fail!(job,
+                "{what}: the stock mesh {} intersects itself or overlaps ({} columns with overlapping shells, {} unbalanced; filled {filled:.1} mm³ against {signed:.1} mm³ enclosed): a stock must be one clean solid",
+                path.display(),
+                stats.overlap_columns,
+                stats.unpaired_columns
+            );
+    }
+    Ok(stock)
 }

@@ -11,7 +11,7 @@ pub mod stock;
 pub mod surface;
 
 pub use grid::Grid;
-pub use stock::{Column, Stock, NEVER_CUT};
+pub use stock::{Column, Solid, Stock, NEVER_CUT};
 pub use surface::{angle_to_axis_deg, surface_normal_near};
 
 /// What can go wrong building a stock or running a sweep.

@@ -204,20 +204,7 @@ impl Stock {
         rows: Option<std::ops::Range<usize>>,
         reuse: Option<Stock>,
     ) -> Result<Stock, Error> {
-        if !(max[2] > min[2]) {
-            return Err(Error::InvalidParameter(format!(
-                "box height must be positive, got z {}..{}",
-                min[2], max[2]
-            )));
-        }
-        let grid = Grid::covering(min[0], min[1], max[0], max[1], spacing_mm)?;
-        let (lo, hi) = (min[2] as f32, max[2] as f32);
-        Stock::from_columns_in_rows(
-            grid,
-            rows.unwrap_or(0..grid.ny),
-            |_, _, out| out.push([lo, hi]),
-            reuse,
-        )
+        Solid::Box { min, max }.stock_in_rows(spacing_mm, rows, reuse)
     }
 
     /// Vertical cylinder with axis through `(cx, cy)`, radius `r`, z from `z_lo` to `z_hi`.
@@ -244,31 +231,13 @@ impl Stock {
         rows: Option<std::ops::Range<usize>>,
         reuse: Option<Stock>,
     ) -> Result<Stock, Error> {
-        if !(radius_mm > 0.0) || !(z_hi > z_lo) {
-            return Err(Error::InvalidParameter(format!(
-                "cylinder needs a positive radius and height, got r {radius_mm}, z {z_lo}..{z_hi}"
-            )));
+        Solid::Cylinder {
+            center_xy,
+            radius_mm,
+            z_lo,
+            z_hi,
         }
-        let [cx, cy] = center_xy;
-        let grid = Grid::covering(
-            cx - radius_mm,
-            cy - radius_mm,
-            cx + radius_mm,
-            cy + radius_mm,
-            spacing_mm,
-        )?;
-        let (lo, hi) = (z_lo as f32, z_hi as f32);
-        Stock::from_columns_in_rows(
-            grid,
-            rows.unwrap_or(0..grid.ny),
-            |ix, iy, out| {
-                let (dx, dy) = (grid.x_mm(ix) - cx, grid.y_mm(iy) - cy);
-                if dx * dx + dy * dy <= radius_mm * radius_mm {
-                    out.push([lo, hi]);
-                }
-            },
-            reuse,
-        )
+        .stock_in_rows(spacing_mm, rows, reuse)
     }
 
     /// The grid the columns stand on (the whole stock's, also for a band).
@@ -324,6 +293,115 @@ impl Stock {
     }
 }
 
+/// A stock whose columns are a closed form of the grid: a box or a vertical
+/// cylinder. Its columns can be made again at any time (a band of rows, or
+/// the whole stock in the memory of a swept one) and asked one by one
+/// ([`Solid::column`]) without holding the stock.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Solid {
+    /// Axis-aligned box `[min, max]`, mm; the grid covers its XY extent.
+    Box {
+        /// Lowest corner, mm.
+        min: [f64; 3],
+        /// Highest corner, mm.
+        max: [f64; 3],
+    },
+    /// Vertical cylinder: a column belongs to it when its centre lies inside
+    /// the circle; the grid covers the circle's square.
+    Cylinder {
+        /// Axis position (x, y), mm.
+        center_xy: [f64; 2],
+        /// Radius, mm.
+        radius_mm: f64,
+        /// Bottom, mm.
+        z_lo: f64,
+        /// Top, mm.
+        z_hi: f64,
+    },
+}
+
+impl Solid {
+    /// The grid the solid's stock stands on at `spacing_mm`, after checking
+    /// the solid's sizes.
+    pub fn grid(&self, spacing_mm: f64) -> Result<Grid, Error> {
+        match *self {
+            Solid::Box { min, max } => {
+                if !(max[2] > min[2]) {
+                    return Err(Error::InvalidParameter(format!(
+                        "box height must be positive, got z {}..{}",
+                        min[2], max[2]
+                    )));
+                }
+                Grid::covering(min[0], min[1], max[0], max[1], spacing_mm)
+            }
+            Solid::Cylinder {
+                center_xy: [cx, cy],
+                radius_mm,
+                z_lo,
+                z_hi,
+            } => {
+                if !(radius_mm > 0.0) || !(z_hi > z_lo) {
+                    return Err(Error::InvalidParameter(format!(
+                        "cylinder needs a positive radius and height, got r {radius_mm}, z {z_lo}..{z_hi}"
+                    )));
+                }
+                Grid::covering(
+                    cx - radius_mm,
+                    cy - radius_mm,
+                    cx + radius_mm,
+                    cy + radius_mm,
+                    spacing_mm,
+                )
+            }
+        }
+    }
+
+    /// The material interval of the column at `(ix, iy)` of `grid` (the
+    /// solid's grid), `None` where the column is empty of it.
+    #[inline]
+    fn interval(&self, grid: &Grid, ix: usize, iy: usize) -> Option<[f32; 2]> {
+        match *self {
+            Solid::Box { min, max } => Some([min[2] as f32, max[2] as f32]),
+            Solid::Cylinder {
+                center_xy: [cx, cy],
+                radius_mm,
+                z_lo,
+                z_hi,
+            } => {
+                let (dx, dy) = (grid.x_mm(ix) - cx, grid.y_mm(iy) - cy);
+                (dx * dx + dy * dy <= radius_mm * radius_mm).then_some([z_lo as f32, z_hi as f32])
+            }
+        }
+    }
+
+    /// The column at `(ix, iy)` of `grid` (the solid's grid) as the solid's
+    /// stock holds it (no allocation: one interval at most).
+    pub fn column(&self, grid: &Grid, ix: usize, iy: usize) -> Column {
+        match self.interval(grid, ix, iy) {
+            Some(iv) => Column::from_intervals(&[iv]),
+            None => Column::EMPTY,
+        }
+    }
+
+    /// The solid's stock at `spacing_mm`, only the grid rows `rows` (all
+    /// with `None`), in the memory of `reuse` (see
+    /// [`Stock::from_columns_in_rows`]).
+    pub fn stock_in_rows(
+        &self,
+        spacing_mm: f64,
+        rows: Option<std::ops::Range<usize>>,
+        reuse: Option<Stock>,
+    ) -> Result<Stock, Error> {
+        let grid = self.grid(spacing_mm)?;
+        Stock::from_columns_in_rows(
+            grid,
+            rows.unwrap_or(0..grid.ny),
+            |ix, iy, out| out.extend(self.interval(&grid, ix, iy)),
+            reuse,
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -361,6 +439,45 @@ mod tests {
             );
             let empty: Stock = make(Some(3..3), None).unwrap();
             assert!(empty.columns().is_empty() && empty.volume_mm3() == 0.0);
+        }
+    }
+
+    /// A solid's columns asked one by one are its stock's, made whole or in
+    /// bands of rows in the memory of another stock: a box, and a cylinder
+    /// (columns in and out of the circle).
+    #[test]
+    fn a_solids_columns_are_its_stocks() {
+        for solid in [
+            Solid::Box {
+                min: [-1.0, 2.0, -3.0],
+                max: [4.3, 7.1, 0.5],
+            },
+            Solid::Cylinder {
+                center_xy: [1.0, -2.0],
+                radius_mm: 3.3,
+                z_lo: -2.0,
+                z_hi: 1.25,
+            },
+        ] {
+            let stock = solid.stock_in_rows(0.1, None, None).unwrap();
+            let grid = *stock.grid();
+            assert_eq!(grid, solid.grid(0.1).unwrap());
+            let mut empty = 0;
+            for iy in 0..grid.ny {
+                for ix in 0..grid.nx {
+                    assert_eq!(&solid.column(&grid, ix, iy), stock.column(ix, iy));
+                    empty += usize::from(stock.column(ix, iy).is_empty());
+                }
+            }
+            let band = solid
+                .stock_in_rows(0.1, Some(10..20), Some(stock.clone()))
+                .unwrap();
+            assert_eq!(band.rows(), 10..20);
+            assert_eq!(band.columns(), &stock.columns()[10 * grid.nx..20 * grid.nx]);
+            match solid {
+                Solid::Box { .. } => assert_eq!(empty, 0),
+                Solid::Cylinder { .. } => assert!(empty > 100, "{empty} columns outside"),
+            }
         }
     }
 }
