@@ -458,7 +458,8 @@ pub fn fit(program: &Path, tool: Option<&ToolGuess>, grid_mm: Option<f64>) -> Re
     let grid = grid_mm.unwrap_or_else(|| {
         let mut g = round_grid(smallest / 20.0);
         while columns(g) > MAX_FITTED_COLUMNS {
-            g = round_grid(g * 2.1);
+            // The next of 1, 2, 5 × 10^k (× 2.6 lands between the next and the one after).
+            g = round_grid(g * 2.6);
         }
         g
     });
@@ -481,7 +482,7 @@ pub fn fit(program: &Path, tool: Option<&ToolGuess>, grid_mm: Option<f64>) -> Re
     let _ = writeln!(t, "min = {}\nmax = {}", f(min), f(max));
     let _ = writeln!(
         t,
-        "grid = {grid}   # mm; {}",
+        "grid = {grid:?}   # mm; {}",
         if grid_mm.is_some() {
             "--grid".to_string()
         } else {

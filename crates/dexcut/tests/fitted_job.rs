@@ -245,3 +245,27 @@ fn programs_whose_rapids_travel_under_their_cuts_are_fitted_z_down() {
     assert!((z("min") - (-2.5 - 1.0)).abs() < 1e-9, "{}", z("min"));
     assert_eq!(table["machine"]["z_axis"].as_str(), Some("down"));
 }
+
+/// A stock too large for ~20 columns across the tool gets the finest grid of 1, 2
+/// or 5 × 10^k mm that keeps it at or under 4 M columns (a 2.1 m sprayer face with
+/// a Ø3 tool: 0.1 → 0.2 → 0.5 → 1 mm; the step from 0.2 once looped forever).
+#[test]
+fn a_large_stock_gets_the_finest_grid_under_the_column_limit() {
+    let tool = dexcut::fitted_job::parse_tool_arg("flat:3").unwrap();
+    let fitted = fit(&real("fusion_haas_sprayer_face_inch.nc"), Some(&tool), None).unwrap();
+    let job: toml::Table = toml::from_str(&fitted.toml).unwrap();
+    let v = |k: &str| -> Vec<f64> {
+        job["stock"][k]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_float().unwrap())
+            .collect()
+    };
+    let (min, max) = (v("min"), v("max"));
+    let columns = |g: f64| ((max[0] - min[0]) / g).ceil() * ((max[1] - min[1]) / g).ceil();
+    let grid = job["stock"]["grid"].as_float().unwrap();
+    assert_eq!(grid, 1.0);
+    assert!(columns(grid) <= dexcut::fitted_job::MAX_FITTED_COLUMNS);
+    assert!(columns(0.5) > dexcut::fitted_job::MAX_FITTED_COLUMNS);
+}
