@@ -1134,6 +1134,9 @@ pub fn optimize_setup(
     let before_format = steps_format.resolve(before_steps);
     let mut before = if steps_format != StepsFormat::Auto || before_format == StepsFormat::Npy {
         before.write_steps(staged, "steps_before", before_format)?;
+        // Dropped here: a binding only shadowed would hold the run (its
+        // steps, loads, record and stock) to the end of the rounds.
+        drop(before);
         None
     } else {
         let mut before = before;
