@@ -12,6 +12,19 @@ fn real(name: &str) -> PathBuf {
         .join(name)
 }
 
+/// The fitted job's `[stock]` corners `min` and `max`, mm.
+fn stock_corners(job: &toml::Table) -> (Vec<f64>, Vec<f64>) {
+    let v = |k: &str| -> Vec<f64> {
+        job["stock"][k]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_float().unwrap())
+            .collect()
+    };
+    (v("min"), v("max"))
+}
+
 /// The first cutter each program's comments name, against the comment read
 /// by hand (its post, the unit it is written in, the value in mm).
 #[test]
@@ -179,15 +192,7 @@ fn fitted_stock_holds_the_feed_moves() {
     let fitted = fit(&real("fusion_led_floor_bore.nc"), None, None).unwrap();
     let job: toml::Table = toml::from_str(&fitted.toml).unwrap();
     let stock = &job["stock"];
-    let v = |k: &str| -> Vec<f64> {
-        stock[k]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_float().unwrap())
-            .collect()
-    };
-    let (min, max) = (v("min"), v("max"));
+    let (min, max) = stock_corners(&job);
     assert_eq!(job["tool"]["diameter"].as_float(), Some(2.7));
     assert_eq!(max[2], 0.0);
     // The program's deepest feed move is its ZMIN, -13.3 (its Fusion tool comment).
@@ -240,9 +245,9 @@ fn programs_whose_rapids_travel_under_their_cuts_are_fitted_z_down() {
     );
     let job = fit(&real("estlcam_backplate.nc"), None, None).unwrap();
     let table: toml::Table = toml::from_str(&job.toml).unwrap();
-    let z = |k: &str| table["stock"][k].as_array().unwrap()[2].as_float().unwrap();
-    assert_eq!(z("max"), 0.0);
-    assert!((z("min") - (-2.5 - 1.0)).abs() < 1e-9, "{}", z("min"));
+    let (min, max) = stock_corners(&table);
+    assert_eq!(max[2], 0.0);
+    assert!((min[2] - (-2.5 - 1.0)).abs() < 1e-9, "{}", min[2]);
     assert_eq!(table["machine"]["z_axis"].as_str(), Some("down"));
 }
 
@@ -254,15 +259,7 @@ fn a_large_stock_gets_the_finest_grid_under_the_column_limit() {
     let tool = dexcut::fitted_job::parse_tool_arg("flat:3").unwrap();
     let fitted = fit(&real("fusion_haas_sprayer_face_inch.nc"), Some(&tool), None).unwrap();
     let job: toml::Table = toml::from_str(&fitted.toml).unwrap();
-    let v = |k: &str| -> Vec<f64> {
-        job["stock"][k]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_float().unwrap())
-            .collect()
-    };
-    let (min, max) = (v("min"), v("max"));
+    let (min, max) = stock_corners(&job);
     let columns = |g: f64| ((max[0] - min[0]) / g).ceil() * ((max[1] - min[1]) / g).ceil();
     let grid = job["stock"]["grid"].as_float().unwrap();
     assert_eq!(grid, 1.0);
