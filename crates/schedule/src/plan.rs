@@ -1232,9 +1232,18 @@ mod tests {
         candidates: &[f64],
         tries: (usize, usize),
     ) -> (Profile<'a>, Verified) {
+        run_with(RunPlanner::new(st), st, candidates, tries)
+    }
+
+    /// [`run`] by a planner set up by the test (full holds, plain rules).
+    fn run_with<'a>(
+        mut planner: RunPlanner,
+        st: &'a Stations,
+        candidates: &[f64],
+        tries: (usize, usize),
+    ) -> (Profile<'a>, Verified) {
         let window_s = st.interval_accel_mm_s2()[0] / st.interval_jerk_mm_s3()[0];
         let stops = st.stops();
-        let mut planner = RunPlanner::new(st);
         let mut profile = Profile::empty(st);
         let (end_s, verified) = planner.verified_run(
             &mut profile,
@@ -1440,16 +1449,7 @@ mod tests {
         for &c in st.corners() {
             planner.full_hold[c] = true;
         }
-        let stops = st.stops();
-        let mut full = Profile::empty(&st);
-        let (end_s, _) = planner.verified_run(
-            &mut full,
-            (stops[0], stops[1]),
-            st.interval_accel_mm_s2()[0] / st.interval_jerk_mm_s3()[0],
-            &[1.0],
-            (REPAIR_MAX_TRIES, SLOW_MAX_TRIES),
-        );
-        full.cycle_time_s = end_s + full.runs[0].window_s;
+        let (full, _) = run_with(planner, &st, &[1.0], (REPAIR_MAX_TRIES, SLOW_MAX_TRIES));
         println!(
             "{} corners, local holds {verified:?}: {:.4} s; full holds: {:.4} s",
             st.corners().len(),
@@ -1498,16 +1498,7 @@ mod tests {
         // Every station by the plain rules: the corners held, the peak cut.
         let mut planner = RunPlanner::new(&st);
         planner.plain.fill(true);
-        let stops = st.stops();
-        let mut plain = Profile::empty(&st);
-        let (end_s, _) = planner.verified_run(
-            &mut plain,
-            (stops[0], stops[1]),
-            st.interval_accel_mm_s2()[0] / st.interval_jerk_mm_s3()[0],
-            &[1.0],
-            (REPAIR_MAX_TRIES, SLOW_MAX_TRIES),
-        );
-        plain.cycle_time_s = end_s + plain.runs[0].window_s;
+        let (plain, _) = run_with(planner, &st, &[1.0], (REPAIR_MAX_TRIES, SLOW_MAX_TRIES));
         println!(
             "slow dips {verified:?}: {:.4} s; plain rules: {:.4} s",
             dips.cycle_time_s, plain.cycle_time_s
