@@ -736,13 +736,62 @@ fn column_grid_by_default_csv_on_request_and_report_reads_both() {
     );
 }
 
+/// steps.csv, the column grid (as rows, see `grid_columns`) and summary.json of a run.
+type RunOutput = (HashMap<String, Vec<f64>>, HashMap<String, Vec<f64>>, Value);
+
+/// Runs `dexcut simulate job.toml` in `dir` with `job` as job.toml and, as its
+/// program, `csv_name`: the CSV of the points (x0 + dx·i, 0, z) for i = 0..=n, a
+/// straight pass along +x. Returns the output folder.
+fn simulate_pass_along_x(
+    dir: &Path,
+    job: &str,
+    csv_name: &str,
+    (x0, dx, n): (f64, f64, usize),
+    z: f64,
+) -> PathBuf {
+    write(dir, "job.toml", job);
+    let csv: String = std::iter::once("x,y,z\n".to_string())
+        .chain((0..=n).map(|i| format!("{},0,{z}\n", x0 + dx * i as f64)))
+        .collect();
+    write(dir, csv_name, &csv);
+    ok(&dexcut(&["simulate", "job.toml", "--out", "out"], dir));
+    dir.join("out")
+}
+
+/// steps.csv, the column grid and summary.json of the output folder `out`.
+fn run_output(out: &Path) -> RunOutput {
+    (
+        csv_columns(&out.join("steps.csv")),
+        grid_columns(out),
+        summary(out),
+    )
+}
+
+/// The steady part of a straight pass along x: steps.csv's rows whose x lies in
+/// a range, where the cut's section no longer changes.
+struct Steady<'a> {
+    steps: &'a HashMap<String, Vec<f64>>,
+    rows: Vec<usize>,
+}
+
+impl<'a> Steady<'a> {
+    fn new(steps: &'a HashMap<String, Vec<f64>>, xs: impl std::ops::RangeBounds<f64>) -> Self {
+        let rows = (0..steps["x"].len())
+            .filter(|&i| xs.contains(&steps["x"][i]))
+            .collect();
+        Steady { steps, rows }
+    }
+
+    /// The mean of steps.csv's column `key` over the steady rows.
+    fn mean(&self, key: &str) -> f64 {
+        self.rows.iter().map(|&i| self.steps[key][i]).sum::<f64>() / self.rows.len() as f64
+    }
+}
+
 /// Side milling a 10 mm high wall at 2 mm radial depth in short steps along +x
 /// (constant load), the wall on the +y side (`climb = false`: up milling with an
 /// M3 spindle) or the −y side (climb milling). Returns steps.csv, the column grid and
 /// summary.json of the run.
-/// steps.csv, the column grid (as rows, see `grid_columns`) and summary.json of a run.
-type RunOutput = (HashMap<String, Vec<f64>>, HashMap<String, Vec<f64>>, Value);
-
 fn wall_cut(climb: bool, tool_extra: &str) -> RunOutput {
     let dir = tempdir();
     let stock = if climb {
@@ -759,21 +808,13 @@ fn wall_cut(climb: bool, tool_extra: &str) -> RunOutput {
             ),
         )
         .replace("grid = 0.1", "grid = 0.05");
-    write(dir.path(), "job.toml", &job);
-    let csv: String = std::iter::once("x,y,z\n".to_string())
-        .chain((0..=240).map(|i| format!("{},0,20\n", -10.0 + 0.5 * i as f64)))
-        .collect();
-    write(dir.path(), "slot.csv", &csv);
-    ok(&dexcut(
-        &["simulate", "job.toml", "--out", "out"],
+    run_output(&simulate_pass_along_x(
         dir.path(),
-    ));
-    let out = dir.path().join("out");
-    (
-        csv_columns(&out.join("steps.csv")),
-        grid_columns(&out),
-        summary(&out),
-    )
+        &job,
+        "slot.csv",
+        (-10.0, 0.5, 240),
+        20.0,
+    ))
 }
 
 /// Errors of the wall's last cut row between x = 25 and 75: per x, the cut column
@@ -2155,21 +2196,13 @@ fn flat_cut_with(y: (f64, f64), tool_extra: &str, z: f64, cutting_extra: &str) -
             &format!("band_height = 1.0\nspindle_rpm = 6000\n{cutting_extra}"),
         )
         .replace("grid = 0.1", "grid = 0.05");
-    write(dir.path(), "job.toml", &job);
-    let csv: String = std::iter::once("x,y,z\n".to_string())
-        .chain((0..=240).map(|i| format!("{},0,{z}\n", -10.0 + 0.5 * i as f64)))
-        .collect();
-    write(dir.path(), "slot.csv", &csv);
-    ok(&dexcut(
-        &["simulate", "job.toml", "--out", "out"],
+    run_output(&simulate_pass_along_x(
         dir.path(),
-    ));
-    let out = dir.path().join("out");
-    (
-        csv_columns(&out.join("steps.csv")),
-        grid_columns(&out),
-        summary(&out),
-    )
+        &job,
+        "slot.csv",
+        (-10.0, 0.5, 240),
+        z,
+    ))
 }
 
 /// Spindle power against Kienzle's closed form (MODEL.md §3.2): a full slot and a
@@ -2182,10 +2215,8 @@ fn spindle_power_matches_kienzle_closed_form() {
     let kc = 1500.0 * hm.powf(-0.22);
     for (y_min, width) in [(-20.0, 10.0), (0.0, 5.0)] {
         let (steps, _, s) = flat_cut((y_min, 20.0), "youngs_modulus_mpa = 1e7", 28.0);
-        let steady: Vec<usize> = (0..steps["x"].len())
-            .filter(|&i| (20.0..80.0).contains(&steps["x"][i]))
-            .collect();
-        let mean = |k: &str| steady.iter().map(|&i| steps[k][i]).sum::<f64>() / steady.len() as f64;
+        let steady = Steady::new(&steps, 20.0..80.0);
+        let mean = |k: &str| steady.mean(k);
         // MRR = a_e · a_p · v_f = width · 2 · 20 mm/s; P = kc · MRR (N·mm/s → W).
         let mrr = width * 2.0 * 20.0;
         assert!(
@@ -3086,28 +3117,20 @@ fn open_loop_error_is_clamped_to_the_stock() {
 #[test]
 fn slab_milling_power_matches_the_textbook_example() {
     let dir = tempdir();
-    write(
+    let out = simulate_pass_along_x(
         dir.path(),
-        "job.toml",
         "[stock]\nkind = \"box\"\nmin = [0, 32.5, 0]\nmax = [100, 60, 20]\ngrid = 0.1\n\
          [tool]\nkind = \"flat\"\ndiameter = 75\nflutes = 10\nflute_length = 30\nstickout = 60\n\
          [program]\npath = \"slab.csv\"\nfeed = 100\n\
          [cutting]\nband_height = 2.0\nspindle_rpm = 60\nkc1_1 = 1400\nmc = 0.4\nclosed_loop = false\n",
+        "slab.csv",
+        (-40.0, 0.5, 360),
+        -1.0,
     );
-    let csv: String = std::iter::once("x,y,z\n".to_string())
-        .chain((0..=360).map(|i| format!("{},0,-1\n", -40.0 + 0.5 * i as f64)))
-        .collect();
-    write(dir.path(), "slab.csv", &csv);
-    ok(&dexcut(
-        &["simulate", "job.toml", "--out", "out"],
-        dir.path(),
-    ));
-    let steps = csv_columns(&dir.path().join("out/steps.csv"));
+    let steps = csv_columns(&out.join("steps.csv"));
     // Steady: the 18.7 mm contact arc wholly inside the 100 mm block.
-    let steady: Vec<usize> = (0..steps["x"].len())
-        .filter(|&i| (10.0..=70.0).contains(&steps["x"][i]))
-        .collect();
-    let mean = |k: &str| steady.iter().map(|&i| steps[k][i]).sum::<f64>() / steady.len() as f64;
+    let steady = Steady::new(&steps, 10.0..=70.0);
+    let mean = |k: &str| steady.mean(k);
     // MRR = 20 · 5 · 100/60 mm³/s.
     assert!(rel(mean("mrr_mm3_s"), 500.0 / 3.0) < 1e-3);
     // Mean uncut thickness: the book's 0.043 mm (2 f_z √(t/D) / 2, rounded);
@@ -3137,30 +3160,22 @@ fn slab_milling_power_matches_the_textbook_example() {
 fn face_milling_power_matches_the_tool_makers_example() {
     let power_with = |cutting: &str| {
         let dir = tempdir();
-        write(
+        let out = simulate_pass_along_x(
             dir.path(),
-            "job.toml",
             &format!(
                 "[stock]\nkind = \"box\"\nmin = [0, -40, 0]\nmax = [400, 40, 10]\ngrid = 0.5\n\
                  [tool]\nkind = \"flat\"\ndiameter = 250\nflutes = 12\nflute_length = 10\nstickout = 60\n\
                  [program]\npath = \"face.csv\"\nfeed = 280\n\
                  [cutting]\nmaterial = \"s50c\"\nband_height = 2.0\nspindle_rpm = 101.91\nclosed_loop = false\n{cutting}"
             ),
+            "face.csv",
+            (-130.0, 2.0, 330),
+            8.0,
         );
-        let csv: String = std::iter::once("x,y,z\n".to_string())
-            .chain((0..=330).map(|i| format!("{},0,8\n", -130.0 + 2.0 * i as f64)))
-            .collect();
-        write(dir.path(), "face.csv", &csv);
-        ok(&dexcut(
-            &["simulate", "job.toml", "--out", "out"],
-            dir.path(),
-        ));
-        let steps = csv_columns(&dir.path().join("out/steps.csv"));
+        let steps = csv_columns(&out.join("steps.csv"));
         // Steady: the whole 80 mm chord (x_c + 118.4 mm) inside the 400 mm strip.
-        let steady: Vec<usize> = (0..steps["x"].len())
-            .filter(|&i| (-100.0..=260.0).contains(&steps["x"][i]))
-            .collect();
-        let mean = |k: &str| steady.iter().map(|&i| steps[k][i]).sum::<f64>() / steady.len() as f64;
+        let steady = Steady::new(&steps, -100.0..=260.0);
+        let mean = |k: &str| steady.mean(k);
         // MRR = 2 · 80 · 280/60 mm³/s.
         assert!(rel(mean("mrr_mm3_s"), 2.0 * 80.0 * 280.0 / 60.0) < 2e-3);
         // Mean chip of the centred cut, 90° lead (MODEL.md §3.2's arithmetic mean).
@@ -3208,31 +3223,23 @@ fn aluminium_slot_force_matches_measured_milling_coefficients() {
     let slot_force = |fz: f64| {
         let dir = tempdir();
         let feed = fz * 3.0 * 10_000.0;
-        write(
+        let out = simulate_pass_along_x(
             dir.path(),
-            "job.toml",
             &format!(
                 "[stock]\nkind = \"box\"\nmin = [0, -20, 0]\nmax = [60, 20, 20]\ngrid = 0.1\n\
                  [tool]\nkind = \"flat\"\ndiameter = 10\nflutes = 3\nflute_length = 20\nstickout = 40\n\
                  [program]\npath = \"slot.csv\"\nfeed = {feed}\n\
                  [cutting]\nmaterial = \"al6061\"\nband_height = 1.0\nspindle_rpm = 10000\nclosed_loop = false\n"
             ),
+            "slot.csv",
+            (-10.0, 0.5, 160),
+            18.0,
         );
-        let csv: String = std::iter::once("x,y,z\n".to_string())
-            .chain((0..=160).map(|i| format!("{},0,18\n", -10.0 + 0.5 * i as f64)))
-            .collect();
-        write(dir.path(), "slot.csv", &csv);
-        ok(&dexcut(
-            &["simulate", "job.toml", "--out", "out"],
-            dir.path(),
-        ));
-        let steps = csv_columns(&dir.path().join("out/steps.csv"));
+        let steps = csv_columns(&out.join("steps.csv"));
         // Steady: the front half of the cutter inside the stock, the back half in the slot.
-        let steady: Vec<usize> = (0..steps["x"].len())
-            .filter(|&i| (10.0..=50.0).contains(&steps["x"][i]))
-            .collect();
-        assert!(steady.len() > 70, "{} steady steps", steady.len());
-        steady.iter().map(|&i| steps["force_n"][i]).sum::<f64>() / steady.len() as f64
+        let steady = Steady::new(&steps, 10.0..=50.0);
+        assert!(steady.rows.len() > 70, "{} steady steps", steady.rows.len());
+        steady.mean("force_n")
     };
     for (fz, measured) in [(0.05, 76.87), (0.1, 124.21)] {
         let (z, ap): (f64, f64) = (3.0, 2.0);
@@ -3271,20 +3278,10 @@ fn ball_slot_power_matches_the_integrated_chip_thickness() {
             "band_height = 0.5\nspindle_rpm = 6000\nclosed_loop = false",
         )
         .replace("grid = 0.1", "grid = 0.05");
-    write(dir.path(), "job.toml", &job);
-    let csv: String = std::iter::once("x,y,z\n".to_string())
-        .chain((0..=240).map(|i| format!("{},0,28\n", -10.0 + 0.5 * i as f64)))
-        .collect();
-    write(dir.path(), "slot.csv", &csv);
-    ok(&dexcut(
-        &["simulate", "job.toml", "--out", "out"],
-        dir.path(),
-    ));
-    let steps = csv_columns(&dir.path().join("out/steps.csv"));
-    let steady: Vec<usize> = (0..steps["x"].len())
-        .filter(|&i| (20.0..=80.0).contains(&steps["x"][i]))
-        .collect();
-    let mean = |k: &str| steady.iter().map(|&i| steps[k][i]).sum::<f64>() / steady.len() as f64;
+    let out = simulate_pass_along_x(dir.path(), &job, "slot.csv", (-10.0, 0.5, 240), 28.0);
+    let steps = csv_columns(&out.join("steps.csv"));
+    let steady = Steady::new(&steps, 20.0..=80.0);
+    let mean = |k: &str| steady.mean(k);
     // h_m = Σ h · r / Σ r over κ ∈ [0, κ_max] (cos κ_max = 1 − a_p/R), φ ∈ [0, π], midpoint rule.
     let (r, ap, fz) = (5.0f64, 2.0f64, 1200.0 / (2.0 * 6000.0));
     let k_max = (1.0 - ap / r).acos();
