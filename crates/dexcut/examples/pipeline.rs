@@ -15,7 +15,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let out = PathBuf::from(args.next().unwrap_or_else(|| "out/pipeline".into()));
 
-    let setup = dexcut::load(&job, None)?;
+    let mut setup = dexcut::load(&job, None)?;
     let sim = dexcut::simulate(&setup, false)?;
     let s = &sim.summary;
     println!(
@@ -26,7 +26,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("  warning: {w}");
     }
 
-    let optimized = dexcut::optimize(&setup, &out, true)?;
+    let optimized = dexcut::optimize(&mut setup, &out, true)?;
     let a = &optimized.summary.after;
     println!(
         "optimized.nc: {:.3} s (lower bound {:.3} s), peak force {:.2} N",

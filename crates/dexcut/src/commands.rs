@@ -1046,7 +1046,7 @@ pub fn optimize(
 ) -> Result<Optimized> {
     let started = Instant::now();
     let settings_input: Vec<PathBuf> = settings.map(Path::to_path_buf).into_iter().collect();
-    let (setup, out_dir) = begin_run(job, out, force, &settings_input, |p| {
+    let (mut setup, out_dir) = begin_run(job, out, force, &settings_input, |p| {
         Setup::load_with(p, grid_mm, settings)
     })?;
     if setup.job.machine.arcs_as_lines {
@@ -1067,7 +1067,7 @@ pub fn optimize(
     }
     announce_setup_warnings(&setup, on_warning);
     optimize_setup(
-        &setup,
+        &mut setup,
         out_dir,
         started,
         columns_csv,
@@ -1094,9 +1094,11 @@ pub struct Optimized {
 /// says: steps.csv and steps_before.csv, or steps.json and steps_before.json
 /// with their `.npy` arrays; summary.json, the `.npy` column grid and with
 /// `columns_csv` columns.csv) into `out_dir`, committed whole at the end.
-/// `started` is when the run began (for `run_time_s`).
+/// `started` is when the run began (for `run_time_s`). The setup's path is
+/// lent to the free stations through the rounds and is back when this
+/// returns, with an error too.
 pub fn optimize_setup(
-    setup: &Setup,
+    setup: &mut Setup,
     out_dir: OutDir,
     started: Instant,
     columns_csv: bool,
@@ -1148,23 +1150,23 @@ pub fn optimize_setup(
     // Engagement along fine stations, caps, re-timing.
     let t1 = Instant::now();
     let machine = optimize::optimising_machine(&setup.machine, limits);
-    let mut stations = optimize::free_stations(&setup.program.path, &machine)?;
-    let n_stations = stations.len();
-    let surface = match (&setup.design, limits.angle_rule) {
-        (_, false) => optimize::SurfaceFrom::Nothing,
-        (Some((_, model)), true) => optimize::SurfaceFrom::Design(model),
-        (None, true) => optimize::SurfaceFrom::Stock,
+    // The free stations hold the program's path, taken from the setup (not
+    // copied: 120 MB for a million blocks) and put back once the rounds are
+    // done, whether they succeed or not; nothing reads the setup's path
+    // in between.
+    let path = std::mem::take(&mut setup.program.path);
+    let (rounds, path) = match optimize::free_stations_of(path, &machine) {
+        Err((e, path)) => (Err(e), path),
+        Ok(mut stations) => {
+            let rounds = optimize_rounds(setup, &machine, &mut stations, given, t1);
+            (rounds, stations.into_path())
+        }
     };
-    let engagement = optimize::engagement(&stations, &setup.stock, &setup.tools, surface)?;
-    let time_engagement_s = t1.elapsed().as_secs_f64();
-    let t2 = Instant::now();
+    setup.program.path = path;
+    let setup = &*setup;
+    let limits = &setup.job.limits;
+    let (n_stations, time_engagement_s, written, t2) = rounds?;
     let fz_max_mm = setup.job.fz_max_mm();
-    let caps = optimize::interval_caps(&engagement, &stations, limits, &setup.tools);
-    // Only the caps are needed from here on (per station: loads, areas, angles).
-    drop(engagement);
-    let written = optimize::write_verified(setup, &machine, &mut stations, caps, given)?;
-    // The free stations (and the program's path they hold) are not needed again.
-    drop(stations);
     let time_plan_s = t2.elapsed().as_secs_f64();
     let after_run = match written.run {
         Some(run) => run,
@@ -1307,6 +1309,33 @@ pub fn optimize_setup(
         precomp,
         steps_format,
     })
+}
+
+/// [`optimize_setup`]'s engagement along the free `stations` (begun at
+/// `t1`), their caps and the rounds of [`optimize::write_verified`]: the
+/// number of stations, the engagement's time, what was written and when the
+/// rounds began.
+fn optimize_rounds(
+    setup: &Setup,
+    machine: &schedule::Machine,
+    stations: &mut schedule::Stations,
+    given: optimize::Given,
+    t1: Instant,
+) -> Result<(usize, f64, optimize::Written, Instant)> {
+    let limits = &setup.job.limits;
+    let surface = match (&setup.design, limits.angle_rule) {
+        (_, false) => optimize::SurfaceFrom::Nothing,
+        (Some((_, model)), true) => optimize::SurfaceFrom::Design(model),
+        (None, true) => optimize::SurfaceFrom::Stock,
+    };
+    let engagement = optimize::engagement(stations, &setup.stock, &setup.tools, surface)?;
+    let time_engagement_s = t1.elapsed().as_secs_f64();
+    let t2 = Instant::now();
+    let caps = optimize::interval_caps(&engagement, stations, limits, &setup.tools);
+    // Only the caps are needed from here on (per station: loads, areas, angles).
+    drop(engagement);
+    let written = optimize::write_verified(setup, machine, stations, caps, given)?;
+    Ok((stations.len(), time_engagement_s, written, t2))
 }
 
 /// servo.csv: commanded positions every period with path feed, axis

@@ -42,7 +42,7 @@
 //! mrr_max = 100
 //! "#,
 //! )?;
-//! let setup = dexcut::load(&dir.join("job.toml"), None)?;
+//! let mut setup = dexcut::load(&dir.join("job.toml"), None)?;
 //! let sim = dexcut::simulate(&setup, false)?;
 //! // The cross-section is a circular segment of r = 5, h = 2.
 //! let (r, h) = (5.0f64, 2.0f64);
@@ -54,7 +54,7 @@
 //! // Re-time it under mrr_max = 100 mm³/s into the folder out (servo.csv,
 //! // steps.csv, summary.json; a G-code program also gets optimized.nc, read
 //! // back and simulated for the numbers after). Nothing is printed.
-//! let optimized = dexcut::optimize(&setup, &dir.join("out"), false)?;
+//! let optimized = dexcut::optimize(&mut setup, &dir.join("out"), false)?;
 //! let after = &optimized.summary.after;
 //! assert!(after.peak_mrr_mm3_s <= 1.02 * 100.0);
 //! // No schedule removes the volume faster than mrr_max allows.
@@ -125,8 +125,10 @@ pub fn simulate(setup: &Setup, actual_path: bool) -> Result<Simulation, Error> {
 /// job's inputs). Column results are the `.npy` grid with columns.json; the
 /// steps are steps.csv and steps_before.csv, or above [`AUTO_NPY_STEPS`] steps
 /// their `.npy` arrays ([`StepsFormat::Auto`]). The numbers after optimisation
-/// are those of optimized.nc read back and simulated.
-pub fn optimize(setup: &Setup, out: &Path, force: bool) -> Result<Optimized, Error> {
+/// are those of optimized.nc read back and simulated. The setup's program
+/// path is lent to the planner while the program is re-timed (not copied)
+/// and is back in the setup when this returns, with an error too.
+pub fn optimize(setup: &mut Setup, out: &Path, force: bool) -> Result<Optimized, Error> {
     let started = Instant::now();
     let out_dir = outdir::OutDir::begin(out, &setup.input_files(&setup.job_path), force)?;
     commands::optimize_setup(setup, out_dir, started, false, StepsFormat::Auto, &|_| {})

@@ -838,7 +838,8 @@ impl Given {
 /// [`MERGE_RATIO_MIN`]; what remains comes from lines `nc::refeed` cannot
 /// split per run, which take one feed: MODEL.md §2.2). When the
 /// original program is within every limit and the result would be slower,
-/// the original is kept.
+/// the original is kept. The program's path is read from `free`'s
+/// ([`Stations::path`]): the setup's may be lent to them.
 pub fn write_verified(
     setup: &Setup,
     machine: &Machine,
@@ -908,7 +909,7 @@ pub fn write_verified(
             }
             None => {
                 let samples = optimum_samples.expect("sampled for a point list");
-                let path = &setup.program.path;
+                let path = free.path();
                 let steps = crate::motion::steps_from_samples(path, &samples);
                 let tools = sample_tools(path, &samples);
                 (None, samples, steps, tools)
@@ -940,7 +941,7 @@ pub fn write_verified(
                 .filter(|e| e.beyond_tolerance)
                 .partition(|e| e.resolved);
             let (samples, sample_tools) = if kept_original {
-                let path = &setup.program.path;
+                let path = free.path();
                 let samples = crate::motion::machine_motion(path, &setup.machine)?;
                 let tools = sample_tools(path, &samples);
                 (samples, tools)
@@ -1133,6 +1134,30 @@ pub fn optimising_machine(machine: &Machine, limits: &LimitsSpec) -> Machine {
 
 /// Stations for re-timing with every feed block free up to feed_max.
 pub fn free_stations(path: &nc::Path, machine: &Machine) -> Result<Stations> {
+    has_feed_moves(path)?;
+    Ok(Stations::new(
+        path,
+        machine,
+        STATION_DS_MM,
+        FeedPolicy::MachineMax,
+    )?)
+}
+
+/// [`free_stations`] on a path handed to the stations rather than copied
+/// (a million-block path is about 120 MB; [`Stations::into_path`] gives it
+/// back); on an error the path comes back with it.
+pub fn free_stations_of(
+    path: nc::Path,
+    machine: &Machine,
+) -> std::result::Result<Stations, (crate::error::Error, nc::Path)> {
+    if let Err(e) = has_feed_moves(&path) {
+        return Err((e, path));
+    }
+    Stations::from_path(path, machine, STATION_DS_MM, FeedPolicy::MachineMax)
+        .map_err(|(e, path)| (e.into(), path))
+}
+
+fn has_feed_moves(path: &nc::Path) -> Result<()> {
     if path
         .segments
         .iter()
@@ -1140,12 +1165,7 @@ pub fn free_stations(path: &nc::Path, machine: &Machine) -> Result<Stations> {
     {
         fail!(run, "the program has no feed moves to optimise");
     }
-    Ok(Stations::new(
-        path,
-        machine,
-        STATION_DS_MM,
-        FeedPolicy::MachineMax,
-    )?)
+    Ok(())
 }
 
 #[cfg(test)]

@@ -76,9 +76,13 @@ fn simulate_returns_typed_results_and_writes_nothing() {
 #[test]
 fn optimize_report_and_summary_agree() {
     let dir = job_dir();
-    let setup = dexcut::load(&dir.path().join("job.toml"), None).unwrap();
+    let mut setup = dexcut::load(&dir.path().join("job.toml"), None).unwrap();
     let out = dir.path().join("out");
-    let optimized = dexcut::optimize(&setup, &out, false).unwrap();
+    let loaded = setup.program.path.clone();
+    assert!(!loaded.segments.is_empty());
+    let optimized = dexcut::optimize(&mut setup, &out, false).unwrap();
+    // The path lent to the planner is back in the setup, as loaded.
+    assert_eq!(setup.program.path, loaded);
     let doc = &optimized.summary;
     // MRR of a full slot is width × depth × feed: 12 mm² × 20 mm/s = 240 mm³/s
     // as given; under mrr_max = 20 the feed falls to 20/12 mm/s = 100 mm/min.

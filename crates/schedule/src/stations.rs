@@ -108,7 +108,8 @@ pub struct Stop {
 #[derive(Clone, Debug)]
 pub struct Stations {
     machine: Machine,
-    segments: Vec<Segment>,
+    /// The path the stations were made from (its segments indexed by `segment`).
+    path: Path,
     s_mm: Vec<f64>,
     segment: Vec<u32>,
     fraction: Vec<f64>,
@@ -200,9 +201,7 @@ impl Stations {
 
     /// The path the stations were made from.
     pub fn into_path(self) -> Path {
-        Path {
-            segments: self.segments,
-        }
+        self.path
     }
 
     /// What is checked before anything is allocated; the number of stations.
@@ -233,7 +232,7 @@ impl Stations {
     ) -> Result<Self, (ScheduleError, Vec<Segment>)> {
         let mut st = Stations {
             machine: *machine,
-            segments,
+            path: Path { segments },
             s_mm: Vec::with_capacity(estimate),
             segment: Vec::with_capacity(estimate),
             fraction: Vec::with_capacity(estimate),
@@ -247,7 +246,7 @@ impl Stations {
         };
         match st.fill(ds_mm, policy) {
             Ok(()) => Ok(st),
-            Err(e) => Err((e, st.segments)),
+            Err(e) => Err((e, st.path.segments)),
         }
     }
 
@@ -259,8 +258,8 @@ impl Stations {
         let mut previous: Option<usize> = None;
         // Corner stations and their tangent jumps.
         let mut corners: Vec<(usize, Vector3<f64>)> = Vec::new();
-        for index in 0..self.segments.len() {
-            let seg = self.segments[index];
+        for index in 0..self.path.segments.len() {
+            let seg = self.path.segments[index];
             let invalid = |what| ScheduleError::InvalidSegment {
                 segment: index,
                 line: seg.line,
@@ -328,7 +327,8 @@ impl Stations {
                             dwell_s,
                         }),
                         None => {
-                            let jump = start_tangent - self.segments[prev].tangent_at_fraction(1.0);
+                            let jump =
+                                start_tangent - self.path.segments[prev].tangent_at_fraction(1.0);
                             // MODEL.md §6.1 corner rule: v·|Δt_i| ≤ a_i·T/2 on every axis,
                             // and ≤ j_i·T²/2 with a jerk limit.
                             let period_s = machine.period_s();
@@ -492,7 +492,7 @@ impl Stations {
             !is_stop[k]
                 && ((self.tangent_at(k + 1) - self.tangent_at(k)).norm() > 1e-12
                     || matches!(
-                        self.segments[self.segment[k + 1] as usize].geometry,
+                        self.path.segments[self.segment[k + 1] as usize].geometry,
                         Geometry::Arc { .. }
                     ))
         };
@@ -698,7 +698,12 @@ impl Stations {
 
     /// The path's segments (indexed by [`Stations::segment`]).
     pub fn segments(&self) -> &[Segment] {
-        &self.segments
+        &self.path.segments
+    }
+
+    /// The path the stations were made from.
+    pub fn path(&self) -> &Path {
+        &self.path
     }
 
     /// Arc length from the path start at each station, mm.
@@ -720,7 +725,7 @@ impl Stations {
     /// fraction 1, else the point at its fraction (made from the segment when asked, not
     /// stored: 24 bytes a station less).
     pub fn position_at(&self, k: usize) -> Point3<f64> {
-        let seg = &self.segments[self.segment[k] as usize];
+        let seg = &self.path.segments[self.segment[k] as usize];
         match self.fraction[k] {
             0.0 => seg.start,
             1.0 => seg.end,
@@ -734,7 +739,7 @@ impl Stations {
         if self.still {
             return Vector3::zeros();
         }
-        self.segments[self.segment[k] as usize].tangent_at_fraction(self.fraction[k])
+        self.path.segments[self.segment[k] as usize].tangent_at_fraction(self.fraction[k])
     }
 
     /// Feed cap of each station, mm/min.
@@ -780,7 +785,7 @@ impl Stations {
         let w = ((s_mm - self.s_mm[k]) / ds).clamp(0.0, 1.0);
         let u = start + w * (self.fraction[k + 1] - start);
         (
-            self.segments[segment as usize].point_at_fraction(u),
+            self.path.segments[segment as usize].point_at_fraction(u),
             segment,
         )
     }
