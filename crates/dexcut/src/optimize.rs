@@ -892,11 +892,15 @@ pub fn write_verified(
         // once its steps and the samples' tools are made (before the sweep).
         let (text, samples, steps, tools_of_samples) = match &setup.program.gcode {
             Some(src) => {
-                let text = nc::refeed(src, &setup.program.file, &setup.program.nc_options, &plan)
-                    .or_run(|| {
-                    format!("{}: cannot write the re-fed program", setup.program.file)
-                })?;
-                let parsed = setup.program.read_path(&text);
+                // The written program as the re-feed writer read it back to
+                // check it (with the program's options, as `nc::parse` reads
+                // it): not read once more.
+                let (text, parsed) =
+                    nc::refeed_read(src, &setup.program.file, &setup.program.nc_options, &plan)
+                        .or_run(|| {
+                            format!("{}: cannot write the re-fed program", setup.program.file)
+                        })?;
+                let parsed = setup.program.in_frame(parsed);
                 if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
                     fail!(run, "the re-fed program does not read back: {d}");
                 }

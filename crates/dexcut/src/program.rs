@@ -19,7 +19,7 @@ pub struct Program {
     pub nc_options: nc::Options,
     /// The program's Z points down (`[machine] z_axis = "down"`): its path,
     /// and that of every program re-fed from it, is read mirrored in Z
-    /// ([`Program::read_path`]).
+    /// ([`Program::in_frame`]).
     pub z_down: bool,
     /// What the reader warned of: where LinuxCNC would refuse the file (no
     /// program end, a byte-order mark) but most controls read it.
@@ -42,11 +42,11 @@ pub struct StreamTiming {
 }
 
 impl Program {
-    /// `text` (this program, or one re-fed from it) read as this program
-    /// was: with its options, mirrored into dexcut's Z-up frame when its Z
-    /// points down.
-    pub fn read_path(&self, text: &str) -> nc::Parsed {
-        let mut parsed = nc::parse(text, &self.file, &self.nc_options);
+    /// `parsed`: a text (this program, or one re-fed from it) read as this
+    /// program was, with its options (`nc::parse(text, &self.file,
+    /// &self.nc_options)`, or what `nc::refeed_read` read back), mirrored
+    /// into dexcut's Z-up frame when its Z points down.
+    pub fn in_frame(&self, mut parsed: nc::Parsed) -> nc::Parsed {
         if self.z_down {
             parsed.path.mirror_z();
         }

@@ -20,7 +20,7 @@ pub use diag::{Diagnostic, Severity};
 pub use gcode::GCode;
 pub use interp::{FileForm, Options, Parsed};
 pub use path::{Geometry, Motion, Path, Plane, Segment};
-pub use refeed::{refeed, RefeedError};
+pub use refeed::{refeed, refeed_read, RefeedError};
 
 /// Reads a program (`file_name` only labels diagnostics) into a path.
 /// Positions are tool-tip positions in mm in the machine frame.

@@ -55,7 +55,7 @@ use nalgebra::Point3;
 use thiserror::Error;
 
 use crate::expr::Expr;
-use crate::interp::{self, Executed, Options, SegmentTrace};
+use crate::interp::{self, Executed, Options, Parsed, SegmentTrace};
 use crate::path::{Geometry, Motion, Segment};
 use crate::syntax::{self, Item, ItemKind, LineKind};
 
@@ -101,6 +101,18 @@ pub fn refeed(
     options: &Options,
     plan: &[Vec<(f64, f64)>],
 ) -> Result<String, RefeedError> {
+    refeed_read(source, file, options, plan).map(|(text, _)| text)
+}
+
+/// [`refeed`], and the written text as it was read back to be checked: what
+/// [`crate::parse`] returns for it with `file` and `options` (a caller that
+/// needs the written program's path need not read it once more).
+pub fn refeed_read(
+    source: &str,
+    file: &str,
+    options: &Options,
+    plan: &[Vec<(f64, f64)>],
+) -> Result<(String, Parsed), RefeedError> {
     let (mut parsed, mut trace, mut executed) = interp::run_recorded(source, file, options);
     // A file read as most controls read it is written as every control reads
     // it ([`crate::amend`]); the amended source is what is re-fed and checked.
@@ -186,7 +198,7 @@ fn write_checked(
     by_line: &BTreeMap<usize, Vec<usize>>,
     plan: &[Vec<(f64, f64)>],
     mut tables: BTreeMap<usize, RunTable>,
-) -> Result<String, RefeedError> {
+) -> Result<(String, Parsed), RefeedError> {
     let mut expanded = cycle_lines(by_line, segments, trace, plan);
     loop {
         let Some(per_run) = cycle_runs(source, &expanded, executed, trace, &tables) else {
@@ -208,7 +220,7 @@ fn write_checked(
             source, segments, trace, by_line, &plan, &tables, &expanded, &per_run,
         );
         match verify(&out, file, options, segments, &plan, &written_pieces) {
-            Ok(()) => return Ok(out),
+            Ok(parsed) => return Ok((out, parsed)),
             // Cycles written out that do not read back: keep them as written.
             Err(_) if !expanded.is_empty() => expanded.clear(),
             // A run that should stay still moves after all (its point as
@@ -1356,7 +1368,8 @@ fn eol_or_newline(eol: &str) -> &str {
     }
 }
 
-/// Parses the re-fed program and checks it against the original path and plan.
+/// Parses the re-fed program and checks it against the original path and
+/// plan; what it read.
 fn verify(
     out: &str,
     file: &str,
@@ -1364,7 +1377,7 @@ fn verify(
     original: &[Segment],
     plan: &[Vec<(f64, f64)>],
     written: &[usize],
-) -> Result<(), RefeedError> {
+) -> Result<Parsed, RefeedError> {
     let fail = |detail: String| RefeedError::Verification {
         file: file.to_owned(),
         detail,
@@ -1427,5 +1440,5 @@ fn verify(
             }
         }
     }
-    Ok(())
+    Ok(parsed)
 }

@@ -372,13 +372,11 @@ fn corpus_round_trip_with_split_blocks() {
             true => vec![(0.2, 100.0 + i as f64), (0.7, 2000.0), (1.0, 900.5)],
             false => vec![(1.0, 321.0)],
         });
-        let out = nc::refeed(
-            &src,
-            &file.display().to_string(),
-            &Options::default(),
-            &plan,
-        )
-        .unwrap_or_else(|e| panic!("{e}"));
+        let name = file.display().to_string();
+        let (out, read) = nc::refeed_read(&src, &name, &Options::default(), &plan)
+            .unwrap_or_else(|e| panic!("{e}"));
+        // What the writer read back to check is what a reader gets.
+        assert_eq!(read, nc::parse(&out, &name, &Options::default()), "{name}");
         let new = parse(&out);
         assert!(new.segments.len() >= path.segments.len());
         assert!(
@@ -663,7 +661,9 @@ fn loops_whose_records_do_not_fit_are_unrolled() {
     let path = parse(MANY_RUNS);
     let plan = runs_plan(&path);
     assert_eq!(plan.iter().filter(|p| !p.is_empty()).count(), 800);
-    let out = nc::refeed(MANY_RUNS, "t.ngc", &Options::default(), &plan).unwrap();
+    let (out, read) = nc::refeed_read(MANY_RUNS, "t.ngc", &Options::default(), &plan).unwrap();
+    // The unrolled text's reading, as a reader gets it.
+    assert_eq!(read, nc::parse(&out, "t.ngc", &Options::default()));
     // No loop or branch is left; the subroutine stays one, called as before.
     for gone in [
         "o1 while",
@@ -819,7 +819,8 @@ fn tolerant_files_are_written_with_an_end_and_no_byte_order_mark() {
         let read = nc::parse(src, "t.ngc", &tolerant);
         assert!(!read.has_program_end);
         let plan = uniform(&read.path, 420.0);
-        let out = nc::refeed(src, "t.ngc", &tolerant, &plan).unwrap();
+        let (out, read_back) = nc::refeed_read(src, "t.ngc", &tolerant, &plan).unwrap();
+        assert_eq!(read_back, nc::parse(&out, "t.ngc", &tolerant));
         assert!(!out.starts_with('\u{feff}'), "{out:?}");
         assert!(
             out.ends_with(&format!(
