@@ -166,13 +166,56 @@ pub fn refeed_read(
     )
 }
 
-/// Segments made by each line.
-fn lines_segments(trace: &interp::Trace) -> BTreeMap<usize, Vec<usize>> {
-    let mut by_line: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
-    for (i, t) in trace.segments.iter().enumerate() {
-        by_line.entry(t.line_index).or_default().push(i);
+/// The segments made by each line, ascending, in two flat columns (a
+/// million-line program's map of one `Vec` per line took 53 MB; this takes
+/// 16): where each line's segments begin in `segments`, and the segments.
+struct LineSegments {
+    /// Per line index, where its segments begin; one more entry at the end.
+    start: Vec<usize>,
+    segments: Vec<usize>,
+}
+
+impl LineSegments {
+    /// The segments of the line at `index`; None when it made none.
+    fn get(&self, index: usize) -> Option<&[usize]> {
+        let (&from, &to) = (self.start.get(index)?, self.start.get(index + 1)?);
+        (to > from).then(|| &self.segments[from..to])
     }
-    by_line
+
+    /// The segments of the line at `index`, which made some.
+    fn of(&self, index: usize) -> &[usize] {
+        self.get(index).expect("a line that made segments")
+    }
+
+    /// Every line that made segments, ascending, with its segments.
+    fn iter(&self) -> impl Iterator<Item = (usize, &[usize])> + '_ {
+        (0..self.start.len().saturating_sub(1)).filter_map(|index| Some((index, self.get(index)?)))
+    }
+}
+
+/// Segments made by each line.
+fn lines_segments(trace: &interp::Trace) -> LineSegments {
+    let lines = trace
+        .segments
+        .iter()
+        .map(|t| t.line_index + 1)
+        .max()
+        .unwrap_or(0);
+    // Counted, then placed in segment order (each line's ascending).
+    let mut start = vec![0usize; lines + 1];
+    for t in &trace.segments {
+        start[t.line_index + 1] += 1;
+    }
+    for i in 0..lines {
+        start[i + 1] += start[i];
+    }
+    let mut next = start.clone();
+    let mut segments = vec![0usize; trace.segments.len()];
+    for (i, t) in trace.segments.iter().enumerate() {
+        segments[next[t.line_index]] = i;
+        next[t.line_index] += 1;
+    }
+    LineSegments { start, segments }
 }
 
 /// The same moves: kind, end point and length of every segment.
@@ -195,7 +238,7 @@ fn write_checked(
     segments: &[Segment],
     trace: &interp::Trace,
     executed: &[Executed],
-    by_line: &BTreeMap<usize, Vec<usize>>,
+    by_line: &LineSegments,
     plan: &[Vec<(f64, f64)>],
     mut tables: BTreeMap<usize, RunTable>,
 ) -> Result<(String, Parsed), RefeedError> {
@@ -208,14 +251,15 @@ fn write_checked(
             continue;
         };
         // Runs of a line split into more blocks than they need: their pieces as written.
-        let mut plan = plan.to_vec();
+        let mut coarse = BTreeMap::new();
         for (index, t) in &tables {
-            for &i in &by_line[index] {
+            for &i in by_line.of(*index) {
                 if t.blocks() > 1 {
-                    plan[i] = padded(&coarsened(&plan[i], t.blocks()), t.blocks());
+                    coarse.insert(i, padded(&coarsened(&plan[i], t.blocks()), t.blocks()));
                 }
             }
         }
+        let plan = WrittenPlan { plan, coarse };
         let (out, written_pieces) = write(
             source, segments, trace, by_line, &plan, &tables, &expanded, &per_run,
         );
@@ -233,14 +277,30 @@ fn write_checked(
     }
 }
 
+/// The plan as written: the caller's, but for the segments whose pieces a
+/// run table coarsens, held apart (not a copy of the whole plan).
+struct WrittenPlan<'a> {
+    plan: &'a [Vec<(f64, f64)>],
+    coarse: BTreeMap<usize, Vec<(f64, f64)>>,
+}
+
+impl std::ops::Index<usize> for WrittenPlan<'_> {
+    type Output = [(f64, f64)];
+
+    /// The pieces segment `i` is written in.
+    fn index(&self, i: usize) -> &[(f64, f64)] {
+        self.coarse.get(&i).unwrap_or(&self.plan[i])
+    }
+}
+
 /// The re-fed text and how many blocks each segment became.
 #[allow(clippy::too_many_arguments)]
 fn write(
     source: &str,
     segments: &[Segment],
     trace: &interp::Trace,
-    by_line: &BTreeMap<usize, Vec<usize>>,
-    plan: &[Vec<(f64, f64)>],
+    by_line: &LineSegments,
+    plan: &WrittenPlan<'_>,
     tables: &BTreeMap<usize, RunTable>,
     expanded: &BTreeSet<usize>,
     per_run: &BTreeMap<usize, CycleRuns>,
@@ -281,7 +341,7 @@ fn write(
                 out.push_str(&with_f_word(text, items, &f));
                 out.push_str(eol);
             } else {
-                let segs = &by_line[&index];
+                let segs = by_line.of(index);
                 for &i in segs {
                     written_pieces[i] = t.blocks();
                 }
@@ -307,7 +367,7 @@ fn write(
             }
             continue;
         }
-        let Some(segs) = by_line.get(&index) else {
+        let Some(segs) = by_line.get(index) else {
             out.push_str(text);
             out.push_str(eol);
             continue;
@@ -465,7 +525,7 @@ fn line_runs(
     executed: &[Executed],
     trace: &interp::Trace,
     segments: &[Segment],
-    by_line: &BTreeMap<usize, Vec<usize>>,
+    by_line: &LineSegments,
 ) -> Option<BTreeMap<usize, Vec<Run>>> {
     let mut runs: BTreeMap<usize, Vec<Run>> = BTreeMap::new();
     let mut at: Option<Point3<f64>> = None;
@@ -478,7 +538,7 @@ fn line_runs(
         if (from..to).any(|j| trace.segments[j].line_index != line) {
             return None;
         }
-        if by_line.contains_key(&line) {
+        if by_line.get(line).is_some() {
             runs.entry(line).or_default().push(match to - from {
                 0 => Run::Idle(at),
                 1 => Run::Moved(from),
@@ -503,7 +563,7 @@ fn line_runs(
 /// order), to be unrolled ([`crate::unroll`]).
 fn run_tables(
     source: &str,
-    by_line: &BTreeMap<usize, Vec<usize>>,
+    by_line: &LineSegments,
     segments: &[Segment],
     trace: &interp::Trace,
     executed: &[Executed],
@@ -519,7 +579,7 @@ fn run_tables(
     }
     let all_runs = line_runs(executed, trace, segments, by_line);
     let mut next = *TABLE_PARAMS.start();
-    for (&index, segs) in by_line {
+    for (index, segs) in by_line.iter() {
         let runs: Vec<Run> = match &all_runs {
             Some(r) => r[&index].clone(),
             None => segs.iter().map(|&i| Run::Moved(i)).collect(),
@@ -683,14 +743,14 @@ const CYCLE_MODES: [f64; 7] = [17.0, 20.0, 21.0, 90.0, 91.0, 98.0, 99.0];
 /// under cutter compensation or G93, or (found when the result does not read
 /// back) runs more than once.
 fn cycle_lines(
-    by_line: &BTreeMap<usize, Vec<usize>>,
+    by_line: &LineSegments,
     segments: &[Segment],
     trace: &interp::Trace,
     plan: &[Vec<(f64, f64)>],
 ) -> BTreeSet<usize> {
     let mut lines = BTreeSet::new();
     let mut needed = false;
-    for (&index, segs) in by_line {
+    for (index, segs) in by_line.iter() {
         let feeds: Vec<usize> = segs
             .iter()
             .copied()
@@ -852,7 +912,7 @@ fn write_expanded(
     per_run: Option<&CycleRuns>,
     segments: &[Segment],
     trace: &interp::Trace,
-    plan: &[Vec<(f64, f64)>],
+    plan: &WrittenPlan<'_>,
     written_pieces: &mut [usize],
 ) {
     let nl = eol_or_newline(eol);
@@ -1375,7 +1435,7 @@ fn verify(
     file: &str,
     options: &Options,
     original: &[Segment],
-    plan: &[Vec<(f64, f64)>],
+    plan: &WrittenPlan<'_>,
     written: &[usize],
 ) -> Result<Parsed, RefeedError> {
     let fail = |detail: String| RefeedError::Verification {
@@ -1441,4 +1501,39 @@ fn verify(
         }
     }
     Ok(parsed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The flat per-line columns list each line's segments as a map of one
+    /// `Vec` per line does: lines run many times by a loop and a subroutine,
+    /// lines that make no segment, and the last line.
+    #[test]
+    fn line_segments_are_each_lines_segments_ascending() {
+        let src = "o100 sub\nG1 Z[#1] F100\no100 endsub\nG0 X0 Y0 Z1\n#1 = 0\n\
+            o1 while [#1 LT 5]\nG1 X[#1] F500\nY[#1]\no2 if [#1 EQ 2]\no100 call [-1]\no2 endif\n\
+            #1 = [#1 + 1]\no1 endwhile\nG0 Z5\n";
+        let (parsed, trace, _) = interp::run_recorded(src, "t.ngc", &Options::default());
+        assert!(parsed.diagnostics.is_empty(), "{:?}", parsed.diagnostics);
+        let mut map: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+        for (i, t) in trace.segments.iter().enumerate() {
+            map.entry(t.line_index).or_default().push(i);
+        }
+        assert!(map.values().any(|s| s.len() == 4), "{map:?}");
+        let flat = lines_segments(&trace);
+        let listed: Vec<(usize, Vec<usize>)> = flat
+            .iter()
+            .map(|(line, segs)| (line, segs.to_vec()))
+            .collect();
+        assert_eq!(listed, map.clone().into_iter().collect::<Vec<_>>());
+        for line in 0..=trace.lines.len() + 1 {
+            assert_eq!(
+                flat.get(line),
+                map.get(&line).map(Vec::as_slice),
+                "line {line}"
+            );
+        }
+    }
 }
