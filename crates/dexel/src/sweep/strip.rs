@@ -3,7 +3,7 @@
 
 use super::arcsine::asin_diff;
 use super::slot::{CHIP_AREA, CONTACT_X, CONTACT_Y, OVER_RADIUS, SHANK, VOLUME};
-use super::{Edge, Envelope, EnvelopeHit, Prepared, HEAD, PLUNGE_H2};
+use super::{Envelope, EnvelopeHit, Prepared, HEAD, PLUNGE_H2};
 use crate::{Column, Grid};
 
 /// Per-(strip, move) accumulator width and band bookkeeping shared by the strip loop.
@@ -82,19 +82,6 @@ fn cut_above(col: &mut Column, z: f32, mut piece: impl FnMut(f32, f32)) {
     }
 }
 
-/// Where and how the edge met a cut column (MODEL.md §1.4, §1.5, §3.2).
-struct Contact {
-    /// Unit XY vector from the tool axis to the column when the edge reached it.
-    r_hat: [f64; 2],
-    /// 1 / radius of the edge there, 1/mm.
-    inv_r: f64,
-    /// 1 / thickness the edge cut there during the whole step, normal to the
-    /// tool surface, 1/mm.
-    inv_h: f64,
-    /// Shares of the column credited to the previous and the next step.
-    shares: [f64; 2],
-}
-
 /// Floor of the edge's advance normal to itself per unit of path when
 /// spreading a column over steps (on a flank it runs nearly along itself).
 const MIN_EDGE_SPEED: f64 = 0.1;
@@ -105,31 +92,106 @@ const MIN_EDGE_SPEED: f64 = 0.1;
 #[inline]
 fn trapezoid_cdf(x: f64, a: f64, b: f64) -> f64 {
     let (a, b) = if a >= b { (a, b) } else { (b, a) };
+    // Every piece's value, then the one that applies (no branch: the
+    // contacts' loop runs over whole rows).
+    let two_ab = 2.0 * a * b;
+    let r = a + b - x;
+    let thin = x / a;
+    let rising = x * x / two_ab;
+    let middle = (x - 0.5 * b) / a;
+    let falling = 1.0 - r * r / two_ab;
     if x <= 0.0 {
         0.0
     } else if x >= a + b {
         1.0
     } else if b <= 1e-9 * a {
-        x / a
+        thin
     } else if x < b {
-        x * x / (2.0 * a * b)
+        rising
     } else if x <= a {
-        (x - 0.5 * b) / a
+        middle
     } else {
-        let r = a + b - x;
-        1.0 - r * r / (2.0 * a * b)
+        falling
     }
 }
 
-/// A column cut on the current row, before its contact is computed.
-struct Cut {
-    x: f64,
-    t: f64,
+/// The columns cut on the current row by one move, and their contacts
+/// (MODEL.md §1.4, §1.5, §3.2), column by column in arrays of the row's
+/// length (one allocation per strip). The contacts are computed in phases
+/// over the whole row, each a loop of independent arithmetic free of the
+/// cut's branches (square roots and divisions of many columns in flight, in
+/// vector registers where the compiler packs them); only the columns whose
+/// chip thickness needs a mean over the cell or the piece's heights take the
+/// scalar arcsines. Every value is the same expression of the same inputs as
+/// one column at a time, so results are the same bit for bit.
+struct RowCuts {
+    /// Cuts on the row so far.
+    n: usize,
+    /// Column centre's X, mm, and the move parameter where it was cut.
+    x: Vec<f64>,
+    t: Vec<f64>,
     /// Heights above the tip of the column's top before the cut and of the cut, mm.
-    h_top: f64,
-    h_bot: f64,
+    h_top: Vec<f64>,
+    h_bot: Vec<f64>,
     /// Material removed, mm.
-    removed: f64,
+    removed: Vec<f64>,
+    /// The edge where it reached the column: radius, 1/radius, 1/sin κ.
+    r_mm: Vec<f64>,
+    inv_r: Vec<f64>,
+    inv_sin_k: Vec<f64>,
+    /// sin θ and cos θ of the angle from the feed direction where the edge
+    /// circle first reaches the column.
+    sin_t: Vec<f64>,
+    cos_t: Vec<f64>,
+    /// 1 / thickness the edge cut there during the whole step, normal to the
+    /// tool surface, 1/mm: first the floor and the bottom's cut, then with
+    /// the side's.
+    inv_h: Vec<f64>,
+    /// 1 / the side's chip thickness L_xy sin κ cos θ (or its mean), 1/mm.
+    inv_side: Vec<f64>,
+    /// Unit XY vector from the tool axis to the column when the edge reached it.
+    r_hat: Vec<[f64; 2]>,
+    /// Shares of the column credited to the previous and the next step.
+    shares: Vec<[f64; 2]>,
+    /// The cuts whose side thickness is a mean (near the flank, or over a
+    /// thick piece's heights).
+    mean: Vec<u32>,
+}
+
+impl RowCuts {
+    fn new(nx: usize) -> RowCuts {
+        let v = || vec![0.0; nx];
+        RowCuts {
+            n: 0,
+            x: v(),
+            t: v(),
+            h_top: v(),
+            h_bot: v(),
+            removed: v(),
+            r_mm: v(),
+            inv_r: v(),
+            inv_sin_k: v(),
+            sin_t: v(),
+            cos_t: v(),
+            inv_h: v(),
+            inv_side: v(),
+            r_hat: vec![[0.0; 2]; nx],
+            shares: vec![[0.0; 2]; nx],
+            mean: Vec::with_capacity(nx),
+        }
+    }
+
+    /// Record a cut column (at most one per column of the row).
+    #[inline]
+    fn push(&mut self, x: f64, t: f64, h_top: f64, h_bot: f64, removed: f64) {
+        let i = self.n;
+        self.x[i] = x;
+        self.t[i] = t;
+        self.h_top[i] = h_top;
+        self.h_bot[i] = h_bot;
+        self.removed[i] = removed;
+        self.n = i + 1;
+    }
 }
 
 /// Everything one strip needs to run its moves.
@@ -168,100 +230,146 @@ impl<E: Envelope> StripJob<'_, E> {
         partial_width(self.banding, self.smooth)
     }
 
-    /// How the edge met the column at (x, y), cut at parameter t from the
-    /// heights `h_top` (its top before the cut) down to `h_bot` above the tip.
-    #[inline]
-    fn contact(&self, m: &Prepared, x: f64, y: f64, t: f64, h_top: f64, h_bot: f64) -> Contact {
-        let Edge {
+    /// How the edge met each column cut on the row at `y` (`cuts`, cut by
+    /// `m`; MODEL.md §1.4, §1.5, §3.2), in phases over the row (see
+    /// [`RowCuts`]): `r_hat`, `inv_r`, `inv_h` and `shares` of each cut.
+    fn contacts(&self, m: &Prepared, y: f64, cuts: &mut RowCuts) {
+        let n = cuts.n;
+        let g = self.grid.spacing_mm;
+        let RowCuts {
+            x,
+            t,
+            h_top,
+            h_bot,
             r_mm,
             inv_r,
             inv_sin_k,
-        } = self.env.side(h_top.max(0.0));
-        // A piece across more than THICK_PIECE_MM of height is credited over its
-        // heights (MODEL.md §3.2); a thinner one at its top, as the sliver it is.
-        let thick = h_top - h_bot > THICK_PIECE_MM;
-        // 1/h of the floor and of the bottom's cut (descending moves only).
-        let mut inv_h = m.inv_floor;
+            sin_t,
+            cos_t,
+            inv_h,
+            inv_side,
+            r_hat,
+            shares,
+            mean,
+            ..
+        } = cuts;
+        let (x, t, h_top, h_bot) = (&x[..n], &t[..n], &h_top[..n], &h_bot[..n]);
+        let (r_mm, inv_r, inv_sin_k) = (&mut r_mm[..n], &mut inv_r[..n], &mut inv_sin_k[..n]);
+        let (sin_t, cos_t) = (&mut sin_t[..n], &mut cos_t[..n]);
+        let (inv_h, inv_side) = (&mut inv_h[..n], &mut inv_side[..n]);
+        let (r_hat, shares) = (&mut r_hat[..n], &mut shares[..n]);
+        // The edge at the column's top, and 1/h of the floor and of the
+        // bottom's cut (descending moves only).
+        for i in 0..n {
+            let edge = self.env.side(h_top[i].max(0.0));
+            r_mm[i] = edge.r_mm;
+            inv_r[i] = edge.inv_r;
+            inv_sin_k[i] = edge.inv_sin_k;
+        }
+        inv_h.fill(m.inv_floor);
         if m.d[2] < 0.0 {
-            let down = -m.d[2] * self.env.bottom_cos(h_bot.max(0.0));
-            if down * inv_h > 1.0 {
-                inv_h = 1.0 / down;
+            for (inv_h, &h_bot) in inv_h.iter_mut().zip(h_bot) {
+                let down = -m.d[2] * self.env.bottom_cos(h_bot.max(0.0));
+                if down * *inv_h > 1.0 {
+                    *inv_h = 1.0 / down;
+                }
             }
         }
         if m.h2 <= PLUNGE_H2 {
-            let (ax, ay) = (x - (m.p0[0] + t * m.d[0]), y - (m.p0[1] + t * m.d[1]));
-            let dist = ax.hypot(ay);
-            let r_hat = if dist > 1e-12 {
-                [ax / dist, ay / dist]
-            } else {
-                [0.0, 0.0]
-            };
-            return Contact {
-                r_hat,
-                inv_r,
-                inv_h,
-                shares: [0.0, 0.0],
-            };
+            // A plunge: from the axis at the cut to the column; no side cut.
+            for i in 0..n {
+                let (ax, ay) = (
+                    x[i] - (m.p0[0] + t[i] * m.d[0]),
+                    y - (m.p0[1] + t[i] * m.d[1]),
+                );
+                let dist = ax.hypot(ay);
+                r_hat[i] = if dist > 1e-12 {
+                    [ax / dist, ay / dist]
+                } else {
+                    [0.0, 0.0]
+                };
+                shares[i] = [0.0, 0.0];
+            }
+            return;
         }
         // The edge circle of radius r at the column's top first reaches it at
         // the angle θ from the feed direction with sin θ = e / r (e: the
         // column's signed offset to the left of the move's line).
         let [ux, uy] = m.u;
-        let (wx, wy) = (x - m.p0[0], y - m.p0[1]);
-        let sin_t = ((ux * wy - uy * wx) * inv_r).clamp(-1.0, 1.0);
-        let cos_t = (1.0 - sin_t * sin_t).sqrt();
-        let r_hat = [cos_t * ux - sin_t * uy, cos_t * uy + sin_t * ux];
-        // MODEL.md §3.2: h = f · n̂, the step's feed vector on the tool surface's normal,
-        // h_side = L_xy sin κ cos θ. Near the flanks 1/cos θ varies fast across the cell:
-        // take its mean over the cell's offsets, [e − g/2, e + g/2] ∩ [−r, r]
-        // (mean of 1/cos = Δ arcsin · r / Δe).
-        let half = 0.5 * self.grid.spacing_mm * inv_r;
-        // Away from the flank the cell mean is 1/cos θ to O(half²).
-        let near_flank = 1.0 - sin_t.abs() <= 4.0 * half;
-        let inv_side = if near_flank {
-            let (lo, hi) = ((sin_t - half).max(-1.0), (sin_t + half).min(1.0));
-            let inv_cos = asin_diff(hi, lo) / (2.0 * half);
-            inv_cos
-                * if thick {
-                    self.env.mean_inv_sin_k(h_bot, h_top)
-                } else {
-                    inv_sin_k
-                }
-        } else if !thick {
-            (1.0 / cos_t) * inv_sin_k
-        } else {
-            // Away from the flank, a closed form over the piece's heights where
-            // the tool has one (a ball: κ and θ both vary with the height).
-            self.env
-                .mean_inv_side(h_bot, h_top, ux * wy - uy * wx)
-                .unwrap_or_else(|| (1.0 / cos_t) * self.env.mean_inv_sin_k(h_bot, h_top))
-        } * m.inv_len_xy;
-        let side_cut = inv_side <= inv_h;
-        inv_h = inv_h.min(inv_side);
-        let shares = if self.smooth && side_cut {
-            // MODEL.md §1.5: the edge, locally straight with normal r̂, passes the
-            // column's centre at s_c along the move and advances cos θ per mm of path;
-            // the cell's share passed by s is the trapezoid CDF.
-            let s_c = ((wx * ux + wy * uy) - r_mm * cos_t).clamp(0.0, m.len_xy);
-            let g = self.grid.spacing_mm;
-            let (a, b) = (g * r_hat[0].abs(), g * r_hat[1].abs());
-            let speed = cos_t.max(MIN_EDGE_SPEED);
-            let reach = 0.5 * (a + b);
-            if s_c * speed >= reach && (m.len_xy - s_c) * speed >= reach {
-                // The whole cell is passed within the step.
-                [0.0, 0.0]
+        let wy = y - m.p0[1];
+        for i in 0..n {
+            let wx = x[i] - m.p0[0];
+            let s = ((ux * wy - uy * wx) * inv_r[i]).clamp(-1.0, 1.0);
+            let c = (1.0 - s * s).sqrt();
+            sin_t[i] = s;
+            cos_t[i] = c;
+            r_hat[i] = [c * ux - s * uy, c * uy + s * ux];
+            // MODEL.md §3.2: h = f · n̂, the step's feed vector on the tool
+            // surface's normal, h_side = L_xy sin κ cos θ; a thin piece away
+            // from the flank (the others are taken below).
+            inv_side[i] = (1.0 / c) * inv_sin_k[i] * m.inv_len_xy;
+        }
+        // Near the flanks 1/cos θ varies fast across the cell: take its mean
+        // over the cell's offsets, [e − g/2, e + g/2] ∩ [−r, r] (mean of
+        // 1/cos = Δ arcsin · r / Δe); away from the flank the cell mean is
+        // 1/cos θ to O(half²). A piece across more than THICK_PIECE_MM of
+        // height is credited over its heights (MODEL.md §3.2); a thinner one
+        // at its top, as the sliver it is. The cuts that take a mean are
+        // listed without a branch, then taken one by one.
+        let mut k = 0;
+        mean.resize(n, 0);
+        for i in 0..n {
+            let half = 0.5 * g * inv_r[i];
+            let near_flank = 1.0 - sin_t[i].abs() <= 4.0 * half;
+            let thick = h_top[i] - h_bot[i] > THICK_PIECE_MM;
+            mean[k] = i as u32;
+            k += usize::from(near_flank || thick);
+        }
+        for &i in &mean[..k] {
+            let i = i as usize;
+            let (h_top, h_bot, sin_t) = (h_top[i], h_bot[i], sin_t[i]);
+            let half = 0.5 * g * inv_r[i];
+            let near_flank = 1.0 - sin_t.abs() <= 4.0 * half;
+            let thick = h_top - h_bot > THICK_PIECE_MM;
+            inv_side[i] = if near_flank {
+                let (lo, hi) = ((sin_t - half).max(-1.0), (sin_t + half).min(1.0));
+                let inv_cos = asin_diff(hi, lo) / (2.0 * half);
+                inv_cos
+                    * if thick {
+                        self.env.mean_inv_sin_k(h_bot, h_top)
+                    } else {
+                        inv_sin_k[i]
+                    }
             } else {
-                let passed = |s: f64| trapezoid_cdf((s - s_c) * speed + reach, a, b);
+                // Away from the flank, a closed form over the piece's heights
+                // where the tool has one (a ball: κ and θ both vary with the height).
+                let wx = x[i] - m.p0[0];
+                self.env
+                    .mean_inv_side(h_bot, h_top, ux * wy - uy * wx)
+                    .unwrap_or_else(|| (1.0 / cos_t[i]) * self.env.mean_inv_sin_k(h_bot, h_top))
+            } * m.inv_len_xy;
+        }
+        // The side's thickness where it is the thinner, and then (MODEL.md
+        // §1.5) the shares: the edge, locally straight with normal r̂, passes
+        // the column's centre at s_c along the move and advances cos θ per mm
+        // of path; the cell's share passed by s is the trapezoid CDF.
+        for i in 0..n {
+            let side_cut = inv_side[i] <= inv_h[i];
+            inv_h[i] = inv_h[i].min(inv_side[i]);
+            let wx = x[i] - m.p0[0];
+            let c = cos_t[i];
+            let s_c = ((wx * ux + wy * uy) - r_mm[i] * c).clamp(0.0, m.len_xy);
+            let (a, b) = (g * r_hat[i][0].abs(), g * r_hat[i][1].abs());
+            let speed = c.max(MIN_EDGE_SPEED);
+            let reach = 0.5 * (a + b);
+            let passed = |s: f64| trapezoid_cdf((s - s_c) * speed + reach, a, b);
+            let within = s_c * speed >= reach && (m.len_xy - s_c) * speed >= reach;
+            // The whole cell is passed within the step where `within`.
+            shares[i] = if self.smooth && side_cut && !within {
                 [passed(0.0), 1.0 - passed(m.len_xy)]
-            }
-        } else {
-            [0.0, 0.0]
-        };
-        Contact {
-            r_hat,
-            inv_r,
-            inv_h,
-            shares,
+            } else {
+                [0.0, 0.0]
+            };
         }
     }
 
@@ -284,7 +392,7 @@ impl<E: Envelope> StripJob<'_, E> {
         let area = self.grid.cell_area_mm2();
         let mut visited = 0u64;
         // Cut columns of the current row, awaiting their contact (one allocation per strip).
-        let mut cuts: Vec<Cut> = Vec::with_capacity(nx);
+        let mut cuts = RowCuts::new(nx);
         // Highest top per tile of TILE_COLS columns across the strip's rows, taken
         // once: cuts only lower tops, so it bounds them for all the moves. A row
         // whose tiles all lie at or below a move's lowest tip is air to it.
@@ -379,35 +487,29 @@ impl<E: Envelope> StripJob<'_, E> {
                     });
                     if removed > 0.0 {
                         last_cut[base + ix] = step_index;
-                        cuts.push(Cut {
-                            x,
-                            t,
-                            h_top: top as f64 - z_tip,
-                            h_bot: z as f64 - z_tip,
-                            removed,
-                        });
+                        cuts.push(x, t, top as f64 - z_tip, z as f64 - z_tip, removed);
                     }
                 }
-                // The row's contacts in a second pass, in column order (the same
-                // sums in the same order as one pass; the bands and shank credited
-                // above are other slots): a loop of independent square roots and
-                // divisions, free of the cut's branches.
-                for cut in cuts.drain(..) {
-                    let c = self.contact(m, cut.x, y, cut.t, cut.h_top, cut.h_bot);
-                    let removed = cut.removed;
+                // The row's contacts after its cuts (the bands and shank
+                // credited above are other slots), then their sums in column
+                // order: the same sums in the same order as one pass.
+                self.contacts(m, y, &mut cuts);
+                for i in 0..cuts.n {
+                    let removed = cuts.removed[i];
+                    let r_hat = cuts.r_hat[i];
                     let mut column = [0.0; HEAD];
                     column[VOLUME] = removed;
-                    column[CONTACT_X] = removed * c.r_hat[0];
-                    column[CONTACT_Y] = removed * c.r_hat[1];
-                    column[CHIP_AREA] = removed * c.inv_h;
-                    column[OVER_RADIUS] = removed * c.inv_r;
+                    column[CONTACT_X] = removed * r_hat[0];
+                    column[CONTACT_Y] = removed * r_hat[1];
+                    column[CHIP_AREA] = removed * cuts.inv_h[i];
+                    column[OVER_RADIUS] = removed * cuts.inv_r[i];
                     for (d, v) in all[..HEAD].iter_mut().zip(column) {
                         *d += v;
                     }
                     // Shares for the neighbours: head values only; bands and shank
                     // follow in proportion when the strips are reduced.
                     for (k, slot) in [(0, stride), (1, stride + HEAD)] {
-                        let share = c.shares[k];
+                        let share = cuts.shares[i][k];
                         if share > 0.0 {
                             for (d, v) in all[slot..slot + HEAD].iter_mut().zip(column) {
                                 *d += share * v;
@@ -415,6 +517,7 @@ impl<E: Envelope> StripJob<'_, E> {
                         }
                     }
                 }
+                cuts.n = 0;
             }
             for v in all.iter_mut() {
                 *v *= area;
