@@ -31,4 +31,4 @@ pub use force::{force_n, volume_per_tooth_at_force_mm3, volume_per_tooth_mm3};
 pub use kienzle::{mean_chip_thickness_mm, Kienzle};
 pub use load::{force_direction, CuttingModel, ForceModel, StepLoad, StepRemoval};
 pub use material::Material;
-pub use surface::{surface_error_um, surface_normals_from_heights};
+pub use surface::{surface_error_um, surface_normal_at, surface_normals_from_heights};

@@ -22,12 +22,8 @@ pub fn surface_error_um(deflection_xy_um: [f64; 2], surface_normal: [f64; 3]) ->
 }
 
 /// Unit outward normals of a height field `z = h(x, y)` sampled on an `nx × ny` grid with
-/// `spacing_mm` between columns, stored row-major (`heights[iy * nx + ix]`, x fastest).
-///
-/// The normal is `(−∂h/∂x, −∂h/∂y, 1)` normalised, with central differences. NaN heights mark
-/// columns with no material: such a column gets a NaN normal, and its neighbours fall back to
-/// the one-sided difference on the side that has a height (or zero slope when neither side has).
-/// The grid border is handled the same way.
+/// `spacing_mm` between columns, stored row-major (`heights[iy * nx + ix]`, x fastest): each
+/// column's [`surface_normal_at`].
 ///
 /// # Panics
 /// If `heights.len() != nx * ny`.
@@ -38,7 +34,31 @@ pub fn surface_normals_from_heights(
     spacing_mm: f64,
 ) -> Vec<[f32; 3]> {
     assert_eq!(heights.len(), nx * ny, "height field is not nx × ny");
-    let at = |ix: usize, iy: usize| f64::from(heights[iy * nx + ix]);
+    let height = |ix: usize, iy: usize| heights[iy * nx + ix];
+    (0..ny)
+        .flat_map(|iy| (0..nx).map(move |ix| (ix, iy)))
+        .map(|(ix, iy)| surface_normal_at(height, nx, ny, ix, iy, spacing_mm))
+        .collect()
+}
+
+/// Unit outward normal at column `(ix, iy)` of a height field `z = h(x, y)` sampled on an
+/// `nx × ny` grid with `spacing_mm` between columns, `height(ix, iy)` its heights (asked for
+/// the column and its four neighbours only, so the field need not be held).
+///
+/// The normal is `(−∂h/∂x, −∂h/∂y, 1)` normalised, with central differences. NaN heights mark
+/// columns with no material: such a column gets a NaN normal, and its neighbours fall back to
+/// the one-sided difference on the side that has a height (or zero slope when neither side has).
+/// The grid border is handled the same way.
+#[inline]
+pub fn surface_normal_at(
+    height: impl Fn(usize, usize) -> f32,
+    nx: usize,
+    ny: usize,
+    ix: usize,
+    iy: usize,
+    spacing_mm: f64,
+) -> [f32; 3] {
+    let at = |ix: usize, iy: usize| f64::from(height(ix, iy));
     // Slope along one axis from the centre height and the optional neighbours before and after.
     let slope = |before: Option<f64>, centre: f64, after: Option<f64>| -> f64 {
         match (
@@ -52,34 +72,27 @@ pub fn surface_normals_from_heights(
             (None, None) => 0.0,
         }
     };
-    let mut normals = Vec::with_capacity(heights.len());
-    for iy in 0..ny {
-        for ix in 0..nx {
-            let h = at(ix, iy);
-            if h.is_nan() {
-                normals.push([f32::NAN; 3]);
-                continue;
-            }
-            let dhdx = slope(
-                (ix > 0).then(|| at(ix - 1, iy)),
-                h,
-                (ix + 1 < nx).then(|| at(ix + 1, iy)),
-            );
-            let dhdy = slope(
-                (iy > 0).then(|| at(ix, iy - 1)),
-                h,
-                (iy + 1 < ny).then(|| at(ix, iy + 1)),
-            );
-            // n = (−∂h/∂x, −∂h/∂y, 1) / |…|
-            let len = (dhdx * dhdx + dhdy * dhdy + 1.0).sqrt();
-            normals.push([
-                (-dhdx / len) as f32,
-                (-dhdy / len) as f32,
-                (1.0 / len) as f32,
-            ]);
-        }
+    let h = at(ix, iy);
+    if h.is_nan() {
+        return [f32::NAN; 3];
     }
-    normals
+    let dhdx = slope(
+        (ix > 0).then(|| at(ix - 1, iy)),
+        h,
+        (ix + 1 < nx).then(|| at(ix + 1, iy)),
+    );
+    let dhdy = slope(
+        (iy > 0).then(|| at(ix, iy - 1)),
+        h,
+        (iy + 1 < ny).then(|| at(ix, iy + 1)),
+    );
+    // n = (−∂h/∂x, −∂h/∂y, 1) / |…|
+    let len = (dhdx * dhdx + dhdy * dhdy + 1.0).sqrt();
+    [
+        (-dhdx / len) as f32,
+        (-dhdy / len) as f32,
+        (1.0 / len) as f32,
+    ]
 }
 
 #[cfg(test)]

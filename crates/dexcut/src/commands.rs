@@ -516,15 +516,12 @@ fn line_deviations(
     (by_line.into_values().collect(), uncut)
 }
 
-/// Signed distance (µm) of each column's top (`tops`) to the design model; positive = stock left.
-fn design_comparison(
-    setup: &Setup,
-    run: &Run,
-    tops: &[f32],
-) -> Result<Option<(Vec<f32>, DesignInfo)>> {
+/// Signed distance (µm) of each column's top (the final stock's top heights) to the design model; positive = stock left.
+fn design_comparison(setup: &Setup, run: &Run) -> Result<Option<(Vec<f32>, DesignInfo)>> {
     let Some((path, model)) = &setup.design else {
         return Ok(None);
     };
+    let tops = run.stock.top_heights();
     let grid = *run.stock.grid();
     let point = |i: usize| {
         [
@@ -615,9 +612,8 @@ fn write_run(
     steps_format: StepsFormat,
     columns_csv: bool,
 ) -> Result<Option<DesignInfo>> {
-    let tops = run.stock.top_heights();
-    let design = design_comparison(setup, run, &tops)?;
-    write_run_files(run, &tops, design.as_ref(), out, steps_format, columns_csv)?;
+    let design = design_comparison(setup, run)?;
+    write_run_files(run, design.as_ref(), out, steps_format, columns_csv)?;
     Ok(design.map(|d| d.1))
 }
 
@@ -626,7 +622,6 @@ fn write_run(
 /// and columns.csv when `columns_csv`) into `out`.
 fn write_run_files(
     run: &Run,
-    tops: &[f32],
     design: Option<&(Vec<f32>, DesignInfo)>,
     out: &Path,
     steps_format: StepsFormat,
@@ -649,7 +644,6 @@ fn write_run_files(
     });
     run.write_columns(
         out,
-        tops,
         design.map(|d| d.0.as_slice()),
         lines.as_deref(),
         columns_csv,
@@ -667,9 +661,6 @@ pub struct Simulation {
     /// Signed distance of each column's top to the design model, µm
     /// (positive = stock left), and the per-line comparison.
     pub design: Option<(Vec<f32>, DesignInfo)>,
-    /// Top of each column of the final stock, mm (the design comparison's and
-    /// the `.npy` grid's `top_mm`), computed once.
-    tops: Vec<f32>,
 }
 
 impl Simulation {
@@ -686,7 +677,6 @@ impl Simulation {
     ) -> Result<StepsFormat> {
         write_run_files(
             &self.run,
-            &self.tops,
             self.design.as_ref(),
             out,
             steps_format,
@@ -720,13 +710,11 @@ fn simulate_steps(setup: &Setup, stock: Stock, steps: Vec<TimedStep>) -> Result<
         .warnings
         .0
         .splice(0..0, setup.warnings.iter().cloned());
-    let tops = run.stock.top_heights();
-    let design = design_comparison(setup, &run, &tops)?;
+    let design = design_comparison(setup, &run)?;
     Ok(Simulation {
         run,
         summary,
         design,
-        tops,
     })
 }
 
@@ -781,7 +769,6 @@ fn simulate_tiled(
             run,
             summary,
             design: None,
-            tops: Vec::new(),
         },
         steps_format,
     ))

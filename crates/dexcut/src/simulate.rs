@@ -1076,10 +1076,7 @@ pub fn write_tiled_columns(
         let own = (rows.start - held.start) * grid.nx..(rows.end - held.start) * grid.nx;
         let error = &error[own.clone()];
         range = error_range_um(error, range);
-        let tops: Vec<f32> = last.columns()[own.clone()]
-            .iter()
-            .map(|c| c.top().unwrap_or(f32::NAN))
-            .collect();
+        let tops = last.top_heights_at(own.clone());
         let steps_cut = last_steps(&last.last_cut()[own]);
         writer
             .write_rows(&[
@@ -1115,6 +1112,9 @@ const LAST_STEP_MEANING: &str =
     "index of the step (row of steps.csv) that last cut the column; -1 if never cut";
 const ERROR_MEANING: &str =
     "predicted shape error from tool deflection, + material left; NaN where not cut";
+const DESIGN_MEANING: &str =
+    "final surface minus the design model, + stock left, - gouge; NaN outside the design";
+const LINE_MEANING: &str = "program line of the step that last cut the column; -1 if never cut";
 
 /// The initial stock's columns as the error map reads them: a stock (or a
 /// band of rows) held, or the closed form it was made of, on its grid.
@@ -1200,15 +1200,21 @@ fn clamped_error_map_um(
 ) -> Vec<f32> {
     let grid = *last.grid();
     let rows = last.rows();
-    let tops = last.top_heights();
-    let normals =
-        cutting::surface_normals_from_heights(&tops, grid.nx, rows.len(), grid.spacing_mm);
-    (0..tops.len())
+    // The tops and normals of the final surface asked column by column, not
+    // held (12 B + 4 B a column, 77 MB at 2 200 × 2 200 columns: issue 16).
+    let columns = last.columns();
+    let top = |ix: usize, iy: usize| columns[iy * grid.nx + ix].top_or_nan();
+    (0..columns.len())
         .into_par_iter()
         .map(|c| {
             let step = last.last_cut()[c];
-            let n = normals[c].map(f64::from);
-            if step == NEVER_CUT || n.iter().any(|v| v.is_nan()) {
+            if step == NEVER_CUT {
+                return f32::NAN;
+            }
+            let (ix, iy) = (c % grid.nx, c / grid.nx);
+            let n = cutting::surface_normal_at(top, grid.nx, rows.len(), ix, iy, grid.spacing_mm)
+                .map(f64::from);
+            if n.iter().any(|v| v.is_nan()) {
                 return f32::NAN;
             }
             let step = step as usize;
@@ -1217,8 +1223,11 @@ fn clamped_error_map_um(
             if model <= applied {
                 return model as f32;
             }
-            let (ix, iy) = (c % grid.nx, rows.start + c / grid.nx);
-            let p = [grid.x_mm(ix), grid.y_mm(iy), f64::from(tops[c])];
+            let p = [
+                grid.x_mm(ix),
+                grid.y_mm(rows.start + iy),
+                f64::from(top(ix, iy)),
+            ];
             let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
             let unit = n.map(|v| v / len);
             let room_um = 1e3 * material_along_mm(initial, p, unit, 1e-3 * (model - applied));
@@ -1873,60 +1882,79 @@ impl Run {
     }
 
     /// Write the per-column results into the folder `dir`: final surface
-    /// (`tops`, the stock's top heights), last cutting step, predicted error,
-    /// and with a design model the distance to it and the program line that
-    /// last cut. Always as the compact grid (`columns.json` and one `.npy`
-    /// array each); also as `columns.csv` when `csv` is set.
+    /// (`top_mm`, the stock's top heights), last cutting step, predicted
+    /// error, and with a design model the distance to it and the program line
+    /// that last cut. Always as the compact grid (`columns.json` and one
+    /// `.npy` array each), made and written block of rows by block of rows
+    /// from the stock (no whole-grid copy of the tops or last steps: issue
+    /// 16); also as `columns.csv` when `csv` is set.
     pub fn write_columns(
         &self,
         dir: &Path,
-        tops: &[f32],
         design_diff_um: Option<&[f32]>,
         line: Option<&[i32]>,
         csv: bool,
     ) -> Result<()> {
-        let last = last_steps(self.stock.last_cut());
+        let columns = self.stock.columns();
+        let last_cut = self.stock.last_cut();
         let error = &self.error_um;
         let grid = GridInfo::of(self.stock.grid()).export();
+        let context = |e: export::Error| {
+            Error::Export(e).context(format!("cannot write the column grid in {}", dir.display()))
+        };
+        let meta = |name, unit, meaning, values| export::GridArray {
+            name,
+            unit,
+            meaning,
+            values,
+        };
         let mut arrays = vec![
-            export::GridArray {
-                name: "top_mm",
-                unit: "mm",
-                meaning: TOP_MEANING,
-                values: export::NpyValues::F32(tops),
-            },
-            export::GridArray {
-                name: "last_step",
-                unit: "1",
-                meaning: LAST_STEP_MEANING,
-                values: export::NpyValues::I32(&last),
-            },
-            export::GridArray {
-                name: "error_um",
-                unit: "µm",
-                meaning: ERROR_MEANING,
-                values: export::NpyValues::F32(error),
-            },
+            meta("top_mm", "mm", TOP_MEANING, export::NpyValues::F32(&[])),
+            meta(
+                "last_step",
+                "1",
+                LAST_STEP_MEANING,
+                export::NpyValues::I32(&[]),
+            ),
+            meta("error_um", "µm", ERROR_MEANING, export::NpyValues::F32(&[])),
         ];
+        grid.check_len("grid array \"error_um\"", error.len())
+            .map_err(context)?;
         if let Some(d) = design_diff_um {
-            arrays.push(export::GridArray {
-                name: "design_um",
-                unit: "µm",
-                meaning: "final surface minus the design model, + stock left, - gouge; NaN outside the design",
-                values: export::NpyValues::F32(d),
-            });
+            grid.check_len("grid array \"design_um\"", d.len())
+                .map_err(context)?;
+            arrays.push(meta(
+                "design_um",
+                "µm",
+                DESIGN_MEANING,
+                export::NpyValues::F32(&[]),
+            ));
         }
         if let Some(l) = line {
-            arrays.push(export::GridArray {
-                name: "line",
-                unit: "1",
-                meaning: "program line of the step that last cut the column; -1 if never cut",
-                values: export::NpyValues::I32(l),
-            });
+            grid.check_len("grid array \"line\"", l.len())
+                .map_err(context)?;
+            arrays.push(meta("line", "1", LINE_MEANING, export::NpyValues::I32(&[])));
         }
-        export::write_column_grid(dir, &grid, &arrays).map_err(|e| {
-            Error::Export(e).context(format!("cannot write the column grid in {}", dir.display()))
-        })?;
+        let mut writer = export::ColumnGridWriter::begin(dir, &grid, &arrays).map_err(context)?;
+        let block = grid.nx.max(1) * WRITE_BLOCK_ROWS;
+        for start in (0..columns.len()).step_by(block) {
+            let at = start..(start + block).min(columns.len());
+            let tops = self.stock.top_heights_at(at.clone());
+            let last = last_steps(&last_cut[at.clone()]);
+            let mut values = vec![
+                export::NpyValues::F32(&tops),
+                export::NpyValues::I32(&last),
+                export::NpyValues::F32(&error[at.clone()]),
+            ];
+            if let Some(d) = design_diff_um {
+                values.push(export::NpyValues::F32(&d[at.clone()]));
+            }
+            if let Some(l) = line {
+                values.push(export::NpyValues::I32(&l[at.clone()]));
+            }
+            writer.write_rows(&values).map_err(context)?;
+        }
+        writer.finish().map_err(context)?;
         if !csv {
             return Ok(());
         }
@@ -1936,10 +1964,11 @@ impl Run {
                 .map(|&i| if i < 0 { f32::NAN } else { i as f32 })
                 .collect()
         };
-        let last_f = as_f32(&last);
+        let tops = self.stock.top_heights();
+        let last_f = as_f32(&last_steps(last_cut));
         let line_f = line.map(as_f32);
         let mut columns: Vec<(&str, &[f32])> = vec![
-            ("top_mm", tops),
+            ("top_mm", &tops),
             ("last_step", &last_f),
             ("error_um", error),
         ];
@@ -1954,6 +1983,9 @@ impl Run {
             .map_err(|e| Error::Export(e).context(format!("cannot write {}", path.display())))
     }
 }
+
+/// Rows of the column grid made and written at a time by [`Run::write_columns`].
+const WRITE_BLOCK_ROWS: usize = 64;
 
 /// Grid geometry recorded in summary.json so `report` can rebuild maps.
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]

@@ -57,6 +57,13 @@ impl Column {
         (!self.is_empty()).then(|| self.top_or_neg_inf())
     }
 
+    /// Highest material z, NaN for an empty column (a height field's "no
+    /// material", as [`Stock::top_heights`] gives it).
+    #[inline]
+    pub fn top_or_nan(&self) -> f32 {
+        self.top().unwrap_or(f32::NAN)
+    }
+
     /// Highest material z, −∞ for [`Column::EMPTY`] (no branch on emptiness:
     /// its `hi` is −∞); the sweep kernel's per-column test.
     #[inline]
@@ -286,10 +293,13 @@ impl Stock {
 
     /// Top surface height per column held (NaN where empty), row-major.
     pub fn top_heights(&self) -> Vec<f32> {
-        self.columns
-            .iter()
-            .map(|c| c.top().unwrap_or(f32::NAN))
-            .collect()
+        self.top_heights_at(0..self.columns.len())
+    }
+
+    /// [`Stock::top_heights`] of the columns held at the indices `at` (of
+    /// [`Stock::columns`]): a block of rows of the height field.
+    pub fn top_heights_at(&self, at: std::ops::Range<usize>) -> Vec<f32> {
+        self.columns[at].iter().map(Column::top_or_nan).collect()
     }
 }
 
