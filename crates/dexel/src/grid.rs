@@ -2,9 +2,10 @@
 
 use crate::Error;
 
-/// Bytes one column costs in a [`crate::Stock`] (interval, last-cut index, overflow pointer).
+/// Bytes one column costs in a [`crate::Stock`] (top interval and last-cut
+/// index; the rare intervals below a top one are held apart).
 pub const BYTES_PER_COLUMN: usize =
-    std::mem::size_of::<crate::stock::Column>() + std::mem::size_of::<u32>();
+    std::mem::size_of::<crate::stock::Top>() + std::mem::size_of::<u32>();
 
 /// A regular grid of vertical columns. Column `(ix, iy)` stands at
 /// `(x0 + (ix + ½)·spacing, y0 + (iy + ½)·spacing)` and represents the

@@ -5,42 +5,97 @@ use crate::{Error, Grid};
 /// Marker for "no step has cut this column".
 pub const NEVER_CUT: u32 = u32::MAX;
 
-/// One column's material. The lowest interval is stored inline, so the common
-/// single-interval column costs no allocation; higher intervals (undercuts,
-/// voids) live in `upper`, sorted ascending and disjoint.
-/// An empty column has `lo > hi`.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Column {
-    /// Bottom of the lowest interval, mm.
-    pub lo: f32,
-    /// Top of the lowest interval, mm.
-    pub hi: f32,
-    /// The intervals above the lowest, `[bottom, top]` in mm; `None` for the
-    /// usual single interval.
-    pub upper: Option<Box<Vec<[f32; 2]>>>,
+/// A column's top material interval as the stock holds it, 8 B (issue 16).
+/// The intervals below it, where a column holds more than one (undercuts,
+/// voids), live in the side table of its row ([`RowBelow`]): the sweep
+/// kernel's test of a column reads only its top. Empty: `lo > hi` (then
+/// nothing lies below either).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Top {
+    /// Bottom of the top interval, mm.
+    pub(crate) lo: f32,
+    /// Top of the top interval, mm.
+    pub(crate) hi: f32,
 }
 
-impl Column {
-    /// A column with no material (`lo` = +∞ above `hi` = −∞).
-    pub const EMPTY: Column = Column {
+impl Top {
+    /// No material (`lo` = +∞ above `hi` = −∞).
+    pub(crate) const EMPTY: Top = Top {
         lo: f32::INFINITY,
         hi: f32::NEG_INFINITY,
-        upper: None,
+    };
+
+    /// Highest material z, −∞ for [`Top::EMPTY`] (no branch on emptiness:
+    /// its `hi` is −∞); the sweep kernel's per-column test.
+    #[inline]
+    pub(crate) fn top_or_neg_inf(&self) -> f32 {
+        self.hi
+    }
+}
+
+/// The intervals below the top one of the columns of one row that hold more
+/// than one: per such column its index in the row and those intervals,
+/// ascending and disjoint, sorted by column index. Empty (no allocation) for
+/// the usual row of single intervals.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct RowBelow(Vec<(u32, Vec<[f32; 2]>)>);
+
+impl RowBelow {
+    /// The intervals below the top one of column `ix`, ascending.
+    #[inline]
+    pub(crate) fn of(&self, ix: usize) -> &[[f32; 2]] {
+        if self.0.is_empty() {
+            return &[];
+        }
+        match self.0.binary_search_by_key(&(ix as u32), |e| e.0) {
+            Ok(k) => &self.0[k].1,
+            Err(_) => &[],
+        }
+    }
+
+    /// Take the highest interval below the top one of column `ix` (its new
+    /// top once the top one is cut away), `None` where there is none.
+    #[inline]
+    pub(crate) fn pop(&mut self, ix: usize) -> Option<[f32; 2]> {
+        if self.0.is_empty() {
+            return None;
+        }
+        let k = self.0.binary_search_by_key(&(ix as u32), |e| e.0).ok()?;
+        let below = &mut self.0[k].1;
+        let iv = below.pop();
+        if below.is_empty() {
+            self.0.remove(k);
+        }
+        iv
+    }
+}
+
+/// One column's material: sorted, disjoint intervals, read from a stock
+/// ([`Stock::column`]) or a closed form ([`Solid::column`]): the top
+/// interval and the intervals below it. An empty column has no interval.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Column<'a> {
+    top: Top,
+    below: &'a [[f32; 2]],
+}
+
+impl<'a> Column<'a> {
+    /// A column with no material.
+    pub const EMPTY: Column<'static> = Column {
+        top: Top::EMPTY,
+        below: &[],
     };
 
     /// Column holding exactly `intervals` (sorted ascending, disjoint, lo < hi each).
-    pub fn from_intervals(intervals: &[[f32; 2]]) -> Column {
+    pub fn from_intervals(intervals: &'a [[f32; 2]]) -> Column<'a> {
         match intervals {
             [] => Column::EMPTY,
-            [first] => Column {
-                lo: first[0],
-                hi: first[1],
-                upper: None,
-            },
-            [first, rest @ ..] => Column {
-                lo: first[0],
-                hi: first[1],
-                upper: Some(Box::new(rest.to_vec())),
+            [below @ .., top] => Column {
+                top: Top {
+                    lo: top[0],
+                    hi: top[1],
+                },
+                below,
             },
         }
     }
@@ -48,13 +103,13 @@ impl Column {
     /// No material in the column.
     #[inline]
     pub fn is_empty(&self) -> bool {
-        !(self.lo < self.hi)
+        !(self.top.lo < self.top.hi)
     }
 
     /// Highest material z, or `None` for an empty column.
     #[inline]
     pub fn top(&self) -> Option<f32> {
-        (!self.is_empty()).then(|| self.top_or_neg_inf())
+        (!self.is_empty()).then_some(self.top.hi)
     }
 
     /// Highest material z, NaN for an empty column (a height field's "no
@@ -64,26 +119,15 @@ impl Column {
         self.top().unwrap_or(f32::NAN)
     }
 
-    /// Highest material z, −∞ for [`Column::EMPTY`] (no branch on emptiness:
-    /// its `hi` is −∞); the sweep kernel's per-column test.
-    #[inline]
-    pub(crate) fn top_or_neg_inf(&self) -> f32 {
-        match &self.upper {
-            None => self.hi,
-            Some(v) => v.last().map_or(self.hi, |iv| iv[1]),
-        }
-    }
-
-    /// Total material length, mm (f64 sum).
+    /// Total material length, mm (f64 sum, lowest interval first).
     pub fn length_mm(&self) -> f64 {
-        if self.is_empty() {
+        let mut intervals = self.intervals();
+        let Some([lo, hi]) = intervals.next() else {
             return 0.0;
-        }
-        let mut sum = (self.hi - self.lo) as f64;
-        if let Some(v) = &self.upper {
-            for iv in v.iter() {
-                sum += (iv[1] - iv[0]) as f64;
-            }
+        };
+        let mut sum = (hi - lo) as f64;
+        for [lo, hi] in intervals {
+            sum += (hi - lo) as f64;
         }
         sum
     }
@@ -93,16 +137,14 @@ impl Column {
         if self.is_empty() {
             0
         } else {
-            1 + self.upper.as_ref().map_or(0, |v| v.len())
+            1 + self.below.len()
         }
     }
 
     /// All intervals, lowest first.
-    pub fn intervals(&self) -> impl Iterator<Item = [f32; 2]> + '_ {
-        let first = (!self.is_empty()).then_some([self.lo, self.hi]);
-        first
-            .into_iter()
-            .chain(self.upper.iter().flat_map(|v| v.iter().copied()))
+    pub fn intervals(&self) -> impl Iterator<Item = [f32; 2]> + 'a {
+        let top = (!self.is_empty()).then_some([self.top.lo, self.top.hi]);
+        self.below.iter().copied().chain(top)
     }
 }
 
@@ -118,7 +160,10 @@ pub struct Stock {
     grid: Grid,
     /// First grid row held.
     row0: usize,
-    pub(crate) columns: Vec<Column>,
+    /// Each column's top interval, row-major.
+    pub(crate) columns: Vec<Top>,
+    /// Per row held, the intervals below the top ones (undercuts, voids).
+    pub(crate) below: Vec<RowBelow>,
     pub(crate) last_cut: Vec<u32>,
 }
 
@@ -173,26 +218,40 @@ impl Stock {
             ..grid
         };
         Stock::check_memory(&band, DEFAULT_MEMORY_LIMIT_BYTES)?;
-        let (mut columns, mut last_cut) =
-            reuse.map_or((Vec::new(), Vec::new()), |s| (s.columns, s.last_cut));
+        let (mut columns, mut below, mut last_cut) = reuse
+            .map_or((Vec::new(), Vec::new(), Vec::new()), |s| {
+                (s.columns, s.below, s.last_cut)
+            });
         columns.clear();
-        columns.resize(band.len(), Column::EMPTY);
+        columns.resize(band.len(), Top::EMPTY);
+        below.clear();
+        below.resize(rows.len(), RowBelow::default());
         last_cut.clear();
         last_cut.resize(band.len(), NEVER_CUT);
         columns
             .par_chunks_mut(grid.nx.max(1))
+            .zip(below.par_iter_mut())
             .enumerate()
-            .for_each_init(Vec::new, |buf, (j, row)| {
+            .for_each_init(Vec::new, |buf, (j, (row, row_below))| {
                 for (ix, col) in row.iter_mut().enumerate() {
                     buf.clear();
                     fill(ix, rows.start + j, buf);
-                    *col = Column::from_intervals(buf);
+                    if let [lower @ .., top] = buf.as_slice() {
+                        *col = Top {
+                            lo: top[0],
+                            hi: top[1],
+                        };
+                        if !lower.is_empty() {
+                            row_below.0.push((ix as u32, lower.to_vec()));
+                        }
+                    }
                 }
             });
         Ok(Stock {
             grid,
             row0: rows.start,
             columns,
+            below,
             last_cut,
         })
     }
@@ -258,13 +317,22 @@ impl Stock {
     }
 
     /// Column at `(ix, iy)` (`iy` a grid row this stock holds).
-    pub fn column(&self, ix: usize, iy: usize) -> &Column {
-        &self.columns[(iy - self.row0) * self.grid.nx + ix]
+    pub fn column(&self, ix: usize, iy: usize) -> Column<'_> {
+        self.column_at((iy - self.row0) * self.grid.nx + ix)
+    }
+
+    /// The column at index `i` of [`Stock::columns`].
+    pub fn column_at(&self, i: usize) -> Column<'_> {
+        let nx = self.grid.nx.max(1);
+        Column {
+            top: self.columns[i],
+            below: self.below[i / nx].of(i % nx),
+        }
     }
 
     /// The columns held, row-major (of the rows in [`Stock::rows`]).
-    pub fn columns(&self) -> &[Column] {
-        &self.columns
+    pub fn columns(&self) -> impl ExactSizeIterator<Item = Column<'_>> + '_ {
+        (0..self.columns.len()).map(|i| self.column_at(i))
     }
 
     /// Per column held, the index of the step that last removed material
@@ -284,10 +352,12 @@ impl Stock {
     /// for bit.
     pub fn add_row_lengths_mm(&self, rows: std::ops::Range<usize>, sum: f64) -> f64 {
         let nx = self.grid.nx.max(1);
-        let at = (rows.start - self.row0) * nx..(rows.end - self.row0) * nx;
-        self.columns[at]
-            .chunks(nx)
-            .map(|row| row.iter().map(Column::length_mm).sum::<f64>())
+        (rows.start - self.row0..rows.end - self.row0)
+            .map(|j| {
+                (j * nx..(j + 1) * nx)
+                    .map(|i| self.column_at(i).length_mm())
+                    .sum::<f64>()
+            })
             .fold(sum, |a, r| a + r)
     }
 
@@ -299,7 +369,19 @@ impl Stock {
     /// [`Stock::top_heights`] of the columns held at the indices `at` (of
     /// [`Stock::columns`]): a block of rows of the height field.
     pub fn top_heights_at(&self, at: std::ops::Range<usize>) -> Vec<f32> {
-        self.columns[at].iter().map(Column::top_or_nan).collect()
+        at.map(|i| self.top_or_nan_at(i)).collect()
+    }
+
+    /// The top of the column at index `i` of [`Stock::columns`], NaN where
+    /// it holds no material (read from the top interval alone).
+    #[inline]
+    pub fn top_or_nan_at(&self, i: usize) -> f32 {
+        let top = self.columns[i];
+        if top.lo < top.hi {
+            top.hi
+        } else {
+            f32::NAN
+        }
     }
 }
 
@@ -385,10 +467,13 @@ impl Solid {
     }
 
     /// The column at `(ix, iy)` of `grid` (the solid's grid) as the solid's
-    /// stock holds it (no allocation: one interval at most).
-    pub fn column(&self, grid: &Grid, ix: usize, iy: usize) -> Column {
+    /// stock holds it (one interval at most).
+    pub fn column(&self, grid: &Grid, ix: usize, iy: usize) -> Column<'static> {
         match self.interval(grid, ix, iy) {
-            Some(iv) => Column::from_intervals(&[iv]),
+            Some([lo, hi]) => Column {
+                top: Top { lo, hi },
+                below: &[],
+            },
             None => Column::EMPTY,
         }
     }
@@ -429,7 +514,7 @@ mod tests {
             let whole: Stock = make(None, None).unwrap();
             let ny = whole.grid().ny;
             assert_eq!(whole.rows(), 0..ny);
-            let mut columns = Vec::new();
+            let mut columns: Vec<Vec<[f32; 2]>> = Vec::new();
             let mut length_mm = 0.0;
             // Each band in the memory of the one before (the last one shorter).
             let mut previous: Option<Stock> = None;
@@ -438,18 +523,69 @@ mod tests {
                 let band: Stock = make(Some(rows.clone()), previous.take()).unwrap();
                 assert_eq!(band.rows(), rows);
                 assert_eq!(band.column(4, rows.start), whole.column(4, rows.start));
-                columns.extend_from_slice(band.columns());
+                columns.extend(band.columns().map(|c| c.intervals().collect()));
                 length_mm = band.add_row_lengths_mm(rows, length_mm);
                 previous = Some(band);
             }
-            assert_eq!(columns, whole.columns());
+            let whole_columns: Vec<Vec<[f32; 2]>> =
+                whole.columns().map(|c| c.intervals().collect()).collect();
+            assert_eq!(columns, whole_columns);
             assert_eq!(
                 (length_mm * whole.grid().cell_area_mm2()).to_bits(),
                 whole.volume_mm3().to_bits()
             );
             let empty: Stock = make(Some(3..3), None).unwrap();
-            assert!(empty.columns().is_empty() && empty.volume_mm3() == 0.0);
+            assert!(empty.columns().len() == 0 && empty.volume_mm3() == 0.0);
         }
+    }
+
+    /// Columns of none to three intervals (undercuts, voids) kept as 8 B top
+    /// intervals with the intervals below them apart: each reads back as it
+    /// was filled, its top and its length (summed lowest interval first, as
+    /// a column of inline intervals summed them) bit for bit.
+    #[test]
+    fn columns_of_several_intervals_read_back_whole() {
+        assert_eq!(std::mem::size_of::<Top>(), 8);
+        assert_eq!(crate::grid::BYTES_PER_COLUMN, 12);
+        let grid = Grid::covering(0.0, 0.0, 1.0, 0.7, 0.1).unwrap();
+        let fill = |ix: usize, iy: usize, out: &mut Vec<[f32; 2]>| {
+            for k in 0..(ix + 2 * iy) % 4 {
+                let z = k as f32 * 3.0 + 0.1 * ix as f32;
+                out.push([z, z + 1.0 + 0.01 * iy as f32]);
+            }
+        };
+        let stock = Stock::from_columns(grid, fill).unwrap();
+        let mut buf = Vec::new();
+        let mut counts = [0; 4];
+        for iy in 0..grid.ny {
+            for ix in 0..grid.nx {
+                buf.clear();
+                fill(ix, iy, &mut buf);
+                counts[buf.len()] += 1;
+                let c = stock.column(ix, iy);
+                assert_eq!(c.intervals().collect::<Vec<_>>(), buf);
+                assert_eq!(c, Column::from_intervals(&buf));
+                assert_eq!(c.interval_count(), buf.len());
+                let top = buf.last().map_or(f32::NAN, |iv| iv[1]);
+                assert_eq!(c.top_or_nan().to_bits(), top.to_bits());
+                assert_eq!(
+                    stock.top_or_nan_at(iy * grid.nx + ix).to_bits(),
+                    top.to_bits()
+                );
+                let length = match buf.split_first() {
+                    None => 0.0,
+                    Some((first, rest)) => {
+                        let mut sum = (first[1] - first[0]) as f64;
+                        for iv in rest {
+                            sum += (iv[1] - iv[0]) as f64;
+                        }
+                        sum
+                    }
+                };
+                assert_eq!(c.length_mm().to_bits(), length.to_bits());
+            }
+        }
+        assert!(counts.iter().all(|&n| n > 5), "{counts:?}");
     }
 
     /// A solid's columns asked one by one are its stock's, made whole or in
@@ -475,7 +611,7 @@ mod tests {
             let mut empty = 0;
             for iy in 0..grid.ny {
                 for ix in 0..grid.nx {
-                    assert_eq!(&solid.column(&grid, ix, iy), stock.column(ix, iy));
+                    assert_eq!(solid.column(&grid, ix, iy), stock.column(ix, iy));
                     empty += usize::from(stock.column(ix, iy).is_empty());
                 }
             }
@@ -483,7 +619,9 @@ mod tests {
                 .stock_in_rows(0.1, Some(10..20), Some(stock.clone()))
                 .unwrap();
             assert_eq!(band.rows(), 10..20);
-            assert_eq!(band.columns(), &stock.columns()[10 * grid.nx..20 * grid.nx]);
+            assert!(band
+                .columns()
+                .eq(stock.columns().skip(10 * grid.nx).take(10 * grid.nx)));
             match solid {
                 Solid::Box { .. } => assert_eq!(empty, 0),
                 Solid::Cylinder { .. } => assert!(empty > 100, "{empty} columns outside"),

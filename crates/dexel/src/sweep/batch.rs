@@ -9,7 +9,8 @@ use super::flat::FlatEnd;
 use super::slot::{CONTACT_X, CONTACT_Y, SHANK, VOLUME};
 use super::strip::{partial_width, Banding, StripJob};
 use super::{Envelope, Prepared, RemovalRecord, Step, SweepOptions, HEAD, PLUNGE_H2};
-use crate::{Column, Error, Grid, Stock, Tool, ToolShape};
+use crate::stock::{RowBelow, Top};
+use crate::{Error, Grid, Stock, Tool, ToolShape};
 
 /// Sweep `tool` along `steps` through `stock`, removing material and recording
 /// what each step removed. `progress(done)` is called after each batch with
@@ -570,33 +571,46 @@ fn run_batches<E: Envelope>(
             smooth: options.smooth,
         };
         partial.clear();
+        // Exactly the batch's partial sums: grown by doubling, the buffer
+        // kept from batch to batch could hold up to twice `batch_bytes`.
+        partial.reserve_exact(entries.len() * width);
         partial.resize(entries.len() * width, 0.0);
-        // Split columns, last-cut marks and partial sums into per-strip pieces.
-        let mut pieces: Vec<(&mut [Column], &mut [u32], &mut [f64])> = Vec::with_capacity(n_strips);
+        // Split columns, the rows' intervals below their tops, last-cut marks
+        // and partial sums into per-strip pieces.
+        type Piece<'a> = (
+            &'a mut [Top],
+            &'a mut [RowBelow],
+            &'a mut [u32],
+            &'a mut [f64],
+        );
+        let mut pieces: Vec<Piece> = Vec::with_capacity(n_strips);
         let mut rest: &mut [f64] = &mut partial;
-        let mut cols_rest: &mut [Column] = &mut stock.columns;
+        let mut cols_rest: &mut [Top] = &mut stock.columns;
+        let mut below_rest: &mut [RowBelow] = &mut stock.below;
         let mut last_rest: &mut [u32] = &mut stock.last_cut;
         for s in 0..n_strips {
             let n = (counts[s + 1] - counts[s]) as usize * width;
             let (head, tail) = rest.split_at_mut(n);
             rest = tail;
             let strip_end = ((first_strip + s + 1) * strip_rows).min(rows.end);
+            let (below, below_tail) = below_rest.split_at_mut(strip_end - strip_row0(s));
+            below_rest = below_tail;
             let len = (strip_end - strip_row0(s)) * grid.nx;
             let (cols, cols_tail) = cols_rest.split_at_mut(len);
             cols_rest = cols_tail;
             let (last, last_tail) = last_rest.split_at_mut(len);
             last_rest = last_tail;
-            pieces.push((cols, last, head));
+            pieces.push((cols, below, last, head));
         }
         let visited: u64 = pieces
             .into_par_iter()
             .enumerate()
-            .map(|(s, (cols, last, out))| {
+            .map(|(s, (cols, below, last, out))| {
                 let ents = &entries[counts[s] as usize..counts[s + 1] as usize];
                 if ents.is_empty() {
                     0
                 } else {
-                    job.run(strip_row0(s), cols, last, ents, out)
+                    job.run(strip_row0(s), cols, below, last, ents, out)
                 }
             })
             .sum();

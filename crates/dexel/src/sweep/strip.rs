@@ -4,7 +4,8 @@
 use super::arcsine::asin_diff;
 use super::slot::{CHIP_AREA, CONTACT_X, CONTACT_Y, OVER_RADIUS, SHANK, VOLUME};
 use super::{Envelope, EnvelopeHit, Prepared, HEAD, PLUNGE_H2};
-use crate::{Column, Grid};
+use crate::stock::{RowBelow, Top};
+use crate::Grid;
 
 /// Per-(strip, move) accumulator width and band bookkeeping shared by the strip loop.
 pub(super) struct Banding {
@@ -50,34 +51,28 @@ impl Banding {
     }
 }
 
-/// Remove everything at and above `z` from a column, reporting each removed piece.
+/// Remove everything at and above `z` from column `ix` of a row (its top
+/// interval `col`, the intervals below in `below`), reporting each removed
+/// piece from the top down.
 #[inline]
-fn cut_above(col: &mut Column, z: f32, mut piece: impl FnMut(f32, f32)) {
-    if let Some(upper) = col.upper.as_mut() {
-        while let Some(&[lo, hi]) = upper.last() {
-            if hi <= z {
-                return;
-            }
-            if lo >= z {
-                piece(lo, hi);
-                upper.pop();
-            } else {
-                piece(z, hi);
-                if let Some(last) = upper.last_mut() {
-                    last[1] = z;
-                }
-                return;
-            }
-        }
-        col.upper = None;
-    }
-    if col.hi > z && col.lo < col.hi {
+fn cut_above(
+    col: &mut Top,
+    below: &mut RowBelow,
+    ix: usize,
+    z: f32,
+    mut piece: impl FnMut(f32, f32),
+) {
+    while col.hi > z && col.lo < col.hi {
         if col.lo >= z {
             piece(col.lo, col.hi);
-            *col = Column::EMPTY;
+            *col = match below.pop(ix) {
+                Some([lo, hi]) => Top { lo, hi },
+                None => Top::EMPTY,
+            };
         } else {
             piece(z, col.hi);
             col.hi = z;
+            return;
         }
     }
 }
@@ -380,7 +375,8 @@ impl<E: Envelope> StripJob<'_, E> {
     pub(super) fn run(
         &self,
         row0: usize,
-        cols: &mut [Column],
+        cols: &mut [Top],
+        below: &mut [RowBelow],
         last_cut: &mut [u32],
         entries: &[u32],
         out: &mut [f64],
@@ -482,7 +478,7 @@ impl<E: Envelope> StripJob<'_, E> {
                     }
                     let z_tip = m.p0[2] + t * m.d[2];
                     let mut removed = 0.0;
-                    cut_above(col, z, |a, b| {
+                    cut_above(col, &mut below[iy - row0], ix, z, |a, b| {
                         removed += self.banding.credit(all, z_tip, a as f64, b as f64);
                     });
                     if removed > 0.0 {
@@ -574,7 +570,7 @@ impl<E: Envelope> StripJob<'_, E> {
         &self,
         m: &Prepared,
         y: f64,
-        row: &[Column],
+        row: &[Top],
         ix0: usize,
         ix1: usize,
     ) -> Option<(usize, usize)> {
@@ -601,7 +597,7 @@ impl<E: Envelope> StripJob<'_, E> {
 /// NaN, so a plain compare replaces `f32::max`, and four running maxima break
 /// the dependency chain of one: the maximum is exact in any order.
 #[inline]
-fn row_top(row: &[Column]) -> f32 {
+fn row_top(row: &[Top]) -> f32 {
     let max = |a: f32, b: f32| if b > a { b } else { a };
     let mut acc = [f32::NEG_INFINITY; 4];
     let mut quads = row.chunks_exact(4);
@@ -623,18 +619,32 @@ mod tests {
 
     #[test]
     fn cut_above_handles_several_intervals() {
-        let mut col = Column::from_intervals(&[[0.0, 1.0], [2.0, 3.0], [4.0, 5.0]]);
+        // Column 3 of a stock row: [0, 1], [2, 3], [4, 5]; column 1 beside it [6, 7], [8, 9].
+        let stock = crate::Stock::from_columns(
+            crate::Grid::covering(0.0, 0.0, 0.5, 0.1, 0.1).unwrap(),
+            |ix, _, out| match ix {
+                3 => out.extend([[0.0, 1.0], [2.0, 3.0], [4.0, 5.0]]),
+                1 => out.extend([[6.0, 7.0], [8.0, 9.0]]),
+                _ => {}
+            },
+        )
+        .unwrap();
+        let (mut col, mut below) = (stock.columns[3], stock.below[0].clone());
         let mut pieces = Vec::new();
-        cut_above(&mut col, 2.5, |a, b| pieces.push((a, b)));
+        cut_above(&mut col, &mut below, 3, 2.5, |a, b| pieces.push((a, b)));
         assert_eq!(pieces, vec![(4.0, 5.0), (2.5, 3.0)]);
-        assert_eq!(
-            col.intervals().collect::<Vec<_>>(),
-            vec![[0.0, 1.0], [2.0, 2.5]]
-        );
+        assert_eq!((col.lo, col.hi), (2.0, 2.5));
+        assert_eq!(below.of(3), &[[0.0, 1.0]]);
         pieces.clear();
-        cut_above(&mut col, -1.0, |a, b| pieces.push((a, b)));
+        cut_above(&mut col, &mut below, 3, -1.0, |a, b| pieces.push((a, b)));
         assert_eq!(pieces, vec![(2.0, 2.5), (0.0, 1.0)]);
-        assert!(col.is_empty() && col.upper.is_none());
+        assert_eq!(col, Top::EMPTY);
+        assert_eq!(below.of(3), &[] as &[[f32; 2]]);
+        assert_eq!(
+            below.of(1),
+            &[[6.0, 7.0]],
+            "the column beside kept its intervals"
+        );
     }
 
     #[test]
