@@ -528,6 +528,186 @@ fn loop_direction(dx: f64, dy: f64, m: [f64; 2]) -> [f64; 2] {
     }
 }
 
+/// Which steps take the direction of the step before them: each feed step
+/// without a direction of its own (`dirs`, from [`loop_direction`]: the
+/// rigid tool removes nothing in it, or pushes it along its path only) that
+/// continues a feed step with one, its own or taken (same tool, starting
+/// where it ended), that the loop moves (`in_loop`), along the chain of
+/// such steps (MODEL.md §5.1, eq. 5.1a); plunges (down, with no XY motion)
+/// excepted: a plunge moved sideways by a fraction of a µm is no longer a
+/// plunge to the removal, whose resultant keeps the lattice's bias (§1.4):
+/// a few µm of false side load, the size of the offsets it would relax.
+/// Such a step starts where that step's offset left the tool, so the loop
+/// seeks its own offset as the equilibrium along that direction (a fraction
+/// of the offset it starts at, [`Fraction`]): the offset relaxes with the
+/// load that sustains it instead of the tool sweeping back to the
+/// programmed path within one step. `dirs` gets the directions taken.
+fn inherit_directions(
+    steps: &[TimedStep],
+    tool_of_step: &[usize],
+    dirs: &mut [[f64; 2]],
+    in_loop: &[bool],
+) -> Vec<bool> {
+    let mut inherited = vec![false; steps.len()];
+    for i in 1..steps.len() {
+        let (before, s) = (&steps[i - 1], &steps[i]);
+        let [fx, fy, fz] = s.step.from_mm;
+        let [tx, ty, tz] = s.step.to_mm;
+        let plunge = fx == tx && fy == ty && tz < fz;
+        if dirs[i] == [0.0, 0.0]
+            && !plunge
+            && (in_loop[i - 1] || inherited[i - 1])
+            && !s.step.rapid
+            && !before.step.rapid
+            && before.step.to_mm == s.step.from_mm
+            && tool_of_step[i - 1] == tool_of_step[i]
+        {
+            dirs[i] = dirs[i - 1];
+            inherited[i] = true;
+        }
+    }
+    inherited
+}
+
+/// The closed loop's search for the offset of a step that took its direction
+/// from the step before it ([`inherit_directions`], MODEL.md §5.1, eq. 5.1a):
+/// the fraction φ of the offset x₋ the step starts at, x = φ x₋, with the
+/// root in 0 ≤ φ ≤ 1. At φ = 0 the step sweeps back to the programmed path
+/// (the offset of a step with no direction, its first trial: a step whose
+/// sweep back removes nothing keeps it); at φ = 1 it is the rigid step moved
+/// by x₋, which pushes the tool across its path by nothing (its second
+/// trial). g − x falls with x, so a trial whose residual puts the root at a
+/// larger |x| is a lower bound of φ, otherwise an upper one (a bound a trial
+/// contradicts, x₋ having moved, gives way to 0 or 1), and the next trial is
+/// the Illinois false position between the two ([`Bracketed`]'s rule; its
+/// bounds are absolute offsets, these move with x₋), or the middle where the
+/// bracket has not halved in three sweeps. A short step's g is steep (the
+/// sweep back of 1 µm of wall in 0.1 ms loads the tool as 200 µm of it in
+/// a 25 ms step would), and its root lies within a µm of x₋: false position
+/// from φ = 0 and 1 finds it in one or two sweeps, where halving 0…1 takes
+/// seven.
+#[derive(Clone, Copy, Debug)]
+struct Fraction {
+    phi: f64,
+    lo: f64,
+    hi: f64,
+    /// The residuals g − x at the bounds, signed so that the lower one is
+    /// ≥ 0 and the upper one < 0 (Illinois: halved when the other bound
+    /// moved twice in a row).
+    w_lo: f64,
+    w_hi: f64,
+    /// Sweeps that measured the bounds (0: not measured).
+    lo_pass: usize,
+    hi_pass: usize,
+    /// The bound the last trial replaced: −1 lower, 1 upper, 0 none.
+    replaced: i8,
+    /// Bracket width when it last halved, and sweeps since.
+    width_mark: f64,
+    since_halved: u32,
+}
+
+impl Fraction {
+    const START: Fraction = Fraction {
+        phi: 0.0,
+        lo: 0.0,
+        hi: 1.0,
+        w_lo: f64::NAN,
+        w_hi: f64::NAN,
+        lo_pass: 0,
+        hi_pass: 0,
+        replaced: 0,
+        width_mark: 1.0,
+        since_halved: 0,
+    };
+
+    /// Record the residual `r` = g − x of the trial φ measured by sweep
+    /// `pass`, the step having started at the offset `from`.
+    fn observe(&mut self, r: f64, from: f64, pass: usize) {
+        let phi = self.phi;
+        let was_measured = self.lo_pass > 0 && self.hi_pass > 0;
+        let w = if from < 0.0 { -r } else { r };
+        if w >= 0.0 {
+            if phi >= self.hi {
+                (self.hi, self.hi_pass) = (1.0, 0);
+            }
+            (self.lo, self.lo_pass) = (phi, pass);
+            if self.replaced == -1 {
+                self.w_hi *= 0.5;
+            }
+            (self.w_lo, self.replaced) = (w, -1);
+        } else {
+            if phi <= self.lo {
+                (self.lo, self.lo_pass) = (0.0, 0);
+            }
+            (self.hi, self.hi_pass) = (phi, pass);
+            if self.replaced == 1 {
+                self.w_lo *= 0.5;
+            }
+            (self.w_hi, self.replaced) = (w, 1);
+        }
+        // (Counted from the sweep that measured both bounds: the first
+        // trials, φ = 0 and 1, halve nothing.)
+        let width = self.hi - self.lo;
+        if !was_measured || width <= 0.5 * self.width_mark || width > self.width_mark {
+            (self.width_mark, self.since_halved) = (width, 0);
+        } else {
+            self.since_halved += 1;
+        }
+    }
+
+    /// Both bounds measured in the last two sweeps and, as offsets from
+    /// `from`, within the tolerance of each other.
+    fn closed(&self, from: f64, pass: usize) -> bool {
+        self.lo_pass > 0
+            && self.hi_pass > 0
+            && self.lo_pass + 2 >= pass
+            && self.hi_pass + 2 >= pass
+            && self.width_um(from) <= LOOP_TOL_UM + LOOP_REL_TOL * (self.hi * from).abs()
+    }
+
+    /// The bracket's width as offsets from `from`, µm.
+    fn width_um(&self, from: f64) -> f64 {
+        (self.hi - self.lo) * from.abs()
+    }
+
+    /// Even at φ = 1 the bent tool's removal pushes the step further than
+    /// the offset it starts at (material its neighbours' offsets left): the
+    /// step goes on at that offset, and its load is reported as swept.
+    fn held(&self) -> bool {
+        self.lo >= 1.0 && self.lo_pass > 0
+    }
+
+    /// The next fraction to try (observed first), the step having started at
+    /// the offset `from`: the trial kept where its residual `r` at the
+    /// offset `x` is within the tolerance; where the bracket is, the bound
+    /// measured longer ago again (x₋ may have moved since).
+    fn next(&mut self, r: f64, x: f64, from: f64) -> f64 {
+        if r.abs() <= LOOP_TOL_UM + LOOP_REL_TOL * x.abs() {
+            return self.phi;
+        }
+        let narrow = self.width_um(from) <= LOOP_TOL_UM + LOOP_REL_TOL * (self.hi * from).abs();
+        self.phi = if self.hi_pass == 0 {
+            self.hi
+        } else if self.lo_pass == 0 {
+            self.lo
+        } else if narrow {
+            if self.lo_pass < self.hi_pass {
+                self.lo
+            } else {
+                self.hi
+            }
+        } else {
+            let t = self.w_lo / (self.w_lo - self.w_hi);
+            if self.since_halved < 3 && t.is_finite() && t > 0.0 && t < 1.0 {
+                self.lo + t * (self.hi - self.lo)
+            } else {
+                0.5 * (self.lo + self.hi)
+            }
+        };
+        self.phi
+    }
+}
+
 /// How the closed loop ended (summary.json `closed_loop_*`).
 #[derive(Clone, Debug, Default)]
 pub struct LoopReport {
@@ -635,7 +815,7 @@ pub fn run_on(
     }
     // Directions of the loop's offsets (unit, fixed from the rigid sweep):
     // across the path; rapids are not moved (a collision's load means nothing).
-    let dirs: Vec<[f64; 2]> = step_loads
+    let mut dirs: Vec<[f64; 2]> = step_loads
         .iter()
         .zip(&steps)
         .map(|(l, s)| {
@@ -652,13 +832,33 @@ pub fn run_on(
     // Steps whose offset the loop seeks (the others keep offset 0: rapids,
     // steps not pushed across the path, and every step of an overloaded tool,
     // whose error map is the rigid tool's as with the loop off).
-    let in_loop: Vec<bool> = (0..steps.len())
+    let mut in_loop: Vec<bool> = (0..steps.len())
         .map(|i| dirs[i] != [0.0, 0.0] && !overloaded[tool_of_step[i]])
         .collect();
+    // With the loop, a feed step with no direction that continues one the
+    // loop moves takes its direction; its offset is sought as a fraction of
+    // the one it starts at (MODEL.md §5.1, eq. 5.1a).
+    let inherited = if tools.closed_loop {
+        inherit_directions(&steps, &tool_of_step, &mut dirs, &in_loop)
+    } else {
+        vec![false; n]
+    };
+    for (l, &h) in in_loop.iter_mut().zip(&inherited) {
+        *l |= h;
+    }
     let along = |loads: &[StepLoad], i: usize| -> f64 {
         loads[i].dx_um * dirs[i][0] + loads[i].dy_um * dirs[i][1]
     };
-    let rigid: Vec<f64> = (0..n).map(|i| along(&rigid_loads, i).max(0.0)).collect();
+    // (A step that took its direction was not pushed across its own path.)
+    let rigid: Vec<f64> = (0..n)
+        .map(|i| {
+            if inherited[i] {
+                0.0
+            } else {
+                along(&rigid_loads, i).max(0.0)
+            }
+        })
+        .collect();
     // The largest offset a step may be tried at (MODEL.md §5.1): its tool's
     // radius. A trial beyond it would sweep the tool into stock it cannot
     // reach and feed the loop ever larger loads.
@@ -704,7 +904,7 @@ pub fn run_on(
         SUB_CELL_WINDOW_CELLS * grid_mm,
     );
     let sub_cell: Vec<bool> = (0..n)
-        .map(|i| in_loop[i] && advance_mm[i] < grid_mm && windows[i] != (i, i))
+        .map(|i| in_loop[i] && !inherited[i] && advance_mm[i] < grid_mm && windows[i] != (i, i))
         .collect();
     let mut x: Vec<f64> = vec![0.0; n];
     let mut report = LoopReport {
@@ -719,6 +919,9 @@ pub fn run_on(
         let mut search: Vec<Bracketed> = (0..n)
             .map(|i| Bracketed::new(rigid[i], offset_cap_um[i]))
             .collect();
+        // The steps that took their direction seek a fraction of the offset
+        // they start at, first 0 (eq. 5.1a).
+        let mut fraction = vec![Fraction::START; n];
         let mut trial: Vec<f64> = (0..n)
             .map(|i| {
                 if in_loop[i] {
@@ -760,8 +963,25 @@ pub fn run_on(
             let g: Vec<f64> = (0..n).map(|i| along(&step_loads, i)).collect();
             let pass = report.passes;
             for i in (0..n).filter(|&i| in_loop[i]) {
-                search[i].observe(x[i], g[i] - x[i], pass);
+                if inherited[i] {
+                    fraction[i].observe(g[i] - x[i], x[i - 1], pass);
+                } else {
+                    search[i].observe(x[i], g[i] - x[i], pass);
+                }
             }
+            // A step's bracket closed around its root (at a jump of g), and
+            // its width, µm.
+            let closed = |i: usize| -> Option<f64> {
+                if inherited[i] {
+                    fraction[i]
+                        .closed(x[i - 1], pass)
+                        .then(|| fraction[i].width_um(x[i - 1]))
+                } else {
+                    search[i]
+                        .closed(pass)
+                        .then(|| search[i].hi.at - search[i].lo.at)
+                }
+            };
             // Where a step advances less than a grid cell, g jumps from step to
             // step by the load of a row of columns (MODEL.md §1.5), and the grid
             // measures the load over the step's window of path only: such a step
@@ -777,7 +997,11 @@ pub fn run_on(
             let mut sum_w = vec![0.0; n + 1];
             let mut path = vec![0.0; n + 1];
             for i in 0..n {
-                let w = if in_loop[i] { advance_mm[i] } else { 0.0 };
+                let w = if in_loop[i] && !inherited[i] {
+                    advance_mm[i]
+                } else {
+                    0.0
+                };
                 sum_r[i + 1] = sum_r[i] + w * (g[i] - x[i]);
                 sum_x[i + 1] = sum_x[i] + w * x[i];
                 sum_g[i + 1] = sum_g[i] + w * g[i];
@@ -790,12 +1014,11 @@ pub fn run_on(
             // bracket's width (how far x is from the root); a sub-cell step out
             // of tolerance so but within it over its window, the window's.
             let residual = |i: usize| -> (f64, f64) {
+                if inherited[i] && fraction[i].held() {
+                    return (0.0, x[i].abs());
+                }
                 let r = (g[i] - x[i]).abs();
-                let own = if search[i].closed(pass) {
-                    r.min(search[i].hi.at - search[i].lo.at)
-                } else {
-                    r
-                };
+                let own = closed(i).map_or(r, |width| r.min(width));
                 let (a, b) = windows[i];
                 let w = sum_w[b + 1] - sum_w[a];
                 if sub_cell[i] && w > 0.0 && !within(own, x[i].abs()) {
@@ -843,7 +1066,7 @@ pub fn run_on(
                 // scaled up beyond what a sweep removed.
                 for i in (0..n).filter(|&i| in_loop[i]) {
                     let off = g[i] - x[i] > LOOP_TOL_UM + LOOP_REL_TOL * x[i].abs();
-                    if off && search[i].closed(pass) && x[i] > 0.0 {
+                    if off && closed(i).is_some() && x[i] > 0.0 {
                         step_loads[i] = step_loads[i].scaled(x[i] / g[i]);
                     }
                 }
@@ -854,13 +1077,18 @@ pub fn run_on(
             // trial (g nearly flat: the steps move together, and the
             // relaxed trials would creep up on the root); otherwise none
             // takes it (steps coupled to their neighbours move alike).
-            let secant = (0..n).filter(|&i| in_loop[i]).all(|i| {
+            let secant = (0..n).filter(|&i| in_loop[i] && !inherited[i]).all(|i| {
                 search[i]
                     .first_slope(x[i], g[i])
                     .is_none_or(|s| LOOP_SECANT_SLOPES.contains(&s))
             });
+            // In step order: a step that took its direction moves with the
+            // offset it starts at, the trial of the step before.
             for i in 0..n {
-                if in_loop[i] {
+                if inherited[i] {
+                    trial[i] = (fraction[i].next(g[i] - x[i], x[i], x[i - 1]) * trial[i - 1])
+                        .clamp(-offset_cap_um[i], offset_cap_um[i]);
+                } else if in_loop[i] {
                     trial[i] = search[i]
                         .next(x[i], g[i], secant)
                         .clamp(-offset_cap_um[i], offset_cap_um[i]);
@@ -2317,5 +2545,100 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// A cut that ends in a short step the rigid tool removes nothing in
+    /// (fusion_haas_rebels5's line 1015: the rest of a servo period before a
+    /// rapid, 0.117 ms and 1.5 µm up in Z, after a step the loop moved by
+    /// 42 µm). Here a Ø10 flat end finishes a wall 0.2 mm deep (holder
+    /// 0.1 N/µm, S4's law with n = 1: the loop moves the steady steps about
+    /// 99 µm off the wall), and the cut ends with such a step, then a rapid
+    /// up. With the step's offset 0 (no rigid direction) the tool swept back
+    /// to the programmed path within the step: 99 µm of wall in 0.117 ms,
+    /// a force many times the cut's (8 007.9 N against the wall's 10.0 N).
+    /// Its offset now relaxes with the load that sustains it (MODEL.md §5.1,
+    /// eq. 5.1a): the step's force is no larger than the wall's, and the
+    /// loop converges.
+    #[test]
+    fn a_short_step_after_a_deflected_one_does_not_spike() {
+        let dir = tempfile::tempdir().unwrap();
+        let csv: String = std::iter::once("x,y,z\n".to_string())
+            .chain((0..=100).map(|i| format!("{},0,20\n", -10.0 + 0.5 * i as f64)))
+            .collect();
+        std::fs::write(dir.path().join("wall.csv"), csv).unwrap();
+        let job = "[stock]\nkind = \"box\"\nmin = [0, -6, 0]\nmax = [30, -4.8, 30]\ngrid = 0.01\n\
+                   [tool]\nkind = \"flat\"\ndiameter = 10\nflute_length = 20\nstickout = 40\n\
+                   holder_stiffness_n_per_um = 0.1\n[program]\npath = \"wall.csv\"\nfeed = 1200\n\
+                   [cutting]\nband_height = 1.0\nspindle_rpm = 6000\nmodel = \"power_law\"\n\
+                   force_a = 100\nforce_n = 1\n";
+        let path = dir.path().join("job.toml");
+        std::fs::write(&path, job).unwrap();
+        let setup = crate::commands::Setup::load(&path, None).unwrap();
+        let mut steps = setup.machine_steps().unwrap();
+        // The cut up to x = 15 mm (the steady wall), then the short step and
+        // a rapid 10 mm up.
+        let last = steps
+            .iter()
+            .rposition(|s| !s.step.rapid && s.step.to_mm[0] <= 15.0)
+            .unwrap();
+        steps.truncate(last + 1);
+        let end = steps[last];
+        let dt_s = 0.117e-3;
+        let [x, y, z] = end.step.to_mm;
+        let up = TimedStep {
+            step: dexel::Step {
+                from_mm: [x, y, z],
+                to_mm: [x, y, z + 1.5e-3],
+                rapid: false,
+            },
+            t_end_s: end.t_end_s + dt_s,
+            dt_s,
+            feed_mm_min: 1.5e-3 / dt_s * 60.0,
+            s_end_mm: end.s_end_mm + 1.5e-3,
+            ..end
+        };
+        let rapid = TimedStep {
+            step: dexel::Step {
+                from_mm: up.step.to_mm,
+                to_mm: [x, y, z + 10.0],
+                rapid: true,
+            },
+            t_end_s: up.t_end_s + 0.016,
+            dt_s: 0.016,
+            feed_mm_min: 10.0 / 0.016 * 60.0,
+            s_end_mm: up.s_end_mm + 10.0,
+            continues: true,
+            ..end
+        };
+        steps.push(up);
+        steps.push(rapid);
+        let run = run_on(
+            StockSource::Whole(setup.stock.clone()),
+            &setup.tools,
+            steps,
+            "spike",
+        )
+        .unwrap();
+        let k = last + 1;
+        // The steps of the steady wall before it (x from 10 mm on).
+        let before: Vec<f64> = (0..k)
+            .filter(|&i| !run.steps[i].step.rapid && run.steps[i].step.to_mm[0] >= 10.0)
+            .map(|i| run.loads[i].force_n)
+            .collect();
+        assert!(before.len() > 10, "{} steps", before.len());
+        let lo = before.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = before.iter().copied().fold(0.0, f64::max);
+        let offset = run.offsets_um[last][1];
+        assert!(offset > 50.0, "the wall's offset {offset} µm");
+        let force = run.loads[k].force_n;
+        eprintln!(
+            "wall {lo:.2}…{hi:.2} N at offset {offset:.1} µm; short step {force:.2} N at {:?} µm, {} sweeps",
+            run.offsets_um[k], run.closed_loop.passes
+        );
+        assert!(
+            force <= hi,
+            "the short step's force {force} N above the wall's {lo}…{hi} N"
+        );
+        assert!(run.closed_loop.converged, "{:?}", run.closed_loop);
     }
 }
