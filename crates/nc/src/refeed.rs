@@ -153,17 +153,47 @@ pub fn refeed_read(
             {
                 let by_line = lines_segments(&t);
                 let (tables, _) = run_tables(&unrolled, &by_line, segments, &t, &e, plan);
-                if let Ok(out) = write_checked(
-                    &unrolled, file, options, segments, &t, &e, &by_line, plan, tables,
-                ) {
+                let recorded = Recorded {
+                    trace: t,
+                    executed: e,
+                    by_line,
+                };
+                if let Ok(out) =
+                    write_checked(&unrolled, file, options, segments, recorded, plan, tables)
+                {
                     return Ok(out);
                 }
             }
         }
     }
-    write_checked(
-        source, file, options, segments, &trace, &executed, &by_line, plan, tables,
-    )
+    let recorded = Recorded {
+        trace,
+        executed,
+        by_line,
+    };
+    write_checked(source, file, options, segments, recorded, plan, tables)
+}
+
+/// A recorded run of the text the writer writes from: its trace, the lines
+/// as they ran and the segments of each line.
+struct Recorded {
+    trace: interp::Trace,
+    executed: Vec<Executed>,
+    by_line: LineSegments,
+}
+
+impl Recorded {
+    /// `source` run and recorded again (as it was the first time: the
+    /// interpreter gives the same run of the same text and options).
+    fn read(source: &str, file: &str, options: &Options) -> Recorded {
+        let (_, trace, executed) = interp::run_recorded(source, file, options);
+        let by_line = lines_segments(&trace);
+        Recorded {
+            trace,
+            executed,
+            by_line,
+        }
+    }
 }
 
 /// The segments made by each line, ascending, in two flat columns (a
@@ -230,24 +260,38 @@ fn same_path(a: &[Segment], b: &[Segment]) -> bool {
 
 /// Writes the program with `tables` and the canned cycles written out where
 /// needed, dropping either when the result does not read back as planned.
-#[allow(clippy::too_many_arguments)]
+/// The recorded run (for a million-line program its line arena, trace and
+/// executed lines, about 250 MB) is dropped once the text is written, before
+/// the text is read back to be checked; a check that fails and is tried
+/// again runs the source again ([`Recorded::read`]).
 fn write_checked(
     source: &str,
     file: &str,
     options: &Options,
     segments: &[Segment],
-    trace: &interp::Trace,
-    executed: &[Executed],
-    by_line: &LineSegments,
+    recorded: Recorded,
     plan: &[Vec<(f64, f64)>],
     mut tables: BTreeMap<usize, RunTable>,
 ) -> Result<(String, Parsed), RefeedError> {
-    let mut expanded = cycle_lines(by_line, segments, trace, plan);
+    let mut expanded = cycle_lines(&recorded.by_line, segments, &recorded.trace, plan);
+    let mut recorded = Some(recorded);
     loop {
-        let Some(per_run) = cycle_runs(source, &expanded, executed, trace, &tables) else {
+        let Recorded {
+            trace,
+            executed,
+            by_line,
+        } = recorded
+            .take()
+            .unwrap_or_else(|| Recorded::read(source, file, options));
+        let Some(per_run) = cycle_runs(source, &expanded, &executed, &trace, &tables) else {
             // A cycle run more than once with no counter to tell its runs
             // apart: the cycles as written.
             expanded.clear();
+            recorded = Some(Recorded {
+                trace,
+                executed,
+                by_line,
+            });
             continue;
         };
         // Runs of a line split into more blocks than they need: their pieces as written.
@@ -261,8 +305,9 @@ fn write_checked(
         }
         let plan = WrittenPlan { plan, coarse };
         let (out, written_pieces) = write(
-            source, segments, trace, by_line, &plan, &tables, &expanded, &per_run,
+            source, segments, &trace, &by_line, &plan, &tables, &expanded, &per_run,
         );
+        drop((trace, executed, by_line, per_run));
         match verify(&out, file, options, segments, &plan, &written_pieces) {
             Ok(parsed) => return Ok((out, parsed)),
             // Cycles written out that do not read back: keep them as written.
