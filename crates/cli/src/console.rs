@@ -41,15 +41,20 @@ pub fn warnings_after_work(warnings: &Warnings, label: &str) {
     }
 }
 
-/// The simulate results: the bands of a large stock, the design comparison,
-/// the headline line, then the warnings.
-pub fn simulate(simulated: &Simulated, out: &Path, asked: StepsFormat) {
-    if let Some(b) = &simulated.banded {
+/// How a stock too large for the memory budget was swept, if it was.
+fn banded(banded: Option<&dexcut::commands::Banded>) {
+    if let Some(b) = banded {
         outln!(
             "the stock's {}×{} columns exceed the memory budget of {:.0} MB: swept in {} bands of {} rows",
             b.nx, b.ny, b.budget_mb, b.bands, b.band_rows
         );
     }
+}
+
+/// The simulate results: the bands of a large stock, the design comparison,
+/// the headline line, then the warnings.
+pub fn simulate(simulated: &Simulated, out: &Path, asked: StepsFormat) {
+    banded(simulated.banded.as_ref());
     let doc = &simulated.summary;
     if let Some(info) = &doc.design {
         line_deviations(info);
@@ -228,6 +233,7 @@ fn chip_load_text(limits: &LimitsOut) -> Option<String> {
 
 /// The optimize results on the console.
 pub fn optimize(optimized: &Optimized, out: &Path, asked: StepsFormat) {
+    banded(optimized.banded.as_ref());
     let doc = &optimized.summary;
     if let Some(info) = &doc.design {
         line_deviations(info);

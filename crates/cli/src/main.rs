@@ -102,6 +102,11 @@ enum Command {
         /// Machine and drive settings written by `evaluate --sweep` (best.toml), over the job's.
         #[arg(long, value_name = "FILE")]
         settings: Option<PathBuf>,
+        /// Memory for the stock, MB (default: what this process may use). A box
+        /// or cylinder stock whose columns need more is swept band of rows by
+        /// band of rows in every run, with the same results, and its .npy grid streamed.
+        #[arg(long, value_name = "MB")]
+        memory_budget_mb: Option<f64>,
     },
     /// Write report.html, error_map.png and stock.glb from a simulate or optimize output folder.
     Report {
@@ -280,6 +285,7 @@ fn run(command: Command) -> Result<(), dexcut::Error> {
             columns_csv,
             steps_format,
             settings,
+            memory_budget_mb,
         } => {
             let fitted = match &job {
                 Some(job) => fitted_job(job, tool.as_deref(), grid, &out)?,
@@ -307,6 +313,7 @@ fn run(command: Command) -> Result<(), dexcut::Error> {
                 columns_csv,
                 steps_format.into(),
                 settings.as_deref(),
+                memory_budget_mb,
                 on_warning,
             )?;
             console::optimize(&optimized, &out, steps_format.into());

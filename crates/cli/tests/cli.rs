@@ -3372,22 +3372,6 @@ fn tiled_stock_gives_the_in_memory_results() {
             "{name} differs"
         );
     }
-    let timeless = |mut v: Value| {
-        fn strip(v: &mut Value) {
-            match v {
-                Value::Object(m) => {
-                    for k in ["sweep_time_s", "run_time_s", "run_id"] {
-                        m.remove(k);
-                    }
-                    m.values_mut().for_each(strip);
-                }
-                Value::Array(a) => a.iter_mut().for_each(strip),
-                _ => {}
-            }
-        }
-        strip(&mut v);
-        v
-    };
     let s = summary(&tiled);
     assert!(
         s["closed_loop_passes"].as_u64().unwrap() > 1,
@@ -3424,6 +3408,129 @@ fn tiled_stock_gives_the_in_memory_results() {
         ],
         &["--columns-csv with a stock too large"],
         Some("csv"),
+    );
+}
+
+/// A summary.json without what differs from run to run: its timings and run id.
+fn timeless(mut v: Value) -> Value {
+    fn strip(v: &mut Value) {
+        match v {
+            Value::Object(m) => {
+                for k in [
+                    "sweep_time_s",
+                    "run_time_s",
+                    "run_id",
+                    "time_simulate_s",
+                    "time_engagement_s",
+                    "time_plan_s",
+                ] {
+                    m.remove(k);
+                }
+                m.values_mut().for_each(strip);
+            }
+            Value::Array(a) => a.iter_mut().for_each(strip),
+            _ => {}
+        }
+    }
+    strip(&mut v);
+    v
+}
+
+/// `dexcut optimize` on a stock larger than `--memory-budget-mb` (25 bands of
+/// 16 rows): the program as given, the engagement along the stations and each
+/// round's written program are swept band by band, closed loop included, and
+/// the folder is the in-memory run's byte for byte: optimized.nc, servo.csv,
+/// the steps after and before, the `.npy` grid, and summary.json but for its
+/// timings and run id.
+#[test]
+fn tiled_stock_optimizes_as_in_memory() {
+    let dir = tempdir();
+    let job = gcode_slot_job()
+        .replace("min = [0, -20, 0]", "min = [0, 0, 0]")
+        .replace("max = [100, 20, 30]", "max = [60, 40, 30]")
+        + "[limits]\nmrr_max = 100\n";
+    write(dir.path(), "job.toml", &job);
+    // Passes along y and diagonals, each across many bands, and one along x
+    // through a band edge (row 160 starts at y = 16).
+    write(
+        dir.path(),
+        "slot.ngc",
+        "G21 G90 G17 G54\nG0 X10 Y-6 Z40\nG0 Z28\nG1 X12 Y46 Z27 F1200\nG1 X30\n\
+         G1 X50 Y-6 Z28.5\nG1 Y16\nG0 Z40\nG0 X-6\nG1 Z27.5\nG1 X66 F1500\nG0 Z40\nM30\n",
+    );
+    ok(&dexcut(
+        &["optimize", "job.toml", "--out", "whole"],
+        dir.path(),
+    ));
+    let o = dexcut(
+        &[
+            "optimize",
+            "job.toml",
+            "--out",
+            "tiled",
+            "--memory-budget-mb",
+            "1",
+        ],
+        dir.path(),
+    );
+    ok(&o);
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(said.contains("swept in 25 bands of 16 rows"), "{said}");
+    let (whole, tiled) = (dir.path().join("whole"), dir.path().join("tiled"));
+    for name in [
+        "optimized.nc",
+        "servo.csv",
+        "steps.csv",
+        "steps_before.csv",
+        "columns.json",
+        "top_mm.npy",
+        "last_step.npy",
+        "error_um.npy",
+    ] {
+        assert!(
+            std::fs::read(whole.join(name)).unwrap() == std::fs::read(tiled.join(name)).unwrap(),
+            "{name} differs"
+        );
+    }
+    let s = summary(&tiled);
+    // The limit binds: the program as given is over it, the written one within it.
+    let (before, after) = (&s["before"], &s["after"]);
+    assert!(
+        before["peak_mrr_mm3_s"].as_f64().unwrap() > 150.0,
+        "{before}"
+    );
+    assert!(
+        after["peak_mrr_mm3_s"].as_f64().unwrap() <= 102.0,
+        "{after}"
+    );
+    assert!(after["closed_loop_passes"].as_u64().unwrap() > 1, "{after}");
+    assert!(
+        rel(
+            before["removed_volume_mm3"].as_f64().unwrap(),
+            before["initial_volume_mm3"].as_f64().unwrap()
+                - before["final_volume_mm3"].as_f64().unwrap()
+        ) < 1e-6
+    );
+    assert_eq!(timeless(summary(&whole)), timeless(s));
+    ok(&dexcut(&["report", "tiled"], dir.path()));
+    // The surface angles of S3 from the stock need every column at once.
+    let angles = job.replace(
+        "mrr_max = 100",
+        "mrr_max = 100\nangle_rule = true\nv0 = 300",
+    );
+    write(dir.path(), "angles.toml", &angles);
+    assert_refused(
+        dir.path(),
+        &[
+            "optimize",
+            "angles.toml",
+            "--out",
+            "angles",
+            "--memory-budget-mb",
+            "1",
+        ],
+        &["angle_rule with a stock too large"],
+        Some("angles"),
     );
 }
 

@@ -163,13 +163,22 @@ impl Setup {
         Ok(setup)
     }
 
+    /// The job's stock as a run sweeps it: lent whole, or band by band where
+    /// it is too large for the memory budget ([`Setup::tiling`]).
+    pub fn stock_source(&self) -> simulate::StockSource<'_> {
+        match &self.tiling {
+            Some(tiling) => simulate::StockSource::Tiled(tiling),
+            None => simulate::StockSource::Lent(&self.stock),
+        }
+    }
+
     /// Refuse a stock too large for the memory budget for `what`, which needs
-    /// every column at once (only `simulate` runs such a stock band by band).
+    /// every column at once (`simulate` and `optimize` run such a stock band by band).
     pub fn require_whole_stock(&self, what: &str) -> Result<()> {
         if let Some(t) = &self.tiling {
             fail!(
                 limits,
-                "{}: [stock] {}×{} columns at grid {} mm need about {:.0} MB of memory, more than the {:.0} MB this process may use (available memory, cgroup memory.max and ulimit, or --memory-budget-mb): only `dexcut simulate` runs such a stock, band by band; {what} needs every column at once: use a coarser grid",
+                "{}: [stock] {}×{} columns at grid {} mm need about {:.0} MB of memory, more than the {:.0} MB this process may use (available memory, cgroup memory.max and ulimit, or --memory-budget-mb): `dexcut simulate` and `dexcut optimize` run such a stock band by band; {what} needs every column at once: use a coarser grid",
                 self.job.name,
                 t.grid.nx,
                 t.grid.ny,
@@ -743,12 +752,7 @@ fn simulate_tiled(
     steps_format: StepsFormat,
     out: &Path,
 ) -> Result<(Simulation, StepsFormat)> {
-    if setup.design.is_some() {
-        fail!(limits, "{}: [design] with a stock too large for the memory budget ({} rows in bands of {}): the design comparison needs every column at once; use a coarser grid or a larger --memory-budget-mb", setup.job.name, tiling.grid.ny, tiling.band_rows);
-    }
-    if columns_csv {
-        fail!(limits, "{}: --columns-csv with a stock too large for the memory budget ({} rows in bands of {}): the .npy grid is written band by band, columns.csv is not", setup.job.name, tiling.grid.ny, tiling.band_rows);
-    }
+    refuse_whole_stock_outputs(setup, tiling, columns_csv)?;
     let steps = setup.steps(actual_path)?;
     let mut run = simulate::run_on(
         simulate::StockSource::Tiled(tiling),
@@ -757,7 +761,7 @@ fn simulate_tiled(
         "simulate",
     )?;
     let steps_format = run.write_steps(out, "steps", steps_format)?;
-    simulate::write_tiled_columns(&mut run, tiling, &setup.tools, out)?;
+    simulate::write_tiled_columns(&mut run, tiling, &setup.tools, Some(out))?;
     let mut summary = run.summary();
     summary.check_finite()?;
     summary
@@ -774,6 +778,23 @@ fn simulate_tiled(
     ))
 }
 
+/// What a run on a stock too large for memory cannot give (the design
+/// comparison and columns.csv need every column at once): refused before the
+/// run.
+fn refuse_whole_stock_outputs(
+    setup: &Setup,
+    tiling: &crate::stock::Tiling,
+    columns_csv: bool,
+) -> Result<()> {
+    if setup.design.is_some() {
+        fail!(limits, "{}: [design] with a stock too large for the memory budget ({} rows in bands of {}): the design comparison needs every column at once; use a coarser grid or a larger --memory-budget-mb", setup.job.name, tiling.grid.ny, tiling.band_rows);
+    }
+    if columns_csv {
+        fail!(limits, "{}: --columns-csv with a stock too large for the memory budget ({} rows in bands of {}): the .npy grid is written band by band, columns.csv is not", setup.job.name, tiling.grid.ny, tiling.band_rows);
+    }
+    Ok(())
+}
+
 /// How a stock too large for the memory budget was swept: band by band.
 #[derive(Clone, Debug)]
 pub struct Banded {
@@ -787,6 +808,19 @@ pub struct Banded {
     pub bands: usize,
     /// Rows per band.
     pub band_rows: usize,
+}
+
+impl Banded {
+    /// How `tiling` sweeps its stock.
+    pub fn of(tiling: &crate::stock::Tiling) -> Banded {
+        Banded {
+            nx: tiling.grid.nx,
+            ny: tiling.grid.ny,
+            budget_mb: tiling.budget_bytes / 1e6,
+            bands: tiling.bands().count(),
+            band_rows: tiling.band_rows,
+        }
+    }
 }
 
 /// What `dexcut simulate` made.
@@ -854,16 +888,9 @@ pub fn simulate(
     };
     crate::summary::write_simulate(&out_dir.path().join("summary.json"), &doc)?;
     out_dir.commit("simulate")?;
-    let banded = setup.tiling.as_ref().map(|t| Banded {
-        nx: t.grid.nx,
-        ny: t.grid.ny,
-        budget_mb: t.budget_bytes / 1e6,
-        bands: t.bands().count(),
-        band_rows: t.band_rows,
-    });
     Ok(Simulated {
         summary: doc,
-        banded,
+        banded: setup.tiling.as_ref().map(Banded::of),
         steps_format,
     })
 }
@@ -1029,12 +1056,13 @@ pub fn optimize(
     columns_csv: bool,
     steps_format: StepsFormat,
     settings: Option<&Path>,
+    memory_budget_mb: Option<f64>,
     on_warning: OnWarning,
 ) -> Result<Optimized> {
     let started = Instant::now();
     let settings_input: Vec<PathBuf> = settings.map(Path::to_path_buf).into_iter().collect();
     let (mut setup, out_dir) = begin_run(job, out, force, &settings_input, |p| {
-        Setup::load_with(p, grid_mm, settings)
+        Setup::load_within(p, grid_mm, settings, memory_budget_mb)
     })?;
     if setup.job.machine.arcs_as_lines {
         fail!(request, "{}: machine.arcs_as_lines is for simulate and evaluate: optimize re-feeds the program's own blocks and writes arcs as G2/G3", setup.job.name);
@@ -1074,6 +1102,8 @@ pub struct Optimized {
     /// How steps and steps_before were written ([`StepsFormat::Auto`]
     /// resolved by the longer of the two).
     pub steps_format: StepsFormat,
+    /// Set when the stock was swept band by band.
+    pub banded: Option<Banded>,
 }
 
 /// Re-time the job's program under its `[limits]` and write the results
@@ -1092,12 +1122,20 @@ pub fn optimize_setup(
     steps_format: StepsFormat,
     on_warning: OnWarning,
 ) -> Result<Optimized> {
-    setup.require_whole_stock("optimize")?;
+    if let Some(tiling) = &setup.tiling {
+        // A stock too large for memory is swept band by band in every run
+        // (ARCHITECTURE.md "Large stocks").
+        refuse_whole_stock_outputs(setup, tiling, columns_csv)?;
+    }
     let limits = &setup.job.limits;
     // Before: the program as written.
     let t0 = Instant::now();
     let before_steps = setup.machine_steps()?;
-    let before = simulate::run_lent(&setup.stock, &setup.tools, before_steps, "before")?;
+    let mut before = simulate::run_on(setup.stock_source(), &setup.tools, before_steps, "before")?;
+    if let Some(tiling) = &setup.tiling {
+        // Its volumes and error range, band by band (nothing written).
+        simulate::write_tiled_columns(&mut before, tiling, &setup.tools, None)?;
+    }
     let before_summary = before.summary();
     // Every tool's chip-load cap against what the program feeds it, told before the rounds.
     let chip_load = optimize::chip_loads(
@@ -1155,15 +1193,19 @@ pub fn optimize_setup(
     let (n_stations, time_engagement_s, written, t2) = rounds?;
     let fz_max_mm = setup.job.fz_max_mm();
     let time_plan_s = t2.elapsed().as_secs_f64();
-    let after_run = match written.run {
+    let mut after_run = match written.run {
         Some(run) => run,
-        None => simulate::run_lent(
-            &setup.stock,
+        None => simulate::run_on(
+            setup.stock_source(),
             &setup.tools,
             setup.machine_steps()?,
             "as given",
         )?,
     };
+    if let Some(tiling) = &setup.tiling {
+        // The `.npy` grid written band by band, which sets the volumes.
+        simulate::write_tiled_columns(&mut after_run, tiling, &setup.tools, Some(staged))?;
+    }
     let after = &after_run;
     let mut after_summary = after.summary();
     before_summary.check_finite()?;
@@ -1215,7 +1257,13 @@ pub fn optimize_setup(
     }
     // One format for both (Auto: by the longer), so the folder reads alike.
     let steps_format = steps_format.resolve(after.steps.len().max(before_steps));
-    let design = write_run(setup, after, staged, steps_format, columns_csv)?;
+    let design = match setup.tiling {
+        None => write_run(setup, after, staged, steps_format, columns_csv)?,
+        Some(_) => {
+            after.write_steps(staged, "steps", steps_format)?;
+            None
+        }
+    };
     if let Some(before) = before.take() {
         before.write_steps(staged, "steps_before", steps_format)?;
     }
@@ -1295,6 +1343,7 @@ pub fn optimize_setup(
         summary: doc,
         precomp,
         steps_format,
+        banded: setup.tiling.as_ref().map(Banded::of),
     })
 }
 
@@ -1315,7 +1364,8 @@ fn optimize_rounds(
         (Some((_, model)), true) => optimize::SurfaceFrom::Design(model),
         (None, true) => optimize::SurfaceFrom::Stock,
     };
-    let engagement = optimize::engagement(stations, &setup.stock, &setup.tools, surface)?;
+    let engagement =
+        optimize::engagement_on(stations, &setup.stock_source(), &setup.tools, surface)?;
     let time_engagement_s = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
     let caps = optimize::interval_caps(&engagement, stations, limits, &setup.tools);

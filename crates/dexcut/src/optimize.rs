@@ -20,7 +20,7 @@ use serde::Serialize;
 use crate::commands::Setup;
 use crate::job::LimitsSpec;
 use crate::motion::STATION_DS_MM;
-use crate::simulate::Run;
+use crate::simulate::{Run, StockSource};
 use crate::tools::ToolSet;
 
 /// Engagement along the stations: removed volume per interval.
@@ -79,6 +79,22 @@ pub fn engagement(
     tools: &ToolSet,
     surface: SurfaceFrom,
 ) -> Result<Engagement> {
+    engagement_on(stations, &StockSource::Lent(stock), tools, surface)
+}
+
+/// [`engagement`] through `stock`: a copy of a stock held whole, or a stock
+/// too large for memory band by band (ARCHITECTURE.md "Large stocks"; the
+/// record is the whole stock's bit for bit). The stock surface S3 may take
+/// its angles from needs every column at once: refused on a tiled stock.
+pub fn engagement_on(
+    stations: &Stations,
+    stock: &StockSource,
+    tools: &ToolSet,
+    surface: SurfaceFrom,
+) -> Result<Engagement> {
+    if let (StockSource::Tiled(t), SurfaceFrom::Stock) = (stock, surface) {
+        fail!(limits, "[limits] angle_rule with a stock too large for the memory budget ({} rows in bands of {}): the surface angles come from the swept stock's surface, which needs every column at once; give a [design] model, use a coarser grid or a larger --memory-budget-mb", t.grid.ny, t.band_rows);
+    }
     let segs = stations.segments();
     let seg_of = stations.segment();
     let n = stations.len();
@@ -93,32 +109,38 @@ pub fn engagement(
         let seg = &segs[seg_of[k] as usize];
         (seg.tool, seg.line)
     }))?;
-    let mut stock = stock.clone();
     let options = SweepOptions {
         band_height_mm: tools.entries[0].model.band_height_mm,
         ..SweepOptions::default()
     };
-    let bar = crate::progress::bar(steps.len() as u64, "engagement");
-    let record = dexel::sweep_tools(
-        &mut stock,
-        &tools.tools(),
+    let (swept, record) = crate::simulate::sweep_pass(
+        &stock.initial(),
+        None,
+        tools,
         &tool_index,
         &steps,
         &options,
-        &|d| bar.set_position(d as u64),
+        "engagement",
     )?;
-    bar.finish_and_clear();
     // The moves are not needed again (56 B per station).
     drop(steps);
     let volumes: Vec<f64> = (0..record.len()).map(|k| record.volume_mm3(k)).collect();
-    let window_mm = (ENGAGEMENT_WINDOW_CELLS * stock.grid().spacing_mm).max(2.0 * STATION_DS_MM);
+    let spacing_mm = stock.grid().spacing_mm;
+    let window_mm = (ENGAGEMENT_WINDOW_CELLS * spacing_mm).max(2.0 * STATION_DS_MM);
     let area_mm2 = windowed_area(stations.s_mm(), &volumes, window_mm);
 
     let reference_loads = reference_loads(&record, &area_mm2, stations.s_mm(), |k| {
         &tools.entries[tool_index[k]].model
     });
-    let surface_angle_deg =
-        surface_angles_deg(stations, &stock, tools, &tool_index, &area_mm2, surface);
+    let surface_angle_deg = surface_angles_deg(
+        stations,
+        swept.as_ref(),
+        spacing_mm,
+        tools,
+        &tool_index,
+        &area_mm2,
+        surface,
+    );
     Ok(Engagement {
         area_mm2,
         reference_loads,
@@ -130,17 +152,19 @@ pub fn engagement(
 /// S3's cutting-surface angle per interval (MODEL.md §6.3): the angle between
 /// the tool axis and the normal of the surface nearest to the ball centre at
 /// the interval's middle, from the design model or from the stock after the
-/// sweep (`stock`). NaN on intervals that cut nothing or not with a ball.
+/// sweep (`swept`, on a grid of `g` mm; none for a tiled stock, which takes
+/// no angles from its surface). NaN on intervals that cut nothing or not
+/// with a ball.
 fn surface_angles_deg(
     stations: &Stations,
-    stock: &Stock,
+    swept: Option<&Stock>,
+    g: f64,
     tools: &ToolSet,
     tool_index: &[usize],
     area_mm2: &[f64],
     surface: SurfaceFrom,
 ) -> Vec<f64> {
     use rayon::prelude::*;
-    let g = stock.grid().spacing_mm;
     (0..area_mm2.len())
         .into_par_iter()
         .map(|k| {
@@ -157,9 +181,9 @@ fn surface_angles_deg(
                 SurfaceFrom::Nothing => None,
                 SurfaceFrom::Design(model) => model.normal_towards_mm(centre),
                 // Points within half a column of the nearest are touched; look up to 4 radii away.
-                SurfaceFrom::Stock => {
+                SurfaceFrom::Stock => swept.and_then(|stock| {
                     dexel::surface_normal_near(stock, centre, along, 0.5 * g, 4.0 * r)
-                }
+                }),
             };
             normal.map_or(f64::NAN, dexel::angle_to_axis_deg)
         })
@@ -919,8 +943,8 @@ pub fn write_verified(
                 (None, samples, steps, tools)
             }
         };
-        let run = crate::simulate::run_lent(
-            &setup.stock,
+        let run = crate::simulate::run_on(
+            setup.stock_source(),
             &setup.tools,
             steps,
             &format!("verify {round}"),

@@ -158,9 +158,30 @@ pub enum StockSource<'a> {
     Tiled(&'a crate::stock::Tiling),
 }
 
+impl StockSource<'_> {
+    /// The grid of the stock's columns (a tiled stock's whole grid).
+    pub fn grid(&self) -> &dexel::Grid {
+        match self {
+            StockSource::Whole(s) | StockSource::Made(s, _) => s.grid(),
+            StockSource::Lent(s) => s.grid(),
+            StockSource::Tiled(t) => &t.grid,
+        }
+    }
+
+    /// What a sweep of this stock starts from, the stock borrowed.
+    pub(crate) fn initial(&self) -> Initial<'_> {
+        match self {
+            StockSource::Whole(s) => Initial::Held(std::borrow::Cow::Borrowed(s)),
+            StockSource::Lent(s) => Initial::Held(std::borrow::Cow::Borrowed(s)),
+            StockSource::Made(s, solid) => Initial::Made(*solid, *s.grid()),
+            StockSource::Tiled(t) => Initial::Tiled(t),
+        }
+    }
+}
+
 /// What each pass of a run starts from (a [`StockSource`] once its stock
 /// handed over is taken as the first pass's memory).
-enum Initial<'a> {
+pub(crate) enum Initial<'a> {
     /// A stock held whole (handed over or lent): each pass sweeps a copy.
     Held(std::borrow::Cow<'a, Stock>),
     /// A closed form on its grid: each pass sweeps the stock made of it.
@@ -185,7 +206,7 @@ impl Initial<'_> {
 /// memory of `spare` where it is a closed form), each step with its tool;
 /// with a tiled stock, band by band in row order (the record is the whole
 /// stock's bit for bit, no stock is kept).
-fn sweep_pass(
+pub(crate) fn sweep_pass(
     initial: &Initial,
     spare: Option<Stock>,
     tools: &ToolSet,
@@ -227,7 +248,10 @@ fn sweep_pass(
 }
 
 /// Each step's tool and the sweep options of a run.
-fn sweep_setup(tools: &ToolSet, steps: &[TimedStep]) -> Result<(Vec<usize>, SweepOptions)> {
+pub(crate) fn sweep_setup(
+    tools: &ToolSet,
+    steps: &[TimedStep],
+) -> Result<(Vec<usize>, SweepOptions)> {
     let tool_of_step = tools.indices(steps.iter().map(|s| (s.tool, s.line)))?;
     let options = SweepOptions {
         band_height_mm: tools.entries[0].model.band_height_mm,
@@ -727,12 +751,6 @@ pub struct LoopReport {
     pub rigid_kept: bool,
 }
 
-/// [`run_on`] on the lent `stock`: the passes sweep copies of it, and it is
-/// left as it was.
-pub fn run_lent(stock: &Stock, tools: &ToolSet, steps: Vec<TimedStep>, label: &str) -> Result<Run> {
-    run_on(StockSource::Lent(stock), tools, steps, label)
-}
-
 /// Sweep `steps` through `stock` and compute the loads, closing the loop between
 /// removal and deflection (MODEL.md §5.1): the rigid tool's removal gives each
 /// step's deflection; the program is swept again with the tool moved across its
@@ -1227,11 +1245,13 @@ fn error_range_um(error_um: &[f32], range: [f64; 2]) -> [f64; 2] {
 /// steps, so it is the whole stock's column), and its own rows of `top_mm`,
 /// `last_step` and `error_um` are appended to the files. Sets the run's
 /// volumes (summed row by row in order, as the whole stock's) and error range.
+/// With no `dir` nothing is written: the bands are made and swept for the
+/// volumes and the error range alone (`optimize`'s program as given).
 pub fn write_tiled_columns(
     run: &mut Run,
     tiling: &crate::stock::Tiling,
     tools: &ToolSet,
-    dir: &Path,
+    dir: Option<&Path>,
 ) -> Result<()> {
     let grid = tiling.grid;
     let (tool_of_step, options) = sweep_setup(tools, &run.steps)?;
@@ -1260,23 +1280,29 @@ pub fn write_tiled_columns(
         meaning,
         values,
     };
-    let mut writer = export::ColumnGridWriter::begin(
-        dir,
-        &GridInfo::of(&grid).export(),
-        &[
-            meta("top_mm", "mm", TOP_MEANING, export::NpyValues::F32(&[])),
-            meta(
-                "last_step",
-                "1",
-                LAST_STEP_MEANING,
-                export::NpyValues::I32(&[]),
-            ),
-            meta("error_um", "µm", ERROR_MEANING, export::NpyValues::F32(&[])),
-        ],
-    )
-    .map_err(|e| {
+    let grid_error = |e: export::Error, dir: &Path| {
         Error::from(e).context(format!("cannot write the column grid in {}", dir.display()))
-    })?;
+    };
+    let mut writer = match dir {
+        None => None,
+        Some(dir) => Some(
+            export::ColumnGridWriter::begin(
+                dir,
+                &GridInfo::of(&grid).export(),
+                &[
+                    meta("top_mm", "mm", TOP_MEANING, export::NpyValues::F32(&[])),
+                    meta(
+                        "last_step",
+                        "1",
+                        LAST_STEP_MEANING,
+                        export::NpyValues::I32(&[]),
+                    ),
+                    meta("error_um", "µm", ERROR_MEANING, export::NpyValues::F32(&[])),
+                ],
+            )
+            .map_err(|e| grid_error(e, dir))?,
+        ),
+    };
     let tools_list = tools.tools();
     let (mut initial_mm, mut final_mm) = (0.0, 0.0);
     let mut range = [0.0, 0.0];
@@ -1304,22 +1330,22 @@ pub fn write_tiled_columns(
         let own = (rows.start - held.start) * grid.nx..(rows.end - held.start) * grid.nx;
         let error = &error[own.clone()];
         range = error_range_um(error, range);
-        let tops = last.top_heights_at(own.clone());
-        let steps_cut = last_steps(&last.last_cut()[own]);
-        writer
-            .write_rows(&[
-                export::NpyValues::F32(&tops),
-                export::NpyValues::I32(&steps_cut),
-                export::NpyValues::F32(error),
-            ])
-            .map_err(|e| {
-                Error::from(e).context(format!("cannot write the column grid in {}", dir.display()))
-            })?;
+        if let (Some(writer), Some(dir)) = (writer.as_mut(), dir) {
+            let tops = last.top_heights_at(own.clone());
+            let steps_cut = last_steps(&last.last_cut()[own]);
+            writer
+                .write_rows(&[
+                    export::NpyValues::F32(&tops),
+                    export::NpyValues::I32(&steps_cut),
+                    export::NpyValues::F32(error),
+                ])
+                .map_err(|e| grid_error(e, dir))?;
+        }
         previous_last = Some(last);
     }
-    writer.finish().map_err(|e| {
-        Error::from(e).context(format!("cannot write the column grid in {}", dir.display()))
-    })?;
+    if let (Some(writer), Some(dir)) = (writer, dir) {
+        writer.finish().map_err(|e| grid_error(e, dir))?;
+    }
     let area = grid.cell_area_mm2();
     run.initial_volume_mm3 = initial_mm * area;
     run.final_volume_mm3 = final_mm * area;
