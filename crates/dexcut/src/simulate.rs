@@ -1274,33 +1274,11 @@ pub fn write_tiled_columns(
     };
     let reach_mm = 1e-3 * (largest_um(&run.model_um) + largest_um(&run.offsets_um));
     let halo = (reach_mm / grid.spacing_mm).ceil() as usize + 2;
-    let meta = |name, unit, meaning, values| export::GridArray {
-        name,
-        unit,
-        meaning,
-        values,
-    };
-    let grid_error = |e: export::Error, dir: &Path| {
-        Error::from(e).context(format!("cannot write the column grid in {}", dir.display()))
-    };
     let mut writer = match dir {
         None => None,
         Some(dir) => Some(
-            export::ColumnGridWriter::begin(
-                dir,
-                &GridInfo::of(&grid).export(),
-                &[
-                    meta("top_mm", "mm", TOP_MEANING, export::NpyValues::F32(&[])),
-                    meta(
-                        "last_step",
-                        "1",
-                        LAST_STEP_MEANING,
-                        export::NpyValues::I32(&[]),
-                    ),
-                    meta("error_um", "µm", ERROR_MEANING, export::NpyValues::F32(&[])),
-                ],
-            )
-            .map_err(|e| grid_error(e, dir))?,
+            export::ColumnGridWriter::begin(dir, &GridInfo::of(&grid).export(), &run_grid_arrays())
+                .map_err(grid_error(dir))?,
         ),
     };
     let tools_list = tools.tools();
@@ -1339,18 +1317,44 @@ pub fn write_tiled_columns(
                     export::NpyValues::I32(&steps_cut),
                     export::NpyValues::F32(error),
                 ])
-                .map_err(|e| grid_error(e, dir))?;
+                .map_err(grid_error(dir))?;
         }
         previous_last = Some(last);
     }
     if let (Some(writer), Some(dir)) = (writer, dir) {
-        writer.finish().map_err(|e| grid_error(e, dir))?;
+        writer.finish().map_err(grid_error(dir))?;
     }
     let area = grid.cell_area_mm2();
     run.initial_volume_mm3 = initial_mm * area;
     run.final_volume_mm3 = final_mm * area;
     run.error_range_um = Some(range);
     Ok(())
+}
+
+/// The arrays of the column grid every run writes (`top_mm`, `last_step`,
+/// `error_um`), as [`export::ColumnGridWriter::begin`] takes them (no values).
+fn run_grid_arrays() -> Vec<export::GridArray<'static>> {
+    let meta = |name, unit, meaning, values| export::GridArray {
+        name,
+        unit,
+        meaning,
+        values,
+    };
+    vec![
+        meta("top_mm", "mm", TOP_MEANING, export::NpyValues::F32(&[])),
+        meta(
+            "last_step",
+            "1",
+            LAST_STEP_MEANING,
+            export::NpyValues::I32(&[]),
+        ),
+        meta("error_um", "µm", ERROR_MEANING, export::NpyValues::F32(&[])),
+    ]
+}
+
+/// An error of writing the column grid into `dir`, with the folder named.
+fn grid_error(dir: &Path) -> impl Fn(export::Error) -> Error + Copy + '_ {
+    move |e| Error::from(e).context(format!("cannot write the column grid in {}", dir.display()))
 }
 
 /// `last_step` of the column grid: the step that last cut each column, −1 if none.
@@ -2151,25 +2155,14 @@ impl Run {
         let last_cut = self.stock.last_cut();
         let error = &self.error_um;
         let grid = GridInfo::of(self.stock.grid()).export();
-        let context = |e: export::Error| {
-            Error::Export(e).context(format!("cannot write the column grid in {}", dir.display()))
-        };
+        let context = grid_error(dir);
         let meta = |name, unit, meaning, values| export::GridArray {
             name,
             unit,
             meaning,
             values,
         };
-        let mut arrays = vec![
-            meta("top_mm", "mm", TOP_MEANING, export::NpyValues::F32(&[])),
-            meta(
-                "last_step",
-                "1",
-                LAST_STEP_MEANING,
-                export::NpyValues::I32(&[]),
-            ),
-            meta("error_um", "µm", ERROR_MEANING, export::NpyValues::F32(&[])),
-        ];
+        let mut arrays = run_grid_arrays();
         grid.check_len("grid array \"error_um\"", error.len())
             .map_err(context)?;
         if let Some(d) = design_diff_um {
