@@ -3341,37 +3341,17 @@ fn tiled_stock_gives_the_in_memory_results() {
         "slot.csv",
         "x,y,z\n10,-6,28\n12,46,27\n30,46,27\n50,-6,28.5\n50,16,28.5\n-6,16,27.5\n66,16,27.5\n",
     );
-    ok(&dexcut(
-        &["simulate", "job.toml", "--out", "whole"],
+    let (whole, tiled) = whole_and_tiled(
         dir.path(),
-    ));
-    let o = dexcut(
+        "simulate",
         &[
-            "simulate",
-            "job.toml",
-            "--out",
-            "tiled",
-            "--memory-budget-mb",
-            "1",
+            "steps.csv",
+            "columns.json",
+            "top_mm.npy",
+            "last_step.npy",
+            "error_um.npy",
         ],
-        dir.path(),
     );
-    ok(&o);
-    let said = String::from_utf8_lossy(&o.stdout);
-    assert!(said.contains("swept in 25 bands of 16 rows"), "{said}");
-    let (whole, tiled) = (dir.path().join("whole"), dir.path().join("tiled"));
-    for name in [
-        "steps.csv",
-        "columns.json",
-        "top_mm.npy",
-        "last_step.npy",
-        "error_um.npy",
-    ] {
-        assert!(
-            std::fs::read(whole.join(name)).unwrap() == std::fs::read(tiled.join(name)).unwrap(),
-            "{name} differs"
-        );
-    }
     let s = summary(&tiled);
     assert!(
         s["closed_loop_passes"].as_u64().unwrap() > 1,
@@ -3409,6 +3389,36 @@ fn tiled_stock_gives_the_in_memory_results() {
         &["--columns-csv with a stock too large"],
         Some("csv"),
     );
+}
+
+/// `dexcut COMMAND job.toml` in `dir` with the stock in memory (into
+/// `whole`) and with a 1 MB budget (into `tiled`: 25 bands of 16 rows for the
+/// tiled tests' 600-column stock), the files `same` equal byte for byte in
+/// both. Returns the two output folders.
+fn whole_and_tiled(dir: &Path, command: &str, same: &[&str]) -> (PathBuf, PathBuf) {
+    ok(&dexcut(&[command, "job.toml", "--out", "whole"], dir));
+    let o = dexcut(
+        &[
+            command,
+            "job.toml",
+            "--out",
+            "tiled",
+            "--memory-budget-mb",
+            "1",
+        ],
+        dir,
+    );
+    ok(&o);
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(said.contains("swept in 25 bands of 16 rows"), "{said}");
+    let (whole, tiled) = (dir.join("whole"), dir.join("tiled"));
+    for name in same {
+        assert!(
+            std::fs::read(whole.join(name)).unwrap() == std::fs::read(tiled.join(name)).unwrap(),
+            "{name} differs"
+        );
+    }
+    (whole, tiled)
 }
 
 /// A summary.json without what differs from run to run: its timings and run id.
@@ -3458,40 +3468,20 @@ fn tiled_stock_optimizes_as_in_memory() {
         "G21 G90 G17 G54\nG0 X10 Y-6 Z40\nG0 Z28\nG1 X12 Y46 Z27 F1200\nG1 X30\n\
          G1 X50 Y-6 Z28.5\nG1 Y16\nG0 Z40\nG0 X-6\nG1 Z27.5\nG1 X66 F1500\nG0 Z40\nM30\n",
     );
-    ok(&dexcut(
-        &["optimize", "job.toml", "--out", "whole"],
+    let (whole, tiled) = whole_and_tiled(
         dir.path(),
-    ));
-    let o = dexcut(
+        "optimize",
         &[
-            "optimize",
-            "job.toml",
-            "--out",
-            "tiled",
-            "--memory-budget-mb",
-            "1",
+            "optimized.nc",
+            "servo.csv",
+            "steps.csv",
+            "steps_before.csv",
+            "columns.json",
+            "top_mm.npy",
+            "last_step.npy",
+            "error_um.npy",
         ],
-        dir.path(),
     );
-    ok(&o);
-    let said = String::from_utf8_lossy(&o.stdout);
-    assert!(said.contains("swept in 25 bands of 16 rows"), "{said}");
-    let (whole, tiled) = (dir.path().join("whole"), dir.path().join("tiled"));
-    for name in [
-        "optimized.nc",
-        "servo.csv",
-        "steps.csv",
-        "steps_before.csv",
-        "columns.json",
-        "top_mm.npy",
-        "last_step.npy",
-        "error_um.npy",
-    ] {
-        assert!(
-            std::fs::read(whole.join(name)).unwrap() == std::fs::read(tiled.join(name)).unwrap(),
-            "{name} differs"
-        );
-    }
     let s = summary(&tiled);
     // The limit binds: the program as given is over it, the written one within it.
     let (before, after) = (&s["before"], &s["after"]);
