@@ -2,8 +2,9 @@
 
 use crate::Error;
 
-/// Bytes one column costs in a [`crate::Stock`] (top interval and last-cut
-/// index; the rare intervals below a top one are held apart).
+/// Bytes one column costs in a [`crate::Stock`] at most (top interval and
+/// last-cut index; the rare intervals below a top one are held apart; a
+/// stock whose top intervals share their bottom holds 8, `stock::Bottoms`).
 pub const BYTES_PER_COLUMN: usize =
     std::mem::size_of::<crate::stock::Top>() + std::mem::size_of::<u32>();
 

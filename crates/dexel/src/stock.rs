@@ -5,11 +5,12 @@ use crate::{Error, Grid};
 /// Marker for "no step has cut this column".
 pub const NEVER_CUT: u32 = u32::MAX;
 
-/// A column's top material interval as the stock holds it, 8 B (issue 16).
-/// The intervals below it, where a column holds more than one (undercuts,
-/// voids), live in the side table of its row ([`RowBelow`]): the sweep
-/// kernel's test of a column reads only its top. Empty: `lo > hi` (then
-/// nothing lies below either).
+/// A column's top material interval (issue 16): the stock holds its `hi`
+/// (the column's top, −∞ where empty: the sweep kernel's test of a column
+/// reads it alone) and its `lo` in [`Bottoms`]. The intervals below it,
+/// where a column holds more than one (undercuts, voids), live in the side
+/// table of its row ([`RowBelow`]). Empty: `lo > hi` (then nothing lies
+/// below either).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Top {
     /// Bottom of the top interval, mm.
@@ -24,13 +25,6 @@ impl Top {
         lo: f32::INFINITY,
         hi: f32::NEG_INFINITY,
     };
-
-    /// Highest material z, −∞ for [`Top::EMPTY`] (no branch on emptiness:
-    /// its `hi` is −∞); the sweep kernel's per-column test.
-    #[inline]
-    pub(crate) fn top_or_neg_inf(&self) -> f32 {
-        self.hi
-    }
 }
 
 /// The intervals below the top one of the columns of one row that hold more
@@ -160,11 +154,78 @@ pub struct Stock {
     grid: Grid,
     /// First grid row held.
     row0: usize,
-    /// Each column's top interval, row-major.
-    pub(crate) columns: Vec<Top>,
+    /// Each column's top interval's top (its `hi`), row-major: −∞ where the
+    /// column is empty.
+    pub(crate) tops: Vec<f32>,
+    /// The bottoms of the top intervals (their `lo`): one for all, or one a column.
+    pub(crate) bottoms: Bottoms,
     /// Per row held, the intervals below the top ones (undercuts, voids).
     pub(crate) below: Vec<RowBelow>,
     pub(crate) last_cut: Vec<u32>,
+}
+
+/// The bottoms of a stock's top intervals (issue 16). A stock made of a box
+/// or a vertical cylinder, or of any columns that hold one interval each
+/// with the same bottom, keeps that bottom once: a column costs its top and
+/// its last cut, 8 B. A cut never raises a bottom (it removes the column's
+/// material at and above a height, `sweep::strip::cut_above`), and with no
+/// intervals below the top ones it only empties a column (top −∞), so the
+/// stock stays uniform through every sweep. Other stocks (a mesh stock's
+/// undercuts, bottoms that differ) keep one a column.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Bottoms {
+    /// Every non-empty column's top interval starts here, and no column
+    /// holds an interval below its top one.
+    Uniform(f32),
+    /// Each column's own (+∞ where empty), row-major.
+    Columns(Vec<f32>),
+}
+
+impl Bottoms {
+    /// The bottoms of the columns whose tops are `tops` and whose bottoms
+    /// `lo_bits` holds (f32 bits; a column's with top −∞ is not read), rows'
+    /// intervals below the tops `below`: [`Bottoms::Uniform`] where no
+    /// column holds an interval below its top and every non-empty column's
+    /// bottom is the same bits, else [`Bottoms::Columns`] (in the memory of
+    /// `reuse`'s where it keeps one a column).
+    fn of(tops: &[f32], lo_bits: &[u32], below: &[RowBelow], reuse: Bottoms) -> Bottoms {
+        let mut filled = tops
+            .iter()
+            .zip(lo_bits)
+            .filter(|&(&hi, _)| hi != Top::EMPTY.hi)
+            .map(|(_, &lo)| lo);
+        let first = filled.next().unwrap_or(Top::EMPTY.lo.to_bits());
+        if below.iter().all(|b| b.0.is_empty()) && filled.all(|lo| lo == first) {
+            return Bottoms::Uniform(f32::from_bits(first));
+        }
+        let mut lo = match reuse {
+            Bottoms::Columns(v) => v,
+            Bottoms::Uniform(_) => Vec::new(),
+        };
+        lo.clear();
+        lo.extend(lo_bits.iter().map(|&b| f32::from_bits(b)));
+        Bottoms::Columns(lo)
+    }
+}
+
+/// A stock's [`Bottoms`] as the sweep kernel's strip cuts them: the one
+/// bottom, or the strip's columns'.
+pub(crate) enum BottomsMut<'a> {
+    Uniform(f32),
+    Columns(&'a mut [f32]),
+}
+
+impl BottomsMut<'_> {
+    /// The pieces of its rows `len` columns long from the front, and the rest.
+    pub(crate) fn split_at_mut(self, len: usize) -> (Self, Self) {
+        match self {
+            BottomsMut::Uniform(lo) => (BottomsMut::Uniform(lo), BottomsMut::Uniform(lo)),
+            BottomsMut::Columns(c) => {
+                let (a, b) = c.split_at_mut(len);
+                (BottomsMut::Columns(a), BottomsMut::Columns(b))
+            }
+        }
+    }
 }
 
 /// Refuse grids that would need more than this share of physical memory.
@@ -218,39 +279,48 @@ impl Stock {
             ..grid
         };
         Stock::check_memory(&band, DEFAULT_MEMORY_LIMIT_BYTES)?;
-        let (mut columns, mut below, mut last_cut) = reuse
-            .map_or((Vec::new(), Vec::new(), Vec::new()), |s| {
-                (s.columns, s.below, s.last_cut)
-            });
-        columns.clear();
-        columns.resize(band.len(), Top::EMPTY);
+        let (mut tops, bottoms, mut below, mut last_cut) = reuse.map_or(
+            (
+                Vec::new(),
+                Bottoms::Uniform(f32::INFINITY),
+                Vec::new(),
+                Vec::new(),
+            ),
+            |s| (s.tops, s.bottoms, s.below, s.last_cut),
+        );
+        tops.clear();
+        tops.resize(band.len(), Top::EMPTY.hi);
         below.clear();
         below.resize(rows.len(), RowBelow::default());
+        // The bottoms are filled into the last-cut marks' memory (as f32
+        // bits) and kept once where they are all one: no column's bottom is
+        // held beside the stock to find out.
         last_cut.clear();
-        last_cut.resize(band.len(), NEVER_CUT);
-        columns
-            .par_chunks_mut(grid.nx.max(1))
+        last_cut.resize(band.len(), Top::EMPTY.lo.to_bits());
+        let nx = grid.nx.max(1);
+        tops.par_chunks_mut(nx)
+            .zip(last_cut.par_chunks_mut(nx))
             .zip(below.par_iter_mut())
             .enumerate()
-            .for_each_init(Vec::new, |buf, (j, (row, row_below))| {
-                for (ix, col) in row.iter_mut().enumerate() {
+            .for_each_init(Vec::new, |buf, (j, ((row, row_lo), row_below))| {
+                for (ix, (hi, lo)) in row.iter_mut().zip(row_lo).enumerate() {
                     buf.clear();
                     fill(ix, rows.start + j, buf);
                     if let [lower @ .., top] = buf.as_slice() {
-                        *col = Top {
-                            lo: top[0],
-                            hi: top[1],
-                        };
+                        (*lo, *hi) = (top[0].to_bits(), top[1]);
                         if !lower.is_empty() {
                             row_below.0.push((ix as u32, lower.to_vec()));
                         }
                     }
                 }
             });
+        let bottoms = Bottoms::of(&tops, &last_cut, &below, bottoms);
+        last_cut.fill(NEVER_CUT);
         Ok(Stock {
             grid,
             row0: rows.start,
-            columns,
+            tops,
+            bottoms,
             below,
             last_cut,
         })
@@ -313,7 +383,7 @@ impl Stock {
 
     /// The grid rows this stock holds (all of them unless it is a band).
     pub fn rows(&self) -> std::ops::Range<usize> {
-        self.row0..self.row0 + self.columns.len() / self.grid.nx.max(1)
+        self.row0..self.row0 + self.tops.len() / self.grid.nx.max(1)
     }
 
     /// Column at `(ix, iy)` (`iy` a grid row this stock holds).
@@ -325,20 +395,58 @@ impl Stock {
     pub fn column_at(&self, i: usize) -> Column<'_> {
         let nx = self.grid.nx.max(1);
         Column {
-            top: self.columns[i],
+            top: self.top_at(i),
             below: self.below[i / nx].of(i % nx),
+        }
+    }
+
+    /// The top interval of the column at index `i` ([`Top::EMPTY`] where
+    /// the column is empty, whatever its bottoms keep).
+    #[inline]
+    fn top_at(&self, i: usize) -> Top {
+        let hi = self.tops[i];
+        match &self.bottoms {
+            Bottoms::Uniform(_) if hi == Top::EMPTY.hi => Top::EMPTY,
+            &Bottoms::Uniform(lo) => Top { lo, hi },
+            Bottoms::Columns(lo) => Top { lo: lo[i], hi },
         }
     }
 
     /// The columns held, row-major (of the rows in [`Stock::rows`]).
     pub fn columns(&self) -> impl ExactSizeIterator<Item = Column<'_>> + '_ {
-        (0..self.columns.len()).map(|i| self.column_at(i))
+        (0..self.tops.len()).map(|i| self.column_at(i))
     }
 
     /// Per column held, the index of the step that last removed material
     /// there ([`NEVER_CUT`] if none).
     pub fn last_cut(&self) -> &[u32] {
         &self.last_cut
+    }
+
+    /// The top, bottoms, intervals below and last-cut marks of the columns,
+    /// for the sweep kernel to cut.
+    pub(crate) fn parts_mut(
+        &mut self,
+    ) -> (&mut [f32], BottomsMut<'_>, &mut [RowBelow], &mut [u32]) {
+        let bottoms = match &mut self.bottoms {
+            Bottoms::Uniform(lo) => BottomsMut::Uniform(*lo),
+            Bottoms::Columns(lo) => BottomsMut::Columns(lo),
+        };
+        (&mut self.tops, bottoms, &mut self.below, &mut self.last_cut)
+    }
+
+    /// Bytes its columns hold: tops, bottoms (none where they are one,
+    /// [`Bottoms::Uniform`]), last cuts and the intervals below the tops.
+    pub fn memory_bytes(&self) -> usize {
+        let f = std::mem::size_of::<f32>();
+        let bottoms = match &self.bottoms {
+            Bottoms::Uniform(_) => 0,
+            Bottoms::Columns(lo) => lo.len() * f,
+        };
+        let below: usize = (self.below.iter().flat_map(|r| &r.0))
+            .map(|(_, v)| 4 + v.len() * 2 * f)
+            .sum();
+        self.tops.len() * f + bottoms + self.last_cut.len() * std::mem::size_of::<u32>() + below
     }
 
     /// Material volume held, mm³ (f64, summed row by row in a fixed order).
@@ -363,7 +471,7 @@ impl Stock {
 
     /// Top surface height per column held (NaN where empty), row-major.
     pub fn top_heights(&self) -> Vec<f32> {
-        self.top_heights_at(0..self.columns.len())
+        self.top_heights_at(0..self.tops.len())
     }
 
     /// [`Stock::top_heights`] of the columns held at the indices `at` (of
@@ -376,7 +484,7 @@ impl Stock {
     /// it holds no material (read from the top interval alone).
     #[inline]
     pub fn top_or_nan_at(&self, i: usize) -> f32 {
-        let top = self.columns[i];
+        let top = self.top_at(i);
         if top.lo < top.hi {
             top.hi
         } else {

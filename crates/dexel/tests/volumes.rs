@@ -723,3 +723,61 @@ fn whole_sweep_record_equals_the_finished_band() {
         }
     }
 }
+
+/// A stock whose top intervals share their bottom keeps it once (8 B a
+/// column: top and last cut), and sweeps as the same stock keeping a bottom
+/// a column: the same record and columns bit for bit, through cuts that
+/// empty columns (a slot below the box) and moves over the emptied ones. The
+/// second stock is the box with one corner column deeper, far from the tool.
+#[test]
+fn a_stock_of_one_bottom_sweeps_as_one_of_a_bottom_a_column() {
+    let (min, max) = ([0.0, 0.0, -2.0], [30.0, 20.0, 0.0]);
+    let uniform = Stock::new_box(min, max, 0.1).unwrap();
+    let grid = *uniform.grid();
+    let deeper = Stock::from_columns(grid, |ix, iy, out| {
+        let lo = if (ix, iy) == (0, 0) { -3.0 } else { -2.0 };
+        out.push([lo, 0.0]);
+    })
+    .unwrap();
+    assert_eq!(uniform.memory_bytes(), 8 * grid.len());
+    assert_eq!(deeper.memory_bytes(), 12 * grid.len());
+    let cylinder = Stock::new_cylinder([10.0, 10.0], 8.0, -1.0, 2.0, 0.1).unwrap();
+    assert_eq!(cylinder.memory_bytes(), 8 * cylinder.grid().len());
+    // A slot through the bottom (z −3 at the tip: the columns under the
+    // ball's middle emptied), a pass back over it, and a raster above.
+    let mut steps = vec![
+        line([5.0, 10.0, 1.0], [5.0, 10.0, -3.0]),
+        line([5.0, 10.0, -3.0], [25.0, 12.0, -3.0]),
+        line([25.0, 12.0, -1.0], [4.0, 9.0, -1.5]),
+    ];
+    for k in 0..12 {
+        let y = 3.0 + 1.3 * k as f64;
+        let (a, b) = if k % 2 == 0 { (4.0, 27.0) } else { (27.0, 4.0) };
+        steps.push(line([a, y, -0.4], [b, y, -0.6]));
+    }
+    for tool in [Tool::ball(6.0), Tool::flat(4.0), Tool::bull(6.0, 1.0)] {
+        let (mut a, mut b) = (uniform.clone(), deeper.clone());
+        let (ra, rb) = (
+            run(&mut a, &tool, &steps, 0.5),
+            run(&mut b, &tool, &steps, 0.5),
+        );
+        assert!(ra.total_volume_mm3() > 100.0, "{tool:?} cuts");
+        assert_eq!(record_bits(&ra), record_bits(&rb), "{tool:?}");
+        assert_eq!(a.last_cut(), b.last_cut(), "{tool:?}");
+        let emptied = a.columns().filter(|c| c.is_empty()).count();
+        assert!(emptied > 100, "{tool:?}: {emptied} columns emptied");
+        for (i, (ca, cb)) in a.columns().zip(b.columns()).enumerate().skip(1) {
+            assert_eq!(ca, cb, "{tool:?}: column {i}");
+            assert_eq!(ca.top_or_nan().to_bits(), a.top_or_nan_at(i).to_bits());
+        }
+        assert_eq!(
+            b.column(0, 0).intervals().collect::<Vec<_>>(),
+            [[-3.0, 0.0]]
+        );
+        assert_eq!(
+            a.memory_bytes(),
+            8 * grid.len(),
+            "{tool:?}: still one bottom"
+        );
+    }
+}

@@ -9,7 +9,7 @@ use super::flat::FlatEnd;
 use super::slot::{CONTACT_X, CONTACT_Y, SHANK, VOLUME};
 use super::strip::{partial_width, Banding, StripJob};
 use super::{Envelope, Prepared, RemovalRecord, Step, SweepOptions, HEAD, PLUNGE_H2};
-use crate::stock::{RowBelow, Top};
+use crate::stock::{BottomsMut, RowBelow};
 use crate::{Error, Grid, Stock, Tool, ToolShape};
 
 /// Sweep `tool` along `steps` through `stock`, removing material and recording
@@ -578,16 +578,15 @@ fn run_batches<E: Envelope>(
         // Split columns, the rows' intervals below their tops, last-cut marks
         // and partial sums into per-strip pieces.
         type Piece<'a> = (
-            &'a mut [Top],
+            &'a mut [f32],
+            BottomsMut<'a>,
             &'a mut [RowBelow],
             &'a mut [u32],
             &'a mut [f64],
         );
         let mut pieces: Vec<Piece> = Vec::with_capacity(n_strips);
         let mut rest: &mut [f64] = &mut partial;
-        let mut cols_rest: &mut [Top] = &mut stock.columns;
-        let mut below_rest: &mut [RowBelow] = &mut stock.below;
-        let mut last_rest: &mut [u32] = &mut stock.last_cut;
+        let (mut cols_rest, mut bottoms_rest, mut below_rest, mut last_rest) = stock.parts_mut();
         for s in 0..n_strips {
             let n = (counts[s + 1] - counts[s]) as usize * width;
             let (head, tail) = rest.split_at_mut(n);
@@ -598,19 +597,25 @@ fn run_batches<E: Envelope>(
             let len = (strip_end - strip_row0(s)) * grid.nx;
             let (cols, cols_tail) = cols_rest.split_at_mut(len);
             cols_rest = cols_tail;
+            let (bottoms, bottoms_tail) = bottoms_rest.split_at_mut(len);
+            bottoms_rest = bottoms_tail;
             let (last, last_tail) = last_rest.split_at_mut(len);
             last_rest = last_tail;
-            pieces.push((cols, below, last, head));
+            pieces.push((cols, bottoms, below, last, head));
         }
         let visited: u64 = pieces
             .into_par_iter()
             .enumerate()
-            .map(|(s, (cols, below, last, out))| {
+            .map(|(s, (cols, bottoms, below, last, out))| {
                 let ents = &entries[counts[s] as usize..counts[s + 1] as usize];
                 if ents.is_empty() {
                     0
                 } else {
-                    job.run(strip_row0(s), cols, below, last, ents, out)
+                    let r0 = strip_row0(s);
+                    match bottoms {
+                        BottomsMut::Uniform(lo) => job.run(r0, cols, lo, below, last, ents, out),
+                        BottomsMut::Columns(lo) => job.run(r0, cols, lo, below, last, ents, out),
+                    }
                 }
             })
             .sum();

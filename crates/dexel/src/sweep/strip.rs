@@ -52,28 +52,80 @@ impl Banding {
 }
 
 /// Remove everything at and above `z` from column `ix` of a row (its top
-/// interval `col`, the intervals below in `below`), reporting each removed
+/// interval `lo..hi`, the intervals below in `below`), reporting each removed
 /// piece from the top down.
 #[inline]
 fn cut_above(
-    col: &mut Top,
+    hi: &mut f32,
+    lo: &mut f32,
     below: &mut RowBelow,
     ix: usize,
     z: f32,
     mut piece: impl FnMut(f32, f32),
 ) {
-    while col.hi > z && col.lo < col.hi {
-        if col.lo >= z {
-            piece(col.lo, col.hi);
-            *col = match below.pop(ix) {
+    while *hi > z && *lo < *hi {
+        if *lo >= z {
+            piece(*lo, *hi);
+            let top = match below.pop(ix) {
                 Some([lo, hi]) => Top { lo, hi },
                 None => Top::EMPTY,
             };
+            (*lo, *hi) = (top.lo, top.hi);
         } else {
-            piece(z, col.hi);
-            col.hi = z;
+            piece(z, *hi);
+            *hi = z;
             return;
         }
+    }
+}
+
+/// The bottoms of a strip's top intervals as its loop cuts them
+/// ([`crate::stock::Bottoms`]): the strip loop is made for each kind, so
+/// that a uniform stock's column reads and writes its top alone.
+pub(super) trait CutBottoms {
+    /// [`cut_above`] of the column at index `i` of the strip (column `ix`
+    /// of its row, whose intervals below the tops are `below`), top `hi`.
+    fn cut_above(
+        &mut self,
+        i: usize,
+        hi: &mut f32,
+        below: &mut RowBelow,
+        ix: usize,
+        z: f32,
+        piece: impl FnMut(f32, f32),
+    );
+}
+
+/// One bottom for all: a uniform stock holds nothing below its tops, and a
+/// column cut whole is left empty (top −∞), its bottom unchanged.
+impl CutBottoms for f32 {
+    #[inline]
+    fn cut_above(
+        &mut self,
+        _: usize,
+        hi: &mut f32,
+        below: &mut RowBelow,
+        ix: usize,
+        z: f32,
+        piece: impl FnMut(f32, f32),
+    ) {
+        cut_above(hi, &mut { *self }, below, ix, z, piece)
+    }
+}
+
+/// A bottom a column.
+impl CutBottoms for &mut [f32] {
+    #[inline]
+    fn cut_above(
+        &mut self,
+        i: usize,
+        hi: &mut f32,
+        below: &mut RowBelow,
+        ix: usize,
+        z: f32,
+        piece: impl FnMut(f32, f32),
+    ) {
+        cut_above(hi, &mut self[i], below, ix, z, piece)
     }
 }
 
@@ -372,10 +424,12 @@ impl<E: Envelope> StripJob<'_, E> {
     /// `row0..row0 + rows` whose columns are `cols`; write per-entry sums into `out`
     /// (per entry: this step's sums, then with smoothing the shares for the
     /// previous and the next step).
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn run(
         &self,
         row0: usize,
-        cols: &mut [Top],
+        cols: &mut [f32],
+        mut bottoms: impl CutBottoms,
         below: &mut [RowBelow],
         last_cut: &mut [u32],
         entries: &[u32],
@@ -461,7 +515,8 @@ impl<E: Envelope> StripJob<'_, E> {
                 };
                 for ix in ix0..=ix1 {
                     let col = &mut cols[base + ix];
-                    let top = col.top_or_neg_inf();
+                    // (−∞ where the column is empty.)
+                    let top = *col;
                     if top <= zmin {
                         continue;
                     }
@@ -478,7 +533,7 @@ impl<E: Envelope> StripJob<'_, E> {
                     }
                     let z_tip = m.p0[2] + t * m.d[2];
                     let mut removed = 0.0;
-                    cut_above(col, &mut below[iy - row0], ix, z, |a, b| {
+                    bottoms.cut_above(base + ix, col, &mut below[iy - row0], ix, z, |a, b| {
                         removed += self.banding.credit(all, z_tip, a as f64, b as f64);
                     });
                     if removed > 0.0 {
@@ -570,7 +625,7 @@ impl<E: Envelope> StripJob<'_, E> {
         &self,
         m: &Prepared,
         y: f64,
-        row: &[Top],
+        row: &[f32],
         ix0: usize,
         ix1: usize,
     ) -> Option<(usize, usize)> {
@@ -597,19 +652,19 @@ impl<E: Envelope> StripJob<'_, E> {
 /// NaN, so a plain compare replaces `f32::max`, and four running maxima break
 /// the dependency chain of one: the maximum is exact in any order.
 #[inline]
-fn row_top(row: &[Top]) -> f32 {
+fn row_top(row: &[f32]) -> f32 {
     let max = |a: f32, b: f32| if b > a { b } else { a };
     let mut acc = [f32::NEG_INFINITY; 4];
     let mut quads = row.chunks_exact(4);
     for q in &mut quads {
-        for (a, c) in acc.iter_mut().zip(q) {
-            *a = max(*a, c.top_or_neg_inf());
+        for (a, &c) in acc.iter_mut().zip(q) {
+            *a = max(*a, c);
         }
     }
     let rest = quads
         .remainder()
         .iter()
-        .fold(f32::NEG_INFINITY, |a, c| max(a, c.top_or_neg_inf()));
+        .fold(f32::NEG_INFINITY, |a, &c| max(a, c));
     max(max(acc[0], acc[1]), max(max(acc[2], acc[3]), rest))
 }
 
@@ -629,16 +684,25 @@ mod tests {
             },
         )
         .unwrap();
-        let (mut col, mut below) = (stock.columns[3], stock.below[0].clone());
+        let mut stock = stock;
+        let (tops, bottoms, below, _) = stock.parts_mut();
+        let crate::stock::BottomsMut::Columns(bottoms) = bottoms else {
+            panic!("columns of several intervals keep a bottom each");
+        };
+        let (mut hi, mut lo, mut below) = (tops[3], bottoms[3], below[0].clone());
         let mut pieces = Vec::new();
-        cut_above(&mut col, &mut below, 3, 2.5, |a, b| pieces.push((a, b)));
+        cut_above(&mut hi, &mut lo, &mut below, 3, 2.5, |a, b| {
+            pieces.push((a, b))
+        });
         assert_eq!(pieces, vec![(4.0, 5.0), (2.5, 3.0)]);
-        assert_eq!((col.lo, col.hi), (2.0, 2.5));
+        assert_eq!((lo, hi), (2.0, 2.5));
         assert_eq!(below.of(3), &[[0.0, 1.0]]);
         pieces.clear();
-        cut_above(&mut col, &mut below, 3, -1.0, |a, b| pieces.push((a, b)));
+        cut_above(&mut hi, &mut lo, &mut below, 3, -1.0, |a, b| {
+            pieces.push((a, b))
+        });
         assert_eq!(pieces, vec![(2.0, 2.5), (0.0, 1.0)]);
-        assert_eq!(col, Top::EMPTY);
+        assert_eq!(Top { lo, hi }, Top::EMPTY);
         assert_eq!(below.of(3), &[] as &[[f32; 2]]);
         assert_eq!(
             below.of(1),
