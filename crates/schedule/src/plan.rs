@@ -61,6 +61,11 @@ struct Run {
     window_s: f64,
     /// Rest added before the run by the slowed fallback (see [`plan`]), s.
     pause_s: f64,
+    /// From when the sampler takes this run's filtered motion, s: `start_s` for a run
+    /// leaving a stop; for a section of a run leaving a held cap c at speed c
+    /// ([`RunPlanner::sectioned`]), `start_s` + W/2, when the filtered motion is at its
+    /// first station (MODEL.md §6.1, "Sections").
+    switch_s: f64,
 }
 
 /// A planned speed profile over [`Stations`].
@@ -160,13 +165,25 @@ pub fn plan(stations: &Stations) -> Profile<'_> {
         } else {
             candidates.push(1.0);
         }
-        let (end_s, _) = planner.verified_run(
+        let (mut end_s, verified, kept) = planner.verified_run(
             &mut profile,
             (pair[0], pair[1]),
             base_window_s,
             &candidates,
             (REPAIR_MAX_TRIES, SLOW_MAX_TRIES),
         );
+        // Sections on runs the grid of λ is tried on, or the search (not on longer runs:
+        // each value plans the whole run once more, for little on the 1 M-block raster).
+        if base_window_s > 0.0
+            && last - first <= LAMBDA_GRID_MAX_STATIONS
+            && !matches!(verified, Verified::Slowed { .. })
+        {
+            if let Some(sectioned_end_s) =
+                planner.sectioned(&mut profile, base_window_s, kept, SECTION_DEPTH)
+            {
+                end_s = sectioned_end_s;
+            }
+        }
         let window_s = profile.runs.last().map_or(0.0, |run| run.window_s);
         profile.cycle_time_s = end_s + (window_s + pair[1].dwell_s);
     }
@@ -191,6 +208,35 @@ enum Verified {
         slow: f64,
     },
 }
+
+/// The values of λ each section of a run tries (MODEL.md §6.1, "Sections"): 0.8^k,
+/// k = 0..14, from 1 to 0.055.
+const SECTION_GRID: [f64; 14] = [
+    1.0,
+    0.8,
+    0.64,
+    0.512,
+    0.4096,
+    0.32768,
+    0.262144,
+    0.2097152,
+    0.16777216,
+    0.134217728,
+    0.1073741824,
+    0.08589934592,
+    0.068719476736,
+    0.0549755813888,
+];
+
+/// A section that verifies at none of its values is merged with the next, at most this
+/// many times (MODEL.md §6.1, "Sections").
+const SECTION_MERGES: usize = 8;
+/// How many times a section is cut again where its own plan is flat at a cap (MODEL.md
+/// §6.1, "Sections"). 0: a kept section's last stencils are checked up to its join only,
+/// and a section cut again with a short window there (or the sample times it moves) can
+/// leave a later section no value that verifies (on 3D_Chips every depth from 1 to 3
+/// did, and the run was planned whole).
+const SECTION_DEPTH: usize = 0;
 
 /// Tries of the first fallback (full corner holds restored where samples break a limit).
 const RESTORE_MAX_TRIES: usize = 4;
@@ -271,7 +317,7 @@ impl<'a> RunPlanner<'a> {
         base_window_s: f64,
         candidates: &[f64],
         (repair_tries, slow_tries): (usize, usize),
-    ) -> (f64, Verified) {
+    ) -> (f64, Verified, (f64, f64)) {
         let (first, last) = (stops.0.station, stops.1.station);
         let start_s = profile.cycle_time_s;
         let runs_before = profile.runs.len();
@@ -306,7 +352,11 @@ impl<'a> RunPlanner<'a> {
                 Some(&mut *found),
             );
             if ratio <= 1.0 {
-                return (end_s, Verified::Candidate(index));
+                return (
+                    end_s,
+                    Verified::Candidate(index),
+                    (lambda, lambda * base_window_s),
+                );
             }
             if index > 0 && !restore_every {
                 continue;
@@ -331,7 +381,11 @@ impl<'a> RunPlanner<'a> {
                     Some(&mut *found),
                 );
                 if ratio <= 1.0 {
-                    return (end_s, Verified::Restored(restores));
+                    return (
+                        end_s,
+                        Verified::Restored(restores),
+                        (lambda, lambda * base_window_s),
+                    );
                 }
             }
         }
@@ -354,7 +408,7 @@ impl<'a> RunPlanner<'a> {
                 Some(&mut violations),
             );
             if ratio <= 1.0 {
-                return (end_s, Verified::Repaired(repairs));
+                return (end_s, Verified::Repaired(repairs), (lambda, window_s));
             }
         }
         // Fallback 3: that plan slowed in time by σ.
@@ -381,7 +435,11 @@ impl<'a> RunPlanner<'a> {
                         slow,
                     });
                 }
-                return (end_s, Verified::Slowed { tries, slow });
+                return (
+                    end_s,
+                    Verified::Slowed { tries, slow },
+                    (lambda, window_s / slow),
+                );
             }
             slow *= (SLOW_MARGIN / ratio).min(SLOW_STEP);
         }
@@ -548,7 +606,7 @@ impl<'a> RunPlanner<'a> {
             // The plan without holds: only the caps it touches need them.
             let mut free = v[first..=last].to_vec();
             self.passes(first, lambda, &mut free);
-            self.extend_caps(first, last, (lambda, window_s, slow), &free, v);
+            self.extend_caps(first, last, (lambda, window_s, slow), &free, v, false);
         }
         self.passes(first, lambda, &mut v[first..=last]);
         if window_s > 0.0 {
@@ -559,15 +617,219 @@ impl<'a> RunPlanner<'a> {
             .sum()
     }
 
+    /// Plans the section `first..=last` of a run into `v` (MODEL.md §6.1, "Sections"): as
+    /// [`RunPlanner::plan_run`] at σ = 1, but from the speed `ends.0` at `first` to
+    /// `ends.1` at `last` (0: a stop), each end at speed a held cap (c·W/2 of hold into the
+    /// section, never a slow dip). Returns the planned time, s, or `None` where the plan is
+    /// not flat at the end's speed over c·W/2 from a flying end: the filtered motion of
+    /// the section is then not at that end's station with the end's speed when the next
+    /// section takes over.
+    fn plan_section(
+        &self,
+        (first, last): (usize, usize),
+        (lambda, window_s): (f64, f64),
+        ends: (f64, f64),
+        v: &mut [f64],
+    ) -> Option<f64> {
+        let s = self.stations.s_mm();
+        for (vk, cap) in v[first..=last]
+            .iter_mut()
+            .zip(&self.caps_mm_s[first..=last])
+        {
+            *vk = *cap;
+        }
+        let mut free = v[first..=last].to_vec();
+        self.passes_between(first, lambda, &mut free, ends);
+        self.extend_caps(first, last, (lambda, window_s, 1.0), &free, v, true);
+        self.passes_between(first, lambda, &mut v[first..=last], ends);
+        self.cut_peaks(first, last, window_s, 1.0, v);
+        let flat = |stations: &mut dyn Iterator<Item = usize>, end: usize, c: f64| {
+            let reach = c * window_s / 2.0;
+            for k in stations {
+                if v[k] != c {
+                    return false;
+                }
+                if (s[k] - s[end]).abs() >= reach {
+                    break;
+                }
+            }
+            true
+        };
+        if ends.0 > 0.0 && !flat(&mut (first + 1..=last), first, ends.0) {
+            return None;
+        }
+        if ends.1 > 0.0 && !flat(&mut (first..last).rev(), last, ends.1) {
+            return None;
+        }
+        Some(
+            (first..last)
+                .map(|k| 2.0 * (s[k + 1] - s[k]) / (v[k] + v[k + 1]))
+                .sum(),
+        )
+    }
+
+    /// Sections of the run the profile holds last, planned as that run was (`kept` =
+    /// (λ, W)), with a window of their own (MODEL.md §6.1, "Sections"): the run is cut at
+    /// the stations where its plan runs at the station's cap c and is flat at c over
+    /// c·W/2 on either side; each section between two cuts (or a stop) is planned by
+    /// [`RunPlanner::plan_section`] at each λ of [`SECTION_GRID`] (W = λ·`base_window_s`)
+    /// and at `kept`, and keeps the quickest whose samples verify
+    /// ([`Profile::last_run_axis_ratio`]). The sampler takes a section's filtered motion
+    /// from the moment it is at the section's first station (at speed c, with no
+    /// acceleration: both sections' plans are flat at c over their W/2 there). Returns the
+    /// time the last section's planned motion reaches the run's end, or `None` (the run
+    /// as it was) where a section verifies at none of its values or the sections are not
+    /// quicker.
+    fn sectioned(
+        &mut self,
+        profile: &mut Profile<'_>,
+        base_window_s: f64,
+        (lambda0, window0_s): (f64, f64),
+        depth: usize,
+    ) -> Option<f64> {
+        let run = *profile.runs.last()?;
+        if run.pause_s > 0.0 || run.window_s <= 0.0 {
+            return None;
+        }
+        let (first, last) = (run.first, run.last);
+        let s = self.stations.s_mm();
+        let saved = profile.speed_mm_s[first..=last].to_vec();
+        let v = |k: usize| saved[k - first];
+        let mut cuts = vec![first];
+        for m in first + 1..last {
+            let c = v(m);
+            let spacing = c * window0_s;
+            let reach = spacing / 2.0;
+            if !(c > 0.0 && c == self.caps_mm_s[m])
+                || s[m] - s[cuts[cuts.len() - 1]] < spacing
+                || s[last] - s[m] < spacing
+            {
+                continue;
+            }
+            let flat_before = (first..m)
+                .rev()
+                .take_while(|&k| s[m] - s[k] <= reach + self.ds_max_mm)
+                .all(|k| v(k) == c);
+            let flat_after = (m + 1..=last)
+                .take_while(|&k| s[k] - s[m] <= reach + self.ds_max_mm)
+                .all(|k| v(k) == c);
+            if flat_before && flat_after {
+                cuts.push(m);
+            }
+        }
+        if cuts.len() < 2 {
+            return None;
+        }
+        cuts.push(last);
+        profile.pop_run();
+        let runs_before = profile.runs.len();
+        let mut timed: Vec<(f64, f64, f64)> = Vec::with_capacity(SECTION_GRID.len() + 1);
+        // The previous section's planned end and window (a run leaving at speed: its
+        // start and window, so that its first section's filtered motion reaches the
+        // first station when the run's did).
+        let mut previous: Option<(f64, f64)> =
+            (v(first) > 0.0).then_some((run.start_s, run.window_s));
+        let mut verified = true;
+        let mut i = 0;
+        while i + 1 < cuts.len() {
+            let a = cuts[i];
+            let mut kept = None;
+            // A section that verifies at none of its values is merged with the next one.
+            let mut j = i + 1;
+            while j < cuts.len() && j <= i + SECTION_MERGES {
+                let b = cuts[j];
+                let ends = (v(a), v(b));
+                timed.clear();
+                let values = SECTION_GRID
+                    .iter()
+                    .map(|&lambda| (lambda, lambda * base_window_s))
+                    .chain(std::iter::once((lambda0, window0_s)));
+                let mut trial = std::mem::take(&mut self.trial);
+                for (lambda, window_s) in values {
+                    if let Some(d) = self.plan_section((a, b), (lambda, window_s), ends, &mut trial)
+                    {
+                        let rests =
+                            f64::from(u8::from(ends.0 == 0.0)) + f64::from(u8::from(ends.1 == 0.0));
+                        timed.push((d + rests * window_s / 2.0, lambda, window_s));
+                    }
+                }
+                self.trial = trial;
+                timed.sort_by(|x, y| x.0.total_cmp(&y.0));
+                for &(_, lambda, window_s) in &timed {
+                    self.plan_section((a, b), (lambda, window_s), ends, &mut profile.speed_mm_s);
+                    let start_s = match previous {
+                        None => run.start_s,
+                        Some((end_s, w)) => end_s + (w - window_s) / 2.0,
+                    };
+                    let end_s = profile.push_run(a, b, start_s, window_s, 0.0);
+                    if profile.last_run_axis_ratio(None) <= 1.0 {
+                        kept = Some((end_s, window_s, lambda));
+                        break;
+                    }
+                    profile.pop_run();
+                }
+                if kept.is_some() {
+                    break;
+                }
+                j += 1;
+            }
+            match kept {
+                Some((mut end_s, mut window_s, lambda)) => {
+                    // The section cut again where its own plan is flat at a cap.
+                    if depth > 0 {
+                        if let Some(e) =
+                            self.sectioned(profile, base_window_s, (lambda, window_s), depth - 1)
+                        {
+                            end_s = e;
+                            window_s = profile.runs.last().map_or(window_s, |r| r.window_s);
+                        }
+                    }
+                    previous = Some((end_s, window_s));
+                    i = j;
+                }
+                None => {
+                    verified = false;
+                    break;
+                }
+            }
+        }
+        // When the next run or section takes over: the filtered motion's end.
+        let handover = |end_s: f64, window_s: f64| {
+            end_s
+                + if v(last) == 0.0 {
+                    window_s
+                } else {
+                    window_s / 2.0
+                }
+        };
+        let quicker = previous.filter(|&(end_s, w)| {
+            verified && handover(end_s, w) < handover(run.start_s + run.duration_s, run.window_s)
+        });
+        if quicker.is_none() {
+            while profile.runs.len() > runs_before {
+                profile.pop_run();
+            }
+            profile.speed_mm_s[first..=last].copy_from_slice(&saved);
+            profile.push_run(first, last, run.start_s, run.window_s, run.pause_s);
+        }
+        quicker.map(|(end_s, _)| end_s)
+    }
+
     /// The forward/backward passes over stations `first..first + v.len()` (a run: rest at
     /// both ends), accelerations scaled by `lambda`: v becomes the highest speed profile
     /// under the caps it holds.
     fn passes(&self, first: usize, lambda: f64, v: &mut [f64]) {
+        self.passes_between(first, lambda, v, (0.0, 0.0));
+    }
+
+    /// [`RunPlanner::passes`] with the speeds `ends` at the first and last station
+    /// instead of rest (a section, [`RunPlanner::sectioned`]).
+    fn passes_between(&self, first: usize, lambda: f64, v: &mut [f64], ends: (f64, f64)) {
         let s = &self.stations.s_mm()[first..first + v.len()];
         let accel = &self.stations.interval_accel_mm_s2()[first..];
         let last = v.len() - 1;
-        v[0] = 0.0;
-        v[last] = 0.0;
+        v[0] = ends.0;
+        v[last] = ends.1;
         for k in 0..last {
             let reach = (v[k] * v[k] + 2.0 * lambda * accel[k] * (s[k + 1] - s[k])).sqrt();
             v[k + 1] = v[k + 1].min(reach);
@@ -601,6 +863,7 @@ impl<'a> RunPlanner<'a> {
         (lambda, window_s, slow): (f64, f64, f64),
         free: &[f64],
         v: &mut [f64],
+        ends_held: bool,
     ) {
         let s = &self.stations.s_mm()[first..=last];
         let accel = &self.stations.interval_accel_mm_s2()[first..last];
@@ -609,7 +872,9 @@ impl<'a> RunPlanner<'a> {
         let mut tree = RangeMin::<1>::new(s.len());
         for (j, &s_j) in s.iter().enumerate() {
             let cap = self.caps_mm_s[first + j] * slow;
-            if !self.is_corner[first + j] && free[j] < cap * (1.0 - 1e-9) {
+            // A section's ends at speed are held caps (never slow dips).
+            let end = ends_held && (j == 0 || j + 1 == s.len()) && free[j] > 0.0;
+            if !end && !self.is_corner[first + j] && free[j] < cap * (1.0 - 1e-9) {
                 continue;
             }
             let hold_s = if self.full_hold[first + j] {
@@ -620,7 +885,7 @@ impl<'a> RunPlanner<'a> {
             let reach = cap * hold_s / 2.0 + self.ds_max_mm;
             let lo = s[..=j].partition_point(|&x| x < s_j - reach);
             let hi = j + s[j..].partition_point(|&x| x <= s_j + reach);
-            if !self.plain[first + j] && hi - lo >= 2 {
+            if !end && !self.plain[first + j] && hi - lo >= 2 {
                 if let Some(dip) = slow_dip_mm_s(
                     cap,
                     (s_j - s[lo], s[hi - 1] - s_j),
@@ -798,6 +1063,11 @@ impl<'a> Profile<'a> {
             integral_mm_s += integral_over_mm_s(s[k] - s[first], v[k], a, dt);
             t_s += dt;
         }
+        let switch_s = if v[first] > 0.0 {
+            start_s + window_s / 2.0
+        } else {
+            start_s
+        };
         self.runs.push(Run {
             first,
             last,
@@ -806,6 +1076,7 @@ impl<'a> Profile<'a> {
             integral_mm_s,
             window_s,
             pause_s,
+            switch_s,
         });
         t_s
     }
@@ -840,13 +1111,27 @@ impl<'a> Profile<'a> {
         let tolerance = |limit: f64| limit * (1.0 + 1e-6) + 1e-6;
         let accel = machine.accel_mm_s2.map(tolerance);
         let jerk = machine.jerk_mm_s3.map(|j| j.map(tolerance));
-        let moving_from_s = run.start_s;
-        let moving_to_s = run.start_s + run.duration_s + run.window_s;
+        let moving_from_s = run.switch_s;
+        // A section that joins the next at speed is taken until the next one's switch.
+        let moving_to_s = run.start_s
+            + run.duration_s
+            + if self.speed_mm_s[run.last] > 0.0 {
+                run.window_s / 2.0
+            } else {
+                run.window_s
+            };
         if !(moving_to_s / period_s <= MAX_SAMPLES as f64) {
             return 0.0;
         }
         let lo = ((moving_from_s / period_s).floor() - 3.0).max(0.0) as usize;
-        let hi = (moving_to_s / period_s).ceil() as usize + 3;
+        // A section joined at speed is checked up to the next section's switch (the
+        // samples after it are the next section's, which checks every stencil reaching
+        // into them); a run ending at a stop to 3 periods past its end (rest after it).
+        let hi = if self.speed_mm_s[run.last] > 0.0 {
+            ((moving_to_s / period_s).ceil() as usize).saturating_sub(1)
+        } else {
+            (moving_to_s / period_s).ceil() as usize + 3
+        };
         let mut sampler = Sampler::starting_at(self, lo as f64 * period_s);
         // The last four samples, oldest first.
         let mut p = [sampler.at(lo as f64 * period_s); 4];
@@ -933,7 +1218,17 @@ impl<'a> Profile<'a> {
             time_s[binding(k).index()] += dt / 2.0;
             time_s[binding(k + 1).index()] += dt / 2.0;
         }
-        time_s[CapKind::Acceleration.index()] += self.runs.iter().map(|r| r.window_s).sum::<f64>();
+        // The filter adds W/2 at each stop of a run (a section's joins add nothing).
+        let v = &self.speed_mm_s;
+        time_s[CapKind::Acceleration.index()] += self
+            .runs
+            .iter()
+            .map(|r| {
+                r.window_s / 2.0
+                    * (f64::from(u8::from(v[r.first] == 0.0))
+                        + f64::from(u8::from(v[r.last] == 0.0)))
+            })
+            .sum::<f64>();
         time_s[CapKind::Dwell.index()] +=
             self.stations.stops().iter().map(|s| s.dwell_s).sum::<f64>()
                 + self.runs.iter().map(|r| r.pause_s).sum::<f64>();
@@ -1008,21 +1303,41 @@ impl<'a> Profile<'a> {
     fn run_state(&self, run: &Run, t_s: f64, cursor: &mut usize) -> RunState {
         let s = self.stations.s_mm();
         let s_first = s[run.first];
+        // Before and after the run the motion goes on at the run's end speeds: 0 at a
+        // stop, a section's held cap where it joins the next section (MODEL.md §6.1,
+        // "Sections").
+        let (v_first, v_last) = (self.speed_mm_s[run.first], self.speed_mm_s[run.last]);
         if t_s <= run.start_s {
+            if v_first == 0.0 {
+                return RunState {
+                    s_mm: s_first,
+                    v_mm_s: 0.0,
+                    integral_mm_s: 0.0,
+                };
+            }
+            let h = run.start_s - t_s;
             return RunState {
-                s_mm: s_first,
-                v_mm_s: 0.0,
-                integral_mm_s: 0.0,
+                s_mm: s_first - v_first * h,
+                v_mm_s: v_first,
+                integral_mm_s: v_first * h * h / 2.0,
             };
         }
         let end_s = run.start_s + run.duration_s;
         if t_s >= end_s {
             let s_last = s[run.last];
-            let integral_mm_s = run.integral_mm_s + (s_last - s_first) * (t_s - end_s);
+            let h = t_s - end_s;
+            let integral_mm_s = run.integral_mm_s + (s_last - s_first) * h;
+            if v_last == 0.0 {
+                return RunState {
+                    s_mm: s_last,
+                    v_mm_s: 0.0,
+                    integral_mm_s,
+                };
+            }
             return RunState {
-                s_mm: s_last,
-                v_mm_s: 0.0,
-                integral_mm_s,
+                s_mm: s_last + v_last * h,
+                v_mm_s: v_last,
+                integral_mm_s: integral_mm_s + v_last * h * h / 2.0,
             };
         }
         let mut k = (*cursor).max(run.first);
@@ -1063,7 +1378,9 @@ impl<'p, 'a> Sampler<'p, 'a> {
     /// walked from t = 0 would stand, so the samples are the same, bit for bit. O(log n).
     fn starting_at(profile: &'p Profile<'a>, t_s: f64) -> Self {
         let runs = &profile.runs;
-        let run = runs.partition_point(|r| r.start_s <= t_s).saturating_sub(1);
+        let run = runs
+            .partition_point(|r| r.switch_s <= t_s)
+            .saturating_sub(1);
         let (now, lagged, place) = match runs.get(run) {
             None => (0, 0, 0),
             Some(r) => {
@@ -1095,13 +1412,15 @@ impl<'p, 'a> Sampler<'p, 'a> {
         let profile = self.profile;
         let stations = profile.stations;
         let runs = &profile.runs;
-        while self.run + 1 < runs.len() && t_s >= runs[self.run + 1].start_s {
+        while self.run + 1 < runs.len() && t_s >= runs[self.run + 1].switch_s {
             self.run += 1;
         }
         let (s_mm, v_mm_s) = match runs.get(self.run) {
             None => (0.0, 0.0),
             Some(run)
-                if run.window_s > 0.0 && t_s >= run.start_s + run.duration_s + run.window_s =>
+                if run.window_s > 0.0
+                    && profile.speed_mm_s[run.last] == 0.0
+                    && t_s >= run.start_s + run.duration_s + run.window_s =>
             {
                 (stations.s_mm()[run.last], 0.0)
             }
@@ -1110,11 +1429,15 @@ impl<'p, 'a> Sampler<'p, 'a> {
                 let now = profile.run_state(run, t_s, &mut self.now);
                 let lagged = profile.run_state(run, t_s - w, &mut self.lagged);
                 let (s_first, s_last) = (stations.s_mm()[run.first], stations.s_mm()[run.last]);
-                // The average never passes the run's end; rounding could by 1e-12 mm.
-                (
-                    (s_first + (now.integral_mm_s - lagged.integral_mm_s) / w).min(s_last),
-                    (now.s_mm - lagged.s_mm) / w,
-                )
+                let average = s_first + (now.integral_mm_s - lagged.integral_mm_s) / w;
+                // The average never passes a stop; rounding could by 1e-12 mm. A section
+                // joins the next one at speed (MODEL.md §6.1, "Sections").
+                let s_mm = if profile.speed_mm_s[run.last] == 0.0 {
+                    average.min(s_last)
+                } else {
+                    average
+                };
+                (s_mm, (now.s_mm - lagged.s_mm) / w)
             }
             Some(run) => {
                 let state = profile.run_state(run, t_s, &mut self.now);
@@ -1245,7 +1568,7 @@ mod tests {
         let window_s = st.interval_accel_mm_s2()[0] / st.interval_jerk_mm_s3()[0];
         let stops = st.stops();
         let mut profile = Profile::empty(st);
-        let (end_s, verified) = planner.verified_run(
+        let (end_s, verified, _) = planner.verified_run(
             &mut profile,
             (stops[0], stops[1]),
             window_s,
@@ -1510,6 +1833,77 @@ mod tests {
     /// by the time of their plans and keeps the first that verifies: on 1 200 chords of
     /// the zigzag above (6 001 stations) a λ below 1, quicker than λ = 1, every sample
     /// within the limits.
+    /// The filtered motion of run `run` at `t_s` (arc length, speed), by the run's own
+    /// plan and window, whichever run the sampler would take there.
+    fn filtered(profile: &Profile<'_>, run: &Run, t_s: f64) -> (f64, f64) {
+        let (mut now, mut lagged) = (run.first, run.first);
+        let a = profile.run_state(run, t_s, &mut now);
+        let b = profile.run_state(run, t_s - run.window_s, &mut lagged);
+        let s_first = profile.stations.s_mm()[run.first];
+        (
+            s_first + (a.integral_mm_s - b.integral_mm_s) / run.window_s,
+            (a.s_mm - b.s_mm) / run.window_s,
+        )
+    }
+
+    /// Sections (MODEL.md §6.1): a long run of dense corners is cut where its plan is flat
+    /// at a cap, each section with its own window. The sections' plan is quicker than the
+    /// run planned whole, every servo sample keeps the axes' acceleration and jerk and
+    /// its cap, and at each join both sections' filtered motions are at the join's
+    /// station with its cap as speed.
+    #[test]
+    fn sections_are_quicker_keep_the_limits_and_join_at_their_stations() {
+        for st in [zigzag(1200), zigzag(300)] {
+            let machine = *st.machine();
+            let base_window_s = st
+                .interval_accel_mm_s2()
+                .iter()
+                .zip(st.interval_jerk_mm_s3())
+                .map(|(a, j)| a / j)
+                .fold(0.0, f64::max);
+            let last = st.len() - 1;
+            // The run planned whole, as before sections.
+            let mut planner = RunPlanner::new(&st);
+            let mut candidates = Vec::new();
+            if last <= LAMBDA_SEARCH_MAX_STATIONS {
+                planner.lambda_candidates(0, last, base_window_s, &mut candidates);
+            } else {
+                planner.lambda_grid(0, last, base_window_s, &mut candidates);
+            }
+            let (whole, _) = run(&st, &candidates, (REPAIR_MAX_TRIES, SLOW_MAX_TRIES));
+            let profile = plan(&st);
+            println!(
+                "{} stations: whole {:.4} s, {} sections {:.4} s",
+                st.len(),
+                whole.cycle_time_s,
+                profile.runs.len(),
+                profile.cycle_time_s
+            );
+            assert!(profile.runs.len() > 2, "{}", profile.runs.len());
+            assert!(profile.cycle_time_s < whole.cycle_time_s);
+            let samples = profile.sample(machine.period_ms).unwrap();
+            assert!(worst_ratio(&machine, &samples) <= 1.0 + 1e-6);
+            let (s, caps) = (st.s_mm(), st.cap_mm_min());
+            for x in &samples {
+                let k = s.partition_point(|&y| y <= x.s_mm).clamp(1, last);
+                assert!(x.feed_mm_min <= caps[k - 1].max(caps[k]) * (1.0 + 1e-9));
+            }
+            for pair in profile.runs.windows(2) {
+                let (before, after) = (&pair[0], &pair[1]);
+                assert_eq!(before.last, after.first);
+                let m = after.first;
+                let c = profile.speed_mm_s[m];
+                assert!(c > 0.0 && c <= caps[m] / 60.0 * (1.0 + 1e-12), "{c}");
+                assert!((after.switch_s - (after.start_s + after.window_s / 2.0)).abs() < 1e-12);
+                for run in [before, after] {
+                    let (s_mm, v_mm_s) = filtered(&profile, run, after.switch_s);
+                    assert!((s_mm - s[m]).abs() <= 1e-9, "{s_mm} vs {}", s[m]);
+                    assert!((v_mm_s - c).abs() <= 1e-9 * c, "{v_mm_s} vs {c}");
+                }
+            }
+        }
+    }
+
     #[test]
     fn long_runs_plan_at_a_quicker_lambda_of_the_grid() {
         let st = zigzag(1200);
