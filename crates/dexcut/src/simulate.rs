@@ -694,11 +694,16 @@ impl Fraction {
         (self.hi - self.lo) * from.abs()
     }
 
-    /// Even at φ = 1 the bent tool's removal pushes the step further than
-    /// the offset it starts at (material its neighbours' offsets left): the
-    /// step goes on at that offset, and its load is reported as swept.
+    /// The root lies outside 0 ≤ φ ≤ 1, and the step's offset is the bound
+    /// it lies beyond (MODEL.md §5.1, eq. 5.1b): even at φ = 1 the bent
+    /// tool's removal pushes the step further than the offset it starts at
+    /// (material its neighbours' offsets left), and the step goes on at that
+    /// offset; or even at φ = 0 it pushes the tool back across the path
+    /// (the step's own cut, of material the other steps' offsets left, loads
+    /// it the other way), and the step ends on the path. Its load is
+    /// reported as swept.
     fn held(&self) -> bool {
-        self.lo >= 1.0 && self.lo_pass > 0
+        (self.lo >= 1.0 && self.lo_pass > 0) || (self.hi <= 0.0 && self.hi_pass > 0)
     }
 
     /// The next fraction to try (observed first), the step having started at
@@ -2657,6 +2662,79 @@ mod tests {
         assert!(
             force <= hi,
             "the short step's force {force} N above the wall's {lo}…{hi} N"
+        );
+        assert!(run.closed_loop.converged, "{:?}", run.closed_loop);
+    }
+
+    /// A step with no direction of its own takes the direction of the step
+    /// before it (eq. 5.1a), but its own cut can push the tool the other
+    /// way: then the root of eq. 5.1a lies below φ = 0, and the step ends on
+    /// the path, its load as swept (eq. 5.1b). The wall of the closed form
+    /// above (holder 0.1 N/µm: the loop moves the tool about 99 µm off the
+    /// wall, +y) is cut to its end and beyond; the tool turns down in the
+    /// air and comes back along the other face of the wall, its edge on the
+    /// face the rigid tool made. The rigid tool cuts nothing there (the wall
+    /// is 0.2 mm thick, the first pass took all of it), so those steps have
+    /// no direction and take +y along the chain; the bent tool of the first
+    /// pass left 99 µm of the wall, which the way back cuts from below and
+    /// which pushes the tool to −y: g < 0 at φ = 0. Before eq. 5.1b each
+    /// such step stayed out of tolerance by its whole deflection and the loop
+    /// did not settle.
+    #[test]
+    fn a_step_whose_own_cut_pushes_against_its_taken_direction_ends_on_the_path() {
+        let dir = tempfile::tempdir().unwrap();
+        let csv: String = std::iter::once("x,y,z\n".to_string())
+            .chain((0..=100).map(|i| format!("{},0,20\n", -10.0 + 0.5 * i as f64)))
+            .chain((0..=100).map(|i| format!("{},-9.95,20\n", 40.0 - 0.5 * i as f64)))
+            .collect();
+        std::fs::write(dir.path().join("wall.csv"), csv).unwrap();
+        let job = "[stock]\nkind = \"box\"\nmin = [0, -5, 0]\nmax = [30, -4.8, 30]\ngrid = 0.01\n\
+                   [tool]\nkind = \"flat\"\ndiameter = 10\nflute_length = 20\nstickout = 40\n\
+                   holder_stiffness_n_per_um = 0.1\n[program]\npath = \"wall.csv\"\nfeed = 1200\n\
+                   [cutting]\nband_height = 1.0\nspindle_rpm = 6000\nmodel = \"power_law\"\n\
+                   force_a = 100\nforce_n = 1\n";
+        let path = dir.path().join("job.toml");
+        std::fs::write(&path, job).unwrap();
+        let setup = crate::commands::Setup::load(&path, None).unwrap();
+        let steps = setup.machine_steps().unwrap();
+        let run = run_on(
+            StockSource::Whole(setup.stock.clone()),
+            &setup.tools,
+            steps,
+            "back",
+        )
+        .unwrap();
+        let on = |i: usize, y: f64| {
+            let s = &run.steps[i].step;
+            !s.rapid && s.from_mm[1] == y && s.to_mm[1] == y && (5.0..=25.0).contains(&s.to_mm[0])
+        };
+        // The first pass along the wall: moved off it, +y.
+        let first: Vec<usize> = (0..run.steps.len()).filter(|&i| on(i, 0.0)).collect();
+        assert!(first.len() > 20, "{} steps", first.len());
+        for &i in &first {
+            assert!(
+                run.offsets_um[i][1] > 50.0,
+                "step {i}: {:?} µm",
+                run.offsets_um[i]
+            );
+        }
+        // The way back cuts what the bent tool left: pushed to −y, on the path.
+        let back: Vec<usize> = (0..run.steps.len()).filter(|&i| on(i, -9.95)).collect();
+        assert!(back.len() > 20, "{} steps", back.len());
+        for &i in &back {
+            assert_eq!(run.offsets_um[i], [0.0, 0.0], "step {i}");
+            assert!(
+                run.model_um[i][1] < -10.0,
+                "step {i}: {:?} µm",
+                run.model_um[i]
+            );
+        }
+        eprintln!(
+            "first pass {:.1} µm, way back {:.1} µm, {} sweeps, residual {:.2} µm",
+            run.offsets_um[first[first.len() / 2]][1],
+            run.model_um[back[back.len() / 2]][1],
+            run.closed_loop.passes,
+            run.closed_loop.residual_um
         );
         assert!(run.closed_loop.converged, "{:?}", run.closed_loop);
     }
