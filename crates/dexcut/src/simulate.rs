@@ -943,8 +943,15 @@ pub fn run_on(
             .map(|i| Bracketed::new(rigid[i], offset_cap_um[i]))
             .collect();
         // The steps that took their direction seek a fraction of the offset
-        // they start at, first 0 (eq. 5.1a).
-        let mut fraction = vec![Fraction::START; n];
+        // they start at, first 0 (eq. 5.1a): one search each, by step
+        // (a few of the steps, not one a step: issue 16).
+        let with_fraction: Vec<usize> = (0..n).filter(|&i| inherited[i]).collect();
+        let mut fractions = vec![Fraction::START; with_fraction.len()];
+        let at = |i: usize| {
+            with_fraction
+                .binary_search(&i)
+                .expect("a step that took its direction")
+        };
         let mut trial: Vec<f64> = (0..n)
             .map(|i| {
                 if in_loop[i] {
@@ -958,11 +965,13 @@ pub fn run_on(
         let mut out_counts: Vec<usize> = Vec::new();
         let mut residuals: Vec<f64> = Vec::new();
         loop {
-            let offsets_mm: Vec<[f64; 2]> = applied_offsets_um(&steps, &trial, &dirs)
-                .into_iter()
-                .map(|[x, y]| [1e-3 * x, 1e-3 * y])
-                .collect();
-            let shifted = offset_steps(&steps, &offsets_mm);
+            let shifted = {
+                let offsets_mm: Vec<[f64; 2]> = applied_offsets_um(&steps, &trial, &dirs)
+                    .into_iter()
+                    .map(|[x, y]| [1e-3 * x, 1e-3 * y])
+                    .collect();
+                offset_steps(&steps, &offsets_mm)
+            };
             // The last pass's stock, record and loads are replaced by this
             // pass's: freed before it is swept (the stock's memory holds
             // this pass's where it is made of its closed form).
@@ -987,7 +996,7 @@ pub fn run_on(
             let pass = report.passes;
             for i in (0..n).filter(|&i| in_loop[i]) {
                 if inherited[i] {
-                    fraction[i].observe(g[i] - x[i], x[i - 1], pass);
+                    fractions[at(i)].observe(g[i] - x[i], x[i - 1], pass);
                 } else {
                     search[i].observe(x[i], g[i] - x[i], pass);
                 }
@@ -996,9 +1005,10 @@ pub fn run_on(
             // its width, µm.
             let closed = |i: usize| -> Option<f64> {
                 if inherited[i] {
-                    fraction[i]
+                    let fraction = &fractions[at(i)];
+                    fraction
                         .closed(x[i - 1], pass)
-                        .then(|| fraction[i].width_um(x[i - 1]))
+                        .then(|| fraction.width_um(x[i - 1]))
                 } else {
                     search[i]
                         .closed(pass)
@@ -1037,7 +1047,7 @@ pub fn run_on(
             // bracket's width (how far x is from the root); a sub-cell step out
             // of tolerance so but within it over its window, the window's.
             let residual = |i: usize| -> (f64, f64) {
-                if inherited[i] && fraction[i].held() {
+                if inherited[i] && fractions[at(i)].held() {
                     return (0.0, x[i].abs());
                 }
                 let r = (g[i] - x[i]).abs();
@@ -1109,7 +1119,7 @@ pub fn run_on(
             // offset it starts at, the trial of the step before.
             for i in 0..n {
                 if inherited[i] {
-                    trial[i] = (fraction[i].next(g[i] - x[i], x[i], x[i - 1]) * trial[i - 1])
+                    trial[i] = (fractions[at(i)].next(g[i] - x[i], x[i], x[i - 1]) * trial[i - 1])
                         .clamp(-offset_cap_um[i], offset_cap_um[i]);
                 } else if in_loop[i] {
                     trial[i] = search[i]
@@ -1769,22 +1779,33 @@ impl Run {
     /// [`SUB_CELL_WINDOW_CELLS`] cells of path, since a column's removal comes
     /// whole in the period in which the edge crosses the column's centre.
     pub fn periods(&self) -> Vec<Period> {
+        let mut out = Vec::new();
+        self.for_each_period(|p| out.push(p));
+        out
+    }
+
+    /// Each of [`Run::periods`] in turn, made from per-period columns (its
+    /// first step, end of path, removal, time; about 90 B a period with the
+    /// windows, issue 16) rather than a copy of the periods as measured alone.
+    fn for_each_period(&self, mut f: impl FnMut(Period)) {
         let g = self.stock.grid().spacing_mm;
         let window_mm = SUB_CELL_WINDOW_CELLS * g;
-        // Own values per period: steps first..=last.
-        let mut own: Vec<Period> = Vec::new();
-        let mut s_prev = 0.0;
+        // Own values per period p: steps first[p]..first[p + 1], path
+        // s_at[p]..s_at[p + 1].
+        let mut first: Vec<usize> = Vec::new();
+        let mut s_at: Vec<f64> = vec![0.0];
+        let (mut volume, mut time, mut cutting) = (Vec::new(), Vec::new(), Vec::new());
         let mut i = 0;
         while i < self.steps.len() {
             let mut j = i + 1;
             while j < self.steps.len() && self.steps[j].continues {
                 j += 1;
             }
-            let cutting = !self.steps[i..j].iter().all(|s| s.step.rapid);
+            let cuts = !self.steps[i..j].iter().all(|s| s.step.rapid);
             // A period that is part feed, part rapid counts its feed parts'
             // removal: what a rapid removes is a collision (rapid_cut warning).
             let (volume_mm3, dt_s) = (i..j).fold((0.0, 0.0), |(v, t), k| {
-                let counted = !cutting || !self.steps[k].step.rapid;
+                let counted = !cuts || !self.steps[k].step.rapid;
                 let dv = if counted {
                     self.record.volume_mm3(k)
                 } else {
@@ -1792,53 +1813,53 @@ impl Run {
                 };
                 (v + dv, t + self.steps[k].dt_s)
             });
-            let s_to = self.steps[j - 1].s_end_mm;
-            own.push(Period {
-                first_step: i,
-                last_step: j - 1,
-                s_from_mm: s_prev,
-                s_to_mm: s_to,
-                volume_mm3,
-                dt_s,
-                cutting,
-                window: (own.len(), own.len()),
-            });
-            s_prev = s_to;
+            first.push(i);
+            s_at.push(self.steps[j - 1].s_end_mm);
+            volume.push(volume_mm3);
+            time.push(dt_s);
+            cutting.push(cuts);
             i = j;
         }
+        first.push(self.steps.len());
         // Prefix sums of volume and time over periods.
-        let n = own.len();
-        let (mut vol, mut time) = (vec![0.0; n + 1], vec![0.0; n + 1]);
-        for (p, q) in own.iter().enumerate() {
-            vol[p + 1] = vol[p] + q.volume_mm3;
-            time[p + 1] = time[p] + q.dt_s;
+        let n = volume.len();
+        let (mut vol, mut dt) = (vec![0.0; n + 1], vec![0.0; n + 1]);
+        for p in 0..n {
+            vol[p + 1] = vol[p] + volume[p];
+            dt[p + 1] = dt[p] + time[p];
         }
-        let advance: Vec<f64> = own.iter().map(|q| q.s_to_mm - q.s_from_mm).collect();
-        let cutting: Vec<bool> = own.iter().map(|q| q.cutting).collect();
+        let advance: Vec<f64> = (0..n).map(|p| s_at[p + 1] - s_at[p]).collect();
         let windows = sub_cell_windows(&advance, &cutting, |p| cutting[p - 1], g, window_mm);
-        let mut out = own.clone();
         for (p, &(a, b)) in windows.iter().enumerate() {
-            if !cutting[p] || advance[p] >= g {
-                continue;
-            }
-            out[p] = Period {
-                s_from_mm: own[a].s_from_mm,
-                s_to_mm: own[b].s_to_mm,
-                volume_mm3: vol[b + 1] - vol[a],
-                dt_s: time[b + 1] - time[a],
-                window: (a, b),
-                ..own[p]
+            let own = Period {
+                first_step: first[p],
+                last_step: first[p + 1] - 1,
+                s_from_mm: s_at[p],
+                s_to_mm: s_at[p + 1],
+                volume_mm3: volume[p],
+                dt_s: time[p],
+                cutting: cutting[p],
+                window: (p, p),
             };
+            f(if !cutting[p] || advance[p] >= g {
+                own
+            } else {
+                Period {
+                    s_from_mm: s_at[a],
+                    s_to_mm: s_at[b + 1],
+                    volume_mm3: vol[b + 1] - vol[a],
+                    dt_s: dt[b + 1] - dt[a],
+                    window: (a, b),
+                    ..own
+                }
+            });
         }
-        out
     }
 
     /// Per step, the MRR of its servo period resolved to the grid ([`Run::periods`]), mm³/s.
     pub fn period_mrr_by_step_mm3_s(&self) -> Vec<f64> {
         let mut out = vec![0.0; self.steps.len()];
-        for p in self.periods() {
-            out[p.first_step..=p.last_step].fill(p.mrr_mm3_s());
-        }
+        self.for_each_period(|p| out[p.first_step..=p.last_step].fill(p.mrr_mm3_s()));
         out
     }
 
@@ -1873,11 +1894,13 @@ impl Run {
     /// collision, told by the rapid_cut warning with its volume and line, not
     /// a removal rate the feed sets.
     pub fn peak_period_mrr_mm3_s(&self) -> f64 {
-        self.periods()
-            .iter()
-            .filter(|p| p.cutting)
-            .map(Period::mrr_mm3_s)
-            .fold(0.0, f64::max)
+        let mut peak = 0.0;
+        self.for_each_period(|p| {
+            if p.cutting {
+                peak = f64::max(peak, p.mrr_mm3_s());
+            }
+        });
+        peak
     }
 
     /// Step `i` breaks its tool: its stress exceeds the tool's rupture
