@@ -144,39 +144,60 @@ pub fn refeed_read(
     }
     let by_line = lines_segments(&trace);
     let (tables, unfit) = run_tables(source, &by_line, segments, &trace, &executed, plan);
+    let recorded = Recorded {
+        segments: std::mem::take(&mut parsed.path.segments),
+        trace,
+        executed,
+        by_line,
+    };
+    drop(parsed);
+    let mut recorded = Some(recorded);
     if !unfit.is_empty() {
         // Records that do not fit the table: the loops around those lines
         // written out in full, if the result makes the same path.
-        if let Some(unrolled) = crate::unroll::unroll(source, &trace.lines, &executed, &unfit) {
+        let r = recorded.as_ref().expect("the source's reading");
+        if let Some(unrolled) = crate::unroll::unroll(source, &r.trace.lines, &r.executed, &unfit) {
             let (p, t, e) = interp::run_recorded(&unrolled, file, options);
-            if same_path(segments, &p.path.segments) && !p.diagnostics.iter().any(|d| d.is_error())
+            if same_path(&r.segments, &p.path.segments)
+                && !p.diagnostics.iter().any(|d| d.is_error())
             {
+                drop(p);
                 let by_line = lines_segments(&t);
-                let (tables, _) = run_tables(&unrolled, &by_line, segments, &t, &e, plan);
-                let recorded = Recorded {
+                let (tables, _) = run_tables(&unrolled, &by_line, &r.segments, &t, &e, plan);
+                // The unrolled text is written against the source's path
+                // (the source's reading is read again if it is needed after).
+                let source_read = recorded.take().expect("the source's reading");
+                let unrolled_read = Recorded {
+                    segments: source_read.segments,
                     trace: t,
                     executed: e,
                     by_line,
                 };
-                if let Ok(out) =
-                    write_checked(&unrolled, file, options, segments, recorded, plan, tables)
-                {
+                if let Ok(out) = write_checked(
+                    &unrolled,
+                    Some(source),
+                    file,
+                    options,
+                    unrolled_read,
+                    plan,
+                    tables,
+                ) {
                     return Ok(out);
                 }
             }
         }
     }
-    let recorded = Recorded {
-        trace,
-        executed,
-        by_line,
-    };
-    write_checked(source, file, options, segments, recorded, plan, tables)
+    let recorded = recorded.unwrap_or_else(|| Recorded::read(source, None, file, options));
+    write_checked(source, None, file, options, recorded, plan, tables)
 }
 
-/// A recorded run of the text the writer writes from: its trace, the lines
-/// as they ran and the segments of each line.
+/// A recorded run of the text the writer writes from: the path it is
+/// written against, its trace, the lines as they ran and the segments of
+/// each line.
 struct Recorded {
+    /// The path of the program as read (for unrolled loops, the path of the
+    /// text they were unrolled from).
+    segments: Vec<Segment>,
     trace: interp::Trace,
     executed: Vec<Executed>,
     by_line: LineSegments,
@@ -184,14 +205,46 @@ struct Recorded {
 
 impl Recorded {
     /// `source` run and recorded again (as it was the first time: the
-    /// interpreter gives the same run of the same text and options).
-    fn read(source: &str, file: &str, options: &Options) -> Recorded {
-        let (_, trace, executed) = interp::run_recorded(source, file, options);
+    /// interpreter gives the same run of the same text and options), with
+    /// the path of `path_from` where the text is written against another's
+    /// path (unrolled loops: the text they were unrolled from).
+    fn read(source: &str, path_from: Option<&str>, file: &str, options: &Options) -> Recorded {
+        let (parsed, trace, executed) = interp::run_recorded(source, file, options);
+        let segments = match path_from {
+            None => parsed.path.segments,
+            Some(from) => {
+                drop(parsed);
+                interp::run_recorded(from, file, options).0.path.segments
+            }
+        };
         let by_line = lines_segments(&trace);
         Recorded {
+            segments,
             trace,
             executed,
             by_line,
+        }
+    }
+}
+
+/// What the check of a written program needs of each segment of the path
+/// it must make: where it ends, how long it is, its motion and its line
+/// (56 B a segment, not the 120 of a [`Segment`]: for a million-block
+/// program the path need not be held while the written text is read back).
+struct Expected {
+    end: Point3<f64>,
+    length_mm: f64,
+    motion: Motion,
+    line: u32,
+}
+
+impl Expected {
+    fn of(seg: &Segment) -> Expected {
+        Expected {
+            end: seg.end,
+            length_mm: seg.length_mm(),
+            motion: seg.motion,
+            line: seg.line,
         }
     }
 }
@@ -260,34 +313,39 @@ fn same_path(a: &[Segment], b: &[Segment]) -> bool {
 
 /// Writes the program with `tables` and the canned cycles written out where
 /// needed, dropping either when the result does not read back as planned.
-/// The recorded run (for a million-line program its line arena, trace and
-/// executed lines, about 250 MB) is dropped once the text is written, before
-/// the text is read back to be checked; a check that fails and is tried
-/// again runs the source again ([`Recorded::read`]).
+/// The recorded run (for a million-line program its path, line arena, trace
+/// and executed lines, about 380 MB) is dropped once the text is written,
+/// before the text is read back to be checked against what the path needs
+/// ([`Expected`]); a check that fails and is tried again runs the source
+/// (and `path_from`, [`Recorded::read`]) again.
+#[allow(clippy::too_many_arguments)]
 fn write_checked(
     source: &str,
+    path_from: Option<&str>,
     file: &str,
     options: &Options,
-    segments: &[Segment],
     recorded: Recorded,
     plan: &[Vec<(f64, f64)>],
     mut tables: BTreeMap<usize, RunTable>,
 ) -> Result<(String, Parsed), RefeedError> {
-    let mut expanded = cycle_lines(&recorded.by_line, segments, &recorded.trace, plan);
+    let expected: Vec<Expected> = recorded.segments.iter().map(Expected::of).collect();
+    let mut expanded = cycle_lines(&recorded.by_line, &recorded.segments, &recorded.trace, plan);
     let mut recorded = Some(recorded);
     loop {
         let Recorded {
+            segments,
             trace,
             executed,
             by_line,
         } = recorded
             .take()
-            .unwrap_or_else(|| Recorded::read(source, file, options));
+            .unwrap_or_else(|| Recorded::read(source, path_from, file, options));
         let Some(per_run) = cycle_runs(source, &expanded, &executed, &trace, &tables) else {
             // A cycle run more than once with no counter to tell its runs
             // apart: the cycles as written.
             expanded.clear();
             recorded = Some(Recorded {
+                segments,
                 trace,
                 executed,
                 by_line,
@@ -305,10 +363,10 @@ fn write_checked(
         }
         let plan = WrittenPlan { plan, coarse };
         let (out, written_pieces) = write(
-            source, segments, &trace, &by_line, &plan, &tables, &expanded, &per_run,
+            source, &segments, &trace, &by_line, &plan, &tables, &expanded, &per_run,
         );
-        drop((trace, executed, by_line, per_run));
-        match verify(&out, file, options, segments, &plan, &written_pieces) {
+        drop((segments, trace, executed, by_line, per_run));
+        match verify(&out, file, options, &expected, &plan, &written_pieces) {
             Ok(parsed) => return Ok((out, parsed)),
             // Cycles written out that do not read back: keep them as written.
             Err(_) if !expanded.is_empty() => expanded.clear(),
@@ -1479,7 +1537,7 @@ fn verify(
     out: &str,
     file: &str,
     options: &Options,
-    original: &[Segment],
+    original: &[Expected],
     plan: &WrittenPlan<'_>,
     written: &[usize],
 ) -> Result<Parsed, RefeedError> {
@@ -1513,11 +1571,10 @@ fn verify(
         // Same end points can hide a changed shape: a piece of an arc shorter
         // than the written digits reads back as a full circle.
         let length_mm: f64 = pieces.iter().map(Segment::length_mm).sum();
-        if (length_mm - seg.length_mm()).abs() > 1e-3 {
+        if (length_mm - seg.length_mm).abs() > 1e-3 {
             return Err(fail(format!(
                 "line {}: {length_mm:.4} mm long instead of {:.4} mm",
-                seg.line,
-                seg.length_mm()
+                seg.line, seg.length_mm
             )));
         }
         if std::mem::discriminant(&pieces[0].motion) != std::mem::discriminant(&seg.motion) {
@@ -1551,6 +1608,61 @@ fn verify(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The check keeps of the source's path only its ends, lengths, motions
+    /// and lines ([`Expected`]), and refuses each change of them as the
+    /// path itself did: the written text read back passes; a moved end, an
+    /// arc round another centre to the same end, a feed move made a rapid and
+    /// a feed above the plan each fail, with the line they are on.
+    #[test]
+    fn the_check_refuses_each_change_the_path_would() {
+        let src = "G0 X0 Y0 Z1\nG1 Z-1 F300\nG1 X10 F600\nG2 X20 Y0 I5 J0 F600\nG0 Z5\n";
+        let options = Options::default();
+        let path = crate::parse(src, "t.ngc", &options).path;
+        let plan: Vec<Vec<(f64, f64)>> = path
+            .segments
+            .iter()
+            .map(|s| match s.motion {
+                Motion::Feed { .. } => vec![(1.0, 500.0)],
+                _ => Vec::new(),
+            })
+            .collect();
+        let expected: Vec<Expected> = path.segments.iter().map(Expected::of).collect();
+        for (e, s) in expected.iter().zip(&path.segments) {
+            assert_eq!(e.end, s.end);
+            assert_eq!(e.length_mm.to_bits(), s.length_mm().to_bits());
+            assert_eq!((e.motion, e.line), (s.motion, s.line));
+        }
+        let written = WrittenPlan {
+            plan: &plan,
+            coarse: BTreeMap::new(),
+        };
+        let pieces = vec![1; plan.len()];
+        let check = |text: &str| verify(text, "t.ngc", &options, &expected, &written, &pieces);
+        let good = "G0 X0 Y0 Z1\nG1 Z-1 F300\nG1 X10 F500\nG2 X20 Y0 I5 J0 F500\nG0 Z5\n";
+        assert_eq!(
+            check(good).expect("the plan's feeds read back").path,
+            crate::parse(good, "t.ngc", &options).path
+        );
+        for (text, says) in [
+            (good.replace("X10 F500", "X10.01 F500"), "line 3: ends at"),
+            (
+                good.replace("I5 J0", "I5 J5"),
+                "line 4: 33.3216 mm long instead of 15.7080 mm",
+            ),
+            (
+                good.replace("G1 X10 F500", "G0 X10"),
+                "line 3: motion kind changed",
+            ),
+            (
+                good.replace("X10 F500", "X10 F501"),
+                "line 3: feed 501.000 above the plan's 500.000",
+            ),
+        ] {
+            let err = check(&text).expect_err(&text).to_string();
+            assert!(err.contains(says), "{text}: {err}");
+        }
+    }
 
     /// The flat per-line columns list each line's segments as a map of one
     /// `Vec` per line does: lines run many times by a loop and a subroutine,
