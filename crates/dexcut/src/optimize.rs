@@ -943,6 +943,11 @@ pub fn write_verified(
                 (None, samples, steps, tools)
             }
         };
+        // What a next round needs of the refeed plan is each interval's
+        // block: kept instead of the plan (a million segments' pieces, one
+        // `Vec` each, 40 MB), which is dropped before the sweep.
+        let blocks = interval_blocks(free, &plan);
+        drop(plan);
         let run = crate::simulate::run_on(
             setup.stock_source(),
             &setup.tools,
@@ -996,7 +1001,6 @@ pub fn write_verified(
                 kept_original,
             });
         }
-        let blocks = interval_blocks(free, &plan);
         lower_caps(
             &mut caps,
             free.s_mm(),
