@@ -820,12 +820,9 @@ pub fn run_on(
     // deflects by its elastic deflection at rupture (MODEL.md §4.4). Such a
     // tool is overloaded (its rupture strength is at least its allowable
     // stress) and stays out of the loop below, so the steps the loop moves
-    // start from the same loads with or without the cap.
-    let rigid_loads: Vec<StepLoad> = step_loads
-        .iter()
-        .zip(&rupture_strengths_mpa)
-        .map(|(l, &r)| l.at_rupture(r))
-        .collect();
+    // start from the same loads with or without the cap. Made where they are
+    // read, step by step (not a copy of every step's load: 104 B a step).
+    let rigid_load = |i: usize| step_loads[i].at_rupture(rupture_strengths_mpa[i]);
     // A tool the rigid cut overloads beyond its allowable stress anywhere would
     // break there: no elastic balance exists, so the loop leaves that tool's
     // steps rigid (the open-loop estimate, which the force warning names)
@@ -869,16 +866,15 @@ pub fn run_on(
     for (l, &h) in in_loop.iter_mut().zip(&inherited) {
         *l |= h;
     }
-    let along = |loads: &[StepLoad], i: usize| -> f64 {
-        loads[i].dx_um * dirs[i][0] + loads[i].dy_um * dirs[i][1]
-    };
+    let along =
+        |load: &StepLoad, i: usize| -> f64 { load.dx_um * dirs[i][0] + load.dy_um * dirs[i][1] };
     // (A step that took its direction was not pushed across its own path.)
     let rigid: Vec<f64> = (0..n)
         .map(|i| {
             if inherited[i] {
                 0.0
             } else {
-                along(&rigid_loads, i).max(0.0)
+                along(&rigid_load(i), i).max(0.0)
             }
         })
         .collect();
@@ -889,11 +885,9 @@ pub fn run_on(
         .iter()
         .map(|&t| 500.0 * tools.entries[t].tool.diameter_mm)
         .collect();
-    let rigid_peak_deflection_um = rigid_loads
-        .iter()
-        .map(|l| l.deflection_um)
+    let rigid_peak_deflection_um = (0..n)
+        .map(|i| rigid_load(i).deflection_um)
         .fold(0.0, f64::max);
-    drop(rigid_loads);
     // Open loop: the largest deflection across the path nothing compensated;
     // closed loop: that of the steps the loop moves (none moved: nothing to do).
     let rigid_across_peak_um = (0..n)
@@ -992,7 +986,7 @@ pub fn run_on(
             report.passes += 1;
             x.clone_from(&trial);
             // g: the deflection the removal at the trial offset causes, across the path.
-            let g: Vec<f64> = (0..n).map(|i| along(&step_loads, i)).collect();
+            let g: Vec<f64> = (0..n).map(|i| along(&step_loads[i], i)).collect();
             let pass = report.passes;
             for i in (0..n).filter(|&i| in_loop[i]) {
                 if inherited[i] {
@@ -1143,7 +1137,7 @@ pub fn run_on(
             if steps[i].step.rapid {
                 offsets_um[i]
             } else {
-                let g = along(&step_loads, i);
+                let g = along(&step_loads[i], i);
                 [g * dirs[i][0], g * dirs[i][1]]
             }
         })
