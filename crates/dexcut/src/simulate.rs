@@ -2588,6 +2588,24 @@ mod tests {
         }
     }
 
+    /// The closed-form wall of the closed-loop tests: a Ø10 flat end mill on
+    /// a 0.1 N/µm holder, S4's linear law (100 N per mm³ a tooth), a box
+    /// from y = −`depth_mm` to −4.8 mm at grid 0.01, the points `csv` at
+    /// F1200.
+    fn wall_setup(dir: &std::path::Path, csv: &str, depth_mm: f64) -> crate::commands::Setup {
+        std::fs::write(dir.join("wall.csv"), csv).unwrap();
+        let job = format!(
+            "[stock]\nkind = \"box\"\nmin = [0, -{depth_mm}, 0]\nmax = [30, -4.8, 30]\ngrid = 0.01\n\
+             [tool]\nkind = \"flat\"\ndiameter = 10\nflute_length = 20\nstickout = 40\n\
+             holder_stiffness_n_per_um = 0.1\n[program]\npath = \"wall.csv\"\nfeed = 1200\n\
+             [cutting]\nband_height = 1.0\nspindle_rpm = 6000\nmodel = \"power_law\"\n\
+             force_a = 100\nforce_n = 1\n"
+        );
+        let path = dir.join("job.toml");
+        std::fs::write(&path, job).unwrap();
+        crate::commands::Setup::load(&path, None).unwrap()
+    }
+
     /// A cut that ends in a short step the rigid tool removes nothing in
     /// (fusion_haas_rebels5's line 1015: the rest of a servo period before a
     /// rapid, 0.117 ms and 1.5 µm up in Z, after a step the loop moved by
@@ -2606,15 +2624,7 @@ mod tests {
         let csv: String = std::iter::once("x,y,z\n".to_string())
             .chain((0..=100).map(|i| format!("{},0,20\n", -10.0 + 0.5 * i as f64)))
             .collect();
-        std::fs::write(dir.path().join("wall.csv"), csv).unwrap();
-        let job = "[stock]\nkind = \"box\"\nmin = [0, -6, 0]\nmax = [30, -4.8, 30]\ngrid = 0.01\n\
-                   [tool]\nkind = \"flat\"\ndiameter = 10\nflute_length = 20\nstickout = 40\n\
-                   holder_stiffness_n_per_um = 0.1\n[program]\npath = \"wall.csv\"\nfeed = 1200\n\
-                   [cutting]\nband_height = 1.0\nspindle_rpm = 6000\nmodel = \"power_law\"\n\
-                   force_a = 100\nforce_n = 1\n";
-        let path = dir.path().join("job.toml");
-        std::fs::write(&path, job).unwrap();
-        let setup = crate::commands::Setup::load(&path, None).unwrap();
+        let setup = wall_setup(dir.path(), &csv, 6.0);
         let mut steps = setup.machine_steps().unwrap();
         // The cut up to x = 15 mm (the steady wall), then the short step and
         // a rapid 10 mm up.
@@ -2704,15 +2714,7 @@ mod tests {
             .chain((0..=100).map(|i| format!("{},0,20\n", -10.0 + 0.5 * i as f64)))
             .chain((0..=100).map(|i| format!("{},-9.95,20\n", 40.0 - 0.5 * i as f64)))
             .collect();
-        std::fs::write(dir.path().join("wall.csv"), csv).unwrap();
-        let job = "[stock]\nkind = \"box\"\nmin = [0, -5, 0]\nmax = [30, -4.8, 30]\ngrid = 0.01\n\
-                   [tool]\nkind = \"flat\"\ndiameter = 10\nflute_length = 20\nstickout = 40\n\
-                   holder_stiffness_n_per_um = 0.1\n[program]\npath = \"wall.csv\"\nfeed = 1200\n\
-                   [cutting]\nband_height = 1.0\nspindle_rpm = 6000\nmodel = \"power_law\"\n\
-                   force_a = 100\nforce_n = 1\n";
-        let path = dir.path().join("job.toml");
-        std::fs::write(&path, job).unwrap();
-        let setup = crate::commands::Setup::load(&path, None).unwrap();
+        let setup = wall_setup(dir.path(), &csv, 5.0);
         let steps = setup.machine_steps().unwrap();
         let run = run_on(
             StockSource::Whole(setup.stock.clone()),

@@ -103,6 +103,17 @@ const LAMBDA_GRID: [f64; 5] = [1.0, 0.85, 0.7, 0.55, 0.4];
 /// with the grid against about 1.8 s, for the same cycle).
 const LAMBDA_GRID_MAX_STATIONS: usize = 500_000;
 
+/// The filter window at λ = 1, s: the largest a/j over the stations'
+/// intervals (0 without a jerk limit; MODEL.md §6.1).
+fn base_window_s(stations: &Stations) -> f64 {
+    stations
+        .interval_accel_mm_s2()
+        .iter()
+        .zip(stations.interval_jerk_mm_s3())
+        .map(|(a, j)| a / j)
+        .fold(0.0, f64::max)
+}
+
 /// Plans the time-optimal speed profile over `stations` (MODEL.md §6.1).
 ///
 /// Speed at each station is at most its cap; between stations the tangential acceleration is
@@ -145,12 +156,7 @@ const LAMBDA_GRID_MAX_STATIONS: usize = 500_000;
 /// one repaired (filter widened, or caps lowered around the failing stencils), then
 /// slowed in time until it verifies.
 pub fn plan(stations: &Stations) -> Profile<'_> {
-    let base_window_s = stations
-        .interval_accel_mm_s2()
-        .iter()
-        .zip(stations.interval_jerk_mm_s3())
-        .map(|(a, j)| a / j)
-        .fold(0.0, f64::max);
+    let base_window_s = base_window_s(stations);
     let stops = stations.stops();
     let mut planner = RunPlanner::new(stations);
     let mut profile = Profile::empty(stations);
@@ -1855,12 +1861,7 @@ mod tests {
     fn sections_are_quicker_keep_the_limits_and_join_at_their_stations() {
         for st in [zigzag(1200), zigzag(300)] {
             let machine = *st.machine();
-            let base_window_s = st
-                .interval_accel_mm_s2()
-                .iter()
-                .zip(st.interval_jerk_mm_s3())
-                .map(|(a, j)| a / j)
-                .fold(0.0, f64::max);
+            let base_window_s = base_window_s(&st);
             let last = st.len() - 1;
             // The run planned whole, as before sections.
             let mut planner = RunPlanner::new(&st);
