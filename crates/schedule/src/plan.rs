@@ -184,9 +184,7 @@ pub fn plan(stations: &Stations) -> Profile<'_> {
             && last - first <= LAMBDA_GRID_MAX_STATIONS
             && !matches!(verified, Verified::Slowed { .. })
         {
-            if let Some(sectioned_end_s) =
-                planner.sectioned(&mut profile, base_window_s, kept, SECTION_DEPTH)
-            {
+            if let Some(sectioned_end_s) = planner.sectioned(&mut profile, base_window_s, kept) {
                 end_s = sectioned_end_s;
             }
         }
@@ -237,12 +235,6 @@ const SECTION_GRID: [f64; 14] = [
 /// A section that verifies at none of its values is merged with the next, at most this
 /// many times (MODEL.md §6.1, "Sections").
 const SECTION_MERGES: usize = 8;
-/// How many times a section is cut again where its own plan is flat at a cap (MODEL.md
-/// §6.1, "Sections"). 0: a kept section's last stencils are checked up to its join only,
-/// and a section cut again with a short window there (or the sample times it moves) can
-/// leave a later section no value that verifies (on 3D_Chips every depth from 1 to 3
-/// did, and the run was planned whole).
-const SECTION_DEPTH: usize = 0;
 
 /// Tries of the first fallback (full corner holds restored where samples break a limit).
 const RESTORE_MAX_TRIES: usize = 4;
@@ -691,7 +683,6 @@ impl<'a> RunPlanner<'a> {
         profile: &mut Profile<'_>,
         base_window_s: f64,
         (lambda0, window0_s): (f64, f64),
-        depth: usize,
     ) -> Option<f64> {
         let run = *profile.runs.last()?;
         if run.pause_s > 0.0 || run.window_s <= 0.0 {
@@ -746,16 +737,19 @@ impl<'a> RunPlanner<'a> {
                 let b = cuts[j];
                 let ends = (v(a), v(b));
                 timed.clear();
-                let values = SECTION_GRID
+                let grid = SECTION_GRID
                     .iter()
-                    .map(|&lambda| (lambda, lambda * base_window_s))
-                    .chain(std::iter::once((lambda0, window0_s)));
+                    .map(|&lambda| (lambda, lambda * base_window_s));
+                // The run's own value, unless the grid holds it already.
+                let own = (lambda0, window0_s);
+                let values = grid
+                    .clone()
+                    .chain((!grid.clone().any(|g| g == own)).then_some(own));
+                let rests = f64::from(u8::from(ends.0 == 0.0)) + f64::from(u8::from(ends.1 == 0.0));
                 let mut trial = std::mem::take(&mut self.trial);
                 for (lambda, window_s) in values {
                     if let Some(d) = self.plan_section((a, b), (lambda, window_s), ends, &mut trial)
                     {
-                        let rests =
-                            f64::from(u8::from(ends.0 == 0.0)) + f64::from(u8::from(ends.1 == 0.0));
                         timed.push((d + rests * window_s / 2.0, lambda, window_s));
                     }
                 }
@@ -769,7 +763,7 @@ impl<'a> RunPlanner<'a> {
                     };
                     let end_s = profile.push_run(a, b, start_s, window_s, 0.0);
                     if profile.last_run_axis_ratio(None) <= 1.0 {
-                        kept = Some((end_s, window_s, lambda));
+                        kept = Some((end_s, window_s));
                         break;
                     }
                     profile.pop_run();
@@ -780,16 +774,7 @@ impl<'a> RunPlanner<'a> {
                 j += 1;
             }
             match kept {
-                Some((mut end_s, mut window_s, lambda)) => {
-                    // The section cut again where its own plan is flat at a cap.
-                    if depth > 0 {
-                        if let Some(e) =
-                            self.sectioned(profile, base_window_s, (lambda, window_s), depth - 1)
-                        {
-                            end_s = e;
-                            window_s = profile.runs.last().map_or(window_s, |r| r.window_s);
-                        }
-                    }
+                Some((end_s, window_s)) => {
                     previous = Some((end_s, window_s));
                     i = j;
                 }
@@ -1835,10 +1820,6 @@ mod tests {
         assert!(dips.cycle_time_s < plain.cycle_time_s - 0.5);
     }
 
-    /// A run longer than the golden-section search takes tries the λ of [`LAMBDA_GRID`]
-    /// by the time of their plans and keeps the first that verifies: on 1 200 chords of
-    /// the zigzag above (6 001 stations) a λ below 1, quicker than λ = 1, every sample
-    /// within the limits.
     /// The filtered motion of run `run` at `t_s` (arc length, speed), by the run's own
     /// plan and window, whichever run the sampler would take there.
     fn filtered(profile: &Profile<'_>, run: &Run, t_s: f64) -> (f64, f64) {
@@ -1895,7 +1876,6 @@ mod tests {
                 let m = after.first;
                 let c = profile.speed_mm_s[m];
                 assert!(c > 0.0 && c <= caps[m] / 60.0 * (1.0 + 1e-12), "{c}");
-                assert!((after.switch_s - (after.start_s + after.window_s / 2.0)).abs() < 1e-12);
                 for run in [before, after] {
                     let (s_mm, v_mm_s) = filtered(&profile, run, after.switch_s);
                     assert!((s_mm - s[m]).abs() <= 1e-9, "{s_mm} vs {}", s[m]);
@@ -1905,17 +1885,16 @@ mod tests {
         }
     }
 
+    /// A run longer than the golden-section search takes tries the λ of [`LAMBDA_GRID`]
+    /// by the time of their plans and keeps the first that verifies: on 1 200 chords of
+    /// the zigzag above (6 001 stations) a λ below 1, quicker than λ = 1, every sample
+    /// within the limits.
     #[test]
     fn long_runs_plan_at_a_quicker_lambda_of_the_grid() {
         let st = zigzag(1200);
         let machine = *st.machine();
         assert!(st.len() > LAMBDA_SEARCH_MAX_STATIONS);
-        let base_window_s = st
-            .interval_accel_mm_s2()
-            .iter()
-            .zip(st.interval_jerk_mm_s3())
-            .map(|(a, j)| a / j)
-            .fold(0.0, f64::max);
+        let base_window_s = base_window_s(&st);
         let profile = plan(&st);
         let lambda = profile.runs[0].window_s / base_window_s;
         assert!(worst_ratio(&machine, &profile.sample(machine.period_ms).unwrap()) <= 1.0 + 1e-6);
