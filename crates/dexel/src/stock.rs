@@ -436,7 +436,9 @@ impl Stock {
     }
 
     /// Bytes its columns hold: tops, bottoms (none where they are one,
-    /// [`Bottoms::Uniform`]), last cuts and the intervals below the tops.
+    /// [`Bottoms::Uniform`]), last cuts and the intervals below the tops (4 B
+    /// of column index and 8 B an interval; the side table's own vectors and
+    /// their headers are not counted, so a stock with undercuts holds more).
     pub fn memory_bytes(&self) -> usize {
         let f = std::mem::size_of::<f32>();
         let bottoms = match &self.bottoms {

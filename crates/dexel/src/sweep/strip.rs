@@ -139,8 +139,7 @@ const MIN_EDGE_SPEED: f64 = 0.1;
 #[inline]
 fn trapezoid_cdf(x: f64, a: f64, b: f64) -> f64 {
     let (a, b) = if a >= b { (a, b) } else { (b, a) };
-    // Every piece's value, then the one that applies (no branch: the
-    // contacts' loop runs over whole rows).
+    // Every piece's value, then the one that applies.
     let two_ab = 2.0 * a * b;
     let r = a + b - x;
     let thin = x / a;
@@ -164,7 +163,7 @@ fn trapezoid_cdf(x: f64, a: f64, b: f64) -> f64 {
 
 /// The columns cut on the current row by one move, and their contacts
 /// (MODEL.md §1.4, §1.5, §3.2), column by column in arrays of the row's
-/// length (one allocation per strip). The contacts are computed in phases
+/// length (allocated once per strip and batch: 16 arrays of `nx`). The contacts are computed in phases
 /// over the whole row, each a loop of independent arithmetic free of the
 /// cut's branches (square roots and divisions of many columns in flight, in
 /// vector registers where the compiler packs them); only the columns whose
@@ -441,7 +440,7 @@ impl<E: Envelope> StripJob<'_, E> {
         let width = self.width();
         let area = self.grid.cell_area_mm2();
         let mut visited = 0u64;
-        // Cut columns of the current row, awaiting their contact (one allocation per strip).
+        // Cut columns of the current row, awaiting their contact (allocated once per strip).
         let mut cuts = RowCuts::new(nx);
         // Highest top per tile of TILE_COLS columns across the strip's rows, taken
         // once: cuts only lower tops, so it bounds them for all the moves. A row
