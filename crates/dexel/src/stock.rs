@@ -652,11 +652,11 @@ mod tests {
     /// Columns of none to three intervals (undercuts, voids) kept as 8 B top
     /// intervals with the intervals below them apart: each reads back as it
     /// was filled, its top and its length (summed lowest interval first, as
-    /// a column of inline intervals summed them) bit for bit.
+    /// a column of inline intervals summed them) bit for bit; the stock's
+    /// bytes are the grid's estimate plus 4 B and 8 B an interval for each
+    /// column with intervals below its top.
     #[test]
     fn columns_of_several_intervals_read_back_whole() {
-        assert_eq!(std::mem::size_of::<Top>(), 8);
-        assert_eq!(crate::grid::BYTES_PER_COLUMN, 12);
         let grid = Grid::covering(0.0, 0.0, 1.0, 0.7, 0.1).unwrap();
         let fill = |ix: usize, iy: usize, out: &mut Vec<[f32; 2]>| {
             for k in 0..(ix + 2 * iy) % 4 {
@@ -667,11 +667,15 @@ mod tests {
         let stock = Stock::from_columns(grid, fill).unwrap();
         let mut buf = Vec::new();
         let mut counts = [0; 4];
+        let mut below_bytes = 0;
         for iy in 0..grid.ny {
             for ix in 0..grid.nx {
                 buf.clear();
                 fill(ix, iy, &mut buf);
                 counts[buf.len()] += 1;
+                if buf.len() > 1 {
+                    below_bytes += 4 + 8 * (buf.len() - 1);
+                }
                 let c = stock.column(ix, iy);
                 assert_eq!(c.intervals().collect::<Vec<_>>(), buf);
                 assert_eq!(c, Column::from_intervals(&buf));
@@ -696,6 +700,10 @@ mod tests {
             }
         }
         assert!(counts.iter().all(|&n| n > 5), "{counts:?}");
+        assert_eq!(
+            stock.memory_bytes() as f64,
+            grid.memory_bytes() + below_bytes as f64
+        );
     }
 
     /// A solid's columns asked one by one are its stock's, made whole or in
