@@ -1182,9 +1182,10 @@ pub fn optimize_setup(
     let path = std::mem::take(&mut setup.program.path);
     let (rounds, path) = match optimize::free_stations_of(path, &machine) {
         Err((e, path)) => (Err(e), path),
-        Ok(mut stations) => {
-            let rounds = optimize_rounds(setup, &machine, &mut stations, given, t1);
-            (rounds, stations.into_path())
+        Ok(stations) => {
+            let mut free = optimize::FreeStations::Made(Box::new(stations));
+            let rounds = optimize_rounds(setup, &machine, &mut free, given, t1, staged);
+            (rounds, free.into_path())
         }
     };
     setup.program.path = path;
@@ -1271,15 +1272,18 @@ pub fn optimize_setup(
     let z_sign = if setup.program.z_down { -1.0 } else { 1.0 };
     write_servo_csv(
         &staged.join("servo.csv"),
-        &written.samples,
-        &written.sample_tools,
+        written.samples.rows(&after.steps),
         &after.steps,
         z_sign,
     )?;
     let precomp = if setup.job.servo_given {
         Some(crate::evaluate::write_compensated_servo(
             &setup.job,
-            &written.samples,
+            written
+                .samples
+                .rows(&after.steps)
+                .map(|r| r.pos.coords.into())
+                .collect(),
             setup.machine.period_ms,
             z_sign,
             &staged.join("servo_compensated.csv"),
@@ -1287,10 +1291,6 @@ pub fn optimize_setup(
     } else {
         None
     };
-    if let Some(text) = &written.text {
-        export::atomic::write_bytes(&staged.join("optimized.nc"), text.as_bytes())
-            .map_err(|e| Error::io("cannot write", &staged.join("optimized.nc"), e))?;
-    }
     let lower_bound_time_s = written.lower_bound_time_s;
     let doc = OptimizeSummary {
         job: setup.job.name.clone(),
@@ -1349,15 +1349,17 @@ pub fn optimize_setup(
 
 /// [`optimize_setup`]'s engagement along the free `stations` (begun at
 /// `t1`), their caps and the rounds of [`optimize::write_verified`]: the
-/// number of stations, the engagement's time, what was written and when the
-/// rounds began.
+/// number of stations, the engagement's time, what was written (optimized.nc
+/// into `staged`) and when the rounds began.
 fn optimize_rounds(
     setup: &Setup,
     machine: &schedule::Machine,
-    stations: &mut schedule::Stations,
+    free: &mut optimize::FreeStations,
     given: optimize::Given,
     t1: Instant,
+    staged: &Path,
 ) -> Result<(usize, f64, optimize::Written, Instant)> {
+    let stations = free.stations(machine)?;
     let limits = &setup.job.limits;
     let surface = match (&setup.design, limits.angle_rule) {
         (_, false) => optimize::SurfaceFrom::Nothing,
@@ -1371,8 +1373,9 @@ fn optimize_rounds(
     let caps = optimize::interval_caps(&engagement, stations, limits, &setup.tools);
     // Only the caps are needed from here on (per station: loads, areas, angles).
     drop(engagement);
-    let written = optimize::write_verified(setup, machine, stations, caps, given)?;
-    Ok((stations.len(), time_engagement_s, written, t2))
+    let n_stations = stations.len();
+    let written = optimize::write_verified(setup, machine, free, caps, given, staged)?;
+    Ok((n_stations, time_engagement_s, written, t2))
 }
 
 /// servo.csv: commanded positions every period with path feed, axis
@@ -1385,12 +1388,10 @@ fn optimize_rounds(
 /// Z and its velocity are in the machine's own Z (`z_sign` −1 where it points down).
 fn write_servo_csv(
     path: &Path,
-    samples: &[schedule::ServoSample],
-    tools: &[(u32, f64)],
+    samples: impl Iterator<Item = motion::SampleRow>,
     steps: &[TimedStep],
     z_sign: f64,
 ) -> Result<()> {
-    let velocities = schedule::axis_velocity_mm_s(samples);
     // The run's steps, period by period: a period's steps up to the next
     // one that does not continue it.
     let mut next_step = 0;
@@ -1411,11 +1412,13 @@ fn write_servo_csv(
             "sample",
         ])?;
         let flag = |b: bool| if b { 1.0 } else { 0.0 };
-        for (i, (s, &(tool, rpm))) in samples.iter().zip(tools).enumerate() {
-            let v = if i == 0 {
-                nalgebra::Vector3::zeros()
-            } else {
-                velocities[i - 1]
+        let mut before: Option<motion::SampleRow> = None;
+        for (i, s) in samples.enumerate() {
+            let (tool, rpm) = (s.tool, s.spindle_rpm);
+            // The axis velocities over the period (as schedule::axis_velocity_mm_s).
+            let v = match &before {
+                None => nalgebra::Vector3::zeros(),
+                Some(b) => (s.pos - b.pos) / (s.t_s - b.t_s),
             };
             // The period's steps (none before the first sample).
             let period = if i == 0 {
@@ -1433,11 +1436,7 @@ fn write_servo_csv(
             // before the sample (a corner at the time of the row before it
             // or of the sample adds nothing: that part is empty). The move to
             // the sample takes the kind of its last part that moves.
-            let mut t_row = if i == 0 {
-                f64::NEG_INFINITY
-            } else {
-                samples[i - 1].t_s
-            };
+            let mut t_row = before.map_or(f64::NEG_INFINITY, |b| b.t_s);
             let mut kind = steps.first().is_some_and(|p| p.step.rapid);
             let mut moved = false;
             for (j, c) in period.iter().enumerate() {
@@ -1485,6 +1484,7 @@ fn write_servo_csv(
                 ]
                 .map(simulate::fmt),
             )?;
+            before = Some(s);
         }
         out.flush()
     })

@@ -130,7 +130,7 @@ fn read_servo_csv(path: &Path, period_ms: f64) -> Result<Vec<[f64; 3]>> {
 }
 
 /// S4's pre-compensation of planned servo data (MODEL.md §7.3): the commands that make the
-/// `[servo]` drive model follow `samples` to within `precomp_threshold_mm`, written as
+/// `[servo]` drive model follow the samples at `target` to within `precomp_threshold_mm`, written as
 /// `t_s,x,y,z` every period to `path`. The last sample (the cycle end, off the period grid)
 /// is taken at the next period, where the plan rests at the end point anyway.
 /// The commands are written in the machine's own Z (`z_sign` −1 where its Z points
@@ -138,14 +138,13 @@ fn read_servo_csv(path: &Path, period_ms: f64) -> Result<Vec<[f64; 3]>> {
 /// mirror of those compensated in dexcut's frame.
 pub fn write_compensated_servo(
     job: &Job,
-    samples: &[schedule::ServoSample],
+    target: Vec<[f64; 3]>,
     period_ms: f64,
     z_sign: f64,
     path: &Path,
 ) -> Result<servo::Precomp> {
     let drive = drive(job)?;
     let period_s = period_ms * 1e-3;
-    let target: Vec<[f64; 3]> = samples.iter().map(|s| s.pos.coords.into()).collect();
     let pre = servo::precompensate(
         &target,
         period_s,

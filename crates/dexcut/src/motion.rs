@@ -136,6 +136,82 @@ pub fn steps_from_samples(path: &nc::Path, samples: &[ServoSample]) -> Vec<Timed
     steps
 }
 
+/// One servo sample as servo.csv writes it: time, tool-tip position and path
+/// speed, and the tool and spindle speed of the block it lies on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SampleRow {
+    /// Time from the program start, s.
+    pub t_s: f64,
+    /// Tool-tip position, mm.
+    pub pos: nalgebra::Point3<f64>,
+    /// Path speed at that instant, mm/min.
+    pub feed_mm_min: f64,
+    /// Number (T word) of the tool of its block.
+    pub tool: u32,
+    /// Spindle speed of its block, rev/min (0 where none was set).
+    pub spindle_rpm: f64,
+}
+
+impl SampleRow {
+    /// `sample`, on `path`'s block it lies on.
+    pub fn of(sample: &ServoSample, path: &nc::Path) -> SampleRow {
+        let seg = &path.segments[sample.segment as usize];
+        SampleRow {
+            t_s: sample.t_s,
+            pos: sample.pos,
+            feed_mm_min: sample.feed_mm_min,
+            tool: seg.tool,
+            spindle_rpm: seg.spindle_rpm,
+        }
+    }
+}
+
+/// Servo samples kept as what their steps ([`steps_from_samples`]) do not
+/// hold of them: the first sample, and each sample's path speed (8 B a
+/// sample instead of the sample's 56 and its block's tool and spindle
+/// speed's 16, issue 16). Every later sample ends its period's last step:
+/// that step ends at the sample's time and position and lies on the
+/// sample's block.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SampleFeeds {
+    first: Option<SampleRow>,
+    feeds_mm_min: Vec<f64>,
+}
+
+impl SampleFeeds {
+    /// What the rows of `samples` on `path` need beside their steps.
+    pub fn of(samples: &[ServoSample], path: &nc::Path) -> SampleFeeds {
+        SampleFeeds {
+            first: samples.first().map(|s| SampleRow::of(s, path)),
+            feeds_mm_min: samples.iter().skip(1).map(|s| s.feed_mm_min).collect(),
+        }
+    }
+
+    /// The samples' rows, given `steps`, the steps made of the samples by
+    /// [`steps_from_samples`] (the same values as [`SampleRow::of`] each
+    /// sample, bit for bit).
+    pub fn rows<'a>(&'a self, steps: &'a [TimedStep]) -> impl Iterator<Item = SampleRow> + 'a {
+        // Each period's last step: the one before the next that does not continue it.
+        let ends = steps
+            .iter()
+            .enumerate()
+            .filter(|&(k, _)| steps.get(k + 1).is_none_or(|next| !next.continues))
+            .map(|(_, s)| s);
+        self.first
+            .into_iter()
+            .chain(
+                ends.zip(&self.feeds_mm_min)
+                    .map(|(s, &feed_mm_min)| SampleRow {
+                        t_s: s.t_end_s,
+                        pos: s.step.to_mm.into(),
+                        feed_mm_min,
+                        tool: s.tool,
+                        spindle_rpm: s.spindle_rpm,
+                    }),
+            )
+    }
+}
+
 /// How the machine runs the program as written: servo samples every period.
 pub fn machine_motion(path: &nc::Path, machine: &Machine) -> Result<Vec<ServoSample>> {
     let stations = Stations::new(path, machine, STATION_DS_MM, FeedPolicy::Programmed)?;
@@ -220,4 +296,65 @@ pub fn direct_steps(
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// servo.csv's rows made again from the steps and the feeds equal the
+    /// samples' own, bit for bit: on a program whose servo periods are split
+    /// at rapids (steps that continue a period), with two tools and spindle
+    /// speeds and an arc; so do the axis velocities between them.
+    #[test]
+    fn sample_rows_from_the_steps_are_the_samples() {
+        let text = "G21 G90 G17\nT1 M6 S9000 M3\nG0 X0 Y0 Z5\nG1 Z-1 F600\nG1 X10 Y3 F1200\n\
+                    G2 X14 Y7 I0 J4 F900\nG0 Z5\nG0 X20\nG1 Z-0.5 F300\nT2 M6 S12000 M3\n\
+                    G1 X25 Y-2 F1500\nG0 Z10\nG0 X0 Y0\nM2\n";
+        let parsed = nc::parse(text, "t.nc", &nc::Options::default());
+        assert!(parsed.diagnostics.iter().all(|d| !d.is_error()));
+        let path = parsed.path;
+        let machine = Machine {
+            period_ms: 4.0,
+            ..Machine::default()
+        };
+        let samples = machine_motion(&path, &machine).unwrap();
+        let steps = steps_from_samples(&path, &samples);
+        // The program splits periods at its rapids, and uses both tools.
+        assert!(steps.iter().filter(|s| s.continues).count() >= 4);
+        assert!(samples.len() > 100 && steps.len() > samples.len());
+        let tools: std::collections::BTreeSet<u32> = samples
+            .iter()
+            .map(|s| SampleRow::of(s, &path).tool)
+            .collect();
+        assert_eq!(tools.len(), 2);
+
+        let feeds = SampleFeeds::of(&samples, &path);
+        let rows: Vec<SampleRow> = feeds.rows(&steps).collect();
+        assert_eq!(rows.len(), samples.len());
+        let bits = |r: &SampleRow| {
+            [
+                r.t_s,
+                r.pos.x,
+                r.pos.y,
+                r.pos.z,
+                r.feed_mm_min,
+                r.spindle_rpm,
+            ]
+            .map(f64::to_bits)
+        };
+        for (i, (row, sample)) in rows.iter().zip(&samples).enumerate() {
+            let own = SampleRow::of(sample, &path);
+            assert_eq!((bits(row), row.tool), (bits(&own), own.tool), "sample {i}");
+        }
+        let velocity = schedule::axis_velocity_mm_s(&samples);
+        for (i, w) in rows.windows(2).enumerate() {
+            let v = (w[1].pos - w[0].pos) / (w[1].t_s - w[0].t_s);
+            assert_eq!(
+                v.map(f64::to_bits),
+                velocity[i].map(f64::to_bits),
+                "period {i}"
+            );
+        }
+    }
 }

@@ -558,7 +558,12 @@ pub const LIMIT_MARGIN: f64 = 0.01;
 pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> {
     let mut out = Vec::new();
     let grid_mm = run.stock.grid().spacing_mm;
-    for period in run.periods().iter().filter(|p| p.cutting) {
+    // The periods one by one (a million periods held as a list were 72 MB
+    // beside the run at the verification's peak, issue 16).
+    run.for_each_period(|period| {
+        if !period.cutting {
+            return;
+        }
         // Per load: the largest value / limit in the period, and the feed exponent of its tool.
         let mut worst = [(0.0f64, 1.0f64); 4];
         // Largest step feed / its chip-load feed among the steps that cut.
@@ -602,7 +607,7 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
         // its loads and chip load are corrected over the same stretch.
         let (s_lo, s_hi, dt) = (period.s_from_mm, period.s_to_mm, period.dt_s);
         if dt <= 0.0 {
-            continue;
+            return;
         }
         let feed = (s_hi - s_lo) / dt * 60.0;
         let mut found: Option<(f64, CapKind)> = None;
@@ -662,7 +667,7 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
                 sub_cell,
             });
         }
-    }
+    });
     out
 }
 
@@ -676,7 +681,7 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
 pub fn lower_caps(
     caps: &mut [(f64, CapKind)],
     s_mm: &[f64],
-    blocks: &[usize],
+    blocks: &[u32],
     excesses: &[Excess],
     margin_mm: f64,
     feed_min: Option<f64>,
@@ -706,8 +711,9 @@ pub fn lower_caps(
 }
 
 /// Per interval, the block of the written program it lies in (an index
-/// counting the refeed plan's pieces over all segments).
-pub fn interval_blocks(stations: &Stations, plan: &[Vec<(f64, f64)>]) -> Vec<usize> {
+/// counting the refeed plan's pieces over all segments; u32, 4 B an interval:
+/// there are fewer pieces than segments, u32-indexed, and stations together).
+pub fn interval_blocks(stations: &Stations, plan: &[Vec<(f64, f64)>]) -> Vec<u32> {
     let (seg_of, frac) = (stations.segment(), stations.fraction());
     let mut first_piece = Vec::with_capacity(plan.len());
     let mut n = 0;
@@ -720,7 +726,7 @@ pub fn interval_blocks(stations: &Stations, plan: &[Vec<(f64, f64)>]) -> Vec<usi
             let seg = seg_of[k + 1] as usize;
             let f = frac[k + 1];
             let piece = plan[seg].iter().position(|p| p.0 >= f - 1e-9).unwrap_or(0);
-            first_piece[seg] + piece
+            u32::try_from(first_piece[seg] + piece).expect("fewer than 2^32 blocks")
         })
         .collect()
 }
@@ -750,15 +756,10 @@ pub const MAX_ROUNDS: usize = 12;
 
 /// The program optimize writes, re-simulated as a program of its own.
 pub struct Written {
-    /// The re-fed G-code (None for CSV point lists).
-    pub text: Option<String>,
     /// The written program simulated; None when the original is kept.
     pub run: Option<Run>,
     /// Its servo samples (servo.csv).
-    pub samples: Vec<schedule::ServoSample>,
-    /// Per sample, the tool number and spindle speed (rev/min, 0 if none
-    /// set) of the block it lies on (servo.csv's `tool`, `spindle_rpm`).
-    pub sample_tools: Vec<(u32, f64)>,
+    pub samples: WrittenSamples,
     /// Cycle time of the plan as written (each block at its feed, the
     /// machine's acceleration), s.
     pub plan_time_s: f64,
@@ -780,6 +781,31 @@ pub struct Written {
     /// Periods above a limit by more than its tolerance after the last round,
     /// where the tool advanced less than a grid cell (see [`Excess::resolved`]).
     pub unresolved: Vec<Excess>,
+}
+
+/// The servo samples of [`Written`] (servo.csv's rows).
+pub enum WrittenSamples {
+    /// The written program's, made again from its run's steps where they
+    /// are written ([`crate::motion::SampleFeeds`]: 8 B a sample held
+    /// beside the run instead of 72, issue 16).
+    OfRun(crate::motion::SampleFeeds),
+    /// The program as given, kept: its samples, each on its block (its run
+    /// is simulated again by the caller).
+    Held(Vec<crate::motion::SampleRow>),
+}
+
+impl WrittenSamples {
+    /// The rows, given the steps of [`Written::run`] (or, where the
+    /// original is kept, of its run simulated again).
+    pub fn rows<'a>(
+        &'a self,
+        steps: &'a [crate::motion::TimedStep],
+    ) -> Box<dyn Iterator<Item = crate::motion::SampleRow> + 'a> {
+        match self {
+            WrittenSamples::OfRun(feeds) => Box::new(feeds.rows(steps)),
+            WrittenSamples::Held(rows) => Box::new(rows.iter().copied()),
+        }
+    }
 }
 
 /// Whether a run (of the program as written) is within every limit: no
@@ -863,36 +889,49 @@ impl Given {
 /// split per run, which take one feed: MODEL.md §2.2). When the
 /// original program is within every limit and the result would be slower,
 /// the original is kept. The program's path is read from `free`'s
-/// ([`Stations::path`]): the setup's may be lent to them.
+/// ([`FreeStations::path`]): the setup's may be lent to them. `free`'s
+/// arrays are let go while the written program is verified and made again
+/// (by `machine`) for a next round. A G-code program's text is written to
+/// `out_dir`'s optimized.nc as each round makes it (the original's where it
+/// is kept), not held through the verification: `out_dir` is a staging
+/// folder, committed whole when every file is written.
 pub fn write_verified(
     setup: &Setup,
     machine: &Machine,
-    free: &mut Stations,
+    free: &mut FreeStations,
     mut caps: Vec<(f64, CapKind)>,
     before: Given,
+    out_dir: &std::path::Path,
 ) -> Result<Written> {
+    let write_text = |text: &str| {
+        let file = out_dir.join("optimized.nc");
+        export::atomic::write_bytes(&file, text.as_bytes())
+            .map_err(|e| crate::error::Error::io("cannot write", &file, e))
+    };
     let limits = &setup.job.limits;
     let margin_mm = 2.0 * setup.stock.grid().spacing_mm;
     let mut merge_ratio = MERGE_RATIO;
     let mut round = 0;
     loop {
         round += 1;
+        let stations = free.stations(machine)?;
         // The two plans are made one after the other on the stations
         // themselves, their caps put back after each (no copy of the
         // stations), and dropped before the written program is simulated:
         // what the rounds keep of them is their times, the refeed plan, the
         // cap shares and, for a point list, the servo samples.
-        let (plan, time_optimal_s, lower_bound_time_s) = free.with_caps_restored(|stations| {
-            apply_interval_caps(stations, &caps)?;
-            let optimum = schedule::plan(stations);
-            let time_optimal_s = optimum.cycle_time_s();
-            let lower_bound_time_s = schedule::lower_bound_time_s(stations);
-            let plan = refeed_plan(stations, &caps, machine, merge_ratio);
-            Ok::<_, crate::error::Error>((plan, time_optimal_s, lower_bound_time_s))
-        })?;
+        let (plan, time_optimal_s, lower_bound_time_s) =
+            stations.with_caps_restored(|stations| {
+                apply_interval_caps(stations, &caps)?;
+                let optimum = schedule::plan(stations);
+                let time_optimal_s = optimum.cycle_time_s();
+                let lower_bound_time_s = schedule::lower_bound_time_s(stations);
+                let plan = refeed_plan(stations, &caps, machine, merge_ratio);
+                Ok::<_, crate::error::Error>((plan, time_optimal_s, lower_bound_time_s))
+            })?;
         // The plan as written: every interval at its block's feed.
-        let written_caps = block_caps(free, &plan, &caps);
-        let (plan_time_s, shares) = free.with_caps_restored(|blocks| {
+        let written_caps = block_caps(stations, &plan, &caps);
+        let (plan_time_s, shares) = stations.with_caps_restored(|blocks| {
             apply_interval_caps(blocks, &written_caps)?;
             let profile = schedule::plan(blocks);
             Ok::<_, crate::error::Error>((profile.cycle_time_s(), cap_shares(&profile)))
@@ -907,14 +946,25 @@ pub fn write_verified(
         // A point list is written as the optimum's servo samples: that plan again.
         let optimum_samples = match &setup.program.gcode {
             Some(_) => None,
-            None => Some(free.with_caps_restored(|stations| {
+            None => Some(stations.with_caps_restored(|stations| {
                 apply_interval_caps(stations, &caps)?;
                 Ok::<_, crate::error::Error>(schedule::plan(stations).sample(machine.period_ms)?)
             })?),
         };
+        // What a next round needs of the refeed plan is each interval's
+        // block: kept instead of the plan (a million segments' pieces, one
+        // `Vec` each, 40 MB), which is dropped before the sweep.
+        let blocks = interval_blocks(stations, &plan);
+        // Nor are the stations' arrays needed while the program is written,
+        // read back and verified (3 M stations: 143 MB beside the re-feed's
+        // readings and the run): only their path is kept, and a next round
+        // makes them again (the same stations: their caps are always put
+        // back as made).
+        free.release();
         // The written program's path is lent to its planner, and dropped
-        // once its steps and the samples' tools are made (before the sweep).
-        let (text, samples, steps, tools_of_samples) = match &setup.program.gcode {
+        // once its steps and what servo.csv needs of the samples beside
+        // them (their feeds) are made, with the samples (before the sweep).
+        let (sample_feeds, steps) = match &setup.program.gcode {
             Some(src) => {
                 // The written program as the re-feed writer read it back to
                 // check it (with the program's options, as `nc::parse` reads
@@ -924,6 +974,9 @@ pub fn write_verified(
                         .or_run(|| {
                             format!("{}: cannot write the re-fed program", setup.program.file)
                         })?;
+                // Written now and let go (60 MB for a million blocks).
+                write_text(&text)?;
+                drop(text);
                 let parsed = setup.program.in_frame(parsed);
                 if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
                     fail!(run, "the re-fed program does not read back: {d}");
@@ -932,21 +985,17 @@ pub fn write_verified(
                 let (samples, path) = crate::motion::machine_motion_of(path, &setup.machine);
                 let samples = samples?;
                 let steps = crate::motion::steps_from_samples(&path, &samples);
-                let tools = sample_tools(&path, &samples);
-                (Some(text), samples, steps, tools)
+                let feeds = crate::motion::SampleFeeds::of(&samples, &path);
+                (feeds, steps)
             }
             None => {
                 let samples = optimum_samples.expect("sampled for a point list");
                 let path = free.path();
                 let steps = crate::motion::steps_from_samples(path, &samples);
-                let tools = sample_tools(path, &samples);
-                (None, samples, steps, tools)
+                let feeds = crate::motion::SampleFeeds::of(&samples, path);
+                (feeds, steps)
             }
         };
-        // What a next round needs of the refeed plan is each interval's
-        // block: kept instead of the plan (a million segments' pieces, one
-        // `Vec` each, 40 MB), which is dropped before the sweep.
-        let blocks = interval_blocks(free, &plan);
         drop(plan);
         let run = crate::simulate::run_on(
             setup.stock_source(),
@@ -955,7 +1004,8 @@ pub fn write_verified(
             &format!("verify {round}"),
         )?;
         let over = excesses(&run, limits, &setup.tools);
-        let slow = text.is_some()
+        let gcode = setup.program.gcode.as_deref();
+        let slow = gcode.is_some()
             && run.steps.last().map_or(0.0, |s| s.t_end_s) > plan_time_s * (1.0 + PLAN_TOLERANCE);
         let refine_blocks = slow && merge_ratio > MERGE_RATIO_MIN;
         // Every period over a limit lowers its caps; the rounds end when none
@@ -968,28 +1018,27 @@ pub fn write_verified(
             || round >= MAX_ROUNDS;
         if done {
             let cycle = run.steps.last().map_or(0.0, |s| s.t_end_s);
-            let kept_original = text.is_some() && cycle > before.cycle_s && before.within_limits;
+            let kept_original = gcode.is_some() && cycle > before.cycle_s && before.within_limits;
             let (left, unresolved): (Vec<Excess>, Vec<Excess>) = over
                 .into_iter()
                 .filter(|e| e.beyond_tolerance)
                 .partition(|e| e.resolved);
-            let (samples, sample_tools) = if kept_original {
+            let samples = if let (true, Some(original)) = (kept_original, gcode) {
+                write_text(original)?;
                 let path = free.path();
                 let samples = crate::motion::machine_motion(path, &setup.machine)?;
-                let tools = sample_tools(path, &samples);
-                (samples, tools)
+                WrittenSamples::Held(
+                    samples
+                        .iter()
+                        .map(|s| crate::motion::SampleRow::of(s, path))
+                        .collect(),
+                )
             } else {
-                (samples, tools_of_samples)
+                WrittenSamples::OfRun(sample_feeds)
             };
             return Ok(Written {
-                text: if kept_original {
-                    setup.program.gcode.clone()
-                } else {
-                    text
-                },
                 run: (!kept_original).then_some(run),
                 samples,
-                sample_tools,
                 plan_time_s,
                 time_optimal_s,
                 lower_bound_time_s,
@@ -1003,7 +1052,7 @@ pub fn write_verified(
         }
         lower_caps(
             &mut caps,
-            free.s_mm(),
+            free.stations(machine)?.s_mm(),
             &blocks,
             &over,
             margin_mm,
@@ -1013,18 +1062,6 @@ pub fn write_verified(
             merge_ratio = (1.0 + (merge_ratio - 1.0) / 2.5).max(MERGE_RATIO_MIN);
         }
     }
-}
-
-/// Per servo sample, the tool number and spindle speed of the block of
-/// `path` it lies on ([`Written::sample_tools`]).
-fn sample_tools(path: &nc::Path, samples: &[schedule::ServoSample]) -> Vec<(u32, f64)> {
-    samples
-        .iter()
-        .map(|s| {
-            let seg = &path.segments[s.segment as usize];
-            (seg.tool, seg.spindle_rpm)
-        })
-        .collect()
 }
 
 /// One tool's chip-load cap (MODEL.md §2.1) against what the program asks
@@ -1161,6 +1198,64 @@ pub fn optimising_machine(machine: &Machine, limits: &LimitsSpec) -> Machine {
     Machine {
         feed_max_mm_min: limits.feed_max.unwrap_or(machine.feed_max_mm_min),
         ..*machine
+    }
+}
+
+/// The free stations of the rounds ([`free_stations_of`]), or, while the
+/// written program is verified, the path they are made from alone: their
+/// arrays (a million-block program's 3 M stations: 143 MB) are let go then
+/// and made again when a next round plans (issue 16).
+pub enum FreeStations {
+    /// The stations, their caps as made.
+    Made(Box<Stations>),
+    /// Their path, the stations let go.
+    Released(nc::Path),
+}
+
+impl FreeStations {
+    /// The program's path the stations are made from.
+    pub fn path(&self) -> &nc::Path {
+        match self {
+            FreeStations::Made(stations) => stations.path(),
+            FreeStations::Released(path) => path,
+        }
+    }
+
+    /// The stations, made again from the path by `machine` (as
+    /// [`free_stations_of`] made them) where they were let go.
+    pub fn stations(&mut self, machine: &Machine) -> Result<&mut Stations> {
+        if let FreeStations::Released(path) = self {
+            let stations =
+                free_stations_of(std::mem::take(path), machine).map_err(|(e, path)| {
+                    *self = FreeStations::Released(path);
+                    e
+                })?;
+            *self = FreeStations::Made(Box::new(stations));
+        }
+        match self {
+            FreeStations::Made(stations) => Ok(&mut **stations),
+            FreeStations::Released(_) => unreachable!("made above"),
+        }
+    }
+
+    /// Lets the stations' arrays go, keeping their path.
+    pub fn release(&mut self) {
+        if let FreeStations::Made(_) = self {
+            let FreeStations::Made(stations) =
+                std::mem::replace(self, FreeStations::Released(nc::Path::default()))
+            else {
+                unreachable!("matched above")
+            };
+            *self = FreeStations::Released(stations.into_path());
+        }
+    }
+
+    /// The path, given back.
+    pub fn into_path(self) -> nc::Path {
+        match self {
+            FreeStations::Made(stations) => stations.into_path(),
+            FreeStations::Released(path) => path,
+        }
     }
 }
 

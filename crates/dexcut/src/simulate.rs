@@ -36,7 +36,7 @@ pub const MRR_WINDOW_CELLS: f64 = 10.0;
 pub const SUB_CELL_WINDOW_CELLS: f64 = 6.0;
 
 /// One servo period of a run, with the removal it is measured by
-/// ([`Run::periods`]).
+/// ([`Run::for_each_period`]).
 #[derive(Clone, Copy, Debug)]
 pub struct Period {
     /// Its steps, `first_step..=last_step`.
@@ -1765,23 +1765,18 @@ impl Summary {
 }
 
 impl Run {
-    /// Servo periods (a period split where the motion changes between rapid
-    /// and feed counts as a whole), each with its MRR resolved to the grid
-    /// (MODEL.md §2.3): a period in which the tool advances less than one grid
-    /// cell is measured over the shortest run of periods centred on it (of
-    /// the same cut, no all-rapid period) that covers
-    /// [`SUB_CELL_WINDOW_CELLS`] cells of path, since a column's removal comes
-    /// whole in the period in which the edge crosses the column's centre.
-    pub fn periods(&self) -> Vec<Period> {
-        let mut out = Vec::new();
-        self.for_each_period(|p| out.push(p));
-        out
-    }
-
-    /// Each of [`Run::periods`] in turn, made from per-period columns (its
-    /// first step, end of path, removal, time; about 90 B a period with the
-    /// windows, issue 16) rather than a copy of the periods as measured alone.
-    fn for_each_period(&self, mut f: impl FnMut(Period)) {
+    /// Each servo period in turn (a period split where the motion changes
+    /// between rapid and feed counts as a whole), with its MRR resolved to
+    /// the grid (MODEL.md §2.3): a period in which the tool advances less
+    /// than one grid cell is measured over the shortest run of periods
+    /// centred on it (of the same cut, no all-rapid period) that covers
+    /// [`SUB_CELL_WINDOW_CELLS`] cells of path, since a column's removal
+    /// comes whole in the period in which the edge crosses the column's
+    /// centre. The periods are made from per-period columns (their first
+    /// step, end of path, removal, time; about 90 B a period with the
+    /// windows, issue 16) and handed to `f` one by one, never held as a
+    /// list (72 B a period more).
+    pub fn for_each_period(&self, mut f: impl FnMut(Period)) {
         let g = self.stock.grid().spacing_mm;
         let window_mm = SUB_CELL_WINDOW_CELLS * g;
         // Own values per period p: steps first[p]..first[p + 1], path
@@ -1850,7 +1845,7 @@ impl Run {
         }
     }
 
-    /// Per step, the MRR of its servo period resolved to the grid ([`Run::periods`]), mm³/s.
+    /// Per step, the MRR of its servo period resolved to the grid ([`Run::for_each_period`]), mm³/s.
     pub fn period_mrr_by_step_mm3_s(&self) -> Vec<f64> {
         let mut out = vec![0.0; self.steps.len()];
         self.for_each_period(|p| out[p.first_step..=p.last_step].fill(p.mrr_mm3_s()));
