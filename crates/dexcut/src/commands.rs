@@ -860,6 +860,10 @@ pub fn simulate(
             // The steps carry what the run needs of the program (lines, tools, spindle
             // speeds); nothing after this reads the path: freed before the sweep.
             setup.program.path = nc::Path::default();
+            // Nor its text (a G-code program stays marked as one).
+            if let Some(text) = setup.program.gcode.as_mut() {
+                *text = String::new();
+            }
             // The run sweeps the job's stock itself, not a copy (one stock fewer held).
             let stock = setup.take_stock()?;
             let sim = simulate_steps(&setup, stock, steps)?;

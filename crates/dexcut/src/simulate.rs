@@ -78,8 +78,10 @@ pub struct Run {
     /// Per step, the lateral offset of the tool in the final pass, µm: its converged
     /// deflection at the contact height (MODEL.md §5.1).
     pub offsets_um: Vec<[f64; 2]>,
-    /// Predicted shape error per column, µm, clamped to the stock (MODEL.md §5).
-    pub error_um: Vec<f32>,
+    /// Predicted shape error per column, µm, clamped to the stock (MODEL.md
+    /// §5): held, or made where it is read ([`Run::error_map_um`],
+    /// [`Run::error_map_at`]).
+    error_map: ErrorMap,
     /// Stock volume before the run, mm³.
     pub initial_volume_mm3: f64,
     /// Stock volume after the run, mm³.
@@ -90,8 +92,9 @@ pub struct Run {
     /// Per step, the deflection across the path its final removal causes, µm
     /// (the error map's model, MODEL.md §5).
     pub model_um: Vec<[f64; 2]>,
-    /// Least and greatest error of the map when it is not kept in `error_um`
-    /// (a tiled stock's, set by [`write_tiled_columns`]), µm.
+    /// Least and greatest error of the map when it is not held: made where
+    /// it is read (a stock made of its closed form, by [`run_on`]) or a tiled
+    /// stock's (set by [`write_tiled_columns`]), µm.
     pub error_range_um: Option<[f64; 2]>,
     /// Wall-clock time of the sweeps, s.
     pub sweep_s: f64,
@@ -108,6 +111,18 @@ pub struct Run {
     /// Each tool number the steps carry as messages name it
     /// ([`ToolSet::name`]: a single `[tool]` is "the job's tool").
     pub tool_names: BTreeMap<u32, String>,
+}
+
+/// A run's error map (MODEL.md §5).
+enum ErrorMap {
+    /// Every column's error, µm (empty for a tiled stock: its bands' are
+    /// written by [`write_tiled_columns`]).
+    Held(Vec<f32>),
+    /// Made of the final stock and the initial stock's closed form (a box
+    /// or a cylinder) on its grid where it is read, block of rows by block
+    /// of rows as it is written: 4 B a column less held beside the steps and
+    /// loads while the outputs are written (issue 16).
+    Made(dexel::Solid, dexel::Grid),
 }
 
 /// Closed loop (MODEL.md §5.1): at most this many sweeps...
@@ -308,37 +323,37 @@ fn applied_offsets_um(steps: &[TimedStep], magnitude: &[f64], dirs: &[[f64; 2]])
 #[derive(Clone, Copy, Debug)]
 struct Relaxed {
     omega: f64,
-    sign: f64,
+    /// The last residual was negative (its sign, starting positive).
+    negative: bool,
 }
 
 impl Relaxed {
     const START: Relaxed = Relaxed {
         omega: LOOP_RELAX_START,
-        sign: 1.0,
+        negative: false,
     };
 
     /// Record g at x and return the next x to try (µm).
     fn next(&mut self, x: f64, g: f64) -> f64 {
         let r = g - x;
-        let sign = if r < 0.0 { -1.0 } else { 1.0 };
-        self.omega = if sign == self.sign {
+        let negative = r < 0.0;
+        self.omega = if negative == self.negative {
             (1.3 * self.omega).min(LOOP_RELAX_MAX)
         } else {
             (0.5 * self.omega).max(LOOP_RELAX_MIN)
         };
-        self.sign = sign;
+        self.negative = negative;
         x + self.omega * r
     }
 }
 
-/// One bound of a step's bracket: the offset, its residual g − x where a
-/// sweep measured it (NaN where the bound is only inferred), and the sweep
-/// that gave it.
+/// One bound of a step's bracket: the offset, and its residual g − x where
+/// a sweep measured it (NaN where the bound is only inferred). The sweep
+/// that gave it is kept beside it ([`Bracketed`]'s `lo_pass`, `hi_pass`).
 #[derive(Clone, Copy, Debug)]
 struct Bound {
     at: f64,
     r: f64,
-    pass: usize,
 }
 
 impl Bound {
@@ -362,56 +377,63 @@ impl Bound {
 /// (with the other steps as they are the root lies between x and g(x)), and
 /// a bracket closed around a bound measured more than two sweeps before
 /// drops that bound.
+///
+/// One a step of the loop: 96 B (sweeps as u32, the offset's cap, the
+/// tool's radius, passed in rather than held: issue 16).
 #[derive(Clone, Copy, Debug)]
 struct Bracketed {
     relaxed: Relaxed,
-    /// Offsets stay within ± this (the tool's radius), µm.
-    cap: f64,
     lo: Bound,
     hi: Bound,
     /// Residuals false position weighs the measured bounds with (Illinois: a
     /// bound kept twice in a row has its weight halved).
     w_lo: f64,
     w_hi: f64,
+    /// Bracket width when it last halved.
+    width_mark: f64,
+    /// The rigid sweep's g = δ₀ at x = 0, until the first update takes it
+    /// (`first`).
+    rigid_g: f64,
+    /// Sweeps that gave the bounds.
+    lo_pass: u32,
+    hi_pass: u32,
+    /// Sweeps since the bracket last halved.
+    since_halved: u32,
     /// The bound the last trial replaced: −1 lower, 1 upper, 0 none.
     replaced: i8,
-    /// Bracket width when it last halved, and sweeps since.
-    width_mark: f64,
-    since_halved: u32,
-    /// The rigid sweep's (x, g) = (0, δ₀), until the first update takes it.
-    rigid: Option<(f64, f64)>,
+    /// No update taken yet: `rigid_g` is the rigid sweep's.
+    first: bool,
 }
 
 impl Bracketed {
     /// A step whose rigid sweep (offset 0, sweep 1) gave the deflection
-    /// `rigid` ≥ 0 across the path.
+    /// `rigid` ≥ 0 across the path; its offsets stay within ± `cap` (its
+    /// tool's radius), µm.
     fn new(rigid: f64, cap: f64) -> Bracketed {
         let hi = cap;
         Bracketed {
             relaxed: Relaxed::START,
-            cap,
-            lo: Bound {
-                at: 0.0,
-                r: rigid,
-                pass: 1,
-            },
+            lo: Bound { at: 0.0, r: rigid },
             hi: Bound {
                 at: hi,
                 r: f64::NAN,
-                pass: 0,
             },
             w_lo: rigid,
             w_hi: f64::NAN,
-            replaced: 0,
             width_mark: hi,
+            rigid_g: rigid,
+            lo_pass: 1,
+            hi_pass: 0,
             since_halved: 0,
-            rigid: Some((0.0, rigid)),
+            replaced: 0,
+            first: true,
         }
     }
 
-    /// Record the residual `r` = g − x of the trial `x` measured by sweep `pass`.
-    fn observe(&mut self, x: f64, r: f64, pass: usize) {
-        let cap = self.cap;
+    /// Record the residual `r` = g − x of the trial `x` measured by sweep
+    /// `pass` (offsets within ± `cap`, as in [`Bracketed::new`]).
+    fn observe(&mut self, x: f64, r: f64, pass: usize, cap: f64) {
+        let pass = pass as u32;
         if r >= 0.0 {
             if x >= self.hi.at {
                 // The upper bound no longer holds (the steps before moved):
@@ -419,10 +441,10 @@ impl Bracketed {
                 self.hi = Bound {
                     at: (x + r).min(cap),
                     r: f64::NAN,
-                    pass,
                 };
+                self.hi_pass = pass;
             }
-            self.lo = Bound { at: x, r, pass };
+            (self.lo, self.lo_pass) = (Bound { at: x, r }, pass);
             if self.replaced == -1 {
                 self.w_hi *= 0.5;
             }
@@ -433,10 +455,10 @@ impl Bracketed {
                 self.lo = Bound {
                     at: (x + r).max(-cap),
                     r: f64::NAN,
-                    pass,
                 };
+                self.lo_pass = pass;
             }
-            self.hi = Bound { at: x, r, pass };
+            (self.hi, self.hi_pass) = (Bound { at: x, r }, pass);
             if self.replaced == 1 {
                 self.w_lo *= 0.5;
             }
@@ -444,19 +466,23 @@ impl Bracketed {
         }
         if self.hi.at - self.lo.at <= LOOP_TOL_UM {
             // Closed around a bound measured long ago: it may be stale.
-            if self.lo.pass + 2 < pass {
-                self.lo = Bound {
-                    at: -cap,
-                    r: f64::NAN,
+            if self.lo_pass + 2 < pass {
+                (self.lo, self.lo_pass) = (
+                    Bound {
+                        at: -cap,
+                        r: f64::NAN,
+                    },
                     pass,
-                };
+                );
             }
-            if self.hi.pass + 2 < pass {
-                self.hi = Bound {
-                    at: cap,
-                    r: f64::NAN,
+            if self.hi_pass + 2 < pass {
+                (self.hi, self.hi_pass) = (
+                    Bound {
+                        at: cap,
+                        r: f64::NAN,
+                    },
                     pass,
-                };
+                );
             }
         }
         if !self.lo.measured() {
@@ -477,19 +503,23 @@ impl Bracketed {
     /// of each other: the root lies between them, at a jump of g if the
     /// residual there is larger.
     fn closed(&self, pass: usize) -> bool {
+        let pass = pass as u32;
         let tol = LOOP_TOL_UM + LOOP_REL_TOL * self.lo.at.abs().max(self.hi.at.abs());
         self.lo.measured()
             && self.hi.measured()
             && self.hi.at - self.lo.at <= tol
-            && self.lo.pass + 2 >= pass
-            && self.hi.pass + 2 >= pass
+            && self.lo_pass + 2 >= pass
+            && self.hi_pass + 2 >= pass
     }
 
     /// After the first trial `x` gave `g`: the slope s = Δg/Δx of g between
-    /// the rigid sweep and this one, where they lie more than the tolerance
-    /// apart (None after the first update).
+    /// the rigid sweep (x = 0) and this one, where they lie more than the
+    /// tolerance apart (None after the first update).
     fn first_slope(&self, x: f64, g: f64) -> Option<f64> {
-        let (x0, g0) = self.rigid?;
+        if !self.first {
+            return None;
+        }
+        let (x0, g0) = (0.0, self.rigid_g);
         ((x - x0).abs() > LOOP_TOL_UM).then(|| (g - g0) / (x - x0))
     }
 
@@ -504,7 +534,7 @@ impl Bracketed {
             }
             _ => relaxed,
         };
-        self.rigid = None;
+        self.first = false;
         let (lo, hi) = (self.lo, self.hi);
         let middle = 0.5 * (lo.at + hi.at);
         // A step within the tolerance takes the relaxed update (it moves
@@ -881,10 +911,8 @@ pub fn run_on(
     // The largest offset a step may be tried at (MODEL.md §5.1): its tool's
     // radius. A trial beyond it would sweep the tool into stock it cannot
     // reach and feed the loop ever larger loads.
-    let offset_cap_um: Vec<f64> = tool_of_step
-        .iter()
-        .map(|&t| 500.0 * tools.entries[t].tool.diameter_mm)
-        .collect();
+    // (Made where it is read: one a tool, not a copy a step.)
+    let offset_cap_um = |i: usize| 500.0 * tools.entries[tool_of_step[i]].tool.diameter_mm;
     let rigid_peak_deflection_um = (0..n)
         .map(|i| rigid_load(i).deflection_um)
         .fold(0.0, f64::max);
@@ -920,9 +948,19 @@ pub fn run_on(
         grid_mm,
         SUB_CELL_WINDOW_CELLS * grid_mm,
     );
-    let sub_cell: Vec<bool> = (0..n)
-        .map(|i| in_loop[i] && !inherited[i] && advance_mm[i] < grid_mm && windows[i] != (i, i))
+    // The steps of the loop that advance less than a grid cell, in order,
+    // with their windows (not a window a step: issue 16).
+    let sub_cells: Vec<(usize, (usize, usize))> = (0..n)
+        .filter(|&i| in_loop[i] && !inherited[i] && advance_mm[i] < grid_mm && windows[i] != (i, i))
+        .map(|i| (i, windows[i]))
         .collect();
+    drop(windows);
+    // The steps' advances weigh the windows' sums below: none without such steps.
+    let advance_mm = if sub_cells.is_empty() {
+        Vec::new()
+    } else {
+        advance_mm
+    };
     let mut x: Vec<f64> = vec![0.0; n];
     let mut report = LoopReport {
         enabled: tools.closed_loop,
@@ -934,7 +972,7 @@ pub fn run_on(
     };
     if tools.closed_loop && !report.converged {
         let mut search: Vec<Bracketed> = (0..n)
-            .map(|i| Bracketed::new(rigid[i], offset_cap_um[i]))
+            .map(|i| Bracketed::new(rigid[i], offset_cap_um(i)))
             .collect();
         // The steps that took their direction seek a fraction of the offset
         // they start at, first 0 (eq. 5.1a): one search each, by step
@@ -949,16 +987,27 @@ pub fn run_on(
         let mut trial: Vec<f64> = (0..n)
             .map(|i| {
                 if in_loop[i] {
-                    (LOOP_RELAX_START * rigid[i]).min(offset_cap_um[i])
+                    (LOOP_RELAX_START * rigid[i]).min(offset_cap_um(i))
                 } else {
                     0.0
                 }
             })
             .collect();
+        // The rigid deflections are in the searches now.
+        drop(rigid);
         // Steps out of tolerance after each sweep, to see the loop stall.
         let mut out_counts: Vec<usize> = Vec::new();
         let mut residuals: Vec<f64> = Vec::new();
         loop {
+            // The last pass's stock, record and loads are replaced by this
+            // pass's: freed before its steps are made and it is swept (the
+            // stock's memory holds this pass's where it is made of its
+            // closed form).
+            let spare = final_stock.take();
+            drop(std::mem::take(&mut record));
+            drop(std::mem::take(&mut step_loads));
+            // (Made again after the sweep.)
+            report.unconverged = Vec::new();
             let shifted = {
                 let offsets_mm: Vec<[f64; 2]> = applied_offsets_um(&steps, &trial, &dirs)
                     .into_iter()
@@ -966,12 +1015,6 @@ pub fn run_on(
                     .collect();
                 offset_steps(&steps, &offsets_mm)
             };
-            // The last pass's stock, record and loads are replaced by this
-            // pass's: freed before it is swept (the stock's memory holds
-            // this pass's where it is made of its closed form).
-            let spare = final_stock.take();
-            drop(std::mem::take(&mut record));
-            drop(std::mem::take(&mut step_loads));
             let (pass_stock, pass_record) = sweep_pass(
                 &initial,
                 spare,
@@ -981,6 +1024,8 @@ pub fn run_on(
                 &options,
                 label,
             )?;
+            // (The moves swept are not needed after the sweep.)
+            drop(shifted);
             (final_stock, record) = (pass_stock, pass_record);
             step_loads = loads(tools, &tool_of_step, &record, &steps, grid_mm);
             report.passes += 1;
@@ -992,7 +1037,7 @@ pub fn run_on(
                 if inherited[i] {
                     fractions[at(i)].observe(g[i] - x[i], x[i - 1], pass);
                 } else {
-                    search[i].observe(x[i], g[i] - x[i], pass);
+                    search[i].observe(x[i], g[i] - x[i], pass, offset_cap_um(i));
                 }
             }
             // A step's bracket closed around its root (at a jump of g), and
@@ -1018,12 +1063,14 @@ pub fn run_on(
             // to ± |ḡ|·grid/path: the window's removal counts the rows of
             // columns whose centres its path crosses, ± one row of the path/grid
             // rows it covers (MODEL.md §5.1).
-            let mut sum_r = vec![0.0; n + 1];
-            let mut sum_x = vec![0.0; n + 1];
-            let mut sum_g = vec![0.0; n + 1];
-            let mut sum_w = vec![0.0; n + 1];
-            let mut path = vec![0.0; n + 1];
-            for i in 0..n {
+            // (Sums made only where a step has such a window.)
+            let sums = if sub_cells.is_empty() { 0 } else { n + 1 };
+            let mut sum_r = vec![0.0; sums];
+            let mut sum_x = vec![0.0; sums];
+            let mut sum_g = vec![0.0; sums];
+            let mut sum_w = vec![0.0; sums];
+            let mut path = vec![0.0; sums];
+            for i in 0..sums.saturating_sub(1) {
                 let w = if in_loop[i] && !inherited[i] {
                     advance_mm[i]
                 } else {
@@ -1046,15 +1093,19 @@ pub fn run_on(
                 }
                 let r = (g[i] - x[i]).abs();
                 let own = closed(i).map_or(r, |width| r.min(width));
-                let (a, b) = windows[i];
-                let w = sum_w[b + 1] - sum_w[a];
-                if sub_cell[i] && w > 0.0 && !within(own, x[i].abs()) {
-                    let resolution =
-                        ((sum_g[b + 1] - sum_g[a]) / w).abs() * grid_mm / (path[b + 1] - path[a]);
-                    let rw = (((sum_r[b + 1] - sum_r[a]) / w).abs() - resolution).max(0.0);
-                    let xw = ((sum_x[b + 1] - sum_x[a]) / w).abs();
-                    if within(rw, xw) {
-                        return (rw, xw);
+                let window = sub_cells
+                    .binary_search_by_key(&i, |&(j, _)| j)
+                    .map(|k| sub_cells[k].1);
+                if let Ok((a, b)) = window {
+                    let w = sum_w[b + 1] - sum_w[a];
+                    if w > 0.0 && !within(own, x[i].abs()) {
+                        let resolution = ((sum_g[b + 1] - sum_g[a]) / w).abs() * grid_mm
+                            / (path[b + 1] - path[a]);
+                        let rw = (((sum_r[b + 1] - sum_r[a]) / w).abs() - resolution).max(0.0);
+                        let xw = ((sum_x[b + 1] - sum_x[a]) / w).abs();
+                        if within(rw, xw) {
+                            return (rw, xw);
+                        }
                     }
                 }
                 (own, x[i].abs())
@@ -1114,11 +1165,11 @@ pub fn run_on(
             for i in 0..n {
                 if inherited[i] {
                     trial[i] = (fractions[at(i)].next(g[i] - x[i], x[i], x[i - 1]) * trial[i - 1])
-                        .clamp(-offset_cap_um[i], offset_cap_um[i]);
+                        .clamp(-offset_cap_um(i), offset_cap_um(i));
                 } else if in_loop[i] {
                     trial[i] = search[i]
                         .next(x[i], g[i], secant)
-                        .clamp(-offset_cap_um[i], offset_cap_um[i]);
+                        .clamp(-offset_cap_um(i), offset_cap_um(i));
                 }
             }
         }
@@ -1142,13 +1193,29 @@ pub fn run_on(
             }
         })
         .collect();
-    let (final_stock, error_um, final_volume_mm3) = match (&initial, final_stock) {
-        (Initial::Tiled(tiling), _) => (tiling.empty()?, Vec::new(), f64::NAN),
-        (_, Some(last)) => {
+    let (final_stock, error_map, error_range, final_volume_mm3) = match (&initial, final_stock) {
+        (Initial::Tiled(tiling), _) => {
+            (tiling.empty()?, ErrorMap::Held(Vec::new()), None, f64::NAN)
+        }
+        (Initial::Made(solid, grid), Some(last)) => {
+            // The map's range, block of rows by block of rows in order (the
+            // same fold as over the whole map); the map is made again where
+            // it is written.
             let before = initial.columns().expect("a whole stock");
-            let error_um = clamped_error_map_um(before, &last, &offsets_um, &model_um);
+            let mut range = [0.0, 0.0];
+            for at in row_blocks(last.grid()) {
+                let error = clamped_error_map_um(before, &last, &offsets_um, &model_um, at);
+                range = error_range_um(&error, range);
+            }
             let volume = last.volume_mm3();
-            (last, error_um, volume)
+            (last, ErrorMap::Made(*solid, *grid), Some(range), volume)
+        }
+        (Initial::Held(_), Some(last)) => {
+            let before = initial.columns().expect("a whole stock");
+            let all = 0..last.last_cut().len();
+            let error_um = clamped_error_map_um(before, &last, &offsets_um, &model_um, all);
+            let volume = last.volume_mm3();
+            (last, ErrorMap::Held(error_um), None, volume)
         }
         (_, None) => unreachable!("a whole stock's pass keeps its stock"),
     };
@@ -1157,11 +1224,11 @@ pub fn run_on(
         record,
         loads: step_loads,
         offsets_um,
-        error_um,
+        error_map,
         initial_volume_mm3,
         final_volume_mm3,
         model_um,
-        error_range_um: None,
+        error_range_um: error_range,
         stock: final_stock,
         sweep_s,
         closed_loop: report,
@@ -1310,6 +1377,7 @@ pub fn write_tiled_columns(
             &last,
             &run.offsets_um,
             &run.model_um,
+            0..last.last_cut().len(),
         );
         initial_mm = initial.add_row_lengths_mm(rows.clone(), initial_mm);
         final_mm = last.add_row_lengths_mm(rows.clone(), final_mm);
@@ -1452,8 +1520,10 @@ fn material_along_mm(initial: Before, p: [f64; 3], n: [f64; 3], max_mm: f64) -> 
     max_mm
 }
 
-/// Predicted shape error per column, µm (MODEL.md §5), positive = material
-/// left, NaN where no step cut. `applied_um` is the offset each step was swept
+/// Predicted shape error of the columns `columns` (indices into `last`'s
+/// columns), µm (MODEL.md §5), positive = material left, NaN where no step
+/// cut; each column's is its own (a map made block by block is the whole
+/// one bit for bit). `applied_um` is the offset each step was swept
 /// with, `model_um` the deflection its removal causes. The error is the model
 /// deflection projected on the outward normal of the final surface; where it
 /// says more material is left than the sweep's offset made (`model > applied`
@@ -1464,13 +1534,14 @@ fn clamped_error_map_um(
     last: &Stock,
     applied_um: &[[f64; 2]],
     model_um: &[[f64; 2]],
+    columns: std::ops::Range<usize>,
 ) -> Vec<f32> {
     let grid = *last.grid();
     let rows = last.rows();
     // The tops and normals of the final surface asked column by column, not
     // held (12 B + 4 B a column, 77 MB at 2 200 × 2 200 columns: issue 16).
     let top = |ix: usize, iy: usize| last.top_or_nan_at(iy * grid.nx + ix);
-    (0..last.last_cut().len())
+    columns
         .into_par_iter()
         .map(|c| {
             let step = last.last_cut()[c];
@@ -2066,7 +2137,7 @@ impl Run {
         let n = self.steps.len();
         let [min_error_um, max_error_um] = self
             .error_range_um
-            .unwrap_or_else(|| error_range_um(&self.error_um, [0.0, 0.0]));
+            .unwrap_or_else(|| error_range_um(&self.error_map_um(), [0.0, 0.0]));
         let final_volume_mm3 = self.final_volume_mm3;
         let collisions: Vec<usize> = (0..n)
             .filter(|&i| self.steps[i].step.rapid && self.record.volume_mm3(i) > NOTHING_MM3)
@@ -2155,6 +2226,31 @@ impl Run {
         out
     }
 
+    /// The predicted shape error of every column, µm (MODEL.md §5): the map
+    /// held, or made of the final stock (empty for a tiled stock, whose map
+    /// [`write_tiled_columns`] writes band by band).
+    pub fn error_map_um(&self) -> std::borrow::Cow<'_, [f32]> {
+        match &self.error_map {
+            ErrorMap::Held(error) => std::borrow::Cow::Borrowed(error),
+            ErrorMap::Made(..) => self.error_map_at(0..self.stock.grid().len()),
+        }
+    }
+
+    /// The predicted shape error of the columns `at` (indices into the
+    /// grid), µm: those of [`Run::error_map_um`].
+    pub fn error_map_at(&self, at: std::ops::Range<usize>) -> std::borrow::Cow<'_, [f32]> {
+        match &self.error_map {
+            ErrorMap::Held(error) => std::borrow::Cow::Borrowed(&error[at]),
+            ErrorMap::Made(solid, grid) => std::borrow::Cow::Owned(clamped_error_map_um(
+                Before::Solid(solid, grid),
+                &self.stock,
+                &self.offsets_um,
+                &self.model_um,
+                at,
+            )),
+        }
+    }
+
     /// Write the per-column results into the folder `dir`: final surface
     /// (`top_mm`, the stock's top heights), last cutting step, predicted
     /// error, and with a design model the distance to it and the program line
@@ -2170,7 +2266,6 @@ impl Run {
         csv: bool,
     ) -> Result<()> {
         let last_cut = self.stock.last_cut();
-        let error = &self.error_um;
         let grid = GridInfo::of(self.stock.grid()).export();
         let context = grid_error(dir);
         let meta = |name, unit, meaning, values| export::GridArray {
@@ -2180,8 +2275,10 @@ impl Run {
             values,
         };
         let mut arrays = run_grid_arrays();
-        grid.check_len("grid array \"error_um\"", error.len())
-            .map_err(context)?;
+        if let ErrorMap::Held(error) = &self.error_map {
+            grid.check_len("grid array \"error_um\"", error.len())
+                .map_err(context)?;
+        }
         if let Some(d) = design_diff_um {
             grid.check_len("grid array \"design_um\"", d.len())
                 .map_err(context)?;
@@ -2198,15 +2295,14 @@ impl Run {
             arrays.push(meta("line", "1", LINE_MEANING, export::NpyValues::I32(&[])));
         }
         let mut writer = export::ColumnGridWriter::begin(dir, &grid, &arrays).map_err(context)?;
-        let block = grid.nx.max(1) * WRITE_BLOCK_ROWS;
-        for start in (0..last_cut.len()).step_by(block) {
-            let at = start..(start + block).min(last_cut.len());
+        for at in row_blocks(self.stock.grid()) {
             let tops = self.stock.top_heights_at(at.clone());
             let last = last_steps(&last_cut[at.clone()]);
+            let error = self.error_map_at(at.clone());
             let mut values = vec![
                 export::NpyValues::F32(&tops),
                 export::NpyValues::I32(&last),
-                export::NpyValues::F32(&error[at.clone()]),
+                export::NpyValues::F32(&error),
             ];
             if let Some(d) = design_diff_um {
                 values.push(export::NpyValues::F32(&d[at.clone()]));
@@ -2229,10 +2325,11 @@ impl Run {
         let tops = self.stock.top_heights();
         let last_f = as_f32(&last_steps(last_cut));
         let line_f = line.map(as_f32);
+        let error = self.error_map_um();
         let mut columns: Vec<(&str, &[f32])> = vec![
             ("top_mm", &tops),
             ("last_step", &last_f),
-            ("error_um", error),
+            ("error_um", &error),
         ];
         if let Some(d) = design_diff_um {
             columns.push(("design_um", d));
@@ -2246,8 +2343,17 @@ impl Run {
     }
 }
 
-/// Rows of the column grid made and written at a time by [`Run::write_columns`].
+/// Rows of the column grid made and written at a time by [`Run::write_columns`]
+/// (and of an error map made where it is read, [`ErrorMap::Made`]).
 const WRITE_BLOCK_ROWS: usize = 64;
+
+/// The columns of `grid` (indices) in blocks of [`WRITE_BLOCK_ROWS`] rows, in order.
+fn row_blocks(grid: &dexel::Grid) -> impl Iterator<Item = std::ops::Range<usize>> {
+    let (len, block) = (grid.len(), grid.nx.max(1) * WRITE_BLOCK_ROWS);
+    (0..len)
+        .step_by(block)
+        .map(move |start| start..(start + block).min(len))
+}
 
 /// Grid geometry recorded in summary.json so `report` can rebuild maps.
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
@@ -2403,7 +2509,7 @@ mod tests {
         let first = |g: &dyn Fn(f64) -> f64, secant: bool| {
             let mut s = Bracketed::new(g(0.0), 5000.0);
             let x = LOOP_RELAX_START * g(0.0);
-            s.observe(x, g(x) - x, 2);
+            s.observe(x, g(x) - x, 2, 5000.0);
             (x, s.next(x, g(x), secant))
         };
         let gentle = |x: f64| 100.0 - 0.1 * x;
@@ -2441,7 +2547,7 @@ mod tests {
             let mut passes = 1;
             loop {
                 passes += 1;
-                s.observe(x, g(x) - x, passes);
+                s.observe(x, g(x) - x, passes, 5000.0);
                 // The loop's test: within tolerance, or bracketed as closely.
                 if (g(x) - x).abs() <= LOOP_TOL_UM + LOOP_REL_TOL * x.abs() || s.closed(passes) {
                     break;
@@ -2465,7 +2571,7 @@ mod tests {
         let mut passes = 1;
         loop {
             passes += 1;
-            s.observe(x, g(x) - x, passes);
+            s.observe(x, g(x) - x, passes, 5000.0);
             if s.closed(passes) {
                 break;
             }
@@ -2557,8 +2663,8 @@ mod tests {
             assert!(held.closed_loop.passes > 2, "{stock}: {} passes", held.closed_loop.passes);
             assert!(held.final_volume_mm3 < held.initial_volume_mm3 - 100.0, "{stock}");
             let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-            assert!(held.error_um.iter().any(|e| e.is_finite() && *e != 0.0), "{stock}");
-            assert_eq!(bits(&held.error_um), bits(&made.error_um), "{stock}");
+            assert!(held.error_map_um().iter().any(|e| e.is_finite() && *e != 0.0), "{stock}");
+            assert_eq!(bits(&held.error_map_um()), bits(&made.error_map_um()), "{stock}");
             assert_eq!(held.closed_loop.passes, made.closed_loop.passes);
             assert_eq!(held.offsets_um, made.offsets_um);
             assert_eq!(held.model_um, made.model_um);

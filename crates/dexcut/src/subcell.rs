@@ -110,11 +110,11 @@ pub fn window_loads(
             k += 1;
             continue;
         };
-        start.clear();
-        geo.clear();
-        start.push(0.0);
-        geo.push(first);
+        // The run's end, and whether every step of it is a cell or longer:
+        // its steps' geometry is held only where one is not (a whole
+        // program's run of long steps would hold 32 B a step: issue 16).
         let mut end = k + 1;
+        let mut all_long = first.0 >= grid_mm;
         while end < n
             && tool_of_step[end] == tool_of_step[k]
             && steps[end - 1].step.to_mm == steps[end].step.from_mm
@@ -122,15 +122,23 @@ pub fn window_loads(
             let Some(g) = geometry(&steps[end]) else {
                 break;
             };
-            start.push(start[start.len() - 1] + geo[geo.len() - 1].0);
-            geo.push(g);
+            all_long &= g.0 >= grid_mm;
             end += 1;
         }
-        let run_mm = start[start.len() - 1] + geo[geo.len() - 1].0;
-        if geo.iter().all(|g| g.0 >= grid_mm) {
+        if all_long {
             k = end;
             continue;
         }
+        start.clear();
+        geo.clear();
+        start.push(0.0);
+        geo.push(first);
+        for step in &steps[k + 1..end] {
+            let g = geometry(step).expect("a step of the run");
+            start.push(start[start.len() - 1] + geo[geo.len() - 1].0);
+            geo.push(g);
+        }
+        let run_mm = start[start.len() - 1] + geo[geo.len() - 1].0;
         let model = &tools.entries[tool_of_step[k]].model;
         win.lo = 0;
         win.hi = 0;

@@ -79,7 +79,7 @@ impl Default for SweepOptions {
             band_height_mm: 1.0,
             strip_rows: 8,
             batch_steps: 2_048,
-            batch_bytes: 16 << 20,
+            batch_bytes: 4 << 20,
             smooth: true,
         }
     }
