@@ -4051,6 +4051,57 @@ stress = true
     assert!(html.contains("stress_limit_mpa 300 MPa"), "limits row");
 }
 
+/// The closed loop settles on a real program's written program whose cuts end
+/// in chains of feed steps at one XY point (fusion_led_floor_light_holder,
+/// optimized as `scripts/real_programs_optimize.sh` does: a box round its
+/// feed moves, grid 0.1, mrr_max half its peak). `Z-3.8 F220` after a cut
+/// along a wall: each step of the Z move takes the direction of the step
+/// before (eq. 5.1a) and its root sits where the tool's edge reaches a row of
+/// column centres. Before eq. 5.1c the steps' closed brackets tried their two
+/// bounds in turn, cutting the row at one sweep and not at the next, and the
+/// loop stopped after 16 sweeps with 2 steps out by up to 2.2 µm; it now
+/// converges. The written program's run is
+/// the one optimize reports (its removal and peak force).
+#[test]
+fn the_closed_loop_settles_on_chains_of_steps_at_one_point_of_a_real_program() {
+    let dir = tempdir();
+    let real = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../nc/tests/data/real/fusion_led_floor_light_holder.nc");
+    std::fs::copy(real, dir.path().join("part.nc")).unwrap();
+    let job = |program: &str| {
+        format!(
+            "[stock]\nkind = \"box\"\nmin = [-5.710, -4.900, -5.000]\nmax = [210.900, 34.900, 0.000]\n\
+             grid = 0.1\n[tool]\nkind = \"flat\"\ndiameter = 2.7\nflute_length = 8.100\n\
+             stickout = 18.100\nshank_diameter = 3.175\n[program]\npath = \"{program}\"\n\
+             [cutting]\nmaterial = \"al6061\"\n[machine]\nfeed_max = 5000\nrapid = 10000\n\
+             [limits]\nmrr_max = 47.111\n"
+        )
+    };
+    write(dir.path(), "job.toml", &job("part.nc"));
+    ok(&dexcut(
+        &["optimize", "job.toml", "--out", "opt"],
+        dir.path(),
+    ));
+    write(dir.path(), "refed.toml", &job("opt/optimized.nc"));
+    ok(&dexcut(
+        &["simulate", "refed.toml", "--out", "refed"],
+        dir.path(),
+    ));
+    let (o, r) = (
+        summary(&dir.path().join("opt")),
+        summary(&dir.path().join("refed")),
+    );
+    // The chain: Z moves at feed in the written program.
+    let written = std::fs::read_to_string(dir.path().join("opt/optimized.nc")).unwrap();
+    assert!(written.lines().filter(|l| l.starts_with("Z-3.8 F")).count() >= 2);
+    assert_eq!(r["closed_loop"], true);
+    assert_eq!(r["closed_loop_converged"], true, "{r}");
+    assert!(warning(&r, "closed_loop").is_none());
+    for k in ["removed_volume_mm3", "peak_force_n"] {
+        assert_eq!(o["after"][k], r[k], "{k}");
+    }
+}
+
 /// A G-code program given instead of a job runs with a job fitted to it: the
 /// tool its comments name, a box stock around its feed moves; the fitted job
 /// is kept in input/job.toml and gives the same run when run as a job. A

@@ -709,13 +709,15 @@ impl Fraction {
         }
     }
 
-    /// Both bounds measured in the last two sweeps and, as offsets from
-    /// `from`, within the tolerance of each other.
+    /// Both bounds measured in the last two sweeps (or the lower one, if
+    /// measured after the upper one: a bracket held at its lower bound,
+    /// [`Fraction::next`]) and, as offsets from `from`, within the tolerance
+    /// of each other.
     fn closed(&self, from: f64, pass: usize) -> bool {
         self.lo_pass > 0
             && self.hi_pass > 0
             && self.lo_pass + 2 >= pass
-            && self.hi_pass + 2 >= pass
+            && (self.hi_pass + 2 >= pass || self.lo_pass > self.hi_pass)
             && self.width_um(from) <= LOOP_TOL_UM + LOOP_REL_TOL * (self.hi * from).abs()
     }
 
@@ -739,8 +741,12 @@ impl Fraction {
     /// The next fraction to try (observed first), the step having started at
     /// the offset `from`: the trial kept where its residual `r` at the
     /// offset `x` is within the tolerance; where the bracket is, the bound
-    /// measured longer ago again (x₋ may have moved since).
-    fn next(&mut self, r: f64, x: f64, from: f64) -> f64 {
+    /// measured longer ago again (x₋ may have moved since), except that a
+    /// closed bracket whose lower bound this sweep `pass` measured is held
+    /// there (MODEL.md §5.1, eq. 5.1c): trying its bounds in turn cut a row
+    /// of columns at one sweep and not at the next, and the step after it,
+    /// starting there, found the row cut or not and never settled.
+    fn next(&mut self, r: f64, x: f64, from: f64, pass: usize) -> f64 {
         if r.abs() <= LOOP_TOL_UM + LOOP_REL_TOL * x.abs() {
             return self.phi;
         }
@@ -750,7 +756,8 @@ impl Fraction {
         } else if self.lo_pass == 0 {
             self.lo
         } else if narrow {
-            if self.lo_pass < self.hi_pass {
+            let held = self.lo_pass == pass && self.closed(from, pass);
+            if held || self.lo_pass < self.hi_pass {
                 self.lo
             } else {
                 self.hi
@@ -1164,7 +1171,8 @@ pub fn run_on(
             // offset it starts at, the trial of the step before.
             for i in 0..n {
                 if inherited[i] {
-                    trial[i] = (fractions[at(i)].next(g[i] - x[i], x[i], x[i - 1]) * trial[i - 1])
+                    trial[i] = (fractions[at(i)].next(g[i] - x[i], x[i], x[i - 1], pass)
+                        * trial[i - 1])
                         .clamp(-offset_cap_um(i), offset_cap_um(i));
                 } else if in_loop[i] {
                     trial[i] = search[i]
