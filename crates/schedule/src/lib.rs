@@ -14,6 +14,7 @@
 #![warn(missing_docs)]
 
 mod bound;
+mod direct;
 mod machine;
 mod plan;
 mod range_min;

@@ -2,6 +2,7 @@
 
 use nalgebra::{Point3, Vector3};
 
+use crate::direct;
 use crate::machine::ScheduleError;
 use crate::range_min::RangeMin;
 use crate::stations::{CapKind, Stations, Stop};
@@ -66,6 +67,8 @@ struct Run {
     /// ([`RunPlanner::sectioned`]), `start_s` + W/2, when the filtered motion is at its
     /// first station (MODEL.md §6.1, "Sections").
     switch_s: f64,
+    /// Whether the plan is shaped directly (MODEL.md §6.1, "Direct sections").
+    direct: bool,
 }
 
 /// A planned speed profile over [`Stations`].
@@ -232,9 +235,29 @@ const SECTION_GRID: [f64; 14] = [
     0.0549755813888,
 ];
 
+/// The shares σ of the jerk limit a section shaped directly is tried at, each with a
+/// filter of at least σ/(1 − σ) times the plan's longest station interval in time, so
+/// that the filtered jerk is at most the limit (MODEL.md §6.1, "Direct sections").
+const DIRECT_SHARES: [f64; 3] = [0.5, 0.75, 0.9];
+/// The narrowest filter a section shaped directly starts from, s.
+const DIRECT_WINDOW_MIN_S: f64 = 1e-3;
+
+/// Intervals whose acceleration limit is at most this times the period times their jerk
+/// limit (slow corners' intervals, j·T/12) widen a dip of a run shaped directly.
+const DIRECT_SLOW_PERIODS: f64 = 1.0 / 3.0;
+
 /// A section that verifies at none of its values is merged with the next, at most this
 /// many times (MODEL.md §6.1, "Sections").
 const SECTION_MERGES: usize = 8;
+
+/// A section kept by [`RunPlanner::sectioned`]: its first cut, the previous section's
+/// planned end and window before it, the rank of its value among its values, its last cut.
+type KeptSection = (usize, Option<(f64, f64)>, usize, usize);
+
+/// A section that verifies at none of its values (after its merges) has the section
+/// before it planned again at its next value that verifies, at most this many times a run
+/// (MODEL.md §6.1, "Direct sections").
+const SECTION_BACKTRACKS: usize = 64;
 
 /// Tries of the first fallback (full corner holds restored where samples break a limit).
 const RESTORE_MAX_TRIES: usize = 4;
@@ -666,6 +689,120 @@ impl<'a> RunPlanner<'a> {
         )
     }
 
+    /// Plans the section `first..=last` into `v` shaped directly, as the plan of a filter
+    /// of width `window_s` (MODEL.md §6.1, "Direct sections"): from the speed `ends.0` at
+    /// `first` to `ends.1` at `last` (held caps, both > 0, each with no acceleration),
+    /// under every station's cap held over c·W/2 + Δs_max on either side (so that the
+    /// filtered speed, an average over W of plan speeds at most c, is at most c where it
+    /// passes the station), each interval's acceleration limit and `share` of its jerk
+    /// limit ([`direct::shape`]). Returns the planned time and the longest time the plan
+    /// takes over one station interval, s, or `None` where the shape has no motion
+    /// between the ends or is not flat at an end's speed over c·W/2 from it.
+    fn plan_direct(
+        &self,
+        (first, last): (usize, usize),
+        ends: (f64, f64),
+        (share, window_s): (f64, f64),
+        v: &mut [f64],
+    ) -> Option<(f64, f64)> {
+        let s = &self.stations.s_mm()[first..=last];
+        // The caps' minima lowered by J·W²/12 (twice what a plan of jerk J gains in its
+        // average over W around a minimum; elsewhere the plan is under the envelope, or
+        // flat at its cap); the ends at their speeds over c·W/2 + Δs_max (W at most the
+        // run's window: its plan was flat at c there, so the caps are at least c).
+        let j_max = self.stations.interval_jerk_mm_s3()[first..last]
+            .iter()
+            .fold(0.0f64, |m, &x| m.max(x));
+        let margin = share * j_max * window_s * window_s / 12.0;
+        let caps = &self.caps_mm_s[first..=last];
+        let mut envelope: Vec<f64> = (0..caps.len())
+            .map(|k| {
+                let before = if k > 0 { caps[k - 1] } else { f64::INFINITY };
+                let after = caps.get(k + 1).copied().unwrap_or(f64::INFINITY);
+                let c = caps[k];
+                if c <= before && c <= after && (c < before || c < after) {
+                    (c - margin).max(0.5 * c)
+                } else {
+                    c
+                }
+            })
+            .collect();
+        for (end, c) in [(0, ends.0), (s.len() - 1, ends.1)] {
+            let reach = c * window_s / 2.0 + self.ds_max_mm;
+            let lo = s.partition_point(|&x| x < s[end] - reach);
+            let hi = s.partition_point(|&x| x <= s[end] + reach);
+            for e in &mut envelope[lo..hi] {
+                *e = c;
+            }
+        }
+        self.passes_between(first, 1.0, &mut envelope, ends);
+        let jerk: Vec<f64> = self.stations.interval_jerk_mm_s3()[first..last]
+            .iter()
+            .map(|j| j * share)
+            .collect();
+        let limits = direct::Limits {
+            s_mm: s,
+            envelope_mm_s: &envelope,
+            accel_mm_s2: &self.stations.interval_accel_mm_s2()[first..last],
+            jerk_mm_s3: &jerk,
+        };
+        let slow_share = self.stations.machine().period_s() * DIRECT_SLOW_PERIODS;
+        let v = &mut v[first..=last];
+        if !direct::shape(&limits, slow_share, v) {
+            return None;
+        }
+        let flat = |stations: &mut dyn Iterator<Item = usize>, end: usize, c: f64| {
+            let reach = c * window_s / 2.0;
+            for k in stations {
+                if v[k] != c {
+                    return false;
+                }
+                if (s[k] - s[end]).abs() >= reach {
+                    break;
+                }
+            }
+            true
+        };
+        let n = s.len() - 1;
+        if !((ends.0 == 0.0 || flat(&mut (1..=n), 0, ends.0))
+            && (ends.1 == 0.0 || flat(&mut (0..n).rev(), n, ends.1)))
+        {
+            return None;
+        }
+        let dt = |k: usize| 2.0 * (s[k + 1] - s[k]) / (v[k] + v[k + 1]);
+        Some(((0..n).map(dt).sum(), (0..n).map(dt).fold(0.0, f64::max)))
+    }
+
+    /// The section `first..=last` shaped directly ([`RunPlanner::plan_direct`]) at the
+    /// share σ = `share` of the jerk limit, with the narrowest filter of at least
+    /// σ/(1 − σ) times the longest time the plan takes over one station interval, Δt
+    /// (MODEL.md §6.1, "Direct sections": the filtered jerk is then at most the jerk
+    /// limit), found by widening from `window_s` (to 1.05 times what the last plan needed)
+    /// up to 4 times, and no wider than
+    /// `max_window_s`. Returns the planned time and the window, s.
+    fn direct_window(
+        &self,
+        section: (usize, usize),
+        ends: (f64, f64),
+        share: f64,
+        (mut window_s, max_window_s): (f64, f64),
+        v: &mut [f64],
+    ) -> Option<(f64, f64)> {
+        for _ in 0..4 {
+            let (d, dt_max) = self.plan_direct(section, ends, (share, window_s), v)?;
+            let needed = dt_max * share / (1.0 - share);
+            if window_s >= needed {
+                return Some((d, window_s));
+            }
+            // A little wider than needed: the wider filter's margins change the plan.
+            window_s = needed * 1.05;
+            if window_s > max_window_s {
+                return None;
+            }
+        }
+        None
+    }
+
     /// Sections of the run the profile holds last, planned as that run was (`kept` =
     /// (λ, W)), with a window of their own (MODEL.md §6.1, "Sections"): the run is cut at
     /// the stations where its plan runs at the station's cap c and is flat at c over
@@ -720,7 +857,8 @@ impl<'a> RunPlanner<'a> {
         cuts.push(last);
         profile.pop_run();
         let runs_before = profile.runs.len();
-        let mut timed: Vec<(f64, f64, f64)> = Vec::with_capacity(SECTION_GRID.len() + 1);
+        // (time, λ, W, shaped directly).
+        let mut timed: Vec<(f64, f64, f64, bool)> = Vec::with_capacity(SECTION_GRID.len() + 2);
         // The previous section's planned end and window (a run leaving at speed: its
         // start and window, so that its first section's filtered motion reaches the
         // first station when the run's did).
@@ -728,11 +866,20 @@ impl<'a> RunPlanner<'a> {
             (v(first) > 0.0).then_some((run.start_s, run.window_s));
         let mut verified = true;
         let mut i = 0;
+        // The sections kept, to plan one again (see [`KeptSection`]).
+        let mut pushed: Vec<KeptSection> = Vec::new();
+        // A section planned again (the one after it verified at none of its values): its
+        // first cut, last cut and how many of its values to pass over.
+        let mut resume: Option<(usize, usize, usize)> = None;
+        let mut backtracks = 0;
         while i + 1 < cuts.len() {
             let a = cuts[i];
             let mut kept = None;
+            let (mut j, mut skip) = match resume.take() {
+                Some((at, j, skip)) if at == i => (j, skip),
+                _ => (i + 1, 0),
+            };
             // A section that verifies at none of its values is merged with the next one.
-            let mut j = i + 1;
             while j < cuts.len() && j <= i + SECTION_MERGES {
                 let b = cuts[j];
                 let ends = (v(a), v(b));
@@ -750,20 +897,44 @@ impl<'a> RunPlanner<'a> {
                 for (lambda, window_s) in values {
                     if let Some(d) = self.plan_section((a, b), (lambda, window_s), ends, &mut trial)
                     {
-                        timed.push((d + rests * window_s / 2.0, lambda, window_s));
+                        timed.push((d + rests * window_s / 2.0, lambda, window_s, false));
+                    }
+                }
+                // Shaped directly (not from or to a stop: there the plan's first interval
+                // is long in time).
+                if ends.0 > 0.0 && ends.1 > 0.0 {
+                    let bounds = (DIRECT_WINDOW_MIN_S, window0_s);
+                    for &share in &DIRECT_SHARES {
+                        if let Some((d, window_s)) =
+                            self.direct_window((a, b), ends, share, bounds, &mut trial)
+                        {
+                            timed.push((d, share, window_s, true));
+                        }
                     }
                 }
                 self.trial = trial;
                 timed.sort_by(|x, y| x.0.total_cmp(&y.0));
-                for &(_, lambda, window_s) in &timed {
-                    self.plan_section((a, b), (lambda, window_s), ends, &mut profile.speed_mm_s);
+                for (rank, &(_, lambda, window_s, direct)) in timed.iter().enumerate().skip(skip) {
+                    if direct {
+                        self.plan_direct((a, b), ends, (lambda, window_s), &mut profile.speed_mm_s);
+                    } else {
+                        self.plan_section(
+                            (a, b),
+                            (lambda, window_s),
+                            ends,
+                            &mut profile.speed_mm_s,
+                        );
+                    }
                     let start_s = match previous {
                         None => run.start_s,
                         Some((end_s, w)) => end_s + (w - window_s) / 2.0,
                     };
                     let end_s = profile.push_run(a, b, start_s, window_s, 0.0);
+                    if let Some(pushed) = profile.runs.last_mut() {
+                        pushed.direct = direct;
+                    }
                     if profile.last_run_axis_ratio(None) <= 1.0 {
-                        kept = Some((end_s, window_s));
+                        kept = Some((end_s, window_s, rank));
                         break;
                     }
                     profile.pop_run();
@@ -772,11 +943,22 @@ impl<'a> RunPlanner<'a> {
                     break;
                 }
                 j += 1;
+                skip = 0;
             }
             match kept {
-                Some((end_s, window_s)) => {
+                Some((end_s, window_s, rank)) => {
+                    pushed.push((i, previous, rank, j));
                     previous = Some((end_s, window_s));
                     i = j;
+                }
+                // The section before planned again at its next value that verifies.
+                None if backtracks < SECTION_BACKTRACKS && !pushed.is_empty() => {
+                    backtracks += 1;
+                    let (before, previous_before, rank, end) = pushed.pop().expect("a section");
+                    profile.pop_run();
+                    resume = Some((before, end, rank + 1));
+                    previous = previous_before;
+                    i = before;
                 }
                 None => {
                     verified = false;
@@ -1068,6 +1250,7 @@ impl<'a> Profile<'a> {
             window_s,
             pause_s,
             switch_s,
+            direct: false,
         });
         t_s
     }
@@ -1499,11 +1682,21 @@ mod tests {
     /// `chords` chords of 0.25 mm turning by 1.5° and 6° in turn, the turns changing side
     /// every 20 chords (corner caps of 790–3 000 mm/min), at F1500, jerk 20 000 mm/s³.
     fn zigzag(chords: usize) -> Stations {
+        zigzag_turning_every(chords, 20)
+    }
+
+    /// [`zigzag`] with the turns changing side every `every` chords.
+    fn zigzag_turning_every(chords: usize, every: usize) -> Stations {
         let mut points = vec![Point3::new(0.0, 0.0, 0.0)];
         let mut heading: f64 = 0.0;
         for i in 0..chords {
             let turn: f64 = if i % 2 == 0 { 1.5 } else { 6.0 };
-            heading += turn.to_radians() * if (i / 20) % 2 == 0 { 1.0 } else { -1.0 };
+            heading += turn.to_radians()
+                * if (i / every).is_multiple_of(2) {
+                    1.0
+                } else {
+                    -1.0
+                };
             let last = *points.last().unwrap();
             points.push(last + 0.25 * Vector3::new(heading.cos(), heading.sin(), 0.0));
         }
@@ -1825,6 +2018,10 @@ mod tests {
     fn filtered(profile: &Profile<'_>, run: &Run, t_s: f64) -> (f64, f64) {
         let (mut now, mut lagged) = (run.first, run.first);
         let a = profile.run_state(run, t_s, &mut now);
+        if run.window_s == 0.0 {
+            // Shaped directly: no filter.
+            return (a.s_mm, a.v_mm_s);
+        }
         let b = profile.run_state(run, t_s - run.window_s, &mut lagged);
         let s_first = profile.stations.s_mm()[run.first];
         (
@@ -1913,5 +2110,106 @@ mod tests {
         );
         assert!(lambda < 1.0, "{lambda}");
         assert!(profile.cycle_time_s < times[0]);
+    }
+
+    /// Sections shaped directly (MODEL.md §6.1, "Direct sections"). On 600 chords of the
+    /// zigzag turning side every 7 chords (dense corners) some sections are kept shaped
+    /// directly and every servo
+    /// sample keeps the axes' limits and its cap. On a 40 mm line at F3000 whose caps are
+    /// 1 150 mm/min over [16, 24] mm but 900, 1 000 and 850 mm/min at 19.5, 20 and
+    /// 20.5 mm, the section from 16 to 24 mm (at 1 150 mm/min at both ends), shaped
+    /// directly at each share and planned alone, keeps the acceleration and jerk limits at
+    /// samples every 1 ms (its filter of at least σ/(1 − σ)·Δt bounds the jerk in
+    /// continuous time, not only at the machine period of 16 ms) and its caps.
+    #[test]
+    fn sections_shaped_directly_keep_the_limits() {
+        let st = zigzag_turning_every(600, 7);
+        let machine = *st.machine();
+        let profile = plan(&st);
+        let direct = profile.runs.iter().filter(|r| r.direct).count();
+        println!(
+            "zigzag every 7: {} sections, {direct} shaped directly, {:.4} s",
+            profile.runs.len(),
+            profile.cycle_time_s
+        );
+        assert!(direct > 0);
+        let samples = profile.sample(machine.period_ms).unwrap();
+        assert!(worst_ratio(&machine, &samples) <= 1.0 + 1e-6);
+        let under_caps = |st: &Stations, samples: &[ServoSample]| {
+            let (s, caps) = (st.s_mm(), st.cap_mm_min());
+            samples.iter().all(|x| {
+                let k = s.partition_point(|&y| y <= x.s_mm).clamp(1, s.len() - 1);
+                x.feed_mm_min <= caps[k - 1].max(caps[k]) * (1.0 + 1e-9)
+            })
+        };
+        assert!(under_caps(&st, &samples));
+
+        let feed = Motion::Feed {
+            feed_mm_min: 3000.0,
+        };
+        let machine = Machine {
+            jerk_mm_s3: Some([20000.0; 3]),
+            ..Machine::default()
+        };
+        let segments = vec![line(Point3::origin(), Point3::new(40.0, 0.0, 0.0), feed)];
+        let mut st =
+            Stations::new(&Path { segments }, &machine, 0.05, FeedPolicy::Programmed).unwrap();
+        let caps: Vec<f64> = st
+            .s_mm()
+            .iter()
+            .map(|&x| {
+                let dip = (0..3).position(|i| (x - 19.5 - 0.5 * i as f64).abs() < 1e-9);
+                match dip {
+                    Some(i) => [900.0, 1000.0, 850.0][i],
+                    None if (16.0..=24.0).contains(&x) => 1150.0,
+                    None => 3000.0,
+                }
+            })
+            .collect();
+        st.apply_caps(&caps, CapKind::Removal).unwrap();
+        let (first, last) = (320, 480);
+        assert!((st.s_mm()[first] - 16.0).abs() < 1e-9 && (st.s_mm()[last] - 24.0).abs() < 1e-9);
+        let ends = (1150.0 / 60.0, 1150.0 / 60.0);
+        let planner = RunPlanner::new(&st);
+        let fine = Machine {
+            period_ms: 1.0,
+            ..machine
+        };
+        let mut shaped = 0;
+        for share in DIRECT_SHARES {
+            let mut profile = Profile::empty(&st);
+            let Some((_, window_s)) = planner.direct_window(
+                (first, last),
+                ends,
+                share,
+                (DIRECT_WINDOW_MIN_S, base_window_s(&st)),
+                &mut profile.speed_mm_s,
+            ) else {
+                continue;
+            };
+            shaped += 1;
+            // After the line's start planned as a section from rest to the cut.
+            let before = profile.speed_mm_s[first..=last].to_vec();
+            let base = base_window_s(&st);
+            let lead_s = planner
+                .plan_section(
+                    (0, first),
+                    (1.0, base),
+                    (0.0, ends.0),
+                    &mut profile.speed_mm_s,
+                )
+                .unwrap();
+            profile.speed_mm_s[first..=last].copy_from_slice(&before);
+            profile.push_run(0, first, 0.0, base, 0.0);
+            let start_s = lead_s + (base - window_s) / 2.0;
+            let end_s = profile.push_run(first, last, start_s, window_s, 0.0);
+            profile.cycle_time_s = end_s + window_s;
+            let samples = profile.sample(fine.period_ms).unwrap();
+            let ratio = worst_ratio(&fine, &samples);
+            println!("share {share}: W {window_s:.5} s, 1 ms ratio {ratio:.4}");
+            assert!(ratio <= 1.0 + 1e-6, "share {share}: {ratio}");
+            assert!(under_caps(&st, &samples));
+        }
+        assert!(shaped > 0);
     }
 }
