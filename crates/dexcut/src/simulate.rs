@@ -968,6 +968,7 @@ pub fn run_on(
     } else {
         advance_mm
     };
+    // Each step's offset: its trial, once the loop tries one.
     let mut x: Vec<f64> = vec![0.0; n];
     let mut report = LoopReport {
         enabled: tools.closed_loop,
@@ -977,7 +978,15 @@ pub fn run_on(
         unconverged: Vec::new(),
         rigid_kept: tools.closed_loop && overloaded.iter().any(|&o| o),
     };
+    // The loads of the steps the loop scales (below) and by how much, once
+    // it ends: the passes keep no loads, the last one's are made again
+    // once the searches are let go.
+    let mut scaled: Option<Vec<(usize, f64)>> = None;
     if tools.closed_loop && !report.converged {
+        // The rigid sweep's record and loads are read no more (the loop
+        // makes its own): freed before the searches are made.
+        drop(std::mem::take(&mut record));
+        drop(std::mem::take(&mut step_loads));
         let mut search: Vec<Bracketed> = (0..n)
             .map(|i| Bracketed::new(rigid[i], offset_cap_um(i)))
             .collect();
@@ -991,32 +1000,26 @@ pub fn run_on(
                 .binary_search(&i)
                 .expect("a step that took its direction")
         };
-        let mut trial: Vec<f64> = (0..n)
-            .map(|i| {
-                if in_loop[i] {
-                    (LOOP_RELAX_START * rigid[i]).min(offset_cap_um(i))
-                } else {
-                    0.0
-                }
-            })
-            .collect();
+        for (i, x) in x.iter_mut().enumerate() {
+            if in_loop[i] {
+                *x = (LOOP_RELAX_START * rigid[i]).min(offset_cap_um(i));
+            }
+        }
         // The rigid deflections are in the searches now.
         drop(rigid);
         // Steps out of tolerance after each sweep, to see the loop stall.
         let mut out_counts: Vec<usize> = Vec::new();
         let mut residuals: Vec<f64> = Vec::new();
         loop {
-            // The last pass's stock, record and loads are replaced by this
-            // pass's: freed before its steps are made and it is swept (the
-            // stock's memory holds this pass's where it is made of its
-            // closed form).
+            // The last pass's stock and record are replaced by this pass's:
+            // freed before its steps are made and it is swept (the stock's
+            // memory holds this pass's where it is made of its closed form).
             let spare = final_stock.take();
             drop(std::mem::take(&mut record));
-            drop(std::mem::take(&mut step_loads));
             // (Made again after the sweep.)
             report.unconverged = Vec::new();
             let shifted = {
-                let offsets_mm: Vec<[f64; 2]> = applied_offsets_um(&steps, &trial, &dirs)
+                let offsets_mm: Vec<[f64; 2]> = applied_offsets_um(&steps, &x, &dirs)
                     .into_iter()
                     .map(|[x, y]| [1e-3 * x, 1e-3 * y])
                     .collect();
@@ -1034,11 +1037,10 @@ pub fn run_on(
             // (The moves swept are not needed after the sweep.)
             drop(shifted);
             (final_stock, record) = (pass_stock, pass_record);
-            step_loads = loads(tools, &tool_of_step, &record, &steps, grid_mm);
             report.passes += 1;
-            x.clone_from(&trial);
-            // g: the deflection the removal at the trial offset causes, across the path.
-            let g: Vec<f64> = (0..n).map(|i| along(&step_loads[i], i)).collect();
+            // g: the deflection the removal at the trial offset causes, across
+            // the path (of the loads as `loads` makes them).
+            let g: Vec<f64> = loads_as(tools, &tool_of_step, &record, &steps, grid_mm, along);
             let pass = report.passes;
             for i in (0..n).filter(|&i| in_loop[i]) {
                 if inherited[i] {
@@ -1149,12 +1151,16 @@ pub fn run_on(
                 // one (g > x) it is scaled down so that the deflection across
                 // the path is the offset (MODEL.md §5.1); a load is never
                 // scaled up beyond what a sweep removed.
-                for i in (0..n).filter(|&i| in_loop[i]) {
-                    let off = g[i] - x[i] > LOOP_TOL_UM + LOOP_REL_TOL * x[i].abs();
-                    if off && closed(i).is_some() && x[i] > 0.0 {
-                        step_loads[i] = step_loads[i].scaled(x[i] / g[i]);
-                    }
-                }
+                scaled = Some(
+                    (0..n)
+                        .filter(|&i| in_loop[i])
+                        .filter(|&i| {
+                            let off = g[i] - x[i] > LOOP_TOL_UM + LOOP_REL_TOL * x[i].abs();
+                            off && closed(i).is_some() && x[i] > 0.0
+                        })
+                        .map(|i| (i, x[i] / g[i]))
+                        .collect(),
+                );
                 break;
             }
             // The secant's root at the first update where every step's g
@@ -1168,18 +1174,30 @@ pub fn run_on(
                     .is_none_or(|s| LOOP_SECANT_SLOPES.contains(&s))
             });
             // In step order: a step that took its direction moves with the
-            // offset it starts at, the trial of the step before.
+            // offset it starts at, the trial of the step before (x[i − 1],
+            // already the next one; `measured_before` the one swept).
+            let mut measured_before = 0.0;
             for i in 0..n {
+                let measured = x[i];
                 if inherited[i] {
-                    trial[i] = (fractions[at(i)].next(g[i] - x[i], x[i], x[i - 1], pass)
-                        * trial[i - 1])
-                        .clamp(-offset_cap_um(i), offset_cap_um(i));
+                    x[i] =
+                        (fractions[at(i)].next(g[i] - measured, measured, measured_before, pass)
+                            * x[i - 1])
+                            .clamp(-offset_cap_um(i), offset_cap_um(i));
                 } else if in_loop[i] {
-                    trial[i] = search[i]
-                        .next(x[i], g[i], secant)
+                    x[i] = search[i]
+                        .next(measured, g[i], secant)
                         .clamp(-offset_cap_um(i), offset_cap_um(i));
                 }
+                measured_before = measured;
             }
+        }
+    }
+    // The last pass's loads, those at a jump of g scaled.
+    if let Some(scaled) = scaled {
+        step_loads = loads(tools, &tool_of_step, &record, &steps, grid_mm);
+        for (i, s) in scaled {
+            step_loads[i] = step_loads[i].scaled(s);
         }
     }
     let sweep_s = started.elapsed().as_secs_f64();
@@ -1591,22 +1609,44 @@ pub fn loads(
     steps: &[TimedStep],
     grid_mm: f64,
 ) -> Vec<StepLoad> {
-    let mut out: Vec<StepLoad> = steps
+    loads_as(tools, tool_of_step, record, steps, grid_mm, |l, _| *l)
+}
+
+/// What `of(load, step)` makes of each step's load of [`loads`] (the
+/// closed loop's passes keep each step's deflection across its path, 8 B,
+/// not its load, 104 B: issue 16).
+fn loads_as<T>(
+    tools: &ToolSet,
+    tool_of_step: &[usize],
+    record: &RemovalRecord,
+    steps: &[TimedStep],
+    grid_mm: f64,
+    of: impl Fn(&StepLoad, usize) -> T,
+) -> Vec<T> {
+    let mut out: Vec<T> = steps
         .iter()
         .enumerate()
         .map(|(i, s)| {
             let model = &tools.entries[tool_of_step[i]].model;
-            model.step_load(&cutting::StepRemoval {
+            let load = model.step_load(&cutting::StepRemoval {
                 volume_mm3: record.volume_mm3(i),
                 band_volumes_mm3: record.band_volumes_mm3(i),
                 contact_resultant: record.contact_resultant(i),
                 chip_edge_area_mm2: record.chip_edge_area_mm2(i),
                 volume_over_radius_mm2: record.volume_over_radius_mm2(i),
                 dt_s: s.dt_s,
-            })
+            });
+            of(&load, i)
         })
         .collect();
-    crate::subcell::window_loads(&mut out, tools, tool_of_step, record, steps, grid_mm);
+    crate::subcell::window_loads(
+        |i, load| out[i] = of(&load, i),
+        tools,
+        tool_of_step,
+        record,
+        steps,
+        grid_mm,
+    );
     out
 }
 
@@ -2713,6 +2753,74 @@ mod tests {
         let path = dir.join("job.toml");
         std::fs::write(&path, job).unwrap();
         crate::commands::Setup::load(&path, None).unwrap()
+    }
+
+    /// The closed loop's passes keep each step's deflection across its path
+    /// made as each load is (`loads_as`), not the loads: they are those of
+    /// every load held and the windowed ones written over it (the loads
+    /// `loads` gave before), bit for bit, on a cut in 4 µm steps on a
+    /// 10 µm grid, whose loads are those of their windows (MODEL.md §1.6).
+    #[test]
+    fn deflections_made_as_the_loads_are_those_of_the_loads_held() {
+        let dir = tempfile::tempdir().unwrap();
+        let csv: String = std::iter::once("x,y,z\n".to_string())
+            .chain((0..=1500).map(|i| format!("{},0,20\n", -6.0 + 0.004 * i as f64)))
+            .collect();
+        let setup = wall_setup(dir.path(), &csv, 6.0);
+        let steps = setup.machine_steps().unwrap();
+        let (tool_of_step, options) = sweep_setup(&setup.tools, &steps).unwrap();
+        let moves: Vec<dexel::Step> = steps.iter().map(|s| s.step).collect();
+        let initial = Initial::Held(std::borrow::Cow::Borrowed(&setup.stock));
+        let (_, record) = sweep_pass(
+            &initial,
+            None,
+            &setup.tools,
+            &tool_of_step,
+            &moves,
+            &options,
+            "test",
+        )
+        .unwrap();
+        let grid_mm = setup.stock.grid().spacing_mm;
+        // Every step's load held, then the windows' written over them.
+        let model = &setup.tools.entries[0].model;
+        let own: Vec<StepLoad> = (0..steps.len())
+            .map(|i| {
+                model.step_load(&cutting::StepRemoval {
+                    volume_mm3: record.volume_mm3(i),
+                    band_volumes_mm3: record.band_volumes_mm3(i),
+                    contact_resultant: record.contact_resultant(i),
+                    chip_edge_area_mm2: record.chip_edge_area_mm2(i),
+                    volume_over_radius_mm2: record.volume_over_radius_mm2(i),
+                    dt_s: steps[i].dt_s,
+                })
+            })
+            .collect();
+        let mut held = own.clone();
+        crate::subcell::window_loads(
+            |i, l| held[i] = l,
+            &setup.tools,
+            &tool_of_step,
+            &record,
+            &steps,
+            grid_mm,
+        );
+        let windowed = (0..steps.len())
+            .filter(|&i| held[i].dx_um.to_bits() != own[i].dx_um.to_bits())
+            .count();
+        assert!(windowed > 100, "{windowed} steps windowed");
+        let along = |l: &StepLoad, i: usize| 0.6 * l.dx_um + 0.8 * l.dy_um + i as f64;
+        let g = loads_as(&setup.tools, &tool_of_step, &record, &steps, grid_mm, along);
+        let loads = loads(&setup.tools, &tool_of_step, &record, &steps, grid_mm);
+        assert_eq!(g.len(), steps.len());
+        for i in 0..steps.len() {
+            assert_eq!(g[i].to_bits(), along(&held[i], i).to_bits(), "step {i}");
+            assert_eq!(
+                format!("{:?}", loads[i]),
+                format!("{:?}", held[i]),
+                "step {i}"
+            );
+        }
     }
 
     /// A cut that ends in a short step the rigid tool removes nothing in

@@ -74,8 +74,8 @@ fn head_of(record: &RemovalRecord, k: usize, len: f64, u: [f64; 2]) -> [f64; SUM
     h
 }
 
-/// Replace the loads of the steps shorter than a grid cell (`grid_mm`) by
-/// the steady cut's: per run of windowable steps (feed steps that move in
+/// Give `set(step, load)` the loads that replace those of the steps shorter
+/// than a grid cell (`grid_mm`): the steady cut's, per run of windowable steps (feed steps that move in
 /// XY, one tool, each starting where the one before ended), the
 /// removal per unit length over [`SUB_CELL_WINDOW_CELLS`] cells of path
 /// centred on the step (shifted to lie within the run, or the whole run
@@ -83,7 +83,7 @@ fn head_of(record: &RemovalRecord, k: usize, len: f64, u: [f64; 2]) -> [f64; SUM
 /// duration (MODEL.md §1.6). Steps of a cell or more keep their loads bit
 /// for bit. Allocates per call, not per step.
 pub fn window_loads(
-    loads: &mut [StepLoad],
+    mut set: impl FnMut(usize, StepLoad),
     tools: &ToolSet,
     tool_of_step: &[usize],
     record: &RemovalRecord,
@@ -200,26 +200,29 @@ pub fn window_loads(
             let volume = sum[VOL] * scale;
             let i = k + t;
             if !(volume > 0.0) {
-                loads[i] = StepLoad::default();
+                set(i, StepLoad::default());
                 continue;
             }
             for v in bands.iter_mut() {
                 *v = (*v * scale).max(0.0);
             }
             let left = [-u[1], u[0]];
-            loads[i] = model.step_load(&StepRemoval {
-                volume_mm3: volume,
-                band_volumes_mm3: &bands,
-                contact_resultant: [
-                    (sum[ALONG] * u[0] + sum[LEFT] * left[0]) * scale,
-                    (sum[ALONG] * u[1] + sum[LEFT] * left[1]) * scale,
-                ],
-                // Σ dV/h over a step does not depend on its length (dV and h
-                // both grow with it): the window's Σ (dV/h)·L over its length.
-                chip_edge_area_mm2: sum[EDGE_LEN] / (b - a),
-                volume_over_radius_mm2: sum[OVER_R] * scale,
-                dt_s: steps[i].dt_s,
-            });
+            set(
+                i,
+                model.step_load(&StepRemoval {
+                    volume_mm3: volume,
+                    band_volumes_mm3: &bands,
+                    contact_resultant: [
+                        (sum[ALONG] * u[0] + sum[LEFT] * left[0]) * scale,
+                        (sum[ALONG] * u[1] + sum[LEFT] * left[1]) * scale,
+                    ],
+                    // Σ dV/h over a step does not depend on its length (dV and h
+                    // both grow with it): the window's Σ (dV/h)·L over its length.
+                    chip_edge_area_mm2: sum[EDGE_LEN] / (b - a),
+                    volume_over_radius_mm2: sum[OVER_R] * scale,
+                    dt_s: steps[i].dt_s,
+                }),
+            );
         }
         k = end;
     }

@@ -176,9 +176,11 @@ impl ToolSet {
     /// Per item, the index of the tool numbered by `numbers`; an error names
     /// the program line of the first number the table lacks.
     pub fn indices(&self, numbers: impl Iterator<Item = (u32, u32)>) -> Result<Vec<usize>> {
-        numbers
-            .map(|(number, line)| match self.index_of(number) {
-                Some(i) => Ok(i),
+        // As many as the items (a collected Result grows by doubling).
+        let mut out = Vec::with_capacity(numbers.size_hint().0);
+        for (number, line) in numbers {
+            out.push(match self.index_of(number) {
+                Some(i) => i,
                 None if number == 0 => fail!(job,
                     "line {line}: moves with no tool in the spindle (T0); load one of the job's tools ({}) with T… M6",
                     self.names()
@@ -187,8 +189,9 @@ impl ToolSet {
                     "line {line}: tool T{number} is not in the job's [[tools]] ({})",
                     self.names()
                 ),
-            })
-            .collect()
+            });
+        }
+        Ok(out)
     }
 
     /// Tool `number` as the user knows it, for messages: "the job's tool

@@ -200,7 +200,13 @@ impl<'a> Sweep<'a> {
             let stride = HEAD + part.banding.n_bands;
             // A stream only on a part no band of which was swept yet (else `band`).
             let mut stream = if whole && part.record.data.is_empty() && !part.record.is_compact() {
-                Some(Stream::new(&part.record, grid, radius, self.options.smooth))
+                Some(Stream::new(
+                    &part.record,
+                    n,
+                    grid,
+                    radius,
+                    self.options.smooth,
+                ))
             } else {
                 // Full rows of every step, zero until swept (pages touched as they are written).
                 if part.record.data.len() != n * stride {
@@ -391,14 +397,20 @@ struct Stream {
 }
 
 impl Stream {
-    fn new(record: &RemovalRecord, grid: Grid, radius: f64, smooth: bool) -> Self {
+    /// A stream of `n` steps' rows into a compact record (its head values
+    /// and band starts reserved for them: grown by doubling, they held up to
+    /// twice as much, issue 16).
+    fn new(record: &RemovalRecord, n: usize, grid: Grid, radius: f64, smooth: bool) -> Self {
+        let mut out = RemovalRecord::compact_empty(record.n_bands, record.band_height_mm);
+        out.data.reserve_exact(n * HEAD);
+        out.band_start.reserve_exact(n);
         Stream {
             first: 0,
             spill: SpillCursor::default(),
             grid,
             radius,
             smooth,
-            out: RemovalRecord::compact_empty(record.n_bands, record.band_height_mm),
+            out,
         }
     }
 
