@@ -128,6 +128,7 @@ pub fn engagement_on(
     let spacing_mm = stock.grid().spacing_mm;
     let window_mm = (ENGAGEMENT_WINDOW_CELLS * spacing_mm).max(2.0 * STATION_DS_MM);
     let area_mm2 = windowed_area(stations.s_mm(), &volumes, window_mm);
+    drop(volumes);
 
     let reference_loads = reference_loads(&record, &area_mm2, stations.s_mm(), |k| {
         &tools.entries[tool_index[k]].model
@@ -192,8 +193,9 @@ fn surface_angles_deg(
 
 /// Per interval, the load at [`REFERENCE_FEED_MM_MIN`] of a cut with the
 /// windowed volume per length and the interval's own shape of removal (chip
-/// thickness per feed, contact direction, bands), taken from the nearest
-/// interval that removed material where this one removed none.
+/// thickness per feed, contact direction, bands), taken where this one
+/// removed none from the last interval before it that did (before any, the
+/// first that did).
 fn reference_loads<'a>(
     record: &dexel::RemovalRecord,
     area_mm2: &[f64],
@@ -201,26 +203,18 @@ fn reference_loads<'a>(
     model_of: impl Fn(usize) -> &'a CuttingModel,
 ) -> Vec<ReferenceLoad> {
     let n = area_mm2.len();
+    // Interval k's source: the last interval up to k that removed material,
+    // else (none before it) the first that did (not a list of the sources:
+    // 16 B an interval, issue 16).
+    let first_cut = (0..n).find(|&k| record.volume_mm3(k) > 0.0);
     let mut last = None;
-    let mut source: Vec<Option<usize>> = (0..n)
+    let mut bands = vec![0.0; record.n_bands];
+    (0..n)
         .map(|k| {
             if record.volume_mm3(k) > 0.0 {
                 last = Some(k);
             }
-            last
-        })
-        .collect();
-    let mut next = None;
-    for (k, src) in source.iter_mut().enumerate().rev() {
-        if record.volume_mm3(k) > 0.0 {
-            next = Some(k);
-        }
-        *src = src.or(next);
-    }
-    let mut bands = vec![0.0; record.n_bands];
-    (0..n)
-        .map(|k| {
-            let (Some(j), true) = (source[k], area_mm2[k] > 0.0) else {
+            let (Some(j), true) = (last.or(first_cut), area_mm2[k] > 0.0) else {
                 return cutting::StepLoad::default().into();
             };
             let len_mm = s_mm[k + 1] - s_mm[k];

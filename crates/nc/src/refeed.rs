@@ -621,8 +621,11 @@ enum Run {
     Several,
 }
 
-/// Per line that made a segment, its runs in the order they ran. `None` when
-/// a segment was made while another line ran (moves held back by cutter
+/// Per line that made more than one segment (the only lines a table of runs
+/// can be written for, [`run_tables`]), its runs in the order they ran: not
+/// one list per line of a program whose lines each move once (a `Vec` and a
+/// map entry a line, 192 MB for a million lines, issue 16). `None` when a
+/// segment was made while another line ran (moves held back by cutter
 /// compensation): then every segment is taken for a run.
 fn line_runs(
     executed: &[Executed],
@@ -641,7 +644,7 @@ fn line_runs(
         if (from..to).any(|j| trace.segments[j].line_index != line) {
             return None;
         }
-        if by_line.get(line).is_some() {
+        if by_line.get(line).is_some_and(|segs| segs.len() >= 2) {
             runs.entry(line).or_default().push(match to - from {
                 0 => Run::Idle(at),
                 1 => Run::Moved(from),
@@ -683,6 +686,10 @@ fn run_tables(
     let all_runs = line_runs(executed, trace, segments, by_line);
     let mut next = *TABLE_PARAMS.start();
     for (index, segs) in by_line.iter() {
+        // A line of one segment has no table (and no entry in `all_runs`).
+        if segs.len() < 2 {
+            continue;
+        }
         let runs: Vec<Run> = match &all_runs {
             Some(r) => r[&index].clone(),
             None => segs.iter().map(|&i| Run::Moved(i)).collect(),
@@ -698,8 +705,7 @@ fn run_tables(
             continue;
         };
         let items = trace.lines.items(*items);
-        if segs.len() < 2
-            || runs.iter().any(|r| matches!(r, Run::Several))
+        if runs.iter().any(|r| matches!(r, Run::Several))
             || !all_feeds
             || segs
                 .iter()
