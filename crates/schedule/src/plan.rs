@@ -106,6 +106,30 @@ const LAMBDA_GRID: [f64; 5] = [1.0, 0.85, 0.7, 0.55, 0.4];
 /// with the grid against about 1.8 s, for the same cycle).
 const LAMBDA_GRID_MAX_STATIONS: usize = 500_000;
 
+/// The plan `v` stays at the held end speed `c` over the stations from `end` on (in the
+/// order `stations` gives) until they are c·W/2 from it (MODEL.md §6.1, "Sections"): the
+/// filtered motion is then at `end`'s station with speed `c` when the next section takes
+/// over.
+fn held_at(
+    v: &[f64],
+    s: &[f64],
+    stations: &mut dyn Iterator<Item = usize>,
+    end: usize,
+    c: f64,
+    window_s: f64,
+) -> bool {
+    let reach = c * window_s / 2.0;
+    for k in stations {
+        if v[k] != c {
+            return false;
+        }
+        if (s[k] - s[end]).abs() >= reach {
+            break;
+        }
+    }
+    true
+}
+
 /// The filter window at λ = 1, s: the largest a/j over the stations'
 /// intervals (0 without a jerk limit; MODEL.md §6.1).
 fn base_window_s(stations: &Stations) -> f64 {
@@ -665,16 +689,7 @@ impl<'a> RunPlanner<'a> {
         self.passes_between(first, lambda, &mut v[first..=last], ends);
         self.cut_peaks(first, last, window_s, 1.0, v);
         let flat = |stations: &mut dyn Iterator<Item = usize>, end: usize, c: f64| {
-            let reach = c * window_s / 2.0;
-            for k in stations {
-                if v[k] != c {
-                    return false;
-                }
-                if (s[k] - s[end]).abs() >= reach {
-                    break;
-                }
-            }
-            true
+            held_at(v, s, stations, end, c, window_s)
         };
         if ends.0 > 0.0 && !flat(&mut (first + 1..=last), first, ends.0) {
             return None;
@@ -752,16 +767,7 @@ impl<'a> RunPlanner<'a> {
             return None;
         }
         let flat = |stations: &mut dyn Iterator<Item = usize>, end: usize, c: f64| {
-            let reach = c * window_s / 2.0;
-            for k in stations {
-                if v[k] != c {
-                    return false;
-                }
-                if (s[k] - s[end]).abs() >= reach {
-                    break;
-                }
-            }
-            true
+            held_at(v, s, stations, end, c, window_s)
         };
         let n = s.len() - 1;
         if !((ends.0 == 0.0 || flat(&mut (1..=n), 0, ends.0))
