@@ -1235,12 +1235,8 @@ impl FreeStations {
     /// Lets the stations' arrays go, keeping their path.
     pub fn release(&mut self) {
         if let FreeStations::Made(_) = self {
-            let FreeStations::Made(stations) =
-                std::mem::replace(self, FreeStations::Released(nc::Path::default()))
-            else {
-                unreachable!("matched above")
-            };
-            *self = FreeStations::Released(stations.into_path());
+            let made = std::mem::replace(self, FreeStations::Released(nc::Path::default()));
+            *self = FreeStations::Released(made.into_path());
         }
     }
 

@@ -1902,7 +1902,7 @@ impl Run {
         // s_at[p]..s_at[p + 1].
         let mut first: Vec<usize> = Vec::new();
         let mut s_at: Vec<f64> = vec![0.0];
-        let (mut volume, mut time, mut cutting) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut volume, mut dt_s, mut cutting) = (Vec::new(), Vec::new(), Vec::new());
         let mut i = 0;
         while i < self.steps.len() {
             let mut j = i + 1;
@@ -1912,7 +1912,7 @@ impl Run {
             let cuts = !self.steps[i..j].iter().all(|s| s.step.rapid);
             // A period that is part feed, part rapid counts its feed parts'
             // removal: what a rapid removes is a collision (rapid_cut warning).
-            let (volume_mm3, dt_s) = (i..j).fold((0.0, 0.0), |(v, t), k| {
+            let (volume_mm3, period_dt_s) = (i..j).fold((0.0, 0.0), |(v, t), k| {
                 let counted = !cuts || !self.steps[k].step.rapid;
                 let dv = if counted {
                     self.record.volume_mm3(k)
@@ -1924,17 +1924,17 @@ impl Run {
             first.push(i);
             s_at.push(self.steps[j - 1].s_end_mm);
             volume.push(volume_mm3);
-            time.push(dt_s);
+            dt_s.push(period_dt_s);
             cutting.push(cuts);
             i = j;
         }
         first.push(self.steps.len());
         // Prefix sums of volume and time over periods.
         let n = volume.len();
-        let (mut vol, mut dt) = (vec![0.0; n + 1], vec![0.0; n + 1]);
+        let (mut volume_sum, mut dt_sum) = (vec![0.0; n + 1], vec![0.0; n + 1]);
         for p in 0..n {
-            vol[p + 1] = vol[p] + volume[p];
-            dt[p + 1] = dt[p] + time[p];
+            volume_sum[p + 1] = volume_sum[p] + volume[p];
+            dt_sum[p + 1] = dt_sum[p] + dt_s[p];
         }
         let advance: Vec<f64> = (0..n).map(|p| s_at[p + 1] - s_at[p]).collect();
         let windows = sub_cell_windows(&advance, &cutting, |p| cutting[p - 1], g, window_mm);
@@ -1945,7 +1945,7 @@ impl Run {
                 s_from_mm: s_at[p],
                 s_to_mm: s_at[p + 1],
                 volume_mm3: volume[p],
-                dt_s: time[p],
+                dt_s: dt_s[p],
                 cutting: cutting[p],
                 window: (p, p),
             };
@@ -1955,8 +1955,8 @@ impl Run {
                 Period {
                     s_from_mm: s_at[a],
                     s_to_mm: s_at[b + 1],
-                    volume_mm3: vol[b + 1] - vol[a],
-                    dt_s: dt[b + 1] - dt[a],
+                    volume_mm3: volume_sum[b + 1] - volume_sum[a],
+                    dt_s: dt_sum[b + 1] - dt_sum[a],
                     window: (a, b),
                     ..own
                 }
@@ -2464,6 +2464,9 @@ pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
 mod tests {
     use super::*;
 
+    /// The offset cap of the brackets' tests, µm: far beyond their roots.
+    const CAP_UM: f64 = 5000.0;
+
     /// Two tools: an HSS one (σ_R 3000 MPa) at 4000 MPa, 1.33× its rupture
     /// strength, and a carbide one (3500 MPa) at 4200 MPa, 1.2×. The warning's
     /// value is the highest stress, 4200 MPa: the step it describes is the
@@ -2555,9 +2558,9 @@ mod tests {
     #[test]
     fn the_first_update_is_the_secants_root_where_g_is_nearly_flat() {
         let first = |g: &dyn Fn(f64) -> f64, secant: bool| {
-            let mut s = Bracketed::new(g(0.0), 5000.0);
+            let mut s = Bracketed::new(g(0.0), CAP_UM);
             let x = LOOP_RELAX_START * g(0.0);
-            s.observe(x, g(x) - x, 2, 5000.0);
+            s.observe(x, g(x) - x, 2, CAP_UM);
             (x, s.next(x, g(x), secant))
         };
         let gentle = |x: f64| 100.0 - 0.1 * x;
@@ -2590,12 +2593,12 @@ mod tests {
         for ratio in [0.01, 1.0, 4.9, 25.0] {
             let g = |x: f64| ratio * (a - x).max(0.0);
             let root = ratio * a / (1.0 + ratio);
-            let mut s = Bracketed::new(g(0.0), 5000.0);
-            let mut x = (LOOP_RELAX_START * g(0.0)).min(5000.0);
+            let mut s = Bracketed::new(g(0.0), CAP_UM);
+            let mut x = (LOOP_RELAX_START * g(0.0)).min(CAP_UM);
             let mut passes = 1;
             loop {
                 passes += 1;
-                s.observe(x, g(x) - x, passes, 5000.0);
+                s.observe(x, g(x) - x, passes, CAP_UM);
                 // The loop's test: within tolerance, or bracketed as closely.
                 if (g(x) - x).abs() <= LOOP_TOL_UM + LOOP_REL_TOL * x.abs() || s.closed(passes) {
                     break;
@@ -2604,7 +2607,7 @@ mod tests {
                     passes < 16,
                     "c/k {ratio}: x {x} after {passes} sweeps, root {root}"
                 );
-                x = s.next(x, g(x), true).clamp(-5000.0, 5000.0);
+                x = s.next(x, g(x), true).clamp(-CAP_UM, CAP_UM);
             }
             assert!(
                 (x - root).abs() <= 1.0 + 0.03 * root,
@@ -2614,12 +2617,12 @@ mod tests {
         // Staircase: g = 4.9 · (a − 10 ⌈x/10⌉): 196 up to x = 160, 147 beyond,
         // so the root is the jump at x = 160.
         let g = |x: f64| 4.9 * (a - 10.0 * (x / 10.0).ceil()).max(0.0);
-        let mut s = Bracketed::new(g(0.0), 5000.0);
+        let mut s = Bracketed::new(g(0.0), CAP_UM);
         let mut x = LOOP_RELAX_START * g(0.0);
         let mut passes = 1;
         loop {
             passes += 1;
-            s.observe(x, g(x) - x, passes, 5000.0);
+            s.observe(x, g(x) - x, passes, CAP_UM);
             if s.closed(passes) {
                 break;
             }

@@ -271,6 +271,12 @@ impl LineSegments {
     }
 
     /// Every line that made segments, ascending, with its segments.
+    /// Line `index` runs as more than one segment, so it may get a table of
+    /// runs ([`run_tables`]); only such lines have their runs kept.
+    fn tabled(&self, index: usize) -> bool {
+        self.get(index).is_some_and(|segs| segs.len() >= 2)
+    }
+
     fn iter(&self) -> impl Iterator<Item = (usize, &[usize])> + '_ {
         (0..self.start.len().saturating_sub(1)).filter_map(|index| Some((index, self.get(index)?)))
     }
@@ -644,7 +650,7 @@ fn line_runs(
         if (from..to).any(|j| trace.segments[j].line_index != line) {
             return None;
         }
-        if by_line.get(line).is_some_and(|segs| segs.len() >= 2) {
+        if by_line.tabled(line) {
             runs.entry(line).or_default().push(match to - from {
                 0 => Run::Idle(at),
                 1 => Run::Moved(from),
@@ -687,7 +693,7 @@ fn run_tables(
     let mut next = *TABLE_PARAMS.start();
     for (index, segs) in by_line.iter() {
         // A line of one segment has no table (and no entry in `all_runs`).
-        if segs.len() < 2 {
+        if !by_line.tabled(index) {
             continue;
         }
         let runs: Vec<Run> = match &all_runs {
