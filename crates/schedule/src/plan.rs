@@ -113,7 +113,7 @@ const LAMBDA_GRID_MAX_STATIONS: usize = 500_000;
 fn held_at(
     v: &[f64],
     s: &[f64],
-    stations: &mut dyn Iterator<Item = usize>,
+    stations: impl IntoIterator<Item = usize>,
     end: usize,
     c: f64,
     window_s: f64,
@@ -688,13 +688,10 @@ impl<'a> RunPlanner<'a> {
         self.extend_caps(first, last, (lambda, window_s, 1.0), &free, v, true);
         self.passes_between(first, lambda, &mut v[first..=last], ends);
         self.cut_peaks(first, last, window_s, 1.0, v);
-        let flat = |stations: &mut dyn Iterator<Item = usize>, end: usize, c: f64| {
-            held_at(v, s, stations, end, c, window_s)
-        };
-        if ends.0 > 0.0 && !flat(&mut (first + 1..=last), first, ends.0) {
+        if ends.0 > 0.0 && !held_at(v, s, first + 1..=last, first, ends.0, window_s) {
             return None;
         }
-        if ends.1 > 0.0 && !flat(&mut (first..last).rev(), last, ends.1) {
+        if ends.1 > 0.0 && !held_at(v, s, (first..last).rev(), last, ends.1, window_s) {
             return None;
         }
         Some(
@@ -766,17 +763,17 @@ impl<'a> RunPlanner<'a> {
         if !direct::shape(&limits, slow_share, v) {
             return None;
         }
-        let flat = |stations: &mut dyn Iterator<Item = usize>, end: usize, c: f64| {
-            held_at(v, s, stations, end, c, window_s)
-        };
         let n = s.len() - 1;
-        if !((ends.0 == 0.0 || flat(&mut (1..=n), 0, ends.0))
-            && (ends.1 == 0.0 || flat(&mut (0..n).rev(), n, ends.1)))
+        if !((ends.0 == 0.0 || held_at(v, s, 1..=n, 0, ends.0, window_s))
+            && (ends.1 == 0.0 || held_at(v, s, (0..n).rev(), n, ends.1, window_s)))
         {
             return None;
         }
-        let dt = |k: usize| 2.0 * (s[k + 1] - s[k]) / (v[k] + v[k + 1]);
-        Some(((0..n).map(dt).sum(), (0..n).map(dt).fold(0.0, f64::max)))
+        // The planned time and the longest time over one interval, in one pass.
+        Some((0..n).fold((0.0, 0.0), |(sum, longest): (f64, f64), k| {
+            let dt = 2.0 * (s[k + 1] - s[k]) / (v[k] + v[k + 1]);
+            (sum + dt, longest.max(dt))
+        }))
     }
 
     /// The section `first..=last` shaped directly ([`RunPlanner::plan_direct`]) at the
@@ -784,7 +781,7 @@ impl<'a> RunPlanner<'a> {
     /// σ/(1 − σ) times the longest time the plan takes over one station interval, Δt
     /// (MODEL.md §6.1, "Direct sections": the filtered jerk is then at most the jerk
     /// limit), found by widening from `window_s` (to 1.05 times what the last plan needed)
-    /// up to 4 times, and no wider than
+    /// in at most 4 plans, and no wider than
     /// `max_window_s`. Returns the planned time and the window, s.
     fn direct_window(
         &self,
@@ -2023,11 +2020,9 @@ mod tests {
     /// plan and window, whichever run the sampler would take there.
     fn filtered(profile: &Profile<'_>, run: &Run, t_s: f64) -> (f64, f64) {
         let (mut now, mut lagged) = (run.first, run.first);
+        // Every section is filtered (a direct one too, `direct_window`).
+        assert!(run.window_s > 0.0);
         let a = profile.run_state(run, t_s, &mut now);
-        if run.window_s == 0.0 {
-            // Shaped directly: no filter.
-            return (a.s_mm, a.v_mm_s);
-        }
         let b = profile.run_state(run, t_s - run.window_s, &mut lagged);
         let s_first = profile.stations.s_mm()[run.first];
         (
@@ -2075,7 +2070,6 @@ mod tests {
             }
             for pair in profile.runs.windows(2) {
                 let (before, after) = (&pair[0], &pair[1]);
-                assert_eq!(before.last, after.first);
                 let m = after.first;
                 let c = profile.speed_mm_s[m];
                 assert!(c > 0.0 && c <= caps[m] / 60.0 * (1.0 + 1e-12), "{c}");
