@@ -46,10 +46,10 @@ pub fn axis_velocity_mm_s(samples: &[ServoSample]) -> Vec<Vector3<f64>> {
         .collect()
 }
 
-/// Motion from one stop to the next.
+/// Motion from one stop to the next, or a section of it ([`RunPlanner::sectioned`]).
 #[derive(Clone, Copy, Debug)]
 struct Run {
-    /// First and last station (both stops).
+    /// First and last station (stops, or a section's cuts at held caps).
     first: usize,
     last: usize,
     /// Time the run leaves `first`, s from the program start.
@@ -266,8 +266,9 @@ const DIRECT_SHARES: [f64; 3] = [0.5, 0.75, 0.9];
 /// The narrowest filter a section shaped directly starts from, s.
 const DIRECT_WINDOW_MIN_S: f64 = 1e-3;
 
-/// Intervals whose acceleration limit is at most this times the period times their jerk
-/// limit (slow corners' intervals, j·T/12) widen a dip of a run shaped directly.
+/// Intervals whose acceleration limit is at most this times the period T times their jerk
+/// limit as shaped (σ·j: a ≤ σ·j·T/3, slow corners' intervals) widen a dip of a section
+/// shaped directly ([`direct::shape`]'s `slow_share`).
 const DIRECT_SLOW_PERIODS: f64 = 1.0 / 3.0;
 
 /// A section that verifies at none of its values is merged with the next, at most this
@@ -703,10 +704,11 @@ impl<'a> RunPlanner<'a> {
 
     /// Plans the section `first..=last` into `v` shaped directly, as the plan of a filter
     /// of width `window_s` (MODEL.md §6.1, "Direct sections"): from the speed `ends.0` at
-    /// `first` to `ends.1` at `last` (held caps, both > 0, each with no acceleration),
-    /// under every station's cap held over c·W/2 + Δs_max on either side (so that the
-    /// filtered speed, an average over W of plan speeds at most c, is at most c where it
-    /// passes the station), each interval's acceleration limit and `share` of its jerk
+    /// `first` to `ends.1` at `last` (held caps, both > 0, each with no acceleration,
+    /// each held over c·W/2 + Δs_max into the section), under the caps with their local
+    /// minima lowered by σ·J·W²/12 (so that the filtered speed, an average over W of the
+    /// plan, is at most the cap where it passes the station), each interval's
+    /// acceleration limit and `share` σ of its jerk
     /// limit ([`direct::shape`]). Returns the planned time and the longest time the plan
     /// takes over one station interval, s, or `None` where the shape has no motion
     /// between the ends or is not flat at an end's speed over c·W/2 from it.
