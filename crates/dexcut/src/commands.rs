@@ -1396,9 +1396,7 @@ fn write_servo_csv(
     steps: &[TimedStep],
     z_sign: f64,
 ) -> Result<()> {
-    // The run's steps, period by period: a period's steps up to the next
-    // one that does not continue it.
-    let mut next_step = 0;
+    let mut periods = motion::periods(steps);
     export::atomic::write_file(path, |w| {
         let mut out = csv::Writer::from_writer(w);
         out.write_record([
@@ -1419,22 +1417,14 @@ fn write_servo_csv(
         let mut before: Option<motion::SampleRow> = None;
         for (i, s) in samples.enumerate() {
             let (tool, rpm) = (s.tool, s.spindle_rpm);
-            // The axis velocities over the period (as schedule::axis_velocity_mm_s).
-            let v = match &before {
-                None => nalgebra::Vector3::zeros(),
-                Some(b) => (s.pos - b.pos) / (s.t_s - b.t_s),
-            };
+            // The axis velocities over the period.
+            let v = before.map_or(nalgebra::Vector3::zeros(), |b| {
+                schedule::axis_velocity_between_mm_s((b.pos, b.t_s), (s.pos, s.t_s))
+            });
             // The period's steps (none before the first sample).
-            let period = if i == 0 {
-                &steps[..0]
-            } else {
-                let first = next_step.min(steps.len());
-                let mut end = (first + 1).min(steps.len());
-                while end < steps.len() && steps[end].continues {
-                    end += 1;
-                }
-                next_step = end;
-                &steps[first..end]
+            let period = match i {
+                0 => &steps[..0],
+                _ => periods.next().map_or(&steps[..0], |p| &steps[p]),
             };
             // Its corners, each where a part of positive duration ends
             // before the sample (a corner at the time of the row before it

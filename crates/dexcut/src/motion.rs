@@ -34,6 +34,24 @@ pub struct TimedStep {
     pub spindle_rpm: f64,
 }
 
+/// The servo periods of `steps`, as ranges of steps: each period is a step
+/// and every following one that continues it ([`TimedStep::continues`]).
+pub fn periods(steps: &[TimedStep]) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
+    let mut first = 0;
+    std::iter::from_fn(move || {
+        if first >= steps.len() {
+            return None;
+        }
+        let mut end = first + 1;
+        while end < steps.len() && steps[end].continues {
+            end += 1;
+        }
+        let period = first..end;
+        first = end;
+        Some(period)
+    })
+}
+
 /// The machine limits from the job.
 pub fn machine(job: &Job) -> Machine {
     let m = &job.machine;
@@ -191,12 +209,7 @@ impl SampleFeeds {
     /// [`steps_from_samples`] (the same values as [`SampleRow::of`] each
     /// sample, bit for bit).
     pub fn rows<'a>(&'a self, steps: &'a [TimedStep]) -> impl Iterator<Item = SampleRow> + 'a {
-        // Each period's last step: the one before the next that does not continue it.
-        let ends = steps
-            .iter()
-            .enumerate()
-            .filter(|&(k, _)| steps.get(k + 1).is_none_or(|next| !next.continues))
-            .map(|(_, s)| s);
+        let ends = periods(steps).map(|period| &steps[period.end - 1]);
         self.first
             .into_iter()
             .chain(
@@ -302,6 +315,34 @@ pub fn direct_steps(
 mod tests {
     use super::*;
 
+    /// A period is a step and the steps after it that continue it; a first
+    /// step that continues nothing before it still starts one.
+    #[test]
+    fn periods_are_a_step_and_the_steps_that_continue_it() {
+        let step = |continues| TimedStep {
+            step: dexel::Step {
+                from_mm: [0.0; 3],
+                to_mm: [0.0; 3],
+                rapid: false,
+            },
+            t_end_s: 0.0,
+            dt_s: 0.0,
+            feed_mm_min: 0.0,
+            line: 0,
+            s_end_mm: 0.0,
+            continues,
+            tool: 1,
+            spindle_rpm: 0.0,
+        };
+        let steps: Vec<TimedStep> = [true, true, false, false, true, true, false]
+            .into_iter()
+            .map(step)
+            .collect();
+        let got: Vec<_> = periods(&steps).collect();
+        assert_eq!(got, [0..2, 2..3, 3..6, 6..7]);
+        assert_eq!(periods(&[]).count(), 0);
+    }
+
     /// servo.csv's rows made again from the steps and the feeds equal the
     /// samples' own, bit for bit: on a program whose servo periods are split
     /// at rapids (steps that continue a period), with two tools and spindle
@@ -349,7 +390,8 @@ mod tests {
         }
         let velocity = schedule::axis_velocity_mm_s(&samples);
         for (i, w) in rows.windows(2).enumerate() {
-            let v = (w[1].pos - w[0].pos) / (w[1].t_s - w[0].t_s);
+            let v =
+                schedule::axis_velocity_between_mm_s((w[0].pos, w[0].t_s), (w[1].pos, w[1].t_s));
             assert_eq!(
                 v.map(f64::to_bits),
                 velocity[i].map(f64::to_bits),

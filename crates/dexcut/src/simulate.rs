@@ -1903,12 +1903,7 @@ impl Run {
         let mut first: Vec<usize> = Vec::new();
         let mut s_at: Vec<f64> = vec![0.0];
         let (mut volume, mut dt_s, mut cutting) = (Vec::new(), Vec::new(), Vec::new());
-        let mut i = 0;
-        while i < self.steps.len() {
-            let mut j = i + 1;
-            while j < self.steps.len() && self.steps[j].continues {
-                j += 1;
-            }
+        for std::ops::Range { start: i, end: j } in crate::motion::periods(&self.steps) {
             let cuts = !self.steps[i..j].iter().all(|s| s.step.rapid);
             // A period that is part feed, part rapid counts its feed parts'
             // removal: what a rapid removes is a collision (rapid_cut warning).
@@ -1926,7 +1921,6 @@ impl Run {
             volume.push(volume_mm3);
             dt_s.push(period_dt_s);
             cutting.push(cuts);
-            i = j;
         }
         first.push(self.steps.len());
         // Prefix sums of volume and time over periods.

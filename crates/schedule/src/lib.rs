@@ -23,7 +23,9 @@ mod stations;
 
 pub use bound::{lower_bound_time_s, rest_to_rest_time_s};
 pub use machine::{Machine, ScheduleError, MACHINE_RANGES};
-pub use plan::{axis_velocity_mm_s, plan, Profile, ServoSample, MAX_SAMPLES};
+pub use plan::{
+    axis_velocity_between_mm_s, axis_velocity_mm_s, plan, Profile, ServoSample, MAX_SAMPLES,
+};
 pub use rules::{
     angle_rule_feed_mm_min, block_feed_cap_mm_min, chord_count, chord_tolerance_mm, linearise_arcs,
 };

@@ -42,8 +42,17 @@ pub struct ServoSample {
 pub fn axis_velocity_mm_s(samples: &[ServoSample]) -> Vec<Vector3<f64>> {
     samples
         .windows(2)
-        .map(|w| (w[1].pos - w[0].pos) / (w[1].t_s - w[0].t_s))
+        .map(|w| axis_velocity_between_mm_s((w[0].pos, w[0].t_s), (w[1].pos, w[1].t_s)))
         .collect()
+}
+
+/// Per-axis mean velocity in mm/s from position `from.0` (mm) at time
+/// `from.1` (s) to `to.0` at `to.1`.
+pub fn axis_velocity_between_mm_s(
+    from: (Point3<f64>, f64),
+    to: (Point3<f64>, f64),
+) -> Vector3<f64> {
+    (to.0 - from.0) / (to.1 - from.1)
 }
 
 /// Motion from one stop to the next, or a section of it ([`RunPlanner::sectioned`]).
