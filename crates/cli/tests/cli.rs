@@ -2396,6 +2396,65 @@ fn simulate_servo_csv(dir: &Path, job: &str, program: &str, servo: &str) -> Valu
     summary(&dir.join("servo_run"))
 }
 
+/// A program within every limit (to their tolerance) and faster than any
+/// re-timing is kept: a slot whose only cutting line runs at feed_max and
+/// removes 120.08 mm³/s over ≥ 48 ms against mrr_max 119.5 (0.5 % over, within
+/// the 2 % tolerance); the re-timing, which keeps 1 % under the limit, would be
+/// slower. optimized.nc is then the program as given, byte for byte, and what
+/// the summary reports after is what that file and servo.csv do read back.
+#[test]
+fn a_program_within_its_limits_and_faster_than_the_retiming_is_kept() {
+    let dir = tempdir();
+    let job = r#"
+[stock]
+kind = "box"
+min = [0, 0, 0]
+max = [100, 20, 30]
+grid = 0.2
+[tool]
+kind = "flat"
+diameter = 6
+flutes = 2
+fz_max = 0.1
+flute_length = 20
+[program]
+path = "slot.nc"
+[machine]
+feed_max = 1200
+accel = [1000, 1000, 1000]
+[limits]
+mrr_max = 119.5
+"#;
+    write(dir.path(), "job.toml", job);
+    let program =
+        "%\nG21 G90 G17\nS10000 M3\nT1 M6\nG0 X-10 Y10\nG0 Z29\nG1 X110 F1200\nG0 Z40\nM30\n%\n";
+    write(dir.path(), "slot.nc", program);
+    let out = dexcut(&["optimize", "job.toml", "--out", "out"], dir.path());
+    ok(&out);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("optimized.nc is the original"), "{stdout}");
+    let s = summary(&dir.path().join("out"));
+    assert_eq!(s["kept_original"], true, "{s}");
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("out/optimized.nc")).unwrap(),
+        program
+    );
+    let (before, after) = (&s["before"], &s["after"]);
+    // The slot removes its cross-section, 6 mm × 1 mm × 100 mm.
+    let removed = after["removed_volume_mm3"].as_f64().unwrap();
+    assert!(rel(removed, 600.0) < 1e-9, "{removed}");
+    let windowed = before["peak_mrr_windowed_mm3_s"].as_f64().unwrap();
+    assert!(windowed > 119.5 && windowed <= 119.5 * 1.02, "{windowed}");
+    assert!(s["plan_time_s"].as_f64().unwrap() > before["cycle_time_s"].as_f64().unwrap());
+    // The numbers after are the kept program's.
+    assert_servo_csv_is_the_run(before, after, &["peak_mrr_windowed_mm3_s"]);
+    // optimized.nc and servo.csv read back do what the summary says.
+    let optimized = simulate_servo_csv(dir.path(), "job.toml", "slot.nc", "out/optimized.nc");
+    assert_servo_csv_is_the_run(after, &optimized, &["peak_mrr_windowed_mm3_s"]);
+    let servo = simulate_servo_csv(dir.path(), "job.toml", "slot.nc", "out/servo.csv");
+    assert_servo_csv_is_the_run(after, &servo, &[]);
+}
+
 /// servo.csv does what the summary says: read back as a program (a point list
 /// timed by its `t_s`, each sample with its tool and spindle speed, each move
 /// with its kind, the corners where a period changes between rapid and feed
