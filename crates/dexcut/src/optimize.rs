@@ -963,11 +963,32 @@ pub fn write_verified(
                 // The written program as the re-feed writer read it back to
                 // check it (with the program's options, as `nc::parse` reads
                 // it): not read once more.
+                // Along the program's path (the stations are let go, their
+                // path held): the source's reading does not hold a second
+                // copy of it where it makes it bit for bit (126 MB for a
+                // million blocks). The path is in dexcut's frame; the text
+                // reads in its own: mirrored there and back for a Z that
+                // points down (z ↦ −z twice is the same path bit for bit).
+                let (file, options) = (&setup.program.file, &setup.program.nc_options);
+                let read = match free {
+                    FreeStations::Released(path) => {
+                        let mirror = |path: &mut nc::Path| {
+                            if setup.program.z_down {
+                                path.mirror_z();
+                            }
+                        };
+                        mirror(path);
+                        let read = nc::refeed_read_along(src, file, options, &plan, &path.segments);
+                        mirror(path);
+                        read
+                    }
+                    FreeStations::Made(_) => nc::refeed_read(src, file, options, &plan),
+                };
+                // Read by the re-feed alone (40 MB of pieces for a million
+                // segments, not held while the samples and steps are made).
+                drop(plan);
                 let (text, parsed) =
-                    nc::refeed_read(src, &setup.program.file, &setup.program.nc_options, &plan)
-                        .or_run(|| {
-                            format!("{}: cannot write the re-fed program", setup.program.file)
-                        })?;
+                    read.or_run(|| format!("{file}: cannot write the re-fed program"))?;
                 // Written now and let go (60 MB for a million blocks).
                 write_text(&text)?;
                 drop(text);
@@ -983,6 +1004,7 @@ pub fn write_verified(
                 (feeds, steps)
             }
             None => {
+                drop(plan);
                 let samples = optimum_samples.expect("sampled for a point list");
                 let path = free.path();
                 let steps = crate::motion::steps_from_samples(path, &samples);
@@ -990,7 +1012,6 @@ pub fn write_verified(
                 (feeds, steps)
             }
         };
-        drop(plan);
         let run = crate::simulate::run_on(
             setup.stock_source(),
             &setup.tools,

@@ -143,6 +143,9 @@ pub struct Trace {
     /// Every source line as parsed (`None`: syntax error), split at `\n`
     /// with a trailing `\r` removed.
     pub lines: Rc<syntax::Lines>,
+    /// The run made the path it was lent ([`run_recorded_along`]) bit for
+    /// bit, segment for segment: its [`Parsed::path`] holds no segments.
+    pub on_lent_path: bool,
 }
 
 /// An execution error at a column.
@@ -360,6 +363,22 @@ struct Interp<'a> {
     /// Every line executed, in order, with the call depth it ran at
     /// (`Some` only for [`run_recorded`]).
     executed: Option<Vec<Executed>>,
+    /// The path the run is expected to make, while it makes it.
+    lent: Option<Lent<'a>>,
+}
+
+/// A path lent to a run ([`run_recorded_along`]): the caller's reading of
+/// the same text. While each segment the run makes is the lent path's next
+/// bit for bit, it is counted, not pushed; at the first that is not (or
+/// before cutter compensation takes a segment's index to move its end
+/// later) the segments matched so far are copied into the run's own path
+/// and it goes on as any run (issue 16: a million-block program's re-feed
+/// held its path twice, 126 MB each).
+#[derive(Clone, Copy)]
+struct Lent<'a> {
+    path: &'a [Segment],
+    /// Segments made so far, each the lent path's own.
+    matched: usize,
 }
 
 /// A line as executed: its 0-based index and the call depth it ran at
@@ -385,13 +404,33 @@ pub fn run_recorded(source: &str, file: &str, options: &Options) -> (Parsed, Tra
     run_and_record(source, file, options, true)
 }
 
+/// [`run_recorded`] lent the path the caller read the same text to
+/// (`path`): where the run makes that path bit for bit
+/// ([`Trace::on_lent_path`]) the returned [`Parsed::path`] holds no
+/// segments, and the path is `path`; otherwise it holds the run's own, as
+/// [`run_recorded`] returns it.
+pub fn run_recorded_along(
+    source: &str,
+    file: &str,
+    options: &Options,
+    path: &[Segment],
+) -> (Parsed, Trace, Vec<Executed>) {
+    run_read_and_record(
+        &read(source, file, options),
+        file,
+        options,
+        true,
+        Some(path),
+    )
+}
+
 fn run_and_record(
     source: &str,
     file: &str,
     options: &Options,
     record: bool,
 ) -> (Parsed, Trace, Vec<Executed>) {
-    run_read_and_record(&read(source, file, options), file, options, record)
+    run_read_and_record(&read(source, file, options), file, options, record, None)
 }
 
 /// [`run_and_record`] of a program already read (the lines are parsed once).
@@ -400,8 +439,9 @@ pub(crate) fn run_read_and_record(
     file: &str,
     options: &Options,
     record: bool,
+    lent: Option<&[Segment]>,
 ) -> (Parsed, Trace, Vec<Executed>) {
-    let (parsed, trace, first, executed) = run_read(read, file, options, record);
+    let (parsed, trace, first, executed) = run_read(read, file, options, record, lent);
     match (options.initial_tool, first) {
         (None, Some(tool)) if tool != 0 => {
             // Dropped before the run again: one path at a time.
@@ -410,7 +450,7 @@ pub(crate) fn run_read_and_record(
                 initial_tool: Some(tool),
                 ..options.clone()
             };
-            let (parsed, trace, _, executed) = run_read(read, file, &options, record);
+            let (parsed, trace, _, executed) = run_read(read, file, &options, record, lent);
             (parsed, trace, executed)
         }
         _ => (parsed, trace, executed),
@@ -491,6 +531,7 @@ fn interp<'a>(file: &'a str, options: &'a Options, record: bool) -> Interp<'a> {
             ..comp::Comp::default()
         },
         executed: record.then(Vec::new),
+        lent: None,
     }
 }
 
@@ -586,8 +627,10 @@ pub(crate) fn run_read(
     file: &str,
     options: &Options,
     record: bool,
+    lent: Option<&[Segment]>,
 ) -> (Parsed, Trace, Option<u32>, Vec<Executed>) {
     let mut it = interp(file, options, record);
+    it.lent = lent.map(|path| Lent { path, matched: 0 });
     it.lines = Rc::clone(&read.lines);
     it.olines = read.olines.clone();
     it.programs = read.programs.clone();
@@ -609,9 +652,15 @@ pub(crate) fn run_read(
             severity: Severity::Error,
         });
     }
+    // The lent path is the run's only where the run made all of it.
+    let on_lent_path = it.lent.is_some_and(|l| l.matched == l.path.len());
+    if !on_lent_path {
+        it.own_path();
+    }
     let trace = Trace {
         segments: it.trace,
         lines: it.lines,
+        on_lent_path,
     };
     (
         Parsed {
@@ -717,7 +766,7 @@ impl Interp<'_> {
                 );
                 return;
             }
-            if self.path.segments.len() > self.options.max_segments {
+            if self.segment_count() > self.options.max_segments {
                 self.report(
                     1,
                     format!(
@@ -747,11 +796,12 @@ impl Interp<'_> {
                 pc += 1;
                 continue;
             }
+            let segments_before = self.segment_count() as u32;
             if let Some(executed) = &mut self.executed {
                 executed.push(Executed {
                     line_index: pc as u32,
                     depth: self.frames.len() as u32,
-                    segments_before: self.path.segments.len() as u32,
+                    segments_before,
                 });
             }
             let next = match &line.kind {
@@ -1730,7 +1780,7 @@ impl Interp<'_> {
         pc: usize,
     ) {
         self.last_tip = end;
-        self.path.segments.push(Segment {
+        let segment = Segment {
             start,
             end,
             geometry,
@@ -1742,7 +1792,16 @@ impl Interp<'_> {
                 0.0
             },
             tool: self.tool,
+        };
+        let lent = self.lent.as_mut().is_some_and(|l| {
+            let same = l.path.get(l.matched).is_some_and(|s| s.same_bits(&segment));
+            l.matched += usize::from(same);
+            same
         });
+        if !lent {
+            self.own_path();
+            self.path.segments.push(segment);
+        }
         // Only the re-feed writer reads the trace, and only from a recorded
         // run: a program parsed to be simulated keeps none (56 B a segment).
         if self.executed.is_none() {
@@ -1760,6 +1819,19 @@ impl Interp<'_> {
             feed_scale: self.feed_scale,
             compensated: self.comp_active(),
         });
+    }
+
+    /// Segments made so far (those of a lent path included).
+    fn segment_count(&self) -> usize {
+        self.path.segments.len() + self.lent.map_or(0, |l| l.matched)
+    }
+
+    /// The run's path its own: the lent segments it made so far copied into
+    /// it, and no more compared (before a segment's index is taken).
+    fn own_path(&mut self) {
+        if let Some(l) = self.lent.take() {
+            self.path.segments = l.path[..l.matched].to_vec();
+        }
     }
 
     /// Feed motion for a G1/G2/G3 of known geometry.

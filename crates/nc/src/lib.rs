@@ -20,7 +20,7 @@ pub use diag::{Diagnostic, Severity};
 pub use gcode::GCode;
 pub use interp::{FileForm, Options, Parsed};
 pub use path::{Geometry, Motion, Path, Plane, Segment};
-pub use refeed::{refeed, refeed_read, RefeedError};
+pub use refeed::{refeed, refeed_read, refeed_read_along, RefeedError};
 
 /// Reads a program (`file_name` only labels diagnostics) into a path.
 /// Positions are tool-tip positions in mm in the machine frame.
@@ -48,7 +48,7 @@ impl<'a> Reader<'a> {
 
     /// What [`parse`] returns for the source and options read.
     pub fn parse(&self) -> Parsed {
-        interp::run_read_and_record(&self.read, self.file_name, &self.options, false).0
+        interp::run_read_and_record(&self.read, self.file_name, &self.options, false, None).0
     }
 
     /// [`Reader::parse`] with the tool starting at `initial_position_mm`
@@ -58,7 +58,7 @@ impl<'a> Reader<'a> {
             initial_position_mm,
             ..self.options.clone()
         };
-        interp::run_read_and_record(&self.read, self.file_name, &options, false).0
+        interp::run_read_and_record(&self.read, self.file_name, &options, false, None).0
     }
 }
 

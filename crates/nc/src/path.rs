@@ -86,6 +86,51 @@ pub struct Segment {
 }
 
 impl Segment {
+    /// The same segment bit for bit (every f64 by its bits: −0 is not 0),
+    /// as the interpreter's reading of a lent path checks it
+    /// ([`crate::refeed_read_along`]).
+    pub(crate) fn same_bits(&self, other: &Segment) -> bool {
+        let point = |a: &Point3<f64>, b: &Point3<f64>| {
+            a.coords
+                .iter()
+                .zip(b.coords.iter())
+                .all(|(x, y)| x.to_bits() == y.to_bits())
+        };
+        let geometry = match (&self.geometry, &other.geometry) {
+            (Geometry::Line, Geometry::Line) => true,
+            (
+                Geometry::Arc {
+                    center: c1,
+                    plane: p1,
+                    clockwise: w1,
+                    sweep_rad: s1,
+                },
+                Geometry::Arc {
+                    center: c2,
+                    plane: p2,
+                    clockwise: w2,
+                    sweep_rad: s2,
+                },
+            ) => point(c1, c2) && p1 == p2 && w1 == w2 && s1.to_bits() == s2.to_bits(),
+            _ => false,
+        };
+        let motion = match (self.motion, other.motion) {
+            (Motion::Rapid, Motion::Rapid) => true,
+            (Motion::Feed { feed_mm_min: a }, Motion::Feed { feed_mm_min: b })
+            | (Motion::Dwell { seconds: a }, Motion::Dwell { seconds: b }) => {
+                a.to_bits() == b.to_bits()
+            }
+            _ => false,
+        };
+        point(&self.start, &other.start)
+            && point(&self.end, &other.end)
+            && geometry
+            && motion
+            && self.line == other.line
+            && self.spindle_rpm.to_bits() == other.spindle_rpm.to_bits()
+            && self.tool == other.tool
+    }
+
     /// Path length in mm (arc length for arcs, helix included).
     pub fn length_mm(&self) -> f64 {
         self.geometry.length_mm(&self.start, &self.end)

@@ -113,7 +113,34 @@ pub fn refeed_read(
     options: &Options,
     plan: &[Vec<(f64, f64)>],
 ) -> Result<(String, Parsed), RefeedError> {
-    let (mut parsed, mut trace, mut executed) = interp::run_recorded(source, file, options);
+    refeed_read_lent(source, file, options, plan, None)
+}
+
+/// [`refeed_read`] of a program whose path the caller holds: `path`, what
+/// [`crate::parse`] returns for `source` with `file` and `options`. The
+/// source's reading is checked against it segment by segment as it is made
+/// and does not hold a second copy of it where it is the same bit for bit
+/// (a million-block program's path is 126 MB); where it is not, the reading
+/// keeps its own, as [`refeed_read`] does. The text is the same.
+pub fn refeed_read_along(
+    source: &str,
+    file: &str,
+    options: &Options,
+    plan: &[Vec<(f64, f64)>],
+    path: &[Segment],
+) -> Result<(String, Parsed), RefeedError> {
+    refeed_read_lent(source, file, options, plan, Some(path))
+}
+
+/// [`refeed_read`], along the caller's path where one is lent.
+fn refeed_read_lent(
+    source: &str,
+    file: &str,
+    options: &Options,
+    plan: &[Vec<(f64, f64)>],
+    lent: Option<&[Segment]>,
+) -> Result<(String, Parsed), RefeedError> {
+    let (mut parsed, mut trace, mut executed) = run_recorded(source, file, options, lent);
     // A file read as most controls read it is written as every control reads
     // it ([`crate::amend`]); the amended source is what is re-fed and checked.
     let amended;
@@ -121,12 +148,12 @@ pub fn refeed_read(
     if !parsed.amendments.is_empty() && !parsed.diagnostics.iter().any(|d| d.is_error()) {
         amended = crate::amend(source, &parsed.amendments);
         source = &amended;
-        (parsed, trace, executed) = interp::run_recorded(source, file, options);
+        (parsed, trace, executed) = run_recorded(source, file, options, lent);
     }
     if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
         return Err(RefeedError::Program(d.clone()));
     }
-    let segments = &parsed.path.segments;
+    let segments = SourcePath::of(&mut parsed, &trace, lent);
     if plan.len() != segments.len() {
         return Err(RefeedError::PlanLength {
             plan: plan.len(),
@@ -143,9 +170,9 @@ pub fn refeed_read(
         }
     }
     let by_line = lines_segments(&trace);
-    let (tables, unfit) = run_tables(source, &by_line, segments, &trace, &executed, plan);
+    let (tables, unfit) = run_tables(source, &by_line, &segments, &trace, &executed, plan);
     let recorded = Recorded {
-        segments: std::mem::take(&mut parsed.path.segments),
+        segments,
         trace,
         executed,
         by_line,
@@ -178,6 +205,7 @@ pub fn refeed_read(
                     Some(source),
                     file,
                     options,
+                    lent,
                     unrolled_read,
                     plan,
                     tables,
@@ -187,34 +215,86 @@ pub fn refeed_read(
             }
         }
     }
-    let recorded = recorded.unwrap_or_else(|| Recorded::read(source, None, file, options));
-    write_checked(source, None, file, options, recorded, plan, tables)
+    let recorded = recorded.unwrap_or_else(|| Recorded::read(source, None, file, options, lent));
+    write_checked(source, None, file, options, lent, recorded, plan, tables)
+}
+
+/// [`interp::run_recorded`], along `lent` where there is one.
+fn run_recorded(
+    source: &str,
+    file: &str,
+    options: &Options,
+    lent: Option<&[Segment]>,
+) -> (Parsed, interp::Trace, Vec<Executed>) {
+    match lent {
+        Some(path) => interp::run_recorded_along(source, file, options, path),
+        None => interp::run_recorded(source, file, options),
+    }
+}
+
+/// The path a text is written against: the caller's where the reading made
+/// it bit for bit ([`refeed_read_along`]), else the reading's own.
+enum SourcePath<'p> {
+    Lent(&'p [Segment]),
+    Own(Vec<Segment>),
+}
+
+impl<'p> SourcePath<'p> {
+    /// The path `parsed` (a reading along `lent`, if any) made, taken from it.
+    fn of(parsed: &mut Parsed, trace: &interp::Trace, lent: Option<&'p [Segment]>) -> Self {
+        match lent {
+            Some(path) if trace.on_lent_path => SourcePath::Lent(path),
+            _ => SourcePath::Own(std::mem::take(&mut parsed.path.segments)),
+        }
+    }
+}
+
+impl std::ops::Deref for SourcePath<'_> {
+    type Target = [Segment];
+
+    fn deref(&self) -> &[Segment] {
+        match self {
+            SourcePath::Lent(path) => path,
+            SourcePath::Own(path) => path,
+        }
+    }
 }
 
 /// A recorded run of the text the writer writes from: the path it is
 /// written against, its trace, the lines as they ran and the segments of
 /// each line.
-struct Recorded {
+struct Recorded<'p> {
     /// The path of the program as read (for unrolled loops, the path of the
     /// text they were unrolled from).
-    segments: Vec<Segment>,
+    segments: SourcePath<'p>,
     trace: interp::Trace,
     executed: Vec<Executed>,
     by_line: LineSegments,
 }
 
-impl Recorded {
+impl<'p> Recorded<'p> {
     /// `source` run and recorded again (as it was the first time: the
     /// interpreter gives the same run of the same text and options), with
     /// the path of `path_from` where the text is written against another's
-    /// path (unrolled loops: the text they were unrolled from).
-    fn read(source: &str, path_from: Option<&str>, file: &str, options: &Options) -> Recorded {
-        let (parsed, trace, executed) = interp::run_recorded(source, file, options);
+    /// path (unrolled loops: the text they were unrolled from), along
+    /// `lent` as the first reading was.
+    fn read(
+        source: &str,
+        path_from: Option<&str>,
+        file: &str,
+        options: &Options,
+        lent: Option<&'p [Segment]>,
+    ) -> Recorded<'p> {
+        let (mut parsed, trace, executed) = match path_from {
+            None => run_recorded(source, file, options, lent),
+            Some(_) => interp::run_recorded(source, file, options),
+        };
         let segments = match path_from {
-            None => parsed.path.segments,
+            None => SourcePath::of(&mut parsed, &trace, lent),
             Some(from) => {
                 drop(parsed);
-                interp::run_recorded(from, file, options).0.path.segments
+                let (mut parsed, trace, _) = run_recorded(from, file, options, lent);
+                SourcePath::of(&mut parsed, &trace, lent)
             }
         };
         let by_line = lines_segments(&trace);
@@ -231,6 +311,7 @@ impl Recorded {
 /// it must make: where it ends, how long it is, its motion and its line
 /// (56 B a segment, not the 120 of a [`Segment`]: for a million-block
 /// program the path need not be held while the written text is read back).
+#[derive(Clone, Copy)]
 struct Expected {
     end: Point3<f64>,
     length_mm: f64,
@@ -245,6 +326,38 @@ impl Expected {
             length_mm: seg.length_mm(),
             motion: seg.motion,
             line: seg.line,
+        }
+    }
+}
+
+/// What the written text is checked against: the path lent by the caller,
+/// which it holds through the check anyway ([`refeed_read_along`]), or the
+/// source's own path's [`Expected`] (that path is dropped before the check).
+enum Check<'p> {
+    Along(&'p [Segment]),
+    Ends(Vec<Expected>),
+}
+
+impl<'p> Check<'p> {
+    fn of(path: &SourcePath<'p>) -> Check<'p> {
+        match path {
+            SourcePath::Lent(path) => Check::Along(path),
+            SourcePath::Own(path) => Check::Ends(path.iter().map(Expected::of).collect()),
+        }
+    }
+
+    fn len(&self) -> usize {
+        match self {
+            Check::Along(path) => path.len(),
+            Check::Ends(ends) => ends.len(),
+        }
+    }
+
+    /// Segment `i`'s [`Expected`] (made of the lent segment as it is read).
+    fn at(&self, i: usize) -> Expected {
+        match self {
+            Check::Along(path) => Expected::of(&path[i]),
+            Check::Ends(ends) => ends[i],
         }
     }
 }
@@ -319,22 +432,24 @@ fn same_path(a: &[Segment], b: &[Segment]) -> bool {
 
 /// Writes the program with `tables` and the canned cycles written out where
 /// needed, dropping either when the result does not read back as planned.
-/// The recorded run (for a million-line program its path, line arena, trace
-/// and executed lines, about 380 MB) is dropped once the text is written,
-/// before the text is read back to be checked against what the path needs
-/// ([`Expected`]); a check that fails and is tried again runs the source
-/// (and `path_from`, [`Recorded::read`]) again.
+/// The recorded run (for a million-line program its line arena, trace and
+/// executed lines, about 250 MB, and its path where it is not the lent one)
+/// is dropped once the text is written, before the text is read back to be
+/// checked against the path ([`Check`]); a check that fails and is tried
+/// again runs the source (and `path_from`, [`Recorded::read`]) again, along
+/// `lent` as before.
 #[allow(clippy::too_many_arguments)]
 fn write_checked(
     source: &str,
     path_from: Option<&str>,
     file: &str,
     options: &Options,
+    lent: Option<&[Segment]>,
     recorded: Recorded,
     plan: &[Vec<(f64, f64)>],
     mut tables: BTreeMap<usize, RunTable>,
 ) -> Result<(String, Parsed), RefeedError> {
-    let expected: Vec<Expected> = recorded.segments.iter().map(Expected::of).collect();
+    let expected = Check::of(&recorded.segments);
     let mut expanded = cycle_lines(&recorded.by_line, &recorded.segments, &recorded.trace, plan);
     let mut recorded = Some(recorded);
     loop {
@@ -345,7 +460,7 @@ fn write_checked(
             by_line,
         } = recorded
             .take()
-            .unwrap_or_else(|| Recorded::read(source, path_from, file, options));
+            .unwrap_or_else(|| Recorded::read(source, path_from, file, options, lent));
         let Some(per_run) = cycle_runs(source, &expanded, &executed, &trace, &tables) else {
             // A cycle run more than once with no counter to tell its runs
             // apart: the cycles as written.
@@ -1549,7 +1664,7 @@ fn verify(
     out: &str,
     file: &str,
     options: &Options,
-    original: &[Expected],
+    original: &Check<'_>,
     plan: &WrittenPlan<'_>,
     written: &[usize],
 ) -> Result<Parsed, RefeedError> {
@@ -1570,7 +1685,8 @@ fn verify(
         )));
     }
     let mut j = 0;
-    for (i, seg) in original.iter().enumerate() {
+    for i in 0..original.len() {
+        let seg = original.at(i);
         let pieces = &new[j..j + written[i]];
         j += written[i];
         let end = pieces[pieces.len() - 1].end;
@@ -1622,7 +1738,7 @@ mod tests {
     use super::*;
 
     /// The check keeps of the source's path only its ends, lengths, motions
-    /// and lines ([`Expected`]), and refuses each change of them as the
+    /// and lines ([`Expected`]), or reads them of the caller's path, and refuses each change of them as the
     /// path itself did: the written text read back passes; a moved end, an
     /// arc round another centre to the same end, a feed move made a rapid and
     /// a feed above the plan each fail, with the line they are on.
@@ -1639,35 +1755,79 @@ mod tests {
                 _ => Vec::new(),
             })
             .collect();
-        let expected: Vec<Expected> = path.segments.iter().map(Expected::of).collect();
         let written = WrittenPlan {
             plan: &plan,
             coarse: BTreeMap::new(),
         };
         let pieces = vec![1; plan.len()];
-        let check = |text: &str| verify(text, "t.ngc", &options, &expected, &written, &pieces);
-        let good = "G0 X0 Y0 Z1\nG1 Z-1 F300\nG1 X10 F500\nG2 X20 Y0 I5 J0 F500\nG0 Z5\n";
-        assert_eq!(
-            check(good).expect("the plan's feeds read back").path,
-            crate::parse(good, "t.ngc", &options).path
-        );
-        for (text, says) in [
-            (good.replace("X10 F500", "X10.01 F500"), "line 3: ends at"),
-            (
-                good.replace("I5 J0", "I5 J5"),
-                "line 4: 33.3216 mm long instead of 15.7080 mm",
-            ),
-            (
-                good.replace("G1 X10 F500", "G0 X10"),
-                "line 3: motion kind changed",
-            ),
-            (
-                good.replace("X10 F500", "X10 F501"),
-                "line 3: feed 501.000 above the plan's 500.000",
-            ),
+        // The source's ends held apart, or the caller's path read as checked.
+        for expected in [
+            Check::Ends(path.segments.iter().map(Expected::of).collect()),
+            Check::Along(&path.segments),
         ] {
-            let err = check(&text).expect_err(&text).to_string();
-            assert!(err.contains(says), "{text}: {err}");
+            let check = |text: &str| verify(text, "t.ngc", &options, &expected, &written, &pieces);
+            let good = "G0 X0 Y0 Z1\nG1 Z-1 F300\nG1 X10 F500\nG2 X20 Y0 I5 J0 F500\nG0 Z5\n";
+            assert_eq!(
+                check(good).expect("the plan's feeds read back").path,
+                crate::parse(good, "t.ngc", &options).path
+            );
+            for (text, says) in [
+                (good.replace("X10 F500", "X10.01 F500"), "line 3: ends at"),
+                (
+                    good.replace("I5 J0", "I5 J5"),
+                    "line 4: 33.3216 mm long instead of 15.7080 mm",
+                ),
+                (
+                    good.replace("G1 X10 F500", "G0 X10"),
+                    "line 3: motion kind changed",
+                ),
+                (
+                    good.replace("X10 F500", "X10 F501"),
+                    "line 3: feed 501.000 above the plan's 500.000",
+                ),
+            ] {
+                let err = check(&text).expect_err(&text).to_string();
+                assert!(err.contains(says), "{text}: {err}");
+            }
+        }
+    }
+
+    /// A run along a lent path holds none of it where it makes it bit for
+    /// bit (its own path empty, [`interp::Trace::on_lent_path`]), and is
+    /// otherwise the plain recorded run: the same path (the lent one, or its
+    /// own), trace and executed lines. A lent path that differs (an end moved
+    /// by one ulp, one segment short or more) gives the run its own path; so
+    /// does cutter compensation, which moves a segment's end after it is made.
+    #[test]
+    fn a_run_along_a_lent_path_holds_it_only_where_it_differs() {
+        let plain = "G0 X0 Y0 Z1\nG1 Z-1 F300\nG1 X10\nG2 X20 Y0 I5 J0\nG0 Z5\nM2\n";
+        let comp =
+            "T1 M6\nG0 X-5 Y-5 Z1\nG1 Z-1 F300\nG41.1 D4 X0 Y0\nG1 X10\nY10\nG40 X15 Y15\nM2\n";
+        let options = Options::default();
+        for (src, along) in [(plain, true), (comp, false)] {
+            let (want, trace, executed) = interp::run_recorded(src, "t.ngc", &options);
+            assert!(want.diagnostics.is_empty(), "{:?}", want.diagnostics);
+            let path = &want.path.segments;
+            let n = path.len();
+            let mut moved = path.clone();
+            moved[n / 2].end.y = f64::from_bits(moved[n / 2].end.y.to_bits() + 1);
+            let longer: Vec<Segment> = path.iter().chain(path.last()).copied().collect();
+            for (lent, same) in [
+                (&path[..], along),
+                (&moved[..], false),
+                (&path[..n - 1], false),
+                (&longer[..], false),
+            ] {
+                let (got, t, e) = interp::run_recorded_along(src, "t.ngc", &options, lent);
+                assert_eq!(t.on_lent_path, same, "{src}");
+                let made = if same { lent } else { &got.path.segments[..] };
+                assert_eq!(got.path.segments.is_empty(), same);
+                assert!(made.len() == n && made.iter().zip(path).all(|(a, b)| a.same_bits(b)));
+                assert_eq!(
+                    (&got.diagnostics, &t.segments, &e),
+                    (&want.diagnostics, &trace.segments, &executed)
+                );
+            }
         }
     }
 

@@ -858,3 +858,75 @@ fn tolerant_files_are_written_with_an_end_and_no_byte_order_mark() {
     .unwrap();
     assert_eq!(out, "G1 X10 F500\n");
 }
+
+/// The re-feed along the caller's path ([`nc::refeed_read_along`]) writes
+/// and reads back what [`nc::refeed_read`] does, whether the lent path is
+/// the source's own bit for bit (then the source's reading holds no copy of
+/// it) or not: an end moved by one ulp in the middle, a 0 given as −0, one
+/// segment short, one segment more. The corpus (its cutter compensation
+/// files among them), loops unrolled and a tolerant file (read again
+/// amended).
+#[test]
+fn the_reading_along_a_lent_path_writes_the_same_text() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../toolpaths");
+    let tolerant = Options {
+        file_form: nc::FileForm::Tolerant,
+        ..Options::default()
+    };
+    let mut programs: Vec<(String, String, Options)> = Vec::new();
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let file = entry.unwrap().path();
+        if file.extension().is_some_and(|e| e == "ngc") {
+            let src = std::fs::read_to_string(&file).unwrap();
+            programs.push((file.display().to_string(), src, Options::default()));
+        }
+    }
+    assert!(programs.iter().any(|(name, _, _)| name.contains("g41")));
+    programs.push(("many_runs".into(), MANY_RUNS.into(), Options::default()));
+    programs.push((
+        "bom".into(),
+        "\u{feff}G0 X0 Y0 Z5\nG1 Z0 F300\nX10\nG2 X20 I5 J0\n".into(),
+        tolerant,
+    ));
+    let mut variants_checked = 0;
+    for (name, src, options) in &programs {
+        let path = nc::parse(src, name, options).path;
+        let plan = feed_plan(&path, |i, s| match s.length_mm() > 1.0 {
+            true => vec![(0.25, 150.0 + i as f64), (1.0, 800.5)],
+            false => vec![(1.0, 321.0)],
+        });
+        let want = nc::refeed_read(src, name, options, &plan).unwrap_or_else(|e| panic!("{e}"));
+        let n = path.segments.len();
+        let mut moved = path.segments.clone();
+        moved[n / 2].end.x = f64::from_bits(moved[n / 2].end.x.to_bits() + 1);
+        let mut signed = path.segments.clone();
+        let zero = signed
+            .iter_mut()
+            .flat_map(|s| s.end.coords.iter_mut())
+            .find(|v| **v == 0.0);
+        let has_zero = zero.map(|v| *v = -0.0).is_some();
+        let longer: Vec<nc::Segment> = path
+            .segments
+            .iter()
+            .chain(path.segments.last())
+            .copied()
+            .collect();
+        let variants: [(&str, &[nc::Segment]); 5] = [
+            ("the same", &path.segments),
+            ("one end moved", &moved),
+            ("-0 for 0", if has_zero { &signed } else { &moved }),
+            ("one short", &path.segments[..n - 1]),
+            ("one more", &longer),
+        ];
+        for (what, lent) in variants {
+            let got = nc::refeed_read_along(src, name, options, &plan, lent)
+                .unwrap_or_else(|e| panic!("{name}, {what}: {e}"));
+            assert!(
+                got == want,
+                "{name}, {what}: the text or its reading differs"
+            );
+            variants_checked += 1;
+        }
+    }
+    assert!(variants_checked >= 5 * 9, "{variants_checked}");
+}

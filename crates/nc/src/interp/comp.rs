@@ -232,6 +232,8 @@ impl Interp<'_> {
 
     /// Appends a queued straight move to gauge point `to`.
     fn queue_line(&mut self, to: [f64; 3], motion: Motion, dir: [f64; 2], pc: usize) {
+        // The queue holds indices into the run's own path.
+        self.own_path();
         let before = self.path.segments.len();
         self.push(to, Geometry::Line, motion, pc, false);
         if self.path.segments.len() > before {
@@ -243,6 +245,7 @@ impl Interp<'_> {
     fn queue_arc(&mut self, to: [f64; 3], center: [f64; 2], turn: i32, motion: Motion, pc: usize) {
         let start = [self.last_tip.x, self.last_tip.y];
         let sweep = find_turn(start, center, turn, [to[0], to[1]]).abs();
+        self.own_path();
         let before = self.path.segments.len();
         let c = [center[0], center[1], self.pos[2]];
         self.push(
