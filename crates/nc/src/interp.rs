@@ -242,11 +242,14 @@ fn g_group(code: GCode) -> Option<u8> {
 fn m_group(code: i32) -> Option<u8> {
     Some(match code {
         0 | 1 | 2 | 30 | 60 => 4,
+        // Digital and analog outputs, waiting on an input: they move nothing.
+        62..=68 => 5,
         6 | 61 => 6,
-        3..=5 | 70..=73 => 7,
+        3..=5 | 19 | 70..=73 => 7,
         7 | 9 => 8,
         8 => 9,
-        48 | 49 => 10,
+        // Override switches: the run is simulated at 100 %.
+        48..=53 => 10,
         98 | 99 => 11,
         _ => return None,
     })
@@ -1138,8 +1141,8 @@ impl Interp<'_> {
                 );
             }
         }
-        if b.get('e').is_some() {
-            return fail(b.col('e'), "E word is not supported");
+        if b.get('e').is_some() && !(66..=68).any(|m| b.has_m(m)) {
+            return fail(b.col('e'), "E word with no M66, M67 or M68 to use it");
         }
         for (t, v) in assignments {
             self.params.assign(&t, v);
@@ -1193,9 +1196,11 @@ impl Interp<'_> {
         if b.has_m(3) || b.has_m(4) {
             self.spindle_on = true;
         }
-        if b.has_m(5) {
+        // M19 orients the spindle: it stops turning until the next M3 or M4.
+        if b.has_m(5) || b.has_m(19) {
             self.spindle_on = false;
         }
+        self.inputs_and_outputs(&b)?;
         self.m70_m73(&b)?;
         if let Some(col) = g_col(GCode::G4) {
             let p = b.get('p').ok_or(Fail {
@@ -1306,11 +1311,13 @@ impl Interp<'_> {
                 || [GCode::G4, GCode::G10, GCode::G64]
                     .into_iter()
                     .any(|g| g_col(g).is_some())
-                || b.has_m(98);
+                || [19, 50, 51, 52, 53, 62, 63, 64, 65, 66, 98]
+                    .into_iter()
+                    .any(|m| b.has_m(m));
             if !used {
                 return fail(
                     b.col('p'),
-                    "P word with no G2, G3, G4, G10, G64, G82 or M98 to use it",
+                    "P word with no G2, G3, G4, G10, G64, G82, M19, M50-M53, M62-M66 or M98 to use it",
                 );
             }
         }
@@ -1651,6 +1658,68 @@ impl Interp<'_> {
     }
 
     /// M70 save, M71 invalidate, M72 restore, M73 save and restore on return.
+    /// M19's words, and the outputs and input waits (M62–M68) as LinuxCNC
+    /// checks them. None moves an axis; a wait (M66 with L1–L4) takes the
+    /// run no time, since the input's change cannot be known: a warning.
+    fn inputs_and_outputs(&mut self, b: &Block) -> Result<(), Fail> {
+        if b.has_m(19) && b.get('p').is_some_and(|p| ![0.0, 1.0, 2.0].contains(&p)) {
+            return fail(b.col('p'), "P value must be 0, 1 or 2 with M19");
+        }
+        let col = |m: i32| b.m.iter().find(|c| c.0 == m).map_or(b.first_col, |c| c.1);
+        if let Some(m) = (62..=65).find(|&m| b.has_m(m)) {
+            if b.get('p').is_none() {
+                return fail(col(m), format!("M{m} needs a P word (the output's number)"));
+            }
+        }
+        if b.has_m(66) {
+            let (p, e) = (b.get('p'), b.get('e'));
+            let wait = b.get('l').unwrap_or(0.0);
+            match (p, e) {
+                (None, None) => {
+                    return fail(
+                        col(66),
+                        "M66 needs a P word (digital input) or an E word (analog input)",
+                    )
+                }
+                (Some(_), Some(_)) => {
+                    return fail(
+                        b.col('e'),
+                        "M66 selects a digital (P) or an analog (E) input, not both",
+                    )
+                }
+                (None, Some(_)) if wait != 0.0 => {
+                    return fail(
+                        b.col('l'),
+                        "M66 waits on an analog input (E) only with L0 (immediate)",
+                    )
+                }
+                _ => {}
+            }
+            if wait != 0.0 {
+                let timeout_s = b.get('q').unwrap_or(0.0);
+                if timeout_s <= 0.0 {
+                    return fail(
+                        col(66),
+                        "M66 with a wait (L1-L4) needs a Q word (timeout, seconds)",
+                    );
+                }
+                self.warn(
+                    col(66),
+                    format!("M66 waits for an input (up to {timeout_s} s): the run is simulated without the wait"),
+                );
+            }
+        }
+        if let Some(m) = [67, 68].into_iter().find(|&m| b.has_m(m)) {
+            if b.get('e').is_none() {
+                return fail(
+                    col(m),
+                    format!("M{m} needs an E word (the analog output's number)"),
+                );
+            }
+        }
+        Ok(())
+    }
+
     fn m70_m73(&mut self, b: &Block) -> Result<(), Fail> {
         let level = self.contexts.len() - 1;
         let col = b.m.iter().find(|m| (70..=73).contains(&m.0)).map(|m| m.1);

@@ -627,3 +627,35 @@ fn dialects_real_posts_write_are_read_tolerantly_and_amended() {
         assert!(d.iter().any(|d| d.is_error() && d.line == 1), "{d:?}");
     }
 }
+
+/// Outputs, input waits and override switches move nothing; M19 orients the
+/// spindle, which stops turning until the next M3; a wait on an input (M66
+/// L1–L4) is read with a warning, since the run does not wait.
+#[test]
+fn io_codes_move_nothing_and_m19_stops_the_spindle() {
+    let plain = ok("G21 G90 S8000 M3\nG1 X1 F100\nG1 X2\nG1 X3");
+    let with_codes = parse(
+        "G21 G90 S8000 M3\nM62 P0 G1 X1 F100\nM50 P0\nM19 R90\nG1 X2\nM67 E0 Q2.5 M3\nM66 P1 L3 Q0.5\nG1 X3",
+    );
+    let warnings: Vec<String> = with_codes
+        .diagnostics
+        .iter()
+        .map(ToString::to_string)
+        .collect();
+    assert!(
+        with_codes.diagnostics.iter().all(|d| !d.is_error()),
+        "{warnings:?}"
+    );
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(
+        warnings[0].contains("t.ngc:7:1: M66 waits for an input (up to 0.5 s)"),
+        "{warnings:?}"
+    );
+    let segs = with_codes.path.segments;
+    assert_eq!(segs.len(), plain.len());
+    for (a, b) in segs.iter().zip(&plain) {
+        assert_eq!((a.start, a.end, a.motion), (b.start, b.end, b.motion));
+    }
+    let rpm: Vec<f64> = segs.iter().map(|s| s.spindle_rpm).collect();
+    assert_eq!(rpm, [8000.0, 0.0, 8000.0]);
+}

@@ -652,6 +652,66 @@ fn unrolled_loops_match_linuxcnc_rs274() {
     assert!(n >= 1400, "{n} moves");
 }
 
+/// LinuxCNC's output and input codes (M62–M68), spindle orientation (M19)
+/// and override switches (M50–M53), with their words used and misused: each
+/// block is read by both interpreters (the same moves) or refused by both.
+#[test]
+fn io_orient_and_override_codes_read_as_in_linuxcnc_rs274() {
+    if !have_rs274() {
+        return;
+    }
+    let blocks = [
+        "M62 P0",
+        "M63 P1 G1 X2 F100",
+        "M64 P0 M5",
+        "M65 P0 M3 S100",
+        "M66 P0",
+        "M66 E0",
+        "M66 P0 L1 Q2",
+        "M67 E0 Q5 G1 X3 F100",
+        "M68 E0 Q1",
+        "M19",
+        "M19 R90 Q2 P1",
+        "M50",
+        "M50 P1",
+        "M51 P0",
+        "M52 P1",
+        "M53 P1",
+        // Misused: refused by both.
+        "M62",
+        "M66",
+        "M66 P0 E0 L0",
+        "M66 P0 L1",
+        "M66 E0 L3 Q1",
+        "M67 Q1",
+        "M19 P3",
+        "M48 M50 P1",
+        "G1 X1 E2 F100",
+        "M63 P0 E1",
+        "M19 M3",
+        "M62 P0 M63 P1",
+        "M101",
+    ];
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut failures = Vec::new();
+    let (mut agree, mut refused) = (0, 0);
+    for (i, block) in blocks.iter().enumerate() {
+        let file = dir.path().join(format!("b{i}.ngc"));
+        std::fs::write(
+            &file,
+            format!("G21 G90\nG0 X0 Y0 Z5\n{block}\nG1 X1 Y1 F200\nM2\n"),
+        )
+        .expect("write");
+        match outcome(&file) {
+            Outcome::Agree(_) => agree += 1,
+            Outcome::BothRefuse(..) => refused += 1,
+            Outcome::Differ(e) => failures.push(format!("{block}: {e}")),
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    assert_eq!((agree, refused), (16, 13));
+}
+
 /// LinuxCNC's own sample programs (installed with the package): every one
 /// our interpreter accepts without a diagnostic must read the same in rs274.
 /// Those it rejects (lathe cycles, cutter compensation, probing, remaps, …)
