@@ -83,17 +83,16 @@ impl Change {
         )
     }
 
-    /// Speed and acceleration where the change has covered `x_mm` (clamped to it), by
-    /// Newton's method on the distance, kept inside a bracket (bisection where a step
-    /// leaves it).
-    pub(crate) fn at_distance(&self, x_mm: f64) -> (f64, f64) {
+    /// Time, s, at which the change has covered `x_mm` (clamped to it), by Newton's method
+    /// on the distance, kept inside a bracket (bisection where a step leaves it).
+    pub(crate) fn time_at_distance(&self, x_mm: f64) -> f64 {
         let total = self.duration_s();
         let length = self.length_mm();
         if x_mm <= 0.0 || total <= 0.0 {
-            return (self.v0, 0.0);
+            return 0.0;
         }
         if x_mm >= length {
-            return (self.v1, 0.0);
+            return total;
         }
         let (mut lo, mut hi) = (0.0, total);
         let mean = 0.5 * (self.v0 + self.v1);
@@ -116,7 +115,12 @@ impl Change {
                 0.5 * (lo + hi)
             };
         }
-        let (_, v, a) = self.state(t);
+        t
+    }
+
+    /// Speed and acceleration where the change has covered `x_mm` (clamped to it).
+    pub(crate) fn at_distance(&self, x_mm: f64) -> (f64, f64) {
+        let (_, v, a) = self.state(self.time_at_distance(x_mm));
         (v, a)
     }
 }
@@ -134,9 +138,11 @@ pub(crate) struct Limits<'a> {
 /// The motion between two dips `i < k` (stations of the piece): a change from speed
 /// `d.0` at station i up to (or down to) `peak`, constant `peak`, a change to `d.1` at
 /// station k, under the gap's least acceleration and jerk limits.
-struct Gap {
-    i: usize,
-    k: usize,
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Gap {
+    /// Its first and last station, of the piece shaped.
+    pub(crate) i: usize,
+    pub(crate) k: usize,
     first: Change,
     second: Change,
     /// Where the second change starts, from station i, mm.
@@ -187,6 +193,47 @@ impl Gap {
             second,
             second_from_mm: len - second.length_mm(),
         })
+    }
+
+    /// Time the motion takes from station i to `x_mm` past it, s: the first change, the
+    /// peak held, the second change (MODEL.md §6.1, "Exact direct sections").
+    pub(crate) fn time_at_s(&self, x_mm: f64) -> f64 {
+        let first_mm = self.first.length_mm();
+        if x_mm <= first_mm {
+            return self.first.time_at_distance(x_mm);
+        }
+        let held_mm = (self.second_from_mm - first_mm).max(0.0);
+        let peak = self.first.v1;
+        let after_first = self.first.duration_s();
+        if x_mm <= self.second_from_mm {
+            return after_first + (x_mm - first_mm) / peak;
+        }
+        after_first
+            + if peak > 0.0 { held_mm / peak } else { 0.0 }
+            + self.second.time_at_distance(x_mm - self.second_from_mm)
+    }
+
+    /// Distance from station i, mm, and speed, mm/s, `t_s` after the motion leaves station
+    /// i (clamped to the gap): s(t) of jerk ±J, 0 or ∓J in each phase, so the acceleration
+    /// is continuous and the jerk within J at every instant.
+    pub(crate) fn state_s(&self, t_s: f64) -> (f64, f64) {
+        let first_mm = self.first.length_mm();
+        let after_first = self.first.duration_s();
+        if t_s <= after_first {
+            let (x, v, _) = self.first.state(t_s);
+            return (x, v);
+        }
+        let peak = self.first.v1;
+        let held_s = if peak > 0.0 {
+            (self.second_from_mm - first_mm).max(0.0) / peak
+        } else {
+            0.0
+        };
+        if t_s <= after_first + held_s {
+            return (first_mm + peak * (t_s - after_first), peak);
+        }
+        let (x, v, _) = self.second.state(t_s - after_first - held_s);
+        (self.second_from_mm + x, v)
     }
 
     /// Speed and acceleration at station m of the gap.
@@ -262,7 +309,12 @@ struct Dip {
 /// dropped; then each gap takes the highest peak it has a motion through (bisection).
 /// Returns `false` (nothing usable) where a gap still has no motion or a speed inside
 /// the run comes out as 0.
-pub(crate) fn shape(lim: &Limits, slow_share: f64, v: &mut [f64]) -> bool {
+pub(crate) fn shape(
+    lim: &Limits,
+    slow_share: f64,
+    v: &mut [f64],
+    mut gaps: Option<&mut Vec<Gap>>,
+) -> bool {
     let u = lim.envelope_mm_s;
     let n = u.len();
     debug_assert_eq!(v.len(), n);
@@ -405,6 +457,9 @@ pub(crate) fn shape(lim: &Limits, slow_share: f64, v: &mut [f64]) -> bool {
         for (m, vm) in v.iter_mut().enumerate().take(k).skip(i + 1) {
             *vm = motion.at(lim, m).0.min(u[m]);
         }
+        if let Some(gaps) = gaps.as_deref_mut() {
+            gaps.push(motion);
+        }
     }
     v[1..n - 1].iter().all(|&x| x > 0.0)
 }
@@ -479,7 +534,7 @@ mod tests {
             jerk_mm_s3: &jerk,
         };
         let mut v = vec![0.0; n];
-        assert!(shape(&lim, 0.0, &mut v));
+        assert!(shape(&lim, 0.0, &mut v, None));
         // The closed form's peak: ℓ(20 → p) + ℓ(p → 15) = len, by bisection.
         let length = |p: f64| {
             (20.0 + p) / 2.0 * 2.0 * ((p - 20.0) / j).sqrt()

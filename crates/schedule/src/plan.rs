@@ -78,6 +78,20 @@ struct Run {
     switch_s: f64,
     /// Whether the plan is shaped directly (MODEL.md §6.1, "Direct sections").
     direct: bool,
+    /// The range of [`Profile::gaps`] whose exact jerk-limited motion the run follows
+    /// between their stations (MODEL.md §6.1, "Exact direct sections"); empty for a plan
+    /// of constant accelerations between stations.
+    gaps: (usize, usize),
+}
+
+/// A gap of a section shaped directly and followed exactly (MODEL.md §6.1, "Exact direct
+/// sections"): its motion, its first and last station and the time it leaves the first.
+#[derive(Clone, Copy, Debug)]
+struct ExactGap {
+    first: usize,
+    last: usize,
+    start_s: f64,
+    motion: direct::Gap,
 }
 
 /// A planned speed profile over [`Stations`].
@@ -95,6 +109,8 @@ pub struct Profile<'a> {
     /// ∫ (s − s_first of the run) dt from the run start to the start of each interval, mm·s.
     interval_integral_mm_s: Vec<f64>,
     runs: Vec<Run>,
+    /// The gaps the runs shaped directly follow exactly, in time order.
+    gaps: Vec<ExactGap>,
     cycle_time_s: f64,
     /// The first run whose samples still broke a limit after the slowed fallback's last
     /// try: [`Profile::sample_count`] and [`Profile::sample`] refuse the profile.
@@ -272,6 +288,41 @@ const SECTION_GRID: [f64; 14] = [
 /// filter of at least σ/(1 − σ) times the plan's longest station interval in time, so
 /// that the filtered jerk is at most the limit (MODEL.md §6.1, "Direct sections").
 const DIRECT_SHARES: [f64; 3] = [0.5, 0.75, 0.9];
+/// The shares σ of the jerk limit a section shaped directly and followed exactly, without
+/// a filter, is tried at (MODEL.md §6.1, "Exact direct sections"): its motion's jerk is
+/// within σ·J at every instant, so σ = 1 keeps the tangential limit; the lower shares
+/// leave room for the path's curvature in the sampled axis differences.
+const EXACT_SHARES: [f64; 3] = [1.0, 0.9, 0.75];
+
+/// How a section's value is planned ([`RunPlanner::sectioned`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Shape {
+    /// The passes with holds and cut peaks, then the filter ([`RunPlanner::plan_section`]).
+    Filtered,
+    /// Shaped directly, then a filter ([`RunPlanner::direct_window`]).
+    Direct,
+    /// Shaped directly and followed exactly, without a filter.
+    Exact,
+}
+
+/// Time of a plan `v` over stations `s` that follows `gaps` (counted from `s[0]`) exactly
+/// and has constant accelerations elsewhere, s (MODEL.md §6.1, "Exact direct sections").
+fn exact_time_s(s: &[f64], v: &[f64], gaps: &[direct::Gap]) -> f64 {
+    let inside: f64 = gaps.iter().map(|g| g.time_at_s(s[g.k] - s[g.i])).sum();
+    let mut outside = 0.0;
+    let mut next = gaps.iter().peekable();
+    for k in 0..s.len() - 1 {
+        while next.peek().is_some_and(|g| g.k <= k) {
+            next.next();
+        }
+        if next.peek().is_some_and(|g| g.i <= k) {
+            continue;
+        }
+        outside += 2.0 * (s[k + 1] - s[k]) / (v[k] + v[k + 1]);
+    }
+    inside + outside
+}
+
 /// The narrowest filter a section shaped directly starts from, s.
 const DIRECT_WINDOW_MIN_S: f64 = 1e-3;
 
@@ -330,6 +381,8 @@ struct RunPlanner<'a> {
     /// them was over its cap (MODEL.md §6.1, "Slow dips and peaks").
     plain: Vec<bool>,
     trial: Vec<f64>,
+    /// The gaps of a section shaped directly and followed exactly.
+    gaps: Vec<direct::Gap>,
 }
 
 impl<'a> RunPlanner<'a> {
@@ -352,6 +405,7 @@ impl<'a> RunPlanner<'a> {
             full_hold: vec![false; n],
             plain: vec![false; n],
             trial: vec![0.0; n],
+            gaps: Vec::new(),
         }
     }
 
@@ -718,15 +772,19 @@ impl<'a> RunPlanner<'a> {
     /// minima lowered by σ·J·W²/12 (so that the filtered speed, an average over W of the
     /// plan, is at most the cap where it passes the station), each interval's
     /// acceleration limit and `share` σ of its jerk
-    /// limit ([`direct::shape`]). Returns the planned time and the longest time the plan
-    /// takes over one station interval, s, or `None` where the shape has no motion
-    /// between the ends or is not flat at an end's speed over c·W/2 from it.
+    /// limit ([`direct::shape`]). With `gaps`, the shape's gaps are put there (stations
+    /// counted from `first`), for a section followed exactly (`window_s` = 0: MODEL.md
+    /// §6.1, "Exact direct sections"). Returns the planned time (of the stations' constant
+    /// accelerations) and the longest time the plan takes over one station interval, s, or
+    /// `None` where the shape has no motion between the ends or is not flat at an end's
+    /// speed over c·W/2 from it.
     fn plan_direct(
         &self,
         (first, last): (usize, usize),
         ends: (f64, f64),
         (share, window_s): (f64, f64),
         v: &mut [f64],
+        gaps: Option<&mut Vec<direct::Gap>>,
     ) -> Option<(f64, f64)> {
         let s = &self.stations.s_mm()[first..=last];
         // The caps' minima lowered by J·W²/12 (twice what a plan of jerk J gains in its
@@ -771,7 +829,7 @@ impl<'a> RunPlanner<'a> {
         };
         let slow_share = self.stations.machine().period_s() * DIRECT_SLOW_PERIODS;
         let v = &mut v[first..=last];
-        if !direct::shape(&limits, slow_share, v) {
+        if !direct::shape(&limits, slow_share, v, gaps) {
             return None;
         }
         let n = s.len() - 1;
@@ -803,7 +861,7 @@ impl<'a> RunPlanner<'a> {
         v: &mut [f64],
     ) -> Option<(f64, f64)> {
         for _ in 0..4 {
-            let (d, dt_max) = self.plan_direct(section, ends, (share, window_s), v)?;
+            let (d, dt_max) = self.plan_direct(section, ends, (share, window_s), v, None)?;
             let needed = dt_max * share / (1.0 - share);
             if window_s >= needed {
                 return Some((d, window_s));
@@ -822,7 +880,10 @@ impl<'a> RunPlanner<'a> {
     /// the stations where its plan runs at the station's cap c and is flat at c over
     /// c·W/2 on either side; each section between two cuts (or a stop) is planned by
     /// [`RunPlanner::plan_section`] at each λ of [`SECTION_GRID`] (W = λ·`base_window_s`)
-    /// and at `kept`, and keeps the quickest whose samples verify
+    /// and at `kept`, a section between speeds > 0 also shaped directly
+    /// ([`RunPlanner::direct_window`] at each of [`DIRECT_SHARES`]) and followed exactly
+    /// (at each of [`EXACT_SHARES`], no filter: MODEL.md §6.1, "Exact direct sections"),
+    /// and keeps the quickest whose samples verify
     /// ([`Profile::last_run_axis_ratio`]). The sampler takes a section's filtered motion
     /// from the moment it is at the section's first station (at speed c, with no
     /// acceleration: both sections' plans are flat at c over their W/2 there). Returns the
@@ -871,8 +932,10 @@ impl<'a> RunPlanner<'a> {
         cuts.push(last);
         profile.pop_run();
         let runs_before = profile.runs.len();
-        // (time, λ, W, shaped directly).
-        let mut timed: Vec<(f64, f64, f64, bool)> = Vec::with_capacity(SECTION_GRID.len() + 2);
+        // (time, λ or σ, W, how it is shaped).
+        let mut timed: Vec<(f64, f64, f64, Shape)> =
+            Vec::with_capacity(SECTION_GRID.len() + DIRECT_SHARES.len() + EXACT_SHARES.len() + 1);
+        let mut gaps = std::mem::take(&mut self.gaps);
         // The previous section's planned end and window (a run leaving at speed: its
         // start and window, so that its first section's filtered motion reaches the
         // first station when the run's did).
@@ -911,7 +974,12 @@ impl<'a> RunPlanner<'a> {
                 for (lambda, window_s) in values {
                     if let Some(d) = self.plan_section((a, b), (lambda, window_s), ends, &mut trial)
                     {
-                        timed.push((d + rests * window_s / 2.0, lambda, window_s, false));
+                        timed.push((
+                            d + rests * window_s / 2.0,
+                            lambda,
+                            window_s,
+                            Shape::Filtered,
+                        ));
                     }
                 }
                 // Shaped directly (not from or to a stop: there the plan's first interval
@@ -922,30 +990,60 @@ impl<'a> RunPlanner<'a> {
                         if let Some((d, window_s)) =
                             self.direct_window((a, b), ends, share, bounds, &mut trial)
                         {
-                            timed.push((d, share, window_s, true));
+                            timed.push((d, share, window_s, Shape::Direct));
+                        }
+                    }
+                    // Followed exactly, without a filter.
+                    for &share in &EXACT_SHARES {
+                        gaps.clear();
+                        if self
+                            .plan_direct((a, b), ends, (share, 0.0), &mut trial, Some(&mut gaps))
+                            .is_some()
+                        {
+                            let d = exact_time_s(&s[a..=b], &trial[a..=b], &gaps);
+                            timed.push((d, share, 0.0, Shape::Exact));
                         }
                     }
                 }
                 self.trial = trial;
                 timed.sort_by(|x, y| x.0.total_cmp(&y.0));
-                for (rank, &(_, lambda, window_s, direct)) in timed.iter().enumerate().skip(skip) {
-                    if direct {
-                        self.plan_direct((a, b), ends, (lambda, window_s), &mut profile.speed_mm_s);
-                    } else {
-                        self.plan_section(
-                            (a, b),
-                            (lambda, window_s),
-                            ends,
-                            &mut profile.speed_mm_s,
-                        );
+                for (rank, &(_, lambda, window_s, shape)) in timed.iter().enumerate().skip(skip) {
+                    gaps.clear();
+                    match shape {
+                        Shape::Filtered => {
+                            self.plan_section(
+                                (a, b),
+                                (lambda, window_s),
+                                ends,
+                                &mut profile.speed_mm_s,
+                            );
+                        }
+                        Shape::Direct => {
+                            self.plan_direct(
+                                (a, b),
+                                ends,
+                                (lambda, window_s),
+                                &mut profile.speed_mm_s,
+                                None,
+                            );
+                        }
+                        Shape::Exact => {
+                            self.plan_direct(
+                                (a, b),
+                                ends,
+                                (lambda, 0.0),
+                                &mut profile.speed_mm_s,
+                                Some(&mut gaps),
+                            );
+                        }
                     }
                     let start_s = match previous {
                         None => run.start_s,
                         Some((end_s, w)) => end_s + (w - window_s) / 2.0,
                     };
-                    let end_s = profile.push_run(a, b, start_s, window_s, 0.0);
+                    let end_s = profile.push_exact_run(a, b, start_s, (window_s, 0.0), &gaps);
                     if let Some(pushed) = profile.runs.last_mut() {
-                        pushed.direct = direct;
+                        pushed.direct = shape != Shape::Filtered;
                     }
                     if profile.last_run_axis_ratio(None) <= 1.0 {
                         kept = Some((end_s, window_s, rank));
@@ -980,6 +1078,7 @@ impl<'a> RunPlanner<'a> {
                 }
             }
         }
+        self.gaps = gaps;
         // When the next run or section takes over: the filtered motion's end.
         let handover = |end_s: f64, window_s: f64| {
             end_s
@@ -1218,6 +1317,7 @@ impl<'a> Profile<'a> {
             interval_dt_s: Vec::with_capacity(intervals),
             interval_integral_mm_s: Vec::with_capacity(intervals),
             runs: Vec::with_capacity(stations.stops().len().saturating_sub(1)),
+            gaps: Vec::new(),
             // Time line: dwell at a stop, then the run to the next stop (stretched by W if
             // filtered); the profile's end while it is being built.
             cycle_time_s: stations.stops()[0].dwell_s,
@@ -1236,13 +1336,47 @@ impl<'a> Profile<'a> {
         window_s: f64,
         pause_s: f64,
     ) -> f64 {
+        self.push_exact_run(first, last, start_s, (window_s, pause_s), &[])
+    }
+
+    /// [`Profile::push_run`] for a run that follows `gaps` (stations counted from `first`)
+    /// exactly between their stations (MODEL.md §6.1, "Exact direct sections"): each of
+    /// their intervals takes the time of the gap's motion over it, and the sampler takes
+    /// s(t) from that motion.
+    fn push_exact_run(
+        &mut self,
+        first: usize,
+        last: usize,
+        start_s: f64,
+        (window_s, pause_s): (f64, f64),
+        gaps: &[direct::Gap],
+    ) -> f64 {
         let s = self.stations.s_mm();
         let v = &self.speed_mm_s;
         let mut t_s = start_s;
         let mut integral_mm_s = 0.0;
+        let gaps_from = self.gaps.len();
+        let mut next_gap = gaps.iter().peekable();
         for k in first..last {
             let ds = s[k + 1] - s[k];
-            let dt = 2.0 * ds / (v[k] + v[k + 1]);
+            while next_gap.peek().is_some_and(|g| first + g.k <= k) {
+                next_gap.next();
+            }
+            let dt = match next_gap.peek() {
+                Some(g) if first + g.i <= k => {
+                    let (i, from_mm) = (first + g.i, s[first + g.i]);
+                    if k == i {
+                        self.gaps.push(ExactGap {
+                            first: i,
+                            last: first + g.k,
+                            start_s: t_s,
+                            motion: **g,
+                        });
+                    }
+                    g.time_at_s(s[k + 1] - from_mm) - g.time_at_s(s[k] - from_mm)
+                }
+                _ => 2.0 * ds / (v[k] + v[k + 1]),
+            };
             self.interval_start_s.push(t_s);
             self.interval_dt_s.push(dt);
             self.interval_integral_mm_s.push(integral_mm_s);
@@ -1265,6 +1399,7 @@ impl<'a> Profile<'a> {
             pause_s,
             switch_s,
             direct: false,
+            gaps: (gaps_from, self.gaps.len()),
         });
         t_s
     }
@@ -1272,6 +1407,7 @@ impl<'a> Profile<'a> {
     /// Removes the run [`Profile::push_run`] appended last.
     fn pop_run(&mut self) {
         if let Some(run) = self.runs.pop() {
+            self.gaps.truncate(run.gaps.0);
             let intervals = self.interval_start_s.len() - (run.last - run.first);
             self.interval_start_s.truncate(intervals);
             self.interval_dt_s.truncate(intervals);
@@ -1533,6 +1669,19 @@ impl<'a> Profile<'a> {
             k += 1;
         }
         *cursor = k;
+        // An interval of a gap followed exactly: s(t) of the gap's motion.
+        let gaps = &self.gaps[run.gaps.0..run.gaps.1];
+        if let Some(gap) = gaps
+            .get(gaps.partition_point(|g| g.last <= k))
+            .filter(|g| g.first <= k)
+        {
+            let (x, v_mm_s) = gap.motion.state_s(t_s - gap.start_s);
+            return RunState {
+                s_mm: (s[gap.first] + x).clamp(s[k], s[k + 1]),
+                v_mm_s,
+                integral_mm_s: 0.0,
+            };
+        }
         let (v0, v1) = (self.speed_mm_s[k], self.speed_mm_s[k + 1]);
         let dt = self.interval_dt_s[k];
         let h = (t_s - self.interval_start_s[k]).clamp(0.0, dt);
@@ -2031,8 +2180,11 @@ mod tests {
     /// plan and window, whichever run the sampler would take there.
     fn filtered(profile: &Profile<'_>, run: &Run, t_s: f64) -> (f64, f64) {
         let (mut now, mut lagged) = (run.first, run.first);
-        // Every section is filtered (a direct one too, `direct_window`).
-        assert!(run.window_s > 0.0);
+        // A section followed exactly has no filter (MODEL.md §6.1, "Exact direct sections").
+        if run.window_s == 0.0 {
+            let state = profile.run_state(run, t_s, &mut now);
+            return (state.s_mm, state.v_mm_s);
+        }
         let a = profile.run_state(run, t_s, &mut now);
         let b = profile.run_state(run, t_s - run.window_s, &mut lagged);
         let s_first = profile.stations.s_mm()[run.first];
@@ -2222,5 +2374,181 @@ mod tests {
             assert!(under_caps(&st, &samples));
         }
         assert!(shaped > 0);
+
+        // Followed exactly, without a filter (MODEL.md §6.1, "Exact direct sections"):
+        // its jerk is within σ·J at every instant, so at every share the 1 ms samples keep
+        // the limits and the caps.
+        for share in EXACT_SHARES {
+            let (mut profile, start_s, mut gaps) = (Profile::empty(&st), 0.0, Vec::new());
+            let time_s = planner
+                .plan_direct(
+                    (first, last),
+                    ends,
+                    (share, 0.0),
+                    &mut profile.speed_mm_s,
+                    Some(&mut gaps),
+                )
+                .map(|_| {
+                    exact_time_s(
+                        &st.s_mm()[first..=last],
+                        &profile.speed_mm_s[first..=last],
+                        &gaps,
+                    )
+                })
+                .expect("a shape at every share");
+            assert!(gaps.len() >= 2, "{}", gaps.len());
+            let base = base_window_s(&st);
+            let before = profile.speed_mm_s[first..=last].to_vec();
+            let lead_s = planner
+                .plan_section(
+                    (0, first),
+                    (1.0, base),
+                    (0.0, ends.0),
+                    &mut profile.speed_mm_s,
+                )
+                .unwrap();
+            profile.speed_mm_s[first..=last].copy_from_slice(&before);
+            profile.push_run(0, first, start_s, base, 0.0);
+            let end_s = profile.push_exact_run(first, last, lead_s + base / 2.0, (0.0, 0.0), &gaps);
+            assert!((end_s - (lead_s + base / 2.0) - time_s).abs() <= 1e-9);
+            profile.cycle_time_s = end_s + 0.1;
+            let samples = profile.sample(fine.period_ms).unwrap();
+            let ratio = worst_ratio(&fine, &samples);
+            println!("exact, share {share}: {time_s:.5} s, 1 ms ratio {ratio:.4}");
+            assert!(ratio <= 1.0 + 1e-6, "share {share}: {ratio}");
+            assert!(under_caps(&st, &samples));
+        }
+    }
+
+    /// A section followed exactly (MODEL.md §6.1, "Exact direct sections") against the
+    /// closed form of the flying jerk-limited move: on a line at F3000 (50 mm/s, a = 1 000
+    /// mm/s², j = 20 000 mm/s³) the stations from 16 to 24 mm, entered and left at
+    /// c = 1 150 mm/min with no acceleration, rise to 50 mm/s and fall back. A rise of
+    /// Δ = 50 − c < a²/j takes τ = 2√(Δ/j) over (c + 50)·τ/2, so the section takes
+    /// 2Δs/c (its first and last station interval, held at c) + 2τ + the rest at 50 mm/s.
+    /// Its samples every 0.25 ms have second differences within a and third differences
+    /// within j (1 + 10⁻³), and the speed of every sample is the closed form's.
+    #[test]
+    fn a_section_followed_exactly_is_the_closed_form_flying_move() {
+        let machine = Machine {
+            jerk_mm_s3: Some([20000.0; 3]),
+            ..Machine::default()
+        };
+        let feed = Motion::Feed {
+            feed_mm_min: 3000.0,
+        };
+        let segments = vec![line(Point3::origin(), Point3::new(40.0, 0.0, 0.0), feed)];
+        let mut st =
+            Stations::new(&Path { segments }, &machine, 0.05, FeedPolicy::Programmed).unwrap();
+        let caps: Vec<f64> = st
+            .s_mm()
+            .iter()
+            .map(|&x| {
+                if (x - 16.0).abs() < 1e-9 || (x - 24.0).abs() < 1e-9 {
+                    1150.0
+                } else {
+                    3000.0
+                }
+            })
+            .collect();
+        st.apply_caps(&caps, CapKind::Removal).unwrap();
+        let (first, last) = (320, 480);
+        let c = 1150.0 / 60.0;
+        let (j, top) = (20000.0, 50.0);
+        let planner = RunPlanner::new(&st);
+        let mut profile = Profile::empty(&st);
+        let mut gaps = Vec::new();
+        planner
+            .plan_direct(
+                (first, last),
+                (c, c),
+                (1.0, 0.0),
+                &mut profile.speed_mm_s,
+                Some(&mut gaps),
+            )
+            .expect("a shape");
+        // After the line's start, planned as a section from rest to the first station.
+        let before = profile.speed_mm_s[first..=last].to_vec();
+        let base = base_window_s(&st);
+        let lead_s = planner
+            .plan_section((0, first), (1.0, base), (0.0, c), &mut profile.speed_mm_s)
+            .unwrap();
+        profile.speed_mm_s[first..=last].copy_from_slice(&before);
+        profile.push_run(0, first, 0.0, base, 0.0);
+        let start_s = lead_s + base / 2.0;
+        let end_s = profile.push_exact_run(first, last, start_s, (0.0, 0.0), &gaps) - start_s;
+        // The closed form: Δ < a²/j = 50 mm/s, so the acceleration peaks at √(jΔ).
+        let dv: f64 = top - c;
+        let tau = 2.0 * (dv / j).sqrt();
+        let ds = 0.05;
+        let rise_mm = (c + top) / 2.0 * tau;
+        let expected = 2.0 * ds / c + 2.0 * tau + (8.0 - 2.0 * ds - 2.0 * rise_mm) / top;
+        println!("followed exactly {end_s:.9} s, closed form {expected:.9} s");
+        assert!(
+            (end_s - expected).abs() <= 1e-9 * expected,
+            "{end_s} vs {expected}"
+        );
+        // The speed of the closed form at time t into the rise (jerk j for τ/2, then −j).
+        let rise = |h: f64| {
+            if h <= tau / 2.0 {
+                c + j * h * h / 2.0
+            } else {
+                top - j * (tau - h).powi(2) / 2.0
+            }
+        };
+        let t0 = ds / c;
+        let period_s = 0.25e-3;
+        let count = (end_s / period_s) as usize;
+        let mut cursor = first;
+        let run = profile.runs[1];
+        let states: Vec<RunState> = (0..=count)
+            .map(|i| profile.run_state(&run, start_s + i as f64 * period_s, &mut cursor))
+            .collect();
+        for (i, state) in states.iter().enumerate() {
+            let t = i as f64 * period_s;
+            let expected_v = if t <= t0 {
+                c
+            } else if t <= t0 + tau {
+                rise(t - t0)
+            } else if t <= end_s - t0 - tau {
+                top
+            } else if t <= end_s - t0 {
+                rise(end_s - t0 - t)
+            } else {
+                c
+            };
+            assert!(
+                (state.v_mm_s - expected_v).abs() <= 1e-6,
+                "t {t}: {} vs {expected_v}",
+                state.v_mm_s
+            );
+        }
+        for w in states.windows(4) {
+            let x: Vec<f64> = w.iter().map(|state| state.s_mm).collect();
+            let second = (x[2] - 2.0 * x[1] + x[0]) / period_s.powi(2);
+            let third = (x[3] - 3.0 * x[2] + 3.0 * x[1] - x[0]) / period_s.powi(3);
+            assert!(second.abs() <= 1000.0, "{second}");
+            assert!(third.abs() <= j * (1.0 + 1e-3), "{third}");
+        }
+        // The same station speeds with constant accelerations between stations (the plan a
+        // filter would take) step their acceleration at every station: their third
+        // differences at 0.25 ms are far over j, which the check above would catch.
+        profile.pop_run();
+        profile.push_run(first, last, start_s, 0.0, 0.0);
+        let run = profile.runs[1];
+        let mut cursor = first;
+        let x: Vec<f64> = (0..=count)
+            .map(|i| {
+                profile
+                    .run_state(&run, start_s + i as f64 * period_s, &mut cursor)
+                    .s_mm
+            })
+            .collect();
+        let worst = x
+            .windows(4)
+            .map(|x| ((x[3] - 3.0 * x[2] + 3.0 * x[1] - x[0]) / period_s.powi(3)).abs())
+            .fold(0.0, f64::max);
+        println!("station-based: third differences up to {worst:.0} mm/s³");
+        assert!(worst > 2.0 * j, "{worst}");
     }
 }
