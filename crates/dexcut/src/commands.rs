@@ -106,7 +106,7 @@ impl Setup {
         }
         let tools = ToolSet::from_job(&job, &program)?;
         // Every move's tool is in the table (an error names the line).
-        tools.indices(program.path.segments.iter().map(|s| (s.tool, s.line)))?;
+        tools.indices::<u16>(program.path.segments.iter().map(|s| (s.tool, s.line)))?;
         let first = tools.entry(program.path.segments.first().map_or(1, |s| s.tool));
         let (tool, model) = (first.tool, first.model);
         // Checked with the job (Job::validate, through schedule::MACHINE_RANGES).

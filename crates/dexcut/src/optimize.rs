@@ -27,8 +27,9 @@ use crate::tools::ToolSet;
 pub struct Engagement {
     /// Per interval k (station k → k+1): removed volume per unit length, mm³/mm.
     pub area_mm2: Vec<f64>,
-    /// Per interval: index into the tool set of the tool cutting it.
-    pub tool_index: Vec<usize>,
+    /// Per interval: index into the tool set of the tool cutting it (2 B an
+    /// interval, issue 16).
+    pub tool_index: Vec<u16>,
     /// Per interval: the load at [`REFERENCE_FEED_MM_MIN`] with the windowed engagement.
     pub reference_loads: Vec<ReferenceLoad>,
     /// Per interval: S3's cutting-surface angle of a ball-end mill, degrees
@@ -98,14 +99,18 @@ pub fn engagement_on(
     let segs = stations.segments();
     let seg_of = stations.segment();
     let n = stations.len();
-    let steps: Vec<dexel::Step> = (1..n)
-        .map(|k| dexel::Step {
+    // Interval k's move, made when the sweep asks for it from the stations'
+    // positions (a list of them held 56 B an interval beside the record:
+    // issue 16).
+    let steps = dexel::StepFn::new(n.saturating_sub(1), |i| {
+        let k = i + 1;
+        dexel::Step {
             from_mm: stations.position_at(k - 1).coords.into(),
             to_mm: stations.position_at(k).coords.into(),
             rapid: matches!(segs[seg_of[k] as usize].motion, Motion::Rapid),
-        })
-        .collect();
-    let tool_index = tools.indices((1..n).map(|k| {
+        }
+    });
+    let tool_index: Vec<u16> = tools.indices((1..n).map(|k| {
         let seg = &segs[seg_of[k] as usize];
         (seg.tool, seg.line)
     }))?;
@@ -122,8 +127,6 @@ pub fn engagement_on(
         &options,
         "engagement",
     )?;
-    // The moves are not needed again (56 B per station).
-    drop(steps);
     let volumes: Vec<f64> = (0..record.len()).map(|k| record.volume_mm3(k)).collect();
     let spacing_mm = stock.grid().spacing_mm;
     let window_mm = (ENGAGEMENT_WINDOW_CELLS * spacing_mm).max(2.0 * STATION_DS_MM);
@@ -131,7 +134,7 @@ pub fn engagement_on(
     drop(volumes);
 
     let reference_loads = reference_loads(&record, &area_mm2, stations.s_mm(), |k| {
-        &tools.entries[tool_index[k]].model
+        &tools.entries[usize::from(tool_index[k])].model
     });
     let surface_angle_deg = surface_angles_deg(
         stations,
@@ -161,7 +164,7 @@ fn surface_angles_deg(
     swept: Option<&Stock>,
     g: f64,
     tools: &ToolSet,
-    tool_index: &[usize],
+    tool_index: &[u16],
     area_mm2: &[f64],
     surface: SurfaceFrom,
 ) -> Vec<f64> {
@@ -169,7 +172,7 @@ fn surface_angles_deg(
     (0..area_mm2.len())
         .into_par_iter()
         .map(|k| {
-            let tool = &tools.entries[tool_index[k]].tool;
+            let tool = &tools.entries[usize::from(tool_index[k])].tool;
             if area_mm2[k] <= 1e-12 || tool.shape != dexel::ToolShape::Ball {
                 return f64::NAN;
             }
@@ -327,7 +330,7 @@ pub fn interval_caps(
         .enumerate()
         .map(|(k, &a)| {
             // The model of the tool cutting this interval.
-            let entry = &tools.entries[engagement.tool_index[k]];
+            let entry = &tools.entries[usize::from(engagement.tool_index[k])];
             let model = &entry.model;
             let mut cap = (f64::INFINITY, CapKind::FeedMax);
             let mut lower = |v: f64, kind: CapKind| {

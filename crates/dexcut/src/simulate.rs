@@ -220,13 +220,14 @@ impl Initial<'_> {
 /// One sweep of `steps` through a copy of the initial stock (made in the
 /// memory of `spare` where it is a closed form), each step with its tool;
 /// with a tiled stock, band by band in row order (the record is the whole
-/// stock's bit for bit, no stock is kept).
-pub(crate) fn sweep_pass(
+/// stock's bit for bit, no stock is kept). The steps are a list or made as
+/// the sweep asks for them ([`dexel::StepSource`]).
+pub(crate) fn sweep_pass<S: dexel::StepSource + ?Sized, T: Copy + Into<usize>>(
     initial: &Initial,
     spare: Option<Stock>,
     tools: &ToolSet,
-    tool_of_step: &[usize],
-    steps: &[dexel::Step],
+    tool_of_step: &[T],
+    steps: &S,
     options: &SweepOptions,
     label: &str,
 ) -> Result<(Option<Stock>, RemovalRecord)> {

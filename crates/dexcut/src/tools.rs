@@ -174,13 +174,26 @@ impl ToolSet {
     }
 
     /// Per item, the index of the tool numbered by `numbers`; an error names
-    /// the program line of the first number the table lacks.
-    pub fn indices(&self, numbers: impl Iterator<Item = (u32, u32)>) -> Result<Vec<usize>> {
+    /// the program line of the first number the table lacks. The indices are
+    /// of any integer type that holds every index of the table (`u16` keeps 2
+    /// bytes an item instead of 8, issue 16).
+    pub fn indices<T: TryFrom<usize>>(
+        &self,
+        numbers: impl Iterator<Item = (u32, u32)>,
+    ) -> Result<Vec<T>> {
+        let Ok(_) = T::try_from(self.entries.len().saturating_sub(1)) else {
+            fail!(
+                job,
+                "{} tools: more than a program's steps can index",
+                self.entries.len()
+            );
+        };
+        let index = |i: usize| T::try_from(i).ok().expect("every index fits");
         // As many as the items (a collected Result grows by doubling).
         let mut out = Vec::with_capacity(numbers.size_hint().0);
         for (number, line) in numbers {
             out.push(match self.index_of(number) {
-                Some(i) => i,
+                Some(i) => index(i),
                 None if number == 0 => fail!(job,
                     "line {line}: moves with no tool in the spindle (T0); load one of the job's tools ({}) with T… M6",
                     self.names()

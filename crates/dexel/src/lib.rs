@@ -34,5 +34,5 @@ pub enum Error {
 pub mod sweep;
 pub mod tool;
 
-pub use sweep::{sweep, sweep_tools, RemovalRecord, Step, Sweep, SweepOptions};
+pub use sweep::{sweep, sweep_tools, RemovalRecord, Step, StepFn, StepSource, Sweep, SweepOptions};
 pub use tool::{Tool, ToolShape};

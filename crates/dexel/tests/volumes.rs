@@ -724,6 +724,99 @@ fn whole_sweep_record_equals_the_finished_band() {
     }
 }
 
+/// A sweep fed its steps one by one as it asks for them (`StepFn`: here made
+/// from a path's points, as `optimize` makes them from its stations) gives
+/// the record and the stock of the sweep over the list held whole, bit for
+/// bit: two tools (their indices as `u16`), rapids, plunges, moves that do not
+/// continue each other, with and without smoothing, in batches of 1, 7 and
+/// every step, whole (the record made final as it goes) and band by band.
+/// Every step is asked for, none beyond the last.
+#[test]
+fn a_sweep_fed_step_by_step_equals_the_sweep_of_the_list() {
+    use std::cell::Cell;
+    let tools = [Tool::bull(6.0, 1.0), Tool::ball(4.0), Tool::flat(3.0)];
+    // A path's points; step k goes from point k to point k + 1 (a rapid
+    // where `rapid[k]`), and a few steps jump (they start elsewhere).
+    let mut points: Vec<[f64; 3]> = vec![[30.0, 30.0, 25.0], [30.0, 30.0, 17.0]];
+    for i in 0..160 {
+        let a = i as f64 * 0.06;
+        let z = if i < 80 { 17.0 } else { 16.0 - 0.01 * i as f64 };
+        points.push([30.0 + 18.0 * a.cos(), 30.0 + 18.0 * a.sin(), z]);
+    }
+    points.extend([[40.0, 16.0, 25.0], [40.0, 16.0, 12.0], [40.0, 30.0, 12.0]]);
+    let n = points.len() - 1;
+    let step_at = |k: usize| {
+        // Every 37th step jumps 0.3 mm aside; every 29th is a rapid.
+        let from = if k % 37 == 36 {
+            let [x, y, z] = points[k];
+            [x + 0.3, y, z]
+        } else {
+            points[k]
+        };
+        Step {
+            from_mm: from,
+            to_mm: points[k + 1],
+            rapid: k % 29 == 28,
+        }
+    };
+    let steps: Vec<Step> = (0..n).map(step_at).collect();
+    assert!(steps.iter().filter(|s| s.rapid).count() >= 5);
+    let which: Vec<usize> = (0..n).map(|k| [0, 1, 2, 1][k * 4 / n]).collect();
+    let which16: Vec<u16> = which.iter().map(|&t| t as u16).collect();
+    let new = || Stock::new_box([0.0; 3], [60.0, 60.0, 20.0], 0.2).unwrap();
+    let ny = new().grid().ny;
+    for smooth in [true, false] {
+        for batch_steps in [1, 7, 100_000] {
+            let options = SweepOptions {
+                band_height_mm: 0.5,
+                strip_rows: 4,
+                batch_steps,
+                smooth,
+                ..SweepOptions::default()
+            };
+            let what = format!("smooth {smooth}, batches of {batch_steps}");
+            let mut held = new();
+            let reference =
+                dexel::sweep_tools(&mut held, &tools, &which, &steps, &options, &|_| {}).unwrap();
+            assert!(reference.total_volume_mm3() > 500.0, "{what}");
+            // Steps made when asked, counted, the highest asked for kept.
+            let (asked, highest) = (Cell::new(0usize), Cell::new(0usize));
+            let source = dexel::StepFn::new(n, |k| {
+                asked.set(asked.get() + 1);
+                highest.set(highest.get().max(k));
+                step_at(k)
+            });
+            let mut fed = new();
+            let record = dexel::Sweep::new(&tools, &which16, &source, &options)
+                .unwrap()
+                .whole(&mut fed, &|_| {});
+            assert_eq!(record_bits(&record), record_bits(&reference), "{what}");
+            assert_eq!(record.columns_evaluated, reference.columns_evaluated);
+            assert_eq!(fed.top_heights(), held.top_heights(), "{what}");
+            assert_eq!(fed.last_cut(), held.last_cut(), "{what}");
+            assert_eq!(highest.get(), n - 1, "{what}");
+            assert!(asked.get() >= n, "{what}");
+            // Band by band (a tiled stock), the record finished at the end.
+            let mut sweep = dexel::Sweep::new(&tools, &which16, &source, &options).unwrap();
+            let mut tops = Vec::new();
+            for r0 in (0..ny).step_by(64) {
+                let rows = r0..(r0 + 64).min(ny);
+                let mut band =
+                    Stock::new_box_in_rows([0.0; 3], [60.0, 60.0, 20.0], 0.2, Some(rows), None)
+                        .unwrap();
+                sweep.band(&mut band, &|_| {});
+                tops.extend(band.top_heights());
+            }
+            assert_eq!(
+                record_bits(&sweep.finish()),
+                record_bits(&reference),
+                "{what}"
+            );
+            assert_eq!(tops, held.top_heights(), "{what}");
+        }
+    }
+}
+
 /// A stock whose top intervals share their bottom keeps it once (8 B a
 /// column: top and last cut), and sweeps as the same stock keeping a bottom
 /// a column: the same record and columns bit for bit, through cuts that

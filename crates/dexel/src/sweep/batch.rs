@@ -8,7 +8,9 @@ use super::bull::BullNose;
 use super::flat::FlatEnd;
 use super::slot::{CONTACT_X, CONTACT_Y, SHANK, VOLUME};
 use super::strip::{partial_width, Banding, StripJob};
-use super::{Envelope, Prepared, RemovalRecord, Step, SweepOptions, HEAD, PLUNGE_H2};
+use super::{
+    Envelope, Prepared, RemovalRecord, Step, StepSource, SubSteps, SweepOptions, HEAD, PLUNGE_H2,
+};
 use crate::stock::{BottomsMut, RowBelow};
 use crate::{Error, Grid, Stock, Tool, ToolShape};
 
@@ -65,24 +67,28 @@ struct Part {
 /// step's sums are then added strip by strip in the same order as one sweep
 /// of the whole stock, so the record is the whole stock's bit for bit.
 /// [`sweep_tools`] is one band holding every row.
-pub struct Sweep<'a> {
+///
+/// The steps are any [`StepSource`]: a list held whole, or steps made as the
+/// sweep asks for them (the same record bit for bit).
+pub struct Sweep<'a, S: ?Sized = [Step]> {
     tools: &'a [Tool],
-    steps: &'a [Step],
+    steps: &'a S,
     options: SweepOptions,
     parts: Vec<Part>,
     /// The grid of the stock swept (the same for every band).
     grid: Option<Grid>,
 }
 
-impl<'a> Sweep<'a> {
+impl<'a, S: StepSource + ?Sized> Sweep<'a, S> {
     /// Check the steps, tools and options and set up an empty record: step
-    /// `i` is cut by `tools[tool_of_step[i]]` (see [`sweep_tools`]).
-    pub fn new(
+    /// `i` is cut by `tools[tool_of_step[i]]` (see [`sweep_tools`]; the
+    /// indices of any unsigned type that converts to `usize`).
+    pub fn new<T: Copy + Into<usize>>(
         tools: &'a [Tool],
-        tool_of_step: &[usize],
-        steps: &'a [Step],
+        tool_of_step: &[T],
+        steps: &'a S,
         options: &SweepOptions,
-    ) -> Result<Sweep<'a>, Error> {
+    ) -> Result<Sweep<'a, S>, Error> {
         if tool_of_step.len() != steps.len() {
             return Err(Error::InvalidParameter(format!(
                 "{} tool indices for {} steps",
@@ -90,7 +96,11 @@ impl<'a> Sweep<'a> {
                 steps.len()
             )));
         }
-        if let Some(&bad) = tool_of_step.iter().find(|&&t| t >= tools.len()) {
+        if let Some(bad) = tool_of_step
+            .iter()
+            .map(|&t| t.into())
+            .find(|&t| t >= tools.len())
+        {
             return Err(Error::InvalidParameter(format!(
                 "tool index {bad} with {} tools",
                 tools.len()
@@ -99,11 +109,11 @@ impl<'a> Sweep<'a> {
         let mut runs = Vec::new();
         let mut start = 0;
         while start < steps.len() {
-            let t = tool_of_step[start];
+            let t: usize = tool_of_step[start].into();
             let end = start
                 + tool_of_step[start..]
                     .iter()
-                    .position(|&u| u != t)
+                    .position(|&u| u.into() != t)
                     .unwrap_or(steps.len() - start);
             runs.push((start, end, t));
             start = end;
@@ -114,10 +124,10 @@ impl<'a> Sweep<'a> {
     /// [`Sweep::new`] with the runs of one tool given as `(start, end, tool)`.
     fn with_parts(
         tools: &'a [Tool],
-        steps: &'a [Step],
+        steps: &'a S,
         options: &SweepOptions,
         runs: Vec<(usize, usize, usize)>,
-    ) -> Result<Sweep<'a>, Error> {
+    ) -> Result<Sweep<'a, S>, Error> {
         let mut parts = Vec::with_capacity(runs.len());
         for (start, end, t) in runs {
             let tool = &tools[t];
@@ -128,11 +138,10 @@ impl<'a> Sweep<'a> {
                     options.band_height_mm
                 )));
             }
-            if let Some((i, _)) = steps[start..end]
-                .iter()
-                .enumerate()
-                .find(|(_, s)| !s.from_mm.iter().chain(&s.to_mm).all(|v| v.is_finite()))
-            {
+            if let Some(i) = (0..end - start).find(|&i| {
+                let s = steps.step(start + i);
+                !s.from_mm.iter().chain(&s.to_mm).all(|v| v.is_finite())
+            }) {
                 return Err(Error::InvalidParameter(format!(
                     "step {i} has a non-finite coordinate"
                 )));
@@ -195,7 +204,7 @@ impl<'a> Sweep<'a> {
             let radius = tool.radius_mm();
             let done = part.start;
             let progress = |d: usize| progress(done + d);
-            let steps = &self.steps[part.start..part.end];
+            let steps = SubSteps::new(self.steps, part.start..part.end);
             let n = steps.len();
             let stride = HEAD + part.banding.n_bands;
             // A stream only on a part no band of which was swept yet (else `band`).
@@ -225,7 +234,7 @@ impl<'a> Sweep<'a> {
                         &$env,
                         radius,
                         &part.banding,
-                        steps,
+                        &steps,
                         &self.options,
                         &mut part.record,
                         &mut part.spill,
@@ -272,7 +281,7 @@ impl<'a> Sweep<'a> {
             for part in parts.iter_mut().filter(|p| !p.record.is_compact()) {
                 apply_spill(
                     &mut part.record,
-                    &self.steps[part.start..part.end],
+                    &SubSteps::new(self.steps, part.start..part.end),
                     &part.spill,
                 );
             }
@@ -283,7 +292,7 @@ impl<'a> Sweep<'a> {
                 let radius = self.tools[part.tool].radius_mm();
                 unbias_plunges(
                     &mut part.record,
-                    &self.steps[part.start..part.end],
+                    &SubSteps::new(self.steps, part.start..part.end),
                     grid,
                     radius,
                 );
@@ -357,12 +366,17 @@ pub(super) fn lattice_disc_bias(grid: &Grid, cx: f64, cy: f64, r: f64) -> [f64; 
 /// Ø0.4 mm tool on a 0.05 mm grid) and push the tool sideways. Subtracting
 /// volume × [`lattice_disc_bias`] makes an even plunge's resultant zero and
 /// leaves the asymmetry of a partly engaged one.
-fn unbias_plunges(record: &mut RemovalRecord, steps: &[Step], grid: &Grid, radius: f64) {
+fn unbias_plunges(
+    record: &mut RemovalRecord,
+    steps: &(impl StepSource + ?Sized),
+    grid: &Grid,
+    radius: f64,
+) {
     let stride = record.stride();
-    for (i, step) in steps.iter().enumerate() {
+    for i in 0..steps.len() {
         unbias_plunge(
             &mut record.data[i * stride..(i + 1) * stride],
-            step,
+            &steps.step(i),
             grid,
             radius,
         );
@@ -416,7 +430,13 @@ impl Stream {
 
     /// Steps before `swept` are swept (their rows and shares, from `first`
     /// on, in `rows` and `spill`): make final and move out those that are.
-    fn advance(&mut self, rows: &mut Vec<f64>, spill: &mut Vec<f64>, steps: &[Step], swept: usize) {
+    fn advance(
+        &mut self,
+        rows: &mut Vec<f64>,
+        spill: &mut Vec<f64>,
+        steps: &(impl StepSource + ?Sized),
+        swept: usize,
+    ) {
         let n = steps.len();
         let stride = HEAD + self.out.n_bands;
         // Step i's shares move once row i + 1 is swept; rows up to i − 1 are then final.
@@ -432,7 +452,7 @@ impl Stream {
         };
         let done = final_end - self.first;
         for (j, row) in rows[..done * stride].chunks_exact_mut(stride).enumerate() {
-            unbias_plunge(row, &steps[self.first + j], &self.grid, self.radius);
+            unbias_plunge(row, &steps.step(self.first + j), &self.grid, self.radius);
             self.out.push_row(row);
         }
         rows.drain(..done * stride);
@@ -457,12 +477,12 @@ fn continues(a: &Step, b: &Step) -> bool {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn run_batches<E: Envelope>(
+fn run_batches<E: Envelope, S: StepSource + ?Sized>(
     stock: &mut Stock,
     env: &E,
     radius: f64,
     banding: &Banding,
-    steps: &[Step],
+    steps: &S,
     options: &SweepOptions,
     record: &mut RemovalRecord,
     spill: &mut Vec<f64>,
@@ -511,6 +531,8 @@ fn run_batches<E: Envelope>(
     let mut fill: Vec<u32> = Vec::new();
     let mut entries: Vec<u32> = Vec::new();
     let mut partial: Vec<f64> = Vec::new();
+    // Where the last step taken into a batch ends (each step is made once here).
+    let mut last_end: Option<[f64; 3]> = None;
     while done < steps.len() {
         let first_step = done;
         // The batch's moves, binned by strip (CSR): a move joins every strip
@@ -521,9 +543,10 @@ fn run_batches<E: Envelope>(
         let mut n_entries = 0;
         while first_step + moves.len() < steps.len() && moves.len() < batch {
             let g = first_step + moves.len();
+            let step = steps.step(g);
             let m = Prepared {
-                follows: g > 0 && steps[g - 1].to_mm == steps[g].from_mm,
-                ..Prepared::new(&steps[g])
+                follows: last_end == Some(step.from_mm),
+                ..Prepared::new(&step)
             };
             let span = strip_span(&m);
             let k = span.map_or(0, |(s0, s1)| s1 - s0 + 1);
@@ -531,6 +554,7 @@ fn run_batches<E: Envelope>(
                 break;
             }
             n_entries += k;
+            last_end = Some(step.to_mm);
             if let Some((s0, s1)) = span {
                 for s in s0..=s1 {
                     counts[s + 1] += 1;
@@ -670,7 +694,7 @@ fn run_batches<E: Envelope>(
 /// still as swept and row i has received only step i − 1's shares: two rows
 /// kept aside (step i's as swept, and the volume of i − 1 as swept) stand in
 /// for a copy of the whole record.
-fn apply_spill(record: &mut RemovalRecord, steps: &[Step], spill: &[f64]) {
+fn apply_spill(record: &mut RemovalRecord, steps: &(impl StepSource + ?Sized), spill: &[f64]) {
     let stride = record.stride();
     SpillCursor::default().run(&mut record.data, 0, stride, steps, spill, steps.len());
 }
@@ -686,6 +710,10 @@ struct SpillCursor {
     next: Vec<f64>,
     /// Step i − 1's volume as swept.
     prev_volume: f64,
+    /// Step i (once made: each step is made once here), and whether it
+    /// continues step i − 1.
+    step: Option<Step>,
+    continues_prev: bool,
 }
 
 impl SpillCursor {
@@ -697,7 +725,7 @@ impl SpillCursor {
         rows: &mut [f64],
         first: usize,
         stride: usize,
-        steps: &[Step],
+        steps: &(impl StepSource + ?Sized),
         spill: &[f64],
         until: usize,
     ) {
@@ -716,13 +744,14 @@ impl SpillCursor {
             if i + 1 < n {
                 next.copy_from_slice(&rows[at(i + 1)..at(i + 1) + stride]);
             }
+            let step = self.step.take().unwrap_or_else(|| steps.step(i));
+            let after = (i + 1 < n).then(|| steps.step(i + 1));
+            let continues_next = after.as_ref().is_some_and(|b| continues(&step, b));
             let volume = row[VOLUME];
             if volume > 0.0 {
                 let targets = [
-                    (i > 0 && continues(&steps[i - 1], &steps[i]) && self.prev_volume > 0.0)
-                        .then(|| i - 1),
-                    (i + 1 < n && continues(&steps[i], &steps[i + 1]) && next[VOLUME] > 0.0)
-                        .then_some(i + 1),
+                    (i > 0 && self.continues_prev && self.prev_volume > 0.0).then(|| i - 1),
+                    (continues_next && next[VOLUME] > 0.0).then_some(i + 1),
                 ];
                 for (side, target) in targets.into_iter().enumerate() {
                     let Some(t) = target else {
@@ -747,6 +776,8 @@ impl SpillCursor {
                 }
             }
             self.prev_volume = volume;
+            self.step = after;
+            self.continues_prev = continues_next;
             std::mem::swap(row, next);
         }
         self.i = until;

@@ -51,6 +51,96 @@ pub struct Step {
     pub rapid: bool,
 }
 
+/// The steps a sweep takes, by index: a list held whole (`[Step]`), or steps
+/// made when the sweep asks for them ([`StepFn`], e.g. from the stations of
+/// a path), so a long program's list of 56 B a step need not be held beside
+/// its record (issue 16). The sweep asks for each step a few times (to
+/// prepare its move, for the smoothing shares and for a plunge's lattice
+/// bias), in order, one batch at a time; a step must be the same each time.
+pub trait StepSource {
+    /// Number of steps.
+    fn len(&self) -> usize;
+    /// Step `i` (`i < len()`).
+    fn step(&self, i: usize) -> Step;
+    /// No steps.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+impl StepSource for [Step] {
+    fn len(&self) -> usize {
+        <[Step]>::len(self)
+    }
+    #[inline]
+    fn step(&self, i: usize) -> Step {
+        self[i]
+    }
+}
+
+impl StepSource for Vec<Step> {
+    fn len(&self) -> usize {
+        Vec::len(self)
+    }
+    #[inline]
+    fn step(&self, i: usize) -> Step {
+        self[i]
+    }
+}
+
+/// `len` steps made by a function of their index.
+pub struct StepFn<F> {
+    len: usize,
+    step: F,
+}
+
+impl<F: Fn(usize) -> Step> StepFn<F> {
+    /// Steps `0..len`, step `i` being `step(i)`.
+    pub fn new(len: usize, step: F) -> Self {
+        StepFn { len, step }
+    }
+}
+
+impl<F: Fn(usize) -> Step> StepSource for StepFn<F> {
+    fn len(&self) -> usize {
+        self.len
+    }
+    #[inline]
+    fn step(&self, i: usize) -> Step {
+        debug_assert!(i < self.len);
+        (self.step)(i)
+    }
+}
+
+/// Steps `start .. start + len` of a source, as steps `0 .. len`.
+pub(crate) struct SubSteps<'s, S: ?Sized> {
+    steps: &'s S,
+    start: usize,
+    len: usize,
+}
+
+impl<'s, S: StepSource + ?Sized> SubSteps<'s, S> {
+    fn new(steps: &'s S, range: std::ops::Range<usize>) -> Self {
+        debug_assert!(range.end <= steps.len());
+        SubSteps {
+            steps,
+            start: range.start,
+            len: range.end - range.start,
+        }
+    }
+}
+
+impl<S: StepSource + ?Sized> StepSource for SubSteps<'_, S> {
+    fn len(&self) -> usize {
+        self.len
+    }
+    #[inline]
+    fn step(&self, i: usize) -> Step {
+        debug_assert!(i < self.len);
+        self.steps.step(self.start + i)
+    }
+}
+
 /// Tuning of a sweep; the defaults suit grids from 0.01 to 1 mm.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SweepOptions {
