@@ -458,6 +458,52 @@ fn plunge_removes_the_ball_volume_through_the_cli() {
     assert!(rel(removed, exact) < 5e-3, "{removed} vs {exact}");
 }
 
+/// Boring cycles through the CLI: a G85 bore 3 mm deep and a G89 bore 4 mm
+/// deep with a flat Ø6 remove two cylinders, π·3²·7 mm³; the dwell at the
+/// bottom of the G89 bore is in steps.csv.
+#[test]
+fn boring_cycles_remove_their_cylinders_through_the_cli() {
+    let dir = tempdir();
+    let job = r#"
+[stock]
+kind = "box"
+min = [0, 0, 0]
+max = [40, 20, 10]
+grid = 0.05
+[tool]
+kind = "flat"
+diameter = 6
+flute_length = 20
+[program]
+path = "bore.nc"
+[machine]
+feed_max = 3000
+accel = [1000, 1000, 1000]
+"#;
+    write(dir.path(), "job.toml", job);
+    write(
+        dir.path(),
+        "bore.nc",
+        "G21 G90 G17\nS6000 M3\nG0 X0 Y0 Z15\nG98 G85 X10 Y10 Z7 R11 F200\nG89 X30 Z6 P0.5\nG80\nM2\n",
+    );
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
+    let s = summary(&dir.path().join("out"));
+    let exact = PI * 9.0 * 7.0;
+    let removed = s["removed_volume_mm3"].as_f64().unwrap();
+    assert!(rel(removed, exact) < 5e-3, "{removed} vs {exact}");
+    // The dwell: steps at Z6 under the hole that do not move, 0.5 s of them.
+    let steps = csv_columns(&dir.path().join("out/steps.csv"));
+    let (x, z, t) = (&steps["x"], &steps["z"], &steps["t_s"]);
+    let dwell: f64 = (1..x.len())
+        .filter(|&i| x[i] == 30.0 && z[i] == 6.0 && z[i - 1] == 6.0 && x[i - 1] == 30.0)
+        .map(|i| t[i] - t[i - 1])
+        .sum();
+    assert!((dwell - 0.5).abs() < 0.02, "dwell {dwell} s");
+}
+
 /// ASCII STL of an axis-aligned box.
 fn box_stl(min: [f64; 3], max: [f64; 3]) -> String {
     let c = |i: usize| {

@@ -1,5 +1,5 @@
-//! Canned drilling cycles G73/G81/G82/G83 expanded into moves, as LinuxCNC
-//! does it (XY plane only). All positions in mm, machine frame.
+//! Canned drilling and boring cycles G73/G81/G82/G83/G85/G89 expanded into
+//! moves, as LinuxCNC does it (XY plane only). All positions in mm, machine frame.
 
 /// One move of an expanded cycle.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -20,7 +20,7 @@ use crate::GCode;
 /// A cycle to expand.
 #[derive(Clone, Debug)]
 pub struct Cycle {
-    /// G73, G81, G82 or G83.
+    /// G73, G81, G82, G83, G85 or G89.
     pub code: GCode,
     /// Hole positions (mm), one per repeat.
     pub holes: Vec<[f64; 2]>,
@@ -32,7 +32,7 @@ pub struct Cycle {
     pub retract_to_start: bool,
     /// Peck depth (G73/G83), mm.
     pub peck_mm: f64,
-    /// Dwell at the bottom (G82), s.
+    /// Dwell at the bottom (G82, G89), s.
     pub dwell_s: f64,
 }
 
@@ -62,10 +62,19 @@ pub fn expand(c: &Cycle, current_xy: [f64; 2]) -> Vec<CycleMove> {
             }
         }
         moves.push(CycleMove::Feed([x, y, c.bottom_z]));
-        if c.code == GCode::G82 && c.dwell_s > 0.0 {
+        if matches!(c.code, GCode::G82 | GCode::G89) && c.dwell_s > 0.0 {
             moves.push(CycleMove::Dwell(c.dwell_s));
         }
-        moves.push(CycleMove::Rapid([x, y, clear_z]));
+        match c.code {
+            // Boring, feed out: at the feed to R, then rapid to the clear height.
+            GCode::G85 => {
+                moves.push(CycleMove::Feed([x, y, c.r_z]));
+                moves.push(CycleMove::Rapid([x, y, clear_z]));
+            }
+            // Boring with a dwell, feed out: at the feed to the clear height.
+            GCode::G89 => moves.push(CycleMove::Feed([x, y, clear_z])),
+            _ => moves.push(CycleMove::Rapid([x, y, clear_z])),
+        }
         old_z = clear_z;
     }
     moves

@@ -1274,11 +1274,9 @@ impl Interp<'_> {
             GCode::G38_5,
             GCode::G76,
             GCode::G84,
-            GCode::G85,
             GCode::G86,
             GCode::G87,
             GCode::G88,
-            GCode::G89,
             GCode::G92_2,
             GCode::G92_3,
             GCode::G28_1,
@@ -1307,17 +1305,19 @@ impl Interp<'_> {
             let motion = motion_code
                 .map(|m| m.0)
                 .or(b.has_axes().then_some(self.motion));
-            let used = matches!(motion, Some(GCode::G2 | GCode::G3 | GCode::G82))
-                || [GCode::G4, GCode::G10, GCode::G64]
-                    .into_iter()
-                    .any(|g| g_col(g).is_some())
+            let used = matches!(
+                motion,
+                Some(GCode::G2 | GCode::G3 | GCode::G82 | GCode::G89)
+            ) || [GCode::G4, GCode::G10, GCode::G64]
+                .into_iter()
+                .any(|g| g_col(g).is_some())
                 || [19, 50, 51, 52, 53, 62, 63, 64, 65, 66, 98]
                     .into_iter()
                     .any(|m| b.has_m(m));
             if !used {
                 return fail(
                     b.col('p'),
-                    "P word with no G2, G3, G4, G10, G64, G82, M19, M50-M53, M62-M66 or M98 to use it",
+                    "P word with no G2, G3, G4, G10, G64, G82, G89, M19, M50-M53, M62-M66 or M98 to use it",
                 );
             }
         }
@@ -1338,7 +1338,10 @@ impl Interp<'_> {
             if matches!(code, GCode::G0 | GCode::G1 | GCode::G2 | GCode::G3) {
                 self.tolerated.plain_motion = Some(code);
             }
-            if !matches!(code, GCode::G73 | GCode::G81 | GCode::G82 | GCode::G83) {
+            if !matches!(
+                code,
+                GCode::G73 | GCode::G81 | GCode::G82 | GCode::G83 | GCode::G85 | GCode::G89
+            ) {
                 self.cycle_initial_z = None;
             }
         }
@@ -1950,7 +1953,7 @@ impl Interp<'_> {
                     let m = self.feed_motion(b, 1.0)?;
                     return self.straight_comp(b, t, m, pc);
                 }
-                GCode::G73 | GCode::G81 | GCode::G82 | GCode::G83 => {
+                GCode::G73 | GCode::G81 | GCode::G82 | GCode::G83 | GCode::G85 | GCode::G89 => {
                     return fail(
                         b.first_col,
                         "cannot use canned cycles with cutter radius compensation",
@@ -1976,7 +1979,9 @@ impl Interp<'_> {
                 Ok(())
             }
             GCode::G2 | GCode::G3 => self.arc(b, t, pc),
-            GCode::G73 | GCode::G81 | GCode::G82 | GCode::G83 => return self.cycle(b, pc),
+            GCode::G73 | GCode::G81 | GCode::G82 | GCode::G83 | GCode::G85 | GCode::G89 => {
+                return self.cycle(b, pc)
+            }
             _ => return fail(b.first_col, format!("{} is not supported", self.motion)),
         };
         if done.is_err() {
@@ -2227,7 +2232,7 @@ impl Interp<'_> {
             self.cycle_q = Some(q);
             peck_mm = q * self.scale;
         }
-        if self.motion == GCode::G82 {
+        if matches!(self.motion, GCode::G82 | GCode::G89) {
             self.cycle_p = b.get('p').unwrap_or(self.cycle_p);
         }
         if self.feed_mm_min <= 0.0 {

@@ -555,6 +555,52 @@ fn repeated_and_polar_cycles_written_out_match_linuxcnc_rs274() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// The boring cycles G85 (feed in, feed out to R) and G89 (dwell at the
+/// bottom, feed out to the clear height), under G98 and G99, with L repeats
+/// under G91 and an R plane above the start: rs274 reads the program as our
+/// interpreter does, move for move, and so it reads the re-fed program, whose
+/// cycles are written out as moves where a feed move gets two feeds.
+#[test]
+fn boring_cycles_match_linuxcnc_rs274_as_written_and_written_out() {
+    if !have_rs274() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let source = "G21 G90 G17\nS1000 M3\nG0 X0 Y0 Z5\nG98 G85 X1 Y1 Z-2 R1 F100\nX3\n\
+        G99 G89 X5 Y2 Z-3 R2 P0.5\nG98 X7 Y4 P0.25\nG80\nG0 Z4\nG91 G98 G85 X2 Y1 R-2 Z-3 L3 F120\n\
+        G90 G80\nG99 G89 X0 Y0 Z-1 R7 P1\nG80\nG0 Z10\nM2\n";
+    let file = dir.path().join("boring.ngc");
+    std::fs::write(&file, source).expect("write");
+    let n = compare(&file).unwrap_or_else(|e| panic!("{e}"));
+    // 2 + 2 + 3 + 1 holes of 3 moves each at least.
+    assert!(n >= 24, "{n} moves");
+    let path = nc::parse(source, "in.ngc", &Options::default()).path;
+    let dwells = path
+        .segments
+        .iter()
+        .filter(|s| matches!(s.motion, Motion::Dwell { .. }))
+        .count();
+    assert_eq!(dwells, 3);
+    let plan: Vec<Vec<(f64, f64)>> = path
+        .segments
+        .iter()
+        .enumerate()
+        .map(|(i, s)| match s.motion {
+            Motion::Feed { .. } => vec![(0.5, 900.0 - i as f64), (1.0, 80.0 + i as f64)],
+            _ => vec![],
+        })
+        .collect();
+    let out = nc::refeed(source, "in.ngc", &Options::default(), &plan).expect("re-fed");
+    let cycle = out
+        .lines()
+        .find(|l| !l.starts_with('(') && ["G85", "G89"].iter().any(|g| l.contains(g)));
+    assert!(cycle.is_none(), "{cycle:?} kept:\n{out}");
+    let written = dir.path().join("boring_refed.ngc");
+    std::fs::write(&written, out).expect("write");
+    let m = compare(&written).unwrap_or_else(|e| panic!("{e}"));
+    assert!(m > n, "{m} moves written out, {n} before");
+}
+
 /// Canned cycle lines run more than once (in an o-word loop, in a subroutine
 /// called twice under G91 with L), each run written out as its own moves
 /// behind an `if` chain on a run counter: rs274 reads the written program
