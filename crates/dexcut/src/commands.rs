@@ -57,7 +57,42 @@ pub struct Setup {
 /// interpreter's own limit on moves.
 pub const MAX_LINEARISED_SEGMENTS: usize = 5_000_000;
 
+/// `path` as the machine reads the program: with `[machine] arcs_as_lines`,
+/// each arc as chords within the chord tolerance of its feed and block time
+/// (MODEL.md §6.2, S0).
+fn as_the_machine_reads(job: &Job, path: nc::Path) -> Result<nc::Path> {
+    let (true, Some(tb)) = (job.machine.arcs_as_lines, job.machine.block_time_ms) else {
+        return Ok(path);
+    };
+    let path = schedule::linearise_arcs(&path, tb, 1.0);
+    if path.segments.len() > MAX_LINEARISED_SEGMENTS {
+        fail!(limits,
+            "{}: machine.arcs_as_lines writes the arcs as {} blocks, more than {MAX_LINEARISED_SEGMENTS}",
+            job.name,
+            path.segments.len()
+        );
+    }
+    Ok(path)
+}
+
 impl Setup {
+    /// The program's path as [`Setup::load`] made it, read again from the
+    /// G-code program's text ([`program::Program::read_path`]: the same text
+    /// read with the same options makes the same path bit for bit), for
+    /// `optimize`, which does not hold it through the written program's run
+    /// (126 MB for a million blocks, issue 16). A point list is not read
+    /// again: it fails.
+    pub fn program_path_again(&self) -> Result<nc::Path> {
+        let Some(path) = self.program.read_path() else {
+            fail!(
+                run,
+                "{}: a point list's path is not read again",
+                self.program.file
+            );
+        };
+        as_the_machine_reads(&self.job, path?)
+    }
+
     /// Load the job (with an optional grid override) and everything it names.
     pub fn load(job_path: &Path, grid_mm: Option<f64>) -> Result<Setup> {
         Setup::load_with(job_path, grid_mm, None)
@@ -92,18 +127,7 @@ impl Setup {
             crate::evaluate::Settings::load(path)?.apply(&mut job, path)?;
         }
         let mut program = program::load(&job)?;
-        if let (true, Some(tb)) = (job.machine.arcs_as_lines, job.machine.block_time_ms) {
-            // MODEL.md §6.2 (S0): the control reads each arc as chords within the chord
-            // tolerance of its feed and block time.
-            program.path = schedule::linearise_arcs(&program.path, tb, 1.0);
-            if program.path.segments.len() > MAX_LINEARISED_SEGMENTS {
-                fail!(limits,
-                    "{}: machine.arcs_as_lines writes the arcs as {} blocks, more than {MAX_LINEARISED_SEGMENTS}",
-                    job.name,
-                    program.path.segments.len()
-                );
-            }
-        }
+        program.path = as_the_machine_reads(&job, std::mem::take(&mut program.path))?;
         let tools = ToolSet::from_job(&job, &program)?;
         // Every move's tool is in the table (an error names the line).
         tools.indices::<u16>(program.path.segments.iter().map(|s| (s.tool, s.line)))?;
@@ -1180,43 +1204,50 @@ pub fn optimize_setup(
     let t1 = Instant::now();
     let machine = optimize::optimising_machine(&setup.machine, limits);
     // The free stations hold the program's path, taken from the setup (not
-    // copied: 120 MB for a million blocks) and put back once the rounds are
-    // done, whether they succeed or not; nothing reads the setup's path
-    // in between.
+    // copied: 120 MB for a million blocks) and put back once the outputs are
+    // written, whether the rounds and the outputs succeed or not; nothing
+    // reads the setup's path in between. A G-code program's is handed to the
+    // re-feed and read again from its text where it is needed
+    // ([`optimize::FreeStations::Given`]): not held beside the written
+    // program's run, nor while its outputs are written (issue 16).
     let path = std::mem::take(&mut setup.program.path);
-    let (rounds, path) = match optimize::free_stations_of(path, &machine) {
-        Err((e, path)) => (Err(e), path),
+    let (rounds, mut free) = match optimize::free_stations_of(path, &machine) {
+        Err((e, path)) => (Err(e), optimize::FreeStations::Released(path)),
         Ok(stations) => {
             let mut free = optimize::FreeStations::Made(Box::new(stations));
             let rounds = optimize_rounds(setup, &machine, &mut free, given, t1, staged);
-            (rounds, free.into_path())
+            (rounds, free)
         }
     };
-    setup.program.path = path;
-    let setup = &*setup;
-    let limits = &setup.job.limits;
-    let (n_stations, time_engagement_s, written, t2) = rounds?;
-    let fz_max_mm = setup.job.fz_max_mm();
-    let time_plan_s = t2.elapsed().as_secs_f64();
-    let mut after_run = match written.run {
-        Some(run) => run,
-        None => simulate::run_on(
-            setup.stock_source(),
-            &setup.tools,
-            setup.machine_steps()?,
-            "as given",
-        )?,
-    };
-    if let Some(tiling) = &setup.tiling {
-        // The `.npy` grid written band by band, which sets the volumes.
-        simulate::write_tiled_columns(&mut after_run, tiling, &setup.tools, Some(staged))?;
-    }
-    let after = &after_run;
-    let mut after_summary = after.summary();
-    before_summary.check_finite()?;
-    after_summary.check_finite()?;
-    if written.excesses_left > 0 {
-        after_summary.warnings.push(crate::warnings::Warning {
+    let free_stations = &mut free;
+    let optimized = (|| {
+        let setup = &*setup;
+        let limits = &setup.job.limits;
+        let (n_stations, time_engagement_s, written, t2) = rounds?;
+        let fz_max_mm = setup.job.fz_max_mm();
+        let time_plan_s = t2.elapsed().as_secs_f64();
+        let mut after_run = match written.run {
+            Some(run) => run,
+            // The program kept as given: its steps (Setup::machine_steps) of its
+            // path held by the free stations.
+            None => {
+                let steps = free_stations.with_path(setup, |path| {
+                    let samples = motion::machine_motion(path, &setup.machine)?;
+                    Ok::<_, crate::error::Error>(motion::steps_from_samples(path, &samples))
+                })??;
+                simulate::run_on(setup.stock_source(), &setup.tools, steps, "as given")?
+            }
+        };
+        if let Some(tiling) = &setup.tiling {
+            // The `.npy` grid written band by band, which sets the volumes.
+            simulate::write_tiled_columns(&mut after_run, tiling, &setup.tools, Some(staged))?;
+        }
+        let after = &after_run;
+        let mut after_summary = after.summary();
+        before_summary.check_finite()?;
+        after_summary.check_finite()?;
+        if written.excesses_left > 0 {
+            after_summary.warnings.push(crate::warnings::Warning {
             kind: crate::warnings::WarningKind::LimitExceeded,
             line: None,
             value: written.excesses_left as f64,
@@ -1228,26 +1259,26 @@ pub fn optimize_setup(
                 written.excesses_left, written.rounds
             ),
         });
-    }
-    after_summary
-        .warnings
-        .0
-        .splice(0..0, setup.warnings.iter().cloned().chain(chip_warnings));
-    optimize::stress_left(after, limits, written.rounds, &mut after_summary.warnings);
-    let mut unresolved = crate::warnings::LineTally::new();
-    for e in &written.unresolved {
-        crate::warnings::tally(&mut unresolved, e.line, 100.0 * e.over_limit);
-    }
-    after_summary.warnings.from_lines(
+        }
+        after_summary
+            .warnings
+            .0
+            .splice(0..0, setup.warnings.iter().cloned().chain(chip_warnings));
+        optimize::stress_left(after, limits, written.rounds, &mut after_summary.warnings);
+        let mut unresolved = crate::warnings::LineTally::new();
+        for e in &written.unresolved {
+            crate::warnings::tally(&mut unresolved, e.line, 100.0 * e.over_limit);
+        }
+        after_summary.warnings.from_lines(
         crate::warnings::WarningKind::CoarseGrid,
         &unresolved,
         "%",
         false,
         |v, lines| format!("servo periods up to {v:.0} % above a limit at {lines} after {rounds} rounds of slowing them, where the tool advances less than one grid column per period: part of the removal there comes in whole columns (where the tool enters the stock or turns), which a slower feed does not lower in proportion; use a finer grid to hold the limit per period", rounds = written.rounds),
     );
-    let written_vs_plan = after_summary.cycle_time_s / written.plan_time_s - 1.0;
-    if written_vs_plan > optimize::PLAN_TOLERANCE && !written.kept_original {
-        after_summary.warnings.push(crate::warnings::Warning {
+        let written_vs_plan = after_summary.cycle_time_s / written.plan_time_s - 1.0;
+        if written_vs_plan > optimize::PLAN_TOLERANCE && !written.kept_original {
+            after_summary.warnings.push(crate::warnings::Warning {
             kind: crate::warnings::WarningKind::PlanNotMet,
             line: None,
             value: 100.0 * written_vs_plan,
@@ -1259,96 +1290,107 @@ pub fn optimize_setup(
                 100.0 * written_vs_plan
             ),
         });
-    }
-    // One format for both (Auto: by the longer), so the folder reads alike.
-    let steps_format = steps_format.resolve(after.steps.len().max(before_steps));
-    let design = match setup.tiling {
-        None => write_run(setup, after, staged, steps_format, columns_csv)?,
-        Some(_) => {
-            after.write_steps(staged, "steps", steps_format)?;
-            None
         }
-    };
-    if let Some(before) = before.take() {
-        before.write_steps(staged, "steps_before", steps_format)?;
-    }
-    // Files for the machine are in its own Z, as optimized.nc is.
-    let z_sign = if setup.program.z_down { -1.0 } else { 1.0 };
-    write_servo_csv(
-        &staged.join("servo.csv"),
-        written.samples.rows(&after.steps),
-        &after.steps,
-        z_sign,
-    )?;
-    let precomp = if setup.job.servo_given {
-        Some(crate::evaluate::write_compensated_servo(
-            &setup.job,
-            written
-                .samples
-                .rows(&after.steps)
-                .map(|r| r.pos.coords.into())
-                .collect(),
-            setup.machine.period_ms,
+        // One format for both (Auto: by the longer), so the folder reads alike.
+        let steps_format = steps_format.resolve(after.steps.len().max(before_steps));
+        let design = match setup.tiling {
+            None => write_run(setup, after, staged, steps_format, columns_csv)?,
+            Some(_) => {
+                after.write_steps(staged, "steps", steps_format)?;
+                None
+            }
+        };
+        if let Some(before) = before.take() {
+            before.write_steps(staged, "steps_before", steps_format)?;
+        }
+        // Files for the machine are in its own Z, as optimized.nc is.
+        let z_sign = if setup.program.z_down { -1.0 } else { 1.0 };
+        write_servo_csv(
+            &staged.join("servo.csv"),
+            written.samples.rows(&after.steps),
+            &after.steps,
             z_sign,
-            &staged.join("servo_compensated.csv"),
-        )?)
-    } else {
-        None
+        )?;
+        let precomp = if setup.job.servo_given {
+            Some(crate::evaluate::write_compensated_servo(
+                &setup.job,
+                written
+                    .samples
+                    .rows(&after.steps)
+                    .map(|r| r.pos.coords.into())
+                    .collect(),
+                setup.machine.period_ms,
+                z_sign,
+                &staged.join("servo_compensated.csv"),
+            )?)
+        } else {
+            None
+        };
+        let lower_bound_time_s = written.lower_bound_time_s;
+        let doc = OptimizeSummary {
+            job: setup.job.name.clone(),
+            program: setup.program.file.clone(),
+            grid: GridInfo::of(after.stock.grid()),
+            peak_mrr_ratio: limits.mrr_max.map(|q| after_summary.peak_mrr_mm3_s / q),
+            optimality_gap: (after_summary.cycle_time_s - lower_bound_time_s) / lower_bound_time_s,
+            plan_time_s: written.plan_time_s,
+            time_optimal_s: written.time_optimal_s,
+            written_vs_plan,
+            rounds: written.rounds,
+            merge_ratio: written.merge_ratio,
+            kept_original: written.kept_original,
+            fz_max_mm,
+            before: before_summary,
+            after: after_summary,
+            limits: LimitsOut {
+                mrr_max_mm3_s: limits.mrr_max,
+                force_max_n: limits.force_max,
+                deflection_max_um: limits.deflection_max_um,
+                power_max_kw: limits.power_max_kw,
+                feed_min_mm_min: limits.feed_min,
+                feed_max_mm_min: machine.feed_max_mm_min,
+                chip_load_feed_mm_min: fz_max_mm.map(|fz| {
+                    cutting::chipload::chip_load_feed_mm_min(
+                        fz,
+                        setup.model.flutes,
+                        setup.model.spindle_rpm,
+                    )
+                }),
+                feed_scale_max: limits.feed_scale_max,
+                chip_load,
+                stress_limit_mpa,
+            },
+            cap_time_share: written.cap_shares,
+            lower_bound_time_s,
+            stations: n_stations,
+            station_spacing_mm: motion::STATION_DS_MM,
+            design,
+            setup: Some(setup.info()),
+            run_time_s: started.elapsed().as_secs_f64(),
+            time_engagement_s,
+            time_plan_s,
+            time_simulate_s,
+            run_id: out_dir.run_id(),
+        };
+        crate::summary::write_optimize(&staged.join("summary.json"), &doc)?;
+        Ok(Optimized {
+            summary: doc,
+            precomp,
+            steps_format,
+            banded: setup.tiling.as_ref().map(Banded::of),
+        })
+    })()
+    .and_then(|optimized| {
+        out_dir.commit("optimize")?;
+        Ok(optimized)
+    });
+    // Back in the setup (read again from its text where it was given).
+    setup.program.path = match (free.into_path(setup), &optimized) {
+        (Ok(path), _) => path,
+        (Err(e), Ok(_)) => return Err(e),
+        (Err(_), Err(_)) => nc::Path::default(),
     };
-    let lower_bound_time_s = written.lower_bound_time_s;
-    let doc = OptimizeSummary {
-        job: setup.job.name.clone(),
-        program: setup.program.file.clone(),
-        grid: GridInfo::of(after.stock.grid()),
-        peak_mrr_ratio: limits.mrr_max.map(|q| after_summary.peak_mrr_mm3_s / q),
-        optimality_gap: (after_summary.cycle_time_s - lower_bound_time_s) / lower_bound_time_s,
-        plan_time_s: written.plan_time_s,
-        time_optimal_s: written.time_optimal_s,
-        written_vs_plan,
-        rounds: written.rounds,
-        merge_ratio: written.merge_ratio,
-        kept_original: written.kept_original,
-        fz_max_mm,
-        before: before_summary,
-        after: after_summary,
-        limits: LimitsOut {
-            mrr_max_mm3_s: limits.mrr_max,
-            force_max_n: limits.force_max,
-            deflection_max_um: limits.deflection_max_um,
-            power_max_kw: limits.power_max_kw,
-            feed_min_mm_min: limits.feed_min,
-            feed_max_mm_min: machine.feed_max_mm_min,
-            chip_load_feed_mm_min: fz_max_mm.map(|fz| {
-                cutting::chipload::chip_load_feed_mm_min(
-                    fz,
-                    setup.model.flutes,
-                    setup.model.spindle_rpm,
-                )
-            }),
-            feed_scale_max: limits.feed_scale_max,
-            chip_load,
-            stress_limit_mpa,
-        },
-        cap_time_share: written.cap_shares,
-        lower_bound_time_s,
-        stations: n_stations,
-        station_spacing_mm: motion::STATION_DS_MM,
-        design,
-        setup: Some(setup.info()),
-        run_time_s: started.elapsed().as_secs_f64(),
-        time_engagement_s,
-        time_plan_s,
-        time_simulate_s,
-        run_id: out_dir.run_id(),
-    };
-    crate::summary::write_optimize(&staged.join("summary.json"), &doc)?;
-    out_dir.commit("optimize")?;
-    Ok(Optimized {
-        summary: doc,
-        precomp,
-        steps_format,
-        banded: setup.tiling.as_ref().map(Banded::of),
-    })
+    optimized
 }
 
 /// [`optimize_setup`]'s engagement along the free `stations` (begun at
@@ -1363,7 +1405,7 @@ fn optimize_rounds(
     t1: Instant,
     staged: &Path,
 ) -> Result<(usize, f64, optimize::Written, Instant)> {
-    let stations = free.stations(machine)?;
+    let stations = free.stations(machine, setup)?;
     let limits = &setup.job.limits;
     let surface = match (&setup.design, limits.angle_rule) {
         (_, false) => optimize::SurfaceFrom::Nothing,

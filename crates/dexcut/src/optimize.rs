@@ -911,7 +911,7 @@ pub fn write_verified(
     let mut round = 0;
     loop {
         round += 1;
-        let stations = free.stations(machine)?;
+        let stations = free.stations(machine, setup)?;
         // The two plans are made one after the other on the stations
         // themselves, their caps put back after each (no copy of the
         // stations), and dropped before the written program is simulated:
@@ -966,27 +966,20 @@ pub fn write_verified(
                 // The written program as the re-feed writer read it back to
                 // check it (with the program's options, as `nc::parse` reads
                 // it): not read once more.
-                // Along the program's path (the stations are let go, their
-                // path held): the source's reading does not hold a second
-                // copy of it where it makes it bit for bit (126 MB for a
-                // million blocks). The path is in dexcut's frame; the text
-                // reads in its own: mirrored there and back for a Z that
-                // points down (z ↦ −z twice is the same path bit for bit).
+                // The program's path handed to the re-feed (the stations are
+                // let go): the source's reading makes it again, and holds
+                // it, not a second copy, where it makes it bit for bit (126
+                // MB for a million blocks); it is let go before the written
+                // text is read back, and read again from the program's text
+                // where a next round or the caller needs it (0.7 s CPU for a
+                // million blocks). The path is in dexcut's frame, the text
+                // reads in its own: mirrored for a Z that points down.
                 let (file, options) = (&setup.program.file, &setup.program.nc_options);
-                let read = match free {
-                    FreeStations::Released(path) => {
-                        let mirror = |path: &mut nc::Path| {
-                            if setup.program.z_down {
-                                path.mirror_z();
-                            }
-                        };
-                        mirror(path);
-                        let read = nc::refeed_read_along(src, file, options, &plan, &path.segments);
-                        mirror(path);
-                        read
-                    }
-                    FreeStations::Made(_) => nc::refeed_read(src, file, options, &plan),
-                };
+                let mut path = free.give(setup)?;
+                if setup.program.z_down {
+                    path.mirror_z();
+                }
+                let read = nc::refeed_read_along(src, file, options, &plan, path);
                 // Read by the re-feed alone (40 MB of pieces for a million
                 // segments, not held while the samples and steps are made).
                 drop(plan);
@@ -1009,10 +1002,10 @@ pub fn write_verified(
             None => {
                 drop(plan);
                 let samples = optimum_samples.expect("sampled for a point list");
-                let path = free.path();
-                let steps = crate::motion::steps_from_samples(path, &samples);
-                let feeds = crate::motion::SampleFeeds::of(&samples, path);
-                (feeds, steps)
+                free.with_path(setup, |path| {
+                    let steps = crate::motion::steps_from_samples(path, &samples);
+                    (crate::motion::SampleFeeds::of(&samples, path), steps)
+                })?
             }
         };
         let run = crate::simulate::run_on(
@@ -1043,14 +1036,15 @@ pub fn write_verified(
                 .partition(|e| e.resolved);
             let samples = if let (true, Some(original)) = (kept_original, gcode) {
                 write_text(original)?;
-                let path = free.path();
-                let samples = crate::motion::machine_motion(path, &setup.machine)?;
-                WrittenSamples::Held(
-                    samples
-                        .iter()
-                        .map(|s| crate::motion::SampleRow::of(s, path))
-                        .collect(),
-                )
+                WrittenSamples::Held(free.with_path(setup, |path| {
+                    let samples = crate::motion::machine_motion(path, &setup.machine)?;
+                    Ok::<_, crate::error::Error>(
+                        samples
+                            .iter()
+                            .map(|s| crate::motion::SampleRow::of(s, path))
+                            .collect(),
+                    )
+                })??)
             } else {
                 WrittenSamples::OfRun(sample_feeds)
             };
@@ -1068,9 +1062,12 @@ pub fn write_verified(
                 kept_original,
             });
         }
+        // The run is let go before the stations are made again (their
+        // path read again from the program's text).
+        drop(run);
         lower_caps(
             &mut caps,
-            free.stations(machine)?.s_mm(),
+            free.stations(machine, setup)?.s_mm(),
             &blocks,
             &over,
             margin_mm,
@@ -1220,56 +1217,71 @@ pub fn optimising_machine(machine: &Machine, limits: &LimitsSpec) -> Machine {
 }
 
 /// The free stations of the rounds ([`free_stations_of`]), or, while the
-/// written program is verified, the path they are made from alone: their
-/// arrays (a million-block program's 3 M stations: 143 MB) are let go then
-/// and made again when a next round plans (issue 16).
+/// written program is verified, the path they are made from alone, or not
+/// even that: their arrays (a million-block program's 3 M stations: 143 MB)
+/// are let go from the re-feed on and made again when a next round plans,
+/// and a G-code program's path is handed to the re-feed and read again from
+/// its text where it is needed (126 MB, issue 16).
 pub enum FreeStations {
     /// The stations, their caps as made.
     Made(Box<Stations>),
     /// Their path, the stations let go.
     Released(nc::Path),
+    /// Neither: the path was handed over ([`FreeStations::give`]); it is the
+    /// program's text read again ([`Setup::program_path_again`]).
+    Given,
 }
 
 impl FreeStations {
-    /// The program's path the stations are made from.
-    pub fn path(&self) -> &nc::Path {
-        match self {
-            FreeStations::Made(stations) => stations.path(),
-            FreeStations::Released(path) => path,
+    /// The program's path, taken out (read again where it was given),
+    /// `self` left [`FreeStations::Given`].
+    pub fn give(&mut self, setup: &Setup) -> Result<nc::Path> {
+        match std::mem::replace(self, FreeStations::Given) {
+            FreeStations::Made(stations) => Ok(stations.into_path()),
+            FreeStations::Released(path) => Ok(path),
+            FreeStations::Given => setup.program_path_again(),
         }
+    }
+
+    /// `f` of the program's path the stations are made from (read again
+    /// where it was given, and then held).
+    pub fn with_path<T>(&mut self, setup: &Setup, f: impl FnOnce(&nc::Path) -> T) -> Result<T> {
+        if let FreeStations::Made(stations) = self {
+            return Ok(f(stations.path()));
+        }
+        let path = self.give(setup)?;
+        let out = f(&path);
+        *self = FreeStations::Released(path);
+        Ok(out)
     }
 
     /// The stations, made again from the path by `machine` (as
     /// [`free_stations_of`] made them) where they were let go.
-    pub fn stations(&mut self, machine: &Machine) -> Result<&mut Stations> {
-        if let FreeStations::Released(path) = self {
-            let stations =
-                free_stations_of(std::mem::take(path), machine).map_err(|(e, path)| {
-                    *self = FreeStations::Released(path);
-                    e
-                })?;
+    pub fn stations(&mut self, machine: &Machine, setup: &Setup) -> Result<&mut Stations> {
+        if !matches!(self, FreeStations::Made(_)) {
+            let stations = free_stations_of(self.give(setup)?, machine).map_err(|(e, path)| {
+                *self = FreeStations::Released(path);
+                e
+            })?;
             *self = FreeStations::Made(Box::new(stations));
         }
         match self {
             FreeStations::Made(stations) => Ok(&mut **stations),
-            FreeStations::Released(_) => unreachable!("made above"),
+            FreeStations::Released(_) | FreeStations::Given => unreachable!("made above"),
         }
     }
 
     /// Lets the stations' arrays go, keeping their path.
     pub fn release(&mut self) {
-        if let FreeStations::Made(_) = self {
-            let made = std::mem::replace(self, FreeStations::Released(nc::Path::default()));
-            *self = FreeStations::Released(made.into_path());
-        }
+        *self = match std::mem::replace(self, FreeStations::Given) {
+            FreeStations::Made(stations) => FreeStations::Released(stations.into_path()),
+            other => other,
+        };
     }
 
-    /// The path, given back.
-    pub fn into_path(self) -> nc::Path {
-        match self {
-            FreeStations::Made(stations) => stations.into_path(),
-            FreeStations::Released(path) => path,
-        }
+    /// The path, given back (read again where it was given).
+    pub fn into_path(mut self, setup: &Setup) -> Result<nc::Path> {
+        self.give(setup)
     }
 }
 

@@ -53,6 +53,23 @@ impl Program {
         parsed
     }
 
+    /// A G-code program's path read again from its text, as [`parse_gcode`]
+    /// read it (its options hold the start it chose: the same text and
+    /// options make the same path bit for bit), in dexcut's frame; None for a
+    /// point list. Before `[machine] arcs_as_lines` (`Setup::program_path_again`).
+    pub fn read_path(&self) -> Option<Result<nc::Path>> {
+        let text = self.gcode.as_deref()?;
+        let parsed = self.in_frame(nc::parse(text, &self.file, &self.nc_options));
+        Some(
+            match parsed.diagnostics.into_iter().find(|d| d.is_error()) {
+                Some(d) => Err(Error::Program {
+                    diagnostics: vec![d],
+                }),
+                None => Ok(parsed.path),
+            },
+        )
+    }
+
     /// Highest spindle speed the program sets that a tool `diameter_mm`
     /// wide plausibly runs at ([`crate::tools::plausible_rpm`]), rev/min (0
     /// if none).

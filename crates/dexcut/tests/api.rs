@@ -81,8 +81,9 @@ fn optimize_report_and_summary_agree() {
     let loaded = setup.program.path.clone();
     assert!(!loaded.segments.is_empty());
     let optimized = dexcut::optimize(&mut setup, &out, false).unwrap();
-    // The path lent to the planner is back in the setup, as loaded.
-    assert_eq!(setup.program.path, loaded);
+    // The path lent to the planner (and to the re-feed, then read again from
+    // the text) is back in the setup, as loaded, bit for bit.
+    assert_eq!(format!("{:?}", setup.program.path), format!("{loaded:?}"));
     let doc = &optimized.summary;
     // MRR of a full slot is width × depth × feed: 12 mm² × 20 mm/s = 240 mm³/s
     // as given; under mrr_max = 20 the feed falls to 20/12 mm/s = 100 mm/min.
@@ -115,6 +116,43 @@ fn optimize_report_and_summary_agree() {
     assert!(files.design_map_png.is_none());
     let html = std::fs::read_to_string(&files.html).unwrap();
     assert!(html.contains("slot.nc"));
+}
+
+/// A G-code program's path read again from its text
+/// (`Setup::program_path_again`, what optimize does after handing the path
+/// to the re-feed) is the path loaded, bit for bit (every f64 in its
+/// shortest round-trip form, −0 apart from 0): a machine whose Z points
+/// down, a start given or found, arcs as lines, cutter compensation and a
+/// file read tolerantly (a byte-order mark, no program end).
+#[test]
+fn a_program_path_read_again_is_the_one_loaded_bit_for_bit() {
+    let arcs = "G21 G90 G17\nG0 X-10 Y0 Z35\nG0 Z28\nG1 X50 F1200\nG2 X60 Y10 I0 J10\nG1 X110\nG0 Z35\nM2\n";
+    let comp =
+        "G0 X-10 Y-10 Z35\nG0 Z28\nG41 G1 X0 Y0 F1200\nX50\nY10\nG40 G1 X60 Y20\nG0 Z35\nM2\n";
+    let tolerant = "\u{feff}G0 X-10 Y0 Z35\nG0 Z28\nG1 X110 F1200\nG3 X100 Y10 I-10 J0\n";
+    let down = arcs.replace("Z35", "Z-35").replace("Z28", "Z-28");
+    let cases = [
+        (arcs, ""),
+        (arcs, "start = [0, 0, 40]"),
+        (arcs, "block_time_ms = 2\narcs_as_lines = true"),
+        (down.as_str(), "z_axis = \"down\""),
+        (comp, ""),
+        (tolerant, ""),
+    ];
+    for (program, machine) in cases {
+        let dir = job_dir();
+        std::fs::write(dir.path().join("slot.nc"), program).unwrap();
+        let job = JOB.replace("feed_max = 3000", &format!("feed_max = 3000\n{machine}"));
+        std::fs::write(dir.path().join("job.toml"), job).unwrap();
+        let setup = dexcut::load(&dir.path().join("job.toml"), None).unwrap();
+        let again = setup.program_path_again().unwrap();
+        assert!(!again.segments.is_empty());
+        assert_eq!(
+            format!("{again:?}"),
+            format!("{:?}", setup.program.path),
+            "{machine}: {program}"
+        );
+    }
 }
 
 /// The process engineer's report of a 100 000-step program: under 3 MB, one

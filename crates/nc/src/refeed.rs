@@ -116,31 +116,37 @@ pub fn refeed_read(
     refeed_read_lent(source, file, options, plan, None)
 }
 
-/// [`refeed_read`] of a program whose path the caller holds: `path`, what
-/// [`crate::parse`] returns for `source` with `file` and `options`. The
-/// source's reading is checked against it segment by segment as it is made
-/// and does not hold a second copy of it where it is the same bit for bit
-/// (a million-block program's path is 126 MB); where it is not, the reading
-/// keeps its own, as [`refeed_read`] does. The text is the same.
+/// [`refeed_read`] of a program whose path the caller has read: `path`,
+/// what [`crate::parse`] returns for `source` with `file` and `options`,
+/// handed over. The source's reading is checked against it segment by
+/// segment as it is made, and where it makes it bit for bit, `path` is the
+/// path the text is written against (no second copy of it: a million-block
+/// program's path is 126 MB); otherwise the reading keeps its own, as
+/// [`refeed_read`] does. Either is dropped before the written text is read
+/// back to be checked. The text and its reading are [`refeed_read`]'s.
 pub fn refeed_read_along(
     source: &str,
     file: &str,
     options: &Options,
     plan: &[Vec<(f64, f64)>],
-    path: &[Segment],
+    path: crate::Path,
 ) -> Result<(String, Parsed), RefeedError> {
-    refeed_read_lent(source, file, options, plan, Some(path))
+    refeed_read_lent(source, file, options, plan, Some(path.segments))
 }
 
-/// [`refeed_read`], along the caller's path where one is lent.
+/// [`refeed_read`], along the caller's path where one is handed over.
 fn refeed_read_lent(
     source: &str,
     file: &str,
     options: &Options,
     plan: &[Vec<(f64, f64)>],
-    lent: Option<&[Segment]>,
+    mut lent: Option<Vec<Segment>>,
 ) -> Result<(String, Parsed), RefeedError> {
-    let (mut parsed, mut trace, mut executed) = run_recorded(source, file, options, lent);
+    let run = |source: &str, lent: Option<&[Segment]>| match lent {
+        Some(path) => interp::run_recorded_along(source, file, options, path),
+        None => interp::run_recorded(source, file, options),
+    };
+    let (mut parsed, mut trace, mut executed) = run(source, lent.as_deref());
     // A file read as most controls read it is written as every control reads
     // it ([`crate::amend`]); the amended source is what is re-fed and checked.
     let amended;
@@ -148,12 +154,17 @@ fn refeed_read_lent(
     if !parsed.amendments.is_empty() && !parsed.diagnostics.iter().any(|d| d.is_error()) {
         amended = crate::amend(source, &parsed.amendments);
         source = &amended;
-        (parsed, trace, executed) = run_recorded(source, file, options, lent);
+        (parsed, trace, executed) = run(source, lent.as_deref());
     }
     if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
         return Err(RefeedError::Program(d.clone()));
     }
-    let segments = SourcePath::of(&mut parsed, &trace, lent);
+    // The caller's path where the reading made it, else the reading's own
+    // (and the caller's let go).
+    let segments = match lent.take() {
+        Some(path) if trace.on_lent_path => path,
+        _ => std::mem::take(&mut parsed.path.segments),
+    };
     if plan.len() != segments.len() {
         return Err(RefeedError::PlanLength {
             plan: plan.len(),
@@ -205,7 +216,6 @@ fn refeed_read_lent(
                     Some(source),
                     file,
                     options,
-                    lent,
                     unrolled_read,
                     plan,
                     tables,
@@ -215,86 +225,34 @@ fn refeed_read_lent(
             }
         }
     }
-    let recorded = recorded.unwrap_or_else(|| Recorded::read(source, None, file, options, lent));
-    write_checked(source, None, file, options, lent, recorded, plan, tables)
-}
-
-/// [`interp::run_recorded`], along `lent` where there is one.
-fn run_recorded(
-    source: &str,
-    file: &str,
-    options: &Options,
-    lent: Option<&[Segment]>,
-) -> (Parsed, interp::Trace, Vec<Executed>) {
-    match lent {
-        Some(path) => interp::run_recorded_along(source, file, options, path),
-        None => interp::run_recorded(source, file, options),
-    }
-}
-
-/// The path a text is written against: the caller's where the reading made
-/// it bit for bit ([`refeed_read_along`]), else the reading's own.
-enum SourcePath<'p> {
-    Lent(&'p [Segment]),
-    Own(Vec<Segment>),
-}
-
-impl<'p> SourcePath<'p> {
-    /// The path `parsed` (a reading along `lent`, if any) made, taken from it.
-    fn of(parsed: &mut Parsed, trace: &interp::Trace, lent: Option<&'p [Segment]>) -> Self {
-        match lent {
-            Some(path) if trace.on_lent_path => SourcePath::Lent(path),
-            _ => SourcePath::Own(std::mem::take(&mut parsed.path.segments)),
-        }
-    }
-}
-
-impl std::ops::Deref for SourcePath<'_> {
-    type Target = [Segment];
-
-    fn deref(&self) -> &[Segment] {
-        match self {
-            SourcePath::Lent(path) => path,
-            SourcePath::Own(path) => path,
-        }
-    }
+    let recorded = recorded.unwrap_or_else(|| Recorded::read(source, None, file, options));
+    write_checked(source, None, file, options, recorded, plan, tables)
 }
 
 /// A recorded run of the text the writer writes from: the path it is
 /// written against, its trace, the lines as they ran and the segments of
 /// each line.
-struct Recorded<'p> {
+struct Recorded {
     /// The path of the program as read (for unrolled loops, the path of the
     /// text they were unrolled from).
-    segments: SourcePath<'p>,
+    segments: Vec<Segment>,
     trace: interp::Trace,
     executed: Vec<Executed>,
     by_line: LineSegments,
 }
 
-impl<'p> Recorded<'p> {
+impl Recorded {
     /// `source` run and recorded again (as it was the first time: the
     /// interpreter gives the same run of the same text and options), with
     /// the path of `path_from` where the text is written against another's
-    /// path (unrolled loops: the text they were unrolled from), along
-    /// `lent` as the first reading was.
-    fn read(
-        source: &str,
-        path_from: Option<&str>,
-        file: &str,
-        options: &Options,
-        lent: Option<&'p [Segment]>,
-    ) -> Recorded<'p> {
-        let (mut parsed, trace, executed) = match path_from {
-            None => run_recorded(source, file, options, lent),
-            Some(_) => interp::run_recorded(source, file, options),
-        };
+    /// path (unrolled loops: the text they were unrolled from).
+    fn read(source: &str, path_from: Option<&str>, file: &str, options: &Options) -> Recorded {
+        let (parsed, trace, executed) = interp::run_recorded(source, file, options);
         let segments = match path_from {
-            None => SourcePath::of(&mut parsed, &trace, lent),
+            None => parsed.path.segments,
             Some(from) => {
                 drop(parsed);
-                let (mut parsed, trace, _) = run_recorded(from, file, options, lent);
-                SourcePath::of(&mut parsed, &trace, lent)
+                interp::run_recorded(from, file, options).0.path.segments
             }
         };
         let by_line = lines_segments(&trace);
@@ -311,7 +269,6 @@ impl<'p> Recorded<'p> {
 /// it must make: where it ends, how long it is, its motion and its line
 /// (56 B a segment, not the 120 of a [`Segment`]: for a million-block
 /// program the path need not be held while the written text is read back).
-#[derive(Clone, Copy)]
 struct Expected {
     end: Point3<f64>,
     length_mm: f64,
@@ -326,38 +283,6 @@ impl Expected {
             length_mm: seg.length_mm(),
             motion: seg.motion,
             line: seg.line,
-        }
-    }
-}
-
-/// What the written text is checked against: the path lent by the caller,
-/// which it holds through the check anyway ([`refeed_read_along`]), or the
-/// source's own path's [`Expected`] (that path is dropped before the check).
-enum Check<'p> {
-    Along(&'p [Segment]),
-    Ends(Vec<Expected>),
-}
-
-impl<'p> Check<'p> {
-    fn of(path: &SourcePath<'p>) -> Check<'p> {
-        match path {
-            SourcePath::Lent(path) => Check::Along(path),
-            SourcePath::Own(path) => Check::Ends(path.iter().map(Expected::of).collect()),
-        }
-    }
-
-    fn len(&self) -> usize {
-        match self {
-            Check::Along(path) => path.len(),
-            Check::Ends(ends) => ends.len(),
-        }
-    }
-
-    /// Segment `i`'s [`Expected`] (made of the lent segment as it is read).
-    fn at(&self, i: usize) -> Expected {
-        match self {
-            Check::Along(path) => Expected::of(&path[i]),
-            Check::Ends(ends) => ends[i],
         }
     }
 }
@@ -432,24 +357,23 @@ fn same_path(a: &[Segment], b: &[Segment]) -> bool {
 
 /// Writes the program with `tables` and the canned cycles written out where
 /// needed, dropping either when the result does not read back as planned.
-/// The recorded run (for a million-line program its line arena, trace and
-/// executed lines, about 250 MB, and its path where it is not the lent one)
-/// is dropped once the text is written, before the text is read back to be
-/// checked against the path ([`Check`]); a check that fails and is tried
-/// again runs the source (and `path_from`, [`Recorded::read`]) again, along
-/// `lent` as before.
+/// The recorded run (for a million-line program its path, line arena, trace
+/// and executed lines, about 380 MB) is dropped once the text is written,
+/// before the text is read back to be checked against what the path needs
+/// ([`Expected`], made of the path then, not held through the writing); a
+/// check that fails and is tried again runs the source (and `path_from`,
+/// [`Recorded::read`]) again.
 #[allow(clippy::too_many_arguments)]
 fn write_checked(
     source: &str,
     path_from: Option<&str>,
     file: &str,
     options: &Options,
-    lent: Option<&[Segment]>,
     recorded: Recorded,
     plan: &[Vec<(f64, f64)>],
     mut tables: BTreeMap<usize, RunTable>,
 ) -> Result<(String, Parsed), RefeedError> {
-    let expected = Check::of(&recorded.segments);
+    let mut expected: Option<Vec<Expected>> = None;
     let mut expanded = cycle_lines(&recorded.by_line, &recorded.segments, &recorded.trace, plan);
     let mut recorded = Some(recorded);
     loop {
@@ -460,7 +384,7 @@ fn write_checked(
             by_line,
         } = recorded
             .take()
-            .unwrap_or_else(|| Recorded::read(source, path_from, file, options, lent));
+            .unwrap_or_else(|| Recorded::read(source, path_from, file, options));
         let Some(per_run) = cycle_runs(source, &expanded, &executed, &trace, &tables) else {
             // A cycle run more than once with no counter to tell its runs
             // apart: the cycles as written.
@@ -486,8 +410,10 @@ fn write_checked(
         let (out, written_pieces) = write(
             source, &segments, &trace, &by_line, &plan, &tables, &expanded, &per_run,
         );
+        // Every try writes against the same path (the source's, read again).
+        let expected = expected.get_or_insert_with(|| segments.iter().map(Expected::of).collect());
         drop((segments, trace, executed, by_line, per_run));
-        match verify(&out, file, options, &expected, &plan, &written_pieces) {
+        match verify(&out, file, options, expected, &plan, &written_pieces) {
             Ok(parsed) => return Ok((out, parsed)),
             // Cycles written out that do not read back: keep them as written.
             Err(_) if !expanded.is_empty() => expanded.clear(),
@@ -1664,7 +1590,7 @@ fn verify(
     out: &str,
     file: &str,
     options: &Options,
-    original: &Check<'_>,
+    original: &[Expected],
     plan: &WrittenPlan<'_>,
     written: &[usize],
 ) -> Result<Parsed, RefeedError> {
@@ -1685,8 +1611,7 @@ fn verify(
         )));
     }
     let mut j = 0;
-    for i in 0..original.len() {
-        let seg = original.at(i);
+    for (i, seg) in original.iter().enumerate() {
         let pieces = &new[j..j + written[i]];
         j += written[i];
         let end = pieces[pieces.len() - 1].end;
@@ -1738,7 +1663,7 @@ mod tests {
     use super::*;
 
     /// The check keeps of the source's path only its ends, lengths, motions
-    /// and lines ([`Expected`]), or reads them of the caller's path, and refuses each change of them as the
+    /// and lines ([`Expected`]), and refuses each change of them as the
     /// path itself did: the written text read back passes; a moved end, an
     /// arc round another centre to the same end, a feed move made a rapid and
     /// a feed above the plan each fail, with the line they are on.
@@ -1755,40 +1680,35 @@ mod tests {
                 _ => Vec::new(),
             })
             .collect();
+        let expected: Vec<Expected> = path.segments.iter().map(Expected::of).collect();
         let written = WrittenPlan {
             plan: &plan,
             coarse: BTreeMap::new(),
         };
         let pieces = vec![1; plan.len()];
-        // The source's ends held apart, or the caller's path read as checked.
-        for expected in [
-            Check::Ends(path.segments.iter().map(Expected::of).collect()),
-            Check::Along(&path.segments),
+        let check = |text: &str| verify(text, "t.ngc", &options, &expected, &written, &pieces);
+        let good = "G0 X0 Y0 Z1\nG1 Z-1 F300\nG1 X10 F500\nG2 X20 Y0 I5 J0 F500\nG0 Z5\n";
+        assert_eq!(
+            check(good).expect("the plan's feeds read back").path,
+            crate::parse(good, "t.ngc", &options).path
+        );
+        for (text, says) in [
+            (good.replace("X10 F500", "X10.01 F500"), "line 3: ends at"),
+            (
+                good.replace("I5 J0", "I5 J5"),
+                "line 4: 33.3216 mm long instead of 15.7080 mm",
+            ),
+            (
+                good.replace("G1 X10 F500", "G0 X10"),
+                "line 3: motion kind changed",
+            ),
+            (
+                good.replace("X10 F500", "X10 F501"),
+                "line 3: feed 501.000 above the plan's 500.000",
+            ),
         ] {
-            let check = |text: &str| verify(text, "t.ngc", &options, &expected, &written, &pieces);
-            let good = "G0 X0 Y0 Z1\nG1 Z-1 F300\nG1 X10 F500\nG2 X20 Y0 I5 J0 F500\nG0 Z5\n";
-            assert_eq!(
-                check(good).expect("the plan's feeds read back").path,
-                crate::parse(good, "t.ngc", &options).path
-            );
-            for (text, says) in [
-                (good.replace("X10 F500", "X10.01 F500"), "line 3: ends at"),
-                (
-                    good.replace("I5 J0", "I5 J5"),
-                    "line 4: 33.3216 mm long instead of 15.7080 mm",
-                ),
-                (
-                    good.replace("G1 X10 F500", "G0 X10"),
-                    "line 3: motion kind changed",
-                ),
-                (
-                    good.replace("X10 F500", "X10 F501"),
-                    "line 3: feed 501.000 above the plan's 500.000",
-                ),
-            ] {
-                let err = check(&text).expect_err(&text).to_string();
-                assert!(err.contains(says), "{text}: {err}");
-            }
+            let err = check(&text).expect_err(&text).to_string();
+            assert!(err.contains(says), "{text}: {err}");
         }
     }
 

@@ -860,9 +860,9 @@ fn tolerant_files_are_written_with_an_end_and_no_byte_order_mark() {
 }
 
 /// The re-feed along the caller's path ([`nc::refeed_read_along`]) writes
-/// and reads back what [`nc::refeed_read`] does, whether the lent path is
-/// the source's own bit for bit (then the source's reading holds no copy of
-/// it) or not: an end moved by one ulp in the middle, a 0 given as −0, one
+/// and reads back what [`nc::refeed_read`] does, whether the path handed
+/// over is the source's own bit for bit (then the source's reading holds no
+/// copy of it) or not: an end moved by one ulp in the middle, a 0 given as −0, one
 /// segment short, one segment more. The corpus (its cutter compensation
 /// files among them), loops unrolled and a tolerant file (read again
 /// amended).
@@ -919,6 +919,9 @@ fn the_reading_along_a_lent_path_writes_the_same_text() {
             ("one more", &longer),
         ];
         for (what, lent) in variants {
+            let lent = nc::Path {
+                segments: lent.to_vec(),
+            };
             let got = nc::refeed_read_along(src, name, options, &plan, lent)
                 .unwrap_or_else(|e| panic!("{name}, {what}: {e}"));
             assert!(
