@@ -821,7 +821,9 @@ pub fn run_on(
         StockSource::Made(s, solid) => (Initial::Made(solid, *s.grid()), Some(s)),
         StockSource::Tiled(t) => (Initial::Tiled(t), None),
     };
-    let rigid_steps: Vec<dexel::Step> = steps.iter().map(|s| s.step).collect();
+    // The rigid tool's moves made as the sweep asks for them, not a list of
+    // them beside the steps (56 B a step, issue 16).
+    let rigid_steps = dexel::StepFn::new(steps.len(), |i| steps[i].step);
     let (tool_of_step, options) = sweep_setup(tools, &steps)?;
     let started = Instant::now();
     let (rigid_stock, mut record) = sweep_pass(
@@ -833,7 +835,6 @@ pub fn run_on(
         &options,
         label,
     )?;
-    drop(rigid_steps);
     // At most two stocks at a time: the initial one (none where it is made
     // of its closed form) and the last pass's.
     let mut final_stock = rigid_stock;
@@ -1893,22 +1894,21 @@ impl Run {
     /// [`SUB_CELL_WINDOW_CELLS`] cells of path, since a column's removal
     /// comes whole in the period in which the edge crosses the column's
     /// centre. The periods are made from per-period columns (their first
-    /// step, end of path, removal, time; about 90 B a period with the
-    /// windows, issue 16) and handed to `f` one by one, never held as a
-    /// list (72 B a period more).
+    /// step, end of path, prefix sums of removal and time; about 70 B a
+    /// period with the windows, issue 16; a period's own removal and time
+    /// summed again from its steps) and handed to `f` one by one, never held
+    /// as a list (72 B a period more).
     pub fn for_each_period(&self, mut f: impl FnMut(Period)) {
         let g = self.stock.grid().spacing_mm;
         let window_mm = SUB_CELL_WINDOW_CELLS * g;
-        // Own values per period p: steps first[p]..first[p + 1], path
-        // s_at[p]..s_at[p + 1].
-        let mut first: Vec<usize> = Vec::new();
-        let mut s_at: Vec<f64> = vec![0.0];
-        let (mut volume, mut dt_s, mut cutting) = (Vec::new(), Vec::new(), Vec::new());
-        for std::ops::Range { start: i, end: j } in crate::motion::periods(&self.steps) {
+        // Whether the period of steps i..j cuts, and its own removal and
+        // time: summed for the prefix sums, and again (the same sums in the
+        // same order) where the period is handed over, not held.
+        let own = |i: usize, j: usize| {
             let cuts = !self.steps[i..j].iter().all(|s| s.step.rapid);
             // A period that is part feed, part rapid counts its feed parts'
             // removal: what a rapid removes is a collision (rapid_cut warning).
-            let (volume_mm3, period_dt_s) = (i..j).fold((0.0, 0.0), |(v, t), k| {
+            let (volume_mm3, dt_s) = (i..j).fold((0.0, 0.0), |(v, t), k| {
                 let counted = !cuts || !self.steps[k].step.rapid;
                 let dv = if counted {
                     self.record.volume_mm3(k)
@@ -1917,30 +1917,41 @@ impl Run {
                 };
                 (v + dv, t + self.steps[k].dt_s)
             });
-            first.push(i);
+            (cuts, volume_mm3, dt_s)
+        };
+        // Per period p: steps first[p]..first[p + 1] (u32), path
+        // s_at[p]..s_at[p + 1], whether it cuts, and the prefix sums of
+        // removal and time over the periods before it; 37 B a period, each
+        // column reserved at its size (the windows 24 B more).
+        let n = crate::motion::periods(&self.steps).count();
+        let mut first: Vec<u32> = Vec::with_capacity(n + 1);
+        let mut s_at: Vec<f64> = Vec::with_capacity(n + 1);
+        let mut cutting: Vec<bool> = Vec::with_capacity(n);
+        let (mut volume_sum, mut dt_sum) = (Vec::with_capacity(n + 1), Vec::with_capacity(n + 1));
+        s_at.push(0.0);
+        volume_sum.push(0.0);
+        dt_sum.push(0.0);
+        for std::ops::Range { start: i, end: j } in crate::motion::periods(&self.steps) {
+            let (cuts, volume_mm3, dt_s) = own(i, j);
+            first.push(i as u32);
             s_at.push(self.steps[j - 1].s_end_mm);
-            volume.push(volume_mm3);
-            dt_s.push(period_dt_s);
             cutting.push(cuts);
+            volume_sum.push(volume_sum[volume_sum.len() - 1] + volume_mm3);
+            dt_sum.push(dt_sum[dt_sum.len() - 1] + dt_s);
         }
-        first.push(self.steps.len());
-        // Prefix sums of volume and time over periods.
-        let n = volume.len();
-        let (mut volume_sum, mut dt_sum) = (vec![0.0; n + 1], vec![0.0; n + 1]);
-        for p in 0..n {
-            volume_sum[p + 1] = volume_sum[p] + volume[p];
-            dt_sum[p + 1] = dt_sum[p] + dt_s[p];
-        }
+        first.push(self.steps.len() as u32);
         let advance: Vec<f64> = (0..n).map(|p| s_at[p + 1] - s_at[p]).collect();
         let windows = sub_cell_windows(&advance, &cutting, |p| cutting[p - 1], g, window_mm);
         for (p, &(a, b)) in windows.iter().enumerate() {
+            let (i, j) = (first[p] as usize, first[p + 1] as usize);
+            let (_, volume_mm3, dt_s) = own(i, j);
             let own = Period {
-                first_step: first[p],
-                last_step: first[p + 1] - 1,
+                first_step: i,
+                last_step: j - 1,
                 s_from_mm: s_at[p],
                 s_to_mm: s_at[p + 1],
-                volume_mm3: volume[p],
-                dt_s: dt_s[p],
+                volume_mm3,
+                dt_s,
                 cutting: cutting[p],
                 window: (p, p),
             };
@@ -2506,6 +2517,117 @@ mod tests {
             [0.0, 0.0]
         );
         assert_eq!(loop_direction(0.0, 1.5e-3, [0.0, 0.0]), [0.0, 1.0]);
+    }
+
+    /// [`Run::for_each_period`] as it was before its own removal and time
+    /// were summed again from the steps (held in columns, `first` as usize).
+    fn periods_of_held_columns(run: &Run, mut f: impl FnMut(Period)) {
+        let g = run.stock.grid().spacing_mm;
+        let window_mm = SUB_CELL_WINDOW_CELLS * g;
+        // Own values per period p: steps first[p]..first[p + 1], path
+        // s_at[p]..s_at[p + 1].
+        let mut first: Vec<usize> = Vec::new();
+        let mut s_at: Vec<f64> = vec![0.0];
+        let (mut volume, mut dt_s, mut cutting) = (Vec::new(), Vec::new(), Vec::new());
+        for std::ops::Range { start: i, end: j } in crate::motion::periods(&run.steps) {
+            let cuts = !run.steps[i..j].iter().all(|s| s.step.rapid);
+            // A period that is part feed, part rapid counts its feed parts'
+            // removal: what a rapid removes is a collision (rapid_cut warning).
+            let (volume_mm3, period_dt_s) = (i..j).fold((0.0, 0.0), |(v, t), k| {
+                let counted = !cuts || !run.steps[k].step.rapid;
+                let dv = if counted {
+                    run.record.volume_mm3(k)
+                } else {
+                    0.0
+                };
+                (v + dv, t + run.steps[k].dt_s)
+            });
+            first.push(i);
+            s_at.push(run.steps[j - 1].s_end_mm);
+            volume.push(volume_mm3);
+            dt_s.push(period_dt_s);
+            cutting.push(cuts);
+        }
+        first.push(run.steps.len());
+        // Prefix sums of volume and time over periods.
+        let n = volume.len();
+        let (mut volume_sum, mut dt_sum) = (vec![0.0; n + 1], vec![0.0; n + 1]);
+        for p in 0..n {
+            volume_sum[p + 1] = volume_sum[p] + volume[p];
+            dt_sum[p + 1] = dt_sum[p] + dt_s[p];
+        }
+        let advance: Vec<f64> = (0..n).map(|p| s_at[p + 1] - s_at[p]).collect();
+        let windows = sub_cell_windows(&advance, &cutting, |p| cutting[p - 1], g, window_mm);
+        for (p, &(a, b)) in windows.iter().enumerate() {
+            let own = Period {
+                first_step: first[p],
+                last_step: first[p + 1] - 1,
+                s_from_mm: s_at[p],
+                s_to_mm: s_at[p + 1],
+                volume_mm3: volume[p],
+                dt_s: dt_s[p],
+                cutting: cutting[p],
+                window: (p, p),
+            };
+            f(if !cutting[p] || advance[p] >= g {
+                own
+            } else {
+                Period {
+                    s_from_mm: s_at[a],
+                    s_to_mm: s_at[b + 1],
+                    volume_mm3: volume_sum[b + 1] - volume_sum[a],
+                    dt_s: dt_sum[b + 1] - dt_sum[a],
+                    window: (a, b),
+                    ..own
+                }
+            });
+        }
+    }
+
+    /// The periods made from their prefix sums, each one's own removal and
+    /// time summed again from its steps (`Run::for_each_period`), are those
+    /// of the columns held before, bit for bit: a G-code cut at a feed whose
+    /// periods advance less than a grid cell (windowed) and more, with
+    /// rapids between that split their periods.
+    #[test]
+    fn periods_summed_again_are_those_of_the_held_columns() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("p.nc"),
+            "G0 X-8 Y0 Z5\nG1 Z-1 F300\nG1 X5 F40\nG1 X12 F900\nG0 Z5\nG0 X20\nG1 Z-0.5 F200\nG1 X30 Y3 F60\nG0 Z5\nM2\n",
+        )
+        .unwrap();
+        let job = "[stock]\nkind = \"box\"\nmin = [0, -10, -3]\nmax = [40, 10, 0]\ngrid = 0.1\n\
+             [tool]\nkind = \"ball\"\ndiameter = 6\n[program]\npath = \"p.nc\"\n[machine]\nfeed_max = 3000\n";
+        std::fs::write(dir.path().join("job.toml"), job).unwrap();
+        let setup = crate::commands::Setup::load(&dir.path().join("job.toml"), None).unwrap();
+        let steps = setup.machine_steps().unwrap();
+        assert!(steps.iter().any(|s| s.continues), "no split period");
+        let run = run_on(
+            StockSource::Whole(setup.stock.clone()),
+            &setup.tools,
+            steps,
+            "p",
+        )
+        .unwrap();
+        let (mut now, mut held) = (Vec::new(), Vec::new());
+        run.for_each_period(|p| now.push(p));
+        periods_of_held_columns(&run, |p| held.push(p));
+        assert_eq!(now.len(), held.len());
+        assert!(
+            now.iter().any(|p| p.window.0 < p.window.1),
+            "no windowed period"
+        );
+        assert!(now
+            .iter()
+            .any(|p| p.volume_mm3 > 0.0 && p.window.0 == p.window.1));
+        for (a, b) in now.iter().zip(&held) {
+            assert_eq!(format!("{a:?}"), format!("{b:?}"));
+            assert_eq!(
+                [a.s_from_mm, a.s_to_mm, a.volume_mm3, a.dt_s].map(f64::to_bits),
+                [b.s_from_mm, b.s_to_mm, b.volume_mm3, b.dt_s].map(f64::to_bits)
+            );
+        }
     }
 
     #[test]
