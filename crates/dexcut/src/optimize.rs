@@ -127,6 +127,8 @@ pub fn engagement_on(
         &options,
         "engagement",
     )?;
+    // The swept stock only where S3 takes its angles from its surface.
+    let swept = swept.filter(|_| matches!(surface, SurfaceFrom::Stock));
     let volumes: Vec<f64> = (0..record.len()).map(|k| record.volume_mm3(k)).collect();
     let spacing_mm = stock.grid().spacing_mm;
     let window_mm = (ENGAGEMENT_WINDOW_CELLS * spacing_mm).max(2.0 * STATION_DS_MM);
@@ -136,6 +138,8 @@ pub fn engagement_on(
     let reference_loads = reference_loads(&record, &area_mm2, stations.s_mm(), |k| {
         &tools.entries[usize::from(tool_index[k])].model
     });
+    // The record is not needed again (about 70 B an interval, issue 16).
+    drop(record);
     let surface_angle_deg = surface_angles_deg(
         stations,
         swept.as_ref(),

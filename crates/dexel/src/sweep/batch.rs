@@ -252,8 +252,11 @@ impl<'a, S: StepSource + ?Sized> Sweep<'a, S> {
                     ring: radius - corner_radius_mm,
                 }),
             }
-            if let Some(stream) = stream {
+            if let Some(mut stream) = stream {
                 let evaluated = part.record.columns_evaluated;
+                // The band volumes grew by doubling; what they hold is kept
+                // (a large block is shrunk where it lies, not copied).
+                stream.out.bands.shrink_to_fit();
                 part.record = stream.out;
                 part.record.columns_evaluated = evaluated;
                 part.spill = Vec::new();
