@@ -2338,6 +2338,22 @@ mod tests {
             period_ms: 1.0,
             ..machine
         };
+        // The line's start planned as a section from rest to the cut, the
+        // section's own speeds kept: its duration and filter width.
+        let lead_in = |profile: &mut Profile| {
+            let before = profile.speed_mm_s[first..=last].to_vec();
+            let base = base_window_s(&st);
+            let lead_s = planner
+                .plan_section(
+                    (0, first),
+                    (1.0, base),
+                    (0.0, ends.0),
+                    &mut profile.speed_mm_s,
+                )
+                .unwrap();
+            profile.speed_mm_s[first..=last].copy_from_slice(&before);
+            (lead_s, base)
+        };
         let mut shaped = 0;
         for share in DIRECT_SHARES {
             let mut profile = Profile::empty(&st);
@@ -2351,18 +2367,7 @@ mod tests {
                 continue;
             };
             shaped += 1;
-            // After the line's start planned as a section from rest to the cut.
-            let before = profile.speed_mm_s[first..=last].to_vec();
-            let base = base_window_s(&st);
-            let lead_s = planner
-                .plan_section(
-                    (0, first),
-                    (1.0, base),
-                    (0.0, ends.0),
-                    &mut profile.speed_mm_s,
-                )
-                .unwrap();
-            profile.speed_mm_s[first..=last].copy_from_slice(&before);
+            let (lead_s, base) = lead_in(&mut profile);
             profile.push_run(0, first, 0.0, base, 0.0);
             let start_s = lead_s + (base - window_s) / 2.0;
             let end_s = profile.push_run(first, last, start_s, window_s, 0.0);
@@ -2397,17 +2402,7 @@ mod tests {
                 })
                 .expect("a shape at every share");
             assert!(gaps.len() >= 2, "{}", gaps.len());
-            let base = base_window_s(&st);
-            let before = profile.speed_mm_s[first..=last].to_vec();
-            let lead_s = planner
-                .plan_section(
-                    (0, first),
-                    (1.0, base),
-                    (0.0, ends.0),
-                    &mut profile.speed_mm_s,
-                )
-                .unwrap();
-            profile.speed_mm_s[first..=last].copy_from_slice(&before);
+            let (lead_s, base) = lead_in(&mut profile);
             profile.push_run(0, first, start_s, base, 0.0);
             let end_s = profile.push_exact_run(first, last, lead_s + base / 2.0, (0.0, 0.0), &gaps);
             assert!((end_s - (lead_s + base / 2.0) - time_s).abs() <= 1e-9);
