@@ -555,7 +555,7 @@ mod tests {
         assert!((top - peak).abs() <= 1e-3 * peak, "{top} vs {peak}");
         let closed_s = 2.0 * ((peak - 20.0) / j).sqrt() + 2.0 * ((peak - 15.0) / j).sqrt();
         let stations_s: f64 = (0..n - 1)
-            .map(|k| 2.0 * (s[k + 1] - s[k]) / (v[k] + v[k + 1]))
+            .map(|k| crate::plan::interval_time_s(&s, &v, k))
             .sum();
         assert!(
             (stations_s - closed_s).abs() <= 1e-3 * closed_s,

@@ -305,6 +305,12 @@ enum Shape {
     Exact,
 }
 
+/// Time over the interval from station `k` to `k + 1` of a plan `v` over stations `s`
+/// with a constant acceleration in it, s: 2·Δs/(v_k + v_{k+1}).
+pub(crate) fn interval_time_s(s: &[f64], v: &[f64], k: usize) -> f64 {
+    2.0 * (s[k + 1] - s[k]) / (v[k] + v[k + 1])
+}
+
 /// Time of a plan `v` over stations `s` that follows `gaps` (counted from `s[0]`) exactly
 /// and has constant accelerations elsewhere, s (MODEL.md §6.1, "Exact direct sections").
 fn exact_time_s(s: &[f64], v: &[f64], gaps: &[direct::Gap]) -> f64 {
@@ -318,7 +324,7 @@ fn exact_time_s(s: &[f64], v: &[f64], gaps: &[direct::Gap]) -> f64 {
         if next.peek().is_some_and(|g| g.i <= k) {
             continue;
         }
-        outside += 2.0 * (s[k + 1] - s[k]) / (v[k] + v[k + 1]);
+        outside += interval_time_s(s, v, k);
     }
     inside + outside
 }
@@ -721,9 +727,7 @@ impl<'a> RunPlanner<'a> {
         if window_s > 0.0 {
             self.cut_peaks(first, last, window_s, slow, v);
         }
-        (first..last)
-            .map(|k| 2.0 * (s[k + 1] - s[k]) / (v[k] + v[k + 1]))
-            .sum()
+        (first..last).map(|k| interval_time_s(s, v, k)).sum()
     }
 
     /// Plans the section `first..=last` of a run into `v` (MODEL.md §6.1, "Sections"): as
@@ -758,11 +762,7 @@ impl<'a> RunPlanner<'a> {
         if ends.1 > 0.0 && !held_at(v, s, (first..last).rev(), last, ends.1, window_s) {
             return None;
         }
-        Some(
-            (first..last)
-                .map(|k| 2.0 * (s[k + 1] - s[k]) / (v[k] + v[k + 1]))
-                .sum(),
-        )
+        Some((first..last).map(|k| interval_time_s(s, v, k)).sum())
     }
 
     /// Plans the section `first..=last` into `v` shaped directly, as the plan of a filter
@@ -840,7 +840,7 @@ impl<'a> RunPlanner<'a> {
         }
         // The planned time and the longest time over one interval, in one pass.
         Some((0..n).fold((0.0, 0.0), |(sum, longest): (f64, f64), k| {
-            let dt = 2.0 * (s[k + 1] - s[k]) / (v[k] + v[k + 1]);
+            let dt = interval_time_s(s, v, k);
             (sum + dt, longest.max(dt))
         }))
     }
@@ -1357,8 +1357,8 @@ impl<'a> Profile<'a> {
         let mut integral_mm_s = 0.0;
         let gaps_from = self.gaps.len();
         let mut next_gap = gaps.iter().peekable();
+        let mut gap_upper_s = 0.0;
         for k in first..last {
-            let ds = s[k + 1] - s[k];
             while next_gap.peek().is_some_and(|g| first + g.k <= k) {
                 next_gap.next();
             }
@@ -1373,9 +1373,16 @@ impl<'a> Profile<'a> {
                             motion: **g,
                         });
                     }
-                    g.time_at_s(s[k + 1] - from_mm) - g.time_at_s(s[k] - from_mm)
+                    // The interval before's upper time is this one's lower (one Newton solve each).
+                    let lower_s = if k == i {
+                        g.time_at_s(s[k] - from_mm)
+                    } else {
+                        gap_upper_s
+                    };
+                    gap_upper_s = g.time_at_s(s[k + 1] - from_mm);
+                    gap_upper_s - lower_s
                 }
-                _ => 2.0 * ds / (v[k] + v[k + 1]),
+                _ => interval_time_s(s, v, k),
             };
             self.interval_start_s.push(t_s);
             self.interval_dt_s.push(dt);
