@@ -308,13 +308,13 @@ impl LineSegments {
         self.get(index).expect("a line that made segments")
     }
 
-    /// Every line that made segments, ascending, with its segments.
     /// Line `index` runs as more than one segment, so it may get a table of
     /// runs ([`run_tables`]); only such lines have their runs kept.
     fn tabled(&self, index: usize) -> bool {
         self.get(index).is_some_and(|segs| segs.len() >= 2)
     }
 
+    /// Every line that made segments, ascending, with its segments.
     fn iter(&self) -> impl Iterator<Item = (usize, &[usize])> + '_ {
         (0..self.start.len().saturating_sub(1)).filter_map(|index| Some((index, self.get(index)?)))
     }
