@@ -1933,13 +1933,13 @@ impl Run {
         dt_sum.push(0.0);
         for std::ops::Range { start: i, end: j } in crate::motion::periods(&self.steps) {
             let (cuts, volume_mm3, dt_s) = own(i, j);
-            first.push(i as u32);
+            first.push(u32::try_from(i).expect("fewer than 2³² steps"));
             s_at.push(self.steps[j - 1].s_end_mm);
             cutting.push(cuts);
             volume_sum.push(volume_sum[volume_sum.len() - 1] + volume_mm3);
             dt_sum.push(dt_sum[dt_sum.len() - 1] + dt_s);
         }
-        first.push(self.steps.len() as u32);
+        first.push(u32::try_from(self.steps.len()).expect("fewer than 2³² steps"));
         let advance: Vec<f64> = (0..n).map(|p| s_at[p + 1] - s_at[p]).collect();
         let windows = sub_cell_windows(&advance, &cutting, |p| cutting[p - 1], g, window_mm);
         for (p, &(a, b)) in windows.iter().enumerate() {

@@ -1311,9 +1311,9 @@ impl Interp<'_> {
             ) || [GCode::G4, GCode::G10, GCode::G64]
                 .into_iter()
                 .any(|g| g_col(g).is_some())
-                || [19, 50, 51, 52, 53, 62, 63, 64, 65, 66, 98]
-                    .into_iter()
-                    .any(|m| b.has_m(m));
+                || b.m
+                    .iter()
+                    .any(|m| matches!(m.0, 19 | 50..=53 | 62..=66 | 98));
             if !used {
                 return fail(
                     b.col('p'),
