@@ -2470,6 +2470,41 @@ pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
 mod tests {
     use super::*;
 
+    /// A closed bracket whose lower bound the sweep measured is held there
+    /// (eq. 5.1c): the trials stay at the lower bound sweep after sweep, and
+    /// the bracket counts as closed though its upper bound grows old. Trying
+    /// the bound measured longer ago (the rule before eq. 5.1c) would go to
+    /// the upper bound at the first sweep.
+    #[test]
+    fn a_closed_bracket_measured_at_its_lower_bound_is_held_there() {
+        let (lo, hi, from_um, x_um) = (0.5, 0.5 + 1e-7, 10.0, 5.0);
+        let mut f = Fraction {
+            phi: lo,
+            lo,
+            hi,
+            w_lo: 3.0,
+            w_hi: -3.0,
+            lo_pass: 4,
+            hi_pass: 5,
+            replaced: 1,
+            width_mark: 1e-7,
+            since_halved: 0,
+        };
+        // A residual well out of tolerance, of the lower bound's sign.
+        let r_um = 3.0;
+        assert!(r_um > LOOP_TOL_UM + LOOP_REL_TOL * x_um);
+        for pass in 6..12 {
+            f.observe(r_um, from_um, pass);
+            assert_eq!(f.next(r_um, x_um, from_um, pass), lo, "sweep {pass}");
+            assert!(f.closed(from_um, pass), "sweep {pass}");
+        }
+        // An open bracket is not held: its next trial lies inside it.
+        let mut wide = Fraction { hi: 0.9, ..f };
+        wide.observe(r_um, from_um, 12);
+        let next = wide.next(r_um, x_um, from_um, 12);
+        assert!(next > lo && next < 0.9, "{next}");
+    }
+
     /// The offset cap of the brackets' tests, µm: far beyond their roots.
     const CAP_UM: f64 = 5000.0;
 
