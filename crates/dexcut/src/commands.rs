@@ -1187,7 +1187,7 @@ pub fn optimize_setup(
     let staged = out_dir.path();
     let before_steps = before.steps.len();
     let before_format = steps_format.resolve(before_steps);
-    let mut before = if steps_format != StepsFormat::Auto || before_format == StepsFormat::Npy {
+    let before = if steps_format != StepsFormat::Auto || before_format == StepsFormat::Npy {
         before.write_steps(staged, "steps_before", before_format)?;
         // Dropped here: a binding only shadowed would hold the run (its
         // steps, loads, record and stock) to the end of the rounds.
@@ -1211,7 +1211,7 @@ pub fn optimize_setup(
     // ([`optimize::FreeStations::Given`]): not held beside the written
     // program's run, nor while its outputs are written (issue 16).
     let path = std::mem::take(&mut setup.program.path);
-    let (rounds, mut free) = match optimize::free_stations_of(path, &machine) {
+    let (rounds, free) = match optimize::free_stations_of(path, &machine) {
         Err((e, path)) => (Err(e), optimize::FreeStations::Released(path)),
         Ok(stations) => {
             let mut free = optimize::FreeStations::Made(Box::new(stations));
@@ -1219,171 +1219,26 @@ pub fn optimize_setup(
             (rounds, free)
         }
     };
-    let free_stations = &mut free;
-    let optimized = (|| {
-        let setup = &*setup;
-        let limits = &setup.job.limits;
-        let (n_stations, time_engagement_s, written, t2) = rounds?;
-        let fz_max_mm = setup.job.fz_max_mm();
-        let time_plan_s = t2.elapsed().as_secs_f64();
-        let mut after_run = match written.run {
-            Some(run) => run,
-            // The program kept as given: its steps (Setup::machine_steps) of its
-            // path held by the free stations.
-            None => {
-                let steps = free_stations.with_path(setup, |path| {
-                    let samples = motion::machine_motion(path, &setup.machine)?;
-                    Ok::<_, crate::error::Error>(motion::steps_from_samples(path, &samples))
-                })??;
-                simulate::run_on(setup.stock_source(), &setup.tools, steps, "as given")?
-            }
-        };
-        if let Some(tiling) = &setup.tiling {
-            // The `.npy` grid written band by band, which sets the volumes.
-            simulate::write_tiled_columns(&mut after_run, tiling, &setup.tools, Some(staged))?;
-        }
-        let after = &after_run;
-        let mut after_summary = after.summary();
-        before_summary.check_finite()?;
-        after_summary.check_finite()?;
-        if written.excesses_left > 0 {
-            after_summary.warnings.push(crate::warnings::Warning {
-            kind: crate::warnings::WarningKind::LimitExceeded,
-            line: None,
-            value: written.excesses_left as f64,
-            unit: "periods".into(),
-            steps: written.excesses_left,
-            lines: Vec::new(),
-            message: format!(
-                "{} servo periods of optimized.nc are still more than 2 % above a limit after {} rounds (held up by feed_min, or the grid too coarse to measure the removal per period)",
-                written.excesses_left, written.rounds
-            ),
+    let as_given = AsGiven {
+        summary: before_summary,
+        run: before,
+        steps: before_steps,
+        chip_load,
+        chip_warnings,
+        stress_limit_mpa,
+        time_simulate_s,
+    };
+    let asked = OutputsAsked {
+        started,
+        columns_csv,
+        steps_format,
+    };
+    let optimized = rounds
+        .and_then(|rounds| optimize_outputs(setup, &out_dir, &machine, as_given, rounds, asked))
+        .and_then(|optimized| {
+            out_dir.commit("optimize")?;
+            Ok(optimized)
         });
-        }
-        after_summary
-            .warnings
-            .0
-            .splice(0..0, setup.warnings.iter().cloned().chain(chip_warnings));
-        optimize::stress_left(after, limits, written.rounds, &mut after_summary.warnings);
-        let mut unresolved = crate::warnings::LineTally::new();
-        for e in &written.unresolved {
-            crate::warnings::tally(&mut unresolved, e.line, 100.0 * e.over_limit);
-        }
-        after_summary.warnings.from_lines(
-        crate::warnings::WarningKind::CoarseGrid,
-        &unresolved,
-        "%",
-        false,
-        |v, lines| format!("servo periods up to {v:.0} % above a limit at {lines} after {rounds} rounds of slowing them, where the tool advances less than one grid column per period: part of the removal there comes in whole columns (where the tool enters the stock or turns), which a slower feed does not lower in proportion; use a finer grid to hold the limit per period", rounds = written.rounds),
-    );
-        let written_vs_plan = after_summary.cycle_time_s / written.plan_time_s - 1.0;
-        if written_vs_plan > optimize::PLAN_TOLERANCE && !written.kept_original {
-            after_summary.warnings.push(crate::warnings::Warning {
-            kind: crate::warnings::WarningKind::PlanNotMet,
-            line: None,
-            value: 100.0 * written_vs_plan,
-            unit: "%".into(),
-            steps: 0,
-            lines: Vec::new(),
-            message: format!(
-                "optimized.nc takes {:.1} % longer than the plan it was written from: a line that makes several moves per run (a drilling cycle run more than once) or a line the table of runs could not take (the program uses parameters 1000–4999, or a subroutine's calls need more records than fit) takes one feed, the lowest its moves need",
-                100.0 * written_vs_plan
-            ),
-        });
-        }
-        // One format for both (Auto: by the longer), so the folder reads alike.
-        let steps_format = steps_format.resolve(after.steps.len().max(before_steps));
-        let design = match setup.tiling {
-            None => write_run(setup, after, staged, steps_format, columns_csv)?,
-            Some(_) => {
-                after.write_steps(staged, "steps", steps_format)?;
-                None
-            }
-        };
-        if let Some(before) = before.take() {
-            before.write_steps(staged, "steps_before", steps_format)?;
-        }
-        // Files for the machine are in its own Z, as optimized.nc is.
-        let z_sign = if setup.program.z_down { -1.0 } else { 1.0 };
-        write_servo_csv(
-            &staged.join("servo.csv"),
-            written.samples.rows(&after.steps),
-            &after.steps,
-            z_sign,
-        )?;
-        let precomp = if setup.job.servo_given {
-            Some(crate::evaluate::write_compensated_servo(
-                &setup.job,
-                written
-                    .samples
-                    .rows(&after.steps)
-                    .map(|r| r.pos.coords.into())
-                    .collect(),
-                setup.machine.period_ms,
-                z_sign,
-                &staged.join("servo_compensated.csv"),
-            )?)
-        } else {
-            None
-        };
-        let lower_bound_time_s = written.lower_bound_time_s;
-        let doc = OptimizeSummary {
-            job: setup.job.name.clone(),
-            program: setup.program.file.clone(),
-            grid: GridInfo::of(after.stock.grid()),
-            peak_mrr_ratio: limits.mrr_max.map(|q| after_summary.peak_mrr_mm3_s / q),
-            optimality_gap: (after_summary.cycle_time_s - lower_bound_time_s) / lower_bound_time_s,
-            plan_time_s: written.plan_time_s,
-            time_optimal_s: written.time_optimal_s,
-            written_vs_plan,
-            rounds: written.rounds,
-            merge_ratio: written.merge_ratio,
-            kept_original: written.kept_original,
-            fz_max_mm,
-            before: before_summary,
-            after: after_summary,
-            limits: LimitsOut {
-                mrr_max_mm3_s: limits.mrr_max,
-                force_max_n: limits.force_max,
-                deflection_max_um: limits.deflection_max_um,
-                power_max_kw: limits.power_max_kw,
-                feed_min_mm_min: limits.feed_min,
-                feed_max_mm_min: machine.feed_max_mm_min,
-                chip_load_feed_mm_min: fz_max_mm.map(|fz| {
-                    cutting::chipload::chip_load_feed_mm_min(
-                        fz,
-                        setup.model.flutes,
-                        setup.model.spindle_rpm,
-                    )
-                }),
-                feed_scale_max: limits.feed_scale_max,
-                chip_load,
-                stress_limit_mpa,
-            },
-            cap_time_share: written.cap_shares,
-            lower_bound_time_s,
-            stations: n_stations,
-            station_spacing_mm: motion::STATION_DS_MM,
-            design,
-            setup: Some(setup.info()),
-            run_time_s: started.elapsed().as_secs_f64(),
-            time_engagement_s,
-            time_plan_s,
-            time_simulate_s,
-            run_id: out_dir.run_id(),
-        };
-        crate::summary::write_optimize(&staged.join("summary.json"), &doc)?;
-        Ok(Optimized {
-            summary: doc,
-            precomp,
-            steps_format,
-            banded: setup.tiling.as_ref().map(Banded::of),
-        })
-    })()
-    .and_then(|optimized| {
-        out_dir.commit("optimize")?;
-        Ok(optimized)
-    });
     // Back in the setup (read again from its text where it was given).
     setup.program.path = match (free.into_path(setup), &optimized) {
         (Ok(path), _) => path,
@@ -1391,6 +1246,203 @@ pub fn optimize_setup(
         (Err(_), Err(_)) => nc::Path::default(),
     };
     optimized
+}
+
+/// What [`optimize_setup`] keeps of the program as given for the outputs.
+struct AsGiven {
+    summary: Summary,
+    /// Its run, where steps_before is written with the written program's
+    /// (its format chosen by the longer of the two); its stock let go.
+    run: Option<simulate::Run>,
+    /// Its number of steps.
+    steps: usize,
+    chip_load: Vec<optimize::ToolChipLoad>,
+    chip_warnings: Vec<crate::warnings::Warning>,
+    stress_limit_mpa: Option<f64>,
+    time_simulate_s: f64,
+}
+
+/// What the user asked of [`optimize_setup`]'s outputs, and when it began.
+struct OutputsAsked {
+    started: Instant,
+    columns_csv: bool,
+    steps_format: StepsFormat,
+}
+
+/// [`optimize_setup`]'s outputs after its rounds, into `out_dir`'s staging
+/// folder (committed by the caller): the written program's run (the program
+/// as given where it is kept) summed and written (steps, the column grid,
+/// servo.csv, servo_compensated.csv), with the program as given, and
+/// summary.json.
+fn optimize_outputs(
+    setup: &Setup,
+    out_dir: &OutDir,
+    machine: &schedule::Machine,
+    as_given: AsGiven,
+    rounds: (usize, f64, optimize::Written, Instant),
+    asked: OutputsAsked,
+) -> Result<Optimized> {
+    let limits = &setup.job.limits;
+    let staged = out_dir.path();
+    let (n_stations, time_engagement_s, written, t2) = rounds;
+    let AsGiven {
+        summary: before_summary,
+        run: before,
+        steps: before_steps,
+        chip_load,
+        chip_warnings,
+        stress_limit_mpa,
+        time_simulate_s,
+    } = as_given;
+    let OutputsAsked {
+        started,
+        columns_csv,
+        steps_format,
+    } = asked;
+    let fz_max_mm = setup.job.fz_max_mm();
+    let time_plan_s = t2.elapsed().as_secs_f64();
+    let mut after_run = written.run;
+    if let Some(tiling) = &setup.tiling {
+        // The `.npy` grid written band by band, which sets the volumes.
+        simulate::write_tiled_columns(&mut after_run, tiling, &setup.tools, Some(staged))?;
+    }
+    let after = &after_run;
+    let mut after_summary = after.summary();
+    before_summary.check_finite()?;
+    after_summary.check_finite()?;
+    if written.excesses_left > 0 {
+        after_summary.warnings.push(crate::warnings::Warning {
+        kind: crate::warnings::WarningKind::LimitExceeded,
+        line: None,
+        value: written.excesses_left as f64,
+        unit: "periods".into(),
+        steps: written.excesses_left,
+        lines: Vec::new(),
+        message: format!(
+            "{} servo periods of optimized.nc are still more than 2 % above a limit after {} rounds (held up by feed_min, or the grid too coarse to measure the removal per period)",
+            written.excesses_left, written.rounds
+        ),
+    });
+    }
+    after_summary
+        .warnings
+        .0
+        .splice(0..0, setup.warnings.iter().cloned().chain(chip_warnings));
+    optimize::stress_left(after, limits, written.rounds, &mut after_summary.warnings);
+    let mut unresolved = crate::warnings::LineTally::new();
+    for e in &written.unresolved {
+        crate::warnings::tally(&mut unresolved, e.line, 100.0 * e.over_limit);
+    }
+    after_summary.warnings.from_lines(
+    crate::warnings::WarningKind::CoarseGrid,
+    &unresolved,
+    "%",
+    false,
+    |v, lines| format!("servo periods up to {v:.0} % above a limit at {lines} after {rounds} rounds of slowing them, where the tool advances less than one grid column per period: part of the removal there comes in whole columns (where the tool enters the stock or turns), which a slower feed does not lower in proportion; use a finer grid to hold the limit per period", rounds = written.rounds),
+);
+    let written_vs_plan = after_summary.cycle_time_s / written.plan_time_s - 1.0;
+    if written_vs_plan > optimize::PLAN_TOLERANCE && !written.kept_original {
+        after_summary.warnings.push(crate::warnings::Warning {
+        kind: crate::warnings::WarningKind::PlanNotMet,
+        line: None,
+        value: 100.0 * written_vs_plan,
+        unit: "%".into(),
+        steps: 0,
+        lines: Vec::new(),
+        message: format!(
+            "optimized.nc takes {:.1} % longer than the plan it was written from: a line that makes several moves per run (a drilling cycle run more than once) or a line the table of runs could not take (the program uses parameters 1000–4999, or a subroutine's calls need more records than fit) takes one feed, the lowest its moves need",
+            100.0 * written_vs_plan
+        ),
+    });
+    }
+    // One format for both (Auto: by the longer), so the folder reads alike.
+    let steps_format = steps_format.resolve(after.steps.len().max(before_steps));
+    let design = match setup.tiling {
+        None => write_run(setup, after, staged, steps_format, columns_csv)?,
+        Some(_) => {
+            after.write_steps(staged, "steps", steps_format)?;
+            None
+        }
+    };
+    if let Some(before) = before {
+        before.write_steps(staged, "steps_before", steps_format)?;
+    }
+    // Files for the machine are in its own Z, as optimized.nc is.
+    let z_sign = if setup.program.z_down { -1.0 } else { 1.0 };
+    write_servo_csv(
+        &staged.join("servo.csv"),
+        written.samples.rows(&after.steps),
+        &after.steps,
+        z_sign,
+    )?;
+    let precomp = if setup.job.servo_given {
+        Some(crate::evaluate::write_compensated_servo(
+            &setup.job,
+            written
+                .samples
+                .rows(&after.steps)
+                .map(|r| r.pos.coords.into())
+                .collect(),
+            setup.machine.period_ms,
+            z_sign,
+            &staged.join("servo_compensated.csv"),
+        )?)
+    } else {
+        None
+    };
+    let lower_bound_time_s = written.lower_bound_time_s;
+    let doc = OptimizeSummary {
+        job: setup.job.name.clone(),
+        program: setup.program.file.clone(),
+        grid: GridInfo::of(after.stock.grid()),
+        peak_mrr_ratio: limits.mrr_max.map(|q| after_summary.peak_mrr_mm3_s / q),
+        optimality_gap: (after_summary.cycle_time_s - lower_bound_time_s) / lower_bound_time_s,
+        plan_time_s: written.plan_time_s,
+        time_optimal_s: written.time_optimal_s,
+        written_vs_plan,
+        rounds: written.rounds,
+        merge_ratio: written.merge_ratio,
+        kept_original: written.kept_original,
+        fz_max_mm,
+        before: before_summary,
+        after: after_summary,
+        limits: LimitsOut {
+            mrr_max_mm3_s: limits.mrr_max,
+            force_max_n: limits.force_max,
+            deflection_max_um: limits.deflection_max_um,
+            power_max_kw: limits.power_max_kw,
+            feed_min_mm_min: limits.feed_min,
+            feed_max_mm_min: machine.feed_max_mm_min,
+            chip_load_feed_mm_min: fz_max_mm.map(|fz| {
+                cutting::chipload::chip_load_feed_mm_min(
+                    fz,
+                    setup.model.flutes,
+                    setup.model.spindle_rpm,
+                )
+            }),
+            feed_scale_max: limits.feed_scale_max,
+            chip_load,
+            stress_limit_mpa,
+        },
+        cap_time_share: written.cap_shares,
+        lower_bound_time_s,
+        stations: n_stations,
+        station_spacing_mm: motion::STATION_DS_MM,
+        design,
+        setup: Some(setup.info()),
+        run_time_s: started.elapsed().as_secs_f64(),
+        time_engagement_s,
+        time_plan_s,
+        time_simulate_s,
+        run_id: out_dir.run_id(),
+    };
+    crate::summary::write_optimize(&staged.join("summary.json"), &doc)?;
+    Ok(Optimized {
+        summary: doc,
+        precomp,
+        steps_format,
+        banded: setup.tiling.as_ref().map(Banded::of),
+    })
 }
 
 /// [`optimize_setup`]'s engagement along the free `stations` (begun at

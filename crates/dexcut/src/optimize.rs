@@ -757,10 +757,13 @@ pub const MAX_ROUNDS: usize = 12;
 
 /// The program optimize writes, re-simulated as a program of its own.
 pub struct Written {
-    /// The written program simulated; None when the original is kept.
-    pub run: Option<Run>,
-    /// Its servo samples (servo.csv).
-    pub samples: WrittenSamples,
+    /// The written program simulated (the program as given where it is
+    /// kept).
+    pub run: Run,
+    /// What its servo samples (servo.csv's rows) hold beside the run's steps
+    /// ([`crate::motion::SampleFeeds::rows`]: 8 B a sample held beside the
+    /// run instead of 72, issue 16).
+    pub samples: crate::motion::SampleFeeds,
     /// Cycle time of the plan as written (each block at its feed, the
     /// machine's acceleration), s.
     pub plan_time_s: f64,
@@ -782,31 +785,6 @@ pub struct Written {
     /// Periods above a limit by more than its tolerance after the last round,
     /// where the tool advanced less than a grid cell (see [`Excess::resolved`]).
     pub unresolved: Vec<Excess>,
-}
-
-/// The servo samples of [`Written`] (servo.csv's rows).
-pub enum WrittenSamples {
-    /// The written program's, made again from its run's steps where they
-    /// are written ([`crate::motion::SampleFeeds`]: 8 B a sample held
-    /// beside the run instead of 72, issue 16).
-    OfRun(crate::motion::SampleFeeds),
-    /// The program as given, kept: its samples, each on its block (its run
-    /// is simulated again by the caller).
-    Held(Vec<crate::motion::SampleRow>),
-}
-
-impl WrittenSamples {
-    /// The rows, given the steps of [`Written::run`] (or, where the
-    /// original is kept, of its run simulated again).
-    pub fn rows<'a>(
-        &'a self,
-        steps: &'a [crate::motion::TimedStep],
-    ) -> Box<dyn Iterator<Item = crate::motion::SampleRow> + 'a> {
-        match self {
-            WrittenSamples::OfRun(feeds) => Box::new(feeds.rows(steps)),
-            WrittenSamples::Held(rows) => Box::new(rows.iter().copied()),
-        }
-    }
 }
 
 /// Whether a run (of the program as written) is within every limit: no
@@ -1038,23 +1016,33 @@ pub fn write_verified(
                 .into_iter()
                 .filter(|e| e.beyond_tolerance)
                 .partition(|e| e.resolved);
-            let samples = if let (true, Some(original)) = (kept_original, gcode) {
-                write_text(original)?;
-                WrittenSamples::Held(free.with_path(setup, |path| {
-                    let samples = crate::motion::machine_motion(path, &setup.machine)?;
-                    Ok::<_, crate::error::Error>(
-                        samples
-                            .iter()
-                            .map(|s| crate::motion::SampleRow::of(s, path))
-                            .collect(),
-                    )
-                })??)
-            } else {
-                WrittenSamples::OfRun(sample_feeds)
+            let (run, sample_feeds) = match (kept_original, gcode) {
+                (true, Some(original)) => {
+                    write_text(original)?;
+                    // The program as given, simulated again (its run was
+                    // not held through the rounds): the written one is let
+                    // go first.
+                    drop((run, sample_feeds));
+                    let (steps, feeds) = free.with_path(setup, |path| {
+                        let samples = crate::motion::machine_motion(path, &setup.machine)?;
+                        Ok::<_, crate::error::Error>((
+                            crate::motion::steps_from_samples(path, &samples),
+                            crate::motion::SampleFeeds::of(&samples, path),
+                        ))
+                    })??;
+                    let run = crate::simulate::run_on(
+                        setup.stock_source(),
+                        &setup.tools,
+                        steps,
+                        "as given",
+                    )?;
+                    (run, feeds)
+                }
+                _ => (run, sample_feeds),
             };
             return Ok(Written {
-                run: (!kept_original).then_some(run),
-                samples,
+                run,
+                samples: sample_feeds,
                 plan_time_s,
                 time_optimal_s,
                 lower_bound_time_s,
