@@ -879,6 +879,20 @@ pub fn simulate(
     announce_setup_warnings(&setup, on_warning);
     let (sim, steps_format) = match &setup.tiling {
         None => {
+            // The run sweeps the job's stock itself, not a copy (one stock
+            // fewer held). A box or a cylinder is let go while the program is
+            // planned and made again of its closed form after, the same
+            // columns bit for bit (`stock::build`): planning and the stock
+            // were the peak of the raster at 0.05 (issue 16).
+            let solid = crate::stock::solid(&setup.job.stock);
+            let held = setup.take_stock()?;
+            let held = match solid {
+                Some(_) => {
+                    drop(held);
+                    None
+                }
+                None => Some(held),
+            };
             // The planner borrows the path instead of a copy (the peak of a long program).
             let steps = setup.steps_lending_path(actual_path)?;
             // The steps carry what the run needs of the program (lines, tools, spindle
@@ -888,8 +902,10 @@ pub fn simulate(
             if let Some(text) = setup.program.gcode.as_mut() {
                 *text = String::new();
             }
-            // The run sweeps the job's stock itself, not a copy (one stock fewer held).
-            let stock = setup.take_stock()?;
+            let stock = match held {
+                Some(stock) => stock,
+                None => crate::stock::build(&setup.job)?,
+            };
             let sim = simulate_steps(&setup, stock, steps)?;
             let written = sim.write_files(out_dir.path(), columns_csv, steps_format)?;
             (sim, written)
