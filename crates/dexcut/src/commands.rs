@@ -1480,13 +1480,17 @@ fn optimize_rounds(
         (Some((_, model)), true) => optimize::SurfaceFrom::Design(model),
         (None, true) => optimize::SurfaceFrom::Stock,
     };
-    let engagement =
-        optimize::engagement_on(stations, &setup.stock_source(), &setup.tools, surface)?;
+    // The caps made as the sweep makes each interval's engagement final
+    // (per station: loads, areas and angles not held, issue 16).
+    let caps = optimize::engagement_caps_on(
+        stations,
+        &setup.stock_source(),
+        &setup.tools,
+        limits,
+        surface,
+    )?;
     let time_engagement_s = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
-    let caps = optimize::interval_caps(&engagement, stations, limits, &setup.tools);
-    // Only the caps are needed from here on (per station: loads, areas, angles).
-    drop(engagement);
     let n_stations = stations.len();
     let written = optimize::write_verified(setup, machine, free, caps, given, staged)?;
     Ok((n_stations, time_engagement_s, written, t2))

@@ -93,6 +93,111 @@ pub fn engagement_on(
     tools: &ToolSet,
     surface: SurfaceFrom,
 ) -> Result<Engagement> {
+    let tool_index = interval_tools(stations, tools)?;
+    let n = tool_index.len();
+    let (mut area_mm2, mut reference_loads) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    let swept = sweep_engagement(
+        stations,
+        stock,
+        tools,
+        &tool_index,
+        surface,
+        &mut |_, a, l| {
+            area_mm2.push(a);
+            reference_loads.push(l);
+        },
+    )?;
+    let surface_angle_deg = surface_angles_deg(
+        stations,
+        swept.as_ref(),
+        stock.grid().spacing_mm,
+        tools,
+        &tool_index,
+        &area_mm2,
+        surface,
+    );
+    Ok(Engagement {
+        area_mm2,
+        reference_loads,
+        tool_index,
+        surface_angle_deg,
+    })
+}
+
+/// The caps [`interval_caps`] gives for [`engagement_on`]'s engagement,
+/// made as the sweep makes each interval's engagement final: neither the
+/// sweep's record nor the reference loads are held (about 74 and 32 B an
+/// interval, issue 16), only the caps, and the windowed areas where S3 takes
+/// its angles (after the sweep, from them). The same caps bit for bit.
+pub fn engagement_caps_on(
+    stations: &Stations,
+    stock: &StockSource,
+    tools: &ToolSet,
+    limits: &LimitsSpec,
+    surface: SurfaceFrom,
+) -> Result<Vec<(f64, CapKind)>> {
+    let tool_index = interval_tools(stations, tools)?;
+    let n = tool_index.len();
+    // S3's angles need every interval's area once the sweep is done.
+    let angles = !matches!(surface, SurfaceFrom::Nothing);
+    let mut caps = Vec::with_capacity(n);
+    let mut area_mm2 = Vec::with_capacity(if angles { n } else { 0 });
+    let swept = sweep_engagement(
+        stations,
+        stock,
+        tools,
+        &tool_index,
+        surface,
+        &mut |k, a, l| {
+            let cap = limit_cap(k, a, &l, tool_index[k], stations, limits, tools);
+            caps.push(if angles {
+                area_mm2.push(a);
+                cap
+            } else {
+                angle_and_floor(cap, k, a, f64::NAN, stations, limits)
+            });
+        },
+    )?;
+    if angles {
+        let theta = surface_angles_deg(
+            stations,
+            swept.as_ref(),
+            stock.grid().spacing_mm,
+            tools,
+            &tool_index,
+            &area_mm2,
+            surface,
+        );
+        for (k, cap) in caps.iter_mut().enumerate() {
+            *cap = angle_and_floor(*cap, k, area_mm2[k], theta[k], stations, limits);
+        }
+    }
+    Ok(caps)
+}
+
+/// Per interval k (station k → k + 1), the index into the tool set of the
+/// tool cutting it (2 B an interval, issue 16).
+fn interval_tools(stations: &Stations, tools: &ToolSet) -> Result<Vec<u16>> {
+    let segs = stations.segments();
+    tools.indices(stations.segment().iter().skip(1).map(|&s| {
+        let seg = &segs[s as usize];
+        (seg.tool, seg.line)
+    }))
+}
+
+/// The engagement sweep along the stations: each interval's windowed area
+/// and reference load given to `each(k, area, load)`, interval after
+/// interval, as the sweep makes its rows final ([`EngagementRows`]; the
+/// record is not held, issue 16). Gives the swept stock where S3 takes its
+/// angles from its surface.
+fn sweep_engagement(
+    stations: &Stations,
+    stock: &StockSource,
+    tools: &ToolSet,
+    tool_index: &[u16],
+    surface: SurfaceFrom,
+    each: &mut dyn FnMut(usize, f64, ReferenceLoad),
+) -> Result<Option<Stock>> {
     if let (StockSource::Tiled(t), SurfaceFrom::Stock) = (stock, surface) {
         fail!(limits, "[limits] angle_rule with a stock too large for the memory budget ({} rows in bands of {}): the surface angles come from the swept stock's surface, which needs every column at once; give a [design] model, use a coarser grid or a larger --memory-budget-mb", t.grid.ny, t.band_rows);
     }
@@ -110,51 +215,54 @@ pub fn engagement_on(
             rapid: matches!(segs[seg_of[k] as usize].motion, Motion::Rapid),
         }
     });
-    let tool_index: Vec<u16> = tools.indices((1..n).map(|k| {
-        let seg = &segs[seg_of[k] as usize];
-        (seg.tool, seg.line)
-    }))?;
     let options = SweepOptions {
         band_height_mm: tools.entries[0].model.band_height_mm,
         ..SweepOptions::default()
     };
-    let (swept, record) = crate::simulate::sweep_pass(
-        &stock.initial(),
-        None,
-        tools,
-        &tool_index,
-        &steps,
-        &options,
-        "engagement",
-    )?;
-    // The swept stock only where S3 takes its angles from its surface.
-    let swept = swept.filter(|_| matches!(surface, SurfaceFrom::Stock));
-    let volumes: Vec<f64> = (0..record.len()).map(|k| record.volume_mm3(k)).collect();
+    let dexel_tools = tools.tools();
+    let sweep = dexel::Sweep::new(&dexel_tools, tool_index, &steps, &options)?;
     let spacing_mm = stock.grid().spacing_mm;
     let window_mm = (ENGAGEMENT_WINDOW_CELLS * spacing_mm).max(2.0 * STATION_DS_MM);
-    let area_mm2 = windowed_area(stations.s_mm(), &volumes, window_mm);
-    drop(volumes);
+    let mut rows = EngagementRows {
+        area: WindowedArea::new(stations.s_mm(), window_mm),
+        loads: ReferenceLoads::new(stations.s_mm(), sweep.n_bands(), |k| {
+            &tools.entries[usize::from(tool_index[k])].model
+        }),
+        each,
+    };
+    let (swept, _) = crate::simulate::sweep_through(
+        &stock.initial(),
+        None,
+        sweep,
+        "engagement",
+        Some(&mut |k, row| rows.row(k, row)),
+    )?;
+    rows.finish();
+    // The swept stock only where S3 takes its angles from its surface.
+    Ok(swept.filter(|_| matches!(surface, SurfaceFrom::Stock)))
+}
 
-    let reference_loads = reference_loads(&record, &area_mm2, stations.s_mm(), |k| {
-        &tools.entries[usize::from(tool_index[k])].model
-    });
-    // The record is not needed again (about 70 B an interval, issue 16).
-    drop(record);
-    let surface_angle_deg = surface_angles_deg(
-        stations,
-        swept.as_ref(),
-        spacing_mm,
-        tools,
-        &tool_index,
-        &area_mm2,
-        surface,
-    );
-    Ok(Engagement {
-        area_mm2,
-        reference_loads,
-        tool_index,
-        surface_angle_deg,
-    })
+/// The engagement sweep's sink: each interval's row as the sweep makes it
+/// final, in order; each interval's windowed area and reference load given
+/// to `each` once the rows they read are in (two half windows ahead).
+struct EngagementRows<'a, 'e, M> {
+    area: WindowedArea<'a>,
+    loads: ReferenceLoads<'a, M>,
+    each: &'e mut dyn FnMut(usize, f64, ReferenceLoad),
+}
+
+impl<'a, M: Fn(usize) -> &'a CuttingModel> EngagementRows<'a, '_, M> {
+    fn row(&mut self, k: usize, row: dexel::RecordRow<'_>) {
+        let (loads, each) = (&mut self.loads, &mut *self.each);
+        loads.row(k, row);
+        self.area
+            .push(row.volume_mm3(), &mut |j, a| each(j, a, loads.load(j, a)));
+    }
+
+    fn finish(self) {
+        let (mut loads, each) = (self.loads, self.each);
+        self.area.finish(&mut |j, a| each(j, a, loads.load(j, a)));
+    }
 }
 
 /// S3's cutting-surface angle per interval (MODEL.md §6.3): the angle between
@@ -202,51 +310,105 @@ fn surface_angles_deg(
 /// windowed volume per length and the interval's own shape of removal (chip
 /// thickness per feed, contact direction, bands), taken where this one
 /// removed none from the last interval before it that did (before any, the
-/// first that did).
-fn reference_loads<'a>(
-    record: &dexel::RemovalRecord,
-    area_mm2: &[f64],
-    s_mm: &[f64],
-    model_of: impl Fn(usize) -> &'a CuttingModel,
-) -> Vec<ReferenceLoad> {
-    let n = area_mm2.len();
-    // Interval k's source: the last interval up to k that removed material,
-    // else (none before it) the first that did (not a list of the sources:
-    // 16 B an interval, issue 16).
-    let first_cut = (0..n).find(|&k| record.volume_mm3(k) > 0.0);
-    let mut last = None;
-    let mut bands = vec![0.0; record.n_bands];
-    (0..n)
-        .map(|k| {
-            if record.volume_mm3(k) > 0.0 {
-                last = Some(k);
-            }
-            let (Some(j), true) = (last.or(first_cut), area_mm2[k] > 0.0) else {
-                return cutting::StepLoad::default().into();
-            };
-            let len_mm = s_mm[k + 1] - s_mm[k];
-            let volume = area_mm2[k] * len_mm;
-            let scale = volume / record.volume_mm3(j);
-            // The record keeps a step's bands up to its highest nonzero one.
-            bands.fill(0.0);
-            for (b, v) in bands.iter_mut().zip(record.band_volumes_mm3(j)) {
-                *b = v * scale;
-            }
-            let [cx, cy] = record.contact_resultant(j);
-            let load = model_of(k).step_load(&cutting::StepRemoval {
-                volume_mm3: volume,
-                band_volumes_mm3: &bands,
-                contact_resultant: [cx * scale, cy * scale],
-                // The chip edge area is per step: for the interval's own length, scaled
-                // by the ratio of lengths (thickness per mm of path is what is kept).
-                chip_edge_area_mm2: record.chip_edge_area_mm2(j) * scale * (s_mm[j + 1] - s_mm[j])
-                    / len_mm,
-                volume_over_radius_mm2: record.volume_over_radius_mm2(j) * scale,
-                dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
+/// first that did); made interval after interval as the sweep's rows and
+/// the windowed areas come, holding only the rows of the cutting intervals
+/// that a load not yet made may take its shape from (not the record, issue
+/// 16).
+struct ReferenceLoads<'a, M> {
+    s_mm: &'a [f64],
+    /// The tool's model of interval k.
+    model_of: M,
+    /// Cutting intervals' rows, oldest first: the first is the last cut at
+    /// or before the next load to make (else the first cut of all).
+    sources: std::collections::VecDeque<Source>,
+    /// Their bands, `n_bands` each (zero above a row's own).
+    bands: std::collections::VecDeque<f64>,
+    n_bands: usize,
+    /// One load's bands.
+    scaled: Vec<f64>,
+}
+
+/// What a reference load takes of a cutting interval's row.
+struct Source {
+    k: usize,
+    volume_mm3: f64,
+    contact: [f64; 2],
+    chip_edge_area_mm2: f64,
+    volume_over_radius_mm2: f64,
+    /// Bands up to the highest not zero.
+    bands: usize,
+}
+
+impl<'a, M: Fn(usize) -> &'a CuttingModel> ReferenceLoads<'a, M> {
+    /// Loads along stations at `s_mm`, each band list `n_bands` long (the
+    /// record's: that of the tool with the most).
+    fn new(s_mm: &'a [f64], n_bands: usize, model_of: M) -> Self {
+        ReferenceLoads {
+            s_mm,
+            model_of,
+            sources: Default::default(),
+            bands: Default::default(),
+            n_bands,
+            scaled: vec![0.0; n_bands],
+        }
+    }
+
+    /// Interval k's row, before its area.
+    fn row(&mut self, k: usize, row: dexel::RecordRow<'_>) {
+        if row.volume_mm3() > 0.0 {
+            let bands = row.band_volumes_mm3();
+            self.sources.push_back(Source {
+                k,
+                volume_mm3: row.volume_mm3(),
+                contact: row.contact_resultant(),
+                chip_edge_area_mm2: row.chip_edge_area_mm2(),
+                volume_over_radius_mm2: row.volume_over_radius_mm2(),
+                bands: bands.len(),
             });
-            ReferenceLoad::from(load)
-        })
-        .collect()
+            self.bands.extend(bands);
+            self.bands
+                .extend(std::iter::repeat_n(0.0, self.n_bands - bands.len()));
+        }
+    }
+
+    /// Interval k's load, given its windowed area (intervals in order, each
+    /// after its row). An area above zero is a mean of volumes in whose
+    /// rows one cut at least, so its first cut is among the rows in.
+    fn load(&mut self, k: usize, area_mm2: f64) -> ReferenceLoad {
+        // The last cut at or before k (the rows before it are not taken again).
+        while self.sources.get(1).is_some_and(|s| s.k <= k) {
+            self.sources.pop_front();
+            self.bands.drain(..self.n_bands);
+        }
+        debug_assert!(!(area_mm2 > 0.0 && self.sources.is_empty()), "interval {k}");
+        let load = match self.sources.front() {
+            Some(j) if area_mm2 > 0.0 => {
+                let s_mm = self.s_mm;
+                let len_mm = s_mm[k + 1] - s_mm[k];
+                let volume = area_mm2 * len_mm;
+                let scale = volume / j.volume_mm3;
+                // The record keeps a step's bands up to its highest nonzero one.
+                self.scaled.fill(0.0);
+                for (b, v) in self.scaled.iter_mut().zip(self.bands.range(..j.bands)) {
+                    *b = v * scale;
+                }
+                let [cx, cy] = j.contact;
+                (self.model_of)(k).step_load(&cutting::StepRemoval {
+                    volume_mm3: volume,
+                    band_volumes_mm3: &self.scaled,
+                    contact_resultant: [cx * scale, cy * scale],
+                    // The chip edge area is per step: for the interval's own length, scaled
+                    // by the ratio of lengths (thickness per mm of path is what is kept).
+                    chip_edge_area_mm2: j.chip_edge_area_mm2 * scale * (s_mm[j.k + 1] - s_mm[j.k])
+                        / len_mm,
+                    volume_over_radius_mm2: j.volume_over_radius_mm2 * scale,
+                    dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
+                })
+            }
+            _ => cutting::StepLoad::default(),
+        };
+        load.into()
+    }
 }
 
 /// Engagement is averaged over this many grid cells of path: a dexel grid
@@ -258,63 +420,179 @@ pub const ENGAGEMENT_WINDOW_CELLS: f64 = 2.0;
 /// `window_mm` centred on it, then the largest such mean within ±window/2, so
 /// a cap is in force from one window before a rise in engagement.
 pub fn windowed_area(s_mm: &[f64], volumes_mm3: &[f64], window_mm: f64) -> Vec<f64> {
-    let n = volumes_mm3.len();
-    // Cumulative volume at each station.
-    let mut cum = Vec::with_capacity(n + 1);
-    cum.push(0.0);
-    for v in volumes_mm3 {
-        cum.push(cum[cum.len() - 1] + v);
+    let mut out = Vec::with_capacity(volumes_mm3.len());
+    let mut area = WindowedArea::new(&s_mm[..=volumes_mm3.len()], window_mm);
+    for &v in volumes_mm3 {
+        area.push(v, &mut |_, a| out.push(a));
     }
-    let half = 0.5 * window_mm;
-    let (s_first, s_last) = (s_mm[0], s_mm[n]);
-    // Cumulative volume at arc length x (linear inside an interval); `i` is a forward cursor.
-    let cum_at = |x: f64, i: &mut usize| {
-        let x = x.clamp(s_first, s_last);
-        while *i + 1 < n && s_mm[*i + 1] < x {
+    area.finish(&mut |_, a| out.push(a));
+    out
+}
+
+/// [`windowed_area`] made as the volumes come, interval after interval:
+/// interval k's area is given once the volumes up to about a window beyond
+/// it are in, and only the volumes and means of the intervals between are
+/// held (not every interval's, issue 16). Each value is made by the same
+/// operations on the same values as over whole lists.
+struct WindowedArea<'s> {
+    s_mm: &'s [f64],
+    /// Intervals.
+    n: usize,
+    half: f64,
+    /// Volumes in, from interval `base` on, and the cumulative volume at
+    /// each one's start.
+    base: usize,
+    volumes: std::collections::VecDeque<f64>,
+    cum: std::collections::VecDeque<f64>,
+    /// Cumulative volume at the end of the last volume in.
+    total: f64,
+    /// Forward cursors of the windows' lower and upper ends.
+    lo: usize,
+    hi: usize,
+    /// Mean over the window of intervals `mean_base ..` (those made).
+    mean_base: usize,
+    means: std::collections::VecDeque<f64>,
+    /// Sliding maximum: next interval to enter the monotone deque, the
+    /// deque, next interval to give.
+    next: usize,
+    deque: std::collections::VecDeque<usize>,
+    k: usize,
+}
+
+impl<'s> WindowedArea<'s> {
+    /// Areas of the intervals between the stations at `s_mm`.
+    fn new(s_mm: &'s [f64], window_mm: f64) -> Self {
+        WindowedArea {
+            s_mm,
+            n: s_mm.len().saturating_sub(1),
+            half: 0.5 * window_mm,
+            base: 0,
+            volumes: Default::default(),
+            cum: Default::default(),
+            total: 0.0,
+            lo: 0,
+            hi: 0,
+            mean_base: 0,
+            means: Default::default(),
+            next: 0,
+            deque: Default::default(),
+            k: 0,
+        }
+    }
+
+    fn mid(&self, k: usize) -> f64 {
+        0.5 * (self.s_mm[k] + self.s_mm[k + 1])
+    }
+
+    /// The next interval's volume; `out(k, area)` for each interval whose
+    /// area it completes, in order.
+    fn push(&mut self, volume_mm3: f64, out: &mut dyn FnMut(usize, f64)) {
+        self.cum.push_back(self.total);
+        self.volumes.push_back(volume_mm3);
+        self.total += volume_mm3;
+        self.make(out);
+    }
+
+    /// Every volume in: the areas not given yet.
+    fn finish(mut self, out: &mut dyn FnMut(usize, f64)) {
+        self.make(out);
+        assert_eq!(
+            self.k,
+            self.n,
+            "{} volumes for {} intervals",
+            self.base + self.volumes.len(),
+            self.n
+        );
+    }
+
+    /// Cumulative volume at arc length x (linear inside an interval) by the
+    /// cursor `upper` or not; None until the interval it lies in is in.
+    fn cum_at(&mut self, x: f64, upper: bool) -> Option<f64> {
+        let (s, n) = (self.s_mm, self.n);
+        let x = x.clamp(s[0], s[n]);
+        let i = if upper { &mut self.hi } else { &mut self.lo };
+        while *i + 1 < n && s[*i + 1] < x {
             *i += 1;
         }
-        let (a, b) = (s_mm[*i], s_mm[*i + 1]);
+        let i = *i;
+        let at = i
+            .checked_sub(self.base)
+            .filter(|&j| j < self.volumes.len())?;
+        let (a, b) = (s[i], s[i + 1]);
         let f = if b > a {
             ((x - a) / (b - a)).clamp(0.0, 1.0)
         } else {
             1.0
         };
-        cum[*i] + f * volumes_mm3[*i]
-    };
-    let (mut lo, mut hi) = (0usize, 0usize);
-    let mean: Vec<f64> = (0..n)
-        .map(|k| {
-            let mid = 0.5 * (s_mm[k] + s_mm[k + 1]);
+        Some(self.cum[at] + f * self.volumes[at])
+    }
+
+    fn make(&mut self, out: &mut dyn FnMut(usize, f64)) {
+        let (n, half) = (self.n, self.half);
+        if n == 0 {
+            return;
+        }
+        let (s_first, s_last) = (self.s_mm[0], self.s_mm[n]);
+        // Each interval's mean over the window centred on it.
+        while self.mean_base + self.means.len() < n {
+            let k = self.mean_base + self.means.len();
+            let mid = self.mid(k);
             let (a, b) = ((mid - half).max(s_first), (mid + half).min(s_last));
-            if b > a {
-                (cum_at(b, &mut hi) - cum_at(a, &mut lo)) / (b - a)
+            let mean = if b > a {
+                let Some(upper) = self.cum_at(b, true) else {
+                    break;
+                };
+                let lower = self
+                    .cum_at(a, false)
+                    .expect("the lower end is in before the upper");
+                (upper - lower) / (b - a)
             } else {
                 0.0
+            };
+            self.means.push_back(mean);
+            // No window reads an interval before the lower cursor again.
+            while self.base < self.lo {
+                self.base += 1;
+                self.volumes.pop_front();
+                self.cum.pop_front();
             }
-        })
-        .collect();
-    // Sliding maximum over ±half (monotone deque).
-    let mut out = vec![0.0; n];
-    let mut deque: std::collections::VecDeque<usize> = std::collections::VecDeque::new();
-    let mut next = 0;
-    for k in 0..n {
-        let mid = 0.5 * (s_mm[k] + s_mm[k + 1]);
-        while next < n && 0.5 * (s_mm[next] + s_mm[next + 1]) <= mid + half {
-            while deque.back().is_some_and(|&b| mean[b] <= mean[next]) {
-                deque.pop_back();
+        }
+        // Sliding maximum over ±half (monotone deque).
+        let mean = |w: &Self, j: usize| w.means.get(j - w.mean_base).copied();
+        while self.k < n {
+            let mid = self.mid(self.k);
+            while self.next < n && self.mid(self.next) <= mid + half {
+                let Some(m) = mean(self, self.next) else {
+                    return;
+                };
+                while self
+                    .deque
+                    .back()
+                    .is_some_and(|&b| mean(self, b).expect("held") <= m)
+                {
+                    self.deque.pop_back();
+                }
+                self.deque.push_back(self.next);
+                self.next += 1;
             }
-            deque.push_back(next);
-            next += 1;
+            while self
+                .deque
+                .front()
+                .is_some_and(|&f| self.mid(f) < mid - half)
+            {
+                self.deque.pop_front();
+            }
+            let j = self.deque.front().copied().unwrap_or(self.k);
+            out(self.k, mean(self, j).expect("made"));
+            self.k += 1;
+            // Means before the deque's and the next interval's are not read again.
+            let keep = self.deque.front().map_or(self.k, |&f| f.min(self.k));
+            while self.mean_base < keep {
+                self.mean_base += 1;
+                self.means.pop_front();
+            }
         }
-        while deque
-            .front()
-            .is_some_and(|&f| 0.5 * (s_mm[f] + s_mm[f + 1]) < mid - half)
-        {
-            deque.pop_front();
-        }
-        out[k] = deque.front().map_or(mean[k], |&f| mean[f]);
     }
-    out
 }
 
 /// Feed caps per interval from the limits, with the kind that sets each.
@@ -327,74 +605,111 @@ pub fn interval_caps(
     limits: &LimitsSpec,
     tools: &ToolSet,
 ) -> Vec<(f64, CapKind)> {
-    let (segs, seg_of) = (stations.segments(), stations.segment());
     engagement
         .area_mm2
         .iter()
         .enumerate()
         .map(|(k, &a)| {
-            // The model of the tool cutting this interval.
-            let entry = &tools.entries[usize::from(engagement.tool_index[k])];
-            let model = &entry.model;
-            let mut cap = (f64::INFINITY, CapKind::FeedMax);
-            let mut lower = |v: f64, kind: CapKind| {
-                if v < cap.0 {
-                    cap = (v, kind);
-                }
-            };
-            if a > 1e-12 {
-                let seg = &segs[seg_of[k + 1] as usize];
-                if let Some(f) = entry.chip_load_feed_mm_min(seg.spindle_rpm) {
-                    lower(f, CapKind::ChipLoad);
-                }
-                if let (Some(scale), Motion::Feed { feed_mm_min }) =
-                    (limits.feed_scale_max, seg.motion)
-                {
-                    lower(scale * feed_mm_min, CapKind::FeedScale);
-                }
-                if let Some(q) = limits.mrr_max {
-                    lower(60.0 * q / a, CapKind::Removal); // MRR = A·F/60 ≤ Q
-                }
-                // Load ∝ F^p at fixed engagement (MODEL.md §3): F ≤ F_ref·(limit/Q_ref)^(1/p).
-                let at_ref = &engagement.reference_loads[k];
-                let cap = |q_ref: f64, limit: f64| {
-                    model.feed_for_limit(q_ref, REFERENCE_FEED_MM_MIN, limit)
-                };
-                if let Some(f) = limits.force_max {
-                    lower(cap(at_ref.force_n, f), CapKind::Force);
-                }
-                if let Some(d_um) = limits.deflection_max_um {
-                    lower(cap(at_ref.deflection_um, d_um), CapKind::Deflection);
-                }
-                if let Some(p_kw) = limits.power_max_kw {
-                    lower(cap(at_ref.power_w, 1000.0 * p_kw), CapKind::Power);
-                }
-                // The stress grows with the step's load (force and torque) at its
-                // contact height (MODEL.md §4.4): a force limit of F·σ_limit/σ.
-                if limits.stress {
-                    lower(
-                        cap(at_ref.stress_mpa, entry.stress_limit_mpa),
-                        CapKind::Stress,
-                    );
-                }
-                // S3 (MODEL.md §6.3): θ between the surface normal at the contact and the
-                // tool axis, applied to the programmed (set) feed.
-                let theta_deg = engagement.surface_angle_deg[k];
-                if let (true, Some(v0), false, Motion::Feed { feed_mm_min }) =
-                    (limits.angle_rule, limits.v0, theta_deg.is_nan(), seg.motion)
-                {
-                    lower(
-                        schedule::angle_rule_feed_mm_min(theta_deg, feed_mm_min, v0),
-                        CapKind::SurfaceAngle,
-                    );
-                }
-            }
-            if let Some(lo) = limits.feed_min {
-                cap.0 = cap.0.max(lo);
-            }
-            cap
+            let at_ref = &engagement.reference_loads[k];
+            let cap = limit_cap(
+                k,
+                a,
+                at_ref,
+                engagement.tool_index[k],
+                stations,
+                limits,
+                tools,
+            );
+            let theta_deg = engagement.surface_angle_deg[k];
+            angle_and_floor(cap, k, a, theta_deg, stations, limits)
         })
         .collect()
+}
+
+/// Interval k's cap by the limits but S3's angle rule and the floor
+/// ([`angle_and_floor`] next): `a` its windowed area, `at_ref` its
+/// reference load, `tool` the index of its tool.
+fn limit_cap(
+    k: usize,
+    a: f64,
+    at_ref: &ReferenceLoad,
+    tool: u16,
+    stations: &Stations,
+    limits: &LimitsSpec,
+    tools: &ToolSet,
+) -> (f64, CapKind) {
+    // The model of the tool cutting this interval.
+    let entry = &tools.entries[usize::from(tool)];
+    let model = &entry.model;
+    let mut cap = (f64::INFINITY, CapKind::FeedMax);
+    let mut lower = |v: f64, kind: CapKind| {
+        if v < cap.0 {
+            cap = (v, kind);
+        }
+    };
+    if a > 1e-12 {
+        let seg = &stations.segments()[stations.segment()[k + 1] as usize];
+        if let Some(f) = entry.chip_load_feed_mm_min(seg.spindle_rpm) {
+            lower(f, CapKind::ChipLoad);
+        }
+        if let (Some(scale), Motion::Feed { feed_mm_min }) = (limits.feed_scale_max, seg.motion) {
+            lower(scale * feed_mm_min, CapKind::FeedScale);
+        }
+        if let Some(q) = limits.mrr_max {
+            lower(60.0 * q / a, CapKind::Removal); // MRR = A·F/60 ≤ Q
+        }
+        // Load ∝ F^p at fixed engagement (MODEL.md §3): F ≤ F_ref·(limit/Q_ref)^(1/p).
+        let cap =
+            |q_ref: f64, limit: f64| model.feed_for_limit(q_ref, REFERENCE_FEED_MM_MIN, limit);
+        if let Some(f) = limits.force_max {
+            lower(cap(at_ref.force_n, f), CapKind::Force);
+        }
+        if let Some(d_um) = limits.deflection_max_um {
+            lower(cap(at_ref.deflection_um, d_um), CapKind::Deflection);
+        }
+        if let Some(p_kw) = limits.power_max_kw {
+            lower(cap(at_ref.power_w, 1000.0 * p_kw), CapKind::Power);
+        }
+        // The stress grows with the step's load (force and torque) at its
+        // contact height (MODEL.md §4.4): a force limit of F·σ_limit/σ.
+        if limits.stress {
+            lower(
+                cap(at_ref.stress_mpa, entry.stress_limit_mpa),
+                CapKind::Stress,
+            );
+        }
+    }
+    cap
+}
+
+/// Interval k's cap `cap` ([`limit_cap`]) lowered by S3's angle rule where
+/// it cuts (`a` its windowed area, `theta_deg` its surface angle, NaN for
+/// none), then raised to `feed_min`.
+fn angle_and_floor(
+    mut cap: (f64, CapKind),
+    k: usize,
+    a: f64,
+    theta_deg: f64,
+    stations: &Stations,
+    limits: &LimitsSpec,
+) -> (f64, CapKind) {
+    // S3 (MODEL.md §6.3): θ between the surface normal at the contact and the
+    // tool axis, applied to the programmed (set) feed.
+    if a > 1e-12 {
+        let seg = &stations.segments()[stations.segment()[k + 1] as usize];
+        if let (true, Some(v0), false, Motion::Feed { feed_mm_min }) =
+            (limits.angle_rule, limits.v0, theta_deg.is_nan(), seg.motion)
+        {
+            let v = schedule::angle_rule_feed_mm_min(theta_deg, feed_mm_min, v0);
+            if v < cap.0 {
+                cap = (v, CapKind::SurfaceAngle);
+            }
+        }
+    }
+    if let Some(lo) = limits.feed_min {
+        cap.0 = cap.0.max(lo);
+    }
+    cap
 }
 
 /// Apply interval caps to both end stations of each interval, so the speed
@@ -1316,6 +1631,374 @@ fn has_feed_moves(path: &nc::Path) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`windowed_area`] over whole lists as it was before the areas were
+    /// made as the volumes come (the oracle of the tests below).
+    fn windowed_area_of_lists(s_mm: &[f64], volumes_mm3: &[f64], window_mm: f64) -> Vec<f64> {
+        let n = volumes_mm3.len();
+        let mut cum = Vec::with_capacity(n + 1);
+        cum.push(0.0);
+        for v in volumes_mm3 {
+            cum.push(cum[cum.len() - 1] + v);
+        }
+        let half = 0.5 * window_mm;
+        let (s_first, s_last) = (s_mm[0], s_mm[n]);
+        let cum_at = |x: f64, i: &mut usize| {
+            let x = x.clamp(s_first, s_last);
+            while *i + 1 < n && s_mm[*i + 1] < x {
+                *i += 1;
+            }
+            let (a, b) = (s_mm[*i], s_mm[*i + 1]);
+            let f = if b > a {
+                ((x - a) / (b - a)).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
+            cum[*i] + f * volumes_mm3[*i]
+        };
+        let (mut lo, mut hi) = (0usize, 0usize);
+        let mean: Vec<f64> = (0..n)
+            .map(|k| {
+                let mid = 0.5 * (s_mm[k] + s_mm[k + 1]);
+                let (a, b) = ((mid - half).max(s_first), (mid + half).min(s_last));
+                if b > a {
+                    (cum_at(b, &mut hi) - cum_at(a, &mut lo)) / (b - a)
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let mut out = vec![0.0; n];
+        let mut deque: std::collections::VecDeque<usize> = std::collections::VecDeque::new();
+        let mut next = 0;
+        for k in 0..n {
+            let mid = 0.5 * (s_mm[k] + s_mm[k + 1]);
+            while next < n && 0.5 * (s_mm[next] + s_mm[next + 1]) <= mid + half {
+                while deque.back().is_some_and(|&b| mean[b] <= mean[next]) {
+                    deque.pop_back();
+                }
+                deque.push_back(next);
+                next += 1;
+            }
+            while deque
+                .front()
+                .is_some_and(|&f| 0.5 * (s_mm[f] + s_mm[f + 1]) < mid - half)
+            {
+                deque.pop_front();
+            }
+            out[k] = deque.front().map_or(mean[k], |&f| mean[f]);
+        }
+        out
+    }
+
+    /// The reference loads from the record held whole, as they were made
+    /// before the sweep gave its rows to them (the oracle).
+    fn reference_loads_of_record<'a>(
+        record: &dexel::RemovalRecord,
+        area_mm2: &[f64],
+        s_mm: &[f64],
+        model_of: impl Fn(usize) -> &'a CuttingModel,
+    ) -> Vec<ReferenceLoad> {
+        let n = area_mm2.len();
+        let first_cut = (0..n).find(|&k| record.volume_mm3(k) > 0.0);
+        let mut last = None;
+        let mut bands = vec![0.0; record.n_bands];
+        (0..n)
+            .map(|k| {
+                if record.volume_mm3(k) > 0.0 {
+                    last = Some(k);
+                }
+                let (Some(j), true) = (last.or(first_cut), area_mm2[k] > 0.0) else {
+                    return cutting::StepLoad::default().into();
+                };
+                let len_mm = s_mm[k + 1] - s_mm[k];
+                let volume = area_mm2[k] * len_mm;
+                let scale = volume / record.volume_mm3(j);
+                bands.fill(0.0);
+                for (b, v) in bands.iter_mut().zip(record.band_volumes_mm3(j)) {
+                    *b = v * scale;
+                }
+                let [cx, cy] = record.contact_resultant(j);
+                let load = model_of(k).step_load(&cutting::StepRemoval {
+                    volume_mm3: volume,
+                    band_volumes_mm3: &bands,
+                    contact_resultant: [cx * scale, cy * scale],
+                    chip_edge_area_mm2: record.chip_edge_area_mm2(j)
+                        * scale
+                        * (s_mm[j + 1] - s_mm[j])
+                        / len_mm,
+                    volume_over_radius_mm2: record.volume_over_radius_mm2(j) * scale,
+                    dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
+                });
+                ReferenceLoad::from(load)
+            })
+            .collect()
+    }
+
+    /// The caps as [`interval_caps`] made them in one piece (the oracle).
+    fn caps_in_one_piece(
+        engagement: &Engagement,
+        stations: &Stations,
+        limits: &LimitsSpec,
+        tools: &ToolSet,
+    ) -> Vec<(f64, CapKind)> {
+        let (segs, seg_of) = (stations.segments(), stations.segment());
+        (0..engagement.area_mm2.len())
+            .map(|k| {
+                let a = engagement.area_mm2[k];
+                let entry = &tools.entries[usize::from(engagement.tool_index[k])];
+                let model = &entry.model;
+                let mut cap = (f64::INFINITY, CapKind::FeedMax);
+                let mut lower = |v: f64, kind: CapKind| {
+                    if v < cap.0 {
+                        cap = (v, kind);
+                    }
+                };
+                if a > 1e-12 {
+                    let seg = &segs[seg_of[k + 1] as usize];
+                    if let Some(f) = entry.chip_load_feed_mm_min(seg.spindle_rpm) {
+                        lower(f, CapKind::ChipLoad);
+                    }
+                    if let (Some(scale), Motion::Feed { feed_mm_min }) =
+                        (limits.feed_scale_max, seg.motion)
+                    {
+                        lower(scale * feed_mm_min, CapKind::FeedScale);
+                    }
+                    if let Some(q) = limits.mrr_max {
+                        lower(60.0 * q / a, CapKind::Removal);
+                    }
+                    let at_ref = &engagement.reference_loads[k];
+                    let cap = |q_ref: f64, limit: f64| {
+                        model.feed_for_limit(q_ref, REFERENCE_FEED_MM_MIN, limit)
+                    };
+                    if let Some(f) = limits.force_max {
+                        lower(cap(at_ref.force_n, f), CapKind::Force);
+                    }
+                    if let Some(d_um) = limits.deflection_max_um {
+                        lower(cap(at_ref.deflection_um, d_um), CapKind::Deflection);
+                    }
+                    if let Some(p_kw) = limits.power_max_kw {
+                        lower(cap(at_ref.power_w, 1000.0 * p_kw), CapKind::Power);
+                    }
+                    if limits.stress {
+                        lower(
+                            cap(at_ref.stress_mpa, entry.stress_limit_mpa),
+                            CapKind::Stress,
+                        );
+                    }
+                    let theta_deg = engagement.surface_angle_deg[k];
+                    if let (true, Some(v0), false, Motion::Feed { feed_mm_min }) =
+                        (limits.angle_rule, limits.v0, theta_deg.is_nan(), seg.motion)
+                    {
+                        lower(
+                            schedule::angle_rule_feed_mm_min(theta_deg, feed_mm_min, v0),
+                            CapKind::SurfaceAngle,
+                        );
+                    }
+                }
+                if let Some(lo) = limits.feed_min {
+                    cap.0 = cap.0.max(lo);
+                }
+                cap
+            })
+            .collect()
+    }
+
+    /// Areas made as the volumes come equal those of whole lists, bit for
+    /// bit: stations of uneven spacing with repeated ones (zero-length
+    /// intervals), windows from under one interval to many, volumes of
+    /// every size, zero and NaN.
+    #[test]
+    fn windowed_areas_as_the_volumes_come_are_those_of_whole_lists() {
+        let mut s = vec![0.0];
+        for i in 0..400u32 {
+            let ds = match i % 7 {
+                0 => 0.0,
+                3 => 0.013,
+                5 => 0.21,
+                _ => 0.05,
+            };
+            s.push(s[s.len() - 1] + ds);
+        }
+        let v: Vec<f64> = (0..400u32)
+            .map(|i| match i % 11 {
+                0..=2 => 0.0,
+                4 if i == 202 => f64::NAN,
+                _ => f64::from(i * 37 % 19) * 0.3 + 1e-3 * f64::from(i),
+            })
+            .collect();
+        for window in [0.01, 0.1, 0.2, 0.37, 2.0, 50.0] {
+            for n in [0, 1, 2, 5, 400] {
+                let (s, v) = (&s[..=n], &v[..n]);
+                let bits = |a: Vec<f64>| a.into_iter().map(f64::to_bits).collect::<Vec<_>>();
+                assert_eq!(
+                    bits(windowed_area(s, v, window)),
+                    bits(windowed_area_of_lists(s, v, window)),
+                    "window {window}, {n} intervals"
+                );
+            }
+        }
+    }
+
+    /// The engagement and caps made as the sweep gives its rows (no record
+    /// held) equal those made from the record held whole (the computation
+    /// before, kept above), bit for bit: three tools of 24, 16 and 12 bands,
+    /// rapids, plunges, an arc, air before the first cut (intervals there
+    /// take the first cut's shape), every limit and S3's angles from the
+    /// swept stock; and on the same stock held in bands (its rows given
+    /// once the record is finished).
+    #[test]
+    fn engagement_from_the_sweeps_rows_is_the_records() {
+        let dir = tempfile::tempdir().unwrap();
+        let tool = |n: u32, kind: &str, d: f64| {
+            format!("[[tools]]\nnumber = {n}\nkind = \"{kind}\"\ndiameter = {d}\n")
+        };
+        let job = format!(
+            "[stock]\nkind = \"box\"\nmin = [0, 0, 0]\nmax = [60, 40, 20]\ngrid = 0.2\n\
+             {}{}corner_radius = 1\n{}\
+             [program]\npath = \"p.ngc\"\n[cutting]\nmaterial = \"al6061\"\nband_height = 0.5\n\
+             [machine]\nfeed_max = 3000\naccel = [1000, 1000, 1000]\n\
+             [limits]\nmrr_max = 40\nforce_max = 150\ndeflection_max_um = 20\npower_max_kw = 0.4\n\
+             feed_min = 30\nfeed_scale_max = 1.5\nangle_rule = true\nv0 = 300\n",
+            tool(1, "ball", 6.0),
+            tool(2, "bull", 4.0),
+            tool(3, "flat", 3.0),
+        );
+        std::fs::write(dir.path().join("job.toml"), job).unwrap();
+        std::fs::write(
+            dir.path().join("p.ngc"),
+            "G21 G90 G17\nT1 M6 S9000 M3\nG0 X-8 Y5 Z25\nG1 X5 Z19 F1200\nG1 X30 Y20 Z18.5\n\
+             G2 X40 Y30 I10 J0 F900\nG0 Z25\nG0 X10 Y30\nG1 Z17 F300\nG1 X50 Y32 F1500\n\
+             T2 M6 S12000 M3\nG0 Z25\nG0 X50 Y8\nG1 Z18 F200\nG1 X12 Y10 Z18.8 F1000\nG0 Z25\n\
+             T3 M6 S15000 M3\nG0 X20 Y15\nG1 Z19 F250\nG1 X35 F800\nG1 Y35 Z18.5\nG0 Z25\nM2\n",
+        )
+        .unwrap();
+        for budget_mb in [None, Some(1.0)] {
+            let setup =
+                Setup::load_within(&dir.path().join("job.toml"), None, None, budget_mb).unwrap();
+            assert_eq!(setup.tiling.is_some(), budget_mb.is_some());
+            let limits = &setup.job.limits;
+            let machine = optimising_machine(&setup.machine, limits);
+            let stations = free_stations(&setup.program.path, &machine).unwrap();
+            let stock = setup.stock_source();
+            // A tiled stock takes no angles from its surface.
+            let surface = match stock {
+                StockSource::Tiled(_) => SurfaceFrom::Nothing,
+                _ => SurfaceFrom::Stock,
+            };
+            let tools = &setup.tools;
+            let engagement = engagement_on(&stations, &stock, tools, surface).unwrap();
+            // The record held whole, and what was made of it.
+            let options = SweepOptions {
+                band_height_mm: tools.entries[0].model.band_height_mm,
+                ..SweepOptions::default()
+            };
+            let (segs, seg_of) = (stations.segments(), stations.segment());
+            let steps: Vec<dexel::Step> = (1..stations.len())
+                .map(|k| dexel::Step {
+                    from_mm: stations.position_at(k - 1).coords.into(),
+                    to_mm: stations.position_at(k).coords.into(),
+                    rapid: matches!(segs[seg_of[k] as usize].motion, Motion::Rapid),
+                })
+                .collect();
+            let (swept, record) = crate::simulate::sweep_pass(
+                &stock.initial(),
+                None,
+                tools,
+                &engagement.tool_index,
+                &steps,
+                &options,
+                "engagement",
+            )
+            .unwrap();
+            let n = record.len();
+            let volumes: Vec<f64> = (0..n).map(|k| record.volume_mm3(k)).collect();
+            let window_mm =
+                (ENGAGEMENT_WINDOW_CELLS * stock.grid().spacing_mm).max(2.0 * STATION_DS_MM);
+            let area_mm2 = windowed_area_of_lists(stations.s_mm(), &volumes, window_mm);
+            let reference_loads =
+                reference_loads_of_record(&record, &area_mm2, stations.s_mm(), |k| {
+                    &tools.entries[usize::from(engagement.tool_index[k])].model
+                });
+            let swept = swept.filter(|_| matches!(surface, SurfaceFrom::Stock));
+            let surface_angle_deg = surface_angles_deg(
+                &stations,
+                swept.as_ref(),
+                stock.grid().spacing_mm,
+                tools,
+                &engagement.tool_index,
+                &area_mm2,
+                surface,
+            );
+            let held = Engagement {
+                area_mm2,
+                reference_loads,
+                tool_index: engagement.tool_index.clone(),
+                surface_angle_deg,
+            };
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            let load_bits = |l: &[ReferenceLoad]| {
+                l.iter()
+                    .flat_map(|r| [r.force_n, r.deflection_um, r.power_w, r.stress_mpa])
+                    .map(f64::to_bits)
+                    .collect::<Vec<_>>()
+            };
+            let cap_bits = |c: &[(f64, CapKind)]| {
+                c.iter()
+                    .map(|&(v, kind)| (v.to_bits(), kind))
+                    .collect::<Vec<_>>()
+            };
+            let what = format!("memory budget {budget_mb:?}");
+            assert_eq!(bits(&engagement.area_mm2), bits(&held.area_mm2), "{what}");
+            assert_eq!(
+                load_bits(&engagement.reference_loads),
+                load_bits(&held.reference_loads),
+                "{what}"
+            );
+            assert_eq!(
+                bits(&engagement.surface_angle_deg),
+                bits(&held.surface_angle_deg),
+                "{what}"
+            );
+            let caps = caps_in_one_piece(&held, &stations, limits, tools);
+            assert_eq!(
+                cap_bits(&interval_caps(&engagement, &stations, limits, tools)),
+                cap_bits(&caps),
+                "{what}"
+            );
+            assert_eq!(
+                cap_bits(&engagement_caps_on(&stations, &stock, tools, limits, surface).unwrap()),
+                cap_bits(&caps),
+                "{what}"
+            );
+            // What the comparison covers: every tool cuts, with its own
+            // band count; intervals before the first cut take its shape;
+            // the limits and S3 each set caps.
+            assert_eq!(tools.entries.len(), 3);
+            for t in 0..3u16 {
+                assert!(
+                    (0..n).any(|k| held.tool_index[k] == t && record.volume_mm3(k) > 0.0),
+                    "tool {t} cuts ({what})"
+                );
+            }
+            assert_eq!(record.n_bands, 24);
+            let first_cut = (0..n).position(|k| record.volume_mm3(k) > 0.0).unwrap();
+            assert!(held.area_mm2[first_cut - 1] > 0.0, "{what}");
+            assert!(held.reference_loads[first_cut - 1].force_n > 0.0, "{what}");
+            assert!(steps.iter().any(|s| s.rapid));
+            assert!(steps
+                .iter()
+                .any(|s| s.from_mm[..2] == s.to_mm[..2] && s.from_mm[2] != s.to_mm[2]));
+            let kinds: std::collections::BTreeSet<String> =
+                caps.iter().map(|c| format!("{:?}", c.1)).collect();
+            for kind in ["Removal", "Deflection", "ChipLoad", "FeedScale", "FeedMax"] {
+                assert!(kinds.contains(kind), "{kind} in {kinds:?} ({what})");
+            }
+            if budget_mb.is_none() {
+                assert!(kinds.contains("SurfaceAngle"), "{kinds:?}");
+            }
+        }
+    }
 
     #[test]
     fn windowed_area_is_conservative_and_exact_on_plateaus() {

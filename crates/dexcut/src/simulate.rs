@@ -232,7 +232,23 @@ pub(crate) fn sweep_pass<S: dexel::StepSource + ?Sized, T: Copy + Into<usize>>(
     label: &str,
 ) -> Result<(Option<Stock>, RemovalRecord)> {
     let tools = tools.tools();
-    let mut sweep = dexel::Sweep::new(&tools, tool_of_step, steps, options)?;
+    let sweep = dexel::Sweep::new(&tools, tool_of_step, steps, options)?;
+    let (work, record) = sweep_through(initial, spare, sweep, label, None)?;
+    Ok((work, record.expect("a record where no sink is given")))
+}
+
+/// [`sweep_pass`]'s sweep made: its record, or with a `sink` each step's
+/// row given to it as the sweep makes it final, in order, and no record
+/// (`dexel::Sweep::whole_into`; a tiled stock makes no row final before its
+/// last band, so its record is made whole first and then given row by row).
+pub(crate) fn sweep_through<S: dexel::StepSource + ?Sized>(
+    initial: &Initial,
+    spare: Option<Stock>,
+    mut sweep: dexel::Sweep<'_, S>,
+    label: &str,
+    sink: Option<&mut dexel::RowSink<'_>>,
+) -> Result<(Option<Stock>, Option<RemovalRecord>)> {
+    let n = sweep.len();
     let mut work = match initial {
         Initial::Held(stock) => {
             drop(spare);
@@ -248,17 +264,30 @@ pub(crate) fn sweep_pass<S: dexel::StepSource + ?Sized, T: Copy + Into<usize>>(
                     rows.start, rows.end, tiling.grid.ny
                 );
                 let mut band = tiling.band(rows, previous.take())?;
-                let bar = progress::bar(steps.len() as u64, &label);
+                let bar = progress::bar(n as u64, &label);
                 sweep.band(&mut band, &|done| bar.set_position(done as u64));
                 bar.finish_and_clear();
                 previous = Some(band);
             }
-            return Ok((None, sweep.finish()));
+            return Ok(match sink {
+                Some(sink) => {
+                    sweep.finish_into(sink);
+                    (None, None)
+                }
+                None => (None, Some(sweep.finish())),
+            });
         }
     };
-    // The record made final and compact batch by batch.
-    let bar = progress::bar(steps.len() as u64, label);
-    let record = sweep.whole(&mut work, &|done| bar.set_position(done as u64));
+    // The record made final and compact batch by batch, or its rows given away.
+    let bar = progress::bar(n as u64, label);
+    let progress = |done: usize| bar.set_position(done as u64);
+    let record = match sink {
+        Some(sink) => {
+            sweep.whole_into(&mut work, &progress, sink);
+            None
+        }
+        None => Some(sweep.whole(&mut work, &progress)),
+    };
     bar.finish_and_clear();
     Ok((Some(work), record))
 }

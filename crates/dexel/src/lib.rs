@@ -34,5 +34,8 @@ pub enum Error {
 pub mod sweep;
 pub mod tool;
 
-pub use sweep::{sweep, sweep_tools, RemovalRecord, Step, StepFn, StepSource, Sweep, SweepOptions};
+pub use sweep::{
+    sweep, sweep_tools, RecordRow, RemovalRecord, RowSink, Step, StepFn, StepSource, Sweep,
+    SweepOptions,
+};
 pub use tool::{Tool, ToolShape};

@@ -523,23 +523,43 @@ fn mean_chip_thickness_of_side_cuts() {
 
 /// Every per-step value of a record, as bits.
 fn record_bits(r: &RemovalRecord) -> Vec<u64> {
-    (0..r.len())
-        .flat_map(|i| {
-            let [cx, cy] = r.contact_resultant(i);
-            [
-                r.volume_mm3(i),
-                r.shank_volume_mm3(i),
-                cx,
-                cy,
-                r.chip_edge_area_mm2(i),
-                r.volume_over_radius_mm2(i),
-            ]
-            .into_iter()
-            .chain(r.band_volumes_mm3(i).iter().copied())
-            .map(f64::to_bits)
-            .collect::<Vec<_>>()
-        })
-        .collect()
+    let bits = (0..r.len()).flat_map(|i| {
+        let [cx, cy] = r.contact_resultant(i);
+        [
+            r.volume_mm3(i),
+            r.shank_volume_mm3(i),
+            cx,
+            cy,
+            r.chip_edge_area_mm2(i),
+            r.volume_over_radius_mm2(i),
+        ]
+        .into_iter()
+        .chain(r.band_volumes_mm3(i).iter().copied())
+        .map(f64::to_bits)
+        .collect::<Vec<_>>()
+    });
+    let bits: Vec<u64> = bits.collect();
+    // A record's rows as a sink is given them: the same values.
+    let rows: Vec<u64> = (0..r.len()).flat_map(|i| row_bits(r.step_row(i))).collect();
+    assert_eq!(rows, bits);
+    bits
+}
+
+/// A row's values (as [`record_bits`] lists a step's), as bits.
+fn row_bits(row: dexel::RecordRow<'_>) -> Vec<u64> {
+    let [cx, cy] = row.contact_resultant();
+    [
+        row.volume_mm3(),
+        row.shank_volume_mm3(),
+        cx,
+        cy,
+        row.chip_edge_area_mm2(),
+        row.volume_over_radius_mm2(),
+    ]
+    .into_iter()
+    .chain(row.band_volumes_mm3().iter().copied())
+    .map(f64::to_bits)
+    .collect()
 }
 
 /// A stock swept band of rows by band of rows (a tiled stock too large for
@@ -796,6 +816,19 @@ fn a_sweep_fed_step_by_step_equals_the_sweep_of_the_list() {
             assert_eq!(fed.last_cut(), held.last_cut(), "{what}");
             assert_eq!(highest.get(), n - 1, "{what}");
             assert!(asked.get() >= n, "{what}");
+            // Rows given to a sink as they are made final: the record's, in order.
+            let sweep = dexel::Sweep::new(&tools, &which16, &source, &options).unwrap();
+            assert_eq!(sweep.n_bands(), reference.n_bands);
+            let (mut sunk, mut order) = (Vec::new(), Vec::new());
+            let mut given = new();
+            let visited = sweep.whole_into(&mut given, &|_| {}, &mut |k, row| {
+                order.push(k);
+                sunk.extend(row_bits(row));
+            });
+            assert_eq!(order, (0..n).collect::<Vec<_>>(), "{what}");
+            assert_eq!(sunk, record_bits(&reference), "{what}");
+            assert_eq!(visited, reference.columns_evaluated, "{what}");
+            assert_eq!(given.top_heights(), held.top_heights(), "{what}");
             // Band by band (a tiled stock), the record finished at the end.
             let mut sweep = dexel::Sweep::new(&tools, &which16, &source, &options).unwrap();
             let mut tops = Vec::new();
@@ -807,11 +840,9 @@ fn a_sweep_fed_step_by_step_equals_the_sweep_of_the_list() {
                 sweep.band(&mut band, &|_| {});
                 tops.extend(band.top_heights());
             }
-            assert_eq!(
-                record_bits(&sweep.finish()),
-                record_bits(&reference),
-                "{what}"
-            );
+            let mut sunk = Vec::new();
+            sweep.finish_into(&mut |_, row| sunk.extend(row_bits(row)));
+            assert_eq!(sunk, record_bits(&reference), "{what}");
             assert_eq!(tops, held.top_heights(), "{what}");
         }
     }

@@ -9,7 +9,8 @@ use super::flat::FlatEnd;
 use super::slot::{CONTACT_X, CONTACT_Y, SHANK, VOLUME};
 use super::strip::{partial_width, Banding, StripJob};
 use super::{
-    Envelope, Prepared, RemovalRecord, Step, StepSource, SubSteps, SweepOptions, HEAD, PLUNGE_H2,
+    Envelope, Prepared, RecordRow, RemovalRecord, RowSink, Step, StepSource, SubSteps,
+    SweepOptions, HEAD, PLUNGE_H2,
 };
 use crate::stock::{BottomsMut, RowBelow};
 use crate::{Error, Grid, Stock, Tool, ToolShape};
@@ -182,7 +183,7 @@ impl<'a, S: StepSource + ?Sized> Sweep<'a, S> {
     /// the record. `progress(done)` is called after each batch with the
     /// number of steps finished in this band.
     pub fn band(&mut self, stock: &mut Stock, progress: &(dyn Fn(usize) + Sync)) {
-        self.sweep_band(stock, progress, false);
+        self.sweep_band(stock, progress, Made::Band);
     }
 
     /// Sweep every step through the whole stock (one band holding every
@@ -192,11 +193,69 @@ impl<'a, S: StepSource + ?Sized> Sweep<'a, S> {
     /// the sweep goes, so the full rows of only one batch are held at a time
     /// (issue 16). The same record bit for bit.
     pub fn whole(mut self, stock: &mut Stock, progress: &(dyn Fn(usize) + Sync)) -> RemovalRecord {
-        self.sweep_band(stock, progress, true);
+        self.sweep_band(stock, progress, Made::Record);
         self.finish()
     }
 
-    fn sweep_band(&mut self, stock: &mut Stock, progress: &(dyn Fn(usize) + Sync), whole: bool) {
+    /// [`whole`](Self::whole) without a record: each step's row is given to
+    /// `sink(step, row)` as the sweep makes it final, step after step in
+    /// order, so no record is held (issue 16). The rows are the record's bit
+    /// for bit ([`RemovalRecord::step_row`]); a step's bands are its own
+    /// tool's (see [`n_bands`](Self::n_bands)). Where a band was swept
+    /// already, the rest of the stock is swept as one more band and the
+    /// finished record given row by row ([`finish_into`](Self::finish_into)).
+    /// Gives the columns visited.
+    pub fn whole_into(
+        mut self,
+        stock: &mut Stock,
+        progress: &(dyn Fn(usize) + Sync),
+        sink: &mut RowSink<'_>,
+    ) -> u64 {
+        if self.grid.is_some() {
+            self.band(stock, progress);
+            return self.finish_into(sink);
+        }
+        self.sweep_band(stock, progress, Made::Sink(sink));
+        self.parts.iter().map(|p| p.record.columns_evaluated).sum()
+    }
+
+    /// [`finish`](Self::finish), its rows given to `sink(step, row)` in
+    /// order (the record is made whole first: a stock swept band by band
+    /// makes no row final before its last band); gives the columns visited.
+    pub fn finish_into(self, sink: &mut RowSink<'_>) -> u64 {
+        let record = self.finish();
+        for k in 0..record.len() {
+            sink(k, record.step_row(k));
+        }
+        record.columns_evaluated
+    }
+
+    /// Number of steps swept.
+    pub fn len(&self) -> usize {
+        self.steps.len()
+    }
+
+    /// No steps to sweep.
+    pub fn is_empty(&self) -> bool {
+        self.steps.is_empty()
+    }
+
+    /// Bands of the record [`finish`](Self::finish) gives: those of the tool
+    /// with the most (1 where there are no steps).
+    pub fn n_bands(&self) -> usize {
+        self.parts
+            .iter()
+            .map(|p| p.banding.n_bands)
+            .max()
+            .unwrap_or(1)
+    }
+
+    fn sweep_band(
+        &mut self,
+        stock: &mut Stock,
+        progress: &(dyn Fn(usize) + Sync),
+        mut made: Made<'_, '_>,
+    ) {
         self.grid = Some(*stock.grid());
         let grid = *stock.grid();
         for part in &mut self.parts {
@@ -208,10 +267,20 @@ impl<'a, S: StepSource + ?Sized> Sweep<'a, S> {
             let n = steps.len();
             let stride = HEAD + part.banding.n_bands;
             // A stream only on a part no band of which was swept yet (else `band`).
-            let mut stream = if whole && part.record.data.is_empty() && !part.record.is_compact() {
+            let fresh = part.record.data.is_empty() && !part.record.is_compact();
+            let out = match &mut made {
+                Made::Record => Some(Out::Record(RemovalRecord::compact_empty(
+                    part.record.n_bands,
+                    part.record.band_height_mm,
+                ))),
+                Made::Sink(sink) => Some(Out::Sink(&mut **sink, part.start)),
+                Made::Band => None,
+            };
+            let mut stream = if let (Some(out), true) = (out, fresh) {
                 Some(Stream::new(
-                    &part.record,
+                    out,
                     n,
+                    stride,
                     grid,
                     radius,
                     self.options.smooth,
@@ -252,14 +321,19 @@ impl<'a, S: StepSource + ?Sized> Sweep<'a, S> {
                     ring: radius - corner_radius_mm,
                 }),
             }
-            if let Some(mut stream) = stream {
-                let evaluated = part.record.columns_evaluated;
-                // The band volumes grew by doubling; what they hold is kept
-                // (a large block is shrunk where it lies, not copied).
-                stream.out.bands.shrink_to_fit();
-                part.record = stream.out;
-                part.record.columns_evaluated = evaluated;
+            if let Some(stream) = stream {
                 part.spill = Vec::new();
+                if let Out::Record(mut out) = stream.out {
+                    let evaluated = part.record.columns_evaluated;
+                    // The band volumes grew by doubling; what they hold is kept
+                    // (a large block is shrunk where it lies, not copied).
+                    out.bands.shrink_to_fit();
+                    part.record = out;
+                    part.record.columns_evaluated = evaluated;
+                } else {
+                    // Given away: only the count of columns is kept.
+                    part.record.data = Vec::new();
+                }
             }
         }
     }
@@ -397,32 +471,62 @@ fn unbias_plunge(row: &mut [f64], step: &Step, grid: &Grid, radius: f64) {
     row[CONTACT_Y] -= row[VOLUME] * by;
 }
 
+/// What a sweep of the whole stock makes of its rows.
+enum Made<'m, 's> {
+    /// Full rows of every step, made final by [`Sweep::finish`] ([`Sweep::band`]).
+    Band,
+    /// A compact record, made batch by batch ([`Sweep::whole`]).
+    Record,
+    /// Rows given to a sink as they are made final ([`Sweep::whole_into`]).
+    Sink(&'m mut RowSink<'s>),
+}
+
+/// Where a [`Stream`] puts the rows it makes final.
+enum Out<'m> {
+    /// Pushed onto a compact record.
+    Record(RemovalRecord),
+    /// Given to a sink, the part's steps numbered from the offset on.
+    Sink(&'m mut RowSink<'m>, usize),
+}
+
 /// A part's record made final and compact batch by batch ([`Sweep::whole`]):
 /// `run_batches` holds full rows (and smoothing shares) only for the steps
 /// from `first` on; after each batch the steps whose rows can no longer
 /// change get their neighbours' shares, their plunges unbiased, and go into
-/// `out` in compact columns, in the order [`Sweep::finish`] does all this
-/// for a whole record, so the values are the same bit for bit.
-struct Stream {
+/// `out` in compact columns (or to a sink, [`Sweep::whole_into`]), in the
+/// order [`Sweep::finish`] does all this for a whole record, so the values
+/// are the same bit for bit.
+struct Stream<'m> {
     /// First step whose full row is held.
     first: usize,
+    /// Values a full row holds (head values, then the tool's bands).
+    stride: usize,
     spill: SpillCursor,
     grid: Grid,
     radius: f64,
     smooth: bool,
-    out: RemovalRecord,
+    out: Out<'m>,
 }
 
-impl Stream {
-    /// A stream of `n` steps' rows into a compact record (its head values
-    /// and band starts reserved for them: grown by doubling, they held up to
-    /// twice as much, issue 16).
-    fn new(record: &RemovalRecord, n: usize, grid: Grid, radius: f64, smooth: bool) -> Self {
-        let mut out = RemovalRecord::compact_empty(record.n_bands, record.band_height_mm);
-        out.data.reserve_exact(n * HEAD);
-        out.band_start.reserve_exact(n);
+impl<'m> Stream<'m> {
+    /// A stream of `n` steps' rows into `out` (a compact record's head
+    /// values and band starts reserved for them: grown by doubling, they
+    /// held up to twice as much, issue 16).
+    fn new(
+        mut out: Out<'m>,
+        n: usize,
+        stride: usize,
+        grid: Grid,
+        radius: f64,
+        smooth: bool,
+    ) -> Self {
+        if let Out::Record(out) = &mut out {
+            out.data.reserve_exact(n * HEAD);
+            out.band_start.reserve_exact(n);
+        }
         Stream {
             first: 0,
+            stride,
             spill: SpillCursor::default(),
             grid,
             radius,
@@ -441,7 +545,7 @@ impl Stream {
         swept: usize,
     ) {
         let n = steps.len();
-        let stride = HEAD + self.out.n_bands;
+        let stride = self.stride;
         // Step i's shares move once row i + 1 is swept; rows up to i − 1 are then final.
         let final_end = if !self.smooth || swept == n {
             if self.smooth {
@@ -456,7 +560,10 @@ impl Stream {
         let done = final_end - self.first;
         for (j, row) in rows[..done * stride].chunks_exact_mut(stride).enumerate() {
             unbias_plunge(row, &steps.step(self.first + j), &self.grid, self.radius);
-            self.out.push_row(row);
+            match &mut self.out {
+                Out::Record(out) => out.push_row(row),
+                Out::Sink(sink, start) => sink(*start + self.first + j, RecordRow::of_full(row)),
+            }
         }
         rows.drain(..done * stride);
         if self.smooth {
@@ -489,7 +596,7 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
     options: &SweepOptions,
     record: &mut RemovalRecord,
     spill: &mut Vec<f64>,
-    mut stream: Option<&mut Stream>,
+    mut stream: Option<&mut Stream<'_>>,
     progress: &(dyn Fn(usize) + Sync),
 ) {
     let grid = *stock.grid();

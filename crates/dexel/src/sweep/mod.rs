@@ -269,6 +269,19 @@ impl RemovalRecord {
         &self.data[step * s..(step + 1) * s]
     }
 
+    /// Step `step`'s values as one row (what [`Sweep::whole_into`] gives a
+    /// sink for it).
+    pub fn step_row(&self, step: usize) -> RecordRow<'_> {
+        if self.is_compact() {
+            RecordRow {
+                head: self.row(step),
+                bands: self.band_volumes_mm3(step),
+            }
+        } else {
+            RecordRow::of_full(self.row(step))
+        }
+    }
+
     /// Turn the full rows the sweep filled into the compact columns, in place:
     /// the head values move down, the bands up to the last nonzero one (bit
     /// pattern not +0.0) are copied out. Nothing else changes.
@@ -381,6 +394,61 @@ impl RemovalRecord {
     /// Sum of all step volumes, mm³.
     pub fn total_volume_mm3(&self) -> f64 {
         (0..self.len()).map(|i| self.volume_mm3(i)).sum()
+    }
+}
+
+/// What [`Sweep::whole_into`] gives each step's row to, as `sink(step, row)`.
+pub type RowSink<'s> = dyn FnMut(usize, RecordRow<'_>) + 's;
+
+/// One step's values in a [`RemovalRecord`], or given to a sink by
+/// [`Sweep::whole_into`] as the sweep makes them final (the same accessors
+/// and the same values bit for bit).
+#[derive(Clone, Copy, Debug)]
+pub struct RecordRow<'r> {
+    /// The [`slot`] values.
+    head: &'r [f64],
+    /// Band 0 up to the highest whose bit pattern is not +0.0.
+    bands: &'r [f64],
+}
+
+impl<'r> RecordRow<'r> {
+    /// A full row of the sweep (head values, then every band of its tool).
+    fn of_full(row: &'r [f64]) -> Self {
+        RecordRow {
+            head: &row[..HEAD],
+            bands: &row[HEAD..HEAD + kept_bands(row)],
+        }
+    }
+
+    /// [`RemovalRecord::volume_mm3`].
+    pub fn volume_mm3(&self) -> f64 {
+        self.head[slot::VOLUME]
+    }
+
+    /// [`RemovalRecord::shank_volume_mm3`].
+    pub fn shank_volume_mm3(&self) -> f64 {
+        self.head[slot::SHANK]
+    }
+
+    /// [`RemovalRecord::band_volumes_mm3`]: band 0 up to the highest that
+    /// is not zero.
+    pub fn band_volumes_mm3(&self) -> &'r [f64] {
+        self.bands
+    }
+
+    /// [`RemovalRecord::contact_resultant`].
+    pub fn contact_resultant(&self) -> [f64; 2] {
+        [self.head[slot::CONTACT_X], self.head[slot::CONTACT_Y]]
+    }
+
+    /// [`RemovalRecord::chip_edge_area_mm2`].
+    pub fn chip_edge_area_mm2(&self) -> f64 {
+        self.head[slot::CHIP_AREA]
+    }
+
+    /// [`RemovalRecord::volume_over_radius_mm2`].
+    pub fn volume_over_radius_mm2(&self) -> f64 {
+        self.head[slot::OVER_RADIUS]
     }
 }
 
