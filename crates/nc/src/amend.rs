@@ -15,6 +15,9 @@
 //! * axis words after `G80` with no motion word (Fanuc-style posts such as
 //!   Fusion's `.tap`), which those controls move in the G0/G1 mode in force
 //!   before the canned cycle, get that G code;
+//! * a G2 or G3 alone on its line (UCCNC's and Mach3's posts), which those
+//!   controls take as the arc mode of the next block's axis words, is moved
+//!   onto that block;
 //! * GRBL's system commands that report or unlock (`$$ $# $G $I $N $X`, a
 //!   bare `$`) and the `?` status query, which senders stream with the
 //!   program and GRBL answers outside its G-code parser, are written as

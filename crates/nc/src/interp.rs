@@ -72,7 +72,7 @@ pub enum FileForm {
     /// are errors.
     LinuxCnc,
     /// As most controls: the program ends at its last line when it has no
-    /// program end, a leading byte-order mark is skipped, and four dialects
+    /// program end, a leading byte-order mark is skipped, and the dialects
     /// real posts write are read as their controls read them (see
     /// [`crate::amend`]); each is a warning naming what LinuxCNC would
     /// refuse, and an [`Amendment`] in [`Parsed::amendments`].
@@ -687,6 +687,9 @@ struct Tolerated {
     /// The last G0/G1/G2/G3 mode set: what a Fanuc-style control moves in
     /// after G80.
     plain_motion: Option<GCode>,
+    /// A G2 or G3 read alone on its line, dropped there: written on the next
+    /// block that moves in it.
+    lone_arc: Option<(GCode, u32)>,
 }
 
 impl Interp<'_> {
@@ -1335,6 +1338,7 @@ impl Interp<'_> {
         }
         if let Some((code, _)) = motion_code {
             self.motion = code;
+            self.tolerated.lone_arc = None;
             if matches!(code, GCode::G0 | GCode::G1 | GCode::G2 | GCode::G3) {
                 self.tolerated.plain_motion = Some(code);
             }
@@ -1353,7 +1357,13 @@ impl Interp<'_> {
             if self.motion == GCode::G80 {
                 self.cycle_r = None;
                 self.cycle_z = None;
+            } else if let Some(code) = motion_code.filter(|_| self.lone_arc_mode(&b, pc)) {
+                // Nothing moves: the arc mode waits for the next axis words.
+                self.tolerated.lone_arc = Some(code);
             } else if b.has_axes() || matches!(self.motion, GCode::G2 | GCode::G3) {
+                if motion_code.is_none() {
+                    self.arc_mode_written_here(&b, pc);
+                }
                 self.motion_block(&b, pc)?;
             }
         }
@@ -1990,6 +2000,45 @@ impl Interp<'_> {
             self.pos = t;
         }
         done
+    }
+
+    /// A block whose only motion word is G2 or G3, with no axis, R, I, J or
+    /// K word: an error in LinuxCNC (an arc with no end or centre); read
+    /// tolerantly, it sets the arc mode for the axis words of a later block,
+    /// as Fanuc-style controls (UCCNC, Mach3) read it, and the word is
+    /// dropped here and written on that block
+    /// ([`Interp::arc_mode_written_here`]).
+    fn lone_arc_mode(&mut self, b: &Block, pc: usize) -> bool {
+        let Some(&(code, col)) = b.g.iter().find(|g| g_group(g.0) == Some(1)) else {
+            return false;
+        };
+        let words = ['r', 'i', 'j', 'k'].iter().any(|&l| b.get(l).is_some());
+        if !matches!(code, GCode::G2 | GCode::G3) || b.has_axes() || words {
+            return false;
+        }
+        let Some(span) = self.item_span(pc, col) else {
+            return false;
+        };
+        let what = format!("{code} alone on its line sets the arc mode for the next block's axis words, as Fanuc-style controls (UCCNC, Mach3) read it; written on that block");
+        self.tolerate(span, String::new(), col, what)
+    }
+
+    /// The G2 or G3 read alone on an earlier line ([`Interp::lone_arc_mode`])
+    /// written before this block's first axis word, which moves in it.
+    fn arc_mode_written_here(&mut self, b: &Block, pc: usize) {
+        let Some((code, _)) = self.tolerated.lone_arc.take() else {
+            return;
+        };
+        let col = ['x', 'y', 'z', '@', '^']
+            .iter()
+            .filter(|&&c| b.get(c).is_some())
+            .map(|&c| b.col(c))
+            .min()
+            .unwrap_or(b.first_col);
+        if let Some(span) = self.item_span(pc, col) {
+            let what = format!("{code} from the line where it stood alone written here");
+            self.tolerate(span.start..span.start, format!("{code} "), col, what);
+        }
     }
 
     /// Axis words with G80 in force: an error, as in LinuxCNC; read

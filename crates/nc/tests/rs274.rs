@@ -1014,3 +1014,52 @@ fn compensation_gouges_are_refused_like_linuxcnc() {
         }
     }
 }
+
+/// A G2 or G3 alone on its line (UCCNC's and Mach3's posts write `G03` and
+/// the arc's words on the next line): rs274 refuses the line (an arc with no
+/// end or centre); read as most controls read it, the arc mode is set for the
+/// next block's axis words, and the amended file, the word moved onto that
+/// block, reads in rs274 with the same moves: the arcs themselves, the modal
+/// arcs after them, and a lone arc word that a G1 replaces before any axis
+/// word (only dropped).
+#[test]
+fn lone_arc_words_read_as_fanuc_style_controls_and_amended_for_linuxcnc() {
+    if !have_rs274() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let amended_dir = tempfile::tempdir().expect("temp dir");
+    let programs = [
+        ("radius", "G21 G90 G17 F300\nG0 X0 Y2.54\nG1 Z-1\nG03\nX2.54 Y0 R2.54\nG1 X5\nM2\n", 1),
+        (
+            "modal",
+            "G21 G90 G17\nG0 X0 Y0\nG1 Z-1 F200\nG02 F250\n(next the arcs)\nX10 Y0 I5 J0\nX0 Y0 I-5 J0\nG1 Y5\nM2\n",
+            2,
+        ),
+        ("replaced", "G21 G90 G17 F300\nG0 X0 Y0\nG3\nG1 X4 Y4\nG03\nX8 Y0 R4\nM2\n", 1),
+    ];
+    for (name, source, arcs) in programs {
+        let file = dir.path().join(format!("{name}.ngc"));
+        std::fs::write(&file, source).expect("write");
+        let (_, _, error) = rs274_moves(&file);
+        assert!(error.is_some(), "{name}: rs274 reads the lone arc word");
+        let linuxcnc = nc::parse(source, name, &options_as(0, FileForm::LinuxCnc));
+        assert!(
+            linuxcnc.diagnostics.iter().any(|d| d.is_error()),
+            "{name}: read as LinuxCNC, the lone arc word is refused"
+        );
+        match tolerant_outcome(&file, amended_dir.path()) {
+            Outcome::Agree(n) => assert!(n >= 2, "{name}: {n} moves"),
+            Outcome::BothRefuse(ours, theirs) => panic!("{name}: {ours}\n    rs274: {theirs}"),
+            Outcome::Differ(e) => panic!("{name}: {e}"),
+        }
+        let parsed = nc::parse(source, name, &options_as(0, FileForm::Tolerant));
+        let n_arcs = parsed
+            .path
+            .segments
+            .iter()
+            .filter(|s| matches!(s.geometry, nc::Geometry::Arc { .. }))
+            .count();
+        assert_eq!(n_arcs, arcs, "{name}");
+    }
+}
