@@ -4,25 +4,33 @@
 //! the next dip's, each change the time-optimal jerk-limited one (an S-curve of up to
 //! three phases: jerk ±J, acceleration ±A, jerk ∓J).
 
-/// A jerk-limited change of speed from `v0` to `v1` with no acceleration at either end:
-/// jerk ±J for `tj`, acceleration ±A for `ta`, jerk ∓J for `tj`; A is reached where
-/// |v1 − v0| ≥ A²/J, else the acceleration peaks at √(J·|v1 − v0|) (`ta` = 0).
+/// A jerk-limited change of speed from (`v0`, `a0`) to (`v1`, `a1`) (speed, acceleration):
+/// jerk g·J for `t1` (the acceleration from a0 to the peak `ap`), `ap` held for `t2`, jerk
+/// −g·J for `t3` (from `ap` to a1), g = ±1 (MODEL.md §6.1, "Changes between accelerated
+/// states"). With a0 = a1 = 0 it is the S-curve from v0 to v1: A is reached where
+/// |v1 − v0| ≥ A²/J, else the acceleration peaks at √(J·|v1 − v0|).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Change {
     v0: f64,
+    a0: f64,
     v1: f64,
-    /// +1 rising, −1 falling.
+    a1: f64,
+    /// g: the sign of the first phase's jerk.
     sign: f64,
     /// Jerk magnitude J, mm/s³.
     jerk: f64,
-    /// Peak acceleration magnitude, mm/s².
-    accel: f64,
-    tj: f64,
-    ta: f64,
+    /// The held acceleration, signed (g times its magnitude), mm/s².
+    ap: f64,
+    t1: f64,
+    t2: f64,
+    t3: f64,
+    /// Length, mm.
+    length: f64,
 }
 
 impl Change {
-    /// The time-optimal change from `v0` to `v1` (mm/s) under acceleration `a` and jerk `j`.
+    /// The time-optimal change from `v0` to `v1` (mm/s) with no acceleration at either end,
+    /// under acceleration `a` and jerk `j`.
     pub(crate) fn new(v0: f64, v1: f64, a: f64, j: f64) -> Self {
         let dv = (v1 - v0).abs();
         let (tj, ta, accel) = if dv * j >= a * a {
@@ -31,55 +39,155 @@ impl Change {
             let tj = (dv / j).sqrt();
             (tj, 0.0, j * tj)
         };
+        let sign = if v1 >= v0 { 1.0 } else { -1.0 };
         Change {
             v0,
+            a0: 0.0,
             v1,
-            sign: if v1 >= v0 { 1.0 } else { -1.0 },
+            a1: 0.0,
+            sign,
             jerk: j,
-            accel,
-            tj,
-            ta,
+            ap: sign * accel,
+            t1: tj,
+            t2: ta,
+            t3: tj,
+            // The speed is point-symmetric about the middle, so it averages (v0 + v1)/2.
+            length: 0.5 * (v0 + v1) * (2.0 * tj + ta),
         }
     }
 
-    /// Its duration, s: 2·tj + ta (Δv/A + A/J, or 2√(Δv/J)).
+    /// The time-optimal change from (`v0`, `a0`) to (`v1`, `a1`) under acceleration `a` and
+    /// jerk `j` (MODEL.md §6.1, eqs. 6.1a–b): of the two first jerks g = ±1, those whose
+    /// held acceleration ap, ap² = g·J·Δv + (a0² + a1²)/2 (clamped to ±A, the rest of Δv
+    /// at ±A), lies beyond both ends (g·ap ≥ g·a0, g·a1), the quicker; `None` where
+    /// |a0| or |a1| is over `a`, or the speed would go below 0 inside it.
+    pub(crate) fn between(v0: f64, a0: f64, v1: f64, a1: f64, a: f64, j: f64) -> Option<Self> {
+        if a0 == 0.0 && a1 == 0.0 {
+            return Some(Self::new(v0, v1, a, j));
+        }
+        if a0.abs() > a || a1.abs() > a {
+            return None;
+        }
+        let dv = v1 - v0;
+        let mean_sq = 0.5 * (a0 * a0 + a1 * a1);
+        let mut best: Option<Change> = None;
+        for sign in [1.0, -1.0] {
+            let sq = sign * j * dv + mean_sq;
+            if sq < 0.0 {
+                continue;
+            }
+            let mut mag = sq.sqrt();
+            // Slack for rounding where an end is at the held acceleration.
+            let tol = 1e-12 * (a + mag);
+            if mag + tol < sign * a0 || mag + tol < sign * a1 {
+                continue;
+            }
+            let mut t2 = 0.0;
+            if mag > a {
+                mag = a;
+                // Δv = g(2A² − a0² − a1²)/(2J) + g·A·t2.
+                t2 = (sign * dv - (2.0 * a * a - a0 * a0 - a1 * a1) / (2.0 * j)) / a;
+            }
+            let ap = sign * mag;
+            let t1 = ((mag - sign * a0) / j).max(0.0);
+            let t3 = ((mag - sign * a1) / j).max(0.0);
+            let mut c = Change {
+                v0,
+                a0,
+                v1,
+                a1,
+                sign,
+                jerk: j,
+                ap,
+                t1,
+                t2: t2.max(0.0),
+                t3,
+                length: 0.0,
+            };
+            // Length: the first two phases forward, the third from its start.
+            let (x2, v2, _) = c.forward(t1 + c.t2);
+            c.length = x2 + v2 * t3 + ap * t3 * t3 / 2.0 - sign * j * t3 * t3 * t3 / 6.0;
+            if c.min_speed() < 0.0 {
+                continue;
+            }
+            if best.is_none_or(|b| c.duration_s() < b.duration_s()) {
+                best = Some(c);
+            }
+        }
+        best
+    }
+
+    /// Distance, speed and acceleration `t` into the first two phases (t ≤ t1 + t2).
+    fn forward(&self, t: f64) -> (f64, f64, f64) {
+        let (sg, j, t1) = (self.sign, self.jerk, self.t1);
+        if t <= t1 {
+            return (
+                self.v0 * t + self.a0 * t * t / 2.0 + sg * j * t * t * t / 6.0,
+                self.v0 + self.a0 * t + sg * j * t * t / 2.0,
+                self.a0 + sg * j * t,
+            );
+        }
+        let h = t - t1;
+        let v_t1 = self.v0 + self.a0 * t1 + sg * j * t1 * t1 / 2.0;
+        let x_t1 = self.v0 * t1 + self.a0 * t1 * t1 / 2.0 + sg * j * t1 * t1 * t1 / 6.0;
+        (
+            x_t1 + v_t1 * h + self.ap * h * h / 2.0,
+            v_t1 + self.ap * h,
+            self.ap,
+        )
+    }
+
+    /// Where it holds its acceleration (its middle phase; the peak's point where it has
+    /// none), as distances from its start plus `offset_mm`, mm.
+    fn held_span_mm(&self, offset_mm: f64) -> (f64, f64) {
+        let (x0, _, _) = self.forward(self.t1);
+        let (x1, _, _) = self.forward(self.t1 + self.t2);
+        (offset_mm + x0, offset_mm + x1)
+    }
+
+    /// The least speed inside the change (at its ends or where the acceleration passes 0
+    /// in its first or last phase).
+    fn min_speed(&self) -> f64 {
+        let mut least = self.v0.min(self.v1);
+        // First phase: a0 + gJt = 0.
+        let t = -self.a0 * self.sign / self.jerk;
+        if t > 0.0 && t < self.t1 {
+            least = least.min(self.state(t).1);
+        }
+        // Last phase, r before the end: a1 + gJr = 0.
+        let r = -self.a1 * self.sign / self.jerk;
+        if r > 0.0 && r < self.t3 {
+            least = least.min(self.state(self.duration_s() - r).1);
+        }
+        least
+    }
+
+    /// Its duration, s: t1 + t2 + t3 (Δv/A + A/J, or 2√(Δv/J), between states at rest).
     pub(crate) fn duration_s(&self) -> f64 {
-        2.0 * self.tj + self.ta
+        // t1 + t3 first: 2·tj + ta exactly where t1 = t3.
+        self.t1 + self.t3 + self.t2
     }
 
-    /// Its length, mm: the speed is point-symmetric about the middle, so it averages
-    /// (v0 + v1)/2.
+    /// Its length, mm.
     pub(crate) fn length_mm(&self) -> f64 {
-        0.5 * (self.v0 + self.v1) * self.duration_s()
+        self.length
     }
 
-    /// Distance, speed and acceleration `t_s` into the change (clamped to it).
+    /// Distance, speed and acceleration `t_s` into the change (clamped to it): the first
+    /// two phases from the start, the last one from the end, r = duration − t before it:
+    /// x = L − (v1·r − a1·r²/2 − g·J·r³/6), v = v1 − a1·r − g·J·r²/2, a = a1 + g·J·r.
     pub(crate) fn state(&self, t_s: f64) -> (f64, f64, f64) {
-        let (sg, j, tj) = (self.sign, self.jerk, self.tj);
+        let (sg, j) = (self.sign, self.jerk);
         let total = self.duration_s();
         let t = t_s.clamp(0.0, total);
-        if t <= tj {
-            return (
-                self.v0 * t + sg * j * t * t * t / 6.0,
-                self.v0 + sg * j * t * t / 2.0,
-                sg * j * t,
-            );
-        }
-        if t <= tj + self.ta {
-            let h = t - tj;
-            let v_tj = self.v0 + sg * j * tj * tj / 2.0;
-            let x_tj = self.v0 * tj + sg * j * tj * tj * tj / 6.0;
-            return (
-                x_tj + v_tj * h + sg * self.accel * h * h / 2.0,
-                v_tj + sg * self.accel * h,
-                sg * self.accel,
-            );
+        if t <= self.t1 + self.t2 {
+            return self.forward(t);
         }
         let r = total - t;
         (
-            self.length_mm() - (self.v1 * r - sg * j * r * r * r / 6.0),
-            self.v1 - sg * j * r * r / 2.0,
-            sg * j * r,
+            self.length - (self.v1 * r - self.a1 * r * r / 2.0 - sg * j * r * r * r / 6.0),
+            self.v1 - self.a1 * r - sg * j * r * r / 2.0,
+            self.a1 + sg * j * r,
         )
     }
 
@@ -153,18 +261,30 @@ impl Gap {
     /// The gap's motion, or `None` where the two changes do not fit between the stations.
     /// Each change takes the least acceleration limit of the intervals it crosses (the
     /// largest A that is at most the least limit over the change made with it: from the
-    /// gap's largest limit down, a few rounds) and the gap's least jerk limit.
-    fn new(lim: &Limits, (i, k): (usize, usize), d: (f64, f64), peak: f64) -> Option<Self> {
+    /// gap's largest limit down, a few rounds) and the gap's least jerk limit. `acc` are
+    /// the accelerations at the two ends (0 at a dip held flat; a dip that follows the
+    /// envelope has its first or last interval's: MODEL.md §6.1, "Dips that follow the
+    /// envelope").
+    fn new(
+        lim: &Limits,
+        (i, k): (usize, usize),
+        d: (f64, f64),
+        acc: (f64, f64),
+        peak: f64,
+    ) -> Option<Self> {
         let accel = &lim.accel_mm_s2[i..k];
         let j = lim.jerk_mm_s3[i..k]
             .iter()
             .fold(f64::INFINITY, |m, &x| m.min(x));
         let s = &lim.s_mm[i..=k];
         let len = s[s.len() - 1] - s[0];
-        // The change from v0 to v1 over the first (`forward`) or last intervals.
-        let change = |v0: f64, v1: f64, forward: bool| {
-            let mut a = accel.iter().fold(0.0f64, |m, &x| m.max(x));
-            let mut c = Change::new(v0, v1, a, j);
+        // The change from (v0, a0) to (v1, a1) over the first (`forward`) or last intervals.
+        let change = |(v0, a0): (f64, f64), (v1, a1): (f64, f64), forward: bool| {
+            // An end that follows the envelope keeps its acceleration (MODEL.md §6.1, "Dips
+            // that follow the envelope").
+            let floor = a0.abs().max(a1.abs());
+            let mut a = accel.iter().fold(floor, |m, &x| m.max(x));
+            let mut c = Change::between(v0, a0, v1, a1, a, j)?;
             for _ in 0..8 {
                 let reach = c.length_mm();
                 let least = if forward {
@@ -175,16 +295,17 @@ impl Gap {
                     let from = from.saturating_sub(1).min(accel.len() - 1);
                     accel[from..].iter().fold(a, |m, &x| m.min(x))
                 };
+                let least = least.max(floor);
                 if least >= a {
                     break;
                 }
                 a = least;
-                c = Change::new(v0, v1, a, j);
+                c = Change::between(v0, a0, v1, a1, a, j)?;
             }
-            c
+            Some(c)
         };
-        let first = change(d.0, peak, true);
-        let second = change(peak, d.1, false);
+        let first = change((d.0, acc.0), (peak, 0.0), true)?;
+        let second = change((peak, 0.0), (d.1, acc.1), false)?;
         let used = first.length_mm() + second.length_mm();
         (used <= len).then_some(Gap {
             i,
@@ -248,19 +369,108 @@ impl Gap {
 
     /// Whether every station strictly inside the gap is at or under the envelope (the
     /// intervals' own acceleration limits are kept by the passes after the shape, and the
-    /// jerk by the check of the samples).
+    /// jerk by the check of the samples). A gap with an accelerated end, whose changes may
+    /// hold an acceleration over the least limit of the intervals they cross (up to the
+    /// end's), also keeps each interval's limit: the largest |a| over an interval is at
+    /// its stations or, where a change's held acceleration lies in it, that one (MODEL.md
+    /// §6.1, eq. 6.1d).
     fn fits(&self, lim: &Limits) -> bool {
-        (self.i + 1..self.k).all(|m| {
-            let (v, _) = self.at(lim, m);
-            v <= lim.envelope_mm_s[m] * (1.0 + 1e-12)
+        let accelerated = self.accelerated_ends();
+        let from = lim.s_mm[self.i];
+        // Where each change holds its acceleration, from station i, mm.
+        let held = [
+            (self.first.held_span_mm(0.0), self.first.ap.abs()),
+            (
+                self.second.held_span_mm(self.second_from_mm),
+                self.second.ap.abs(),
+            ),
+        ];
+        let mut a_before = self.first.a0;
+        (self.i + 1..=self.k).all(|m| {
+            let (v, a) = if m < self.k {
+                self.at(lim, m)
+            } else {
+                (0.0, self.second.a1)
+            };
+            if m < self.k && v > lim.envelope_mm_s[m] * (1.0 + 1e-12) {
+                return false;
+            }
+            if accelerated {
+                let (lo, hi) = (lim.s_mm[m - 1] - from, lim.s_mm[m] - from);
+                let peak = held
+                    .iter()
+                    .filter(|((x0, x1), _)| *x0 <= hi && *x1 >= lo)
+                    .fold(0.0f64, |p, (_, ap)| p.max(*ap));
+                if a_before.abs().max(a.abs()).max(peak) > lim.accel_mm_s2[m - 1] * (1.0 + 1e-9) {
+                    return false;
+                }
+            }
+            a_before = a;
+            true
         })
+    }
+
+    /// Whether it starts or ends with an acceleration (beside an envelope followed).
+    pub(crate) fn accelerated_ends(&self) -> bool {
+        self.first.a0 != 0.0 || self.second.a1 != 0.0
     }
 }
 
-/// Whether the gap `(i, k)` has a motion from `d.0` to `d.1` through the peak `peak`.
-fn feasible(lim: &Limits, gap: (usize, usize), d: (f64, f64), peak: f64) -> bool {
-    Gap::new(lim, gap, d, peak).is_some_and(|g| g.fits(lim))
+/// Whether the gap `(i, k)` has a motion from (`d.0`, `acc.0`) to (`d.1`, `acc.1`)
+/// through the peak `peak`.
+fn feasible(lim: &Limits, gap: (usize, usize), d: (f64, f64), acc: (f64, f64), peak: f64) -> bool {
+    Gap::new(lim, gap, d, acc, peak).is_some_and(|g| g.fits(lim))
 }
+
+/// The lowest peak a gap from (`d.0`, `acc.0`) to (`d.1`, `acc.1`) is shaped through: where
+/// each end levels off at full jerk, v + a·|a|/2J at its start and v − a·|a|/2J at its
+/// end (the higher of the two; the higher end speed between ends at rest).
+fn least_peak(lim: &Limits, (i, k): (usize, usize), d: (f64, f64), acc: (f64, f64)) -> f64 {
+    let j = lim.jerk_mm_s3[i..k.max(i + 1)]
+        .iter()
+        .fold(f64::INFINITY, |m, &x| m.min(x));
+    let start = d.0 + acc.0 * acc.0.abs() / (2.0 * j);
+    let end = d.1 - acc.1 * acc.1.abs() / (2.0 * j);
+    start.max(end)
+}
+
+/// Grid of peaks below [`least_peak`] a gap between accelerated ends is tried at, where
+/// that peak has no motion: a gap that decelerates (accelerates) through its hold.
+const PEAK_GRID: usize = 16;
+
+/// The highest peak, at least the lowest found (from [`least_peak`] up to the highest
+/// envelope speed of the gap, bisection), the gap `(i, k)` has a motion through from
+/// (`d.0`, `acc.0`) to (`d.1`, `acc.1`), or `None`. Between accelerated ends where
+/// [`least_peak`] has none, peaks down to half the lower end speed are tried on a grid
+/// first (MODEL.md §6.1, "Dips that follow the envelope").
+fn gap_peak(lim: &Limits, (i, k): (usize, usize), d: (f64, f64), acc: (f64, f64)) -> Option<f64> {
+    let ok = |p: f64| feasible(lim, (i, k), d, acc, p);
+    let top = lim.envelope_mm_s[i..=k]
+        .iter()
+        .fold(0.0f64, |m, &x| m.max(x));
+    let low = least_peak(lim, (i, k), d, acc);
+    if ok(low) {
+        return Some(highest(low, top.max(low), ok));
+    }
+    if acc == (0.0, 0.0) {
+        return None;
+    }
+    let floor = 0.5 * d.0.min(d.1);
+    let mut above = low;
+    for step in 1..=PEAK_GRID {
+        let p = low - (low - floor) * step as f64 / PEAK_GRID as f64;
+        if ok(p) {
+            return Some(highest(p, above, ok));
+        }
+        above = p;
+    }
+    None
+}
+
+/// How many stations before (after) a dip the lowest station of an envelope falling into
+/// it (rising out of it) that is followed is looked for (MODEL.md §6.1, "Dips that follow
+/// the envelope").
+const FOLLOW_SCAN: usize = 48;
 
 /// Bisection steps of the searches over a speed.
 const BISECTIONS: usize = 40;
@@ -293,6 +503,54 @@ struct Dip {
     /// The end of a slow corner's intervals (kept: the gaps beside it take their
     /// accelerations from either side of it).
     edge: bool,
+    /// A stretch of the envelope the motion follows (MODEL.md §6.1, "Dips that follow the
+    /// envelope"): never lowered, but narrowed or dropped where a gap beside it has no
+    /// motion.
+    follow: bool,
+    /// The accelerations the gaps before and after it end and start with: the
+    /// envelope's over its first and last interval where it follows the envelope, else 0.
+    a_l: f64,
+    a_r: f64,
+}
+
+/// Acceleration of the stations' plan `u` over interval `k`.
+fn interval_accel(lim: &Limits, u: &[f64], k: usize) -> f64 {
+    crate::plan::interval_accel_mm_s2(lim.s_mm, u, k)
+}
+
+/// Whether following the envelope over the stations `l..=r` by constant accelerations
+/// between them, entered with the acceleration of interval `l` and left with that of
+/// interval r − 1, keeps every change of acceleration over a time `period_s` within
+/// `jerk`·`period_s` (MODEL.md §6.1, eq. 6.1c: a third difference
+/// at that period is a weighted mean of such changes over the period, divided by it).
+fn followable(lim: &Limits, (l, r): (usize, usize), period_s: f64, jerk: f64) -> bool {
+    let u = lim.envelope_mm_s;
+    let mut times = Vec::with_capacity(r - l);
+    let mut t = 0.0;
+    for k in l..r {
+        let dt = crate::plan::interval_time_s(lim.s_mm, u, k);
+        if !(dt.is_finite() && dt > 0.0) {
+            return false;
+        }
+        let a = interval_accel(lim, u, k);
+        if a.abs() > lim.accel_mm_s2[k] * (1.0 + 1e-9) {
+            return false;
+        }
+        times.push((t, t + dt, a));
+        t += dt;
+    }
+    let limit = jerk * period_s;
+    for (p, &(_, end_p, a_p)) in times.iter().enumerate() {
+        for &(start_q, _, a_q) in &times[p + 1..] {
+            if start_q - end_p >= period_s {
+                break;
+            }
+            if (a_q - a_p).abs() > limit {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 /// Shapes a section (MODEL.md §6.1, "Direct sections"): `v` gets the speed at each
@@ -300,18 +558,23 @@ struct Dip {
 /// local minima (a flat bottom whole) and the run's ends, each widened over the intervals
 /// beside it whose acceleration limit is at most `slow_share` times their jerk limit
 /// (the slow corners' intervals: there the motion follows the envelope, whose
-/// acceleration is then too small to matter for the jerk). Between two dips the motion
-/// changes speed from the first dip's speed (no acceleration) to a peak (no
-/// acceleration) and on to the next dip's, each change the time-optimal jerk-limited one
-/// ([`Change`]). Each dip's speed is lowered until the gaps on either side have such a
-/// motion under the envelope (the higher end of a gap lowered, sweeping forwards then
-/// backwards); dips that were lowered and whose neighbours have a motion through them are
-/// dropped; then each gap takes the highest peak it has a motion through (bisection).
-/// Returns `false` (nothing usable) where a gap still has no motion or a speed inside
-/// the run comes out as 0.
+/// acceleration is then too small to matter for the jerk). With `follow` = Some(T), the
+/// dips inside the section are also widened over the envelope on either side as far as
+/// following it keeps the changes of acceleration over T within the jerk limit times T
+/// ([`followable`]; MODEL.md §6.1, "Dips that follow the envelope"), and the gaps beside
+/// such a dip end and start with the envelope's acceleration there. Between two dips the
+/// motion changes speed from the first dip's state to a peak (no acceleration) and on to
+/// the next dip's, each change the time-optimal jerk-limited one ([`Change`]). Each dip's
+/// speed is lowered until the gaps on either side have such a motion under the envelope
+/// (the higher end of a gap lowered, sweeping forwards then backwards; a widened dip is
+/// narrowed first, station by station); dips that were lowered and whose neighbours have
+/// a motion through them are dropped; then each gap takes the highest peak it has a
+/// motion through (bisection). Returns `false` (nothing usable) where a gap still has no
+/// motion or a speed inside the run comes out as 0.
 pub(crate) fn shape(
     lim: &Limits,
     slow_share: f64,
+    follow: Option<f64>,
     v: &mut [f64],
     mut gaps: Option<&mut Vec<Gap>>,
 ) -> bool {
@@ -341,6 +604,15 @@ pub(crate) fn shape(
         }
         m = e + 1;
     }
+    let dip = |l: usize, r: usize, edge: bool| Dip {
+        l,
+        r,
+        d: u[l],
+        edge,
+        follow: false,
+        a_l: 0.0,
+        a_r: 0.0,
+    };
     // Each core, and the ends of the slow intervals beside it as dips of their own.
     let mut dips: Vec<Dip> = Vec::with_capacity(cores.len());
     for (l, r) in cores {
@@ -356,65 +628,172 @@ pub(crate) fn shape(
             dips.pop();
         }
         if ll < l && dips.last().is_none_or(|d| d.r < ll) {
-            dips.push(Dip {
-                l: ll,
-                r: ll,
-                d: u[ll],
-                edge: true,
-            });
+            dips.push(dip(ll, ll, true));
         }
         if dips.last().is_some_and(|d| d.r >= l) {
             dips.pop();
         }
-        dips.push(Dip {
-            l,
-            r,
-            d: u[l],
-            edge: false,
-        });
+        dips.push(dip(l, r, false));
         if rr > r {
-            dips.push(Dip {
-                l: rr,
-                r: rr,
-                d: u[rr],
-                edge: true,
-            });
+            dips.push(dip(rr, rr, true));
         }
     }
-    let last_dip = dips.len() - 1;
-    // Gap g: from dip g's last station to dip g+1's first, and its end speeds.
+    // Gap g: from dip g's last station to dip g+1's first, and its end speeds and
+    // accelerations.
     let gap = |dips: &[Dip], g: usize| (dips[g].r, dips[g + 1].l);
     let ends = |dips: &[Dip], g: usize| {
         let (i, k) = gap(dips, g);
-        (u[i].min(dips[g].d), u[k].min(dips[g + 1].d))
+        (
+            (u[i].min(dips[g].d), u[k].min(dips[g + 1].d)),
+            (dips[g].a_r, dips[g + 1].a_l),
+        )
+    };
+    let fits_between = |(i, k): (usize, usize), d: (f64, f64), acc: (f64, f64)| {
+        if acc == (0.0, 0.0) {
+            feasible(lim, (i, k), d, acc, least_peak(lim, (i, k), d, acc))
+        } else {
+            gap_peak(lim, (i, k), d, acc).is_some()
+        }
     };
     let ok = |dips: &[Dip], g: usize| {
         let (i, k) = gap(dips, g);
-        let (a, b) = ends(dips, g);
-        k <= i || feasible(lim, (i, k), (a, b), a.max(b))
+        let (d, acc) = ends(dips, g);
+        k <= i || fits_between((i, k), d, acc)
     };
+    // A stretch l..=r of the envelope followed: its accelerations at either end.
+    let following = |l: usize, r: usize| Dip {
+        l,
+        r,
+        d: f64::INFINITY,
+        edge: false,
+        follow: true,
+        a_l: interval_accel(lim, u, l),
+        a_r: interval_accel(lim, u, r - 1),
+    };
+    if let Some(period_s) = follow {
+        let jerk = lim.jerk_mm_s3.iter().fold(f64::INFINITY, |m, &x| m.min(x));
+        let can_follow = |l: usize, r: usize| followable(lim, (l, r), period_s, jerk);
+        let mut with: Vec<Dip> = Vec::with_capacity(3 * dips.len());
+        for g in 0..dips.len() {
+            let dip = dips[g];
+            // Before the dip: the envelope falling into it, followed down to the lowest
+            // station whose change into the dip fits (at most FOLLOW_SCAN stations up),
+            // and up as far as it can be followed.
+            if let Some(before) = with.last().map(|d| d.r) {
+                let bottom = (dip.l.saturating_sub(FOLLOW_SCAN)..=dip.l.saturating_sub(2))
+                    .rev()
+                    .filter(|&r| r > before + 3)
+                    .find(|&r| {
+                        u[r - 1] > u[r]
+                            && can_follow(r - 1, r)
+                            && fits_between(
+                                (r, dip.l),
+                                (u[r], u[dip.l].min(dip.d)),
+                                (interval_accel(lim, u, r - 1), dip.a_l),
+                            )
+                    });
+                if let Some(r) = bottom {
+                    let mut l = r - 1;
+                    while l > before + 2 && u[l - 1] > u[l] && can_follow(l - 1, r) {
+                        l -= 1;
+                    }
+                    with.push(following(l, r));
+                }
+            }
+            with.push(dip);
+            // After it: the envelope rising out of it, the same way.
+            if let Some(next) = dips.get(g + 1).map(|d| d.l) {
+                let foot = (dip.r + 2..=dip.r + FOLLOW_SCAN)
+                    .filter(|&l| l + 3 < next)
+                    .find(|&l| {
+                        u[l + 1] > u[l]
+                            && can_follow(l, l + 1)
+                            && fits_between(
+                                (dip.r, l),
+                                (u[dip.r].min(dip.d), u[l]),
+                                (dip.a_r, interval_accel(lim, u, l)),
+                            )
+                    });
+                if let Some(l) = foot {
+                    let mut r = l + 1;
+                    while r + 2 < next && u[r + 1] > u[r] && can_follow(l, r + 1) {
+                        r += 1;
+                    }
+                    with.push(following(l, r));
+                }
+            }
+        }
+        dips = with;
+    }
     // The higher end of gap g lowered until the gap has a motion through it (the run's
-    // ends keep their speeds).
-    let lower = |dips: &mut [Dip], g: usize| {
+    // ends keep their speeds). A stretch followed at either end is narrowed instead, from
+    // that end, station by station, to the widest that has one, or dropped.
+    let lower = |dips: &mut Vec<Dip>, g: usize| {
         let (i, k) = gap(dips, g);
-        let (a, b) = ends(dips, g);
-        if a > b && g > 0 {
-            dips[g].d = highest(b, a, |x| feasible(lim, (i, k), (x, b), x));
+        let ((a, b), acc) = ends(dips, g);
+        let last_dip = dips.len() - 1;
+        let higher = if a > b && g > 0 {
+            Some(g)
         } else if a <= b && g + 1 < last_dip {
-            dips[g + 1].d = highest(a, b, |x| feasible(lim, (i, k), (a, x), x));
+            Some(g + 1)
+        } else {
+            None
+        };
+        if let Some(at) = higher.filter(|&at| !dips[at].follow) {
+            dips[at].d = if at == g {
+                highest(b, a, |x| fits_between((i, k), (x, b), acc))
+            } else {
+                highest(a, b, |x| fits_between((i, k), (a, x), acc))
+            };
+            if follow.is_none() || ok(dips, g) {
+                return;
+            }
+        }
+        for (at, from_right) in [(g + 1, false), (g, true)] {
+            if !dips[at].follow {
+                continue;
+            }
+            while dips[at].l + 1 < dips[at].r {
+                if from_right {
+                    dips[at].r -= 1;
+                } else {
+                    dips[at].l += 1;
+                }
+                dips[at] = following(dips[at].l, dips[at].r);
+                if ok(dips, g) {
+                    return;
+                }
+            }
+            dips.remove(at);
+            return;
+        }
+        // The higher end is the section's: the lower one lowered (the envelope rises or
+        // falls too steeply beside it for a change from no acceleration).
+        let ((a, b), acc) = ends(dips, g);
+        if follow.is_some() && a <= b && g > 0 {
+            dips[g].d = highest(0.0, a, |x| fits_between((i, k), (x, b), acc));
+        } else if follow.is_some() && a > b && g + 1 < last_dip {
+            dips[g + 1].d = highest(0.0, b, |x| fits_between((i, k), (a, x), acc));
         }
     };
     for _ in 0..4 {
         let mut changed = false;
-        for g in 0..dips.len() - 1 {
-            let (a, b) = ends(&dips, g);
-            if b > a && !ok(&dips, g) {
+        let mut g = 0;
+        while g + 1 < dips.len() {
+            let ((a, b), _) = ends(&dips, g);
+            if (b > a || dips[g].follow || dips[g + 1].follow) && !ok(&dips, g) {
                 lower(&mut dips, g);
                 changed = true;
             }
+            g += 1;
         }
-        for g in (0..dips.len() - 1).rev() {
-            let (a, b) = ends(&dips, g);
+        let mut g = dips.len() - 1;
+        while g > 0 {
+            g -= 1;
+            if g + 1 >= dips.len() {
+                continue;
+            }
+            let ((a, b), _) = ends(&dips, g);
             if a >= b && !ok(&dips, g) {
                 lower(&mut dips, g);
                 changed = true;
@@ -430,8 +809,9 @@ pub(crate) fn shape(
         let dip = dips[g];
         let lowered = dip.l == dip.r && !dip.edge && dip.d < u[dip.l];
         let (i, k) = (dips[g - 1].r, dips[g + 1].l);
-        let (a, b) = (u[i].min(dips[g - 1].d), u[k].min(dips[g + 1].d));
-        if lowered && feasible(lim, (i, k), (a, b), a.max(b)) {
+        let d = (u[i].min(dips[g - 1].d), u[k].min(dips[g + 1].d));
+        let acc = (dips[g - 1].a_r, dips[g + 1].a_l);
+        if lowered && fits_between((i, k), d, acc) {
             dips.remove(g);
         } else {
             g += 1;
@@ -450,10 +830,11 @@ pub(crate) fn shape(
         if k <= i + 1 {
             continue;
         }
-        let (a, b) = ends(&dips, g);
-        let top = u[i..=k].iter().fold(0.0f64, |m, &x| m.max(x));
-        let peak = highest(a.max(b), top, |p| feasible(lim, (i, k), (a, b), p));
-        let motion = Gap::new(lim, (i, k), (a, b), peak).expect("a feasible peak");
+        let (d, acc) = ends(&dips, g);
+        let Some(peak) = gap_peak(lim, (i, k), d, acc) else {
+            return false;
+        };
+        let motion = Gap::new(lim, (i, k), d, acc, peak).expect("a feasible peak");
         for (m, vm) in v.iter_mut().enumerate().take(k).skip(i + 1) {
             *vm = motion.at(lim, m).0.min(u[m]);
         }
@@ -511,6 +892,97 @@ mod tests {
         }
     }
 
+    /// Changes between states with accelerations ≠ 0 (MODEL.md §6.1, eqs. 6.1a–b) against
+    /// their closed forms: duration t1 + t2 + t3 with the held acceleration
+    /// ap² = g·J·Δv + (a0² + a1²)/2 (or ±A, the rest of Δv at A), t1 = |ap − a0|/J,
+    /// t3 = |ap − a1|/J; and against the jerk profile (g·J, 0, −g·J over those phases)
+    /// integrated exactly step by step: the end state (v1, a1), the length and every
+    /// sample's distance, speed and acceleration; at every sample |a| ≤ A and the jerk
+    /// between samples within J. A change whose end acceleration is over A has none.
+    #[test]
+    fn changes_between_accelerated_states_are_the_closed_form() {
+        let j = 20000.0;
+        // (v0, a0, v1, a1, A, first jerk's sign g, whether A is held).
+        for (v0, a0, v1, a1, a, g, held) in [
+            // Falling onto a cap ramp (a = −k·v) from a peak at rest.
+            (50.0, 0.0, 20.0, -600.0, 1000.0, -1.0, false),
+            (50.0, 0.0, 5.0, -300.0, 800.0, -1.0, true),
+            // Rising out of an envelope followed, to a peak at rest.
+            (10.0, 300.0, 40.0, 0.0, 1000.0, 1.0, false),
+            // Leaving a ramp into a dip at rest: harder first, then easing off.
+            (14.6, -480.0, 4.4, 0.0, 1000.0, -1.0, false),
+            // Both ends accelerating.
+            (10.0, 200.0, 30.0, 500.0, 1000.0, 1.0, false),
+            (10.0, 200.0, 60.0, 500.0, 700.0, 1.0, true),
+        ] {
+            let c = Change::between(v0, a0, v1, a1, a, j).expect("a change");
+            let dv = v1 - v0;
+            let mut ap = (g * j * dv + 0.5 * (a0 * a0 + a1 * a1)).sqrt();
+            let mut t2 = 0.0;
+            assert_eq!(ap > a, held, "{v0} {a0} {v1} {a1}");
+            if held {
+                ap = a;
+                t2 = (g * dv - (2.0 * a * a - a0 * a0 - a1 * a1) / (2.0 * j)) / a;
+            }
+            let (t1, t3) = ((ap - g * a0) / j, (ap - g * a1) / j);
+            let total = t1 + t2 + t3;
+            assert!(t1 >= 0.0 && t2 >= 0.0 && t3 >= 0.0);
+            assert!(
+                (c.duration_s() - total).abs() <= 1e-12 * total,
+                "{} vs {total}",
+                c.duration_s()
+            );
+            // The jerk profile integrated exactly (constant jerk in each step).
+            let steps = 2000;
+            let (mut x, mut v, mut acc) = (0.0, v0, a0);
+            let mut last = c.state(0.0);
+            let mut t = 0.0;
+            for (len, jerk) in [(t1, g * j), (t2, 0.0), (t3, -g * j)] {
+                let h = len / steps as f64;
+                for _ in 0..steps {
+                    x += v * h + acc * h * h / 2.0 + jerk * h * h * h / 6.0;
+                    v += acc * h + jerk * h * h / 2.0;
+                    acc += jerk * h;
+                    t += h;
+                    let now = c.state(t);
+                    assert!(
+                        (now.0 - x).abs() <= 1e-9 * (1.0 + x),
+                        "{t}: {} vs {x}",
+                        now.0
+                    );
+                    assert!((now.1 - v).abs() <= 1e-9 * (1.0 + v.abs()));
+                    assert!((now.2 - acc).abs() <= 1e-9 * (1.0 + acc.abs()));
+                    assert!(now.2.abs() <= a * (1.0 + 1e-12));
+                    if h > 0.0 {
+                        assert!((now.2 - last.2).abs() <= j * h * (1.0 + 1e-6));
+                    }
+                    last = now;
+                }
+            }
+            assert!((v - v1).abs() <= 1e-9 * v1 && (acc - a1).abs() <= 1e-9 * (1.0 + a1.abs()));
+            assert!((c.length_mm() - x).abs() <= 1e-9 * x);
+            assert!(
+                (c.time_at_distance(0.5 * x) - {
+                    // The time at half the length, by bisection on the integrated distance.
+                    let (mut lo, mut hi) = (0.0, total);
+                    for _ in 0..100 {
+                        let mid = 0.5 * (lo + hi);
+                        if c.state(mid).0 < 0.5 * x {
+                            lo = mid;
+                        } else {
+                            hi = mid;
+                        }
+                    }
+                    lo
+                })
+                .abs()
+                    <= 1e-9
+            );
+        }
+        assert!(Change::between(50.0, 0.0, 20.0, -1200.0, 1000.0, j).is_none());
+        assert!(Change::between(50.0, 1200.0, 60.0, 0.0, 1000.0, j).is_none());
+    }
+
     /// Two dips 2 mm apart on a line (20 and 15 mm/s, no acceleration at either), the
     /// envelope 50 mm/s between them: the shape rises to the highest peak p whose two
     /// S-curve changes fit, ℓ(20 → p) + ℓ(p → 15) = 2 mm with ℓ(v0 → v1) =
@@ -534,7 +1006,7 @@ mod tests {
             jerk_mm_s3: &jerk,
         };
         let mut v = vec![0.0; n];
-        assert!(shape(&lim, 0.0, &mut v, None));
+        assert!(shape(&lim, 0.0, None, &mut v, None));
         // The closed form's peak: ℓ(20 → p) + ℓ(p → 15) = len, by bisection.
         let length = |p: f64| {
             (20.0 + p) / 2.0 * 2.0 * ((p - 20.0) / j).sqrt()

@@ -303,12 +303,21 @@ enum Shape {
     Direct,
     /// Shaped directly and followed exactly, without a filter.
     Exact,
+    /// As `Exact`, with the dips widened over the envelope they can follow (MODEL.md §6.1,
+    /// "Dips that follow the envelope").
+    Following,
 }
 
 /// Time over the interval from station `k` to `k + 1` of a plan `v` over stations `s`
 /// with a constant acceleration in it, s: 2·Δs/(v_k + v_{k+1}).
 pub(crate) fn interval_time_s(s: &[f64], v: &[f64], k: usize) -> f64 {
     2.0 * (s[k + 1] - s[k]) / (v[k] + v[k + 1])
+}
+
+/// Acceleration over the interval from station `k` to `k + 1` of a plan `v` over stations
+/// `s` with a constant acceleration in it, mm/s²: (v²_k+1 − v²_k)/(2·Δs).
+pub(crate) fn interval_accel_mm_s2(s: &[f64], v: &[f64], k: usize) -> f64 {
+    (v[k + 1] * v[k + 1] - v[k] * v[k]) / (2.0 * (s[k + 1] - s[k]))
 }
 
 /// Time of a plan `v` over stations `s` that follows `gaps` (counted from `s[0]`) exactly
@@ -774,7 +783,9 @@ impl<'a> RunPlanner<'a> {
     /// acceleration limit and `share` σ of its jerk
     /// limit ([`direct::shape`]). With `gaps`, the shape's gaps are put there (stations
     /// counted from `first`), for a section followed exactly (`window_s` = 0: MODEL.md
-    /// §6.1, "Exact direct sections"). Returns the planned time (of the stations' constant
+    /// §6.1, "Exact direct sections"); with `follow`, the dips get stretches of the
+    /// envelope beside them that the motion follows (MODEL.md §6.1, "Dips that follow the
+    /// envelope"). Returns the planned time (of the stations' constant
     /// accelerations) and the longest time the plan takes over one station interval, s, or
     /// `None` where the shape has no motion between the ends or is not flat at an end's
     /// speed over c·W/2 from it.
@@ -782,7 +793,7 @@ impl<'a> RunPlanner<'a> {
         &self,
         (first, last): (usize, usize),
         ends: (f64, f64),
-        (share, window_s): (f64, f64),
+        (share, window_s, follow): (f64, f64, bool),
         v: &mut [f64],
         gaps: Option<&mut Vec<direct::Gap>>,
     ) -> Option<(f64, f64)> {
@@ -829,7 +840,8 @@ impl<'a> RunPlanner<'a> {
         };
         let slow_share = self.stations.machine().period_s() * DIRECT_SLOW_PERIODS;
         let v = &mut v[first..=last];
-        if !direct::shape(&limits, slow_share, v, gaps) {
+        let follow = follow.then(|| self.stations.machine().period_s());
+        if !direct::shape(&limits, slow_share, follow, v, gaps) {
             return None;
         }
         let n = s.len() - 1;
@@ -861,7 +873,7 @@ impl<'a> RunPlanner<'a> {
         v: &mut [f64],
     ) -> Option<(f64, f64)> {
         for _ in 0..4 {
-            let (d, dt_max) = self.plan_direct(section, ends, (share, window_s), v, None)?;
+            let (d, dt_max) = self.plan_direct(section, ends, (share, window_s, false), v, None)?;
             let needed = dt_max * share / (1.0 - share);
             if window_s >= needed {
                 return Some((d, window_s));
@@ -882,7 +894,9 @@ impl<'a> RunPlanner<'a> {
     /// [`RunPlanner::plan_section`] at each λ of [`SECTION_GRID`] (W = λ·`base_window_s`)
     /// and at `kept`, a section between speeds > 0 also shaped directly
     /// ([`RunPlanner::direct_window`] at each of [`DIRECT_SHARES`]) and followed exactly
-    /// (at each of [`EXACT_SHARES`], no filter: MODEL.md §6.1, "Exact direct sections"),
+    /// (at each of [`EXACT_SHARES`], no filter: MODEL.md §6.1, "Exact direct sections"; and
+    /// again with its dips widened over the envelope they can follow: "Dips that follow
+    /// the envelope"),
     /// and keeps the quickest whose samples verify
     /// ([`Profile::last_run_axis_ratio`]). The sampler takes a section's filtered motion
     /// from the moment it is at the section's first station (at speed c, with no
@@ -933,8 +947,9 @@ impl<'a> RunPlanner<'a> {
         profile.pop_run();
         let runs_before = profile.runs.len();
         // (time, λ or σ, W, how it is shaped).
-        let mut timed: Vec<(f64, f64, f64, Shape)> =
-            Vec::with_capacity(SECTION_GRID.len() + DIRECT_SHARES.len() + EXACT_SHARES.len() + 1);
+        let mut timed: Vec<(f64, f64, f64, Shape)> = Vec::with_capacity(
+            SECTION_GRID.len() + DIRECT_SHARES.len() + 2 * EXACT_SHARES.len() + 1,
+        );
         let mut gaps = std::mem::take(&mut self.gaps);
         // The previous section's planned end and window (a run leaving at speed: its
         // start and window, so that its first section's filtered motion reaches the
@@ -993,15 +1008,24 @@ impl<'a> RunPlanner<'a> {
                             timed.push((d, share, window_s, Shape::Direct));
                         }
                     }
-                    // Followed exactly, without a filter.
-                    for &share in &EXACT_SHARES {
-                        gaps.clear();
-                        if self
-                            .plan_direct((a, b), ends, (share, 0.0), &mut trial, Some(&mut gaps))
-                            .is_some()
-                        {
-                            let d = exact_time_s(&s[a..=b], &trial[a..=b], &gaps);
-                            timed.push((d, share, 0.0, Shape::Exact));
+                    // Followed exactly, without a filter; and with the dips widened over
+                    // the envelope they can follow.
+                    for (follow, shape) in [(false, Shape::Exact), (true, Shape::Following)] {
+                        for &share in &EXACT_SHARES {
+                            gaps.clear();
+                            if self
+                                .plan_direct(
+                                    (a, b),
+                                    ends,
+                                    (share, 0.0, follow),
+                                    &mut trial,
+                                    Some(&mut gaps),
+                                )
+                                .is_some()
+                            {
+                                let d = exact_time_s(&s[a..=b], &trial[a..=b], &gaps);
+                                timed.push((d, share, 0.0, shape));
+                            }
                         }
                     }
                 }
@@ -1022,16 +1046,16 @@ impl<'a> RunPlanner<'a> {
                             self.plan_direct(
                                 (a, b),
                                 ends,
-                                (lambda, window_s),
+                                (lambda, window_s, false),
                                 &mut profile.speed_mm_s,
                                 None,
                             );
                         }
-                        Shape::Exact => {
+                        Shape::Exact | Shape::Following => {
                             self.plan_direct(
                                 (a, b),
                                 ends,
-                                (lambda, 0.0),
+                                (lambda, 0.0, shape == Shape::Following),
                                 &mut profile.speed_mm_s,
                                 Some(&mut gaps),
                             );
@@ -1225,8 +1249,7 @@ impl<'a> RunPlanner<'a> {
             while right < last && v[right + 1] <= v[right] {
                 right += 1;
             }
-            let plan_accel =
-                |k: usize| (v[k + 1] * v[k + 1] - v[k] * v[k]) / (2.0 * (s[k + 1] - s[k]));
+            let plan_accel = |k: usize| interval_accel_mm_s2(s, v, k);
             let rising = (left..a).map(plan_accel).fold(0.0f64, f64::max);
             let falling = (b..right).map(|k| -plan_accel(k)).fold(0.0f64, f64::max);
             let j_min = (left..right).map(|k| jerk[k]).fold(f64::INFINITY, f64::min);
@@ -2396,7 +2419,7 @@ mod tests {
                 .plan_direct(
                     (first, last),
                     ends,
-                    (share, 0.0),
+                    (share, 0.0, false),
                     &mut profile.speed_mm_s,
                     Some(&mut gaps),
                 )
@@ -2464,7 +2487,7 @@ mod tests {
             .plan_direct(
                 (first, last),
                 (c, c),
-                (1.0, 0.0),
+                (1.0, 0.0, false),
                 &mut profile.speed_mm_s,
                 Some(&mut gaps),
             )
@@ -2552,5 +2575,153 @@ mod tests {
             .fold(0.0, f64::max);
         println!("station-based: third differences up to {worst:.0} mm/s³");
         assert!(worst > 2.0 * j, "{worst}");
+    }
+
+    /// A section before and after a cap ramp (MODEL.md §6.1, "Dips that follow the
+    /// envelope"): a line at F3000 whose caps fall linearly to the middle of 16..24 mm,
+    /// c = c₀ + k·|x − 20| (c₀ = 3 mm/s, k = 31.25 s⁻¹, as the sampled geometry's caps
+    /// before a sharp corner at T = 16 ms), entered and left at 50 mm/s. A motion that
+    /// reaches the dip with no acceleration crosses the ramp (it rises as J·r²/2 over its
+    /// last r seconds against c₀ + k·v·r), so the shape with dips at rest lowers the dip;
+    /// the shape whose dips follow the ramp (a = −k·v, jerk k²·v ≤ J below 20.5 mm/s) is
+    /// quicker. Planned from rest into the section as the planner does, its samples at
+    /// the machine period keep every axis' acceleration and jerk, and every 1 ms sample
+    /// the acceleration and the caps (the stretches followed are constant accelerations
+    /// between stations, so their jerk is kept at the period, not at every instant).
+    #[test]
+    fn a_cap_ramp_is_followed_within_the_caps_at_every_sample() {
+        let machine = Machine {
+            jerk_mm_s3: Some([20000.0; 3]),
+            ..Machine::default()
+        };
+        let feed = Motion::Feed {
+            feed_mm_min: 3000.0,
+        };
+        let segments = vec![line(Point3::origin(), Point3::new(40.0, 0.0, 0.0), feed)];
+        let mut st =
+            Stations::new(&Path { segments }, &machine, 0.05, FeedPolicy::Programmed).unwrap();
+        let (c0, k) = (3.0, 31.25);
+        let caps: Vec<f64> = st
+            .s_mm()
+            .iter()
+            .map(|&x| {
+                if (16.0..=24.0).contains(&x) {
+                    (60.0 * (c0 + k * (x - 20.0).abs())).min(3000.0)
+                } else {
+                    3000.0
+                }
+            })
+            .collect();
+        st.apply_caps(&caps, CapKind::Removal).unwrap();
+        let (first, last) = (320, 480);
+        let ends = (50.0, 50.0);
+        let planner = RunPlanner::new(&st);
+        let plan = |follow: bool, share: f64| {
+            let (mut profile, mut gaps) = (Profile::empty(&st), Vec::new());
+            planner
+                .plan_direct(
+                    (first, last),
+                    ends,
+                    (share, 0.0, follow),
+                    &mut profile.speed_mm_s,
+                    Some(&mut gaps),
+                )
+                .map(|_| {
+                    let s = &st.s_mm()[first..=last];
+                    let time_s = exact_time_s(s, &profile.speed_mm_s[first..=last], &gaps);
+                    (profile, gaps, time_s)
+                })
+        };
+        let at_rest = plan(false, 1.0).map(|x| x.2);
+        // What the planner kept before: the quickest filtered value; and the floor, the
+        // stations' time at the passes' speeds under the caps (no jerk limit).
+        let mut v = vec![0.0; st.len()];
+        let filtered_s = SECTION_GRID
+            .iter()
+            .filter_map(|&lambda| {
+                let window_s = lambda * base_window_s(&st);
+                planner.plan_section((first, last), (lambda, window_s), ends, &mut v)
+            })
+            .fold(f64::INFINITY, f64::min);
+        let mut floor = st.cap_mm_min()[first..=last]
+            .iter()
+            .map(|c| c / 60.0)
+            .collect::<Vec<f64>>();
+        planner.passes_between(first, 1.0, &mut floor, ends);
+        let floor_s: f64 = (0..last - first)
+            .map(|k| interval_time_s(&st.s_mm()[first..=last], &floor, k))
+            .sum();
+        let fine = Machine {
+            period_ms: 1.0,
+            ..machine
+        };
+        for share in EXACT_SHARES {
+            let (mut profile, gaps, time_s) = plan(true, share).expect("a shape");
+            // The ramp is followed: some gap ends or starts accelerating.
+            assert!(gaps.iter().any(|g| g.accelerated_ends()), "share {share}");
+            if let Some(rest_s) = at_rest {
+                assert!(time_s < rest_s, "share {share}: {time_s} vs {rest_s}");
+            }
+            assert!(
+                time_s > floor_s && time_s < filtered_s,
+                "{floor_s} {time_s} {filtered_s}"
+            );
+            let before = profile.speed_mm_s[first..=last].to_vec();
+            let base = base_window_s(&st);
+            let lead_s = planner
+                .plan_section(
+                    (0, first),
+                    (1.0, base),
+                    (0.0, ends.0),
+                    &mut profile.speed_mm_s,
+                )
+                .unwrap();
+            profile.speed_mm_s[first..=last].copy_from_slice(&before);
+            profile.push_run(0, first, 0.0, base, 0.0);
+            let start_s = lead_s + base / 2.0;
+            let end_s = profile.push_exact_run(first, last, start_s, (0.0, 0.0), &gaps);
+            assert!((end_s - start_s - time_s).abs() <= 1e-9);
+            // The planner keeps it where its samples at the period verify.
+            let ratio = profile.last_run_axis_ratio(None);
+            println!(
+                "ramp followed, share {share}: {time_s:.5} s (dips at rest: {at_rest:?}, filtered {filtered_s:.5} s, floor {floor_s:.5} s), ratio {ratio:.4}"
+            );
+            assert!(ratio <= 1.0, "share {share}: {ratio}");
+            profile.cycle_time_s = end_s + 0.1;
+            let samples = profile.sample(machine.period_ms).unwrap();
+            assert!(worst_ratio(&machine, &samples) <= 1.0 + 1e-6);
+            let samples = profile.sample(fine.period_ms).unwrap();
+            let (s, caps) = (st.s_mm(), st.cap_mm_min());
+            let h = fine.period_s();
+            // The last sample is the cycle's end, off the period's grid.
+            for w in samples[..samples.len() - 1].windows(3) {
+                let k = s.partition_point(|&y| y <= w[1].s_mm).clamp(1, s.len() - 1);
+                assert!(w[1].feed_mm_min <= caps[k - 1].max(caps[k]) * (1.0 + 1e-9));
+                let second = (w[2].pos[0] - 2.0 * w[1].pos[0] + w[0].pos[0]) / h / h;
+                assert!(
+                    second.abs() <= machine.accel_mm_s2[0] * (1.0 + 1e-6),
+                    "share {share}: {second} at {} mm, {} s",
+                    w[1].s_mm,
+                    w[1].t_s
+                );
+            }
+            // Inside the gaps, the changes' jerk: every 1 ms third difference whose
+            // stencil lies in one is within the share of J.
+            let j = share * machine.jerk_mm_s3.unwrap()[0];
+            let mut inside = 0;
+            for gap in &profile.gaps {
+                let span = gap.motion.time_at_s(s[gap.last] - s[gap.first]);
+                let (from, to) = (gap.start_s, gap.start_s + span);
+                for w in samples.windows(4) {
+                    if w[0].t_s >= from && w[3].t_s <= to {
+                        let x = w.iter().map(|p| p.pos[0]).collect::<Vec<f64>>();
+                        let third = (x[3] - 3.0 * x[2] + 3.0 * x[1] - x[0]) / h / h / h;
+                        assert!(third.abs() <= j * (1.0 + 1e-6), "share {share}: {third}");
+                        inside += 1;
+                    }
+                }
+            }
+            assert!(inside > 50, "{inside}");
+        }
     }
 }
