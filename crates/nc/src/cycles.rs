@@ -24,8 +24,13 @@ pub struct Cycle {
     pub code: GCode,
     /// Hole positions (mm), one per repeat.
     pub holes: Vec<[f64; 2]>,
-    /// Tool Z before the cycle, R plane, hole bottom (mm).
+    /// The cycle's initial level: the tool's Z at the first block of the
+    /// canned cycle (LinuxCNC's `cycle_il`), mm.
     pub start_z: f64,
+    /// The tool's Z now (a later block of the cycle starts where the one
+    /// before retracted), mm.
+    pub current_z: f64,
+    /// R plane, hole bottom (mm).
     pub r_z: f64,
     pub bottom_z: f64,
     /// G98 (true): retract to the start height; G99: to R.
@@ -36,18 +41,28 @@ pub struct Cycle {
     pub dwell_s: f64,
 }
 
-/// Expands a cycle; `current_xy` is where the tool is.
+/// Expands a cycle; `current_xy` is where the tool is. As LinuxCNC's
+/// `convert_cycle_xy` and `CYCLE_MACRO`: below the R plane, the tool first
+/// rises to it where it is, unless the cycle's initial level is above R;
+/// each hole is entered from the clear height (the initial level under G98,
+/// R under G99), the first one from the tool's Z where that is above R.
 pub fn expand(c: &Cycle, current_xy: [f64; 2]) -> Vec<CycleMove> {
     let mut moves = Vec::new();
-    let mut old_z = c.start_z;
+    let (mut old_z, mut current_z) = (c.start_z, c.current_z);
     if old_z < c.r_z {
         moves.push(CycleMove::Rapid([current_xy[0], current_xy[1], c.r_z]));
         old_z = c.r_z;
+        current_z = c.r_z;
     }
     let clear_z = if c.retract_to_start { old_z } else { c.r_z };
-    for &[x, y] in &c.holes {
-        moves.push(CycleMove::Rapid([x, y, old_z]));
-        if old_z != c.r_z {
+    for (k, &[x, y]) in c.holes.iter().enumerate() {
+        let enter_z = if k == 0 && current_z > c.r_z {
+            current_z
+        } else {
+            clear_z
+        };
+        moves.push(CycleMove::Rapid([x, y, enter_z]));
+        if enter_z > c.r_z {
             moves.push(CycleMove::Rapid([x, y, c.r_z]));
         }
         if c.code == GCode::G73 || c.code == GCode::G83 {
@@ -75,7 +90,6 @@ pub fn expand(c: &Cycle, current_xy: [f64; 2]) -> Vec<CycleMove> {
             GCode::G89 => moves.push(CycleMove::Feed([x, y, clear_z])),
             _ => moves.push(CycleMove::Rapid([x, y, clear_z])),
         }
-        old_z = clear_z;
     }
     moves
 }

@@ -1300,29 +1300,68 @@ impl Interp<'_> {
             )
         });
         let motion_code = b.g.iter().find(|g| g_group(g.0) == Some(1)).copied();
-        // As LinuxCNC: a P word needs something in the block to use it
-        // (Snapmaker's `M3 P100`, a spindle power in percent, is refused
-        // there and by GRBL). The motion it would serve is the block's
-        // own, or the modal one when the block has axis words.
-        if b.get('p').is_some() {
-            let motion = motion_code
-                .map(|m| m.0)
-                .or(b.has_axes().then_some(self.motion));
-            let used = matches!(
-                motion,
-                Some(GCode::G2 | GCode::G3 | GCode::G82 | GCode::G89)
-            ) || [GCode::G4, GCode::G10, GCode::G64]
-                .into_iter()
-                .any(|g| g_col(g).is_some())
-                || b.m
-                    .iter()
-                    .any(|m| matches!(m.0, 19 | 50..=53 | 62..=66 | 98));
-            if !used {
-                return fail(
-                    b.col('p'),
-                    "P word with no G2, G3, G4, G10, G64, G82, G89, M19, M50-M53, M62-M66 or M98 to use it",
-                );
-            }
+        // As LinuxCNC (its check_other_codes): a P, Q, L or R word needs
+        // something in the block to use it (Snapmaker's `M3 P100`, a spindle
+        // power in percent, is refused there and by GRBL; a stray word would
+        // make the written program one the control refuses). The motion it
+        // would serve is the block's own, or the modal one when the block
+        // has axis words.
+        let motion = motion_code
+            .map(|m| m.0)
+            .or(b.has_axes().then_some(self.motion));
+        let cycle = matches!(
+            motion,
+            Some(
+                GCode::G73
+                    | GCode::G81
+                    | GCode::G82
+                    | GCode::G83
+                    | GCode::G84
+                    | GCode::G85
+                    | GCode::G86
+                    | GCode::G87
+                    | GCode::G88
+                    | GCode::G89
+            )
+        );
+        let in_block = |codes: &[GCode]| codes.iter().any(|&g| g_col(g).is_some());
+        let m_in = |used: fn(i32) -> bool| b.m.iter().any(|m| used(m.0));
+        let words = [
+            (
+                'p',
+                matches!(motion, Some(GCode::G2 | GCode::G3 | GCode::G82 | GCode::G89))
+                    || in_block(&[GCode::G4, GCode::G10, GCode::G64])
+                    || m_in(|m| matches!(m, 19 | 50..=53 | 62..=66 | 98)),
+                "P word with no G2, G3, G4, G10, G64, G82, G89, M19, M50-M53, M62-M66 or M98 to use it",
+            ),
+            (
+                'q',
+                matches!(motion, Some(GCode::G73 | GCode::G83))
+                    || in_block(&[GCode::G10, GCode::G64])
+                    || m_in(|m| matches!(m, 19 | 61 | 66..=68)),
+                "Q word with no G10, G64, G73, G83, M19, M61, M66, M67 or M68 to use it",
+            ),
+            (
+                'l',
+                cycle
+                    || in_block(&[GCode::G10, GCode::G41, GCode::G41_1, GCode::G42, GCode::G42_1])
+                    || m_in(|m| matches!(m, 66 | 98)),
+                "L word with no G10, cutter compensation, canned cycle, M66 or M98 to use it",
+            ),
+            (
+                'r',
+                matches!(motion, Some(GCode::G2 | GCode::G3))
+                    || cycle
+                    || in_block(&[GCode::G10])
+                    || m_in(|m| m == 19),
+                "R word with no G2, G3, G10, canned cycle or M19 to use it",
+            ),
+        ];
+        if let Some(&(letter, _, message)) = words
+            .iter()
+            .find(|&&(letter, used, _)| b.get(letter).is_some() && !used)
+        {
+            return fail(b.col(letter), message);
         }
         if let (Some(&(a, col)), Some((m, _))) = (axis_user, motion_code) {
             if m != GCode::G80 && b.has_axes() {
@@ -2347,11 +2386,8 @@ impl Interp<'_> {
         let c = Cycle {
             code: self.motion,
             holes,
-            start_z: if self.retract_to_start {
-                initial_z
-            } else {
-                self.pos[2]
-            },
+            start_z: initial_z,
+            current_z: self.pos[2],
             r_z,
             bottom_z,
             retract_to_start: self.retract_to_start,

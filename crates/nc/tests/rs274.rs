@@ -758,6 +758,91 @@ fn io_orient_and_override_codes_read_as_in_linuxcnc_rs274() {
     assert_eq!((agree, refused), (16, 13));
 }
 
+/// Where a canned cycle's later block enters its hole: LinuxCNC rises to R
+/// at the tool's place only when the cycle's initial level is below R, and
+/// enters each hole from the clear height (the first from the tool's Z where
+/// that is above R). Before, under G99 an R raised above the tool's Z on a
+/// later block made a rise where the tool was, which rs274 does not make.
+#[test]
+fn later_cycle_blocks_enter_their_holes_as_linuxcnc_rs274() {
+    if !have_rs274() {
+        return;
+    }
+    let programs = [
+        "G99 G81 X1 Y1 Z-2 R1 F100\nX2 R1.5\nX3 R0.5\nG80",
+        "G99 G83 X1 Y1 Z-2 R1 Q0.5 F100\nX2 R1.5 Q0.4\nG80",
+        "G98 G81 X1 Y1 Z-2 R1 F100\nX2 R6\nX3 R1\nG80",
+        "G0 Z0.5\nG99 G81 X1 Y1 Z-2 R1 F100\nX2 R2\nG98 X3 R1.5\nG80",
+        "G0 Z0.5\nG98 G82 X1 Y1 Z-2 R1 P0.2 F100\nG91 X1 R0.5 L2\nG90 G80",
+    ];
+    let dir = tempfile::tempdir().expect("temp dir");
+    for (i, program) in programs.iter().enumerate() {
+        let file = dir.path().join(format!("c{i}.ngc"));
+        std::fs::write(
+            &file,
+            format!("G21 G90 G17\nS1000 M3\nG0 X0 Y0 Z5\n{program}\nG0 Z10\nM2\n"),
+        )
+        .expect("write");
+        let n = compare(&file).unwrap_or_else(|e| panic!("{program}: {e}"));
+        assert!(n >= 8, "{program}: {n} moves");
+    }
+}
+
+/// P, Q, L and R words where something in the block uses them, and stray
+/// ones (a block whose motion or codes use no such word): read with the same
+/// moves by both, or refused by both (LinuxCNC's check_other_codes). Before,
+/// a stray Q, L or R was read and ignored, so a program LinuxCNC refuses was
+/// simulated and written out as it was.
+#[test]
+fn p_q_l_r_words_used_or_refused_as_in_linuxcnc_rs274() {
+    if !have_rs274() {
+        return;
+    }
+    let blocks = [
+        "G83 X1 Y1 Z-2 R1 Q0.5 F100\nX2 R1.5 Q0.4 L1\nG80",
+        "G73 X1 Y1 Z-2 R1 Q0.5 F100\nG80",
+        "G91 G81 X1 Z-2 R-1 L3 F100\nG90 G80",
+        "G82 X1 Y1 Z-2 R1 P0.5 L2 F100\nG80",
+        "G2 X2 Y0 R1 F100",
+        "G3 X0 Y0 I-1 J0 P2 F100",
+        "G64 P0.1 Q0.05",
+        "G10 L2 P1 R30",
+        "M19 R10 Q2",
+        "M66 P0 L0",
+        "M61 Q1",
+        "G4 P0.5",
+        // Stray: refused by both.
+        "G1 X1 Q5 F100",
+        "G1 X1 L2 F100",
+        "G1 X1 R2 F100",
+        "G0 X1 R2",
+        "M3 Q1",
+        "G4 P1 Q1",
+        "G81 X1 Y1 Z-1 R1 Q1 F100\nG80",
+        "G64 R1",
+        "G0 X1 L1",
+        "M5 P1",
+    ];
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut failures = Vec::new();
+    let (mut agree, mut refused) = (0, 0);
+    for (i, block) in blocks.iter().enumerate() {
+        let file = dir.path().join(format!("b{i}.ngc"));
+        std::fs::write(
+            &file,
+            format!("G21 G90 G17\nS1000 M3\nG0 X0 Y0 Z5\n{block}\nG1 X1 Y1 F200\nM2\n"),
+        )
+        .expect("write");
+        match outcome(&file) {
+            Outcome::Agree(_) => agree += 1,
+            Outcome::BothRefuse(..) => refused += 1,
+            Outcome::Differ(e) => failures.push(format!("{block}: {e}")),
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    assert_eq!((agree, refused), (12, 10));
+}
+
 /// LinuxCNC's own sample programs (installed with the package): every one
 /// our interpreter accepts without a diagnostic must read the same in rs274.
 /// Those it rejects (lathe cycles, cutter compensation, probing, remaps, …)
