@@ -11,6 +11,12 @@ use clap::{Parser, Subcommand};
 mod console;
 mod progress;
 
+/// With the `heap-marks` feature: every allocation counted, for the heap
+/// marks between optimize's phases (BENCHMARKS.md).
+#[cfg(feature = "heap-marks")]
+#[global_allocator]
+static HEAP: heapmarks::Counting = heapmarks::Counting;
+
 #[derive(Parser)]
 #[command(
     name = "dexcut",

@@ -1180,6 +1180,7 @@ pub fn optimize_setup(
         // Its volumes and error range, band by band (nothing written).
         simulate::write_tiled_columns(&mut before, tiling, &setup.tools, None)?;
     }
+    crate::heap_mark(format_args!("the program read, the program as given swept"));
     let before_summary = before.summary();
     // Every tool's chip-load cap against what the program feeds it, told before the rounds.
     let chip_load = optimize::chip_loads(
@@ -1215,6 +1216,7 @@ pub fn optimize_setup(
         before.stock = dexel::Stock::new_box([0.0; 3], [spacing; 3], spacing)?;
         Some(before)
     };
+    crate::heap_mark(format_args!("steps_before written"));
     let time_simulate_s = t0.elapsed().as_secs_f64();
     // Engagement along fine stations, caps, re-timing.
     let t1 = Instant::now();
@@ -1261,6 +1263,7 @@ pub fn optimize_setup(
         (Err(e), Ok(_)) => return Err(e),
         (Err(_), Err(_)) => nc::Path::default(),
     };
+    crate::heap_mark(format_args!("summary written, the path read again"));
     optimized
 }
 
@@ -1406,6 +1409,7 @@ fn optimize_outputs(
     } else {
         None
     };
+    crate::heap_mark(format_args!("steps, columns and servo.csv written"));
     let lower_bound_time_s = written.lower_bound_time_s;
     let doc = OptimizeSummary {
         job: setup.job.name.clone(),
@@ -1490,6 +1494,7 @@ fn optimize_rounds(
         surface,
     )?;
     let time_engagement_s = t1.elapsed().as_secs_f64();
+    crate::heap_mark(format_args!("engagement and caps"));
     let t2 = Instant::now();
     let n_stations = stations.len();
     let written = optimize::write_verified(setup, machine, free, caps, given, staged)?;

@@ -99,6 +99,17 @@ pub mod summary;
 mod tools;
 mod warnings;
 
+/// With the `heap-marks` feature, prints the heap now and its peak since the
+/// last mark, after `phase` (the `dexcut` binary's counting allocator:
+/// BENCHMARKS.md); without it, nothing (an empty function).
+#[inline(always)]
+pub(crate) fn heap_mark(phase: std::fmt::Arguments<'_>) {
+    #[cfg(feature = "heap-marks")]
+    heapmarks::mark(&phase.to_string());
+    #[cfg(not(feature = "heap-marks"))]
+    let _ = phase;
+}
+
 pub use commands::{Optimized, Setup, Simulation};
 pub use error::{Error, Result, Source};
 pub use evaluate::{DriveEvaluation, SweepRow};

@@ -1249,6 +1249,7 @@ pub fn write_verified(
         // block: kept instead of the plan (a million segments' pieces, one
         // `Vec` each, 40 MB), which is dropped before the sweep.
         let blocks = interval_blocks(stations, &plan);
+        crate::heap_mark(format_args!("round {round}: plans"));
         // Nor are the stations' arrays needed while the program is written,
         // read back and verified (3 M stations: 143 MB beside the re-feed's
         // readings and the run): only their path is kept, and a next round
@@ -1290,6 +1291,7 @@ pub fn write_verified(
                     fail!(run, "the re-fed program does not read back: {d}");
                 }
                 let path = parsed.path;
+                crate::heap_mark(format_args!("round {round}: re-feed"));
                 let (samples, path) = crate::motion::machine_motion_of(path, &setup.machine);
                 let samples = samples?;
                 let steps = crate::motion::steps_from_samples(&path, &samples);
@@ -1305,13 +1307,16 @@ pub fn write_verified(
                 })?
             }
         };
+        crate::heap_mark(format_args!("round {round}: servo samples and steps"));
         let run = crate::simulate::run_on(
             setup.stock_source(),
             &setup.tools,
             steps,
             &format!("verify {round}"),
         )?;
+        crate::heap_mark(format_args!("round {round}: verification run"));
         let over = excesses(&run, limits, &setup.tools);
+        crate::heap_mark(format_args!("round {round}: excesses"));
         let gcode = setup.program.gcode.as_deref();
         let slow = gcode.is_some()
             && run.steps.last().map_or(0.0, |s| s.t_end_s) > plan_time_s * (1.0 + PLAN_TOLERANCE);
