@@ -135,13 +135,15 @@ pub struct SegmentTrace {
     pub compensated: bool,
 }
 
-/// What [`run`] returns besides the parse result.
+/// What a run returns besides the parse result.
 pub struct Trace {
     /// One per path segment of a recorded run ([`run_recorded`], the re-feed
     /// writer's); empty otherwise.
     pub segments: Vec<SegmentTrace>,
-    /// Every source line as parsed (`None`: syntax error), split at `\n`
-    /// with a trailing `\r` removed.
+    /// Every source line as parsed (`None`: syntax error), split as
+    /// [`syntax::split_lines`] splits them, keeping no block's items (a
+    /// million-line program's are about 190 MB):
+    /// [`syntax::Lines::block_items`] parses a block again from the source.
     pub lines: Rc<syntax::Lines>,
     /// The run made the path it was lent ([`run_recorded_along`]) bit for
     /// bit, segment for segment: its [`Parsed::path`] holds no segments.
@@ -298,6 +300,9 @@ struct Interp<'a> {
     options: &'a Options,
     /// Shared so that executing a line needs no copy of it.
     lines: Rc<syntax::Lines>,
+    /// The source `lines` were read from, to parse a block again where it
+    /// runs where they keep no block's items.
+    source: &'a str,
     params: Params,
     pos: [f64; 3],
     scale: f64,
@@ -395,16 +400,24 @@ pub struct Executed {
     pub segments_before: u32,
 }
 
-/// Parses and runs a program. Without an initial tool, the first tool the
-/// program loads is taken to be in the spindle from the start.
-pub fn run(source: &str, file: &str, options: &Options) -> (Parsed, Trace) {
-    let (parsed, trace, _) = run_and_record(source, file, options, false);
-    (parsed, trace)
+/// Parses and runs a program ([`crate::parse`]). Without an initial tool,
+/// the first tool the program loads is taken to be in the spindle from the
+/// start. Its lines' items are not held through the run: each block is
+/// parsed again where it runs ([`syntax::Lines::push_parsed_unkept`]), for
+/// a million-block program 24 + 8 MB for its lines instead of about 200
+/// (issue 16). The lines are parsed twice; the result is that of a run of
+/// the lines held ([`run_read_and_record`] of [`read`]).
+pub(crate) fn parse(source: &str, file: &str, options: &Options) -> Parsed {
+    let read = read_lines(source, file, options, false);
+    run_read_and_record(&read, source, file, options, false, None).0
 }
 
-/// [`run`], and every line executed in the order it ran (for unrolling loops).
+/// [`parse`], with the trace of a recorded run and every line executed in
+/// the order it ran (for unrolling loops). The trace's lines keep no
+/// block's items: [`syntax::Lines::block_items`] with `source` gives them.
 pub fn run_recorded(source: &str, file: &str, options: &Options) -> (Parsed, Trace, Vec<Executed>) {
-    run_and_record(source, file, options, true)
+    let read = read_lines(source, file, options, false);
+    run_read_and_record(&read, source, file, options, true, None)
 }
 
 /// [`run_recorded`] lent the path the caller read the same text to
@@ -418,33 +431,21 @@ pub fn run_recorded_along(
     options: &Options,
     path: &[Segment],
 ) -> (Parsed, Trace, Vec<Executed>) {
-    run_read_and_record(
-        &read(source, file, options),
-        file,
-        options,
-        true,
-        Some(path),
-    )
+    let read = read_lines(source, file, options, false);
+    run_read_and_record(&read, source, file, options, true, Some(path))
 }
 
-fn run_and_record(
-    source: &str,
-    file: &str,
-    options: &Options,
-    record: bool,
-) -> (Parsed, Trace, Vec<Executed>) {
-    run_read_and_record(&read(source, file, options), file, options, record, None)
-}
-
-/// [`run_and_record`] of a program already read (the lines are parsed once).
+/// A run of a program already read (its lines parsed once, or where `read`
+/// keeps no block's items, again from `source`, the text it read).
 pub(crate) fn run_read_and_record(
     read: &Read,
+    source: &str,
     file: &str,
     options: &Options,
     record: bool,
     lent: Option<&[Segment]>,
 ) -> (Parsed, Trace, Vec<Executed>) {
-    let (parsed, trace, first, executed) = run_read(read, file, options, record, lent);
+    let (parsed, trace, first, executed) = run_read(read, source, file, options, record, lent);
     match (options.initial_tool, first) {
         (None, Some(tool)) if tool != 0 => {
             // Dropped before the run again: one path at a time.
@@ -453,7 +454,7 @@ pub(crate) fn run_read_and_record(
                 initial_tool: Some(tool),
                 ..options.clone()
             };
-            let (parsed, trace, _, executed) = run_read(read, file, &options, record, lent);
+            let (parsed, trace, _, executed) = run_read(read, source, file, &options, record, lent);
             (parsed, trace, executed)
         }
         _ => (parsed, trace, executed),
@@ -483,6 +484,7 @@ fn interp<'a>(file: &'a str, options: &'a Options, record: bool) -> Interp<'a> {
         file,
         options,
         lines: Rc::default(),
+        source: "",
         params: Params::default(),
         pos,
         scale: 1.0,
@@ -540,7 +542,15 @@ fn interp<'a>(file: &'a str, options: &'a Options, record: bool) -> Interp<'a> {
 
 /// Reads every line of `source` (syntax, the tolerant form's amendments, o-word labels).
 pub(crate) fn read(source: &str, file: &str, options: &Options) -> Read {
+    read_lines(source, file, options, true)
+}
+
+/// [`read`]; where `keep` is false, a block's items are not kept (the line is
+/// parsed again from the source where it runs); a line the tolerant form
+/// mended keeps its items, which are not the source's.
+fn read_lines(source: &str, file: &str, options: &Options, keep: bool) -> Read {
     let mut it = interp(file, options, false);
+    let whole = source;
     let source = match source.strip_prefix(BYTE_ORDER_MARK) {
         Some(rest) if options.file_form == FileForm::Tolerant => {
             it.tolerated.amendments.push(Amendment::DropByteOrderMark);
@@ -555,7 +565,13 @@ pub(crate) fn read(source: &str, file: &str, options: &Options) -> Read {
     };
     let mut lines = syntax::Lines::default();
     for (i, (text, _)) in syntax::split_lines(source).enumerate() {
-        let e = match lines.push_parsed(text) {
+        let start = text.as_ptr() as usize - whole.as_ptr() as usize;
+        let pushed = if keep {
+            lines.push_parsed(text)
+        } else {
+            lines.push_parsed_unkept(text, start)
+        };
+        let e = match pushed {
             Ok(()) => {
                 match lines.last().and_then(Option::as_ref).map(|l| &l.kind) {
                     Some(LineKind::OWord(stmt)) => {
@@ -584,6 +600,9 @@ pub(crate) fn read(source: &str, file: &str, options: &Options) -> Read {
             })
             .flatten()
             .filter(|(fixed, _, _)| lines.push_parsed(fixed).is_ok());
+        if !keep {
+            lines.push_start(start);
+        }
         match fixed {
             Some((fixed, col, what)) => {
                 it.line_index = i;
@@ -627,6 +646,7 @@ pub(crate) fn read(source: &str, file: &str, options: &Options) -> Read {
 /// Runs a program read by [`read`] (with the same file form) from the start `options` give.
 pub(crate) fn run_read(
     read: &Read,
+    source: &str,
     file: &str,
     options: &Options,
     record: bool,
@@ -635,6 +655,7 @@ pub(crate) fn run_read(
     let mut it = interp(file, options, record);
     it.lent = lent.map(|path| Lent { path, matched: 0 });
     it.lines = Rc::clone(&read.lines);
+    it.source = source;
     it.olines = read.olines.clone();
     it.programs = read.programs.clone();
     it.syntax_errors = read.syntax_errors.clone();
@@ -718,15 +739,12 @@ impl Interp<'_> {
 
     /// Byte range of the item of line `pc` at column `col`.
     fn item_span(&self, pc: usize, col: u32) -> Option<std::ops::Range<usize>> {
-        match &self.lines.get(pc)?.as_ref()?.kind {
-            LineKind::Block(items) => self
-                .lines
-                .items(*items)
-                .iter()
-                .find(|i| i.col == col)
-                .map(|i| i.span()),
-            _ => None,
-        }
+        self.lines.get(pc)?;
+        self.lines
+            .block_items(pc, self.source, &mut Vec::new())?
+            .iter()
+            .find(|i| i.col == col)
+            .map(|i| i.span())
     }
 
     fn report(&mut self, col: u32, message: String) {
@@ -759,6 +777,8 @@ impl Interp<'_> {
         let mut executed = 0u64;
         let mut seen_percent = false;
         let lines = Rc::clone(&self.lines);
+        // A block's items parsed again where they are not kept.
+        let mut again = Vec::new();
         while pc < lines.len() {
             executed += 1;
             if executed > self.options.max_blocks {
@@ -824,7 +844,10 @@ impl Interp<'_> {
                     msg: "'%' is allowed only on the first line and to close a program opened with it".into(),
                 }),
                 LineKind::OWord(stmt) => self.oword(pc, stmt),
-                LineKind::Block(items) => self.block(pc, lines.items(*items)),
+                LineKind::Block(_) => {
+                    let items = lines.block_items(pc, self.source, &mut again);
+                    self.block(pc, items.expect("a block's items"))
+                }
             };
             match next {
                 Ok(Some(n)) => pc = n,
@@ -2416,5 +2439,98 @@ impl Interp<'_> {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A program parsed where its blocks run ([`parse`], each block's items
+    /// parsed again from the source, none held) reads as one whose lines
+    /// are held: the same path, diagnostics, program end and amendments,
+    /// from the program's start and another, for every real program of the
+    /// corpus (o-word subroutines and loops, M98 subprograms, arcs, cycles,
+    /// cutter compensation, inch files) and the tolerant form's mends (a
+    /// line mended keeps its own items; an edit after G80 or of an arc word
+    /// finds its item's span in the line parsed again), with the source's
+    /// byte-order mark, a line ending in CR alone and CR LF. The reading
+    /// holds no item but a mended line's, and gives every block's items
+    /// (parsed again, as the re-feed writer asks for them) as the held
+    /// lines do.
+    #[test]
+    fn a_program_parsed_where_it_runs_reads_as_one_held() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/real");
+        let mut sources: Vec<(String, String)> = std::fs::read_dir(&dir)
+            .expect("the corpus")
+            .map(|e| e.expect("a corpus file").path())
+            .filter(|p| p.extension().is_some_and(|e| e != "md"))
+            .map(|p| {
+                let bytes = std::fs::read(&p).expect("a corpus file");
+                (
+                    p.display().to_string(),
+                    String::from_utf8_lossy(&bytes).into_owned(),
+                )
+            })
+            .collect();
+        sources.sort();
+        assert!(sources.len() >= 90, "{}", sources.len());
+        for (name, text) in [
+            ("nested", "(Tools: (HSS Twist Drill, 3mm (R)))\nG0 X0 Y0 Z5\nG1 Z-1 F100\nM2\n"),
+            ("k0", "\u{feff}G17 G0 X0 Y0 Z1\r\nG1 X1 F300\r\nG3 X2 Y1 I0 J1 K0.000\rM2\n"),
+            ("g80", "G0 X0 Y0 Z5\nG98 G81 X1 Y1 Z-1 R2 F100\nX2\nG80\nX0 Y-2 Z6\no1 repeat [2]\nX1 Y1\no1 endrepeat\nM2\n"),
+            ("grbl", "G21 G90\n  $I  ; build info\nG0 X0 Y0 Z5\nG1 Z-1 F100\nM2\n"),
+            ("subs", "o<s> sub\nG91 G1 X[#1] F100\no<s> endsub\n#2 = 0\no2 while [#2 LT 3]\no<s> call [#2 + 1]\n#2 = [#2 + 1]\no2 endwhile\nG90 G0 X0\nM98 P1000 L2\nM30\nO1000\nG91 G1 Y1\nM99\n"),
+            ("syntax error", "G0 X0\nG1 X1 Y F100\nG1 X2\nM2\n"),
+        ] {
+            sources.push((name.to_owned(), text.to_owned()));
+        }
+        let mut blocks = 0;
+        for (name, source) in &sources {
+            for file_form in [FileForm::Tolerant, FileForm::LinuxCnc] {
+                let options = Options {
+                    file_form,
+                    ..Options::default()
+                };
+                let held = read(source, name, &options);
+                let unkept = read_lines(source, name, &options, false);
+                // Lines mended as they are read keep their items.
+                let mended = held
+                    .tolerated
+                    .amendments
+                    .iter()
+                    .any(|a| matches!(a, Amendment::Edit { .. }));
+                if !mended {
+                    assert_eq!(unkept.lines.held().0, 0, "{name}");
+                }
+                blocks += held.lines.held().0;
+                assert_eq!(unkept.lines.len(), held.lines.len(), "{name}");
+                assert_eq!(unkept.lines.held().1, held.lines.len(), "{name}");
+                assert_eq!(held.lines.held().1, 0, "{name}");
+                // Every block's items, as the re-feed writer asks for them.
+                let (mut a, mut b) = (Vec::new(), Vec::new());
+                for index in 0..held.lines.len() {
+                    assert_eq!(
+                        unkept.lines.block_items(index, source, &mut a),
+                        held.lines.block_items(index, "", &mut b),
+                        "{name} line {}",
+                        index + 1
+                    );
+                }
+                let start = [3.0, -2.0, 40.0];
+                let moved = Options {
+                    initial_position_mm: start,
+                    ..options.clone()
+                };
+                for options in [&options, &moved] {
+                    let (held, _, executed) =
+                        run_read_and_record(&held, "", name, options, true, None);
+                    let streamed = parse(source, name, options);
+                    assert_eq!(streamed, held, "{name} {file_form:?}");
+                    assert!(!executed.is_empty(), "{name}");
+                }
+            }
+        }
+        assert!(blocks > 100_000, "{blocks}");
     }
 }

@@ -25,7 +25,7 @@ pub use refeed::{refeed, refeed_read, refeed_read_along, RefeedError};
 /// Reads a program (`file_name` only labels diagnostics) into a path.
 /// Positions are tool-tip positions in mm in the machine frame.
 pub fn parse(source: &str, file_name: &str, options: &Options) -> Parsed {
-    interp::run(source, file_name, options).0
+    interp::parse(source, file_name, options)
 }
 
 /// A program read once and run from more than one start: its lines are
@@ -48,7 +48,7 @@ impl<'a> Reader<'a> {
 
     /// What [`parse`] returns for the source and options read.
     pub fn parse(&self) -> Parsed {
-        interp::run_read_and_record(&self.read, self.file_name, &self.options, false, None).0
+        interp::run_read_and_record(&self.read, "", self.file_name, &self.options, false, None).0
     }
 
     /// [`Reader::parse`] with the tool starting at `initial_position_mm`
@@ -58,7 +58,7 @@ impl<'a> Reader<'a> {
             initial_position_mm,
             ..self.options.clone()
         };
-        interp::run_read_and_record(&self.read, self.file_name, &options, false, None).0
+        interp::run_read_and_record(&self.read, "", self.file_name, &options, false, None).0
     }
 }
 

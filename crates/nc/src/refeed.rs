@@ -357,8 +357,9 @@ fn same_path(a: &[Segment], b: &[Segment]) -> bool {
 
 /// Writes the program with `tables` and the canned cycles written out where
 /// needed, dropping either when the result does not read back as planned.
-/// The recorded run (for a million-line program its path, line arena, trace
-/// and executed lines, about 380 MB) is dropped once the text is written,
+/// The recorded run (for a million-line program its path, lines without
+/// their items, trace and executed lines, about 220 MB) is dropped once the
+/// text is written,
 /// before the text is read back to be checked against what the path needs
 /// ([`Expected`], made of the path then, not held through the writing); a
 /// check that fails and is tried again runs the source (and `path_from`,
@@ -374,7 +375,13 @@ fn write_checked(
     mut tables: BTreeMap<usize, RunTable>,
 ) -> Result<(String, Parsed), RefeedError> {
     let mut expected: Option<Vec<Expected>> = None;
-    let mut expanded = cycle_lines(&recorded.by_line, &recorded.segments, &recorded.trace, plan);
+    let mut expanded = cycle_lines(
+        source,
+        &recorded.by_line,
+        &recorded.segments,
+        &recorded.trace,
+        plan,
+    );
     let mut recorded = Some(recorded);
     loop {
         let Recorded {
@@ -458,6 +465,8 @@ fn write(
     // How many blocks each segment becomes (for the verification).
     let mut written_pieces = vec![1usize; segments.len()];
     let mut out = String::with_capacity(source.len() + source.len() / 8);
+    // A block's items, parsed again from its text (the reading keeps none).
+    let mut again = Vec::new();
     for (index, (text, eol)) in syntax::split_lines(source).enumerate() {
         if index == 0 && !(tables.is_empty() && per_run.is_empty()) {
             // The tables are set before anything runs (after a leading `%`).
@@ -472,14 +481,9 @@ fn write(
             out.push_str(&header);
         }
         if let Some(t) = tables.get(&index) {
-            let Some(syntax::Line {
-                kind: LineKind::Block(items),
-                ..
-            }) = &trace.lines[index]
-            else {
+            let Some(items) = trace.lines.block_items(index, source, &mut again) else {
                 unreachable!("a table line is a block")
             };
-            let items = trace.lines.items(*items);
             let _ = write!(
                 out,
                 "#{c} = [#{c} + 1]{}",
@@ -525,6 +529,7 @@ fn write(
         if expanded.contains(&index) {
             write_expanded(
                 &mut out,
+                source,
                 index,
                 eol,
                 segs,
@@ -546,16 +551,11 @@ fn write(
             out.push_str(eol);
             continue;
         }
-        let Some(syntax::Line {
-            kind: LineKind::Block(items),
-            ..
-        }) = &trace.lines[index]
-        else {
+        let Some(items) = trace.lines.block_items(index, source, &mut again) else {
             out.push_str(text);
             out.push_str(eol);
             continue;
         };
-        let items = trace.lines.items(*items);
         let single = segs.len() == 1
             && splittable(items, &segments[feeds[0]])
             && !trace.segments[feeds[0]].compensated;
@@ -732,6 +732,7 @@ fn run_tables(
     }
     let all_runs = line_runs(executed, trace, segments, by_line);
     let mut next = *TABLE_PARAMS.start();
+    let mut again = Vec::new();
     for (index, segs) in by_line.iter() {
         // A line of one segment has no table (and no entry in `all_runs`).
         if !by_line.tabled(index) {
@@ -744,14 +745,9 @@ fn run_tables(
         let all_feeds = segs
             .iter()
             .all(|&i| matches!(segments[i].motion, Motion::Feed { .. }));
-        let Some(syntax::Line {
-            kind: LineKind::Block(items),
-            ..
-        }) = &trace.lines[index]
-        else {
+        let Some(items) = trace.lines.block_items(index, source, &mut again) else {
             continue;
         };
-        let items = trace.lines.items(*items);
         if runs.iter().any(|r| matches!(r, Run::Several))
             || !all_feeds
             || segs
@@ -899,6 +895,7 @@ const CYCLE_MODES: [f64; 7] = [17.0, 20.0, 21.0, 90.0, 91.0, 98.0, 99.0];
 /// under cutter compensation or G93, or (found when the result does not read
 /// back) runs more than once.
 fn cycle_lines(
+    source: &str,
     by_line: &LineSegments,
     segments: &[Segment],
     trace: &interp::Trace,
@@ -906,6 +903,7 @@ fn cycle_lines(
 ) -> BTreeSet<usize> {
     let mut lines = BTreeSet::new();
     let mut needed = false;
+    let mut again = Vec::new();
     for (index, segs) in by_line.iter() {
         let feeds: Vec<usize> = segs
             .iter()
@@ -918,14 +916,9 @@ fn cycle_lines(
         if feeds.is_empty() || !rapid {
             continue;
         }
-        let Some(syntax::Line {
-            kind: LineKind::Block(items),
-            ..
-        }) = &trace.lines[index]
-        else {
+        let Some(items) = trace.lines.block_items(index, source, &mut again) else {
             return BTreeSet::new();
         };
-        let items = trace.lines.items(*items);
         let cycle_words = items.iter().all(|it| match &it.kind {
             ItemKind::Word {
                 letter: 'g',
@@ -1062,6 +1055,7 @@ fn cycle_runs(
 #[allow(clippy::too_many_arguments)]
 fn write_expanded(
     out: &mut String,
+    source: &str,
     index: usize,
     eol: &str,
     segs: &[usize],
@@ -1089,14 +1083,8 @@ fn write_expanded(
         }))
     };
     let mut modes = String::new();
-    if let Some(syntax::Line {
-        kind: LineKind::Block(items),
-        ..
-    }) = &trace.lines[index]
-    {
-        let codes: Vec<String> = trace
-            .lines
-            .items(*items)
+    if let Some(items) = trace.lines.block_items(index, source, &mut Vec::new()) {
+        let codes: Vec<String> = items
             .iter()
             .filter_map(|it| match &it.kind {
                 ItemKind::Word {
@@ -1598,7 +1586,9 @@ fn verify(
         file: file.to_owned(),
         detail,
     };
-    let (parsed, _) = interp::run(out, file, options);
+    // Its blocks parsed where they run, not held (a million-line text's
+    // items, about 190 MB).
+    let parsed = interp::parse(out, file, options);
     if let Some(d) = parsed.diagnostics.iter().find(|d| d.is_error()) {
         return Err(fail(format!("it does not parse: {d}")));
     }
