@@ -937,7 +937,7 @@ pub fn run_on(
     let along =
         |load: &StepLoad, i: usize| -> f64 { load.dx_um * dirs[i][0] + load.dy_um * dirs[i][1] };
     // (A step that took its direction was not pushed across its own path.)
-    let rigid: Vec<f64> = (0..n)
+    let mut rigid: Vec<f64> = (0..n)
         .map(|i| {
             if inherited[i] {
                 0.0
@@ -960,47 +960,6 @@ pub fn run_on(
         .filter(|&i| !tools.closed_loop || in_loop[i])
         .map(|i| rigid[i])
         .fold(0.0, f64::max);
-    // Where a step advances less than one grid cell its load comes in whole
-    // columns (MODEL.md §1.5) and g jumps from step to step by the load of a
-    // row of columns; the grid resolves it over [`SUB_CELL_WINDOW_CELLS`]
-    // cells of path (§2.3). Such a step is also within tolerance where the
-    // residual over its window of the loop's steps is (MODEL.md §5.1).
-    let advance_mm: Vec<f64> = steps
-        .iter()
-        .map(|s| {
-            let [fx, fy, _] = s.step.from_mm;
-            let [tx, ty, _] = s.step.to_mm;
-            (tx - fx).hypot(ty - fy)
-        })
-        .collect();
-    // Windows over the feed steps of one cut (the steps out of the loop in
-    // it, such as cuts by the tool's bottom alone, weigh nothing below).
-    let feed: Vec<bool> = steps.iter().map(|s| !s.step.rapid).collect();
-    let windows = sub_cell_windows(
-        &advance_mm,
-        &feed,
-        |p| {
-            steps[p - 1].step.to_mm == steps[p].step.from_mm
-                && tool_of_step[p - 1] == tool_of_step[p]
-        },
-        grid_mm,
-        SUB_CELL_WINDOW_CELLS * grid_mm,
-    );
-    // The steps of the loop that advance less than a grid cell, in order,
-    // with their windows (not a window a step: issue 16).
-    let sub_cells: Vec<(usize, (usize, usize))> = (0..n)
-        .filter(|&i| in_loop[i] && !inherited[i] && advance_mm[i] < grid_mm && windows[i] != (i, i))
-        .map(|i| (i, windows[i]))
-        .collect();
-    drop(windows);
-    // The steps' advances weigh the windows' sums below: none without such steps.
-    let advance_mm = if sub_cells.is_empty() {
-        Vec::new()
-    } else {
-        advance_mm
-    };
-    // Each step's offset: its trial, once the loop tries one.
-    let mut x: Vec<f64> = vec![0.0; n];
     let mut report = LoopReport {
         enabled: tools.closed_loop,
         passes: 1,
@@ -1009,11 +968,62 @@ pub fn run_on(
         unconverged: Vec::new(),
         rigid_kept: tools.closed_loop && overloaded.iter().any(|&o| o),
     };
+    // The loop's passes run (below).
+    let looping = tools.closed_loop && !report.converged;
+    // Where a step advances less than one grid cell its load comes in whole
+    // columns (MODEL.md §1.5) and g jumps from step to step by the load of a
+    // row of columns; the grid resolves it over [`SUB_CELL_WINDOW_CELLS`]
+    // cells of path (§2.3). Such a step is also within tolerance where the
+    // residual over its window of the loop's steps is (MODEL.md §5.1).
+    // (Made only where the loop runs: only its passes read them. An open
+    // loop's run of a million steps made them beside its loads, 41 MB.)
+    let (sub_cells, advance_mm) = if looping {
+        let advance_mm: Vec<f64> = steps
+            .iter()
+            .map(|s| {
+                let [fx, fy, _] = s.step.from_mm;
+                let [tx, ty, _] = s.step.to_mm;
+                (tx - fx).hypot(ty - fy)
+            })
+            .collect();
+        // Windows over the feed steps of one cut (the steps out of the loop in
+        // it, such as cuts by the tool's bottom alone, weigh nothing below).
+        let feed: Vec<bool> = steps.iter().map(|s| !s.step.rapid).collect();
+        let windows = sub_cell_windows(
+            &advance_mm,
+            &feed,
+            |p| {
+                steps[p - 1].step.to_mm == steps[p].step.from_mm
+                    && tool_of_step[p - 1] == tool_of_step[p]
+            },
+            grid_mm,
+            SUB_CELL_WINDOW_CELLS * grid_mm,
+        );
+        // The steps of the loop that advance less than a grid cell, in order,
+        // with their windows (not a window a step: issue 16).
+        let sub_cells: Vec<(usize, (usize, usize))> = (0..n)
+            .filter(|&i| {
+                in_loop[i] && !inherited[i] && advance_mm[i] < grid_mm && windows[i] != (i, i)
+            })
+            .map(|i| (i, windows[i]))
+            .collect();
+        // The steps' advances weigh the windows' sums below: none without such steps.
+        let advance_mm = if sub_cells.is_empty() {
+            Vec::new()
+        } else {
+            advance_mm
+        };
+        (sub_cells, advance_mm)
+    } else {
+        (Vec::new(), Vec::new())
+    };
+    // Each step's offset: its trial, once the loop tries one.
+    let mut x: Vec<f64> = vec![0.0; n];
     // The loads of the steps the loop scales (below) and by how much, once
     // it ends: the passes keep no loads, the last one's are made again
     // once the searches are let go.
     let mut scaled: Option<Vec<(usize, f64)>> = None;
-    if tools.closed_loop && !report.converged {
+    if looping {
         // The rigid sweep's record and loads are read no more (the loop
         // makes its own): freed before the searches are made.
         drop(std::mem::take(&mut record));
@@ -1037,7 +1047,7 @@ pub fn run_on(
             }
         }
         // The rigid deflections are in the searches now.
-        drop(rigid);
+        drop(std::mem::take(&mut rigid));
         // Steps out of tolerance after each sweep, to see the loop stall.
         let mut out_counts: Vec<usize> = Vec::new();
         let mut residuals: Vec<f64> = Vec::new();
@@ -1237,7 +1247,11 @@ pub fn run_on(
     for (l, &r) in step_loads.iter_mut().zip(&rupture_strengths_mpa) {
         *l = l.at_rupture(r);
     }
+    // What only the loop read, let go before the offsets and the model's
+    // deflections are made (the offsets' trials once they are).
+    drop((rigid, in_loop, inherited, sub_cells, advance_mm));
     let offsets_um = applied_offsets_um(&steps, &x, &dirs);
+    drop(x);
     // The deflection across the path that the final removal causes (rapids:
     // the offset they carry).
     let model_um: Vec<[f64; 2]> = (0..n)
