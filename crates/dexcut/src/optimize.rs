@@ -1249,6 +1249,12 @@ pub fn write_verified(
         // block: kept instead of the plan (a million segments' pieces, one
         // `Vec` each, 40 MB), which is dropped before the sweep.
         let blocks = interval_blocks(stations, &plan);
+        // Nor are the caps read again before the verification's excesses
+        // lower them for a next round: held as two columns meanwhile (9 B an
+        // interval, not 16: 27 MB for 3 M free stations, not 48), made again
+        // as they were where a next round needs them.
+        let (cap_feeds, cap_kinds): (Vec<f64>, Vec<CapKind>) =
+            std::mem::take(&mut caps).into_iter().unzip();
         crate::heap_mark(format_args!("round {round}: plans"));
         // Nor are the stations' arrays needed while the program is written,
         // read back and verified (3 M stations: 143 MB beside the re-feed's
@@ -1377,6 +1383,7 @@ pub fn write_verified(
         // The run is let go before the stations are made again (their
         // path read again from the program's text).
         drop(run);
+        caps = cap_feeds.into_iter().zip(cap_kinds).collect();
         lower_caps(
             &mut caps,
             free.stations(machine, setup)?.s_mm(),
