@@ -1304,15 +1304,6 @@ fn optimize_outputs(
     let limits = &setup.job.limits;
     let staged = out_dir.path();
     let (n_stations, time_engagement_s, written, t2) = rounds;
-    let AsGiven {
-        summary: before_summary,
-        run: before,
-        steps: before_steps,
-        chip_load,
-        chip_warnings,
-        stress_limit_mpa,
-        time_simulate_s,
-    } = as_given;
     let OutputsAsked {
         started,
         columns_csv,
@@ -1327,7 +1318,7 @@ fn optimize_outputs(
     }
     let after = &after_run;
     let mut after_summary = after.summary();
-    before_summary.check_finite()?;
+    as_given.summary.check_finite()?;
     after_summary.check_finite()?;
     if written.excesses_left > 0 {
         after_summary.warnings.push(crate::warnings::Warning {
@@ -1343,10 +1334,10 @@ fn optimize_outputs(
         ),
     });
     }
-    after_summary
-        .warnings
-        .0
-        .splice(0..0, setup.warnings.iter().cloned().chain(chip_warnings));
+    after_summary.warnings.0.splice(
+        0..0,
+        setup.warnings.iter().cloned().chain(as_given.chip_warnings),
+    );
     optimize::stress_left(after, limits, written.rounds, &mut after_summary.warnings);
     let mut unresolved = crate::warnings::LineTally::new();
     for e in &written.unresolved {
@@ -1375,7 +1366,7 @@ fn optimize_outputs(
     });
     }
     // One format for both (Auto: by the longer), so the folder reads alike.
-    let steps_format = steps_format.resolve(after.steps.len().max(before_steps));
+    let steps_format = steps_format.resolve(after.steps.len().max(as_given.steps));
     let design = match setup.tiling {
         None => write_run(setup, after, staged, steps_format, columns_csv)?,
         Some(_) => {
@@ -1383,7 +1374,7 @@ fn optimize_outputs(
             None
         }
     };
-    if let Some(before) = before {
+    if let Some(before) = as_given.run {
         before.write_steps(staged, "steps_before", steps_format)?;
     }
     // Files for the machine are in its own Z, as optimized.nc is.
@@ -1424,7 +1415,7 @@ fn optimize_outputs(
         merge_ratio: written.merge_ratio,
         kept_original: written.kept_original,
         fz_max_mm,
-        before: before_summary,
+        before: as_given.summary,
         after: after_summary,
         limits: LimitsOut {
             mrr_max_mm3_s: limits.mrr_max,
@@ -1441,8 +1432,8 @@ fn optimize_outputs(
                 )
             }),
             feed_scale_max: limits.feed_scale_max,
-            chip_load,
-            stress_limit_mpa,
+            chip_load: as_given.chip_load,
+            stress_limit_mpa: as_given.stress_limit_mpa,
         },
         cap_time_share: written.cap_shares,
         lower_bound_time_s,
@@ -1453,7 +1444,7 @@ fn optimize_outputs(
         run_time_s: started.elapsed().as_secs_f64(),
         time_engagement_s,
         time_plan_s,
-        time_simulate_s,
+        time_simulate_s: as_given.time_simulate_s,
         run_id: out_dir.run_id(),
     };
     crate::summary::write_optimize(&staged.join("summary.json"), &doc)?;

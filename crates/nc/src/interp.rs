@@ -199,6 +199,16 @@ impl Block {
     fn has_m(&self, code: i32) -> bool {
         self.m.iter().any(|m| m.0 == code)
     }
+    /// The column of the block's first axis word (its first column if none).
+    fn first_axis_col(&self) -> u32 {
+        ['x', 'y', 'z', '@', '^']
+            .iter()
+            .filter(|&&c| self.get(c).is_some())
+            .map(|&c| self.col(c))
+            .min()
+            .unwrap_or(self.first_col)
+    }
+
     fn has_axes(&self) -> bool {
         ['x', 'y', 'z', '@', '^']
             .iter()
@@ -2091,12 +2101,7 @@ impl Interp<'_> {
         let Some((code, _)) = self.tolerated.lone_arc.take() else {
             return;
         };
-        let col = ['x', 'y', 'z', '@', '^']
-            .iter()
-            .filter(|&&c| b.get(c).is_some())
-            .map(|&c| b.col(c))
-            .min()
-            .unwrap_or(b.first_col);
+        let col = b.first_axis_col();
         if let Some(span) = self.item_span(pc, col) {
             let what = format!("{code} from the line where it stood alone written here");
             self.tolerate(span.start..span.start, format!("{code} "), col, what);
@@ -2107,12 +2112,7 @@ impl Interp<'_> {
     /// tolerantly, a move in the G0/G1 mode set before the canned cycle, as
     /// Fanuc-style controls (Mach3) make it, written with that G code.
     fn axis_words_after_g80(&mut self, b: &Block, pc: usize) -> Result<(), Fail> {
-        let col = ['x', 'y', 'z', '@', '^']
-            .iter()
-            .filter(|&&c| b.get(c).is_some())
-            .map(|&c| b.col(c))
-            .min()
-            .unwrap_or(b.first_col);
+        let col = b.first_axis_col();
         if let (Some(code), Some(span)) = (self.tolerated.plain_motion, self.item_span(pc, col)) {
             let what = format!("axis words after G80 moved in {code}, the mode before the canned cycle, as Fanuc-style controls do; written with {code}");
             if self.tolerate(span.start..span.start, format!("{code} "), col, what) {
