@@ -291,15 +291,15 @@ impl Params {
         }
     }
 
-    /// Checks a numbered-parameter index given as a real number.
+    /// Checks a numbered-parameter index given as a real number, read as
+    /// LinuxCNC reads it ([`crate::gcode::integer_value`]: #0.99995 is #1).
     pub fn index(value: f64) -> Result<usize, String> {
-        let n = value.round();
-        if (value - n).abs() > 1e-6 || !(1.0..=MAX_NUMBERED as f64).contains(&n) {
-            return Err(format!(
+        match crate::gcode::integer_value(value) {
+            Some(n) if (1..=MAX_NUMBERED as i64).contains(&n) => Ok(n as usize),
+            _ => Err(format!(
                 "parameter number {value} out of range 1..{MAX_NUMBERED}"
-            ));
+            )),
         }
-        Ok(n as usize)
     }
 
     fn named(&self, name: &str) -> Option<f64> {

@@ -46,13 +46,13 @@ impl GCode {
         GCode(number as i32 * 10 + decimal as i32)
     }
 
-    /// The code of a G word's value, `None` unless it has at most one decimal
-    /// digit (1e-6 tolerance, for values computed by expressions) and lies
-    /// within ±1e5.
+    /// The code of a G word's value as rs274ngc reads it (`read_g`): its
+    /// tenths rounded where within 0.001 of a whole tenth (G0.99995 is G1,
+    /// G17.99995 is G18), `None` otherwise or beyond ±1e5.
     pub fn from_value(value: f64) -> Option<GCode> {
-        let tenths = (value * 10.0).round();
-        ((value * 10.0 - tenths).abs() <= 1e-6 && tenths.abs() <= 1e6)
-            .then_some(GCode(tenths as i32))
+        near_integer(value * 10.0, 0.001, 0.999)
+            .filter(|tenths| tenths.abs() <= 1_000_000)
+            .map(|tenths| GCode(tenths as i32))
     }
 
     /// The code as a number times ten (G38.2 → 382): the key of the modal-group table.
@@ -69,6 +69,34 @@ impl GCode {
     pub const fn decimal(self) -> i32 {
         self.0 % 10
     }
+}
+
+/// The whole number rs274ngc reads a real value as where the language wants
+/// one (its `read_integer_value`: M, T, H and L words, O numbers, parameter
+/// numbers, and M98's P): the nearest integer where the value lies within
+/// 0.0001 of it (T1.99995 is T2, L2.99995 is L3, T-0.00005 is T0), `None`
+/// otherwise. Values computed by expressions land a few ulps off whole
+/// numbers; LinuxCNC rounds them so.
+pub fn integer_value(value: f64) -> Option<i64> {
+    near_integer(value, 0.0001, 0.9999)
+}
+
+/// `value` rounded as rs274ngc rounds a real to a whole number: to its floor
+/// where the fraction above the floor is at most `down`, to its ceiling where
+/// that fraction is over `up`; `None` between, for infinities and NaN, and
+/// beyond ±1e15.
+fn near_integer(value: f64, down: f64, up: f64) -> Option<i64> {
+    let floor = value.floor();
+    // NaN for NaN and the infinities: neither branch, so None.
+    let fraction = value - floor;
+    let n = if fraction > up {
+        floor + 1.0
+    } else if fraction <= down {
+        floor
+    } else {
+        return None;
+    };
+    (n.abs() <= 1e15).then_some(n as i64)
 }
 
 impl fmt::Display for GCode {
@@ -89,7 +117,7 @@ impl fmt::Display for GCode {
 
 #[cfg(test)]
 mod tests {
-    use super::GCode;
+    use super::{integer_value, GCode};
 
     #[test]
     fn values_read_to_codes_and_print_back() {
@@ -117,5 +145,32 @@ mod tests {
         }
         assert_eq!((GCode::G43_2.number(), GCode::G43_2.decimal()), (43, 2));
         assert_eq!(GCode::G80.tenths(), 800);
+        // Within 0.001 of a tenth, as rs274ngc's read_g.
+        assert_eq!(GCode::from_value(17.99995), Some(GCode::G18));
+        assert_eq!(GCode::from_value(38.20009), Some(GCode::G38_2));
+        assert_eq!(GCode::from_value(38.2002), None);
+    }
+
+    /// rs274ngc's read_integer_value: the floor where the fraction is at most
+    /// 0.0001, the ceiling where it is over 0.9999, nothing between.
+    #[test]
+    fn whole_numbers_are_read_to_within_a_ten_thousandth() {
+        for (value, read) in [
+            (3.0, Some(3)),
+            (3.00009, Some(3)),
+            // 3.0001 is 3.000100000000000211 as a double: over, as in LinuxCNC.
+            (3.0001, None),
+            (2.99991, Some(3)),
+            (-0.00005, Some(0)),
+            (-2.99995, Some(-3)),
+            (3.00011, None),
+            (2.9998, None),
+            (3.5, None),
+            (f64::NAN, None),
+            (f64::INFINITY, None),
+            (1e16, None),
+        ] {
+            assert_eq!(integer_value(value), read, "{value}");
+        }
     }
 }

@@ -15,6 +15,7 @@ use crate::amend::{self, Amendment};
 use crate::cycles::{self, Cycle, CycleMove};
 use crate::diag::{Diagnostic, Severity};
 use crate::expr::Params;
+use crate::gcode::integer_value;
 use crate::path::{Geometry, Motion, Path, Plane, Segment};
 use crate::syntax::{self, Item, ItemKind, LineKind, OKeyword, OLabel, OStmt, SyntaxError};
 use crate::GCode;
@@ -1095,18 +1096,28 @@ impl Interp<'_> {
                             b.g.push((code, item.col));
                         }
                         'm' => {
-                            let code = (v * 10.0).round();
-                            if (v * 10.0 - code).abs() > 1e-6 || code.abs() > 1e6 {
+                            let Some(code) = integer_value(v).filter(|c| c.abs() <= 100_000) else {
                                 return fail(item.col, format!("M{v} is not a valid code"));
-                            }
-                            let code = code as i32;
-                            if code % 10 != 0 {
-                                return fail(item.col, format!("unknown M code M{v}"));
-                            } else {
-                                b.m.push((code / 10, item.col));
-                            }
+                            };
+                            b.m.push((code as i32, item.col));
                         }
                         l => {
+                            // LinuxCNC reads T, H and L words as whole numbers.
+                            let v = match l {
+                                't' | 'h' | 'l' => match integer_value(v) {
+                                    Some(n) => n as f64,
+                                    None => {
+                                        return fail(
+                                            item.col,
+                                            format!(
+                                                "{}{v} is not a whole number",
+                                                l.to_ascii_uppercase()
+                                            ),
+                                        )
+                                    }
+                                },
+                                _ => v,
+                            };
                             let slot = &mut b.words[slot(*l)];
                             if slot.is_some() {
                                 return fail(
@@ -1226,7 +1237,8 @@ impl Interp<'_> {
                 col: b.first_col,
                 msg: "M61 needs a Q word (tool number)".into(),
             })?;
-            let t = self.tool_number(q, b.col('q'), 'Q')?;
+            // LinuxCNC rounds M61's Q to the nearest whole number (round_to_int).
+            let t = self.tool_number(q.round_ties_even(), b.col('q'), 'Q')?;
             self.load_tool(t, pc);
         }
         if b.has_m(3) || b.has_m(4) {
@@ -1465,7 +1477,10 @@ impl Interp<'_> {
                     "L repeat count must be an integer from 1 to 1000000",
                 );
             }
-            let target = p.round() as i64;
+            let target = integer_value(p).ok_or(Fail {
+                col: b.col('p'),
+                msg: format!("M98 P{p} is not a program number (a whole number)"),
+            })?;
             let start = *self.programs.get(&target).ok_or(Fail {
                 col: b.col('p'),
                 msg: format!("subprogram O{target} not found"),

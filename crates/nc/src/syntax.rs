@@ -586,13 +586,13 @@ fn parse_oword(cur: &mut Cursor) -> Result<LineKind, SyntaxError> {
         OLabel::Name(cur.angle_name("o-word name not closed with '>'")?)
     } else {
         let n = cur.number()?;
-        if n.fract() != 0.0 || n > 1e15 {
+        let Some(n) = crate::gcode::integer_value(n) else {
             return Err(SyntaxError {
                 col,
                 message: "O number must be an integer".into(),
             });
-        }
-        OLabel::Number(n as i64)
+        };
+        OLabel::Number(n)
     };
     let kw_col = cur.col();
     let word: String = cur

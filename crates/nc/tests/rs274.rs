@@ -836,6 +836,70 @@ fn read_alike_or_refused_by_both(blocks: &[&str], setup: &str) -> (usize, usize)
     (agree, refused)
 }
 
+/// Words LinuxCNC reads as whole numbers (rs274ngc's `read_integer_value`:
+/// T, H, L and M words, O numbers, parameter numbers, M98's P) take a value
+/// within 0.0001 of one, as expressions compute them (a few ulps off), and G
+/// codes one within 0.001 of a tenth: rs274 rounds them, and so do we,
+/// through the same moves; M61's Q is rounded to the nearest tool. Further
+/// off, both refuse. Before, we refused every one of the first group.
+#[test]
+fn near_whole_numbers_read_as_in_linuxcnc_rs274() {
+    if !have_rs274() {
+        return;
+    }
+    let read = [
+        "M6 T2.00009\nG43 G0 X1 Z1",
+        "M6 T1.99991\nG43 G0 X1 Z1",
+        "#1 = [1/3*3*2]\nM6 T#1\nG43 G0 X1 Z1",
+        "M6 T-0.00005\nG0 X1",
+        "T2 M6\nG43 H2.00005\nG0 X1 Z1",
+        "T2 M6\nG43 H1.99995\nG0 X1 Z1",
+        "G91 G81 X5 Y0 Z-2 R1 L3.00002 F100\nG90 G80",
+        "G91 G81 X5 Y0 Z-2 R1 L[0.1*30] F100\nG90 G80",
+        "G10 L2.00002 P1 X5\nG0 X1",
+        "M3.00005 S1000\nG1 X1 F100",
+        "M2.99995",
+        "G1.00005 X1 F100",
+        "G0.99995 X1 F100\nG17.99995 G2 X3 Z5 I1 K0",
+        "G-0.00001 X1",
+        "#1.00005 = 5\nG1 X#1 F100",
+        "#1 = 5\nG1 X#0.99995 F100",
+        "o100.00005 sub\nG1 X1 F100\no100 endsub\no100 call",
+        "G91\nM98 P8.00003 L2.99995\nM2\nO8\nG1 X1 F100\nM99",
+        "M6 T3\nG0 X1 Z1\nM61 Q1.4\nG0 X2\nM61 Q1.6\nG0 X3",
+    ];
+    let refused = [
+        "M6 T2.0002\nG0 X1",
+        "T2 M6\nG43 H2.5\nG0 X1 Z1",
+        "G91 G81 X5 Y0 Z-2 R1 L2.5 F100",
+        "M3.5 S100",
+        "G1.05 X1 F100",
+        "#1.5 = 5",
+        "M98 P8.3\nM2\nO8\nG1 X1 F100\nM99",
+    ];
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut failures = Vec::new();
+    for (i, (text, refuse)) in read
+        .iter()
+        .map(|t| (t, false))
+        .chain(refused.iter().map(|t| (t, true)))
+        .enumerate()
+    {
+        let file = dir.path().join(format!("w{i}.ngc"));
+        std::fs::write(&file, format!("G21 G90\nG0 X0 Y0 Z5\n{text}\nM2\n")).expect("write");
+        match (outcome(&file), refuse) {
+            (Outcome::Agree(n), false) if n > 0 => {}
+            (Outcome::BothRefuse(..), true) => {}
+            (Outcome::Agree(n), _) => failures.push(format!("{text:?}: both read it ({n} moves)")),
+            (Outcome::BothRefuse(ours, theirs), false) => {
+                failures.push(format!("{text:?}: both refuse it: {ours} / {theirs}"))
+            }
+            (Outcome::Differ(e), _) => failures.push(format!("{text:?}: {e}")),
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 /// LinuxCNC's own sample programs (installed with the package): every one
 /// our interpreter accepts without a diagnostic must read the same in rs274.
 /// Those it rejects (lathe cycles, cutter compensation, probing, remaps, …)
