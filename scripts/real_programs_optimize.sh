@@ -103,6 +103,17 @@ TOOLS = {
     "ncefi_pockets": ("flat", 6.0, 0.2),  # no diameter in the program: assumed
     "pycut_kasten": ("flat", 3.0, 0.1),
     "pygen_norn93": ("flat", 3.0, 0.1),
+    "flatcam_kroneum_isolation": ("flat", 0.24, 0.05),
+    "flatcam_kroneum_holes": ("flat", 0.8, 0.05),  # no diameter in the program: assumed
+    "flatcam_kroneum_cutout": ("flat", 1.5, 0.1),
+    "fusion_linuxcnc_kroneum_base": ("flat", 1.5, 0.1),
+    "fusion_linuxcnc_kroneum_usb": ("flat", 0.9, 0.05),  # the Ø0.9 drill as a flat end
+    "pcbgcode_cr78_drill": ("flat", 0.8, 0.05),  # T01, the first of seven drills
+    "pcbgcode_cr78_bot_mill": ("flat", 1.5875, 0.1),  # no diameter in the program: assumed
+    "pcbgcode_cr78_etch": ("flat", 0.2, 0.05),  # no diameter in the program: assumed
+    "carbidecopper_pcb": ("flat", 0.2, 0.05),  # T501 (engraving), no diameter: assumed
+    "grblplotter_": ("flat", 1.0, 0.1),  # no diameter in the program: assumed
+    "freecad_path_raw": ("flat", 5.0, 0.2),  # FreeCAD's "Default Tool": assumed 5 mm
 }
 DEFAULT_TOOL = ("flat", 3.0, 0.1)
 # Shank of the tools smaller than it, mm (1/8").

@@ -63,10 +63,11 @@ fn rank(t: u32) -> u32 {
     (t - 1) % 20 + 1
 }
 
-/// The tools of both tables: T1–T20, and T212 that Mastercam posts call
-/// (tests/data/real/mastercam_*).
+/// The tools of both tables: T1–T20, T212 that Mastercam posts call
+/// (tests/data/real/mastercam_*) and T112, T501, T606 of Carbide Copper's
+/// library (tests/data/real/carbidecopper_*).
 fn tools() -> impl Iterator<Item = u32> {
-    (1..=20).chain([212])
+    (1..=20).chain([112, 212, 501, 606])
 }
 
 fn tool_table() -> BTreeMap<u32, f64> {
@@ -298,7 +299,7 @@ fn first_tool(rs274_output: &str) -> u32 {
 }
 
 /// The tool number of rs274's `CHANGE_TOOL(n)`, which prints the tool's
-/// index in its table (1-based, in [`tools`] order: T212 is 21), or of
+/// index in its table (1-based, in [`tools`] order: T212 is 22), or of
 /// `CHANGE_TOOL_NUMBER(n)`, which prints the number.
 fn tool_changed_to(command: &str, n: u32) -> u32 {
     match command {
