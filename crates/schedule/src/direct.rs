@@ -553,38 +553,13 @@ fn followable(lim: &Limits, (l, r): (usize, usize), period_s: f64, jerk: f64) ->
     true
 }
 
-/// Shapes a section (MODEL.md §6.1, "Direct sections"): `v` gets the speed at each
-/// station of `lim`, from the envelope's first speed to its last. The dips are the envelope's strict
-/// local minima (a flat bottom whole) and the run's ends, each widened over the intervals
-/// beside it whose acceleration limit is at most `slow_share` times their jerk limit
-/// (the slow corners' intervals: there the motion follows the envelope, whose
-/// acceleration is then too small to matter for the jerk). With `follow` = Some(T), the
-/// dips inside the section are also widened over the envelope on either side as far as
-/// following it keeps the changes of acceleration over T within the jerk limit times T
-/// ([`followable`]; MODEL.md §6.1, "Dips that follow the envelope"), and the gaps beside
-/// such a dip end and start with the envelope's acceleration there. Between two dips the
-/// motion changes speed from the first dip's state to a peak (no acceleration) and on to
-/// the next dip's, each change the time-optimal jerk-limited one ([`Change`]). Each dip's
-/// speed is lowered until the gaps on either side have such a motion under the envelope
-/// (the higher end of a gap lowered, sweeping forwards then backwards; a widened dip is
-/// narrowed first, station by station); dips that were lowered and whose neighbours have
-/// a motion through them are dropped; then each gap takes the highest peak it has a
-/// motion through (bisection). Returns `false` (nothing usable) where a gap still has no
-/// motion or a speed inside the run comes out as 0.
-pub(crate) fn shape(
-    lim: &Limits,
-    slow_share: f64,
-    follow: Option<f64>,
-    v: &mut [f64],
-    mut gaps: Option<&mut Vec<Gap>>,
-) -> bool {
+/// The dips of the envelope `lim.envelope_mm_s`, at least 3 stations ([`shape`]): its
+/// strict local minima (a flat bottom whole) and the ends, and the ends of the slow
+/// intervals beside each (acceleration limit at most `slow_share` times the jerk limit)
+/// as dips of their own.
+fn dips_of(lim: &Limits, slow_share: f64) -> Vec<Dip> {
     let u = lim.envelope_mm_s;
     let n = u.len();
-    debug_assert_eq!(v.len(), n);
-    if n < 3 {
-        v.copy_from_slice(u);
-        return true;
-    }
     let slow = |k: usize| lim.accel_mm_s2[k] <= slow_share * lim.jerk_mm_s3[k];
     // Cores: the flat stretches of u that are local minima, and the ends.
     let mut cores: Vec<(usize, usize)> = Vec::new();
@@ -638,6 +613,138 @@ pub(crate) fn shape(
             dips.push(dip(rr, rr, true));
         }
     }
+    dips
+}
+
+/// The envelope with the stretches rising out of its dips lowered where the motion
+/// cannot leave the dip at rest onto it but can onto a pass below it (MODEL.md §6.1, "Dips
+/// that follow the envelope"): where the envelope is the forward pass at the intervals'
+/// own limits and those grow with the distance from the dip (a sharp corner's exit), a
+/// change from the dip's speed x at rest to a state on it would hold an acceleration over
+/// the limits of the intervals before it. The pass from below leaves station l at
+/// w_l = x + a²/2J with a = min(a_l−1, a_l) (a single phase of jerk J from the dip at
+/// rest ends there, with an acceleration every interval before it allows), and goes on at
+/// the intervals' limits under the envelope, w²_k+1 = min(u²_k+1, w²_k + 2·a_k·Δs_k)
+/// (MODEL.md §6.1, eq. 6.1e), as far as [`followable`] allows; l is the first station (at most [`FOLLOW_SCAN`] after
+/// the dip) where the envelope itself cannot be left onto and that pass can.
+fn passes_from_below(lim: &Limits, dips: &[Dip], period_s: f64) -> Vec<f64> {
+    let u = lim.envelope_mm_s;
+    let mut env = u.to_vec();
+    let jerk = lim.jerk_mm_s3.iter().fold(f64::INFINITY, |m, &x| m.min(x));
+    let accel = lim.accel_mm_s2;
+    let fits = |lim: &Limits, gap: (usize, usize), d: (f64, f64), acc: (f64, f64)| {
+        gap_peak(lim, gap, d, acc).is_some()
+    };
+    let mut w = Vec::new();
+    for pair in dips.windows(2) {
+        let (r0, next) = (pair[0].r, pair[1].l);
+        let x = u[r0];
+        for l in r0 + 2..=r0 + FOLLOW_SCAN {
+            if l + 3 >= next {
+                break;
+            }
+            if !(u[l + 1] > u[l]) {
+                continue;
+            }
+            let on_u = (interval_accel(lim, u, l), u[l]);
+            if on_u.0.abs() <= accel[l] * (1.0 + 1e-9)
+                && fits(lim, (r0, l), (x, u[l]), (0.0, on_u.0))
+            {
+                break;
+            }
+            let a = accel[l - 1].min(accel[l]);
+            let w_l = x + a * a / (2.0 * jerk);
+            if !(w_l < u[l]) {
+                continue;
+            }
+            w.clear();
+            w.push(w_l);
+            // The first interval at a, the others at their limits, under the envelope.
+            let mut k = l;
+            while k + 3 < next {
+                let a_k = if k == l { a } else { accel[k] };
+                let s = lim.s_mm;
+                let next_w = (w[w.len() - 1].powi(2) + 2.0 * a_k * (s[k + 1] - s[k])).sqrt();
+                if next_w >= u[k + 1] {
+                    break;
+                }
+                w.push(next_w);
+                k += 1;
+            }
+            if w.len() < 2 {
+                continue;
+            }
+            let a_l = crate::plan::interval_accel_mm_s2(&lim.s_mm[l..], &w, 0);
+            if !fits(lim, (r0, l), (x, w_l), (0.0, a_l)) {
+                continue;
+            }
+            env[l..l + w.len()].copy_from_slice(&w);
+            // Only as far as it is followed.
+            let probe = Limits {
+                envelope_mm_s: &env,
+                ..*lim
+            };
+            let mut r = l + 1;
+            while r + 1 < l + w.len() && followable(&probe, (l, r + 1), period_s, jerk) {
+                r += 1;
+            }
+            env[r + 1..l + w.len()].copy_from_slice(&u[r + 1..l + w.len()]);
+            break;
+        }
+    }
+    env
+}
+
+/// Shapes a section (MODEL.md §6.1, "Direct sections"): `v` gets the speed at each
+/// station of `lim`, from the envelope's first speed to its last. The dips are the envelope's strict
+/// local minima (a flat bottom whole) and the run's ends, each widened over the intervals
+/// beside it whose acceleration limit is at most `slow_share` times their jerk limit
+/// (the slow corners' intervals: there the motion follows the envelope, whose
+/// acceleration is then too small to matter for the jerk). With `follow` = Some(T), the
+/// dips inside the section are also widened over the envelope on either side as far as
+/// following it keeps the changes of acceleration over T within the jerk limit times T
+/// ([`followable`]; MODEL.md §6.1, "Dips that follow the envelope"; where a change at
+/// rest cannot leave a dip onto the envelope, onto a pass below it,
+/// [`passes_from_below`]), and the gaps beside
+/// such a dip end and start with the envelope's acceleration there. Between two dips the
+/// motion changes speed from the first dip's state to a peak (no acceleration) and on to
+/// the next dip's, each change the time-optimal jerk-limited one ([`Change`]). Each dip's
+/// speed is lowered until the gaps on either side have such a motion under the envelope
+/// (the higher end of a gap lowered, sweeping forwards then backwards; a widened dip is
+/// narrowed first, station by station); dips that were lowered and whose neighbours have
+/// a motion through them are dropped; then each gap takes the highest peak it has a
+/// motion through (bisection). Returns `false` (nothing usable) where a gap still has no
+/// motion or a speed inside the run comes out as 0.
+pub(crate) fn shape(
+    lim: &Limits,
+    slow_share: f64,
+    follow: Option<f64>,
+    v: &mut [f64],
+    mut gaps: Option<&mut Vec<Gap>>,
+) -> bool {
+    let u = lim.envelope_mm_s;
+    let n = u.len();
+    debug_assert_eq!(v.len(), n);
+    if n < 3 {
+        v.copy_from_slice(u);
+        return true;
+    }
+    let mut dips = dips_of(lim, slow_share);
+    // With `follow`, the envelope lowered to the passes from below it follows out of dips.
+    let lowered: Vec<f64>;
+    let below: Limits;
+    let lim = match follow {
+        Some(period_s) => {
+            lowered = passes_from_below(lim, &dips, period_s);
+            below = Limits {
+                envelope_mm_s: &lowered,
+                ..*lim
+            };
+            &below
+        }
+        None => lim,
+    };
+    let u = lim.envelope_mm_s;
     // Gap g: from dip g's last station to dip g+1's first, and its end speeds and
     // accelerations.
     let gap = |dips: &[Dip], g: usize| (dips[g].r, dips[g + 1].l);
@@ -981,6 +1088,110 @@ mod tests {
         }
         assert!(Change::between(50.0, 0.0, 20.0, -1200.0, 1000.0, j).is_none());
         assert!(Change::between(50.0, 1200.0, 60.0, 0.0, 1000.0, j).is_none());
+    }
+
+    /// A sharp corner's exit (MODEL.md §6.1, "Dips that follow the envelope"): a dip of
+    /// 4 mm/s 3 mm along (a cap ramp falls into it, 3 + 31.25·d mm/s), the envelope
+    /// after it the forward pass at the intervals' own limits, which grow with the
+    /// distance d from the dip, 130 + 600·d mm/s² (up to 1 000), to 50 mm/s. A change from
+    /// the dip at rest onto the envelope would hold an acceleration over the limits before
+    /// it; the pass from below leaves station l at w_l = 4 + a²/2J, a = min(a_l−1, a_l),
+    /// and goes on as w²_k+1 = w²_k + 2·a_k·Δs (closed form, within 10⁻⁹). The shape is
+    /// under the envelope, every interval of its stations' plan within its limit, and the
+    /// gaps' motions, sampled every 10 µs, keep each interval's limit at every sample
+    /// (eq. 6.1d); the shape with its dips at rest has none (or a slower one).
+    #[test]
+    fn a_corner_exit_is_followed_on_a_pass_from_below() {
+        let (j, period) = (20000.0, 0.016);
+        let n = 160;
+        let dip = 60;
+        let ds = 0.05;
+        let s: Vec<f64> = (0..n).map(|k| k as f64 * ds).collect();
+        let accel: Vec<f64> = (0..n - 1)
+            .map(|k| {
+                if k < dip {
+                    1000.0
+                } else {
+                    (130.0 + 600.0 * (s[k] - s[dip])).min(1000.0)
+                }
+            })
+            .collect();
+        let mut u = vec![0.0; n];
+        u[dip] = 4.0;
+        for k in dip..n - 1 {
+            u[k + 1] = (u[k] * u[k] + 2.0 * accel[k] * ds).sqrt().min(50.0);
+        }
+        for k in (0..dip).rev() {
+            u[k] = (3.0 + 31.25 * (s[dip] - s[k])).min(50.0);
+        }
+        u[dip] = 4.0;
+        let jerk = vec![j; n - 1];
+        let lim = Limits {
+            s_mm: &s,
+            envelope_mm_s: &u,
+            accel_mm_s2: &accel,
+            jerk_mm_s3: &jerk,
+        };
+        // The pass from below, against its closed form.
+        let dips = dips_of(&lim, period / 3.0);
+        let env = passes_from_below(&lim, &dips, period);
+        let l = (dip + 1..n)
+            .find(|&k| env[k] < u[k])
+            .expect("a pass from below");
+        let a = accel[l - 1].min(accel[l]);
+        assert!((env[l] - (4.0 + a * a / (2.0 * j))).abs() <= 1e-9);
+        let mut r = l;
+        while env[r + 1] < u[r + 1] {
+            let a_r = if r == l { a } else { accel[r] };
+            let w = (env[r] * env[r] + 2.0 * a_r * ds).sqrt();
+            assert!((env[r + 1] - w).abs() <= 1e-9, "{r}: {} vs {w}", env[r + 1]);
+            r += 1;
+        }
+        assert!(r > l + 2, "{l}..{r}");
+        let time = |v: &[f64]| {
+            (0..n - 1)
+                .map(|k| crate::plan::interval_time_s(&s, v, k))
+                .sum::<f64>()
+        };
+        let (mut v, mut gaps) = (vec![0.0; n], Vec::new());
+        assert!(shape(
+            &lim,
+            period / 3.0,
+            Some(period),
+            &mut v,
+            Some(&mut gaps)
+        ));
+        let mut at_rest = vec![0.0; n];
+        let rest_s = shape(&lim, period / 3.0, None, &mut at_rest, None).then(|| time(&at_rest));
+        let followed_s = time(&v);
+        println!("corner exit: followed {followed_s:.5} s, dips at rest {rest_s:?}");
+        assert!(rest_s.is_none_or(|rest_s| followed_s < rest_s));
+        for k in 0..n - 1 {
+            assert!(v[k] <= u[k] * (1.0 + 1e-12));
+            let a_k = crate::plan::interval_accel_mm_s2(&s, &v, k).abs();
+            assert!(a_k <= accel[k] * (1.0 + 1e-9), "{k}: {a_k} vs {}", accel[k]);
+        }
+        assert!(gaps.iter().any(|g| g.accelerated_ends()));
+        for g in &gaps {
+            let span = g.time_at_s(s[g.k] - s[g.i]);
+            let h = 1e-5;
+            let steps = (span / h) as usize;
+            for step in 1..steps {
+                let t = step as f64 * h;
+                let (x, v0) = g.state_s(t - h);
+                let (_, v1) = g.state_s(t);
+                let m = s.partition_point(|&y| y <= s[g.i] + x).clamp(1, n - 1) - 1;
+                let a_t = ((v1 - v0) / h).abs();
+                assert!(
+                    a_t <= accel[m] * (1.0 + 1e-3) + j * h,
+                    "gap {}..{}: {a_t} at {} mm over {}",
+                    g.i,
+                    g.k,
+                    s[g.i] + x,
+                    accel[m]
+                );
+            }
+        }
     }
 
     /// Two dips 2 mm apart on a line (20 and 15 mm/s, no acceleration at either), the
