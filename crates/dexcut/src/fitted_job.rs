@@ -197,6 +197,10 @@ pub fn tools_in_comments(text: &str) -> Vec<ToolGuess> {
     static MASTERCAM: LazyLock<Regex> = LazyLock::new(|| {
         Regex::new(r"(?i)\bT(\d+)\s*\|\s*([\d.]+)\s*(\w+)?\s*END\s*MILL").expect("regex")
     });
+    /// pcb-gcode's drill table (Eagle): `T01 | 0.800mm 0.0315in | 0.0000in | …`.
+    static PCB_GCODE: LazyLock<Regex> = LazyLock::new(|| {
+        Regex::new(r"(?i)\bT(\d+)\s*\|\s*([\d.]+)\s*mm\s+[\d.]+\s*in\s*\|").expect("regex")
+    });
     /// `T2 Diameter: 0.40mm` (drl2gcode), `Tool diameter: 3.175mm` (gcodekit4),
     /// `TOOL DIAMETER: 3.0`, `Endmill Diameter: 1`, `Bit diameter: 1/8"`,
     /// `Change tool bit to mill diameter 0.00787in` (pcb2gcode).
@@ -259,6 +263,14 @@ pub fn tools_in_comments(text: &str) -> Vec<ToolGuess> {
                     number: m[1].parse().ok(),
                     shape: shape_named(m.get(3).map_or("", |s| s.as_str()), None),
                     diameter_mm: d * unit_mm(None, inches),
+                    flutes: None,
+                    source,
+                })
+            } else if let Some(m) = PCB_GCODE.captures(c) {
+                length(&m[2]).map(|d| ToolGuess {
+                    number: m[1].parse().ok(),
+                    shape: Shape::Flat,
+                    diameter_mm: d,
                     flutes: None,
                     source,
                 })

@@ -30,7 +30,7 @@ fn stock_corners(job: &toml::Table) -> (Vec<f64>, Vec<f64>) {
 #[test]
 fn real_programs_name_their_cutters_in_their_posts_forms() {
     let inch = 25.4;
-    let expected: [(&str, Option<u32>, Shape, f64); 38] = [
+    let expected: [(&str, Option<u32>, Shape, f64); 43] = [
         // Fusion 360: (T1 D=… CR=… - ZMIN=… - kind), in the program's units.
         ("fusion_led_floor_block.nc", Some(1), Shape::Flat, 1.4),
         (
@@ -154,6 +154,27 @@ fn real_programs_name_their_cutters_in_their_posts_forms() {
         ),
         ("pcb2gcode_drill.ngc", None, Shape::Flat, 0.0157 * inch),
         ("pcb2gcode_milldrill.ngc", None, Shape::Flat, 1.0),
+        // FlatCAM, pcb-gcode's drill table (mm beside inches), Fusion's LinuxCNC post.
+        (
+            "flatcam_kroneum_isolation_trimmed.nc",
+            None,
+            Shape::Flat,
+            0.24,
+        ),
+        ("flatcam_kroneum_cutout.nc", None, Shape::Flat, 1.5),
+        ("pcbgcode_cr78_drill.nc", Some(1), Shape::Flat, 0.8),
+        (
+            "fusion_linuxcnc_kroneum_base_cutout.nc",
+            Some(4),
+            Shape::Flat,
+            1.5,
+        ),
+        (
+            "fusion_linuxcnc_kroneum_usb_holes.nc",
+            Some(2),
+            Shape::Flat,
+            0.9,
+        ),
     ];
     for (name, number, shape, d) in expected {
         let text = String::from_utf8_lossy(&std::fs::read(real(name)).unwrap()).into_owned();
