@@ -902,7 +902,7 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
                 (load.power_w, limits.power_max_kw.map(|kw| 1000.0 * kw)),
                 (
                     load.stress_mpa,
-                    limits.stress.then_some(run.stress_limits_mpa[k]),
+                    limits.stress.then_some(run.stress_limit_mpa_at(k)),
                 ),
             ]) {
                 if let Some(limit) = limit {
@@ -1132,7 +1132,7 @@ pub fn stress_left(
     let mut tally = crate::warnings::LineTally::new();
     let mut fastest = 0.0f64;
     for (k, s) in run.steps.iter().enumerate() {
-        let limit = run.stress_limits_mpa[k];
+        let limit = run.stress_limit_mpa_at(k);
         if !s.step.rapid && run.loads[k].stress_mpa > limit * (1.0 + LIMIT_TOLERANCE) {
             crate::warnings::tally(&mut tally, s.line, run.loads[k].stress_mpa);
             fastest = fastest.max(s.feed_mm_min);

@@ -102,12 +102,11 @@ pub struct Run {
     pub closed_loop: LoopReport,
     /// Largest deflection at the contact height of the rigid tool's removal, µm.
     pub rigid_peak_deflection_um: f64,
-    /// Allowable tool stress of each step's tool, MPa.
-    pub stress_limits_mpa: Vec<f64>,
-    /// Rupture strength of each step's tool, MPa: a step whose stress exceeds
-    /// it breaks the tool, and its deflections are those at rupture
-    /// (MODEL.md §4.4, [`cutting::StepLoad::at_rupture`]).
-    pub rupture_strengths_mpa: Vec<f64>,
+    /// Allowable stress and rupture strength of each tool the steps carry,
+    /// by tool number, MPa: a step's are its tool's
+    /// ([`Run::stress_limit_mpa_at`], [`Run::rupture_strength_mpa_at`]; not
+    /// two per step, 16 MB for a million steps: issue 16).
+    pub strengths_mpa: BTreeMap<u32, [f64; 2]>,
     /// Each tool number the steps carry as messages name it
     /// ([`ToolSet::name`]: a single `[tool]` is "the job's tool").
     pub tool_names: BTreeMap<u32, String>,
@@ -869,13 +868,13 @@ pub fn run_on(
     let mut final_stock = rigid_stock;
     let mut step_loads = loads(tools, &tool_of_step, &record, &steps, grid_mm);
     let n = steps.len();
-    let stress_limits_mpa: Vec<f64> = tool_of_step
+    // Each step's tool's allowable stress and rupture strength.
+    let stress_limit_mpa = |i: usize| tools.entries[tool_of_step[i]].stress_limit_mpa;
+    let rupture_strength_mpa = |i: usize| tools.entries[tool_of_step[i]].rupture_strength_mpa;
+    let strengths_mpa: BTreeMap<u32, [f64; 2]> = steps
         .iter()
-        .map(|&t| tools.entries[t].stress_limit_mpa)
-        .collect();
-    let rupture_strengths_mpa: Vec<f64> = tool_of_step
-        .iter()
-        .map(|&t| tools.entries[t].rupture_strength_mpa)
+        .enumerate()
+        .map(|(i, s)| (s.tool, [stress_limit_mpa(i), rupture_strength_mpa(i)]))
         .collect();
     let tool_names: BTreeMap<u32, String> = steps
         .iter()
@@ -890,14 +889,14 @@ pub fn run_on(
     // stress) and stays out of the loop below, so the steps the loop moves
     // start from the same loads with or without the cap. Made where they are
     // read, step by step (not a copy of every step's load: 104 B a step).
-    let rigid_load = |i: usize| step_loads[i].at_rupture(rupture_strengths_mpa[i]);
+    let rigid_load = |i: usize| step_loads[i].at_rupture(rupture_strength_mpa(i));
     // A tool the rigid cut overloads beyond its allowable stress anywhere would
     // break there: no elastic balance exists, so the loop leaves that tool's
     // steps rigid (the open-loop estimate, which the force warning names)
     // rather than mixing bent and unbent steps along its path (MODEL.md §5.1).
     let mut overloaded = vec![false; tools.entries.len()];
     for (i, l) in step_loads.iter().enumerate() {
-        if !steps[i].step.rapid && l.stress_mpa > stress_limits_mpa[i] {
+        if !steps[i].step.rapid && l.stress_mpa > stress_limit_mpa(i) {
             overloaded[tool_of_step[i]] = true;
         }
     }
@@ -990,7 +989,7 @@ pub fn run_on(
         // it, such as cuts by the tool's bottom alone, weigh nothing below).
         let feed: Vec<bool> = steps.iter().map(|s| !s.step.rapid).collect();
         let windows = sub_cell_windows(
-            &advance_mm,
+            |p| advance_mm[p],
             &feed,
             |p| {
                 steps[p - 1].step.to_mm == steps[p].step.from_mm
@@ -1244,8 +1243,8 @@ pub fn run_on(
     let sweep_s = started.elapsed().as_secs_f64();
     // The final loads as reported (MODEL.md §4.4): where a step breaks its
     // tool, the deflections at rupture; the error map takes them below.
-    for (l, &r) in step_loads.iter_mut().zip(&rupture_strengths_mpa) {
-        *l = l.at_rupture(r);
+    for (i, l) in step_loads.iter_mut().enumerate() {
+        *l = l.at_rupture(rupture_strength_mpa(i));
     }
     // What only the loop read, let go before the offsets and the model's
     // deflections are made (the offsets' trials once they are).
@@ -1304,29 +1303,30 @@ pub fn run_on(
         sweep_s,
         closed_loop: report,
         rigid_peak_deflection_um,
-        stress_limits_mpa,
-        rupture_strengths_mpa,
+        strengths_mpa,
         tool_names,
     })
 }
 
 /// Per item (a servo period, or a step of the closed loop) with path advance
-/// `advance[p]`, the window `(a, b)` of items its value is resolved over
+/// `advance(p)`, the window `(a, b)` of items its value is resolved over
 /// (MODEL.md §2.3): an item of a run (`member[p]`; item p continues the run of
 /// p − 1 where `joins(p)`) that advances less than one grid cell `cell_mm`
 /// gets the shortest run of items centred on it, within its run, that covers
-/// `window_mm` of path (or the whole run); every other item, itself.
+/// `window_mm` of path (or the whole run); every other item, itself. Item
+/// p advances `advance(p)` (made where it is read, not a list beside the
+/// caller's: 8 B an item).
 fn sub_cell_windows(
-    advance: &[f64],
+    advance: impl Fn(usize) -> f64,
     member: &[bool],
     joins: impl Fn(usize) -> bool,
     cell_mm: f64,
     window_mm: f64,
 ) -> Vec<(usize, usize)> {
-    let n = advance.len();
+    let n = member.len();
     let mut adv = vec![0.0; n + 1];
     for p in 0..n {
-        adv[p + 1] = adv[p] + advance[p];
+        adv[p + 1] = adv[p] + advance(p);
     }
     // Last item of the run each item lies in.
     let mut run_ends = vec![0; n];
@@ -1347,7 +1347,7 @@ fn sub_cell_windows(
         if p > run_start && !joins(p) {
             run_start = p;
         }
-        if advance[p] >= cell_mm {
+        if advance(p) >= cell_mm {
             continue;
         }
         let run_end = run_ends[p];
@@ -1701,14 +1701,14 @@ fn loads_as<T>(
 /// equals), with its stress over its rupture strength. Its tool, line, force
 /// and rupture strength are the message's, so that with tools of different
 /// strengths the message speaks of one step. `None` when no step breaks.
-fn breaking_step(loads: &[StepLoad], ruptures_mpa: &[f64]) -> Option<(usize, f64)> {
+fn breaking_step(loads: &[StepLoad], rupture_mpa: impl Fn(usize) -> f64) -> Option<(usize, f64)> {
     let mut worst: Option<usize> = None;
-    for (i, (l, &r)) in loads.iter().zip(ruptures_mpa).enumerate() {
-        if l.breaks(r) && worst.is_none_or(|w| l.stress_mpa > loads[w].stress_mpa) {
+    for (i, l) in loads.iter().enumerate() {
+        if l.breaks(rupture_mpa(i)) && worst.is_none_or(|w| l.stress_mpa > loads[w].stress_mpa) {
             worst = Some(i);
         }
     }
-    worst.map(|w| (w, loads[w].stress_mpa / ruptures_mpa[w]))
+    worst.map(|w| (w, loads[w].stress_mpa / rupture_mpa(w)))
 }
 
 /// Allowable stress of a tool (MODEL.md §4.4): `stress_limit_mpa`, else 1200
@@ -1964,8 +1964,9 @@ impl Run {
         };
         // Per period p: steps first[p]..first[p + 1] (u32), path
         // s_at[p]..s_at[p + 1], whether it cuts, and the prefix sums of
-        // removal and time over the periods before it; 37 B a period, each
-        // column reserved at its size (the windows 24 B more).
+        // removal and time over the periods before it; 29 B a period, each
+        // column reserved at its size (the windows 16 B more, and 16 while
+        // they are made; a period's advance is made where it is read).
         let n = crate::motion::periods(&self.steps).count();
         let mut first: Vec<u32> = Vec::with_capacity(n + 1);
         let mut s_at: Vec<f64> = Vec::with_capacity(n + 1);
@@ -1983,8 +1984,8 @@ impl Run {
             dt_sum.push(dt_sum[dt_sum.len() - 1] + dt_s);
         }
         first.push(u32::try_from(self.steps.len()).expect("fewer than 2³² steps"));
-        let advance: Vec<f64> = (0..n).map(|p| s_at[p + 1] - s_at[p]).collect();
-        let windows = sub_cell_windows(&advance, &cutting, |p| cutting[p - 1], g, window_mm);
+        let advance = |p: usize| s_at[p + 1] - s_at[p];
+        let windows = sub_cell_windows(advance, &cutting, |p| cutting[p - 1], g, window_mm);
         for (p, &(a, b)) in windows.iter().enumerate() {
             let (i, j) = (first[p] as usize, first[p + 1] as usize);
             let (_, volume_mm3, dt_s) = own(i, j);
@@ -1998,7 +1999,7 @@ impl Run {
                 cutting: cutting[p],
                 window: (p, p),
             };
-            f(if !cutting[p] || advance[p] >= g {
+            f(if !cutting[p] || advance(p) >= g {
                 own
             } else {
                 Period {
@@ -2063,7 +2064,7 @@ impl Run {
     /// Step `i` breaks its tool: its stress exceeds the tool's rupture
     /// strength (MODEL.md §4.4).
     pub fn breaks(&self, i: usize) -> bool {
-        self.loads[i].breaks(self.rupture_strengths_mpa[i])
+        self.loads[i].breaks(self.rupture_strength_mpa_at(i))
     }
 
     /// The linear beam's deflection of step `i` at the contact height, µm:
@@ -2071,7 +2072,7 @@ impl Run {
     /// would have if the tool did not break (what a deflection limit scales
     /// with the feed, MODEL.md §4.4).
     pub fn linear_deflection_um(&self, i: usize) -> f64 {
-        self.loads[i].linear_deflection_um(self.rupture_strengths_mpa[i])
+        self.loads[i].linear_deflection_um(self.rupture_strength_mpa_at(i))
     }
 
     /// The step with the largest reported deflection breaks its tool: the
@@ -2088,10 +2089,22 @@ impl Run {
 
     /// The lowest allowable stress of the tools the run uses, MPa.
     pub fn stress_limit_mpa(&self) -> f64 {
-        self.stress_limits_mpa
-            .iter()
-            .copied()
+        self.strengths_mpa
+            .values()
+            .map(|s| s[0])
             .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Allowable stress of step `i`'s tool, MPa.
+    pub fn stress_limit_mpa_at(&self, i: usize) -> f64 {
+        self.strengths_mpa[&self.steps[i].tool][0]
+    }
+
+    /// Rupture strength of step `i`'s tool, MPa: a step whose stress
+    /// exceeds it breaks the tool, and its deflections are those at rupture
+    /// (MODEL.md §4.4, [`cutting::StepLoad::at_rupture`]).
+    pub fn rupture_strength_mpa_at(&self, i: usize) -> f64 {
+        self.strengths_mpa[&self.steps[i].tool][1]
     }
 
     /// Warnings of this run (MODEL.md §10): rapid moves that cut, shank or
@@ -2101,7 +2114,7 @@ impl Run {
         let (mut rapid, mut shank) = (LineTally::new(), LineTally::new());
         let (mut stress, mut breaks) = (LineTally::new(), LineTally::new());
         for (i, s) in self.steps.iter().enumerate() {
-            if self.loads[i].stress_mpa > self.stress_limits_mpa[i] {
+            if self.loads[i].stress_mpa > self.stress_limit_mpa_at(i) {
                 warnings::tally(&mut stress, s.line, self.loads[i].stress_mpa);
             }
             if self.breaks(i) {
@@ -2125,13 +2138,13 @@ impl Run {
         // The allowable stress of the step the message quotes (the highest stress over
         // its own tool's limit), not the lowest of all tools.
         let limit = (0..self.steps.len())
-            .filter(|&i| self.loads[i].stress_mpa > self.stress_limits_mpa[i])
+            .filter(|&i| self.loads[i].stress_mpa > self.stress_limit_mpa_at(i))
             .max_by(|&a, &b| {
                 self.loads[a]
                     .stress_mpa
                     .total_cmp(&self.loads[b].stress_mpa)
             })
-            .map_or_else(|| self.stress_limit_mpa(), |i| self.stress_limits_mpa[i]);
+            .map_or_else(|| self.stress_limit_mpa(), |i| self.stress_limit_mpa_at(i));
         let rigid_kept = if self.closed_loop.rigid_kept {
             "; the closed loop keeps the rigid tool's force, deflection and error for it (no elastic balance, docs/MODEL.md §5.1)"
         } else {
@@ -2140,8 +2153,8 @@ impl Run {
         out.from_lines(WarningKind::Force, &stress, "MPa", false, |v, lines| {
             format!("the cutting force and torque stress the tool to {v:.0} MPa at {lines}, above the allowable {limit:.0} MPa ([tool] stress_limit_mpa, docs/MODEL.md §4.4): lower the feed or the engagement, or use a shorter or stiffer tool{rigid_kept}")
         });
-        if let Some((w, ratio)) = breaking_step(&self.loads, &self.rupture_strengths_mpa) {
-            let rupture = self.rupture_strengths_mpa[w];
+        if let Some((w, ratio)) = breaking_step(&self.loads, |i| self.rupture_strength_mpa_at(i)) {
+            let rupture = self.rupture_strength_mpa_at(w);
             let (tool, line, force) = (
                 &self.tool_names[&self.steps[w].tool],
                 self.steps[w].line,
@@ -2564,13 +2577,11 @@ mod tests {
         };
         let loads = [load(100.0), load(4000.0), load(4200.0), load(4200.0)];
         let ruptures = [3000.0, 3000.0, 3500.0, 3500.0];
-        assert_eq!(breaking_step(&loads, &ruptures), Some((2, 1.2)));
-        assert_eq!(
-            breaking_step(&loads[..2], &ruptures[..2]),
-            Some((1, 4.0 / 3.0))
-        );
-        assert_eq!(breaking_step(&loads[..1], &ruptures[..1]), None);
-        assert_eq!(breaking_step(&[], &[]), None);
+        let rupture = |i: usize| ruptures[i];
+        assert_eq!(breaking_step(&loads, rupture), Some((2, 1.2)));
+        assert_eq!(breaking_step(&loads[..2], rupture), Some((1, 4.0 / 3.0)));
+        assert_eq!(breaking_step(&loads[..1], rupture), None);
+        assert_eq!(breaking_step(&[], rupture), None);
     }
 
     #[test]
@@ -2635,7 +2646,7 @@ mod tests {
             dt_sum[p + 1] = dt_sum[p] + dt_s[p];
         }
         let advance: Vec<f64> = (0..n).map(|p| s_at[p + 1] - s_at[p]).collect();
-        let windows = sub_cell_windows(&advance, &cutting, |p| cutting[p - 1], g, window_mm);
+        let windows = sub_cell_windows(|p| advance[p], &cutting, |p| cutting[p - 1], g, window_mm);
         for (p, &(a, b)) in windows.iter().enumerate() {
             let own = Period {
                 first_step: first[p],
@@ -2708,6 +2719,62 @@ mod tests {
         }
     }
 
+    /// A run keeps its tools' allowable stresses and rupture strengths by
+    /// tool number, not per step: each step's are its tool's entry's, bit
+    /// for bit (what the per-step columns held), for three tools of
+    /// different strengths (one breaking where it cuts, one overloaded);
+    /// the run's lowest allowable stress is the lowest of the tools it uses
+    /// (not of the table's, whose fourth tool it does not use).
+    #[test]
+    fn a_runs_strengths_are_each_steps_tools() {
+        let dir = tempfile::tempdir().unwrap();
+        let tool = |n: u32, d: f64, strengths: &str| {
+            format!("[[tools]]\nnumber = {n}\nkind = \"flat\"\ndiameter = {d}\nflute_length = 12\nstickout = 30\n{strengths}\n")
+        };
+        let job = format!(
+            "[stock]\nkind = \"box\"\nmin = [0, 0, 0]\nmax = [60, 40, 20]\ngrid = 0.2\n{}{}{}{}\
+             [program]\npath = \"p.ngc\"\n[cutting]\nmaterial = \"al6061\"\n[machine]\nfeed_max = 3000\n",
+            tool(1, 6.0, "stress_limit_mpa = 700"),
+            tool(2, 4.0, "stress_limit_mpa = 50\nrupture_strength_mpa = 70"),
+            tool(3, 3.0, ""),
+            tool(4, 2.0, "stress_limit_mpa = 1"),
+        );
+        std::fs::write(dir.path().join("job.toml"), job).unwrap();
+        std::fs::write(
+            dir.path().join("p.ngc"),
+            "G21 G90 G17\nT1 M6 S9000 M3\nG0 X-8 Y5 Z25\nG1 X5 Z18 F1200\nG1 X30 Y20\nG0 Z25\n\
+             T2 M6 S12000 M3\nG0 X50 Y8\nG1 Z18 F200\nG1 X12 Y10 F1000\nG0 Z25\n\
+             T3 M6 S15000 M3\nG0 X20 Y15\nG1 Z19 F250\nG1 X35 F800\nG0 Z25\nM2\n",
+        )
+        .unwrap();
+        let setup = crate::commands::Setup::load(&dir.path().join("job.toml"), None).unwrap();
+        let tools = &setup.tools;
+        let run = run_on(
+            setup.stock_source(),
+            tools,
+            setup.machine_steps().unwrap(),
+            "t",
+        )
+        .unwrap();
+        assert_eq!(run.strengths_mpa.len(), 3);
+        for (i, s) in run.steps.iter().enumerate() {
+            let entry = &tools.entries[tools.index_of(s.tool).unwrap()];
+            assert_eq!(
+                [run.stress_limit_mpa_at(i), run.rupture_strength_mpa_at(i)].map(f64::to_bits),
+                [entry.stress_limit_mpa, entry.rupture_strength_mpa].map(f64::to_bits),
+                "step {i}"
+            );
+        }
+        assert!((1..run.steps.len()).any(|i| run.steps[i].tool != run.steps[i - 1].tool));
+        assert!(run.steps.iter().enumerate().any(|(i, _)| run.breaks(i)));
+        let lowest = [1, 2, 3].map(|t| tools.entries[tools.index_of(t).unwrap()].stress_limit_mpa);
+        assert_eq!(
+            run.stress_limit_mpa(),
+            lowest.into_iter().fold(f64::INFINITY, f64::min)
+        );
+        assert_eq!(run.stress_limit_mpa(), 50.0);
+    }
+
     #[test]
     fn sub_cell_windows_cover_the_path_within_their_run() {
         // Cell 1, window 3: a step of 0.5 takes the fewest steps centred on it
@@ -2718,7 +2785,7 @@ mod tests {
         let member = [
             true, true, true, true, true, true, true, true, true, false, true,
         ];
-        let w = sub_cell_windows(&advance, &member, |p| p != 6, 1.0, 3.0);
+        let w = sub_cell_windows(|p| advance[p], &member, |p| p != 6, 1.0, 3.0);
         assert_eq!(w[0], (0, 4), "the run's start bounds the window");
         assert_eq!(w[2], (0, 4), "(1, 3) covers 1.5 mm");
         assert_eq!(w[3], (2, 4));
