@@ -715,7 +715,16 @@ fn angle_and_floor(
 /// Apply interval caps to both end stations of each interval, so the speed
 /// (v² linear between stations) respects the cap over the whole interval.
 pub fn apply_interval_caps(stations: &mut Stations, caps: &[(f64, CapKind)]) -> Result<()> {
-    for (k, &(cap, kind)) in caps.iter().enumerate() {
+    apply_interval_caps_from(stations, 0, caps)
+}
+
+/// [`apply_interval_caps`] with `caps` those of the intervals from `first` on.
+fn apply_interval_caps_from(
+    stations: &mut Stations,
+    first: usize,
+    caps: &[(f64, CapKind)],
+) -> Result<()> {
+    for (k, &(cap, kind)) in (first..).zip(caps) {
         if cap.is_finite() {
             let seg = stations.segment()[k + 1] as usize;
             if matches!(stations.segments()[seg].motion, Motion::Rapid) {
@@ -1047,24 +1056,32 @@ pub fn interval_blocks(stations: &Stations, plan: &[Vec<(f64, f64)>]) -> Vec<u32
         .collect()
 }
 
-/// Per interval, the feed of the block (refeed plan piece) it lies in, with the
-/// kind of cap that set the interval.
-pub fn block_caps(
-    stations: &Stations,
+/// Apply to each interval the feed of the block (refeed plan piece) it lies
+/// in, with the kind of cap that set the interval ([`apply_interval_caps`]),
+/// a chunk of intervals at a time: not a list of every interval's (16 B an
+/// interval beside the plan, issue 16). The same caps applied in the same
+/// order.
+pub fn apply_block_caps(
+    stations: &mut Stations,
     plan: &[Vec<(f64, f64)>],
     caps: &[(f64, CapKind)],
-) -> Vec<(f64, CapKind)> {
-    let (seg_of, frac) = (stations.segment(), stations.fraction());
-    (0..caps.len())
-        .map(|k| {
+) -> Result<()> {
+    const CHUNK: usize = 1 << 16;
+    let mut chunk = Vec::with_capacity(CHUNK.min(caps.len()));
+    for first in (0..caps.len()).step_by(CHUNK) {
+        let (seg_of, frac) = (stations.segment(), stations.fraction());
+        chunk.clear();
+        chunk.extend((first..caps.len().min(first + CHUNK)).map(|k| {
             let pieces = &plan[seg_of[k + 1] as usize];
             let f = frac[k + 1];
             match pieces.iter().find(|p| p.0 >= f - 1e-9) {
                 Some(&(_, feed)) => (feed, caps[k].1),
                 None => caps[k],
             }
-        })
-        .collect()
+        }));
+        apply_interval_caps_from(stations, first, &chunk)?;
+    }
+    Ok(())
 }
 
 /// Most rounds of writing, re-simulating and correcting the program.
@@ -1217,20 +1234,26 @@ pub fn write_verified(
         let (plan, time_optimal_s, lower_bound_time_s) =
             stations.with_caps_restored(|stations| {
                 apply_interval_caps(stations, &caps)?;
-                let optimum = schedule::plan(stations);
-                let time_optimal_s = optimum.cycle_time_s();
+                // Only its time is kept: the profile (32 B a station) is let
+                // go before the bound and the refeed plan are made.
+                let time_optimal_s = schedule::plan(stations).cycle_time_s();
                 let lower_bound_time_s = schedule::lower_bound_time_s(stations);
                 let plan = refeed_plan(stations, &caps, machine, merge_ratio);
                 Ok::<_, crate::error::Error>((plan, time_optimal_s, lower_bound_time_s))
             })?;
         // The plan as written: every interval at its block's feed.
-        let written_caps = block_caps(stations, &plan, &caps);
-        let (plan_time_s, shares) = stations.with_caps_restored(|blocks| {
-            apply_interval_caps(blocks, &written_caps)?;
+        let as_written = |blocks: &mut Stations| {
+            apply_block_caps(blocks, &plan, &caps)?;
             let profile = schedule::plan(blocks);
             Ok::<_, crate::error::Error>((profile.cycle_time_s(), cap_shares(&profile)))
-        })?;
-        drop(written_caps);
+        };
+        // A G-code program's stations are let go after it (below) without
+        // their caps put back (no copy of them, 9 B a station, issue 16); a
+        // point list's optimum is planned on them again.
+        let (plan_time_s, shares) = match setup.program.gcode {
+            Some(_) => as_written(stations)?,
+            None => stations.with_caps_restored(as_written)?,
+        };
         // Caps from tiny limits (mrr_max 1e-4) would make the written program run for days.
         crate::bounds::check_samples(
             plan_time_s.max(time_optimal_s),
@@ -1259,8 +1282,7 @@ pub fn write_verified(
         // Nor are the stations' arrays needed while the program is written,
         // read back and verified (3 M stations: 143 MB beside the re-feed's
         // readings and the run): only their path is kept, and a next round
-        // makes them again (the same stations: their caps are always put
-        // back as made).
+        // makes them again (the same stations, their caps as made).
         free.release();
         // The written program's path is lent to its planner, and dropped
         // once its steps and what servo.csv needs of the samples beside

@@ -32,10 +32,13 @@ const CHAIN_ACCEL_BINS: usize = 32;
 /// the plan is from the optimum.
 pub fn lower_bound_time_s(stations: &Stations) -> f64 {
     let s = stations.s_mm();
-    let caps: Vec<f64> = stations.cap_mm_min().iter().map(|c| c / 60.0).collect();
+    // Station k's cap, mm/s (made where it is read: not a list beside `u`,
+    // 8 B a station, issue 16).
+    let cap_mm_min = stations.cap_mm_min();
+    let caps = |k: usize| cap_mm_min[k] / 60.0;
     let accel = stations.interval_accel_mm_s2();
     let jerk = stations.interval_jerk_mm_s3();
-    let mut u = caps.clone();
+    let mut u: Vec<f64> = (0..cap_mm_min.len()).map(caps).collect();
     let stops = stations.stops();
     for stop in stops {
         u[stop.station] = 0.0;
@@ -50,7 +53,7 @@ pub fn lower_bound_time_s(stations: &Stations) -> f64 {
     // Per interval: the closed-form time and the highest speed allowed inside.
     let intervals: Vec<Interval> = (0..n.saturating_sub(1))
         .map(|k| {
-            let cap = caps[k].max(caps[k + 1]);
+            let cap = caps(k).max(caps(k + 1));
             let len_mm = s[k + 1] - s[k];
             Interval {
                 len_mm,
@@ -66,7 +69,7 @@ pub fn lower_bound_time_s(stations: &Stations) -> f64 {
         let (first, last) = (pair[0].station, pair[1].station);
         let run = &intervals[first..last];
         let mut run_s: f64 = run.iter().map(|i| i.time_s).sum();
-        let v_max = (first..last).fold(0.0f64, |m, k| m.max(caps[k].max(caps[k + 1])));
+        let v_max = (first..last).fold(0.0f64, |m, k| m.max(caps(k).max(caps(k + 1))));
         let a_max = run.iter().fold(0.0f64, |m, i| m.max(i.accel_mm_s2));
         let j_max = run.iter().fold(0.0f64, |m, i| m.max(i.jerk_mm_s3));
         if j_max.is_finite() && last > first {
