@@ -2337,16 +2337,7 @@ mod tests {
         };
         assert!(under_caps(&st, &samples));
 
-        let feed = Motion::Feed {
-            feed_mm_min: 3000.0,
-        };
-        let machine = Machine {
-            jerk_mm_s3: Some([20000.0; 3]),
-            ..Machine::default()
-        };
-        let segments = vec![line(Point3::origin(), Point3::new(40.0, 0.0, 0.0), feed)];
-        let mut st =
-            Stations::new(&Path { segments }, &machine, 0.05, FeedPolicy::Programmed).unwrap();
+        let (machine, mut st) = forty_mm_line_with_jerk();
         let caps: Vec<f64> = st
             .s_mm()
             .iter()
@@ -2445,6 +2436,22 @@ mod tests {
         }
     }
 
+    /// The stations (0.05 mm apart) of a 40 mm line along X at F3000 on the
+    /// default machine with a jerk limit of 20 000 mm/s³ per axis, and that
+    /// machine: the sections' tests' setup.
+    fn forty_mm_line_with_jerk() -> (Machine, Stations) {
+        let machine = Machine {
+            jerk_mm_s3: Some([20000.0; 3]),
+            ..Machine::default()
+        };
+        let feed = Motion::Feed {
+            feed_mm_min: 3000.0,
+        };
+        let segments = vec![line(Point3::origin(), Point3::new(40.0, 0.0, 0.0), feed)];
+        let st = Stations::new(&Path { segments }, &machine, 0.05, FeedPolicy::Programmed).unwrap();
+        (machine, st)
+    }
+
     /// A section followed exactly (MODEL.md §6.1, "Exact direct sections") against the
     /// closed form of the flying jerk-limited move: on a line at F3000 (50 mm/s, a = 1 000
     /// mm/s², j = 20 000 mm/s³) the stations from 16 to 24 mm, entered and left at
@@ -2455,16 +2462,7 @@ mod tests {
     /// within j (1 + 10⁻³), and the speed of every sample is the closed form's.
     #[test]
     fn a_section_followed_exactly_is_the_closed_form_flying_move() {
-        let machine = Machine {
-            jerk_mm_s3: Some([20000.0; 3]),
-            ..Machine::default()
-        };
-        let feed = Motion::Feed {
-            feed_mm_min: 3000.0,
-        };
-        let segments = vec![line(Point3::origin(), Point3::new(40.0, 0.0, 0.0), feed)];
-        let mut st =
-            Stations::new(&Path { segments }, &machine, 0.05, FeedPolicy::Programmed).unwrap();
+        let (_, mut st) = forty_mm_line_with_jerk();
         let caps: Vec<f64> = st
             .s_mm()
             .iter()
@@ -2590,16 +2588,7 @@ mod tests {
     /// between stations, so their jerk is kept at the period, not at every instant).
     #[test]
     fn a_cap_ramp_is_followed_within_the_caps_at_every_sample() {
-        let machine = Machine {
-            jerk_mm_s3: Some([20000.0; 3]),
-            ..Machine::default()
-        };
-        let feed = Motion::Feed {
-            feed_mm_min: 3000.0,
-        };
-        let segments = vec![line(Point3::origin(), Point3::new(40.0, 0.0, 0.0), feed)];
-        let mut st =
-            Stations::new(&Path { segments }, &machine, 0.05, FeedPolicy::Programmed).unwrap();
+        let (machine, mut st) = forty_mm_line_with_jerk();
         let (c0, k) = (3.0, 31.25);
         let caps: Vec<f64> = st
             .s_mm()
