@@ -721,7 +721,7 @@ struct Tolerated {
     plain_motion: Option<GCode>,
     /// A G2 or G3 read alone on its line, dropped there: written on the next
     /// block that moves in it.
-    lone_arc: Option<(GCode, u32)>,
+    lone_arc: Option<GCode>,
 }
 
 impl Interp<'_> {
@@ -1441,7 +1441,7 @@ impl Interp<'_> {
             if self.motion == GCode::G80 {
                 self.cycle_r = None;
                 self.cycle_z = None;
-            } else if let Some(code) = motion_code.filter(|_| self.lone_arc_mode(&b, pc)) {
+            } else if let Some((code, _)) = motion_code.filter(|_| self.lone_arc_mode(&b, pc)) {
                 // Nothing moves: the arc mode waits for the next axis words.
                 self.tolerated.lone_arc = Some(code);
             } else if b.has_axes() || matches!(self.motion, GCode::G2 | GCode::G3) {
@@ -2113,7 +2113,7 @@ impl Interp<'_> {
     /// The G2 or G3 read alone on an earlier line ([`Interp::lone_arc_mode`])
     /// written before this block's first axis word, which moves in it.
     fn arc_mode_written_here(&mut self, b: &Block, pc: usize) {
-        let Some((code, _)) = self.tolerated.lone_arc.take() else {
+        let Some(code) = self.tolerated.lone_arc.take() else {
             return;
         };
         let col = b.first_axis_col();
