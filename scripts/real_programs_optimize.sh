@@ -79,6 +79,7 @@ TOOLS = {
     "linuxcnc_hk_ba20": ("flat", 6.0, 0.2),  # no diameter in the program: assumed
     "linuxcnc_hole_circle": ("flat", 6.35, 0.2),  # no diameter in the program: assumed
     "linuxcnc_polar": ("flat", 6.35, 0.2),  # no diameter in the program: assumed
+    "linuxcnc_interp_g17": ("flat", 6.35, 0.2),  # a 1/4 in tap for its G84 holes: assumed
     "linuxcnc_skeleton": ("flat", 3.175, 0.2),  # no diameter in the program: assumed
     "linuxcnc_spiral": ("flat", 3.175, 0.2),  # no diameter in the program: assumed
     "linuxcnc_tort": ("ball", 3.175, 0.2),  # no diameter in the program: assumed

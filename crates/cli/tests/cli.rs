@@ -484,7 +484,7 @@ accel = [1000, 1000, 1000]
     write(
         dir.path(),
         "bore.nc",
-        "G21 G90 G17\nS6000 M3\nG0 X0 Y0 Z15\nG98 G85 X10 Y10 Z7 R11 F200\nG89 X30 Z6 P0.5\nG80\nM2\n",
+        "G21 G90 G17\nS6000 M3\nG0 X0 Y0 Z15\nG98 G85 X10 Y10 Z7 R11 F200\nG89 X30 Z6 R11 P0.5\nG80\nM2\n",
     );
     ok(&dexcut(
         &["simulate", "job.toml", "--out", "out"],
@@ -4302,5 +4302,81 @@ fn a_program_given_instead_of_a_job_runs_with_a_fitted_job() {
         &["simulate", "slot.toml", "--tool", "flat:3", "--out", "e"],
         &["--tool is for a G-code program"],
         Some("e"),
+    );
+}
+
+/// A tapping cycle (G84) among cuts optimize slows: its feed is the tap's
+/// pitch times the spindle speed, which LinuxCNC runs with the feed override
+/// off, so optimize keeps it. The slot is slowed to the removal cap (A = 10 ×
+/// 3 mm², 200 mm³/s: 400 mm/min); the tap plunges a Ø10 flat 7 mm into the
+/// slot's floor at its programmed F1000 both ways (π·25 mm² at 1000 mm/min,
+/// 1309 mm³/s, over the cap) and optimized.nc writes its F unchanged; the
+/// summary tells the tapping line apart as held, not slowed.
+#[test]
+fn optimize_keeps_a_tapping_feed_as_programmed() {
+    let dir = tempdir();
+    // fz_max: the chip load (0.5 mm/tooth at F1000, S1000) not the cap here.
+    let job = STEP_JOB
+        .replace("path = \"line.csv\"\nfeed = 1000", "path = \"tap.ngc\"")
+        .replace("diameter = 10\n", "diameter = 10\nfz_max = 1\n");
+    write(dir.path(), "job.toml", &job);
+    let program = "G21 G90 G17\nS1000 M3\nG0 X0 Y0 Z35\nG0 Z27\nG1 X100 F1000\nG0 Z35\n\
+        G0 X50 Y0\nG99 G84 X50 Y0 Z20 R31 F1000\nG80\nG0 Z35\nM2\n";
+    write(dir.path(), "tap.ngc", program);
+    ok(&dexcut(
+        &["optimize", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
+    let out = dir.path().join("out");
+    let written = std::fs::read_to_string(out.join("optimized.nc")).unwrap();
+    let (tap_index, tap) = written
+        .lines()
+        .enumerate()
+        .find(|(_, l)| l.contains("G84"))
+        .unwrap_or_else(|| panic!("no G84 in:\n{written}"));
+    assert!(tap.contains("F1000") && !tap.contains("F1000."), "{tap}");
+    // The slot at the cap, the tap at its own feed both ways.
+    let servo = csv_columns(&out.join("servo.csv"));
+    let (x, z, feed) = (&servo["x"], &servo["z"], &servo["feed_mm_min"]);
+    let in_slot =
+        (0..x.len()).filter(|&i| (42.0..54.0).contains(&x[i]) && (z[i] - 27.0).abs() < 1e-9);
+    let slot_max = in_slot.map(|i| feed[i]).fold(0.0, f64::max);
+    assert!(
+        slot_max <= 400.0 * 1.0001 && slot_max > 380.0,
+        "slot {slot_max}"
+    );
+    let in_tap: Vec<f64> = (0..x.len())
+        .filter(|&i| (x[i] - 50.0).abs() < 1e-9 && (21.0..26.0).contains(&z[i]))
+        .map(|i| feed[i])
+        .collect();
+    assert!(in_tap.len() > 20, "{} tap samples", in_tap.len());
+    assert!(
+        in_tap.iter().all(|f| (f - 1000.0).abs() < 1e-6),
+        "tap feeds {in_tap:?}"
+    );
+    let s = summary(&out);
+    let after = &s["after"];
+    let held: Vec<&Value> = after["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|w| w["kind"] == "limit_exceeded" && w["message"].as_str().unwrap().contains("G84"))
+        .collect();
+    assert_eq!(held.len(), 1, "{}", after["warnings"]);
+    // Its line in optimized.nc (the slot's line is written in pieces).
+    assert_eq!(held[0]["line"], tap_index + 1);
+    assert!(
+        after["peak_mrr_mm3_s"].as_f64().unwrap() > 1000.0,
+        "{}",
+        after["peak_mrr_mm3_s"]
+    );
+    assert!(
+        s["cap_time_share"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|c| c["cap"] == "held feed (G84/G74 tapping)"),
+        "{}",
+        s["cap_time_share"]
     );
 }

@@ -235,7 +235,9 @@ pub fn estimate_motion(path: &nc::Path, machine: &schedule::Machine, ds_mm: f64)
         length_mm += l;
         feed_time_s += match seg.motion {
             nc::Motion::Rapid => l / machine.rapid_mm_min * 60.0,
-            nc::Motion::Feed { feed_mm_min } => l / feed_mm_min.min(machine.feed_max_mm_min) * 60.0,
+            nc::Motion::Feed { feed_mm_min, .. } => {
+                l / feed_mm_min.min(machine.feed_max_mm_min) * 60.0
+            }
             nc::Motion::Dwell { seconds } => seconds,
         };
     }

@@ -361,7 +361,7 @@ impl Setup {
             .iter()
             .filter_map(|s| match s.motion {
                 // Moves mostly across the columns (plunges are resolved in Z).
-                nc::Motion::Feed { feed_mm_min }
+                nc::Motion::Feed { feed_mm_min, .. }
                     if (s.end - s.start).xy().norm() >= 0.5 * (s.end - s.start).norm() =>
                 {
                     Some(feed_mm_min.min(self.machine.feed_max_mm_min))
@@ -1339,10 +1339,21 @@ fn optimize_outputs(
         setup.warnings.iter().cloned().chain(as_given.chip_warnings),
     );
     optimize::stress_left(after, limits, written.rounds, &mut after_summary.warnings);
-    let mut unresolved = crate::warnings::LineTally::new();
+    let (mut unresolved, mut held) = (
+        crate::warnings::LineTally::new(),
+        crate::warnings::LineTally::new(),
+    );
     for e in &written.unresolved {
-        crate::warnings::tally(&mut unresolved, e.line, 100.0 * e.over_limit);
+        let tally = if e.held { &mut held } else { &mut unresolved };
+        crate::warnings::tally(tally, e.line, 100.0 * e.over_limit);
     }
+    after_summary.warnings.from_lines(
+        crate::warnings::WarningKind::LimitExceeded,
+        &held,
+        "%",
+        false,
+        |v, lines| format!("servo periods up to {v:.0} % above a limit at {lines}, where a tapping cycle (G84/G74) runs: its feed is the tap's pitch times the spindle speed, held as programmed (LinuxCNC runs it with the feed override off), so optimize does not slow it; to lower the load there, lower the spindle speed and F together"),
+    );
     after_summary.warnings.from_lines(
     crate::warnings::WarningKind::CoarseGrid,
     &unresolved,

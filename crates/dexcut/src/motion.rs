@@ -28,6 +28,9 @@ pub struct TimedStep {
     /// This step is the second (or later) part of a servo period split where
     /// the motion changes between rapid and feed.
     pub continues: bool,
+    /// The step's period runs on a feed held as programmed (G84/G74
+    /// tapping, `nc::Motion::Feed`'s `held`): optimize does not slow it.
+    pub held: bool,
     /// Number (T word) of the tool cutting the step.
     pub tool: u32,
     /// Spindle speed of the block the step ends in (its S word), rev/min; 0 when none was given.
@@ -82,6 +85,7 @@ pub fn steps_from_samples(path: &nc::Path, samples: &[ServoSample]) -> Vec<Timed
         } else {
             0.0
         };
+        let held = (a..=b).any(|k| path.segments[k].motion.held_feed_mm_min().is_some());
         // Ends of segments inside the period where a rapid starts or ends.
         let cuts: Vec<usize> = (a..b).filter(|&k| is_rapid(k) || is_rapid(k + 1)).collect();
         let mut points: Vec<([f64; 3], usize)> = vec![(w[0].pos.coords.into(), a)];
@@ -146,6 +150,7 @@ pub fn steps_from_samples(path: &nc::Path, samples: &[ServoSample]) -> Vec<Timed
                 line: path.segments[seg].line,
                 s_end_mm: s,
                 continues: j > 0,
+                held,
                 tool: path.segments[seg].tool,
                 spindle_rpm: path.segments[seg].spindle_rpm,
             });
@@ -275,7 +280,7 @@ pub fn direct_steps(
                 }
                 None => {
                     let dt = match seg.motion {
-                        Motion::Feed { feed_mm_min } if feed_mm_min > 0.0 => {
+                        Motion::Feed { feed_mm_min, .. } if feed_mm_min > 0.0 => {
                             seg.length_mm() / feed_mm_min * 60.0
                         }
                         Motion::Dwell { seconds } => seconds,
@@ -286,7 +291,7 @@ pub fn direct_steps(
             };
             let feed = match seg.motion {
                 Motion::Dwell { .. } => 0.0,
-                Motion::Feed { feed_mm_min } if stream.is_none() => feed_mm_min.max(0.0),
+                Motion::Feed { feed_mm_min, .. } if stream.is_none() => feed_mm_min.max(0.0),
                 _ if dt > 0.0 => seg.length_mm() / dt * 60.0,
                 _ => 0.0,
             };
@@ -304,6 +309,7 @@ pub fn direct_steps(
                 line: seg.line,
                 s_end_mm: s,
                 continues: stream.is_some_and(|timing| timing.continues[k]),
+                held: seg.motion.held_feed_mm_min().is_some(),
                 tool: seg.tool,
                 spindle_rpm: seg.spindle_rpm,
             }
@@ -331,6 +337,7 @@ mod tests {
             line: 0,
             s_end_mm: 0.0,
             continues,
+            held: false,
             tool: 1,
             spindle_rpm: 0.0,
         };

@@ -652,7 +652,8 @@ fn limit_cap(
         if let Some(f) = entry.chip_load_feed_mm_min(seg.spindle_rpm) {
             lower(f, CapKind::ChipLoad);
         }
-        if let (Some(scale), Motion::Feed { feed_mm_min }) = (limits.feed_scale_max, seg.motion) {
+        if let (Some(scale), Motion::Feed { feed_mm_min, .. }) = (limits.feed_scale_max, seg.motion)
+        {
             lower(scale * feed_mm_min, CapKind::FeedScale);
         }
         if let Some(q) = limits.mrr_max {
@@ -697,7 +698,7 @@ fn angle_and_floor(
     // tool axis, applied to the programmed (set) feed.
     if a > 1e-12 {
         let seg = &stations.segments()[stations.segment()[k + 1] as usize];
-        if let (true, Some(v0), false, Motion::Feed { feed_mm_min }) =
+        if let (true, Some(v0), false, Motion::Feed { feed_mm_min, .. }) =
             (limits.angle_rule, limits.v0, theta_deg.is_nan(), seg.motion)
         {
             let v = schedule::angle_rule_feed_mm_min(theta_deg, feed_mm_min, v0);
@@ -727,7 +728,9 @@ fn apply_interval_caps_from(
     for (k, &(cap, kind)) in (first..).zip(caps) {
         if cap.is_finite() {
             let seg = stations.segment()[k + 1] as usize;
-            if matches!(stations.segments()[seg].motion, Motion::Rapid) {
+            // Rapids keep the rapid rate, a held feed its own (tapping).
+            let motion = stations.segments()[seg].motion;
+            if matches!(motion, Motion::Rapid) || motion.held_feed_mm_min().is_some() {
                 continue;
             }
             stations.apply_cap(k, cap, kind)?;
@@ -780,6 +783,11 @@ pub fn refeed_plan(
         if !matches!(segs[seg].motion, Motion::Feed { .. }) {
             continue;
         }
+        // A held feed (tapping) is written as programmed, in one piece.
+        if let Some(feed) = segs[seg].motion.held_feed_mm_min() {
+            plan[seg].push((1.0, feed));
+            continue;
+        }
         let cap = |i: usize| interval_caps[i - 1].0.min(machine.feed_max_mm_min);
         let min_cap = |a: usize, b: usize| (a..b).map(cap).fold(f64::INFINITY, f64::min);
         // Piece boundaries as station indices: piece j covers intervals bounds[j]+1 ..= bounds[j+1].
@@ -829,7 +837,7 @@ pub fn refeed_plan(
     }
     // Feed moves too short for a station (below the planner's shortest segment) keep their feed.
     for (seg, pieces) in segs.iter().zip(plan.iter_mut()) {
-        if let (Motion::Feed { feed_mm_min }, true) = (seg.motion, pieces.is_empty()) {
+        if let (Motion::Feed { feed_mm_min, .. }, true) = (seg.motion, pieces.is_empty()) {
             pieces.push((1.0, feed_mm_min));
         }
     }
@@ -863,6 +871,9 @@ pub struct Excess {
     /// The period itself advanced less than a grid cell (its MRR is measured
     /// over the periods around it, MODEL.md §2.3).
     pub sub_cell: bool,
+    /// The period runs on a feed held as programmed (G84/G74 tapping): its
+    /// cap is infinite, nothing is slowed, and it is told apart.
+    pub held: bool,
 }
 
 /// A step that removes material may run above its chip-load feed by this
@@ -978,7 +989,11 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
                 lower(cap * (1.0 - 1e-6), CapKind::ChipLoad, ratio - 1.0);
             }
         }
+        // A held feed (tapping) is not slowed: the period is told, with
+        // nothing to lower.
+        let held = (period.first_step..=period.last_step).any(|k| run.steps[k].held);
         if let (Some((cap, kind)), true) = (found, feed > 0.0) {
+            let cap = if held { f64::INFINITY } else { cap };
             out.push(Excess {
                 s_from_mm: s_lo,
                 s_to_mm: s_hi,
@@ -990,6 +1005,7 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
                 line: run.steps[period.last_step].line,
                 resolved: s_hi - s_lo >= grid_mm && cap.is_finite(),
                 sub_cell,
+                held,
             });
         }
     });
@@ -1531,6 +1547,7 @@ pub fn cap_shares(profile: &schedule::Profile<'_>) -> Vec<CapShare> {
 pub fn cap_words(kind: CapKind) -> &'static str {
     match kind {
         CapKind::Programmed => "programmed feed",
+        CapKind::Held => "held feed (G84/G74 tapping)",
         CapKind::FeedMax => "highest feed (feed_max)",
         CapKind::Rapid => "rapid moves",
         CapKind::Curvature => "arcs (axis acceleration on the curve)",
@@ -1793,7 +1810,7 @@ mod tests {
                     if let Some(f) = entry.chip_load_feed_mm_min(seg.spindle_rpm) {
                         lower(f, CapKind::ChipLoad);
                     }
-                    if let (Some(scale), Motion::Feed { feed_mm_min }) =
+                    if let (Some(scale), Motion::Feed { feed_mm_min, .. }) =
                         (limits.feed_scale_max, seg.motion)
                     {
                         lower(scale * feed_mm_min, CapKind::FeedScale);
@@ -1821,7 +1838,7 @@ mod tests {
                         );
                     }
                     let theta_deg = engagement.surface_angle_deg[k];
-                    if let (true, Some(v0), false, Motion::Feed { feed_mm_min }) =
+                    if let (true, Some(v0), false, Motion::Feed { feed_mm_min, .. }) =
                         (limits.angle_rule, limits.v0, theta_deg.is_nan(), seg.motion)
                     {
                         lower(

@@ -359,9 +359,7 @@ pub fn read_points_csv(
                     if rapid {
                         Motion::Rapid
                     } else if length > 0.0 {
-                        Motion::Feed {
-                            feed_mm_min: 60.0 * length / dt,
-                        }
+                        Motion::feed(60.0 * length / dt)
                     } else {
                         Motion::Dwell { seconds: dt }
                     }
@@ -378,7 +376,7 @@ pub fn read_points_csv(
                 let message = format!("feed must be positive, got {feed}");
                 return Err(Error::input(file, line as u64, col, message));
             }
-            Motion::Feed { feed_mm_min: feed }
+            Motion::feed(feed)
         };
         let spindle_rpm = match ispindle {
             Some(i) => {
@@ -437,13 +435,8 @@ mod tests {
         .unwrap();
         assert_eq!(timing, None);
         assert_eq!(path.segments.len(), 2);
-        assert_eq!(path.segments[0].motion, Motion::Feed { feed_mm_min: 600.0 });
-        assert_eq!(
-            path.segments[1].motion,
-            Motion::Feed {
-                feed_mm_min: 1200.0
-            }
-        );
+        assert_eq!(path.segments[0].motion, Motion::feed(600.0));
+        assert_eq!(path.segments[1].motion, Motion::feed(1200.0));
         assert_eq!(path.segments[1].line, 4);
         assert!((path.length_mm() - 15.0).abs() < 1e-12);
     }
@@ -456,7 +449,7 @@ mod tests {
         assert_eq!(path.segments.len(), 3);
         // 0.5 mm in 0.01 s is 3000 mm/min whatever the feed column says.
         match path.segments[0].motion {
-            Motion::Feed { feed_mm_min } => assert!((feed_mm_min - 3000.0).abs() < 1e-9),
+            Motion::Feed { feed_mm_min, .. } => assert!((feed_mm_min - 3000.0).abs() < 1e-9),
             m => panic!("{m:?}"),
         }
         assert_eq!(path.segments[1].motion, Motion::Dwell { seconds: 0.01 });

@@ -1,5 +1,6 @@
-//! Canned drilling and boring cycles G73/G81/G82/G83/G85/G89 expanded into
-//! moves, as LinuxCNC does it (XY plane only). All positions in mm, machine frame.
+//! Canned drilling, tapping and boring cycles G73/G74/G81–G87/G89 expanded
+//! into moves, as LinuxCNC's `interp_cycles.cc` does it (XY plane only). All
+//! positions in mm, machine frame.
 
 /// One move of an expanded cycle.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -8,8 +9,17 @@ pub enum CycleMove {
     Rapid([f64; 3]),
     /// Feed to (x, y, z) at the programmed feed.
     Feed([f64; 3]),
+    /// Feed to (x, y, z) at the programmed feed with the feed override
+    /// off (G84/G74 tapping: the feed is the tap's pitch times the spindle
+    /// speed), held as programmed by any re-timing.
+    HeldFeed([f64; 3]),
     /// Dwell in seconds.
     Dwell(f64),
+    /// The spindle stops (G86 before its rapid out; G87 oriented to pass
+    /// the hole).
+    SpindleStop,
+    /// The spindle turns again as it did before the cycle.
+    SpindleStart,
 }
 
 /// Retract step of G73/G83 above the last peck (LinuxCNC: 0.010 in).
@@ -20,7 +30,7 @@ use crate::GCode;
 /// A cycle to expand.
 #[derive(Clone, Debug)]
 pub struct Cycle {
-    /// G73, G81, G82, G83, G85 or G89.
+    /// G73, G74, G81–G87 or G89.
     pub code: GCode,
     /// Hole positions (mm), one per repeat.
     pub holes: Vec<[f64; 2]>,
@@ -37,8 +47,13 @@ pub struct Cycle {
     pub retract_to_start: bool,
     /// Peck depth (G73/G83), mm.
     pub peck_mm: f64,
-    /// Dwell at the bottom (G82, G89), s.
+    /// Dwell at the bottom (G74, G82, G84, G86, G89), s.
     pub dwell_s: f64,
+    /// G87: where the tool passes the hole with the spindle stopped, from
+    /// the hole's centre (I, J), mm.
+    pub back_offset_mm: [f64; 2],
+    /// G87: the top of the back bore (K), mm.
+    pub back_top_z: f64,
 }
 
 /// Expands a cycle; `current_xy` is where the tool is. As LinuxCNC's
@@ -65,6 +80,39 @@ pub fn expand(c: &Cycle, current_xy: [f64; 2]) -> Vec<CycleMove> {
         if enter_z > c.r_z {
             moves.push(CycleMove::Rapid([x, y, c.r_z]));
         }
+        if c.code == GCode::G87 {
+            // Back boring (convert_cycle_g87): through the hole beside its
+            // centre with the spindle oriented, feed up to K and back down,
+            // out the same way.
+            let [i, j] = c.back_offset_mm;
+            let (ox, oy) = (x + i, y + j);
+            moves.extend([
+                CycleMove::Rapid([ox, oy, c.r_z]),
+                CycleMove::SpindleStop,
+                CycleMove::Rapid([ox, oy, c.bottom_z]),
+                CycleMove::Rapid([x, y, c.bottom_z]),
+                CycleMove::SpindleStart,
+                CycleMove::Feed([x, y, c.back_top_z]),
+                CycleMove::Feed([x, y, c.bottom_z]),
+                CycleMove::SpindleStop,
+                CycleMove::Rapid([ox, oy, c.bottom_z]),
+                CycleMove::Rapid([ox, oy, clear_z]),
+                CycleMove::Rapid([x, y, clear_z]),
+                CycleMove::SpindleStart,
+            ]);
+            continue;
+        }
+        if matches!(c.code, GCode::G74 | GCode::G84) {
+            // Tapping (convert_cycle_g74_g84): in and out at the held feed,
+            // the spindle reversed at the bottom (same speed), out to the
+            // clear height.
+            moves.extend([
+                CycleMove::HeldFeed([x, y, c.bottom_z]),
+                CycleMove::Dwell(c.dwell_s),
+                CycleMove::HeldFeed([x, y, clear_z]),
+            ]);
+            continue;
+        }
         if c.code == GCode::G73 || c.code == GCode::G83 {
             let mut depth = c.r_z - c.peck_mm;
             while depth > c.bottom_z {
@@ -77,7 +125,8 @@ pub fn expand(c: &Cycle, current_xy: [f64; 2]) -> Vec<CycleMove> {
             }
         }
         moves.push(CycleMove::Feed([x, y, c.bottom_z]));
-        if matches!(c.code, GCode::G82 | GCode::G89) && c.dwell_s > 0.0 {
+        // LinuxCNC dwells at the bottom of these even for P0 (a stop there).
+        if matches!(c.code, GCode::G82 | GCode::G86 | GCode::G89) {
             moves.push(CycleMove::Dwell(c.dwell_s));
         }
         match c.code {
@@ -88,6 +137,12 @@ pub fn expand(c: &Cycle, current_xy: [f64; 2]) -> Vec<CycleMove> {
             }
             // Boring with a dwell, feed out: at the feed to the clear height.
             GCode::G89 => moves.push(CycleMove::Feed([x, y, clear_z])),
+            // Boring, spindle stopped, rapid out (convert_cycle_g86).
+            GCode::G86 => moves.extend([
+                CycleMove::SpindleStop,
+                CycleMove::Rapid([x, y, clear_z]),
+                CycleMove::SpindleStart,
+            ]),
             _ => moves.push(CycleMove::Rapid([x, y, clear_z])),
         }
     }

@@ -31,7 +31,7 @@ named! {
     G43 = (43, 0), G43_1 = (43, 1), G43_2 = (43, 2), G49 = (49, 0), G53 = (53, 0),
     G54 = (54, 0), G55 = (55, 0), G56 = (56, 0), G57 = (57, 0), G58 = (58, 0), G59 = (59, 0),
     G59_1 = (59, 1), G59_2 = (59, 2), G59_3 = (59, 3),
-    G61 = (61, 0), G61_1 = (61, 1), G64 = (64, 0), G73 = (73, 0), G76 = (76, 0),
+    G61 = (61, 0), G61_1 = (61, 1), G64 = (64, 0), G73 = (73, 0), G74 = (74, 0), G76 = (76, 0),
     G80 = (80, 0), G81 = (81, 0), G82 = (82, 0), G83 = (83, 0), G84 = (84, 0), G85 = (85, 0),
     G86 = (86, 0), G87 = (87, 0), G88 = (88, 0), G89 = (89, 0),
     G90 = (90, 0), G90_1 = (90, 1), G91 = (91, 0), G91_1 = (91, 1),
@@ -53,6 +53,11 @@ impl GCode {
         near_integer(value * 10.0, 0.001, 0.999)
             .filter(|tenths| tenths.abs() <= 1_000_000)
             .map(|tenths| GCode(tenths as i32))
+    }
+
+    /// A canned cycle LinuxCNC reads in group 1: G73, G74, G81–G89.
+    pub const fn is_canned_cycle(self) -> bool {
+        matches!(self.0, 730 | 740 | 810..=890) && self.0 % 10 == 0
     }
 
     /// The code as a number times ten (G38.2 → 382): the key of the modal-group table.

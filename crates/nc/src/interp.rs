@@ -134,6 +134,9 @@ pub struct SegmentTrace {
     /// Cutter radius compensation shaped the segment: its block cannot be
     /// split (the pieces would be compensated again).
     pub compensated: bool,
+    /// A canned cycle that stops or reverses the spindle made the segment
+    /// (G74, G84, G86, G87): its line is never written out as plain moves.
+    pub spindle_cycle: bool,
 }
 
 /// What a run returns besides the parse result.
@@ -236,7 +239,7 @@ fn g_group(code: GCode) -> Option<u8> {
     Some(match code.tenths() {
         40 | 100 | 280 | 281 | 300 | 301 | 920 | 921 | 922 | 923 => 0,
         530 => 99,
-        0 | 10 | 20 | 30 | 330 | 382 | 383 | 384 | 385 | 730 | 760 | 800..=890 => 1,
+        0 | 10 | 20 | 30 | 330 | 382 | 383 | 384 | 385 | 730 | 740 | 760 | 800..=890 => 1,
         170 | 180 | 190 => 2,
         900 | 910 => 3,
         901 | 911 => 4,
@@ -294,7 +297,17 @@ struct SavedModes {
     tlo_on: bool,
     feed_mm_min: f64,
     spindle_rpm: f64,
-    spindle_on: bool,
+    spindle: Spindle,
+}
+
+/// Which way the spindle turns (M3, M4; M5 and M19 stop it), as LinuxCNC's
+/// `spindle_turning`: G84 needs it clockwise, G74 counterclockwise, G86 and
+/// G87 turning.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Spindle {
+    Stopped,
+    Clockwise,
+    Counterclockwise,
 }
 
 /// M70/M73 context of one call level.
@@ -327,12 +340,18 @@ struct Interp<'a> {
     g92: [f64; 3],
     feed_mm_min: f64,
     spindle_rpm: f64,
-    spindle_on: bool,
+    spindle: Spindle,
     retract_to_start: bool,
     cycle_r: Option<f64>,
     cycle_z: Option<f64>,
     cycle_q: Option<f64>,
     cycle_p: f64,
+    /// G87's I, J and K, modal while G87 is (LinuxCNC's `cycle_i` …).
+    cycle_ijk: [f64; 3],
+    /// The motion mode before the block now running (LinuxCNC's
+    /// `motion_mode` as a canned cycle checks it: a cycle entered from
+    /// another mode needs its R, Z and, where it dwells, P words).
+    previous_motion: GCode,
     /// Z (mm) where the current series of canned cycles started (G98 level).
     cycle_initial_z: Option<f64>,
     frames: Vec<Frame>,
@@ -509,12 +528,14 @@ fn interp<'a>(file: &'a str, options: &'a Options, record: bool) -> Interp<'a> {
         g92: [0.0; 3],
         feed_mm_min: 0.0,
         spindle_rpm: 0.0,
-        spindle_on: false,
+        spindle: Spindle::Stopped,
         retract_to_start: false,
         cycle_r: None,
         cycle_z: None,
         cycle_q: None,
         cycle_p: 0.0,
+        cycle_ijk: [0.0; 3],
+        previous_motion: GCode::G80,
         cycle_initial_z: None,
         frames: Vec::new(),
         repeats: HashMap::new(),
@@ -1241,12 +1262,15 @@ impl Interp<'_> {
             let t = self.tool_number(q.round_ties_even(), b.col('q'), 'Q')?;
             self.load_tool(t, pc);
         }
-        if b.has_m(3) || b.has_m(4) {
-            self.spindle_on = true;
+        if b.has_m(3) {
+            self.spindle = Spindle::Clockwise;
+        }
+        if b.has_m(4) {
+            self.spindle = Spindle::Counterclockwise;
         }
         // M19 orients the spindle: it stops turning until the next M3 or M4.
         if b.has_m(5) || b.has_m(19) {
-            self.spindle_on = false;
+            self.spindle = Spindle::Stopped;
         }
         self.inputs_and_outputs(&b)?;
         self.m70_m73(&b)?;
@@ -1321,9 +1345,6 @@ impl Interp<'_> {
             GCode::G38_4,
             GCode::G38_5,
             GCode::G76,
-            GCode::G84,
-            GCode::G86,
-            GCode::G87,
             GCode::G88,
             GCode::G92_2,
             GCode::G92_3,
@@ -1354,30 +1375,27 @@ impl Interp<'_> {
         let motion = motion_code
             .map(|m| m.0)
             .or(b.has_axes().then_some(self.motion));
-        let cycle = matches!(
-            motion,
-            Some(
-                GCode::G73
-                    | GCode::G81
-                    | GCode::G82
-                    | GCode::G83
-                    | GCode::G84
-                    | GCode::G85
-                    | GCode::G86
-                    | GCode::G87
-                    | GCode::G88
-                    | GCode::G89
-            )
-        );
+        let cycle = motion.is_some_and(GCode::is_canned_cycle);
         let in_block = |codes: &[GCode]| codes.iter().any(|&g| g_col(g).is_some());
         let m_in = |used: fn(i32) -> bool| b.m.iter().any(|m| used(m.0));
         let words = [
             (
                 'p',
-                matches!(motion, Some(GCode::G2 | GCode::G3 | GCode::G82 | GCode::G89))
+                matches!(
+                    motion,
+                    Some(
+                        GCode::G2
+                            | GCode::G3
+                            | GCode::G74
+                            | GCode::G82
+                            | GCode::G84
+                            | GCode::G86
+                            | GCode::G89
+                    )
+                )
                     || in_block(&[GCode::G4, GCode::G10, GCode::G64])
                     || m_in(|m| matches!(m, 19 | 50..=53 | 62..=66 | 98)),
-                "P word with no G2, G3, G4, G10, G64, G82, G89, M19, M50-M53, M62-M66 or M98 to use it",
+                "P word with no G2, G3, G4, G10, G64, G74, G82, G84, G86, G89, M19, M50-M53, M62-M66 or M98 to use it",
             ),
             (
                 'q',
@@ -1420,16 +1438,14 @@ impl Interp<'_> {
         } else if g_col(GCode::G92_1).is_some() {
             self.g92 = [0.0; 3];
         }
+        self.previous_motion = self.motion;
         if let Some((code, _)) = motion_code {
             self.motion = code;
             self.tolerated.lone_arc = None;
             if matches!(code, GCode::G0 | GCode::G1 | GCode::G2 | GCode::G3) {
                 self.tolerated.plain_motion = Some(code);
             }
-            if !matches!(
-                code,
-                GCode::G73 | GCode::G81 | GCode::G82 | GCode::G83 | GCode::G85 | GCode::G89
-            ) {
+            if !code.is_canned_cycle() {
                 self.cycle_initial_z = None;
             }
         }
@@ -1451,12 +1467,15 @@ impl Interp<'_> {
                 self.motion_block(&b, pc)?;
             }
         }
-        if !matches!(self.motion, GCode::G2 | GCode::G3) || !use_motion {
+        if !matches!(self.motion, GCode::G2 | GCode::G3 | GCode::G87) || !use_motion {
             for l in ['i', 'j', 'k'] {
                 if b.get(l).is_some() {
                     return fail(
                         b.col(l),
-                        format!("{} word with no G2 or G3 to use it", l.to_ascii_uppercase()),
+                        format!(
+                            "{} word with no G2, G3 or G87 to use it",
+                            l.to_ascii_uppercase()
+                        ),
                     );
                 }
             }
@@ -1729,7 +1748,7 @@ impl Interp<'_> {
             tlo_on: self.tlo_on,
             feed_mm_min: self.feed_mm_min,
             spindle_rpm: self.spindle_rpm,
-            spindle_on: self.spindle_on,
+            spindle: self.spindle,
         }
     }
 
@@ -1754,7 +1773,7 @@ impl Interp<'_> {
         if m.spindle_rpm != self.spindle_rpm {
             self.spindle_rpm = m.spindle_rpm.round();
         }
-        self.spindle_on = m.spindle_on;
+        self.spindle = m.spindle;
     }
 
     /// M70 save, M71 invalidate, M72 restore, M73 save and restore on return.
@@ -1955,7 +1974,7 @@ impl Interp<'_> {
             geometry,
             motion,
             line: pc as u32 + 1,
-            spindle_rpm: if self.spindle_on {
+            spindle_rpm: if self.spindle != Spindle::Stopped {
                 self.spindle_rpm
             } else {
                 0.0
@@ -1987,6 +2006,10 @@ impl Interp<'_> {
             offset_mm,
             feed_scale: self.feed_scale,
             compensated: self.comp_active(),
+            spindle_cycle: matches!(
+                self.motion,
+                GCode::G74 | GCode::G84 | GCode::G86 | GCode::G87
+            ),
         });
     }
 
@@ -2013,15 +2036,11 @@ impl Interp<'_> {
             if f <= 0.0 {
                 return fail(b.col('f'), "inverse time feed must be positive");
             }
-            Ok(Motion::Feed {
-                feed_mm_min: length_mm * f,
-            })
+            Ok(Motion::feed(length_mm * f))
         } else if self.feed_mm_min <= 0.0 {
             fail(b.first_col, "feed move with zero feed rate (no F word yet)")
         } else {
-            Ok(Motion::Feed {
-                feed_mm_min: self.feed_mm_min,
-            })
+            Ok(Motion::feed(self.feed_mm_min))
         }
     }
 
@@ -2050,7 +2069,7 @@ impl Interp<'_> {
                     let m = self.feed_motion(b, 1.0)?;
                     return self.straight_comp(b, t, m, pc);
                 }
-                GCode::G73 | GCode::G81 | GCode::G82 | GCode::G83 | GCode::G85 | GCode::G89 => {
+                code if code.is_canned_cycle() => {
                     return fail(
                         b.first_col,
                         "cannot use canned cycles with cutter radius compensation",
@@ -2076,9 +2095,7 @@ impl Interp<'_> {
                 Ok(())
             }
             GCode::G2 | GCode::G3 => self.arc(b, t, pc),
-            GCode::G73 | GCode::G81 | GCode::G82 | GCode::G83 | GCode::G85 | GCode::G89 => {
-                return self.cycle(b, pc)
-            }
+            code if code.is_canned_cycle() => return self.cycle(b, pc),
             _ => return fail(b.first_col, format!("{} is not supported", self.motion)),
         };
         if done.is_err() {
@@ -2329,13 +2346,26 @@ impl Interp<'_> {
                 "canned cycles cannot be used with G93 inverse time",
             );
         }
-        let r = b.get('r').or(self.cycle_r).ok_or(Fail {
+        // As LinuxCNC's convert_cycle: a cycle entered from another motion
+        // mode needs its R and Z words (and P where it dwells, I J K for
+        // G87); a later block of the same cycle takes those it lacks from
+        // the block before.
+        let code = self.motion;
+        let entered = self.previous_motion != code;
+        let modal = |word: Option<f64>, held: Option<f64>| {
+            if entered {
+                word
+            } else {
+                word.or(held)
+            }
+        };
+        let r = modal(b.get('r'), self.cycle_r).ok_or(Fail {
             col: b.first_col,
-            msg: "canned cycle needs an R word".into(),
+            msg: "R clearance plane unspecified in cycle".into(),
         })?;
-        let z = b.get('z').or(self.cycle_z).ok_or(Fail {
+        let z = modal(b.get('z'), self.cycle_z).ok_or(Fail {
             col: b.first_col,
-            msg: "canned cycle needs a Z word".into(),
+            msg: "Z value unspecified in XY plane canned cycle".into(),
         })?;
         self.cycle_r = Some(r);
         self.cycle_z = Some(z);
@@ -2358,8 +2388,45 @@ impl Interp<'_> {
             self.cycle_q = Some(q);
             peck_mm = q * self.scale;
         }
-        if matches!(self.motion, GCode::G82 | GCode::G89) {
+        if matches!(code, GCode::G82 | GCode::G86 | GCode::G89) && entered && b.get('p').is_none() {
+            return fail(
+                b.first_col,
+                format!("Dwell time P word missing with {code}"),
+            );
+        }
+        if matches!(
+            code,
+            GCode::G74 | GCode::G82 | GCode::G84 | GCode::G86 | GCode::G89
+        ) {
             self.cycle_p = b.get('p').unwrap_or(self.cycle_p);
+        }
+        if code == GCode::G87 {
+            for (k, letter) in ['i', 'j', 'k'].into_iter().enumerate() {
+                match b.get(letter) {
+                    Some(v) => self.cycle_ijk[k] = v,
+                    None if entered => {
+                        return fail(
+                            b.first_col,
+                            format!("{} word missing with G87", letter.to_ascii_uppercase()),
+                        )
+                    }
+                    None => {}
+                }
+            }
+        }
+        // LinuxCNC checks the spindle where the cycle runs its hole.
+        let spindle_error = match (code, self.spindle) {
+            (GCode::G74 | GCode::G84 | GCode::G86 | GCode::G87, Spindle::Stopped) => {
+                Some(format!("Spindle not turning in {code}"))
+            }
+            (GCode::G84, Spindle::Counterclockwise) => {
+                Some("Spindle turning counterclockwise in G84".to_string())
+            }
+            (GCode::G74, Spindle::Clockwise) => Some("Spindle turning clockwise in G74".into()),
+            _ => None,
+        };
+        if let Some(msg) = spindle_error {
+            return fail(b.first_col, msg);
         }
         if self.feed_mm_min <= 0.0 {
             return fail(b.first_col, "canned cycle with zero feed rate");
@@ -2407,6 +2474,12 @@ impl Interp<'_> {
         if r_z < bottom_z {
             return fail(b.col('r'), "R plane below the hole bottom Z");
         }
+        // G87's K: the back bore's top, absolute, or from the bottom under G91.
+        let back_top_z = if self.incremental {
+            bottom_z + self.cycle_ijk[2] * self.scale
+        } else {
+            self.cycle_ijk[2] * self.scale + off[2]
+        };
         // Each peck is a few moves: bound them before expanding (Q 1e-9 would be 1e10 moves).
         let pecks = if peck_mm > 0.0 {
             ((r_z - bottom_z) / peck_mm).ceil() * repeats
@@ -2431,19 +2504,31 @@ impl Interp<'_> {
             retract_to_start: self.retract_to_start,
             peck_mm,
             dwell_s: self.cycle_p,
+            back_offset_mm: [
+                self.cycle_ijk[0] * self.scale,
+                self.cycle_ijk[1] * self.scale,
+            ],
+            back_top_z,
         };
+        let turning = self.spindle;
         for m in cycles::expand(&c, [self.pos[0], self.pos[1]]) {
             match m {
                 CycleMove::Rapid(p) => self.rapid(p, pc),
-                CycleMove::Feed(p) => self.push(
+                CycleMove::Feed(p) => {
+                    self.push(p, Geometry::Line, Motion::feed(self.feed_mm_min), pc, false)
+                }
+                CycleMove::HeldFeed(p) => self.push(
                     p,
                     Geometry::Line,
                     Motion::Feed {
                         feed_mm_min: self.feed_mm_min,
+                        held: true,
                     },
                     pc,
                     false,
                 ),
+                CycleMove::SpindleStop => self.spindle = Spindle::Stopped,
+                CycleMove::SpindleStart => self.spindle = turning,
                 CycleMove::Dwell(s) => self.push(
                     self.pos,
                     Geometry::Line,

@@ -58,12 +58,38 @@ pub enum Motion {
     Feed {
         /// Programmed feed along the path, mm/min.
         feed_mm_min: f64,
+        /// The feed is held as programmed: the control runs it with its feed
+        /// override disabled (the feed moves of G84/G74 tapping, whose feed is
+        /// the tap's pitch times the spindle speed). Re-timing keeps it.
+        held: bool,
     },
     /// G4: no motion for a time.
     Dwell {
         /// Dwell time, s.
         seconds: f64,
     },
+}
+
+impl Motion {
+    /// A feed move at `feed_mm_min` that re-timing may change.
+    pub fn feed(feed_mm_min: f64) -> Motion {
+        Motion::Feed {
+            feed_mm_min,
+            held: false,
+        }
+    }
+
+    /// The feed of a feed move that re-timing must keep
+    /// ([`Motion::Feed`]'s `held`), else `None`.
+    pub fn held_feed_mm_min(&self) -> Option<f64> {
+        match *self {
+            Motion::Feed {
+                feed_mm_min,
+                held: true,
+            } => Some(feed_mm_min),
+            _ => None,
+        }
+    }
 }
 
 /// One piece of the path.
@@ -116,8 +142,17 @@ impl Segment {
         };
         let motion = match (self.motion, other.motion) {
             (Motion::Rapid, Motion::Rapid) => true,
-            (Motion::Feed { feed_mm_min: a }, Motion::Feed { feed_mm_min: b })
-            | (Motion::Dwell { seconds: a }, Motion::Dwell { seconds: b }) => {
+            (
+                Motion::Feed {
+                    feed_mm_min: a,
+                    held: h,
+                },
+                Motion::Feed {
+                    feed_mm_min: b,
+                    held: k,
+                },
+            ) => a.to_bits() == b.to_bits() && h == k,
+            (Motion::Dwell { seconds: a }, Motion::Dwell { seconds: b }) => {
                 a.to_bits() == b.to_bits()
             }
             _ => false,

@@ -877,7 +877,7 @@ fn run_tables(
 }
 
 /// The canned cycles' G codes.
-const CYCLE_CODES: [f64; 7] = [73.0, 81.0, 82.0, 83.0, 85.0, 86.0, 89.0];
+const CYCLE_CODES: [f64; 6] = [73.0, 81.0, 82.0, 83.0, 85.0, 89.0];
 
 /// Modal G codes a cycle line written out may carry: they are written in a
 /// block of their own before its moves (G17, G20/G21, G90/G91, G98/G99).
@@ -932,7 +932,10 @@ fn cycle_lines(
         });
         let plain = segs.iter().all(|&i| {
             let t = &trace.segments[i];
-            !t.compensated && !t.inverse_time && matches!(segments[i].geometry, Geometry::Line)
+            !t.compensated
+                && !t.inverse_time
+                && !t.spindle_cycle
+                && matches!(segments[i].geometry, Geometry::Line)
         });
         if !cycle_words || !plain {
             return BTreeSet::new();
@@ -1630,12 +1633,24 @@ fn verify(
                 } else {
                     plan[i][k].1
                 };
-                let Motion::Feed { feed_mm_min } = p.motion else {
+                let Motion::Feed { feed_mm_min, held } = p.motion else {
                     return Err(fail(format!(
                         "line {}: a piece is not a feed move",
                         seg.line
                     )));
                 };
+                // A held feed (tapping) reads back held, at its own feed.
+                if let Some(programmed) = seg.motion.held_feed_mm_min() {
+                    if !held || (feed_mm_min - programmed).abs() > 1e-4 * programmed {
+                        return Err(fail(format!(
+                            "line {}: the held feed {programmed:.3} mm/min reads back as {feed_mm_min:.3} mm/min{}",
+                            seg.line,
+                            if held { "" } else { ", not held" }
+                        )));
+                    }
+                } else if held {
+                    return Err(fail(format!("line {}: a feed reads back held", seg.line)));
+                }
                 if feed_mm_min > allowed * (1.0 + 1e-4) {
                     return Err(fail(format!(
                         "line {}: feed {feed_mm_min:.3} above the plan's {allowed:.3} mm/min",

@@ -89,12 +89,9 @@ fn incremental_and_inch() {
     close(s[2].end.x, 27.4);
     let s = ok("G20\nG1 X1 F10");
     close(s[0].end.x, 25.4);
-    assert_eq!(s[0].motion, Motion::Feed { feed_mm_min: 254.0 });
+    assert_eq!(s[0].motion, Motion::feed(254.0));
     // As in LinuxCNC, F is read before G20/G21 of the same block takes effect.
-    assert_eq!(
-        ok("G20 G1 X1 F10")[0].motion,
-        Motion::Feed { feed_mm_min: 10.0 }
-    );
+    assert_eq!(ok("G20 G1 X1 F10")[0].motion, Motion::feed(10.0));
 }
 
 #[test]
@@ -148,7 +145,7 @@ fn oword_subroutine_and_loops() {
 #[test]
 fn drill_cycle_g98_g99() {
     use Motion::*;
-    let f = Feed { feed_mm_min: 100.0 };
+    let f = Motion::feed(100.0);
     let moves = |src| {
         ok(src)
             .iter()
@@ -521,9 +518,9 @@ fn m61_and_m70_to_m73() {
     // F is read before G20 takes effect (10 mm/min); M72 restores G21 G90
     // F100: the second move goes to X1 mm absolute at 100 mm/min.
     assert_eq!(end(&s[0]), [25.4, 0.0, 0.0]);
-    assert_eq!(s[0].motion, Motion::Feed { feed_mm_min: 10.0 });
+    assert_eq!(s[0].motion, Motion::feed(10.0));
     assert_eq!(end(&s[1]), [1.0, 0.0, 0.0]);
-    assert_eq!(s[1].motion, Motion::Feed { feed_mm_min: 100.0 });
+    assert_eq!(s[1].motion, Motion::feed(100.0));
     // G91 in the subroutine is undone on return: X2 is absolute (not 3).
     let s = ok("o<s> sub\nM73\nG91\no<s> endsub\nG1 X1 F100\no<s> call\nG1 X2");
     assert_eq!(end(&s[1]), [2.0, 0.0, 0.0]);
@@ -553,7 +550,7 @@ fn malformed_words_point_at_columns() {
 #[test]
 fn inverse_time_and_dwell() {
     let s = ok("G93 G1 X10 F6\nG4 P2.5");
-    assert_eq!(s[0].motion, Motion::Feed { feed_mm_min: 60.0 });
+    assert_eq!(s[0].motion, Motion::feed(60.0));
     assert_eq!(s[1].motion, Motion::Dwell { seconds: 2.5 });
     assert!(!errors("G93 G1 X10").is_empty());
 }

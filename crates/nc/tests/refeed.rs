@@ -12,7 +12,7 @@ fn feeds(path: &nc::Path) -> Vec<f64> {
     path.segments
         .iter()
         .filter_map(|s| match s.motion {
-            Motion::Feed { feed_mm_min } => Some(feed_mm_min),
+            Motion::Feed { feed_mm_min, .. } => Some(feed_mm_min),
             _ => None,
         })
         .collect()
@@ -294,7 +294,7 @@ fn repeated_lines_get_their_own_pieces_per_run() {
                 let p = &new.segments[j];
                 let want = if frac >= 1.0 { s.end } else { s.point_at_fraction(frac) };
                 assert!((p.end - want).norm() < 2e-6, "{out}\nrun {run} at {frac}: {:?} vs {want:?}", p.end);
-                assert!(matches!(p.motion, Motion::Feed { feed_mm_min } if (feed_mm_min - feed).abs() < 1e-9), "{out}");
+                assert!(matches!(p.motion, Motion::Feed { feed_mm_min, .. } if (feed_mm_min - feed).abs() < 1e-9), "{out}");
                 j += 1;
             }
             run += 1;
@@ -480,7 +480,7 @@ fn assert_as_planned(
                         p.end
                     );
                     assert!(
-                        matches!(p.motion, Motion::Feed { feed_mm_min } if feed_mm_min <= feed * (1.0 + 1e-12) && feed_mm_min >= feed * (1.0 - 1e-5)),
+                        matches!(p.motion, Motion::Feed { feed_mm_min, .. } if feed_mm_min <= feed * (1.0 + 1e-12) && feed_mm_min >= feed * (1.0 - 1e-5)),
                         "line {}: {:?} instead of {feed}:\n{out}",
                         s.line,
                         p.motion
@@ -702,7 +702,7 @@ fn loops_whose_records_do_not_fit_are_unrolled() {
                 p.end
             );
             assert!(
-                matches!(p.motion, Motion::Feed { feed_mm_min } if (feed_mm_min - feed).abs() < 1e-9),
+                matches!(p.motion, Motion::Feed { feed_mm_min, .. } if (feed_mm_min - feed).abs() < 1e-9),
                 "run {run}: {:?} vs {feed}",
                 p.motion
             );
@@ -727,7 +727,7 @@ fn feed_time_min(path: &nc::Path) -> f64 {
     path.segments
         .iter()
         .map(|s| match s.motion {
-            Motion::Feed { feed_mm_min } => s.length_mm() / feed_mm_min,
+            Motion::Feed { feed_mm_min, .. } => s.length_mm() / feed_mm_min,
             _ => 0.0,
         })
         .sum()

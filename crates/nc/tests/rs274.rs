@@ -358,7 +358,7 @@ fn our_moves(source: &str, name: &str, options: &Options) -> Vec<Move> {
         .map(|s| {
             let (kind, value) = match s.motion {
                 Motion::Rapid => (Kind::Rapid, 0.0),
-                Motion::Feed { feed_mm_min } => (Kind::Feed, feed_mm_min),
+                Motion::Feed { feed_mm_min, .. } => (Kind::Feed, feed_mm_min),
                 Motion::Dwell { seconds } => (Kind::Dwell, seconds),
             };
             let arc = match s.geometry {
@@ -810,6 +810,100 @@ fn p_q_l_r_words_used_or_refused_as_in_linuxcnc_rs274() {
     assert_eq!(
         read_alike_or_refused_by_both(&blocks, "G21 G90 G17\nS1000 M3"),
         (12, 10)
+    );
+}
+
+/// Tapping (G84 under M3, G74 under M4: in and out at the feed, to the
+/// clear height), boring with the spindle stopped for a rapid out (G86) and
+/// back boring (G87, through the hole beside it by I J, up to K and back):
+/// read with LinuxCNC's moves, under G98 and G99, G90 and G91, in inches,
+/// with repeats; refused by both where LinuxCNC refuses them (the spindle
+/// turning the wrong way or not at all, a missing P, I, J, K, R or Z when
+/// the cycle is entered from another mode). The tapping feeds are held.
+#[test]
+fn tapping_and_boring_cycles_read_as_in_linuxcnc_rs274() {
+    if !have_rs274() {
+        return;
+    }
+    let clockwise = [
+        "G98 G84 X1 Y1 Z-2 R1 F100\nX3 Y2\nG80",
+        "G99 G84 X1 Y1 Z-2 R1 P0.5 F100\nX2\nG80",
+        "G91 G98 G84 X2 Y1 Z-3 R-2 L3 F100\nG90 G80",
+        "G20 G99 G84 X0.1 Y0.1 Z-0.2 R0.05 F4\nG80 G21",
+        "G99 G86 X1 Y1 Z-2 R1 P0.5 F100\nX3 P0\nG98 X4\nG80",
+        "G91 G99 G86 X1 Z-2 R-1 P1 L2 F100\nG90 G80",
+        "G99 G87 X10 Y10 Z-3 R2 I3 J1 K-1 F100\nX20\nG80",
+        "G98 G87 X10 Y10 Z-3 R2 I-2 J0 K-1.5 F100\nG91 X5 Z-4 R-1 K2\nG90 G80",
+        "G81 X1 Y1 Z-2 R1 F100\nG84 X2 R1 Z-2\nG80",
+        // Refused by both.
+        "G81 X1 Y1 Z-2 R1 F100\nG84 X2\nG80",
+        "G74 X1 Y1 Z-2 R1 F100\nG80",
+        "G86 X1 Y1 Z-2 R1 F100\nG80",
+        "G87 X1 Y1 Z-3 R1 I1 K-1 F100\nG80",
+        "G82 X1 Y1 Z-2 R1 F100\nG80",
+        "G84 X1 Y1 R1 F100\nG80",
+        "G84 X1 Y1 Z-1 R1 Q1 F100\nG80",
+        "G1 X1 I1 F100",
+    ];
+    assert_eq!(
+        read_alike_or_refused_by_both(&clockwise, "G21 G90 G17\nS500 M3"),
+        (9, 8)
+    );
+    let counterclockwise = [
+        "G98 G74 X1 Y1 Z-2 R1 F100\nX3 Y2\nG80",
+        "G99 G86 X1 Y1 Z-2 R1 P0.2 F100\nG80",
+        "G84 X1 Y1 Z-2 R1 F100\nG80",
+    ];
+    assert_eq!(
+        read_alike_or_refused_by_both(&counterclockwise, "G21 G90 G17\nS500 M4"),
+        (2, 1)
+    );
+    assert_eq!(
+        read_alike_or_refused_by_both(&["G84 X1 Y1 Z-2 R1 F100\nG80"], "G21 G90 G17\nS500 M5"),
+        (0, 1)
+    );
+    // The tapping feeds are held, the others not; G86's rapid out and G87's
+    // passes through the hole run with the spindle stopped.
+    let tapped = nc::parse(
+        "G21 G90 S500 M3\nG0 X0 Y0 Z5\nG99 G84 X1 Y1 Z-2 R1 F100\nG80\n\
+         G86 X2 Y1 Z-2 R1 P0 F80\nG80\nG87 X10 Y10 Z-3 R2 I3 J1 K-1 F60\nG80\nG1 X0 F200\nM2\n",
+        "t.ngc",
+        &Options::default(),
+    )
+    .path;
+    let feeds: Vec<(u32, Option<f64>, f64)> = tapped
+        .segments
+        .iter()
+        .filter(|s| matches!(s.motion, Motion::Feed { .. }))
+        .map(|s| (s.line, s.motion.held_feed_mm_min(), s.spindle_rpm))
+        .collect();
+    assert_eq!(
+        feeds,
+        [
+            (3, Some(100.0), 500.0),
+            (3, Some(100.0), 500.0),
+            (5, None, 500.0),
+            (7, None, 500.0),
+            (7, None, 500.0),
+            (9, None, 500.0)
+        ]
+    );
+    let stopped: Vec<(u32, [f64; 3])> = tapped
+        .segments
+        .iter()
+        .filter(|s| s.spindle_rpm == 0.0)
+        .map(|s| (s.line, [s.end.x, s.end.y, s.end.z]))
+        .collect();
+    assert_eq!(
+        stopped,
+        [
+            (5, [2.0, 1.0, 1.0]),
+            (7, [13.0, 11.0, -3.0]),
+            (7, [10.0, 10.0, -3.0]),
+            (7, [13.0, 11.0, -3.0]),
+            (7, [13.0, 11.0, 2.0]),
+            (7, [10.0, 10.0, 2.0])
+        ]
     );
 }
 

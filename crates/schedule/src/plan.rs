@@ -1860,9 +1860,7 @@ mod tests {
                 Point3::new(x, 5.0 * (x / 4.0).sin(), 0.0)
             })
             .collect();
-        let feed = Motion::Feed {
-            feed_mm_min: 3000.0,
-        };
+        let feed = Motion::feed(3000.0);
         let segments = points.windows(2).map(|w| line(w[0], w[1], feed)).collect();
         let machine = Machine {
             jerk_mm_s3: Some([20000.0; 3]),
@@ -1893,9 +1891,7 @@ mod tests {
             let last = *points.last().unwrap();
             points.push(last + 0.25 * Vector3::new(heading.cos(), heading.sin(), 0.0));
         }
-        let feed = Motion::Feed {
-            feed_mm_min: 1500.0,
-        };
+        let feed = Motion::feed(1500.0);
         let segments = points.windows(2).map(|w| line(w[0], w[1], feed)).collect();
         let machine = Machine {
             jerk_mm_s3: Some([20000.0; 3]),
@@ -2078,9 +2074,7 @@ mod tests {
     /// (the check's samples are the servo samples), on a path of several runs and dwells.
     #[test]
     fn a_sampler_started_late_makes_the_same_samples() {
-        let feed = Motion::Feed {
-            feed_mm_min: 2000.0,
-        };
+        let feed = Motion::feed(2000.0);
         let p = |x: f64, y: f64| Point3::new(x, y, 0.0);
         let segments = vec![
             line(p(0.0, 0.0), p(10.0, 0.0), feed),
@@ -2170,9 +2164,7 @@ mod tests {
     #[test]
     fn slow_corners_dip_instead_of_being_held() {
         let p = |x: f64, y: f64| Point3::new(x, y, 0.0);
-        let feed = Motion::Feed {
-            feed_mm_min: 3000.0,
-        };
+        let feed = Motion::feed(3000.0);
         let segments = vec![
             line(p(0.0, 0.0), p(10.0, 0.0), feed),
             line(p(10.0, 0.0), p(10.0, 0.5), feed),
@@ -2444,9 +2436,7 @@ mod tests {
             jerk_mm_s3: Some([20000.0; 3]),
             ..Machine::default()
         };
-        let feed = Motion::Feed {
-            feed_mm_min: 3000.0,
-        };
+        let feed = Motion::feed(3000.0);
         let segments = vec![line(Point3::origin(), Point3::new(40.0, 0.0, 0.0), feed)];
         let st = Stations::new(&Path { segments }, &machine, 0.05, FeedPolicy::Programmed).unwrap();
         (machine, st)

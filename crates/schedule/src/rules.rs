@@ -42,7 +42,7 @@ pub fn linearise_arcs(path: &nc::Path, block_time_ms: f64, kf: f64) -> nc::Path 
     let mut segments = Vec::with_capacity(path.segments.len());
     for seg in &path.segments {
         match (seg.geometry, seg.motion) {
-            (nc::Geometry::Arc { sweep_rad, .. }, nc::Motion::Feed { feed_mm_min }) => {
+            (nc::Geometry::Arc { sweep_rad, .. }, nc::Motion::Feed { feed_mm_min, .. }) => {
                 let r = seg.radius_mm();
                 let ce = chord_tolerance_mm(r, feed_mm_min, block_time_ms, kf);
                 let n = chord_count(r, sweep_rad, ce);

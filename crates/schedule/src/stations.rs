@@ -22,6 +22,9 @@ const MIN_SEGMENT_MM: f64 = 1e-9;
 pub enum CapKind {
     /// The programmed feed of the block.
     Programmed,
+    /// A feed held as programmed (G84/G74 tapping, `nc::Motion::Feed`'s
+    /// `held`): no re-timing changes it.
+    Held,
     /// The machine's highest cutting feed.
     FeedMax,
     /// The rapid rate (G0).
@@ -56,8 +59,9 @@ pub enum CapKind {
 
 impl CapKind {
     /// Every kind, in the order [`crate::Profile::time_at_cap_share`] reports them.
-    pub const ALL: [CapKind; 16] = [
+    pub const ALL: [CapKind; 17] = [
         CapKind::Programmed,
+        CapKind::Held,
         CapKind::FeedMax,
         CapKind::Rapid,
         CapKind::Curvature,
@@ -274,11 +278,15 @@ impl Stations {
                     continue;
                 }
                 Motion::Rapid => (machine.rapid_mm_min, CapKind::Rapid),
-                Motion::Feed { feed_mm_min } => {
+                Motion::Feed { feed_mm_min, held } => {
                     if !(feed_mm_min.is_finite() && feed_mm_min > 0.0) {
                         return Err(invalid("feed must be finite and > 0 mm/min"));
                     }
                     match policy {
+                        // Tapping: the programmed feed under either policy.
+                        _ if held && feed_mm_min <= machine.feed_max_mm_min => {
+                            (feed_mm_min, CapKind::Held)
+                        }
                         FeedPolicy::Programmed if feed_mm_min <= machine.feed_max_mm_min => {
                             (feed_mm_min, CapKind::Programmed)
                         }

@@ -19,7 +19,7 @@ fn line(start: Point3<f64>, end: Point3<f64>, feed_mm_min: f64) -> Segment {
         start,
         end,
         geometry: Geometry::Line,
-        motion: Motion::Feed { feed_mm_min },
+        motion: Motion::feed(feed_mm_min),
         line: 1,
         spindle_rpm: 10000.0,
         tool: 1,
