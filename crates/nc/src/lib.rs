@@ -89,4 +89,26 @@ mod tests {
         assert!(from.diagnostics.iter().any(|d| !d.is_error()));
         assert!(!from.amendments.is_empty());
     }
+
+    /// A path is held at its length, not at the capacity its pushes grew it
+    /// to (up to twice its segments): read once, or by a reader from two
+    /// starts.
+    #[test]
+    fn a_path_is_read_without_spare_capacity() {
+        let source: String = std::iter::once("G21 G90 G0 X0 Y0 Z5\n".to_string())
+            .chain((1..=1500).map(|i| format!("G1 X{i} Y{} F900\n", i % 7)))
+            .chain(std::iter::once("M2\n".to_string()))
+            .collect();
+        let options = Options::default();
+        let parsed = parse(&source, "p.nc", &options);
+        assert_eq!(parsed.path.segments.len(), 1501);
+        let reader = Reader::new(&source, "p.nc", &options);
+        for path in [
+            parsed.path,
+            reader.parse().path,
+            reader.parse_from([1.0, 2.0, 9.0]).path,
+        ] {
+            assert_eq!(path.segments.capacity(), path.segments.len());
+        }
+    }
 }
