@@ -43,7 +43,12 @@ fn main() {
     for (k, &at_stop) in stop.iter().enumerate() {
         // The interval after station k (the last station has none).
         let accel = st.interval_accel_mm_s2().get(k).copied().unwrap_or(0.0);
-        let jerk = st.interval_jerk_mm_s3().get(k).copied().unwrap_or(0.0);
+        let jerk = match st.interval_jerk_mm_s3() {
+            Some(jerk) => jerk.get(k).copied().unwrap_or(0.0),
+            // Without a jerk limit every interval's is infinite.
+            None if k + 1 < st.len() => f64::INFINITY,
+            None => 0.0,
+        };
         writeln!(
             f,
             "{},{},{},{},{},{}",

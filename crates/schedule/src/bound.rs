@@ -50,31 +50,40 @@ pub fn lower_bound_time_s(stations: &Stations) -> f64 {
     for k in (0..n.saturating_sub(1)).rev() {
         u[k] = u[k].min((u[k + 1] * u[k + 1] + 2.0 * accel[k] * (s[k + 1] - s[k])).sqrt());
     }
-    // Per interval: the closed-form time and the highest speed allowed inside.
-    let intervals: Vec<Interval> = (0..n.saturating_sub(1))
-        .map(|k| {
-            let cap = caps(k).max(caps(k + 1));
-            let len_mm = s[k + 1] - s[k];
-            Interval {
-                len_mm,
-                time_s: interval_bound_s(len_mm, u[k], u[k + 1], accel[k], cap),
-                peak_mm_s: interval_peak_mm_s(len_mm, u[k], u[k + 1], accel[k], cap),
-                accel_mm_s2: accel[k],
-                jerk_mm_s3: jerk[k],
-            }
-        })
-        .collect();
+    // Interval k's closed-form time and the highest speed allowed inside, made where
+    // they are read: without a jerk limit only the times are summed, with one each
+    // run's list of its intervals is made for its dips (not a list of every interval,
+    // 40 B a station, issue 16).
+    let time_s = |k: usize| {
+        let cap = caps(k).max(caps(k + 1));
+        interval_bound_s(s[k + 1] - s[k], u[k], u[k + 1], accel[k], cap)
+    };
+    let interval = |k: usize| {
+        let cap = caps(k).max(caps(k + 1));
+        let len_mm = s[k + 1] - s[k];
+        Interval {
+            len_mm,
+            time_s: time_s(k),
+            peak_mm_s: interval_peak_mm_s(len_mm, u[k], u[k + 1], accel[k], cap),
+            accel_mm_s2: accel[k],
+            jerk_mm_s3: jerk.map_or(f64::INFINITY, |j| j[k]),
+        }
+    };
     let mut total_s: f64 = stops.iter().map(|s| s.dwell_s).sum();
     for pair in stops.windows(2) {
         let (first, last) = (pair[0].station, pair[1].station);
-        let run = &intervals[first..last];
+        if jerk.is_none() {
+            total_s += (first..last).map(time_s).sum::<f64>();
+            continue;
+        }
+        let run: Vec<Interval> = (first..last).map(interval).collect();
         let mut run_s: f64 = run.iter().map(|i| i.time_s).sum();
         let v_max = (first..last).fold(0.0f64, |m, k| m.max(caps(k).max(caps(k + 1))));
         let a_max = run.iter().fold(0.0f64, |m, i| m.max(i.accel_mm_s2));
         let j_max = run.iter().fold(0.0f64, |m, i| m.max(i.jerk_mm_s3));
         if j_max.is_finite() && last > first {
             run_s = run_s.max(rest_to_rest_time_s(s[last] - s[first], v_max, a_max, j_max));
-            run_s = run_s.max(dip_pieces_s(&u[first..=last], run));
+            run_s = run_s.max(dip_pieces_s(&u[first..=last], &run));
         }
         total_s += run_s;
     }

@@ -105,9 +105,15 @@ pub struct Profile<'a> {
     stations: &'a Stations,
     speed_mm_s: Vec<f64>,
     interval_start_s: Vec<f64>,
+    /// Each interval's time, held only with a jerk limit (a gap followed exactly takes
+    /// its own): without one it is made where it is read from the speeds, the same bits
+    /// (a run's speeds are not changed once it is pushed; 8 B a station, issue 16).
     interval_dt_s: Vec<f64>,
-    /// ∫ (s − s_first of the run) dt from the run start to the start of each interval, mm·s.
+    /// ∫ (s − s_first of the run) dt from the run start to the start of each interval, mm·s:
+    /// read by the jerk filter alone, so held only with a jerk limit (8 B a station).
     interval_integral_mm_s: Vec<f64>,
+    /// Whether the two columns above are held (the stations have a jerk limit).
+    timed: bool,
     runs: Vec<Run>,
     /// The gaps the runs shaped directly follow exactly, in time order.
     gaps: Vec<ExactGap>,
@@ -158,13 +164,19 @@ fn held_at(
 /// The filter window at λ = 1, s: the largest a/j over the stations'
 /// intervals (0 without a jerk limit; MODEL.md §6.1).
 fn base_window_s(stations: &Stations) -> f64 {
-    stations
-        .interval_accel_mm_s2()
-        .iter()
-        .zip(stations.interval_jerk_mm_s3())
-        .map(|(a, j)| a / j)
-        .fold(0.0, f64::max)
+    stations.interval_jerk_mm_s3().map_or(0.0, |jerk| {
+        stations
+            .interval_accel_mm_s2()
+            .iter()
+            .zip(jerk)
+            .map(|(a, j)| a / j)
+            .fold(0.0, f64::max)
+    })
 }
+
+/// What the jerk filter's paths say if the stations have no jerk limit: a filter (W > 0)
+/// and sections need one.
+const FILTER_NEEDS_JERK: &str = "a jerk filter needs a jerk limit";
 
 /// Plans the time-optimal speed profile over `stations` (MODEL.md §6.1).
 ///
@@ -395,6 +407,8 @@ struct RunPlanner<'a> {
     /// cut), not by the slow dips' and peaks' exceptions: set where a run's sample near
     /// them was over its cap (MODEL.md §6.1, "Slow dips and peaks").
     plain: Vec<bool>,
+    /// A plan tried beside the profile's (λ searched, sections): made at the first
+    /// ([`RunPlanner::take_trial`]), none without a jerk limit (8 B a station, issue 16).
     trial: Vec<f64>,
     /// The gaps of a section shaped directly and followed exactly.
     gaps: Vec<direct::Gap>,
@@ -419,9 +433,17 @@ impl<'a> RunPlanner<'a> {
             is_corner,
             full_hold: vec![false; n],
             plain: vec![false; n],
-            trial: vec![0.0; n],
+            trial: Vec::new(),
             gaps: Vec::new(),
         }
+    }
+
+    /// The trial plan, one speed a station (0 until planned), taken for a trial: given
+    /// back to `self.trial` after it.
+    fn take_trial(&mut self) -> Vec<f64> {
+        let mut trial = std::mem::take(&mut self.trial);
+        trial.resize(self.stations.len(), 0.0);
+        trial
     }
 
     /// Plans the run between the stops `stops` into `profile` (appended, leaving at the
@@ -635,7 +657,7 @@ impl<'a> RunPlanner<'a> {
         base_window_s: f64,
         candidates: &mut Vec<f64>,
     ) {
-        let mut trial = std::mem::take(&mut self.trial);
+        let mut trial = self.take_trial();
         let mut timed: Vec<(f64, f64)> = LAMBDA_GRID
             .iter()
             .map(|&lambda| {
@@ -661,7 +683,7 @@ impl<'a> RunPlanner<'a> {
         base_window_s: f64,
         candidates: &mut Vec<f64>,
     ) {
-        let mut trial = std::mem::take(&mut self.trial);
+        let mut trial = self.take_trial();
         let mut evaluated: Vec<(f64, f64)> = Vec::with_capacity(28);
         let mut time = |lambda: f64| {
             let w = lambda * base_window_s;
@@ -802,7 +824,10 @@ impl<'a> RunPlanner<'a> {
         // average over W around a minimum; elsewhere the plan is under the envelope, or
         // flat at its cap); the ends at their speeds over c·W/2 + Δs_max (W at most the
         // run's window: its plan was flat at c there, so the caps are at least c).
-        let j_max = self.stations.interval_jerk_mm_s3()[first..last]
+        let j_max = self
+            .stations
+            .interval_jerk_mm_s3()
+            .expect(FILTER_NEEDS_JERK)[first..last]
             .iter()
             .fold(0.0f64, |m, &x| m.max(x));
         let margin = share * j_max * window_s * window_s / 12.0;
@@ -828,7 +853,10 @@ impl<'a> RunPlanner<'a> {
             }
         }
         self.passes_between(first, 1.0, &mut envelope, ends);
-        let jerk: Vec<f64> = self.stations.interval_jerk_mm_s3()[first..last]
+        let jerk: Vec<f64> = self
+            .stations
+            .interval_jerk_mm_s3()
+            .expect(FILTER_NEEDS_JERK)[first..last]
             .iter()
             .map(|j| j * share)
             .collect();
@@ -985,7 +1013,7 @@ impl<'a> RunPlanner<'a> {
                     .clone()
                     .chain((!grid.clone().any(|g| g == own)).then_some(own));
                 let rests = f64::from(u8::from(ends.0 == 0.0)) + f64::from(u8::from(ends.1 == 0.0));
-                let mut trial = std::mem::take(&mut self.trial);
+                let mut trial = self.take_trial();
                 for (lambda, window_s) in values {
                     if let Some(d) = self.plan_section((a, b), (lambda, window_s), ends, &mut trial)
                     {
@@ -1177,7 +1205,10 @@ impl<'a> RunPlanner<'a> {
     ) {
         let s = &self.stations.s_mm()[first..=last];
         let accel = &self.stations.interval_accel_mm_s2()[first..last];
-        let jerk = &self.stations.interval_jerk_mm_s3()[first..last];
+        let jerk = &self
+            .stations
+            .interval_jerk_mm_s3()
+            .expect(FILTER_NEEDS_JERK)[first..last];
         let period_s = self.stations.machine().period_s() / slow;
         let mut tree = RangeMin::<1>::new(s.len());
         for (j, &s_j) in s.iter().enumerate() {
@@ -1225,7 +1256,10 @@ impl<'a> RunPlanner<'a> {
     /// unless a station of the peak is marked plain.
     fn cut_peaks(&self, first: usize, last: usize, window_s: f64, slow: f64, v: &mut [f64]) {
         let s = self.stations.s_mm();
-        let jerk = self.stations.interval_jerk_mm_s3();
+        let jerk = self
+            .stations
+            .interval_jerk_mm_s3()
+            .expect(FILTER_NEEDS_JERK);
         let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.max(b);
         let mut k = first;
         while k < last {
@@ -1333,12 +1367,15 @@ impl<'a> Profile<'a> {
     fn empty(stations: &'a Stations) -> Self {
         let n = stations.len();
         let intervals = n.saturating_sub(1);
+        let timed = stations.interval_jerk_mm_s3().is_some();
+        let timed_intervals = if timed { intervals } else { 0 };
         Profile {
             stations,
             speed_mm_s: vec![0.0; n],
             interval_start_s: Vec::with_capacity(intervals),
-            interval_dt_s: Vec::with_capacity(intervals),
-            interval_integral_mm_s: Vec::with_capacity(intervals),
+            interval_dt_s: Vec::with_capacity(timed_intervals),
+            interval_integral_mm_s: Vec::with_capacity(timed_intervals),
+            timed,
             runs: Vec::with_capacity(stations.stops().len().saturating_sub(1)),
             gaps: Vec::new(),
             // Time line: dwell at a stop, then the run to the next stop (stretched by W if
@@ -1374,6 +1411,7 @@ impl<'a> Profile<'a> {
         (window_s, pause_s): (f64, f64),
         gaps: &[direct::Gap],
     ) -> f64 {
+        assert!(self.timed || gaps.is_empty(), "{FILTER_NEEDS_JERK}");
         let s = self.stations.s_mm();
         let v = &self.speed_mm_s;
         let mut t_s = start_s;
@@ -1408,8 +1446,10 @@ impl<'a> Profile<'a> {
                 _ => interval_time_s(s, v, k),
             };
             self.interval_start_s.push(t_s);
-            self.interval_dt_s.push(dt);
-            self.interval_integral_mm_s.push(integral_mm_s);
+            if self.timed {
+                self.interval_dt_s.push(dt);
+                self.interval_integral_mm_s.push(integral_mm_s);
+            }
             let a = (v[k + 1] - v[k]) / dt;
             integral_mm_s += integral_over_mm_s(s[k] - s[first], v[k], a, dt);
             t_s += dt;
@@ -1568,7 +1608,8 @@ impl<'a> Profile<'a> {
             }
         };
         let mut time_s = [0.0; CapKind::ALL.len()];
-        for (k, dt) in self.interval_dt_s.iter().enumerate() {
+        for k in 0..self.interval_start_s.len() {
+            let dt = self.interval_dt_s(k);
             time_s[binding(k).index()] += dt / 2.0;
             time_s[binding(k + 1).index()] += dt / 2.0;
         }
@@ -1653,6 +1694,17 @@ impl<'a> Profile<'a> {
         Ok((self.cycle_time_s / (period_ms * 1e-3)).ceil() + 1.0)
     }
 
+    /// The time over interval `k` (pushed), s: held with a jerk limit, else made again
+    /// from the speeds as [`Profile::push_exact_run`] made it (no gap is followed
+    /// exactly without a jerk limit).
+    fn interval_dt_s(&self, k: usize) -> f64 {
+        if self.timed {
+            self.interval_dt_s[k]
+        } else {
+            interval_time_s(self.stations.s_mm(), &self.speed_mm_s, k)
+        }
+    }
+
     /// State of run `run` at time `t_s`, searching intervals from `*cursor` on (monotone).
     fn run_state(&self, run: &Run, t_s: f64, cursor: &mut usize) -> RunState {
         let s = self.stations.s_mm();
@@ -1713,7 +1765,7 @@ impl<'a> Profile<'a> {
             };
         }
         let (v0, v1) = (self.speed_mm_s[k], self.speed_mm_s[k + 1]);
-        let dt = self.interval_dt_s[k];
+        let dt = self.interval_dt_s(k);
         let h = (t_s - self.interval_start_s[k]).clamp(0.0, dt);
         let a = (v1 - v0) / dt;
         let s_mm = (s[k] + v0 * h + a * h * h / 2.0).min(s[k + 1]);
@@ -1851,6 +1903,66 @@ mod tests {
         }
     }
 
+    /// Without a jerk limit a profile holds neither its intervals' times nor their
+    /// integrals (issue 16): each interval's time, made again from the speeds, is the one
+    /// its run was timed with when it was pushed, bit for bit (every interval's start is
+    /// the one before's plus it), though later runs were planned after it; its samples
+    /// then follow the plan, and its time shares add up to the cycle.
+    #[test]
+    fn a_profile_without_a_jerk_limit_makes_its_intervals_times_again() {
+        let feed = Motion::feed(3000.0);
+        let points: Vec<Point3<f64>> = (0..=200)
+            .map(|i| {
+                let x = i as f64 * 0.2;
+                Point3::new(x, 5.0 * (x / 4.0).sin(), 0.0)
+            })
+            .collect();
+        let mut segments: Vec<Segment> =
+            points.windows(2).map(|w| line(w[0], w[1], feed)).collect();
+        // A dwell in the middle: two runs.
+        let middle = segments[100].start;
+        let mut dwell = line(middle, middle, Motion::Dwell { seconds: 0.5 });
+        dwell.geometry = Geometry::Line;
+        segments.insert(100, dwell);
+        let st = Stations::new(
+            &Path { segments },
+            &Machine::default(),
+            0.05,
+            FeedPolicy::Programmed,
+        )
+        .unwrap();
+        assert!(st.interval_jerk_mm_s3().is_none());
+        let profile = plan(&st);
+        assert_eq!(profile.runs.len(), 2);
+        assert!(profile.interval_dt_s.is_empty() && profile.interval_integral_mm_s.is_empty());
+        assert_eq!(profile.interval_start_s.len(), st.len() - 1);
+        for run in &profile.runs {
+            let mut t_s = run.start_s;
+            for k in run.first..run.last {
+                assert_eq!(
+                    profile.interval_start_s[k].to_bits(),
+                    t_s.to_bits(),
+                    "interval {k}"
+                );
+                t_s += profile.interval_dt_s(k);
+            }
+            assert_eq!((t_s - run.start_s).to_bits(), run.duration_s.to_bits());
+        }
+        let shares: f64 = profile
+            .time_at_cap_share()
+            .iter()
+            .map(|(_, share)| share)
+            .sum();
+        assert!((shares - 1.0).abs() < 1e-12, "{shares}");
+        let samples = profile.sample(st.machine().period_ms).unwrap();
+        assert_eq!(samples.last().unwrap().s_mm, *st.s_mm().last().unwrap());
+        let t = st.machine().period_s();
+        for w in samples[..samples.len() - 1].windows(3) {
+            let second = (w[2].pos.coords - 2.0 * w[1].pos.coords + w[0].pos.coords) / (t * t);
+            assert!(second.amax() <= 1000.0 * (1.0 + 1e-6) + 1e-6, "{second:?}");
+        }
+    }
+
     /// The sine of the integration test `chord_approximated_sine_keeps_axis_limits` (0.2 mm
     /// chords) at F3000, jerk 20 000 mm/s³.
     fn sine() -> Stations {
@@ -1938,7 +2050,8 @@ mod tests {
         candidates: &[f64],
         tries: (usize, usize),
     ) -> (Profile<'a>, Verified) {
-        let window_s = st.interval_accel_mm_s2()[0] / st.interval_jerk_mm_s3()[0];
+        let window_s =
+            st.interval_accel_mm_s2()[0] / st.interval_jerk_mm_s3().expect("a jerk limit")[0];
         let stops = st.stops();
         let mut profile = Profile::empty(st);
         let (end_s, verified, _) = planner.verified_run(
@@ -2050,7 +2163,8 @@ mod tests {
         let st = sine();
         let machine = *st.machine();
         let last = st.len() - 1;
-        let window_s = st.interval_accel_mm_s2()[0] / st.interval_jerk_mm_s3()[0];
+        let window_s =
+            st.interval_accel_mm_s2()[0] / st.interval_jerk_mm_s3().expect("a jerk limit")[0];
         let planner = RunPlanner::new(&st);
         let ratio_from = |start_s: f64| {
             let mut profile = Profile::empty(&st);

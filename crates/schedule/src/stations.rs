@@ -122,6 +122,8 @@ pub struct Stations {
     cap_mm_min: Vec<f64>,
     cap_kind: Vec<CapKind>,
     interval_accel_mm_s2: Vec<f64>,
+    /// Empty without a jerk limit (each interval's would be infinite: 8 B a station
+    /// for nothing, issue 16).
     interval_jerk_mm_s3: Vec<f64>,
     stops: Vec<Stop>,
     /// Stations where the tangent jumps (corners), ascending.
@@ -244,7 +246,11 @@ impl Stations {
             cap_mm_min: Vec::with_capacity(estimate),
             cap_kind: Vec::with_capacity(estimate),
             interval_accel_mm_s2: Vec::with_capacity(estimate),
-            interval_jerk_mm_s3: Vec::with_capacity(estimate),
+            interval_jerk_mm_s3: Vec::with_capacity(if machine.jerk_mm_s3.is_some() {
+                estimate
+            } else {
+                0
+            }),
             stops: Vec::new(),
             corners: Vec::new(),
         };
@@ -363,11 +369,13 @@ impl Stations {
                 let accel = machine
                     .tangential_accel_mm_s2(&tangent_before)
                     .min(machine.tangential_accel_mm_s2(&tangent));
-                let jerk = machine
-                    .tangential_jerk_mm_s3(&tangent_before)
-                    .min(machine.tangential_jerk_mm_s3(&tangent));
                 self.interval_accel_mm_s2.push(accel);
-                self.interval_jerk_mm_s3.push(jerk);
+                if machine.jerk_mm_s3.is_some() {
+                    let jerk = machine
+                        .tangential_jerk_mm_s3(&tangent_before)
+                        .min(machine.tangential_jerk_mm_s3(&tangent));
+                    self.interval_jerk_mm_s3.push(jerk);
+                }
                 // Its position and tangent are [`Stations::position_at`] and
                 // [`Stations::tangent_at`] of (segment, u): u = 1 exactly at the end.
                 self.push(s_start_mm + len_mm * u, index, u, cap_mm_min, kind);
@@ -766,9 +774,14 @@ impl Stations {
         &self.interval_accel_mm_s2
     }
 
-    /// Tangential jerk limit of each interval k → k+1, mm/s³ (infinite without a jerk limit).
-    pub fn interval_jerk_mm_s3(&self) -> &[f64] {
-        &self.interval_jerk_mm_s3
+    /// Tangential jerk limit of each interval k → k+1, mm/s³ (min_i j_i/|t_i| over the
+    /// tangents at both ends); `None` without a jerk limit, where every interval's is
+    /// infinite (not held: 8 B a station, issue 16).
+    pub fn interval_jerk_mm_s3(&self) -> Option<&[f64]> {
+        self.machine
+            .jerk_mm_s3
+            .is_some()
+            .then_some(&self.interval_jerk_mm_s3[..])
     }
 
     /// Stations where the tool is at rest, in path order: the start, every dwell, the end.
