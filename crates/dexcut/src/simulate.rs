@@ -988,7 +988,10 @@ pub fn run_on(
         // Windows over the feed steps of one cut (the steps out of the loop in
         // it, such as cuts by the tool's bottom alone, weigh nothing below).
         let feed: Vec<bool> = steps.iter().map(|s| !s.step.rapid).collect();
-        let windows = sub_cell_windows(
+        // The steps of the loop that advance less than a grid cell, in order,
+        // with their windows (not a window a step: issue 16).
+        let mut sub_cells: Vec<(usize, (usize, usize))> = Vec::new();
+        sub_cell_windows(
             |p| advance_mm[p],
             &feed,
             |p| {
@@ -997,15 +1000,12 @@ pub fn run_on(
             },
             grid_mm,
             SUB_CELL_WINDOW_CELLS * grid_mm,
+            |i, window| {
+                if in_loop[i] && !inherited[i] && advance_mm[i] < grid_mm && window != (i, i) {
+                    sub_cells.push((i, window));
+                }
+            },
         );
-        // The steps of the loop that advance less than a grid cell, in order,
-        // with their windows (not a window a step: issue 16).
-        let sub_cells: Vec<(usize, (usize, usize))> = (0..n)
-            .filter(|&i| {
-                in_loop[i] && !inherited[i] && advance_mm[i] < grid_mm && windows[i] != (i, i)
-            })
-            .map(|i| (i, windows[i]))
-            .collect();
         // The steps' advances weigh the windows' sums below: none without such steps.
         let advance_mm = if sub_cells.is_empty() {
             Vec::new()
@@ -1313,44 +1313,51 @@ pub fn run_on(
 /// (MODEL.md §2.3): an item of a run (`member[p]`; item p continues the run of
 /// p − 1 where `joins(p)`) that advances less than one grid cell `cell_mm`
 /// gets the shortest run of items centred on it, within its run, that covers
-/// `window_mm` of path (or the whole run); every other item, itself. Item
-/// p advances `advance(p)` (made where it is read, not a list beside the
-/// caller's: 8 B an item).
+/// `window_mm` of path (or the whole run); every other item, itself. Each
+/// item's window is given to `each` in item order, not held as a list (16 B
+/// an item), nor is each item's run end (8 B: found by walking the run
+/// once); item p advances `advance(p)` (made where it is read, not a list
+/// beside the caller's: 8 B an item). Issue 16.
 fn sub_cell_windows(
     advance: impl Fn(usize) -> f64,
     member: &[bool],
     joins: impl Fn(usize) -> bool,
     cell_mm: f64,
     window_mm: f64,
-) -> Vec<(usize, usize)> {
+    mut each: impl FnMut(usize, (usize, usize)),
+) {
     let n = member.len();
     let mut adv = vec![0.0; n + 1];
     for p in 0..n {
         adv[p + 1] = adv[p] + advance(p);
     }
-    // Last item of the run each item lies in.
-    let mut run_ends = vec![0; n];
-    for p in (0..n).rev() {
-        run_ends[p] = if p + 1 < n && member[p + 1] && member[p] && joins(p + 1) {
-            run_ends[p + 1]
-        } else {
-            p
-        };
-    }
-    let mut out: Vec<(usize, usize)> = (0..n).map(|p| (p, p)).collect();
+    // The last item of the run the item last looked at lies in (items up to
+    // it are members that join the item before).
+    let mut known_end: Option<usize> = None;
     let mut run_start = 0;
     for p in 0..n {
         if !member[p] {
             run_start = p + 1;
+            each(p, (p, p));
             continue;
         }
         if p > run_start && !joins(p) {
             run_start = p;
         }
         if advance(p) >= cell_mm {
+            each(p, (p, p));
             continue;
         }
-        let run_end = run_ends[p];
+        let run_end = match known_end {
+            Some(end) if p <= end => end,
+            _ => {
+                let mut end = p;
+                while end + 1 < n && member[end + 1] && joins(end + 1) {
+                    end += 1;
+                }
+                *known_end.insert(end)
+            }
+        };
         let window = |k: usize| (p.saturating_sub(k).max(run_start), (p + k).min(run_end));
         let covers = |k: usize| {
             let (a, b) = window(k);
@@ -1367,9 +1374,8 @@ fn sub_cell_windows(
                 lo = mid + 1;
             }
         }
-        out[p] = window(lo);
+        each(p, window(lo));
     }
-    out
 }
 
 /// `range` widened to the finite values of `error_um` (a map's least and
@@ -1937,10 +1943,11 @@ impl Run {
     /// [`SUB_CELL_WINDOW_CELLS`] cells of path, since a column's removal
     /// comes whole in the period in which the edge crosses the column's
     /// centre. The periods are made from per-period columns (their first
-    /// step, end of path, prefix sums of removal and time; about 70 B a
-    /// period with the windows, issue 16; a period's own removal and time
-    /// summed again from its steps) and handed to `f` one by one, never held
-    /// as a list (72 B a period more).
+    /// step, end of path, prefix sums of removal and time; 37 B a period
+    /// with the windows' path sums, issue 16; a period's own removal and time
+    /// summed again from its steps) and handed to `f` one by one as its
+    /// window is found, never held as a list (72 B a period more), nor are
+    /// the windows (16 B).
     pub fn for_each_period(&self, mut f: impl FnMut(Period)) {
         let g = self.stock.grid().spacing_mm;
         let window_mm = SUB_CELL_WINDOW_CELLS * g;
@@ -1965,8 +1972,8 @@ impl Run {
         // Per period p: steps first[p]..first[p + 1] (u32), path
         // s_at[p]..s_at[p + 1], whether it cuts, and the prefix sums of
         // removal and time over the periods before it; 29 B a period, each
-        // column reserved at its size (the windows 16 B more, and 16 while
-        // they are made; a period's advance is made where it is read).
+        // column reserved at its size (8 B more while the windows are found:
+        // their path sums; a period's advance is made where it is read).
         let n = crate::motion::periods(&self.steps).count();
         let mut first: Vec<u32> = Vec::with_capacity(n + 1);
         let mut s_at: Vec<f64> = Vec::with_capacity(n + 1);
@@ -1985,8 +1992,7 @@ impl Run {
         }
         first.push(u32::try_from(self.steps.len()).expect("fewer than 2³² steps"));
         let advance = |p: usize| s_at[p + 1] - s_at[p];
-        let windows = sub_cell_windows(advance, &cutting, |p| cutting[p - 1], g, window_mm);
-        for (p, &(a, b)) in windows.iter().enumerate() {
+        let each = |p: usize, (a, b): (usize, usize)| {
             let (i, j) = (first[p] as usize, first[p + 1] as usize);
             let (_, volume_mm3, dt_s) = own(i, j);
             let own = Period {
@@ -2011,7 +2017,8 @@ impl Run {
                     ..own
                 }
             });
-        }
+        };
+        sub_cell_windows(advance, &cutting, |p| cutting[p - 1], g, window_mm, each);
     }
 
     /// Per step, the MRR of its servo period resolved to the grid ([`Run::for_each_period`]), mm³/s.
@@ -2646,7 +2653,15 @@ mod tests {
             dt_sum[p + 1] = dt_sum[p] + dt_s[p];
         }
         let advance: Vec<f64> = (0..n).map(|p| s_at[p + 1] - s_at[p]).collect();
-        let windows = sub_cell_windows(|p| advance[p], &cutting, |p| cutting[p - 1], g, window_mm);
+        let mut windows = Vec::new();
+        sub_cell_windows(
+            |p| advance[p],
+            &cutting,
+            |p| cutting[p - 1],
+            g,
+            window_mm,
+            |_, w| windows.push(w),
+        );
         for (p, &(a, b)) in windows.iter().enumerate() {
             let own = Period {
                 first_step: first[p],
@@ -2775,6 +2790,106 @@ mod tests {
         assert_eq!(run.stress_limit_mpa(), 50.0);
     }
 
+    /// [`sub_cell_windows`] as it was before its windows were given one by
+    /// one: a list of them, with a list of each item's run end.
+    fn sub_cell_windows_listed(
+        advance: impl Fn(usize) -> f64,
+        member: &[bool],
+        joins: impl Fn(usize) -> bool,
+        cell_mm: f64,
+        window_mm: f64,
+    ) -> Vec<(usize, usize)> {
+        let n = member.len();
+        let mut adv = vec![0.0; n + 1];
+        for p in 0..n {
+            adv[p + 1] = adv[p] + advance(p);
+        }
+        // Last item of the run each item lies in.
+        let mut run_ends = vec![0; n];
+        for p in (0..n).rev() {
+            run_ends[p] = if p + 1 < n && member[p + 1] && member[p] && joins(p + 1) {
+                run_ends[p + 1]
+            } else {
+                p
+            };
+        }
+        let mut out: Vec<(usize, usize)> = (0..n).map(|p| (p, p)).collect();
+        let mut run_start = 0;
+        for p in 0..n {
+            if !member[p] {
+                run_start = p + 1;
+                continue;
+            }
+            if p > run_start && !joins(p) {
+                run_start = p;
+            }
+            if advance(p) >= cell_mm {
+                continue;
+            }
+            let run_end = run_ends[p];
+            let window = |k: usize| (p.saturating_sub(k).max(run_start), (p + k).min(run_end));
+            let covers = |k: usize| {
+                let (a, b) = window(k);
+                adv[b + 1] - adv[a] >= window_mm
+            };
+            // Smallest half-width that covers the window (or the whole run).
+            let k_max = (p - run_start).max(run_end - p);
+            let (mut lo, mut hi) = (0, k_max);
+            while lo < hi {
+                let mid = (lo + hi) / 2;
+                if covers(mid) {
+                    hi = mid;
+                } else {
+                    lo = mid + 1;
+                }
+            }
+            out[p] = window(lo);
+        }
+        out
+    }
+
+    /// The windows given one by one, each run's end found by walking it, are
+    /// the list's, in item order: runs of every length that start at a
+    /// non-member or where an item does not join, items of a whole cell and
+    /// of none among them, runs shorter than the window.
+    #[test]
+    fn sub_cell_windows_given_in_order_are_the_lists() {
+        // A small linear congruential generator: the same items every run.
+        let mut state = 12_345u64;
+        let mut next = move |m: u64| {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            (state >> 33) % m
+        };
+        for n in [0, 1, 2, 7, 64, 1000] {
+            let advance: Vec<f64> = (0..n)
+                .map(|_| match next(4) {
+                    0 => 0.0,
+                    1 => 1.5,
+                    _ => next(100) as f64 / 100.0,
+                })
+                .collect();
+            let member: Vec<bool> = (0..n).map(|_| next(8) != 0).collect();
+            let joins: Vec<bool> = (0..n).map(|_| next(10) != 0).collect();
+            let listed = sub_cell_windows_listed(|p| advance[p], &member, |p| joins[p], 1.0, 3.0);
+            let mut given = Vec::new();
+            sub_cell_windows(
+                |p| advance[p],
+                &member,
+                |p| joins[p],
+                1.0,
+                3.0,
+                |p, w| {
+                    assert_eq!(p, given.len(), "in item order");
+                    given.push(w);
+                },
+            );
+            assert_eq!(given, listed, "{n} items");
+            assert!(n < 64 || given.iter().enumerate().any(|(p, &w)| w != (p, p)));
+        }
+    }
+
     #[test]
     fn sub_cell_windows_cover_the_path_within_their_run() {
         // Cell 1, window 3: a step of 0.5 takes the fewest steps centred on it
@@ -2785,7 +2900,18 @@ mod tests {
         let member = [
             true, true, true, true, true, true, true, true, true, false, true,
         ];
-        let w = sub_cell_windows(|p| advance[p], &member, |p| p != 6, 1.0, 3.0);
+        let mut w = Vec::new();
+        sub_cell_windows(
+            |p| advance[p],
+            &member,
+            |p| p != 6,
+            1.0,
+            3.0,
+            |p, window| {
+                assert_eq!(p, w.len(), "in item order");
+                w.push(window)
+            },
+        );
         assert_eq!(w[0], (0, 4), "the run's start bounds the window");
         assert_eq!(w[2], (0, 4), "(1, 3) covers 1.5 mm");
         assert_eq!(w[3], (2, 4));
