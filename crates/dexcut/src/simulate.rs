@@ -141,6 +141,13 @@ pub const LOOP_STALL_RATIO: f64 = 0.8;
 /// from it is noise. By the bracket of [`Bracketed`], a step with g(0) ≥ 0 no
 /// larger than this has its root within this of 0, 500× inside the tolerance.
 pub const LOOP_NO_SIDE_LOAD_UM: f64 = 1e-3;
+/// The same for a feed step at one point (no XY motion: a plunge, a lift):
+/// the loop's tolerance, µm (MODEL.md §5.1, eq. 5.1d). Its rigid sideways
+/// load is the lattice's bias (§1.4); moved, its only sideways cut is the
+/// sweep of its own offset change, a few µm that the grid removes as whole
+/// columns or none, so its g measures the grid. By the bracket, the root of
+/// a step with 0 ≤ g(0) ≤ this lies within the tolerance of 0.
+pub const LOOP_AT_POINT_SIDE_LOAD_UM: f64 = LOOP_TOL_UM;
 /// Relaxation factor of a step's offset update: first, largest and smallest.
 const LOOP_RELAX_START: f64 = 0.4;
 const LOOP_RELAX_MAX: f64 = 1.0;
@@ -594,7 +601,8 @@ impl Bracketed {
 /// Unit direction in which the closed loop moves a step's tool: the rigid
 /// deflection `(dx, dy)` without its component along the step's XY motion
 /// `m` (MODEL.md §5.1); zero when no more than [`LOOP_NO_SIDE_LOAD_UM`] is
-/// left (an even plunge's round-off has no direction).
+/// left (an even plunge's round-off has no direction), or at one point (no
+/// XY motion) no more than [`LOOP_AT_POINT_SIDE_LOAD_UM`] (eq. 5.1d).
 fn loop_direction(dx: f64, dy: f64, m: [f64; 2]) -> [f64; 2] {
     let m2 = m[0] * m[0] + m[1] * m[1];
     let along = if m2 > 0.0 {
@@ -604,7 +612,12 @@ fn loop_direction(dx: f64, dy: f64, m: [f64; 2]) -> [f64; 2] {
     };
     let (px, py) = (dx - along * m[0], dy - along * m[1]);
     let len = (px * px + py * py).sqrt();
-    if len > LOOP_NO_SIDE_LOAD_UM && len.is_finite() {
+    let floor = if m2 > 0.0 {
+        LOOP_NO_SIDE_LOAD_UM
+    } else {
+        LOOP_AT_POINT_SIDE_LOAD_UM
+    };
+    if len > floor && len.is_finite() {
         [px / len, py / len]
     } else {
         [0.0, 0.0]
@@ -1040,9 +1053,23 @@ pub fn run_on(
                 .binary_search(&i)
                 .expect("a step that took its direction")
         };
-        for (i, x) in x.iter_mut().enumerate() {
-            if in_loop[i] {
-                *x = (LOOP_RELAX_START * rigid[i]).min(offset_cap_um(i));
+        // A step that took its direction at one point (no XY motion: a lift
+        // or the rest of a period at the end of a cut) keeps the offset it
+        // starts at (MODEL.md §5.1, eq. 5.1d): not sought, not judged. Its
+        // only sideways cut would be the sweep of its own offset change, a
+        // few µm the grid removes as whole columns or none (g jumps between 0
+        // and a column's load at a place the offsets before it move), so no
+        // trial resolves its equilibrium better than no sweep at all.
+        let at_point = |i: usize| {
+            let [fx, fy, _] = steps[i].step.from_mm;
+            let [tx, ty, _] = steps[i].step.to_mm;
+            inherited[i] && fx == tx && fy == ty
+        };
+        for i in 0..n {
+            if at_point(i) {
+                x[i] = x[i - 1];
+            } else if in_loop[i] {
+                x[i] = (LOOP_RELAX_START * rigid[i]).min(offset_cap_um(i));
             }
         }
         // The rigid deflections are in the searches now.
@@ -1082,7 +1109,7 @@ pub fn run_on(
             // the path (of the loads as `loads` makes them).
             let g: Vec<f64> = loads_as(tools, &tool_of_step, &record, &steps, grid_mm, along);
             let pass = report.passes;
-            for i in (0..n).filter(|&i| in_loop[i]) {
+            for i in (0..n).filter(|&i| in_loop[i] && !at_point(i)) {
                 if inherited[i] {
                     fractions[at(i)].observe(g[i] - x[i], x[i - 1], pass);
                 } else {
@@ -1092,7 +1119,9 @@ pub fn run_on(
             // A step's bracket closed around its root (at a jump of g), and
             // its width, µm.
             let closed = |i: usize| -> Option<f64> {
-                if inherited[i] {
+                if at_point(i) {
+                    None
+                } else if inherited[i] {
                     let fraction = &fractions[at(i)];
                     fraction
                         .closed(x[i - 1], pass)
@@ -1137,7 +1166,7 @@ pub fn run_on(
             // bracket's width (how far x is from the root); a sub-cell step out
             // of tolerance so but within it over its window, the window's.
             let residual = |i: usize| -> (f64, f64) {
-                if inherited[i] && fractions[at(i)].held() {
+                if at_point(i) || (inherited[i] && fractions[at(i)].held()) {
                     return (0.0, x[i].abs());
                 }
                 let r = (g[i] - x[i]).abs();
@@ -1219,7 +1248,9 @@ pub fn run_on(
             let mut measured_before = 0.0;
             for i in 0..n {
                 let measured = x[i];
-                if inherited[i] {
+                if at_point(i) {
+                    x[i] = x[i - 1];
+                } else if inherited[i] {
                     x[i] =
                         (fractions[at(i)].next(g[i] - measured, measured, measured_before, pass)
                             * x[i - 1])
@@ -2606,13 +2637,22 @@ mod tests {
         assert_eq!(loop_direction(0.0, -2.0, [0.0, 0.0]), [0.0, -1.0]);
         assert_eq!(loop_direction(5.0, 0.0, [1.0, 0.0]), [0.0, 0.0]);
         // An even plunge's round-off (blendercam_Op_Cutout_Layers: 2e-15 µm)
-        // has no direction; a nanometre and a half has one.
+        // has no direction; a nanometre and a half has one where the step
+        // moves in XY.
         assert_eq!(loop_direction(1.2e-15, -1.5e-15, [0.0, 0.0]), [0.0, 0.0]);
         assert_eq!(
-            loop_direction(0.0, LOOP_NO_SIDE_LOAD_UM, [0.0, 0.0]),
+            loop_direction(0.0, LOOP_NO_SIDE_LOAD_UM, [1.0, 0.0]),
             [0.0, 0.0]
         );
-        assert_eq!(loop_direction(0.0, 1.5e-3, [0.0, 0.0]), [0.0, 1.0]);
+        assert_eq!(loop_direction(0.0, 1.5e-3, [1.0, 0.0]), [0.0, 1.0]);
+        // At one point (no XY motion, eq. 5.1d) up to the loop's tolerance
+        // has none: fusion_led_floor_light_holes' plunges at 0.11…0.14 µm.
+        assert_eq!(loop_direction(0.0, 0.135, [0.0, 0.0]), [0.0, 0.0]);
+        assert_eq!(
+            loop_direction(0.0, LOOP_AT_POINT_SIDE_LOAD_UM, [0.0, 0.0]),
+            [0.0, 0.0]
+        );
+        assert_eq!(loop_direction(0.0, 0.6, [0.0, 0.0]), [0.0, 1.0]);
     }
 
     /// [`Run::for_each_period`] as it was before its own removal and time

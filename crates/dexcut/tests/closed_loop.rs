@@ -291,3 +291,72 @@ fn a_sub_cell_advance_converges_over_the_grids_window() {
         "mean offset {offset} µm, closed form {expected} µm (δ₀ {delta0} µm)"
     );
 }
+
+/// The wall above (holder 0.1 N/µm, δ₀ ≈ 197 µm, d* ≈ 99 µm), then the tool
+/// lifts out of it at feed at the wall's end: 40 steps of `Z+0.05 F220` at
+/// one point, as Fusion's `Z-10.294667 F220` after a cut along a wall on
+/// fusion_led_floor_light_holes. Each lift takes the wall's direction (eq.
+/// 5.1a) and starts at the offset the step before left. Sought as a fraction
+/// of it, its only sideways cut is its own sweep from that offset, which the
+/// grid removes as whole rows of columns or none: g jumps between 0 and a
+/// row's load at a place the offsets before it move, and the loop chased it
+/// (before eq. 5.1d: 16 sweeps, 9 steps out by up to 132 µm, the lifts'
+/// deflection up to 132 µm against the wall's 99). A step at one point keeps
+/// the offset it starts at (MODEL.md §5.1, eq. 5.1d): the lifts stay at the
+/// wall's offset, cut nothing sideways, the loop converges, and the steady
+/// wall's offset and deflection are the closed form's d* within 5 µm + 2 %.
+#[test]
+fn lifts_at_the_end_of_a_wall_keep_its_offset_and_the_loop_settles() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv: String = std::iter::once("x,y,z,feed\n".to_string())
+        .chain((0..=50).map(|i| format!("{},0,20,1200\n", -10.0 + 0.5 * i as f64)))
+        .chain((1..=40).map(|k| format!("15,0,{:.2},220\n", 20.0 + 0.05 * k as f64)))
+        .collect();
+    std::fs::write(dir.path().join("wall.csv"), csv).unwrap();
+    let (a, holder) = (200.0, "0.1");
+    let open = simulate(dir.path(), holder, false);
+    let delta0 = open.run.loads[steady(&open.run)[0]].dy_um;
+    let expected = delta0 * a / (a + delta0);
+    let closed = simulate(dir.path(), holder, true);
+    let run = &closed.run;
+    eprintln!(
+        "δ₀ {delta0:.3} µm, d* {expected:.3} µm, {} sweeps, converged {}, residual {:.3} µm",
+        run.closed_loop.passes, run.closed_loop.converged, run.closed_loop.residual_um
+    );
+    assert!(run.closed_loop.converged, "{:?}", run.closed_loop);
+    // The steady wall (the lifts at x = 15 mm excepted).
+    let along_the_wall = |i: usize| run.steps[i].step.from_mm[0] != run.steps[i].step.to_mm[0];
+    for i in steady(run).into_iter().filter(|&i| along_the_wall(i)) {
+        let (dy, bent) = (run.offsets_um[i][1], run.loads[i].dy_um);
+        assert!(
+            (dy - expected).abs() <= 5.0 + 0.02 * expected,
+            "step {i} at offset {dy} µm, closed form {expected} µm (δ₀ {delta0} µm)"
+        );
+        assert!(
+            (bent - expected).abs() <= 5.0 + 0.02 * expected,
+            "step {i} deflects {bent} µm, closed form {expected} µm"
+        );
+    }
+    let at_point = |i: usize| {
+        let s = &run.steps[i].step;
+        !s.rapid && s.from_mm[..2] == s.to_mm[..2] && s.to_mm[2] > s.from_mm[2]
+    };
+    let lifts: Vec<usize> = (0..run.steps.len()).filter(|&i| at_point(i)).collect();
+    assert!(lifts.len() >= 40, "{} lifts", lifts.len());
+    let wall_end = lifts[0] - 1;
+    assert!(!at_point(wall_end));
+    let held = run.offsets_um[wall_end];
+    assert!(
+        (held[1] - expected).abs() <= 5.0 + 0.02 * expected,
+        "the wall's last step at {held:?} µm"
+    );
+    for &i in &lifts {
+        assert_eq!(run.offsets_um[i], held, "lift {i}");
+        // No sideways sweep: no more deflection than the wall's.
+        assert!(
+            run.loads[i].dy_um.abs() <= expected + 5.0 + 0.02 * expected,
+            "lift {i} deflects {} µm",
+            run.loads[i].dy_um
+        );
+    }
+}
