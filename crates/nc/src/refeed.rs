@@ -891,7 +891,7 @@ const CYCLE_MODES: [f64; 7] = [17.0, 20.0, 21.0, 90.0, 91.0, 98.0, 99.0];
 /// modal cycle from a line now written out. Every repeat of an L count and
 /// every hole of polar words (`@`, `^`, incremental too) is written as the
 /// moves it made, in X Y Z. None when a cycle line carries other words than
-/// the cycle's (G73/G81–G89, [`CYCLE_MODES`], X Y Z @ ^ R Q P L F, N), runs
+/// the cycle's (G73, G81–G83, G85, G89, [`CYCLE_MODES`], X Y Z @ ^ R Q P L F, N), stops or reverses the spindle (G74, G84, G86, G87), runs
 /// under cutter compensation or G93, or (found when the result does not read
 /// back) runs more than once.
 fn cycle_lines(
