@@ -1015,14 +1015,14 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
 /// Lower the interval caps over each excess (± `margin_mm`) to the feed it
 /// may run at, never below `feed_min`. A removal excess where the tool
 /// advances less than a grid cell per period ([`Excess::sub_cell`]) lowers
-/// the whole written block it lies in (`blocks`: per interval, the block it
-/// is written in): its removal per period varies with the column phase
+/// the whole written block it lies in (`blocks`: where the blocks begin
+/// among the intervals): its removal per period varies with the column phase
 /// along the block, and a change of timing anywhere shifts that phase, so
 /// the block's feed is what sets its peak.
 pub fn lower_caps(
     caps: &mut [(f64, CapKind)],
     s_mm: &[f64],
-    blocks: &[u32],
+    blocks: &Blocks,
     excesses: &[Excess],
     margin_mm: f64,
     feed_min: Option<f64>,
@@ -1036,12 +1036,7 @@ pub fn lower_caps(
             to += 1;
         }
         if e.sub_cell && e.kind == CapKind::Removal {
-            while from > 0 && blocks[from - 1] == blocks[from] {
-                from -= 1;
-            }
-            while to + 1 < caps.len() && blocks[to + 1] == blocks[to] {
-                to += 1;
-            }
+            (from, to) = (blocks.around(from).0, blocks.around(to).1);
         }
         for c in &mut caps[from..=to] {
             if cap < c.0 {
@@ -1051,25 +1046,59 @@ pub fn lower_caps(
     }
 }
 
-/// Per interval, the block of the written program it lies in (an index
-/// counting the refeed plan's pieces over all segments; u32, 4 B an interval:
-/// there are fewer pieces than segments, u32-indexed, and stations together).
-pub fn interval_blocks(stations: &Stations, plan: &[Vec<(f64, f64)>]) -> Vec<u32> {
-    let (seg_of, frac) = (stations.segment(), stations.fraction());
-    let mut first_piece = Vec::with_capacity(plan.len());
-    let mut n = 0;
-    for pieces in plan {
-        first_piece.push(n);
-        n += pieces.len().max(1);
+/// Where the written program's blocks begin among the intervals (station k
+/// → k + 1): each interval that lies in another block (refeed plan piece)
+/// than the interval before it, ascending. 4 B a block, not a block index an
+/// interval (4 B an interval, 12 MB for 3 M free stations, held through a
+/// round's re-feed and verification: issue 16).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Blocks {
+    starts: Vec<u32>,
+    intervals: usize,
+}
+
+impl Blocks {
+    /// The blocks of the stations' intervals under the refeed plan `plan`:
+    /// an interval lies in the piece of its end station's segment whose end
+    /// fraction is at or past the station's (the first piece if none is).
+    pub fn of(stations: &Stations, plan: &[Vec<(f64, f64)>]) -> Blocks {
+        let (seg_of, frac) = (stations.segment(), stations.fraction());
+        Blocks::where_they_change((1..stations.len()).map(|k| {
+            let seg = seg_of[k] as usize;
+            let f = frac[k];
+            (
+                seg,
+                plan[seg].iter().position(|p| p.0 >= f - 1e-9).unwrap_or(0),
+            )
+        }))
     }
-    (0..stations.len() - 1)
-        .map(|k| {
-            let seg = seg_of[k + 1] as usize;
-            let f = frac[k + 1];
-            let piece = plan[seg].iter().position(|p| p.0 >= f - 1e-9).unwrap_or(0);
-            u32::try_from(first_piece[seg] + piece).expect("fewer than 2^32 blocks")
-        })
-        .collect()
+
+    /// The blocks of intervals whose blocks are `blocks`, in order: one
+    /// begins wherever an interval's differs from the one before's.
+    fn where_they_change<T: PartialEq>(blocks: impl Iterator<Item = T>) -> Blocks {
+        let mut starts = Vec::new();
+        let mut before: Option<T> = None;
+        let mut intervals = 0;
+        for block in blocks {
+            if before.as_ref().is_some_and(|b| *b != block) {
+                starts.push(u32::try_from(intervals).expect("fewer than 2^32 intervals"));
+            }
+            before = Some(block);
+            intervals += 1;
+        }
+        Blocks { starts, intervals }
+    }
+
+    /// The first and last interval of the block interval `k` lies in.
+    pub fn around(&self, k: usize) -> (usize, usize) {
+        let next = self.starts.partition_point(|&s| s as usize <= k);
+        let first = next.checked_sub(1).map_or(0, |i| self.starts[i] as usize);
+        let last = self
+            .starts
+            .get(next)
+            .map_or(self.intervals.saturating_sub(1), |&s| s as usize - 1);
+        (first, last)
+    }
 }
 
 /// Apply to each interval the feed of the block (refeed plan piece) it lies
@@ -1284,10 +1313,10 @@ pub fn write_verified(
                 Ok::<_, crate::error::Error>(schedule::plan(stations).sample(machine.period_ms)?)
             })?),
         };
-        // What a next round needs of the refeed plan is each interval's
-        // block: kept instead of the plan (a million segments' pieces, one
+        // What a next round needs of the refeed plan is where its blocks
+        // begin among the intervals: kept instead of the plan (a million segments' pieces, one
         // `Vec` each, 40 MB), which is dropped before the sweep.
-        let blocks = interval_blocks(stations, &plan);
+        let blocks = Blocks::of(stations, &plan);
         // Nor are the caps read again before the verification's excesses
         // lower them for a next round: held as two columns meanwhile (9 B an
         // interval, not 16: 27 MB for 3 M free stations, not 48), made again
@@ -1853,6 +1882,112 @@ mod tests {
                 cap
             })
             .collect()
+    }
+
+    /// Each interval's block from where the blocks begin is the run of equal
+    /// block indices around it in the list of every interval's (walked as
+    /// [`lower_caps`] walked that list): blocks of one interval and of many,
+    /// at both ends, a block index that comes back after another.
+    #[test]
+    fn blocks_from_where_they_begin_are_the_runs_of_the_list() {
+        let lists: [&[u32]; 5] = [
+            &[0],
+            &[3, 3, 3],
+            &[0, 1, 1, 2, 2, 2, 3, 4, 4],
+            &[0, 0, 1, 0, 0, 7, 7],
+            &[5, 6, 7, 8],
+        ];
+        for list in lists {
+            let blocks = Blocks::where_they_change(list.iter());
+            assert_eq!(blocks.intervals, list.len());
+            for k in 0..list.len() {
+                let (mut from, mut to) = (k, k);
+                while from > 0 && list[from - 1] == list[from] {
+                    from -= 1;
+                }
+                while to + 1 < list.len() && list[to + 1] == list[to] {
+                    to += 1;
+                }
+                assert_eq!(blocks.around(k), (from, to), "{list:?} at {k}");
+            }
+        }
+    }
+
+    /// Per interval, the block of the written program it lies in, as
+    /// `interval_blocks` made it before the blocks were held as where they
+    /// begin (the oracle of the test below).
+    fn interval_blocks_listed(stations: &Stations, plan: &[Vec<(f64, f64)>]) -> Vec<u32> {
+        let (seg_of, frac) = (stations.segment(), stations.fraction());
+        let mut first_piece = Vec::with_capacity(plan.len());
+        let mut n = 0;
+        for pieces in plan {
+            first_piece.push(n);
+            n += pieces.len().max(1);
+        }
+        (0..stations.len() - 1)
+            .map(|k| {
+                let seg = seg_of[k + 1] as usize;
+                let f = frac[k + 1];
+                let piece = plan[seg].iter().position(|p| p.0 >= f - 1e-9).unwrap_or(0);
+                u32::try_from(first_piece[seg] + piece).unwrap()
+            })
+            .collect()
+    }
+
+    /// The blocks of a program's free stations under its refeed plans (at
+    /// the merge ratios the rounds use, and 1: one block per cap change)
+    /// are, around every interval, the runs of equal block indices of the
+    /// list every interval's block was held in before (which
+    /// [`lower_caps`] widens a sub-cell removal excess to).
+    #[test]
+    fn blocks_of_a_refeed_plan_are_those_of_the_list() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("job.toml"),
+            "[stock]\nkind = \"box\"\nmin = [0, 0, 0]\nmax = [60, 40, 20]\ngrid = 0.2\n\
+             [tool]\nkind = \"ball\"\ndiameter = 6\n\
+             [program]\npath = \"p.ngc\"\n[cutting]\nmaterial = \"al6061\"\n\
+             [machine]\nfeed_max = 3000\naccel = [1000, 1000, 1000]\n\
+             [limits]\nmrr_max = 40\nforce_max = 150\nfeed_min = 30\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.path().join("p.ngc"),
+            "G21 G90 G17\nS9000 M3\nG0 X-8 Y5 Z25\nG1 X5 Z19 F1200\nG1 X30 Y20 Z18.5\n\
+             G2 X40 Y30 I10 J0 F900\nG0 Z25\nG0 X10 Y30\nG1 Z17 F300\nG1 X50 Y32 F1500\n\
+             G1 X52 F1500\nG1 X12 Y10 Z18.8 F1000\nG0 Z25\nM2\n",
+        )
+        .unwrap();
+        let setup = Setup::load(&dir.path().join("job.toml"), None).unwrap();
+        let limits = &setup.job.limits;
+        let machine = optimising_machine(&setup.machine, limits);
+        let stations = free_stations(&setup.program.path, &machine).unwrap();
+        let caps = engagement_caps_on(
+            &stations,
+            &setup.stock_source(),
+            &setup.tools,
+            limits,
+            SurfaceFrom::Nothing,
+        )
+        .unwrap();
+        for merge_ratio in [1.0, MERGE_RATIO_MIN, MERGE_RATIO] {
+            let plan = refeed_plan(&stations, &caps, &machine, merge_ratio);
+            let list = interval_blocks_listed(&stations, &plan);
+            let blocks = Blocks::of(&stations, &plan);
+            assert_eq!(blocks.intervals, list.len());
+            // Blocks of one interval and of many: the plan splits segments.
+            assert!(blocks.starts.len() > plan.iter().filter(|p| !p.is_empty()).count());
+            for k in 0..list.len() {
+                let (mut from, mut to) = (k, k);
+                while from > 0 && list[from - 1] == list[from] {
+                    from -= 1;
+                }
+                while to + 1 < list.len() && list[to + 1] == list[to] {
+                    to += 1;
+                }
+                assert_eq!(blocks.around(k), (from, to), "ratio {merge_ratio} at {k}");
+            }
+        }
     }
 
     /// Areas made as the volumes come equal those of whole lists, bit for
