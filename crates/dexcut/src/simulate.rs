@@ -311,29 +311,26 @@ pub(crate) fn sweep_setup(
     Ok((tool_of_step, options))
 }
 
-/// The steps with the tool moved sideways by `offsets_mm` (per step, at its end; a
-/// step that continues the previous one starts at the previous offset, so the
-/// offset path stays continuous).
-fn offset_steps(steps: &[TimedStep], offsets_mm: &[[f64; 2]]) -> Vec<dexel::Step> {
-    steps
-        .iter()
-        .enumerate()
-        .map(|(i, s)| {
-            let o = offsets_mm[i];
-            let start = if i > 0 && steps[i - 1].step.to_mm == s.step.from_mm {
-                offsets_mm[i - 1]
-            } else {
-                o
-            };
-            let [fx, fy, fz] = s.step.from_mm;
-            let [tx, ty, tz] = s.step.to_mm;
-            dexel::Step {
-                from_mm: [fx + start[0], fy + start[1], fz],
-                to_mm: [tx + o[0], ty + o[1], tz],
-                rapid: s.step.rapid,
-            }
-        })
-        .collect()
+/// Step `i` of `steps` with the tool moved sideways by `offsets_mm` (per
+/// step, at its end; a step that continues the previous one starts at the
+/// previous offset, so the offset path stays continuous). Made where a sweep
+/// asks for it (`dexel::StepFn`): the closed loop's passes hold no list of
+/// the moved steps (56 B a step, issue 16).
+fn offset_step(steps: &[TimedStep], offsets_mm: &[[f64; 2]], i: usize) -> dexel::Step {
+    let s = &steps[i];
+    let o = offsets_mm[i];
+    let start = if i > 0 && steps[i - 1].step.to_mm == s.step.from_mm {
+        offsets_mm[i - 1]
+    } else {
+        o
+    };
+    let [fx, fy, fz] = s.step.from_mm;
+    let [tx, ty, tz] = s.step.to_mm;
+    dexel::Step {
+        from_mm: [fx + start[0], fy + start[1], fz],
+        to_mm: [tx + o[0], ty + o[1], tz],
+        rapid: s.step.rapid,
+    }
 }
 
 /// The tool's offset per step, µm: `magnitude · direction` for feed steps; a
@@ -1085,13 +1082,13 @@ pub fn run_on(
             drop(std::mem::take(&mut record));
             // (Made again after the sweep.)
             report.unconverged = Vec::new();
-            let shifted = {
-                let offsets_mm: Vec<[f64; 2]> = applied_offsets_um(&steps, &x, &dirs)
-                    .into_iter()
-                    .map(|[x, y]| [1e-3 * x, 1e-3 * y])
-                    .collect();
-                offset_steps(&steps, &offsets_mm)
-            };
+            // The offsets, mm (16 B a step); the moved steps are made from
+            // them as the sweep asks for them.
+            let offsets_mm: Vec<[f64; 2]> = applied_offsets_um(&steps, &x, &dirs)
+                .into_iter()
+                .map(|[x, y]| [1e-3 * x, 1e-3 * y])
+                .collect();
+            let shifted = dexel::StepFn::new(n, |i| offset_step(&steps, &offsets_mm, i));
             let (pass_stock, pass_record) = sweep_pass(
                 &initial,
                 spare,
@@ -1101,8 +1098,8 @@ pub fn run_on(
                 &options,
                 label,
             )?;
-            // (The moves swept are not needed after the sweep.)
-            drop(shifted);
+            // (The offsets swept are not needed after the sweep.)
+            drop(offsets_mm);
             (final_stock, record) = (pass_stock, pass_record);
             report.passes += 1;
             // g: the deflection the removal at the trial offset causes, across
@@ -1446,7 +1443,9 @@ pub fn write_tiled_columns(
             .iter()
             .map(|&[x, y]| [1e-3 * x, 1e-3 * y])
             .collect();
-        offset_steps(&run.steps, &offsets_mm)
+        (0..run.steps.len())
+            .map(|i| offset_step(&run.steps, &offsets_mm, i))
+            .collect()
     } else {
         run.steps.iter().map(|s| s.step).collect()
     };
