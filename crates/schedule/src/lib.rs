@@ -19,6 +19,7 @@ mod machine;
 mod plan;
 mod range_min;
 mod rules;
+mod slp;
 mod stations;
 
 pub use bound::{lower_bound_time_s, rest_to_rest_time_s};
