@@ -348,10 +348,9 @@ enum Shape {
     /// As `Exact`, with the dips widened over the envelope they can follow (MODEL.md §6.1,
     /// "Dips that follow the envelope").
     Following,
-    /// Shaped by sequential linear programs and followed by constant accelerations between
-    /// stations, without a filter ([`slp::shape`]; MODEL.md §6.1, "Sections by linear
-    /// programs"): at the first of [`EXACT_SHARES`], and at the next ones where its
-    /// samples do not verify.
+    /// Shaped by sequential linear programs and followed exactly, without a filter
+    /// ([`slp::shape`], [`slp::Piece`]; MODEL.md §6.1, "Sections by linear programs"): at
+    /// the first of [`EXACT_SHARES`], and at the next ones where its samples do not verify.
     Programmed,
 }
 

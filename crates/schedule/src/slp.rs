@@ -33,7 +33,7 @@ pub(crate) struct Limits<'a> {
 }
 
 /// Linear programs solved per section shaped.
-pub(crate) const ITERATIONS: usize = 8;
+const ITERATIONS: usize = 8;
 /// The programs stop once an iterate that keeps the limits changes the best time by at
 /// most this share.
 const CONVERGED: f64 = 1e-4;
