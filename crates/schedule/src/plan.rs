@@ -1204,7 +1204,7 @@ impl<'a> RunPlanner<'a> {
                     } else {
                         1
                     };
-                    for share in 0..shares {
+                    for (share, &sigma) in EXACT_SHARES.iter().enumerate().take(shares) {
                         gaps.clear();
                         match shape {
                             Shape::Filtered => {
@@ -1241,7 +1241,7 @@ impl<'a> RunPlanner<'a> {
                                         .plan_programmed(
                                             (a, b),
                                             ends,
-                                            EXACT_SHARES[share],
+                                            sigma,
                                             (&mut programmed, &mut programmed_accel),
                                         )
                                         .is_some_and(|d| d <= next_s);
