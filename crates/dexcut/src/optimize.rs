@@ -1888,6 +1888,19 @@ mod tests {
     /// block indices around it in the list of every interval's (walked as
     /// [`lower_caps`] walked that list): blocks of one interval and of many,
     /// at both ends, a block index that comes back after another.
+    /// The first and last index of the run of equal entries of `list` that
+    /// holds index `k`: the oracle of [`Blocks::around`].
+    fn run_around<T: PartialEq>(list: &[T], k: usize) -> (usize, usize) {
+        let (mut from, mut to) = (k, k);
+        while from > 0 && list[from - 1] == list[from] {
+            from -= 1;
+        }
+        while to + 1 < list.len() && list[to + 1] == list[to] {
+            to += 1;
+        }
+        (from, to)
+    }
+
     #[test]
     fn blocks_from_where_they_begin_are_the_runs_of_the_list() {
         let lists: [&[u32]; 5] = [
@@ -1901,14 +1914,7 @@ mod tests {
             let blocks = Blocks::where_they_change(list.iter());
             assert_eq!(blocks.intervals, list.len());
             for k in 0..list.len() {
-                let (mut from, mut to) = (k, k);
-                while from > 0 && list[from - 1] == list[from] {
-                    from -= 1;
-                }
-                while to + 1 < list.len() && list[to + 1] == list[to] {
-                    to += 1;
-                }
-                assert_eq!(blocks.around(k), (from, to), "{list:?} at {k}");
+                assert_eq!(blocks.around(k), run_around(list, k), "{list:?} at {k}");
             }
         }
     }
@@ -1978,14 +1984,11 @@ mod tests {
             // Blocks of one interval and of many: the plan splits segments.
             assert!(blocks.starts.len() > plan.iter().filter(|p| !p.is_empty()).count());
             for k in 0..list.len() {
-                let (mut from, mut to) = (k, k);
-                while from > 0 && list[from - 1] == list[from] {
-                    from -= 1;
-                }
-                while to + 1 < list.len() && list[to + 1] == list[to] {
-                    to += 1;
-                }
-                assert_eq!(blocks.around(k), (from, to), "ratio {merge_ratio} at {k}");
+                assert_eq!(
+                    blocks.around(k),
+                    run_around(&list, k),
+                    "ratio {merge_ratio} at {k}"
+                );
             }
         }
     }
