@@ -2730,6 +2730,26 @@ mod tests {
         }
     }
 
+    /// [`forty_mm_line_with_jerk`] with its caps falling as 3 + 31.25·|x − 20| mm/s over
+    /// 16..24 mm (a sharp corner's cap ramp, k ≈ 1/(2T)), and those caps in mm/min.
+    fn forty_mm_line_with_a_cap_ramp() -> (Machine, Stations, Vec<f64>) {
+        let (machine, mut st) = forty_mm_line_with_jerk();
+        let (c0, k) = (3.0, 31.25);
+        let caps: Vec<f64> = st
+            .s_mm()
+            .iter()
+            .map(|&x| {
+                if (16.0..=24.0).contains(&x) {
+                    (60.0 * (c0 + k * (x - 20.0).abs())).min(3000.0)
+                } else {
+                    3000.0
+                }
+            })
+            .collect();
+        st.apply_caps(&caps, CapKind::Removal).unwrap();
+        (machine, st, caps)
+    }
+
     /// The stations (0.05 mm apart) of a 40 mm line along X at F3000 on the
     /// default machine with a jerk limit of 20 000 mm/s³ per axis, and that
     /// machine: the sections' tests' setup.
@@ -2880,20 +2900,7 @@ mod tests {
     /// between stations, so their jerk is kept at the period, not at every instant).
     #[test]
     fn a_cap_ramp_is_followed_within_the_caps_at_every_sample() {
-        let (machine, mut st) = forty_mm_line_with_jerk();
-        let (c0, k) = (3.0, 31.25);
-        let caps: Vec<f64> = st
-            .s_mm()
-            .iter()
-            .map(|&x| {
-                if (16.0..=24.0).contains(&x) {
-                    (60.0 * (c0 + k * (x - 20.0).abs())).min(3000.0)
-                } else {
-                    3000.0
-                }
-            })
-            .collect();
-        st.apply_caps(&caps, CapKind::Removal).unwrap();
+        let (machine, st, caps) = forty_mm_line_with_a_cap_ramp();
         let (first, last) = (320, 480);
         let ends = (50.0, 50.0);
         let planner = RunPlanner::new(&st);
@@ -3068,20 +3075,7 @@ mod tests {
         assert!(time_s <= expected * 1.03 && time_s >= expected);
         assert!(exact_s >= expected);
         // The cap ramp.
-        let (machine, mut st) = forty_mm_line_with_jerk();
-        let (c0, k) = (3.0, 31.25);
-        let caps: Vec<f64> = st
-            .s_mm()
-            .iter()
-            .map(|&x| {
-                if (16.0..=24.0).contains(&x) {
-                    (60.0 * (c0 + k * (x - 20.0).abs())).min(3000.0)
-                } else {
-                    3000.0
-                }
-            })
-            .collect();
-        st.apply_caps(&caps, CapKind::Removal).unwrap();
+        let (machine, st, caps) = forty_mm_line_with_a_cap_ramp();
         let ends = (50.0, 50.0);
         let planner = RunPlanner::new(&st);
         let s = &st.s_mm()[first..=last];
