@@ -2731,8 +2731,8 @@ mod tests {
     }
 
     /// [`forty_mm_line_with_jerk`] with its caps falling as 3 + 31.25·|x − 20| mm/s over
-    /// 16..24 mm (a sharp corner's cap ramp, k ≈ 1/(2T)), and those caps in mm/min.
-    fn forty_mm_line_with_a_cap_ramp() -> (Machine, Stations, Vec<f64>) {
+    /// 16..24 mm (a sharp corner's cap ramp, k ≈ 1/(2T)).
+    fn forty_mm_line_with_a_cap_ramp() -> (Machine, Stations) {
         let (machine, mut st) = forty_mm_line_with_jerk();
         let (c0, k) = (3.0, 31.25);
         let caps: Vec<f64> = st
@@ -2747,7 +2747,7 @@ mod tests {
             })
             .collect();
         st.apply_caps(&caps, CapKind::Removal).unwrap();
-        (machine, st, caps)
+        (machine, st)
     }
 
     /// The stations (0.05 mm apart) of a 40 mm line along X at F3000 on the
@@ -2900,7 +2900,7 @@ mod tests {
     /// between stations, so their jerk is kept at the period, not at every instant).
     #[test]
     fn a_cap_ramp_is_followed_within_the_caps_at_every_sample() {
-        let (machine, st, caps) = forty_mm_line_with_a_cap_ramp();
+        let (machine, st) = forty_mm_line_with_a_cap_ramp();
         let (first, last) = (320, 480);
         let ends = (50.0, 50.0);
         let planner = RunPlanner::new(&st);
@@ -3075,7 +3075,7 @@ mod tests {
         assert!(time_s <= expected * 1.03 && time_s >= expected);
         assert!(exact_s >= expected);
         // The cap ramp.
-        let (machine, st, caps) = forty_mm_line_with_a_cap_ramp();
+        let (machine, st) = forty_mm_line_with_a_cap_ramp();
         let ends = (50.0, 50.0);
         let planner = RunPlanner::new(&st);
         let s = &st.s_mm()[first..=last];
