@@ -1138,63 +1138,58 @@ pub fn run_on(
             // to ± |ḡ|·grid/path: the window's removal counts the rows of
             // columns whose centres its path crosses, ± one row of the path/grid
             // rows it covers (MODEL.md §5.1).
-            // (Sums made only where a step has such a window.)
-            let sums = if sub_cells.is_empty() { 0 } else { n + 1 };
-            let mut sum_r = vec![0.0; sums];
-            let mut sum_x = vec![0.0; sums];
-            let mut sum_g = vec![0.0; sums];
-            let mut sum_w = vec![0.0; sums];
-            let mut path = vec![0.0; sums];
-            for i in 0..sums.saturating_sub(1) {
-                let w = if in_loop[i] && !inherited[i] {
-                    advance_mm[i]
+            // (Sums made only where a step has such a window, in one pass over
+            // the steps in order, holding only the running sums from the
+            // window last read to the furthest end reached, not a prefix sum
+            // of every step: issue 16.)
+            let mut window_sums = WindowSums::new(|j: usize| {
+                let w = if in_loop[j] && !inherited[j] {
+                    advance_mm[j]
                 } else {
                     0.0
                 };
-                sum_r[i + 1] = sum_r[i] + w * (g[i] - x[i]);
-                sum_x[i + 1] = sum_x[i] + w * x[i];
-                sum_g[i + 1] = sum_g[i] + w * g[i];
-                sum_w[i + 1] = sum_w[i] + w;
-                path[i + 1] = path[i] + advance_mm[i];
-            }
+                residual_terms(w, g[j], x[j], advance_mm[j])
+            });
+            let mut windows = sub_cells.iter().peekable();
             let within = |r: f64, x: f64| r <= LOOP_TOL_UM + LOOP_REL_TOL * x;
             // A step's residual and the offset its tolerance scales with: |g −
             // x|, or where its bracket has closed around a jump of g, the
             // bracket's width (how far x is from the root); a sub-cell step out
             // of tolerance so but within it over its window, the window's.
-            let residual = |i: usize| -> (f64, f64) {
+            // (Asked in step order, so their windows' starts do not decrease:
+            // `sub_cell_windows`.)
+            let mut residual = |i: usize| -> (f64, f64) {
+                let window = windows.next_if(|&&(j, _)| j <= i).map(|&(j, w)| {
+                    debug_assert_eq!(j, i, "every sub-cell step is a step of the loop");
+                    w
+                });
                 if at_point(i) || (inherited[i] && fractions[at(i)].held()) {
                     return (0.0, x[i].abs());
                 }
                 let r = (g[i] - x[i]).abs();
                 let own = closed(i).map_or(r, |width| r.min(width));
-                let window = sub_cells
-                    .binary_search_by_key(&i, |&(j, _)| j)
-                    .map(|k| sub_cells[k].1);
-                if let Ok((a, b)) = window {
-                    let w = sum_w[b + 1] - sum_w[a];
-                    if w > 0.0 && !within(own, x[i].abs()) {
-                        let resolution = ((sum_g[b + 1] - sum_g[a]) / w).abs() * grid_mm
-                            / (path[b + 1] - path[a]);
-                        let rw = (((sum_r[b + 1] - sum_r[a]) / w).abs() - resolution).max(0.0);
-                        let xw = ((sum_x[b + 1] - sum_x[a]) / w).abs();
-                        if within(rw, xw) {
-                            return (rw, xw);
+                if let Some((a, b)) = window {
+                    if !within(own, x[i].abs()) {
+                        if let Some((rw, xw)) = window_residual(window_sums.over(a, b), grid_mm) {
+                            if within(rw, xw) {
+                                return (rw, xw);
+                            }
                         }
                     }
                 }
                 (own, x[i].abs())
             };
-            report.unconverged = (0..n)
-                .filter(|&i| in_loop[i])
-                .map(|i| (i, residual(i)))
-                .filter(|&(_, (r, xr))| !within(r, xr))
-                .map(|(i, (r, _))| (i, r))
-                .collect();
-            report.residual_um = (0..n)
-                .filter(|&i| in_loop[i])
-                .map(|i| residual(i).0)
-                .fold(0.0, f64::max);
+            // Both from one pass in step order (the same fold).
+            let mut unconverged = Vec::new();
+            let mut residual_um = 0.0;
+            for i in (0..n).filter(|&i| in_loop[i]) {
+                let (r, xr) = residual(i);
+                if !within(r, xr) {
+                    unconverged.push((i, r));
+                }
+                residual_um = f64::max(residual_um, r);
+            }
+            (report.unconverged, report.residual_um) = (unconverged, residual_um);
             report.converged = report.unconverged.is_empty();
             out_counts.push(report.unconverged.len());
             residuals.push(report.residual_um);
@@ -1392,6 +1387,9 @@ fn sub_cell_windows(
             adv[b + 1] - adv[a] >= window_mm
         };
         // Smallest half-width that covers the window (or the whole run).
+        // (So the windows these items are given start in order: a later
+        // item q of the run is covered at p's half-width k plus q − p, a
+        // window that holds p's, and one of a later run starts past p's.)
         let k_max = (p - run_start).max(run_end - p);
         let (mut lo, mut hi) = (0, k_max);
         while lo < hi {
@@ -1404,6 +1402,83 @@ fn sub_cell_windows(
         }
         each(p, window(lo));
     }
+}
+
+/// Sums of a sequence's terms over windows of it, each the difference of two
+/// running sums from the first term, `prefix[b + 1] − prefix[a]` a component:
+/// the same numbers as from prefix sums held whole, made in one pass over the
+/// terms in order that holds only the running sums from the start of the
+/// window last asked for to the furthest end reached (issue 16: the closed
+/// loop's windows of sub-cell steps span a few steps of a million). Windows
+/// are asked for in order of their starts; one that starts before the window
+/// before sums again from the first term (the same numbers, at that cost).
+struct WindowSums<const K: usize, T: Fn(usize) -> [f64; K]> {
+    /// Term `j` of the sequence.
+    term: T,
+    /// The index of `held[0]` among the running sums (running sum `j`: the
+    /// terms before `j`).
+    first: usize,
+    /// Running sums `first..first + held.len()`, never empty.
+    held: std::collections::VecDeque<[f64; K]>,
+}
+
+impl<const K: usize, T: Fn(usize) -> [f64; K]> WindowSums<K, T> {
+    /// Before any term is summed.
+    fn new(term: T) -> Self {
+        WindowSums {
+            term,
+            first: 0,
+            held: std::collections::VecDeque::from([[0.0; K]]),
+        }
+    }
+
+    /// The sums of terms `a..=b`.
+    fn over(&mut self, a: usize, b: usize) -> [f64; K] {
+        if a < self.first {
+            self.first = 0;
+            self.held.clear();
+            self.held.push_back([0.0; K]);
+        }
+        loop {
+            // Running sums before `a` are read no more (the last one made is
+            // kept: the next is made from it).
+            while self.first < a && self.held.len() > 1 {
+                self.held.pop_front();
+                self.first += 1;
+            }
+            let last = self.first + self.held.len() - 1;
+            if last > b {
+                break;
+            }
+            let sum = *self.held.back().expect("never empty");
+            let term = (self.term)(last);
+            self.held
+                .push_back(std::array::from_fn(|c| sum[c] + term[c]));
+        }
+        let (lo, hi) = (self.held[a - self.first], self.held[b + 1 - self.first]);
+        std::array::from_fn(|c| hi[c] - lo[c])
+    }
+}
+
+/// A step's terms of the closed loop's window sums (`WindowSums`): its
+/// weight `w` (its advance where the loop seeks its offset, else 0) times
+/// its residual g − x, its offset x and g; `w`; and its advance.
+fn residual_terms(w: f64, g: f64, x: f64, advance_mm: f64) -> [f64; 5] {
+    [w * (g - x), w * x, w * g, w, advance_mm]
+}
+
+/// A sub-cell step's window's path-weighted mean residual |r̄| less the
+/// grid's resolution of it, |ḡ|·grid/path, and mean offset |x̄| (MODEL.md
+/// §5.1), from the window's sums of `residual_terms`; `None` where no step
+/// of the window is weighed.
+fn window_residual(sums: [f64; 5], grid_mm: f64) -> Option<(f64, f64)> {
+    let [sum_r, sum_x, sum_g, w, path] = sums;
+    (w > 0.0).then(|| {
+        let resolution = (sum_g / w).abs() * grid_mm / path;
+        let rw = ((sum_r / w).abs() - resolution).max(0.0);
+        let xw = (sum_x / w).abs();
+        (rw, xw)
+    })
 }
 
 /// `range` widened to the finite values of `error_um` (a map's least and
@@ -2925,7 +3000,119 @@ mod tests {
                 },
             );
             assert_eq!(given, listed, "{n} items");
+            let searched = (0..n).filter(|&p| member[p] && advance[p] < 1.0);
+            let starts: Vec<usize> = searched.map(|p| given[p].0).collect();
+            assert!(
+                starts.windows(2).all(|s| s[0] <= s[1]),
+                "the windows of items under a cell start in order"
+            );
             assert!(n < 64 || given.iter().enumerate().any(|(p, &w)| w != (p, p)));
+        }
+    }
+
+    /// The closed loop's windowed residuals from `WindowSums` (one pass over
+    /// the steps, holding the running sums between the window last read and
+    /// the furthest end reached) are those of the whole prefix sums it
+    /// replaced, kept here as the oracle, bit for bit: sub-cell windows that
+    /// overlap (6 cells of path around steps of under a cell), steps the loop
+    /// does not weigh, runs cut short; and windows asked for out of order
+    /// sum again from the first step, to the same bits.
+    #[test]
+    fn window_sums_are_the_whole_prefix_sums_differences() {
+        let mut state = 4_242u64;
+        let mut next = move |m: u64| {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            (state >> 33) % m
+        };
+        let grid_mm = 0.1;
+        for n in [1, 2, 40, 3000] {
+            let advance_mm: Vec<f64> = (0..n)
+                .map(|_| match next(6) {
+                    0 => 0.0,
+                    1 => 0.15,
+                    _ => (1 + next(99)) as f64 * 1e-3,
+                })
+                .collect();
+            let in_loop: Vec<bool> = (0..n).map(|_| next(12) != 0).collect();
+            let inherited: Vec<bool> = (0..n).map(|_| next(9) == 0).collect();
+            let g: Vec<f64> = (0..n).map(|_| next(20_000) as f64 * 1e-3 - 4.0).collect();
+            let x: Vec<f64> = (0..n).map(|_| next(15_000) as f64 * 1e-3).collect();
+            let joins: Vec<bool> = (0..n).map(|_| next(50) != 0).collect();
+            let mut windows = Vec::new();
+            sub_cell_windows(
+                |p| advance_mm[p],
+                &in_loop,
+                |p| joins[p],
+                grid_mm,
+                SUB_CELL_WINDOW_CELLS * grid_mm,
+                |p, w| {
+                    if in_loop[p] && !inherited[p] && advance_mm[p] < grid_mm && w != (p, p) {
+                        windows.push(w);
+                    }
+                },
+            );
+            assert!(
+                n < 3000 || windows.windows(2).filter(|w| w[1].0 <= w[0].1).count() > 1000,
+                "windows that overlap"
+            );
+            // The oracle: the loop's prefix sums and residuals before issue 16.
+            let mut sum_r = vec![0.0; n + 1];
+            let mut sum_x = vec![0.0; n + 1];
+            let mut sum_g = vec![0.0; n + 1];
+            let mut sum_w = vec![0.0; n + 1];
+            let mut path = vec![0.0; n + 1];
+            for i in 0..n {
+                let w = if in_loop[i] && !inherited[i] {
+                    advance_mm[i]
+                } else {
+                    0.0
+                };
+                sum_r[i + 1] = sum_r[i] + w * (g[i] - x[i]);
+                sum_x[i + 1] = sum_x[i] + w * x[i];
+                sum_g[i + 1] = sum_g[i] + w * g[i];
+                sum_w[i + 1] = sum_w[i] + w;
+                path[i + 1] = path[i] + advance_mm[i];
+            }
+            let oracle = |(a, b): (usize, usize)| {
+                let w = sum_w[b + 1] - sum_w[a];
+                (w > 0.0).then(|| {
+                    let resolution =
+                        ((sum_g[b + 1] - sum_g[a]) / w).abs() * grid_mm / (path[b + 1] - path[a]);
+                    let rw = (((sum_r[b + 1] - sum_r[a]) / w).abs() - resolution).max(0.0);
+                    let xw = ((sum_x[b + 1] - sum_x[a]) / w).abs();
+                    (rw, xw)
+                })
+            };
+            let bits = |v: Option<(f64, f64)>| v.map(|(r, x)| (r.to_bits(), x.to_bits()));
+            let term = |j: usize| {
+                let w = if in_loop[j] && !inherited[j] {
+                    advance_mm[j]
+                } else {
+                    0.0
+                };
+                residual_terms(w, g[j], x[j], advance_mm[j])
+            };
+            let mut sums = WindowSums::new(term);
+            let mut furthest = 0;
+            for &(a, b) in &windows {
+                let got = window_residual(sums.over(a, b), grid_mm);
+                assert_eq!(bits(got), bits(oracle((a, b))), "window {a}..={b} of {n}");
+                furthest = furthest.max(b + 1);
+                assert_eq!(sums.first, a, "nothing before the window held");
+                assert_eq!(
+                    sums.held.len(),
+                    furthest + 1 - a,
+                    "nor past the furthest end"
+                );
+            }
+            // Out of order: from the last window back.
+            let mut sums = WindowSums::new(term);
+            for &(a, b) in windows.iter().rev() {
+                let got = window_residual(sums.over(a, b), grid_mm);
+                assert_eq!(bits(got), bits(oracle((a, b))), "window {a}..={b} of {n}");
+            }
         }
     }
 
