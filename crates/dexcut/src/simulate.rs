@@ -411,11 +411,14 @@ impl Bound {
 /// a bracket closed around a bound measured more than two sweeps before
 /// drops that bound.
 ///
-/// One a step of the loop: 96 B (sweeps as u32, the offset's cap, the
-/// tool's radius, passed in rather than held: issue 16).
+/// One a step of the loop: 80 B (sweeps as u8, at most
+/// [`LOOP_MAX_PASSES`]; the relaxed update's sign beside them, not padded in
+/// a [`Relaxed`]; the offset's cap, the tool's radius, passed in rather than
+/// held: issue 16).
 #[derive(Clone, Copy, Debug)]
 struct Bracketed {
-    relaxed: Relaxed,
+    /// The relaxed update's factor ω ([`Relaxed`], its sign `negative`).
+    omega: f64,
     lo: Bound,
     hi: Bound,
     /// Residuals false position weighs the measured bounds with (Illinois: a
@@ -428,14 +431,22 @@ struct Bracketed {
     /// (`first`).
     rigid_g: f64,
     /// Sweeps that gave the bounds.
-    lo_pass: u32,
-    hi_pass: u32,
+    lo_pass: u8,
+    hi_pass: u8,
     /// Sweeps since the bracket last halved.
-    since_halved: u32,
+    since_halved: u8,
     /// The bound the last trial replaced: −1 lower, 1 upper, 0 none.
     replaced: i8,
     /// No update taken yet: `rigid_g` is the rigid sweep's.
     first: bool,
+    /// The relaxed update's last residual was negative ([`Relaxed`]).
+    negative: bool,
+}
+
+/// A sweep of the closed loop as [`Bracketed`] holds it.
+fn pass_u8(pass: usize) -> u8 {
+    const _: () = assert!(LOOP_MAX_PASSES <= u8::MAX as usize);
+    u8::try_from(pass).expect("at most LOOP_MAX_PASSES sweeps")
 }
 
 impl Bracketed {
@@ -445,7 +456,7 @@ impl Bracketed {
     fn new(rigid: f64, cap: f64) -> Bracketed {
         let hi = cap;
         Bracketed {
-            relaxed: Relaxed::START,
+            omega: Relaxed::START.omega,
             lo: Bound { at: 0.0, r: rigid },
             hi: Bound {
                 at: hi,
@@ -460,13 +471,14 @@ impl Bracketed {
             since_halved: 0,
             replaced: 0,
             first: true,
+            negative: Relaxed::START.negative,
         }
     }
 
     /// Record the residual `r` = g − x of the trial `x` measured by sweep
     /// `pass` (offsets within ± `cap`, as in [`Bracketed::new`]).
     fn observe(&mut self, x: f64, r: f64, pass: usize, cap: f64) {
-        let pass = pass as u32;
+        let pass = pass_u8(pass);
         if r >= 0.0 {
             if x >= self.hi.at {
                 // The upper bound no longer holds (the steps before moved):
@@ -536,7 +548,7 @@ impl Bracketed {
     /// of each other: the root lies between them, at a jump of g if the
     /// residual there is larger.
     fn closed(&self, pass: usize) -> bool {
-        let pass = pass as u32;
+        let pass = pass_u8(pass);
         let tol = LOOP_TOL_UM + LOOP_REL_TOL * self.lo.at.abs().max(self.hi.at.abs());
         self.lo.measured()
             && self.hi.measured()
@@ -560,7 +572,12 @@ impl Bracketed {
     /// at the first update, take the secant's root where the slope of g is
     /// in [`LOOP_SECANT_SLOPES`] (the loop allows it where every step's is).
     fn next(&mut self, x: f64, g: f64, secant: bool) -> f64 {
-        let relaxed = self.relaxed.next(x, g);
+        let mut update = Relaxed {
+            omega: self.omega,
+            negative: self.negative,
+        };
+        let relaxed = update.next(x, g);
+        (self.omega, self.negative) = (update.omega, update.negative);
         let p = match self.first_slope(x, g) {
             Some(s) if secant && LOOP_SECANT_SLOPES.contains(&s) => {
                 x + (g - x) / (1.0 - s.min(0.0))
@@ -999,8 +1016,11 @@ pub fn run_on(
         // it, such as cuts by the tool's bottom alone, weigh nothing below).
         let feed: Vec<bool> = steps.iter().map(|s| !s.step.rapid).collect();
         // The steps of the loop that advance less than a grid cell, in order,
-        // with their windows (not a window a step: issue 16).
-        let mut sub_cells: Vec<(usize, (usize, usize))> = Vec::new();
+        // with their windows' first and last steps (not a window a step, and
+        // as u32, 12 B each, where usize took 24: issue 16; a run's steps are
+        // counted in u32, as the stock's last cuts are).
+        let index = |i: usize| u32::try_from(i).expect("a run's steps counted in u32");
+        let mut sub_cells: Vec<[u32; 3]> = Vec::new();
         sub_cell_windows(
             |p| advance_mm[p],
             &feed,
@@ -1012,7 +1032,7 @@ pub fn run_on(
             SUB_CELL_WINDOW_CELLS * grid_mm,
             |i, window| {
                 if in_loop[i] && !inherited[i] && advance_mm[i] < grid_mm && window != (i, i) {
-                    sub_cells.push((i, window));
+                    sub_cells.push([index(i), index(window.0), index(window.1)]);
                 }
             },
         );
@@ -1159,10 +1179,15 @@ pub fn run_on(
             // (Asked in step order, so their windows' starts do not decrease:
             // `sub_cell_windows`.)
             let mut residual = |i: usize| -> (f64, f64) {
-                let window = windows.next_if(|&&(j, _)| j <= i).map(|&(j, w)| {
-                    debug_assert_eq!(j, i, "every sub-cell step is a step of the loop");
-                    w
-                });
+                let window = windows
+                    .next_if(|&&[j, _, _]| j as usize <= i)
+                    .map(|&[j, a, b]| {
+                        debug_assert_eq!(
+                            j as usize, i,
+                            "every sub-cell step is a step of the loop"
+                        );
+                        (a as usize, b as usize)
+                    });
                 if at_point(i) || (inherited[i] && fractions[at(i)].held()) {
                     return (0.0, x[i].abs());
                 }
@@ -3151,6 +3176,12 @@ mod tests {
         );
         assert_eq!(w[9], (9, 9), "not a member");
         assert_eq!(w[10], (10, 10), "a run of one");
+    }
+
+    /// A step's search of the closed loop, one a step: 80 B (issue 16).
+    #[test]
+    fn a_steps_search_takes_80_bytes() {
+        assert_eq!(std::mem::size_of::<Bracketed>(), 80);
     }
 
     #[test]
