@@ -1,6 +1,7 @@
 //! Time-optimal speed profile along the stations, and servo sampling of it.
 
 use nalgebra::{Point3, Vector3};
+use rayon::prelude::*;
 
 use crate::direct;
 use crate::machine::ScheduleError;
@@ -250,9 +251,17 @@ const FILTER_NEEDS_JERK: &str = "a jerk filter needs a jerk limit";
 /// one repaired (filter widened, or caps lowered around the failing stencils), then
 /// slowed in time until it verifies.
 pub fn plan(stations: &Stations) -> Profile<'_> {
+    plan_ahead(stations, AHEAD_STATIONS)
+}
+
+/// [`plan`], with the values of a run's sections made ahead, in parallel, up to about
+/// `ahead_stations` stations at a time (0: one section at a time, where it is reached;
+/// the profile is the same bit for bit).
+fn plan_ahead(stations: &Stations, ahead_stations: usize) -> Profile<'_> {
     let base_window_s = base_window_s(stations);
     let stops = stations.stops();
     let mut planner = RunPlanner::new(stations);
+    planner.ahead_stations = ahead_stations;
     let mut profile = Profile::empty(stations);
     let mut candidates = Vec::new();
     for pair in stops.windows(2) {
@@ -407,6 +416,34 @@ const SECTION_MERGES: usize = 8;
 /// planned end and window before it, the rank of its value among its values, its last cut.
 type KeptSection = (usize, Option<(f64, f64)>, usize, usize);
 
+/// A section's values before any is verified ([`RunPlanner::section_values`]): a function
+/// of its stations, their caps and the speeds at its ends alone, so the sections of a run
+/// can be made in parallel ([`RunPlanner::sectioned`]).
+#[derive(Default)]
+struct SectionValues {
+    /// (time, λ or σ, W, how it is shaped), quickest first.
+    timed: Vec<(f64, f64, f64, Shape)>,
+    /// The linear programs' first iterate: the quickest exact value's speeds, else the
+    /// floor's passes (empty where `timed` holds no value shaped by them).
+    seed: Vec<f64>,
+    /// The speeds and accelerations shaped by linear programs at the first of
+    /// [`EXACT_SHARES`] (empty where `timed` holds no value shaped by them).
+    programmed: (Vec<f64>, Vec<f64>),
+}
+
+/// Buffers [`RunPlanner::section_values`] plans into: one speed a station of the section,
+/// and the gaps of a section followed exactly.
+#[derive(Default)]
+struct SectionScratch {
+    trial: Vec<f64>,
+    gaps: Vec<direct::Gap>,
+}
+
+/// [`RunPlanner::sectioned`] makes the values of the sections after the one it reaches
+/// ahead, in parallel, up to about this many stations at a time (the memory the values
+/// ahead hold: their speeds shaped by linear programs, 24 B a station at most).
+const AHEAD_STATIONS: usize = 1 << 15;
+
 /// A section that verifies at none of its values (after its merges) has the section
 /// before it planned again at its next value that verifies, at most this many times a run
 /// (MODEL.md §6.1, "Direct sections").
@@ -453,6 +490,9 @@ struct RunPlanner<'a> {
     trial: Vec<f64>,
     /// The gaps of a section shaped directly and followed exactly.
     gaps: Vec<direct::Gap>,
+    /// How many stations of sections [`RunPlanner::sectioned`] makes the values of ahead,
+    /// in parallel ([`AHEAD_STATIONS`]).
+    ahead_stations: usize,
 }
 
 impl<'a> RunPlanner<'a> {
@@ -476,6 +516,7 @@ impl<'a> RunPlanner<'a> {
             plain: vec![false; n],
             trial: Vec::new(),
             gaps: Vec::new(),
+            ahead_stations: AHEAD_STATIONS,
         }
     }
 
@@ -781,28 +822,27 @@ impl<'a> RunPlanner<'a> {
         slow: f64,
         v: &mut [f64],
     ) -> f64 {
-        let s = self.stations.s_mm();
-        for (vk, cap) in v[first..=last]
-            .iter_mut()
-            .zip(&self.caps_mm_s[first..=last])
-        {
+        let s = &self.stations.s_mm()[first..=last];
+        let v = &mut v[first..=last];
+        for (vk, cap) in v.iter_mut().zip(&self.caps_mm_s[first..=last]) {
             *vk = cap * slow;
         }
         let lambda = lambda * slow * slow;
         if window_s > 0.0 {
             // The plan without holds: only the caps it touches need them.
-            let mut free = v[first..=last].to_vec();
+            let mut free = v.to_vec();
             self.passes(first, lambda, &mut free);
             self.extend_caps(first, last, (lambda, window_s, slow), &free, v, false);
         }
-        self.passes(first, lambda, &mut v[first..=last]);
+        self.passes(first, lambda, v);
         if window_s > 0.0 {
             self.cut_peaks(first, last, window_s, slow, v);
         }
-        (first..last).map(|k| interval_time_s(s, v, k)).sum()
+        (0..last - first).map(|k| interval_time_s(s, v, k)).sum()
     }
 
-    /// Plans the section `first..=last` of a run into `v` (MODEL.md §6.1, "Sections"): as
+    /// Plans the section `first..=last` of a run into `v` (its stations' speeds, from
+    /// `first`; MODEL.md §6.1, "Sections"): as
     /// [`RunPlanner::plan_run`] at σ = 1, but from the speed `ends.0` at `first` to
     /// `ends.1` at `last` (0: a stop), each end at speed a held cap (c·W/2 of hold into the
     /// section, never a slow dip). Returns the planned time, s, or `None` where the plan is
@@ -816,25 +856,22 @@ impl<'a> RunPlanner<'a> {
         ends: (f64, f64),
         v: &mut [f64],
     ) -> Option<f64> {
-        let s = self.stations.s_mm();
-        for (vk, cap) in v[first..=last]
-            .iter_mut()
-            .zip(&self.caps_mm_s[first..=last])
-        {
-            *vk = *cap;
-        }
-        let mut free = v[first..=last].to_vec();
+        let s = &self.stations.s_mm()[first..=last];
+        debug_assert_eq!(v.len(), s.len());
+        v.copy_from_slice(&self.caps_mm_s[first..=last]);
+        let mut free = v.to_vec();
         self.passes_between(first, lambda, &mut free, ends);
         self.extend_caps(first, last, (lambda, window_s, 1.0), &free, v, true);
-        self.passes_between(first, lambda, &mut v[first..=last], ends);
+        self.passes_between(first, lambda, v, ends);
         self.cut_peaks(first, last, window_s, 1.0, v);
-        if ends.0 > 0.0 && !held_at(v, s, first + 1..=last, first, ends.0, window_s) {
+        let n = last - first;
+        if ends.0 > 0.0 && !held_at(v, s, 1..=n, 0, ends.0, window_s) {
             return None;
         }
-        if ends.1 > 0.0 && !held_at(v, s, (first..last).rev(), last, ends.1, window_s) {
+        if ends.1 > 0.0 && !held_at(v, s, (0..n).rev(), n, ends.1, window_s) {
             return None;
         }
-        Some((first..last).map(|k| interval_time_s(s, v, k)).sum())
+        Some((0..n).map(|k| interval_time_s(s, v, k)).sum())
     }
 
     /// Each interval's jerk limit of the section `first..=last` times `share`, mm/s³.
@@ -894,7 +931,8 @@ impl<'a> RunPlanner<'a> {
         envelope
     }
 
-    /// Plans the section `first..=last` into `v` shaped directly, as the plan of a filter
+    /// Plans the section `first..=last` into `v` (its stations' speeds, from `first`)
+    /// shaped directly, as the plan of a filter
     /// of width `window_s` (MODEL.md §6.1, "Direct sections"): from the speed `ends.0` at
     /// `first` to `ends.1` at `last` (held caps, both > 0, each with no acceleration,
     /// each held over c·W/2 + Δs_max into the section), under the caps with their local
@@ -927,7 +965,6 @@ impl<'a> RunPlanner<'a> {
             jerk_mm_s3: &jerk,
         };
         let slow_share = self.stations.machine().period_s() * DIRECT_SLOW_PERIODS;
-        let v = &mut v[first..=last];
         let follow = follow.then(|| self.stations.machine().period_s());
         if !direct::shape(&limits, slow_share, follow, v, gaps) {
             return None;
@@ -1015,6 +1052,113 @@ impl<'a> RunPlanner<'a> {
         None
     }
 
+    /// The values of the section `a..=b` between the speeds `ends` (MODEL.md §6.1,
+    /// "Sections"), unverified: planned by [`RunPlanner::plan_section`] at each λ of
+    /// [`SECTION_GRID`] (W = λ·`base_window_s`) and at the run's own (λ, W), and, between
+    /// speeds > 0, shaped directly ([`RunPlanner::direct_window`] at each of
+    /// [`DIRECT_SHARES`]), followed exactly (at each of [`EXACT_SHARES`], with and without
+    /// the dips widened over the envelope they can follow) and shaped by linear programs
+    /// ([`RunPlanner::plan_programmed`] at the first share) where the others leave enough
+    /// over the floor. Reads the planner's caps and marks and writes only into `scratch`.
+    fn section_values(
+        &self,
+        (a, b): (usize, usize),
+        ends: (f64, f64),
+        (base_window_s, own): (f64, (f64, f64)),
+        scratch: &mut SectionScratch,
+    ) -> SectionValues {
+        let s = &self.stations.s_mm()[a..=b];
+        let window0_s = own.1;
+        let mut timed: Vec<(f64, f64, f64, Shape)> = Vec::with_capacity(
+            SECTION_GRID.len() + DIRECT_SHARES.len() + 2 * EXACT_SHARES.len() + 2,
+        );
+        let grid = SECTION_GRID
+            .iter()
+            .map(|&lambda| (lambda, lambda * base_window_s));
+        // The run's own value, unless the grid holds it already.
+        let values = grid
+            .clone()
+            .chain((!grid.clone().any(|g| g == own)).then_some(own));
+        let rests = f64::from(u8::from(ends.0 == 0.0)) + f64::from(u8::from(ends.1 == 0.0));
+        let SectionScratch { trial, gaps } = scratch;
+        trial.resize(b - a + 1, 0.0);
+        let mut seed = Vec::new();
+        let mut seed_s = f64::INFINITY;
+        let mut programmed = (Vec::new(), Vec::new());
+        for (lambda, window_s) in values {
+            if let Some(d) = self.plan_section((a, b), (lambda, window_s), ends, trial) {
+                timed.push((
+                    d + rests * window_s / 2.0,
+                    lambda,
+                    window_s,
+                    Shape::Filtered,
+                ));
+            }
+        }
+        // Shaped directly (not from or to a stop: there the plan's first interval is long
+        // in time).
+        if ends.0 > 0.0 && ends.1 > 0.0 {
+            let bounds = (DIRECT_WINDOW_MIN_S, window0_s);
+            for &share in &DIRECT_SHARES {
+                if let Some((d, window_s)) = self.direct_window((a, b), ends, share, bounds, trial)
+                {
+                    timed.push((d, share, window_s, Shape::Direct));
+                }
+            }
+            // Followed exactly, without a filter; and with the dips widened over the
+            // envelope they can follow.
+            for (follow, shape) in [(false, Shape::Exact), (true, Shape::Following)] {
+                for &share in &EXACT_SHARES {
+                    gaps.clear();
+                    if self
+                        .plan_direct((a, b), ends, (share, 0.0, follow), trial, Some(gaps))
+                        .is_some()
+                    {
+                        let d = exact_time_s(s, trial, gaps);
+                        if d < seed_s {
+                            seed_s = d;
+                            seed.clear();
+                            seed.extend_from_slice(trial);
+                        }
+                        timed.push((d, share, 0.0, shape));
+                    }
+                }
+            }
+            // Shaped by linear programs, from the quickest exact value (else from the
+            // floor's passes), where the values leave enough over the floor.
+            if b - a < PROGRAMMED_MAX_STATIONS {
+                let best = timed.iter().fold(f64::INFINITY, |m, x| m.min(x.0));
+                let floor = &mut trial[..];
+                floor.copy_from_slice(&self.caps_mm_s[a..=b]);
+                self.passes_between(a, 1.0, floor, ends);
+                let floor_s: f64 = (0..b - a).map(|k| interval_time_s(s, floor, k)).sum();
+                if seed.is_empty() {
+                    seed.extend_from_slice(floor);
+                }
+                if best - floor_s > PROGRAMMED_EXCESS_MIN_S {
+                    let (speeds, accels) = &mut programmed;
+                    speeds.extend_from_slice(&seed);
+                    accels.resize(speeds.len(), 0.0);
+                    let share = EXACT_SHARES[0];
+                    if let Some(d) = self.plan_programmed((a, b), ends, share, (speeds, accels)) {
+                        timed.push((d, share, 0.0, Shape::Programmed));
+                    }
+                }
+            }
+        }
+        timed.sort_by(|x, y| x.0.total_cmp(&y.0));
+        if !timed.iter().any(|x| x.3 == Shape::Programmed) {
+            // Nothing will shape the section by linear programs again.
+            seed = Vec::new();
+            programmed = Default::default();
+        }
+        SectionValues {
+            timed,
+            seed,
+            programmed,
+        }
+    }
+
     /// Sections of the run the profile holds last, planned as that run was (`kept` =
     /// (λ, W)), with a window of their own (MODEL.md §6.1, "Sections"): the run is cut at
     /// the stations where its plan runs at the station's cap c and is flat at c over
@@ -1032,6 +1176,12 @@ impl<'a> RunPlanner<'a> {
     /// time the last section's planned motion reaches the run's end, or `None` (the run
     /// as it was) where a section verifies at none of its values or the sections are not
     /// quicker.
+    ///
+    /// A section's values before they are verified ([`RunPlanner::section_values`]) depend
+    /// on its stations, the caps and marks (not changed here) and the speeds at its cuts
+    /// alone, not on the sections before it: those between neighbouring cuts are made
+    /// ahead, `ahead_stations` at a time, in parallel (rayon), and verified in order as
+    /// before; the profile is the same bit for bit at any thread count.
     fn sectioned(
         &mut self,
         profile: &mut Profile<'_>,
@@ -1074,15 +1224,17 @@ impl<'a> RunPlanner<'a> {
         cuts.push(last);
         profile.pop_run();
         let runs_before = profile.runs.len();
-        // (time, λ or σ, W, how it is shaped).
-        let mut timed: Vec<(f64, f64, f64, Shape)> = Vec::with_capacity(
-            SECTION_GRID.len() + DIRECT_SHARES.len() + 2 * EXACT_SHARES.len() + 1,
-        );
         let mut gaps = std::mem::take(&mut self.gaps);
-        // The quickest exact value's speeds (the linear programs' first iterate), and the
-        // speeds shaped by them at each share.
-        let mut seed: Vec<f64> = Vec::new();
+        // The speeds and accelerations shaped by linear programs at the share tried.
         let (mut programmed, mut programmed_accel): (Vec<f64>, Vec<f64>) = Default::default();
+        // The values of the sections between two neighbouring cuts, made ahead of the loop
+        // in parallel, a run of them at a time: those of `cuts[done.0 + k]..=cuts[done.0 +
+        // k + 1]` at `ahead[k]`, for `done.0 + k` < `done.1`; those of merged sections and
+        // of sections before `done.0` (planned again) are made where they are needed.
+        let mut ahead: Vec<SectionValues> = Vec::new();
+        let mut done = (0, 0);
+        let mut scratch = SectionScratch::default();
+        let own = (base_window_s, (lambda0, window0_s));
         // The previous section's planned end and window (a run leaving at speed: its
         // start and window, so that its first section's filtered motion reaches the
         // first station when the run's did).
@@ -1107,93 +1259,30 @@ impl<'a> RunPlanner<'a> {
             while j < cuts.len() && j <= i + SECTION_MERGES {
                 let b = cuts[j];
                 let ends = (v(a), v(b));
-                timed.clear();
-                let grid = SECTION_GRID
-                    .iter()
-                    .map(|&lambda| (lambda, lambda * base_window_s));
-                // The run's own value, unless the grid holds it already.
-                let own = (lambda0, window0_s);
-                let values = grid
-                    .clone()
-                    .chain((!grid.clone().any(|g| g == own)).then_some(own));
-                let rests = f64::from(u8::from(ends.0 == 0.0)) + f64::from(u8::from(ends.1 == 0.0));
-                let mut trial = self.take_trial();
-                seed.clear();
-                let mut seed_s = f64::INFINITY;
-                for (lambda, window_s) in values {
-                    if let Some(d) = self.plan_section((a, b), (lambda, window_s), ends, &mut trial)
-                    {
-                        timed.push((
-                            d + rests * window_s / 2.0,
-                            lambda,
-                            window_s,
-                            Shape::Filtered,
-                        ));
+                if j == i + 1 && i >= done.1 {
+                    // The next sections, as many as hold about `ahead_stations` stations.
+                    let mut end = i + 1;
+                    while end + 1 < cuts.len() && cuts[end] - a < self.ahead_stations {
+                        end += 1;
                     }
+                    ahead = (i..end)
+                        .into_par_iter()
+                        .map_init(SectionScratch::default, |scratch, k| {
+                            let section = (cuts[k], cuts[k + 1]);
+                            let ends = (v(section.0), v(section.1));
+                            self.section_values(section, ends, own, scratch)
+                        })
+                        .collect();
+                    done = (i, end);
                 }
-                // Shaped directly (not from or to a stop: there the plan's first interval
-                // is long in time).
-                if ends.0 > 0.0 && ends.1 > 0.0 {
-                    let bounds = (DIRECT_WINDOW_MIN_S, window0_s);
-                    for &share in &DIRECT_SHARES {
-                        if let Some((d, window_s)) =
-                            self.direct_window((a, b), ends, share, bounds, &mut trial)
-                        {
-                            timed.push((d, share, window_s, Shape::Direct));
-                        }
-                    }
-                    // Followed exactly, without a filter; and with the dips widened over
-                    // the envelope they can follow.
-                    for (follow, shape) in [(false, Shape::Exact), (true, Shape::Following)] {
-                        for &share in &EXACT_SHARES {
-                            gaps.clear();
-                            if self
-                                .plan_direct(
-                                    (a, b),
-                                    ends,
-                                    (share, 0.0, follow),
-                                    &mut trial,
-                                    Some(&mut gaps),
-                                )
-                                .is_some()
-                            {
-                                let d = exact_time_s(&s[a..=b], &trial[a..=b], &gaps);
-                                if d < seed_s {
-                                    seed_s = d;
-                                    seed.clear();
-                                    seed.extend_from_slice(&trial[a..=b]);
-                                }
-                                timed.push((d, share, 0.0, shape));
-                            }
-                        }
-                    }
-                    // Shaped by linear programs, from the quickest exact value (else from
-                    // the floor's passes), where the values leave enough over the floor.
-                    if b - a < PROGRAMMED_MAX_STATIONS {
-                        let best = timed.iter().fold(f64::INFINITY, |m, x| m.min(x.0));
-                        let floor = &mut trial[a..=b];
-                        floor.copy_from_slice(&self.caps_mm_s[a..=b]);
-                        self.passes_between(a, 1.0, floor, ends);
-                        let floor_s: f64 = (0..b - a)
-                            .map(|k| interval_time_s(&s[a..=b], floor, k))
-                            .sum();
-                        if seed.is_empty() {
-                            seed.extend_from_slice(floor);
-                        }
-                        if best - floor_s > PROGRAMMED_EXCESS_MIN_S {
-                            programmed.clear();
-                            programmed.extend_from_slice(&seed);
-                            programmed_accel.resize(programmed.len(), 0.0);
-                            let share = EXACT_SHARES[0];
-                            let motion = (&mut programmed[..], &mut programmed_accel[..]);
-                            if let Some(d) = self.plan_programmed((a, b), ends, share, motion) {
-                                timed.push((d, share, 0.0, Shape::Programmed));
-                            }
-                        }
-                    }
-                }
-                self.trial = trial;
-                timed.sort_by(|x, y| x.0.total_cmp(&y.0));
+                let made;
+                let values = if j == i + 1 && (done.0..done.1).contains(&i) {
+                    &ahead[i - done.0]
+                } else {
+                    made = self.section_values((a, b), ends, own, &mut scratch);
+                    &made
+                };
+                let timed = &values.timed;
                 for (rank, &(_, lambda, window_s, shape)) in timed.iter().enumerate().skip(skip) {
                     // A value shaped by linear programs whose samples do not verify is shaped
                     // again at the next shares of the jerk limit, each while it is quicker
@@ -1212,7 +1301,7 @@ impl<'a> RunPlanner<'a> {
                                     (a, b),
                                     (lambda, window_s),
                                     ends,
-                                    &mut profile.speed_mm_s,
+                                    &mut profile.speed_mm_s[a..=b],
                                 );
                             }
                             Shape::Direct => {
@@ -1220,7 +1309,7 @@ impl<'a> RunPlanner<'a> {
                                     (a, b),
                                     ends,
                                     (lambda, window_s, false),
-                                    &mut profile.speed_mm_s,
+                                    &mut profile.speed_mm_s[a..=b],
                                     None,
                                 );
                             }
@@ -1229,14 +1318,16 @@ impl<'a> RunPlanner<'a> {
                                     (a, b),
                                     ends,
                                     (lambda, 0.0, shape == Shape::Following),
-                                    &mut profile.speed_mm_s,
+                                    &mut profile.speed_mm_s[a..=b],
                                     Some(&mut gaps),
                                 );
                             }
                             Shape::Programmed => {
-                                if share > 0 {
-                                    programmed.clear();
-                                    programmed.extend_from_slice(&seed);
+                                if share == 0 {
+                                    programmed.clone_from(&values.programmed.0);
+                                    programmed_accel.clone_from(&values.programmed.1);
+                                } else {
+                                    programmed.clone_from(&values.seed);
                                     let quicker = self
                                         .plan_programmed(
                                             (a, b),
@@ -1355,7 +1446,8 @@ impl<'a> RunPlanner<'a> {
     /// The cap c of each station that the plan without holds touches (`free`, from the run's
     /// first station), and of every corner, holds over c·W/2 + Δs_max on either side
     /// (c·(W + 3T)/2 + Δs_max at a corner whose full hold was restored):
-    /// c'_k = min { c_j : |s_j − s_k| ≤ r_j, j held }.
+    /// c'_k = min { c_j : |s_j − s_k| ≤ r_j, j held }, as a cap on `v` (the speeds of the
+    /// stations `first..=last`, from `first`).
     /// A cap the plan stays below needs no hold: holding lowers the plan, so it stays below
     /// it. n·log n through a range-minimum tree.
     ///
@@ -1413,12 +1505,13 @@ impl<'a> RunPlanner<'a> {
             }
             tree.lower(lo, hi, [cap]);
         }
-        for (j, vj) in v[first..=last].iter_mut().enumerate() {
+        for (j, vj) in v.iter_mut().enumerate() {
             *vj = vj.min(tree.get(j)[0]);
         }
     }
 
-    /// Cuts every local maximum of `v` on `first..=last` that is held for less than W
+    /// Cuts every local maximum of `v` (the speeds of the stations `first..=last`, from
+    /// `first`) that is held for less than W
     /// flat at the highest level c where it is held for at least W (length ≥ c·W), but
     /// not below the higher of its two neighbouring minima.
     ///
@@ -1429,12 +1522,15 @@ impl<'a> RunPlanner<'a> {
     /// scales it by σ³, so that the slowed plan is the σ = 1 plan run σ times slower),
     /// unless a station of the peak is marked plain.
     fn cut_peaks(&self, first: usize, last: usize, window_s: f64, slow: f64, v: &mut [f64]) {
-        let s = self.stations.s_mm();
-        let jerk = self
+        let s = &self.stations.s_mm()[first..=last];
+        let jerk = &self
             .stations
             .interval_jerk_mm_s3()
-            .expect(FILTER_NEEDS_JERK);
+            .expect(FILTER_NEEDS_JERK)[first..last];
+        let plain = &self.plain[first..=last];
         let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.max(b);
+        // From here on, stations are counted from `first`.
+        let (first, last) = (0, last - first);
         let mut k = first;
         while k < last {
             // A plateau [a, b] of equal speeds.
@@ -1462,7 +1558,7 @@ impl<'a> RunPlanner<'a> {
             let falling = (b..right).map(|k| -plan_accel(k)).fold(0.0f64, f64::max);
             let j_min = (left..right).map(|k| jerk[k]).fold(f64::INFINITY, f64::min);
             if rising + falling <= JERK_SHARE * j_min * slow.powi(3) * window_s
-                && !self.plain[left..=right].contains(&true)
+                && !plain[left..=right].contains(&true)
             {
                 k = b + 1;
                 continue;
@@ -2608,6 +2704,59 @@ mod tests {
     /// samples every 1 ms (its filter of at least σ/(1 − σ)·Δt bounds the jerk in
     /// continuous time, not only at the machine period of 16 ms) and its caps.
     #[test]
+    fn sections_made_ahead_in_parallel_are_those_made_one_at_a_time() {
+        // The oracle: each section's values made where the loop reaches it, on the
+        // calling thread's pool of one, as before they were made ahead.
+        let pool = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+        };
+        let bits = |x: &[f64]| x.iter().map(|x| x.to_bits()).collect::<Vec<u64>>();
+        // (stations, whether sections shaped by linear programs are kept).
+        for (st, programmed) in [(zigzag_turning_every(600, 7), true), (zigzag(400), false)] {
+            let machine = *st.machine();
+            let oracle = pool(1).install(|| plan_ahead(&st, 0));
+            let samples = oracle.sample(machine.period_ms).unwrap();
+            let pieces = oracle
+                .gaps
+                .iter()
+                .filter(|g| matches!(g.motion, Followed::Piece(_)))
+                .count();
+            println!(
+                "{} sections, {pieces} intervals shaped by linear programs, {:.6} s",
+                oracle.runs.len(),
+                oracle.cycle_time_s
+            );
+            assert!(oracle.runs.len() > 10 && (pieces > 0) == programmed);
+            for (threads, ahead) in [(1, AHEAD_STATIONS), (3, AHEAD_STATIONS), (3, 200)] {
+                let profile = pool(threads).install(|| plan_ahead(&st, ahead));
+                assert_eq!(
+                    profile.cycle_time_s.to_bits(),
+                    oracle.cycle_time_s.to_bits()
+                );
+                assert_eq!(bits(&profile.speed_mm_s), bits(&oracle.speed_mm_s));
+                assert_eq!(profile.runs.len(), oracle.runs.len());
+                for (x, y) in profile.runs.iter().zip(&oracle.runs) {
+                    assert_eq!((x.first, x.last, x.gaps), (y.first, y.last, y.gaps));
+                    let times = |r: &Run| bits(&[r.start_s, r.duration_s, r.window_s]);
+                    assert_eq!(times(x), times(y));
+                }
+                let again = profile.sample(machine.period_ms).unwrap();
+                assert_eq!(again.len(), samples.len());
+                for (x, y) in again.iter().zip(&samples) {
+                    assert_eq!(
+                        bits(&[x.t_s, x.s_mm, x.feed_mm_min]),
+                        bits(&[y.t_s, y.s_mm, y.feed_mm_min])
+                    );
+                    assert_eq!(bits(x.pos.coords.as_slice()), bits(y.pos.coords.as_slice()));
+                }
+            }
+        }
+    }
+
+    #[test]
     fn sections_shaped_directly_keep_the_limits() {
         let st = zigzag_turning_every(600, 7);
         let machine = *st.machine();
@@ -2662,7 +2811,7 @@ mod tests {
                     (0, first),
                     (1.0, base),
                     (0.0, ends.0),
-                    &mut profile.speed_mm_s,
+                    &mut profile.speed_mm_s[..=first],
                 )
                 .unwrap();
             profile.speed_mm_s[first..=last].copy_from_slice(&before);
@@ -2676,7 +2825,7 @@ mod tests {
                 ends,
                 share,
                 (DIRECT_WINDOW_MIN_S, base_window_s(&st)),
-                &mut profile.speed_mm_s,
+                &mut profile.speed_mm_s[first..=last],
             ) else {
                 continue;
             };
@@ -2704,7 +2853,7 @@ mod tests {
                     (first, last),
                     ends,
                     (share, 0.0, false),
-                    &mut profile.speed_mm_s,
+                    &mut profile.speed_mm_s[first..=last],
                     Some(&mut gaps),
                 )
                 .map(|_| {
@@ -2798,7 +2947,7 @@ mod tests {
                 (first, last),
                 (c, c),
                 (1.0, 0.0, false),
-                &mut profile.speed_mm_s,
+                &mut profile.speed_mm_s[first..=last],
                 Some(&mut gaps),
             )
             .expect("a shape");
@@ -2806,7 +2955,12 @@ mod tests {
         let before = profile.speed_mm_s[first..=last].to_vec();
         let base = base_window_s(&st);
         let lead_s = planner
-            .plan_section((0, first), (1.0, base), (0.0, c), &mut profile.speed_mm_s)
+            .plan_section(
+                (0, first),
+                (1.0, base),
+                (0.0, c),
+                &mut profile.speed_mm_s[..=first],
+            )
             .unwrap();
         profile.speed_mm_s[first..=last].copy_from_slice(&before);
         profile.push_run(0, first, 0.0, base, 0.0);
@@ -2911,7 +3065,7 @@ mod tests {
                     (first, last),
                     ends,
                     (share, 0.0, follow),
-                    &mut profile.speed_mm_s,
+                    &mut profile.speed_mm_s[first..=last],
                     Some(&mut gaps),
                 )
                 .map(|_| {
@@ -2928,7 +3082,12 @@ mod tests {
             .iter()
             .filter_map(|&lambda| {
                 let window_s = lambda * base_window_s(&st);
-                planner.plan_section((first, last), (lambda, window_s), ends, &mut v)
+                planner.plan_section(
+                    (first, last),
+                    (lambda, window_s),
+                    ends,
+                    &mut v[first..=last],
+                )
             })
             .fold(f64::INFINITY, f64::min);
         let mut floor = st.cap_mm_min()[first..=last]
@@ -2961,7 +3120,7 @@ mod tests {
                     (0, first),
                     (1.0, base),
                     (0.0, ends.0),
-                    &mut profile.speed_mm_s,
+                    &mut profile.speed_mm_s[..=first],
                 )
                 .unwrap();
             profile.speed_mm_s[first..=last].copy_from_slice(&before);
@@ -3064,7 +3223,7 @@ mod tests {
                 (first, last),
                 (c, c),
                 (1.0, 0.0, false),
-                &mut exact,
+                &mut exact[first..=last],
                 Some(&mut gaps),
             )
             .expect("a shape");
@@ -3096,7 +3255,7 @@ mod tests {
                     (first, last),
                     ends,
                     (share, 0.0, true),
-                    &mut profile.speed_mm_s,
+                    &mut profile.speed_mm_s[first..=last],
                     Some(&mut gaps),
                 )
                 .expect("a followed shape");
@@ -3116,7 +3275,7 @@ mod tests {
                     (0, first),
                     (1.0, base),
                     (0.0, ends.0),
-                    &mut profile.speed_mm_s,
+                    &mut profile.speed_mm_s[..=first],
                 )
                 .unwrap();
             profile.speed_mm_s[first..=last].copy_from_slice(&v);
