@@ -1281,6 +1281,11 @@ pub fn run_on(
             }
         }
     }
+    // What only the loop read, let go before the last pass's loads, the
+    // offsets and the model's deflections are made (the offsets' trials once
+    // they are; the sub-cell windows and advances, 20 MB of a million-step
+    // run, were held beside the loads: issue 16).
+    drop((rigid, in_loop, inherited, sub_cells, advance_mm));
     // The last pass's loads, those at a jump of g scaled.
     if let Some(scaled) = scaled {
         step_loads = loads(tools, &tool_of_step, &record, &steps, grid_mm);
@@ -1294,9 +1299,6 @@ pub fn run_on(
     for (i, l) in step_loads.iter_mut().enumerate() {
         *l = l.at_rupture(rupture_strength_mpa(i));
     }
-    // What only the loop read, let go before the offsets and the model's
-    // deflections are made (the offsets' trials once they are).
-    drop((rigid, in_loop, inherited, sub_cells, advance_mm));
     let offsets_um = applied_offsets_um(&steps, &x, &dirs);
     drop(x);
     // The deflection across the path that the final removal causes (rapids:
