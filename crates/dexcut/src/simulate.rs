@@ -2989,20 +2989,25 @@ mod tests {
         out
     }
 
+    /// A small linear congruential generator from `seed`: the same draws, each
+    /// below its argument, every run.
+    fn lcg(seed: u64) -> impl FnMut(u64) -> u64 {
+        let mut state = seed;
+        move |m: u64| {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            (state >> 33) % m
+        }
+    }
+
     /// The windows given one by one, each run's end found by walking it, are
     /// the list's, in item order: runs of every length that start at a
     /// non-member or where an item does not join, items of a whole cell and
     /// of none among them, runs shorter than the window.
     #[test]
     fn sub_cell_windows_given_in_order_are_the_lists() {
-        // A small linear congruential generator: the same items every run.
-        let mut state = 12_345u64;
-        let mut next = move |m: u64| {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1);
-            (state >> 33) % m
-        };
+        let mut next = lcg(12_345);
         for n in [0, 1, 2, 7, 64, 1000] {
             let advance: Vec<f64> = (0..n)
                 .map(|_| match next(4) {
@@ -3046,13 +3051,7 @@ mod tests {
     /// sum again from the first step, to the same bits.
     #[test]
     fn window_sums_are_the_whole_prefix_sums_differences() {
-        let mut state = 4_242u64;
-        let mut next = move |m: u64| {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1);
-            (state >> 33) % m
-        };
+        let mut next = lcg(4_242);
         let grid_mm = 0.1;
         for n in [1, 2, 40, 3000] {
             let advance_mm: Vec<f64> = (0..n)
