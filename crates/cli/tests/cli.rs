@@ -4380,3 +4380,95 @@ fn optimize_keeps_a_tapping_feed_as_programmed() {
         s["cap_time_share"]
     );
 }
+
+/// Results do not depend on the thread count (ARCHITECTURE.md, invariants):
+/// `dexcut optimize` on the default example (a mesh stock, the closed loop)
+/// and on the same job with a jerk limit (the planner's sections made ahead
+/// on rayon's threads, some shaped by linear programs), each at 1 and at 3
+/// threads, writes the same files byte for byte, summary.json equal but for
+/// its timings, run id and input paths, manifest.json listing the same files
+/// and sizes (but summary.json's).
+#[test]
+fn optimize_writes_the_same_bytes_at_one_and_three_threads() {
+    let dir = tempdir();
+    let at = |threads: &str, args: &[&str]| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_dexcut"))
+            .args(args)
+            .current_dir(dir.path())
+            .env("CI", "1")
+            .env("RAYON_NUM_THREADS", threads)
+            .output()
+            .expect("run dexcut");
+        ok(&o);
+    };
+    at("1", &["optimize", "--out", "one"]);
+    at("3", &["optimize", "--out", "three"]);
+    // The example's inputs with a jerk limit under [machine].
+    let input = dir.path().join("one").join("input");
+    let job = std::fs::read_to_string(input.join("job.toml")).unwrap();
+    assert!(
+        job.contains("[machine]\n") && !job.contains("jerk"),
+        "{job}"
+    );
+    let job = job.replace("[machine]\n", "[machine]\njerk = [20000, 20000, 20000]\n");
+    std::fs::write(input.join("jerk.toml"), job).unwrap();
+    let jerk = input.join("jerk.toml");
+    let jerk = jerk.to_str().unwrap();
+    at("1", &["optimize", jerk, "--out", "jerk_one"]);
+    at("3", &["optimize", jerk, "--out", "jerk_three"]);
+    for (a, b) in [("one", "three"), ("jerk_one", "jerk_three")] {
+        let (a, b) = (dir.path().join(a), dir.path().join(b));
+        let names = file_names(&a);
+        assert_eq!(names, file_names(&b));
+        for name in names
+            .iter()
+            .filter(|n| !n.ends_with(".json") && *n != "input")
+        {
+            assert!(
+                std::fs::read(a.join(name)).unwrap() == std::fs::read(b.join(name)).unwrap(),
+                "{name} differs between 1 and 3 threads"
+            );
+        }
+        // summary.json but its timings, run id and the paths of the example's
+        // inputs, which it writes into each output folder.
+        let values = |d: &Path| {
+            let mut s = timeless(summary(d));
+            let o = s.as_object_mut().unwrap();
+            for key in ["job", "program"] {
+                assert!(o.remove(key).is_some(), "{key}");
+            }
+            s
+        };
+        assert_eq!(values(&a), values(&b));
+        let files = |d: &Path| {
+            let m: Value =
+                serde_json::from_str(&std::fs::read_to_string(d.join("manifest.json")).unwrap())
+                    .unwrap();
+            let mut files = m["files"].clone();
+            // summary.json's size changes with its timings.
+            assert!(files
+                .as_object_mut()
+                .unwrap()
+                .remove("summary.json")
+                .is_some());
+            files
+        };
+        assert_eq!(files(&a), files(&b));
+        assert_eq!(
+            std::fs::read(a.join("columns.json")).unwrap(),
+            std::fs::read(b.join("columns.json")).unwrap()
+        );
+    }
+    // The jerk limit was applied: the plan differs from the example's.
+    let cycle = |d: &str| {
+        summary(&dir.path().join(d))["after"]["cycle_time_s"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(
+        cycle("jerk_one") > cycle("one"),
+        "{} {}",
+        cycle("jerk_one"),
+        cycle("one")
+    );
+}
