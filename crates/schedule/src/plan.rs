@@ -2913,17 +2913,11 @@ mod tests {
         (machine, st)
     }
 
-    /// A section followed exactly (MODEL.md §6.1, "Exact direct sections") against the
-    /// closed form of the flying jerk-limited move: on a line at F3000 (50 mm/s, a = 1 000
-    /// mm/s², j = 20 000 mm/s³) the stations from 16 to 24 mm, entered and left at
-    /// c = 1 150 mm/min with no acceleration, rise to 50 mm/s and fall back. A rise of
-    /// Δ = 50 − c < a²/j takes τ = 2√(Δ/j) over (c + 50)·τ/2, so the section takes
-    /// 2Δs/c (its first and last station interval, held at c) + 2τ + the rest at 50 mm/s.
-    /// Its samples every 0.25 ms have second differences within a and third differences
-    /// within j (1 + 10⁻³), and the speed of every sample is the closed form's.
-    #[test]
-    fn a_section_followed_exactly_is_the_closed_form_flying_move() {
-        let (_, mut st) = forty_mm_line_with_jerk();
+    /// [`forty_mm_line_with_jerk`] capped at 1 150 mm/min at the stations at 16 and
+    /// 24 mm (320 and 480): the flying move's setup, a section between them entered and
+    /// left at that speed.
+    fn flying_move_line() -> (Machine, Stations) {
+        let (machine, mut st) = forty_mm_line_with_jerk();
         let caps: Vec<f64> = st
             .s_mm()
             .iter()
@@ -2936,6 +2930,20 @@ mod tests {
             })
             .collect();
         st.apply_caps(&caps, CapKind::Removal).unwrap();
+        (machine, st)
+    }
+
+    /// A section followed exactly (MODEL.md §6.1, "Exact direct sections") against the
+    /// closed form of the flying jerk-limited move: on a line at F3000 (50 mm/s, a = 1 000
+    /// mm/s², j = 20 000 mm/s³) the stations from 16 to 24 mm, entered and left at
+    /// c = 1 150 mm/min with no acceleration, rise to 50 mm/s and fall back. A rise of
+    /// Δ = 50 − c < a²/j takes τ = 2√(Δ/j) over (c + 50)·τ/2, so the section takes
+    /// 2Δs/c (its first and last station interval, held at c) + 2τ + the rest at 50 mm/s.
+    /// Its samples every 0.25 ms have second differences within a and third differences
+    /// within j (1 + 10⁻³), and the speed of every sample is the closed form's.
+    #[test]
+    fn a_section_followed_exactly_is_the_closed_form_flying_move() {
+        let (_, st) = flying_move_line();
         let (first, last) = (320, 480);
         let c = 1150.0 / 60.0;
         let (j, top) = (20000.0, 50.0);
@@ -3192,20 +3200,8 @@ mod tests {
     fn sections_shaped_by_linear_programs_meet_the_closed_form_and_keep_the_limits() {
         let (first, last) = (320, 480);
         // The flying move.
-        let (machine, mut st) = forty_mm_line_with_jerk();
+        let (machine, st) = flying_move_line();
         let c = 1150.0 / 60.0;
-        let caps: Vec<f64> = st
-            .s_mm()
-            .iter()
-            .map(|&x| {
-                if (x - 16.0).abs() < 1e-9 || (x - 24.0).abs() < 1e-9 {
-                    1150.0
-                } else {
-                    3000.0
-                }
-            })
-            .collect();
-        st.apply_caps(&caps, CapKind::Removal).unwrap();
         let planner = RunPlanner::new(&st);
         let mut v = planner.caps_mm_s[first..=last].to_vec();
         planner.passes_between(first, 1.0, &mut v, (c, c));
