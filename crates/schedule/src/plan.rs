@@ -2933,6 +2933,58 @@ mod tests {
         (machine, st)
     }
 
+    /// Plans the line from rest to station `first` (entered at `entry_mm_s`) as a section
+    /// at λ = 1 and the base window, then pushes the section `first..=last` at `speeds`,
+    /// followed exactly (its `gaps`, or the linear programs' accelerations) from where the
+    /// lead-in's filtered motion ends, as the planner joins them. Returns the section's
+    /// start and end, s.
+    fn push_after_a_lead_in(
+        planner: &RunPlanner,
+        profile: &mut Profile,
+        (first, last): (usize, usize),
+        entry_mm_s: f64,
+        speeds: &[f64],
+        (gaps, accel): (&[direct::Gap], Option<&[f64]>),
+    ) -> (f64, f64) {
+        let base = base_window_s(planner.stations);
+        let lead_s = planner
+            .plan_section(
+                (0, first),
+                (1.0, base),
+                (0.0, entry_mm_s),
+                &mut profile.speed_mm_s[..=first],
+            )
+            .unwrap();
+        profile.speed_mm_s[first..=last].copy_from_slice(speeds);
+        profile.push_run(0, first, 0.0, base, 0.0);
+        let start_s = lead_s + base / 2.0;
+        let end_s = profile.push_exact_run(first, last, start_s, (0.0, 0.0), gaps, accel);
+        (start_s, end_s)
+    }
+
+    /// Every sample `h` s apart (the last, the cycle's end, is off the period's grid) is
+    /// at or under the larger cap of the stations around it, and its second difference
+    /// along X within the machine's acceleration (1 + 10⁻⁶).
+    fn assert_samples_keep_the_caps_and_accel(
+        samples: &[ServoSample],
+        st: &Stations,
+        machine: &Machine,
+        h: f64,
+    ) {
+        let (s, caps) = (st.s_mm(), st.cap_mm_min());
+        for w in samples[..samples.len() - 1].windows(3) {
+            let k = s.partition_point(|&y| y <= w[1].s_mm).clamp(1, s.len() - 1);
+            assert!(w[1].feed_mm_min <= caps[k - 1].max(caps[k]) * (1.0 + 1e-9));
+            let second = (w[2].pos[0] - 2.0 * w[1].pos[0] + w[0].pos[0]) / h / h;
+            assert!(
+                second.abs() <= machine.accel_mm_s2[0] * (1.0 + 1e-6),
+                "{second} at {} mm, {} s",
+                w[1].s_mm,
+                w[1].t_s
+            );
+        }
+    }
+
     /// A section followed exactly (MODEL.md §6.1, "Exact direct sections") against the
     /// closed form of the flying jerk-limited move: on a line at F3000 (50 mm/s, a = 1 000
     /// mm/s², j = 20 000 mm/s³) the stations from 16 to 24 mm, entered and left at
@@ -3122,19 +3174,14 @@ mod tests {
                 "{floor_s} {time_s} {filtered_s}"
             );
             let before = profile.speed_mm_s[first..=last].to_vec();
-            let base = base_window_s(&st);
-            let lead_s = planner
-                .plan_section(
-                    (0, first),
-                    (1.0, base),
-                    (0.0, ends.0),
-                    &mut profile.speed_mm_s[..=first],
-                )
-                .unwrap();
-            profile.speed_mm_s[first..=last].copy_from_slice(&before);
-            profile.push_run(0, first, 0.0, base, 0.0);
-            let start_s = lead_s + base / 2.0;
-            let end_s = profile.push_exact_run(first, last, start_s, (0.0, 0.0), &gaps, None);
+            let (start_s, end_s) = push_after_a_lead_in(
+                &planner,
+                &mut profile,
+                (first, last),
+                ends.0,
+                &before,
+                (&gaps, None),
+            );
             assert!((end_s - start_s - time_s).abs() <= 1e-9);
             // The planner keeps it where its samples at the period verify.
             let ratio = profile.last_run_axis_ratio(None);
@@ -3146,20 +3193,9 @@ mod tests {
             let samples = profile.sample(machine.period_ms).unwrap();
             assert!(worst_ratio(&machine, &samples) <= 1.0 + 1e-6);
             let samples = profile.sample(fine.period_ms).unwrap();
-            let (s, caps) = (st.s_mm(), st.cap_mm_min());
+            let s = st.s_mm();
             let h = fine.period_s();
-            // The last sample is the cycle's end, off the period's grid.
-            for w in samples[..samples.len() - 1].windows(3) {
-                let k = s.partition_point(|&y| y <= w[1].s_mm).clamp(1, s.len() - 1);
-                assert!(w[1].feed_mm_min <= caps[k - 1].max(caps[k]) * (1.0 + 1e-9));
-                let second = (w[2].pos[0] - 2.0 * w[1].pos[0] + w[0].pos[0]) / h / h;
-                assert!(
-                    second.abs() <= machine.accel_mm_s2[0] * (1.0 + 1e-6),
-                    "share {share}: {second} at {} mm, {} s",
-                    w[1].s_mm,
-                    w[1].t_s
-                );
-            }
+            assert_samples_keep_the_caps_and_accel(&samples, &st, &machine, h);
             // Inside the gaps, the changes' jerk: every 1 ms third difference whose
             // stencil lies in one is within the share of J.
             let j = share * machine.jerk_mm_s3.unwrap()[0];
@@ -3265,19 +3301,14 @@ mod tests {
                 "ramp by linear programs, share {share}: {time_s:.5} s (followed {followed_s:.5} s, floor {floor_s:.5} s)"
             );
             assert!(time_s > floor_s && (share < 0.9 || time_s < followed_s));
-            let base = base_window_s(&st);
-            let lead_s = planner
-                .plan_section(
-                    (0, first),
-                    (1.0, base),
-                    (0.0, ends.0),
-                    &mut profile.speed_mm_s[..=first],
-                )
-                .unwrap();
-            profile.speed_mm_s[first..=last].copy_from_slice(&v);
-            profile.push_run(0, first, 0.0, base, 0.0);
-            let start_s = lead_s + base / 2.0;
-            let end_s = profile.push_exact_run(first, last, start_s, (0.0, 0.0), &[], Some(&accel));
+            let (start_s, end_s) = push_after_a_lead_in(
+                &planner,
+                &mut profile,
+                (first, last),
+                ends.0,
+                &v,
+                (&[], Some(&accel)),
+            );
             assert!((end_s - start_s - time_s).abs() <= 1e-9);
             let ratio = profile.last_run_axis_ratio(None);
             assert!(ratio <= 1.0, "share {share}: {ratio}");
@@ -3285,24 +3316,8 @@ mod tests {
             let samples = profile.sample(machine.period_ms).unwrap();
             assert!(worst_ratio(&machine, &samples) <= 1.0 + 1e-6);
             let samples = profile.sample(fine.period_ms).unwrap();
-            let (s_all, caps) = (st.s_mm(), st.cap_mm_min());
             let h = fine.period_s();
-            for w in samples[..samples.len() - 1].windows(3) {
-                let k = s_all
-                    .partition_point(|&y| y <= w[1].s_mm)
-                    .clamp(1, s_all.len() - 1);
-                assert!(w[1].feed_mm_min <= caps[k - 1].max(caps[k]) * (1.0 + 1e-9));
-                let second = (w[2].pos[0] - 2.0 * w[1].pos[0] + w[0].pos[0]) / h / h;
-                assert!(
-                    second.abs() <= machine.accel_mm_s2[0] * (1.0 + 1e-6),
-                    "{second} at {} mm {} s {:?} (section {start_s} .. {end_s})",
-                    w[1].s_mm,
-                    w[1].t_s,
-                    w.iter()
-                        .map(|x| (x.t_s, x.s_mm, x.feed_mm_min))
-                        .collect::<Vec<_>>()
-                );
-            }
+            assert_samples_keep_the_caps_and_accel(&samples, &st, &machine, h);
             // The motion's jerk at every instant: every 1 ms third difference whose
             // stencil lies in the section is within σ·J.
             let j = share * machine.jerk_mm_s3.unwrap()[0];
