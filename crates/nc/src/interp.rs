@@ -410,8 +410,8 @@ struct Interp<'a> {
 /// bit for bit, it is counted, not pushed; at the first that is not (or
 /// before cutter compensation takes a segment's index to move its end
 /// later) the segments matched so far are copied into the run's own path
-/// and it goes on as any run (issue 16: a million-block program's re-feed
-/// held its path twice, 126 MB each).
+/// and it goes on as any run (a million-block program's re-feed would
+/// otherwise hold its path twice, 126 MB each).
 #[derive(Clone, Copy)]
 struct Lent<'a> {
     path: &'a [Segment],
@@ -434,8 +434,8 @@ pub struct Executed {
 /// the first tool the program loads is taken to be in the spindle from the
 /// start. Its lines' items are not held through the run: each block is
 /// parsed again where it runs ([`syntax::Lines::push_parsed_unkept`]), for
-/// a million-block program 24 + 8 MB for its lines instead of about 200
-/// (issue 16). The lines are parsed twice; the result is that of a run of
+/// a million-block program 24 + 8 MB for its lines instead of about 200.
+/// The lines are parsed twice; the result is that of a run of
 /// the lines held ([`run_read_and_record`] of [`read`]).
 pub(crate) fn parse(source: &str, file: &str, options: &Options) -> Parsed {
     let read = read_lines(source, file, options, false);
@@ -715,7 +715,7 @@ pub(crate) fn run_read(
     }
     // The path is held as long as its program runs: not at the capacity its
     // pushes grew it to, up to twice its segments (125.8 MB for a million
-    // segments of 120 B, not 120.0; issue 16).
+    // segments of 120 B, not 120.0).
     it.path.segments.shrink_to_fit();
     let trace = Trace {
         segments: it.trace,

@@ -671,7 +671,7 @@ enum Run {
 /// Per line that made more than one segment (the only lines a table of runs
 /// can be written for, [`run_tables`]), its runs in the order they ran: not
 /// one list per line of a program whose lines each move once (a `Vec` and a
-/// map entry a line, 192 MB for a million lines, issue 16). `None` when a
+/// map entry a line, 192 MB for a million lines). `None` when a
 /// segment was made while another line ran (moves held back by cutter
 /// compensation): then every segment is taken for a run.
 fn line_runs(
