@@ -60,7 +60,7 @@ pub fn amend(source: &str, amendments: &[Amendment]) -> String {
         match a {
             Amendment::DropByteOrderMark => {
                 source = source
-                    .strip_prefix(crate::interp::BYTE_ORDER_MARK)
+                    .strip_prefix(syntax::BYTE_ORDER_MARK)
                     .unwrap_or(source)
             }
             Amendment::Edit {

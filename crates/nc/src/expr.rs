@@ -7,7 +7,7 @@
 
 use std::collections::HashMap;
 
-use crate::syntax::{Cursor, SyntaxError};
+use crate::cursor::{Cursor, SyntaxError};
 
 /// Deepest nesting of brackets/functions/parameter indirection accepted.
 const MAX_DEPTH: u32 = 64;

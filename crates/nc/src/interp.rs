@@ -12,16 +12,14 @@ use nalgebra::Point3;
 mod comp;
 
 use crate::amend::{self, Amendment};
+use crate::cursor::SyntaxError;
 use crate::cycles::{self, Cycle, CycleMove};
 use crate::diag::{Diagnostic, Severity};
 use crate::expr::Params;
 use crate::gcode::integer_value;
 use crate::path::{Geometry, Motion, Path, Plane, Segment};
-use crate::syntax::{self, Item, ItemKind, LineKind, OKeyword, OLabel, OStmt, SyntaxError};
+use crate::syntax::{self, Item, ItemKind, LineKind, OKeyword, OLabel, OStmt, BYTE_ORDER_MARK};
 use crate::GCode;
-
-/// The UTF-8 byte-order mark some editors write before the first line.
-pub(crate) const BYTE_ORDER_MARK: char = '\u{feff}';
 
 /// Settings the program cannot know by itself.
 #[derive(Clone, Debug, PartialEq)]

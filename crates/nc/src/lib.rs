@@ -5,6 +5,7 @@
 //! never panics; every problem is a [`Diagnostic`] with file, line and column.
 #![warn(missing_docs)]
 mod amend;
+mod cursor;
 mod cycles;
 mod diag;
 mod expr;
