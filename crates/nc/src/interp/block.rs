@@ -1,0 +1,623 @@
+//! One block: its words evaluated and checked (modal groups, words with
+//! nothing to use them), then executed in LinuxCNC's order.
+
+use super::control::Frame;
+use super::state::Spindle;
+use super::{fail, Fail, Interp};
+use crate::gcode::integer_value;
+use crate::path::{Geometry, Motion, Plane};
+use crate::syntax::{Item, ItemKind};
+use crate::GCode;
+
+/// A block after evaluation of its words.
+#[derive(Default)]
+pub(super) struct Block {
+    /// G codes with columns.
+    pub(super) g: Vec<(GCode, u32)>,
+    pub(super) m: Vec<(i32, u32)>,
+    /// Letter values and columns, indexed by [`slot`].
+    pub(super) words: [Option<(f64, u32)>; 28],
+    pub(super) first_col: u32,
+}
+
+/// Index of a word letter: a–z, then `@` (polar radius) and `^` (polar angle).
+fn slot(letter: char) -> usize {
+    match letter {
+        '@' => 26,
+        '^' => 27,
+        l => (l as u8 - b'a') as usize,
+    }
+}
+
+impl Block {
+    pub(super) fn get(&self, letter: char) -> Option<f64> {
+        self.words[slot(letter)].map(|w| w.0)
+    }
+    pub(super) fn col(&self, letter: char) -> u32 {
+        self.words[slot(letter)].map_or(self.first_col, |w| w.1)
+    }
+    pub(super) fn has_g(&self, code: GCode) -> Option<u32> {
+        self.g.iter().find(|g| g.0 == code).map(|g| g.1)
+    }
+    pub(super) fn has_m(&self, code: i32) -> bool {
+        self.m.iter().any(|m| m.0 == code)
+    }
+    /// The column of the block's first axis word (its first column if none).
+    pub(super) fn first_axis_col(&self) -> u32 {
+        ['x', 'y', 'z', '@', '^']
+            .iter()
+            .filter(|&&c| self.get(c).is_some())
+            .map(|&c| self.col(c))
+            .min()
+            .unwrap_or(self.first_col)
+    }
+
+    pub(super) fn has_axes(&self) -> bool {
+        ['x', 'y', 'z', '@', '^']
+            .iter()
+            .any(|&c| self.get(c).is_some())
+    }
+    /// Sets a two-state mode from the block's G code for it, if any (the two
+    /// codes share a modal group, so at most one is present).
+    fn set_mode(&self, mode: &mut bool, off_code: GCode, on_code: GCode) {
+        if self.has_g(on_code).is_some() {
+            *mode = true;
+        } else if self.has_g(off_code).is_some() {
+            *mode = false;
+        }
+    }
+}
+
+/// Modal group of a G code, `None` when unknown (LinuxCNC's table, keyed by
+/// the code ×10).
+pub(super) fn g_group(code: GCode) -> Option<u8> {
+    Some(match code.tenths() {
+        40 | 100 | 280 | 281 | 300 | 301 | 920 | 921 | 922 | 923 => 0,
+        530 => 99,
+        0 | 10 | 20 | 30 | 330 | 382 | 383 | 384 | 385 | 730 | 740 | 760 | 800..=890 => 1,
+        170 | 180 | 190 => 2,
+        900 | 910 => 3,
+        901 | 911 => 4,
+        930 | 940 | 950 => 5,
+        200 | 210 => 6,
+        400 | 410 | 420 | 411 | 421 => 7,
+        430 | 431 | 432 | 490 => 8,
+        980 | 990 => 10,
+        540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => 12,
+        610 | 611 | 640 => 13,
+        960 | 970 => 14,
+        _ => return None,
+    })
+}
+
+fn m_group(code: i32) -> Option<u8> {
+    Some(match code {
+        0 | 1 | 2 | 30 | 60 => 4,
+        // Digital and analog outputs, waiting on an input: they move nothing.
+        62..=68 => 5,
+        6 | 61 => 6,
+        3..=5 | 19 | 70..=73 => 7,
+        7 | 9 => 8,
+        8 => 9,
+        // Override switches: the run is simulated at 100 %.
+        48..=53 => 10,
+        98 | 99 => 11,
+        _ => return None,
+    })
+}
+
+impl Interp<'_> {
+    fn eval_block(&mut self, items: &[Item]) -> Result<Block, Fail> {
+        let mut b = Block {
+            first_col: items.first().map_or(1, |i| i.col),
+            ..Block::default()
+        };
+        let mut assignments = Vec::new();
+        for item in items {
+            let err = |msg| Fail { col: item.col, msg };
+            match &item.kind {
+                ItemKind::Assign(assign) => {
+                    let (target, value) = &**assign;
+                    let t = self.params.resolve(target).map_err(err)?;
+                    let v = self.params.eval(value).map_err(err)?;
+                    assignments.push((t, v));
+                }
+                ItemKind::Word { letter, value } => {
+                    let v = self.params.eval(value).map_err(err)?;
+                    match letter {
+                        'g' => {
+                            let Some(code) = GCode::from_value(v) else {
+                                return fail(item.col, format!("G{v} is not a valid code"));
+                            };
+                            b.g.push((code, item.col));
+                        }
+                        'm' => {
+                            let Some(code) = integer_value(v).filter(|c| c.abs() <= 100_000) else {
+                                return fail(item.col, format!("M{v} is not a valid code"));
+                            };
+                            b.m.push((code as i32, item.col));
+                        }
+                        l => {
+                            // LinuxCNC reads T, H and L words as whole numbers.
+                            let v = match l {
+                                't' | 'h' | 'l' => match integer_value(v) {
+                                    Some(n) => n as f64,
+                                    None => {
+                                        return fail(
+                                            item.col,
+                                            format!(
+                                                "{}{v} is not a whole number",
+                                                l.to_ascii_uppercase()
+                                            ),
+                                        )
+                                    }
+                                },
+                                _ => v,
+                            };
+                            let slot = &mut b.words[slot(*l)];
+                            if slot.is_some() {
+                                return fail(
+                                    item.col,
+                                    format!(
+                                        "more than one {} word in the block",
+                                        l.to_ascii_uppercase()
+                                    ),
+                                );
+                            }
+                            *slot = Some((v, item.col));
+                        }
+                    }
+                }
+            }
+        }
+        for &(code, col) in &b.g {
+            if g_group(code).is_none() {
+                return fail(col, format!("unknown G code {code}"));
+            }
+        }
+        // As in LinuxCNC, G80 gives way to another motion code in the block.
+        if b.g
+            .iter()
+            .any(|g| g_group(g.0) == Some(1) && g.0 != GCode::G80)
+        {
+            b.g.retain(|g| g.0 != GCode::G80);
+        } else if let Some(i) = b.g.iter().position(|g| g.0 == GCode::G80) {
+            let mut k = 0;
+            b.g.retain(|g| {
+                k += 1;
+                g.0 != GCode::G80 || k - 1 == i
+            });
+        }
+        for (i, &(code, col)) in b.g.iter().enumerate() {
+            let group = g_group(code);
+            if let Some(&(other, _)) = b.g[..i].iter().find(|g| g_group(g.0) == group) {
+                return fail(
+                    col,
+                    format!("{other} and {code} are in the same modal group"),
+                );
+            }
+        }
+        for (i, &(code, col)) in b.m.iter().enumerate() {
+            let Some(group) = m_group(code) else {
+                return fail(col, format!("unknown M code M{code}"));
+            };
+            if b.m[..i].iter().any(|m| m_group(m.0) == Some(group)) {
+                return fail(
+                    col,
+                    format!("two M codes of the same modal group (M{code})"),
+                );
+            }
+        }
+        // The other axes start at 0; a word of 0 keeps one there in every
+        // distance mode and offset (only 0 is read anywhere), so it moves
+        // nothing: 4-axis posts park the rotary with it (Mastercam's
+        // `G0 G90 G54 X… Y… A0.`). Any other value would move it.
+        for l in ['a', 'b', 'c', 'u', 'v', 'w'] {
+            if b.get(l).is_some_and(|v| v != 0.0) {
+                return fail(
+                    b.col(l),
+                    format!(
+                        "axis {} is not supported (3-axis X Y Z only; {}0, which keeps it at 0, is read)",
+                        l.to_ascii_uppercase(),
+                        l.to_ascii_uppercase()
+                    ),
+                );
+            }
+        }
+        if b.get('e').is_some() && !(66..=68).any(|m| b.has_m(m)) {
+            return fail(b.col('e'), "E word with no M66, M67 or M68 to use it");
+        }
+        for (t, v) in assignments {
+            self.params.assign(&t, v);
+        }
+        Ok(b)
+    }
+
+    pub(super) fn block(&mut self, pc: usize, items: &[Item]) -> Result<Option<usize>, Fail> {
+        let b = self.eval_block(items)?;
+        self.feed_scale = self.scale;
+        let g_col = |code| b.has_g(code);
+        // Feed mode, feed, speed, tool, spindle.
+        if let Some(col) = g_col(GCode::G95) {
+            return fail(col, "G95 feed per revolution is not supported");
+        }
+        b.set_mode(&mut self.inverse_time, GCode::G94, GCode::G93);
+        if let Some(f) = b.get('f') {
+            if f < 0.0 {
+                return fail(b.col('f'), "negative feed rate");
+            }
+            if !self.inverse_time {
+                self.feed_mm_min = f * self.scale;
+            }
+        }
+        if let Some(s) = b.get('s') {
+            if s < 0.0 {
+                return fail(b.col('s'), "negative spindle speed");
+            }
+            self.spindle_rpm = s;
+        }
+        if let Some(t) = b.get('t') {
+            self.selected_tool = Some(self.tool_number(t, b.col('t'), 'T')?);
+        }
+        if (b.has_m(6) || b.has_m(61)) && self.comp.side.is_some() {
+            return fail(
+                b.first_col,
+                "cannot change tools with cutter radius compensation on",
+            );
+        }
+        if b.has_m(6) {
+            self.load_tool(self.selected_tool.unwrap_or(self.tool), pc);
+        }
+        if b.has_m(61) {
+            let q = b.get('q').ok_or(Fail {
+                col: b.first_col,
+                msg: "M61 needs a Q word (tool number)".into(),
+            })?;
+            // LinuxCNC rounds M61's Q to the nearest whole number (round_to_int).
+            let t = self.tool_number(q.round_ties_even(), b.col('q'), 'Q')?;
+            self.load_tool(t, pc);
+        }
+        if b.has_m(3) {
+            self.spindle = Spindle::Clockwise;
+        }
+        if b.has_m(4) {
+            self.spindle = Spindle::Counterclockwise;
+        }
+        // M19 orients the spindle: it stops turning until the next M3 or M4.
+        if b.has_m(5) || b.has_m(19) {
+            self.spindle = Spindle::Stopped;
+        }
+        self.inputs_and_outputs(&b)?;
+        self.m70_m73(&b)?;
+        if let Some(col) = g_col(GCode::G4) {
+            let p = b.get('p').ok_or(Fail {
+                col,
+                msg: "G4 needs a P word (seconds)".into(),
+            })?;
+            if p < 0.0 {
+                return fail(b.col('p'), "negative dwell time");
+            }
+            self.push(
+                self.pos,
+                Geometry::Line,
+                Motion::Dwell { seconds: p },
+                pc,
+                true,
+            );
+        }
+        for (code, plane) in [
+            (GCode::G17, Plane::XY),
+            (GCode::G18, Plane::ZX),
+            (GCode::G19, Plane::YZ),
+        ] {
+            if g_col(code).is_some() {
+                self.plane = plane;
+            }
+        }
+        if g_col(GCode::G20).is_some() {
+            self.scale = 25.4;
+        }
+        if g_col(GCode::G21).is_some() {
+            self.scale = 1.0;
+        }
+        if g_col(GCode::G40).is_some() {
+            self.comp_off()?;
+        }
+        let comp_code = [GCode::G41, GCode::G42, GCode::G41_1, GCode::G42_1]
+            .into_iter()
+            .find_map(|c| g_col(c).map(|col| (c, col)));
+        match comp_code {
+            Some((code, col)) => self.comp_on(code, &b, col)?,
+            None if b.get('d').is_some() => {
+                return fail(b.col('d'), "D word with no G41 or G42 to use it")
+            }
+            None => {}
+        }
+        self.tool_length_offset(&b)?;
+        for (i, code) in [
+            GCode::G54,
+            GCode::G55,
+            GCode::G56,
+            GCode::G57,
+            GCode::G58,
+            GCode::G59,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            if g_col(code).is_some() {
+                self.coord = i;
+            }
+        }
+        for code in [
+            GCode::G59_1,
+            GCode::G59_2,
+            GCode::G59_3,
+            GCode::G96,
+            GCode::G33,
+            GCode::G38_2,
+            GCode::G38_3,
+            GCode::G38_4,
+            GCode::G38_5,
+            GCode::G76,
+            GCode::G88,
+            GCode::G92_2,
+            GCode::G92_3,
+            GCode::G28_1,
+            GCode::G30_1,
+        ] {
+            if let Some(col) = g_col(code) {
+                return fail(col, format!("{code} is not supported"));
+            }
+        }
+        b.set_mode(&mut self.incremental, GCode::G90, GCode::G91);
+        b.set_mode(&mut self.arc_incremental, GCode::G90_1, GCode::G91_1);
+        b.set_mode(&mut self.retract_to_start, GCode::G99, GCode::G98);
+        // Non-modal group 0.
+        let axis_user = b.g.iter().find(|g| {
+            matches!(
+                g.0,
+                GCode::G10 | GCode::G28 | GCode::G30 | GCode::G92 | GCode::G43_1 | GCode::G43_2
+            )
+        });
+        let motion_code = b.g.iter().find(|g| g_group(g.0) == Some(1)).copied();
+        // As LinuxCNC (its check_other_codes): a P, Q, L or R word needs
+        // something in the block to use it (Snapmaker's `M3 P100`, a spindle
+        // power in percent, is refused there and by GRBL; a stray word would
+        // make the written program one the control refuses). The motion it
+        // would serve is the block's own, or the modal one when the block
+        // has axis words.
+        let motion = motion_code
+            .map(|m| m.0)
+            .or(b.has_axes().then_some(self.motion));
+        let cycle = motion.is_some_and(GCode::is_canned_cycle);
+        let in_block = |codes: &[GCode]| codes.iter().any(|&g| g_col(g).is_some());
+        let m_in = |used: fn(i32) -> bool| b.m.iter().any(|m| used(m.0));
+        let words = [
+            (
+                'p',
+                matches!(
+                    motion,
+                    Some(
+                        GCode::G2
+                            | GCode::G3
+                            | GCode::G74
+                            | GCode::G82
+                            | GCode::G84
+                            | GCode::G86
+                            | GCode::G89
+                    )
+                )
+                    || in_block(&[GCode::G4, GCode::G10, GCode::G64])
+                    || m_in(|m| matches!(m, 19 | 50..=53 | 62..=66 | 98)),
+                "P word with no G2, G3, G4, G10, G64, G74, G82, G84, G86, G89, M19, M50-M53, M62-M66 or M98 to use it",
+            ),
+            (
+                'q',
+                matches!(motion, Some(GCode::G73 | GCode::G83))
+                    || in_block(&[GCode::G10, GCode::G64])
+                    || m_in(|m| matches!(m, 19 | 61 | 66..=68)),
+                "Q word with no G10, G64, G73, G83, M19, M61, M66, M67 or M68 to use it",
+            ),
+            (
+                'l',
+                cycle
+                    || in_block(&[GCode::G10, GCode::G41, GCode::G41_1, GCode::G42, GCode::G42_1])
+                    || m_in(|m| matches!(m, 66 | 98)),
+                "L word with no G10, cutter compensation, canned cycle, M66 or M98 to use it",
+            ),
+            (
+                'r',
+                matches!(motion, Some(GCode::G2 | GCode::G3))
+                    || cycle
+                    || in_block(&[GCode::G10])
+                    || m_in(|m| m == 19),
+                "R word with no G2, G3, G10, canned cycle or M19 to use it",
+            ),
+        ];
+        if let Some(&(letter, _, message)) = words
+            .iter()
+            .find(|&&(letter, used, _)| b.get(letter).is_some() && !used)
+        {
+            return fail(b.col(letter), message);
+        }
+        if let (Some(&(a, col)), Some((m, _))) = (axis_user, motion_code) {
+            if m != GCode::G80 && b.has_axes() {
+                return fail(col, format!("{a} and {m} both use axis words"));
+            }
+        }
+        if let Some(&(code, col)) =
+            axis_user.filter(|g| !matches!(g.0, GCode::G43_1 | GCode::G43_2))
+        {
+            self.modal0(code, col, &b, pc)?;
+        } else if g_col(GCode::G92_1).is_some() {
+            self.g92 = [0.0; 3];
+        }
+        self.previous_motion = self.motion;
+        if let Some((code, _)) = motion_code {
+            self.motion = code;
+            self.tolerated.lone_arc = None;
+            if matches!(code, GCode::G0 | GCode::G1 | GCode::G2 | GCode::G3) {
+                self.tolerated.plain_motion = Some(code);
+            }
+            if !code.is_canned_cycle() {
+                self.cycle_initial_z = None;
+            }
+        }
+        let use_motion = axis_user.is_none() && (motion_code.is_some() || b.has_axes());
+        if use_motion {
+            if self.motion == GCode::G80 && b.has_axes() {
+                self.axis_words_after_g80(&b, pc)?;
+            }
+            if self.motion == GCode::G80 {
+                self.cycle_r = None;
+                self.cycle_z = None;
+            } else if let Some((code, _)) = motion_code.filter(|_| self.lone_arc_mode(&b, pc)) {
+                // Nothing moves: the arc mode waits for the next axis words.
+                self.tolerated.lone_arc = Some(code);
+            } else if b.has_axes() || matches!(self.motion, GCode::G2 | GCode::G3) {
+                if motion_code.is_none() {
+                    self.arc_mode_written_here(&b, pc);
+                }
+                self.motion_block(&b, pc)?;
+            }
+        }
+        if !matches!(self.motion, GCode::G2 | GCode::G3 | GCode::G87) || !use_motion {
+            for l in ['i', 'j', 'k'] {
+                if b.get(l).is_some() {
+                    return fail(
+                        b.col(l),
+                        format!(
+                            "{} word with no G2, G3 or G87 to use it",
+                            l.to_ascii_uppercase()
+                        ),
+                    );
+                }
+            }
+        }
+        // Stop and flow.
+        if b.has_m(2) || b.has_m(30) {
+            return Ok(None);
+        }
+        if b.has_m(98) {
+            let p = b.get('p').ok_or(Fail {
+                col: b.first_col,
+                msg: "M98 needs a P word (program number)".into(),
+            })?;
+            let l = b.get('l').unwrap_or(1.0);
+            if l < 1.0 || l.fract() != 0.0 || l > 1e6 {
+                return fail(
+                    b.col('l'),
+                    "L repeat count must be an integer from 1 to 1000000",
+                );
+            }
+            let target = integer_value(p).ok_or(Fail {
+                col: b.col('p'),
+                msg: format!("M98 P{p} is not a program number (a whole number)"),
+            })?;
+            let start = *self.programs.get(&target).ok_or(Fail {
+                col: b.col('p'),
+                msg: format!("subprogram O{target} not found"),
+            })?;
+            if self.frames.len() >= 64 {
+                return fail(b.first_col, "subprogram calls nested too deeply");
+            }
+            self.frames.push(Frame::Fanuc {
+                return_pc: pc + 1,
+                start,
+                remaining: l as u32 - 1,
+            });
+            self.enter_call_level();
+            return Ok(Some(start + 1));
+        }
+        if b.has_m(99) {
+            return match self.frames.pop() {
+                Some(Frame::Fanuc {
+                    return_pc,
+                    start,
+                    remaining,
+                }) => {
+                    if remaining > 0 {
+                        self.frames.push(Frame::Fanuc {
+                            return_pc,
+                            start,
+                            remaining: remaining - 1,
+                        });
+                        Ok(Some(start + 1))
+                    } else {
+                        self.leave_call_level();
+                        Ok(Some(return_pc))
+                    }
+                }
+                Some(other) => {
+                    self.frames.push(other);
+                    fail(b.first_col, "M99 inside an o-word subroutine")
+                }
+                None => Ok(None),
+            };
+        }
+        Ok(Some(pc + 1))
+    }
+
+    /// M19's words, and the outputs and input waits (M62–M68) as LinuxCNC
+    /// checks them. None moves an axis; a wait (M66 with L1–L4) takes the
+    /// run no time, since the input's change cannot be known: a warning.
+    fn inputs_and_outputs(&mut self, b: &Block) -> Result<(), Fail> {
+        if b.has_m(19) && b.get('p').is_some_and(|p| ![0.0, 1.0, 2.0].contains(&p)) {
+            return fail(b.col('p'), "P value must be 0, 1 or 2 with M19");
+        }
+        let col = |m: i32| b.m.iter().find(|c| c.0 == m).map_or(b.first_col, |c| c.1);
+        if let Some(m) = (62..=65).find(|&m| b.has_m(m)) {
+            if b.get('p').is_none() {
+                return fail(col(m), format!("M{m} needs a P word (the output's number)"));
+            }
+        }
+        if b.has_m(66) {
+            let (p, e) = (b.get('p'), b.get('e'));
+            let wait = b.get('l').unwrap_or(0.0);
+            match (p, e) {
+                (None, None) => {
+                    return fail(
+                        col(66),
+                        "M66 needs a P word (digital input) or an E word (analog input)",
+                    )
+                }
+                (Some(_), Some(_)) => {
+                    return fail(
+                        b.col('e'),
+                        "M66 selects a digital (P) or an analog (E) input, not both",
+                    )
+                }
+                (None, Some(_)) if wait != 0.0 => {
+                    return fail(
+                        b.col('l'),
+                        "M66 waits on an analog input (E) only with L0 (immediate)",
+                    )
+                }
+                _ => {}
+            }
+            if wait != 0.0 {
+                let timeout_s = b.get('q').unwrap_or(0.0);
+                if timeout_s <= 0.0 {
+                    return fail(
+                        col(66),
+                        "M66 with a wait (L1-L4) needs a Q word (timeout, seconds)",
+                    );
+                }
+                self.warn(
+                    col(66),
+                    format!("M66 waits for an input (up to {timeout_s} s): the run is simulated without the wait"),
+                );
+            }
+        }
+        if let Some(m) = [67, 68].into_iter().find(|&m| b.has_m(m)) {
+            if b.get('e').is_none() {
+                return fail(
+                    col(m),
+                    format!("M{m} needs an E word (the analog output's number)"),
+                );
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,310 @@
+//! Program flow: the run over the lines, o-word subroutines, branches and
+//! loops, and the call frames of o-word and Fanuc (M98/M99) calls.
+
+use std::rc::Rc;
+
+use super::{fail, Executed, Fail, FileForm, Interp};
+use crate::amend::Amendment;
+use crate::syntax::{self, LineKind, OKeyword, OLabel, OStmt};
+
+pub(super) enum Frame {
+    Fanuc {
+        return_pc: usize,
+        start: usize,
+        remaining: u32,
+    },
+    OSub {
+        return_pc: usize,
+        saved: Box<[f64; 30]>,
+    },
+}
+
+impl Interp<'_> {
+    pub(super) fn execute(&mut self) {
+        let mut pc = 0usize;
+        let mut executed = 0u64;
+        let mut seen_percent = false;
+        let lines = Rc::clone(&self.lines);
+        // A block's items parsed again where they are not kept.
+        let mut again = Vec::new();
+        while pc < lines.len() {
+            executed += 1;
+            if executed > self.options.max_blocks {
+                self.line_index = pc;
+                self.report(
+                    1,
+                    format!(
+                        "more than {} blocks executed; endless loop?",
+                        self.options.max_blocks
+                    ),
+                );
+                return;
+            }
+            if self.segment_count() > self.options.max_segments {
+                self.report(
+                    1,
+                    format!(
+                        "the program makes more than {} moves (the limit)",
+                        self.options.max_segments
+                    ),
+                );
+                return;
+            }
+            self.line_index = pc;
+            if self.toolchange_pending {
+                // LinuxCNC's refresh_actual_position after a tool change:
+                // the program point is the canon's, which ignores a tool
+                // length offset changed since the last move (rs274 does so).
+                self.toolchange_pending = false;
+                self.pos = std::array::from_fn(|i| self.canon_mm[i] + self.tlo_mm[i]);
+            }
+            let Some(line) = &lines[pc] else {
+                if let Some(e) = self.syntax_errors.get(&pc) {
+                    let e = e.clone();
+                    self.report(e.col, e.message);
+                }
+                pc += 1;
+                continue;
+            };
+            if line.block_delete && self.options.block_delete {
+                pc += 1;
+                continue;
+            }
+            let segments_before = self.segment_count() as u32;
+            if let Some(executed) = &mut self.executed {
+                executed.push(Executed {
+                    line_index: pc as u32,
+                    depth: self.frames.len() as u32,
+                    segments_before,
+                });
+            }
+            let next = match &line.kind {
+                LineKind::Empty | LineKind::ProgramNumber(_) => Ok(Some(pc + 1)),
+                // As LinuxCNC: '%' opens a program on the first line and
+                // then closes it; anywhere else it is an error.
+                LineKind::Percent if seen_percent => Ok(None),
+                LineKind::Percent if pc == 0 => {
+                    seen_percent = true;
+                    Ok(Some(pc + 1))
+                }
+                LineKind::Percent => Err(Fail {
+                    col: 1,
+                    msg: "'%' is allowed only on the first line and to close a program opened with it".into(),
+                }),
+                LineKind::OWord(stmt) => self.oword(pc, stmt),
+                LineKind::Block(_) => {
+                    let items = lines.block_items(pc, self.source, &mut again);
+                    self.block(pc, items.expect("a block's items"))
+                }
+            };
+            match next {
+                Ok(Some(n)) => pc = n,
+                Ok(None) => {
+                    self.ended = true;
+                    return;
+                }
+                Err(f) => {
+                    self.report(f.col, f.msg);
+                    pc += 1;
+                }
+            }
+        }
+        // As LinuxCNC: a program ends with M2, M30 or a closing '%'.
+        self.line_index = lines.len().saturating_sub(1);
+        match self.options.file_form {
+            FileForm::Fragment => {}
+            FileForm::LinuxCnc => self.report(
+                1,
+                "file ended with no program end (M2 or M30) or closing '%'".into(),
+            ),
+            FileForm::Tolerant => {
+                self.tolerated.amendments.push(Amendment::AppendProgramEnd);
+                self.warn(
+                    1,
+                    "file ended with no program end (M2 or M30) or closing '%': the program ends at its last line (LinuxCNC would refuse the file)".into(),
+                )
+            }
+        }
+    }
+
+    /// Finds the next (or previous) o-word with `label` and one of `keywords`.
+    fn find_o(
+        &self,
+        from: usize,
+        label: &OLabel,
+        keywords: &[OKeyword],
+        forward: bool,
+    ) -> Option<usize> {
+        let matches = |i: &usize| {
+            matches!(&self.lines[*i], Some(syntax::Line { kind: LineKind::OWord(s), .. })
+                if keywords.contains(&s.keyword))
+        };
+        let at = self.olines.get(label)?;
+        if forward {
+            let k = at.partition_point(|&i| i <= from);
+            at[k..].iter().copied().find(matches)
+        } else {
+            let k = at.partition_point(|&i| i < from);
+            at[..k].iter().rev().copied().find(matches)
+        }
+    }
+
+    fn cond(&self, stmt: &OStmt) -> Result<bool, Fail> {
+        let e = stmt.args.first().ok_or(Fail {
+            col: stmt.col,
+            msg: "missing [condition]".into(),
+        })?;
+        Ok(self
+            .params
+            .eval(e)
+            .map_err(|msg| Fail { col: stmt.col, msg })?
+            != 0.0)
+    }
+
+    fn oword(&mut self, pc: usize, s: &OStmt) -> Result<Option<usize>, Fail> {
+        use OKeyword as K;
+        let missing = |what: &str| Fail {
+            col: s.col,
+            msg: format!("no matching '{what}' for this o-word"),
+        };
+        let after =
+            |r: Option<usize>, what: &str| r.map(|i| Some(i + 1)).ok_or_else(|| missing(what));
+        match s.keyword {
+            K::Sub => after(self.find_o(pc, &s.label, &[K::EndSub], true), "endsub"),
+            K::EndSub | K::Return => match self.frames.pop() {
+                Some(Frame::OSub { return_pc, saved }) => {
+                    if let Some(e) = s.args.first() {
+                        let v = self
+                            .params
+                            .eval(e)
+                            .map_err(|msg| Fail { col: s.col, msg })?;
+                        self.params.pop_scope(&saved);
+                        self.params.set_named("_value", v);
+                    } else {
+                        self.params.pop_scope(&saved);
+                    }
+                    self.leave_call_level();
+                    Ok(Some(return_pc))
+                }
+                Some(other) => {
+                    self.frames.push(other);
+                    fail(s.col, "endsub/return inside an M98 subprogram")
+                }
+                None => fail(s.col, "endsub/return outside a subroutine"),
+            },
+            K::Call => {
+                let start = self
+                    .olines
+                    .get(&s.label)
+                    .and_then(|at| {
+                        at.iter().copied().find(|&i| {
+                            matches!(&self.lines[i], Some(syntax::Line { kind: LineKind::OWord(d), .. })
+                                if d.keyword == K::Sub)
+                        })
+                    })
+                    .ok_or_else(|| Fail {
+                        col: s.col,
+                        msg: "called subroutine is not defined".into(),
+                    })?;
+                if self.frames.len() >= 64 {
+                    return fail(s.col, "subroutine calls nested too deeply");
+                }
+                let args = s
+                    .args
+                    .iter()
+                    .map(|e| self.params.eval(e))
+                    .collect::<Result<Vec<_>, _>>()
+                    .map_err(|msg| Fail { col: s.col, msg })?;
+                let saved = self.params.push_scope(&args);
+                self.frames.push(Frame::OSub {
+                    return_pc: pc + 1,
+                    saved: Box::new(saved),
+                });
+                self.enter_call_level();
+                Ok(Some(start + 1))
+            }
+            K::If => {
+                let mut i = pc;
+                let mut stmt = s;
+                loop {
+                    if self.cond(stmt)? {
+                        return Ok(Some(i + 1));
+                    }
+                    i = self
+                        .find_o(i, &s.label, &[K::ElseIf, K::Else, K::EndIf], true)
+                        .ok_or_else(|| missing("endif"))?;
+                    match &self.lines[i] {
+                        Some(syntax::Line {
+                            kind: LineKind::OWord(next),
+                            ..
+                        }) if next.keyword == K::ElseIf => stmt = next,
+                        _ => return Ok(Some(i + 1)),
+                    }
+                }
+            }
+            K::ElseIf | K::Else => after(self.find_o(pc, &s.label, &[K::EndIf], true), "endif"),
+            K::EndIf | K::Do => Ok(Some(pc + 1)),
+            K::While => {
+                let end = self.find_o(pc, &s.label, &[K::EndWhile], true);
+                match end {
+                    Some(end) => Ok(Some(if self.cond(s)? { pc + 1 } else { end + 1 })),
+                    None => {
+                        let d = self
+                            .find_o(pc, &s.label, &[K::Do], false)
+                            .ok_or_else(|| missing("endwhile"))?;
+                        Ok(Some(if self.cond(s)? { d + 1 } else { pc + 1 }))
+                    }
+                }
+            }
+            K::EndWhile => self
+                .find_o(pc, &s.label, &[K::While], false)
+                .map(Some)
+                .ok_or_else(|| missing("while")),
+            K::Repeat => {
+                let e = s.args.first().ok_or(Fail {
+                    col: s.col,
+                    msg: "missing [count]".into(),
+                })?;
+                let n = self
+                    .params
+                    .eval(e)
+                    .map_err(|msg| Fail { col: s.col, msg })?
+                    .round() as i64;
+                if n > 0 {
+                    self.repeats.insert(pc, n);
+                    Ok(Some(pc + 1))
+                } else {
+                    after(
+                        self.find_o(pc, &s.label, &[K::EndRepeat], true),
+                        "endrepeat",
+                    )
+                }
+            }
+            K::EndRepeat => {
+                let start = self
+                    .find_o(pc, &s.label, &[K::Repeat], false)
+                    .ok_or_else(|| missing("repeat"))?;
+                let left = self.repeats.entry(start).or_insert(1);
+                *left -= 1;
+                Ok(Some(if *left > 0 { start + 1 } else { pc + 1 }))
+            }
+            K::Break => {
+                let end = self
+                    .find_o(pc, &s.label, &[K::EndWhile, K::EndRepeat, K::While], true)
+                    .ok_or_else(|| missing("endwhile/endrepeat"))?;
+                Ok(Some(end + 1))
+            }
+            K::Continue => {
+                if let Some(w) = self.find_o(pc, &s.label, &[K::While, K::Repeat], false) {
+                    if matches!(&self.lines[w], Some(syntax::Line { kind: LineKind::OWord(t), .. }) if t.keyword == K::While)
+                    {
+                        return Ok(Some(w));
+                    }
+                }
+                self.find_o(pc, &s.label, &[K::EndRepeat, K::While], true)
+                    .map(Some)
+                    .ok_or_else(|| missing("loop end"))
+            }
+        }
+    }
+}
