@@ -1,7 +1,6 @@
 //! One block: its words evaluated and checked (modal groups, words with
 //! nothing to use them), then executed in LinuxCNC's order.
 
-use super::control::Frame;
 use super::state::Spindle;
 use super::{fail, Fail, Interp};
 use crate::gcode::integer_value;
@@ -233,146 +232,16 @@ impl Interp<'_> {
         Ok(b)
     }
 
+    /// Executes line `pc`'s block (`items`) in LinuxCNC's order; the line to
+    /// run next, `None` at the program's end.
     pub(super) fn block(&mut self, pc: usize, items: &[Item]) -> Result<Option<usize>, Fail> {
         let b = self.eval_block(items)?;
         self.feed_scale = self.scale;
         let g_col = |code| b.has_g(code);
-        // Feed mode, feed, speed, tool, spindle.
-        if let Some(col) = g_col(GCode::G95) {
-            return fail(col, "G95 feed per revolution is not supported");
-        }
-        b.set_mode(&mut self.inverse_time, GCode::G94, GCode::G93);
-        if let Some(f) = b.get('f') {
-            if f < 0.0 {
-                return fail(b.col('f'), "negative feed rate");
-            }
-            if !self.inverse_time {
-                self.feed_mm_min = f * self.scale;
-            }
-        }
-        if let Some(s) = b.get('s') {
-            if s < 0.0 {
-                return fail(b.col('s'), "negative spindle speed");
-            }
-            self.spindle_rpm = s;
-        }
-        if let Some(t) = b.get('t') {
-            self.selected_tool = Some(self.tool_number(t, b.col('t'), 'T')?);
-        }
-        if (b.has_m(6) || b.has_m(61)) && self.comp.side.is_some() {
-            return fail(
-                b.first_col,
-                "cannot change tools with cutter radius compensation on",
-            );
-        }
-        if b.has_m(6) {
-            self.load_tool(self.selected_tool.unwrap_or(self.tool), pc);
-        }
-        if b.has_m(61) {
-            let q = b.get('q').ok_or(Fail {
-                col: b.first_col,
-                msg: "M61 needs a Q word (tool number)".into(),
-            })?;
-            // LinuxCNC rounds M61's Q to the nearest whole number (round_to_int).
-            let t = self.tool_number(q.round_ties_even(), b.col('q'), 'Q')?;
-            self.load_tool(t, pc);
-        }
-        if b.has_m(3) {
-            self.spindle = Spindle::Clockwise;
-        }
-        if b.has_m(4) {
-            self.spindle = Spindle::Counterclockwise;
-        }
-        // M19 orients the spindle: it stops turning until the next M3 or M4.
-        if b.has_m(5) || b.has_m(19) {
-            self.spindle = Spindle::Stopped;
-        }
+        self.feed_spindle_and_tool(&b, pc)?;
         self.inputs_and_outputs(&b)?;
         self.m70_m73(&b)?;
-        if let Some(col) = g_col(GCode::G4) {
-            let p = b.get('p').ok_or(Fail {
-                col,
-                msg: "G4 needs a P word (seconds)".into(),
-            })?;
-            if p < 0.0 {
-                return fail(b.col('p'), "negative dwell time");
-            }
-            self.push(
-                self.pos,
-                Geometry::Line,
-                Motion::Dwell { seconds: p },
-                pc,
-                true,
-            );
-        }
-        for (code, plane) in [
-            (GCode::G17, Plane::XY),
-            (GCode::G18, Plane::ZX),
-            (GCode::G19, Plane::YZ),
-        ] {
-            if g_col(code).is_some() {
-                self.plane = plane;
-            }
-        }
-        if g_col(GCode::G20).is_some() {
-            self.scale = 25.4;
-        }
-        if g_col(GCode::G21).is_some() {
-            self.scale = 1.0;
-        }
-        if g_col(GCode::G40).is_some() {
-            self.comp_off()?;
-        }
-        let comp_code = [GCode::G41, GCode::G42, GCode::G41_1, GCode::G42_1]
-            .into_iter()
-            .find_map(|c| g_col(c).map(|col| (c, col)));
-        match comp_code {
-            Some((code, col)) => self.comp_on(code, &b, col)?,
-            None if b.get('d').is_some() => {
-                return fail(b.col('d'), "D word with no G41 or G42 to use it")
-            }
-            None => {}
-        }
-        self.tool_length_offset(&b)?;
-        for (i, code) in [
-            GCode::G54,
-            GCode::G55,
-            GCode::G56,
-            GCode::G57,
-            GCode::G58,
-            GCode::G59,
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            if g_col(code).is_some() {
-                self.coord = i;
-            }
-        }
-        for code in [
-            GCode::G59_1,
-            GCode::G59_2,
-            GCode::G59_3,
-            GCode::G96,
-            GCode::G33,
-            GCode::G38_2,
-            GCode::G38_3,
-            GCode::G38_4,
-            GCode::G38_5,
-            GCode::G76,
-            GCode::G88,
-            GCode::G92_2,
-            GCode::G92_3,
-            GCode::G28_1,
-            GCode::G30_1,
-        ] {
-            if let Some(col) = g_col(code) {
-                return fail(col, format!("{code} is not supported"));
-            }
-        }
-        b.set_mode(&mut self.incremental, GCode::G90, GCode::G91);
-        b.set_mode(&mut self.arc_incremental, GCode::G90_1, GCode::G91_1);
-        b.set_mode(&mut self.retract_to_start, GCode::G99, GCode::G98);
+        self.dwell_and_modes(&b, pc)?;
         // Non-modal group 0.
         let axis_user = b.g.iter().find(|g| {
             matches!(
@@ -495,68 +364,158 @@ impl Interp<'_> {
                 }
             }
         }
-        // Stop and flow.
-        if b.has_m(2) || b.has_m(30) {
-            return Ok(None);
+        self.program_flow(&b, pc)
+    }
+
+    /// The block's feed mode (G93/G94; G95 refused), F and S words, T word,
+    /// tool change (M6, M61) and spindle (M3, M4, M5, M19): the first of
+    /// [`Interp::block`]'s steps.
+    fn feed_spindle_and_tool(&mut self, b: &Block, pc: usize) -> Result<(), Fail> {
+        let g_col = |code| b.has_g(code);
+        // Feed mode, feed, speed, tool, spindle.
+        if let Some(col) = g_col(GCode::G95) {
+            return fail(col, "G95 feed per revolution is not supported");
         }
-        if b.has_m(98) {
-            let p = b.get('p').ok_or(Fail {
+        b.set_mode(&mut self.inverse_time, GCode::G94, GCode::G93);
+        if let Some(f) = b.get('f') {
+            if f < 0.0 {
+                return fail(b.col('f'), "negative feed rate");
+            }
+            if !self.inverse_time {
+                self.feed_mm_min = f * self.scale;
+            }
+        }
+        if let Some(s) = b.get('s') {
+            if s < 0.0 {
+                return fail(b.col('s'), "negative spindle speed");
+            }
+            self.spindle_rpm = s;
+        }
+        if let Some(t) = b.get('t') {
+            self.selected_tool = Some(self.tool_number(t, b.col('t'), 'T')?);
+        }
+        if (b.has_m(6) || b.has_m(61)) && self.comp.side.is_some() {
+            return fail(
+                b.first_col,
+                "cannot change tools with cutter radius compensation on",
+            );
+        }
+        if b.has_m(6) {
+            self.load_tool(self.selected_tool.unwrap_or(self.tool), pc);
+        }
+        if b.has_m(61) {
+            let q = b.get('q').ok_or(Fail {
                 col: b.first_col,
-                msg: "M98 needs a P word (program number)".into(),
+                msg: "M61 needs a Q word (tool number)".into(),
             })?;
-            let l = b.get('l').unwrap_or(1.0);
-            if l < 1.0 || l.fract() != 0.0 || l > 1e6 {
-                return fail(
-                    b.col('l'),
-                    "L repeat count must be an integer from 1 to 1000000",
-                );
-            }
-            let target = integer_value(p).ok_or(Fail {
-                col: b.col('p'),
-                msg: format!("M98 P{p} is not a program number (a whole number)"),
-            })?;
-            let start = *self.programs.get(&target).ok_or(Fail {
-                col: b.col('p'),
-                msg: format!("subprogram O{target} not found"),
-            })?;
-            if self.frames.len() >= 64 {
-                return fail(b.first_col, "subprogram calls nested too deeply");
-            }
-            self.frames.push(Frame::Fanuc {
-                return_pc: pc + 1,
-                start,
-                remaining: l as u32 - 1,
-            });
-            self.enter_call_level();
-            return Ok(Some(start + 1));
+            // LinuxCNC rounds M61's Q to the nearest whole number (round_to_int).
+            let t = self.tool_number(q.round_ties_even(), b.col('q'), 'Q')?;
+            self.load_tool(t, pc);
         }
-        if b.has_m(99) {
-            return match self.frames.pop() {
-                Some(Frame::Fanuc {
-                    return_pc,
-                    start,
-                    remaining,
-                }) => {
-                    if remaining > 0 {
-                        self.frames.push(Frame::Fanuc {
-                            return_pc,
-                            start,
-                            remaining: remaining - 1,
-                        });
-                        Ok(Some(start + 1))
-                    } else {
-                        self.leave_call_level();
-                        Ok(Some(return_pc))
-                    }
-                }
-                Some(other) => {
-                    self.frames.push(other);
-                    fail(b.first_col, "M99 inside an o-word subroutine")
-                }
-                None => Ok(None),
-            };
+        if b.has_m(3) {
+            self.spindle = Spindle::Clockwise;
         }
-        Ok(Some(pc + 1))
+        if b.has_m(4) {
+            self.spindle = Spindle::Counterclockwise;
+        }
+        // M19 orients the spindle: it stops turning until the next M3 or M4.
+        if b.has_m(5) || b.has_m(19) {
+            self.spindle = Spindle::Stopped;
+        }
+        Ok(())
+    }
+
+    /// The block's dwell (G4), plane, units, cutter compensation, tool length
+    /// offset, work offset, refused codes, and distance and retract modes, in
+    /// that order (after the spindle, outputs and M70-M73 of
+    /// [`Interp::block`]).
+    fn dwell_and_modes(&mut self, b: &Block, pc: usize) -> Result<(), Fail> {
+        let g_col = |code| b.has_g(code);
+        if let Some(col) = g_col(GCode::G4) {
+            let p = b.get('p').ok_or(Fail {
+                col,
+                msg: "G4 needs a P word (seconds)".into(),
+            })?;
+            if p < 0.0 {
+                return fail(b.col('p'), "negative dwell time");
+            }
+            self.push(
+                self.pos,
+                Geometry::Line,
+                Motion::Dwell { seconds: p },
+                pc,
+                true,
+            );
+        }
+        for (code, plane) in [
+            (GCode::G17, Plane::XY),
+            (GCode::G18, Plane::ZX),
+            (GCode::G19, Plane::YZ),
+        ] {
+            if g_col(code).is_some() {
+                self.plane = plane;
+            }
+        }
+        if g_col(GCode::G20).is_some() {
+            self.scale = 25.4;
+        }
+        if g_col(GCode::G21).is_some() {
+            self.scale = 1.0;
+        }
+        if g_col(GCode::G40).is_some() {
+            self.comp_off()?;
+        }
+        let comp_code = [GCode::G41, GCode::G42, GCode::G41_1, GCode::G42_1]
+            .into_iter()
+            .find_map(|c| g_col(c).map(|col| (c, col)));
+        match comp_code {
+            Some((code, col)) => self.comp_on(code, b, col)?,
+            None if b.get('d').is_some() => {
+                return fail(b.col('d'), "D word with no G41 or G42 to use it")
+            }
+            None => {}
+        }
+        self.tool_length_offset(b)?;
+        for (i, code) in [
+            GCode::G54,
+            GCode::G55,
+            GCode::G56,
+            GCode::G57,
+            GCode::G58,
+            GCode::G59,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            if g_col(code).is_some() {
+                self.coord = i;
+            }
+        }
+        for code in [
+            GCode::G59_1,
+            GCode::G59_2,
+            GCode::G59_3,
+            GCode::G96,
+            GCode::G33,
+            GCode::G38_2,
+            GCode::G38_3,
+            GCode::G38_4,
+            GCode::G38_5,
+            GCode::G76,
+            GCode::G88,
+            GCode::G92_2,
+            GCode::G92_3,
+            GCode::G28_1,
+            GCode::G30_1,
+        ] {
+            if let Some(col) = g_col(code) {
+                return fail(col, format!("{code} is not supported"));
+            }
+        }
+        b.set_mode(&mut self.incremental, GCode::G90, GCode::G91);
+        b.set_mode(&mut self.arc_incremental, GCode::G90_1, GCode::G91_1);
+        b.set_mode(&mut self.retract_to_start, GCode::G99, GCode::G98);
+        Ok(())
     }
 
     /// M19's words, and the outputs and input waits (M62–M68) as LinuxCNC

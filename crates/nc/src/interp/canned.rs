@@ -10,88 +10,26 @@ use crate::GCode;
 /// Most pecks (times L repeats) one drilling cycle block may make.
 const MAX_CYCLE_PECKS: f64 = 100_000.0;
 
+/// A cycle block's words as read (R, Z, L) and its peck depth (mm, 0 where
+/// it does not peck).
+struct CycleWords {
+    r: f64,
+    z: f64,
+    repeats: f64,
+    peck_mm: f64,
+}
+
 impl Interp<'_> {
+    /// The block's canned cycle: its words, the spindle and feed it needs,
+    /// its holes (every L repeat, polar words too), then its moves.
     pub(super) fn cycle(&mut self, b: &Block, pc: usize) -> Result<(), Fail> {
-        if self.plane != Plane::XY {
-            return fail(
-                b.first_col,
-                "canned cycles are supported in the G17 plane only",
-            );
-        }
-        if self.inverse_time {
-            return fail(
-                b.first_col,
-                "canned cycles cannot be used with G93 inverse time",
-            );
-        }
-        // As LinuxCNC's convert_cycle: a cycle entered from another motion
-        // mode needs its R and Z words (and P where it dwells, I J K for
-        // G87); a later block of the same cycle takes those it lacks from
-        // the block before.
+        let CycleWords {
+            r,
+            z,
+            repeats,
+            peck_mm,
+        } = self.cycle_words(b)?;
         let code = self.motion;
-        let entered = self.previous_motion != code;
-        let modal = |word: Option<f64>, held: Option<f64>| {
-            if entered {
-                word
-            } else {
-                word.or(held)
-            }
-        };
-        let r = modal(b.get('r'), self.cycle_r).ok_or(Fail {
-            col: b.first_col,
-            msg: "R clearance plane unspecified in cycle".into(),
-        })?;
-        let z = modal(b.get('z'), self.cycle_z).ok_or(Fail {
-            col: b.first_col,
-            msg: "Z value unspecified in XY plane canned cycle".into(),
-        })?;
-        self.cycle_r = Some(r);
-        self.cycle_z = Some(z);
-        let repeats = b.get('l').unwrap_or(1.0);
-        if repeats < 1.0 || repeats.fract() != 0.0 || repeats > 1e5 {
-            return fail(
-                b.col('l'),
-                "L repeat count must be an integer from 1 to 100000",
-            );
-        }
-        let mut peck_mm = 0.0;
-        if matches!(self.motion, GCode::G73 | GCode::G83) {
-            let q = b.get('q').or(self.cycle_q).ok_or(Fail {
-                col: b.first_col,
-                msg: "G73/G83 need a Q word (peck depth)".into(),
-            })?;
-            if q <= 0.0 {
-                return fail(b.col('q'), "Q (peck depth) must be positive");
-            }
-            self.cycle_q = Some(q);
-            peck_mm = q * self.scale;
-        }
-        if matches!(code, GCode::G82 | GCode::G86 | GCode::G89) && entered && b.get('p').is_none() {
-            return fail(
-                b.first_col,
-                format!("Dwell time P word missing with {code}"),
-            );
-        }
-        if matches!(
-            code,
-            GCode::G74 | GCode::G82 | GCode::G84 | GCode::G86 | GCode::G89
-        ) {
-            self.cycle_p = b.get('p').unwrap_or(self.cycle_p);
-        }
-        if code == GCode::G87 {
-            for (k, letter) in ['i', 'j', 'k'].into_iter().enumerate() {
-                match b.get(letter) {
-                    Some(v) => self.cycle_ijk[k] = v,
-                    None if entered => {
-                        return fail(
-                            b.first_col,
-                            format!("{} word missing with G87", letter.to_ascii_uppercase()),
-                        )
-                    }
-                    None => {}
-                }
-            }
-        }
         // LinuxCNC checks the spindle where the cycle runs its hole.
         let spindle_error = match (code, self.spindle) {
             (GCode::G74 | GCode::G84 | GCode::G86 | GCode::G87, Spindle::Stopped) => {
@@ -188,8 +126,107 @@ impl Interp<'_> {
             ],
             back_top_z,
         };
+        self.cycle_moves(&c, pc);
+        Ok(())
+    }
+
+    /// The cycle's modal words, checked as LinuxCNC's convert_cycle checks
+    /// them (the plane, G93, R, Z, L, Q, P, and I J K for G87), held for the
+    /// cycle's next blocks: the first of [`Interp::cycle`]'s steps.
+    fn cycle_words(&mut self, b: &Block) -> Result<CycleWords, Fail> {
+        if self.plane != Plane::XY {
+            return fail(
+                b.first_col,
+                "canned cycles are supported in the G17 plane only",
+            );
+        }
+        if self.inverse_time {
+            return fail(
+                b.first_col,
+                "canned cycles cannot be used with G93 inverse time",
+            );
+        }
+        // As LinuxCNC's convert_cycle: a cycle entered from another motion
+        // mode needs its R and Z words (and P where it dwells, I J K for
+        // G87); a later block of the same cycle takes those it lacks from
+        // the block before.
+        let code = self.motion;
+        let entered = self.previous_motion != code;
+        let modal = |word: Option<f64>, held: Option<f64>| {
+            if entered {
+                word
+            } else {
+                word.or(held)
+            }
+        };
+        let r = modal(b.get('r'), self.cycle_r).ok_or(Fail {
+            col: b.first_col,
+            msg: "R clearance plane unspecified in cycle".into(),
+        })?;
+        let z = modal(b.get('z'), self.cycle_z).ok_or(Fail {
+            col: b.first_col,
+            msg: "Z value unspecified in XY plane canned cycle".into(),
+        })?;
+        self.cycle_r = Some(r);
+        self.cycle_z = Some(z);
+        let repeats = b.get('l').unwrap_or(1.0);
+        if repeats < 1.0 || repeats.fract() != 0.0 || repeats > 1e5 {
+            return fail(
+                b.col('l'),
+                "L repeat count must be an integer from 1 to 100000",
+            );
+        }
+        let mut peck_mm = 0.0;
+        if matches!(self.motion, GCode::G73 | GCode::G83) {
+            let q = b.get('q').or(self.cycle_q).ok_or(Fail {
+                col: b.first_col,
+                msg: "G73/G83 need a Q word (peck depth)".into(),
+            })?;
+            if q <= 0.0 {
+                return fail(b.col('q'), "Q (peck depth) must be positive");
+            }
+            self.cycle_q = Some(q);
+            peck_mm = q * self.scale;
+        }
+        if matches!(code, GCode::G82 | GCode::G86 | GCode::G89) && entered && b.get('p').is_none() {
+            return fail(
+                b.first_col,
+                format!("Dwell time P word missing with {code}"),
+            );
+        }
+        if matches!(
+            code,
+            GCode::G74 | GCode::G82 | GCode::G84 | GCode::G86 | GCode::G89
+        ) {
+            self.cycle_p = b.get('p').unwrap_or(self.cycle_p);
+        }
+        if code == GCode::G87 {
+            for (k, letter) in ['i', 'j', 'k'].into_iter().enumerate() {
+                match b.get(letter) {
+                    Some(v) => self.cycle_ijk[k] = v,
+                    None if entered => {
+                        return fail(
+                            b.first_col,
+                            format!("{} word missing with G87", letter.to_ascii_uppercase()),
+                        )
+                    }
+                    None => {}
+                }
+            }
+        }
+        Ok(CycleWords {
+            r,
+            z,
+            repeats,
+            peck_mm,
+        })
+    }
+
+    /// Appends the moves cycle `c` expands to, the spindle stopped and
+    /// started again where the cycle does: the last of [`Interp::cycle`]'s steps.
+    fn cycle_moves(&mut self, c: &Cycle, pc: usize) {
         let turning = self.spindle;
-        for m in cycles::expand(&c, [self.pos[0], self.pos[1]]) {
+        for m in cycles::expand(c, [self.pos[0], self.pos[1]]) {
             match m {
                 CycleMove::Rapid(p) => self.rapid(p, pc),
                 CycleMove::Feed(p) => {
@@ -216,6 +253,5 @@ impl Interp<'_> {
                 ),
             }
         }
-        Ok(())
     }
 }

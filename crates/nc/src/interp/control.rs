@@ -3,8 +3,9 @@
 
 use std::rc::Rc;
 
-use super::{fail, Executed, Fail, FileForm, Interp};
+use super::{fail, Block, Executed, Fail, FileForm, Interp};
 use crate::amend::Amendment;
+use crate::gcode::integer_value;
 use crate::syntax::{self, LineKind, OKeyword, OLabel, OStmt};
 
 pub(super) enum Frame {
@@ -306,5 +307,73 @@ impl Interp<'_> {
                     .ok_or_else(|| missing("loop end"))
             }
         }
+    }
+
+    /// The block's program end (M2, M30) and Fanuc subprogram call and return
+    /// (M98, M99), the last of [`Interp::block`]'s steps: the line to run next,
+    /// `None` at the program's end.
+    pub(super) fn program_flow(&mut self, b: &Block, pc: usize) -> Result<Option<usize>, Fail> {
+        // Stop and flow.
+        if b.has_m(2) || b.has_m(30) {
+            return Ok(None);
+        }
+        if b.has_m(98) {
+            let p = b.get('p').ok_or(Fail {
+                col: b.first_col,
+                msg: "M98 needs a P word (program number)".into(),
+            })?;
+            let l = b.get('l').unwrap_or(1.0);
+            if l < 1.0 || l.fract() != 0.0 || l > 1e6 {
+                return fail(
+                    b.col('l'),
+                    "L repeat count must be an integer from 1 to 1000000",
+                );
+            }
+            let target = integer_value(p).ok_or(Fail {
+                col: b.col('p'),
+                msg: format!("M98 P{p} is not a program number (a whole number)"),
+            })?;
+            let start = *self.programs.get(&target).ok_or(Fail {
+                col: b.col('p'),
+                msg: format!("subprogram O{target} not found"),
+            })?;
+            if self.frames.len() >= 64 {
+                return fail(b.first_col, "subprogram calls nested too deeply");
+            }
+            self.frames.push(Frame::Fanuc {
+                return_pc: pc + 1,
+                start,
+                remaining: l as u32 - 1,
+            });
+            self.enter_call_level();
+            return Ok(Some(start + 1));
+        }
+        if b.has_m(99) {
+            return match self.frames.pop() {
+                Some(Frame::Fanuc {
+                    return_pc,
+                    start,
+                    remaining,
+                }) => {
+                    if remaining > 0 {
+                        self.frames.push(Frame::Fanuc {
+                            return_pc,
+                            start,
+                            remaining: remaining - 1,
+                        });
+                        Ok(Some(start + 1))
+                    } else {
+                        self.leave_call_level();
+                        Ok(Some(return_pc))
+                    }
+                }
+                Some(other) => {
+                    self.frames.push(other);
+                    fail(b.first_col, "M99 inside an o-word subroutine")
+                }
+                None => Ok(None),
+            };
+        }
+        Ok(Some(pc + 1))
     }
 }
