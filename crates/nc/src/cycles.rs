@@ -25,7 +25,7 @@ pub enum CycleMove {
 /// Retract step of G73/G83 above the last peck (LinuxCNC: 0.010 in).
 const RAPID_DELTA_MM: f64 = 0.254;
 
-use crate::GCode;
+use crate::gcode::GCode;
 
 /// A cycle to expand.
 #[derive(Clone, Debug)]

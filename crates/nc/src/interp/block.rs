@@ -4,9 +4,9 @@
 use super::state::Spindle;
 use super::{fail, Fail, Interp};
 use crate::gcode::integer_value;
+use crate::gcode::GCode;
 use crate::path::{Geometry, Motion, Plane};
 use crate::syntax::{Item, ItemKind};
-use crate::GCode;
 
 /// A block after evaluation of its words.
 #[derive(Default)]

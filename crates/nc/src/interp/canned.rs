@@ -4,8 +4,8 @@
 use super::state::Spindle;
 use super::{fail, Block, Fail, Interp};
 use crate::cycles::{self, Cycle, CycleMove};
+use crate::gcode::GCode;
 use crate::path::{Geometry, Motion, Plane};
-use crate::GCode;
 
 /// Most pecks (times L repeats) one drilling cycle block may make.
 const MAX_CYCLE_PECKS: f64 = 100_000.0;

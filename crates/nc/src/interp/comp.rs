@@ -13,8 +13,8 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use nalgebra::Point3;
 
 use super::{fail, Block, Fail, Interp};
+use crate::gcode::GCode;
 use crate::path::{Geometry, Motion, Plane};
-use crate::GCode;
 
 /// Which side of the contour the tool runs on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -5,7 +5,7 @@
 use super::{FileForm, Interp};
 use crate::amend::Amendment;
 use crate::diag::{Diagnostic, Severity};
-use crate::GCode;
+use crate::gcode::GCode;
 
 /// An execution error at a column.
 pub(super) struct Fail {

@@ -7,8 +7,8 @@ use nalgebra::Point3;
 use super::block::g_group;
 use super::state::Spindle;
 use super::{fail, Block, Fail, Interp, SegmentTrace};
+use crate::gcode::GCode;
 use crate::path::{Geometry, Motion, Segment};
-use crate::GCode;
 
 /// LinuxCNC's RADIUS_TOLERANCE (0.00005 in = 0.00127 mm): an R arc's half
 /// chord may exceed R by this much, and a shorter radius is zero.

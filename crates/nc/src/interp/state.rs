@@ -14,9 +14,9 @@ use super::{fail, Block, Executed, Fail, Options, SegmentTrace};
 use crate::cursor::SyntaxError;
 use crate::diag::Diagnostic;
 use crate::expr::Params;
+use crate::gcode::GCode;
 use crate::path::{Path, Plane, Segment};
 use crate::syntax::{self, OLabel};
-use crate::GCode;
 
 /// Modal state saved by M70/M73 and restored by M72 or, after M73, on return
 /// (LinuxCNC's `save_settings`/`restore_settings`; the motion mode is not restored).

@@ -3,8 +3,8 @@
 
 use super::block::g_group;
 use super::{fail, Block, Fail, Interp};
+use crate::gcode::GCode;
 use crate::path::{Geometry, Motion};
-use crate::GCode;
 
 impl Interp<'_> {
     /// A T or Q value as a tool number, checked against the tool table.

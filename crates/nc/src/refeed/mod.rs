@@ -66,11 +66,11 @@ mod verify;
 mod words;
 
 use expanded::{cycle_lines, cycle_runs, write_expanded, CycleRuns};
-use tables::{coarsened, padded, run_tables, table_header, RunTable};
+use tables::{coarsened, padded, run_tables, RunTable};
 use verify::verify;
 use words::{
-    eol_or_newline, f_value, f_word, lowest, split_line, splittable, valid_pieces, with_f_word,
-    words_text, write_blocks,
+    eol_or_newline, f_value, f_word, lowest, split_line, splittable, trim_number, valid_pieces,
+    with_f_word, words_text, write_blocks,
 };
 
 /// Why a program could not be re-fed.
@@ -78,7 +78,7 @@ use words::{
 pub enum RefeedError {
     /// The source program has an error (the first one).
     #[error("{0}")]
-    Program(crate::Diagnostic),
+    Program(crate::diag::Diagnostic),
     /// The plan does not have one entry per segment of the program.
     #[error("the feed plan has {plan} entries but the program has {segments} segments")]
     PlanLength {
@@ -143,7 +143,7 @@ pub fn refeed_read_along(
     file: &str,
     options: &Options,
     plan: &[Vec<(f64, f64)>],
-    path: crate::Path,
+    path: crate::path::Path,
 ) -> Result<(String, Parsed), RefeedError> {
     refeed_read_lent(source, file, options, plan, Some(path.segments))
 }
@@ -166,7 +166,7 @@ fn refeed_read_lent(
     let amended;
     let mut source = source;
     if !parsed.amendments.is_empty() && !parsed.diagnostics.iter().any(|d| d.is_error()) {
-        amended = crate::amend(source, &parsed.amendments);
+        amended = crate::amend::amend(source, &parsed.amendments);
         source = &amended;
         (parsed, trace, executed) = run(source, lent.as_deref());
     }
@@ -604,4 +604,47 @@ fn write(
         }
     }
     (out, written_pieces)
+}
+
+/// Lines that set every counter to 0 and every table entry to its feed.
+fn table_header(
+    tables: &BTreeMap<usize, RunTable>,
+    per_run: &BTreeMap<usize, CycleRuns>,
+    nl: &str,
+) -> String {
+    let mut h = String::new();
+    if !per_run.is_empty() {
+        let _ = write!(
+            h,
+            "(dexcut: counters of the canned cycles run more than once, written out per run){nl}"
+        );
+        for c in per_run.values() {
+            let _ = write!(h, "#{} = 0{nl}", c.counter);
+        }
+    }
+    if tables.is_empty() {
+        return h;
+    }
+    let _ = write!(
+        h,
+        "(dexcut: feeds of lines run more than once, one per run){nl}"
+    );
+    if tables.values().any(|t| t.blocks() > 1) {
+        let _ = write!(
+            h,
+            "(dexcut: and the end points and feeds of the blocks they are split into){nl}"
+        );
+    }
+    for t in tables.values() {
+        let _ = write!(h, "#{} = 0{nl}", t.counter);
+        for (k, v) in t.values.iter().enumerate() {
+            let _ = write!(
+                h,
+                "#{} = {}{nl}",
+                t.first + k as u32,
+                trim_number(&format!("{v:.8}"))
+            );
+        }
+    }
+    h
 }

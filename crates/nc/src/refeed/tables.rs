@@ -3,14 +3,11 @@
 //! of the program; and the pieces coarsened or padded to a run's blocks.
 
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 
 use nalgebra::Point3;
 
-use super::expanded::CycleRuns;
 use super::words::{
     block_axes, block_values, f_value, f_word, lowest, motion_word, plane_of, splittable,
-    trim_number,
 };
 use super::LineSegments;
 use crate::interp::{self, Executed};
@@ -335,47 +332,4 @@ pub(super) fn padded(pieces: &[(f64, f64)], blocks: usize) -> Vec<(f64, f64)> {
         out.insert(k, (0.5 * (start + out[k].0), out[k].1));
     }
     out
-}
-
-/// Lines that set every counter to 0 and every table entry to its feed.
-pub(super) fn table_header(
-    tables: &BTreeMap<usize, RunTable>,
-    per_run: &BTreeMap<usize, CycleRuns>,
-    nl: &str,
-) -> String {
-    let mut h = String::new();
-    if !per_run.is_empty() {
-        let _ = write!(
-            h,
-            "(dexcut: counters of the canned cycles run more than once, written out per run){nl}"
-        );
-        for c in per_run.values() {
-            let _ = write!(h, "#{} = 0{nl}", c.counter);
-        }
-    }
-    if tables.is_empty() {
-        return h;
-    }
-    let _ = write!(
-        h,
-        "(dexcut: feeds of lines run more than once, one per run){nl}"
-    );
-    if tables.values().any(|t| t.blocks() > 1) {
-        let _ = write!(
-            h,
-            "(dexcut: and the end points and feeds of the blocks they are split into){nl}"
-        );
-    }
-    for t in tables.values() {
-        let _ = write!(h, "#{} = 0{nl}", t.counter);
-        for (k, v) in t.values.iter().enumerate() {
-            let _ = write!(
-                h,
-                "#{} = {}{nl}",
-                t.first + k as u32,
-                trim_number(&format!("{v:.8}"))
-            );
-        }
-    }
-    h
 }
