@@ -56,7 +56,8 @@ pub enum FileForm {
     /// program end, a leading byte-order mark is skipped, and the dialects
     /// real posts write are read as their controls read them (see
     /// [`crate::amend`]); each is a warning naming what LinuxCNC would
-    /// refuse, and an [`Amendment`] in [`Parsed::amendments`].
+    /// refuse, and an [`Amendment`](crate::Amendment) in
+    /// [`Parsed::amendments`](crate::Parsed::amendments).
     Tolerant,
 }
 

@@ -134,13 +134,13 @@ pub(super) struct Interp<'a> {
     /// Cutter radius compensation.
     pub(super) comp: comp::Comp,
     /// Every line executed, in order, with the call depth it ran at
-    /// (`Some` only for [`run_recorded`]).
+    /// (`Some` only for [`run_recorded`](super::run_recorded)).
     pub(super) executed: Option<Vec<Executed>>,
     /// The path the run is expected to make, while it makes it.
     pub(super) lent: Option<Lent<'a>>,
 }
 
-/// A path lent to a run ([`run_recorded_along`]): the caller's reading of
+/// A path lent to a run ([`run_recorded_along`](super::run_recorded_along)): the caller's reading of
 /// the same text. While each segment the run makes is the lent path's next
 /// bit for bit, it is counted, not pushed; at the first that is not (or
 /// before cutter compensation takes a segment's index to move its end
