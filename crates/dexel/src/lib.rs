@@ -33,6 +33,7 @@ pub enum Error {
 }
 pub mod sweep;
 pub mod tool;
+mod top;
 
 pub use sweep::{
     sweep, sweep_tools, RecordRow, RemovalRecord, RowSink, Step, StepFn, StepSource, Sweep,
