@@ -1,4 +1,11 @@
 //! `dexcut`: cutting simulation and feed optimisation for 3-axis milling.
+//!
+//! A thin binary over the `dexcut` library: it parses the command line
+//! (clap), calls `dexcut::commands` (simulate, optimize, report, evaluate,
+//! calibrate, example), which do the work (the pipeline job → stock + program
+//! → motion → sweep → loads → outputs) and write the output files, and prints
+//! their typed results, warnings and progress bars (`console`, `progress`).
+//! No pipeline logic lives here.
 
 use std::path::{Path, PathBuf};
 

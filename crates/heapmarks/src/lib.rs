@@ -9,6 +9,9 @@
 //! turns dexcut's marks on (without the feature they are empty functions).
 //! It agrees with heaptrack's peak where both measure the same run
 //! (BENCHMARKS.md).
+//!
+//! Not a stage of the pipeline: a measuring tool beside it, for the phases of
+//! the `dexcut` library's commands. It depends on no other crate.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};

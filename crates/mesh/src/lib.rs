@@ -8,6 +8,12 @@
 //!   triangles onto the column centres; [`top_heights`] gives a design model's
 //!   top surface on a grid, and [`DesignModel`] signed distances (via parry3d).
 //!
+//! In the pipeline of the `dexcut` library
+//! (job → stock (`dexel`, `mesh`) + program (`nc`) → motion (`schedule`) →
+//! sweep (`dexel`) → loads (`cutting`) → outputs (`export`))
+//! this crate makes a stock from a mesh file, and reads a `[design]` model
+//! for its top heights and signed distances; it depends only on `dexel`.
+//!
 //! Architecture invariant: a column centre lying exactly on an edge or vertex
 //! shared by several triangles is counted by exactly one of them (half-open
 //! fill rule with edge functions evaluated identically from both sides).
