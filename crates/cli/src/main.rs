@@ -1,4 +1,11 @@
 //! `dexcut`: cutting simulation and feed optimisation for 3-axis milling.
+//!
+//! A thin binary over the `dexcut` library: it parses the command line
+//! (clap), calls `dexcut::commands` (simulate, optimize, report, evaluate,
+//! calibrate, example), which do the work (the pipeline job → stock + program
+//! → motion → sweep → loads → outputs) and write the output files, and prints
+//! their typed results, warnings and progress bars (`console`, `progress`).
+//! No pipeline logic lives here.
 
 use std::path::{Path, PathBuf};
 
@@ -20,10 +27,10 @@ static HEAP: heapmarks::Counting = heapmarks::Counting;
 /// jemalloc, built to give freed pages back to the system at once
 /// (`dirty_decay_ms:0,muzzy_decay_ms:0`, set where jemalloc is built:
 /// `.cargo/config.toml`'s `JEMALLOC_SYS_WITH_MALLOC_CONF`): glibc's malloc
-/// kept up to 94 MB of freed memory resident over the live heap of a
-/// 1 M-block optimize (its moving mmap threshold), jemalloc so built keeps
-/// its peak RSS at its heap's (BENCHMARKS.md, issue 16, s16b). jemalloc
-/// reads `_RJEM_MALLOC_CONF` at run time over the built-in settings.
+/// keeps freed memory resident over the live heap (its moving mmap
+/// threshold; up to 94 MB on a 1 M-block optimize), jemalloc so built keeps
+/// the peak RSS at the heap's peak (BENCHMARKS.md). jemalloc reads
+/// `_RJEM_MALLOC_CONF` at run time over the built-in settings.
 #[cfg(not(feature = "heap-marks"))]
 #[global_allocator]
 static JEMALLOC: tikv_jemallocator::Jemalloc = tikv_jemallocator::Jemalloc;

@@ -13,6 +13,14 @@
 //! * [`surface`]: projection of the deflection on the final surface's normal (error map) and
 //!   normals of a height field.
 //!
+//! In: per step of the sweep what it removed ([`StepRemoval`]: volume, height bands, contact
+//! resultant) and the tool, material and spindle ([`CuttingModel`]). Out: the step's load
+//! ([`StepLoad`]: force, power, deflection, stress), and from deflections the shape error
+//! along a surface normal. In the pipeline of the `dexcut` library
+//! (job → stock (`dexel`, `mesh`) + program (`nc`) → motion (`schedule`) → sweep (`dexel`) →
+//! loads (`cutting`) → outputs (`export`)) this crate is the loads stage; it depends on no
+//! other crate of the workspace. S4 and the other sources are listed in docs/MODEL.md.
+//!
 //! Units (MODEL.md): mm, s, N, MPa (= N/mm²); deflections in reports in µm.
 #![warn(missing_docs)]
 

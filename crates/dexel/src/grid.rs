@@ -6,7 +6,7 @@ use crate::Error;
 /// last-cut index; the rare intervals below a top one are held apart; a
 /// stock whose top intervals share their bottom holds 8, `stock::Bottoms`).
 pub const BYTES_PER_COLUMN: usize =
-    std::mem::size_of::<crate::stock::Top>() + std::mem::size_of::<u32>();
+    std::mem::size_of::<crate::top::Top>() + std::mem::size_of::<u32>();
 
 /// A regular grid of vertical columns. Column `(ix, iy)` stands at
 /// `(x0 + (ix + ½)·spacing, y0 + (iy + ½)·spacing)` and represents the
@@ -132,7 +132,7 @@ const INTEGRAL_FROM: f64 = 4_503_599_627_370_496.0;
 
 /// ⌊v⌋ inline: the x86-64 baseline has no rounding instruction, and
 /// `f64::floor` is a call into the C library there (three per row of a
-/// move in the sweep kernel, issue 16). The truncation, less one where it
+/// move in the sweep kernel). The truncation, less one where it
 /// rounded up; NaN, ±∞ and magnitudes from 2⁵² on are returned as they are
 /// (integers already). Equal to `f64::floor` but for the sign of a zero
 /// (+0 for −0), which no caller tells apart.

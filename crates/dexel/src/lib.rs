@@ -5,6 +5,20 @@
 //! tip; [`sweep`] removes, per column, the material at and above the lower
 //! envelope of the swept tool and records the removed volume per step and per
 //! tool height band. No I/O happens here.
+//!
+//! * In: a [`Stock`] (a box or cylinder made here, or columns filled by the
+//!   `mesh` crate), the [`Tool`]s, and the tool steps ([`Step`]s, held as a
+//!   list or made by index, [`StepSource`]) with [`SweepOptions`].
+//! * Out: the cut stock (its columns, top heights and last-cut steps) and a
+//!   [`RemovalRecord`] (per step the removed volume, its share per tool
+//!   height band, the shank's volume and the contact resultant), or the same
+//!   rows given to a [`RowSink`] as they are made final ([`Sweep`]).
+//!
+//! In the pipeline of the `dexcut` library
+//! (job → stock (`dexel`, `mesh`) + program (`nc`) → motion (`schedule`) →
+//! sweep (`dexel`) → loads (`cutting`) → outputs (`export`))
+//! this crate holds the stock and runs the sweep; it depends on no other
+//! crate of the workspace.
 #![warn(missing_docs)]
 pub mod grid;
 pub mod stock;
@@ -33,6 +47,7 @@ pub enum Error {
 }
 pub mod sweep;
 pub mod tool;
+mod top;
 
 pub use sweep::{
     sweep, sweep_tools, RecordRow, RemovalRecord, RowSink, Step, StepFn, StepSource, Sweep,

@@ -1,31 +1,10 @@
 //! Z-dexel stock: per column a sorted list of material intervals.
 
+use crate::top::Top;
 use crate::{Error, Grid};
 
 /// Marker for "no step has cut this column".
 pub const NEVER_CUT: u32 = u32::MAX;
-
-/// A column's top material interval (issue 16): the stock holds its `hi`
-/// (the column's top, −∞ where empty: the sweep kernel's test of a column
-/// reads it alone) and its `lo` in [`Bottoms`]. The intervals below it,
-/// where a column holds more than one (undercuts, voids), live in the side
-/// table of its row ([`RowBelow`]). Empty: `lo > hi` (then nothing lies
-/// below either).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Top {
-    /// Bottom of the top interval, mm.
-    pub(crate) lo: f32,
-    /// Top of the top interval, mm.
-    pub(crate) hi: f32,
-}
-
-impl Top {
-    /// No material (`lo` = +∞ above `hi` = −∞).
-    pub(crate) const EMPTY: Top = Top {
-        lo: f32::INFINITY,
-        hi: f32::NEG_INFINITY,
-    };
-}
 
 /// The intervals below the top one of the columns of one row that hold more
 /// than one: per such column its index in the row and those intervals,
@@ -164,7 +143,7 @@ pub struct Stock {
     pub(crate) last_cut: Vec<u32>,
 }
 
-/// The bottoms of a stock's top intervals (issue 16). A stock made of a box
+/// The bottoms of a stock's top intervals. A stock made of a box
 /// or a vertical cylinder, or of any columns that hold one interval each
 /// with the same bottom, keeps that bottom once: a column costs its top and
 /// its last cut, 8 B. A cut never raises a bottom (it removes the column's

@@ -1,9 +1,14 @@
 //! Output writers: everything a user looks at.
 //!
+//! The last stage of the `dexcut` library's pipeline
+//! (job → stock (`dexel`, `mesh`) + program (`nc`) → motion (`schedule`) →
+//! sweep (`dexel`) → loads (`cutting`) → outputs (`export`)): plain data in,
+//! files out.
+//!
 //! This crate is deliberately independent of the simulation crates: its inputs
 //! are the plain data structs defined here ([`Grid`], [`HeightField`],
-//! [`ScalarMap`], [`Series`], [`Report`]). The binary converts simulation
-//! results into them.
+//! [`ScalarMap`], [`Series`], [`Report`]). The `dexcut` library converts
+//! simulation results into them.
 //!
 //! | writer | output |
 //! | --- | --- |

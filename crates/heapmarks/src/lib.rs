@@ -1,5 +1,5 @@
 //! A counting global allocator and heap marks, to measure each phase of a
-//! run's heap peak (issue 16): the bytes allocated less the bytes freed (a
+//! run's heap peak: the bytes allocated less the bytes freed (a
 //! `realloc` counted by its difference), and the highest that sum reached.
 //! A mark ([`mark`]) prints the heap now and its peak since the last mark,
 //! then sets the peak to the heap now.
@@ -8,7 +8,10 @@
 //! heap-marks` installs [`Counting`] as the `dexcut` binary's allocator and
 //! turns dexcut's marks on (without the feature they are empty functions).
 //! It agrees with heaptrack's peak where both measure the same run
-//! (BENCHMARKS.md, s13b's section).
+//! (BENCHMARKS.md).
+//!
+//! Not a stage of the pipeline: a measuring tool beside it, for the phases of
+//! the `dexcut` library's commands. It depends on no other crate.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};

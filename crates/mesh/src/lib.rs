@@ -8,18 +8,25 @@
 //!   triangles onto the column centres; [`top_heights`] gives a design model's
 //!   top surface on a grid, and [`DesignModel`] signed distances (via parry3d).
 //!
+//! In the pipeline of the `dexcut` library
+//! (job → stock (`dexel`, `mesh`) + program (`nc`) → motion (`schedule`) →
+//! sweep (`dexel`) → loads (`cutting`) → outputs (`export`))
+//! this crate makes a stock from a mesh file, and reads a `[design]` model
+//! for its top heights and signed distances; it depends only on `dexel`.
+//!
 //! Architecture invariant: a column centre lying exactly on an edge or vertex
 //! shared by several triangles is counted by exactly one of them (half-open
 //! fill rule with edge functions evaluated identically from both sides).
 #![warn(missing_docs)]
 mod distance;
+mod error;
 mod fill;
 mod load;
 mod solid;
-
-use std::path::PathBuf;
+mod triangle;
 
 pub use distance::{signed_distances, DesignModel};
+pub use error::MeshError;
 pub use fill::{stock_from_mesh, stock_on_grid, top_heights, FillStats};
 pub use load::{load_mesh, load_solid};
 pub use solid::{check_closed, validate_solid, SolidError, SolidInfo};
@@ -126,62 +133,4 @@ pub(crate) fn bounds_of(
             std::array::from_fn(|k| hi[k].max(p[k])),
         )
     }))
-}
-
-/// What can go wrong loading a mesh or filling a stock from it.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum MeshError {
-    /// The file cannot be read.
-    #[error("cannot read mesh file {}: {error}", path.display())]
-    Read {
-        /// The mesh file.
-        path: PathBuf,
-        /// What the system said.
-        error: std::io::Error,
-    },
-    /// The file is not valid STL or OBJ.
-    #[error("cannot parse mesh file {}: {message}", path.display())]
-    Parse {
-        /// The mesh file.
-        path: PathBuf,
-        /// What the parser found, with its position where known.
-        message: String,
-    },
-    /// The file name ends in neither `.stl` nor `.obj`.
-    #[error("mesh file {}: unknown extension (expected .stl or .obj)", path.display())]
-    UnknownExtension {
-        /// The mesh file.
-        path: PathBuf,
-    },
-    /// The file holds no triangles.
-    #[error("mesh file {}: holds no triangles", path.display())]
-    Empty {
-        /// The mesh file.
-        path: PathBuf,
-    },
-    /// A vertex has a NaN or infinite coordinate.
-    #[error("mesh file {}: vertex {vertex} has a non-finite coordinate {coordinates:?}", path.display())]
-    NonFinite {
-        /// The mesh file.
-        path: PathBuf,
-        /// 0-based vertex index.
-        vertex: usize,
-        /// Its coordinates as read, mm.
-        coordinates: [f64; 3],
-    },
-    /// The triangles do not bound a solid (open, non-manifold, mis-oriented, flat).
-    #[error("mesh file {}: not a valid solid: {error}", path.display())]
-    NotSolid {
-        /// The mesh file.
-        path: PathBuf,
-        /// What is wrong with it.
-        error: SolidError,
-    },
-    /// An in-memory mesh that cannot be used (bad indices, empty, non-finite).
-    #[error("invalid mesh: {0}")]
-    Invalid(#[from] SolidError),
-    /// The stock grid cannot be built (too fine, too large).
-    #[error(transparent)]
-    Stock(#[from] dexel::Error),
 }

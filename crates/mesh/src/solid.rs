@@ -1,6 +1,6 @@
 //! Is a mesh the boundary of a solid? Closedness, manifoldness, winding, volume.
 
-use crate::fill::crossings_above;
+use crate::triangle::crossings_above;
 use crate::{bounds_of, TriMesh};
 
 /// Why a mesh does not bound a solid. Points are in mm.

@@ -10,6 +10,14 @@
 //!
 //! Positions are in mm in the machine frame, one `[x, y, z]` sample per servo period (s).
 //! Pure: values in, values out.
+//!
+//! In: the commanded servo samples that the motion stage (`schedule`) makes from the program,
+//! and a [`Drive`]. Out: the actual motion those samples give, its [`Evaluation`] and a
+//! pre-compensated command ([`Precomp`]). In the pipeline of the `dexcut` library
+//! (job → stock (`dexel`, `mesh`) + program (`nc`) → motion (`schedule`) → sweep (`dexel`) →
+//! loads (`cutting`) → outputs (`export`)) it works on the motion: the `evaluate` command,
+//! the compensated servo CSV and, where asked, the sweep's steps moved onto the drive's actual
+//! path use it. It depends on no other crate of the workspace. S2 and S4 are sources listed in docs/MODEL.md.
 #![warn(missing_docs)]
 
 pub mod drive;

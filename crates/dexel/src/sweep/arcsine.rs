@@ -2,8 +2,8 @@
 //! thickness of a ball's thick piece, the flank's cell mean of 1/cos θ and a
 //! torus corner's Δκ are each a difference asin(a) − asin(b). Each is taken
 //! with one arcsine of a well-conditioned argument and two square roots
-//! instead of two arcsines (`asin` was 17 % of the free path's CPU time,
-//! issue 16; two square roots cost less than one `asin`).
+//! instead of two arcsines: `asin` is a large share of the free path's CPU
+//! time, and two square roots cost less than one `asin`.
 
 /// asin(a) − asin(b) for −1 ≤ b ≤ a ≤ 1 (arguments outside are clamped), in
 /// [0, π]. With α = asin a, β = asin b, the difference d = α − β has

@@ -190,8 +190,8 @@ impl<'a, S: StepSource + ?Sized> Sweep<'a, S> {
     /// row) and give the record: [`band`](Self::band) then
     /// [`finish`](Self::finish), with each batch's steps made final
     /// (smoothing shares, plunges unbiased) and kept in compact columns as
-    /// the sweep goes, so the full rows of only one batch are held at a time
-    /// (issue 16). The same record bit for bit.
+    /// the sweep goes, so the full rows of only one batch are held at a
+    /// time. The same record bit for bit.
     pub fn whole(mut self, stock: &mut Stock, progress: &(dyn Fn(usize) + Sync)) -> RemovalRecord {
         self.sweep_band(stock, progress, Made::Record);
         self.finish()
@@ -199,7 +199,7 @@ impl<'a, S: StepSource + ?Sized> Sweep<'a, S> {
 
     /// [`whole`](Self::whole) without a record: each step's row is given to
     /// `sink(step, row)` as the sweep makes it final, step after step in
-    /// order, so no record is held (issue 16). The rows are the record's bit
+    /// order, so no record is held. The rows are the record's bit
     /// for bit ([`RemovalRecord::step_row`]); a step's bands are its own
     /// tool's (see [`n_bands`](Self::n_bands)). Where a band was swept
     /// already, the rest of the stock is swept as one more band and the
@@ -375,7 +375,7 @@ impl<'a, S: StepSource + ?Sized> Sweep<'a, S> {
                 );
             }
         }
-        // The record in compact columns (issue 16), part by part.
+        // The record in compact columns, part by part.
         for part in &mut parts {
             part.record.compact();
             part.spill = Vec::new();
@@ -511,7 +511,7 @@ struct Stream<'m> {
 impl<'m> Stream<'m> {
     /// A stream of `n` steps' rows into `out` (a compact record's head
     /// values and band starts reserved for them: grown by doubling, they
-    /// held up to twice as much, issue 16).
+    /// could hold up to twice as much).
     fn new(
         mut out: Out<'m>,
         n: usize,
@@ -766,31 +766,58 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
             })
             .sum();
         record.columns_evaluated += visited;
-        // Reduce in strip order: the same sums whatever the thread count. The
-        // shares for the neighbouring steps are summed per step and applied
-        // once the whole program is swept (`apply_spill`), or by a stream
-        // once the next step is swept.
-        for (e, &mi) in entries.iter().enumerate() {
-            let i = first_step + mi as usize - base;
-            let src = &partial[e * width..(e + 1) * width];
-            let dst = i * stride;
-            for (d, s) in record.data[dst..dst + stride].iter_mut().zip(src) {
-                *d += s;
-            }
-            if width > stride {
-                for (d, s) in spill[i * 2 * HEAD..(i + 1) * 2 * HEAD]
-                    .iter_mut()
-                    .zip(&src[stride..])
-                {
-                    *d += s;
-                }
-            }
-        }
+        add_batch_sums(
+            &mut record.data,
+            spill,
+            &entries,
+            &partial,
+            width,
+            stride,
+            first_step,
+            base,
+        );
         if let Some(stream) = stream.as_deref_mut() {
             stream.advance(&mut record.data, spill, steps, first_step + chunk_len);
         }
         done += chunk_len;
         progress(done);
+    }
+}
+
+/// Add a batch's partial sums (`partial`, `width` values for each of the
+/// strip entries `entries`, which name the batch's moves from `first_step`
+/// on) to the full rows (`rows`, `stride` values a step) and shares (`spill`)
+/// held from step `base` on. Reduced in strip order: the same sums whatever
+/// the thread count. The shares for the neighbouring steps are summed per
+/// step and applied once the whole program is swept (`apply_spill`), or by a
+/// stream once the next step is swept.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn add_batch_sums(
+    rows: &mut [f64],
+    spill: &mut [f64],
+    entries: &[u32],
+    partial: &[f64],
+    width: usize,
+    stride: usize,
+    first_step: usize,
+    base: usize,
+) {
+    for (e, &mi) in entries.iter().enumerate() {
+        let i = first_step + mi as usize - base;
+        let src = &partial[e * width..(e + 1) * width];
+        let dst = i * stride;
+        for (d, s) in rows[dst..dst + stride].iter_mut().zip(src) {
+            *d += s;
+        }
+        if width > stride {
+            for (d, s) in spill[i * 2 * HEAD..(i + 1) * 2 * HEAD]
+                .iter_mut()
+                .zip(&src[stride..])
+            {
+                *d += s;
+            }
+        }
     }
 }
 

@@ -54,7 +54,7 @@ pub struct Step {
 /// The steps a sweep takes, by index: a list held whole (`[Step]`), or steps
 /// made when the sweep asks for them ([`StepFn`], e.g. from the stations of
 /// a path), so a long program's list of 56 B a step need not be held beside
-/// its record (issue 16). The sweep asks for each step a few times (to
+/// its record. The sweep asks for each step a few times (to
 /// prepare its move, for the smoothing shares and for a plunge's lattice
 /// bias), in order, one batch at a time; a step must be the same each time.
 pub trait StepSource {
@@ -196,7 +196,7 @@ const HEAD: usize = 6;
 
 /// What a sweep removed, per step.
 ///
-/// Stored in compact columns (issue 16): per step the [`slot`] values, and the
+/// Stored in compact columns: per step the [`slot`] values, and the
 /// band volumes of all steps end to end without each step's trailing zero
 /// bands (a finishing cut touches one or two of a tool's bands), so a long
 /// program keeps about 60 bytes per step instead of 8 per band. The values are

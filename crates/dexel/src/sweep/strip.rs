@@ -4,7 +4,8 @@
 use super::arcsine::asin_diff;
 use super::slot::{CHIP_AREA, CONTACT_X, CONTACT_Y, OVER_RADIUS, SHANK, VOLUME};
 use super::{Envelope, EnvelopeHit, Prepared, HEAD, PLUNGE_H2};
-use crate::stock::{RowBelow, Top};
+use crate::stock::RowBelow;
+use crate::top::Top;
 use crate::Grid;
 
 /// Per-(strip, move) accumulator width and band bookkeeping shared by the strip loop.
