@@ -4,6 +4,8 @@
 //! the next dip's, each change the time-optimal jerk-limited one (an S-curve of up to
 //! three phases: jerk ±J, acceleration ±A, jerk ∓J).
 
+use crate::kinematics::{interval_accel_mm_s2, interval_time_s};
+
 /// A jerk-limited change of speed from (`v0`, `a0`) to (`v1`, `a1`) (speed, acceleration):
 /// jerk g·J for `t1` (the acceleration from a0 to the peak `ap`), `ap` held for `t2`, jerk
 /// −g·J for `t3` (from `ap` to a1), g = ±1 (MODEL.md §6.1, "Changes between accelerated
@@ -515,7 +517,7 @@ struct Dip {
 
 /// Acceleration of the stations' plan `u` over interval `k`.
 fn interval_accel(lim: &Limits, u: &[f64], k: usize) -> f64 {
-    crate::plan::interval_accel_mm_s2(lim.s_mm, u, k)
+    interval_accel_mm_s2(lim.s_mm, u, k)
 }
 
 /// Whether following the envelope over the stations `l..=r` by constant accelerations
@@ -528,7 +530,7 @@ fn followable(lim: &Limits, (l, r): (usize, usize), period_s: f64, jerk: f64) ->
     let mut times = Vec::with_capacity(r - l);
     let mut t = 0.0;
     for k in l..r {
-        let dt = crate::plan::interval_time_s(lim.s_mm, u, k);
+        let dt = interval_time_s(lim.s_mm, u, k);
         if !(dt.is_finite() && dt > 0.0) {
             return false;
         }
@@ -674,7 +676,7 @@ fn passes_from_below(lim: &Limits, dips: &[Dip], period_s: f64) -> Vec<f64> {
             if w.len() < 2 {
                 continue;
             }
-            let a_l = crate::plan::interval_accel_mm_s2(&lim.s_mm[l..], &w, 0);
+            let a_l = interval_accel_mm_s2(&lim.s_mm[l..], &w, 0);
             if !fits(lim, (r0, l), (x, w_l), (0.0, a_l)) {
                 continue;
             }
@@ -1148,11 +1150,7 @@ mod tests {
             r += 1;
         }
         assert!(r > l + 2, "{l}..{r}");
-        let time = |v: &[f64]| {
-            (0..n - 1)
-                .map(|k| crate::plan::interval_time_s(&s, v, k))
-                .sum::<f64>()
-        };
+        let time = |v: &[f64]| (0..n - 1).map(|k| interval_time_s(&s, v, k)).sum::<f64>();
         let (mut v, mut gaps) = (vec![0.0; n], Vec::new());
         assert!(shape(
             &lim,
@@ -1168,7 +1166,7 @@ mod tests {
         assert!(rest_s.is_none_or(|rest_s| followed_s < rest_s));
         for k in 0..n - 1 {
             assert!(v[k] <= u[k] * (1.0 + 1e-12));
-            let a_k = crate::plan::interval_accel_mm_s2(&s, &v, k).abs();
+            let a_k = interval_accel_mm_s2(&s, &v, k).abs();
             assert!(a_k <= accel[k] * (1.0 + 1e-9), "{k}: {a_k} vs {}", accel[k]);
         }
         assert!(gaps.iter().any(|g| g.accelerated_ends()));
@@ -1237,9 +1235,7 @@ mod tests {
         let top = v.iter().fold(0.0f64, |m, &x| m.max(x));
         assert!((top - peak).abs() <= 1e-3 * peak, "{top} vs {peak}");
         let closed_s = 2.0 * ((peak - 20.0) / j).sqrt() + 2.0 * ((peak - 15.0) / j).sqrt();
-        let stations_s: f64 = (0..n - 1)
-            .map(|k| crate::plan::interval_time_s(&s, &v, k))
-            .sum();
+        let stations_s: f64 = (0..n - 1).map(|k| interval_time_s(&s, &v, k)).sum();
         assert!(
             (stations_s - closed_s).abs() <= 1e-3 * closed_s,
             "{stations_s} vs {closed_s}"

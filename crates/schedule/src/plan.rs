@@ -4,6 +4,7 @@ use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
 use crate::direct;
+use crate::kinematics::{integral_over_mm_s, interval_accel_mm_s2, interval_time_s};
 use crate::machine::ScheduleError;
 use crate::range_min::RangeMin;
 use crate::slp;
@@ -369,18 +370,6 @@ enum Shape {
 const PROGRAMMED_EXCESS_MIN_S: f64 = 0.01;
 /// ... and it has at most this many stations.
 const PROGRAMMED_MAX_STATIONS: usize = 1_000;
-
-/// Time over the interval from station `k` to `k + 1` of a plan `v` over stations `s`
-/// with a constant acceleration in it, s: 2·Δs/(v_k + v_{k+1}).
-pub(crate) fn interval_time_s(s: &[f64], v: &[f64], k: usize) -> f64 {
-    2.0 * (s[k + 1] - s[k]) / (v[k] + v[k + 1])
-}
-
-/// Acceleration over the interval from station `k` to `k + 1` of a plan `v` over stations
-/// `s` with a constant acceleration in it, mm/s²: (v²_k+1 − v²_k)/(2·Δs).
-pub(crate) fn interval_accel_mm_s2(s: &[f64], v: &[f64], k: usize) -> f64 {
-    (v[k + 1] * v[k + 1] - v[k] * v[k]) / (2.0 * (s[k + 1] - s[k]))
-}
 
 /// Time of a plan `v` over stations `s` that follows `gaps` (counted from `s[0]`) exactly
 /// and has constant accelerations elsewhere, s (MODEL.md §6.1, "Exact direct sections").
@@ -1616,12 +1605,6 @@ fn slow_dip_mm_s(
     let v_time = |d: f64| ((dip * dip + 2.0 * a * d).sqrt() - dip) / a;
     let (before, after) = reach_mm;
     (v_time(before) + v_time(after) < (before + after) / cap).then_some(dip)
-}
-
-/// ∫ (s − s_first) dt over the first `h_s` seconds of an interval that starts `offset_mm` past
-/// the run's first station at speed `v0_mm_s` with constant acceleration `a_mm_s2`, mm·s.
-fn integral_over_mm_s(offset_mm: f64, v0_mm_s: f64, a_mm_s2: f64, h_s: f64) -> f64 {
-    offset_mm * h_s + v0_mm_s * h_s * h_s / 2.0 + a_mm_s2 * h_s * h_s * h_s / 6.0
 }
 
 /// Where a planned run is at a time: arc length, speed and ∫ (s − s_first) dt.
