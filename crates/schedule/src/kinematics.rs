@@ -1,5 +1,5 @@
 //! Constant-acceleration kinematics over one station interval, shared by the planner
-//! ([`crate::plan`]) and the sections shaped directly ([`crate::direct`]).
+//! ([`crate::plan`](mod@crate::plan)) and the sections shaped directly ([`crate::direct`]).
 
 /// Time over the interval from station `k` to `k + 1` of a plan `v` over stations `s`
 /// with a constant acceleration in it, s: 2·Δs/(v_k + v_{k+1}).
