@@ -86,19 +86,21 @@ pub(super) fn plan_ahead(stations: &Stations, ahead_stations: usize) -> Profile<
         } else {
             candidates.push(1.0);
         }
-        let (mut end_s, verified, kept) = planner.verified_run(
+        let run = planner.verified_run(
             &mut profile,
             (pair[0], pair[1]),
             base_window_s,
             &candidates,
             (REPAIR_MAX_TRIES, SLOW_MAX_TRIES),
         );
+        let mut end_s = run.end_s;
         // Sections on runs the grid of λ is tried on, or the search (not on longer runs:
         // each value plans the whole run once more, for little on the 1 M-block raster).
         if base_window_s > 0.0
             && last - first <= LAMBDA_GRID_MAX_STATIONS
-            && !matches!(verified, Verified::Slowed { .. })
+            && !matches!(run.verified, Verified::Slowed { .. })
         {
+            let kept = (run.lambda, run.window_s);
             if let Some(sectioned_end_s) = planner.sectioned(&mut profile, base_window_s, kept) {
                 end_s = sectioned_end_s;
             }

@@ -116,14 +116,37 @@ pub(super) const DIRECT_SLOW_PERIODS: f64 = 1.0 / 3.0;
 /// can be made in parallel ([`RunPlanner::sectioned`]).
 #[derive(Default)]
 pub(super) struct SectionValues {
-    /// (time, λ or σ, W, how it is shaped), quickest first.
-    pub(super) timed: Vec<(f64, f64, f64, Shape)>,
+    /// Its values, quickest first.
+    pub(super) timed: Vec<SectionValue>,
     /// The linear programs' first iterate: the quickest exact value's speeds, else the
     /// floor's passes (empty where `timed` holds no value shaped by them).
     pub(super) seed: Vec<f64>,
     /// The speeds and accelerations shaped by linear programs at the first of
     /// [`EXACT_SHARES`] (empty where `timed` holds no value shaped by them).
-    pub(super) programmed: (Vec<f64>, Vec<f64>),
+    pub(super) programmed: Programmed,
+}
+
+/// One value of a section ([`SectionValues`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct SectionValue {
+    /// Its time, s.
+    pub(super) time_s: f64,
+    /// λ (a plan with holds) or σ (a share of the jerk limit) it is planned at.
+    pub(super) value: f64,
+    /// Its filter's width W, s (0: followed exactly).
+    pub(super) window_s: f64,
+    /// How it is shaped.
+    pub(super) shape: Shape,
+}
+
+/// A section's speeds and accelerations at its stations as shaped by linear programs
+/// ([`RunPlanner::plan_programmed`]).
+#[derive(Default)]
+pub(super) struct Programmed {
+    /// Speeds, mm/s.
+    pub(super) speed_mm_s: Vec<f64>,
+    /// Accelerations, mm/s².
+    pub(super) accel_mm_s2: Vec<f64>,
 }
 
 /// Buffers [`RunPlanner::section_values`] plans into: one speed a station of the section,
@@ -363,7 +386,7 @@ impl<'a> RunPlanner<'a> {
     ) -> SectionValues {
         let s = &self.stations.s_mm()[a..=b];
         let window0_s = own.1;
-        let mut timed: Vec<(f64, f64, f64, Shape)> = Vec::with_capacity(
+        let mut timed: Vec<SectionValue> = Vec::with_capacity(
             SECTION_GRID.len() + DIRECT_SHARES.len() + 2 * EXACT_SHARES.len() + 2,
         );
         let grid = SECTION_GRID
@@ -378,15 +401,15 @@ impl<'a> RunPlanner<'a> {
         trial.resize(b - a + 1, 0.0);
         let mut seed = Vec::new();
         let mut seed_s = f64::INFINITY;
-        let mut programmed = (Vec::new(), Vec::new());
+        let mut programmed = Programmed::default();
         for (lambda, window_s) in values {
             if let Some(d) = self.plan_section((a, b), (lambda, window_s), ends, trial) {
-                timed.push((
-                    d + rests * window_s / 2.0,
-                    lambda,
+                timed.push(SectionValue {
+                    time_s: d + rests * window_s / 2.0,
+                    value: lambda,
                     window_s,
-                    Shape::Filtered,
-                ));
+                    shape: Shape::Filtered,
+                });
             }
         }
         // Shaped directly (not from or to a stop: there the plan's first interval is long
@@ -396,7 +419,12 @@ impl<'a> RunPlanner<'a> {
             for &share in &DIRECT_SHARES {
                 if let Some((d, window_s)) = self.direct_window((a, b), ends, share, bounds, trial)
                 {
-                    timed.push((d, share, window_s, Shape::Direct));
+                    timed.push(SectionValue {
+                        time_s: d,
+                        value: share,
+                        window_s,
+                        shape: Shape::Direct,
+                    });
                 }
             }
             // Followed exactly, without a filter; and with the dips widened over the
@@ -414,14 +442,19 @@ impl<'a> RunPlanner<'a> {
                             seed.clear();
                             seed.extend_from_slice(trial);
                         }
-                        timed.push((d, share, 0.0, shape));
+                        timed.push(SectionValue {
+                            time_s: d,
+                            value: share,
+                            window_s: 0.0,
+                            shape,
+                        });
                     }
                 }
             }
             // Shaped by linear programs, from the quickest exact value (else from the
             // floor's passes), where the values leave enough over the floor.
             if b - a < PROGRAMMED_MAX_STATIONS {
-                let best = timed.iter().fold(f64::INFINITY, |m, x| m.min(x.0));
+                let best = timed.iter().fold(f64::INFINITY, |m, x| m.min(x.time_s));
                 let floor = &mut trial[..];
                 floor.copy_from_slice(&self.caps_mm_s[a..=b]);
                 self.passes_between(a, 1.0, floor, ends);
@@ -430,18 +463,26 @@ impl<'a> RunPlanner<'a> {
                     seed.extend_from_slice(floor);
                 }
                 if best - floor_s > PROGRAMMED_EXCESS_MIN_S {
-                    let (speeds, accels) = &mut programmed;
+                    let Programmed {
+                        speed_mm_s: speeds,
+                        accel_mm_s2: accels,
+                    } = &mut programmed;
                     speeds.extend_from_slice(&seed);
                     accels.resize(speeds.len(), 0.0);
                     let share = EXACT_SHARES[0];
                     if let Some(d) = self.plan_programmed((a, b), ends, share, (speeds, accels)) {
-                        timed.push((d, share, 0.0, Shape::Programmed));
+                        timed.push(SectionValue {
+                            time_s: d,
+                            value: share,
+                            window_s: 0.0,
+                            shape: Shape::Programmed,
+                        });
                     }
                 }
             }
         }
-        timed.sort_by(|x, y| x.0.total_cmp(&y.0));
-        if !timed.iter().any(|x| x.3 == Shape::Programmed) {
+        timed.sort_by(|x, y| x.time_s.total_cmp(&y.time_s));
+        if !timed.iter().any(|x| x.shape == Shape::Programmed) {
             // Nothing will shape the section by linear programs again.
             seed = Vec::new();
             programmed = Default::default();

@@ -171,7 +171,9 @@ fn run_with<'a>(
         st.interval_accel_mm_s2()[0] / st.interval_jerk_mm_s3().expect("a jerk limit")[0];
     let stops = st.stops();
     let mut profile = Profile::empty(st);
-    let (end_s, verified, _) = planner.verified_run(
+    let VerifiedRun {
+        end_s, verified, ..
+    } = planner.verified_run(
         &mut profile,
         (stops[0], stops[1]),
         window_s,

@@ -40,12 +40,16 @@ pub(super) enum Verified {
     },
 }
 
+// The fallbacks of a run whose samples break a limit ([`RunPlanner::verified_run`]), in
+// order: (1) the full corner holds restored, (2) the filter widened or the caps lowered,
+// (3) the plan slowed in time. Their tries and steps:
+
 /// Tries of the first fallback (full corner holds restored where samples break a limit).
 pub(super) const RESTORE_MAX_TRIES: usize = 4;
 /// Tries of the second fallback (caps lowered where samples break a limit).
 pub(super) const REPAIR_MAX_TRIES: usize = 8;
 
-/// ... which divides the filter's width by this (its jerk then at most 0.98·j) where more
+/// The second fallback divides the filter's width by this (its jerk then at most 0.98·j) where more
 /// than [`FEW_VIOLATIONS`] stencils break a limit, and lowers the caps around them where
 /// no more do.
 pub(super) const WIDEN: f64 = 0.98;
@@ -54,12 +58,26 @@ pub(super) const FEW_VIOLATIONS: usize = 3;
 /// The slowed fallback multiplies σ by at most this each try (and the first fallback a
 /// cap over the speed of the samples that break a limit).
 pub(super) const SLOW_STEP: f64 = 0.95;
-/// ... and by this over the worst ratio of a sampled difference to its limit, if less.
+/// ... and by this over the worst ratio of a sampled difference to its limit, if that is
+/// less than [`SLOW_STEP`].
 pub(super) const SLOW_MARGIN: f64 = 0.99;
 /// Guard on the slowed fallback's tries: σ = 0.95^300 ≈ 2·10⁻⁷ (MODEL.md §6.1 argues that
 /// σ ≤ 1/K verifies, K the run's own bound). A run still unverified then makes the
 /// profile refuse to be sampled ([`ScheduleError::UnverifiedRun`]).
 pub(super) const SLOW_MAX_TRIES: usize = 300;
+
+/// A run [`RunPlanner::verified_run`] planned into the profile.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct VerifiedRun {
+    /// When its planned motion reaches the run's last stop, s.
+    pub(super) end_s: f64,
+    /// Which plan was kept.
+    pub(super) verified: Verified,
+    /// The λ the kept plan was planned at.
+    pub(super) lambda: f64,
+    /// The kept plan's filter width W, s.
+    pub(super) window_s: f64,
+}
 
 impl<'a> RunPlanner<'a> {
     /// Plans the run between the stops `stops` into `profile` (appended, leaving at the
@@ -69,7 +87,7 @@ impl<'a> RunPlanner<'a> {
     /// samples that break a limit, up to `repair_tries` times; else that plan slowed in time
     /// by σ, σ lowered each try, after a rest that keeps the samples' stencils off the run
     /// before. `tries` = (repairs, slowed tries) at most. Returns when the planned motion
-    /// reaches the run's last stop, s, and which plan was kept. A run that still breaks a
+    /// reaches the run's last stop, s, which plan was kept and its (λ, W). A run that still breaks a
     /// limit after the last slowed try is kept, and marks the profile unverified: its
     /// samples are refused ([`ScheduleError::UnverifiedRun`]).
     pub(super) fn verified_run(
@@ -79,7 +97,7 @@ impl<'a> RunPlanner<'a> {
         base_window_s: f64,
         candidates: &[f64],
         (repair_tries, slow_tries): (usize, usize),
-    ) -> (f64, Verified, (f64, f64)) {
+    ) -> VerifiedRun {
         let (first, last) = (stops.0.station, stops.1.station);
         let start_s = profile.cycle_time_s;
         let runs_before = profile.runs.len();
@@ -114,11 +132,12 @@ impl<'a> RunPlanner<'a> {
                 Some(&mut *found),
             );
             if ratio <= 1.0 {
-                return (
+                return VerifiedRun {
                     end_s,
-                    Verified::Candidate(index),
-                    (lambda, lambda * base_window_s),
-                );
+                    verified: Verified::Candidate(index),
+                    lambda,
+                    window_s: lambda * base_window_s,
+                };
             }
             if index > 0 && !restore_every {
                 continue;
@@ -143,11 +162,12 @@ impl<'a> RunPlanner<'a> {
                     Some(&mut *found),
                 );
                 if ratio <= 1.0 {
-                    return (
+                    return VerifiedRun {
                         end_s,
-                        Verified::Restored(restores),
-                        (lambda, lambda * base_window_s),
-                    );
+                        verified: Verified::Restored(restores),
+                        lambda,
+                        window_s: lambda * base_window_s,
+                    };
                 }
             }
         }
@@ -170,7 +190,12 @@ impl<'a> RunPlanner<'a> {
                 Some(&mut violations),
             );
             if ratio <= 1.0 {
-                return (end_s, Verified::Repaired(repairs), (lambda, window_s));
+                return VerifiedRun {
+                    end_s,
+                    verified: Verified::Repaired(repairs),
+                    lambda,
+                    window_s,
+                };
             }
         }
         // Fallback 3: that plan slowed in time by σ.
@@ -197,11 +222,12 @@ impl<'a> RunPlanner<'a> {
                         slow,
                     });
                 }
-                return (
+                return VerifiedRun {
                     end_s,
-                    Verified::Slowed { tries, slow },
-                    (lambda, window_s / slow),
-                );
+                    verified: Verified::Slowed { tries, slow },
+                    lambda,
+                    window_s: window_s / slow,
+                };
             }
             slow *= (SLOW_MARGIN / ratio).min(SLOW_STEP);
         }
