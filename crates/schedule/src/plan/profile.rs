@@ -91,7 +91,7 @@ pub struct Profile<'a> {
     pub(super) interval_start_s: Vec<f64>,
     /// Each interval's time, held only with a jerk limit (a gap followed exactly takes
     /// its own): without one it is made where it is read from the speeds, the same bits
-    /// (a run's speeds are not changed once it is pushed; 8 B a station, issue 16).
+    /// (a run's speeds are not changed once it is pushed; 8 B a station saved).
     pub(super) interval_dt_s: Vec<f64>,
     /// ∫ (s − s_first of the run) dt from the run start to the start of each interval, mm·s:
     /// read by the jerk filter alone, so held only with a jerk limit (8 B a station).

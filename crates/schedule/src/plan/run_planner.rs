@@ -40,7 +40,7 @@ pub(super) struct RunPlanner<'a> {
     /// them was over its cap (MODEL.md §6.1, "Slow dips and peaks").
     pub(super) plain: Vec<bool>,
     /// A plan tried beside the profile's (λ searched, sections): made at the first
-    /// ([`RunPlanner::take_trial`]), none without a jerk limit (8 B a station, issue 16).
+    /// ([`RunPlanner::take_trial`]), none without a jerk limit (8 B a station saved).
     pub(super) trial: Vec<f64>,
     /// The gaps of a section shaped directly and followed exactly.
     pub(super) gaps: Vec<direct::Gap>,

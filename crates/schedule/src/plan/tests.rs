@@ -27,7 +27,7 @@ fn line(start: Point3<f64>, end: Point3<f64>, motion: Motion) -> Segment {
 }
 
 /// Without a jerk limit a profile holds neither its intervals' times nor their
-/// integrals (issue 16): each interval's time, made again from the speeds, is the one
+/// integrals (16 B a station saved): each interval's time, made again from the speeds, is the one
 /// its run was timed with when it was pushed, bit for bit (every interval's start is
 /// the one before's plus it), though later runs were planned after it; its samples
 /// then follow the plan, and its time shares add up to the cycle.
