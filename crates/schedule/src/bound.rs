@@ -33,7 +33,7 @@ const CHAIN_ACCEL_BINS: usize = 32;
 pub fn lower_bound_time_s(stations: &Stations) -> f64 {
     let s = stations.s_mm();
     // Station k's cap, mm/s (made where it is read: not a list beside `u`,
-    // 8 B a station, issue 16).
+    // 8 B a station saved).
     let cap_mm_min = stations.cap_mm_min();
     let caps = |k: usize| cap_mm_min[k] / 60.0;
     let accel = stations.interval_accel_mm_s2();
@@ -53,7 +53,7 @@ pub fn lower_bound_time_s(stations: &Stations) -> f64 {
     // Interval k's closed-form time and the highest speed allowed inside, made where
     // they are read: without a jerk limit only the times are summed, with one each
     // run's list of its intervals is made for its dips (not a list of every interval,
-    // 40 B a station, issue 16).
+    // 40 B a station saved).
     let time_s = |k: usize| {
         let cap = caps(k).max(caps(k + 1));
         interval_bound_s(s[k + 1] - s[k], u[k], u[k + 1], accel[k], cap)

@@ -4,6 +4,8 @@
 //! the next dip's, each change the time-optimal jerk-limited one (an S-curve of up to
 //! three phases: jerk ±J, acceleration ±A, jerk ∓J).
 
+use crate::kinematics::{interval_accel_mm_s2, interval_time_s};
+
 /// A jerk-limited change of speed from (`v0`, `a0`) to (`v1`, `a1`) (speed, acceleration):
 /// jerk g·J for `t1` (the acceleration from a0 to the peak `ap`), `ap` held for `t2`, jerk
 /// −g·J for `t3` (from `ap` to a1), g = ±1 (MODEL.md §6.1, "Changes between accelerated
@@ -515,7 +517,7 @@ struct Dip {
 
 /// Acceleration of the stations' plan `u` over interval `k`.
 fn interval_accel(lim: &Limits, u: &[f64], k: usize) -> f64 {
-    crate::plan::interval_accel_mm_s2(lim.s_mm, u, k)
+    interval_accel_mm_s2(lim.s_mm, u, k)
 }
 
 /// Whether following the envelope over the stations `l..=r` by constant accelerations
@@ -528,7 +530,7 @@ fn followable(lim: &Limits, (l, r): (usize, usize), period_s: f64, jerk: f64) ->
     let mut times = Vec::with_capacity(r - l);
     let mut t = 0.0;
     for k in l..r {
-        let dt = crate::plan::interval_time_s(lim.s_mm, u, k);
+        let dt = interval_time_s(lim.s_mm, u, k);
         if !(dt.is_finite() && dt > 0.0) {
             return false;
         }
@@ -674,7 +676,7 @@ fn passes_from_below(lim: &Limits, dips: &[Dip], period_s: f64) -> Vec<f64> {
             if w.len() < 2 {
                 continue;
             }
-            let a_l = crate::plan::interval_accel_mm_s2(&lim.s_mm[l..], &w, 0);
+            let a_l = interval_accel_mm_s2(&lim.s_mm[l..], &w, 0);
             if !fits(lim, (r0, l), (x, w_l), (0.0, a_l)) {
                 continue;
             }
@@ -745,39 +747,100 @@ pub(crate) fn shape(
         None => lim,
     };
     let u = lim.envelope_mm_s;
-    // Gap g: from dip g's last station to dip g+1's first, and its end speeds and
-    // accelerations.
-    let gap = |dips: &[Dip], g: usize| (dips[g].r, dips[g + 1].l);
-    let ends = |dips: &[Dip], g: usize| {
-        let (i, k) = gap(dips, g);
+    let shaping = Shaping { lim, follow };
+    if let Some(period_s) = follow {
+        dips = shaping.with_followed(&dips, period_s);
+    }
+    shaping.lower_dips(&mut dips);
+    shaping.drop_lowered(&mut dips);
+    if (0..dips.len() - 1).any(|g| !shaping.ok(&dips, g)) {
+        return false;
+    }
+    for dip in &dips {
+        for k in dip.l..=dip.r {
+            v[k] = u[k].min(dip.d);
+        }
+    }
+    for g in 0..dips.len() - 1 {
+        let (i, k) = Shaping::gap(&dips, g);
+        if k <= i + 1 {
+            continue;
+        }
+        let (d, acc) = shaping.ends(&dips, g);
+        let Some(peak) = gap_peak(lim, (i, k), d, acc) else {
+            return false;
+        };
+        let motion = Gap::new(lim, (i, k), d, acc, peak).expect("a feasible peak");
+        for (m, vm) in v.iter_mut().enumerate().take(k).skip(i + 1) {
+            *vm = motion.at(lim, m).0.min(u[m]);
+        }
+        if let Some(gaps) = gaps.as_deref_mut() {
+            gaps.push(motion);
+        }
+    }
+    v[1..n - 1].iter().all(|&x| x > 0.0)
+}
+
+/// The steps of [`shape`] over its dips: the limits, with the envelope lowered to the
+/// passes from below where `follow` = Some(T) ([`passes_from_below`]), and `follow`.
+#[derive(Clone, Copy)]
+struct Shaping<'l> {
+    lim: &'l Limits<'l>,
+    follow: Option<f64>,
+}
+
+impl Shaping<'_> {
+    /// Gap g: from dip g's last station to dip g+1's first.
+    fn gap(dips: &[Dip], g: usize) -> (usize, usize) {
+        (dips[g].r, dips[g + 1].l)
+    }
+
+    /// Gap g's end speeds and accelerations.
+    fn ends(&self, dips: &[Dip], g: usize) -> ((f64, f64), (f64, f64)) {
+        let u = self.lim.envelope_mm_s;
+        let (i, k) = Self::gap(dips, g);
         (
             (u[i].min(dips[g].d), u[k].min(dips[g + 1].d)),
             (dips[g].a_r, dips[g + 1].a_l),
         )
-    };
-    let fits_between = |(i, k): (usize, usize), d: (f64, f64), acc: (f64, f64)| {
+    }
+
+    /// Whether the gap `i..=k` has a motion between the end speeds `d` and accelerations
+    /// `acc` under the envelope.
+    fn fits_between(&self, (i, k): (usize, usize), d: (f64, f64), acc: (f64, f64)) -> bool {
+        let lim = self.lim;
         if acc == (0.0, 0.0) {
             feasible(lim, (i, k), d, acc, least_peak(lim, (i, k), d, acc))
         } else {
             gap_peak(lim, (i, k), d, acc).is_some()
         }
-    };
-    let ok = |dips: &[Dip], g: usize| {
-        let (i, k) = gap(dips, g);
-        let (d, acc) = ends(dips, g);
-        k <= i || fits_between((i, k), d, acc)
-    };
-    // A stretch l..=r of the envelope followed: its accelerations at either end.
-    let following = |l: usize, r: usize| Dip {
-        l,
-        r,
-        d: f64::INFINITY,
-        edge: false,
-        follow: true,
-        a_l: interval_accel(lim, u, l),
-        a_r: interval_accel(lim, u, r - 1),
-    };
-    if let Some(period_s) = follow {
+    }
+
+    /// Whether gap g has a motion through it (or no interval).
+    fn ok(&self, dips: &[Dip], g: usize) -> bool {
+        let (i, k) = Self::gap(dips, g);
+        let (d, acc) = self.ends(dips, g);
+        k <= i || self.fits_between((i, k), d, acc)
+    }
+
+    /// A stretch l..=r of the envelope followed: its accelerations at either end.
+    fn following(&self, l: usize, r: usize) -> Dip {
+        let (lim, u) = (self.lim, self.lim.envelope_mm_s);
+        Dip {
+            l,
+            r,
+            d: f64::INFINITY,
+            edge: false,
+            follow: true,
+            a_l: interval_accel(lim, u, l),
+            a_r: interval_accel(lim, u, r - 1),
+        }
+    }
+
+    /// `dips` with the stretches of the envelope beside each that the motion follows at
+    /// the period `period_s` ([`followable`]) as dips of their own.
+    fn with_followed(&self, dips: &[Dip], period_s: f64) -> Vec<Dip> {
+        let (lim, u) = (self.lim, self.lim.envelope_mm_s);
         let jerk = lim.jerk_mm_s3.iter().fold(f64::INFINITY, |m, &x| m.min(x));
         let can_follow = |l: usize, r: usize| followable(lim, (l, r), period_s, jerk);
         let mut with: Vec<Dip> = Vec::with_capacity(3 * dips.len());
@@ -793,7 +856,7 @@ pub(crate) fn shape(
                     .find(|&r| {
                         u[r - 1] > u[r]
                             && can_follow(r - 1, r)
-                            && fits_between(
+                            && self.fits_between(
                                 (r, dip.l),
                                 (u[r], u[dip.l].min(dip.d)),
                                 (interval_accel(lim, u, r - 1), dip.a_l),
@@ -804,7 +867,7 @@ pub(crate) fn shape(
                     while l > before + 2 && u[l - 1] > u[l] && can_follow(l - 1, r) {
                         l -= 1;
                     }
-                    with.push(following(l, r));
+                    with.push(self.following(l, r));
                 }
             }
             with.push(dip);
@@ -815,7 +878,7 @@ pub(crate) fn shape(
                     .find(|&l| {
                         u[l + 1] > u[l]
                             && can_follow(l, l + 1)
-                            && fits_between(
+                            && self.fits_between(
                                 (dip.r, l),
                                 (u[dip.r].min(dip.d), u[l]),
                                 (dip.a_r, interval_accel(lim, u, l)),
@@ -826,18 +889,20 @@ pub(crate) fn shape(
                     while r + 2 < next && u[r + 1] > u[r] && can_follow(l, r + 1) {
                         r += 1;
                     }
-                    with.push(following(l, r));
+                    with.push(self.following(l, r));
                 }
             }
         }
-        dips = with;
+        with
     }
-    // The higher end of gap g lowered until the gap has a motion through it (the run's
-    // ends keep their speeds). A stretch followed at either end is narrowed instead, from
-    // that end, station by station, to the widest that has one, or dropped.
-    let lower = |dips: &mut Vec<Dip>, g: usize| {
-        let (i, k) = gap(dips, g);
-        let ((a, b), acc) = ends(dips, g);
+
+    /// The higher end of gap g lowered until the gap has a motion through it (the run's
+    /// ends keep their speeds). A stretch followed at either end is narrowed instead, from
+    /// that end, station by station, to the widest that has one, or dropped.
+    fn lower(&self, dips: &mut Vec<Dip>, g: usize) {
+        let follow = self.follow;
+        let (i, k) = Self::gap(dips, g);
+        let ((a, b), acc) = self.ends(dips, g);
         let last_dip = dips.len() - 1;
         let higher = if a > b && g > 0 {
             Some(g)
@@ -848,11 +913,11 @@ pub(crate) fn shape(
         };
         if let Some(at) = higher.filter(|&at| !dips[at].follow) {
             dips[at].d = if at == g {
-                highest(b, a, |x| fits_between((i, k), (x, b), acc))
+                highest(b, a, |x| self.fits_between((i, k), (x, b), acc))
             } else {
-                highest(a, b, |x| fits_between((i, k), (a, x), acc))
+                highest(a, b, |x| self.fits_between((i, k), (a, x), acc))
             };
-            if follow.is_none() || ok(dips, g) {
+            if follow.is_none() || self.ok(dips, g) {
                 return;
             }
         }
@@ -866,8 +931,8 @@ pub(crate) fn shape(
                 } else {
                     dips[at].l += 1;
                 }
-                dips[at] = following(dips[at].l, dips[at].r);
-                if ok(dips, g) {
+                dips[at] = self.following(dips[at].l, dips[at].r);
+                if self.ok(dips, g) {
                     return;
                 }
             }
@@ -876,80 +941,63 @@ pub(crate) fn shape(
         }
         // The higher end is the section's: the lower one lowered (the envelope rises or
         // falls too steeply beside it for a change from no acceleration).
-        let ((a, b), acc) = ends(dips, g);
+        let ((a, b), acc) = self.ends(dips, g);
         if follow.is_some() && a <= b && g > 0 {
-            dips[g].d = highest(0.0, a, |x| fits_between((i, k), (x, b), acc));
+            dips[g].d = highest(0.0, a, |x| self.fits_between((i, k), (x, b), acc));
         } else if follow.is_some() && a > b && g + 1 < last_dip {
-            dips[g + 1].d = highest(0.0, b, |x| fits_between((i, k), (a, x), acc));
+            dips[g + 1].d = highest(0.0, b, |x| self.fits_between((i, k), (a, x), acc));
         }
-    };
-    for _ in 0..4 {
-        let mut changed = false;
-        let mut g = 0;
+    }
+
+    /// Each gap without a motion through it has an end lowered ([`Shaping::lower`]),
+    /// sweeping forwards then backwards, at most 4 times.
+    fn lower_dips(&self, dips: &mut Vec<Dip>) {
+        for _ in 0..4 {
+            let mut changed = false;
+            let mut g = 0;
+            while g + 1 < dips.len() {
+                let ((a, b), _) = self.ends(dips, g);
+                if (b > a || dips[g].follow || dips[g + 1].follow) && !self.ok(dips, g) {
+                    self.lower(dips, g);
+                    changed = true;
+                }
+                g += 1;
+            }
+            let mut g = dips.len() - 1;
+            while g > 0 {
+                g -= 1;
+                if g + 1 >= dips.len() {
+                    continue;
+                }
+                let ((a, b), _) = self.ends(dips, g);
+                if a >= b && !self.ok(dips, g) {
+                    self.lower(dips, g);
+                    changed = true;
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+    }
+
+    /// Lowered dips of one station the motion need not stop its acceleration at, dropped.
+    fn drop_lowered(&self, dips: &mut Vec<Dip>) {
+        let u = self.lim.envelope_mm_s;
+        let mut g = 1;
         while g + 1 < dips.len() {
-            let ((a, b), _) = ends(&dips, g);
-            if (b > a || dips[g].follow || dips[g + 1].follow) && !ok(&dips, g) {
-                lower(&mut dips, g);
-                changed = true;
-            }
-            g += 1;
-        }
-        let mut g = dips.len() - 1;
-        while g > 0 {
-            g -= 1;
-            if g + 1 >= dips.len() {
-                continue;
-            }
-            let ((a, b), _) = ends(&dips, g);
-            if a >= b && !ok(&dips, g) {
-                lower(&mut dips, g);
-                changed = true;
+            let dip = dips[g];
+            let lowered = dip.l == dip.r && !dip.edge && dip.d < u[dip.l];
+            let (i, k) = (dips[g - 1].r, dips[g + 1].l);
+            let d = (u[i].min(dips[g - 1].d), u[k].min(dips[g + 1].d));
+            let acc = (dips[g - 1].a_r, dips[g + 1].a_l);
+            if lowered && self.fits_between((i, k), d, acc) {
+                dips.remove(g);
+            } else {
+                g += 1;
             }
         }
-        if !changed {
-            break;
-        }
     }
-    // Lowered dips of one station the motion need not stop its acceleration at.
-    let mut g = 1;
-    while g + 1 < dips.len() {
-        let dip = dips[g];
-        let lowered = dip.l == dip.r && !dip.edge && dip.d < u[dip.l];
-        let (i, k) = (dips[g - 1].r, dips[g + 1].l);
-        let d = (u[i].min(dips[g - 1].d), u[k].min(dips[g + 1].d));
-        let acc = (dips[g - 1].a_r, dips[g + 1].a_l);
-        if lowered && fits_between((i, k), d, acc) {
-            dips.remove(g);
-        } else {
-            g += 1;
-        }
-    }
-    if (0..dips.len() - 1).any(|g| !ok(&dips, g)) {
-        return false;
-    }
-    for dip in &dips {
-        for k in dip.l..=dip.r {
-            v[k] = u[k].min(dip.d);
-        }
-    }
-    for g in 0..dips.len() - 1 {
-        let (i, k) = gap(&dips, g);
-        if k <= i + 1 {
-            continue;
-        }
-        let (d, acc) = ends(&dips, g);
-        let Some(peak) = gap_peak(lim, (i, k), d, acc) else {
-            return false;
-        };
-        let motion = Gap::new(lim, (i, k), d, acc, peak).expect("a feasible peak");
-        for (m, vm) in v.iter_mut().enumerate().take(k).skip(i + 1) {
-            *vm = motion.at(lim, m).0.min(u[m]);
-        }
-        if let Some(gaps) = gaps.as_deref_mut() {
-            gaps.push(motion);
-        }
-    }
-    v[1..n - 1].iter().all(|&x| x > 0.0)
 }
 
 #[cfg(test)]
@@ -1148,11 +1196,7 @@ mod tests {
             r += 1;
         }
         assert!(r > l + 2, "{l}..{r}");
-        let time = |v: &[f64]| {
-            (0..n - 1)
-                .map(|k| crate::plan::interval_time_s(&s, v, k))
-                .sum::<f64>()
-        };
+        let time = |v: &[f64]| (0..n - 1).map(|k| interval_time_s(&s, v, k)).sum::<f64>();
         let (mut v, mut gaps) = (vec![0.0; n], Vec::new());
         assert!(shape(
             &lim,
@@ -1168,7 +1212,7 @@ mod tests {
         assert!(rest_s.is_none_or(|rest_s| followed_s < rest_s));
         for k in 0..n - 1 {
             assert!(v[k] <= u[k] * (1.0 + 1e-12));
-            let a_k = crate::plan::interval_accel_mm_s2(&s, &v, k).abs();
+            let a_k = interval_accel_mm_s2(&s, &v, k).abs();
             assert!(a_k <= accel[k] * (1.0 + 1e-9), "{k}: {a_k} vs {}", accel[k]);
         }
         assert!(gaps.iter().any(|g| g.accelerated_ends()));
@@ -1237,9 +1281,7 @@ mod tests {
         let top = v.iter().fold(0.0f64, |m, &x| m.max(x));
         assert!((top - peak).abs() <= 1e-3 * peak, "{top} vs {peak}");
         let closed_s = 2.0 * ((peak - 20.0) / j).sqrt() + 2.0 * ((peak - 15.0) / j).sqrt();
-        let stations_s: f64 = (0..n - 1)
-            .map(|k| crate::plan::interval_time_s(&s, &v, k))
-            .sum();
+        let stations_s: f64 = (0..n - 1).map(|k| interval_time_s(&s, &v, k)).sum();
         assert!(
             (stations_s - closed_s).abs() <= 1e-3 * closed_s,
             "{stations_s} vs {closed_s}"

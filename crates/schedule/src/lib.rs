@@ -15,6 +15,7 @@
 
 mod bound;
 mod direct;
+mod kinematics;
 mod machine;
 mod plan;
 mod range_min;

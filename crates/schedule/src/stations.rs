@@ -123,7 +123,7 @@ pub struct Stations {
     cap_kind: Vec<CapKind>,
     interval_accel_mm_s2: Vec<f64>,
     /// Empty without a jerk limit (each interval's would be infinite: 8 B a station
-    /// for nothing, issue 16).
+    /// for nothing).
     interval_jerk_mm_s3: Vec<f64>,
     stops: Vec<Stop>,
     /// Stations where the tangent jumps (corners), ascending.
@@ -687,7 +687,7 @@ impl Stations {
 
     /// Runs `f` on the stations (to apply caps and plan under them) and puts
     /// their caps and the kinds that set them back as they were afterwards:
-    /// a trial plan without a copy of the stations (issue 16; a copy of a
+    /// a trial plan without a copy of the stations (a copy of a
     /// million-block program's stations and path is about 250 MB).
     pub fn with_caps_restored<R>(&mut self, f: impl FnOnce(&mut Stations) -> R) -> R {
         let (caps, kinds) = (self.cap_mm_min.clone(), self.cap_kind.clone());
@@ -776,7 +776,7 @@ impl Stations {
 
     /// Tangential jerk limit of each interval k → k+1, mm/s³ (min_i j_i/|t_i| over the
     /// tangents at both ends); `None` without a jerk limit, where every interval's is
-    /// infinite (not held: 8 B a station, issue 16).
+    /// infinite (not held: 8 B a station saved).
     pub fn interval_jerk_mm_s3(&self) -> Option<&[f64]> {
         self.machine
             .jerk_mm_s3
