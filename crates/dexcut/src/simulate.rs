@@ -5,22 +5,21 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
 
-use crate::error::{fail, Error, Result};
-use cutting::{CuttingModel, StepLoad};
-use dexel::{RemovalRecord, Stock, SweepOptions, Tool, NEVER_CUT};
+use crate::error::{Error, Result};
+pub use crate::model::{GridInfo, Summary, ToolPeaks};
+pub use crate::util::{fmt, write_json};
+use cutting::StepLoad;
+use dexel::{RemovalRecord, Stock, SweepOptions, NEVER_CUT};
 use rayon::prelude::*;
-use serde::Serialize;
 
-use crate::job::{ForceModelKind, Job, ToolSpec};
 use crate::motion::TimedStep;
-use crate::program::Program;
 use crate::progress;
 use crate::warnings::{self, LineTally, WarningKind, Warnings};
 
 /// Volume below which a step counts as removing nothing, mm³ (f32 column
 /// heights round at about 1e-7 mm; this is a 0.1 µm layer over 10 × 10 cells of 0.1 mm).
 pub const NOTHING_MM3: f64 = 1e-6;
-use crate::tools::ToolSet;
+use crate::input::tools::ToolSet;
 
 /// Window of the smoothed MRR in summaries, s (three 16 ms periods).
 pub const MRR_WINDOW_S: f64 = 0.048;
@@ -105,7 +104,7 @@ pub struct Run {
     /// Allowable stress and rupture strength of each tool the steps carry,
     /// by tool number, MPa: a step's are its tool's
     /// ([`Run::stress_limit_mpa_at`], [`Run::rupture_strength_mpa_at`]; not
-    /// two per step, 16 MB for a million steps: issue 16).
+    /// two per step, 16 MB for a million steps).
     pub strengths_mpa: BTreeMap<u32, [f64; 2]>,
     /// Each tool number the steps carry as messages name it
     /// ([`ToolSet::name`]: a single `[tool]` is "the job's tool").
@@ -120,7 +119,7 @@ enum ErrorMap {
     /// Made of the final stock and the initial stock's closed form (a box
     /// or a cylinder) on its grid where it is read, block of rows by block
     /// of rows as it is written: 4 B a column less held beside the steps and
-    /// loads while the outputs are written (issue 16).
+    /// loads while the outputs are written.
     Made(dexel::Solid, dexel::Grid),
 }
 
@@ -173,10 +172,10 @@ pub enum StockSource<'a> {
     /// every pass sweeps the stock made again from its closed form, in the
     /// memory of the one before (the stock handed over, then the last
     /// pass's), and the error map asks the closed form what material was
-    /// there, so one stock is held, not two (issue 16).
+    /// there, so one stock is held, not two.
     Made(Stock, dexel::Solid),
     /// The bands of a tiled stock.
-    Tiled(&'a crate::stock::Tiling),
+    Tiled(&'a crate::input::stock::Tiling),
 }
 
 impl StockSource<'_> {
@@ -208,7 +207,7 @@ pub(crate) enum Initial<'a> {
     /// A closed form on its grid: each pass sweeps the stock made of it.
     Made(dexel::Solid, dexel::Grid),
     /// The bands of a tiled stock.
-    Tiled(&'a crate::stock::Tiling),
+    Tiled(&'a crate::input::stock::Tiling),
 }
 
 impl Initial<'_> {
@@ -315,7 +314,7 @@ pub(crate) fn sweep_setup(
 /// step, at its end; a step that continues the previous one starts at the
 /// previous offset, so the offset path stays continuous). Made where a sweep
 /// asks for it (`dexel::StepFn`): the closed loop's passes hold no list of
-/// the moved steps (56 B a step, issue 16).
+/// the moved steps (56 B a step).
 fn offset_step(steps: &[TimedStep], offsets_mm: &[[f64; 2]], i: usize) -> dexel::Step {
     let s = &steps[i];
     let o = offsets_mm[i];
@@ -414,7 +413,7 @@ impl Bound {
 /// One a step of the loop: 80 B (sweeps as u8, at most
 /// [`LOOP_MAX_PASSES`]; the relaxed update's sign beside them, not padded in
 /// a [`Relaxed`]; the offset's cap, the tool's radius, passed in rather than
-/// held: issue 16).
+/// held).
 #[derive(Clone, Copy, Debug)]
 struct Bracketed {
     /// The relaxed update's factor ω ([`Relaxed`], its sign `negative`).
@@ -1367,7 +1366,7 @@ pub fn run_on(
 /// item's window is given to `each` in item order, not held as a list (16 B
 /// an item), nor is each item's run end (8 B: found by walking the run
 /// once); item p advances `advance(p)` (made where it is read, not a list
-/// beside the caller's: 8 B an item). Issue 16.
+/// beside the caller's: 8 B an item).
 fn sub_cell_windows(
     advance: impl Fn(usize) -> f64,
     member: &[bool],
@@ -1435,7 +1434,7 @@ fn sub_cell_windows(
 /// running sums from the first term, `prefix[b + 1] − prefix[a]` a component:
 /// the same numbers as from prefix sums held whole, made in one pass over the
 /// terms in order that holds only the running sums from the start of the
-/// window last asked for to the furthest end reached (issue 16: the closed
+/// window last asked for to the furthest end reached (the closed
 /// loop's windows of sub-cell steps span a few steps of a million). Windows
 /// are asked for in order of their starts; one that starts before the window
 /// before sums again from the first term (the same numbers, at that cost).
@@ -1532,7 +1531,7 @@ fn error_range_um(error_um: &[f32], range: [f64; 2]) -> [f64; 2] {
 /// volumes and the error range alone (`optimize`'s program as given).
 pub fn write_tiled_columns(
     run: &mut Run,
-    tiling: &crate::stock::Tiling,
+    tiling: &crate::input::stock::Tiling,
     tools: &ToolSet,
     dir: Option<&Path>,
 ) -> Result<()> {
@@ -1748,7 +1747,7 @@ fn clamped_error_map_um(
     let grid = *last.grid();
     let rows = last.rows();
     // The tops and normals of the final surface asked column by column, not
-    // held (12 B + 4 B a column, 77 MB at 2 200 × 2 200 columns: issue 16).
+    // held (12 B + 4 B a column, 77 MB at 2 200 × 2 200 columns).
     let top = |ix: usize, iy: usize| last.top_or_nan_at(iy * grid.nx + ix);
     columns
         .into_par_iter()
@@ -1797,7 +1796,7 @@ pub fn loads(
 
 /// What `of(load, step)` makes of each step's load of [`loads`] (the
 /// closed loop's passes keep each step's deflection across its path, 8 B,
-/// not its load, 104 B: issue 16).
+/// not its load, 104 B).
 fn loads_as<T>(
     tools: &ToolSet,
     tool_of_step: &[usize],
@@ -1849,223 +1848,6 @@ fn breaking_step(loads: &[StepLoad], rupture_mpa: impl Fn(usize) -> f64) -> Opti
     worst.map(|w| (w, loads[w].stress_mpa / rupture_mpa(w)))
 }
 
-/// Allowable stress of a tool (MODEL.md §4.4): `stress_limit_mpa`, else 1200
-/// MPa for carbide (E ≥ 400 000 MPa) and 1000 MPa otherwise, and never above
-/// a rupture strength the job gives.
-pub fn stress_limit_mpa(spec: &ToolSpec, tool: &Tool) -> f64 {
-    spec.body().stress_limit_mpa.unwrap_or_else(|| {
-        let default = if tool.youngs_modulus_mpa >= 400_000.0 {
-            1200.0
-        } else {
-            1000.0
-        };
-        spec.body()
-            .rupture_strength_mpa
-            .map_or(default, |r| default.min(r))
-    })
-}
-
-/// Rupture strength of a tool (MODEL.md §4.4): `rupture_strength_mpa`, else
-/// 3500 MPa for carbide (E ≥ 400 000 MPa, the middle of a fine-grain
-/// carbide's transverse rupture strength of 3000–4000 MPa) and 3000 MPa
-/// otherwise (HSS), and never below the allowable stress.
-pub fn rupture_strength_mpa(spec: &ToolSpec, tool: &Tool) -> f64 {
-    spec.body().rupture_strength_mpa.unwrap_or_else(|| {
-        let default: f64 = if tool.youngs_modulus_mpa >= 400_000.0 {
-            3500.0
-        } else {
-            3000.0
-        };
-        default.max(stress_limit_mpa(spec, tool))
-    })
-}
-
-/// The force and beam model from the job's [cutting] and a tool's spec.
-pub fn cutting_model(
-    job: &Job,
-    spec: &ToolSpec,
-    tool: &Tool,
-    program: &Program,
-) -> Result<CuttingModel> {
-    let c = &job.cutting;
-    let material = cutting::Material::by_name(&c.material).ok_or_else(|| {
-        let names: Vec<&str> = cutting::Material::ALL.iter().map(|m| m.name).collect();
-        Error::job(format!(
-            "{}: unknown cutting.material {:?}; known: {}",
-            job.name,
-            c.material,
-            names.join(", ")
-        ))
-    })?;
-    // The highest S word a tool this wide plausibly runs at (MODEL.md §2.1).
-    let program_rpm = program.spindle_rpm_for(tool.diameter_mm);
-    let force_model = match c.model {
-        ForceModelKind::PowerLaw => cutting::ForceModel::PowerLaw {
-            a: c.force_a.unwrap_or(material.force_coef_a),
-            n: c.force_n.unwrap_or(material.force_exp_n),
-        },
-        ForceModelKind::Kienzle => {
-            let k = material.kienzle;
-            cutting::ForceModel::Kienzle(cutting::Kienzle {
-                kc1_1_mpa: c.kc1_1.unwrap_or(k.kc1_1_mpa),
-                mc: c.mc.unwrap_or(k.mc),
-                radial_ratio: c.radial_ratio.unwrap_or(k.radial_ratio),
-                axial_ratio: c.axial_ratio.unwrap_or(k.axial_ratio),
-            })
-        }
-    };
-    Ok(CuttingModel {
-        force_model,
-        spindle_rpm: c.spindle_rpm.unwrap_or(if program_rpm > 0.0 {
-            program_rpm
-        } else {
-            10_000.0
-        }),
-        flutes: tool.flutes,
-        tool_radius_mm: tool.radius_mm(),
-        band_height_mm: c.band_height,
-        beam: cutting::SteppedBeam {
-            stickout_mm: tool.stickout_mm,
-            flute_length_mm: tool.flute_length_mm,
-            flute_diameter_mm: tool.effective_diameter_mm,
-            shank_diameter_mm: spec.body().shank_diameter.unwrap_or(tool.diameter_mm),
-            youngs_modulus_mpa: tool.youngs_modulus_mpa,
-            holder_stiffness_n_per_um: spec.body().holder_stiffness_n_per_um,
-        },
-    })
-}
-
-/// Headline numbers of a run (summary.json).
-#[derive(Clone, Debug, Serialize, serde::Deserialize)]
-pub struct Summary {
-    /// Stock volume before the run, mm³.
-    pub initial_volume_mm3: f64,
-    /// Stock volume after the run, mm³.
-    pub final_volume_mm3: f64,
-    /// Volume the program removed, mm³.
-    pub removed_volume_mm3: f64,
-    /// Time the program runs, s.
-    pub cycle_time_s: f64,
-    /// Largest MRR of a servo period, mm³/s: a period under one grid cell of
-    /// path measured over the periods around it, all-rapid periods left out
-    /// ([`Run::peak_period_mrr_mm3_s`], MODEL.md §2.3).
-    pub peak_mrr_mm3_s: f64,
-    /// Largest MRR averaged over at least [`MRR_WINDOW_S`] and
-    /// [`MRR_WINDOW_CELLS`] grid cells of path, mm³/s: the per-period value
-    /// carries the dexel grid's column quantisation (±15 % for a slot at 0.8
-    /// cells per period), which this average resolves.
-    pub peak_mrr_windowed_mm3_s: f64,
-    /// Largest cutting force on the tool, N.
-    pub peak_force_n: f64,
-    /// Largest spindle cutting power, W, and torque, N·m.
-    pub peak_power_w: f64,
-    /// Largest spindle torque, N·m.
-    pub peak_torque_nm: f64,
-    /// Largest deflection at the contact height (closed loop), µm; where the
-    /// tool breaks, the deflection at rupture (MODEL.md §4.4).
-    pub peak_deflection_um: f64,
-    /// The peak deflection is a step's that breaks the tool: capped at its
-    /// elastic deflection at rupture (MODEL.md §4.4).
-    #[serde(default)]
-    pub peak_deflection_at_rupture: bool,
-    /// Steps whose stress exceeds their tool's rupture strength: the tool
-    /// breaks (`tool_breaks` warning, MODEL.md §4.4).
-    #[serde(default)]
-    pub tool_breaks_steps: usize,
-    /// Highest mean path speed of a step that removed material (not a rapid), mm/min.
-    pub peak_cutting_feed_mm_min: f64,
-    /// Largest tip deflection (closed loop), µm.
-    pub peak_tip_deflection_um: f64,
-    /// Largest deflection at the contact height of the rigid tool's removal, µm
-    /// (what an open-loop model predicts).
-    pub rigid_peak_deflection_um: f64,
-    /// Largest material left on the surface, µm (≥ 0; error map, MODEL.md §5).
-    pub max_error_um: f64,
-    /// Deepest overcut, µm (≤ 0).
-    pub min_error_um: f64,
-    /// The closed loop of removal and deflection ran (`[cutting] closed_loop`, MODEL.md §5.1).
-    pub closed_loop: bool,
-    /// Every step's offset agreed with its deflection (false for an open loop
-    /// whose rigid tool bent by more than the tolerance).
-    pub closed_loop_converged: bool,
-    /// Sweeps (the rigid one included) and the largest remaining disagreement
-    /// between offset and deflection across the path, µm.
-    pub closed_loop_passes: usize,
-    #[serde(deserialize_with = "crate::summary::f64_or_nan")]
-    /// Largest disagreement left between applied offset and deflection, µm.
-    pub closed_loop_residual_um: f64,
-    /// Steps whose offset and deflection still disagree by more than the tolerance.
-    pub closed_loop_unconverged_steps: usize,
-    /// Largest von Mises stress in the tool, MPa, and the allowable stress.
-    pub peak_stress_mpa: f64,
-    #[serde(deserialize_with = "crate::summary::f64_or_nan")]
-    /// Allowable stress of the weakest tool, MPa (null in JSON when no tool has one).
-    pub stress_limit_mpa: f64,
-    /// Steps swept (servo periods or moves).
-    pub steps: usize,
-    /// Column spacing, mm.
-    pub grid_mm: f64,
-    /// Columns of the stock.
-    pub columns: usize,
-    /// Steps that removed material above the flute length.
-    pub shank_contact_steps: usize,
-    /// Rapid steps that removed material (collisions).
-    pub rapid_collision_steps: usize,
-    /// First program line with a rapid collision, if any.
-    pub first_collision_line: Option<u32>,
-    /// What a user must look at, each with its program line.
-    pub warnings: Warnings,
-    /// Column visits of the sweep kernel.
-    pub columns_evaluated: u64,
-    /// Wall time of the sweeps, s.
-    pub sweep_time_s: f64,
-    /// The same peaks per tool, in order of first use.
-    pub tools: Vec<ToolPeaks>,
-}
-
-/// Peaks of the steps one tool cut (summary.json `tools`).
-#[derive(Clone, Debug, Serialize, serde::Deserialize)]
-pub struct ToolPeaks {
-    /// T number.
-    pub tool: u32,
-    /// Steps cut with this tool.
-    pub steps: usize,
-    /// Volume this tool removed, mm³.
-    pub removed_volume_mm3: f64,
-    /// Time the tool is in the spindle, s.
-    pub time_s: f64,
-    /// Largest MRR per period, mm³/s.
-    pub peak_mrr_mm3_s: f64,
-    /// Largest cutting force, N.
-    pub peak_force_n: f64,
-    /// Largest deflection at the contact height, µm.
-    pub peak_deflection_um: f64,
-}
-
-impl Summary {
-    /// A result that is inf or NaN is an error, not an output.
-    pub fn check_finite(&self) -> Result<()> {
-        for (key, v) in [
-            ("initial volume (mm³)", self.initial_volume_mm3),
-            ("final volume (mm³)", self.final_volume_mm3),
-            ("removed volume (mm³)", self.removed_volume_mm3),
-            ("cycle time (s)", self.cycle_time_s),
-            ("peak MRR (mm³/s)", self.peak_mrr_mm3_s),
-            ("peak windowed MRR (mm³/s)", self.peak_mrr_windowed_mm3_s),
-            ("peak force (N)", self.peak_force_n),
-            ("peak deflection (µm)", self.peak_deflection_um),
-        ] {
-            if !v.is_finite() {
-                fail!(
-                    run,
-                    "the run's {key} is {v}: the inputs give no finite result"
-                );
-            }
-        }
-        Ok(())
-    }
-}
-
 impl Run {
     /// Each servo period in turn (a period split where the motion changes
     /// between rapid and feed counts as a whole), with its MRR resolved to
@@ -2076,7 +1858,7 @@ impl Run {
     /// comes whole in the period in which the edge crosses the column's
     /// centre. The periods are made from per-period columns (their first
     /// step, end of path, prefix sums of removal and time; 37 B a period
-    /// with the windows' path sums, issue 16; a period's own removal and time
+    /// with the windows' path sums; a period's own removal and time
     /// summed again from its steps) and handed to `f` one by one as its
     /// window is found, never held as a list (72 B a period more), nor are
     /// the windows (16 B).
@@ -2604,63 +2386,6 @@ fn row_blocks(grid: &dexel::Grid) -> impl Iterator<Item = std::ops::Range<usize>
         .map(move |start| start..(start + block).min(len))
 }
 
-/// Grid geometry recorded in summary.json so `report` can rebuild maps.
-#[derive(Clone, Debug, Serialize, serde::Deserialize)]
-pub struct GridInfo {
-    /// Columns along X.
-    pub nx: usize,
-    /// Columns along Y.
-    pub ny: usize,
-    /// Centre of column (0, 0), mm.
-    pub x0_mm: f64,
-    /// Centre of column (0, 0), y, mm.
-    pub y0_mm: f64,
-    /// Column spacing, mm.
-    pub spacing_mm: f64,
-}
-
-impl GridInfo {
-    /// The geometry of a dexel grid.
-    pub fn of(g: &dexel::Grid) -> GridInfo {
-        GridInfo {
-            nx: g.nx,
-            ny: g.ny,
-            x0_mm: g.x_mm(0),
-            y0_mm: g.y_mm(0),
-            spacing_mm: g.spacing_mm,
-        }
-    }
-
-    /// The export crate's copy of the grid geometry.
-    pub fn export(&self) -> export::Grid {
-        export::Grid {
-            nx: self.nx,
-            ny: self.ny,
-            x0_mm: self.x0_mm,
-            y0_mm: self.y0_mm,
-            spacing_mm: self.spacing_mm,
-        }
-    }
-}
-
-/// Compact number formatting for CSV (shortest round-trip form).
-pub fn fmt(v: f64) -> String {
-    if v == 0.0 {
-        "0".into()
-    } else {
-        format!("{v}")
-    }
-}
-
-/// Write any serialisable value as pretty JSON, atomically.
-pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
-    export::atomic::write_file(path, |w| {
-        serde_json::to_writer_pretty(&mut *w, value).map_err(std::io::Error::other)?;
-        w.write_all(b"\n")
-    })
-    .map_err(|e| Error::io("cannot write", path, e))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -3083,7 +2808,7 @@ mod tests {
                 n < 3000 || windows.windows(2).filter(|w| w[1].0 <= w[0].1).count() > 1000,
                 "windows that overlap"
             );
-            // The oracle: the loop's prefix sums and residuals before issue 16.
+            // The oracle: the loop's prefix sums and residuals as prefix sums held whole.
             let mut sum_r = vec![0.0; n + 1];
             let mut sum_x = vec![0.0; n + 1];
             let mut sum_g = vec![0.0; n + 1];
@@ -3179,7 +2904,7 @@ mod tests {
         assert_eq!(w[10], (10, 10), "a run of one");
     }
 
-    /// A step's search of the closed loop, one a step: 80 B (issue 16).
+    /// A step's search of the closed loop, one a step: 80 B.
     #[test]
     fn a_steps_search_takes_80_bytes() {
         assert_eq!(std::mem::size_of::<Bracketed>(), 80);
@@ -3341,7 +3066,7 @@ mod tests {
             let path = dir.path().join("job.toml");
             std::fs::write(&path, job).unwrap();
             let setup = crate::commands::Setup::load(&path, None).unwrap();
-            let solid = crate::stock::solid(&setup.job.stock).unwrap();
+            let solid = crate::input::stock::solid(&setup.job.stock).unwrap();
             let steps = setup.machine_steps().unwrap();
             let held = run_on(
                 StockSource::Whole(setup.stock.clone()),
