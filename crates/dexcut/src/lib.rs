@@ -89,22 +89,22 @@ pub mod optimize;
 mod outdir;
 pub mod progress;
 mod report;
-mod simulate;
+mod run;
 mod steps_out;
-mod subcell;
 pub mod summary;
 mod util;
 mod warnings;
 
 pub use input::fitted_job;
 pub(crate) use input::{example, job, program, stock, tools}; // TEMP-ALIAS
-pub(crate) use util::heap_mark; // TEMP-ALIAS
+use run as simulate;
+pub(crate) use util::heap_mark; // TEMP-ALIAS // TEMP-ALIAS
 
 pub use commands::{Optimized, Setup, Simulation};
 pub use error::{Error, Result, Source};
 pub use evaluate::{DriveEvaluation, SweepRow};
 pub use report::ReportFiles;
-pub use simulate::{Run, Summary};
+pub use run::{Run, Summary};
 pub use steps_out::{StepsFormat, AUTO_NPY_STEPS};
 pub use warnings::{Warning, WarningKind, Warnings};
 
