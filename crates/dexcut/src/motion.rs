@@ -53,7 +53,9 @@ pub fn periods(steps: &[TimedStep]) -> impl Iterator<Item = std::ops::Range<usiz
     })
 }
 
-pub use crate::input::job::machine;
+// The machine limits from the job live with the job (input::job::machine);
+// the upper layers still name them here.
+pub use crate::input::job::machine; // TEMP-ALIAS
 
 /// Steps between consecutive servo samples. A period that crosses the start
 /// or end of a rapid move is split there (at the path's corner), so material a

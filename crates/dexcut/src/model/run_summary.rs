@@ -20,7 +20,7 @@ pub struct Summary {
     pub cycle_time_s: f64,
     /// Largest MRR of a servo period, mm³/s: a period under one grid cell of
     /// path measured over the periods around it, all-rapid periods left out
-    /// ([`crate::run::Run::peak_period_mrr_mm3_s`], MODEL.md §2.3).
+    /// ([`crate::Run::peak_period_mrr_mm3_s`], MODEL.md §2.3).
     pub peak_mrr_mm3_s: f64,
     /// Largest MRR averaged over at least [`crate::run::MRR_WINDOW_S`] and
     /// [`crate::run::MRR_WINDOW_CELLS`] grid cells of path, mm³/s: the per-period value
