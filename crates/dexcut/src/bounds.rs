@@ -10,7 +10,7 @@
 //!   top heights, the error map; columns.csv is streamed). Before columns.csv
 //!   was streamed it was 80 and 99.5 B, and under `ulimit -v` its doubling
 //!   buffer aborted runs that passed the check. After the Kienzle model
-//!   (issue 13) 78 and 96.5 B. Probed at the boundary under `prlimit --as` of
+//!   78 and 96.5 B. Probed at the boundary under `prlimit --as` of
 //!   512 MiB, 1 GiB and 2 GiB: every grid either ran or was refused by this
 //!   check, none aborted (with [`THREAD_RESERVE_BYTES`] counted);
 //! * a servo sample (one sweep step): 307 B with 20 bands in air; while
@@ -83,8 +83,8 @@ pub fn read_text(path: &Path, what: &str, cap: u64) -> Result<String> {
     // Read at most cap + 1 bytes: a file that grows while read is still bounded.
     // Room for the file as it was measured: a reader with a limit gives no
     // size hint, and the text grown by doubling would hold up to twice its
-    // bytes through a whole run (a program's text is: 33.6 MB for 26.8,
-    // issue 16); where it grew meanwhile, it is fitted after.
+    // bytes through a whole run (a program's text is: 33.6 MB for 26.8);
+    // where it grew meanwhile, it is fitted after.
     let mut text = String::with_capacity(usize::try_from(size).unwrap_or(0));
     file.take(cap + 1)
         .read_to_string(&mut text)

@@ -78,9 +78,8 @@ mod bounds;
 pub mod commands;
 mod error;
 mod evaluate;
-mod example;
-pub mod fitted_job;
-mod job;
+mod input;
+mod model;
 mod motion;
 /// Building blocks of the optimisation (engagement, caps, re-feed). Not part
 /// of the stable API: public only for the S3 integration tests
@@ -88,33 +87,24 @@ mod motion;
 #[doc(hidden)]
 pub mod optimize;
 mod outdir;
-mod program;
 pub mod progress;
 mod report;
-mod simulate;
+mod run;
 mod steps_out;
-mod stock;
-mod subcell;
 pub mod summary;
-mod tools;
+mod util;
 mod warnings;
 
-/// With the `heap-marks` feature, prints the heap now and its peak since the
-/// last mark, after `phase` (the `dexcut` binary's counting allocator:
-/// BENCHMARKS.md); without it, nothing (an empty function).
-#[inline(always)]
-pub(crate) fn heap_mark(phase: std::fmt::Arguments<'_>) {
-    #[cfg(feature = "heap-marks")]
-    heapmarks::mark(&phase.to_string());
-    #[cfg(not(feature = "heap-marks"))]
-    let _ = phase;
-}
+pub use input::fitted_job;
+pub(crate) use input::{example, job, program, stock, tools}; // TEMP-ALIAS
+use run as simulate;
+pub(crate) use util::heap_mark; // TEMP-ALIAS // TEMP-ALIAS
 
 pub use commands::{Optimized, Setup, Simulation};
 pub use error::{Error, Result, Source};
 pub use evaluate::{DriveEvaluation, SweepRow};
 pub use report::ReportFiles;
-pub use simulate::{Run, Summary};
+pub use run::{Run, Summary};
 pub use steps_out::{StepsFormat, AUTO_NPY_STEPS};
 pub use warnings::{Warning, WarningKind, Warnings};
 

@@ -5,8 +5,6 @@ use crate::error::Result;
 use nc::Motion;
 use schedule::{FeedPolicy, Machine, ServoSample, Stations};
 
-use crate::job::Job;
-
 /// Arc-length resolution of the planner's stations, mm: finer than one servo
 /// period at any feed, so caps are respected between samples.
 pub const STATION_DS_MM: f64 = 0.05;
@@ -55,18 +53,9 @@ pub fn periods(steps: &[TimedStep]) -> impl Iterator<Item = std::ops::Range<usiz
     })
 }
 
-/// The machine limits from the job.
-pub fn machine(job: &Job) -> Machine {
-    let m = &job.machine;
-    Machine {
-        period_ms: m.period_ms,
-        feed_max_mm_min: m.feed_max,
-        rapid_mm_min: m.rapid,
-        accel_mm_s2: m.accel,
-        jerk_mm_s3: m.jerk,
-        block_time_ms: m.block_time_ms,
-    }
-}
+// The machine limits from the job live with the job (input::job::machine);
+// the upper layers still name them here.
+pub use crate::input::job::machine; // TEMP-ALIAS
 
 /// Steps between consecutive servo samples. A period that crosses the start
 /// or end of a rapid move is split there (at the path's corner), so material a
@@ -192,7 +181,7 @@ impl SampleRow {
 /// Servo samples kept as what their steps ([`steps_from_samples`]) do not
 /// hold of them: the first sample, and each sample's path speed (8 B a
 /// sample instead of the sample's 56 and its block's tool and spindle
-/// speed's 16, issue 16). Every later sample ends its period's last step:
+/// speed's 16). Every later sample ends its period's last step:
 /// that step ends at the sample's time and position and lies on the
 /// sample's block.
 #[derive(Clone, Debug, PartialEq)]
@@ -265,7 +254,7 @@ fn samples(stations: &Stations, machine: &Machine) -> Result<Vec<ServoSample>> {
 /// servo period before it, as the run that wrote the stream swept it.
 pub fn direct_steps(
     path: &nc::Path,
-    stream: Option<&crate::program::StreamTiming>,
+    stream: Option<&crate::input::program::StreamTiming>,
 ) -> Vec<TimedStep> {
     let (mut t, mut s) = (0.0, 0.0);
     path.segments

@@ -4,12 +4,12 @@
 
 use std::collections::BTreeMap;
 
-use crate::error::{fail, Result};
+use crate::error::{fail, Error, Result};
 use cutting::CuttingModel;
 use dexel::Tool;
 
-use crate::job::Job;
-use crate::program::Program;
+use crate::input::job::{ForceModelKind, Job, ToolSpec};
+use crate::input::program::Program;
 
 /// One tool of the job.
 #[derive(Clone, Debug)]
@@ -56,6 +56,92 @@ pub fn plausible_rpm(diameter_mm: f64, rpm: f64) -> bool {
     rpm > 0.0
         && (cutting_speed_m_min(diameter_mm, rpm) >= MIN_CUTTING_SPEED_M_MIN
             || rpm >= MIN_SPINDLE_RPM)
+}
+
+/// Allowable stress of a tool (MODEL.md §4.4): `stress_limit_mpa`, else 1200
+/// MPa for carbide (E ≥ 400 000 MPa) and 1000 MPa otherwise, and never above
+/// a rupture strength the job gives.
+pub fn stress_limit_mpa(spec: &ToolSpec, tool: &Tool) -> f64 {
+    spec.body().stress_limit_mpa.unwrap_or_else(|| {
+        let default = if tool.youngs_modulus_mpa >= 400_000.0 {
+            1200.0
+        } else {
+            1000.0
+        };
+        spec.body()
+            .rupture_strength_mpa
+            .map_or(default, |r| default.min(r))
+    })
+}
+
+/// Rupture strength of a tool (MODEL.md §4.4): `rupture_strength_mpa`, else
+/// 3500 MPa for carbide (E ≥ 400 000 MPa, the middle of a fine-grain
+/// carbide's transverse rupture strength of 3000–4000 MPa) and 3000 MPa
+/// otherwise (HSS), and never below the allowable stress.
+pub fn rupture_strength_mpa(spec: &ToolSpec, tool: &Tool) -> f64 {
+    spec.body().rupture_strength_mpa.unwrap_or_else(|| {
+        let default: f64 = if tool.youngs_modulus_mpa >= 400_000.0 {
+            3500.0
+        } else {
+            3000.0
+        };
+        default.max(stress_limit_mpa(spec, tool))
+    })
+}
+
+/// The force and beam model from the job's [cutting] and a tool's spec.
+pub fn cutting_model(
+    job: &Job,
+    spec: &ToolSpec,
+    tool: &Tool,
+    program: &Program,
+) -> Result<CuttingModel> {
+    let c = &job.cutting;
+    let material = cutting::Material::by_name(&c.material).ok_or_else(|| {
+        let names: Vec<&str> = cutting::Material::ALL.iter().map(|m| m.name).collect();
+        Error::job(format!(
+            "{}: unknown cutting.material {:?}; known: {}",
+            job.name,
+            c.material,
+            names.join(", ")
+        ))
+    })?;
+    // The highest S word a tool this wide plausibly runs at (MODEL.md §2.1).
+    let program_rpm = program.spindle_rpm_for(tool.diameter_mm);
+    let force_model = match c.model {
+        ForceModelKind::PowerLaw => cutting::ForceModel::PowerLaw {
+            a: c.force_a.unwrap_or(material.force_coef_a),
+            n: c.force_n.unwrap_or(material.force_exp_n),
+        },
+        ForceModelKind::Kienzle => {
+            let k = material.kienzle;
+            cutting::ForceModel::Kienzle(cutting::Kienzle {
+                kc1_1_mpa: c.kc1_1.unwrap_or(k.kc1_1_mpa),
+                mc: c.mc.unwrap_or(k.mc),
+                radial_ratio: c.radial_ratio.unwrap_or(k.radial_ratio),
+                axial_ratio: c.axial_ratio.unwrap_or(k.axial_ratio),
+            })
+        }
+    };
+    Ok(CuttingModel {
+        force_model,
+        spindle_rpm: c.spindle_rpm.unwrap_or(if program_rpm > 0.0 {
+            program_rpm
+        } else {
+            10_000.0
+        }),
+        flutes: tool.flutes,
+        tool_radius_mm: tool.radius_mm(),
+        band_height_mm: c.band_height,
+        beam: cutting::SteppedBeam {
+            stickout_mm: tool.stickout_mm,
+            flute_length_mm: tool.flute_length_mm,
+            flute_diameter_mm: tool.effective_diameter_mm,
+            shank_diameter_mm: spec.body().shank_diameter.unwrap_or(tool.diameter_mm),
+            youngs_modulus_mpa: tool.youngs_modulus_mpa,
+            holder_stiffness_n_per_um: spec.body().holder_stiffness_n_per_um,
+        },
+    })
 }
 
 #[cfg(test)]
@@ -126,15 +212,15 @@ impl ToolSet {
         let mut entries = Vec::with_capacity(specs.len());
         for (number, spec) in specs {
             let tool = spec.dexel_tool()?;
-            let model = crate::simulate::cutting_model(job, spec, &tool, program)?;
+            let model = cutting_model(job, spec, &tool, program)?;
             entries.push(ToolEntry {
                 number: number.unwrap_or(1),
                 tool,
                 length_mm: spec.body().length.unwrap_or(0.0),
                 model,
                 fz_max_mm: spec.fz_max_mm(&job.cutting.material),
-                stress_limit_mpa: crate::simulate::stress_limit_mpa(spec, &tool),
-                rupture_strength_mpa: crate::simulate::rupture_strength_mpa(spec, &tool),
+                stress_limit_mpa: stress_limit_mpa(spec, &tool),
+                rupture_strength_mpa: rupture_strength_mpa(spec, &tool),
                 job_rpm: job.cutting.spindle_rpm,
                 fz_max_given: spec.body().fz_max.is_some(),
             });
@@ -176,7 +262,7 @@ impl ToolSet {
     /// Per item, the index of the tool numbered by `numbers`; an error names
     /// the program line of the first number the table lacks. The indices are
     /// of any integer type that holds every index of the table (`u16` keeps 2
-    /// bytes an item instead of 8, issue 16).
+    /// bytes an item instead of 8).
     pub fn indices<T: TryFrom<usize>>(
         &self,
         numbers: impl Iterator<Item = (u32, u32)>,

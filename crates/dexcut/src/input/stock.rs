@@ -7,7 +7,7 @@ use std::ops::Range;
 use crate::error::{fail, Error, Result};
 use dexel::{Grid, Solid, Stock};
 
-use crate::job::{Job, StockSpec};
+use crate::input::job::{Job, StockSpec};
 
 /// Refuse a grid whose columns would not fit in the memory this process may use.
 fn check_fits(grid: &Grid, what: &str) -> Result<()> {

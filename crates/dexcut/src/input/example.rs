@@ -9,15 +9,15 @@ use crate::error::{fail, Error, Result};
 pub const FILES: [(&str, &[u8]); 3] = [
     (
         "job.toml",
-        include_bytes!("../../../examples/boss_contour/job.toml"),
+        include_bytes!("../../../../examples/boss_contour/job.toml"),
     ),
     (
         "boss_contour.nc",
-        include_bytes!("../../../examples/boss_contour/boss_contour.nc"),
+        include_bytes!("../../../../examples/boss_contour/boss_contour.nc"),
     ),
     (
         "boss_contour_stock.stl",
-        include_bytes!("../../../examples/boss_contour/boss_contour_stock.stl"),
+        include_bytes!("../../../../examples/boss_contour/boss_contour_stock.stl"),
     ),
 ];
 

@@ -604,6 +604,17 @@ impl Job {
     /// with its key: non-finite values (toml reads `inf` and `nan`) and absurd
     /// ones (a 1e-9 mm/s² acceleration, a 1e9 ms period) never reach the work.
     pub(crate) fn validate(&self) -> Result<()> {
+        self.validate_stock()?;
+        self.validate_tools()?;
+        self.validate_cutting()?;
+        self.validate_machine()?;
+        self.validate_limits()?;
+        self.validate_servo()?;
+        Ok(())
+    }
+
+    /// The stock's numbers: its grid, and a box's or a cylinder's shape.
+    fn validate_stock(&self) -> Result<()> {
         range(
             "stock.grid (mm)",
             self.stock.grid_mm(),
@@ -647,6 +658,11 @@ impl Job {
             }
             StockSpec::Mesh { .. } => {}
         }
+        Ok(())
+    }
+
+    /// The `[tool]` or the `[[tools]]` table: one of them, numbered once each.
+    fn validate_tools(&self) -> Result<()> {
         match (&self.tool, self.tools.is_empty()) {
             (None, true) => {
                 fail!(
@@ -687,6 +703,11 @@ impl Job {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// `program.feed` and `[cutting]`: the band height against the flute length, the force model's coefficients.
+    fn validate_cutting(&self) -> Result<()> {
         feed_opt("program.feed (mm/min)", self.program.feed)?;
         let c = &self.cutting;
         range(
@@ -730,9 +751,14 @@ impl Job {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// `[machine]`: the machine model's own ranges, told in job keys.
+    fn validate_machine(&self) -> Result<()> {
         let m = &self.machine;
         // The machine model's own check (schedule::MACHINE_RANGES), told in job keys.
-        if let Err(e) = crate::motion::machine(self).validate() {
+        if let Err(e) = machine(self).validate() {
             let (name, value, lo, hi) = match e {
                 schedule::ScheduleError::MachineOutOfRange {
                     name,
@@ -767,6 +793,12 @@ impl Job {
         if let Some(p) = m.start {
             coordinates("machine.start (mm)", &p)?;
         }
+        Ok(())
+    }
+
+    /// `[limits]` and `[design]`.
+    fn validate_limits(&self) -> Result<()> {
+        let m = &self.machine;
         let l = &self.limits;
         for (key, v) in [
             ("limits.mrr_max (mm³/s)", l.mrr_max),
@@ -801,6 +833,11 @@ impl Job {
             range("design.gouge_tolerance_um", d.gouge_tolerance_um, 0.0, 1e6)?;
             range("design.stock_tolerance_um", d.stock_tolerance_um, 0.0, 1e6)?;
         }
+        Ok(())
+    }
+
+    /// `[servo]` and `[offsets]`.
+    fn validate_servo(&self) -> Result<()> {
         let sv = &self.servo;
         range("servo.kp (1/s)", sv.kp, 1e-3, 1e5)?;
         range("servo.tolerance_mm", sv.tolerance_mm, 1e-9, MAX_LENGTH_MM)?;
@@ -992,490 +1029,18 @@ impl ToolSpec {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    const MINIMAL: &str = r#"
-[stock]
-kind = "box"
-min = [0, 0, 0]
-max = [10, 10, 10]
-grid = 0.5
-[tool]
-kind = "ball"
-diameter = 6
-[program]
-path = "p.csv"
-feed = 1000
-"#;
-
-    #[test]
-    fn minimal_job_parses_with_defaults() {
-        let job = Job::parse(MINIMAL, "job.toml", Path::new("/jobs")).unwrap();
-        assert_eq!(job.machine.period_ms, 16.0);
-        assert_eq!(job.resolve(&job.program.path), PathBuf::from("/jobs/p.csv"));
-        assert_eq!(job.tool().unwrap().flute_length_mm, 12.0);
-    }
-
-    /// `[machine]` is checked once, by the machine model's own table
-    /// (`schedule::MACHINE_RANGES`): every range it names is refused beyond
-    /// either end under its job key, and accepted at its ends.
-    #[test]
-    fn machine_ranges_come_from_the_machine_model() {
-        for (name, lo, hi) in schedule::MACHINE_RANGES {
-            let (key, shown) = match name {
-                "period_ms" => ("period_ms", "machine.period_ms"),
-                "feed_max_mm_min" => ("feed_max", "machine.feed_max (mm/min)"),
-                "rapid_mm_min" => ("rapid", "machine.rapid (mm/min)"),
-                "accel_mm_s2" => ("accel", "machine.accel (mm/s²)"),
-                "jerk_mm_s3" => ("jerk", "machine.jerk (mm/s³)"),
-                "block_time_ms" => ("block_time_ms", "machine.block_time_ms"),
-                other => panic!("no job key for {other}"),
-            };
-            let job_with = |v: f64| {
-                let value = if matches!(key, "accel" | "jerk") {
-                    format!("[{v:e}, {v:e}, {v:e}]")
-                } else {
-                    format!("{v:e}")
-                };
-                let text = MINIMAL.replace(
-                    "[program]",
-                    &format!("[machine]\n{key} = {value}\n[program]"),
-                );
-                Job::parse(&text, "job.toml", Path::new("."))
-            };
-            for v in [hi * 10.0, lo / 10.0] {
-                let e = format!("{:#}", job_with(v).unwrap_err());
-                assert!(
-                    e.contains(&format!("{shown} must lie in")),
-                    "{name} = {v}: {e}"
-                );
-            }
-            if lo > 1e-300 {
-                job_with(lo).unwrap_or_else(|e| panic!("{name} = {lo}: {e:#}"));
-            }
-            job_with(hi).unwrap_or_else(|e| panic!("{name} = {hi}: {e:#}"));
-        }
-    }
-
-    #[test]
-    fn unknown_key_names_file_line_and_column() {
-        let text = MINIMAL.replace("feed = 1000", "feed = 1000\nspeed = 3");
-        let err = Job::parse(&text, "job.toml", Path::new("."))
-            .unwrap_err()
-            .to_string();
-        assert!(
-            err.starts_with("job.toml:13:1: unknown field `speed`"),
-            "{err}"
-        );
-    }
-
-    /// Stock and tool shapes are tagged by `kind`: each takes its own keys and
-    /// no other, and a missing or foreign key is refused at the section's line.
-    #[test]
-    fn shapes_take_their_own_keys_only() {
-        let err = |from: &str, to: &str| {
-            assert!(MINIMAL.contains(from), "{from}");
-            let text = MINIMAL.replacen(from, to, 1);
-            Job::parse(&text, "job.toml", Path::new("."))
-                .unwrap_err()
-                .to_string()
-        };
-        let cases = [
-            (
-                "max = [10, 10, 10]\n",
-                "",
-                "job.toml:2:1: missing field `max`",
-            ),
-            (
-                "grid = 0.5",
-                "grid = 0.5\nradius = 3",
-                "job.toml:2:1: unknown field `radius`, expected one of `min`, `max`, `grid`",
-            ),
-            (
-                "kind = \"box\"",
-                "kind = \"cylinder\"",
-                "job.toml:2:1: unknown field `max`, expected one of `center`",
-            ),
-            (
-                "kind = \"box\"",
-                "kind = \"cube\"",
-                "job.toml:3:8: unknown variant `cube`, expected one of `box`, `cylinder`, `mesh`",
-            ),
-            (
-                "diameter = 6",
-                "diameter = 6\ncorner_radius = 1",
-                "job.toml:7:1: unknown field `corner_radius`",
-            ),
-            (
-                "kind = \"ball\"",
-                "kind = \"bull\"",
-                "job.toml:7:1: missing field `corner_radius`",
-            ),
-            (
-                "kind = \"ball\"\n",
-                "",
-                "job.toml:7:1: missing field `kind`",
-            ),
-        ];
-        for (from, to, expected) in cases {
-            let e = err(from, to);
-            assert!(e.starts_with(expected), "{to}: {e}");
-        }
-        let bull = MINIMAL.replace("kind = \"ball\"", "kind = \"bull\"\ncorner_radius = 1.5");
-        let job = Job::parse(&bull, "job.toml", Path::new(".")).unwrap();
-        assert_eq!(job.tool().unwrap(), dexel::Tool::bull(6.0, 1.5));
-        let wide = bull.replace("corner_radius = 1.5", "corner_radius = 3.5");
-        let e = format!(
-            "{:#}",
-            Job::parse(&wide, "job.toml", Path::new(".")).unwrap_err()
-        );
-        assert!(
-            e.contains("tool.corner_radius (mm) must lie in 0..3, got 3.5"),
-            "{e}"
-        );
-        let cylinder = "[stock]\nkind = \"cylinder\"\ncenter = [0, 0]\nradius = 5\nz_min = 0\nz_max = 4\ngrid = 0.5\n";
-        let text = MINIMAL.replacen(&MINIMAL[..MINIMAL.find("[tool]").unwrap()], cylinder, 1);
-        let job = Job::parse(&text, "job.toml", Path::new(".")).unwrap();
-        assert!(matches!(job.stock, StockSpec::Cylinder { radius, .. } if radius == 5.0));
-        assert_eq!(job.stock.grid_mm(), 0.5);
-    }
-
-    #[test]
-    fn tool_tables_are_checked_by_key() {
-        let table = MINIMAL.replace(
-            "[tool]\nkind = \"ball\"\ndiameter = 6",
-            "[[tools]]\nnumber = 2\nkind = \"ball\"\ndiameter = 6\nlength = 50\n[[tools]]\nnumber = 5\nkind = \"flat\"\ndiameter = 3",
-        );
-        let job = Job::parse(&table, "job.toml", Path::new(".")).unwrap();
-        let numbers: Vec<Option<u32>> = job.tool_specs().iter().map(|t| t.0).collect();
-        assert_eq!(numbers, [Some(2), Some(5)]);
-        assert_eq!(job.tool().unwrap().diameter_mm, 6.0);
-        let err = |text: &str| {
-            format!(
-                "{:#}",
-                Job::parse(text, "job.toml", Path::new(".")).unwrap_err()
-            )
-        };
-        let twice = table.replace("number = 5", "number = 2");
-        assert!(err(&twice).contains("tools[1].number: tool 2 is in the table twice"));
-        let both = format!("{table}\n[tool]\nkind = \"flat\"\ndiameter = 1\n");
-        assert!(err(&both).contains("not both"), "{}", err(&both));
-        let unnumbered = table.replace("number = 5\n", "");
-        assert!(err(&unnumbered).contains("tools[1].number is missing"));
-        let bad = table.replace("diameter = 3", "diameter = -3");
-        assert!(
-            err(&bad).contains("tools[1].diameter (mm)"),
-            "{}",
-            err(&bad)
-        );
-        let single_length = MINIMAL.replace("diameter = 6", "diameter = 6\nlength = 10");
-        assert!(err(&single_length).contains("belong to [[tools]]"));
-    }
-
-    #[test]
-    fn negative_sizes_are_rejected() {
-        let text = MINIMAL.replace("diameter = 6", "diameter = -6");
-        let err = format!(
-            "{:#}",
-            Job::parse(&text, "job.toml", Path::new(".")).unwrap_err()
-        );
-        assert!(
-            err.contains("tool.diameter (mm) must lie in 0.0001..1000, got -6"),
-            "{err}"
-        );
-        let text = MINIMAL.replace("max = [10, 10, 10]", "max = [10, -10, 10]");
-        assert!(Job::parse(&text, "job.toml", Path::new(".")).is_err());
-    }
-
-    /// Issue 15 (D1, D4, D9, D12): non-finite and absurd numbers are refused
-    /// at parse time, each with its key.
-    #[test]
-    fn non_finite_and_absurd_numbers_name_their_key() {
-        let cases: [(&str, &str, &str); 26] = [
-            (
-                "max = [10, 10, 10]",
-                "max = [10, 10, inf]",
-                "stock.max (mm)[2] must be a finite number, got inf",
-            ),
-            (
-                "diameter = 6",
-                "diameter = 6\nrupture_strength_mpa = -1",
-                "tool.rupture_strength_mpa must",
-            ),
-            (
-                "diameter = 6",
-                "diameter = 6\nstress_limit_mpa = 1500\nrupture_strength_mpa = 1400",
-                "tool.rupture_strength_mpa (1400 MPa) is below tool.stress_limit_mpa (1500 MPa)",
-            ),
-            (
-                "min = [0, 0, 0]",
-                "min = [nan, 0, 0]",
-                "stock.min (mm)[0] must be a finite number, got NaN",
-            ),
-            (
-                "grid = 0.5",
-                "grid = 1000",
-                "stock.grid (1000 mm) is too coarse",
-            ),
-            (
-                "grid = 0.5",
-                "grid = nan",
-                "stock.grid (mm) must be a finite number",
-            ),
-            (
-                "diameter = 6",
-                "diameter = inf",
-                "tool.diameter (mm) must be a finite number",
-            ),
-            (
-                "diameter = 6",
-                "diameter = 6\nflutes = 0",
-                "tool.flutes must be 1..100, got 0",
-            ),
-            (
-                "feed = 1000",
-                "feed = 1e-9",
-                "program.feed (mm/min) must lie in 0.001..1e7",
-            ),
-            (
-                "[program]",
-                "[machine]\naccel = [1e-9, 1000, 1000]\n[program]",
-                "machine.accel (mm/s²) must lie in",
-            ),
-            (
-                "[program]",
-                "[machine]\nfeed_max = 1e-6\n[program]",
-                "machine.feed_max (mm/min) must lie in",
-            ),
-            (
-                "[program]",
-                "[machine]\nperiod_ms = 1e-6\n[program]",
-                "machine.period_ms must lie in 0.01..1000",
-            ),
-            (
-                "[program]",
-                "[machine]\nperiod_ms = 1e9\n[program]",
-                "machine.period_ms must lie in 0.01..1000",
-            ),
-            (
-                "[program]",
-                "[machine]\njerk = [1e-6, 1, 1]\n[program]",
-                "machine.jerk (mm/s³) must lie in",
-            ),
-            (
-                "[program]",
-                "[machine]\nblock_time_ms = 1e9\n[program]",
-                "machine.block_time_ms must lie in",
-            ),
-            (
-                "[program]",
-                "[machine]\nstart = [0, 0, 1e12]\n[program]",
-                "machine.start (mm)[2] must lie within",
-            ),
-            (
-                "[program]",
-                "[limits]\nmrr_max = 1e-12\n[program]",
-                "limits.mrr_max (mm³/s) must lie in 1e-6..1e9, got 1e-12",
-            ),
-            (
-                "[program]",
-                "[limits]\nforce_max = 1e-9\n[program]",
-                "limits.force_max (N) must lie in",
-            ),
-            (
-                "[program]",
-                "[limits]\ndeflection_max_um = 1e-9\n[program]",
-                "limits.deflection_max_um must lie in",
-            ),
-            (
-                "[program]",
-                "[cutting]\nspindle_rpm = 1e-300\n[program]",
-                "cutting.spindle_rpm (rev/min) must lie in 1..1000000",
-            ),
-            (
-                "[program]",
-                "[servo]\nkp = nan\n[program]",
-                "servo.kp (1/s) must be a finite number",
-            ),
-            (
-                "[program]",
-                "[servo]\nka = nan\n[program]",
-                "servo.ka must be a finite number",
-            ),
-            (
-                "[program]",
-                "[servo]\nprecomp_iterations = 100000000000\n[program]",
-                "servo.precomp_iterations must be at most 1000",
-            ),
-            (
-                "[program]",
-                "[servo]\nprecomp_threshold_mm = 1e-300\n[program]",
-                "servo.precomp_threshold_mm must lie in",
-            ),
-            (
-                "[program]",
-                "[offsets]\ng55 = [0, nan, 0]\n[program]",
-                "offsets.g55 (mm)[1] must be a finite number",
-            ),
-            (
-                "[program]",
-                "[cutting]\nforce_n = -1\n[program]",
-                "cutting.force_n must be a positive number, got -1",
-            ),
-        ];
-        for (from, to, expected) in cases {
-            assert!(MINIMAL.contains(from), "{from}");
-            let text = MINIMAL.replacen(from, to, 1);
-            let err = format!(
-                "{:#}",
-                Job::parse(&text, "job.toml", Path::new(".")).unwrap_err()
-            );
-            assert!(err.contains(expected), "{to}: {err}");
-        }
-    }
-
-    /// Issue 15 fuzzer over job files: random keys of every section set to
-    /// hostile values (non-finite, huge, tiny, negative, wrong types). No
-    /// panic; every error names a key or a file line; every accepted job has
-    /// finite numbers only.
-    #[test]
-    fn fuzzed_jobs_give_named_errors_or_finite_jobs() {
-        use proptest::prelude::*;
-        use proptest::test_runner::{Config, TestRunner};
-        use std::sync::atomic::{AtomicUsize, Ordering};
-        const KEYS: [(&str, &str, usize); 35] = [
-            ("stock", "grid", 1),
-            ("stock", "min", 3),
-            ("stock", "max", 3),
-            ("tool", "diameter", 1),
-            ("tool", "flute_length", 1),
-            ("tool", "stickout", 1),
-            ("tool", "youngs_modulus_mpa", 1),
-            ("tool", "effective_diameter", 1),
-            ("tool", "stress_limit_mpa", 1),
-            ("tool", "rupture_strength_mpa", 1),
-            ("program", "feed", 1),
-            ("cutting", "band_height", 1),
-            ("cutting", "spindle_rpm", 1),
-            ("cutting", "force_a", 1),
-            ("cutting", "force_n", 1),
-            ("machine", "period_ms", 1),
-            ("machine", "feed_max", 1),
-            ("machine", "rapid", 1),
-            ("machine", "accel", 3),
-            ("machine", "jerk", 3),
-            ("machine", "block_time_ms", 1),
-            ("machine", "start", 3),
-            ("limits", "mrr_max", 1),
-            ("limits", "force_max", 1),
-            ("limits", "deflection_max_um", 1),
-            ("limits", "feed_min", 1),
-            ("limits", "feed_max", 1),
-            ("servo", "kp", 1),
-            ("servo", "feedforward", 1),
-            ("servo", "ka", 1),
-            ("servo", "tolerance_mm", 1),
-            ("servo", "precomp_threshold_mm", 1),
-            ("servo", "precomp_iterations", 1),
-            ("offsets", "g54", 3),
-            ("offsets", "g59", 3),
-        ];
-        let scalar = prop_oneof![
-            Just("nan".to_string()),
-            Just("inf".to_string()),
-            Just("-inf".to_string()),
-            Just("0".to_string()),
-            Just("-0.0".to_string()),
-            Just("1e-300".to_string()),
-            Just("1e300".to_string()),
-            Just("1e308".to_string()),
-            Just("-1".to_string()),
-            Just("\"x\"".to_string()),
-            Just("true".to_string()),
-            Just("[1, 2]".to_string()),
-            any::<f64>().prop_map(|v| format!("{v:e}")),
-            any::<i64>().prop_map(|v| v.to_string()),
-            (-1e4f64..1e4).prop_map(|v| format!("{v:?}")),
-        ];
-        let edit = (0..KEYS.len(), proptest::collection::vec(scalar, 3));
-        let jobs = proptest::collection::vec(edit, 1..5);
-        let (tried, accepted, named) = (
-            AtomicUsize::new(0),
-            AtomicUsize::new(0),
-            AtomicUsize::new(0),
-        );
-        let mut runner = TestRunner::new(Config {
-            cases: 3000,
-            failure_persistence: None,
-            ..Config::default()
-        });
-        runner
-            .run(&jobs, |edits| {
-                tried.fetch_add(1, Ordering::Relaxed);
-                // Sections of MINIMAL are edited in place; others are appended once.
-                let mut text = MINIMAL.to_string();
-                let mut extra: std::collections::BTreeMap<&str, Vec<String>> = Default::default();
-                for (k, values) in &edits {
-                    let (section, key, arity) = KEYS[*k];
-                    let value = if arity == 1 {
-                        values[0].clone()
-                    } else {
-                        format!("[{}]", values[..arity].join(", "))
-                    };
-                    let line = format!("{key} = {value}");
-                    match section {
-                        "stock" | "tool" | "program" => {
-                            let header = format!("[{section}]\n");
-                            text = text.replacen(&header, &format!("{header}{line}\n"), 1);
-                        }
-                        _ => extra.entry(section).or_default().push(line),
-                    }
-                }
-                for (section, lines) in extra {
-                    text.push_str(&format!("[{section}]\n{}\n", lines.join("\n")));
-                }
-                match Job::parse(&text, "job.toml", Path::new(".")) {
-                    Ok(job) => {
-                        accepted.fetch_add(1, Ordering::Relaxed);
-                        let m = &job.machine;
-                        let mut numbers = vec![
-                            job.stock.grid_mm(),
-                            job.tool_specs()[0].1.body().diameter,
-                            m.period_ms,
-                            m.feed_max,
-                            m.rapid,
-                        ];
-                        numbers.extend(m.accel);
-                        numbers.extend(m.jerk.into_iter().flatten());
-                        numbers.extend(m.start.into_iter().flatten());
-                        numbers.extend(job.offsets.as_array().into_iter().flatten());
-                        numbers.extend([job.servo.kp, job.servo.ka, job.servo.tolerance_mm]);
-                        prop_assert!(numbers.iter().all(|v| v.is_finite()), "{text}");
-                    }
-                    Err(e) => {
-                        let msg = format!("{e:#}");
-                        let keyed = KEYS
-                            .iter()
-                            .any(|(s, k, _)| msg.contains(&format!("{s}.{k}")))
-                            || msg.starts_with("job.toml:")
-                            || msg.contains("stock box max must exceed min")
-                            || msg.contains("stock.grid (")
-                            || msg.contains("limits.feed_min (");
-                        prop_assert!(keyed, "error names no key or line: {msg}\n{text}");
-                        named.fetch_add(1, Ordering::Relaxed);
-                    }
-                }
-                Ok(())
-            })
-            .unwrap();
-        let (tried, accepted, named) = (
-            tried.into_inner(),
-            accepted.into_inner(),
-            named.into_inner(),
-        );
-        eprintln!("job fuzzer: {tried} cases, {accepted} accepted, {named} refused with a key or line, 0 unnamed");
-        assert_eq!(accepted + named, tried);
+/// The machine limits from the job.
+pub fn machine(job: &Job) -> schedule::Machine {
+    let m = &job.machine;
+    schedule::Machine {
+        period_ms: m.period_ms,
+        feed_max_mm_min: m.feed_max,
+        rapid_mm_min: m.rapid,
+        accel_mm_s2: m.accel,
+        jerk_mm_s3: m.jerk,
+        block_time_ms: m.block_time_ms,
     }
 }
+
+#[cfg(test)]
+mod tests;

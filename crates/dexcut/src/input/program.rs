@@ -4,7 +4,7 @@ use crate::error::{fail, Error, Result, ResultExt as _};
 use nalgebra::Point3;
 use nc::{Geometry, Motion, Segment};
 
-use crate::job::{Job, ZAxis};
+use crate::input::job::{Job, ZAxis};
 
 /// A program ready to run: its motion path and, for G-code, its source text.
 #[derive(Clone, Debug)]
@@ -71,14 +71,14 @@ impl Program {
     }
 
     /// Highest spindle speed the program sets that a tool `diameter_mm`
-    /// wide plausibly runs at ([`crate::tools::plausible_rpm`]), rev/min (0
+    /// wide plausibly runs at ([`crate::input::tools::plausible_rpm`]), rev/min (0
     /// if none).
     pub fn spindle_rpm_for(&self, diameter_mm: f64) -> f64 {
         self.path
             .segments
             .iter()
             .map(|s| s.spindle_rpm)
-            .filter(|&rpm| crate::tools::plausible_rpm(diameter_mm, rpm))
+            .filter(|&rpm| crate::input::tools::plausible_rpm(diameter_mm, rpm))
             .fold(0.0, f64::max)
     }
 }

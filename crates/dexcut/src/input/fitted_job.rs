@@ -32,7 +32,7 @@ use std::sync::LazyLock;
 use regex::Regex;
 
 use crate::error::{fail, Result};
-use crate::job::Job;
+use crate::input::job::Job;
 
 /// Most columns a fitted stock gets (the grid is coarsened to stay under).
 pub const MAX_FITTED_COLUMNS: f64 = 4.0e6;
@@ -431,7 +431,7 @@ pub fn fit(program: &Path, tool: Option<&ToolGuess>, grid_mm: Option<f64>) -> Re
         "[stock]\nkind = \"box\"\nmin = [-50000, -50000, -90000]\nmax = [50000, 50000, -89990]\ngrid = 500\n[tool]\nkind = \"flat\"\ndiameter = {probe_tool}\n[program]\npath = {path_toml}\n"
     );
     let job = Job::parse(&probe, &program.display().to_string(), Path::new(""))?;
-    let mut read = crate::program::load(&job)?;
+    let mut read = crate::input::program::load(&job)?;
     let z_down = z_points_down(&read.path);
     if z_down {
         read.path.mirror_z();

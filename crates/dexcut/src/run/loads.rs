@@ -1,0 +1,78 @@
+//! Each step's force, power, deflection and stress from its removal
+//! (MODEL.md §3, §4), and the step that breaks its tool.
+
+use cutting::StepLoad;
+use dexel::RemovalRecord;
+
+use crate::input::tools::ToolSet;
+use crate::motion::TimedStep;
+
+/// Per-step force, power and deflection (MODEL.md §3, §4), each step with
+/// its tool's model; a step shorter than a grid cell (`grid_mm`) has the
+/// load of the steady cut around it (MODEL.md §1.6).
+pub fn loads(
+    tools: &ToolSet,
+    tool_of_step: &[usize],
+    record: &RemovalRecord,
+    steps: &[TimedStep],
+    grid_mm: f64,
+) -> Vec<StepLoad> {
+    loads_as(tools, tool_of_step, record, steps, grid_mm, |l, _| *l)
+}
+
+/// What `of(load, step)` makes of each step's load of [`loads`] (the
+/// closed loop's passes keep each step's deflection across its path, 8 B,
+/// not its load, 104 B).
+pub(crate) fn loads_as<T>(
+    tools: &ToolSet,
+    tool_of_step: &[usize],
+    record: &RemovalRecord,
+    steps: &[TimedStep],
+    grid_mm: f64,
+    of: impl Fn(&StepLoad, usize) -> T,
+) -> Vec<T> {
+    let mut out: Vec<T> = steps
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let model = &tools.entries[tool_of_step[i]].model;
+            let load = model.step_load(&cutting::StepRemoval {
+                volume_mm3: record.volume_mm3(i),
+                band_volumes_mm3: record.band_volumes_mm3(i),
+                contact_resultant: record.contact_resultant(i),
+                chip_edge_area_mm2: record.chip_edge_area_mm2(i),
+                volume_over_radius_mm2: record.volume_over_radius_mm2(i),
+                dt_s: s.dt_s,
+            });
+            of(&load, i)
+        })
+        .collect();
+    super::subcell::window_loads(
+        |i, load| out[i] = of(&load, i),
+        tools,
+        tool_of_step,
+        record,
+        steps,
+        grid_mm,
+    );
+    out
+}
+
+/// The step the `tool_breaks` warning describes (MODEL.md §4.4): of the steps
+/// whose stress exceeds their tool's rupture strength (`ruptures_mpa`, per
+/// step), the one of the highest stress (the warning's value; the first of
+/// equals), with its stress over its rupture strength. Its tool, line, force
+/// and rupture strength are the message's, so that with tools of different
+/// strengths the message speaks of one step. `None` when no step breaks.
+pub(crate) fn breaking_step(
+    loads: &[StepLoad],
+    rupture_mpa: impl Fn(usize) -> f64,
+) -> Option<(usize, f64)> {
+    let mut worst: Option<usize> = None;
+    for (i, l) in loads.iter().enumerate() {
+        if l.breaks(rupture_mpa(i)) && worst.is_none_or(|w| l.stress_mpa > loads[w].stress_mpa) {
+            worst = Some(i);
+        }
+    }
+    worst.map(|w| (w, loads[w].stress_mpa / rupture_mpa(w)))
+}
