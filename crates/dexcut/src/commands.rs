@@ -7,510 +7,23 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::error::{fail, Context as _, Error, Result, ResultExt as _};
-use cutting::CuttingModel;
-use dexel::{Stock, Tool, NEVER_CUT};
-use schedule::Machine;
-use serde::{Deserialize, Serialize};
+use crate::error::{fail, Error, Result, ResultExt as _};
+use dexel::{Stock, NEVER_CUT};
 
-use crate::job::Job;
+use crate::model::summary::{GridInfo, Summary};
 use crate::motion::{self, TimedStep};
 use crate::optimize::{self};
-use crate::outdir::OutDir;
-use crate::program::{self, Program};
-use crate::simulate::{self, GridInfo, Run, Summary};
-use crate::steps_out::StepsFormat;
-use crate::tools::ToolSet;
+use crate::output::outdir::OutDir;
+use crate::output::steps::StepsFormat;
+use crate::simulate::{self, Run};
 
 pub use crate::evaluate::evaluate;
 pub use crate::example::write as example;
-
-/// Everything read and checked from a job before any work.
-pub struct Setup {
-    /// The job file it was loaded from.
-    pub job_path: PathBuf,
-    /// The job file's sections, checked.
-    pub job: Job,
-    /// The first tool the program uses and its model (the single [tool]).
-    pub tool: Tool,
-    /// The program, read into a path of moves.
-    pub program: Program,
-    /// The stock before any cut (with `tiling`, an empty stock on the whole grid).
-    pub stock: Stock,
-    /// How the stock is made band by band when it does not fit the memory
-    /// budget (only `simulate` runs such a stock).
-    pub tiling: Option<crate::stock::Tiling>,
-    /// The cutting model of the first tool.
-    pub model: CuttingModel,
-    /// Every tool of the job; each step is cut by its own (MODEL.md §9.1).
-    pub tools: ToolSet,
-    /// Axis limits, servo period and feeds (`[machine]`).
-    pub machine: Machine,
-    /// The `[design]` model, read and checked before any work.
-    pub design: Option<(PathBuf, mesh::DesignModel)>,
-    /// What the set-up warns of before any work (see [`Setup::load`]): the
-    /// commands print them at once and put them first in summary.json.
-    pub warnings: Vec<crate::warnings::Warning>,
-}
-
-/// Most segments a program may have once its arcs are linearised (`arcs_as_lines`): the
-/// interpreter's own limit on moves.
-pub const MAX_LINEARISED_SEGMENTS: usize = 5_000_000;
-
-/// `path` as the machine reads the program: with `[machine] arcs_as_lines`,
-/// each arc as chords within the chord tolerance of its feed and block time
-/// (MODEL.md §6.2, S0).
-fn as_the_machine_reads(job: &Job, path: nc::Path) -> Result<nc::Path> {
-    let (true, Some(tb)) = (job.machine.arcs_as_lines, job.machine.block_time_ms) else {
-        return Ok(path);
-    };
-    let path = schedule::linearise_arcs(&path, tb, 1.0);
-    if path.segments.len() > MAX_LINEARISED_SEGMENTS {
-        fail!(limits,
-            "{}: machine.arcs_as_lines writes the arcs as {} blocks, more than {MAX_LINEARISED_SEGMENTS}",
-            job.name,
-            path.segments.len()
-        );
-    }
-    Ok(path)
-}
-
-impl Setup {
-    /// The program's path as [`Setup::load`] made it, read again from the
-    /// G-code program's text ([`program::Program::read_path`]: the same text
-    /// read with the same options makes the same path bit for bit), for
-    /// `optimize`, which does not hold it through the written program's run
-    /// (126 MB for a million blocks, issue 16). A point list is not read
-    /// again: it fails.
-    pub fn program_path_again(&self) -> Result<nc::Path> {
-        let Some(path) = self.program.read_path() else {
-            fail!(
-                run,
-                "{}: a point list's path is not read again",
-                self.program.file
-            );
-        };
-        as_the_machine_reads(&self.job, path?)
-    }
-
-    /// Load the job (with an optional grid override) and everything it names.
-    pub fn load(job_path: &Path, grid_mm: Option<f64>) -> Result<Setup> {
-        Setup::load_with(job_path, grid_mm, None)
-    }
-
-    /// [`Setup::load`] with the machine and drive settings of a fragment
-    /// written by `evaluate --sweep` (`--settings FILE`) put over the job's.
-    pub fn load_with(
-        job_path: &Path,
-        grid_mm: Option<f64>,
-        settings: Option<&Path>,
-    ) -> Result<Setup> {
-        Setup::load_within(job_path, grid_mm, settings, None)
-    }
-
-    /// [`Setup::load_with`] with a memory budget for the stock in MB
-    /// (`--memory-budget-mb`; by default what this process may use): a box or
-    /// cylinder stock whose columns exceed it is made band by band
-    /// ([`Setup::tiling`]).
-    pub fn load_within(
-        job_path: &Path,
-        grid_mm: Option<f64>,
-        settings: Option<&Path>,
-        budget_mb: Option<f64>,
-    ) -> Result<Setup> {
-        let budget_bytes = crate::stock::budget_bytes(budget_mb)?;
-        let mut job = Job::load(job_path)?;
-        if let Some(g) = grid_mm {
-            job.set_grid(g)?;
-        }
-        if let Some(path) = settings {
-            crate::evaluate::Settings::load(path)?.apply(&mut job, path)?;
-        }
-        let mut program = program::load(&job)?;
-        program.path = as_the_machine_reads(&job, std::mem::take(&mut program.path))?;
-        let tools = ToolSet::from_job(&job, &program)?;
-        // Every move's tool is in the table (an error names the line).
-        tools.indices::<u16>(program.path.segments.iter().map(|s| (s.tool, s.line)))?;
-        let first = tools.entry(program.path.segments.first().map_or(1, |s| s.tool));
-        let (tool, model) = (first.tool, first.model);
-        // Checked with the job (Job::validate, through schedule::MACHINE_RANGES).
-        let machine = motion::machine(&job);
-        if program.gcode.is_some() {
-            // Stations and samples are bounded before planning (2 runs: optimize's before and after).
-            let estimate =
-                crate::bounds::estimate_motion(&program.path, &machine, motion::STATION_DS_MM);
-            let flute_mm = tools
-                .entries
-                .iter()
-                .map(|e| e.tool.flute_length_mm)
-                .fold(0.0, f64::max);
-            let bands = (flute_mm / job.cutting.band_height).ceil() as usize;
-            crate::bounds::check_motion(
-                &estimate,
-                &program.file,
-                machine.period_ms,
-                2.0,
-                crate::bounds::bytes_per_sample(bands),
-            )?;
-        }
-        let (stock, tiling) = crate::stock::build_within(&job, budget_bytes)?;
-        let design = match &job.design {
-            Some(d) => {
-                let path = job.resolve(&d.path);
-                crate::bounds::check_input_file(
-                    &path,
-                    "design model",
-                    crate::bounds::MAX_MESH_BYTES,
-                )?;
-                let (mesh, _) = mesh::load_solid(&path)?;
-                let model = mesh::DesignModel::new(&mesh)
-                    .map_err(|e| Error::Mesh(e.into()))
-                    .context_with(|| format!("{}: design model", path.display()))?;
-                Some((path, model))
-            }
-            None => None,
-        };
-        let mut setup = Setup {
-            job_path: job_path.to_path_buf(),
-            job,
-            tool,
-            program,
-            stock,
-            tiling,
-            model,
-            tools,
-            machine,
-            design,
-            warnings: Vec::new(),
-        };
-        setup.warnings = setup.setup_warnings();
-        Ok(setup)
-    }
-
-    /// The job's stock as a run sweeps it: lent whole, or band by band where
-    /// it is too large for the memory budget ([`Setup::tiling`]).
-    pub fn stock_source(&self) -> simulate::StockSource<'_> {
-        match &self.tiling {
-            Some(tiling) => simulate::StockSource::Tiled(tiling),
-            None => simulate::StockSource::Lent(&self.stock),
-        }
-    }
-
-    /// Refuse a stock too large for the memory budget for `what`, which needs
-    /// every column at once (`simulate` and `optimize` run such a stock band by band).
-    pub fn require_whole_stock(&self, what: &str) -> Result<()> {
-        if let Some(t) = &self.tiling {
-            fail!(
-                limits,
-                "{}: [stock] {}×{} columns at grid {} mm need about {:.0} MB of memory, more than the {:.0} MB this process may use (available memory, cgroup memory.max and ulimit, or --memory-budget-mb): `dexcut simulate` and `dexcut optimize` run such a stock band by band; {what} needs every column at once: use a coarser grid",
-                self.job.name,
-                t.grid.nx,
-                t.grid.ny,
-                t.grid.spacing_mm,
-                t.grid.len() as f64 * crate::bounds::BYTES_PER_COLUMN / 1e6,
-                t.budget_bytes / 1e6
-            );
-        }
-        Ok(())
-    }
-
-    /// Material, tools, machine and limits, as summary.json records them.
-    pub fn info(&self) -> crate::summary::SetupInfo {
-        let l = &self.job.limits;
-        let limits = [
-            ("mrr_max", l.mrr_max, "mm³/s"),
-            ("force_max", l.force_max, "N"),
-            ("deflection_max_um", l.deflection_max_um, "µm"),
-            ("power_max_kw", l.power_max_kw, "kW"),
-            ("feed_min", l.feed_min, "mm/min"),
-            ("feed_max", l.feed_max, "mm/min"),
-            ("feed_scale_max", l.feed_scale_max, "×"),
-        ]
-        .into_iter()
-        .chain([(
-            "stress_limit_mpa",
-            // The weakest tool's allowable stress, held when `[limits] stress`.
-            l.stress
-                .then(|| {
-                    self.tools
-                        .entries
-                        .iter()
-                        .map(|e| e.stress_limit_mpa)
-                        .reduce(f64::min)
-                })
-                .flatten(),
-            "MPa",
-        )])
-        .filter_map(|(k, v, u)| v.map(|v| (k.to_string(), v, u.to_string())))
-        .collect();
-        crate::summary::SetupInfo {
-            material: self.job.cutting.material.clone(),
-            spindle_rpm: self.model.spindle_rpm,
-            tools: self
-                .tools
-                .entries
-                .iter()
-                .map(|e| crate::summary::ToolInfo {
-                    number: e.number,
-                    shape: match e.tool.shape {
-                        dexel::ToolShape::Ball => "ball".into(),
-                        dexel::ToolShape::Flat => "flat".into(),
-                        dexel::ToolShape::Bull { corner_radius_mm } => {
-                            format!("bull r={corner_radius_mm}")
-                        }
-                    },
-                    diameter_mm: e.tool.diameter_mm,
-                    flutes: e.tool.flutes,
-                    stickout_mm: e.tool.stickout_mm,
-                    fz_max_mm: e.fz_max_mm,
-                    stress_limit_mpa: Some(e.stress_limit_mpa),
-                })
-                .collect(),
-            period_ms: self.machine.period_ms,
-            feed_max_mm_min: self.machine.feed_max_mm_min,
-            rapid_mm_min: self.machine.rapid_mm_min,
-            accel_mm_s2: self.machine.accel_mm_s2,
-            jerk_mm_s3: self.machine.jerk_mm_s3,
-            limits,
-        }
-    }
-
-    /// Every file the run reads: the job, its program, stock mesh and design model.
-    pub fn input_files(&self, job_path: &Path) -> Vec<PathBuf> {
-        let mut files = vec![
-            job_path.to_path_buf(),
-            self.job.resolve(&self.job.program.path),
-        ];
-        if let crate::job::StockSpec::Mesh { path, .. } = &self.job.stock {
-            files.push(self.job.resolve(path));
-        }
-        files.extend(self.design.as_ref().map(|(p, _)| p.clone()));
-        files
-    }
-
-    /// What the job's set-up warns of before any work, in this order: the
-    /// program's file form ([`nc::FileForm::Tolerant`]), a tool change the
-    /// single `[tool]` cannot follow, spindle speeds not used, and the grid
-    /// check. Computed once, into [`Setup::warnings`].
-    fn setup_warnings(&self) -> Vec<crate::warnings::Warning> {
-        use crate::warnings::{Warning, WarningKind};
-        let mut out: Vec<Warning> = self
-            .program
-            .read_warnings
-            .iter()
-            .map(|d| Warning {
-                kind: WarningKind::ProgramForm,
-                line: Some(d.line),
-                value: 0.0,
-                unit: String::new(),
-                steps: 0,
-                lines: vec![d.line],
-                message: d.message.clone(),
-            })
-            .collect();
-        out.extend(self.ignored_tool_change());
-        out.extend(crate::warnings::spindle_check(
-            &self.program.path,
-            &self.tools,
-        ));
-        out.extend(self.grid_warning());
-        out
-    }
-
-    /// With a single `[tool]`, every move is cut by it: a program that loads
-    /// several tools (T… M6) is simulated with one, which the user must know.
-    fn ignored_tool_change(&self) -> Option<crate::warnings::Warning> {
-        if !self.tools.single || self.program.gcode.is_none() {
-            return None;
-        }
-        // First line of each tool number the program cuts with, in order.
-        let mut first: Vec<(u32, u32)> = Vec::new();
-        for s in &self.program.path.segments {
-            if s.tool != 0 && !first.iter().any(|&(t, _)| t == s.tool) {
-                first.push((s.tool, s.line));
-            }
-        }
-        if first.len() < 2 {
-            return None;
-        }
-        let listed = first
-            .iter()
-            .map(|(t, l)| format!("T{t} from line {l}"))
-            .collect::<Vec<_>>()
-            .join(", ");
-        Some(crate::warnings::Warning {
-            kind: crate::warnings::WarningKind::IgnoredTool,
-            line: Some(first[1].1),
-            value: first.len() as f64,
-            unit: "tools".into(),
-            steps: 0,
-            lines: first.iter().map(|&(_, l)| l).take(crate::warnings::MAX_LINES).collect(),
-            message: format!(
-                "the program uses {} tools ({listed}) but the job gives one [tool]: every move is simulated with it; give a tool table ([[tools]] with number = …) to follow the tool changes",
-                first.len()
-            ),
-        })
-    }
-
-    /// The grid check of [`crate::warnings::grid_check`] for this job.
-    fn grid_warning(&self) -> Option<crate::warnings::Warning> {
-        let slowest = self
-            .program
-            .path
-            .segments
-            .iter()
-            .filter_map(|s| match s.motion {
-                // Moves mostly across the columns (plunges are resolved in Z).
-                nc::Motion::Feed { feed_mm_min, .. }
-                    if (s.end - s.start).xy().norm() >= 0.5 * (s.end - s.start).norm() =>
-                {
-                    Some(feed_mm_min.min(self.machine.feed_max_mm_min))
-                }
-                _ => None,
-            })
-            .fold(None, |m: Option<f64>, f| Some(m.map_or(f, |m| m.min(f))));
-        let w = crate::warnings::grid_check(
-            // The smallest tool the job uses is the hardest to resolve.
-            self.tools
-                .entries
-                .iter()
-                .map(|e| e.tool.diameter_mm)
-                .fold(self.tool.diameter_mm, f64::min),
-            self.stock.grid().spacing_mm,
-            if self.program.gcode.is_some() {
-                slowest
-            } else {
-                None
-            },
-            self.machine.period_ms,
-        )?;
-        Some(w)
-    }
-
-    /// The job's stock, handed over: a run that sweeps it needs no copy. A
-    /// stock of one column on the same grid spacing is left in its place
-    /// (what [`Setup`] reads of it afterwards is the spacing).
-    pub fn take_stock(&mut self) -> Result<Stock> {
-        let spacing = self.stock.grid().spacing_mm;
-        let one = Stock::new_box([0.0; 3], [spacing; 3], spacing)?;
-        Ok(std::mem::replace(&mut self.stock, one))
-    }
-
-    /// The program as the machine runs it: servo periods for G-code, one step
-    /// per move for CSV point lists.
-    pub fn machine_steps(&self) -> Result<Vec<TimedStep>> {
-        self.steps(false)
-    }
-
-    /// As [`Setup::machine_steps`]; with `actual_path`, the positions are the
-    /// drive model's estimate of where the axes really are (G-code only).
-    pub fn steps(&self, actual_path: bool) -> Result<Vec<TimedStep>> {
-        if self.program.gcode.is_some() {
-            let samples = motion::machine_motion(&self.program.path, &self.machine)?;
-            self.steps_of(samples, actual_path)
-        } else if actual_path {
-            fail!(
-                request,
-                "--actual-path needs a G-code program (CSV point lists have no servo timing)"
-            )
-        } else {
-            Ok(motion::direct_steps(
-                &self.program.path,
-                self.program.stream.as_ref(),
-            ))
-        }
-    }
-
-    /// [`Setup::steps`] with the program's path lent to the planner rather than copied
-    /// (its stations hold it while the servo samples are made, then give it back).
-    pub fn steps_lending_path(&mut self, actual_path: bool) -> Result<Vec<TimedStep>> {
-        if self.program.gcode.is_none() {
-            return self.steps(actual_path);
-        }
-        let path = std::mem::take(&mut self.program.path);
-        let (samples, path) = motion::machine_motion_of(path, &self.machine);
-        self.program.path = path;
-        self.steps_of(samples?, actual_path)
-    }
-
-    /// The timed steps of the program's servo samples (`actual_path`: moved to where
-    /// the drive model says the machine is).
-    fn steps_of(
-        &self,
-        mut samples: Vec<schedule::ServoSample>,
-        actual_path: bool,
-    ) -> Result<Vec<TimedStep>> {
-        if actual_path {
-            let drive = crate::evaluate::drive(&self.job)?;
-            let commanded: Vec<[f64; 3]> = samples.iter().map(|s| s.pos.coords.into()).collect();
-            let actual = servo::simulate_actual(&commanded, self.machine.period_s(), &drive);
-            for (s, a) in samples.iter_mut().zip(actual) {
-                s.pos = nalgebra::Point3::from(a);
-            }
-        }
-        Ok(motion::steps_from_samples(&self.program.path, &samples))
-    }
-}
-
-/// Design comparison (S1): the final surface against the design model.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct DesignInfo {
-    /// Design model file.
-    pub path: String,
-    /// Largest stock left (distance outside the design model), µm.
-    pub max_stock_left_um: f64,
-    /// Deepest gouge (negative distance), µm; 0 if none.
-    pub worst_gouge_um: f64,
-    /// Program line of the step that last cut the worst gouge.
-    pub worst_gouge_line: Option<u32>,
-    /// Column centre of the worst gouge, mm.
-    pub worst_gouge_xy_mm: Option<[f64; 2]>,
-    /// Tolerances the per-line lists use, µm.
-    pub gouge_tolerance_um: f64,
-    /// Stock above the design beyond this is listed, µm.
-    pub stock_tolerance_um: f64,
-    /// Every program line whose cut left a gouge deeper than `gouge_tolerance_um` or stock
-    /// above `stock_tolerance_um` (S1, MODEL.md §8), by line, gouges first.
-    pub lines: Vec<LineDeviation>,
-    /// Columns no step cut that stand above the design by more than `stock_tolerance_um`.
-    pub uncut_stock_columns: usize,
-}
-
-/// Which side of the design a deviation lies on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum DeviationKind {
-    /// Below the design surface: material cut that the part needs.
-    Gouge,
-    /// Above the design surface: material left.
-    Stock,
-}
-
-impl std::fmt::Display for DeviationKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            DeviationKind::Gouge => "gouge",
-            DeviationKind::Stock => "stock",
-        })
-    }
-}
-
-/// One program line's worst deviation from the design of one kind.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct LineDeviation {
-    /// Program line of the step that last cut the columns.
-    pub line: u32,
-    /// Below the design (gouge) or above it (stock).
-    pub kind: DeviationKind,
-    /// Worst signed distance, µm (negative for a gouge).
-    pub worst_um: f64,
-    /// Column centre of the worst one, mm.
-    pub x_mm: f64,
-    /// Column centre, y, mm.
-    pub y_mm: f64,
-    /// Number of columns beyond the tolerance whose last cut was on this line.
-    pub columns: usize,
-}
+/// The summary.json schema types, at the paths they had here.
+pub use crate::model::summary::{
+    DesignInfo, DeviationKind, LimitsOut, LineDeviation, OptimizeSummary, SimulateSummary,
+};
+pub use crate::setup::{Setup, MAX_LINEARISED_SEGMENTS};
 
 /// Per program line, the columns beyond tolerance (MODEL.md §8): `deviations` is
 /// `(line of the last cut or None, signed distance µm, x mm, y mm)` for each column.
@@ -612,29 +125,6 @@ fn design_comparison(setup: &Setup, run: &Run) -> Result<Option<(Vec<f32>, Desig
     Ok(Some((diff_um, info)))
 }
 
-/// summary.json of `simulate` (schema in [`crate::summary`]).
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct SimulateSummary {
-    /// Headline numbers of the run.
-    #[serde(flatten)]
-    pub run: Summary,
-    /// Job file.
-    pub job: String,
-    /// Program file.
-    pub program: String,
-    /// Stock grid, so `report` can rebuild the maps.
-    pub grid: GridInfo,
-    /// The final surface against the `[design]` model.
-    pub design: Option<DesignInfo>,
-    /// Material, tools, machine and limits of the job.
-    #[serde(default)]
-    pub setup: Option<crate::summary::SetupInfo>,
-    /// Wall time of the command, s.
-    pub run_time_s: f64,
-    /// The run that wrote the folder (as in manifest.json).
-    pub run_id: String,
-}
-
 /// Write the steps (steps.csv and/or the steps' `.npy` arrays, as
 /// `steps_format` says) and the per-column results of a run (the `.npy` grid,
 /// and columns.csv when `columns_csv`); returns the design comparison.
@@ -730,7 +220,7 @@ pub fn simulate_setup(setup: &Setup, actual_path: bool) -> Result<Simulation> {
 /// [`simulate_setup`] of the program's timed steps through `stock` (the
 /// job's stock, or a copy of it). A box or a cylinder is made again from its
 /// closed form for each pass, in the memory of the stock handed over, so the
-/// run holds one stock (issue 16); a mesh stock is copied for each pass.
+/// run holds one stock; a mesh stock is copied for each pass.
 fn simulate_steps(setup: &Setup, stock: Stock, steps: Vec<TimedStep>) -> Result<Simulation> {
     let stock = match crate::stock::solid(&setup.job.stock) {
         Some(solid) => simulate::StockSource::Made(stock, solid),
@@ -860,6 +350,13 @@ pub struct Simulated {
 
 /// `dexcut simulate JOB --out DIR` (`memory_budget_mb`: `--memory-budget-mb`;
 /// `steps_format`: `--steps-format`).
+///
+/// Memory: on a stock that fits, what the sweep does not need is let go
+/// before it, in this order: the job's stock is taken out of the setup
+/// ([`Setup::take_stock`]) and, for a box or a cylinder, dropped (made again
+/// of its closed form after the planning); the program's path is lent to the
+/// planner ([`Setup::steps_lending_path`]); then the path and a G-code
+/// program's text are emptied (the steps carry what the run needs of them).
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
     job: JobArg,
@@ -883,7 +380,7 @@ pub fn simulate(
             // fewer held). A box or a cylinder is let go while the program is
             // planned and made again of its closed form after, the same
             // columns bit for bit (`stock::build`): planning and the stock
-            // were the peak of the raster at 0.05 (issue 16).
+            // were the peak of the raster at 0.05.
             let solid = crate::stock::solid(&setup.job.stock);
             let held = setup.take_stock()?;
             let held = match solid {
@@ -930,102 +427,13 @@ pub fn simulate(
         run_time_s: started.elapsed().as_secs_f64(),
         run_id: out_dir.run_id(),
     };
-    crate::summary::write_simulate(&out_dir.path().join("summary.json"), &doc)?;
+    crate::model::summary::write_simulate(&out_dir.path().join("summary.json"), &doc)?;
     out_dir.commit("simulate")?;
     Ok(Simulated {
         summary: doc,
         banded: setup.tiling.as_ref().map(Banded::of),
         steps_format,
     })
-}
-
-/// summary.json of `optimize` (schema in [`crate::summary`]).
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct OptimizeSummary {
-    /// Job file.
-    pub job: String,
-    /// Program file.
-    pub program: String,
-    /// Stock grid, so `report` can rebuild the maps.
-    pub grid: GridInfo,
-    /// The program as given.
-    pub before: Summary,
-    /// optimized.nc read back and simulated.
-    pub after: Summary,
-    /// The limits it worked to.
-    pub limits: LimitsOut,
-    /// Share of the re-timed program's time spent at each cap.
-    pub cap_time_share: Vec<optimize::CapShare>,
-    /// Σ Δs / cap: no schedule under these caps can be faster.
-    pub lower_bound_time_s: f64,
-    /// (after − bound) / bound.
-    #[serde(deserialize_with = "crate::summary::f64_or_nan")]
-    pub optimality_gap: f64,
-    /// Planner stations along the path.
-    pub stations: usize,
-    /// Spacing of the planner stations, mm.
-    pub station_spacing_mm: f64,
-    /// Peak MRR per servo period of the written program / mrr_max (≤ 1.02 is the target).
-    pub peak_mrr_ratio: Option<f64>,
-    /// Cycle time of the plan as written (each block at its feed), s.
-    pub plan_time_s: f64,
-    /// Cycle time with feeds free to change every 0.05 mm under the same caps, s.
-    pub time_optimal_s: f64,
-    /// (written program's cycle time − plan's) / plan's.
-    #[serde(deserialize_with = "crate::summary::f64_or_nan")]
-    pub written_vs_plan: f64,
-    /// Rounds of writing, re-simulating and correcting the program.
-    pub rounds: usize,
-    /// Feeds within this ratio share a block in optimized.nc.
-    pub merge_ratio: f64,
-    /// The program as given was within every limit and faster: optimized.nc is the original.
-    pub kept_original: bool,
-    /// Largest feed per tooth on cutting moves, mm/tooth.
-    pub fz_max_mm: Option<f64>,
-    /// The final surface against the `[design]` model.
-    pub design: Option<DesignInfo>,
-    /// Material, tools, machine and limits of the job.
-    #[serde(default)]
-    pub setup: Option<crate::summary::SetupInfo>,
-    /// Wall time of the command, s.
-    pub run_time_s: f64,
-    /// Wall time of the engagement sweep, s.
-    pub time_engagement_s: f64,
-    /// Wall time of planning and writing the program, s.
-    pub time_plan_s: f64,
-    /// Wall time of simulating the program as given, s.
-    pub time_simulate_s: f64,
-    /// The run that wrote the folder (as in manifest.json).
-    pub run_id: String,
-}
-
-/// The limits optimize worked to, as summary.json records them.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct LimitsOut {
-    /// `mrr_max`, mm³/s.
-    pub mrr_max_mm3_s: Option<f64>,
-    /// `force_max`, N.
-    pub force_max_n: Option<f64>,
-    /// `deflection_max_um`, µm.
-    pub deflection_max_um: Option<f64>,
-    /// `power_max_kw`, kW.
-    pub power_max_kw: Option<f64>,
-    /// `feed_min`, mm/min.
-    pub feed_min_mm_min: Option<f64>,
-    /// The machine's highest feed, mm/min.
-    pub feed_max_mm_min: f64,
-    /// fz_max · flutes · spindle rpm of the first tool, mm/min (`chip_load`
-    /// gives every tool's).
-    pub chip_load_feed_mm_min: Option<f64>,
-    /// Every tool's chip-load cap against its programmed cutting feed.
-    #[serde(default)]
-    pub chip_load: Vec<optimize::ToolChipLoad>,
-    /// `feed_scale_max`: at most this times the programmed feed.
-    pub feed_scale_max: Option<f64>,
-    /// The lowest `stress_limit_mpa` of the job's tools, MPa, where `[limits]
-    /// stress` holds the tools to it (each tool is held to its own); None when off.
-    #[serde(default)]
-    pub stress_limit_mpa: Option<f64>,
 }
 
 /// The job a run reads: a job file, the built-in example, or a job fitted to
@@ -1158,6 +566,14 @@ pub struct Optimized {
 /// `started` is when the run began (for `run_time_s`). The setup's path is
 /// lent to the free stations through the rounds and is back when this
 /// returns, with an error too.
+///
+/// Memory, in this order: the program as given is swept with its path lent
+/// to the planner ([`Setup::steps_lending_path`]); its run is written out
+/// (steps_before) and dropped before the rounds where the steps' format is
+/// known without the written program's step count, else only its stock is
+/// let go; the setup's path is then taken (`std::mem::take`) into the free
+/// stations ([`optimize::FreeStations`]) for the rounds and the outputs, and
+/// put back (read again from its text where it was handed over) at the end.
 pub fn optimize_setup(
     setup: &mut Setup,
     out_dir: OutDir,
@@ -1173,7 +589,7 @@ pub fn optimize_setup(
     }
     // Before: the program as written. Its path is lent to the planner's
     // stations, not copied into them (126 MB for a million blocks beside the
-    // plan: issue 16).
+    // plan).
     let t0 = Instant::now();
     let before_steps = setup.steps_lending_path(false)?;
     let mut before = simulate::run_on(setup.stock_source(), &setup.tools, before_steps, "before")?;
@@ -1191,7 +607,7 @@ pub fn optimize_setup(
         &setup.program,
         &setup.job.cutting.material,
     );
-    let chip_warnings = crate::warnings::chip_load_check(&chip_load, &setup.tools);
+    let chip_warnings = optimize::chip_load_check(&chip_load, &setup.tools);
     for w in &chip_warnings {
         on_warning(w);
     }
@@ -1229,13 +645,13 @@ pub fn optimize_setup(
     // reads the setup's path in between. A G-code program's is handed to the
     // re-feed and read again from its text where it is needed
     // ([`optimize::FreeStations::Given`]): not held beside the written
-    // program's run, nor while its outputs are written (issue 16).
+    // program's run, nor while its outputs are written.
     let path = std::mem::take(&mut setup.program.path);
     let (rounds, free) = match optimize::free_stations_of(path, &machine) {
         Err((e, path)) => (Err(e), optimize::FreeStations::Released(path)),
         Ok(stations) => {
             let mut free = optimize::FreeStations::Made(Box::new(stations));
-            let rounds = optimize_rounds(setup, &machine, &mut free, given, t1, staged);
+            let rounds = optimize::caps_and_rounds(setup, &machine, &mut free, given, t1, staged);
             (rounds, free)
         }
     };
@@ -1278,7 +694,7 @@ struct AsGiven {
     /// Its number of steps.
     steps: usize,
     chip_load: Vec<optimize::ToolChipLoad>,
-    chip_warnings: Vec<crate::warnings::Warning>,
+    chip_warnings: Vec<crate::model::warnings::Warning>,
     stress_limit_mpa: Option<f64>,
     time_simulate_s: f64,
 }
@@ -1300,12 +716,17 @@ fn optimize_outputs(
     out_dir: &OutDir,
     machine: &schedule::Machine,
     as_given: AsGiven,
-    rounds: (usize, f64, optimize::Written, Instant),
+    rounds: optimize::Rounds,
     asked: OutputsAsked,
 ) -> Result<Optimized> {
     let limits = &setup.job.limits;
     let staged = out_dir.path();
-    let (n_stations, time_engagement_s, written, t2) = rounds;
+    let optimize::Rounds {
+        stations: n_stations,
+        time_engagement_s,
+        written,
+        plan_started: t2,
+    } = rounds;
     let OutputsAsked {
         started,
         columns_csv,
@@ -1323,8 +744,8 @@ fn optimize_outputs(
     as_given.summary.check_finite()?;
     after_summary.check_finite()?;
     if written.excesses_left > 0 {
-        after_summary.warnings.push(crate::warnings::Warning {
-        kind: crate::warnings::WarningKind::LimitExceeded,
+        after_summary.warnings.push(crate::model::warnings::Warning {
+        kind: crate::model::warnings::WarningKind::LimitExceeded,
         line: None,
         value: written.excesses_left as f64,
         unit: "periods".into(),
@@ -1342,22 +763,22 @@ fn optimize_outputs(
     );
     optimize::stress_left(after, limits, written.rounds, &mut after_summary.warnings);
     let (mut unresolved, mut held) = (
-        crate::warnings::LineTally::new(),
-        crate::warnings::LineTally::new(),
+        crate::model::warnings::LineTally::new(),
+        crate::model::warnings::LineTally::new(),
     );
     for e in &written.unresolved {
         let tally = if e.held { &mut held } else { &mut unresolved };
-        crate::warnings::tally(tally, e.line, 100.0 * e.over_limit);
+        crate::model::warnings::tally(tally, e.line, 100.0 * e.over_limit);
     }
     after_summary.warnings.from_lines(
-        crate::warnings::WarningKind::LimitExceeded,
+        crate::model::warnings::WarningKind::LimitExceeded,
         &held,
         "%",
         false,
         |v, lines| format!("servo periods up to {v:.0} % above a limit at {lines}, where a tapping cycle (G84/G74) runs: its feed is the tap's pitch times the spindle speed, held as programmed (LinuxCNC runs it with the feed override off), so optimize does not slow it; to lower the load there, lower the spindle speed and F together"),
     );
     after_summary.warnings.from_lines(
-    crate::warnings::WarningKind::CoarseGrid,
+    crate::model::warnings::WarningKind::CoarseGrid,
     &unresolved,
     "%",
     false,
@@ -1365,8 +786,8 @@ fn optimize_outputs(
 );
     let written_vs_plan = after_summary.cycle_time_s / written.plan_time_s - 1.0;
     if written_vs_plan > optimize::PLAN_TOLERANCE && !written.kept_original {
-        after_summary.warnings.push(crate::warnings::Warning {
-        kind: crate::warnings::WarningKind::PlanNotMet,
+        after_summary.warnings.push(crate::model::warnings::Warning {
+        kind: crate::model::warnings::WarningKind::PlanNotMet,
         line: None,
         value: 100.0 * written_vs_plan,
         unit: "%".into(),
@@ -1392,7 +813,7 @@ fn optimize_outputs(
     }
     // Files for the machine are in its own Z, as optimized.nc is.
     let z_sign = if setup.program.z_down { -1.0 } else { 1.0 };
-    write_servo_csv(
+    crate::output::servo_csv::write_servo_csv(
         &staged.join("servo.csv"),
         written.samples.rows(&after.steps),
         &after.steps,
@@ -1460,152 +881,13 @@ fn optimize_outputs(
         time_simulate_s: as_given.time_simulate_s,
         run_id: out_dir.run_id(),
     };
-    crate::summary::write_optimize(&staged.join("summary.json"), &doc)?;
+    crate::model::summary::write_optimize(&staged.join("summary.json"), &doc)?;
     Ok(Optimized {
         summary: doc,
         precomp,
         steps_format,
         banded: setup.tiling.as_ref().map(Banded::of),
     })
-}
-
-/// [`optimize_setup`]'s engagement along the free `stations` (begun at
-/// `t1`), their caps and the rounds of [`optimize::write_verified`]: the
-/// number of stations, the engagement's time, what was written (optimized.nc
-/// into `staged`) and when the rounds began.
-fn optimize_rounds(
-    setup: &Setup,
-    machine: &schedule::Machine,
-    free: &mut optimize::FreeStations,
-    given: optimize::Given,
-    t1: Instant,
-    staged: &Path,
-) -> Result<(usize, f64, optimize::Written, Instant)> {
-    let stations = free.stations(machine, setup)?;
-    let limits = &setup.job.limits;
-    let surface = match (&setup.design, limits.angle_rule) {
-        (_, false) => optimize::SurfaceFrom::Nothing,
-        (Some((_, model)), true) => optimize::SurfaceFrom::Design(model),
-        (None, true) => optimize::SurfaceFrom::Stock,
-    };
-    // The caps made as the sweep makes each interval's engagement final
-    // (per station: loads, areas and angles not held, issue 16).
-    let caps = optimize::engagement_caps_on(
-        stations,
-        &setup.stock_source(),
-        &setup.tools,
-        limits,
-        surface,
-    )?;
-    let time_engagement_s = t1.elapsed().as_secs_f64();
-    crate::heap_mark(format_args!("engagement and caps"));
-    let t2 = Instant::now();
-    let n_stations = stations.len();
-    let written = optimize::write_verified(setup, machine, free, caps, given, staged)?;
-    Ok((n_stations, time_engagement_s, written, t2))
-}
-
-/// servo.csv: commanded positions every period with path feed, axis
-/// velocities, the tool and spindle speed of the block each lies on, and
-/// whether the move to it is a rapid (`rapid`). A period that the run
-/// `steps` (swept from these samples) splits where the motion changes between
-/// rapid and feed also gets a row at each such corner, with the time the run
-/// gave it and `sample` = 0 (a servo sample: 1). Read as a program (a point
-/// list with `t_s`), it is simulated as the optimised run, step for step.
-/// Z and its velocity are in the machine's own Z (`z_sign` −1 where it points down).
-fn write_servo_csv(
-    path: &Path,
-    samples: impl Iterator<Item = motion::SampleRow>,
-    steps: &[TimedStep],
-    z_sign: f64,
-) -> Result<()> {
-    let mut periods = motion::periods(steps);
-    export::atomic::write_file(path, |w| {
-        let mut out = csv::Writer::from_writer(w);
-        out.write_record([
-            "t_s",
-            "x",
-            "y",
-            "z",
-            "feed_mm_min",
-            "vx_mm_s",
-            "vy_mm_s",
-            "vz_mm_s",
-            "tool",
-            "spindle_rpm",
-            "rapid",
-            "sample",
-        ])?;
-        let flag = |b: bool| if b { 1.0 } else { 0.0 };
-        let mut before: Option<motion::SampleRow> = None;
-        for (i, s) in samples.enumerate() {
-            let (tool, rpm) = (s.tool, s.spindle_rpm);
-            // The axis velocities over the period.
-            let v = before.map_or(nalgebra::Vector3::zeros(), |b| {
-                schedule::axis_velocity_between_mm_s((b.pos, b.t_s), (s.pos, s.t_s))
-            });
-            // The period's steps (none before the first sample).
-            let period = match i {
-                0 => &steps[..0],
-                _ => periods.next().map_or(&steps[..0], |p| &steps[p]),
-            };
-            // Its corners, each where a part of positive duration ends
-            // before the sample (a corner at the time of the row before it
-            // or of the sample adds nothing: that part is empty). The move to
-            // the sample takes the kind of its last part that moves.
-            let mut t_row = before.map_or(f64::NEG_INFINITY, |b| b.t_s);
-            let mut kind = steps.first().is_some_and(|p| p.step.rapid);
-            let mut moved = false;
-            for (j, c) in period.iter().enumerate() {
-                let corner = j + 1 < period.len() && c.t_end_s > t_row && c.t_end_s < s.t_s;
-                if corner {
-                    let [x, y, z] = c.step.to_mm;
-                    out.write_record(
-                        [
-                            c.t_end_s,
-                            x,
-                            y,
-                            z_sign * z,
-                            c.feed_mm_min,
-                            v.x,
-                            v.y,
-                            z_sign * v.z,
-                            c.tool as f64,
-                            c.spindle_rpm,
-                            flag(c.step.rapid),
-                            0.0,
-                        ]
-                        .map(simulate::fmt),
-                    )?;
-                    t_row = c.t_end_s;
-                    moved = false;
-                } else if !moved || c.step.from_mm != c.step.to_mm {
-                    kind = c.step.rapid;
-                    moved = c.step.from_mm != c.step.to_mm;
-                }
-            }
-            out.write_record(
-                [
-                    s.t_s,
-                    s.pos.x,
-                    s.pos.y,
-                    z_sign * s.pos.z,
-                    s.feed_mm_min,
-                    v.x,
-                    v.y,
-                    z_sign * v.z,
-                    tool as f64,
-                    rpm,
-                    flag(kind),
-                    1.0,
-                ]
-                .map(simulate::fmt),
-            )?;
-            before = Some(s);
-        }
-        out.flush()
-    })
-    .map_err(|e| Error::io("cannot write", path, e))
 }
 
 /// `dexcut report DIR`.

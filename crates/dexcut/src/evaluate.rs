@@ -10,9 +10,9 @@ use schedule::Machine;
 use serde::Serialize;
 use servo::{Drive, DriveOrder, Evaluation, Weights};
 
-use crate::commands::Setup;
 use crate::job::Job;
 use crate::motion;
+use crate::setup::Setup;
 use crate::simulate::{fmt, write_json};
 
 /// The drive model from [servo].
@@ -423,7 +423,7 @@ pub fn evaluate(
     let mut inputs = setup.input_files(job_path);
     inputs.extend(servo_csv.map(Path::to_path_buf));
     inputs.extend(settings.map(Path::to_path_buf));
-    let out_dir = crate::outdir::OutDir::begin(out, &inputs, force)?;
+    let out_dir = crate::output::outdir::OutDir::begin(out, &inputs, force)?;
     let period_s = setup.machine.period_s();
     let ev = evaluate_setup(&setup, servo_csv, sweep)?;
     let pre = &ev.precomp;

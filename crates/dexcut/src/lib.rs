@@ -81,23 +81,22 @@ mod evaluate;
 mod example;
 pub mod fitted_job;
 mod job;
+mod model;
 mod motion;
 /// Building blocks of the optimisation (engagement, caps, re-feed). Not part
 /// of the stable API: public only for the S3 integration tests
 /// (`tests/source_methods.rs`).
 #[doc(hidden)]
 pub mod optimize;
-mod outdir;
+mod output;
 mod program;
 pub mod progress;
 mod report;
+mod setup;
 mod simulate;
-mod steps_out;
 mod stock;
 mod subcell;
-pub mod summary;
 mod tools;
-mod warnings;
 
 /// With the `heap-marks` feature, prints the heap now and its peak since the
 /// last mark, after `phase` (the `dexcut` binary's counting allocator:
@@ -110,13 +109,17 @@ pub(crate) fn heap_mark(phase: std::fmt::Arguments<'_>) {
     let _ = phase;
 }
 
-pub use commands::{Optimized, Setup, Simulation};
+pub use commands::{Optimized, Simulation};
 pub use error::{Error, Result, Source};
 pub use evaluate::{DriveEvaluation, SweepRow};
+pub use model::summary;
+pub use model::warnings::{Warning, WarningKind, Warnings};
+pub use output::steps::{StepsFormat, AUTO_NPY_STEPS};
 pub use report::ReportFiles;
+pub use setup::Setup;
 pub use simulate::{Run, Summary};
-pub use steps_out::{StepsFormat, AUTO_NPY_STEPS};
-pub use warnings::{Warning, WarningKind, Warnings};
+// The other helper's files still name `crate::warnings`.
+use model::warnings; // TEMP-ALIAS
 
 /// Load a job file (TOML) and everything it names (program, stock mesh, design
 /// model, tool table), each checked before any work. `grid_mm` overrides the
@@ -141,7 +144,7 @@ pub fn simulate(setup: &Setup, actual_path: bool) -> Result<Simulation, Error> {
 /// and is back in the setup when this returns, with an error too.
 pub fn optimize(setup: &mut Setup, out: &Path, force: bool) -> Result<Optimized, Error> {
     let started = Instant::now();
-    let out_dir = outdir::OutDir::begin(out, &setup.input_files(&setup.job_path), force)?;
+    let out_dir = output::outdir::OutDir::begin(out, &setup.input_files(&setup.job_path), force)?;
     commands::optimize_setup(setup, out_dir, started, false, StepsFormat::Auto, &|_| {})
 }
 
