@@ -76,6 +76,7 @@ use std::time::Instant;
 
 mod bounds;
 pub mod commands;
+mod design;
 mod error;
 mod evaluate;
 mod example;

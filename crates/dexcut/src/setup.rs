@@ -1,14 +1,17 @@
 //! The set-up of a run: the job file and everything it names (program,
 //! stock, tools, machine, design model), read and checked before any work,
-//! and what the set-up warns of before any work starts.
+//! and what the set-up warns of before any work starts; the drive model of
+//! `[servo]` and the settings fragment of `evaluate --sweep` put over a job.
 
 use std::path::{Path, PathBuf};
 
-use crate::error::{fail, Context as _, Error, Result};
+use crate::error::{fail, Context as _, Error, Result, ResultExt as _};
 use crate::model::warnings::{tally, LineTally, Warning, WarningKind, Warnings};
 use cutting::CuttingModel;
 use dexel::{Stock, Tool};
 use schedule::Machine;
+use serde::Serialize;
+use servo::{Drive, DriveOrder};
 
 use crate::job::Job;
 use crate::motion::{self, TimedStep};
@@ -115,7 +118,7 @@ impl Setup {
             job.set_grid(g)?;
         }
         if let Some(path) = settings {
-            crate::evaluate::Settings::load(path)?.apply(&mut job, path)?;
+            Settings::load(path)?.apply(&mut job, path)?;
         }
         let mut program = program::load(&job)?;
         program.path = as_the_machine_reads(&job, std::mem::take(&mut program.path))?;
@@ -429,7 +432,7 @@ impl Setup {
         actual_path: bool,
     ) -> Result<Vec<TimedStep>> {
         if actual_path {
-            let drive = crate::evaluate::drive(&self.job)?;
+            let drive = drive(&self.job)?;
             let commanded: Vec<[f64; 3]> = samples.iter().map(|s| s.pos.coords.into()).collect();
             let actual = servo::simulate_actual(&commanded, self.machine.period_s(), &drive);
             for (s, a) in samples.iter_mut().zip(actual) {
@@ -437,6 +440,86 @@ impl Setup {
             }
         }
         Ok(motion::steps_from_samples(&self.program.path, &samples))
+    }
+}
+
+/// The drive model from [servo].
+pub fn drive(job: &Job) -> Result<Drive> {
+    let s = &job.servo;
+    let order = match (s.zeta, s.omega_n) {
+        (Some(zeta), Some(omega_n_rad_s)) => DriveOrder::Second {
+            zeta,
+            omega_n_rad_s,
+        },
+        _ => DriveOrder::First,
+    };
+    let drive = Drive {
+        kp_per_s: s.kp,
+        feedforward: s.feedforward,
+        order,
+    };
+    drive
+        .validate()
+        .or_job(|| format!("{}: invalid [servo]", job.name))?;
+    Ok(drive)
+}
+
+/// The machine and drive settings that `evaluate --sweep` varies, as a job
+/// fragment (`best.toml`): `[machine] accel`, `jerk` (absent: no jerk limit)
+/// and `[servo] kp`. `optimize` and `evaluate` take it with `--settings FILE`,
+/// over the job's own values (MODEL.md §7.2).
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Settings {
+    pub machine: MachineSettings,
+    pub servo: ServoSettings,
+}
+
+/// `[machine]` of a [`Settings`] fragment.
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MachineSettings {
+    /// Per-axis acceleration limit, mm/s².
+    pub accel: [f64; 3],
+    /// Per-axis jerk limit, mm/s³; none when absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub jerk: Option<[f64; 3]>,
+}
+
+/// `[servo]` of a [`Settings`] fragment.
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ServoSettings {
+    /// Position loop gain, 1/s.
+    pub kp: f64,
+}
+
+impl Settings {
+    /// Read a fragment; errors name the file, line and column, or the key.
+    pub fn load(path: &Path) -> Result<Settings> {
+        let text = crate::bounds::read_text(path, "settings", crate::bounds::MAX_JOB_BYTES)?;
+        let name = path.display().to_string();
+        toml::from_str(&text).map_err(|e| {
+            let at = e.span().map_or_else(
+                || name.clone(),
+                |s| crate::job::location(&name, &text, s.start),
+            );
+            Error::job(format!("{at}: {}", e.message()))
+        })
+    }
+
+    /// Put these settings into `job` and check it again.
+    pub fn apply(&self, job: &mut Job, source: &Path) -> Result<()> {
+        job.machine.accel = self.machine.accel;
+        job.machine.jerk = self.machine.jerk;
+        job.servo.kp = self.servo.kp;
+        job.validate()
+            .context_with(|| format!("{}: invalid settings for {}", source.display(), job.name))
+    }
+
+    /// The fragment as TOML text.
+    pub fn to_toml(&self) -> Result<String> {
+        toml::to_string(self).or_run(|| "cannot write the settings as TOML".into())
     }
 }
 
