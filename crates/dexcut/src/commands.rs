@@ -11,6 +11,7 @@ use crate::error::{fail, Error, Result, ResultExt as _};
 use dexel::{Stock, NEVER_CUT};
 
 use crate::model::summary::{GridInfo, Summary};
+use crate::model::warnings::{self, LineTally, Warning, WarningKind};
 use crate::motion::{self, TimedStep};
 use crate::optimize::{self};
 use crate::output::outdir::OutDir;
@@ -594,7 +595,7 @@ struct AsGiven {
     /// Its number of steps.
     steps: usize,
     chip_load: Vec<optimize::ToolChipLoad>,
-    chip_warnings: Vec<crate::model::warnings::Warning>,
+    chip_warnings: Vec<Warning>,
     stress_limit_mpa: Option<f64>,
     time_simulate_s: f64,
 }
@@ -644,8 +645,8 @@ fn optimize_outputs(
     as_given.summary.check_finite()?;
     after_summary.check_finite()?;
     if written.excesses_left > 0 {
-        after_summary.warnings.push(crate::model::warnings::Warning {
-        kind: crate::model::warnings::WarningKind::LimitExceeded,
+        after_summary.warnings.push(Warning {
+        kind: WarningKind::LimitExceeded,
         line: None,
         value: written.excesses_left as f64,
         unit: "periods".into(),
@@ -662,23 +663,20 @@ fn optimize_outputs(
         setup.warnings.iter().cloned().chain(as_given.chip_warnings),
     );
     optimize::stress_left(after, limits, written.rounds, &mut after_summary.warnings);
-    let (mut unresolved, mut held) = (
-        crate::model::warnings::LineTally::new(),
-        crate::model::warnings::LineTally::new(),
-    );
+    let (mut unresolved, mut held) = (LineTally::new(), LineTally::new());
     for e in &written.unresolved {
         let tally = if e.held { &mut held } else { &mut unresolved };
-        crate::model::warnings::tally(tally, e.line, 100.0 * e.over_limit);
+        warnings::tally(tally, e.line, 100.0 * e.over_limit);
     }
     after_summary.warnings.from_lines(
-        crate::model::warnings::WarningKind::LimitExceeded,
+        WarningKind::LimitExceeded,
         &held,
         "%",
         false,
         |v, lines| format!("servo periods up to {v:.0} % above a limit at {lines}, where a tapping cycle (G84/G74) runs: its feed is the tap's pitch times the spindle speed, held as programmed (LinuxCNC runs it with the feed override off), so optimize does not slow it; to lower the load there, lower the spindle speed and F together"),
     );
     after_summary.warnings.from_lines(
-    crate::model::warnings::WarningKind::CoarseGrid,
+    WarningKind::CoarseGrid,
     &unresolved,
     "%",
     false,
@@ -686,8 +684,8 @@ fn optimize_outputs(
 );
     let written_vs_plan = after_summary.cycle_time_s / written.plan_time_s - 1.0;
     if written_vs_plan > optimize::PLAN_TOLERANCE && !written.kept_original {
-        after_summary.warnings.push(crate::model::warnings::Warning {
-        kind: crate::model::warnings::WarningKind::PlanNotMet,
+        after_summary.warnings.push(Warning {
+        kind: WarningKind::PlanNotMet,
         line: None,
         value: 100.0 * written_vs_plan,
         unit: "%".into(),

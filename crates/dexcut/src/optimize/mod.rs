@@ -10,10 +10,17 @@
 //!   reference feed gives the cap F ≤ F_ref·(limit/Q(F_ref))^(1/p);
 //! * S3's angle rule on ball-end mills; feed_min/feed_max; S0's block time.
 //!
-//! The pieces, in the order a run uses them: [`engagement`] along the free
-//! [`stations`], its [`caps`], the re-feed plan's [`blocks`], the
-//! [`rounds`] of writing and re-simulating, their [`verify`]cation, and each
-//! tool's [`chip_load`] cap.
+//! The pieces, in the order a run uses them:
+//! * `stations.rs`: the free stations, and their path while they are let go;
+//! * `engagement.rs`: the engagement sweep along them, the reference loads,
+//!   the surface angles and the windowed areas;
+//! * `caps.rs`: each limit as a feed cap per interval, put on the stations;
+//! * `blocks.rs`: the re-feed plan under the caps and its blocks;
+//! * `rounds.rs`: write, re-simulate and correct ([`caps_and_rounds`],
+//!   [`write_verified`]);
+//! * `verify.rs`: the written program's periods over a limit and the caps
+//!   they lower;
+//! * `chip_load.rs`: each tool's chip-load cap and its warning.
 
 mod blocks;
 mod caps;
