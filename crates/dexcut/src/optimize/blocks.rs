@@ -11,7 +11,7 @@ use super::caps::apply_interval_caps_from;
 /// control can read in its block time at the block's feed).
 pub const MIN_BLOCK_MM: f64 = 0.2;
 /// Feeds within this ratio are first merged into one block (the lower one is
-/// written); [`write_verified`] lowers it (down to [`MERGE_RATIO_MIN`]) when
+/// written); [`write_verified`](super::write_verified) lowers it (down to [`MERGE_RATIO_MIN`]) when
 /// the written program is slower than the plan by more than [`PLAN_TOLERANCE`].
 pub const MERGE_RATIO: f64 = 1.05;
 /// The written program's cycle time may exceed the plan's by this fraction.
@@ -165,7 +165,7 @@ impl Blocks {
 }
 
 /// Apply to each interval the feed of the block (refeed plan piece) it lies
-/// in, with the kind of cap that set the interval ([`apply_interval_caps`]),
+/// in, with the kind of cap that set the interval ([`apply_interval_caps`](super::apply_interval_caps)),
 /// a chunk of intervals at a time: not a list of every interval's (16 B an
 /// interval beside the plan). The same caps applied in the same
 /// order.

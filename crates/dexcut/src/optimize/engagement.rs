@@ -115,7 +115,7 @@ pub fn engagement_on(
     })
 }
 
-/// The caps [`interval_caps`] gives for [`engagement_on`]'s engagement,
+/// The caps [`interval_caps`](super::interval_caps) gives for [`engagement_on`]'s engagement,
 /// made as the sweep makes each interval's engagement final: neither the
 /// sweep's record nor the reference loads are held (about 74 and 32 B an
 /// interval), only the caps, and the windowed areas where S3 takes

@@ -16,8 +16,8 @@
 //!   the surface angles and the windowed areas;
 //! * `caps.rs`: each limit as a feed cap per interval, put on the stations;
 //! * `blocks.rs`: the re-feed plan under the caps and its blocks;
-//! * `rounds.rs`: write, re-simulate and correct ([`caps_and_rounds`],
-//!   [`write_verified`]);
+//! * `rounds.rs`: write, re-simulate and correct ([`caps_and_rounds`](rounds::caps_and_rounds),
+//!   [`write_verified`](rounds::write_verified));
 //! * `verify.rs`: the written program's periods over a limit and the caps
 //!   they lower;
 //! * `chip_load.rs`: each tool's chip-load cap and its warning.

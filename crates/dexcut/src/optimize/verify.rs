@@ -265,7 +265,7 @@ pub fn stress_left(
     );
 }
 
-/// What [`write_verified`] needs of the program as given (its run need not
+/// What [`write_verified`](super::write_verified) needs of the program as given (its run need not
 /// be held through the rounds).
 #[derive(Clone, Copy, Debug)]
 pub struct Given {
