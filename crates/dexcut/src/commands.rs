@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use crate::error::{fail, Error, Result, ResultExt as _};
-use dexel::{Stock, NEVER_CUT};
+use dexel::Stock;
 
 use crate::model::summary::{GridInfo, Summary};
 use crate::model::warnings::{self, LineTally, Warning, WarningKind};
@@ -37,42 +37,14 @@ fn write_run(
     columns_csv: bool,
 ) -> Result<Option<DesignInfo>> {
     let design = crate::design::design_comparison(setup, run)?;
-    write_run_files(run, design.as_ref(), out, steps_format, columns_csv)?;
-    Ok(design.map(|d| d.1))
-}
-
-/// The steps (`steps.csv` and/or `steps.json` with its `.npy` arrays, as
-/// `steps_format` says) and the per-column results of a run (the `.npy` grid,
-/// and columns.csv when `columns_csv`) into `out`.
-fn write_run_files(
-    run: &Run,
-    design: Option<&(Vec<f32>, DesignInfo)>,
-    out: &Path,
-    steps_format: StepsFormat,
-    columns_csv: bool,
-) -> Result<StepsFormat> {
-    let steps_format = run.write_steps(out, "steps", steps_format)?;
-    // With a design model each column also names the program line that last cut it (S1).
-    let lines: Option<Vec<i32>> = design.as_ref().map(|_| {
-        run.stock
-            .last_cut()
-            .iter()
-            .map(|&s| {
-                if s == NEVER_CUT {
-                    -1
-                } else {
-                    run.steps[s as usize].line as i32
-                }
-            })
-            .collect()
-    });
-    run.write_columns(
+    crate::output::run_files::write_run_files(
+        run,
+        design.as_ref(),
         out,
-        design.map(|d| d.0.as_slice()),
-        lines.as_deref(),
+        steps_format,
         columns_csv,
     )?;
-    Ok(steps_format)
+    Ok(design.map(|d| d.1))
 }
 
 /// A simulated program: the run, its headline numbers and the comparison with
@@ -99,7 +71,7 @@ impl Simulation {
         columns_csv: bool,
         steps_format: StepsFormat,
     ) -> Result<StepsFormat> {
-        write_run_files(
+        crate::output::run_files::write_run_files(
             &self.run,
             self.design.as_ref(),
             out,
