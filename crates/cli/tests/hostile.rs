@@ -1,4 +1,4 @@
-//! Issue 15: hostile and careless input. One test per defect class (D1–D12),
+//! Hostile and careless input. One test per defect class (D1–D12),
 //! each on the issue's example or a smaller one of the same kind, run under a
 //! memory limit (RLIMIT_AS through `prlimit`, else `ulimit -v`) and a time
 //! limit; a kill test, a disk-full test on a tiny tmpfs (skipped where mount is
@@ -344,7 +344,7 @@ fn d3_devices_fifos_and_huge_files_are_refused() {
 }
 
 /// D4: pre-compensation iterations and thresholds that never end are refused
-/// at parse time (the o-word and corner-budget times are issues 11 and 14).
+/// at parse time.
 #[test]
 fn d4_endless_precompensation_is_refused() {
     for (key, needle) in [

@@ -7,633 +7,24 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::error::{fail, Context as _, Error, Result, ResultExt as _};
-use cutting::CuttingModel;
-use dexel::{Stock, Tool, NEVER_CUT};
-use schedule::Machine;
-use serde::{Deserialize, Serialize};
+use crate::error::{fail, Error, Result, ResultExt as _};
+use dexel::Stock;
 
-use crate::job::Job;
+use crate::model::summary::{GridInfo, Summary};
+use crate::model::warnings::{self, LineTally, Warning, WarningKind};
 use crate::motion::{self, TimedStep};
 use crate::optimize::{self};
-use crate::outdir::OutDir;
-use crate::program::{self, Program};
-use crate::simulate::{self, GridInfo, Run, Summary};
-use crate::steps_out::StepsFormat;
-use crate::tools::ToolSet;
+use crate::output::outdir::OutDir;
+use crate::output::steps::StepsFormat;
+use crate::run::{self, Run};
 
 pub use crate::evaluate::evaluate;
-pub use crate::example::write as example;
-
-/// Everything read and checked from a job before any work.
-pub struct Setup {
-    /// The job file it was loaded from.
-    pub job_path: PathBuf,
-    /// The job file's sections, checked.
-    pub job: Job,
-    /// The first tool the program uses and its model (the single [tool]).
-    pub tool: Tool,
-    /// The program, read into a path of moves.
-    pub program: Program,
-    /// The stock before any cut (with `tiling`, an empty stock on the whole grid).
-    pub stock: Stock,
-    /// How the stock is made band by band when it does not fit the memory
-    /// budget (only `simulate` runs such a stock).
-    pub tiling: Option<crate::stock::Tiling>,
-    /// The cutting model of the first tool.
-    pub model: CuttingModel,
-    /// Every tool of the job; each step is cut by its own (MODEL.md §9.1).
-    pub tools: ToolSet,
-    /// Axis limits, servo period and feeds (`[machine]`).
-    pub machine: Machine,
-    /// The `[design]` model, read and checked before any work.
-    pub design: Option<(PathBuf, mesh::DesignModel)>,
-    /// What the set-up warns of before any work (see [`Setup::load`]): the
-    /// commands print them at once and put them first in summary.json.
-    pub warnings: Vec<crate::warnings::Warning>,
-}
-
-/// Most segments a program may have once its arcs are linearised (`arcs_as_lines`): the
-/// interpreter's own limit on moves.
-pub const MAX_LINEARISED_SEGMENTS: usize = 5_000_000;
-
-/// `path` as the machine reads the program: with `[machine] arcs_as_lines`,
-/// each arc as chords within the chord tolerance of its feed and block time
-/// (MODEL.md §6.2, S0).
-fn as_the_machine_reads(job: &Job, path: nc::Path) -> Result<nc::Path> {
-    let (true, Some(tb)) = (job.machine.arcs_as_lines, job.machine.block_time_ms) else {
-        return Ok(path);
-    };
-    let path = schedule::linearise_arcs(&path, tb, 1.0);
-    if path.segments.len() > MAX_LINEARISED_SEGMENTS {
-        fail!(limits,
-            "{}: machine.arcs_as_lines writes the arcs as {} blocks, more than {MAX_LINEARISED_SEGMENTS}",
-            job.name,
-            path.segments.len()
-        );
-    }
-    Ok(path)
-}
-
-impl Setup {
-    /// The program's path as [`Setup::load`] made it, read again from the
-    /// G-code program's text ([`program::Program::read_path`]: the same text
-    /// read with the same options makes the same path bit for bit), for
-    /// `optimize`, which does not hold it through the written program's run
-    /// (126 MB for a million blocks, issue 16). A point list is not read
-    /// again: it fails.
-    pub fn program_path_again(&self) -> Result<nc::Path> {
-        let Some(path) = self.program.read_path() else {
-            fail!(
-                run,
-                "{}: a point list's path is not read again",
-                self.program.file
-            );
-        };
-        as_the_machine_reads(&self.job, path?)
-    }
-
-    /// Load the job (with an optional grid override) and everything it names.
-    pub fn load(job_path: &Path, grid_mm: Option<f64>) -> Result<Setup> {
-        Setup::load_with(job_path, grid_mm, None)
-    }
-
-    /// [`Setup::load`] with the machine and drive settings of a fragment
-    /// written by `evaluate --sweep` (`--settings FILE`) put over the job's.
-    pub fn load_with(
-        job_path: &Path,
-        grid_mm: Option<f64>,
-        settings: Option<&Path>,
-    ) -> Result<Setup> {
-        Setup::load_within(job_path, grid_mm, settings, None)
-    }
-
-    /// [`Setup::load_with`] with a memory budget for the stock in MB
-    /// (`--memory-budget-mb`; by default what this process may use): a box or
-    /// cylinder stock whose columns exceed it is made band by band
-    /// ([`Setup::tiling`]).
-    pub fn load_within(
-        job_path: &Path,
-        grid_mm: Option<f64>,
-        settings: Option<&Path>,
-        budget_mb: Option<f64>,
-    ) -> Result<Setup> {
-        let budget_bytes = crate::stock::budget_bytes(budget_mb)?;
-        let mut job = Job::load(job_path)?;
-        if let Some(g) = grid_mm {
-            job.set_grid(g)?;
-        }
-        if let Some(path) = settings {
-            crate::evaluate::Settings::load(path)?.apply(&mut job, path)?;
-        }
-        let mut program = program::load(&job)?;
-        program.path = as_the_machine_reads(&job, std::mem::take(&mut program.path))?;
-        let tools = ToolSet::from_job(&job, &program)?;
-        // Every move's tool is in the table (an error names the line).
-        tools.indices::<u16>(program.path.segments.iter().map(|s| (s.tool, s.line)))?;
-        let first = tools.entry(program.path.segments.first().map_or(1, |s| s.tool));
-        let (tool, model) = (first.tool, first.model);
-        // Checked with the job (Job::validate, through schedule::MACHINE_RANGES).
-        let machine = motion::machine(&job);
-        if program.gcode.is_some() {
-            // Stations and samples are bounded before planning (2 runs: optimize's before and after).
-            let estimate =
-                crate::bounds::estimate_motion(&program.path, &machine, motion::STATION_DS_MM);
-            let flute_mm = tools
-                .entries
-                .iter()
-                .map(|e| e.tool.flute_length_mm)
-                .fold(0.0, f64::max);
-            let bands = (flute_mm / job.cutting.band_height).ceil() as usize;
-            crate::bounds::check_motion(
-                &estimate,
-                &program.file,
-                machine.period_ms,
-                2.0,
-                crate::bounds::bytes_per_sample(bands),
-            )?;
-        }
-        let (stock, tiling) = crate::stock::build_within(&job, budget_bytes)?;
-        let design = match &job.design {
-            Some(d) => {
-                let path = job.resolve(&d.path);
-                crate::bounds::check_input_file(
-                    &path,
-                    "design model",
-                    crate::bounds::MAX_MESH_BYTES,
-                )?;
-                let (mesh, _) = mesh::load_solid(&path)?;
-                let model = mesh::DesignModel::new(&mesh)
-                    .map_err(|e| Error::Mesh(e.into()))
-                    .context_with(|| format!("{}: design model", path.display()))?;
-                Some((path, model))
-            }
-            None => None,
-        };
-        let mut setup = Setup {
-            job_path: job_path.to_path_buf(),
-            job,
-            tool,
-            program,
-            stock,
-            tiling,
-            model,
-            tools,
-            machine,
-            design,
-            warnings: Vec::new(),
-        };
-        setup.warnings = setup.setup_warnings();
-        Ok(setup)
-    }
-
-    /// The job's stock as a run sweeps it: lent whole, or band by band where
-    /// it is too large for the memory budget ([`Setup::tiling`]).
-    pub fn stock_source(&self) -> simulate::StockSource<'_> {
-        match &self.tiling {
-            Some(tiling) => simulate::StockSource::Tiled(tiling),
-            None => simulate::StockSource::Lent(&self.stock),
-        }
-    }
-
-    /// Refuse a stock too large for the memory budget for `what`, which needs
-    /// every column at once (`simulate` and `optimize` run such a stock band by band).
-    pub fn require_whole_stock(&self, what: &str) -> Result<()> {
-        if let Some(t) = &self.tiling {
-            fail!(
-                limits,
-                "{}: [stock] {}×{} columns at grid {} mm need about {:.0} MB of memory, more than the {:.0} MB this process may use (available memory, cgroup memory.max and ulimit, or --memory-budget-mb): `dexcut simulate` and `dexcut optimize` run such a stock band by band; {what} needs every column at once: use a coarser grid",
-                self.job.name,
-                t.grid.nx,
-                t.grid.ny,
-                t.grid.spacing_mm,
-                t.grid.len() as f64 * crate::bounds::BYTES_PER_COLUMN / 1e6,
-                t.budget_bytes / 1e6
-            );
-        }
-        Ok(())
-    }
-
-    /// Material, tools, machine and limits, as summary.json records them.
-    pub fn info(&self) -> crate::summary::SetupInfo {
-        let l = &self.job.limits;
-        let limits = [
-            ("mrr_max", l.mrr_max, "mm³/s"),
-            ("force_max", l.force_max, "N"),
-            ("deflection_max_um", l.deflection_max_um, "µm"),
-            ("power_max_kw", l.power_max_kw, "kW"),
-            ("feed_min", l.feed_min, "mm/min"),
-            ("feed_max", l.feed_max, "mm/min"),
-            ("feed_scale_max", l.feed_scale_max, "×"),
-        ]
-        .into_iter()
-        .chain([(
-            "stress_limit_mpa",
-            // The weakest tool's allowable stress, held when `[limits] stress`.
-            l.stress
-                .then(|| {
-                    self.tools
-                        .entries
-                        .iter()
-                        .map(|e| e.stress_limit_mpa)
-                        .reduce(f64::min)
-                })
-                .flatten(),
-            "MPa",
-        )])
-        .filter_map(|(k, v, u)| v.map(|v| (k.to_string(), v, u.to_string())))
-        .collect();
-        crate::summary::SetupInfo {
-            material: self.job.cutting.material.clone(),
-            spindle_rpm: self.model.spindle_rpm,
-            tools: self
-                .tools
-                .entries
-                .iter()
-                .map(|e| crate::summary::ToolInfo {
-                    number: e.number,
-                    shape: match e.tool.shape {
-                        dexel::ToolShape::Ball => "ball".into(),
-                        dexel::ToolShape::Flat => "flat".into(),
-                        dexel::ToolShape::Bull { corner_radius_mm } => {
-                            format!("bull r={corner_radius_mm}")
-                        }
-                    },
-                    diameter_mm: e.tool.diameter_mm,
-                    flutes: e.tool.flutes,
-                    stickout_mm: e.tool.stickout_mm,
-                    fz_max_mm: e.fz_max_mm,
-                    stress_limit_mpa: Some(e.stress_limit_mpa),
-                })
-                .collect(),
-            period_ms: self.machine.period_ms,
-            feed_max_mm_min: self.machine.feed_max_mm_min,
-            rapid_mm_min: self.machine.rapid_mm_min,
-            accel_mm_s2: self.machine.accel_mm_s2,
-            jerk_mm_s3: self.machine.jerk_mm_s3,
-            limits,
-        }
-    }
-
-    /// Every file the run reads: the job, its program, stock mesh and design model.
-    pub fn input_files(&self, job_path: &Path) -> Vec<PathBuf> {
-        let mut files = vec![
-            job_path.to_path_buf(),
-            self.job.resolve(&self.job.program.path),
-        ];
-        if let crate::job::StockSpec::Mesh { path, .. } = &self.job.stock {
-            files.push(self.job.resolve(path));
-        }
-        files.extend(self.design.as_ref().map(|(p, _)| p.clone()));
-        files
-    }
-
-    /// What the job's set-up warns of before any work, in this order: the
-    /// program's file form ([`nc::FileForm::Tolerant`]), a tool change the
-    /// single `[tool]` cannot follow, spindle speeds not used, and the grid
-    /// check. Computed once, into [`Setup::warnings`].
-    fn setup_warnings(&self) -> Vec<crate::warnings::Warning> {
-        use crate::warnings::{Warning, WarningKind};
-        let mut out: Vec<Warning> = self
-            .program
-            .read_warnings
-            .iter()
-            .map(|d| Warning {
-                kind: WarningKind::ProgramForm,
-                line: Some(d.line),
-                value: 0.0,
-                unit: String::new(),
-                steps: 0,
-                lines: vec![d.line],
-                message: d.message.clone(),
-            })
-            .collect();
-        out.extend(self.ignored_tool_change());
-        out.extend(crate::warnings::spindle_check(
-            &self.program.path,
-            &self.tools,
-        ));
-        out.extend(self.grid_warning());
-        out
-    }
-
-    /// With a single `[tool]`, every move is cut by it: a program that loads
-    /// several tools (T… M6) is simulated with one, which the user must know.
-    fn ignored_tool_change(&self) -> Option<crate::warnings::Warning> {
-        if !self.tools.single || self.program.gcode.is_none() {
-            return None;
-        }
-        // First line of each tool number the program cuts with, in order.
-        let mut first: Vec<(u32, u32)> = Vec::new();
-        for s in &self.program.path.segments {
-            if s.tool != 0 && !first.iter().any(|&(t, _)| t == s.tool) {
-                first.push((s.tool, s.line));
-            }
-        }
-        if first.len() < 2 {
-            return None;
-        }
-        let listed = first
-            .iter()
-            .map(|(t, l)| format!("T{t} from line {l}"))
-            .collect::<Vec<_>>()
-            .join(", ");
-        Some(crate::warnings::Warning {
-            kind: crate::warnings::WarningKind::IgnoredTool,
-            line: Some(first[1].1),
-            value: first.len() as f64,
-            unit: "tools".into(),
-            steps: 0,
-            lines: first.iter().map(|&(_, l)| l).take(crate::warnings::MAX_LINES).collect(),
-            message: format!(
-                "the program uses {} tools ({listed}) but the job gives one [tool]: every move is simulated with it; give a tool table ([[tools]] with number = …) to follow the tool changes",
-                first.len()
-            ),
-        })
-    }
-
-    /// The grid check of [`crate::warnings::grid_check`] for this job.
-    fn grid_warning(&self) -> Option<crate::warnings::Warning> {
-        let slowest = self
-            .program
-            .path
-            .segments
-            .iter()
-            .filter_map(|s| match s.motion {
-                // Moves mostly across the columns (plunges are resolved in Z).
-                nc::Motion::Feed { feed_mm_min, .. }
-                    if (s.end - s.start).xy().norm() >= 0.5 * (s.end - s.start).norm() =>
-                {
-                    Some(feed_mm_min.min(self.machine.feed_max_mm_min))
-                }
-                _ => None,
-            })
-            .fold(None, |m: Option<f64>, f| Some(m.map_or(f, |m| m.min(f))));
-        let w = crate::warnings::grid_check(
-            // The smallest tool the job uses is the hardest to resolve.
-            self.tools
-                .entries
-                .iter()
-                .map(|e| e.tool.diameter_mm)
-                .fold(self.tool.diameter_mm, f64::min),
-            self.stock.grid().spacing_mm,
-            if self.program.gcode.is_some() {
-                slowest
-            } else {
-                None
-            },
-            self.machine.period_ms,
-        )?;
-        Some(w)
-    }
-
-    /// The job's stock, handed over: a run that sweeps it needs no copy. A
-    /// stock of one column on the same grid spacing is left in its place
-    /// (what [`Setup`] reads of it afterwards is the spacing).
-    pub fn take_stock(&mut self) -> Result<Stock> {
-        let spacing = self.stock.grid().spacing_mm;
-        let one = Stock::new_box([0.0; 3], [spacing; 3], spacing)?;
-        Ok(std::mem::replace(&mut self.stock, one))
-    }
-
-    /// The program as the machine runs it: servo periods for G-code, one step
-    /// per move for CSV point lists.
-    pub fn machine_steps(&self) -> Result<Vec<TimedStep>> {
-        self.steps(false)
-    }
-
-    /// As [`Setup::machine_steps`]; with `actual_path`, the positions are the
-    /// drive model's estimate of where the axes really are (G-code only).
-    pub fn steps(&self, actual_path: bool) -> Result<Vec<TimedStep>> {
-        if self.program.gcode.is_some() {
-            let samples = motion::machine_motion(&self.program.path, &self.machine)?;
-            self.steps_of(samples, actual_path)
-        } else if actual_path {
-            fail!(
-                request,
-                "--actual-path needs a G-code program (CSV point lists have no servo timing)"
-            )
-        } else {
-            Ok(motion::direct_steps(
-                &self.program.path,
-                self.program.stream.as_ref(),
-            ))
-        }
-    }
-
-    /// [`Setup::steps`] with the program's path lent to the planner rather than copied
-    /// (its stations hold it while the servo samples are made, then give it back).
-    pub fn steps_lending_path(&mut self, actual_path: bool) -> Result<Vec<TimedStep>> {
-        if self.program.gcode.is_none() {
-            return self.steps(actual_path);
-        }
-        let path = std::mem::take(&mut self.program.path);
-        let (samples, path) = motion::machine_motion_of(path, &self.machine);
-        self.program.path = path;
-        self.steps_of(samples?, actual_path)
-    }
-
-    /// The timed steps of the program's servo samples (`actual_path`: moved to where
-    /// the drive model says the machine is).
-    fn steps_of(
-        &self,
-        mut samples: Vec<schedule::ServoSample>,
-        actual_path: bool,
-    ) -> Result<Vec<TimedStep>> {
-        if actual_path {
-            let drive = crate::evaluate::drive(&self.job)?;
-            let commanded: Vec<[f64; 3]> = samples.iter().map(|s| s.pos.coords.into()).collect();
-            let actual = servo::simulate_actual(&commanded, self.machine.period_s(), &drive);
-            for (s, a) in samples.iter_mut().zip(actual) {
-                s.pos = nalgebra::Point3::from(a);
-            }
-        }
-        Ok(motion::steps_from_samples(&self.program.path, &samples))
-    }
-}
-
-/// Design comparison (S1): the final surface against the design model.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct DesignInfo {
-    /// Design model file.
-    pub path: String,
-    /// Largest stock left (distance outside the design model), µm.
-    pub max_stock_left_um: f64,
-    /// Deepest gouge (negative distance), µm; 0 if none.
-    pub worst_gouge_um: f64,
-    /// Program line of the step that last cut the worst gouge.
-    pub worst_gouge_line: Option<u32>,
-    /// Column centre of the worst gouge, mm.
-    pub worst_gouge_xy_mm: Option<[f64; 2]>,
-    /// Tolerances the per-line lists use, µm.
-    pub gouge_tolerance_um: f64,
-    /// Stock above the design beyond this is listed, µm.
-    pub stock_tolerance_um: f64,
-    /// Every program line whose cut left a gouge deeper than `gouge_tolerance_um` or stock
-    /// above `stock_tolerance_um` (S1, MODEL.md §8), by line, gouges first.
-    pub lines: Vec<LineDeviation>,
-    /// Columns no step cut that stand above the design by more than `stock_tolerance_um`.
-    pub uncut_stock_columns: usize,
-}
-
-/// Which side of the design a deviation lies on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum DeviationKind {
-    /// Below the design surface: material cut that the part needs.
-    Gouge,
-    /// Above the design surface: material left.
-    Stock,
-}
-
-impl std::fmt::Display for DeviationKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            DeviationKind::Gouge => "gouge",
-            DeviationKind::Stock => "stock",
-        })
-    }
-}
-
-/// One program line's worst deviation from the design of one kind.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct LineDeviation {
-    /// Program line of the step that last cut the columns.
-    pub line: u32,
-    /// Below the design (gouge) or above it (stock).
-    pub kind: DeviationKind,
-    /// Worst signed distance, µm (negative for a gouge).
-    pub worst_um: f64,
-    /// Column centre of the worst one, mm.
-    pub x_mm: f64,
-    /// Column centre, y, mm.
-    pub y_mm: f64,
-    /// Number of columns beyond the tolerance whose last cut was on this line.
-    pub columns: usize,
-}
-
-/// Per program line, the columns beyond tolerance (MODEL.md §8): `deviations` is
-/// `(line of the last cut or None, signed distance µm, x mm, y mm)` for each column.
-fn line_deviations(
-    deviations: impl Iterator<Item = (Option<u32>, f64, f64, f64)>,
-    gouge_tolerance_um: f64,
-    stock_tolerance_um: f64,
-) -> (Vec<LineDeviation>, usize) {
-    let mut by_line: std::collections::BTreeMap<(u32, u8), LineDeviation> = Default::default();
-    let mut uncut = 0;
-    for (line, d_um, x_mm, y_mm) in deviations {
-        let kind = if d_um < -gouge_tolerance_um {
-            (0u8, DeviationKind::Gouge)
-        } else if d_um > stock_tolerance_um {
-            (1u8, DeviationKind::Stock)
-        } else {
-            continue;
-        };
-        let Some(line) = line else {
-            uncut += usize::from(kind.0 == 1);
-            continue;
-        };
-        let entry = by_line.entry((line, kind.0)).or_insert(LineDeviation {
-            line,
-            kind: kind.1,
-            worst_um: d_um,
-            x_mm,
-            y_mm,
-            columns: 0,
-        });
-        entry.columns += 1;
-        if d_um.abs() > entry.worst_um.abs() {
-            (entry.worst_um, entry.x_mm, entry.y_mm) = (d_um, x_mm, y_mm);
-        }
-    }
-    (by_line.into_values().collect(), uncut)
-}
-
-/// Signed distance (µm) of each column's top (the final stock's top heights) to the design model; positive = stock left.
-fn design_comparison(setup: &Setup, run: &Run) -> Result<Option<(Vec<f32>, DesignInfo)>> {
-    let Some((path, model)) = &setup.design else {
-        return Ok(None);
-    };
-    let tops = run.stock.top_heights();
-    let grid = *run.stock.grid();
-    let point = |i: usize| {
-        [
-            grid.x_mm(i % grid.nx),
-            grid.y_mm(i / grid.nx),
-            tops[i] as f64,
-        ]
-    };
-    let valid: Vec<usize> = (0..tops.len()).filter(|&i| tops[i].is_finite()).collect();
-    let distances = model.signed_distances_mm(&valid.iter().map(|&i| point(i)).collect::<Vec<_>>());
-    let mut diff_um = vec![f32::NAN; tops.len()];
-    for (&i, d) in valid.iter().zip(&distances) {
-        diff_um[i] = (d * 1000.0) as f32;
-    }
-    let last_cut = run.stock.last_cut();
-    let line_of = |i: usize| {
-        let step = last_cut[i];
-        (step != NEVER_CUT).then(|| run.steps[step as usize].line)
-    };
-    let spec = setup.job.design.as_ref();
-    let gouge_tolerance_um = spec.map_or(10.0, |d| d.gouge_tolerance_um);
-    let stock_tolerance_um = spec.map_or(50.0, |d| d.stock_tolerance_um);
-    let (lines, uncut_stock_columns) = line_deviations(
-        valid.iter().zip(&distances).map(|(&i, d)| {
-            let [x, y, _] = point(i);
-            (line_of(i), d * 1000.0, x, y)
-        }),
-        gouge_tolerance_um,
-        stock_tolerance_um,
-    );
-    let mut info = DesignInfo {
-        path: path.display().to_string(),
-        max_stock_left_um: distances.iter().copied().fold(0.0, f64::max) * 1000.0,
-        worst_gouge_um: 0.0,
-        worst_gouge_line: None,
-        worst_gouge_xy_mm: None,
-        gouge_tolerance_um,
-        stock_tolerance_um,
-        lines,
-        uncut_stock_columns,
-    };
-    if let Some((j, d)) = distances
-        .iter()
-        .enumerate()
-        .min_by(|a, b| a.1.total_cmp(b.1))
-    {
-        if *d < 0.0 {
-            let i = valid[j];
-            let [x, y, _] = point(i);
-            info.worst_gouge_um = d * 1000.0;
-            info.worst_gouge_xy_mm = Some([x, y]);
-            info.worst_gouge_line = line_of(i);
-        }
-    }
-    Ok(Some((diff_um, info)))
-}
-
-/// summary.json of `simulate` (schema in [`crate::summary`]).
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct SimulateSummary {
-    /// Headline numbers of the run.
-    #[serde(flatten)]
-    pub run: Summary,
-    /// Job file.
-    pub job: String,
-    /// Program file.
-    pub program: String,
-    /// Stock grid, so `report` can rebuild the maps.
-    pub grid: GridInfo,
-    /// The final surface against the `[design]` model.
-    pub design: Option<DesignInfo>,
-    /// Material, tools, machine and limits of the job.
-    #[serde(default)]
-    pub setup: Option<crate::summary::SetupInfo>,
-    /// Wall time of the command, s.
-    pub run_time_s: f64,
-    /// The run that wrote the folder (as in manifest.json).
-    pub run_id: String,
-}
+pub use crate::input::example::write as example;
+/// The summary.json schema types, at the paths they had here.
+pub use crate::model::summary::{
+    DesignInfo, DeviationKind, LimitsOut, LineDeviation, OptimizeSummary, SimulateSummary,
+};
+pub use crate::setup::{Setup, MAX_LINEARISED_SEGMENTS};
 
 /// Write the steps (steps.csv and/or the steps' `.npy` arrays, as
 /// `steps_format` says) and the per-column results of a run (the `.npy` grid,
@@ -645,43 +36,15 @@ fn write_run(
     steps_format: StepsFormat,
     columns_csv: bool,
 ) -> Result<Option<DesignInfo>> {
-    let design = design_comparison(setup, run)?;
-    write_run_files(run, design.as_ref(), out, steps_format, columns_csv)?;
-    Ok(design.map(|d| d.1))
-}
-
-/// The steps (`steps.csv` and/or `steps.json` with its `.npy` arrays, as
-/// `steps_format` says) and the per-column results of a run (the `.npy` grid,
-/// and columns.csv when `columns_csv`) into `out`.
-fn write_run_files(
-    run: &Run,
-    design: Option<&(Vec<f32>, DesignInfo)>,
-    out: &Path,
-    steps_format: StepsFormat,
-    columns_csv: bool,
-) -> Result<StepsFormat> {
-    let steps_format = run.write_steps(out, "steps", steps_format)?;
-    // With a design model each column also names the program line that last cut it (S1).
-    let lines: Option<Vec<i32>> = design.as_ref().map(|_| {
-        run.stock
-            .last_cut()
-            .iter()
-            .map(|&s| {
-                if s == NEVER_CUT {
-                    -1
-                } else {
-                    run.steps[s as usize].line as i32
-                }
-            })
-            .collect()
-    });
-    run.write_columns(
+    let design = crate::design::design_comparison(setup, run)?;
+    crate::output::run_files::write_run_files(
+        run,
+        design.as_ref(),
         out,
-        design.map(|d| d.0.as_slice()),
-        lines.as_deref(),
+        steps_format,
         columns_csv,
     )?;
-    Ok(steps_format)
+    Ok(design.map(|d| d.1))
 }
 
 /// A simulated program: the run, its headline numbers and the comparison with
@@ -708,7 +71,7 @@ impl Simulation {
         columns_csv: bool,
         steps_format: StepsFormat,
     ) -> Result<StepsFormat> {
-        write_run_files(
+        crate::output::run_files::write_run_files(
             &self.run,
             self.design.as_ref(),
             out,
@@ -730,20 +93,20 @@ pub fn simulate_setup(setup: &Setup, actual_path: bool) -> Result<Simulation> {
 /// [`simulate_setup`] of the program's timed steps through `stock` (the
 /// job's stock, or a copy of it). A box or a cylinder is made again from its
 /// closed form for each pass, in the memory of the stock handed over, so the
-/// run holds one stock (issue 16); a mesh stock is copied for each pass.
+/// run holds one stock; a mesh stock is copied for each pass.
 fn simulate_steps(setup: &Setup, stock: Stock, steps: Vec<TimedStep>) -> Result<Simulation> {
-    let stock = match crate::stock::solid(&setup.job.stock) {
-        Some(solid) => simulate::StockSource::Made(stock, solid),
-        None => simulate::StockSource::Whole(stock),
+    let stock = match crate::input::stock::solid(&setup.job.stock) {
+        Some(solid) => run::StockSource::Made(stock, solid),
+        None => run::StockSource::Whole(stock),
     };
-    let run = simulate::run_on(stock, &setup.tools, steps, "simulate")?;
+    let run = run::run_on(stock, &setup.tools, steps, "simulate")?;
     let mut summary = run.summary();
     summary.check_finite()?;
     summary
         .warnings
         .0
         .splice(0..0, setup.warnings.iter().cloned());
-    let design = design_comparison(setup, &run)?;
+    let design = crate::design::design_comparison(setup, &run)?;
     Ok(Simulation {
         run,
         summary,
@@ -770,7 +133,7 @@ fn announce_setup_warnings(setup: &Setup, on_warning: OnWarning) {
 /// once and are refused.
 fn simulate_tiled(
     setup: &Setup,
-    tiling: &crate::stock::Tiling,
+    tiling: &crate::input::stock::Tiling,
     actual_path: bool,
     columns_csv: bool,
     steps_format: StepsFormat,
@@ -778,14 +141,14 @@ fn simulate_tiled(
 ) -> Result<(Simulation, StepsFormat)> {
     refuse_whole_stock_outputs(setup, tiling, columns_csv)?;
     let steps = setup.steps(actual_path)?;
-    let mut run = simulate::run_on(
-        simulate::StockSource::Tiled(tiling),
+    let mut run = run::run_on(
+        run::StockSource::Tiled(tiling),
         &setup.tools,
         steps,
         "simulate",
     )?;
     let steps_format = run.write_steps(out, "steps", steps_format)?;
-    simulate::write_tiled_columns(&mut run, tiling, &setup.tools, Some(out))?;
+    run::write_tiled_columns(&mut run, tiling, &setup.tools, Some(out))?;
     let mut summary = run.summary();
     summary.check_finite()?;
     summary
@@ -807,7 +170,7 @@ fn simulate_tiled(
 /// run.
 fn refuse_whole_stock_outputs(
     setup: &Setup,
-    tiling: &crate::stock::Tiling,
+    tiling: &crate::input::stock::Tiling,
     columns_csv: bool,
 ) -> Result<()> {
     if setup.design.is_some() {
@@ -836,7 +199,7 @@ pub struct Banded {
 
 impl Banded {
     /// How `tiling` sweeps its stock.
-    pub fn of(tiling: &crate::stock::Tiling) -> Banded {
+    pub fn of(tiling: &crate::input::stock::Tiling) -> Banded {
         Banded {
             nx: tiling.grid.nx,
             ny: tiling.grid.ny,
@@ -860,6 +223,13 @@ pub struct Simulated {
 
 /// `dexcut simulate JOB --out DIR` (`memory_budget_mb`: `--memory-budget-mb`;
 /// `steps_format`: `--steps-format`).
+///
+/// Memory: on a stock that fits, what the sweep does not need is let go
+/// before it, in this order: the job's stock is taken out of the setup
+/// ([`Setup::take_stock`]) and, for a box or a cylinder, dropped (made again
+/// of its closed form after the planning); the program's path is lent to the
+/// planner ([`Setup::steps_lending_path`]); then the path and a G-code
+/// program's text are emptied (the steps carry what the run needs of them).
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
     job: JobArg,
@@ -883,8 +253,8 @@ pub fn simulate(
             // fewer held). A box or a cylinder is let go while the program is
             // planned and made again of its closed form after, the same
             // columns bit for bit (`stock::build`): planning and the stock
-            // were the peak of the raster at 0.05 (issue 16).
-            let solid = crate::stock::solid(&setup.job.stock);
+            // were the peak of the raster at 0.05.
+            let solid = crate::input::stock::solid(&setup.job.stock);
             let held = setup.take_stock()?;
             let held = match solid {
                 Some(_) => {
@@ -904,7 +274,7 @@ pub fn simulate(
             }
             let stock = match held {
                 Some(stock) => stock,
-                None => crate::stock::build(&setup.job)?,
+                None => crate::input::stock::build(&setup.job)?,
             };
             let sim = simulate_steps(&setup, stock, steps)?;
             let written = sim.write_files(out_dir.path(), columns_csv, steps_format)?;
@@ -930,7 +300,7 @@ pub fn simulate(
         run_time_s: started.elapsed().as_secs_f64(),
         run_id: out_dir.run_id(),
     };
-    crate::summary::write_simulate(&out_dir.path().join("summary.json"), &doc)?;
+    crate::model::summary::write_simulate(&out_dir.path().join("summary.json"), &doc)?;
     out_dir.commit("simulate")?;
     Ok(Simulated {
         summary: doc,
@@ -939,97 +309,8 @@ pub fn simulate(
     })
 }
 
-/// summary.json of `optimize` (schema in [`crate::summary`]).
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct OptimizeSummary {
-    /// Job file.
-    pub job: String,
-    /// Program file.
-    pub program: String,
-    /// Stock grid, so `report` can rebuild the maps.
-    pub grid: GridInfo,
-    /// The program as given.
-    pub before: Summary,
-    /// optimized.nc read back and simulated.
-    pub after: Summary,
-    /// The limits it worked to.
-    pub limits: LimitsOut,
-    /// Share of the re-timed program's time spent at each cap.
-    pub cap_time_share: Vec<optimize::CapShare>,
-    /// Σ Δs / cap: no schedule under these caps can be faster.
-    pub lower_bound_time_s: f64,
-    /// (after − bound) / bound.
-    #[serde(deserialize_with = "crate::summary::f64_or_nan")]
-    pub optimality_gap: f64,
-    /// Planner stations along the path.
-    pub stations: usize,
-    /// Spacing of the planner stations, mm.
-    pub station_spacing_mm: f64,
-    /// Peak MRR per servo period of the written program / mrr_max (≤ 1.02 is the target).
-    pub peak_mrr_ratio: Option<f64>,
-    /// Cycle time of the plan as written (each block at its feed), s.
-    pub plan_time_s: f64,
-    /// Cycle time with feeds free to change every 0.05 mm under the same caps, s.
-    pub time_optimal_s: f64,
-    /// (written program's cycle time − plan's) / plan's.
-    #[serde(deserialize_with = "crate::summary::f64_or_nan")]
-    pub written_vs_plan: f64,
-    /// Rounds of writing, re-simulating and correcting the program.
-    pub rounds: usize,
-    /// Feeds within this ratio share a block in optimized.nc.
-    pub merge_ratio: f64,
-    /// The program as given was within every limit and faster: optimized.nc is the original.
-    pub kept_original: bool,
-    /// Largest feed per tooth on cutting moves, mm/tooth.
-    pub fz_max_mm: Option<f64>,
-    /// The final surface against the `[design]` model.
-    pub design: Option<DesignInfo>,
-    /// Material, tools, machine and limits of the job.
-    #[serde(default)]
-    pub setup: Option<crate::summary::SetupInfo>,
-    /// Wall time of the command, s.
-    pub run_time_s: f64,
-    /// Wall time of the engagement sweep, s.
-    pub time_engagement_s: f64,
-    /// Wall time of planning and writing the program, s.
-    pub time_plan_s: f64,
-    /// Wall time of simulating the program as given, s.
-    pub time_simulate_s: f64,
-    /// The run that wrote the folder (as in manifest.json).
-    pub run_id: String,
-}
-
-/// The limits optimize worked to, as summary.json records them.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct LimitsOut {
-    /// `mrr_max`, mm³/s.
-    pub mrr_max_mm3_s: Option<f64>,
-    /// `force_max`, N.
-    pub force_max_n: Option<f64>,
-    /// `deflection_max_um`, µm.
-    pub deflection_max_um: Option<f64>,
-    /// `power_max_kw`, kW.
-    pub power_max_kw: Option<f64>,
-    /// `feed_min`, mm/min.
-    pub feed_min_mm_min: Option<f64>,
-    /// The machine's highest feed, mm/min.
-    pub feed_max_mm_min: f64,
-    /// fz_max · flutes · spindle rpm of the first tool, mm/min (`chip_load`
-    /// gives every tool's).
-    pub chip_load_feed_mm_min: Option<f64>,
-    /// Every tool's chip-load cap against its programmed cutting feed.
-    #[serde(default)]
-    pub chip_load: Vec<optimize::ToolChipLoad>,
-    /// `feed_scale_max`: at most this times the programmed feed.
-    pub feed_scale_max: Option<f64>,
-    /// The lowest `stress_limit_mpa` of the job's tools, MPa, where `[limits]
-    /// stress` holds the tools to it (each tool is held to its own); None when off.
-    #[serde(default)]
-    pub stress_limit_mpa: Option<f64>,
-}
-
 /// The job a run reads: a job file, the built-in example, or a job fitted to
-/// a program ([`crate::fitted_job`]).
+/// a program ([`crate::input::fitted_job`]).
 #[derive(Clone, Copy)]
 pub enum JobArg<'a> {
     /// A job file (TOML).
@@ -1037,7 +318,7 @@ pub enum JobArg<'a> {
     /// The built-in boss_contour example.
     Example,
     /// A job fitted to a G-code program.
-    Fitted(&'a crate::fitted_job::FittedJob),
+    Fitted(&'a crate::input::fitted_job::FittedJob),
 }
 
 /// Load the job and begin the output folder. A job file is read where it is;
@@ -1069,7 +350,7 @@ fn begin_run(
     let dir = out.join("input");
     let staged = out_dir.path().join("input");
     let job_file = match written {
-        None => crate::example::write_files(&staged)?,
+        None => crate::input::example::write_files(&staged)?,
         Some(f) => {
             std::fs::create_dir_all(&staged).map_err(|e| Error::io("cannot create", &staged, e))?;
             let path = staged.join("job.toml");
@@ -1158,6 +439,14 @@ pub struct Optimized {
 /// `started` is when the run began (for `run_time_s`). The setup's path is
 /// lent to the free stations through the rounds and is back when this
 /// returns, with an error too.
+///
+/// Memory, in this order: the program as given is swept with its path lent
+/// to the planner ([`Setup::steps_lending_path`]); its run is written out
+/// (steps_before) and dropped before the rounds where the steps' format is
+/// known without the written program's step count, else only its stock is
+/// let go; the setup's path is then taken (`std::mem::take`) into the free
+/// stations ([`optimize::FreeStations`]) for the rounds and the outputs, and
+/// put back (read again from its text where it was handed over) at the end.
 pub fn optimize_setup(
     setup: &mut Setup,
     out_dir: OutDir,
@@ -1173,15 +462,15 @@ pub fn optimize_setup(
     }
     // Before: the program as written. Its path is lent to the planner's
     // stations, not copied into them (126 MB for a million blocks beside the
-    // plan: issue 16).
+    // plan).
     let t0 = Instant::now();
     let before_steps = setup.steps_lending_path(false)?;
-    let mut before = simulate::run_on(setup.stock_source(), &setup.tools, before_steps, "before")?;
+    let mut before = run::run_on(setup.stock_source(), &setup.tools, before_steps, "before")?;
     if let Some(tiling) = &setup.tiling {
         // Its volumes and error range, band by band (nothing written).
-        simulate::write_tiled_columns(&mut before, tiling, &setup.tools, None)?;
+        run::write_tiled_columns(&mut before, tiling, &setup.tools, None)?;
     }
-    crate::heap_mark(format_args!("the program read, the program as given swept"));
+    crate::util::heap_mark(format_args!("the program read, the program as given swept"));
     let limits = &setup.job.limits;
     let before_summary = before.summary();
     // Every tool's chip-load cap against what the program feeds it, told before the rounds.
@@ -1191,7 +480,7 @@ pub fn optimize_setup(
         &setup.program,
         &setup.job.cutting.material,
     );
-    let chip_warnings = crate::warnings::chip_load_check(&chip_load, &setup.tools);
+    let chip_warnings = optimize::chip_load_check(&chip_load, &setup.tools);
     for w in &chip_warnings {
         on_warning(w);
     }
@@ -1218,7 +507,7 @@ pub fn optimize_setup(
         before.stock = dexel::Stock::new_box([0.0; 3], [spacing; 3], spacing)?;
         Some(before)
     };
-    crate::heap_mark(format_args!("steps_before written"));
+    crate::util::heap_mark(format_args!("steps_before written"));
     let time_simulate_s = t0.elapsed().as_secs_f64();
     // Engagement along fine stations, caps, re-timing.
     let t1 = Instant::now();
@@ -1229,13 +518,13 @@ pub fn optimize_setup(
     // reads the setup's path in between. A G-code program's is handed to the
     // re-feed and read again from its text where it is needed
     // ([`optimize::FreeStations::Given`]): not held beside the written
-    // program's run, nor while its outputs are written (issue 16).
+    // program's run, nor while its outputs are written.
     let path = std::mem::take(&mut setup.program.path);
     let (rounds, free) = match optimize::free_stations_of(path, &machine) {
         Err((e, path)) => (Err(e), optimize::FreeStations::Released(path)),
         Ok(stations) => {
             let mut free = optimize::FreeStations::Made(Box::new(stations));
-            let rounds = optimize_rounds(setup, &machine, &mut free, given, t1, staged);
+            let rounds = optimize::caps_and_rounds(setup, &machine, &mut free, given, t1, staged);
             (rounds, free)
         }
     };
@@ -1265,7 +554,7 @@ pub fn optimize_setup(
         (Err(e), Ok(_)) => return Err(e),
         (Err(_), Err(_)) => nc::Path::default(),
     };
-    crate::heap_mark(format_args!("summary written, the path read again"));
+    crate::util::heap_mark(format_args!("summary written, the path read again"));
     optimized
 }
 
@@ -1274,11 +563,11 @@ struct AsGiven {
     summary: Summary,
     /// Its run, where steps_before is written with the written program's
     /// (its format chosen by the longer of the two); its stock let go.
-    run: Option<simulate::Run>,
+    run: Option<run::Run>,
     /// Its number of steps.
     steps: usize,
     chip_load: Vec<optimize::ToolChipLoad>,
-    chip_warnings: Vec<crate::warnings::Warning>,
+    chip_warnings: Vec<Warning>,
     stress_limit_mpa: Option<f64>,
     time_simulate_s: f64,
 }
@@ -1300,12 +589,17 @@ fn optimize_outputs(
     out_dir: &OutDir,
     machine: &schedule::Machine,
     as_given: AsGiven,
-    rounds: (usize, f64, optimize::Written, Instant),
+    rounds: optimize::Rounds,
     asked: OutputsAsked,
 ) -> Result<Optimized> {
     let limits = &setup.job.limits;
     let staged = out_dir.path();
-    let (n_stations, time_engagement_s, written, t2) = rounds;
+    let optimize::Rounds {
+        stations: n_stations,
+        time_engagement_s,
+        written,
+        plan_started: t2,
+    } = rounds;
     let OutputsAsked {
         started,
         columns_csv,
@@ -1316,15 +610,15 @@ fn optimize_outputs(
     let mut after_run = written.run;
     if let Some(tiling) = &setup.tiling {
         // The `.npy` grid written band by band, which sets the volumes.
-        simulate::write_tiled_columns(&mut after_run, tiling, &setup.tools, Some(staged))?;
+        run::write_tiled_columns(&mut after_run, tiling, &setup.tools, Some(staged))?;
     }
     let after = &after_run;
     let mut after_summary = after.summary();
     as_given.summary.check_finite()?;
     after_summary.check_finite()?;
     if written.excesses_left > 0 {
-        after_summary.warnings.push(crate::warnings::Warning {
-        kind: crate::warnings::WarningKind::LimitExceeded,
+        after_summary.warnings.push(Warning {
+        kind: WarningKind::LimitExceeded,
         line: None,
         value: written.excesses_left as f64,
         unit: "periods".into(),
@@ -1341,23 +635,20 @@ fn optimize_outputs(
         setup.warnings.iter().cloned().chain(as_given.chip_warnings),
     );
     optimize::stress_left(after, limits, written.rounds, &mut after_summary.warnings);
-    let (mut unresolved, mut held) = (
-        crate::warnings::LineTally::new(),
-        crate::warnings::LineTally::new(),
-    );
+    let (mut unresolved, mut held) = (LineTally::new(), LineTally::new());
     for e in &written.unresolved {
         let tally = if e.held { &mut held } else { &mut unresolved };
-        crate::warnings::tally(tally, e.line, 100.0 * e.over_limit);
+        warnings::tally(tally, e.line, 100.0 * e.over_limit);
     }
     after_summary.warnings.from_lines(
-        crate::warnings::WarningKind::LimitExceeded,
+        WarningKind::LimitExceeded,
         &held,
         "%",
         false,
         |v, lines| format!("servo periods up to {v:.0} % above a limit at {lines}, where a tapping cycle (G84/G74) runs: its feed is the tap's pitch times the spindle speed, held as programmed (LinuxCNC runs it with the feed override off), so optimize does not slow it; to lower the load there, lower the spindle speed and F together"),
     );
     after_summary.warnings.from_lines(
-    crate::warnings::WarningKind::CoarseGrid,
+    WarningKind::CoarseGrid,
     &unresolved,
     "%",
     false,
@@ -1365,8 +656,8 @@ fn optimize_outputs(
 );
     let written_vs_plan = after_summary.cycle_time_s / written.plan_time_s - 1.0;
     if written_vs_plan > optimize::PLAN_TOLERANCE && !written.kept_original {
-        after_summary.warnings.push(crate::warnings::Warning {
-        kind: crate::warnings::WarningKind::PlanNotMet,
+        after_summary.warnings.push(Warning {
+        kind: WarningKind::PlanNotMet,
         line: None,
         value: 100.0 * written_vs_plan,
         unit: "%".into(),
@@ -1392,7 +683,7 @@ fn optimize_outputs(
     }
     // Files for the machine are in its own Z, as optimized.nc is.
     let z_sign = if setup.program.z_down { -1.0 } else { 1.0 };
-    write_servo_csv(
+    crate::output::servo_csv::write_servo_csv(
         &staged.join("servo.csv"),
         written.samples.rows(&after.steps),
         &after.steps,
@@ -1413,7 +704,7 @@ fn optimize_outputs(
     } else {
         None
     };
-    crate::heap_mark(format_args!("steps, columns and servo.csv written"));
+    crate::util::heap_mark(format_args!("steps, columns and servo.csv written"));
     let lower_bound_time_s = written.lower_bound_time_s;
     let doc = OptimizeSummary {
         job: setup.job.name.clone(),
@@ -1460,7 +751,7 @@ fn optimize_outputs(
         time_simulate_s: as_given.time_simulate_s,
         run_id: out_dir.run_id(),
     };
-    crate::summary::write_optimize(&staged.join("summary.json"), &doc)?;
+    crate::model::summary::write_optimize(&staged.join("summary.json"), &doc)?;
     Ok(Optimized {
         summary: doc,
         precomp,
@@ -1469,147 +760,8 @@ fn optimize_outputs(
     })
 }
 
-/// [`optimize_setup`]'s engagement along the free `stations` (begun at
-/// `t1`), their caps and the rounds of [`optimize::write_verified`]: the
-/// number of stations, the engagement's time, what was written (optimized.nc
-/// into `staged`) and when the rounds began.
-fn optimize_rounds(
-    setup: &Setup,
-    machine: &schedule::Machine,
-    free: &mut optimize::FreeStations,
-    given: optimize::Given,
-    t1: Instant,
-    staged: &Path,
-) -> Result<(usize, f64, optimize::Written, Instant)> {
-    let stations = free.stations(machine, setup)?;
-    let limits = &setup.job.limits;
-    let surface = match (&setup.design, limits.angle_rule) {
-        (_, false) => optimize::SurfaceFrom::Nothing,
-        (Some((_, model)), true) => optimize::SurfaceFrom::Design(model),
-        (None, true) => optimize::SurfaceFrom::Stock,
-    };
-    // The caps made as the sweep makes each interval's engagement final
-    // (per station: loads, areas and angles not held, issue 16).
-    let caps = optimize::engagement_caps_on(
-        stations,
-        &setup.stock_source(),
-        &setup.tools,
-        limits,
-        surface,
-    )?;
-    let time_engagement_s = t1.elapsed().as_secs_f64();
-    crate::heap_mark(format_args!("engagement and caps"));
-    let t2 = Instant::now();
-    let n_stations = stations.len();
-    let written = optimize::write_verified(setup, machine, free, caps, given, staged)?;
-    Ok((n_stations, time_engagement_s, written, t2))
-}
-
-/// servo.csv: commanded positions every period with path feed, axis
-/// velocities, the tool and spindle speed of the block each lies on, and
-/// whether the move to it is a rapid (`rapid`). A period that the run
-/// `steps` (swept from these samples) splits where the motion changes between
-/// rapid and feed also gets a row at each such corner, with the time the run
-/// gave it and `sample` = 0 (a servo sample: 1). Read as a program (a point
-/// list with `t_s`), it is simulated as the optimised run, step for step.
-/// Z and its velocity are in the machine's own Z (`z_sign` −1 where it points down).
-fn write_servo_csv(
-    path: &Path,
-    samples: impl Iterator<Item = motion::SampleRow>,
-    steps: &[TimedStep],
-    z_sign: f64,
-) -> Result<()> {
-    let mut periods = motion::periods(steps);
-    export::atomic::write_file(path, |w| {
-        let mut out = csv::Writer::from_writer(w);
-        out.write_record([
-            "t_s",
-            "x",
-            "y",
-            "z",
-            "feed_mm_min",
-            "vx_mm_s",
-            "vy_mm_s",
-            "vz_mm_s",
-            "tool",
-            "spindle_rpm",
-            "rapid",
-            "sample",
-        ])?;
-        let flag = |b: bool| if b { 1.0 } else { 0.0 };
-        let mut before: Option<motion::SampleRow> = None;
-        for (i, s) in samples.enumerate() {
-            let (tool, rpm) = (s.tool, s.spindle_rpm);
-            // The axis velocities over the period.
-            let v = before.map_or(nalgebra::Vector3::zeros(), |b| {
-                schedule::axis_velocity_between_mm_s((b.pos, b.t_s), (s.pos, s.t_s))
-            });
-            // The period's steps (none before the first sample).
-            let period = match i {
-                0 => &steps[..0],
-                _ => periods.next().map_or(&steps[..0], |p| &steps[p]),
-            };
-            // Its corners, each where a part of positive duration ends
-            // before the sample (a corner at the time of the row before it
-            // or of the sample adds nothing: that part is empty). The move to
-            // the sample takes the kind of its last part that moves.
-            let mut t_row = before.map_or(f64::NEG_INFINITY, |b| b.t_s);
-            let mut kind = steps.first().is_some_and(|p| p.step.rapid);
-            let mut moved = false;
-            for (j, c) in period.iter().enumerate() {
-                let corner = j + 1 < period.len() && c.t_end_s > t_row && c.t_end_s < s.t_s;
-                if corner {
-                    let [x, y, z] = c.step.to_mm;
-                    out.write_record(
-                        [
-                            c.t_end_s,
-                            x,
-                            y,
-                            z_sign * z,
-                            c.feed_mm_min,
-                            v.x,
-                            v.y,
-                            z_sign * v.z,
-                            c.tool as f64,
-                            c.spindle_rpm,
-                            flag(c.step.rapid),
-                            0.0,
-                        ]
-                        .map(simulate::fmt),
-                    )?;
-                    t_row = c.t_end_s;
-                    moved = false;
-                } else if !moved || c.step.from_mm != c.step.to_mm {
-                    kind = c.step.rapid;
-                    moved = c.step.from_mm != c.step.to_mm;
-                }
-            }
-            out.write_record(
-                [
-                    s.t_s,
-                    s.pos.x,
-                    s.pos.y,
-                    z_sign * s.pos.z,
-                    s.feed_mm_min,
-                    v.x,
-                    v.y,
-                    z_sign * v.z,
-                    tool as f64,
-                    rpm,
-                    flag(kind),
-                    1.0,
-                ]
-                .map(simulate::fmt),
-            )?;
-            before = Some(s);
-        }
-        out.flush()
-    })
-    .map_err(|e| Error::io("cannot write", path, e))
-}
-
 /// `dexcut report DIR`.
-pub fn report(dir: &Path) -> Result<crate::ReportFiles> {
+pub fn report(dir: &Path) -> Result<crate::report::ReportFiles> {
     crate::report::write_report(dir)
 }
 

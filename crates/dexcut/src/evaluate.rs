@@ -5,36 +5,15 @@
 
 use std::path::Path;
 
-use crate::error::{fail, Context as _, Error, Result, ResultExt as _};
+use crate::error::{fail, Error, Result, ResultExt as _};
 use schedule::Machine;
 use serde::Serialize;
-use servo::{Drive, DriveOrder, Evaluation, Weights};
+use servo::{Drive, Evaluation, Weights};
 
-use crate::commands::Setup;
-use crate::job::Job;
+use crate::input::job::Job;
 use crate::motion;
-use crate::simulate::{fmt, write_json};
-
-/// The drive model from [servo].
-pub fn drive(job: &Job) -> Result<Drive> {
-    let s = &job.servo;
-    let order = match (s.zeta, s.omega_n) {
-        (Some(zeta), Some(omega_n_rad_s)) => DriveOrder::Second {
-            zeta,
-            omega_n_rad_s,
-        },
-        _ => DriveOrder::First,
-    };
-    let drive = Drive {
-        kp_per_s: s.kp,
-        feedforward: s.feedforward,
-        order,
-    };
-    drive
-        .validate()
-        .or_job(|| format!("{}: invalid [servo]", job.name))?;
-    Ok(drive)
-}
+use crate::setup::{drive, MachineSettings, ServoSettings, Settings, Setup};
+use crate::util::{fmt, write_json};
 
 fn weights(job: &Job, reference_time_s: f64) -> Weights {
     let s = &job.servo;
@@ -171,65 +150,6 @@ fn write_positions_csv(path: &Path, positions: &[[f64; 3]], period_s: f64) -> Re
         out.flush()
     })
     .map_err(|e| Error::io("cannot write", path, e))
-}
-
-/// The machine and drive settings that `evaluate --sweep` varies, as a job
-/// fragment (`best.toml`): `[machine] accel`, `jerk` (absent: no jerk limit)
-/// and `[servo] kp`. `optimize` and `evaluate` take it with `--settings FILE`,
-/// over the job's own values (MODEL.md §7.2).
-#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Settings {
-    pub machine: MachineSettings,
-    pub servo: ServoSettings,
-}
-
-/// `[machine]` of a [`Settings`] fragment.
-#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MachineSettings {
-    /// Per-axis acceleration limit, mm/s².
-    pub accel: [f64; 3],
-    /// Per-axis jerk limit, mm/s³; none when absent.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub jerk: Option<[f64; 3]>,
-}
-
-/// `[servo]` of a [`Settings`] fragment.
-#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ServoSettings {
-    /// Position loop gain, 1/s.
-    pub kp: f64,
-}
-
-impl Settings {
-    /// Read a fragment; errors name the file, line and column, or the key.
-    pub fn load(path: &Path) -> Result<Settings> {
-        let text = crate::bounds::read_text(path, "settings", crate::bounds::MAX_JOB_BYTES)?;
-        let name = path.display().to_string();
-        toml::from_str(&text).map_err(|e| {
-            let at = e.span().map_or_else(
-                || name.clone(),
-                |s| crate::job::location(&name, &text, s.start),
-            );
-            Error::job(format!("{at}: {}", e.message()))
-        })
-    }
-
-    /// Put these settings into `job` and check it again.
-    pub fn apply(&self, job: &mut Job, source: &Path) -> Result<()> {
-        job.machine.accel = self.machine.accel;
-        job.machine.jerk = self.machine.jerk;
-        job.servo.kp = self.servo.kp;
-        job.validate()
-            .context_with(|| format!("{}: invalid settings for {}", source.display(), job.name))
-    }
-
-    /// The fragment as TOML text.
-    pub fn to_toml(&self) -> Result<String> {
-        toml::to_string(self).or_run(|| "cannot write the settings as TOML".into())
-    }
 }
 
 /// One set of machine settings tried by `evaluate --sweep`, with its score.
@@ -423,7 +343,7 @@ pub fn evaluate(
     let mut inputs = setup.input_files(job_path);
     inputs.extend(servo_csv.map(Path::to_path_buf));
     inputs.extend(settings.map(Path::to_path_buf));
-    let out_dir = crate::outdir::OutDir::begin(out, &inputs, force)?;
+    let out_dir = crate::output::outdir::OutDir::begin(out, &inputs, force)?;
     let period_s = setup.machine.period_s();
     let ev = evaluate_setup(&setup, servo_csv, sweep)?;
     let pre = &ev.precomp;

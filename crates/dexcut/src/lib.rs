@@ -76,6 +76,7 @@ use std::time::Instant;
 
 mod bounds;
 pub mod commands;
+mod design;
 mod error;
 mod evaluate;
 mod input;
@@ -86,27 +87,24 @@ mod motion;
 /// (`tests/source_methods.rs`).
 #[doc(hidden)]
 pub mod optimize;
-mod outdir;
+mod output;
 pub mod progress;
 mod report;
 mod run;
-mod steps_out;
-pub mod summary;
+mod setup;
 mod util;
-mod warnings;
 
-pub use input::fitted_job;
-pub(crate) use input::{example, job, program, stock, tools}; // TEMP-ALIAS
-use run as simulate;
-pub(crate) use util::heap_mark; // TEMP-ALIAS // TEMP-ALIAS
-
-pub use commands::{Optimized, Setup, Simulation};
+pub use commands::{Optimized, Simulation};
 pub use error::{Error, Result, Source};
 pub use evaluate::{DriveEvaluation, SweepRow};
+pub use input::fitted_job;
+pub use model::summary;
+pub use model::warnings::{Warning, WarningKind, Warnings};
+pub use model::Summary;
+pub use output::steps::{StepsFormat, AUTO_NPY_STEPS};
 pub use report::ReportFiles;
-pub use run::{Run, Summary};
-pub use steps_out::{StepsFormat, AUTO_NPY_STEPS};
-pub use warnings::{Warning, WarningKind, Warnings};
+pub use run::Run;
+pub use setup::Setup;
 
 /// Load a job file (TOML) and everything it names (program, stock mesh, design
 /// model, tool table), each checked before any work. `grid_mm` overrides the
@@ -131,7 +129,7 @@ pub fn simulate(setup: &Setup, actual_path: bool) -> Result<Simulation, Error> {
 /// and is back in the setup when this returns, with an error too.
 pub fn optimize(setup: &mut Setup, out: &Path, force: bool) -> Result<Optimized, Error> {
     let started = Instant::now();
-    let out_dir = outdir::OutDir::begin(out, &setup.input_files(&setup.job_path), force)?;
+    let out_dir = output::outdir::OutDir::begin(out, &setup.input_files(&setup.job_path), force)?;
     commands::optimize_setup(setup, out_dir, started, false, StepsFormat::Auto, &|_| {})
 }
 

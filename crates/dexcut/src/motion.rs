@@ -55,7 +55,6 @@ pub fn periods(steps: &[TimedStep]) -> impl Iterator<Item = std::ops::Range<usiz
 
 // The machine limits from the job live with the job (input::job::machine);
 // the upper layers still name them here.
-pub use crate::input::job::machine; // TEMP-ALIAS
 
 /// Steps between consecutive servo samples. A period that crosses the start
 /// or end of a rapid move is split there (at the path's corner), so material a
@@ -309,6 +308,7 @@ pub fn direct_steps(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::input::program::read_points_csv;
 
     /// A period is a step and the steps after it that continue it; a first
     /// step that continues nothing before it still starts one.
@@ -394,5 +394,67 @@ mod tests {
                 "period {i}"
             );
         }
+    }
+
+    #[test]
+    fn servo_streams_are_timed_by_their_times() {
+        let text =
+            "t_s,x,y,z,feed_mm_min\n0,0,0,1,0\n0.01,0.5,0,1,9\n0.02,0.5,0,1,0\n0.03,0.5,0.2,1,9\n";
+        let (path, timing) = read_points_csv(text, "servo.csv", None, 1).unwrap();
+        assert_eq!(path.segments.len(), 3);
+        // 0.5 mm in 0.01 s is 3000 mm/min whatever the feed column says.
+        match path.segments[0].motion {
+            nc::Motion::Feed { feed_mm_min, .. } => assert!((feed_mm_min - 3000.0).abs() < 1e-9),
+            m => panic!("{m:?}"),
+        }
+        assert_eq!(path.segments[1].motion, nc::Motion::Dwell { seconds: 0.01 });
+        let steps = direct_steps(&path, timing.as_ref());
+        let times: Vec<f64> = steps.iter().map(|s| s.t_end_s).collect();
+        assert_eq!(times, [0.01, 0.02, 0.03]);
+        assert!(steps.iter().all(|s| !s.step.rapid && !s.continues));
+        let err = read_points_csv(
+            "t_s,x,y,z\n0,0,0,0\n0.1,1,0,0\n0.1,2,0,0\n",
+            "s.csv",
+            None,
+            1,
+        )
+        .unwrap_err()
+        .to_string();
+        assert_eq!(
+            err,
+            "s.csv:4:1: t_s must increase from row to row: 0.1 s after 0.1 s"
+        );
+    }
+
+    #[test]
+    fn servo_streams_keep_their_rapids_and_corners() {
+        // A rapid down to a corner row inside the period ending at 0.02 s,
+        // then the feed part of that period.
+        let text = "t_s,x,y,z,rapid,sample\n0,0,0,5,1,1\n0.01,0,0,1,1,1\n0.015,0,0,0,1,0\n0.02,0.4,0,0,0,1\n";
+        let (path, timing) = read_points_csv(text, "servo.csv", None, 1).unwrap();
+        let kinds: Vec<bool> = path
+            .segments
+            .iter()
+            .map(|s| s.motion == nc::Motion::Rapid)
+            .collect();
+        assert_eq!(kinds, [true, true, false]);
+        let steps = direct_steps(&path, timing.as_ref());
+        let rapid: Vec<bool> = steps.iter().map(|s| s.step.rapid).collect();
+        let continues: Vec<bool> = steps.iter().map(|s| s.continues).collect();
+        let times: Vec<f64> = steps.iter().map(|s| s.t_end_s).collect();
+        assert_eq!(rapid, [true, true, false]);
+        assert_eq!(continues, [false, false, true]);
+        assert_eq!(times, [0.01, 0.015, 0.02]);
+        // 0.4 mm in 5 ms.
+        assert!((steps[2].feed_mm_min - 4800.0).abs() < 1e-9);
+        let err = read_points_csv(
+            "t_s,x,y,z,rapid\n0,0,0,0,0\n0.1,1,0,0,2\n",
+            "s.csv",
+            None,
+            1,
+        )
+        .unwrap_err()
+        .to_string();
+        assert_eq!(err, "s.csv:3:11: rapid must be 0 or 1, got 2");
     }
 }

@@ -10,8 +10,7 @@ use export::{
     Series, SummaryRow,
 };
 
-use crate::simulate::{GridInfo, Summary, ToolPeaks};
-use crate::summary::SummaryDoc;
+use crate::model::summary::{GridInfo, OptimizeSummary, Summary, SummaryDoc, ToolPeaks};
 
 /// Named numeric columns of a CSV file (empty fields read as NaN).
 /// Every wanted column must be in the header, and at least one data row must follow.
@@ -242,7 +241,7 @@ const PAGE_GLB_VERTICES: usize = 40_000;
 fn hot_spots(
     cols: &HashMap<String, Vec<f64>>,
     run: &Summary,
-    design: Option<&crate::summary::DesignInfo>,
+    design: Option<&crate::model::summary::DesignInfo>,
 ) -> Vec<HotSpot> {
     let col = |k: &str| cols.get(k).map(Vec::as_slice).unwrap_or(&[]);
     let at = |i: usize| {
@@ -555,7 +554,7 @@ pub struct ReportFiles {
 /// folder written by `simulate` or `optimize`, from its files alone.
 pub fn write_report(dir: &Path) -> Result<ReportFiles> {
     let summary_path = dir.join("summary.json");
-    let summary = crate::summary::read(&summary_path).context_with(|| {
+    let summary = crate::model::summary::read(&summary_path).context_with(|| {
         format!(
             "is {} a `dexcut simulate` or `optimize` output folder?",
             dir.display()
@@ -571,6 +570,65 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
     let optimized = optimize.is_some();
 
     // Time series.
+    let (plots, after_cols) = time_series(dir, optimize)?;
+
+    // Maps and the 3D stock.
+    let MapsAndStock {
+        images,
+        design_map_png,
+        page_glb,
+    } = maps_and_stock(dir, &grid)?;
+
+    // Summary table and notes.
+    let rows = summary_rows(before_run, after_run, &grid);
+    let notes = notes(&summary, before_run, after_run, optimize);
+    let title = format!(
+        "dexcut {} report: {}",
+        if optimized {
+            "optimisation"
+        } else {
+            "simulation"
+        },
+        summary.program()
+    );
+    let hot_spots = hot_spots(
+        &after_cols,
+        after_run.unwrap_or(before_run),
+        summary.design(),
+    );
+    let program = program_excerpt(dir, &summary, &hot_spots);
+    let report = Report {
+        title,
+        setup: setup_rows(&summary),
+        hot_spots,
+        program,
+        summary: rows,
+        plots,
+        images,
+        glb: Some(page_glb),
+        notes,
+    };
+    export::write_report_html(&dir.join("report.html"), &report)?;
+    Ok(ReportFiles {
+        html: dir.join("report.html"),
+        error_map_png: dir.join("error_map.png"),
+        design_map_png,
+        stock_glb: dir.join("stock.glb"),
+    })
+}
+
+/// A run's steps by column name ([`read_step_columns`]).
+type StepColumns = HashMap<String, Vec<f64>>;
+
+/// The report's plots of the steps (MRR, feed with rapids apart, force,
+/// deflection): the run's, and with `optimize` the program as given's
+/// beside the optimised one's, with the limits. Also gives the steps'
+/// columns of the run (after optimisation), which the hot spots read.
+fn time_series(
+    dir: &Path,
+    optimize: Option<&OptimizeSummary>,
+) -> Result<(Vec<PlotGroup>, StepColumns)> {
+    let optimized = optimize.is_some();
     let after_cols = read_step_columns(dir, "steps", &STEP_COLUMNS, &STEP_PLACES)?;
     let before_cols = if optimized {
         Some(read_step_columns(
@@ -669,9 +727,24 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
             limits.and_then(|l| l.deflection_max_um),
         ),
     ];
+    Ok((plots, after_cols))
+}
 
-    // Maps and the 3D stock.
-    let maps = read_column_maps(dir, &grid)?;
+/// What [`maps_and_stock`] made for the page.
+struct MapsAndStock {
+    /// The heat maps, error first.
+    images: Vec<ReportImage>,
+    /// design_map.png, when written.
+    design_map_png: Option<std::path::PathBuf>,
+    /// The lighter stock the page embeds.
+    page_glb: Vec<u8>,
+}
+
+/// Write error_map.png, design_map.png (where the run has a design
+/// comparison) and stock.glb into `dir` from its column grid, and make the
+/// page's images and its lighter stock.
+fn maps_and_stock(dir: &Path, grid: &GridInfo) -> Result<MapsAndStock> {
+    let maps = read_column_maps(dir, grid)?;
     let egrid = grid.export();
     let error = ScalarMap {
         grid: egrid,
@@ -741,8 +814,20 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
             ..export::GlbOptions::default()
         },
     )?;
+    Ok(MapsAndStock {
+        images,
+        design_map_png,
+        page_glb,
+    })
+}
 
-    // Summary table and notes.
+/// The summary table: [`ROWS`] of the run (before and after optimisation),
+/// the peaks per tool where more than one tool cuts, and the grid.
+fn summary_rows(
+    before_run: &Summary,
+    after_run: Option<&Summary>,
+    grid: &GridInfo,
+) -> Vec<SummaryRow> {
     let mut rows: Vec<SummaryRow> = ROWS
         .iter()
         .map(|(label, unit, d, value)| SummaryRow {
@@ -773,6 +858,18 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
         ),
         after: None,
     });
+    rows
+}
+
+/// The notes under the table: the model in words, the warnings of the
+/// program (and of the optimised program), the time at each cap and the
+/// design comparison.
+fn notes(
+    summary: &SummaryDoc,
+    before_run: &Summary,
+    after_run: Option<&Summary>,
+    optimize: Option<&OptimizeSummary>,
+) -> Vec<String> {
     let mut notes = vec![
         "Force and spindle power from Kienzle's specific cutting force at the mean chip thickness the removal record gives (or S4's F = a·V^n with [cutting] model = \"power_law\"); deflection of the tool as a stepped cantilever (flutes, shank, holder spring) at the contact height, with the band loads superposed; the tool swept again offset by its deflection until removal and deflection agree, so the error map shows what the bent tool left (docs/MODEL.md §3.2, §4.2–4.3, §5.1). Material coefficients are published starting points: calibrate them for the machine at hand.".to_string(),
     ];
@@ -829,37 +926,5 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
             ));
         }
     }
-    let title = format!(
-        "dexcut {} report: {}",
-        if optimized {
-            "optimisation"
-        } else {
-            "simulation"
-        },
-        summary.program()
-    );
-    let hot_spots = hot_spots(
-        &after_cols,
-        after_run.unwrap_or(before_run),
-        summary.design(),
-    );
-    let program = program_excerpt(dir, &summary, &hot_spots);
-    let report = Report {
-        title,
-        setup: setup_rows(&summary),
-        hot_spots,
-        program,
-        summary: rows,
-        plots,
-        images,
-        glb: Some(page_glb),
-        notes,
-    };
-    export::write_report_html(&dir.join("report.html"), &report)?;
-    Ok(ReportFiles {
-        html: dir.join("report.html"),
-        error_map_png: dir.join("error_map.png"),
-        design_map_png,
-        stock_glb: dir.join("stock.glb"),
-    })
+    notes
 }

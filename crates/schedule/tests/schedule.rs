@@ -724,7 +724,7 @@ fn s_curve_closed_form_is_feasible_and_tight() {
     }
 }
 
-/// Very short segments: the corner budgets and the plan stay n·log n (issue 16: 100 k
+/// Very short segments: the corner budgets and the plan stay n·log n (100 k
 /// segments took 118 s).
 #[test]
 #[ignore = "timing; run with --ignored --nocapture"]
@@ -871,7 +871,7 @@ fn plan_time_for_200k_stations() {
     }
 }
 
-/// A sine written as 0.2 mm chords (issue 14: 1 173 mm/s² on Y against 1 000): every axis
+/// A sine written as 0.2 mm chords (once 1 173 mm/s² on Y against 1 000): every axis
 /// within its limits at every sample, with and without a jerk limit, at several feeds.
 #[test]
 fn chord_approximated_sine_keeps_axis_limits() {
@@ -1212,7 +1212,7 @@ proptest! {
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
-    /// Short runs of dense corners (issue 14): chains of 40-200 chords of 0.1-1.5 mm with
+    /// Short runs of dense corners: chains of 40-200 chords of 0.1-1.5 mm with
     /// random turns, feed dips and a jerk limit, mostly short enough for the search over λ.
     /// Every servo sample's per-axis second and third differences stay within the limits.
     #[test]

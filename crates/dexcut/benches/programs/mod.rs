@@ -95,7 +95,7 @@ force_max = 400
     )
 }
 
-/// The free path of issue 16's table: `moves` G1 moves of a Lissajous curve
+/// The free path of the benchmark table: `moves` G1 moves of a Lissajous curve
 /// wandering over the 80 × 60 mm top of [`free_path_job_toml`]'s block,
 /// 0.5–2 mm deep, at F1500 (240 moves: about 2.3 mm each).
 #[allow(dead_code)] // used by examples/bench_programs.rs, not by the bench

@@ -5,7 +5,7 @@
 use serde::Serialize;
 
 use crate::error::{fail, Result};
-use crate::warnings::Warnings;
+use crate::model::warnings::Warnings;
 
 /// Headline numbers of a run (summary.json).
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
@@ -63,14 +63,14 @@ pub struct Summary {
     /// Sweeps (the rigid one included) and the largest remaining disagreement
     /// between offset and deflection across the path, µm.
     pub closed_loop_passes: usize,
-    #[serde(deserialize_with = "crate::summary::f64_or_nan")]
+    #[serde(deserialize_with = "crate::model::summary::f64_or_nan")]
     /// Largest disagreement left between applied offset and deflection, µm.
     pub closed_loop_residual_um: f64,
     /// Steps whose offset and deflection still disagree by more than the tolerance.
     pub closed_loop_unconverged_steps: usize,
     /// Largest von Mises stress in the tool, MPa, and the allowable stress.
     pub peak_stress_mpa: f64,
-    #[serde(deserialize_with = "crate::summary::f64_or_nan")]
+    #[serde(deserialize_with = "crate::model::summary::f64_or_nan")]
     /// Allowable stress of the weakest tool, MPa (null in JSON when no tool has one).
     pub stress_limit_mpa: f64,
     /// Steps swept (servo periods or moves).

@@ -29,8 +29,6 @@ mod warnings;
 use closed_loop::{along, applied_offsets_um, close_loop, LoopInputs, LoopPlan};
 use error_map::{final_error_map, Before, ErrorMap};
 
-pub use crate::model::{GridInfo, Summary, ToolPeaks};
-pub use crate::util::{fmt, write_json};
 pub use closed_loop::LoopReport;
 pub use columns::write_tiled_columns;
 pub use loads::loads;
@@ -108,6 +106,17 @@ pub enum StockSource<'a> {
     Made(Stock, dexel::Solid),
     /// The bands of a tiled stock.
     Tiled(&'a crate::input::stock::Tiling),
+}
+
+impl crate::setup::Setup {
+    /// The job's stock as a run sweeps it: lent whole, or band by band where
+    /// it is too large for the memory budget ([`Setup::tiling`](crate::setup::Setup::tiling)).
+    pub fn stock_source(&self) -> StockSource<'_> {
+        match &self.tiling {
+            Some(tiling) => StockSource::Tiled(tiling),
+            None => StockSource::Lent(&self.stock),
+        }
+    }
 }
 
 impl StockSource<'_> {

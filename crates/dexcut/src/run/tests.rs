@@ -190,7 +190,7 @@ fn periods_summed_again_are_those_of_the_held_columns() {
     let job = "[stock]\nkind = \"box\"\nmin = [0, -10, -3]\nmax = [40, 10, 0]\ngrid = 0.1\n\
              [tool]\nkind = \"ball\"\ndiameter = 6\n[program]\npath = \"p.nc\"\n[machine]\nfeed_max = 3000\n";
     std::fs::write(dir.path().join("job.toml"), job).unwrap();
-    let setup = crate::commands::Setup::load(&dir.path().join("job.toml"), None).unwrap();
+    let setup = crate::setup::Setup::load(&dir.path().join("job.toml"), None).unwrap();
     let steps = setup.machine_steps().unwrap();
     assert!(steps.iter().any(|s| s.continues), "no split period");
     let run = run_on(
@@ -248,7 +248,7 @@ fn a_runs_strengths_are_each_steps_tools() {
              T3 M6 S15000 M3\nG0 X20 Y15\nG1 Z19 F250\nG1 X35 F800\nG0 Z25\nM2\n",
     )
     .unwrap();
-    let setup = crate::commands::Setup::load(&dir.path().join("job.toml"), None).unwrap();
+    let setup = crate::setup::Setup::load(&dir.path().join("job.toml"), None).unwrap();
     let tools = &setup.tools;
     let run = run_on(
         setup.stock_source(),
@@ -685,7 +685,7 @@ fn a_stock_made_of_its_closed_form_runs_as_the_stock_held() {
         );
         let path = dir.path().join("job.toml");
         std::fs::write(&path, job).unwrap();
-        let setup = crate::commands::Setup::load(&path, None).unwrap();
+        let setup = crate::setup::Setup::load(&path, None).unwrap();
         let solid = crate::input::stock::solid(&setup.job.stock).unwrap();
         let steps = setup.machine_steps().unwrap();
         let held = run_on(
@@ -757,7 +757,7 @@ fn a_stock_made_of_its_closed_form_runs_as_the_stock_held() {
 /// a 0.1 N/µm holder, S4's linear law (100 N per mm³ a tooth), a box
 /// from y = −`depth_mm` to −4.8 mm at grid 0.01, the points `csv` at
 /// F1200.
-fn wall_setup(dir: &std::path::Path, csv: &str, depth_mm: f64) -> crate::commands::Setup {
+fn wall_setup(dir: &std::path::Path, csv: &str, depth_mm: f64) -> crate::setup::Setup {
     std::fs::write(dir.join("wall.csv"), csv).unwrap();
     let job = format!(
         "[stock]\nkind = \"box\"\nmin = [0, -{depth_mm}, 0]\nmax = [30, -4.8, 30]\ngrid = 0.01\n\
@@ -768,7 +768,7 @@ fn wall_setup(dir: &std::path::Path, csv: &str, depth_mm: f64) -> crate::command
     );
     let path = dir.join("job.toml");
     std::fs::write(&path, job).unwrap();
-    crate::commands::Setup::load(&path, None).unwrap()
+    crate::setup::Setup::load(&path, None).unwrap()
 }
 
 /// The closed loop's passes keep each step's deflection across its path

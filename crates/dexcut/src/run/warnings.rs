@@ -4,7 +4,7 @@ use dexel::NEVER_CUT;
 
 use super::loads::breaking_step;
 use super::{Run, NOTHING_MM3};
-use crate::warnings::{self, LineTally, WarningKind, Warnings};
+use crate::model::warnings::{self, LineTally, WarningKind, Warnings};
 
 impl Run {
     /// Warnings of this run (MODEL.md §10): rapid moves that cut, shank or

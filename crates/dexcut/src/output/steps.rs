@@ -9,7 +9,8 @@ use std::path::Path;
 use export::{NpyType, NpyValues, TableColumn};
 
 use crate::error::{Error, Result};
-use crate::simulate::{fmt, Run};
+use crate::run::Run;
+use crate::util::fmt;
 
 /// How a run's per-step results are written (`--steps-format`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -12,12 +12,8 @@ use std::path::Path;
 use crate::error::{fail, Result, ResultExt as _};
 use serde::{Deserialize, Deserializer, Serialize};
 
-pub use crate::commands::{
-    DesignInfo, DeviationKind, LimitsOut, LineDeviation, OptimizeSummary, SimulateSummary,
-};
-pub use crate::optimize::CapShare;
-pub use crate::simulate::{GridInfo, Summary, ToolPeaks};
-pub use crate::warnings::{Warning, WarningKind, Warnings};
+pub use super::run_summary::{GridInfo, Summary, ToolPeaks};
+pub use super::warnings::{Warning, WarningKind, Warnings};
 
 /// The set-up a run used, for the report's set-up table.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
@@ -61,6 +57,217 @@ pub struct ToolInfo {
     /// written before it was recorded.
     #[serde(default)]
     pub stress_limit_mpa: Option<f64>,
+}
+
+/// summary.json of `simulate` (schema in [`crate::model::summary`]).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SimulateSummary {
+    /// Headline numbers of the run.
+    #[serde(flatten)]
+    pub run: Summary,
+    /// Job file.
+    pub job: String,
+    /// Program file.
+    pub program: String,
+    /// Stock grid, so `report` can rebuild the maps.
+    pub grid: GridInfo,
+    /// The final surface against the `[design]` model.
+    pub design: Option<DesignInfo>,
+    /// Material, tools, machine and limits of the job.
+    #[serde(default)]
+    pub setup: Option<SetupInfo>,
+    /// Wall time of the command, s.
+    pub run_time_s: f64,
+    /// The run that wrote the folder (as in manifest.json).
+    pub run_id: String,
+}
+
+/// summary.json of `optimize` (schema in [`crate::model::summary`]).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct OptimizeSummary {
+    /// Job file.
+    pub job: String,
+    /// Program file.
+    pub program: String,
+    /// Stock grid, so `report` can rebuild the maps.
+    pub grid: GridInfo,
+    /// The program as given.
+    pub before: Summary,
+    /// optimized.nc read back and simulated.
+    pub after: Summary,
+    /// The limits it worked to.
+    pub limits: LimitsOut,
+    /// Share of the re-timed program's time spent at each cap.
+    pub cap_time_share: Vec<CapShare>,
+    /// Σ Δs / cap: no schedule under these caps can be faster.
+    pub lower_bound_time_s: f64,
+    /// (after − bound) / bound.
+    #[serde(deserialize_with = "f64_or_nan")]
+    pub optimality_gap: f64,
+    /// Planner stations along the path.
+    pub stations: usize,
+    /// Spacing of the planner stations, mm.
+    pub station_spacing_mm: f64,
+    /// Peak MRR per servo period of the written program / mrr_max (≤ 1.02 is the target).
+    pub peak_mrr_ratio: Option<f64>,
+    /// Cycle time of the plan as written (each block at its feed), s.
+    pub plan_time_s: f64,
+    /// Cycle time with feeds free to change every 0.05 mm under the same caps, s.
+    pub time_optimal_s: f64,
+    /// (written program's cycle time − plan's) / plan's.
+    #[serde(deserialize_with = "f64_or_nan")]
+    pub written_vs_plan: f64,
+    /// Rounds of writing, re-simulating and correcting the program.
+    pub rounds: usize,
+    /// Feeds within this ratio share a block in optimized.nc.
+    pub merge_ratio: f64,
+    /// The program as given was within every limit and faster: optimized.nc is the original.
+    pub kept_original: bool,
+    /// Largest feed per tooth on cutting moves, mm/tooth.
+    pub fz_max_mm: Option<f64>,
+    /// The final surface against the `[design]` model.
+    pub design: Option<DesignInfo>,
+    /// Material, tools, machine and limits of the job.
+    #[serde(default)]
+    pub setup: Option<SetupInfo>,
+    /// Wall time of the command, s.
+    pub run_time_s: f64,
+    /// Wall time of the engagement sweep, s.
+    pub time_engagement_s: f64,
+    /// Wall time of planning and writing the program, s.
+    pub time_plan_s: f64,
+    /// Wall time of simulating the program as given, s.
+    pub time_simulate_s: f64,
+    /// The run that wrote the folder (as in manifest.json).
+    pub run_id: String,
+}
+
+/// The limits optimize worked to, as summary.json records them.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct LimitsOut {
+    /// `mrr_max`, mm³/s.
+    pub mrr_max_mm3_s: Option<f64>,
+    /// `force_max`, N.
+    pub force_max_n: Option<f64>,
+    /// `deflection_max_um`, µm.
+    pub deflection_max_um: Option<f64>,
+    /// `power_max_kw`, kW.
+    pub power_max_kw: Option<f64>,
+    /// `feed_min`, mm/min.
+    pub feed_min_mm_min: Option<f64>,
+    /// The machine's highest feed, mm/min.
+    pub feed_max_mm_min: f64,
+    /// fz_max · flutes · spindle rpm of the first tool, mm/min (`chip_load`
+    /// gives every tool's).
+    pub chip_load_feed_mm_min: Option<f64>,
+    /// Every tool's chip-load cap against its programmed cutting feed.
+    #[serde(default)]
+    pub chip_load: Vec<ToolChipLoad>,
+    /// `feed_scale_max`: at most this times the programmed feed.
+    pub feed_scale_max: Option<f64>,
+    /// The lowest `stress_limit_mpa` of the job's tools, MPa, where `[limits]
+    /// stress` holds the tools to it (each tool is held to its own); None when off.
+    #[serde(default)]
+    pub stress_limit_mpa: Option<f64>,
+}
+
+/// Design comparison (S1): the final surface against the design model.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct DesignInfo {
+    /// Design model file.
+    pub path: String,
+    /// Largest stock left (distance outside the design model), µm.
+    pub max_stock_left_um: f64,
+    /// Deepest gouge (negative distance), µm; 0 if none.
+    pub worst_gouge_um: f64,
+    /// Program line of the step that last cut the worst gouge.
+    pub worst_gouge_line: Option<u32>,
+    /// Column centre of the worst gouge, mm.
+    pub worst_gouge_xy_mm: Option<[f64; 2]>,
+    /// Tolerances the per-line lists use, µm.
+    pub gouge_tolerance_um: f64,
+    /// Stock above the design beyond this is listed, µm.
+    pub stock_tolerance_um: f64,
+    /// Every program line whose cut left a gouge deeper than `gouge_tolerance_um` or stock
+    /// above `stock_tolerance_um` (S1, MODEL.md §8), by line, gouges first.
+    pub lines: Vec<LineDeviation>,
+    /// Columns no step cut that stand above the design by more than `stock_tolerance_um`.
+    pub uncut_stock_columns: usize,
+}
+
+/// Which side of the design a deviation lies on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DeviationKind {
+    /// Below the design surface: material cut that the part needs.
+    Gouge,
+    /// Above the design surface: material left.
+    Stock,
+}
+
+impl std::fmt::Display for DeviationKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            DeviationKind::Gouge => "gouge",
+            DeviationKind::Stock => "stock",
+        })
+    }
+}
+
+/// One program line's worst deviation from the design of one kind.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct LineDeviation {
+    /// Program line of the step that last cut the columns.
+    pub line: u32,
+    /// Below the design (gouge) or above it (stock).
+    pub kind: DeviationKind,
+    /// Worst signed distance, µm (negative for a gouge).
+    pub worst_um: f64,
+    /// Column centre of the worst one, mm.
+    pub x_mm: f64,
+    /// Column centre, y, mm.
+    pub y_mm: f64,
+    /// Number of columns beyond the tolerance whose last cut was on this line.
+    pub columns: usize,
+}
+
+/// One tool's chip-load cap (MODEL.md §2.1) against what the program asks
+/// of it: summary.json's `limits.chip_load`, one per tool of the job.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ToolChipLoad {
+    /// T number (1 for the single `[tool]`).
+    pub tool: u32,
+    /// Nominal diameter, mm.
+    pub diameter_mm: f64,
+    /// Flutes.
+    pub flutes: u32,
+    /// Largest feed per tooth, mm/tooth.
+    pub fz_max_mm: f64,
+    /// Where `fz_max_mm` comes from, in words (the job's `fz_max`, or the
+    /// default for the material and diameter).
+    pub fz_max_from: String,
+    /// Spindle speed the cap is taken at, rev/min (that of the tool's
+    /// fastest cutting step, or of a block without S where it cuts nothing).
+    pub spindle_rpm: f64,
+    /// Where `spindle_rpm` comes from, in words.
+    pub spindle_from: String,
+    /// The cap f_z,max · z · n, mm/min.
+    pub feed_mm_min: f64,
+    /// Highest programmed feed of a step the tool cuts, mm/min; None where it cuts nothing.
+    pub programmed_feed_mm_min: Option<f64>,
+    /// That feed per tooth at `spindle_rpm`, mm/tooth.
+    pub programmed_fz_mm: Option<f64>,
+    /// Program line of that step.
+    pub line: Option<u32>,
+}
+
+/// Share of the optimised time spent at each kind of cap.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CapShare {
+    /// The cap, in a user's words.
+    pub cap: String,
+    /// Share of the cycle time, 0…1.
+    pub share: f64,
 }
 
 /// The version of summary.json this build writes and reads.
@@ -131,7 +338,7 @@ struct Versioned<'a, T: Serialize> {
 
 /// Write the summary.json of `simulate`, atomically.
 pub fn write_simulate(path: &Path, doc: &SimulateSummary) -> Result<()> {
-    crate::simulate::write_json(
+    crate::util::write_json(
         path,
         &Versioned {
             schema_version: SCHEMA_VERSION,
@@ -143,7 +350,7 @@ pub fn write_simulate(path: &Path, doc: &SimulateSummary) -> Result<()> {
 
 /// Write the summary.json of `optimize`, atomically.
 pub fn write_optimize(path: &Path, doc: &OptimizeSummary) -> Result<()> {
-    crate::simulate::write_json(
+    crate::util::write_json(
         path,
         &Versioned {
             schema_version: SCHEMA_VERSION,
@@ -339,7 +546,7 @@ mod tests {
                 chip_load_feed_mm_min: Some(2160.0),
                 feed_scale_max: None,
                 stress_limit_mpa: None,
-                chip_load: vec![crate::optimize::ToolChipLoad {
+                chip_load: vec![ToolChipLoad {
                     tool: 2,
                     diameter_mm: 1.0,
                     flutes: 2,
