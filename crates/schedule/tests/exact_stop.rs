@@ -210,7 +210,7 @@ fn the_zig_zag_runs_at_exact_stop() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(48))]
+    #![proptest_config(ProptestConfig::with_cases(256))]
     /// Random polylines (2 to 8 segments of 0.05–50 mm, turns of 5–175°, in a plane or in
     /// space, feeds 100–10 000 mm/min, accelerations 100–10 000 mm/s² per axis, 1 and
     /// 16 ms, jerk 5–200 times the acceleration per s or none): the plan is at most the
