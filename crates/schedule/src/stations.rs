@@ -476,7 +476,8 @@ impl Stations {
     /// corner a stop, then with every other corner passed (even, then odd), and a corner
     /// is passed where the acceleration-limited envelope over its two segments is
     /// quicker so. The stations are limited once more with the corners so chosen, and
-    /// kept so only where their envelope is no slower than with every corner a stop.
+    /// kept so only where their envelope is no slower than with every corner a stop and
+    /// with every corner passed (else the quicker of those two).
     fn stop_or_pass_corners(&mut self, corners: Vec<(usize, Vector3<f64>)>) {
         if corners.is_empty() {
             self.limit_sampled_geometry();
@@ -521,9 +522,16 @@ impl Stations {
                     time(self, &envelope, before, after) <= time(self, &stopped, before, after);
             }
         }
-        let chosen = limited(self, &|index| pass[index]);
+        // The quickest of every corner passed, every corner stopped and the choice.
         let n = self.len() - 1;
-        if time(self, &chosen, 0, n) > time(self, &stopped, 0, n) {
+        let envelope = limited(self, &|_| true);
+        let all_passed = time(self, &envelope, 0, n);
+        let all_stopped = time(self, &stopped, 0, n);
+        let envelope = limited(self, &|index| pass[index]);
+        let chosen = time(self, &envelope, 0, n);
+        if all_passed < chosen.min(all_stopped) {
+            limited(self, &|_| true);
+        } else if all_stopped < chosen {
             limited(self, &|_| false);
         }
     }
