@@ -94,17 +94,6 @@ pub enum FeedPolicy {
     MachineMax,
 }
 
-/// How [`Stations`] treat the path's corners (MODEL.md §6.1, "Stop or pass").
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Corners {
-    /// Each corner stopped at where that is quicker than passing it, else passed at the
-    /// corner rule's speed ([`Stations::new`]).
-    Judged,
-    /// Every corner passed at the corner rule's speed (the planner before exact stop was
-    /// a choice; for tests of the corner rule).
-    Passed,
-}
-
 /// A station where the tool is at rest: path start, path end, and every dwell.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stop {
@@ -141,14 +130,10 @@ pub struct Stations {
     corners: Vec<usize>,
 }
 
-/// Number of stations [`Stations::new`] builds for `path` at spacing `ds_mm` on `machine`:
-/// one at the start and max(m, ⌈L/ds⌉) per moving segment, m = 2, or 3 with a jerk limit
-/// (a run from stop to stop then has two stations between its stops at least, which a
-/// jerk filter's held peak needs: MODEL.md §6.1, "Stop or pass"). Linear in the segments,
-/// allocates nothing, so callers can check the bound before any work. Saturates instead
-/// of overflowing.
-pub fn station_count(path: &Path, machine: &Machine, ds_mm: f64) -> usize {
-    let least = least_intervals(machine);
+/// Number of stations [`Stations::new`] builds for `path` at spacing `ds_mm`: one at the
+/// start and max(2, ⌈L/ds⌉) per moving segment. Linear in the segments, allocates nothing,
+/// so callers can check the bound before any work. Saturates instead of overflowing.
+pub fn station_count(path: &Path, ds_mm: f64) -> usize {
     let mut count: usize = 1;
     for seg in &path.segments {
         if matches!(seg.motion, Motion::Dwell { .. }) {
@@ -158,7 +143,7 @@ pub fn station_count(path: &Path, machine: &Machine, ds_mm: f64) -> usize {
         if !(len_mm >= MIN_SEGMENT_MM) {
             continue;
         }
-        let intervals = (len_mm / ds_mm).ceil().max(least);
+        let intervals = (len_mm / ds_mm).ceil().max(2.0);
         count = count.saturating_add(if intervals < usize::MAX as f64 {
             intervals as usize
         } else {
@@ -204,27 +189,6 @@ impl Stations {
         Self::build(path.segments.clone(), machine, ds_mm, policy, estimate).map_err(|(e, _)| e)
     }
 
-    /// [`Stations::new`] with every corner passed at the corner rule's speed
-    /// ([`Corners::Passed`]) or judged ([`Corners::Judged`], what [`Stations::new`] does).
-    pub fn with_corners(
-        path: &Path,
-        machine: &Machine,
-        ds_mm: f64,
-        policy: FeedPolicy,
-        corners: Corners,
-    ) -> Result<Self, ScheduleError> {
-        let estimate = Self::check(path, machine, ds_mm)?;
-        Self::build_with(
-            path.segments.clone(),
-            machine,
-            ds_mm,
-            policy,
-            estimate,
-            corners,
-        )
-        .map_err(|(e, _)| e)
-    }
-
     /// [`Stations::new`] on a path handed to the stations rather than copied (a
     /// million-block path is about 120 MB); [`Stations::into_path`] gives it back, and an
     /// error comes with it.
@@ -253,7 +217,7 @@ impl Stations {
             return Err(ScheduleError::InvalidSpacing(ds_mm));
         }
         path.segments.first().ok_or(ScheduleError::EmptyPath)?;
-        let estimate = station_count(path, machine, ds_mm);
+        let estimate = station_count(path, ds_mm);
         if estimate > MAX_STATIONS {
             return Err(ScheduleError::TooManyStations {
                 needed: estimate,
@@ -271,18 +235,6 @@ impl Stations {
         ds_mm: f64,
         policy: FeedPolicy,
         estimate: usize,
-    ) -> Result<Self, (ScheduleError, Vec<Segment>)> {
-        Self::build_with(segments, machine, ds_mm, policy, estimate, Corners::Judged)
-    }
-
-    /// [`Stations::build`] with the corners treated as `corners` says.
-    fn build_with(
-        segments: Vec<Segment>,
-        machine: &Machine,
-        ds_mm: f64,
-        policy: FeedPolicy,
-        estimate: usize,
-        corners: Corners,
     ) -> Result<Self, (ScheduleError, Vec<Segment>)> {
         let mut st = Stations {
             machine: *machine,
@@ -302,19 +254,14 @@ impl Stations {
             stops: Vec::new(),
             corners: Vec::new(),
         };
-        match st.fill(ds_mm, policy, corners) {
+        match st.fill(ds_mm, policy) {
             Ok(()) => Ok(st),
             Err(e) => Err((e, st.path.segments)),
         }
     }
 
     /// Sets the stations, caps and stops of the segments (the body of [`Stations::new`]).
-    fn fill(
-        &mut self,
-        ds_mm: f64,
-        policy: FeedPolicy,
-        choice: Corners,
-    ) -> Result<(), ScheduleError> {
+    fn fill(&mut self, ds_mm: f64, policy: FeedPolicy) -> Result<(), ScheduleError> {
         let machine = self.machine;
         // A dwell (or run of dwells) waiting for the next station: total seconds.
         let mut pending_dwell_s: Option<f64> = None;
@@ -414,8 +361,7 @@ impl Stations {
                 }
             };
 
-            let intervals =
-                ((len_mm / ds_mm).ceil() as usize).max(least_intervals(&machine) as usize);
+            let intervals = ((len_mm / ds_mm).ceil() as usize).max(2);
             let mut tangent_before = start_tangent;
             for j in 1..=intervals {
                 let u = j as f64 / intervals as f64;
@@ -437,6 +383,8 @@ impl Stations {
             }
             previous = Some(index);
         }
+        self.share_corner_budgets(&corners);
+        self.corners = corners.iter().map(|&(c, _)| c).collect();
         if self.s_mm.is_empty() {
             // Nothing moves: one station where the program starts, standing for its dwells.
             self.still = true;
@@ -455,106 +403,8 @@ impl Stations {
                 dwell_s,
             }),
         }
-        match choice {
-            Corners::Judged => self.stop_or_pass_corners(corners),
-            Corners::Passed => {
-                self.share_corner_budgets(&corners);
-                self.corners = corners.iter().map(|&(c, _)| c).collect();
-                self.limit_sampled_geometry();
-            }
-        }
+        self.limit_sampled_geometry();
         Ok(())
-    }
-
-    /// Each corner either passed at the speed the corner rule allows, its velocity step
-    /// taken out of the acceleration budget beside it (the step and the tangential
-    /// acceleration share each axis' limit within one period of it), or stopped at, as
-    /// exact stop does (MODEL.md §6.1, "Stop or pass"): a stop has no velocity step, so
-    /// the motion reaches it with the whole tangential acceleration and leaves it the
-    /// same way. Each corner is judged with both its neighbours stopped, where its two
-    /// segments are planned apart from the rest: the stations are limited with every
-    /// corner a stop, then with every other corner passed (even, then odd), and a corner
-    /// is passed where the acceleration-limited envelope over its two segments is
-    /// quicker so. The stations are limited once more with the corners so chosen, and
-    /// kept so only where their envelope is no slower than with every corner a stop and
-    /// with every corner passed (else the quicker of those two).
-    fn stop_or_pass_corners(&mut self, corners: Vec<(usize, Vector3<f64>)>) {
-        if corners.is_empty() {
-            self.limit_sampled_geometry();
-            return;
-        }
-        let base = (
-            self.cap_mm_min.clone(),
-            self.cap_kind.clone(),
-            self.interval_accel_mm_s2.clone(),
-        );
-        let stops = self.stops.clone();
-        // The stations limited with the corners `passed` (indices into `corners`, the
-        // others stops); their envelope.
-        let limited = |st: &mut Stations, passed: &dyn Fn(usize) -> bool| {
-            (st.cap_mm_min, st.cap_kind, st.interval_accel_mm_s2) = base.clone();
-            let (kept, stopped): (Vec<_>, Vec<_>) =
-                (0..corners.len()).partition(|&index| passed(index));
-            st.stops = with_stops(&stops, stopped.iter().map(|&index| corners[index].0));
-            let kept: Vec<_> = kept.iter().map(|&index| corners[index]).collect();
-            st.share_corner_budgets(&kept);
-            st.corners = kept.iter().map(|&(c, _)| c).collect();
-            st.limit_sampled_geometry();
-            st.envelope_mm_s()
-        };
-        let stopped = limited(self, &|_| false);
-        let junctions: Vec<usize> = self.stops.iter().map(|stop| stop.station).collect();
-        let time = |st: &Stations, v: &[f64], lo: usize, hi: usize| {
-            (lo..hi)
-                .map(|k| 2.0 * (st.s_mm[k + 1] - st.s_mm[k]) / (v[k] + v[k + 1]))
-                .sum::<f64>()
-        };
-        let mut pass = vec![false; corners.len()];
-        for parity in 0..2 {
-            let envelope = limited(self, &|index| index % 2 == parity);
-            for index in (parity..corners.len()).step_by(2) {
-                let c = corners[index].0;
-                // Its neighbouring junctions with every corner but the passed ones stopped.
-                let at = junctions.partition_point(|&x| x < c);
-                let before = junctions[..at].last().copied().unwrap_or(0);
-                let after = junctions.get(at).copied().unwrap_or(self.len() - 1);
-                pass[index] =
-                    time(self, &envelope, before, after) <= time(self, &stopped, before, after);
-            }
-        }
-        // The quickest of every corner passed, every corner stopped and the choice.
-        let n = self.len() - 1;
-        let envelope = limited(self, &|_| true);
-        let all_passed = time(self, &envelope, 0, n);
-        let all_stopped = time(self, &stopped, 0, n);
-        let envelope = limited(self, &|index| pass[index]);
-        let chosen = time(self, &envelope, 0, n);
-        if all_passed < chosen.min(all_stopped) {
-            limited(self, &|_| true);
-        } else if all_stopped < chosen {
-            limited(self, &|_| false);
-        }
-    }
-
-    /// The acceleration-limited envelope: the highest speed at each station under its
-    /// cap, at rest at every stop, with v² changing by at most 2·a·Δs over each interval
-    /// (the forward and backward passes without holds or filter), mm/s.
-    fn envelope_mm_s(&self) -> Vec<f64> {
-        let n = self.len();
-        let mut v: Vec<f64> = self.cap_mm_min.iter().map(|c| c / 60.0).collect();
-        for stop in &self.stops {
-            v[stop.station] = 0.0;
-        }
-        let a = &self.interval_accel_mm_s2;
-        for k in 0..n.saturating_sub(1) {
-            let reach = v[k] * v[k] + 2.0 * a[k] * (self.s_mm[k + 1] - self.s_mm[k]);
-            v[k + 1] = v[k + 1].min(reach.sqrt());
-        }
-        for k in (0..n.saturating_sub(1)).rev() {
-            let reach = v[k + 1] * v[k + 1] + 2.0 * a[k] * (self.s_mm[k + 1] - self.s_mm[k]);
-            v[k] = v[k].min(reach.sqrt());
-        }
-        v
     }
 
     /// Within one period of a corner, each axis' velocity step there (v·|Δt_i|, at most
@@ -965,27 +815,6 @@ impl Stations {
 /// `s.partition_point(pred)` (`pred` true on a prefix of `s`), found by galloping out
 /// from `hint`: the same index in O(log distance) rather than O(log len), for searches
 /// that land near a known station.
-/// The fewest intervals a moving segment is cut into: 2, or 3 with a jerk limit
-/// ([`station_count`]).
-fn least_intervals(machine: &Machine) -> f64 {
-    if machine.jerk_mm_s3.is_some() {
-        3.0
-    } else {
-        2.0
-    }
-}
-
-/// `stops` with a stop of no dwell added at each of `corners` (ascending, none a stop).
-fn with_stops(stops: &[Stop], corners: impl Iterator<Item = usize>) -> Vec<Stop> {
-    let mut all: Vec<Stop> = stops.to_vec();
-    all.extend(corners.map(|station| Stop {
-        station,
-        dwell_s: 0.0,
-    }));
-    all.sort_by_key(|stop| stop.station);
-    all
-}
-
 fn partition_point_near(s: &[f64], hint: usize, pred: impl Fn(f64) -> bool) -> usize {
     let n = s.len();
     let hint = hint.min(n);
