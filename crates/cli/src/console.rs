@@ -75,8 +75,28 @@ pub fn simulate(simulated: &Simulated, out: &Path, asked: StepsFormat) {
         summary.max_error_um,
         out.display()
     );
+    if let Some(exact_stop_s) = doc.exact_stop_time_s {
+        outln!(
+            "{}",
+            exact_stop_line(exact_stop_s, summary.cycle_time_s, "the program")
+        );
+    }
     steps_format(asked, simulated.steps_format, summary.steps, &["steps"]);
     warnings_after_work(&summary.warnings, "");
+}
+
+/// The exact-stop time beside a run's cycle time (MODEL.md §6.1, "Exact stop").
+fn exact_stop_line(exact_stop_s: f64, cycle_s: f64, what: &str) -> String {
+    // Rounding's −0.0 % read as 0.0 %.
+    let change_pct = 100.0 * (cycle_s / exact_stop_s - 1.0);
+    let change_pct = if change_pct.abs() < 0.05 {
+        0.0
+    } else {
+        change_pct
+    };
+    format!(
+        "Stopping at every corner (exact stop: every segment from rest to rest at its feed and acceleration), {what} would take {exact_stop_s:.3} s; it takes {cycle_s:.3} s ({change_pct:+.1} %)."
+    )
 }
 
 /// What the console adds to a peak deflection capped where the tool breaks
@@ -328,6 +348,12 @@ pub fn optimize(optimized: &Optimized, out: &Path, asked: StepsFormat) {
         outln!(
             "{bound}; optimized.nc takes {:.1} % less by running over a limit, within its {tolerance_pct:.0} % tolerance.",
             -100.0 * doc.optimality_gap,
+        );
+    }
+    if let Some(exact_stop_s) = doc.exact_stop_time_s {
+        outln!(
+            "{}",
+            exact_stop_line(exact_stop_s, b.cycle_time_s, "the program as given")
         );
     }
     let shares: Vec<String> = doc

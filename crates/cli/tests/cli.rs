@@ -393,6 +393,15 @@ fn program_without_cutting_runs_at_feed_max() {
     let expected = corner_side(100.0 - ramp_len) + corner_side(30.0 - ramp_len) + 2.0 * end_ramp;
     let after = s["after"]["cycle_time_s"].as_f64().unwrap();
     assert!((after - expected).abs() < 2e-3, "{after} vs {expected}");
+    // The program as given (F1000) in exact stop (MODEL.md §6.1, "Exact stop"): each
+    // side rest to rest at 1000 mm/s², 130/v₀ + 2·v₀/a.
+    let v0 = 1000.0 / 60.0;
+    let given_exact_stop = 130.0 / v0 + 2.0 * v0 / a;
+    let reported = s["exact_stop_time_s"].as_f64().unwrap();
+    assert!(
+        (reported - given_exact_stop).abs() < 1e-9,
+        "{reported} vs {given_exact_stop}"
+    );
 }
 
 #[test]

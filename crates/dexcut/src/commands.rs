@@ -247,6 +247,8 @@ pub fn simulate(
         Setup::load_within(p, grid_mm, None, memory_budget_mb)
     })?;
     announce_setup_warnings(&setup, on_warning);
+    // Before the path is lent to the planner and let go.
+    let exact_stop_time_s = exact_stop_time_s(&setup);
     let (sim, steps_format) = match &setup.tiling {
         None => {
             // The run sweeps the job's stock itself, not a copy (one stock
@@ -294,6 +296,7 @@ pub fn simulate(
         run: summary.clone(),
         job: setup.job.name.clone(),
         program: setup.program.file.clone(),
+        exact_stop_time_s,
         grid: GridInfo::of(sim.run.stock.grid()),
         design: sim.design.as_ref().map(|d| d.1.clone()),
         setup: Some(setup.info()),
@@ -519,6 +522,7 @@ pub fn optimize_setup(
     // re-feed and read again from its text where it is needed
     // ([`optimize::FreeStations::Given`]): not held beside the written
     // program's run, nor while its outputs are written.
+    let exact_stop_time_s = exact_stop_time_s(setup);
     let path = std::mem::take(&mut setup.program.path);
     let (rounds, free) = match optimize::free_stations_of(path, &machine) {
         Err((e, path)) => (Err(e), optimize::FreeStations::Released(path)),
@@ -536,6 +540,7 @@ pub fn optimize_setup(
         chip_warnings,
         stress_limit_mpa,
         time_simulate_s,
+        exact_stop_time_s,
     };
     let asked = OutputsAsked {
         started,
@@ -570,6 +575,17 @@ struct AsGiven {
     chip_warnings: Vec<Warning>,
     stress_limit_mpa: Option<f64>,
     time_simulate_s: f64,
+    /// Its time in exact stop ([`exact_stop_time_s`]).
+    exact_stop_time_s: Option<f64>,
+}
+
+/// The setup's program run in exact stop on its machine (MODEL.md §6.1, "Exact stop"):
+/// each segment from rest to rest at its programmed feed; `None` for an empty path.
+fn exact_stop_time_s(setup: &Setup) -> Option<f64> {
+    let path = &setup.program.path;
+    (!path.segments.is_empty()).then(|| {
+        schedule::exact_stop_time_s(path, &setup.machine, schedule::FeedPolicy::Programmed)
+    })
 }
 
 /// What the user asked of [`optimize_setup`]'s outputs, and when it began.
@@ -741,6 +757,7 @@ fn optimize_outputs(
         },
         cap_time_share: written.cap_shares,
         lower_bound_time_s,
+        exact_stop_time_s: as_given.exact_stop_time_s,
         stations: n_stations,
         station_spacing_mm: motion::STATION_DS_MM,
         design,

@@ -10,11 +10,13 @@
 //!
 //! Flow: [`Stations::new`] discretises the path and sets the caps, the caller may lower caps,
 //! [`plan`] computes the time-optimal speed profile, [`Profile::sample`] gives servo data.
-//! [`lower_bound_time_s`] bounds every profile from below, for the optimality gap.
+//! [`lower_bound_time_s`] bounds every profile from below, for the optimality gap;
+//! [`exact_stop_time_s`] is the time of stopping at every corner, the simplest feasible timing.
 #![warn(missing_docs)]
 
 mod bound;
 mod direct;
+mod exact_stop;
 mod kinematics;
 mod machine;
 mod plan;
@@ -24,6 +26,7 @@ mod slp;
 mod stations;
 
 pub use bound::{lower_bound_time_s, rest_to_rest_time_s};
+pub use exact_stop::exact_stop_time_s;
 pub use machine::{Machine, ScheduleError, MACHINE_RANGES};
 pub use plan::{
     axis_velocity_between_mm_s, axis_velocity_mm_s, plan, Profile, ServoSample, MAX_SAMPLES,

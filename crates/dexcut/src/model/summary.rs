@@ -69,6 +69,13 @@ pub struct SimulateSummary {
     pub job: String,
     /// Program file.
     pub program: String,
+    /// The program run in exact stop, every segment from rest to rest at its own feed and
+    /// axis-limited acceleration (`schedule::exact_stop_time_s`, MODEL.md §6.1, "Exact
+    /// stop"): the simplest feasible timing, beside `cycle_time_s` (which can still
+    /// exceed it on short segments with sharp corners, MODEL.md §6.1); absent in
+    /// summaries written before it was recorded.
+    #[serde(default)]
+    pub exact_stop_time_s: Option<f64>,
     /// Stock grid, so `report` can rebuild the maps.
     pub grid: GridInfo,
     /// The final surface against the `[design]` model.
@@ -101,6 +108,12 @@ pub struct OptimizeSummary {
     pub cap_time_share: Vec<CapShare>,
     /// Σ Δs / cap: no schedule under these caps can be faster.
     pub lower_bound_time_s: f64,
+    /// The program as given run in exact stop, every segment from rest to rest at its
+    /// programmed feed and axis-limited acceleration (`schedule::exact_stop_time_s`,
+    /// MODEL.md §6.1, "Exact stop"), beside `before.cycle_time_s`; absent in summaries
+    /// written before it was recorded.
+    #[serde(default)]
+    pub exact_stop_time_s: Option<f64>,
     /// (after − bound) / bound.
     #[serde(deserialize_with = "f64_or_nan")]
     pub optimality_gap: f64,
@@ -472,6 +485,7 @@ mod tests {
             run: summary(),
             job: "job.toml".into(),
             program: "p.nc".into(),
+            exact_stop_time_s: Some(2.6),
             grid: grid(),
             design: Some(DesignInfo {
                 path: "part.stl".into(),
@@ -565,6 +579,7 @@ mod tests {
                 share: 0.5,
             }],
             lower_bound_time_s: 1.9,
+            exact_stop_time_s: Some(2.7),
             optimality_gap: 2.0 / 1.9 - 1.0,
             stations: 100,
             station_spacing_mm: 0.05,
