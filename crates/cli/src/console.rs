@@ -338,10 +338,11 @@ pub fn optimize(optimized: &Optimized, out: &Path, asked: StepsFormat) {
     let bound = format!(
         "No timing under these limits can beat {lower_bound_time_s:.3} s (every point at its highest allowed feed, no time to speed up or slow down)"
     );
-    if doc.optimality_gap >= 0.0 {
+    // A plan at its bound (every corner a stop, no cap) may sit a rounding below it.
+    if doc.optimality_gap >= -1e-9 {
         outln!(
             "{bound}; the {:.1} % above it is acceleration, corners and arcs.",
-            100.0 * doc.optimality_gap,
+            100.0 * doc.optimality_gap.max(0.0),
         );
     } else {
         // Only a program that runs over a limit, within its tolerance, is faster.

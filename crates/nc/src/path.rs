@@ -182,7 +182,12 @@ impl Segment {
                 sweep_rad,
             } => {
                 let (a, b, n) = plane.axes();
-                let r = arc_radius(&center, plane, &self.start);
+                // The radius goes from the start's to the end's along the sweep (a spiral
+                // where a program's end is off its circle by the rounding of its words, as
+                // LinuxCNC runs it): the points meet the end at u = 1, not a jump there
+                // (a 0.002 mm jump is 2 000 mm/s² in 1 ms servo samples).
+                let r0 = arc_radius(&center, plane, &self.start);
+                let r = r0 + (arc_radius(&center, plane, &self.end) - r0) * u;
                 let a0 = (self.start[b] - center[b]).atan2(self.start[a] - center[a]);
                 let ang = if clockwise {
                     a0 - sweep_rad * u
@@ -347,5 +352,25 @@ mod tests {
         }
         mirrored.mirror_z();
         assert_eq!(mirrored, path);
+    }
+
+    /// An arc whose end is off its start's circle (within LinuxCNC's 0.0283 mm) runs as a
+    /// spiral, as LinuxCNC does: its points reach the written end continuously, with no
+    /// jump at u = 1 (0.02 mm there was 20 000 mm/s² in 1 ms servo samples).
+    #[test]
+    fn an_arc_off_its_circle_meets_its_end_without_a_jump() {
+        let source = "G0 X0 Y0\nG2 X20.02 Y0 I10 J0 F100\nM2\n";
+        let path = crate::parse(source, "s.ngc", &crate::Options::default()).path;
+        let arc = path.segments.last().expect("the arc");
+        let (r0, r1) = (10.0, 10.02);
+        let center = nalgebra::Point3::new(10.0, 0.0, 0.0);
+        for k in 0..=1000 {
+            let u = k as f64 / 1000.0;
+            let r = (arc.point_at_fraction(u) - center).norm();
+            assert!((r - (r0 + (r1 - r0) * u)).abs() < 1e-9, "r {r} at {u}");
+        }
+        let step = (arc.point_at_fraction(1.0) - arc.point_at_fraction(1.0 - 1e-9)).norm();
+        assert!(step < 1e-6, "{step}");
+        assert_eq!(arc.point_at_fraction(1.0), arc.end);
     }
 }

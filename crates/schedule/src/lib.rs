@@ -15,6 +15,7 @@
 #![warn(missing_docs)]
 
 mod bound;
+mod corner_check;
 mod direct;
 mod exact_stop;
 mod kinematics;
@@ -35,5 +36,5 @@ pub use rules::{
     angle_rule_feed_mm_min, block_feed_cap_mm_min, chord_count, chord_tolerance_mm, linearise_arcs,
 };
 pub use stations::{
-    station_count, CapKind, FeedPolicy, Stations, Stop, BYTES_PER_STATION, MAX_STATIONS,
+    station_count, CapKind, Corners, FeedPolicy, Stations, Stop, BYTES_PER_STATION, MAX_STATIONS,
 };

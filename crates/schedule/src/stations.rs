@@ -94,6 +94,44 @@ pub enum FeedPolicy {
     MachineMax,
 }
 
+/// How [`Stations`] treat the path's corners (MODEL.md §6.1, "Stop or pass").
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Corners {
+    /// Each corner stopped at where that is quicker than passing it, else passed at the
+    /// corner rule's speed ([`Stations::new`]).
+    Judged,
+    /// Every corner passed at the corner rule's speed (the planner before exact stop was
+    /// a choice; for tests of the corner rule).
+    Passed,
+    /// Every corner a stop: exact stop, as the planner runs it.
+    Stopped,
+}
+
+/// The corners' choice on the envelope ([`Stations`]' `stop_or_pass_corners`), kept
+/// with a jerk limit for the planner to check (`crate::corner_check`).
+pub(crate) struct CornerChoice {
+    /// Caps, their kinds and interval accelerations before any corner was judged.
+    base: (Vec<f64>, Vec<CapKind>, Vec<f64>),
+    /// The program's own stops (start, dwells, end).
+    stops: Vec<Stop>,
+    /// Each corner's station and tangent jump.
+    corners: Vec<(usize, Vector3<f64>)>,
+    /// Whether the envelope passes each corner.
+    pub(crate) pass: Vec<bool>,
+}
+
+impl CornerChoice {
+    /// The stations of the program's own stops, ascending.
+    pub(crate) fn own_stops(&self) -> Vec<usize> {
+        self.stops.iter().map(|stop| stop.station).collect()
+    }
+
+    /// The station of corner `index`.
+    pub(crate) fn corner_station(&self, index: usize) -> usize {
+        self.corners[index].0
+    }
+}
+
 /// A station where the tool is at rest: path start, path end, and every dwell.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stop {
@@ -130,10 +168,14 @@ pub struct Stations {
     corners: Vec<usize>,
 }
 
-/// Number of stations [`Stations::new`] builds for `path` at spacing `ds_mm`: one at the
-/// start and max(2, ⌈L/ds⌉) per moving segment. Linear in the segments, allocates nothing,
-/// so callers can check the bound before any work. Saturates instead of overflowing.
-pub fn station_count(path: &Path, ds_mm: f64) -> usize {
+/// Number of stations [`Stations::new`] builds for `path` at spacing `ds_mm` on `machine`:
+/// one at the start and max(m, ⌈L/ds⌉) per moving segment, m = 2, or 3 with a jerk limit
+/// (a run from stop to stop then has two stations between its stops at least, which a
+/// jerk filter's held peak needs: MODEL.md §6.1, "Stop or pass"). Linear in the segments,
+/// allocates nothing, so callers can check the bound before any work. Saturates instead
+/// of overflowing.
+pub fn station_count(path: &Path, machine: &Machine, ds_mm: f64) -> usize {
+    let least = least_intervals(machine);
     let mut count: usize = 1;
     for seg in &path.segments {
         if matches!(seg.motion, Motion::Dwell { .. }) {
@@ -143,7 +185,7 @@ pub fn station_count(path: &Path, ds_mm: f64) -> usize {
         if !(len_mm >= MIN_SEGMENT_MM) {
             continue;
         }
-        let intervals = (len_mm / ds_mm).ceil().max(2.0);
+        let intervals = (len_mm / ds_mm).ceil().max(least);
         count = count.saturating_add(if intervals < usize::MAX as f64 {
             intervals as usize
         } else {
@@ -154,70 +196,23 @@ pub fn station_count(path: &Path, ds_mm: f64) -> usize {
 }
 
 impl Stations {
-    /// Discretises `path` at station spacing `ds_mm` and sets the caps that follow from the
-    /// program and the machine:
-    ///
-    /// * the programmed feed (or `feed_max_mm_min` under [`FeedPolicy::MachineMax`]), never
-    ///   above `feed_max_mm_min`; rapids at `rapid_mm_min`;
-    /// * curvature: v ≤ sqrt(a_n · r) on arcs, a_n the smaller acceleration limit of the
-    ///   arc plane's two axes, r the arc radius (conservative on a helix), then the sampled
-    ///   geometry rule below, which takes half of it;
-    /// * corners: where the unit tangent jumps by Δt between segments, the control crosses
-    ///   the corner within one period T, so each axis' velocity steps by v·|Δt_i|; the
-    ///   corner rule keeps that step within half of what the axis reaches in one period,
-    ///   v·|Δt_i| ≤ a_i·T/2 for every axis i, so that the step plus the ramps on either
-    ///   side stay within a_i in the sampled positions (second differences / T²);
-    /// * block time (S0): with block time Tb, a segment of length L is capped at
-    ///   60000·L/Tb mm/min.
-    /// * with a jerk limit j the corner step also obeys v·|Δt_i| ≤ j_i·T²/2 (the step's third
-    ///   difference is at most v·|Δt_i|/T²); the planner holds the speed constant around the
-    ///   corner (see [`crate::plan`]), so the other half covers the sampling phase.
-    ///
-    /// * sampled geometry (MODEL.md §6.1): wherever the path turns (arcs, corners, runs of
-    ///   short chords), the second (and third) differences of samples at the capped speed
-    ///   stay within half the axis limits, and the tangential acceleration gets the rest.
-    ///
-    /// Dwells become stops. Zero-length moves are skipped. More than [`MAX_STATIONS`]
-    /// stations is an error ([`ScheduleError::TooManyStations`]), checked before allocating.
-    pub fn new(
-        path: &Path,
-        machine: &Machine,
-        ds_mm: f64,
-        policy: FeedPolicy,
-    ) -> Result<Self, ScheduleError> {
-        let estimate = Self::check(path, machine, ds_mm)?;
-        Self::build(path.segments.clone(), machine, ds_mm, policy, estimate).map_err(|(e, _)| e)
-    }
-
-    /// [`Stations::new`] on a path handed to the stations rather than copied (a
-    /// million-block path is about 120 MB); [`Stations::into_path`] gives it back, and an
-    /// error comes with it.
-    pub fn from_path(
-        path: Path,
-        machine: &Machine,
-        ds_mm: f64,
-        policy: FeedPolicy,
-    ) -> Result<Self, (ScheduleError, Path)> {
-        match Self::check(&path, machine, ds_mm) {
-            Ok(estimate) => Self::build(path.segments, machine, ds_mm, policy, estimate)
-                .map_err(|(e, segments)| (e, Path { segments })),
-            Err(e) => Err((e, path)),
-        }
-    }
-
     /// The path the stations were made from.
     pub fn into_path(self) -> Path {
         self.path
     }
 
     /// What is checked before anything is allocated; the number of stations.
-    fn check(path: &Path, machine: &Machine, ds_mm: f64) -> Result<usize, ScheduleError> {
+    pub(crate) fn check(
+        path: &Path,
+        machine: &Machine,
+        ds_mm: f64,
+    ) -> Result<usize, ScheduleError> {
         machine.validate()?;
         if !(ds_mm.is_finite() && ds_mm > 0.0) {
             return Err(ScheduleError::InvalidSpacing(ds_mm));
         }
         path.segments.first().ok_or(ScheduleError::EmptyPath)?;
-        let estimate = station_count(path, ds_mm);
+        let estimate = station_count(path, machine, ds_mm);
         if estimate > MAX_STATIONS {
             return Err(ScheduleError::TooManyStations {
                 needed: estimate,
@@ -227,15 +222,18 @@ impl Stations {
         Ok(estimate)
     }
 
-    /// The stations of `segments` (checked by [`Stations::check`]); on an error the
-    /// segments come back.
-    fn build(
+    /// The stations of `segments` (checked by [`Stations::check`]) with the corners
+    /// treated as `corners` says, and with a jerk limit the corners' choice for the
+    /// planner to check (`crate::corner_check`); on an error the segments come back.
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn build_with(
         segments: Vec<Segment>,
         machine: &Machine,
         ds_mm: f64,
         policy: FeedPolicy,
         estimate: usize,
-    ) -> Result<Self, (ScheduleError, Vec<Segment>)> {
+        corners: Corners,
+    ) -> Result<(Self, Option<CornerChoice>), (ScheduleError, Vec<Segment>)> {
         let mut st = Stations {
             machine: *machine,
             path: Path { segments },
@@ -254,14 +252,19 @@ impl Stations {
             stops: Vec::new(),
             corners: Vec::new(),
         };
-        match st.fill(ds_mm, policy) {
-            Ok(()) => Ok(st),
+        match st.fill(ds_mm, policy, corners) {
+            Ok(choice) => Ok((st, choice)),
             Err(e) => Err((e, st.path.segments)),
         }
     }
 
     /// Sets the stations, caps and stops of the segments (the body of [`Stations::new`]).
-    fn fill(&mut self, ds_mm: f64, policy: FeedPolicy) -> Result<(), ScheduleError> {
+    fn fill(
+        &mut self,
+        ds_mm: f64,
+        policy: FeedPolicy,
+        choice: Corners,
+    ) -> Result<Option<CornerChoice>, ScheduleError> {
         let machine = self.machine;
         // A dwell (or run of dwells) waiting for the next station: total seconds.
         let mut pending_dwell_s: Option<f64> = None;
@@ -361,7 +364,8 @@ impl Stations {
                 }
             };
 
-            let intervals = ((len_mm / ds_mm).ceil() as usize).max(2);
+            let intervals =
+                ((len_mm / ds_mm).ceil() as usize).max(least_intervals(&machine) as usize);
             let mut tangent_before = start_tangent;
             for j in 1..=intervals {
                 let u = j as f64 / intervals as f64;
@@ -383,8 +387,6 @@ impl Stations {
             }
             previous = Some(index);
         }
-        self.share_corner_budgets(&corners);
-        self.corners = corners.iter().map(|&(c, _)| c).collect();
         if self.s_mm.is_empty() {
             // Nothing moves: one station where the program starts, standing for its dwells.
             self.still = true;
@@ -403,8 +405,121 @@ impl Stations {
                 dwell_s,
             }),
         }
+        match choice {
+            Corners::Judged => return Ok(self.stop_or_pass_corners(corners)),
+            Corners::Stopped => {
+                self.stops = with_stops(&self.stops, corners.iter().map(|&(c, _)| c));
+                self.limit_sampled_geometry();
+            }
+            Corners::Passed => {
+                self.share_corner_budgets(&corners);
+                self.corners = corners.iter().map(|&(c, _)| c).collect();
+                self.limit_sampled_geometry();
+            }
+        }
+        Ok(None)
+    }
+
+    /// Each corner either passed at the speed the corner rule allows, its velocity step
+    /// taken out of the acceleration budget beside it (the step and the tangential
+    /// acceleration share each axis' limit within one period of it), or stopped at, as
+    /// exact stop does (MODEL.md §6.1, "Stop or pass"): a stop has no velocity step, so
+    /// the motion reaches it with the whole tangential acceleration and leaves it the
+    /// same way. Each corner is judged with both its neighbours stopped, where its two
+    /// segments are planned apart from the rest: the stations are limited with every
+    /// corner a stop, then with every other corner passed (even, then odd), and a corner
+    /// is passed where the acceleration-limited envelope over its two segments is
+    /// quicker so. The stations are limited once more with the corners so chosen, and
+    /// kept so only where their envelope is no slower than with every corner a stop and
+    /// with every corner passed (else the quicker of those two).
+    /// With a jerk limit the choice is returned for the planner to check
+    /// (`crate::corner_check`), the stations limited as it says.
+    fn stop_or_pass_corners(
+        &mut self,
+        corners: Vec<(usize, Vector3<f64>)>,
+    ) -> Option<CornerChoice> {
+        if corners.is_empty() {
+            self.limit_sampled_geometry();
+            return None;
+        }
+        let mut choice = CornerChoice {
+            base: (
+                self.cap_mm_min.clone(),
+                self.cap_kind.clone(),
+                self.interval_accel_mm_s2.clone(),
+            ),
+            stops: self.stops.clone(),
+            pass: vec![false; corners.len()],
+            corners,
+        };
+        let count = choice.corners.len();
+        let stopped = self.limit_with(&choice, &|_| false);
+        let junctions: Vec<usize> = self.stops.iter().map(|stop| stop.station).collect();
+        let time = |st: &Stations, v: &[f64], lo: usize, hi: usize| {
+            (lo..hi)
+                .map(|k| 2.0 * (st.s_mm[k + 1] - st.s_mm[k]) / (v[k] + v[k + 1]))
+                .sum::<f64>()
+        };
+        // With a jerk limit each stop adds a run, and each run its filter's width W
+        // (MODEL.md §6.1, "Jerk limit"): a stop costs W more than its envelope says.
+        let stop_cost_s = self.machine.jerk_mm_s3.map_or(0.0, |_| {
+            (0..self.len() - 1)
+                .map(|k| choice.base.2[k] / self.interval_jerk_mm_s3[k])
+                .fold(0.0, f64::max)
+        });
+        for parity in 0..2 {
+            let envelope = self.limit_with(&choice, &|index| index % 2 == parity);
+            for index in (parity..count).step_by(2) {
+                let c = choice.corners[index].0;
+                // Its neighbouring junctions with every corner but the passed ones stopped.
+                let at = junctions.partition_point(|&x| x < c);
+                let before = junctions[..at].last().copied().unwrap_or(0);
+                let after = junctions.get(at).copied().unwrap_or(self.len() - 1);
+                choice.pass[index] = time(self, &envelope, before, after)
+                    <= time(self, &stopped, before, after) + stop_cost_s;
+            }
+        }
+        let pass = std::mem::take(&mut choice.pass);
+        if self.machine.jerk_mm_s3.is_some() {
+            self.limit_with(&choice, &|index| pass[index]);
+            choice.pass = pass;
+            return Some(choice);
+        }
+        // The quickest of every corner passed, every corner stopped and the choice.
+        let n = self.len() - 1;
+        let envelope = self.limit_with(&choice, &|_| true);
+        let all_passed = time(self, &envelope, 0, n);
+        let all_stopped = time(self, &stopped, 0, n);
+        let envelope = self.limit_with(&choice, &|index| pass[index]);
+        let chosen = time(self, &envelope, 0, n);
+        if all_passed < chosen.min(all_stopped) {
+            self.limit_with(&choice, &|_| true);
+        } else if all_stopped < chosen {
+            self.limit_with(&choice, &|_| false);
+        }
+        None
+    }
+
+    /// The stations limited with the corners of `choice` that `passed` says (indices
+    /// into its corners) passed and the others stops, from its caps and accelerations
+    /// before any corner was judged; their envelope.
+    pub(crate) fn limit_with(
+        &mut self,
+        choice: &CornerChoice,
+        passed: &dyn Fn(usize) -> bool,
+    ) -> Vec<f64> {
+        (self.cap_mm_min, self.cap_kind, self.interval_accel_mm_s2) = choice.base.clone();
+        let (kept, stopped): (Vec<_>, Vec<_>) =
+            (0..choice.corners.len()).partition(|&index| passed(index));
+        self.stops = with_stops(
+            &choice.stops,
+            stopped.iter().map(|&index| choice.corners[index].0),
+        );
+        let kept: Vec<_> = kept.iter().map(|&index| choice.corners[index]).collect();
+        self.share_corner_budgets(&kept);
+        self.corners = kept.iter().map(|&(c, _)| c).collect();
         self.limit_sampled_geometry();
-        Ok(())
+        self.envelope_mm_s(&self.cap_mm_min, &self.interval_accel_mm_s2)
     }
 
     /// Within one period of a corner, each axis' velocity step there (v·|Δt_i|, at most
@@ -574,8 +689,12 @@ impl Stations {
                     && jerk.is_none_or(|j| e[i] <= 0.5 * j[i] * (1.0 + 1e-9))
             })
         };
+        // The fastest any plan can be at each station: the sampled differences are
+        // judged at that speed, not at the cap (a station just before a corner cannot
+        // run at its cap).
+        let envelope = self.envelope_mm_s(&caps, &interval_accel);
         for k in 0..n {
-            let cap = caps[k] / 60.0;
+            let cap = (caps[k] / 60.0).min(envelope[k]);
             let reach = 2.0 * cap * period_s + 1e-9;
             let (last_turn, next_turn) = turn_window(k);
             if is_stop[k] || self.s_mm[k] - last_turn > reach && next_turn - self.s_mm[k] > reach {
@@ -605,7 +724,7 @@ impl Stations {
             if d == Vector3::zeros() {
                 continue;
             }
-            let v = caps[k] / 60.0;
+            let v = v.min(caps[k] / 60.0);
             let budget: [f64; 3] = std::array::from_fn(|i| {
                 let left = accel[i] - d[i];
                 match jerk {
@@ -626,6 +745,32 @@ impl Stations {
         self.cap_mm_min = caps;
         self.cap_kind = kinds;
         self.interval_accel_mm_s2 = interval_accel;
+    }
+
+    /// The acceleration-limited envelope (MODEL.md §6.1, "Sampled geometry"): the highest
+    /// speed at each station under the caps `caps_mm_min`, at rest at every stop, with v²
+    /// changing by at most 2·a_k·Δs over each interval k → k+1, a_k from
+    /// `interval_accel` (the forward and backward passes without holds or filter), mm/s.
+    /// No plan under these caps and accelerations (or lower ones) is faster at any
+    /// station, so a sampled difference judged at the envelope's speed bounds the plan's
+    /// there.
+    fn envelope_mm_s(&self, caps_mm_min: &[f64], interval_accel: &[f64]) -> Vec<f64> {
+        let n = self.len();
+        let s = &self.s_mm;
+        let mut v2: Vec<f64> = caps_mm_min.iter().map(|c| (c / 60.0).powi(2)).collect();
+        for stop in &self.stops {
+            v2[stop.station] = 0.0;
+        }
+        for k in 1..n {
+            let reach = v2[k - 1] + 2.0 * interval_accel[k - 1] * (s[k] - s[k - 1]);
+            v2[k] = v2[k].min(reach);
+        }
+        for k in (0..n.saturating_sub(1)).rev() {
+            let reach = v2[k + 1] + 2.0 * interval_accel[k] * (s[k + 1] - s[k]);
+            v2[k] = v2[k].min(reach);
+        }
+        v2.iter_mut().for_each(|x| *x = x.sqrt());
+        v2
     }
 
     fn push(&mut self, s_mm: f64, segment: usize, fraction: f64, cap_mm_min: f64, kind: CapKind) {
@@ -815,6 +960,27 @@ impl Stations {
 /// `s.partition_point(pred)` (`pred` true on a prefix of `s`), found by galloping out
 /// from `hint`: the same index in O(log distance) rather than O(log len), for searches
 /// that land near a known station.
+/// The fewest intervals a moving segment is cut into: 2, or 3 with a jerk limit
+/// ([`station_count`]).
+fn least_intervals(machine: &Machine) -> f64 {
+    if machine.jerk_mm_s3.is_some() {
+        3.0
+    } else {
+        2.0
+    }
+}
+
+/// `stops` with a stop of no dwell added at each of `corners` (ascending, none a stop).
+fn with_stops(stops: &[Stop], corners: impl Iterator<Item = usize>) -> Vec<Stop> {
+    let mut all: Vec<Stop> = stops.to_vec();
+    all.extend(corners.map(|station| Stop {
+        station,
+        dwell_s: 0.0,
+    }));
+    all.sort_by_key(|stop| stop.station);
+    all
+}
+
 fn partition_point_near(s: &[f64], hint: usize, pred: impl Fn(f64) -> bool) -> usize {
     let n = s.len();
     let hint = hint.min(n);

@@ -194,7 +194,15 @@ fn corner_runs_at_the_corner_rule_speed_and_axes_keep_their_limits() {
         line(p(0.0, 0.0, 0.0), p(10.0, 0.0, 0.0), FEED),
         line(p(10.0, 0.0, 0.0), p(10.0, 10.0, 0.0), FEED),
     ];
-    let st = stations(segments, &machine, 0.05);
+    // Passed, as this test is about (judged, the corner is a stop: quicker here).
+    let st = Stations::with_corners(
+        &path(segments),
+        &machine,
+        0.05,
+        FeedPolicy::Programmed,
+        Corners::Passed,
+    )
+    .unwrap();
     let corner = st.s_mm().iter().position(|&s| s == 10.0).unwrap();
     // Δt = (−1, 1, 0): v ≤ a·T/2 / 1 = 1000 mm/s² · 0.016 s / 2 = 8 mm/s.
     assert_eq!(st.cap_kind()[corner], CapKind::Corner);

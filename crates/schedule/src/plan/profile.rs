@@ -236,6 +236,24 @@ impl<'a> Profile<'a> {
         t_s
     }
 
+    /// When the motion leaves each of `stations` (stops of the profile, ascending), s from
+    /// the program start: the start of the first run leaving it, its dwell included; the
+    /// cycle time for the last station of the path.
+    pub(crate) fn leave_times_s(&self, stations: &[usize]) -> Vec<f64> {
+        let mut runs = self.runs.iter().peekable();
+        stations
+            .iter()
+            .map(|&station| {
+                while runs.peek().is_some_and(|run| run.first < station) {
+                    runs.next();
+                }
+                runs.peek()
+                    .filter(|run| run.first == station)
+                    .map_or(self.cycle_time_s, |run| run.start_s - run.pause_s)
+            })
+            .collect()
+    }
+
     /// Removes the run [`Profile::push_run`] appended last.
     pub(super) fn pop_run(&mut self) {
         if let Some(run) = self.runs.pop() {

@@ -408,7 +408,15 @@ fn slow_corners_dip_instead_of_being_held() {
         period_ms: 4.0,
         ..Machine::default()
     };
-    let st = Stations::new(&Path { segments }, &machine, 0.05, FeedPolicy::Programmed).unwrap();
+    // The corners passed, as the rule of slow dips is about (judged, they are stops).
+    let st = Stations::with_corners(
+        &Path { segments },
+        &machine,
+        0.05,
+        FeedPolicy::Programmed,
+        crate::Corners::Passed,
+    )
+    .unwrap();
     let (dips, verified) = run(&st, &[1.0], (REPAIR_MAX_TRIES, SLOW_MAX_TRIES));
     let samples = dips.sample(machine.period_ms).unwrap();
     assert!(worst_ratio(&machine, &samples) <= 1.0 + 1e-6);
