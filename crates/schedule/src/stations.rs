@@ -425,20 +425,30 @@ impl Stations {
     /// acceleration share each axis' limit within one period of it), or stopped at, as
     /// exact stop does (MODEL.md §6.1, "Stop or pass"): a stop has no velocity step, so
     /// the motion reaches it with the whole tangential acceleration and leaves it the
-    /// same way. Each corner is judged with both its neighbours stopped, where its two
-    /// segments are planned apart from the rest: the stations are limited with every
-    /// corner a stop, then with every other corner passed (even, then odd), and a corner
-    /// is passed where the acceleration-limited envelope over its two segments is
-    /// quicker so. The stations are limited once more with the corners so chosen, and
-    /// kept so only where their envelope is no slower than with every corner a stop and
-    /// with every corner passed (else the quicker of those two).
-    /// With a jerk limit the choice is returned for the planner to check
+    /// same way. Only corners whose rule sets their station's cap are judged (the others
+    /// are passed at their segments' speed). Each is judged with both its judged
+    /// neighbours stopped, where its two segments are planned apart from the rest: the
+    /// stations are limited with every judged corner a stop, then with every other one
+    /// passed (even, then odd), and a corner is passed where the acceleration-limited
+    /// envelope over its two segments is no slower so. The stations are limited once
+    /// more with the corners so chosen, and kept so only where their envelope is no
+    /// slower than with every judged corner a stop (else that). With a jerk limit a stop
+    /// is judged W dearer and the choice is returned for the planner to check
     /// (`crate::corner_check`), the stations limited as it says.
     fn stop_or_pass_corners(
         &mut self,
         corners: Vec<(usize, Vector3<f64>)>,
     ) -> Option<CornerChoice> {
-        if corners.is_empty() {
+        // A corner whose rule does not set its station's cap (a shallow one, or one on a
+        // slow segment) is passed at the speed of the segments beside it: a stop there
+        // could only be slower, so it is not judged. Where no corner's rule binds (as on
+        // smooth finishing paths) nothing is judged, and nothing copied.
+        let judged: Vec<usize> = (0..corners.len())
+            .filter(|&index| self.cap_kind[corners[index].0] == CapKind::Corner)
+            .collect();
+        if judged.is_empty() {
+            self.share_corner_budgets(&corners);
+            self.corners = corners.iter().map(|&(c, _)| c).collect();
             self.limit_sampled_geometry();
             return None;
         }
@@ -452,8 +462,11 @@ impl Stations {
             pass: vec![false; corners.len()],
             corners,
         };
-        let count = choice.corners.len();
-        let stopped = self.limit_with(&choice, &|_| false);
+        let mut free = vec![true; choice.corners.len()];
+        for &index in &judged {
+            free[index] = false;
+        }
+        let stopped = self.limit_with(&choice, &|index| free[index]);
         let junctions: Vec<usize> = self.stops.iter().map(|stop| stop.station).collect();
         let time = |st: &Stations, v: &[f64], lo: usize, hi: usize| {
             (lo..hi)
@@ -467,9 +480,15 @@ impl Stations {
                 .map(|k| choice.base.2[k] / self.interval_jerk_mm_s3[k])
                 .fold(0.0, f64::max)
         });
+        // Position of each judged corner among the judged ones.
+        let mut rank = vec![0; choice.corners.len()];
+        for (r, &index) in judged.iter().enumerate() {
+            rank[index] = r;
+        }
         for parity in 0..2 {
-            let envelope = self.limit_with(&choice, &|index| index % 2 == parity);
-            for index in (parity..count).step_by(2) {
+            let envelope =
+                self.limit_with(&choice, &|index| free[index] || rank[index] % 2 == parity);
+            for &index in judged.iter().skip(parity).step_by(2) {
                 let c = choice.corners[index].0;
                 // Its neighbouring junctions with every corner but the passed ones stopped.
                 let at = junctions.partition_point(|&x| x < c);
@@ -479,23 +498,22 @@ impl Stations {
                     <= time(self, &stopped, before, after) + stop_cost_s;
             }
         }
+        for (index, &f) in free.iter().enumerate() {
+            choice.pass[index] |= f;
+        }
         let pass = std::mem::take(&mut choice.pass);
         if self.machine.jerk_mm_s3.is_some() {
             self.limit_with(&choice, &|index| pass[index]);
             choice.pass = pass;
             return Some(choice);
         }
-        // The quickest of every corner passed, every corner stopped and the choice.
+        // The choice, kept only where its envelope is no slower than with every judged
+        // corner a stop (the corners interact through the speeds between them).
         let n = self.len() - 1;
-        let envelope = self.limit_with(&choice, &|_| true);
-        let all_passed = time(self, &envelope, 0, n);
         let all_stopped = time(self, &stopped, 0, n);
         let envelope = self.limit_with(&choice, &|index| pass[index]);
-        let chosen = time(self, &envelope, 0, n);
-        if all_passed < chosen.min(all_stopped) {
-            self.limit_with(&choice, &|_| true);
-        } else if all_stopped < chosen {
-            self.limit_with(&choice, &|_| false);
+        if all_stopped < time(self, &envelope, 0, n) {
+            self.limit_with(&choice, &|index| free[index]);
         }
         None
     }

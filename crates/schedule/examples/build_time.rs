@@ -1,0 +1,32 @@
+//! Time of building the stations of a program (each corner judged), best of 5.
+//!
+//! `cargo run --release -p schedule --example build_time -- FILE PERIOD_MS`
+use schedule::*;
+fn main() {
+    let file = std::env::args().nth(1).expect("a program");
+    let period_ms: f64 = std::env::args()
+        .nth(2)
+        .map_or(16.0, |s| s.parse().expect("a period"));
+    let text = String::from_utf8_lossy(&std::fs::read(&file).expect("readable")).to_string();
+    let path = nc::parse(&text, &file, &nc::Options::default()).path;
+    let machine = Machine {
+        period_ms,
+        feed_max_mm_min: 3000.0,
+        rapid_mm_min: 10000.0,
+        accel_mm_s2: [1000.0; 3],
+        ..Machine::default()
+    };
+    for corners in [Corners::Passed, Corners::Judged] {
+        let best = (0..5)
+            .map(|_| {
+                let t = std::time::Instant::now();
+                let st =
+                    Stations::with_corners(&path, &machine, 0.05, FeedPolicy::MachineMax, corners)
+                        .expect("stations");
+                std::hint::black_box(st.len());
+                t.elapsed().as_secs_f64()
+            })
+            .fold(f64::INFINITY, f64::min);
+        println!("{corners:?}: {best:.3} s");
+    }
+}
