@@ -110,8 +110,9 @@ pub enum Corners {
 /// The corners' choice on the envelope ([`Stations`]' `stop_or_pass_corners`), kept
 /// with a jerk limit for the planner to check (`crate::corner_check`).
 pub(crate) struct CornerChoice {
-    /// Caps, their kinds and interval accelerations before any corner was judged.
-    base: (Vec<f64>, Vec<CapKind>, Vec<f64>),
+    /// Caps and their kinds before any corner was judged (the interval accelerations
+    /// are made again from the geometry: [`Stations::tangential_limits`]).
+    base: (Vec<f64>, Vec<CapKind>),
     /// The program's own stops (start, dwells, end).
     stops: Vec<Stop>,
     /// Each corner's station and tangent jump.
@@ -366,24 +367,16 @@ impl Stations {
 
             let intervals =
                 ((len_mm / ds_mm).ceil() as usize).max(least_intervals(&machine) as usize);
-            let mut tangent_before = start_tangent;
             for j in 1..=intervals {
                 let u = j as f64 / intervals as f64;
-                let tangent = seg.tangent_at_fraction(u);
-                let accel = machine
-                    .tangential_accel_mm_s2(&tangent_before)
-                    .min(machine.tangential_accel_mm_s2(&tangent));
-                self.interval_accel_mm_s2.push(accel);
-                if machine.jerk_mm_s3.is_some() {
-                    let jerk = machine
-                        .tangential_jerk_mm_s3(&tangent_before)
-                        .min(machine.tangential_jerk_mm_s3(&tangent));
-                    self.interval_jerk_mm_s3.push(jerk);
-                }
                 // Its position and tangent are [`Stations::position_at`] and
                 // [`Stations::tangent_at`] of (segment, u): u = 1 exactly at the end.
                 self.push(s_start_mm + len_mm * u, index, u, cap_mm_min, kind);
-                tangent_before = tangent;
+                let (accel, jerk) = self.tangential_limits(self.len() - 2);
+                self.interval_accel_mm_s2.push(accel);
+                if machine.jerk_mm_s3.is_some() {
+                    self.interval_jerk_mm_s3.push(jerk);
+                }
             }
             previous = Some(index);
         }
@@ -453,11 +446,7 @@ impl Stations {
             return None;
         }
         let mut choice = CornerChoice {
-            base: (
-                self.cap_mm_min.clone(),
-                self.cap_kind.clone(),
-                self.interval_accel_mm_s2.clone(),
-            ),
+            base: (self.cap_mm_min.clone(), self.cap_kind.clone()),
             stops: self.stops.clone(),
             pass: vec![false; corners.len()],
             corners,
@@ -466,18 +455,32 @@ impl Stations {
         for &index in &judged {
             free[index] = false;
         }
-        let stopped = self.limit_with(&choice, &|index| free[index]);
-        let junctions: Vec<usize> = self.stops.iter().map(|stop| stop.station).collect();
-        let time = |st: &Stations, v: &[f64], lo: usize, hi: usize| {
+        let time = |st: &Stations, v: &[f32], lo: usize, hi: usize| {
             (lo..hi)
-                .map(|k| 2.0 * (st.s_mm[k + 1] - st.s_mm[k]) / (v[k] + v[k + 1]))
+                .map(|k| 2.0 * (st.s_mm[k + 1] - st.s_mm[k]) / (v[k] as f64 + v[k + 1] as f64))
                 .sum::<f64>()
         };
+        // Every judged corner stopped: each one's window (its neighbouring junctions), its
+        // time, and the whole path's (the envelope itself is let go: 4 B a station).
+        let stopped = self.limit_with(&choice, &|index| free[index]);
+        let junctions: Vec<usize> = self.stops.iter().map(|stop| stop.station).collect();
+        let windows: Vec<(usize, usize, f64)> = judged
+            .iter()
+            .map(|&index| {
+                let c = choice.corners[index].0;
+                let at = junctions.partition_point(|&x| x < c);
+                let before = junctions[..at].last().copied().unwrap_or(0);
+                let after = junctions.get(at + 1).copied().unwrap_or(self.len() - 1);
+                (before, after, time(self, &stopped, before, after))
+            })
+            .collect();
+        let all_stopped = time(self, &stopped, 0, self.len() - 1);
+        drop(stopped);
         // With a jerk limit each stop adds a run, and each run its filter's width W
         // (MODEL.md §6.1, "Jerk limit"): a stop costs W more than its envelope says.
         let stop_cost_s = self.machine.jerk_mm_s3.map_or(0.0, |_| {
             (0..self.len() - 1)
-                .map(|k| choice.base.2[k] / self.interval_jerk_mm_s3[k])
+                .map(|k| self.interval_accel_mm_s2[k] / self.interval_jerk_mm_s3[k])
                 .fold(0.0, f64::max)
         });
         // Position of each judged corner among the judged ones.
@@ -488,14 +491,10 @@ impl Stations {
         for parity in 0..2 {
             let envelope =
                 self.limit_with(&choice, &|index| free[index] || rank[index] % 2 == parity);
-            for &index in judged.iter().skip(parity).step_by(2) {
-                let c = choice.corners[index].0;
-                // Its neighbouring junctions with every corner but the passed ones stopped.
-                let at = junctions.partition_point(|&x| x < c);
-                let before = junctions[..at].last().copied().unwrap_or(0);
-                let after = junctions.get(at).copied().unwrap_or(self.len() - 1);
-                choice.pass[index] = time(self, &envelope, before, after)
-                    <= time(self, &stopped, before, after) + stop_cost_s;
+            for (r, &index) in judged.iter().enumerate().skip(parity).step_by(2) {
+                let (before, after, stopped_s) = windows[r];
+                choice.pass[index] =
+                    time(self, &envelope, before, after) <= stopped_s + stop_cost_s;
             }
         }
         for (index, &f) in free.iter().enumerate() {
@@ -510,7 +509,6 @@ impl Stations {
         // The choice, kept only where its envelope is no slower than with every judged
         // corner a stop (the corners interact through the speeds between them).
         let n = self.len() - 1;
-        let all_stopped = time(self, &stopped, 0, n);
         let envelope = self.limit_with(&choice, &|index| pass[index]);
         if all_stopped < time(self, &envelope, 0, n) {
             self.limit_with(&choice, &|index| free[index]);
@@ -525,8 +523,13 @@ impl Stations {
         &mut self,
         choice: &CornerChoice,
         passed: &dyn Fn(usize) -> bool,
-    ) -> Vec<f64> {
-        (self.cap_mm_min, self.cap_kind, self.interval_accel_mm_s2) = choice.base.clone();
+    ) -> Vec<f32> {
+        // Into the arrays there (no second copy of them at once).
+        self.cap_mm_min.clone_from(&choice.base.0);
+        self.cap_kind.clone_from(&choice.base.1);
+        for k in 0..self.len() - 1 {
+            self.interval_accel_mm_s2[k] = self.tangential_limits(k).0;
+        }
         let (kept, stopped): (Vec<_>, Vec<_>) =
             (0..choice.corners.len()).partition(|&index| passed(index));
         self.stops = with_stops(
@@ -712,7 +715,7 @@ impl Stations {
         // run at its cap).
         let envelope = self.envelope_mm_s(&caps, &interval_accel);
         for k in 0..n {
-            let cap = (caps[k] / 60.0).min(envelope[k]);
+            let cap = (caps[k] / 60.0).min(envelope[k] as f64);
             let reach = 2.0 * cap * period_s + 1e-9;
             let (last_turn, next_turn) = turn_window(k);
             if is_stop[k] || self.s_mm[k] - last_turn > reach && next_turn - self.s_mm[k] > reach {
@@ -772,23 +775,56 @@ impl Stations {
     /// No plan under these caps and accelerations (or lower ones) is faster at any
     /// station, so a sampled difference judged at the envelope's speed bounds the plan's
     /// there.
-    fn envelope_mm_s(&self, caps_mm_min: &[f64], interval_accel: &[f64]) -> Vec<f64> {
+    fn envelope_mm_s(&self, caps_mm_min: &[f64], interval_accel: &[f64]) -> Vec<f32> {
+        // v² and then v held as f32 rounded up (4 B a station): each value an upper bound.
+        let up = |x: f64| {
+            let f = x as f32;
+            if (f as f64) < x {
+                f32::from_bits(f.to_bits() + 1)
+            } else {
+                f
+            }
+        };
         let n = self.len();
         let s = &self.s_mm;
-        let mut v2: Vec<f64> = caps_mm_min.iter().map(|c| (c / 60.0).powi(2)).collect();
+        let mut v2: Vec<f32> = caps_mm_min.iter().map(|c| up((c / 60.0).powi(2))).collect();
         for stop in &self.stops {
             v2[stop.station] = 0.0;
         }
         for k in 1..n {
-            let reach = v2[k - 1] + 2.0 * interval_accel[k - 1] * (s[k] - s[k - 1]);
-            v2[k] = v2[k].min(reach);
+            let reach = v2[k - 1] as f64 + 2.0 * interval_accel[k - 1] * (s[k] - s[k - 1]);
+            v2[k] = v2[k].min(up(reach));
         }
         for k in (0..n.saturating_sub(1)).rev() {
-            let reach = v2[k + 1] + 2.0 * interval_accel[k] * (s[k + 1] - s[k]);
-            v2[k] = v2[k].min(reach);
+            let reach = v2[k + 1] as f64 + 2.0 * interval_accel[k] * (s[k + 1] - s[k]);
+            v2[k] = v2[k].min(up(reach));
         }
-        v2.iter_mut().for_each(|x| *x = x.sqrt());
+        v2.iter_mut().for_each(|x| *x = up((*x as f64).sqrt()));
         v2
+    }
+
+    /// The tangential acceleration and jerk limits of interval k → k+1, mm/s² and mm/s³:
+    /// min_i a_i/|t_i| (and j_i/|t_i|) over the tangents of its segment at both ends (from
+    /// fraction 0 where the interval starts a segment).
+    fn tangential_limits(&self, k: usize) -> (f64, f64) {
+        let segment = self.segment[k + 1];
+        let seg = &self.path.segments[segment as usize];
+        let start = if self.segment[k] == segment {
+            self.fraction[k]
+        } else {
+            0.0
+        };
+        let (t0, t1) = (
+            seg.tangent_at_fraction(start),
+            seg.tangent_at_fraction(self.fraction[k + 1]),
+        );
+        let m = &self.machine;
+        (
+            m.tangential_accel_mm_s2(&t0)
+                .min(m.tangential_accel_mm_s2(&t1)),
+            m.tangential_jerk_mm_s3(&t0)
+                .min(m.tangential_jerk_mm_s3(&t1)),
+        )
     }
 
     fn push(&mut self, s_mm: f64, segment: usize, fraction: f64, cap_mm_min: f64, kind: CapKind) {
