@@ -425,7 +425,8 @@ impl Stations {
     /// passed (even, then odd), and a corner is passed where the acceleration-limited
     /// envelope over its two segments is no slower so. The stations are limited once
     /// more with the corners so chosen, and kept so only where their envelope is no
-    /// slower than with every judged corner a stop (else that). With a jerk limit a stop
+    /// slower than with every corner passed and with every judged corner a stop (else
+    /// the quicker of those). With a jerk limit a stop
     /// is judged W dearer and the choice is returned for the planner to check
     /// (`crate::corner_check`), the stations limited as it says.
     fn stop_or_pass_corners(
@@ -506,11 +507,18 @@ impl Stations {
             choice.pass = pass;
             return Some(choice);
         }
-        // The choice, kept only where its envelope is no slower than with every judged
-        // corner a stop (the corners interact through the speeds between them).
+        // The choice, kept only where its envelope is no slower than with every corner
+        // passed and with every judged corner a stop (the corners interact through the
+        // speeds between them); else the quicker of those two.
         let n = self.len() - 1;
+        let envelope = self.limit_with(&choice, &|_| true);
+        let all_passed = time(self, &envelope, 0, n);
         let envelope = self.limit_with(&choice, &|index| pass[index]);
-        if all_stopped < time(self, &envelope, 0, n) {
+        let chosen = time(self, &envelope, 0, n);
+        drop(envelope);
+        if all_passed < chosen.min(all_stopped) {
+            self.limit_with(&choice, &|_| true);
+        } else if all_stopped < chosen {
             self.limit_with(&choice, &|index| free[index]);
         }
         None
