@@ -110,9 +110,10 @@ pub enum Corners {
 /// The corners' choice on the envelope ([`Stations`]' `stop_or_pass_corners`), kept
 /// with a jerk limit for the planner to check (`crate::corner_check`).
 pub(crate) struct CornerChoice {
-    /// Caps and their kinds before any corner was judged (the interval accelerations
-    /// are made again from the geometry: [`Stations::tangential_limits`]).
-    base: (Vec<f64>, Vec<CapKind>),
+    /// Caps before any corner was judged, mm/min, and their kinds (the interval
+    /// accelerations are made again from the geometry: [`Stations::tangential_limits`]).
+    base_caps_mm_min: Vec<f64>,
+    base_kinds: Vec<CapKind>,
     /// The program's own stops (start, dwells, end).
     stops: Vec<Stop>,
     /// Each corner's station and tangent jump.
@@ -131,6 +132,16 @@ impl CornerChoice {
     pub(crate) fn corner_station(&self, index: usize) -> usize {
         self.corners[index].0
     }
+}
+
+/// A judged corner's two segments, between the junctions beside it with every judged
+/// corner a stop, and their envelope's time so.
+struct JudgedWindow {
+    /// First and last station.
+    before: usize,
+    after: usize,
+    /// Time of the envelope over them with the corner stopped at, s.
+    stopped_s: f64,
 }
 
 /// A station where the tool is at rest: path start, path end, and every dwell.
@@ -398,19 +409,31 @@ impl Stations {
                 dwell_s,
             }),
         }
+        let own_stops = std::mem::take(&mut self.stops);
         match choice {
-            Corners::Judged => return Ok(self.stop_or_pass_corners(corners)),
-            Corners::Stopped => {
-                self.stops = with_stops(&self.stops, corners.iter().map(|&(c, _)| c));
-                self.limit_sampled_geometry();
-            }
-            Corners::Passed => {
-                self.share_corner_budgets(&corners);
-                self.corners = corners.iter().map(|&(c, _)| c).collect();
-                self.limit_sampled_geometry();
-            }
+            Corners::Judged => return Ok(self.stop_or_pass_corners(own_stops, corners)),
+            Corners::Stopped => self.limit_corners(&own_stops, &corners, &|_| false),
+            Corners::Passed => self.limit_corners(&own_stops, &corners, &|_| true),
         }
         Ok(None)
+    }
+
+    /// The stops and limits of the stations with the `corners` that `passed` says
+    /// (indices into `corners`) passed, their steps taken out of the budgets beside them,
+    /// and the others stops of no dwell beside `own_stops` (the program's); then the
+    /// sampled-geometry rule over all of it.
+    fn limit_corners(
+        &mut self,
+        own_stops: &[Stop],
+        corners: &[(usize, Vector3<f64>)],
+        passed: &dyn Fn(usize) -> bool,
+    ) {
+        let (kept, stopped): (Vec<_>, Vec<_>) = (0..corners.len()).partition(|&i| passed(i));
+        self.stops = with_stops(own_stops, stopped.iter().map(|&i| corners[i].0));
+        let kept: Vec<_> = kept.iter().map(|&i| corners[i]).collect();
+        self.share_corner_budgets(&kept);
+        self.corners = kept.iter().map(|&(c, _)| c).collect();
+        self.limit_sampled_geometry();
     }
 
     /// Each corner either passed at the speed the corner rule allows, its velocity step
@@ -428,9 +451,10 @@ impl Stations {
     /// slower than with every corner passed and with every judged corner a stop (else
     /// the quicker of those). With a jerk limit a stop
     /// is judged W dearer and the choice is returned for the planner to check
-    /// (`crate::corner_check`), the stations limited as it says.
+    /// (`crate::corner_check`), which limits the stations as it keeps it.
     fn stop_or_pass_corners(
         &mut self,
+        own_stops: Vec<Stop>,
         corners: Vec<(usize, Vector3<f64>)>,
     ) -> Option<CornerChoice> {
         // A corner whose rule does not set its station's cap (a shallow one, or one on a
@@ -441,14 +465,13 @@ impl Stations {
             .filter(|&index| self.cap_kind[corners[index].0] == CapKind::Corner)
             .collect();
         if judged.is_empty() {
-            self.share_corner_budgets(&corners);
-            self.corners = corners.iter().map(|&(c, _)| c).collect();
-            self.limit_sampled_geometry();
+            self.limit_corners(&own_stops, &corners, &|_| true);
             return None;
         }
         let mut choice = CornerChoice {
-            base: (self.cap_mm_min.clone(), self.cap_kind.clone()),
-            stops: self.stops.clone(),
+            base_caps_mm_min: self.cap_mm_min.clone(),
+            base_kinds: self.cap_kind.clone(),
+            stops: own_stops,
             pass: vec![false; corners.len()],
             corners,
         };
@@ -465,14 +488,18 @@ impl Stations {
         // time, and the whole path's (the envelope itself is let go: 4 B a station).
         let stopped = self.limit_with(&choice, &|index| free[index]);
         let junctions: Vec<usize> = self.stops.iter().map(|stop| stop.station).collect();
-        let windows: Vec<(usize, usize, f64)> = judged
+        let windows: Vec<JudgedWindow> = judged
             .iter()
             .map(|&index| {
                 let c = choice.corners[index].0;
                 let at = junctions.partition_point(|&x| x < c);
                 let before = junctions[..at].last().copied().unwrap_or(0);
                 let after = junctions.get(at + 1).copied().unwrap_or(self.len() - 1);
-                (before, after, time(self, &stopped, before, after))
+                JudgedWindow {
+                    before,
+                    after,
+                    stopped_s: time(self, &stopped, before, after),
+                }
             })
             .collect();
         let all_stopped = time(self, &stopped, 0, self.len() - 1);
@@ -493,9 +520,9 @@ impl Stations {
             let envelope =
                 self.limit_with(&choice, &|index| free[index] || rank[index] % 2 == parity);
             for (r, &index) in judged.iter().enumerate().skip(parity).step_by(2) {
-                let (before, after, stopped_s) = windows[r];
+                let w = &windows[r];
                 choice.pass[index] =
-                    time(self, &envelope, before, after) <= stopped_s + stop_cost_s;
+                    time(self, &envelope, w.before, w.after) <= w.stopped_s + stop_cost_s;
             }
         }
         for (index, &f) in free.iter().enumerate() {
@@ -503,19 +530,23 @@ impl Stations {
         }
         let pass = std::mem::take(&mut choice.pass);
         if self.machine.jerk_mm_s3.is_some() {
-            self.limit_with(&choice, &|index| pass[index]);
+            // The check limits the stations itself, first as chosen (not done twice here).
             choice.pass = pass;
             return Some(choice);
         }
         // The choice, kept only where its envelope is no slower than with every corner
         // passed and with every judged corner a stop (the corners interact through the
         // speeds between them); else the quicker of those two.
+        // (Each envelope is timed and let go before the next pass makes its own.)
         let n = self.len() - 1;
-        let envelope = self.limit_with(&choice, &|_| true);
-        let all_passed = time(self, &envelope, 0, n);
-        let envelope = self.limit_with(&choice, &|index| pass[index]);
-        let chosen = time(self, &envelope, 0, n);
-        drop(envelope);
+        let all_passed = {
+            let envelope = self.limit_with(&choice, &|_| true);
+            time(self, &envelope, 0, n)
+        };
+        let chosen = {
+            let envelope = self.limit_with(&choice, &|index| pass[index]);
+            time(self, &envelope, 0, n)
+        };
         if all_passed < chosen.min(all_stopped) {
             self.limit_with(&choice, &|_| true);
         } else if all_stopped < chosen {
@@ -533,21 +564,12 @@ impl Stations {
         passed: &dyn Fn(usize) -> bool,
     ) -> Vec<f32> {
         // Into the arrays there (no second copy of them at once).
-        self.cap_mm_min.clone_from(&choice.base.0);
-        self.cap_kind.clone_from(&choice.base.1);
+        self.cap_mm_min.clone_from(&choice.base_caps_mm_min);
+        self.cap_kind.clone_from(&choice.base_kinds);
         for k in 0..self.len() - 1 {
             self.interval_accel_mm_s2[k] = self.tangential_limits(k).0;
         }
-        let (kept, stopped): (Vec<_>, Vec<_>) =
-            (0..choice.corners.len()).partition(|&index| passed(index));
-        self.stops = with_stops(
-            &choice.stops,
-            stopped.iter().map(|&index| choice.corners[index].0),
-        );
-        let kept: Vec<_> = kept.iter().map(|&index| choice.corners[index]).collect();
-        self.share_corner_budgets(&kept);
-        self.corners = kept.iter().map(|&(c, _)| c).collect();
-        self.limit_sampled_geometry();
+        self.limit_corners(&choice.stops, &choice.corners, passed);
         self.envelope_mm_s(&self.cap_mm_min, &self.interval_accel_mm_s2)
     }
 
@@ -1022,27 +1044,6 @@ impl Stations {
 /// `s.partition_point(pred)` (`pred` true on a prefix of `s`), found by galloping out
 /// from `hint`: the same index in O(log distance) rather than O(log len), for searches
 /// that land near a known station.
-/// The fewest intervals a moving segment is cut into: 2, or 3 with a jerk limit
-/// ([`station_count`]).
-fn least_intervals(machine: &Machine) -> f64 {
-    if machine.jerk_mm_s3.is_some() {
-        3.0
-    } else {
-        2.0
-    }
-}
-
-/// `stops` with a stop of no dwell added at each of `corners` (ascending, none a stop).
-fn with_stops(stops: &[Stop], corners: impl Iterator<Item = usize>) -> Vec<Stop> {
-    let mut all: Vec<Stop> = stops.to_vec();
-    all.extend(corners.map(|station| Stop {
-        station,
-        dwell_s: 0.0,
-    }));
-    all.sort_by_key(|stop| stop.station);
-    all
-}
-
 fn partition_point_near(s: &[f64], hint: usize, pred: impl Fn(f64) -> bool) -> usize {
     let n = s.len();
     let hint = hint.min(n);
@@ -1074,6 +1075,27 @@ fn partition_point_near(s: &[f64], hint: usize, pred: impl Fn(f64) -> bool) -> u
         hi = probe;
         step *= 2;
     }
+}
+
+/// The fewest intervals a moving segment is cut into: 2, or 3 with a jerk limit
+/// ([`station_count`]).
+fn least_intervals(machine: &Machine) -> f64 {
+    if machine.jerk_mm_s3.is_some() {
+        3.0
+    } else {
+        2.0
+    }
+}
+
+/// `stops` with a stop of no dwell added at each of `corners` (ascending, none a stop).
+fn with_stops(stops: &[Stop], corners: impl Iterator<Item = usize>) -> Vec<Stop> {
+    let mut all: Vec<Stop> = stops.to_vec();
+    all.extend(corners.map(|station| Stop {
+        station,
+        dwell_s: 0.0,
+    }));
+    all.sort_by_key(|stop| stop.station);
+    all
 }
 
 /// A cap must be > 0 mm/min (+∞ is allowed and changes nothing); NaN is rejected.

@@ -243,6 +243,18 @@ proptest! {
             "plan {plan_s} over exact stop {exact_s} (bound {bound_s})"
         );
         prop_assert!(plan_s >= bound_s * (1.0 - 1e-12), "plan {plan_s} under bound {bound_s}");
+        // The choice is a plan the planner could have made otherwise: never slower than
+        // every corner a stop, and without a jerk limit than every corner passed.
+        let with = |corners| {
+            let st = Stations::with_corners(&path, &m, 0.05, FeedPolicy::Programmed, corners).unwrap();
+            plan(&st).cycle_time_s()
+        };
+        let stopped_s = with(Corners::Stopped);
+        prop_assert!(plan_s <= stopped_s * (1.0 + 1e-9), "plan {plan_s} over every corner stopped {stopped_s}");
+        if jerk.is_none() {
+            let passed_s = with(Corners::Passed);
+            prop_assert!(plan_s <= passed_s * (1.0 + 1e-9), "plan {plan_s} over every corner passed {passed_s}");
+        }
     }
 }
 

@@ -72,8 +72,8 @@ pub struct SimulateSummary {
     /// The program run in exact stop, every segment from rest to rest at its own feed and
     /// axis-limited acceleration (`schedule::exact_stop_time_s`, MODEL.md §6.1, "Exact
     /// stop"): the simplest feasible timing, beside `cycle_time_s` (which can still
-    /// exceed it on short segments with sharp corners, MODEL.md §6.1); absent in
-    /// summaries written before it was recorded.
+    /// exceed it with a jerk limit at short servo periods, MODEL.md §6.1, "Stop or
+    /// pass"); absent in summaries written before it was recorded.
     #[serde(default)]
     pub exact_stop_time_s: Option<f64>,
     /// Stock grid, so `report` can rebuild the maps.
