@@ -227,7 +227,9 @@ pub struct MotionEstimate {
 }
 
 /// Estimate stations and servo samples of `path` on `machine` before planning:
-/// stations every `ds_mm` plus two per segment; the time is at least each
+/// stations as [`schedule::station_count`] counts them at the programmed feeds (every
+/// `ds_mm`, two or three a segment at least, and the ramp stations beside its ends that
+/// may come to rest; re-timing at `feed_max` has about as many or fewer); the time is at least each
 /// segment's length at its feed (capped by feed_max / rapid) plus dwells, at
 /// least the rest-to-rest time of the whole length under the largest
 /// acceleration (2·√(L/a)) and jerk ((32·L/j)^⅓), and at least one block
@@ -257,7 +259,8 @@ pub fn estimate_motion(path: &nc::Path, machine: &schedule::Machine, ds_mm: f64)
         .max(jerk_time_s)
         .max(block_time_s);
     MotionEstimate {
-        stations: length_mm / ds_mm + 2.0 * path.segments.len() as f64 + 1.0,
+        stations: schedule::station_count(path, machine, ds_mm, schedule::FeedPolicy::Programmed)
+            as f64,
         time_s,
         samples: time_s / (machine.period_ms * 1e-3) + 2.0,
     }
@@ -378,6 +381,8 @@ mod tests {
         // 1 mm rapid (0.01 s) + 10 mm at 1 mm/s.
         assert!((e.time_s - 10.01).abs() < 1e-9, "{e:?}");
         assert!((e.samples - (1001.0 + 2.0)).abs() < 1e-6, "{e:?}");
-        assert!((e.stations - (11.0 / 0.05 + 5.0)).abs() < 1e-9, "{e:?}");
+        // From rest: the rapid's 20 intervals, the line's 200 and, before its end at rest,
+        // 7 ramp stations (it reaches 1 mm/s in 0.0005 mm: 0.05/2^7 ≤ 0.0005).
+        assert_eq!(e.stations, (1 + 20 + 200 + 7) as f64, "{e:?}");
     }
 }

@@ -1,6 +1,7 @@
 //! Time of building the stations of a program (each corner judged), best of 5.
 //!
-//! `cargo run --release -p schedule --example build_time -- FILE PERIOD_MS`
+//! `cargo run --release -p schedule --example build_time -- FILE PERIOD_MS [JERK_MM_S3 [programmed]]`
+//! (`programmed`: at the program's feeds, as `simulate`; else at `feed_max`, as `optimize`).
 use schedule::*;
 fn main() {
     let file = std::env::args().nth(1).expect("a program");
@@ -9,8 +10,16 @@ fn main() {
         .map_or(16.0, |s| s.parse().expect("a period"));
     let text = String::from_utf8_lossy(&std::fs::read(&file).expect("readable")).to_string();
     let path = nc::parse(&text, &file, &nc::Options::default()).path;
+    let jerk: Option<f64> = std::env::args()
+        .nth(3)
+        .map(|s| s.parse().expect("a jerk limit"));
+    let policy = match std::env::args().nth(4).as_deref() {
+        Some("programmed") => FeedPolicy::Programmed,
+        _ => FeedPolicy::MachineMax,
+    };
     let machine = Machine {
         period_ms,
+        jerk_mm_s3: jerk.map(|j| [j; 3]),
         feed_max_mm_min: 3000.0,
         rapid_mm_min: 10000.0,
         accel_mm_s2: [1000.0; 3],
@@ -20,10 +29,9 @@ fn main() {
         let best = (0..5)
             .map(|_| {
                 let t = std::time::Instant::now();
-                let st =
-                    Stations::with_corners(&path, &machine, 0.05, FeedPolicy::MachineMax, corners)
-                        .expect("stations");
-                std::hint::black_box(st.len());
+                let st = Stations::with_corners(&path, &machine, 0.05, policy, corners)
+                    .expect("stations");
+                eprintln!("{corners:?}: {} stations", st.len());
                 t.elapsed().as_secs_f64()
             })
             .fold(f64::INFINITY, f64::min);

@@ -56,7 +56,7 @@ impl Stations {
         policy: FeedPolicy,
         corners: Corners,
     ) -> Result<Self, ScheduleError> {
-        let estimate = Self::check(path, machine, ds_mm)?;
+        let estimate = Self::check(path, machine, ds_mm, policy)?;
         let built = Self::build_with(
             path.segments.clone(),
             machine,
@@ -77,7 +77,7 @@ impl Stations {
         ds_mm: f64,
         policy: FeedPolicy,
     ) -> Result<Self, (ScheduleError, Path)> {
-        match Self::check(&path, machine, ds_mm) {
+        match Self::check(&path, machine, ds_mm, policy) {
             Ok(estimate) => Self::build_with(
                 path.segments,
                 machine,

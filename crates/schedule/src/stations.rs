@@ -17,6 +17,24 @@ pub const BYTES_PER_STATION: usize = 200;
 /// Segments shorter than this (mm) carry no stations; they neither move nor turn the tool.
 const MIN_SEGMENT_MM: f64 = 1e-9;
 
+/// Most ramp stations beside one end of a segment ([`ramp_station_counts`]): the nearest
+/// is then h/4096 from the end, h the segment's interval.
+const MAX_RAMP_STATIONS: u32 = 12;
+
+/// Each ramp station is this many times nearer the segment's end than the one before
+/// ([`ramp_station_counts`]).
+const RAMP_RATIO: f64 = 2.0;
+
+/// The nearest ramp station is within this share of the closed-form ramp from rest
+/// ([`ramp_station_counts`]): the plan's ramp before its jerk filter, at the fraction λ of
+/// the acceleration the filter takes, is at least half the S-curve's (MODEL.md §6.1,
+/// "Ramp stations").
+const RAMP_SHARE: f64 = 0.5;
+
+/// No ramp station nearer a segment's end than this, mm (a few ulps of a path's arc
+/// length at 10⁶ mm are 10⁻⁹ mm).
+const MIN_RAMP_MM: f64 = 1e-6;
+
 /// Which limit sets a station's feed cap, or, in a profile's time shares, what holds the speed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum CapKind {
@@ -156,9 +174,12 @@ pub struct Stop {
 /// The path discretised at arc-length stations, stored as struct of arrays.
 ///
 /// Every segment end is a station, so corners are exact; each segment of length L gets
-/// max(2, ⌈L/ds⌉) equal intervals. Station k > 0 belongs to the segment of the interval
-/// k−1 → k that ends at it (a corner station sits at fraction 1 of the segment before the
-/// corner); station 0 sits at fraction 0 of the first moving segment.
+/// max(2, ⌈L/ds⌉) equal intervals (3 with a jerk limit), and beside an end that may come
+/// to rest, where the feed is reached from rest within the first interval h, ramp stations
+/// at h/2, h/4, … ([`station_count`]; MODEL.md §6.1, "Ramp stations"). Station k > 0
+/// belongs to the segment of the interval k−1 → k that ends at it (a corner station sits
+/// at fraction 1 of the segment before the corner); station 0 sits at fraction 0 of the
+/// first moving segment.
 #[derive(Clone, Debug)]
 pub struct Stations {
     machine: Machine,
@@ -180,31 +201,203 @@ pub struct Stations {
     corners: Vec<usize>,
 }
 
-/// Number of stations [`Stations::new`] builds for `path` at spacing `ds_mm` on `machine`:
-/// one at the start and max(m, ⌈L/ds⌉) per moving segment, m = 2, or 3 with a jerk limit
-/// (a run from stop to stop then has two stations between its stops at least, which a
-/// jerk filter's held peak needs: MODEL.md §6.1, "Stop or pass"). Linear in the segments,
-/// allocates nothing, so callers can check the bound before any work. Saturates instead
-/// of overflowing.
-pub fn station_count(path: &Path, machine: &Machine, ds_mm: f64) -> usize {
-    let least = least_intervals(machine);
+/// Number of stations [`Stations::new`] builds for `path` at spacing `ds_mm` on `machine`
+/// under `policy`: one at the start and, per moving segment, max(m, ⌈L/ds⌉) intervals,
+/// m = 2, or 3 with a jerk limit (a run from stop to stop then has two stations between
+/// its stops at least, which a jerk filter's held peak needs: MODEL.md §6.1, "Stop or
+/// pass"), plus the ramp stations beside each end that may come to rest
+/// (`ramp_station_counts`). Linear in the segments, allocates nothing, so callers can
+/// check the bound before any work. Saturates instead of overflowing.
+pub fn station_count(path: &Path, machine: &Machine, ds_mm: f64, policy: FeedPolicy) -> usize {
+    let segments = &path.segments;
     let mut count: usize = 1;
-    for seg in &path.segments {
-        if matches!(seg.motion, Motion::Dwell { .. }) {
+    let mut rests_at_start = true;
+    for (index, seg) in segments.iter().enumerate() {
+        let Ok(Block::Move {
+            len_mm, cap_mm_min, ..
+        }) = Block::of(seg, machine, policy)
+        else {
             continue;
-        }
-        let len_mm = seg.length_mm();
-        if !(len_mm >= MIN_SEGMENT_MM) {
-            continue;
-        }
-        let intervals = (len_mm / ds_mm).ceil().max(least);
-        count = count.saturating_add(if intervals < usize::MAX as f64 {
-            intervals as usize
+        };
+        let intervals = (len_mm / ds_mm).ceil().max(least_intervals(machine));
+        let rests_at_end = rests_after(segments, index, cap_mm_min, machine, policy);
+        let ramps = ramp_station_counts(
+            seg,
+            len_mm,
+            intervals,
+            cap_mm_min,
+            machine,
+            [rests_at_start, rests_at_end],
+        );
+        rests_at_start = rests_at_end;
+        let stations = intervals + (ramps[0] + ramps[1]) as f64;
+        count = count.saturating_add(if stations < usize::MAX as f64 {
+            stations as usize
         } else {
             usize::MAX
         });
     }
     count
+}
+
+/// What a block of the path is to the stations.
+enum Block {
+    /// A dwell, s.
+    Dwell(f64),
+    /// A move too short to carry stations ([`MIN_SEGMENT_MM`]).
+    Still,
+    /// A move of `len_mm` capped at `cap_mm_min` by `kind` (before the corners beside it).
+    Move {
+        len_mm: f64,
+        cap_mm_min: f64,
+        kind: CapKind,
+    },
+}
+
+impl Block {
+    /// The block `seg` on `machine` under `policy`: its feed cap from the programmed feed
+    /// (or `feed_max`), the rapid rate, block time (S0) and curvature; what is wrong with
+    /// it otherwise.
+    fn of(seg: &Segment, machine: &Machine, policy: FeedPolicy) -> Result<Block, &'static str> {
+        let (mut cap_mm_min, mut kind) = match seg.motion {
+            Motion::Dwell { seconds } => {
+                if !(seconds.is_finite() && seconds >= 0.0) {
+                    return Err("dwell time must be finite and >= 0 s");
+                }
+                return Ok(Block::Dwell(seconds));
+            }
+            Motion::Rapid => (machine.rapid_mm_min, CapKind::Rapid),
+            Motion::Feed { feed_mm_min, held } => {
+                if !(feed_mm_min.is_finite() && feed_mm_min > 0.0) {
+                    return Err("feed must be finite and > 0 mm/min");
+                }
+                match policy {
+                    // Tapping: the programmed feed under either policy.
+                    _ if held && feed_mm_min <= machine.feed_max_mm_min => {
+                        (feed_mm_min, CapKind::Held)
+                    }
+                    FeedPolicy::Programmed if feed_mm_min <= machine.feed_max_mm_min => {
+                        (feed_mm_min, CapKind::Programmed)
+                    }
+                    _ => (machine.feed_max_mm_min, CapKind::FeedMax),
+                }
+            }
+        };
+        let len_mm = seg.length_mm();
+        if !len_mm.is_finite() {
+            return Err("length is not finite");
+        }
+        if len_mm < MIN_SEGMENT_MM {
+            return Ok(Block::Still);
+        }
+        let mut lower = |cap: f64, k: CapKind| {
+            if cap < cap_mm_min {
+                cap_mm_min = cap;
+                kind = k;
+            }
+        };
+        if let Some(tb_ms) = machine.block_time_ms {
+            lower(block_feed_cap_mm_min(len_mm, tb_ms), CapKind::BlockTime);
+        }
+        if let Geometry::Arc { plane, .. } = seg.geometry {
+            let (a, b, _) = plane.axes();
+            let a_n = machine.accel_mm_s2[a].min(machine.accel_mm_s2[b]);
+            lower(60.0 * (a_n * seg.radius_mm()).sqrt(), CapKind::Curvature);
+        }
+        Ok(Block::Move {
+            len_mm,
+            cap_mm_min,
+            kind,
+        })
+    }
+}
+
+/// The corner rule's speed for a tangent jump `jump`, mm/min (MODEL.md §6.1 corner
+/// rule: v·|Δt_i| ≤ a_i·T/2 on every axis, and ≤ j_i·T²/2 with a jerk limit).
+fn corner_cap_mm_min(machine: &Machine, jump: &Vector3<f64>) -> f64 {
+    let period_s = machine.period_s();
+    let step_mm_s: [f64; 3] = std::array::from_fn(|i| {
+        let by_accel = 0.5 * machine.accel_mm_s2[i] * period_s;
+        machine
+            .jerk_mm_s3
+            .map_or(by_accel, |j| by_accel.min(0.5 * j[i] * period_s * period_s))
+    });
+    60.0 * along(jump, step_mm_s)
+}
+
+/// Whether the moving segment `index` (capped at `cap_mm_min`) may end at rest: at the
+/// path's end, before a dwell, or at a corner whose rule sets its cap (one the corners'
+/// choice may stop at, or pass slowly). A block in error counts as a rest (building
+/// stops there with the error).
+fn rests_after(
+    segments: &[Segment],
+    index: usize,
+    cap_mm_min: f64,
+    machine: &Machine,
+    policy: FeedPolicy,
+) -> bool {
+    for next in &segments[index + 1..] {
+        match Block::of(next, machine, policy) {
+            Ok(Block::Still) => continue,
+            Ok(Block::Move {
+                cap_mm_min: next_cap_mm_min,
+                ..
+            }) => {
+                let jump = next.tangent_at_fraction(0.0) - segments[index].tangent_at_fraction(1.0);
+                return corner_cap_mm_min(machine, &jump) < cap_mm_min.min(next_cap_mm_min);
+            }
+            Err(_) | Ok(Block::Dwell(_)) => return true,
+        }
+    }
+    true
+}
+
+/// Ramp stations beside each end of a moving segment (MODEL.md §6.1, "Ramp stations"):
+/// at an end that may be at rest, the tool reaches the segment's cap v from rest within
+/// d = v²/(2·a_t) (a_t, j_t the tangential limits there), and with a jerk limit, whose
+/// filter the plan's ramp does not show, within [`RAMP_SHARE`] of the S-curve's
+/// v·(v/a_t + a_t/j_t)/2, or of v·√(v/j_t) where a_t is not reached; where d is shorter
+/// than the segment's first interval h, stations at h/2, h/4, … down to the first at or
+/// below d let v² rise at the acceleration limit up to the cap instead of linearly over
+/// the whole interval (2·h/v instead of h/v + v/(2·a)). Returns how many at the start
+/// and at the end (`rests`: whether each end may be at rest).
+fn ramp_station_counts(
+    seg: &Segment,
+    len_mm: f64,
+    intervals: f64,
+    cap_mm_min: f64,
+    machine: &Machine,
+    rests: [bool; 2],
+) -> [u32; 2] {
+    let h_mm = len_mm / intervals;
+    let v_mm_s = cap_mm_min / 60.0;
+    let count = |end: usize| {
+        if !rests[end] {
+            return 0;
+        }
+        let tangent = seg.tangent_at_fraction(end as f64);
+        let a = machine.tangential_accel_mm_s2(&tangent);
+        let j = machine.tangential_jerk_mm_s3(&tangent);
+        // From rest to v: v²/(2a) at the acceleration limit; with a jerk limit the
+        // S-curve's v·(v/a + a/j)/2, or v·√(v/j) where a is not reached.
+        let ramp_mm = if !j.is_finite() {
+            v_mm_s * v_mm_s / (2.0 * a)
+        } else if v_mm_s * j >= a * a {
+            RAMP_SHARE * 0.5 * v_mm_s * (v_mm_s / a + a / j)
+        } else {
+            RAMP_SHARE * v_mm_s * (v_mm_s / j).sqrt()
+        };
+        if !(ramp_mm < h_mm) {
+            return 0;
+        }
+        // h/2^m ≤ d, and h/2^m at least MIN_RAMP_MM.
+        let to_ramp = ((h_mm / ramp_mm).ln() / RAMP_RATIO.ln()).ceil();
+        let to_floor = ((h_mm / MIN_RAMP_MM).ln() / RAMP_RATIO.ln())
+            .floor()
+            .max(0.0);
+        to_ramp.min(to_floor).min(MAX_RAMP_STATIONS as f64) as u32
+    };
+    [count(0), count(1)]
 }
 
 impl Stations {
@@ -218,13 +411,14 @@ impl Stations {
         path: &Path,
         machine: &Machine,
         ds_mm: f64,
+        policy: FeedPolicy,
     ) -> Result<usize, ScheduleError> {
         machine.validate()?;
         if !(ds_mm.is_finite() && ds_mm > 0.0) {
             return Err(ScheduleError::InvalidSpacing(ds_mm));
         }
         path.segments.first().ok_or(ScheduleError::EmptyPath)?;
-        let estimate = station_count(path, machine, ds_mm);
+        let estimate = station_count(path, machine, ds_mm, policy);
         if estimate > MAX_STATIONS {
             return Err(ScheduleError::TooManyStations {
                 needed: estimate,
@@ -283,59 +477,29 @@ impl Stations {
         let mut previous: Option<usize> = None;
         // Corner stations and their tangent jumps.
         let mut corners: Vec<(usize, Vector3<f64>)> = Vec::new();
+        // Whether the next moving segment's start may be at rest (the path's start is).
+        let mut rests_at_start = true;
         for index in 0..self.path.segments.len() {
             let seg = self.path.segments[index];
-            let invalid = |what| ScheduleError::InvalidSegment {
-                segment: index,
-                line: seg.line,
-                what,
-            };
-            let (mut cap_mm_min, mut kind) = match seg.motion {
-                Motion::Dwell { seconds } => {
-                    if !(seconds.is_finite() && seconds >= 0.0) {
-                        return Err(invalid("dwell time must be finite and >= 0 s"));
-                    }
+            let (len_mm, cap_mm_min, kind) = match Block::of(&seg, &machine, policy) {
+                Err(what) => {
+                    return Err(ScheduleError::InvalidSegment {
+                        segment: index,
+                        line: seg.line,
+                        what,
+                    })
+                }
+                Ok(Block::Dwell(seconds)) => {
                     *pending_dwell_s.get_or_insert(0.0) += seconds;
                     continue;
                 }
-                Motion::Rapid => (machine.rapid_mm_min, CapKind::Rapid),
-                Motion::Feed { feed_mm_min, held } => {
-                    if !(feed_mm_min.is_finite() && feed_mm_min > 0.0) {
-                        return Err(invalid("feed must be finite and > 0 mm/min"));
-                    }
-                    match policy {
-                        // Tapping: the programmed feed under either policy.
-                        _ if held && feed_mm_min <= machine.feed_max_mm_min => {
-                            (feed_mm_min, CapKind::Held)
-                        }
-                        FeedPolicy::Programmed if feed_mm_min <= machine.feed_max_mm_min => {
-                            (feed_mm_min, CapKind::Programmed)
-                        }
-                        _ => (machine.feed_max_mm_min, CapKind::FeedMax),
-                    }
-                }
+                Ok(Block::Still) => continue,
+                Ok(Block::Move {
+                    len_mm,
+                    cap_mm_min,
+                    kind,
+                }) => (len_mm, cap_mm_min, kind),
             };
-            let len_mm = seg.length_mm();
-            if !len_mm.is_finite() {
-                return Err(invalid("length is not finite"));
-            }
-            if len_mm < MIN_SEGMENT_MM {
-                continue;
-            }
-            let mut lower = |cap: f64, k: CapKind| {
-                if cap < cap_mm_min {
-                    cap_mm_min = cap;
-                    kind = k;
-                }
-            };
-            if let Some(tb_ms) = machine.block_time_ms {
-                lower(block_feed_cap_mm_min(len_mm, tb_ms), CapKind::BlockTime);
-            }
-            if let Geometry::Arc { plane, .. } = seg.geometry {
-                let (a, b, _) = plane.axes();
-                let a_n = machine.accel_mm_s2[a].min(machine.accel_mm_s2[b]);
-                lower(60.0 * (a_n * seg.radius_mm()).sqrt(), CapKind::Curvature);
-            }
 
             let start_tangent = seg.tangent_at_fraction(0.0);
             let s_start_mm = match previous {
@@ -358,17 +522,8 @@ impl Stations {
                         None => {
                             let jump =
                                 start_tangent - self.path.segments[prev].tangent_at_fraction(1.0);
-                            // MODEL.md §6.1 corner rule: v·|Δt_i| ≤ a_i·T/2 on every axis,
-                            // and ≤ j_i·T²/2 with a jerk limit.
-                            let period_s = machine.period_s();
-                            let step_mm_s: [f64; 3] = std::array::from_fn(|i| {
-                                let by_accel = 0.5 * machine.accel_mm_s2[i] * period_s;
-                                machine.jerk_mm_s3.map_or(by_accel, |j| {
-                                    by_accel.min(0.5 * j[i] * period_s * period_s)
-                                })
-                            });
-                            let corner_mm_s = along(&jump, step_mm_s);
-                            self.lower_cap(junction, 60.0 * corner_mm_s, CapKind::Corner);
+                            let corner_mm_min = corner_cap_mm_min(&machine, &jump);
+                            self.lower_cap(junction, corner_mm_min, CapKind::Corner);
                             corners.push((junction, jump));
                         }
                     }
@@ -376,10 +531,29 @@ impl Stations {
                 }
             };
 
-            let intervals =
-                ((len_mm / ds_mm).ceil() as usize).max(least_intervals(&machine) as usize);
-            for j in 1..=intervals {
-                let u = j as f64 / intervals as f64;
+            let intervals = (len_mm / ds_mm).ceil().max(least_intervals(&machine));
+            let rests_at_end =
+                rests_after(&self.path.segments, index, cap_mm_min, &machine, policy);
+            let ramps = ramp_station_counts(
+                &seg,
+                len_mm,
+                intervals,
+                cap_mm_min,
+                &machine,
+                [rests_at_start, rests_at_end],
+            );
+            rests_at_start = rests_at_end;
+            let intervals = intervals as usize;
+            let h_mm = len_mm / intervals as f64;
+            // Ramp stations at h/2^m from the start (nearest first), the equal intervals,
+            // and ramp stations before the end (farthest first).
+            let fractions = (1..=ramps[0])
+                .rev()
+                .map(|m| h_mm / RAMP_RATIO.powi(m as i32) / len_mm)
+                .chain((1..intervals).map(|j| j as f64 / intervals as f64))
+                .chain((1..=ramps[1]).map(|m| 1.0 - h_mm / RAMP_RATIO.powi(m as i32) / len_mm))
+                .chain(std::iter::once(1.0));
+            for u in fractions {
                 // Its position and tangent are [`Stations::position_at`] and
                 // [`Stations::tangent_at`] of (segment, u): u = 1 exactly at the end.
                 self.push(s_start_mm + len_mm * u, index, u, cap_mm_min, kind);

@@ -142,6 +142,12 @@ fn polyline(lengths: &[f64], turns: &[f64], tilts: &[f64], spatial: bool, feed: 
 /// Plan, exact stop and bound of one case; panics where a sample breaks an axis limit.
 fn check(path: &Path, machine: &Machine) -> (f64, f64, f64) {
     let st = Stations::new(path, machine, 0.05, FeedPolicy::Programmed).unwrap();
+    // What callers bound before building is what is built.
+    assert_eq!(
+        station_count(path, machine, 0.05, FeedPolicy::Programmed),
+        st.len()
+    );
+    assert!(st.s_mm().windows(2).all(|w| w[1] > w[0]), "stations ascend");
     let profile = plan(&st);
     let samples = profile.sample(machine.period_ms).unwrap();
     let period_s = machine.period_s();
@@ -205,6 +211,61 @@ fn the_zig_zag_runs_at_exact_stop() {
             assert!((exact_s - expected).abs() < 1e-9, "{exact_s}");
             assert!(plan_s <= expected + 1e-9, "T {period_ms}: plan {plan_s}");
             assert!(bound_s <= plan_s * (1.0 + 1e-12));
+        }
+    }
+}
+
+/// Slow short moves with sharp turns (LinuxCNC's flowsnake sample: moves of 0.0144 mm at
+/// F10, turns of 60° and 120°): with a jerk limit at T = 1 ms every corner is a stop, and
+/// a move took 1.57 times its S-curve as v² rose linearly over its whole first and last
+/// station intervals (2·h/v instead of h/v + v/(2a)); the ramp stations beside each stop
+/// let it rise at the acceleration limit (MODEL.md §6.1, "Ramp stations").
+#[test]
+fn slow_short_moves_run_at_exact_stop() {
+    let lengths = [0.0144; 40];
+    let turns: Vec<f64> = (0..39)
+        .map(|k| [60f64, -120.0, 60.0][k % 3].to_radians())
+        .collect();
+    let path = polyline(&lengths, &turns, &[0.0; 39], false, 10.0);
+    for period_ms in [1.0, 16.0] {
+        for jerk in [None, Some(20.0)] {
+            let m = machine([1000.0; 3], jerk, period_ms);
+            let (plan_s, exact_s, bound_s) = check(&path, &m);
+            println!("T {period_ms} jerk {jerk:?}: plan {plan_s:.5} exact stop {exact_s:.5} bound {bound_s:.5}");
+            assert!(
+                plan_s <= exact_s * 1.01,
+                "T {period_ms} jerk {jerk:?}: plan {plan_s} over exact stop {exact_s}"
+            );
+        }
+    }
+    // One line of 1 mm at F100 and 100 mm/s²: 0.6 + 1/60 s, its ramps 0.014 mm long
+    // against stations 0.05 mm apart (4.5 % slower without ramp stations).
+    let line = polyline(&[1.0], &[], &[], false, 100.0);
+    let (plan_s, exact_s, _) = check(&line, &machine([100.0; 3], None, 16.0));
+    assert!((exact_s - (0.6 + 1.0 / 60.0)).abs() < 1e-12, "{exact_s}");
+    println!("1 mm at F100: plan {plan_s:.6} exact stop {exact_s:.6}");
+    assert!(plan_s <= exact_s * 1.001, "plan {plan_s}");
+}
+
+/// Ramp stations sit only beside ends that may come to rest, where the cap is reached from
+/// rest within the first interval: a 10 mm line at F3000 and 1000 mm/s² (1.25 mm to reach
+/// its feed) has none, at F10 (0.014 µm) 12 beside each end, h/2 … h/4096 from it.
+#[test]
+fn ramp_stations_only_where_the_ramp_is_shorter_than_an_interval() {
+    let m = machine([1000.0; 3], None, 16.0);
+    for (feed, ramps) in [(3000.0, 0), (10.0, 24)] {
+        let path = polyline(&[10.0], &[], &[], false, feed);
+        let st = Stations::new(&path, &m, 0.05, FeedPolicy::Programmed).unwrap();
+        assert_eq!(st.len(), 1 + 200 + ramps, "F{feed}");
+        assert_eq!(
+            station_count(&path, &m, 0.05, FeedPolicy::Programmed),
+            st.len()
+        );
+        if ramps > 0 {
+            let s = st.s_mm();
+            assert!((s[1] - 0.05 / 4096.0).abs() < 1e-12, "{}", s[1]);
+            assert!((s[12] - 0.025).abs() < 1e-12 && (s[13] - 0.05).abs() < 1e-12);
+            assert!((10.0 - s[s.len() - 2] - 0.05 / 4096.0).abs() < 1e-9);
         }
     }
 }
