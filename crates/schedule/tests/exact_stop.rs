@@ -270,6 +270,30 @@ fn ramp_stations_only_where_the_ramp_is_shorter_than_an_interval() {
     }
 }
 
+/// [`station_count`] is what the stations hold on a program with rapids, a dwell, a move
+/// of no length, an arc and slow feeds, with and without a jerk limit, under both feed
+/// policies: callers bound memory with it before anything is built.
+#[test]
+fn station_count_is_what_is_built() {
+    let source = "G21 G90 G17\nG0 X0 Y0 Z1\nG1 Z0 F50\nG1 X1 F10\nG4 P0.5\nG1 X1 Y0.5 F10\n\
+                  G1 X1 Y0.5\nG2 X2 Y0.5 I0.5 J0 F20\nG1 X2.01 Y0.4 F600\nG0 Z5\nM2\n";
+    let path = nc::parse(source, "count.ngc", &nc::Options::default()).path;
+    for jerk in [None, Some(20.0)] {
+        for period_ms in [1.0, 16.0] {
+            let m = machine([1000.0; 3], jerk, period_ms);
+            for policy in [FeedPolicy::Programmed, FeedPolicy::MachineMax] {
+                let st = Stations::new(&path, &m, 0.05, policy).unwrap();
+                assert_eq!(
+                    station_count(&path, &m, 0.05, policy),
+                    st.len(),
+                    "{policy:?} {jerk:?}"
+                );
+                assert!(st.s_mm().windows(2).all(|w| w[1] > w[0]));
+            }
+        }
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
     /// Random polylines (2 to 8 segments of 0.05–50 mm, turns of 5–175°, in a plane or in
