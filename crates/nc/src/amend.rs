@@ -7,7 +7,8 @@
 //! machine reads on every control:
 //!
 //! * a leading UTF-8 byte-order mark is dropped;
-//! * a file with no program end gets `M2`;
+//! * a file with no program end gets `M2`, and one that closes with a `%` it
+//!   never opened (CAMotics' sample programs) has `M2` written for that `%`;
 //! * parentheses nested in a comment (Estlcam writes tool names such as
 //!   `(HSS Twist Drill, 3mm (R))`) are written as brackets;
 //! * the off-plane word of an arc (FreeCAD's GRBL post writes `K0.000` on

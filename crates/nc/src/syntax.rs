@@ -100,8 +100,9 @@ pub struct OStmt {
 pub enum LineKind {
     /// Blank or comment only.
     Empty,
-    /// A `%` program delimiter.
-    Percent,
+    /// A `%` program delimiter, at byte `at` and column `col` (1-based) of
+    /// its line.
+    Percent { at: u32, col: u32 },
     /// Words and assignments, in the [`Lines`] arena.
     Block(Items),
     /// LinuxCNC flow control.
@@ -336,7 +337,10 @@ fn parse_line_into(text: &str, arena: &mut Vec<Item>) -> Result<Line, SyntaxErro
         }
         return Ok(Line {
             block_delete,
-            kind: LineKind::Percent,
+            kind: LineKind::Percent {
+                at: percent as u32,
+                col: text[..percent].chars().count() as u32 + 1,
+            },
         });
     }
     if cur.peek() == Some('n') {

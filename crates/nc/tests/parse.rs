@@ -377,6 +377,58 @@ fn tolerant_file_form_warns_where_linuxcnc_refuses() {
     assert_eq!((strict[0].line, strict[0].column), (1, 1), "{}", strict[0]);
 }
 
+/// CAMotics' sample programs close with a '%' they never opened (its
+/// `locket_inside.ngc`, `compass.ngc`): read as most controls read a file, that
+/// '%' is the program's end, with a warning at its line and column, and the
+/// path is the one of the file with `M2` there; as LinuxCNC reads it, an
+/// error. A '%' before other blocks, or a program opened with '%', reads as
+/// before.
+#[test]
+fn a_closing_percent_never_opened_ends_a_tolerant_program() {
+    let form = |file_form| Options {
+        file_form,
+        ..Options::default()
+    };
+    let linuxcnc = |src: &str| nc::parse(src, "t.ngc", &form(nc::FileForm::LinuxCnc));
+    let tolerant = |src: &str| nc::parse(src, "t.ngc", &form(nc::FileForm::Tolerant));
+    let with_m2 = linuxcnc("G21 G90\nG1 X10 Y5 F600\nG0 Z5\nM2\n");
+    assert!(with_m2.diagnostics.is_empty(), "{:?}", with_m2.diagnostics);
+    for (src, col) in [
+        ("G21 G90\nG1 X10 Y5 F600\nG0 Z5\n%\n", 1),
+        ("G21 G90\r\nG1 X10 Y5 F600\r\nG0 Z5\r\n  %\r\n\r\n", 3),
+        ("G21 G90\nG1 X10 Y5 F600\nG0 Z5\n%", 1),
+    ] {
+        let read = tolerant(src);
+        let d = &read.diagnostics;
+        assert_eq!(d.len(), 1, "{src:?}: {d:?}");
+        assert!(!d[0].is_error(), "{}", d[0]);
+        assert_eq!((d[0].line, d[0].column), (4, col), "{}", d[0]);
+        assert!(d[0].message.contains("did not open"), "{}", d[0]);
+        assert!(read.has_program_end, "{src:?}");
+        assert_eq!(read.path, with_m2.path, "{src:?}");
+        // The amended file reads as LinuxCNC reads it, through the same moves.
+        let amended = linuxcnc(&nc::amend(src, &read.amendments));
+        assert!(amended.diagnostics.is_empty(), "{:?}", amended.diagnostics);
+        assert_eq!(amended.path, with_m2.path);
+        let strict = linuxcnc(src).diagnostics;
+        assert!(
+            strict.iter().any(|d| d.is_error() && d.line == 4),
+            "{strict:?}"
+        );
+    }
+    // A '%' with blocks after it is refused in either form.
+    let middle = tolerant("G21 G90\nG1 X10 F600\n%\nG0 Z5\nM2\n").diagnostics;
+    assert!(
+        middle.iter().any(|d| d.is_error() && d.line == 3),
+        "{middle:?}"
+    );
+    // Opened and closed: no warning.
+    let opened = tolerant("%\nG21 G90\nG1 X10 Y5 F600\nG0 Z5\n%\n");
+    assert!(opened.diagnostics.is_empty(), "{:?}", opened.diagnostics);
+    let ends = |p: &nc::Path| p.segments.iter().map(|s| s.end).collect::<Vec<_>>();
+    assert_eq!(ends(&opened.path), ends(&with_m2.path));
+}
+
 /// At most `max_errors` errors are listed, then one line with the count.
 #[test]
 fn errors_are_capped_per_program() {

@@ -20,6 +20,10 @@ pub(super) enum Frame {
     },
 }
 
+/// What the tolerant form writes for a closing '%' the program did not open.
+const PERCENT_CLOSE_AS_END: &str =
+    "M2 (program end: the original closed with a '%' it did not open)";
+
 impl Interp<'_> {
     pub(super) fn execute(&mut self) {
         let mut pc = 0usize;
@@ -83,12 +87,16 @@ impl Interp<'_> {
                 LineKind::Empty | LineKind::ProgramNumber(_) => Ok(Some(pc + 1)),
                 // As LinuxCNC: '%' opens a program on the first line and
                 // then closes it; anywhere else it is an error.
-                LineKind::Percent if seen_percent => Ok(None),
-                LineKind::Percent if pc == 0 => {
+                LineKind::Percent { .. } if seen_percent => Ok(None),
+                LineKind::Percent { .. } if pc == 0 => {
                     seen_percent = true;
                     Ok(Some(pc + 1))
                 }
-                LineKind::Percent => Err(Fail {
+                // CAMotics' sample programs close with a '%' they never
+                // opened; CAMotics and GRBL read them. The tolerant form
+                // reads that '%' as the program's end and writes M2 there.
+                LineKind::Percent { at, col } if self.closes_unopened(&lines, pc, *at, *col) => Ok(None),
+                LineKind::Percent { .. } => Err(Fail {
                     col: 1,
                     msg: "'%' is allowed only on the first line and to close a program opened with it".into(),
                 }),
@@ -126,6 +134,27 @@ impl Interp<'_> {
                 )
             }
         }
+    }
+
+    /// In the tolerant form, whether the '%' of line `pc`, not on the first
+    /// line, is the file's last line but blank ones: then it is read as the
+    /// program's end and written as `M2`, with a warning.
+    fn closes_unopened(&mut self, lines: &syntax::Lines, pc: usize, at: u32, col: u32) -> bool {
+        let last = (pc + 1..lines.len()).all(|i| {
+            matches!(
+                &lines[i],
+                Some(syntax::Line {
+                    kind: LineKind::Empty,
+                    ..
+                })
+            )
+        });
+        last && self.tolerate(
+            at as usize..at as usize + 1,
+            PERCENT_CLOSE_AS_END.into(),
+            col,
+            "'%' closes a program it did not open (CAMotics' and GRBL's form): read as the program's end, written as M2".into(),
+        )
     }
 
     /// Finds the next (or previous) o-word with `label` and one of `keywords`.
