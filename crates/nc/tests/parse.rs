@@ -412,7 +412,9 @@ fn a_closing_percent_never_opened_ends_a_tolerant_program() {
         assert_eq!(amended.path, with_m2.path);
         let strict = linuxcnc(src).diagnostics;
         assert!(
-            strict.iter().any(|d| d.is_error() && d.line == 4),
+            strict
+                .iter()
+                .any(|d| d.is_error() && (d.line, d.column) == (4, col)),
             "{strict:?}"
         );
     }

@@ -219,18 +219,17 @@ pub fn station_count(path: &Path, machine: &Machine, ds_mm: f64, policy: FeedPol
         else {
             continue;
         };
-        let intervals = (len_mm / ds_mm).ceil().max(least_intervals(machine));
-        let rests_at_end = rests_after(segments, index, cap_mm_min, machine, policy);
-        let ramps = ramp_station_counts(
-            seg,
+        let layout = SegmentLayout::of(
+            segments,
+            index,
             len_mm,
-            intervals,
             cap_mm_min,
             machine,
-            [rests_at_start, rests_at_end],
+            policy,
+            ds_mm,
+            &mut rests_at_start,
         );
-        rests_at_start = rests_at_end;
-        let stations = intervals + (ramps[0] + ramps[1]) as f64;
+        let stations = layout.intervals + (layout.ramps[0] + layout.ramps[1]) as f64;
         count = count.saturating_add(if stations < usize::MAX as f64 {
             stations as usize
         } else {
@@ -350,6 +349,60 @@ fn rests_after(
         }
     }
     true
+}
+
+/// Where a moving segment's stations lie: its equal intervals and the ramp stations beside
+/// each end ([`station_count`] counts them, `Stations::fill` places them).
+struct SegmentLayout {
+    /// max(m, ⌈L/ds⌉), m from [`least_intervals`] (a float: counting saturates).
+    intervals: f64,
+    /// Ramp stations beside the start and the end ([`ramp_station_counts`]).
+    ramps: [u32; 2],
+}
+
+impl SegmentLayout {
+    /// The layout of moving segment `index` of `segments`, of length `len_mm` and cap
+    /// `cap_mm_min` ([`Block::Move`]), stations `ds_mm` apart; `rests_at_start` says whether
+    /// its start may be at rest and is left saying whether the next moving segment's may.
+    #[allow(clippy::too_many_arguments)]
+    fn of(
+        segments: &[Segment],
+        index: usize,
+        len_mm: f64,
+        cap_mm_min: f64,
+        machine: &Machine,
+        policy: FeedPolicy,
+        ds_mm: f64,
+        rests_at_start: &mut bool,
+    ) -> Self {
+        let intervals = (len_mm / ds_mm).ceil().max(least_intervals(machine));
+        let rests_at_end = rests_after(segments, index, cap_mm_min, machine, policy);
+        let ramps = ramp_station_counts(
+            &segments[index],
+            len_mm,
+            intervals,
+            cap_mm_min,
+            machine,
+            [*rests_at_start, rests_at_end],
+        );
+        *rests_at_start = rests_at_end;
+        SegmentLayout { intervals, ramps }
+    }
+
+    /// The fractions of the segment's stations after its start, ascending: ramp stations
+    /// at h/2^m from the start (nearest first), the equal intervals h, ramp stations
+    /// before the end (farthest first), and 1 exactly at the end.
+    fn fractions(&self, len_mm: f64) -> impl Iterator<Item = f64> {
+        let intervals = self.intervals as usize;
+        let h_mm = len_mm / intervals as f64;
+        let near_end = move |m: u32| h_mm / RAMP_RATIO.powi(m as i32) / len_mm;
+        (1..=self.ramps[0])
+            .rev()
+            .map(near_end)
+            .chain((1..intervals).map(move |j| j as f64 / intervals as f64))
+            .chain((1..=self.ramps[1]).map(move |m| 1.0 - near_end(m)))
+            .chain(std::iter::once(1.0))
+    }
 }
 
 /// Ramp stations beside each end of a moving segment (MODEL.md §6.1, "Ramp stations"):
@@ -531,29 +584,17 @@ impl Stations {
                 }
             };
 
-            let intervals = (len_mm / ds_mm).ceil().max(least_intervals(&machine));
-            let rests_at_end =
-                rests_after(&self.path.segments, index, cap_mm_min, &machine, policy);
-            let ramps = ramp_station_counts(
-                &seg,
+            let layout = SegmentLayout::of(
+                &self.path.segments,
+                index,
                 len_mm,
-                intervals,
                 cap_mm_min,
                 &machine,
-                [rests_at_start, rests_at_end],
+                policy,
+                ds_mm,
+                &mut rests_at_start,
             );
-            rests_at_start = rests_at_end;
-            let intervals = intervals as usize;
-            let h_mm = len_mm / intervals as f64;
-            // Ramp stations at h/2^m from the start (nearest first), the equal intervals,
-            // and ramp stations before the end (farthest first).
-            let fractions = (1..=ramps[0])
-                .rev()
-                .map(|m| h_mm / RAMP_RATIO.powi(m as i32) / len_mm)
-                .chain((1..intervals).map(|j| j as f64 / intervals as f64))
-                .chain((1..=ramps[1]).map(|m| 1.0 - h_mm / RAMP_RATIO.powi(m as i32) / len_mm))
-                .chain(std::iter::once(1.0));
-            for u in fractions {
+            for u in layout.fractions(len_mm) {
                 // Its position and tangent are [`Stations::position_at`] and
                 // [`Stations::tangent_at`] of (segment, u): u = 1 exactly at the end.
                 self.push(s_start_mm + len_mm * u, index, u, cap_mm_min, kind);

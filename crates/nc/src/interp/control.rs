@@ -96,8 +96,8 @@ impl Interp<'_> {
                 // opened; CAMotics and GRBL read them. The tolerant form
                 // reads that '%' as the program's end and writes M2 there.
                 LineKind::Percent { at, col } if self.closes_unopened(&lines, pc, *at, *col) => Ok(None),
-                LineKind::Percent { .. } => Err(Fail {
-                    col: 1,
+                LineKind::Percent { col, .. } => Err(Fail {
+                    col: *col,
                     msg: "'%' is allowed only on the first line and to close a program opened with it".into(),
                 }),
                 LineKind::OWord(stmt) => self.oword(pc, stmt),
