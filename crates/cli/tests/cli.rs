@@ -215,7 +215,7 @@ fn bad_job_gives_file_line_column_and_no_output() {
     assert_refused(
         dir.path(),
         &["simulate", "job.toml", "--out", "out"],
-        &["job.toml:13:1: unknown field `sped`"],
+        &["job.toml:13:1: program.sped: unknown field `sped`"],
         Some("out"),
     );
 }

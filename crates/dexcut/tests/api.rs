@@ -304,7 +304,10 @@ fn api_errors_name_their_kind_place_and_source() {
     .unwrap();
     match dexcut::load(&job, None) {
         Err(e @ dexcut::Error::Job { .. }) => {
-            let at = format!("{}:14:1: unknown field `speed`", job.display());
+            let at = format!(
+                "{}:14:1: machine.speed: unknown field `speed`",
+                job.display()
+            );
             assert!(e.to_string().starts_with(&at), "{e}");
             assert_eq!(e.chain_message(), e.to_string());
         }

@@ -43,9 +43,11 @@ pub struct Job {
 
 /// `[stock]`: the blank, one shape per `kind`. Each shape takes its own keys,
 /// all required, and no other: a box with `radius` or a cylinder without
-/// `z_max` is refused at the `[stock]` line with the key's name.
+/// `z_max` is refused with the key's name and line. Read through the flat
+/// [`StockKeys`] (an internally tagged enum would be read whole before its
+/// keys, and serde's errors would lose their place).
 #[derive(Clone, Debug, Deserialize)]
-#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+#[serde(try_from = "StockKeys")]
 pub enum StockSpec {
     /// `kind = "box"`: an axis-aligned box.
     Box {
@@ -54,7 +56,6 @@ pub enum StockSpec {
         /// Highest corner (x, y, z), mm.
         max: [f64; 3],
         /// Column spacing, mm.
-        #[serde(alias = "grid_mm")]
         grid: f64,
     },
     /// `kind = "cylinder"`: a cylinder with its axis along Z.
@@ -67,16 +68,96 @@ pub enum StockSpec {
         z_min: f64,
         z_max: f64,
         /// Column spacing, mm.
-        #[serde(alias = "grid_mm")]
         grid: f64,
     },
     /// `kind = "mesh"`: a closed mesh (STL or OBJ), relative to the job file.
     Mesh {
         path: PathBuf,
         /// Column spacing, mm.
-        #[serde(alias = "grid_mm")]
         grid: f64,
     },
+}
+
+/// The shapes of `[stock]`.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum StockKind {
+    Box,
+    Cylinder,
+    Mesh,
+}
+
+/// `[stock]` as written: every shape's keys, each checked against `kind`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StockKeys {
+    kind: StockKind,
+    #[serde(alias = "grid_mm")]
+    grid: f64,
+    min: Option<[f64; 3]>,
+    max: Option<[f64; 3]>,
+    center: Option<[f64; 2]>,
+    radius: Option<f64>,
+    z_min: Option<f64>,
+    z_max: Option<f64>,
+    path: Option<PathBuf>,
+}
+
+impl TryFrom<StockKeys> for StockSpec {
+    type Error = String;
+
+    fn try_from(k: StockKeys) -> std::result::Result<StockSpec, String> {
+        let (kind, takes) = match k.kind {
+            StockKind::Box => ("box", "min, max and grid"),
+            StockKind::Cylinder => ("cylinder", "center, radius, z_min, z_max and grid"),
+            StockKind::Mesh => ("mesh", "path and grid"),
+        };
+        let given = [
+            ("min", k.min.is_some()),
+            ("max", k.max.is_some()),
+            ("center", k.center.is_some()),
+            ("radius", k.radius.is_some()),
+            ("z_min", k.z_min.is_some()),
+            ("z_max", k.z_max.is_some()),
+            ("path", k.path.is_some()),
+        ];
+        let own: &[&str] = match k.kind {
+            StockKind::Box => &["min", "max"],
+            StockKind::Cylinder => &["center", "radius", "z_min", "z_max"],
+            StockKind::Mesh => &["path"],
+        };
+        for (key, is) in given {
+            if is && !own.contains(&key) {
+                return Err(format!(
+                    "stock.{key} is not a key of a {kind} stock (kind = \"{kind}\" takes {takes})"
+                ));
+            }
+            if !is && own.contains(&key) {
+                return Err(format!(
+                    "stock.{key} is missing: a {kind} stock (kind = \"{kind}\") needs {takes}"
+                ));
+            }
+        }
+        let missing = "checked above";
+        Ok(match k.kind {
+            StockKind::Box => StockSpec::Box {
+                min: k.min.expect(missing),
+                max: k.max.expect(missing),
+                grid: k.grid,
+            },
+            StockKind::Cylinder => StockSpec::Cylinder {
+                center: k.center.expect(missing),
+                radius: k.radius.expect(missing),
+                z_min: k.z_min.expect(missing),
+                z_max: k.z_max.expect(missing),
+                grid: k.grid,
+            },
+            StockKind::Mesh => StockSpec::Mesh {
+                path: k.path.expect(missing),
+                grid: k.grid,
+            },
+        })
+    }
 }
 
 impl StockSpec {
@@ -98,34 +179,16 @@ impl StockSpec {
     }
 }
 
-/// `[tool]` or a `[[tools]]` entry: the shape named by `kind`, with its own
-/// keys (`corner_radius` for a bull nose only, required there), and the keys
-/// every shape shares.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(tag = "kind", rename_all = "lowercase")]
-pub enum ToolSpec {
-    /// `kind = "ball"`: ball-end mill.
-    Ball(ToolBody),
-    /// `kind = "flat"`: flat-end mill.
-    Flat(ToolBody),
-    /// `kind = "bull"`: bull-nose (torus) mill.
-    Bull(BullSpec),
-}
-
-/// The bull nose's own key beside the shared ones.
+/// `[tool]` or a `[[tools]]` entry: the shape named by `kind`, with the keys
+/// every shape shares and `corner_radius` for a bull nose only (required
+/// there). One flat table, so that serde's errors keep each key's place.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct BullSpec {
-    /// mm, up to half the diameter.
-    pub corner_radius: f64,
-    #[serde(flatten)]
-    pub body: ToolBody,
-}
-
-/// The keys every tool shape shares.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ToolBody {
+pub struct ToolSpec {
+    /// `"ball"`, `"flat"` or `"bull"`.
+    pub kind: ToolKind,
+    /// Bull nose only: the corner radius, mm, up to half the diameter.
+    pub corner_radius: Option<f64>,
     /// mm.
     pub diameter: f64,
     /// mm; default 2 × diameter.
@@ -160,14 +223,16 @@ pub struct ToolBody {
     pub rupture_strength_mpa: Option<f64>,
 }
 
-impl ToolSpec {
-    /// The keys every shape shares (diameter, flutes, stick-out, …).
-    pub fn body(&self) -> &ToolBody {
-        match self {
-            ToolSpec::Ball(b) | ToolSpec::Flat(b) => b,
-            ToolSpec::Bull(b) => &b.body,
-        }
-    }
+/// The shapes of a tool.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum ToolKind {
+    /// Ball-end mill.
+    Ball,
+    /// Flat-end mill.
+    Flat,
+    /// Bull-nose (torus) mill: `corner_radius`.
+    Bull,
 }
 
 fn default_flutes() -> u32 {
@@ -468,6 +533,23 @@ const MAX_LENGTH_MM: f64 = 1e6;
 /// Feeds accepted, mm/min: 1 µm/min to 10 km/min.
 const FEED_RANGE_MM_MIN: (f64, f64) = (1e-3, 1e7);
 const MAX_FLUTES: u32 = 100;
+/// The ranges of a shop's tools (docs/guide/job.md, `[tool]`): diameter
+/// (micro tools of 5 µm to face mills of 500 mm) and shank, mm.
+const TOOL_DIAMETER_MM: (f64, f64) = (0.005, 500.0);
+/// Flute length and stick-out, mm.
+const TOOL_LENGTH_MM: (f64, f64) = (0.005, 2000.0);
+/// Young's modulus of a tool's material, MPa: from 10 000 (below any metal's)
+/// to ten times diamond's, so that a comparison may take a near-rigid tool
+/// (aluminium 70 000, HSS 210 000, carbide 450 000–650 000, PCD ≈ 1 000 000).
+const TOOL_MODULUS_MPA: (f64, f64) = (10_000.0, 1e7);
+/// Allowable stress and rupture strength, MPa: 1 MPa up (carbide's
+/// transverse rupture strength is 2 000–6 000; 10⁶ lifts the check).
+const TOOL_STRENGTH_MPA: (f64, f64) = (1.0, 1e6);
+/// Lateral stiffness of holder and spindle, N/µm (a shop's are 5–200; 10¹²
+/// is rigid).
+const HOLDER_STIFFNESS_N_PER_UM: (f64, f64) = (0.01, 1e12);
+/// Largest feed per tooth, mm/tooth.
+const TOOL_FZ_MAX_MM: (f64, f64) = (1e-5, 10.0);
 /// Tool bands per step (each costs 12 B per servo sample in the removal record).
 const MAX_BANDS: f64 = 1000.0;
 /// Pre-compensation iterations accepted (each is one drive simulation).
@@ -568,19 +650,18 @@ impl Job {
 
     /// Parse job text; `name` is used in messages, `base_dir` resolves relative paths.
     pub fn parse(text: &str, name: &str, base_dir: &Path) -> Result<Job> {
-        let mut job: Job = toml::from_str(text).map_err(|e| {
-            let at = e
-                .span()
-                .map_or_else(|| name.to_string(), |s| location(name, text, s.start));
-            Error::job(format!("{at}: {}", e.message()))
-        })?;
+        let keys = super::toml_keys::KeyPlaces::new(name, text);
+        let mut job: Job = toml::from_str(text).map_err(|e| Error::job(keys.de_error(&e)))?;
         job.base_dir = base_dir.to_path_buf();
         job.name = name.to_string();
         job.servo_given = toml::from_str::<toml::Table>(text)
             .map(|t| t.contains_key("servo"))
             .unwrap_or(false);
-        job.validate()
-            .context_with(|| format!("{name}: invalid job"))?;
+        // A key's error at the key's own line and column.
+        if let Err(e) = job.validate() {
+            let at = keys.of_message(&e.to_string());
+            return Err(e.context(format!("{at}: invalid job")));
+        }
         Ok(job)
     }
 
@@ -675,7 +756,7 @@ impl Job {
                 "give either one [tool] or a tool table [[tools]], not both"
             ),
             (Some(t), true) => {
-                if t.body().number.is_some() || t.body().length.is_some() {
+                if t.number.is_some() || t.length.is_some() {
                     fail!(job, "tool.number and tool.length belong to [[tools]] entries: a single [tool] is every T, with no gauge length");
                 }
                 t.validate("tool")?;
@@ -684,7 +765,7 @@ impl Job {
                 let mut seen = std::collections::BTreeSet::new();
                 for (i, t) in self.tools.iter().enumerate() {
                     let key = format!("tools[{i}]");
-                    let Some(n) = t.body().number else {
+                    let Some(n) = t.number else {
                         fail!(job, "{key}.number is missing: each [[tools]] entry needs the tool number (T word)");
                     };
                     if n == 0 {
@@ -696,7 +777,7 @@ impl Job {
                     if !seen.insert(n) {
                         fail!(job, "{key}.number: tool {n} is in the table twice");
                     }
-                    if let Some(l) = t.body().length {
+                    if let Some(l) = t.length {
                         range(&format!("{key}.length (mm)"), l, 0.0, MAX_LENGTH_MM)?;
                     }
                     t.validate(&key)?;
@@ -720,7 +801,7 @@ impl Job {
             .tool
             .iter()
             .chain(&self.tools)
-            .map(|t| t.body().flute_length.unwrap_or(2.0 * t.body().diameter))
+            .map(|t| t.flute_length.unwrap_or(2.0 * t.diameter))
             .fold(0.0, f64::max);
         if flute_mm / c.band_height > MAX_BANDS {
             fail!(job,
@@ -735,7 +816,10 @@ impl Job {
         }
         positive_opt("cutting.force_a", c.force_a, 1e7)?;
         positive_opt("cutting.force_n", c.force_n, 2.0)?;
-        positive_opt("cutting.kc1_1 (N/mm²)", c.kc1_1, 1e6)?;
+        // From foams and woods (a few N/mm²) to nickel alloys (≈ 3 500).
+        if let Some(kc) = c.kc1_1 {
+            range("cutting.kc1_1 (N/mm²)", kc, 1.0, 20_000.0)?;
+        }
         if let Some(mc) = c.mc {
             if !(0.0..1.0).contains(&mc) {
                 fail!(job, "cutting.mc must lie in 0..1, got {mc}");
@@ -904,7 +988,7 @@ impl Job {
     pub fn tool_specs(&self) -> Vec<(Option<u32>, &ToolSpec)> {
         match &self.tool {
             Some(t) => vec![(None, t)],
-            None => self.tools.iter().map(|t| (t.body().number, t)).collect(),
+            None => self.tools.iter().map(|t| (t.number, t)).collect(),
         }
     }
 
@@ -917,73 +1001,95 @@ impl Job {
 }
 
 impl ToolSpec {
+    /// Every key against the range a shop's tools have (docs/guide/job.md
+    /// lists them beside the keys): a tool key outside it is a typing slip
+    /// (`youngs_modulus_mpa = 1e-3` bent a Ø6 ball by 3.5·10¹⁰ µm).
     fn validate(&self, key: &str) -> Result<()> {
         let t = self;
+        let k = |name: &str| format!("{key}.{name}");
         range(
-            &format!("{key}.diameter (mm)"),
-            t.body().diameter,
-            MIN_GRID_MM,
-            1000.0,
+            &k("diameter (mm)"),
+            t.diameter,
+            TOOL_DIAMETER_MM.0,
+            TOOL_DIAMETER_MM.1,
         )?;
-        if let ToolSpec::Bull(b) = self {
-            range(
-                &format!("{key}.corner_radius (mm)"),
-                b.corner_radius,
-                0.0,
-                t.body().diameter / 2.0,
-            )?;
+        match (t.kind, t.corner_radius) {
+            // The kernel's own range (dexel::Tool::validate), told once here:
+            // 0 is a flat end, half the diameter a ball.
+            (ToolKind::Bull, Some(r)) if !(r > 0.0 && r < t.diameter / 2.0) => fail!(
+                job,
+                "{key}.corner_radius (mm) must lie strictly between 0 and half the diameter ({}), got {} (0 is kind = \"flat\", half the diameter kind = \"ball\")",
+                num(t.diameter / 2.0),
+                num(r)
+            ),
+            (ToolKind::Bull, Some(_)) => {}
+            (ToolKind::Bull, None) => fail!(
+                job,
+                "{key}.corner_radius is missing: a bull nose (kind = \"bull\") needs its corner radius (mm)"
+            ),
+            (_, Some(_)) => fail!(
+                job,
+                "{key}.corner_radius is a key of a bull nose (kind = \"bull\") only, not of kind = \"{}\"",
+                if t.kind == ToolKind::Ball { "ball" } else { "flat" }
+            ),
+            (_, None) => {}
         }
-        positive_opt(
-            &format!("{key}.flute_length (mm)"),
-            t.body().flute_length,
-            MAX_LENGTH_MM,
+        let opt = |name: &str, v: Option<f64>, (lo, hi): (f64, f64)| match v {
+            Some(v) => range(&k(name), v, lo, hi),
+            None => Ok(()),
+        };
+        opt("flute_length (mm)", t.flute_length, TOOL_LENGTH_MM)?;
+        opt("stickout (mm)", t.stickout, TOOL_LENGTH_MM)?;
+        // The kernel's check (dexel::Tool::validate), with the keys and defaults.
+        let tool = self.dexel_shape();
+        let (flute, stickout) = (
+            t.flute_length.unwrap_or(tool.flute_length_mm),
+            t.stickout.unwrap_or(tool.stickout_mm),
+        );
+        if flute > stickout {
+            let said = |v: Option<f64>, default: &str| {
+                if v.is_some() {
+                    String::new()
+                } else {
+                    format!(", its default {default}")
+                }
+            };
+            fail!(
+                job,
+                "{key}.flute_length ({} mm{}) is longer than {key}.stickout ({} mm{}): the flutes end inside the holder",
+                num(flute),
+                said(t.flute_length, "2 × diameter"),
+                num(stickout),
+                said(t.stickout, "8 × diameter")
+            );
+        }
+        opt("youngs_modulus_mpa", t.youngs_modulus_mpa, TOOL_MODULUS_MPA)?;
+        opt(
+            "effective_diameter (mm)",
+            t.effective_diameter,
+            (t.diameter / 10.0, t.diameter),
         )?;
-        positive_opt(
-            &format!("{key}.stickout (mm)"),
-            t.body().stickout,
-            MAX_LENGTH_MM,
-        )?;
-        positive_opt(
-            &format!("{key}.youngs_modulus_mpa"),
-            t.body().youngs_modulus_mpa,
-            1e7,
-        )?;
-        positive_opt(
-            &format!("{key}.effective_diameter (mm)"),
-            t.body().effective_diameter,
-            1000.0,
-        )?;
-        if !(1..=MAX_FLUTES).contains(&t.body().flutes) {
+        if !(1..=MAX_FLUTES).contains(&t.flutes) {
             fail!(
                 job,
                 "{key}.flutes must be 1..{MAX_FLUTES}, got {}",
-                t.body().flutes
+                t.flutes
             );
         }
-        positive_opt(&format!("{key}.fz_max (mm/tooth)"), t.body().fz_max, 10.0)?;
-        positive_opt(
-            &format!("{key}.shank_diameter (mm)"),
-            t.body().shank_diameter,
-            1000.0,
+        opt("fz_max (mm/tooth)", t.fz_max, TOOL_FZ_MAX_MM)?;
+        opt("shank_diameter (mm)", t.shank_diameter, TOOL_DIAMETER_MM)?;
+        opt(
+            "holder_stiffness_n_per_um",
+            t.holder_stiffness_n_per_um,
+            HOLDER_STIFFNESS_N_PER_UM,
         )?;
-        positive_opt(
-            &format!("{key}.holder_stiffness_n_per_um"),
-            t.body().holder_stiffness_n_per_um,
-            1e12,
+        opt("stress_limit_mpa", t.stress_limit_mpa, TOOL_STRENGTH_MPA)?;
+        opt(
+            "rupture_strength_mpa",
+            t.rupture_strength_mpa,
+            TOOL_STRENGTH_MPA,
         )?;
-        positive_opt(
-            &format!("{key}.stress_limit_mpa"),
-            t.body().stress_limit_mpa,
-            1e6,
-        )?;
-        positive_opt(
-            &format!("{key}.rupture_strength_mpa"),
-            t.body().rupture_strength_mpa,
-            1e6,
-        )?;
-        if let (Some(limit), Some(rupture)) =
-            (t.body().stress_limit_mpa, t.body().rupture_strength_mpa)
-        {
+        if let (Some(limit), Some(rupture)) = (t.stress_limit_mpa, t.rupture_strength_mpa) {
             if rupture < limit {
                 fail!(
                     job,
@@ -997,31 +1103,29 @@ impl ToolSpec {
     /// Largest feed per tooth, mm/tooth: `fz_max`, else the default for the
     /// diameter and the work material `material` (MODEL.md §2.1).
     pub fn fz_max_mm(&self, material: &str) -> Option<f64> {
-        self.body()
-            .fz_max
-            .or_else(|| cutting::chipload::default_fz_max_mm(material, self.body().diameter))
+        self.fz_max
+            .or_else(|| cutting::chipload::default_fz_max_mm(material, self.diameter))
+    }
+
+    /// The kernel's tool of this shape and diameter, with its defaults.
+    fn dexel_shape(&self) -> dexel::Tool {
+        match self.kind {
+            ToolKind::Ball => dexel::Tool::ball(self.diameter),
+            ToolKind::Flat => dexel::Tool::flat(self.diameter),
+            ToolKind::Bull => dexel::Tool::bull(self.diameter, self.corner_radius.unwrap_or(0.0)),
+        }
     }
 
     /// The tool as the kernel and the beam model see it.
     pub fn dexel_tool(&self) -> Result<dexel::Tool> {
         let t = self;
-        let base = match t {
-            ToolSpec::Ball(b) => dexel::Tool::ball(b.diameter),
-            ToolSpec::Flat(b) => dexel::Tool::flat(b.diameter),
-            ToolSpec::Bull(b) => dexel::Tool::bull(b.body.diameter, b.corner_radius),
-        };
+        let base = t.dexel_shape();
         let tool = dexel::Tool {
-            flute_length_mm: t.body().flute_length.unwrap_or(base.flute_length_mm),
-            stickout_mm: t.body().stickout.unwrap_or(base.stickout_mm),
-            flutes: t.body().flutes,
-            youngs_modulus_mpa: t
-                .body()
-                .youngs_modulus_mpa
-                .unwrap_or(base.youngs_modulus_mpa),
-            effective_diameter_mm: t
-                .body()
-                .effective_diameter
-                .unwrap_or(base.effective_diameter_mm),
+            flute_length_mm: t.flute_length.unwrap_or(base.flute_length_mm),
+            stickout_mm: t.stickout.unwrap_or(base.stickout_mm),
+            flutes: t.flutes,
+            youngs_modulus_mpa: t.youngs_modulus_mpa.unwrap_or(base.youngs_modulus_mpa),
+            effective_diameter_mm: t.effective_diameter.unwrap_or(base.effective_diameter_mm),
             ..base
         };
         tool.validate().or_job(|| "invalid [tool]".into())?;

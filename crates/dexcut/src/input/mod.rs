@@ -7,4 +7,5 @@ pub mod fitted_job;
 pub mod job;
 pub mod program;
 pub mod stock;
+pub mod toml_keys;
 pub mod tools;

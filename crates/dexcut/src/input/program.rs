@@ -152,23 +152,18 @@ pub fn parse_gcode(text: String, file: &str, job: &Job) -> Result<Program> {
         tool_lengths_mm: job
             .tools
             .iter()
-            .filter_map(|t| {
-                Some((
-                    t.body().number?,
-                    length_sign * t.body().length.unwrap_or(0.0),
-                ))
-            })
+            .filter_map(|t| Some((t.number?, length_sign * t.length.unwrap_or(0.0))))
             .collect(),
         // Cutter compensation (G41/G42) takes the radius from these.
         tool_diameters_mm: job
             .tools
             .iter()
-            .filter_map(|t| Some((t.body().number?, t.body().diameter)))
+            .filter_map(|t| Some((t.number?, t.diameter)))
             .collect(),
-        default_tool_diameter_mm: job.tool.as_ref().map_or(0.0, |t| t.body().diameter),
+        default_tool_diameter_mm: job.tool.as_ref().map_or(0.0, |t| t.diameter),
         // A table of one tool: it is in the spindle from the start.
         initial_tool: match job.tools.as_slice() {
-            [only] => only.body().number,
+            [only] => only.number,
             _ => None,
         },
         ..nc::Options::default()

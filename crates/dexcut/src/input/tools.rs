@@ -62,14 +62,13 @@ pub fn plausible_rpm(diameter_mm: f64, rpm: f64) -> bool {
 /// MPa for carbide (E ≥ 400 000 MPa) and 1000 MPa otherwise, and never above
 /// a rupture strength the job gives.
 pub fn stress_limit_mpa(spec: &ToolSpec, tool: &Tool) -> f64 {
-    spec.body().stress_limit_mpa.unwrap_or_else(|| {
+    spec.stress_limit_mpa.unwrap_or_else(|| {
         let default = if tool.youngs_modulus_mpa >= 400_000.0 {
             1200.0
         } else {
             1000.0
         };
-        spec.body()
-            .rupture_strength_mpa
+        spec.rupture_strength_mpa
             .map_or(default, |r| default.min(r))
     })
 }
@@ -79,7 +78,7 @@ pub fn stress_limit_mpa(spec: &ToolSpec, tool: &Tool) -> f64 {
 /// carbide's transverse rupture strength of 3000–4000 MPa) and 3000 MPa
 /// otherwise (HSS), and never below the allowable stress.
 pub fn rupture_strength_mpa(spec: &ToolSpec, tool: &Tool) -> f64 {
-    spec.body().rupture_strength_mpa.unwrap_or_else(|| {
+    spec.rupture_strength_mpa.unwrap_or_else(|| {
         let default: f64 = if tool.youngs_modulus_mpa >= 400_000.0 {
             3500.0
         } else {
@@ -137,9 +136,9 @@ pub fn cutting_model(
             stickout_mm: tool.stickout_mm,
             flute_length_mm: tool.flute_length_mm,
             flute_diameter_mm: tool.effective_diameter_mm,
-            shank_diameter_mm: spec.body().shank_diameter.unwrap_or(tool.diameter_mm),
+            shank_diameter_mm: spec.shank_diameter.unwrap_or(tool.diameter_mm),
             youngs_modulus_mpa: tool.youngs_modulus_mpa,
-            holder_stiffness_n_per_um: spec.body().holder_stiffness_n_per_um,
+            holder_stiffness_n_per_um: spec.holder_stiffness_n_per_um,
         },
     })
 }
@@ -216,13 +215,13 @@ impl ToolSet {
             entries.push(ToolEntry {
                 number: number.unwrap_or(1),
                 tool,
-                length_mm: spec.body().length.unwrap_or(0.0),
+                length_mm: spec.length.unwrap_or(0.0),
                 model,
                 fz_max_mm: spec.fz_max_mm(&job.cutting.material),
                 stress_limit_mpa: stress_limit_mpa(spec, &tool),
                 rupture_strength_mpa: rupture_strength_mpa(spec, &tool),
                 job_rpm: job.cutting.spindle_rpm,
-                fz_max_given: spec.body().fz_max.is_some(),
+                fz_max_given: spec.fz_max.is_some(),
             });
         }
         Ok(ToolSet {

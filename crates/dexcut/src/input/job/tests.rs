@@ -70,7 +70,7 @@ fn unknown_key_names_file_line_and_column() {
         .unwrap_err()
         .to_string();
     assert!(
-        err.starts_with("job.toml:13:1: unknown field `speed`"),
+        err.starts_with("job.toml:13:1: program.speed: unknown field `speed`"),
         "{err}"
     );
 }
@@ -90,37 +90,52 @@ fn shapes_take_their_own_keys_only() {
         (
             "max = [10, 10, 10]\n",
             "",
-            "job.toml:2:1: missing field `max`",
+            "job.toml:2:2: stock.max is missing: a box stock (kind = \"box\") needs min, max and grid",
         ),
         (
             "grid = 0.5",
             "grid = 0.5\nradius = 3",
-            "job.toml:2:1: unknown field `radius`, expected one of `min`, `max`, `grid`",
+            "job.toml:7:1: stock.radius is not a key of a box stock (kind = \"box\" takes min, max and grid)",
         ),
         (
             "kind = \"box\"",
             "kind = \"cylinder\"",
-            "job.toml:2:1: unknown field `max`, expected one of `center`",
+            "job.toml:4:1: stock.min is not a key of a cylinder stock",
         ),
         (
             "kind = \"box\"",
             "kind = \"cube\"",
-            "job.toml:3:8: unknown variant `cube`, expected one of `box`, `cylinder`, `mesh`",
+            "job.toml:3:8: stock.kind: unknown variant `cube`, expected one of `box`, `cylinder`, `mesh`",
         ),
         (
             "diameter = 6",
             "diameter = 6\ncorner_radius = 1",
-            "job.toml:7:1: unknown field `corner_radius`",
+            "job.toml:10:1: invalid job: tool.corner_radius is a key of a bull nose (kind = \"bull\") only, not of kind = \"ball\"",
         ),
         (
             "kind = \"ball\"",
             "kind = \"bull\"",
-            "job.toml:7:1: missing field `corner_radius`",
+            "job.toml:7:2: invalid job: tool.corner_radius is missing: a bull nose (kind = \"bull\") needs its corner radius (mm)",
         ),
         (
             "kind = \"ball\"\n",
             "",
-            "job.toml:7:1: missing field `kind`",
+            "job.toml:7:1: tool: missing field `kind`",
+        ),
+        (
+            "grid = 0.5",
+            "grid = \"0.5\"",
+            "job.toml:6:8: stock.grid: invalid type: string \"0.5\", expected f64",
+        ),
+        (
+            "min = [0, 0, 0]",
+            "min = [0, 0, \"a\"]",
+            "job.toml:4:14: stock.min[2]: invalid type: string \"a\", expected f64",
+        ),
+        (
+            "diameter = 6",
+            "diameter = \"6\"",
+            "job.toml:9:12: tool.diameter: invalid type: string \"6\", expected f64",
         ),
     ];
     for (from, to, expected) in cases {
@@ -136,7 +151,7 @@ fn shapes_take_their_own_keys_only() {
         Job::parse(&wide, "job.toml", Path::new(".")).unwrap_err()
     );
     assert!(
-        e.contains("tool.corner_radius (mm) must lie in 0..3, got 3.5"),
+        e.contains("tool.corner_radius (mm) must lie strictly between 0 and half the diameter (3), got 3.5"),
         "{e}"
     );
     let cylinder = "[stock]\nkind = \"cylinder\"\ncenter = [0, 0]\nradius = 5\nz_min = 0\nz_max = 4\ngrid = 0.5\n";
@@ -186,7 +201,9 @@ fn negative_sizes_are_rejected() {
         Job::parse(&text, "job.toml", Path::new(".")).unwrap_err()
     );
     assert!(
-        err.contains("tool.diameter (mm) must lie in 0.0001..1000, got -6"),
+        err.contains(
+            "job.toml:9:1: invalid job: tool.diameter (mm) must lie in 0.005..500, got -6"
+        ),
         "{err}"
     );
     let text = MINIMAL.replace("max = [10, 10, 10]", "max = [10, -10, 10]");
@@ -446,7 +463,7 @@ fn fuzzed_jobs_give_named_errors_or_finite_jobs() {
                     let m = &job.machine;
                     let mut numbers = vec![
                         job.stock.grid_mm(),
-                        job.tool_specs()[0].1.body().diameter,
+                        job.tool_specs()[0].1.diameter,
                         m.period_ms,
                         m.feed_max,
                         m.rapid,
@@ -481,4 +498,129 @@ fn fuzzed_jobs_give_named_errors_or_finite_jobs() {
     );
     eprintln!("job fuzzer: {tried} cases, {accepted} accepted, {named} refused with a key or line, 0 unnamed");
     assert_eq!(accepted + named, tried);
+}
+
+/// Issue 39, "tool and machine numbers without a physical range" and "type
+/// errors located at the section": every stiffness, strength and size of a
+/// tool has a shop's range, and every error names the key's path and the
+/// line and column where the key is written (in a `[[tools]]` entry too).
+#[test]
+fn errors_name_the_key_path_and_its_own_line() {
+    let table = MINIMAL.replace(
+        "[tool]\nkind = \"ball\"\ndiameter = 6",
+        "[[tools]]\nnumber = 1\nkind = \"ball\"\ndiameter = 6\n[[tools]]\nnumber = 2\nkind = \"flat\"\ndiameter = 6\nKEY",
+    );
+    // The line the KEY placeholder is on (1-based).
+    let line = table[..table.find("KEY").unwrap()].matches('\n').count() + 1;
+    let cases = [
+        (
+            "youngs_modulus_mpa = 1e-3",
+            "tools[1].youngs_modulus_mpa must lie in 10000..1e7, got 0.001",
+        ),
+        (
+            "holder_stiffness_n_per_um = 1e-300",
+            "tools[1].holder_stiffness_n_per_um must lie in 0.01..1e12",
+        ),
+        (
+            "stress_limit_mpa = 1e-3",
+            "tools[1].stress_limit_mpa must lie in 1..1000000",
+        ),
+        (
+            "rupture_strength_mpa = 0.5",
+            "tools[1].rupture_strength_mpa must lie in 1..1000000",
+        ),
+        (
+            "effective_diameter = 20",
+            "tools[1].effective_diameter (mm) must lie in 0.6..6, got 20",
+        ),
+        (
+            "stickout = 1e9",
+            "tools[1].stickout (mm) must lie in 0.005..2000",
+        ),
+        (
+            "shank_diameter = 1e-9",
+            "tools[1].shank_diameter (mm) must lie in 0.005..500",
+        ),
+        (
+            "fz_max = 50",
+            "tools[1].fz_max (mm/tooth) must lie in 1e-5..10",
+        ),
+        (
+            "flutes = \"2\"",
+            "tools[1].flutes: invalid type: string \"2\", expected u32",
+        ),
+        (
+            "length = [1]",
+            "tools[1].length: invalid type: sequence, expected f64",
+        ),
+    ];
+    for (key_value, expected) in cases {
+        let text = table.replace("KEY", key_value);
+        let e = format!(
+            "{:#}",
+            Job::parse(&text, "job.toml", Path::new(".")).unwrap_err()
+        );
+        let col = if expected.contains("invalid type") {
+            key_value.find('=').unwrap() + 3
+        } else {
+            1
+        };
+        assert!(
+            e.starts_with(&format!("job.toml:{line}:{col}: ")),
+            "{key_value}: {e}"
+        );
+        assert!(e.contains(expected), "{key_value}: {e}");
+    }
+    // [cutting] too.
+    let text = MINIMAL.replace("[program]", "[cutting]\nkc1_1 = 1e-300\n[program]");
+    let e = format!(
+        "{:#}",
+        Job::parse(&text, "job.toml", Path::new(".")).unwrap_err()
+    );
+    assert!(
+        e.starts_with("job.toml:11:1: invalid job: cutting.kc1_1 (N/mm²) must lie in 1..20000"),
+        "{e}"
+    );
+}
+
+/// Issue 39, "checks that disagree": what the kernel refuses (a bull nose's
+/// corner radius of 0 or half the diameter, flutes longer than the
+/// stick-out, defaults included) is refused by the job check, once, with the
+/// key and its line, and never passes it to fail later without one.
+#[test]
+fn the_job_check_is_the_only_check_of_a_tool() {
+    let err = |text: &str| {
+        format!(
+            "{:#}",
+            Job::parse(text, "job.toml", Path::new(".")).unwrap_err()
+        )
+    };
+    for r in ["0", "3"] {
+        let text = MINIMAL.replace(
+            "kind = \"ball\"",
+            &format!("kind = \"bull\"\ncorner_radius = {r}"),
+        );
+        let e = err(&text);
+        assert!(e.starts_with("job.toml:9:1: invalid job: tool.corner_radius (mm) must lie strictly between 0 and half the diameter (3)"), "{e}");
+    }
+    let text = MINIMAL.replace("diameter = 6", "diameter = 6\nstickout = 10");
+    let e = err(&text);
+    assert!(
+        e.contains("tool.flute_length (12 mm, its default 2 × diameter) is longer than tool.stickout (10 mm)"),
+        "{e}"
+    );
+    // Every tool the job check passes, the kernel takes.
+    for (extra, _) in [
+        ("flute_length = 10\nstickout = 10", ()),
+        ("corner_radius = 2.999", ()),
+    ] {
+        let kind = if extra.contains("corner") {
+            "bull"
+        } else {
+            "ball"
+        };
+        let text = MINIMAL.replace("kind = \"ball\"", &format!("kind = \"{kind}\"\n{extra}"));
+        let job = Job::parse(&text, "job.toml", Path::new(".")).unwrap();
+        job.tool().unwrap().validate().unwrap();
+    }
 }
