@@ -219,6 +219,23 @@ impl From<StepsFormatArg> for dexcut::StepsFormat {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     dexcut::progress::set_progress(progress::bar);
+    // SIGTERM, SIGINT (and SIGHUP): the staging folder and pending files go
+    // as they do when a run fails, and the previous results stay.
+    if let Err(e) = ctrlc::set_handler(|| {
+        let removed = export::atomic::remove_unfinished();
+        let what: Vec<String> = removed.iter().map(|p| p.display().to_string()).collect();
+        eprintln!(
+            "error: stopped by a signal; nothing written{}",
+            if what.is_empty() {
+                String::new()
+            } else {
+                format!(" (removed {})", what.join(", "))
+            }
+        );
+        std::process::exit(130);
+    }) {
+        eprintln!("warning: cannot handle SIGTERM/SIGINT ({e}): a stopped run leaves its staging folder, removed by the next run into the same folder");
+    }
     match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

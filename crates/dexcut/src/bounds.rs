@@ -312,6 +312,34 @@ pub fn check_samples(time_s: f64, period_ms: f64, what: &str) -> Result<()> {
     )
 }
 
+/// Bytes free to an unprivileged writer on the file system holding `dir`
+/// (statvfs); `None` where it cannot be told.
+#[cfg(unix)]
+pub fn disk_room_bytes(dir: &Path) -> Option<f64> {
+    let s = rustix::fs::statvfs(dir).ok()?;
+    Some(s.f_bavail as f64 * s.f_frsize as f64)
+}
+
+#[cfg(not(unix))]
+pub fn disk_room_bytes(_dir: &Path) -> Option<f64> {
+    None
+}
+
+/// Refuse outputs of at least `bytes` where the disk holding `dir` (the
+/// results folder `shown`'s staging folder) has less room, before any work
+/// (`what`: what needs them).
+pub fn check_disk(dir: &Path, shown: &Path, bytes: f64, what: &str) -> Result<()> {
+    match disk_room_bytes(dir) {
+        Some(room) if bytes > room => fail!(limits,
+            "{what} needs at least {:.3} GB on disk, and the file system of {} has {:.3} GB free: free some space, write elsewhere (--out) or use a coarser grid (--grid)",
+            bytes / 1e9,
+            shown.display(),
+            room / 1e9
+        ),
+        _ => Ok(()),
+    }
+}
+
 /// Refuse a stock grid that does not fit the memory.
 pub fn check_columns(nx: usize, ny: usize, spacing_mm: f64, what: &str) -> Result<()> {
     let columns = nx as f64 * ny as f64;
@@ -324,6 +352,19 @@ pub fn check_columns(nx: usize, ny: usize, spacing_mm: f64, what: &str) -> Resul
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn outputs_larger_than_the_disk_are_refused_before_the_work() {
+        let dir = tempfile::tempdir().unwrap();
+        let room = disk_room_bytes(dir.path()).expect("statvfs of a temporary folder");
+        assert!(room > 0.0);
+        check_disk(dir.path(), dir.path(), 1.0, "one byte").unwrap();
+        let e = check_disk(dir.path(), Path::new("out"), 2.0 * room + 1e12, "the grid")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("the grid needs at least"), "{e}");
+        assert!(e.contains("the file system of out has"), "{e}");
+    }
 
     #[test]
     fn devices_fifos_and_large_files_are_refused() {

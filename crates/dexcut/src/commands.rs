@@ -342,6 +342,7 @@ fn begin_run(
             let mut inputs = setup.input_files(p);
             inputs.extend_from_slice(extra_inputs);
             let out_dir = OutDir::begin(out, &inputs, force)?;
+            check_output_disk(&setup, &out_dir)?;
             return Ok((setup, out_dir));
         }
         JobArg::Example => None,
@@ -368,7 +369,28 @@ fn begin_run(
         .program
         .file
         .replace(&staged.display().to_string(), &dir.display().to_string());
+    check_output_disk(&setup, &out_dir)?;
     Ok((setup, out_dir))
+}
+
+/// Refuse a run whose column grid alone would not fit the disk of its
+/// results folder (a 1 m × 1 m stock at 0.02 mm writes 30 GB of `.npy`
+/// arrays), before the work.
+fn check_output_disk(setup: &Setup, out_dir: &OutDir) -> Result<()> {
+    let grid = match &setup.tiling {
+        Some(t) => t.grid,
+        None => *setup.stock.grid(),
+    };
+    let bytes = grid.nx as f64 * grid.ny as f64 * run::run_grid_bytes_per_column() as f64;
+    crate::bounds::check_disk(
+        out_dir.path(),
+        out_dir.target(),
+        bytes,
+        &format!(
+            "{}: the column grid ({}×{} columns at grid {} mm)",
+            setup.job.name, grid.nx, grid.ny, grid.spacing_mm
+        ),
+    )
 }
 
 /// `dexcut optimize [JOB] --out DIR` (`steps_format`: `--steps-format`, for

@@ -21,6 +21,55 @@ use std::path::{Path, PathBuf};
 /// The manifest a committed results folder carries: its run id and files.
 pub const MANIFEST: &str = "manifest.json";
 
+/// Files and folders being written that are not results yet (staging
+/// folders, pending files): removed by [`remove_unfinished`] when the process
+/// is told to stop (SIGTERM, SIGINT), as they are when a run fails.
+static UNFINISHED: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// One entry of [`UNFINISHED`], listed while it lives.
+struct Unfinished(PathBuf);
+
+impl Unfinished {
+    fn new(path: &Path) -> Unfinished {
+        let mut list = UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
+        list.push(path.to_path_buf());
+        Unfinished(path.to_path_buf())
+    }
+}
+
+impl Drop for Unfinished {
+    fn drop(&mut self) {
+        let mut list = UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(i) = list.iter().position(|p| *p == self.0) {
+            list.swap_remove(i);
+        }
+    }
+}
+
+/// Remove every staging folder and pending file of this process (for a
+/// handler of SIGTERM and SIGINT, which exits after it: the writers never
+/// finish). Returns what was removed. The list stays locked, so nothing new
+/// is started meanwhile.
+pub fn remove_unfinished() -> Vec<PathBuf> {
+    let list = UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
+    let mut removed = Vec::new();
+    for p in list.iter() {
+        // A writer may still add files while the tree is removed: tried again.
+        for _ in 0..5 {
+            match remove_any(p) {
+                Ok(()) => {
+                    removed.push(p.clone());
+                    break;
+                }
+                Err(e) if e.kind() == io::ErrorKind::NotFound => break,
+                Err(_) => std::thread::sleep(std::time::Duration::from_millis(20)),
+            }
+        }
+    }
+    std::mem::forget(list);
+    removed
+}
+
 /// Write `path` through `write`; the file appears only if `write` succeeds.
 pub fn write_file<F>(path: &Path, write: F) -> io::Result<()>
 where
@@ -36,6 +85,8 @@ where
 pub struct PendingFile {
     buf: io::BufWriter<tempfile::NamedTempFile>,
     path: PathBuf,
+    /// Listed for [`remove_unfinished`] until committed or dropped.
+    _unfinished: Unfinished,
 }
 
 impl PendingFile {
@@ -54,6 +105,7 @@ impl PendingFile {
             .suffix(".tmp")
             .tempfile_in(dir)?;
         Ok(PendingFile {
+            _unfinished: Unfinished::new(tmp.path()),
             buf: io::BufWriter::new(tmp),
             path: path.to_path_buf(),
         })
@@ -173,8 +225,9 @@ fn remove_any(p: &Path) -> io::Result<()> {
     }
 }
 
-/// Why an existing folder may not be replaced.
-fn check_replaceable(target: &Path) -> io::Result<()> {
+/// Why an existing folder may not be replaced by [`Staging::commit`] (absent,
+/// empty, or an earlier results folder are).
+pub fn check_replaceable(target: &Path) -> io::Result<()> {
     let meta = match std::fs::symlink_metadata(target) {
         Ok(m) => m,
         Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(()),
@@ -212,6 +265,9 @@ fn check_replaceable(target: &Path) -> io::Result<()> {
 /// visible at the target until [`Staging::commit`]. Dropped uncommitted, the
 /// staging folder is removed.
 pub struct Staging {
+    /// Listed for [`remove_unfinished`] until committed or dropped (first:
+    /// dropped before the folder is removed).
+    _unfinished: Unfinished,
     dir: tempfile::TempDir,
     target: PathBuf,
     run_id: String,
@@ -250,6 +306,7 @@ impl Staging {
             .unwrap_or_default();
         let run_id = format!("{nanos:x}-{}-{tag}", std::process::id());
         Ok(Staging {
+            _unfinished: Unfinished::new(dir.path()),
             dir,
             target: target.to_path_buf(),
             run_id,

@@ -37,8 +37,20 @@ impl OutDir {
     /// Check `out` and start staging its new content. `inputs`: every file the
     /// run reads (job, program, meshes, servo data).
     pub fn begin(out: &Path, inputs: &[PathBuf], force: bool) -> Result<OutDir> {
+        // `.` or `..` by the name of the folder it is.
+        let named;
+        let out = if out.file_name().is_none() {
+            named = out.canonicalize().unwrap_or_else(|_| out.to_path_buf());
+            named.as_path()
+        } else {
+            out
+        };
         let inside = inputs_inside(out, inputs);
         if !inside.is_empty() && !force {
+            // `--force` is offered only where it works: a folder that is not
+            // a results folder is never replaced, `--force` or not.
+            export::atomic::check_replaceable(out)
+                .map_err(|e| Error::io("cannot use output folder", out, e))?;
             let names: Vec<String> = inside
                 .iter()
                 .map(|(a, _)| a.display().to_string())

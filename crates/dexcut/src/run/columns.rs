@@ -133,6 +133,14 @@ fn run_grid_arrays() -> Vec<export::GridArray<'static>> {
     ]
 }
 
+/// Bytes of the column grid every run writes, per column.
+pub(crate) fn run_grid_bytes_per_column() -> usize {
+    run_grid_arrays()
+        .iter()
+        .map(|a| a.values.dtype().size())
+        .sum()
+}
+
 /// An error of writing the column grid into `dir`, with the folder named.
 fn grid_error(dir: &Path) -> impl Fn(export::Error) -> Error + Copy + '_ {
     move |e| Error::from(e).context(format!("cannot write the column grid in {}", dir.display()))
