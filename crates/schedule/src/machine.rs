@@ -134,7 +134,7 @@ pub const MACHINE_RANGES: [(&str, f64, f64); 6] = [
     ("rapid_mm_min", 1e-3, 1e7),
     ("accel_mm_s2", 1e-3, 1e8),
     ("jerk_mm_s3", 1e-3, 1e12),
-    ("block_time_ms", f64::MIN_POSITIVE, 1000.0),
+    ("block_time_ms", 1e-3, 1000.0),
 ];
 
 impl Machine {

@@ -548,6 +548,9 @@ const TOOL_STRENGTH_MPA: (f64, f64) = (1.0, 1e6);
 /// Lateral stiffness of holder and spindle, N/µm (a shop's are 5–200; 10¹²
 /// is rigid).
 const HOLDER_STIFFNESS_N_PER_UM: (f64, f64) = (0.01, 1e12);
+/// Smallest corner radius of a bull nose, mm (a smaller one is a flat end's
+/// edge honing).
+const MIN_CORNER_RADIUS_MM: f64 = 1e-3;
 /// Largest feed per tooth, mm/tooth.
 const TOOL_FZ_MAX_MM: (f64, f64) = (1e-5, 10.0);
 /// Tool bands per step (each costs 12 B per servo sample in the removal record).
@@ -633,8 +636,15 @@ fn coordinates(key: &str, v: &[f64]) -> Result<()> {
 /// The grid must resolve the stock: at least [`MIN_COLUMNS_ACROSS`] columns across.
 fn grid_resolves(kind: &str, grid_mm: f64, extent_mm: f64) -> Result<()> {
     if grid_mm * MIN_COLUMNS_ACROSS > extent_mm {
+        let keys = if kind == "box" {
+            "stock.min and stock.max"
+        } else {
+            "stock.radius"
+        };
         fail!(job,
-            "stock.grid ({grid_mm} mm) is too coarse for the {kind}'s {extent_mm} mm XY extent: at least {MIN_COLUMNS_ACROSS} columns across are needed"
+            "stock.grid ({} mm) is too coarse for the {kind}'s {} mm XY extent ({keys}): at least {MIN_COLUMNS_ACROSS} columns across are needed",
+            num(grid_mm),
+            num(extent_mm)
         );
     }
     Ok(())
@@ -708,7 +718,7 @@ impl Job {
                 coordinates("stock.max (mm)", &max)?;
                 for k in 0..3 {
                     if !(max[k] > min[k]) {
-                        fail!(job, "stock box max must exceed min on every axis, got min {min:?}, max {max:?}");
+                        fail!(job, "stock.max must exceed stock.min on every axis, got min {min:?}, max {max:?}");
                     }
                 }
                 grid_resolves("box", grid, (max[0] - min[0]).min(max[1] - min[1]))?;
@@ -791,6 +801,15 @@ impl Job {
     fn validate_cutting(&self) -> Result<()> {
         feed_opt("program.feed (mm/min)", self.program.feed)?;
         let c = &self.cutting;
+        if cutting::Material::by_name(&c.material).is_none() {
+            let names: Vec<&str> = cutting::Material::ALL.iter().map(|m| m.name).collect();
+            fail!(
+                job,
+                "cutting.material {:?} is not one of the known materials: {}",
+                c.material,
+                names.join(", ")
+            );
+        }
         range(
             "cutting.band_height (mm)",
             c.band_height,
@@ -814,8 +833,12 @@ impl Job {
         if let Some(rpm) = c.spindle_rpm {
             range("cutting.spindle_rpm (rev/min)", rpm, 1.0, 1e6)?;
         }
-        positive_opt("cutting.force_a", c.force_a, 1e7)?;
-        positive_opt("cutting.force_n", c.force_n, 2.0)?;
+        if let Some(v) = c.force_a {
+            range("cutting.force_a", v, 1e-3, 1e7)?;
+        }
+        if let Some(v) = c.force_n {
+            range("cutting.force_n", v, 0.01, 2.0)?;
+        }
         // From foams and woods (a few N/mm²) to nickel alloys (≈ 3 500).
         if let Some(kc) = c.kc1_1 {
             range("cutting.kc1_1 (N/mm²)", kc, 1.0, 20_000.0)?;
@@ -898,7 +921,9 @@ impl Job {
         feed_opt("limits.feed_min (mm/min)", l.feed_min)?;
         feed_opt("limits.feed_max (mm/min)", l.feed_max)?;
         feed_opt("limits.v0 (mm/min)", l.v0)?;
-        positive_opt("limits.feed_scale_max", l.feed_scale_max, 1000.0)?;
+        if let Some(v) = l.feed_scale_max {
+            range("limits.feed_scale_max", v, 0.01, 1000.0)?;
+        }
         if let (Some(lo), Some(hi)) = (l.feed_min, l.feed_max.or(Some(m.feed_max))) {
             if lo > hi {
                 fail!(
@@ -944,8 +969,12 @@ impl Job {
                 sv.precomp_iterations
             );
         }
-        positive_opt("servo.zeta", sv.zeta, 100.0)?;
-        positive_opt("servo.omega_n (rad/s)", sv.omega_n, 1e6)?;
+        if let Some(v) = sv.zeta {
+            range("servo.zeta", v, 1e-3, 100.0)?;
+        }
+        if let Some(v) = sv.omega_n {
+            range("servo.omega_n (rad/s)", v, 1e-2, 1e6)?;
+        }
         for (key, v) in [
             ("servo.ka", sv.ka),
             ("servo.kb", sv.kb),
@@ -1016,9 +1045,9 @@ impl ToolSpec {
         match (t.kind, t.corner_radius) {
             // The kernel's own range (dexel::Tool::validate), told once here:
             // 0 is a flat end, half the diameter a ball.
-            (ToolKind::Bull, Some(r)) if !(r > 0.0 && r < t.diameter / 2.0) => fail!(
+            (ToolKind::Bull, Some(r)) if !(r >= MIN_CORNER_RADIUS_MM && r < t.diameter / 2.0) => fail!(
                 job,
-                "{key}.corner_radius (mm) must lie strictly between 0 and half the diameter ({}), got {} (0 is kind = \"flat\", half the diameter kind = \"ball\")",
+                "{key}.corner_radius (mm) must lie strictly between 0 and half the diameter ({}), and be at least {MIN_CORNER_RADIUS_MM}, got {} (0 is kind = \"flat\", half the diameter kind = \"ball\")",
                 num(t.diameter / 2.0),
                 num(r)
             ),

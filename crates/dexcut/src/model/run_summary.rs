@@ -117,20 +117,32 @@ pub struct ToolPeaks {
 impl Summary {
     /// A result that is inf or NaN is an error, not an output.
     pub fn check_finite(&self) -> Result<()> {
-        for (key, v) in [
-            ("initial volume (mm³)", self.initial_volume_mm3),
-            ("final volume (mm³)", self.final_volume_mm3),
-            ("removed volume (mm³)", self.removed_volume_mm3),
-            ("cycle time (s)", self.cycle_time_s),
-            ("peak MRR (mm³/s)", self.peak_mrr_mm3_s),
-            ("peak windowed MRR (mm³/s)", self.peak_mrr_windowed_mm3_s),
-            ("peak force (N)", self.peak_force_n),
-            ("peak deflection (µm)", self.peak_deflection_um),
+        // Each result with the inputs that make it (the job's keys), so that a
+        // result the ranges let through non-finite still names its causes.
+        const STOCK: &str = "[stock] (its shape, grid) and the tools' sizes";
+        const MOTION: &str =
+            "[machine] feed_max, rapid, accel, jerk, period_ms and the program's feeds";
+        const FORCE: &str =
+            "[cutting] (kc1_1, mc, force_a, force_n, spindle_rpm), the tools' flutes and the feeds";
+        const BEAM: &str = "the force's inputs and the tools' youngs_modulus_mpa, stickout, flute_length, effective_diameter, shank_diameter and holder_stiffness_n_per_um";
+        for (key, v, inputs) in [
+            ("initial volume (mm³)", self.initial_volume_mm3, STOCK),
+            ("final volume (mm³)", self.final_volume_mm3, STOCK),
+            ("removed volume (mm³)", self.removed_volume_mm3, STOCK),
+            ("cycle time (s)", self.cycle_time_s, MOTION),
+            ("peak MRR (mm³/s)", self.peak_mrr_mm3_s, MOTION),
+            (
+                "peak windowed MRR (mm³/s)",
+                self.peak_mrr_windowed_mm3_s,
+                MOTION,
+            ),
+            ("peak force (N)", self.peak_force_n, FORCE),
+            ("peak deflection (µm)", self.peak_deflection_um, BEAM),
         ] {
             if !v.is_finite() {
                 fail!(
                     run,
-                    "the run's {key} is {v}: the inputs give no finite result"
+                    "the run's {key} is {v}: the inputs give no finite result; it is made of {inputs}"
                 );
             }
         }

@@ -151,7 +151,7 @@ fn shapes_take_their_own_keys_only() {
         Job::parse(&wide, "job.toml", Path::new(".")).unwrap_err()
     );
     assert!(
-        e.contains("tool.corner_radius (mm) must lie strictly between 0 and half the diameter (3), got 3.5"),
+        e.contains("tool.corner_radius (mm) must lie strictly between 0 and half the diameter (3), and be at least 0.001, got 3.5"),
         "{e}"
     );
     let cylinder = "[stock]\nkind = \"cylinder\"\ncenter = [0, 0]\nradius = 5\nz_min = 0\nz_max = 4\ngrid = 0.5\n";
@@ -343,7 +343,7 @@ fn non_finite_and_absurd_numbers_name_their_key() {
         (
             "[program]",
             "[cutting]\nforce_n = -1\n[program]",
-            "cutting.force_n must be a positive number, got -1",
+            "cutting.force_n must lie in 0.01..2, got -1",
         ),
     ];
     for (from, to, expected) in cases {
@@ -481,7 +481,7 @@ fn fuzzed_jobs_give_named_errors_or_finite_jobs() {
                         .iter()
                         .any(|(s, k, _)| msg.contains(&format!("{s}.{k}")))
                         || msg.starts_with("job.toml:")
-                        || msg.contains("stock box max must exceed min")
+                        || msg.contains("stock.max must exceed stock.min")
                         || msg.contains("stock.grid (")
                         || msg.contains("limits.feed_min (");
                     prop_assert!(keyed, "error names no key or line: {msg}\n{text}");
@@ -623,4 +623,212 @@ fn the_job_check_is_the_only_check_of_a_tool() {
         let job = Job::parse(&text, "job.toml", Path::new(".")).unwrap();
         job.tool().unwrap().validate().unwrap();
     }
+}
+
+/// A job with every section and key the job file has.
+const EVERY_KEY: &str = r#"
+[stock]
+kind = "box"
+min = [0, 0, 0]
+max = [40, 40, 20]
+grid = 0.5
+
+[[tools]]
+number = 1
+kind = "bull"
+diameter = 6
+corner_radius = 1
+flute_length = 12
+stickout = 30
+flutes = 3
+youngs_modulus_mpa = 600000
+effective_diameter = 5
+fz_max = 0.05
+length = 40
+shank_diameter = 6
+holder_stiffness_n_per_um = 20
+stress_limit_mpa = 1200
+rupture_strength_mpa = 3500
+
+[program]
+path = "p.nc"
+feed = 1000
+
+[cutting]
+band_height = 1
+material = "al6061"
+spindle_rpm = 12000
+model = "kienzle"
+kc1_1 = 700
+mc = 0.25
+force_a = 100
+force_n = 0.8
+radial_ratio = 0.3
+axial_ratio = 0.25
+closed_loop = true
+
+[machine]
+period_ms = 4
+feed_max = 3000
+rapid = 10000
+accel = [1000, 1000, 1000]
+jerk = [20000, 20000, 20000]
+block_time_ms = 1
+arcs_as_lines = false
+start = [0, 0, 50]
+z_axis = "up"
+
+[limits]
+mrr_max = 100
+force_max = 400
+deflection_max_um = 20
+power_max_kw = 5
+feed_min = 10
+feed_max = 3000
+angle_rule = true
+v0 = 300
+feed_scale_max = 2
+stress = true
+
+[servo]
+kp = 30
+feedforward = 0.5
+zeta = 0.7
+omega_n = 500
+ka = 1
+kb = 1
+kc = 1
+tolerance_mm = 0.01
+jerk_reference = 100000
+precomp_threshold_mm = 0.001
+precomp_iterations = 20
+
+[offsets]
+g54 = [0, 0, 0]
+g55 = [10, 0, 0]
+
+[design]
+path = "part.stl"
+gouge_tolerance_um = 10
+stock_tolerance_um = 50
+"#;
+
+/// Issue 39's job-file fuzzer: every key of every section (and every entry
+/// of its arrays) given a value of each wrong type and absurd numbers. Each
+/// job is either read (the value was one the key takes) or refused with an
+/// error that names the key's path (or, for a check across keys, its name)
+/// at a line and column inside the file. Never a panic.
+#[test]
+fn every_key_mutated_is_refused_at_its_path_and_line() {
+    let base: toml::Table = toml::from_str(EVERY_KEY).unwrap();
+    Job::parse(EVERY_KEY, "job.toml", Path::new(".")).unwrap();
+    // (path, leaf name, value) of every key and array entry.
+    fn leaves(t: &toml::Table, prefix: &str, out: &mut Vec<(String, String)>) {
+        for (k, v) in t {
+            let path = if prefix.is_empty() {
+                k.clone()
+            } else {
+                format!("{prefix}.{k}")
+            };
+            match v {
+                toml::Value::Table(t) => leaves(t, &path, out),
+                toml::Value::Array(a) => {
+                    out.push((path.clone(), k.clone()));
+                    for (i, v) in a.iter().enumerate() {
+                        let entry = format!("{path}[{i}]");
+                        match v {
+                            toml::Value::Table(t) => leaves(t, &entry, out),
+                            _ => out.push((entry, k.clone())),
+                        }
+                    }
+                }
+                _ => out.push((path, k.clone())),
+            }
+        }
+    }
+    fn set(t: &mut toml::Table, path: &str, value: toml::Value) {
+        let (head, rest) = path.split_once('.').unwrap_or((path, ""));
+        let (key, index) = match head.split_once('[') {
+            Some((k, i)) => (k, Some(i.trim_end_matches(']').parse::<usize>().unwrap())),
+            None => (head, None),
+        };
+        let slot = t.get_mut(key).unwrap();
+        let slot = match index {
+            Some(i) => &mut slot.as_array_mut().unwrap()[i],
+            None => slot,
+        };
+        if rest.is_empty() {
+            *slot = value;
+        } else {
+            set(slot.as_table_mut().unwrap(), rest, value);
+        }
+    }
+    let mut keys = Vec::new();
+    leaves(&base, "", &mut keys);
+    assert!(keys.len() > 80, "{} keys", keys.len());
+    let values: Vec<toml::Value> = [
+        "\"text\"",
+        "true",
+        "[1, 2]",
+        "{ a = 1 }",
+        "-1",
+        "0",
+        "1e-300",
+        "1e300",
+        "-1e300",
+        "nan",
+        "inf",
+        "-inf",
+        "4294967296",
+    ]
+    .iter()
+    .map(|v| toml::from_str::<toml::Table>(&format!("v = {v}")).unwrap()["v"].clone())
+    .collect();
+    let (mut refused, mut read) = (0, 0);
+    for (path, leaf) in &keys {
+        for value in &values {
+            let mut t = base.clone();
+            set(&mut t, path, value.clone());
+            let text = toml::to_string(&t).unwrap();
+            let lines = text.lines().count();
+            let result = std::panic::catch_unwind(|| Job::parse(&text, "job.toml", Path::new(".")));
+            let Ok(result) = result else {
+                panic!("{path} = {value}: panicked");
+            };
+            let Err(e) = result else {
+                read += 1;
+                continue;
+            };
+            refused += 1;
+            let e = format!("{e:#}");
+            let at = e
+                .strip_prefix("job.toml:")
+                .and_then(|r| {
+                    let mut p = r.splitn(3, ':');
+                    Some((
+                        p.next()?.parse::<usize>().ok()?,
+                        p.next()?.parse::<usize>().ok()?,
+                    ))
+                })
+                .unwrap_or_else(|| panic!("{path} = {value}: no line and column: {e}"));
+            assert!(
+                at.0 >= 1 && at.0 <= lines && at.1 >= 1,
+                "{path} = {value}: {at:?} outside: {e}"
+            );
+            // The key's path, without the array entry where the message
+            // names the array (`stock.min (mm)[2]`), or its name in a check
+            // across keys (`limits.feed_min (…) exceeds the highest feed`).
+            let array = path.split('[').next().unwrap();
+            assert!(
+                e.contains(path.as_str()) || e.contains(array) || e.contains(leaf.as_str()),
+                "{path} = {value}: the error does not name the key: {e}"
+            );
+        }
+    }
+    eprintln!(
+        "{} keys × {} values: {refused} refused, {read} read",
+        keys.len(),
+        values.len()
+    );
+    assert!(refused > read);
 }
