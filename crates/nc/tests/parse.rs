@@ -710,3 +710,53 @@ fn io_codes_move_nothing_and_m19_stops_the_spindle() {
     let rpm: Vec<f64> = segs.iter().map(|s| s.spindle_rpm).collect();
     assert_eq!(rpm, [8000.0, 0.0, 8000.0]);
 }
+
+/// `G10 L2 … R` rotates its coordinate system about Z (issue 39): a move
+/// after it is turned about the system's origin, as in LinuxCNC (the rs274
+/// test `rotated_coordinate_systems_read_as_in_linuxcnc_rs274`). Before, the
+/// R word was dropped and `G1 X10` ended at X10 Y0.
+#[test]
+fn g10_l2_r_rotates_the_coordinate_system() {
+    let s = ok("G10 L2 P1 X0 Y0 R45\nG1 X10 F100");
+    let h = 50f64.sqrt();
+    close(end(&s[0])[0], h);
+    close(end(&s[0])[1], h);
+    // About the system's origin (X5 Y-3), the arc's centre turned with it.
+    let s = ok("G10 L2 P1 X5 Y-3 R90\nG0 X0 Y0\nG2 X10 Y0 I5 J0 F100");
+    close(end(&s[0])[0], 5.0);
+    close(end(&s[0])[1], -3.0);
+    close(end(&s[1])[0], 5.0);
+    close(end(&s[1])[1], 7.0);
+    let (c, _, clockwise, sweep) = arc(&s[1]);
+    close(c[0], 5.0);
+    close(c[1], 2.0);
+    assert!(clockwise);
+    close(sweep, PI);
+    // G55 keeps its own rotation; G54 has none (Y stays where G55 left it).
+    let s = ok("G10 L2 P2 R90\nG55 G1 X2 F100\nG54 G1 X3");
+    close(end(&s[0])[0], 0.0);
+    close(end(&s[0])[1], 2.0);
+    close(end(&s[1])[0], 3.0);
+    close(end(&s[1])[1], 2.0);
+    // Refused where LinuxCNC refuses it, or where dexcut cannot follow.
+    let e = errors("G10 L20 P1 X1 R30");
+    assert!(
+        e[0].contains("t.ngc:1:15: R not allowed in G10 L20"),
+        "{e:?}"
+    );
+    let e = errors("G10 L2 P1 R30\nG18 G2 X10 Z0 I5 K0 F100");
+    assert!(
+        e[0].starts_with("t.ngc:2:") && e[0].contains("rotated by G10 L2 R"),
+        "{e:?}"
+    );
+}
+
+/// G52 sets the G92 offset to its words, G92.2 suspends it and G92.3 brings
+/// it back, none moving the machine, as in LinuxCNC (issue 39: before, G52
+/// was an unknown code and G92.2, G92.3 were refused).
+#[test]
+fn g52_and_g92_2_g92_3_shift_the_program_origin() {
+    let s = ok("G0 X1 Y1\nG52 X10\nG0 X0\nG92.2\nG0 X0\nG92.3\nG0 X1\nG92.1\nG0 X0");
+    let xs: Vec<f64> = s.iter().map(|s| end(s)[0]).collect();
+    assert_eq!(xs, [1.0, 10.0, 0.0, 11.0, 0.0]);
+}

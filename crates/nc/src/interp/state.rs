@@ -72,7 +72,16 @@ pub(super) struct Interp<'a> {
     pub(super) motion: GCode,
     pub(super) coord: usize,
     pub(super) work: [[f64; 3]; 6],
+    /// Rotation (degrees, counterclockwise about Z) of each coordinate
+    /// system, set by `G10 L2 … R` (LinuxCNC's #5210 + 20·n).
+    pub(super) rotation_deg: [f64; 6],
     pub(super) g92: [f64; 3],
+    /// The G92/G52 offset G92.2 suspends and G92.3 restores (LinuxCNC's
+    /// #5211–#5213).
+    pub(super) g92_saved: [f64; 3],
+    /// G28 and G30 home positions (gauge point, mm, machine frame): the
+    /// options', until G28.1 or G30.1 stores the current point.
+    pub(super) homes_mm: [[f64; 3]; 2],
     pub(super) feed_mm_min: f64,
     pub(super) spindle_rpm: f64,
     pub(super) spindle: Spindle,
@@ -176,7 +185,10 @@ pub(super) fn interp<'a>(file: &'a str, options: &'a Options, record: bool) -> I
         motion: GCode::G80,
         coord: 0,
         work: options.work_offsets_mm,
+        rotation_deg: [0.0; 6],
         g92: [0.0; 3],
+        g92_saved: [0.0; 3],
+        homes_mm: [options.g28_home_mm, options.g30_home_mm],
         feed_mm_min: 0.0,
         spindle_rpm: 0.0,
         spindle: Spindle::Stopped,
