@@ -75,8 +75,36 @@ pub fn check_input_file(path: &Path, what: &str, cap: u64) -> Result<u64> {
     Ok(meta.len())
 }
 
-/// Read a regular text file of at most `cap` bytes.
+/// Read a regular UTF-8 text file of at most `cap` bytes. A file that is
+/// not UTF-8 is refused at the line and column of its first byte that is
+/// not ([`not_utf8`]), not with the decoder's "stream did not contain valid
+/// UTF-8" and no place.
 pub fn read_text(path: &Path, what: &str, cap: u64) -> Result<String> {
+    let bytes = read_bytes(path, what, cap)?;
+    String::from_utf8(bytes).map_err(|e| not_utf8(path, what, e.as_bytes(), e.utf8_error()))
+}
+
+/// The error of a `what` file at `path` that is not UTF-8: its first such
+/// byte at its line and character column.
+pub fn not_utf8(path: &Path, what: &str, bytes: &[u8], e: std::str::Utf8Error) -> Error {
+    let at = e.valid_up_to();
+    // The prefix is valid UTF-8 by the error's word.
+    let prefix = std::str::from_utf8(&bytes[..at]).unwrap_or("");
+    let line = prefix.matches('\n').count() as u64 + 1;
+    let column = prefix.rsplit('\n').next().map_or(0, |l| l.chars().count()) as u64 + 1;
+    Error::input(
+        &path.display().to_string(),
+        line,
+        column,
+        format!(
+            "byte 0x{:02X} is not UTF-8: the {what} must be UTF-8 text",
+            bytes[at]
+        ),
+    )
+}
+
+/// Read a regular file of at most `cap` bytes whole.
+pub fn read_bytes(path: &Path, what: &str, cap: u64) -> Result<Vec<u8>> {
     let size = check_input_file(path, what, cap)?;
     let file =
         std::fs::File::open(path).map_err(|e| Error::io(format!("cannot read {what}"), path, e))?;
@@ -85,19 +113,19 @@ pub fn read_text(path: &Path, what: &str, cap: u64) -> Result<String> {
     // size hint, and the text grown by doubling would hold up to twice its
     // bytes through a whole run (a program's text is: 33.6 MB for 26.8);
     // where it grew meanwhile, it is fitted after.
-    let mut text = String::with_capacity(usize::try_from(size).unwrap_or(0));
+    let mut bytes = Vec::with_capacity(usize::try_from(size).unwrap_or(0));
     file.take(cap + 1)
-        .read_to_string(&mut text)
+        .read_to_end(&mut bytes)
         .map_err(|e| Error::io(format!("cannot read {what}"), path, e))?;
-    if text.len() as u64 > cap {
+    if bytes.len() as u64 > cap {
         fail!(
             limits,
             "{what} {} grew past the limit of {cap} bytes while read",
             path.display()
         );
     }
-    text.shrink_to_fit();
-    Ok(text)
+    bytes.shrink_to_fit();
+    Ok(bytes)
 }
 
 /// Open a regular file of at most `cap` bytes for streaming.

@@ -1413,3 +1413,47 @@ fn home_storing_offset_and_coolant_codes_read_as_in_linuxcnc_rs274() {
         (10, 4)
     );
 }
+
+/// A program whose comments are Windows-1252 (`(T1 D=6 CR=0 - Fräser)`
+/// with byte 0xE4, as Windows editors and posts write them; issue 39):
+/// rs274 reads the file as written, and we read its decoded text
+/// ([`nc::decode`]) through the same moves, with a warning at the byte's
+/// line and column in the tolerant form; the decoded text written out
+/// (UTF-8, as optimized.nc is) reads the same in rs274. Such a byte outside
+/// a comment is refused by both, at its line.
+#[test]
+fn windows_1252_comments_read_as_in_linuxcnc_rs274() {
+    if !have_rs274() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let bytes = b"G21 G90 G17\n(T1 D=6 CR=0 - Fr\xe4ser)\nG0 X0 Y0 Z5 ;Fr\xe4ser \x80\n(msg,gro\xdf)\nG1 X10 Y5 Z-1 F300\nG2 X20 Y5 I5 J0\nM2\n";
+    let original = dir.path().join("cp1252.ngc");
+    std::fs::write(&original, bytes).expect("write");
+    let (text, warning) = nc::decode(bytes.to_vec(), "cp1252.ngc", FileForm::Tolerant);
+    let w = warning.expect("a warning");
+    assert_eq!((w.line, w.column), (2, 18), "{w}");
+    let n = compare_as(&text, FileForm::Tolerant, &original).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(n, 3);
+    let written = dir.path().join("utf8.ngc");
+    std::fs::write(&written, text.as_bytes()).expect("write");
+    assert_eq!(compare_as(&text, FileForm::LinuxCnc, &written), Ok(3));
+    // Outside a comment: rs274's "Bad character", our unexpected character.
+    let bad = dir.path().join("bad.ngc");
+    std::fs::write(&bad, b"G21 G90\nG0 X1\nG1 X2 F100 \xe4\nM2\n").expect("write");
+    let (_, _, theirs) = rs274_moves(&bad);
+    let theirs = theirs.expect("rs274 refuses the byte");
+    assert!(theirs.contains("Bad character"), "{theirs}");
+    let (text, _) = nc::decode(
+        std::fs::read(&bad).expect("read"),
+        "bad.ngc",
+        FileForm::Tolerant,
+    );
+    let parsed = nc::parse(&text, "bad.ngc", &options_as(0, FileForm::Tolerant));
+    let ours = parsed
+        .diagnostics
+        .iter()
+        .find(|d| d.is_error())
+        .expect("refused");
+    assert_eq!((ours.line, ours.column), (3, 12), "{ours}");
+}
