@@ -1105,3 +1105,79 @@ fn i39_a_windows_1252_comment_is_read_with_a_warning() {
     r.clear_error("job.toml:1:10: byte 0xE4 is not UTF-8: the job file must be UTF-8");
     assert!(!dir.path().join("out").exists());
 }
+
+/// Issue 39, sizes a program can drive past the memory estimate: the moves
+/// a program's loops make are not bounded by its text. Under a 600 MB
+/// address-space limit, `o1 repeat [1000000000]` around two G1 lines
+/// aborted on a 503 MB allocation (exit 134). Every loop form is now refused
+/// with exit 1 at the loop's line and column, giving the moves it would make
+/// and the limit (from the memory this process may use), before they are
+/// made: repeat, nested repeats, a subroutine called in a loop, M98 with L,
+/// while and do-while (at the limit, their runs not being counted ahead).
+/// Canned-cycle L repeats, pecks and arc turns are capped per block.
+#[test]
+fn i39_loops_past_the_memory_are_refused_at_their_line() {
+    const AS_600_MB: u64 = 600_000_000;
+    let cases = [
+        (
+            "G0 X0 Y0 Z35\no1 repeat [1000000000]\nG1 X1 F100\nG1 X0\no1 endrepeat\nM2\n",
+            "p.nc:2:1: this repeat would make the program 2.0000e9 moves (2 a run, 1000000000 runs), more than the limit of",
+        ),
+        (
+            "G0 X0 Y0 Z35\no1 repeat [100000000]\no2 repeat [10]\nG1 X1 F100\nG1 X0\no2 endrepeat\no1 endrepeat\nM2\n",
+            "p.nc:2:1: this repeat would make the program 2.0000e9 moves",
+        ),
+        (
+            "o9 sub\nG1 X1 F100\nG1 X0\no9 endsub\nG0 X0 Y0 Z35\no1 repeat [1000000000]\no9 call\no1 endrepeat\nM2\n",
+            "p.nc:6:1: this repeat would make the program 2.0000e9 moves",
+        ),
+        (
+            "G0 X0 Y0 Z35\nG91\nM98 P8 L1000000\nM2\nO8\nG1 X1 F100\nG1 X-1\nG1 X1\nG1 X-1\nM99\n",
+            "p.nc:3:1: this M98 L would make the program 4.0000e6 moves",
+        ),
+        (
+            "G0 X0 Y0 Z35\n#1 = 0\no1 while [#1 LT 1000000000]\nG1 X[#1 MOD 2] F100\n#1 = [#1 + 1]\no1 endwhile\nM2\n",
+            "p.nc:3:1: this loop made the program more than",
+        ),
+        (
+            "G0 X0 Y0 Z35\n#1 = 0\no1 do\nG1 X[#1 MOD 2] F100\n#1 = [#1 + 1]\no1 while [#1 LT 1000000000]\nM2\n",
+            "p.nc:3:1: this loop made the program more than",
+        ),
+        (
+            "G0 X0 Y0 Z35\nG91 G81 X0.01 Y0 Z-1 R1 L1000000000 F100\nG90 G80\nM2\n",
+            "p.nc:2:25: L repeat count must be an integer from 1 to 100000",
+        ),
+        (
+            "G0 X0 Y0 Z35\nG2 X0 Y0 I1 J0 P1000000000 F100\nM2\n",
+            "p.nc:2:16: P (turns) of an arc must be an integer from 1 to 10000",
+        ),
+    ];
+    for (program, needle) in cases {
+        let dir = job_dir(str::to_string, program);
+        let r = run_limited(
+            &["simulate", "job.toml", "--out", "out"],
+            dir.path(),
+            AS_600_MB,
+            60,
+        );
+        r.clear_error(needle);
+        assert!(
+            r.elapsed < Duration::from_secs(30),
+            "{program}: {:?}",
+            r.elapsed
+        );
+        assert!(!dir.path().join("out").exists(), "{program}");
+    }
+    // A loop within the limit still runs under the same address space.
+    let dir = job_dir(
+        str::to_string,
+        "G0 X0 Y0 Z35\no1 repeat [5000]\nG1 X1 F3000\nG1 X0\no1 endrepeat\nG0 Z40\nM2\n",
+    );
+    let r = run_limited(
+        &["simulate", "job.toml", "--out", "out"],
+        dir.path(),
+        AS_600_MB,
+        600,
+    );
+    r.ok();
+}

@@ -39,6 +39,23 @@ pub const BYTES_PER_STATION: f64 = 336.0;
 /// Peak bytes per byte of G-code text while it is parsed (about 40×, measured
 /// on long programs), so the program cap also follows memory.
 pub const BYTES_PER_PROGRAM_BYTE: f64 = 48.0;
+/// Peak bytes per path segment while a program is read: a segment is 120 B
+/// and the path's vector grows by doubling (up to 240 B a segment held
+/// while it moves), rounded up. Bounds the moves a program's loops may make
+/// ([`max_path_segments`]), which its text's size does not.
+pub const BYTES_PER_SEGMENT: f64 = 256.0;
+
+/// Most path segments a program may make while it is read: what the memory
+/// this process may use holds at [`BYTES_PER_SEGMENT`] beside the program's
+/// text (`text_bytes` × [`BYTES_PER_PROGRAM_BYTE`]), and `nc`'s own cap (5 M)
+/// at most. A loop that would make more (`o1 repeat [1000000000]`) is
+/// refused at its line once its first run shows it, before the moves are
+/// made (issue 39).
+pub fn max_path_segments(text_bytes: usize) -> usize {
+    let room = usable_memory_bytes() - text_bytes as f64 * BYTES_PER_PROGRAM_BYTE;
+    (room / BYTES_PER_SEGMENT).clamp(1.0, nc::Options::default().max_segments as f64) as usize
+}
+
 /// Most servo samples of one run, whatever the memory: bounds the sweep time.
 pub const MAX_SAMPLES: f64 = 100_000_000.0;
 /// Most planner stations (0.05 mm apart: 5 000 m of path).

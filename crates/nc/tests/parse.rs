@@ -760,3 +760,66 @@ fn g52_and_g92_2_g92_3_shift_the_program_origin() {
     let xs: Vec<f64> = s.iter().map(|s| end(s)[0]).collect();
     assert_eq!(xs, [1.0, 10.0, 0.0, 11.0, 0.0]);
 }
+
+/// Loops whose runs would take the path past the limit of moves (issue 39:
+/// `o1 repeat [1000000000]` around two G1 lines aborted on a 503 MB
+/// allocation) stop once their first run shows it, with an error at the
+/// loop's line and column giving the moves it would make and the limit:
+/// repeat, nested repeats, a subroutine called in a loop, M98 with L; a
+/// while or do-while loop, whose runs are not counted, at the limit itself.
+/// Nothing near the limit is held: each case ends quickly.
+#[test]
+fn loops_past_the_limit_of_moves_stop_at_their_line() {
+    let options = Options {
+        max_segments: 10_000,
+        ..Options::default()
+    };
+    let cases = [
+        (
+            "G0 X0\no1 repeat [1000000000]\nG1 X1 F100\nG1 X0\no1 endrepeat\nM2",
+            "t.ngc:2:1: this repeat would make the program 2.0000e9 moves (2 a run, 1000000000 runs), more than the limit of 10000",
+        ),
+        (
+            "o1 repeat [100000]\no2 repeat [3]\nG1 X1 F100\nG1 X0\no2 endrepeat\no1 endrepeat\nM2",
+            "t.ngc:1:1: this repeat would make the program 6.0000e5 moves (6 a run, 100000 runs)",
+        ),
+        (
+            "o9 sub\nG1 X1 F100\nG1 X0\no9 endsub\n#1 = 0\no1 repeat [10000000]\no9 call\no1 endrepeat\nM2",
+            "t.ngc:6:1: this repeat would make the program 2.0000e7 moves",
+        ),
+        (
+            "G91\nM98 P8 L1000000\nM2\nO8\nG1 X1 F100\nG1 X-1\nM99",
+            "t.ngc:2:1: this M98 L would make the program 2.0000e6 moves (2 a run, 1000000 runs)",
+        ),
+        (
+            "#1 = 0\no1 while [#1 LT 1000000000]\nG1 X[#1 MOD 2] F100\n#1 = [#1 + 1]\no1 endwhile\nM2",
+            "t.ngc:2:1: this loop made the program more than 10000 moves (the limit) before its end",
+        ),
+        (
+            "#1 = 0\no1 do\nG1 X[#1 MOD 2] F100\n#1 = [#1 + 1]\no1 while [#1 LT 1000000000]\nM2",
+            "t.ngc:2:1: this loop made the program more than 10000 moves (the limit) before its end",
+        ),
+    ];
+    for (src, want) in cases {
+        let started = std::time::Instant::now();
+        let parsed = nc::parse(src, "t.ngc", &options);
+        let errors: Vec<String> = parsed
+            .diagnostics
+            .iter()
+            .filter(|d| d.is_error())
+            .map(ToString::to_string)
+            .collect();
+        assert_eq!(errors.len(), 1, "{src}: {errors:?}");
+        assert!(errors[0].starts_with(want), "{src}: {}", errors[0]);
+        assert!(parsed.path.segments.len() <= 10_001, "{src}");
+        assert!(started.elapsed().as_secs() < 5, "{src}");
+    }
+    // Under the limit, a loop runs in full.
+    let parsed = nc::parse(
+        "o1 repeat [4000]\nG1 X1 F100\nG1 X0\no1 endrepeat\nM2",
+        "t.ngc",
+        &options,
+    );
+    assert!(parsed.diagnostics.is_empty(), "{:?}", parsed.diagnostics);
+    assert_eq!(parsed.path.segments.len(), 8000);
+}

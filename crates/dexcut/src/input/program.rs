@@ -196,6 +196,8 @@ pub fn parse_gcode(text: String, file: &str, job: &Job) -> Result<Program> {
             [only] => only.body().number,
             _ => None,
         },
+        // The moves its loops make are bounded by memory, not by its text.
+        max_segments: crate::bounds::max_path_segments(text.len()),
         ..nc::Options::default()
     };
     options.initial_position_mm = job.machine.start.unwrap_or_default();

@@ -100,6 +100,14 @@ pub(super) struct Interp<'a> {
     pub(super) cycle_initial_z: Option<f64>,
     pub(super) frames: Vec<Frame>,
     pub(super) repeats: HashMap<usize, i64>,
+    /// Each `repeat` entered: its count and the segments made before its
+    /// first run, to foresee the moves it makes once that run ends.
+    pub(super) repeat_runs: HashMap<usize, (i64, usize)>,
+    /// Line and column of the loop (repeat, while, do, M98 with L) that
+    /// last ran its body again: the one blamed when the moves pass the limit.
+    pub(super) last_loop: Option<(usize, u32)>,
+    /// A loop was found to make more moves than the limit: the run stops.
+    pub(super) halted: bool,
     pub(super) path: Path,
     pub(super) trace: Vec<SegmentTrace>,
     pub(super) diagnostics: Vec<Diagnostic>,
@@ -202,6 +210,9 @@ pub(super) fn interp<'a>(file: &'a str, options: &'a Options, record: bool) -> I
         cycle_initial_z: None,
         frames: Vec::new(),
         repeats: HashMap::new(),
+        repeat_runs: HashMap::new(),
+        last_loop: None,
+        halted: false,
         path: Path::default(),
         trace: Vec::new(),
         diagnostics: Vec::new(),
