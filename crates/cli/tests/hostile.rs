@@ -1154,3 +1154,180 @@ fn disk_full_keeps_previous_results_and_says_so_once() {
     );
     let _ = std::io::stderr().flush();
 }
+
+/// Issue 39, programs as controls read them: a comment written in
+/// Windows-1252 (`(T1 D=10 - Kugelfräser)`, byte 0xE4), which LinuxCNC reads,
+/// is read with a `program_form` warning at the byte's line and column
+/// (before, the whole program was refused with "stream did not contain
+/// valid UTF-8" and no line); optimized.nc is UTF-8, keeps the comment,
+/// and LinuxCNC's rs274 reads it; simulated on its own it warns of nothing
+/// and does what the summary says. A CSV point list and the job file must
+/// be UTF-8: one that is not is refused at the byte's file, line and column.
+#[test]
+fn i39_a_windows_1252_comment_is_read_with_a_warning() {
+    let program: &[u8] =
+        b"G21 G90\n(T1 D=10 - Kugelfr\xe4ser)\nG0 X-10 Y0 Z35\nG0 Z28\nG1 X70 F1200\nG0 Z35\nM2\n";
+    let dir = job_dir(str::to_string, "");
+    std::fs::write(dir.path().join("p.nc"), program).unwrap();
+    let r = dexcut(&["simulate", "job.toml", "--out", "sim"], dir.path());
+    r.ok();
+    assert!(
+        r.stderr
+            .contains("line 2: byte 0xE4 at column 19 is not UTF-8"),
+        "{}",
+        r.stderr
+    );
+    let s = json(&dir.path().join("sim/summary.json"));
+    let form: Vec<&Value> = s["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|w| w["kind"] == "program_form")
+        .collect();
+    assert_eq!(form.len(), 1, "{}", s["warnings"]);
+    assert_eq!(form[0]["line"], 2);
+    let message = form[0]["message"].as_str().unwrap();
+    assert!(message.contains("Windows-1252"), "{message}");
+
+    let r = dexcut(&["optimize", "job.toml", "--out", "out"], dir.path());
+    r.ok();
+    let written = dir.path().join("out/optimized.nc");
+    let text = std::fs::read_to_string(&written).expect("optimized.nc is UTF-8");
+    assert!(text.contains("(T1 D=10 - Kugelfräser)"), "{text}");
+    if Command::new("rs274")
+        .arg("-g")
+        .arg("/dev/null")
+        .output()
+        .is_ok()
+    {
+        let rs = Command::new("rs274")
+            .arg("-g")
+            .arg(&written)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&rs.stderr);
+        let out = String::from_utf8_lossy(&rs.stdout);
+        assert!(
+            err.lines()
+                .all(|l| l.trim().is_empty() || l.trim() == "executing"),
+            "{err}"
+        );
+        assert!(out.contains("STRAIGHT_FEED(70.0000"), "{out}");
+    }
+    write(
+        dir.path(),
+        "refed.toml",
+        &BOX_JOB.replace("path = \"p.nc\"", "path = \"out/optimized.nc\""),
+    );
+    let r = dexcut(&["simulate", "refed.toml", "--out", "refed"], dir.path());
+    r.ok();
+    let refed = json(&dir.path().join("refed/summary.json"));
+    assert!(
+        !refed["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w["kind"] == "program_form"),
+        "{}",
+        refed["warnings"]
+    );
+    let after = &json(&dir.path().join("out/summary.json"))["after"];
+    for key in ["cycle_time_s", "removed_volume_mm3"] {
+        let (a, b) = (after[key].as_f64().unwrap(), refed[key].as_f64().unwrap());
+        assert!((a - b).abs() <= 1e-9 * a.abs(), "{key}: {a} vs {b}");
+    }
+
+    // A point list and the job file stay UTF-8.
+    let dir = job_dir(str::to_string, "");
+    std::fs::write(
+        dir.path().join("p.nc"),
+        b"x,y,z,feed\n-10,0,35,1200\n70,0,28,1200 \xe4\n",
+    )
+    .unwrap();
+    let r = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
+    r.clear_error("p.nc:3:14: byte 0xE4 is not UTF-8");
+    assert!(!dir.path().join("out").exists());
+    let dir = job_dir(str::to_string, SLOT_NC);
+    let mut job = b"# Kugelfr\xe4ser\n".to_vec();
+    job.extend_from_slice(BOX_JOB.as_bytes());
+    std::fs::write(dir.path().join("job.toml"), job).unwrap();
+    let r = dexcut(&["simulate", "job.toml", "--out", "out"], dir.path());
+    r.clear_error("job.toml:1:10: byte 0xE4 is not UTF-8: the job file must be UTF-8");
+    assert!(!dir.path().join("out").exists());
+}
+
+/// Issue 39, sizes a program can drive past the memory estimate: the moves
+/// a program's loops make are not bounded by its text. Under a 600 MB
+/// address-space limit, `o1 repeat [1000000000]` around two G1 lines
+/// aborted on a 503 MB allocation (exit 134). Every loop form is now refused
+/// with exit 1 at the loop's line and column, giving the moves it would make
+/// and the limit (from the memory this process may use), before they are
+/// made: repeat, nested repeats, a subroutine called in a loop, M98 with L,
+/// while and do-while (at the limit, their runs not being counted ahead).
+/// Canned-cycle L repeats, pecks and arc turns are capped per block.
+#[test]
+fn i39_loops_past_the_memory_are_refused_at_their_line() {
+    const AS_600_MB: u64 = 600_000_000;
+    let cases = [
+        (
+            "G0 X0 Y0 Z35\no1 repeat [1000000000]\nG1 X1 F100\nG1 X0\no1 endrepeat\nM2\n",
+            "p.nc:2:1: this repeat would make the program 2.0000e9 moves (2 a run, 1000000000 runs), more than the limit of",
+        ),
+        (
+            "G0 X0 Y0 Z35\no1 repeat [100000000]\no2 repeat [10]\nG1 X1 F100\nG1 X0\no2 endrepeat\no1 endrepeat\nM2\n",
+            "p.nc:2:1: this repeat would make the program 2.0000e9 moves",
+        ),
+        (
+            "o9 sub\nG1 X1 F100\nG1 X0\no9 endsub\nG0 X0 Y0 Z35\no1 repeat [1000000000]\no9 call\no1 endrepeat\nM2\n",
+            "p.nc:6:1: this repeat would make the program 2.0000e9 moves",
+        ),
+        (
+            "G0 X0 Y0 Z35\nG91\nM98 P8 L1000000\nM2\nO8\nG1 X1 F100\nG1 X-1\nG1 X1\nG1 X-1\nM99\n",
+            "p.nc:3:1: this M98 L would make the program 4.0000e6 moves",
+        ),
+        (
+            "G0 X0 Y0 Z35\n#1 = 0\no1 while [#1 LT 1000000000]\nG1 X[#1 MOD 2] F100\n#1 = [#1 + 1]\no1 endwhile\nM2\n",
+            "p.nc:3:1: this loop made the program more than",
+        ),
+        (
+            "G0 X0 Y0 Z35\n#1 = 0\no1 do\nG1 X[#1 MOD 2] F100\n#1 = [#1 + 1]\no1 while [#1 LT 1000000000]\nM2\n",
+            "p.nc:3:1: this loop made the program more than",
+        ),
+        (
+            "G0 X0 Y0 Z35\nG91 G81 X0.01 Y0 Z-1 R1 L1000000000 F100\nG90 G80\nM2\n",
+            "p.nc:2:25: L repeat count must be an integer from 1 to 100000",
+        ),
+        (
+            "G0 X0 Y0 Z35\nG2 X0 Y0 I1 J0 P1000000000 F100\nM2\n",
+            "p.nc:2:16: P (turns) of an arc must be an integer from 1 to 10000",
+        ),
+    ];
+    for (program, needle) in cases {
+        let dir = job_dir(str::to_string, program);
+        let r = run_limited(
+            &["simulate", "job.toml", "--out", "out"],
+            dir.path(),
+            AS_600_MB,
+            60,
+        );
+        r.clear_error(needle);
+        assert!(
+            r.elapsed < Duration::from_secs(30),
+            "{program}: {:?}",
+            r.elapsed
+        );
+        assert!(!dir.path().join("out").exists(), "{program}");
+    }
+    // A loop within the limit still runs under the same address space.
+    let dir = job_dir(
+        str::to_string,
+        "G0 X0 Y0 Z35\no1 repeat [5000]\nG1 X1 F3000\nG1 X0\no1 endrepeat\nG0 Z40\nM2\n",
+    );
+    let r = run_limited(
+        &["simulate", "job.toml", "--out", "out"],
+        dir.path(),
+        AS_600_MB,
+        600,
+    );
+    r.ok();
+}

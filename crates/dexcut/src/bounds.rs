@@ -39,6 +39,23 @@ pub const BYTES_PER_STATION: f64 = 336.0;
 /// Peak bytes per byte of G-code text while it is parsed (about 40×, measured
 /// on long programs), so the program cap also follows memory.
 pub const BYTES_PER_PROGRAM_BYTE: f64 = 48.0;
+/// Peak bytes per path segment while a program is read: a segment is 120 B
+/// and the path's vector grows by doubling (up to 240 B a segment held
+/// while it moves), rounded up. Bounds the moves a program's loops may make
+/// ([`max_path_segments`]), which its text's size does not.
+pub const BYTES_PER_SEGMENT: f64 = 256.0;
+
+/// Most path segments a program may make while it is read: what the memory
+/// this process may use holds at [`BYTES_PER_SEGMENT`] beside the program's
+/// text (`text_bytes` × [`BYTES_PER_PROGRAM_BYTE`]), and `nc`'s own cap (5 M)
+/// at most. A loop that would make more (`o1 repeat [1000000000]`) is
+/// refused at its line once its first run shows it, before the moves are
+/// made (issue 39).
+pub fn max_path_segments(text_bytes: usize) -> usize {
+    let room = usable_memory_bytes() - text_bytes as f64 * BYTES_PER_PROGRAM_BYTE;
+    (room / BYTES_PER_SEGMENT).clamp(1.0, nc::Options::default().max_segments as f64) as usize
+}
+
 /// Most servo samples of one run, whatever the memory: bounds the sweep time.
 pub const MAX_SAMPLES: f64 = 100_000_000.0;
 /// Most planner stations (0.05 mm apart: 5 000 m of path).
@@ -75,8 +92,36 @@ pub fn check_input_file(path: &Path, what: &str, cap: u64) -> Result<u64> {
     Ok(meta.len())
 }
 
-/// Read a regular text file of at most `cap` bytes.
+/// Read a regular UTF-8 text file of at most `cap` bytes. A file that is
+/// not UTF-8 is refused at the line and column of its first byte that is
+/// not ([`not_utf8`]), not with the decoder's "stream did not contain valid
+/// UTF-8" and no place.
 pub fn read_text(path: &Path, what: &str, cap: u64) -> Result<String> {
+    let bytes = read_bytes(path, what, cap)?;
+    String::from_utf8(bytes).map_err(|e| not_utf8(path, what, e.as_bytes(), e.utf8_error()))
+}
+
+/// The error of a `what` file at `path` that is not UTF-8: its first such
+/// byte at its line and character column.
+pub fn not_utf8(path: &Path, what: &str, bytes: &[u8], e: std::str::Utf8Error) -> Error {
+    let at = e.valid_up_to();
+    // The prefix is valid UTF-8 by the error's word.
+    let prefix = std::str::from_utf8(&bytes[..at]).unwrap_or("");
+    let line = prefix.matches('\n').count() as u64 + 1;
+    let column = prefix.rsplit('\n').next().map_or(0, |l| l.chars().count()) as u64 + 1;
+    Error::input(
+        &path.display().to_string(),
+        line,
+        column,
+        format!(
+            "byte 0x{:02X} is not UTF-8: the {what} must be UTF-8 text",
+            bytes[at]
+        ),
+    )
+}
+
+/// Read a regular file of at most `cap` bytes whole.
+pub fn read_bytes(path: &Path, what: &str, cap: u64) -> Result<Vec<u8>> {
     let size = check_input_file(path, what, cap)?;
     let file =
         std::fs::File::open(path).map_err(|e| Error::io(format!("cannot read {what}"), path, e))?;
@@ -85,19 +130,19 @@ pub fn read_text(path: &Path, what: &str, cap: u64) -> Result<String> {
     // size hint, and the text grown by doubling would hold up to twice its
     // bytes through a whole run (a program's text is: 33.6 MB for 26.8);
     // where it grew meanwhile, it is fitted after.
-    let mut text = String::with_capacity(usize::try_from(size).unwrap_or(0));
+    let mut bytes = Vec::with_capacity(usize::try_from(size).unwrap_or(0));
     file.take(cap + 1)
-        .read_to_string(&mut text)
+        .read_to_end(&mut bytes)
         .map_err(|e| Error::io(format!("cannot read {what}"), path, e))?;
-    if text.len() as u64 > cap {
+    if bytes.len() as u64 > cap {
         fail!(
             limits,
             "{what} {} grew past the limit of {cap} bytes while read",
             path.display()
         );
     }
-    text.shrink_to_fit();
-    Ok(text)
+    bytes.shrink_to_fit();
+    Ok(bytes)
 }
 
 /// Open a regular file of at most `cap` bytes for streaming.

@@ -318,7 +318,8 @@ fn program_excerpt(dir: &Path, summary: &SummaryDoc, spots: &[HotSpot]) -> Optio
         SummaryDoc::Optimize(_) => dir.join("optimized.nc"),
         SummaryDoc::Simulate(s) => std::path::PathBuf::from(&s.program),
     };
-    let text = crate::bounds::read_text(&file, "program", crate::bounds::MAX_PROGRAM_BYTES).ok()?;
+    // As the run read it: bytes that are not UTF-8 as Windows-1252.
+    let (text, _) = crate::input::program::read_text(&file).ok()?;
     let wanted: std::collections::BTreeSet<u32> = spots
         .iter()
         .filter_map(|s| s.line)

@@ -14,6 +14,7 @@ mod interp;
 mod path;
 mod refeed;
 mod syntax;
+mod text;
 mod unroll;
 
 pub use amend::{amend, Amendment};
@@ -22,6 +23,7 @@ pub use gcode::GCode;
 pub use interp::{FileForm, Options, Parsed};
 pub use path::{Geometry, Motion, Path, Plane, Segment};
 pub use refeed::{refeed, refeed_read, refeed_read_along, RefeedError};
+pub use text::decode;
 
 /// Reads a program (`file_name` only labels diagnostics) into a path.
 /// Positions are tool-tip positions in mm in the machine frame.

@@ -710,3 +710,116 @@ fn io_codes_move_nothing_and_m19_stops_the_spindle() {
     let rpm: Vec<f64> = segs.iter().map(|s| s.spindle_rpm).collect();
     assert_eq!(rpm, [8000.0, 0.0, 8000.0]);
 }
+
+/// `G10 L2 … R` rotates its coordinate system about Z (issue 39): a move
+/// after it is turned about the system's origin, as in LinuxCNC (the rs274
+/// test `rotated_coordinate_systems_read_as_in_linuxcnc_rs274`). Before, the
+/// R word was dropped and `G1 X10` ended at X10 Y0.
+#[test]
+fn g10_l2_r_rotates_the_coordinate_system() {
+    let s = ok("G10 L2 P1 X0 Y0 R45\nG1 X10 F100");
+    let h = 50f64.sqrt();
+    close(end(&s[0])[0], h);
+    close(end(&s[0])[1], h);
+    // About the system's origin (X5 Y-3), the arc's centre turned with it.
+    let s = ok("G10 L2 P1 X5 Y-3 R90\nG0 X0 Y0\nG2 X10 Y0 I5 J0 F100");
+    close(end(&s[0])[0], 5.0);
+    close(end(&s[0])[1], -3.0);
+    close(end(&s[1])[0], 5.0);
+    close(end(&s[1])[1], 7.0);
+    let (c, _, clockwise, sweep) = arc(&s[1]);
+    close(c[0], 5.0);
+    close(c[1], 2.0);
+    assert!(clockwise);
+    close(sweep, PI);
+    // G55 keeps its own rotation; G54 has none (Y stays where G55 left it).
+    let s = ok("G10 L2 P2 R90\nG55 G1 X2 F100\nG54 G1 X3");
+    close(end(&s[0])[0], 0.0);
+    close(end(&s[0])[1], 2.0);
+    close(end(&s[1])[0], 3.0);
+    close(end(&s[1])[1], 2.0);
+    // Refused where LinuxCNC refuses it, or where dexcut cannot follow.
+    let e = errors("G10 L20 P1 X1 R30");
+    assert!(
+        e[0].contains("t.ngc:1:15: R not allowed in G10 L20"),
+        "{e:?}"
+    );
+    let e = errors("G10 L2 P1 R30\nG18 G2 X10 Z0 I5 K0 F100");
+    assert!(
+        e[0].starts_with("t.ngc:2:") && e[0].contains("rotated by G10 L2 R"),
+        "{e:?}"
+    );
+}
+
+/// G52 sets the G92 offset to its words, G92.2 suspends it and G92.3 brings
+/// it back, none moving the machine, as in LinuxCNC (issue 39: before, G52
+/// was an unknown code and G92.2, G92.3 were refused).
+#[test]
+fn g52_and_g92_2_g92_3_shift_the_program_origin() {
+    let s = ok("G0 X1 Y1\nG52 X10\nG0 X0\nG92.2\nG0 X0\nG92.3\nG0 X1\nG92.1\nG0 X0");
+    let xs: Vec<f64> = s.iter().map(|s| end(s)[0]).collect();
+    assert_eq!(xs, [1.0, 10.0, 0.0, 11.0, 0.0]);
+}
+
+/// Loops whose runs would take the path past the limit of moves (issue 39:
+/// `o1 repeat [1000000000]` around two G1 lines aborted on a 503 MB
+/// allocation) stop once their first run shows it, with an error at the
+/// loop's line and column giving the moves it would make and the limit:
+/// repeat, nested repeats, a subroutine called in a loop, M98 with L; a
+/// while or do-while loop, whose runs are not counted, at the limit itself.
+/// Nothing near the limit is held: each case ends quickly.
+#[test]
+fn loops_past_the_limit_of_moves_stop_at_their_line() {
+    let options = Options {
+        max_segments: 10_000,
+        ..Options::default()
+    };
+    let cases = [
+        (
+            "G0 X0\no1 repeat [1000000000]\nG1 X1 F100\nG1 X0\no1 endrepeat\nM2",
+            "t.ngc:2:1: this repeat would make the program 2.0000e9 moves (2 a run, 1000000000 runs), more than the limit of 10000",
+        ),
+        (
+            "o1 repeat [100000]\no2 repeat [3]\nG1 X1 F100\nG1 X0\no2 endrepeat\no1 endrepeat\nM2",
+            "t.ngc:1:1: this repeat would make the program 6.0000e5 moves (6 a run, 100000 runs)",
+        ),
+        (
+            "o9 sub\nG1 X1 F100\nG1 X0\no9 endsub\n#1 = 0\no1 repeat [10000000]\no9 call\no1 endrepeat\nM2",
+            "t.ngc:6:1: this repeat would make the program 2.0000e7 moves",
+        ),
+        (
+            "G91\nM98 P8 L1000000\nM2\nO8\nG1 X1 F100\nG1 X-1\nM99",
+            "t.ngc:2:1: this M98 L would make the program 2.0000e6 moves (2 a run, 1000000 runs)",
+        ),
+        (
+            "#1 = 0\no1 while [#1 LT 1000000000]\nG1 X[#1 MOD 2] F100\n#1 = [#1 + 1]\no1 endwhile\nM2",
+            "t.ngc:2:1: this loop made the program more than 10000 moves (the limit) before its end",
+        ),
+        (
+            "#1 = 0\no1 do\nG1 X[#1 MOD 2] F100\n#1 = [#1 + 1]\no1 while [#1 LT 1000000000]\nM2",
+            "t.ngc:2:1: this loop made the program more than 10000 moves (the limit) before its end",
+        ),
+    ];
+    for (src, want) in cases {
+        let started = std::time::Instant::now();
+        let parsed = nc::parse(src, "t.ngc", &options);
+        let errors: Vec<String> = parsed
+            .diagnostics
+            .iter()
+            .filter(|d| d.is_error())
+            .map(ToString::to_string)
+            .collect();
+        assert_eq!(errors.len(), 1, "{src}: {errors:?}");
+        assert!(errors[0].starts_with(want), "{src}: {}", errors[0]);
+        assert!(parsed.path.segments.len() <= 10_001, "{src}");
+        assert!(started.elapsed().as_secs() < 5, "{src}");
+    }
+    // Under the limit, a loop runs in full.
+    let parsed = nc::parse(
+        "o1 repeat [4000]\nG1 X1 F100\nG1 X0\no1 endrepeat\nM2",
+        "t.ngc",
+        &options,
+    );
+    assert!(parsed.diagnostics.is_empty(), "{:?}", parsed.diagnostics);
+    assert_eq!(parsed.path.segments.len(), 8000);
+}

@@ -162,6 +162,7 @@ fn rs274_moves(file: &Path) -> (Vec<Move>, u32, Option<String>) {
     let (mut scale, mut g5x, mut g92) = (1.0, [0.0; 3], [0.0; 3]);
     let (mut plane, mut feed, mut pos) = (Plane::XY, 0.0, [0.0; 3]);
     let mut tlo = [0.0; 3];
+    let mut rotation_deg = 0.0_f64;
     let first_tool = first_tool(&text);
     let mut tool = first_tool;
     pos[2] = -tool_length_mm(first_tool);
@@ -182,8 +183,14 @@ fn rs274_moves(file: &Path) -> (Vec<Move>, u32, Option<String>) {
         let tol = 6e-5 * scale + 1e-9;
         let length = tool_length_mm(tool);
         // Tool tip: program point + offsets + tool length offset − gauge length.
-        let machine = |i: usize, p: f64| {
-            p * scale + g5x[i] + g92[i] + tlo[i] - if i == 2 { length } else { 0.0 }
+        // Tool tip of program point p (program units), as LinuxCNC's canon
+        // (rotate_and_offset_pos): G92 added, the XY rotation, then the
+        // work and tool length offsets.
+        let machine = |p: [f64; 3]| -> [f64; 3] {
+            let q: [f64; 3] = std::array::from_fn(|i| p[i] * scale + g92[i]);
+            let (sin, cos) = rotation_deg.to_radians().sin_cos();
+            let q = [q[0] * cos - q[1] * sin, q[0] * sin + q[1] * cos, q[2]];
+            std::array::from_fn(|i| q[i] + g5x[i] + tlo[i] - if i == 2 { length } else { 0.0 })
         };
         match name {
             "USE_TOOL_LENGTH_OFFSET" => {
@@ -213,6 +220,7 @@ fn rs274_moves(file: &Path) -> (Vec<Move>, u32, Option<String>) {
             }
             "USE_LENGTH_UNITS" => scale = if args.contains("INCHES") { 25.4 } else { 1.0 },
             "SET_G5X_OFFSET" => g5x = [v[1] * scale, v[2] * scale, v[3] * scale],
+            "SET_XY_ROTATION" => rotation_deg = v[0],
             "SET_G92_OFFSET" => g92 = [v[0] * scale, v[1] * scale, v[2] * scale],
             "SELECT_PLANE" => {
                 plane = if args.contains("XZ") {
@@ -233,7 +241,7 @@ fn rs274_moves(file: &Path) -> (Vec<Move>, u32, Option<String>) {
                 tool,
             }),
             "STRAIGHT_TRAVERSE" | "STRAIGHT_FEED" => {
-                let end = [machine(0, v[0]), machine(1, v[1]), machine(2, v[2])];
+                let end = machine([v[0], v[1], v[2]]);
                 if (0..3).any(|i| (end[i] - pos[i]).abs() > SUB_RESOLUTION_MM) {
                     let kind = if name == "STRAIGHT_FEED" {
                         Kind::Feed
@@ -253,13 +261,18 @@ fn rs274_moves(file: &Path) -> (Vec<Move>, u32, Option<String>) {
             }
             "ARC_FEED" => {
                 let (a, b, n) = plane.axes();
-                let mut end = [0.0; 3];
+                let mut end_p = [0.0; 3];
+                let mut centre_p = [0.0; 3];
+                end_p[a] = v[0];
+                end_p[b] = v[1];
+                end_p[n] = v[5];
+                centre_p[a] = v[2];
+                centre_p[b] = v[3];
+                let end = machine(end_p);
                 let mut centre = pos;
-                end[a] = machine(a, v[0]);
-                end[b] = machine(b, v[1]);
-                end[n] = machine(n, v[5]);
-                centre[a] = machine(a, v[2]);
-                centre[b] = machine(b, v[3]);
+                let c = machine(centre_p);
+                centre[a] = c[a];
+                centre[b] = c[b];
                 moves.push(Move {
                     kind: Kind::Feed,
                     end,
@@ -813,6 +826,73 @@ fn p_q_l_r_words_used_or_refused_as_in_linuxcnc_rs274() {
     );
 }
 
+/// Coordinate systems rotated by `G10 L2 … R` (issue 39): LinuxCNC turns
+/// every later move of the system about its origin (lines, arcs in centre
+/// and radius form, incremental, polar, canned cycles, cutter
+/// compensation), keeps the rotation per system (G55 has its own, G54 gets
+/// its own back), takes G92 and G52 in the frame before the rotation, and
+/// carries the program point into a rotated active system. Read with the
+/// same moves by both, or refused by both. Before, the R word was dropped:
+/// `G10 L2 P1 R45` then `G1 X10` ended at X10 Y0, not at X7.07 Y7.07.
+#[test]
+fn rotated_coordinate_systems_read_as_in_linuxcnc_rs274() {
+    if !have_rs274() {
+        return;
+    }
+    let blocks = [
+        "G10 L2 P1 X0 Y0 R45\nG1 X10",
+        "G10 L2 P1 X5 Y-3 R30\nG0 X10 Y0\nG1 X20 Y5 Z-1\nG91 X2 Y2\nG90",
+        "G10 L2 P0 X2 R-20\nG1 X5 Y5",
+        "G10 L2 P1 X5 R30\nG0 X0 Y0\nG2 X10 Y0 I5 J0\nG3 X0 Y0 R5\nG2 X0 Y0 I5 J0 P2",
+        "G10 L2 P1 X5 R30\nG0 X0 Y0\nG90.1 G2 X10 Y0 I5 J0\nG91.1",
+        "G10 L2 P1 X5 R30\nG0 X0 Y0 Z1\nG2 X10 Y0 Z-1 I5 J0 F100",
+        "G10 L2 P1 X5 R30\nG1 @10 ^20\nG91 G1 ^10\nG90",
+        "G10 L2 P2 X10 Y5 R60\nG55 G1 X5 Y0\nG54 G1 X5 Y0\nG55 G1 X0 Y5",
+        "G10 L2 P1 R15\nG92 X1 Y2\nG1 X5 Y5\nG92.2\nG1 X6\nG92.3\nG1 Y7\nG92.1\nG1 X3",
+        "G10 L2 P1 R15\nG52 X3 Y-2\nG1 X5 Y5\nG52 X0 Y0\nG1 X4",
+        "G92 X2 Y1\nG10 L2 P1 X3 R25\nG1 X5 Y5",
+        "G0 X4 Y3\nG10 L2 P1 X1 Y1 R40\nG91 G1 X2\nG90",
+        "G10 L2 P1 X5 R30\nG99 G81 X5 Y5 Z-2 R1 F100\nX10\nG91 X2 Y1 L3\nG90 G80",
+        "G10 L2 P1 X5 R30\nG98 G87 X10 Y10 Z-3 R2 I3 J1 K-1 F100\nG80",
+        "G10 L2 P1 X5 R30\nT3 M6\nG0 X-10 Y-10\nG41 G1 X0 Y0\nX20\nG3 X25 Y5 R5\nG1 Y20\nG40 G1 X30 Y30",
+        "G10 L2 P1 R30\nG52 X1\nG10 L2 P1 R50\nG1 X3 Y2",
+        "G10 L2 P1 R30\nG20 G1 X0.2 Y0.1\nG21",
+        "G10 L2 P1 R30\nG43.1 X1 Y2\nG1 X3 Y4\nG49",
+        "G10 L2 P1 R30\nG0 X3\nG28 X0 Y0\nG1 X1",
+        "G10 L2 P1 R30\nG53 G1 X3 Y4\nG1 X1",
+        // Refused by both.
+        "G10 L20 P1 X1 R30",
+        "G10 L2 P1 R30 I1",
+        "T3 M6\nG41 G1 X5 Y5\nG10 L2 P1 R30\nG40",
+    ];
+    assert_eq!(
+        read_alike_or_refused_by_both(&blocks, "G21 G90 G17\nS1000 M3 F100"),
+        (20, 3)
+    );
+    // Re-fed with two feeds per move: lines placed by a rotated system are
+    // not split (their pieces' coordinates would need the rotation), and
+    // rs274 reads the written program with the same moves.
+    let source =
+        "G21 G90 G17\nG0 X0 Y0 Z1\nG1 X20 F300\nG10 L2 P1 X5 R30\nG1 X10 Y5\nG2 X20 Y5 I5 J0\n\
+        G91 G1 X3\nG90 G81 X2 Y2 Z-1 R1\nG91 X1 L2\nG90 G80\nG10 L2 P1 X0 R0\nG1 X0 Y0\nM2\n";
+    let path = nc::parse(source, "in.ngc", &Options::default()).path;
+    let plan: Vec<Vec<(f64, f64)>> = path
+        .segments
+        .iter()
+        .enumerate()
+        .map(|(i, s)| match s.motion {
+            Motion::Feed { .. } => vec![(0.5, 900.0 - i as f64), (1.0, 200.0 + i as f64)],
+            _ => vec![],
+        })
+        .collect();
+    let out = nc::refeed(source, "in.ngc", &Options::default(), &plan).expect("re-fed");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let written = dir.path().join("rotated_refed.ngc");
+    std::fs::write(&written, &out).expect("write");
+    let n = compare(&written).unwrap_or_else(|e| panic!("{e}\n{out}"));
+    assert!(n >= 10, "{n} moves");
+}
+
 /// Tapping (G84 under M3, G74 under M4: in and out at the feed, to the
 /// clear height), boring with the spindle stopped for a rapid out (G86) and
 /// back boring (G87, through the hole beside it by I J, up to K and back):
@@ -1299,4 +1379,81 @@ fn lone_arc_words_read_as_fanuc_style_controls_and_amended_for_linuxcnc() {
             .count();
         assert_eq!(n_arcs, arcs, "{name}");
     }
+}
+
+/// Codes LinuxCNC gives a meaning to that dexcut used to refuse or read
+/// otherwise (issue 39): G28.1/G30.1 store the current point as the G28/G30
+/// home, G52 and G92.2/G92.3 set, suspend and restore the G92 offset, and M7,
+/// M8, M9 share a modal group (a block with two of them is refused). Read with
+/// the same moves by both, or refused by both.
+#[test]
+fn home_storing_offset_and_coolant_codes_read_as_in_linuxcnc_rs274() {
+    if !have_rs274() {
+        return;
+    }
+    let blocks = [
+        "G0 X3 Y2 Z4\nG28.1\nG0 X0 Y0\nG28\nG0 X1\nG28 Z0",
+        "G0 X3 Y2\nG30.1\nG0 X0\nG30 X0",
+        "G0 X4\nG91 G28.1\nG90 G0 X0\nG28",
+        "T1 M6 G43\nG0 X2 Z3\nG28.1\nG49\nG0 X0\nG28",
+        "G92 X1\nG28.1\nG0 X5\nG28",
+        "G52 X3 Y1\nG0 X0 Y0\nG52 X0\nG0 X1",
+        "G92 X1 Y1\nG0 X0\nG92.2\nG0 X0\nG92.3\nG0 X2\nG92.1\nG0 X2",
+        "G91 G52 X2\nG0 X1\nG90",
+        "M7",
+        "M8\nM9",
+        // Refused by both.
+        "M7 M8",
+        "M8 M9",
+        "T3 M6\nG41 G1 X5 Y5\nG28.1\nG40",
+        "G52 X1 G0 X2",
+    ];
+    assert_eq!(
+        read_alike_or_refused_by_both(&blocks, "G21 G90 G17\nS1000 M3 F100"),
+        (10, 4)
+    );
+}
+
+/// A program whose comments are Windows-1252 (`(T1 D=6 CR=0 - Fräser)`
+/// with byte 0xE4, as Windows editors and posts write them; issue 39):
+/// rs274 reads the file as written, and we read its decoded text
+/// ([`nc::decode`]) through the same moves, with a warning at the byte's
+/// line and column in the tolerant form; the decoded text written out
+/// (UTF-8, as optimized.nc is) reads the same in rs274. Such a byte outside
+/// a comment is refused by both, at its line.
+#[test]
+fn windows_1252_comments_read_as_in_linuxcnc_rs274() {
+    if !have_rs274() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let bytes = b"G21 G90 G17\n(T1 D=6 CR=0 - Fr\xe4ser)\nG0 X0 Y0 Z5 ;Fr\xe4ser \x80\n(msg,gro\xdf)\nG1 X10 Y5 Z-1 F300\nG2 X20 Y5 I5 J0\nM2\n";
+    let original = dir.path().join("cp1252.ngc");
+    std::fs::write(&original, bytes).expect("write");
+    let (text, warning) = nc::decode(bytes.to_vec(), "cp1252.ngc", FileForm::Tolerant);
+    let w = warning.expect("a warning");
+    assert_eq!((w.line, w.column), (2, 18), "{w}");
+    let n = compare_as(&text, FileForm::Tolerant, &original).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(n, 3);
+    let written = dir.path().join("utf8.ngc");
+    std::fs::write(&written, text.as_bytes()).expect("write");
+    assert_eq!(compare_as(&text, FileForm::LinuxCnc, &written), Ok(3));
+    // Outside a comment: rs274's "Bad character", our unexpected character.
+    let bad = dir.path().join("bad.ngc");
+    std::fs::write(&bad, b"G21 G90\nG0 X1\nG1 X2 F100 \xe4\nM2\n").expect("write");
+    let (_, _, theirs) = rs274_moves(&bad);
+    let theirs = theirs.expect("rs274 refuses the byte");
+    assert!(theirs.contains("Bad character"), "{theirs}");
+    let (text, _) = nc::decode(
+        std::fs::read(&bad).expect("read"),
+        "bad.ngc",
+        FileForm::Tolerant,
+    );
+    let parsed = nc::parse(&text, "bad.ngc", &options_as(0, FileForm::Tolerant));
+    let ours = parsed
+        .diagnostics
+        .iter()
+        .find(|d| d.is_error())
+        .expect("refused");
+    assert_eq!((ours.line, ours.column), (3, 12), "{ours}");
 }

@@ -421,7 +421,7 @@ fn round_grid(mm: f64) -> f64 {
 /// Fit a job to the G-code program at `program` (module docs). `tool`:
 /// `--tool`; `grid_mm`: `--grid`, else about 20 columns across the smallest tool.
 pub fn fit(program: &Path, tool: Option<&ToolGuess>, grid_mm: Option<f64>) -> Result<FittedJob> {
-    let text = crate::bounds::read_text(program, "program", crate::bounds::MAX_PROGRAM_BYTES)?;
+    let (text, _) = crate::input::program::read_text(program)?;
     let named = tools_in_comments(&text);
     let abs = std::path::absolute(program).unwrap_or_else(|_| program.to_path_buf());
     let path_toml = toml::Value::String(abs.display().to_string()).to_string();

@@ -92,7 +92,7 @@ pub fn load(job: &Job) -> Result<Program> {
         size as f64 * crate::bounds::BYTES_PER_PROGRAM_BYTE,
         &format!("reading the {size}-byte program {}", path.display()),
     )?;
-    let text = crate::bounds::read_text(&path, "program", crate::bounds::MAX_PROGRAM_BYTES)?;
+    let (text, not_utf8) = read_text(&path)?;
     let file = path.display().to_string();
     if is_points_csv(&text) {
         // A point list gives tool tips in the machine's own Z, as servo.csv
@@ -113,8 +113,33 @@ pub fn load(job: &Job) -> Result<Program> {
             stream,
         })
     } else {
-        parse_gcode(text, &file, job)
+        let mut program = parse_gcode(text, &file, job)?;
+        if let Some(w) = not_utf8 {
+            let at = program.read_warnings.partition_point(|d| d.line <= w.line);
+            program.read_warnings.insert(at, w);
+        }
+        Ok(program)
     }
+}
+
+/// The text of the program at `path`: UTF-8, or where a byte is not,
+/// G-code with those bytes read as Windows-1252 ([`nc::decode`]) and the
+/// warning of that at the first one's line and column. A CSV point list
+/// must be UTF-8: one that is not is refused at that byte's line and column.
+pub fn read_text(path: &std::path::Path) -> Result<(String, Option<nc::Diagnostic>)> {
+    let bytes = crate::bounds::read_bytes(path, "program", crate::bounds::MAX_PROGRAM_BYTES)?;
+    let e = match std::str::from_utf8(&bytes) {
+        Ok(_) => return Ok((String::from_utf8(bytes).unwrap_or_default(), None)),
+        Err(e) => e,
+    };
+    if is_points_csv(&String::from_utf8_lossy(&bytes)) {
+        return Err(crate::bounds::not_utf8(path, "point list", &bytes, e));
+    }
+    Ok(nc::decode(
+        bytes,
+        &path.display().to_string(),
+        nc::FileForm::Tolerant,
+    ))
 }
 
 /// True when the first non-blank line is a CSV header naming columns x, y
@@ -166,6 +191,8 @@ pub fn parse_gcode(text: String, file: &str, job: &Job) -> Result<Program> {
             [only] => only.number,
             _ => None,
         },
+        // The moves its loops make are bounded by memory, not by its text.
+        max_segments: crate::bounds::max_path_segments(text.len()),
         ..nc::Options::default()
     };
     options.initial_position_mm = job.machine.start.unwrap_or_default();

@@ -71,7 +71,7 @@ impl Block {
 /// the code ×10).
 pub(super) fn g_group(code: GCode) -> Option<u8> {
     Some(match code.tenths() {
-        40 | 100 | 280 | 281 | 300 | 301 | 920 | 921 | 922 | 923 => 0,
+        40 | 100 | 280 | 281 | 300 | 301 | 520 | 920 | 921 | 922 | 923 => 0,
         530 => 99,
         0 | 10 | 20 | 30 | 330 | 382 | 383 | 384 | 385 | 730 | 740 | 760 | 800..=890 => 1,
         170 | 180 | 190 => 2,
@@ -96,8 +96,7 @@ fn m_group(code: i32) -> Option<u8> {
         62..=68 => 5,
         6 | 61 => 6,
         3..=5 | 19 | 70..=73 => 7,
-        7 | 9 => 8,
-        8 => 9,
+        7..=9 => 8,
         // Override switches: the run is simulated at 100 %.
         48..=53 => 10,
         98 | 99 => 11,
@@ -246,7 +245,13 @@ impl Interp<'_> {
         let axis_user = b.g.iter().find(|g| {
             matches!(
                 g.0,
-                GCode::G10 | GCode::G28 | GCode::G30 | GCode::G92 | GCode::G43_1 | GCode::G43_2
+                GCode::G10
+                    | GCode::G28
+                    | GCode::G30
+                    | GCode::G52
+                    | GCode::G92
+                    | GCode::G43_1
+                    | GCode::G43_2
             )
         });
         let motion_code = b.g.iter().find(|g| g_group(g.0) == Some(1)).copied();
@@ -320,7 +325,23 @@ impl Interp<'_> {
         {
             self.modal0(code, col, &b, pc)?;
         } else if g_col(GCode::G92_1).is_some() {
+            // LinuxCNC's convert_axis_offsets: the machine does not move;
+            // G92.1 clears the saved offset too, G92.2 keeps it for G92.3.
             self.g92 = [0.0; 3];
+            self.g92_saved = [0.0; 3];
+        } else if let Some(col) = g_col(GCode::G28_1).or(g_col(GCode::G30_1)) {
+            // LinuxCNC's convert_savehome: the current point is the home.
+            if self.comp.side.is_some() {
+                return fail(
+                    col,
+                    "cannot set reference point with cutter compensation in effect",
+                );
+            }
+            self.homes_mm[usize::from(g_col(GCode::G30_1).is_some())] = self.pos;
+        } else if g_col(GCode::G92_2).is_some() {
+            self.g92 = [0.0; 3];
+        } else if g_col(GCode::G92_3).is_some() {
+            self.g92 = self.g92_saved;
         }
         self.previous_motion = self.motion;
         if let Some((code, _)) = motion_code {
@@ -503,10 +524,6 @@ impl Interp<'_> {
             GCode::G38_5,
             GCode::G76,
             GCode::G88,
-            GCode::G92_2,
-            GCode::G92_3,
-            GCode::G28_1,
-            GCode::G30_1,
         ] {
             if let Some(col) = g_col(code) {
                 return fail(col, format!("{code} is not supported"));

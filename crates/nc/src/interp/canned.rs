@@ -53,10 +53,17 @@ impl Interp<'_> {
             // LinuxCNC's CYCLE_MACRO: each repeat steps X/Y, then the polar
             // radius and angle about the program origin.
             let r_z = initial_z + r * self.scale;
-            let (mut aa, mut bb) = (
-                (self.pos[0] - off[0]) / self.scale,
-                (self.pos[1] - off[1]) / self.scale,
-            );
+            // In a rotated coordinate system (G10 L2 R), in its own frame.
+            let rotated = self.rotation() != 0.0;
+            let (mut aa, mut bb) = if rotated {
+                let p = self.to_program(self.pos);
+                (p[0] / self.scale, p[1] / self.scale)
+            } else {
+                (
+                    (self.pos[0] - off[0]) / self.scale,
+                    (self.pos[1] - off[1]) / self.scale,
+                )
+            };
             let (di, dj) = (b.get('x').unwrap_or(0.0), b.get('y').unwrap_or(0.0));
             let (dr, dt) = (b.get('@').unwrap_or(0.0), b.get('^').unwrap_or(0.0));
             let mut holes = Vec::with_capacity(repeats as usize);
@@ -76,7 +83,12 @@ impl Interp<'_> {
                     let (radius, theta) = (aa.hypot(bb) + radius_inc, bb.atan2(aa) + angle_inc);
                     (aa, bb) = (radius * theta.cos(), radius * theta.sin());
                 }
-                holes.push([aa * self.scale + off[0], bb * self.scale + off[1]]);
+                holes.push(if rotated {
+                    let m = self.to_machine([aa * self.scale, bb * self.scale, 0.0]);
+                    [m[0], m[1]]
+                } else {
+                    [aa * self.scale + off[0], bb * self.scale + off[1]]
+                });
             }
             (r_z, r_z + z * self.scale, holes)
         } else {
@@ -120,10 +132,13 @@ impl Interp<'_> {
             retract_to_start: self.retract_to_start,
             peck_mm,
             dwell_s: self.cycle_p,
-            back_offset_mm: [
-                self.cycle_ijk[0] * self.scale,
-                self.cycle_ijk[1] * self.scale,
-            ],
+            back_offset_mm: super::motion::rotate(
+                [
+                    self.cycle_ijk[0] * self.scale,
+                    self.cycle_ijk[1] * self.scale,
+                ],
+                self.rotation(),
+            ),
             back_top_z,
         };
         self.cycle_moves(&c, pc);

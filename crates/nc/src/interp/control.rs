@@ -13,6 +13,8 @@ pub(super) enum Frame {
         return_pc: usize,
         start: usize,
         remaining: u32,
+        /// Segments made before the first run (`None` after it).
+        first_run_from: Option<usize>,
     },
     OSub {
         return_pc: usize,
@@ -46,13 +48,23 @@ impl Interp<'_> {
                 return;
             }
             if self.segment_count() > self.options.max_segments {
-                self.report(
-                    1,
-                    format!(
-                        "the program makes more than {} moves (the limit)",
-                        self.options.max_segments
+                let message = match self.last_loop {
+                    Some((line, col)) => {
+                        self.line_index = line;
+                        (col, format!(
+                            "this loop made the program more than {} moves (the limit) before its end",
+                            self.options.max_segments
+                        ))
+                    }
+                    None => (
+                        1,
+                        format!(
+                            "the program makes more than {} moves (the limit)",
+                            self.options.max_segments
+                        ),
                     ),
-                );
+                };
+                self.report(message.0, message.1);
                 return;
             }
             self.line_index = pc;
@@ -114,6 +126,9 @@ impl Interp<'_> {
                 }
                 Err(f) => {
                     self.report(f.col, f.msg);
+                    if self.halted {
+                        return;
+                    }
                     pc += 1;
                 }
             }
@@ -154,6 +169,64 @@ impl Interp<'_> {
             PERCENT_CLOSE_AS_END.into(),
             col,
             "'%' closes a program it did not open (CAMotics' and GRBL's form): read as the program's end, written as M2".into(),
+        )
+    }
+
+    /// Column of the o-word statement on line `line` (1 if none).
+    fn o_col(&self, line: usize) -> u32 {
+        match &self.lines[line] {
+            Some(syntax::Line {
+                kind: LineKind::OWord(stmt),
+                ..
+            }) => stmt.col,
+            _ => 1,
+        }
+    }
+
+    /// Column of the M98 word on line `line` (1 if not found).
+    fn m98_col(&self, line: usize) -> u32 {
+        let mut again = Vec::new();
+        self.lines
+            .block_items(line, self.source, &mut again)
+            .and_then(|items| {
+                items.iter().find_map(|i| match &i.kind {
+                    syntax::ItemKind::Word { letter: 'm', value }
+                        if self.params.eval(value).ok() == Some(98.0) =>
+                    {
+                        Some(i.col)
+                    }
+                    _ => None,
+                })
+            })
+            .unwrap_or(1)
+    }
+
+    /// After the first of a loop's `runs` runs, which made `per_run`
+    /// segments: where the runs would take the program past the limit of
+    /// moves, the run stops with an error at the loop's line and column
+    /// (before the moves are made: `o1 repeat [1000000000]` around two lines
+    /// would otherwise fill memory).
+    fn foresee(
+        &mut self,
+        line: usize,
+        col: u32,
+        per_run: usize,
+        runs: f64,
+        what: &str,
+    ) -> Result<(), Fail> {
+        let made = self.segment_count() as f64;
+        let total = made + per_run as f64 * (runs - 1.0);
+        if total <= self.options.max_segments as f64 {
+            return Ok(());
+        }
+        self.line_index = line;
+        self.halted = true;
+        fail(
+            col,
+            format!(
+                "this {what} would make the program {total:.4e} moves ({per_run} a run, {runs:.0} runs), more than the limit of {}",
+                self.options.max_segments
+            ),
         )
     }
 
@@ -277,19 +350,33 @@ impl Interp<'_> {
             K::While => {
                 let end = self.find_o(pc, &s.label, &[K::EndWhile], true);
                 match end {
-                    Some(end) => Ok(Some(if self.cond(s)? { pc + 1 } else { end + 1 })),
+                    Some(end) => Ok(Some(if self.cond(s)? {
+                        pc + 1
+                    } else {
+                        self.last_loop = None;
+                        end + 1
+                    })),
                     None => {
                         let d = self
                             .find_o(pc, &s.label, &[K::Do], false)
                             .ok_or_else(|| missing("endwhile"))?;
-                        Ok(Some(if self.cond(s)? { d + 1 } else { pc + 1 }))
+                        if self.cond(s)? {
+                            self.last_loop = Some((d, self.o_col(d)));
+                            Ok(Some(d + 1))
+                        } else {
+                            self.last_loop = None;
+                            Ok(Some(pc + 1))
+                        }
                     }
                 }
             }
-            K::EndWhile => self
-                .find_o(pc, &s.label, &[K::While], false)
-                .map(Some)
-                .ok_or_else(|| missing("while")),
+            K::EndWhile => {
+                let w = self
+                    .find_o(pc, &s.label, &[K::While], false)
+                    .ok_or_else(|| missing("while"))?;
+                self.last_loop = Some((w, self.o_col(w)));
+                Ok(Some(w))
+            }
             K::Repeat => {
                 let e = s.args.first().ok_or(Fail {
                     col: s.col,
@@ -302,6 +389,7 @@ impl Interp<'_> {
                     .round() as i64;
                 if n > 0 {
                     self.repeats.insert(pc, n);
+                    self.repeat_runs.insert(pc, (n, self.segment_count()));
                     Ok(Some(pc + 1))
                 } else {
                     after(
@@ -316,7 +404,20 @@ impl Interp<'_> {
                     .ok_or_else(|| missing("repeat"))?;
                 let left = self.repeats.entry(start).or_insert(1);
                 *left -= 1;
-                Ok(Some(if *left > 0 { start + 1 } else { pc + 1 }))
+                let left = *left;
+                if left <= 0 {
+                    self.last_loop = None;
+                    return Ok(Some(pc + 1));
+                }
+                let col = self.o_col(start);
+                self.last_loop = Some((start, col));
+                if let Some(&(n, before)) = self.repeat_runs.get(&start) {
+                    if left == n - 1 {
+                        let per_run = self.segment_count() - before;
+                        self.foresee(start, col, per_run, n as f64, "repeat")?;
+                    }
+                }
+                Ok(Some(start + 1))
             }
             K::Break => {
                 let end = self
@@ -373,6 +474,7 @@ impl Interp<'_> {
                 return_pc: pc + 1,
                 start,
                 remaining: l as u32 - 1,
+                first_run_from: Some(self.segment_count()),
             });
             self.enter_call_level();
             return Ok(Some(start + 1));
@@ -383,15 +485,25 @@ impl Interp<'_> {
                     return_pc,
                     start,
                     remaining,
+                    first_run_from,
                 }) => {
                     if remaining > 0 {
+                        let call = return_pc - 1;
+                        let col = self.lines[call].as_ref().map_or(1, |_| self.m98_col(call));
+                        self.last_loop = Some((call, col));
+                        if let Some(before) = first_run_from {
+                            let per_run = self.segment_count() - before;
+                            self.foresee(call, col, per_run, f64::from(remaining) + 1.0, "M98 L")?;
+                        }
                         self.frames.push(Frame::Fanuc {
                             return_pc,
                             start,
                             remaining: remaining - 1,
+                            first_run_from: None,
                         });
                         Ok(Some(start + 1))
                     } else {
+                        self.last_loop = None;
                         self.leave_call_level();
                         Ok(Some(return_pc))
                     }

@@ -10,6 +10,12 @@ use super::{fail, Block, Fail, Interp, SegmentTrace};
 use crate::gcode::GCode;
 use crate::path::{Geometry, Motion, Segment};
 
+/// `xy` turned `deg` degrees counterclockwise (LinuxCNC's `rotate`).
+pub(super) fn rotate(xy: [f64; 2], deg: f64) -> [f64; 2] {
+    let (sin, cos) = (deg * std::f64::consts::PI / 180.0).sin_cos();
+    [xy[0] * cos - xy[1] * sin, xy[0] * sin + xy[1] * cos]
+}
+
 /// LinuxCNC's RADIUS_TOLERANCE (0.00005 in = 0.00127 mm): an R arc's half
 /// chord may exceed R by this much, and a shorter radius is zero.
 const RADIUS_TOLERANCE_MM: f64 = 0.00127;
@@ -21,18 +27,55 @@ impl Interp<'_> {
         std::array::from_fn(|i| w[i] + self.g92[i] + self.tlo_mm[i])
     }
 
+    /// Rotation (degrees) of the active coordinate system about Z.
+    pub(super) fn rotation(&self) -> f64 {
+        self.rotation_deg[self.coord]
+    }
+
+    /// Gauge point of program point `p` (mm, program units times the
+    /// scale, before G92), as LinuxCNC's canon (`rotate_and_offset_pos`):
+    /// G92 added, then the XY rotation of the coordinate system, then its
+    /// offset and the tool length offset.
+    pub(super) fn to_machine(&self, p: [f64; 3]) -> [f64; 3] {
+        let off = self.offset();
+        let r = self.rotation();
+        if r == 0.0 {
+            return std::array::from_fn(|i| p[i] + off[i]);
+        }
+        let [x, y] = rotate([p[0] + self.g92[0], p[1] + self.g92[1]], r);
+        let (w, t) = (self.work[self.coord], self.tlo_mm);
+        [x + w[0] + t[0], y + w[1] + t[1], p[2] + off[2]]
+    }
+
+    /// The program point (mm, before G92) of gauge point `m`: the inverse
+    /// of [`Interp::to_machine`].
+    pub(super) fn to_program(&self, m: [f64; 3]) -> [f64; 3] {
+        let off = self.offset();
+        let r = self.rotation();
+        if r == 0.0 {
+            return std::array::from_fn(|i| m[i] - off[i]);
+        }
+        let (w, t) = (self.work[self.coord], self.tlo_mm);
+        let [x, y] = rotate([m[0] - w[0] - t[0], m[1] - w[1] - t[1]], -r);
+        [x - self.g92[0], y - self.g92[1], m[2] - off[2]]
+    }
+
     /// Target of the block's axis words (mm, machine frame, gauge point),
     /// polar `@` radius and `^` angle (degrees) included, as LinuxCNC's
     /// `find_ends`: about the program origin, incremental ones from the
-    /// current point's polar coordinates.
+    /// current point's polar coordinates. In a rotated coordinate system
+    /// (G10 L2 R) the words are read in its own frame and the point rotated.
     pub(super) fn target(&self, b: &Block, machine: bool) -> Result<[f64; 3], Fail> {
-        let off = self.offset();
         // Under compensation, words not given keep the programmed point.
         let base = if self.comp_active() && !self.comp.first {
             [self.comp.program[0], self.comp.program[1], self.pos[2]]
         } else {
             self.pos
         };
+        if self.rotation() != 0.0 && !machine {
+            return self.target_rotated(b, base);
+        }
+        let off = self.offset();
         let mut t = base;
         for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
             if let Some(v) = b.get(l) {
@@ -49,29 +92,62 @@ impl Interp<'_> {
         if radius.is_none() && theta.is_none() {
             return Ok(t);
         }
-        let col = b.col(if radius.is_some() { '@' } else { '^' });
         if machine {
+            let col = b.col(if radius.is_some() { '@' } else { '^' });
             return fail(col, "cannot use polar coordinates with G53");
-        }
-        if b.get('x').is_some() || b.get('y').is_some() {
-            return fail(col, "cannot specify X or Y words with polar coordinates");
         }
         // Current point in program units about the program origin.
         let (px, py) = (
             (base[0] - off[0]) / self.scale,
             (base[1] - off[1]) / self.scale,
         );
-        let (r, a) = if self.incremental {
+        let (r, a) = self.polar(b, px, py)?;
+        t[0] = r * a.cos() * self.scale + off[0];
+        t[1] = r * a.sin() * self.scale + off[1];
+        Ok(t)
+    }
+
+    /// [`Interp::target`] in a rotated coordinate system: the point in the
+    /// system's own frame, then [`Interp::to_machine`].
+    fn target_rotated(&self, b: &Block, base: [f64; 3]) -> Result<[f64; 3], Fail> {
+        let from = self.to_program(base);
+        let mut t = from;
+        for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
+            if let Some(v) = b.get(l) {
+                t[i] = if self.incremental {
+                    from[i] + v * self.scale
+                } else {
+                    v * self.scale
+                };
+            }
+        }
+        if b.get('@').is_some() || b.get('^').is_some() {
+            let (r, a) = self.polar(b, from[0] / self.scale, from[1] / self.scale)?;
+            t[0] = r * a.cos() * self.scale;
+            t[1] = r * a.sin() * self.scale;
+        }
+        Ok(self.to_machine(t))
+    }
+
+    /// Polar radius and angle (radians, program units) of the block's `@`
+    /// and `^` words from the current point (`px`, `py`, program units).
+    fn polar(&self, b: &Block, px: f64, py: f64) -> Result<(f64, f64), Fail> {
+        let (radius, theta) = (b.get('@'), b.get('^'));
+        let col = b.col(if radius.is_some() { '@' } else { '^' });
+        if b.get('x').is_some() || b.get('y').is_some() {
+            return fail(col, "cannot specify X or Y words with polar coordinates");
+        }
+        if self.incremental {
             if px == 0.0 && py == 0.0 {
                 return fail(
                     col,
                     "incremental polar motion is indeterminate at the origin",
                 );
             }
-            (
+            Ok((
                 px.hypot(py) + radius.unwrap_or(0.0),
                 py.atan2(px) + theta.unwrap_or(0.0).to_radians(),
-            )
+            ))
         } else {
             let a = match theta {
                 Some(deg) => deg.to_radians(),
@@ -80,11 +156,8 @@ impl Interp<'_> {
                 }
                 None => py.atan2(px),
             };
-            (radius.unwrap_or_else(|| px.hypot(py)), a)
-        };
-        t[0] = r * a.cos() * self.scale + off[0];
-        t[1] = r * a.sin() * self.scale + off[1];
-        Ok(t)
+            Ok((radius.unwrap_or_else(|| px.hypot(py)), a))
+        }
     }
 
     pub(super) fn modal0(
@@ -96,11 +169,7 @@ impl Interp<'_> {
     ) -> Result<(), Fail> {
         match code {
             GCode::G28 | GCode::G30 => {
-                let home = if code == GCode::G28 {
-                    self.options.g28_home_mm
-                } else {
-                    self.options.g30_home_mm
-                };
+                let home = self.homes_mm[usize::from(code == GCode::G30)];
                 let mid = self.target(b, false)?;
                 self.rapid(mid, pc);
                 let mut end = self.pos;
@@ -112,27 +181,84 @@ impl Interp<'_> {
                 self.rapid(end, pc);
             }
             GCode::G92 => {
+                // LinuxCNC's convert_axis_offsets: the offset is taken in
+                // the frame before the rotation; the machine does not move.
                 let w = self.work[self.coord];
+                let rotated = self.rotation() != 0.0;
+                let before_g92 = {
+                    let p = self.to_program(self.pos);
+                    std::array::from_fn::<f64, 3, _>(|i| p[i] + self.g92[i])
+                };
                 for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
                     if let Some(v) = b.get(l) {
-                        self.g92[i] = self.pos[i] - w[i] - self.tlo_mm[i] - v * self.scale;
+                        self.g92[i] = if rotated {
+                            before_g92[i] - v * self.scale
+                        } else {
+                            self.pos[i] - w[i] - self.tlo_mm[i] - v * self.scale
+                        };
                     }
                 }
+                self.g92_saved = self.g92;
             }
-            GCode::G10 => {
-                let l = b.get('l').unwrap_or(0.0);
-                let p = b.get('p').unwrap_or(0.0);
-                if l != 2.0 || !(1.0..=6.0).contains(&p) || p.fract() != 0.0 {
-                    return fail(col, "only G10 L2 P1..P6 (set work offset) is supported");
-                }
-                let w = &mut self.work[p as usize - 1];
+            GCode::G52 => {
+                // LinuxCNC's G52: the G92 offset set to the words given; the
+                // machine does not move.
                 for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
                     if let Some(v) = b.get(l) {
-                        w[i] = v * self.scale;
+                        self.g92[i] = v * self.scale;
                     }
                 }
+                self.g92_saved = self.g92;
             }
+            GCode::G10 => self.set_work_offset(col, b)?,
             _ => return fail(col, format!("{code} is not supported")),
+        }
+        Ok(())
+    }
+
+    /// G10 L2: the offset and rotation (R, degrees about Z) of coordinate
+    /// system P (P0: the active one), as LinuxCNC's `convert_setup`. Where
+    /// the system is the active one, the program point is carried into the
+    /// new frame as LinuxCNC carries it (the rotation of the G92 offset
+    /// is not, so with G92 and a changed rotation the next move starts from
+    /// where LinuxCNC's interpreter believes the tool is).
+    fn set_work_offset(&mut self, col: u32, b: &Block) -> Result<(), Fail> {
+        let l = b.get('l').unwrap_or(0.0);
+        let p = b.get('p').unwrap_or(0.0);
+        if l == 20.0 && b.get('r').is_some() {
+            return fail(b.col('r'), "R not allowed in G10 L20");
+        }
+        if l != 2.0 || !(0.0..=6.0).contains(&p) || p.fract() != 0.0 {
+            return fail(
+                col,
+                "only G10 L2 P0..P6 (set work offset and rotation) is supported",
+            );
+        }
+        let system = if p == 0.0 { self.coord } else { p as usize - 1 };
+        let active = system == self.coord;
+        if active && self.comp.side.is_some() {
+            return fail(
+                col,
+                "cannot change the active coordinate system with cutter radius compensation on",
+            );
+        }
+        let (r0, o0) = (self.rotation(), self.work[self.coord]);
+        let program = self.to_program(self.pos);
+        if let Some(r) = b.get('r') {
+            self.rotation_deg[system] = r;
+        }
+        let w = &mut self.work[system];
+        for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
+            if let Some(v) = b.get(l) {
+                w[i] = v * self.scale;
+            }
+        }
+        let r = self.rotation();
+        if active && (r0 != 0.0 || r != 0.0) {
+            let o = self.work[system];
+            let [x, y] = rotate([program[0], program[1]], r0);
+            let [x, y] = rotate([x + o0[0] - o[0], y + o0[1] - o[1]], -r);
+            self.pos = self.to_machine([x, y, program[2] + o0[2] - o[2]]);
         }
         Ok(())
     }
@@ -229,6 +355,7 @@ impl Interp<'_> {
             offset_mm,
             feed_scale: self.feed_scale,
             compensated: self.comp_active(),
+            rotated: self.rotation() != 0.0,
             spindle_cycle: matches!(
                 self.motion,
                 GCode::G74 | GCode::G84 | GCode::G86 | GCode::G87
@@ -408,6 +535,15 @@ impl Interp<'_> {
                 "the move just after exiting cutter compensation (G40) must be straight",
             );
         }
+        if self.rotation() != 0.0 && self.plane != crate::path::Plane::XY {
+            return fail(
+                b.first_col,
+                format!(
+                    "an arc outside the XY plane (G18, G19) in a coordinate system rotated by G10 L2 R ({} degrees) is not supported",
+                    self.rotation()
+                ),
+            );
+        }
         // Under compensation the arc is defined on the programmed contour.
         let start = if self.comp_active() && !self.comp.first {
             self.comp.program
@@ -488,7 +624,24 @@ impl Interp<'_> {
                 return fail(col, "arc needs R or centre (I/J/K) words");
             }
             let off = self.offset();
-            for (axis, v) in [(a, ca), (bb, cb)] {
+            let r = self.rotation();
+            if r != 0.0 {
+                // XY only (checked by the caller): I and J in the rotated frame.
+                let ij = [
+                    ca.unwrap_or(0.0) * self.scale,
+                    cb.unwrap_or(0.0) * self.scale,
+                ];
+                if self.arc_incremental {
+                    let [i, j] = rotate(ij, r);
+                    center[a] = start[a] + i;
+                    center[bb] = start[bb] + j;
+                } else {
+                    let c = self.to_machine([ij[0], ij[1], 0.0]);
+                    center[a] = c[a];
+                    center[bb] = c[bb];
+                }
+            }
+            for (axis, v) in [(a, ca), (bb, cb)].into_iter().filter(|_| r == 0.0) {
                 let v = v.unwrap_or(0.0) * self.scale;
                 center[axis] = if self.arc_incremental {
                     start[axis] + v

@@ -47,6 +47,10 @@ pub struct SegmentTrace {
     /// Cutter radius compensation shaped the segment: its block cannot be
     /// split (the pieces would be compensated again).
     pub compensated: bool,
+    /// A coordinate system rotated by `G10 L2 R` placed the segment: its
+    /// block is never split or written out (the pieces' program
+    /// coordinates would need the rotation, which `offset_mm` lacks).
+    pub rotated: bool,
     /// A canned cycle that stops or reverses the spindle made the segment
     /// (G74, G84, G86, G87): its line is never written out as plain moves.
     pub spindle_cycle: bool,

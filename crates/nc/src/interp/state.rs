@@ -72,7 +72,16 @@ pub(super) struct Interp<'a> {
     pub(super) motion: GCode,
     pub(super) coord: usize,
     pub(super) work: [[f64; 3]; 6],
+    /// Rotation (degrees, counterclockwise about Z) of each coordinate
+    /// system, set by `G10 L2 … R` (LinuxCNC's #5210 + 20·n).
+    pub(super) rotation_deg: [f64; 6],
     pub(super) g92: [f64; 3],
+    /// The G92/G52 offset G92.2 suspends and G92.3 restores (LinuxCNC's
+    /// #5211–#5213).
+    pub(super) g92_saved: [f64; 3],
+    /// G28 and G30 home positions (gauge point, mm, machine frame): the
+    /// options', until G28.1 or G30.1 stores the current point.
+    pub(super) homes_mm: [[f64; 3]; 2],
     pub(super) feed_mm_min: f64,
     pub(super) spindle_rpm: f64,
     pub(super) spindle: Spindle,
@@ -91,6 +100,14 @@ pub(super) struct Interp<'a> {
     pub(super) cycle_initial_z: Option<f64>,
     pub(super) frames: Vec<Frame>,
     pub(super) repeats: HashMap<usize, i64>,
+    /// Each `repeat` entered: its count and the segments made before its
+    /// first run, to foresee the moves it makes once that run ends.
+    pub(super) repeat_runs: HashMap<usize, (i64, usize)>,
+    /// Line and column of the loop (repeat, while, do, M98 with L) that
+    /// last ran its body again: the one blamed when the moves pass the limit.
+    pub(super) last_loop: Option<(usize, u32)>,
+    /// A loop was found to make more moves than the limit: the run stops.
+    pub(super) halted: bool,
     pub(super) path: Path,
     pub(super) trace: Vec<SegmentTrace>,
     pub(super) diagnostics: Vec<Diagnostic>,
@@ -176,7 +193,10 @@ pub(super) fn interp<'a>(file: &'a str, options: &'a Options, record: bool) -> I
         motion: GCode::G80,
         coord: 0,
         work: options.work_offsets_mm,
+        rotation_deg: [0.0; 6],
         g92: [0.0; 3],
+        g92_saved: [0.0; 3],
+        homes_mm: [options.g28_home_mm, options.g30_home_mm],
         feed_mm_min: 0.0,
         spindle_rpm: 0.0,
         spindle: Spindle::Stopped,
@@ -190,6 +210,9 @@ pub(super) fn interp<'a>(file: &'a str, options: &'a Options, record: bool) -> I
         cycle_initial_z: None,
         frames: Vec::new(),
         repeats: HashMap::new(),
+        repeat_runs: HashMap::new(),
+        last_loop: None,
+        halted: false,
         path: Path::default(),
         trace: Vec::new(),
         diagnostics: Vec::new(),

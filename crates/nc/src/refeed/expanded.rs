@@ -72,6 +72,7 @@ pub(super) fn cycle_lines(
         let plain = segs.iter().all(|&i| {
             let t = &trace.segments[i];
             !t.compensated
+                && !t.rotated
                 && !t.inverse_time
                 && !t.spindle_cycle
                 && matches!(segments[i].geometry, Geometry::Line)

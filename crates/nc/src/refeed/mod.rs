@@ -572,7 +572,8 @@ fn write(
         };
         let single = segs.len() == 1
             && splittable(items, &segments[feeds[0]])
-            && !trace.segments[feeds[0]].compensated;
+            && !trace.segments[feeds[0]].compensated
+            && !trace.segments[feeds[0]].rotated;
         if single && plan[feeds[0]].len() > 1 {
             let i = feeds[0];
             written_pieces[i] = plan[i].len();

@@ -171,9 +171,11 @@ pub(super) fn run_tables(
         };
         if runs.iter().any(|r| matches!(r, Run::Several))
             || !all_feeds
-            || segs
-                .iter()
-                .any(|&i| !splittable(items, &segments[i]) || trace.segments[i].compensated)
+            || segs.iter().any(|&i| {
+                !splittable(items, &segments[i])
+                    || trace.segments[i].compensated
+                    || trace.segments[i].rotated
+            })
         {
             continue;
         }
