@@ -1457,3 +1457,105 @@ fn windows_1252_comments_read_as_in_linuxcnc_rs274() {
         .expect("refused");
     assert_eq!((ours.line, ours.column), (3, 12), "{ours}");
 }
+
+/// G10 L20 (issue 39: a word LinuxCNC gives a meaning to is applied): the
+/// offset of system P set so the current point reads the words given, with
+/// G92, a tool length offset, inch units, the active system (P0) and another.
+#[test]
+fn g10_l20_sets_the_offset_from_the_current_point_as_linuxcnc_rs274() {
+    if !have_rs274() {
+        return;
+    }
+    let blocks = [
+        "G10 L20 P1 X5 Y6 Z7\nG1 X1 F100",
+        "G0 X3 Y4\nG10 L20 P1 X0 Y0\nG1 X1 Y1 F100",
+        "G0 X3 Y4\nG10 L20 P2 X0 Y0\nG55 G1 X1 F100\nG54 G1 X2",
+        "G92 X2\nG10 L20 P1 X0\nG1 X1 F100\nG92.1\nG1 X1",
+        "G0 X3 Y4\nG10 L20 P0 X1\nG1 Y2 F100",
+        "M6 T2\nG43 H2\nG0 Z10\nG10 L20 P1 Z0\nG1 Z-1 F100",
+        "G20\nG0 X1\nG10 L20 P1 X0\nG1 X0.5 F10",
+        "G91\nG0 X1\nG10 L20 P1 X0\nG1 X1 F100\nG90",
+        "G10 L20 P1 R30",
+    ];
+    let (agree, refused) = read_alike_or_refused_by_both(&blocks, "G21 G90");
+    assert_eq!((agree, refused), (8, 1));
+}
+
+/// Issue 39's G-code fuzzer against rs274: every word letter with values of
+/// each kind (zero, negative, fractional, large) in blocks of each context a
+/// word changes meaning in (rapid, feed, arc, dwell, G10 L2/L20, G92, G52,
+/// canned cycle, spindle, path control, tool length, alone). Each program is
+/// read alike by both interpreters (the same moves) or refused by both:
+/// LinuxCNC gives every word a meaning or refuses it, and so does dexcut.
+#[test]
+fn word_value_pairs_read_alike_or_refused_by_both() {
+    if !have_rs274() {
+        return;
+    }
+    let letters = "ABCDEFHIJKLPQRSTUVWXYZ";
+    let values = ["0", "-1", "2.5", "1000"];
+    let contexts = [
+        "G0 X1 {w}",
+        "G1 X1 {w} F100",
+        "G2 X2 Y0 I1 J0 {w} F100",
+        "{w}",
+        "G4 {w}",
+        "G10 L2 P1 {w}",
+        "G10 L20 P2 {w}",
+        "G92 {w}",
+        "G52 {w}",
+        "G81 X1 Y1 Z-1 R1 F100 {w}\nG80",
+        "M3 S1000 {w}",
+        "G64 {w}",
+        "G43 {w}",
+    ];
+    let mut blocks = Vec::new();
+    for context in contexts {
+        for letter in letters.chars() {
+            for value in values {
+                blocks.push(context.replace("{w}", &format!("{letter}{value}")));
+            }
+        }
+    }
+    // The differences allowed, each a class with its reason: dexcut is a
+    // 3-axis simulator and refuses a rotary axis move at its line (A0, B0, C0
+    // are read: they keep the axis at 0); rs274 reads Q-1 as no Q word (-1
+    // is its "absent" value), which dexcut refuses where nothing uses Q; and
+    // dexcut reads U0, V0, W0 as it reads A0, where rs274's XYZABC
+    // configuration has no such axes.
+    let allowed = |block: &str, e: &str| {
+        let words: Vec<&str> = block.split_whitespace().collect();
+        let has = |w: &dyn Fn(&str) -> bool| words.iter().any(|x| w(x));
+        let rotary = |x: &str| {
+            x.len() > 1 && "ABC".contains(&x[..1]) && x[1..].parse::<f64>().is_ok_and(|v| v != 0.0)
+        };
+        let zero_uvw =
+            |x: &str| x.len() > 1 && "UVW".contains(&x[..1]) && x[1..].parse::<f64>() == Ok(0.0);
+        (e.starts_with("we refuse what rs274 reads") && (has(&rotary) || has(&|x| x == "Q-1")))
+            || (e.contains("rs274 refuses (Bad character") && has(&zero_uvw))
+    };
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (mut agree, mut refused, mut known) = (0, 0, 0);
+    let mut failures = Vec::new();
+    for (i, block) in blocks.iter().enumerate() {
+        let file = dir.path().join(format!("w{i}.ngc"));
+        std::fs::write(
+            &file,
+            format!(
+                "G21 G90 G17 G40 G49 G54 G80 G94 G64\nG0 X0 Y0 Z5\n{block}\nG1 X1 Y1 F200\nM2\n"
+            ),
+        )
+        .expect("write");
+        match outcome(&file) {
+            Outcome::Agree(_) => agree += 1,
+            Outcome::BothRefuse(..) => refused += 1,
+            Outcome::Differ(e) if allowed(block, &e) => known += 1,
+            Outcome::Differ(e) => failures.push(format!("{block}: {e}")),
+        }
+    }
+    eprintln!(
+        "{} blocks: {agree} read alike, {refused} refused by both, {known} of the allowed classes",
+        blocks.len()
+    );
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}

@@ -161,6 +161,17 @@ impl Interp<'_> {
                 "canned cycles cannot be used with G93 inverse time",
             );
         }
+        // As LinuxCNC's convert_cycle: no rotary axis word in a cycle's block
+        // (A0 too, which elsewhere keeps the axis at 0).
+        if let Some(axis) = ['a', 'b', 'c'].into_iter().find(|&l| b.get(l).is_some()) {
+            return fail(
+                b.col(axis),
+                format!(
+                    "cannot put {} word in a canned cycle",
+                    axis.to_ascii_uppercase()
+                ),
+            );
+        }
         // As LinuxCNC's convert_cycle: a cycle entered from another motion
         // mode needs its R and Z words (and P where it dwells, I J K for
         // G87); a later block of the same cycle takes those it lacks from

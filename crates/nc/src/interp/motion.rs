@@ -180,6 +180,14 @@ impl Interp<'_> {
                 }
                 self.rapid(end, pc);
             }
+            GCode::G92 | GCode::G52
+                if !['x', 'y', 'z', 'a', 'b', 'c', 'u', 'v', 'w']
+                    .into_iter()
+                    .any(|l| b.get(l).is_some()) =>
+            {
+                // As LinuxCNC's convert_axis_offsets.
+                return fail(col, format!("all axes missing with {code}"));
+            }
             GCode::G92 => {
                 // LinuxCNC's convert_axis_offsets: the offset is taken in
                 // the frame before the rotation; the machine does not move.
@@ -228,10 +236,10 @@ impl Interp<'_> {
         if l == 20.0 && b.get('r').is_some() {
             return fail(b.col('r'), "R not allowed in G10 L20");
         }
-        if l != 2.0 || !(0.0..=6.0).contains(&p) || p.fract() != 0.0 {
+        if !(l == 2.0 || l == 20.0) || !(0.0..=6.0).contains(&p) || p.fract() != 0.0 {
             return fail(
                 col,
-                "only G10 L2 P0..P6 (set work offset and rotation) is supported",
+                "only G10 L2 and L20 P0..P6 (set work offset and rotation) are supported",
             );
         }
         let system = if p == 0.0 { self.coord } else { p as usize - 1 };
@@ -241,6 +249,23 @@ impl Interp<'_> {
                 col,
                 "cannot change the active coordinate system with cutter radius compensation on",
             );
+        }
+        if l == 20.0 {
+            // LinuxCNC's L20: the offset that makes the current point read
+            // the words given in system P (the machine does not move).
+            if self.rotation() != 0.0 || self.rotation_deg[system] != 0.0 {
+                return fail(
+                    col,
+                    "G10 L20 with a rotated coordinate system (G10 L2 R) is not supported",
+                );
+            }
+            let w = &mut self.work[system];
+            for (i, l) in ['x', 'y', 'z'].into_iter().enumerate() {
+                if let Some(v) = b.get(l) {
+                    w[i] = self.pos[i] - self.g92[i] - self.tlo_mm[i] - v * self.scale;
+                }
+            }
+            return Ok(());
         }
         let (r0, o0) = (self.rotation(), self.work[self.coord]);
         let program = self.to_program(self.pos);
