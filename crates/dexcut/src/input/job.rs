@@ -547,7 +547,7 @@ const TOOL_MODULUS_MPA: (f64, f64) = (10_000.0, 1e7);
 const TOOL_STRENGTH_MPA: (f64, f64) = (1.0, 1e6);
 /// Lateral stiffness of holder and spindle, N/µm (a shop's are 5–200; 10¹²
 /// is rigid).
-const HOLDER_STIFFNESS_N_PER_UM: (f64, f64) = (0.01, 1e12);
+const HOLDER_STIFFNESS_N_PER_UM: (f64, f64) = (1e-3, 1e12);
 /// Smallest corner radius of a bull nose, mm (a smaller one is a flat end's
 /// edge honing).
 const MIN_CORNER_RADIUS_MM: f64 = 1e-3;

@@ -362,7 +362,20 @@ impl Interp<'_> {
         });
         if !lent {
             self.own_path();
-            self.path.segments.push(segment);
+            // Grown by doubling, but never past the limit of moves (checked
+            // block by block): the old and the new buffer together stay
+            // within the two segments a move the memory bound allows
+            // (dexcut's bounds::max_path_segments). Doubling past it made a
+            // 600 MB address space abort at 1 048 576 moves of a 1 155 691 limit.
+            let segments = &mut self.path.segments;
+            if segments.len() == segments.capacity() {
+                let want = (2 * segments.len())
+                    .max(64)
+                    .min(self.options.max_segments.saturating_add(1))
+                    .max(segments.len() + 1);
+                segments.reserve_exact(want - segments.len());
+            }
+            segments.push(segment);
         }
         // Only the re-feed writer reads the trace, and only from a recorded
         // run: a program parsed to be simulated keeps none (56 B a segment).

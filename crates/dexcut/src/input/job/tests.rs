@@ -519,7 +519,7 @@ fn errors_name_the_key_path_and_its_own_line() {
         ),
         (
             "holder_stiffness_n_per_um = 1e-300",
-            "tools[1].holder_stiffness_n_per_um must lie in 0.01..1e12",
+            "tools[1].holder_stiffness_n_per_um must lie in 0.001..1e12",
         ),
         (
             "stress_limit_mpa = 1e-3",
