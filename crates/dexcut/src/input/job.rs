@@ -801,15 +801,7 @@ impl Job {
     fn validate_cutting(&self) -> Result<()> {
         feed_opt("program.feed (mm/min)", self.program.feed)?;
         let c = &self.cutting;
-        if cutting::Material::by_name(&c.material).is_none() {
-            let names: Vec<&str> = cutting::Material::ALL.iter().map(|m| m.name).collect();
-            fail!(
-                job,
-                "cutting.material {:?} is not one of the known materials: {}",
-                c.material,
-                names.join(", ")
-            );
-        }
+        self.material()?;
         range(
             "cutting.band_height (mm)",
             c.band_height,
@@ -1005,6 +997,18 @@ impl Job {
             }
         }
         Ok(())
+    }
+
+    /// The work material `cutting.material` names (one check, with the key).
+    pub fn material(&self) -> Result<&'static cutting::Material> {
+        let name = &self.cutting.material;
+        cutting::Material::by_name(name).ok_or_else(|| {
+            let names: Vec<&str> = cutting::Material::ALL.iter().map(|m| m.name).collect();
+            Error::job(format!(
+                "cutting.material {name:?} is not one of the known materials: {}",
+                names.join(", ")
+            ))
+        })
     }
 
     /// Largest feed per tooth of the first tool, mm/tooth: its `fz_max`,

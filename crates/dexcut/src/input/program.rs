@@ -128,11 +128,17 @@ pub fn load(job: &Job) -> Result<Program> {
 /// must be UTF-8: one that is not is refused at that byte's line and column.
 pub fn read_text(path: &std::path::Path) -> Result<(String, Option<nc::Diagnostic>)> {
     let bytes = crate::bounds::read_bytes(path, "program", crate::bounds::MAX_PROGRAM_BYTES)?;
-    let e = match std::str::from_utf8(&bytes) {
-        Ok(_) => return Ok((String::from_utf8(bytes).unwrap_or_default(), None)),
-        Err(e) => e,
+    // Checked once: a UTF-8 text is taken as it is, without a copy.
+    let (bytes, e) = match String::from_utf8(bytes) {
+        Ok(text) => return Ok((text, None)),
+        Err(e) => {
+            let at = e.utf8_error();
+            (e.into_bytes(), at)
+        }
     };
-    if is_points_csv(&String::from_utf8_lossy(&bytes)) {
+    // Whether it is a point list is told by its first lines: only those decoded.
+    let head = &bytes[..bytes.len().min(64 << 10)];
+    if is_points_csv(&String::from_utf8_lossy(head)) {
         return Err(crate::bounds::not_utf8(path, "point list", &bytes, e));
     }
     Ok(nc::decode(

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use crate::error::{fail, Error, Result};
+use crate::error::{fail, Result};
 use cutting::CuttingModel;
 use dexel::Tool;
 
@@ -96,15 +96,7 @@ pub fn cutting_model(
     program: &Program,
 ) -> Result<CuttingModel> {
     let c = &job.cutting;
-    let material = cutting::Material::by_name(&c.material).ok_or_else(|| {
-        let names: Vec<&str> = cutting::Material::ALL.iter().map(|m| m.name).collect();
-        Error::job(format!(
-            "{}: unknown cutting.material {:?}; known: {}",
-            job.name,
-            c.material,
-            names.join(", ")
-        ))
-    })?;
+    let material = job.material()?;
     // The highest S word a tool this wide plausibly runs at (MODEL.md §2.1).
     let program_rpm = program.spindle_rpm_for(tool.diameter_mm);
     let force_model = match c.model {
