@@ -401,6 +401,18 @@ fn sweep_tools_equals_sweeps_in_turn() {
     }
     assert_eq!(together.volume_mm3(), apart.volume_mm3());
     assert!(all.volume_mm3(0) > 0.0 && all.volume_mm3(2) > 0.0);
+    // The last-cut marks are the program's step indices, in every run of one
+    // tool (the column at y = 0 last cut by step 3, the tool's second run; y =
+    // 8 by step 2, the ball's run; y = −8 by step 0).
+    let grid = *together.grid();
+    let at = |x: f64, y: f64| {
+        let (ix, iy) = (
+            grid.ix_range(x, x + 0.25).unwrap().0,
+            grid.iy_range(y, y + 0.25).unwrap().0,
+        );
+        together.last_cut()[iy * grid.nx + ix]
+    };
+    assert_eq!([at(50.0, -8.0), at(50.0, 8.0), at(50.0, 0.2)], [0, 2, 3]);
     // A step without a tool is an error, not a panic.
     assert!(dexel::sweep_tools(
         &mut fresh(),

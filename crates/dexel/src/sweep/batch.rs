@@ -304,6 +304,7 @@ impl<'a, S: StepSource + ?Sized> Sweep<'a, S> {
                         radius,
                         &part.banding,
                         &steps,
+                        part.start,
                         &self.options,
                         &mut part.record,
                         &mut part.spill,
@@ -586,6 +587,8 @@ fn continues(a: &Step, b: &Step) -> bool {
         && da[0] * db[0] + da[1] * db[1] > 0.0
 }
 
+/// Sweep `steps` (a run of one tool, from step `step0` of the program on)
+/// through `stock` in batches.
 #[allow(clippy::too_many_arguments)]
 fn run_batches<E: Envelope, S: StepSource + ?Sized>(
     stock: &mut Stock,
@@ -593,6 +596,7 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
     radius: f64,
     banding: &Banding,
     steps: &S,
+    step0: usize,
     options: &SweepOptions,
     record: &mut RemovalRecord,
     spill: &mut Vec<f64>,
@@ -713,7 +717,7 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
             radius,
             banding,
             moves: &moves,
-            first_step,
+            first_step: step0 + first_step,
             smooth: options.smooth,
         };
         partial.clear();

@@ -248,6 +248,8 @@ pub(super) struct StripJob<'a, E> {
     pub(super) radius: f64,
     pub(super) banding: &'a Banding,
     pub(super) moves: &'a [Prepared],
+    /// The program's index of the first move (a run of one tool starts
+    /// where its tool is loaded): the last-cut marks are the program's.
     pub(super) first_step: usize,
     pub(super) smooth: bool,
 }
