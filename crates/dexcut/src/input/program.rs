@@ -72,11 +72,13 @@ impl Program {
 
     /// Highest spindle speed the program sets that a tool `diameter_mm`
     /// wide plausibly runs at ([`crate::input::tools::plausible_rpm`]), rev/min (0
-    /// if none).
-    pub fn spindle_rpm_for(&self, diameter_mm: f64) -> f64 {
+    /// if none): on the moves of tool `tool` (a tool table's entry), or on
+    /// every move (`None`: a single `[tool]` cuts every T).
+    pub fn spindle_rpm_for(&self, diameter_mm: f64, tool: Option<u32>) -> f64 {
         self.path
             .segments
             .iter()
+            .filter(|s| tool.is_none_or(|t| s.tool == t))
             .map(|s| s.spindle_rpm)
             .filter(|&rpm| crate::input::tools::plausible_rpm(diameter_mm, rpm))
             .fold(0.0, f64::max)

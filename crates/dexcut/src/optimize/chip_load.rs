@@ -24,7 +24,9 @@ pub fn chip_loads(
             let step = top.map(|i| &run.steps[i]);
             let block_rpm = step.map_or(0.0, |s| s.spindle_rpm);
             let rpm = e.spindle_rpm(block_rpm);
-            let fallback = match program.spindle_rpm_for(e.tool.diameter_mm) {
+            let fallback = match program
+                .spindle_rpm_for(e.tool.diameter_mm, (!tools.single).then_some(e.number))
+            {
                 p if p > 0.0 => format!("taken from the program's highest plausible S{p}"),
                 _ => "assumed 10000 rev/min, the default".to_string(),
             };
