@@ -402,6 +402,13 @@ impl Stock {
         &self.last_cut
     }
 
+    /// Forget which steps cut the columns (every mark [`NEVER_CUT`]): a
+    /// stock handed from one run to the next (an operation of a job on the
+    /// stock the previous one left) starts with no step of the new run's.
+    pub fn clear_cuts(&mut self) {
+        self.last_cut.fill(NEVER_CUT);
+    }
+
     /// The top, bottoms, intervals below and last-cut marks of the columns,
     /// for the sweep kernel to cut.
     pub(crate) fn parts_mut(

@@ -6,7 +6,9 @@
 //!   (closed, manifold, consistently wound) and orient it outward.
 //! * [`stock_from_mesh`] fills a Z-dexel [`dexel::Stock`] by rasterising the
 //!   triangles onto the column centres; [`top_heights`] gives a design model's
-//!   top surface on a grid, and [`DesignModel`] signed distances (via parry3d).
+//!   top surface on a grid, and [`DesignModel`] signed distances (via parry3d);
+//! * [`StockSurface`] is the closed surface of a stock's material, for an
+//!   STL of the stock a run leaves.
 //!
 //! In the pipeline of the `dexcut` library
 //! (job → stock (`dexel`, `mesh`) + program (`nc`) → motion (`schedule`) →
@@ -23,6 +25,7 @@ mod error;
 mod fill;
 mod load;
 mod solid;
+mod surface;
 mod triangle;
 
 pub use distance::{signed_distances, DesignModel};
@@ -30,6 +33,7 @@ pub use error::MeshError;
 pub use fill::{stock_from_mesh, stock_on_grid, top_heights, FillStats};
 pub use load::{load_mesh, load_solid};
 pub use solid::{check_closed, validate_solid, SolidError, SolidInfo};
+pub use surface::StockSurface;
 
 /// An indexed triangle mesh, coordinates in mm. Triangles are counter-clockwise
 /// seen from outside for a solid (outward normals, right-hand rule).
