@@ -6,8 +6,9 @@
 use std::io::Write;
 use std::path::Path;
 
-use dexcut::commands::{DesignInfo, LimitsOut, Simulated};
+use dexcut::commands::{DesignInfo, LimitsOut, Ran, Simulated};
 use dexcut::optimize::ToolChipLoad;
+use dexcut::summary::OperationsSummary;
 use dexcut::{DriveEvaluation, Optimized, StepsFormat, Warnings};
 
 /// Write one line to stdout; a closed or failing stdout is ignored (the
@@ -53,6 +54,107 @@ fn banded(banded: Option<&dexcut::commands::Banded>) {
 
 /// The simulate results: the bands of a large stock, the design comparison,
 /// the headline line, then the warnings.
+/// What `simulate` made: one program's results, or each operation's and the
+/// job's totals.
+pub fn simulated(ran: &Ran<Simulated>, out: &Path, asked: StepsFormat) {
+    match ran {
+        Ran::Program(simulated) => simulate(simulated, out, asked),
+        Ran::Operations(seq) => {
+            for (folder, simulated) in &seq.operations {
+                outln!("{folder}:");
+                simulate(simulated, &out.join(folder), asked);
+            }
+            operations(&seq.summary, out);
+        }
+    }
+    if let Some(stock) = saved_stock(ran, |s| s.summary.saved_stock.as_ref()) {
+        saved_stock_line(stock, out);
+    }
+}
+
+/// What `optimize` made: one program's results, or each operation's and the
+/// job's totals.
+pub fn optimized(ran: &Ran<Optimized>, out: &Path, asked: StepsFormat) {
+    match ran {
+        Ran::Program(optimized) => optimize(optimized, out, asked),
+        Ran::Operations(seq) => {
+            for (folder, optimized) in &seq.operations {
+                outln!("{folder}:");
+                optimize(optimized, &out.join(folder), asked);
+            }
+            operations(&seq.summary, out);
+        }
+    }
+    if let Some(stock) = saved_stock(ran, |o| o.summary.saved_stock.as_ref()) {
+        saved_stock_line(stock, out);
+    }
+}
+
+/// The saved stock's document of a run that wrote one (`--save-stock`).
+fn saved_stock<'a, T>(
+    ran: &'a Ran<T>,
+    of: impl Fn(&'a T) -> Option<&'a dexcut::saved_stock::SavedStockDoc>,
+) -> Option<&'a dexcut::saved_stock::SavedStockDoc> {
+    match ran {
+        Ran::Program(t) => of(t),
+        Ran::Operations(seq) => seq.operations.last().and_then(|(_, t)| of(t)),
+    }
+}
+
+fn saved_stock_line(stock: &dexcut::saved_stock::SavedStockDoc, out: &Path) {
+    outln!(
+        "stock saved in {}: {} columns, {} intervals, {:.1} mm³; stock.stl {} triangles (a job reads it back with [stock] kind = \"saved\")",
+        out.join("stock").display(),
+        stock.columns,
+        stock.intervals,
+        stock.volume_mm3,
+        stock.stl_triangles
+    );
+}
+
+/// The whole job's lines of a job of operations.
+fn operations(doc: &OperationsSummary, out: &Path) {
+    outln!("operations ({}):", doc.ran);
+    outln!(
+        "{:<4}{:<24}{:>12}{:>12}{:>14}{:>11}{:>10}",
+        "",
+        "operation",
+        "as given s",
+        "cycle s",
+        "removed mm³",
+        "force N",
+        "defl µm"
+    );
+    for op in &doc.operations {
+        outln!(
+            "{:<4}{:<24}{:>12}{:>12.3}{:>14.1}{:>11.1}{:>10.1}",
+            op.number,
+            op.name,
+            op.cycle_time_before_s
+                .map_or("-".into(), |t| format!("{t:.3}")),
+            op.cycle_time_s,
+            op.removed_volume_mm3,
+            op.peak_force_n,
+            op.peak_deflection_um
+        );
+    }
+    outln!(
+        "{:<4}{:<24}{:>12}{:>12.3}{:>14.1}",
+        "",
+        "total",
+        doc.cycle_time_before_s
+            .map_or("-".into(), |t| format!("{t:.3}")),
+        doc.cycle_time_s,
+        doc.removed_volume_mm3
+    );
+    outln!(
+        "stock {:.1} mm³ before, {:.1} mm³ after; results in {}",
+        doc.initial_volume_mm3,
+        doc.final_volume_mm3,
+        out.display()
+    );
+}
+
 pub fn simulate(simulated: &Simulated, out: &Path, asked: StepsFormat) {
     banded(simulated.banded.as_ref());
     let doc = &simulated.summary;

@@ -91,6 +91,12 @@ enum Command {
         /// band of rows, with the same results, and its .npy grid streamed.
         #[arg(long, value_name = "MB")]
         memory_budget_mb: Option<f64>,
+        /// Also write the stock the run leaves into OUT/stock/: every column's
+        /// material intervals (stock.json, .npy arrays), which a job reads back
+        /// with [stock] kind = "saved", and stock.stl, a closed mesh for a CAM
+        /// system's in-process stock.
+        #[arg(long)]
+        save_stock: bool,
     },
     /// Re-time the program so MRR, force and deflection stay under [limits]
     /// while running as fast as the machine allows; with no job, runs the
@@ -131,6 +137,12 @@ enum Command {
         /// band of rows in every run, with the same results, and its .npy grid streamed.
         #[arg(long, value_name = "MB")]
         memory_budget_mb: Option<f64>,
+        /// Also write the stock the run leaves into OUT/stock/: every column's
+        /// material intervals (stock.json, .npy arrays), which a job reads back
+        /// with [stock] kind = "saved", and stock.stl, a closed mesh for a CAM
+        /// system's in-process stock.
+        #[arg(long)]
+        save_stock: bool,
     },
     /// Write report.html, error_map.png and stock.glb from a simulate or optimize output folder.
     Report {
@@ -302,20 +314,25 @@ fn run(command: Command) -> Result<(), dexcut::Error> {
             columns_csv,
             steps_format,
             memory_budget_mb,
+            save_stock,
         } => {
             let fitted = fitted_job(&job, tool.as_deref(), grid, &out)?;
-            let doc = dexcut::commands::simulate(
-                job_arg(&job, fitted.as_ref()),
-                &out,
-                grid,
-                actual_path,
+            let opts = dexcut::commands::RunOptions {
+                grid_mm: grid,
                 force,
                 columns_csv,
-                steps_format.into(),
+                steps_format: steps_format.into(),
                 memory_budget_mb,
+                save_stock,
                 on_warning,
+            };
+            let ran = dexcut::commands::simulate(
+                job_arg(&job, fitted.as_ref()),
+                &out,
+                actual_path,
+                &opts,
             )?;
-            console::simulate(&doc, &out, steps_format.into());
+            console::simulated(&ran, &out, steps_format.into());
         }
         Command::Optimize {
             job,
@@ -327,6 +344,7 @@ fn run(command: Command) -> Result<(), dexcut::Error> {
             steps_format,
             settings,
             memory_budget_mb,
+            save_stock,
         } => {
             let fitted = match &job {
                 Some(job) => fitted_job(job, tool.as_deref(), grid, &out)?,
@@ -343,21 +361,25 @@ fn run(command: Command) -> Result<(), dexcut::Error> {
                     None
                 }
             };
-            let optimized = dexcut::commands::optimize(
+            let opts = dexcut::commands::RunOptions {
+                grid_mm: grid,
+                force,
+                columns_csv,
+                steps_format: steps_format.into(),
+                memory_budget_mb,
+                save_stock,
+                on_warning,
+            };
+            let ran = dexcut::commands::optimize(
                 job.as_deref()
                     .map_or(dexcut::commands::JobArg::Example, |j| {
                         job_arg(j, fitted.as_ref())
                     }),
                 &out,
-                grid,
-                force,
-                columns_csv,
-                steps_format.into(),
                 settings.as_deref(),
-                memory_budget_mb,
-                on_warning,
+                &opts,
             )?;
-            console::optimize(&optimized, &out, steps_format.into());
+            console::optimized(&ran, &out, steps_format.into());
         }
         Command::Report { dir } => console::report(&dexcut::commands::report(&dir)?),
         Command::Evaluate {

@@ -42,9 +42,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             assert_eq!(doc.after.cycle_time_s, a.cycle_time_s);
             println!("summary.json: schema {}", dexcut::summary::SCHEMA_VERSION);
         }
-        dexcut::summary::SummaryDoc::Simulate(_) => {
-            return Err("expected an optimize summary".into())
-        }
+        _ => return Err("expected an optimize summary".into()),
     }
     Ok(())
 }

@@ -63,7 +63,7 @@
 //! // summary.json reads back through the same types.
 //! match dexcut::summary::read(&dir.join("out/summary.json"))? {
 //!     dexcut::summary::SummaryDoc::Optimize(doc) => assert_eq!(doc.after.cycle_time_s, after.cycle_time_s),
-//!     dexcut::summary::SummaryDoc::Simulate(_) => unreachable!("optimize wrote it"),
+//!     _ => unreachable!("optimize wrote it"),
 //! }
 //! # std::fs::remove_dir_all(&dir)?;
 //! # Ok(())
@@ -91,6 +91,8 @@ mod output;
 pub mod progress;
 mod report;
 mod run;
+pub mod saved_stock;
+
 mod setup;
 mod util;
 

@@ -317,6 +317,7 @@ fn program_excerpt(dir: &Path, summary: &SummaryDoc, spots: &[HotSpot]) -> Optio
     let file = match summary {
         SummaryDoc::Optimize(_) => dir.join("optimized.nc"),
         SummaryDoc::Simulate(s) => std::path::PathBuf::from(&s.program),
+        SummaryDoc::Operations(_) => return None,
     };
     // As the run read it: bytes that are not UTF-8 as Windows-1252.
     let (text, _) = crate::input::program::read_text(&file).ok()?;
@@ -343,6 +344,7 @@ fn setup_rows(summary: &SummaryDoc) -> Vec<(String, String)> {
     let (job, program, setup) = match summary {
         SummaryDoc::Simulate(s) => (&s.job, &s.program, s.setup.as_ref()),
         SummaryDoc::Optimize(o) => (&o.job, &o.program, o.setup.as_ref()),
+        SummaryDoc::Operations(j) => (&j.job, &j.job, None),
     };
     let mut rows = vec![
         ("job".to_string(), job.clone()),
@@ -567,6 +569,7 @@ pub fn write_report(dir: &Path) -> Result<ReportFiles> {
     let (before_run, after_run, optimize) = match &summary {
         SummaryDoc::Simulate(s) => (&s.run, None, None),
         SummaryDoc::Optimize(o) => (&o.before, Some(&o.after), Some(o.as_ref())),
+        SummaryDoc::Operations(job) => return write_operations_report(dir, job),
     };
     let optimized = optimize.is_some();
 
@@ -928,4 +931,141 @@ fn notes(
         }
     }
     notes
+}
+
+/// The report of a job of operations: each operation's own report in its
+/// folder, and the job's report.html: each operation's program, cycle time
+/// (before and after re-timing), removal and peaks per tool, and the totals.
+/// The maps and the 3-D stock are the last operation's (the final stock).
+fn write_operations_report(
+    dir: &Path,
+    job: &crate::model::summary::OperationsSummary,
+) -> Result<ReportFiles> {
+    if job.operations.is_empty() {
+        fail!(
+            results,
+            "{}: summary.json lists no operation",
+            dir.display()
+        );
+    }
+    for op in &job.operations {
+        let op_dir = dir.join(&op.folder);
+        write_report(&op_dir).context_with(|| format!("operation {} {:?}", op.number, op.name))?;
+    }
+    let optimized = job.ran == "optimize";
+    let after = |v: String| optimized.then_some(v);
+    let mut setup = vec![("job".to_string(), job.job.clone())];
+    let mut summary = Vec::new();
+    for op in &job.operations {
+        setup.push((
+            format!("operation {}: {}", op.number, op.name),
+            format!("{} (results and report in {}/)", op.program, op.folder),
+        ));
+        let key = |what: &str| format!("{} {}: {what}", op.folder, op.name);
+        let (before_s, after_s) = match op.cycle_time_before_s {
+            Some(b) => (b, Some(op.cycle_time_s)),
+            None => (op.cycle_time_s, None),
+        };
+        summary.push(SummaryRow {
+            key: key("cycle time"),
+            before: format!("{before_s:.2} s"),
+            after: after_s.map(|a| {
+                let kept = if op.kept_original == Some(true) {
+                    " (program kept)"
+                } else {
+                    ""
+                };
+                format!("{a:.2} s{kept}")
+            }),
+        });
+        summary.push(SummaryRow {
+            key: key("removed"),
+            before: format!("{:.1} mm³", op.removed_volume_mm3),
+            after: None,
+        });
+        for t in &op.tools {
+            summary.push(SummaryRow {
+                key: key(&format!("T{} peak MRR / force / deflection", t.tool)),
+                before: String::new(),
+                after: None,
+            });
+            let last_row = summary.last_mut().expect("pushed");
+            let peaks = format!(
+                "{:.2} mm³/s, {:.1} N, {:.1} µm",
+                t.peak_mrr_mm3_s, t.peak_force_n, t.peak_deflection_um
+            );
+            if optimized {
+                last_row.before = "–".into();
+                last_row.after = Some(peaks);
+            } else {
+                last_row.before = peaks;
+            }
+        }
+        summary.push(SummaryRow {
+            key: key("error range"),
+            before: format!("{:.1} … {:.1} µm", op.min_error_um, op.max_error_um),
+            after: None,
+        });
+    }
+    let (total_before, total_after) = match job.cycle_time_before_s {
+        Some(b) => (b, Some(job.cycle_time_s)),
+        None => (job.cycle_time_s, None),
+    };
+    summary.push(SummaryRow {
+        key: "all operations: cycle time".into(),
+        before: format!("{total_before:.2} s"),
+        after: total_after.map(|a| format!("{a:.2} s")),
+    });
+    summary.push(SummaryRow {
+        key: "all operations: removed / stock before / stock after".into(),
+        before: format!(
+            "{:.1} / {:.1} / {:.1} mm³",
+            job.removed_volume_mm3, job.initial_volume_mm3, job.final_volume_mm3
+        ),
+        after: after(String::new()).filter(|s| !s.is_empty()),
+    });
+    let mut notes = vec![format!(
+        "{} operations run in order on one stock; each operation's own report (plots, maps, hot spots, program) is report.html in its folder: {}.",
+        job.operations.len(),
+        job.operations
+            .iter()
+            .map(|o| format!("{}/report.html", o.folder))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )];
+    if let Some(s) = &job.saved_stock {
+        notes.push(format!("The final stock is saved in {s}/ (stock.json, counts.npy, intervals.npy, and stock.stl for a CAM system)."));
+    }
+    let maps = maps_and_stock(dir, &job.grid)?;
+    let mut images = maps.images;
+    if let Some(map) = images.first_mut() {
+        map.name = "Predicted shape error from tool deflection, each column as the operation that last cut it left it (µm, positive = material left)".into();
+    }
+    let report = Report {
+        title: format!(
+            "dexcut {} report: {} operations of {}",
+            if optimized {
+                "optimisation"
+            } else {
+                "simulation"
+            },
+            job.operations.len(),
+            job.job
+        ),
+        setup,
+        summary,
+        hot_spots: Vec::new(),
+        program: None,
+        plots: Vec::new(),
+        images,
+        glb: Some(maps.page_glb),
+        notes,
+    };
+    export::write_report_html(&dir.join("report.html"), &report)?;
+    Ok(ReportFiles {
+        html: dir.join("report.html"),
+        error_map_png: dir.join("error_map.png"),
+        design_map_png: None,
+        stock_glb: dir.join("stock.glb"),
+    })
 }

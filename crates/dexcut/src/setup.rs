@@ -41,6 +41,9 @@ pub struct Setup {
     pub machine: Machine,
     /// The `[design]` model, read and checked before any work.
     pub design: Option<(PathBuf, mesh::DesignModel)>,
+    /// The stock was handed over ([`Setup::of_job`]): the stock an operation
+    /// before left, not the job's `[stock]`.
+    pub handed_over: bool,
     /// What the set-up warns of before any work (see [`Setup::load`]): the
     /// commands print them at once and put them first in summary.json.
     pub warnings: Vec<crate::model::warnings::Warning>,
@@ -119,6 +122,22 @@ impl Setup {
         if let Some(path) = settings {
             Settings::load(path)?.apply(&mut job, path)?;
         }
+        if !job.operations.is_empty() {
+            fail!(request, "{}: a job of {} [[operations]] runs operation by operation (`dexcut simulate` and `dexcut optimize` do; the library's Setup is one operation's: Setup::of_job with Job::operation_jobs)", job.name, job.operations.len());
+        }
+        Setup::of_job(job_path, job, budget_bytes, None)
+    }
+
+    /// The set-up of `job` (read from `job_path`, checked): its program,
+    /// tools and machine, and its stock made within `budget_bytes` or, with
+    /// `handed`, that stock (the stock an operation before left, its cuts
+    /// forgotten: [`dexel::Stock::clear_cuts`]).
+    pub fn of_job(
+        job_path: &Path,
+        job: Job,
+        budget_bytes: f64,
+        handed: Option<Stock>,
+    ) -> Result<Setup> {
         let mut program = program::load(&job)?;
         program.path = as_the_machine_reads(&job, std::mem::take(&mut program.path))?;
         let tools = ToolSet::from_job(&job, &program)?;
@@ -146,7 +165,14 @@ impl Setup {
                 crate::bounds::bytes_per_sample(bands),
             )?;
         }
-        let (stock, tiling) = crate::input::stock::build_within(&job, budget_bytes)?;
+        let handed_over = handed.is_some();
+        let (stock, tiling) = match handed {
+            Some(mut stock) => {
+                stock.clear_cuts();
+                (stock, None)
+            }
+            None => crate::input::stock::build_within(&job, budget_bytes)?,
+        };
         let design = match &job.design {
             Some(d) => {
                 let path = job.resolve(&d.path);
@@ -174,10 +200,20 @@ impl Setup {
             tools,
             machine,
             design,
+            handed_over,
             warnings: Vec::new(),
         };
         setup.warnings = setup.setup_warnings();
         Ok(setup)
+    }
+
+    /// The stock as a closed form (a box or a cylinder the job's `[stock]`
+    /// names and not a stock handed over): made again for each pass.
+    pub fn solid(&self) -> Option<dexel::Solid> {
+        if self.handed_over {
+            return None;
+        }
+        crate::input::stock::solid(&self.job.stock)
     }
 
     /// Refuse a stock too large for the memory budget for `what`, which needs
@@ -263,10 +299,14 @@ impl Setup {
     pub fn input_files(&self, job_path: &Path) -> Vec<PathBuf> {
         let mut files = vec![
             job_path.to_path_buf(),
-            self.job.resolve(&self.job.program.path),
+            self.job.resolve(&self.job.program().path),
         ];
-        if let crate::input::job::StockSpec::Mesh { path, .. } = &self.job.stock {
-            files.push(self.job.resolve(path));
+        match &self.job.stock {
+            crate::input::job::StockSpec::Mesh { path, .. } => files.push(self.job.resolve(path)),
+            crate::input::job::StockSpec::Saved { path, .. } => {
+                files.extend(crate::saved_stock::input_files(&self.job.resolve(path)))
+            }
+            _ => {}
         }
         files.extend(self.design.as_ref().map(|(p, _)| p.clone()));
         files

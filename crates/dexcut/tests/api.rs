@@ -196,21 +196,28 @@ material = "al6061"
     .unwrap();
     let out = dir.path().join("out");
     let warned = std::cell::Cell::new(0);
-    let simulated = dexcut::commands::simulate(
+    let on_warning = |_: &dyn std::fmt::Display| warned.set(warned.get() + 1);
+    let opts = dexcut::commands::RunOptions {
+        grid_mm: None,
+        force: false,
+        columns_csv: false,
+        steps_format: dexcut::StepsFormat::Auto,
+        memory_budget_mb: None,
+        save_stock: false,
+        on_warning: &on_warning,
+    };
+    let dexcut::commands::Ran::Program(simulated) = dexcut::commands::simulate(
         dexcut::commands::JobArg::File(&dir.path().join("job.toml")),
         &out,
-        None,
         false,
-        false,
-        false,
-        dexcut::StepsFormat::Auto,
-        None,
-        &|_| warned.set(warned.get() + 1),
+        &opts,
     )
-    .unwrap();
+    .unwrap() else {
+        panic!("a job of one program");
+    };
     let doc = match summary::read(&out.join("summary.json")).unwrap() {
         SummaryDoc::Simulate(s) => s,
-        SummaryDoc::Optimize(_) => panic!("not a simulate summary"),
+        _ => panic!("not a simulate summary"),
     };
     assert_eq!(doc.run.steps, n);
     // The command returns the document it wrote, and told each set-up warning once.

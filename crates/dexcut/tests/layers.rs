@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 /// may import from lower layers and, within its layer, only from modules
 /// listed before it on its row; `lib.rs` stands above them all.
 const DEXCUT_LAYERS: &[&[&str]] = &[
-    &["error", "util", "bounds", "progress"],
+    &["error", "util", "bounds", "progress", "saved_stock"],
     &["model"],
     &["input"],
     &["motion"],

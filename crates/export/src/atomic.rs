@@ -21,6 +21,32 @@ use std::path::{Path, PathBuf};
 /// The manifest a committed results folder carries: its run id and files.
 pub const MANIFEST: &str = "manifest.json";
 
+/// Write `dir`'s manifest: the run id, the command, and every file directly
+/// in `dir` with its size (a folder inside a results folder that is a
+/// results folder of its own, an operation's, gets one too).
+pub fn write_manifest(dir: &Path, run_id: &str, command: &str) -> io::Result<()> {
+    let mut files: Vec<(String, u64)> = Vec::new();
+    for entry in std::fs::read_dir(dir)? {
+        let entry = entry?;
+        let meta = entry.metadata()?;
+        if meta.is_file() && entry.file_name() != MANIFEST {
+            files.push((entry.file_name().to_string_lossy().into_owned(), meta.len()));
+        }
+    }
+    files.sort();
+    let mut json = format!(
+        "{{\n  \"run_id\": \"{}\",\n  \"command\": \"{}\",\n  \"files\": {{",
+        run_id,
+        json_escape(command)
+    );
+    for (i, (name, size)) in files.iter().enumerate() {
+        json.push_str(if i == 0 { "\n" } else { ",\n" });
+        json.push_str(&format!("    \"{}\": {size}", json_escape(name)));
+    }
+    json.push_str("\n  }\n}\n");
+    write_bytes(&dir.join(MANIFEST), json.as_bytes())
+}
+
 /// Files and folders being written that are not results yet (staging
 /// folders, pending files): removed by [`remove_unfinished`] when the process
 /// is told to stop (SIGTERM, SIGINT), as they are when a run fails.
@@ -331,26 +357,7 @@ impl Staging {
     /// Write the manifest (run id, command, every file with its size), sync,
     /// and swap the staging folder into place.
     pub fn commit(self, command: &str) -> io::Result<PathBuf> {
-        let mut files: Vec<(String, u64)> = Vec::new();
-        for entry in std::fs::read_dir(self.path())? {
-            let entry = entry?;
-            let meta = entry.metadata()?;
-            if meta.is_file() {
-                files.push((entry.file_name().to_string_lossy().into_owned(), meta.len()));
-            }
-        }
-        files.sort();
-        let mut json = format!(
-            "{{\n  \"run_id\": \"{}\",\n  \"command\": \"{}\",\n  \"files\": {{",
-            self.run_id,
-            json_escape(command)
-        );
-        for (i, (name, size)) in files.iter().enumerate() {
-            json.push_str(if i == 0 { "\n" } else { ",\n" });
-            json.push_str(&format!("    \"{}\": {size}", json_escape(name)));
-        }
-        json.push_str("\n  }\n}\n");
-        write_bytes(&self.path().join(MANIFEST), json.as_bytes())?;
+        write_manifest(self.path(), &self.run_id, command)?;
         sync_dir(self.path())?;
         let (parent, name) = parent_and_name(&self.target)?;
         // The target may have appeared or changed while the run worked.

@@ -4,6 +4,8 @@
 //! during the work (warnings) goes to the caller's `on_warning`; the `dexcut`
 //! binary formats both.
 
+pub mod sequence;
+
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -95,7 +97,7 @@ pub fn simulate_setup(setup: &Setup, actual_path: bool) -> Result<Simulation> {
 /// closed form for each pass, in the memory of the stock handed over, so the
 /// run holds one stock; a mesh stock is copied for each pass.
 fn simulate_steps(setup: &Setup, stock: Stock, steps: Vec<TimedStep>) -> Result<Simulation> {
-    let stock = match crate::input::stock::solid(&setup.job.stock) {
+    let stock = match setup.solid() {
         Some(solid) => run::StockSource::Made(stock, solid),
         None => run::StockSource::Whole(stock),
     };
@@ -221,95 +223,175 @@ pub struct Simulated {
     pub steps_format: StepsFormat,
 }
 
-/// `dexcut simulate JOB --out DIR` (`memory_budget_mb`: `--memory-budget-mb`;
-/// `steps_format`: `--steps-format`).
+/// What the user asked of a `simulate` or `optimize` run.
+#[derive(Clone, Copy)]
+pub struct RunOptions<'a> {
+    /// `--grid`: the stock's column spacing over the job's, mm.
+    pub grid_mm: Option<f64>,
+    /// `--force`: use an output folder that holds the run's inputs.
+    pub force: bool,
+    /// `--columns-csv`: also write columns.csv.
+    pub columns_csv: bool,
+    /// `--steps-format`.
+    pub steps_format: StepsFormat,
+    /// `--memory-budget-mb`: memory for the stock, MB.
+    pub memory_budget_mb: Option<f64>,
+    /// `--save-stock`: write the stock the run leaves into `OUT/stock/`
+    /// ([`crate::saved_stock`]).
+    pub save_stock: bool,
+    /// Told at once: the warnings before and during the work.
+    pub on_warning: OnWarning<'a>,
+}
+
+/// What a run of a job made: one program's results, or for a job of
+/// `[[operations]]` each operation's and the whole job's.
+#[allow(clippy::large_enum_variant)] // one per command run, moved once
+pub enum Ran<T> {
+    /// A job of one program.
+    Program(T),
+    /// A job of operations.
+    Operations(crate::commands::sequence::Sequence<T>),
+}
+
+/// The stock the run leaves saved into `staged/stock` (`--save-stock`).
+pub(crate) fn save_stock(
+    staged: &Path,
+    stock: &Stock,
+) -> Result<crate::saved_stock::SavedStockDoc> {
+    crate::saved_stock::write(&staged.join("stock"), stock)
+}
+
+/// Refuse `--save-stock` for a stock swept band by band, before the work.
+fn refuse_tiled_save(setup: &Setup, save: bool) -> Result<()> {
+    if let (true, Some(t)) = (save, &setup.tiling) {
+        fail!(request, "{}: --save-stock needs every column of the stock at once; this stock ({}×{} columns) is swept band by band to fit the memory budget: use a coarser grid or a larger --memory-budget-mb", setup.job.name, t.grid.nx, t.grid.ny);
+    }
+    Ok(())
+}
+
+/// `dexcut simulate JOB --out DIR`.
 ///
 /// Memory: on a stock that fits, what the sweep does not need is let go
-/// before it, in this order: the job's stock is taken out of the setup
-/// ([`Setup::take_stock`]) and, for a box or a cylinder, dropped (made again
-/// of its closed form after the planning); the program's path is lent to the
-/// planner ([`Setup::steps_lending_path`]); then the path and a G-code
-/// program's text are emptied (the steps carry what the run needs of them).
-#[allow(clippy::too_many_arguments)]
+/// before it ([`simulate_whole`]).
 pub fn simulate(
     job: JobArg,
     out: &Path,
-    grid_mm: Option<f64>,
     actual_path: bool,
-    force: bool,
-    columns_csv: bool,
-    steps_format: StepsFormat,
-    memory_budget_mb: Option<f64>,
-    on_warning: OnWarning,
-) -> Result<Simulated> {
+    opts: &RunOptions,
+) -> Result<Ran<Simulated>> {
+    if let Some(doc) = crate::commands::sequence::operations_of(job, opts)? {
+        return Ok(Ran::Operations(crate::commands::sequence::simulate(
+            doc,
+            out,
+            actual_path,
+            opts,
+        )?));
+    }
     let started = Instant::now();
-    let (mut setup, out_dir) = begin_run(job, out, force, &[], |p| {
-        Setup::load_within(p, grid_mm, None, memory_budget_mb)
+    let (mut setup, out_dir) = begin_run(job, out, opts.force, &[], |p| {
+        Setup::load_within(p, opts.grid_mm, None, opts.memory_budget_mb)
     })?;
-    announce_setup_warnings(&setup, on_warning);
+    refuse_tiled_save(&setup, opts.save_stock)?;
+    announce_setup_warnings(&setup, opts.on_warning);
     // Before the path is lent to the planner and let go.
     let exact_stop_time_s = exact_stop_time_s(&setup);
     let (sim, steps_format) = match &setup.tiling {
-        None => {
-            // The run sweeps the job's stock itself, not a copy (one stock
-            // fewer held). A box or a cylinder is let go while the program is
-            // planned and made again of its closed form after, the same
-            // columns bit for bit (`stock::build`): planning and the stock
-            // were the peak of the raster at 0.05.
-            let solid = crate::input::stock::solid(&setup.job.stock);
-            let held = setup.take_stock()?;
-            let held = match solid {
-                Some(_) => {
-                    drop(held);
-                    None
-                }
-                None => Some(held),
-            };
-            // The planner borrows the path instead of a copy (the peak of a long program).
-            let steps = setup.steps_lending_path(actual_path)?;
-            // The steps carry what the run needs of the program (lines, tools, spindle
-            // speeds); nothing after this reads the path: freed before the sweep.
-            setup.program.path = nc::Path::default();
-            // Nor its text (a G-code program stays marked as one).
-            if let Some(text) = setup.program.gcode.as_mut() {
-                *text = String::new();
-            }
-            let stock = match held {
-                Some(stock) => stock,
-                None => crate::input::stock::build(&setup.job)?,
-            };
-            let sim = simulate_steps(&setup, stock, steps)?;
-            let written = sim.write_files(out_dir.path(), columns_csv, steps_format)?;
-            (sim, written)
-        }
+        None => simulate_whole(
+            &mut setup,
+            actual_path,
+            out_dir.path(),
+            opts.columns_csv,
+            opts.steps_format,
+        )?,
         Some(tiling) => simulate_tiled(
             &setup,
             tiling,
             actual_path,
-            columns_csv,
-            steps_format,
+            opts.columns_csv,
+            opts.steps_format,
             out_dir.path(),
         )?,
     };
-    let summary = &sim.summary;
-    let doc = SimulateSummary {
-        run: summary.clone(),
+    let mut doc = simulate_summary(&setup, &sim, exact_stop_time_s, out_dir.run_id());
+    if opts.save_stock {
+        doc.saved_stock = Some(save_stock(out_dir.path(), &sim.run.stock)?);
+    }
+    doc.run_time_s = started.elapsed().as_secs_f64();
+    crate::model::summary::write_simulate(&out_dir.path().join("summary.json"), &doc)?;
+    out_dir.commit("simulate")?;
+    Ok(Ran::Program(Simulated {
+        summary: doc,
+        banded: setup.tiling.as_ref().map(Banded::of),
+        steps_format,
+    }))
+}
+
+/// summary.json of a simulation of `setup` (its `run_time_s` 0, set by the caller).
+pub(crate) fn simulate_summary(
+    setup: &Setup,
+    sim: &Simulation,
+    exact_stop_time_s: Option<f64>,
+    run_id: String,
+) -> SimulateSummary {
+    SimulateSummary {
+        run: sim.summary.clone(),
         job: setup.job.name.clone(),
         program: setup.program.file.clone(),
         exact_stop_time_s,
         grid: GridInfo::of(sim.run.stock.grid()),
         design: sim.design.as_ref().map(|d| d.1.clone()),
         setup: Some(setup.info()),
-        run_time_s: started.elapsed().as_secs_f64(),
-        run_id: out_dir.run_id(),
+        saved_stock: None,
+        run_time_s: 0.0,
+        run_id,
+    }
+}
+
+/// Simulate a stock that fits in memory and write its files into `out`.
+///
+/// Memory: what the sweep does not need is let go before it, in this
+/// order: the job's stock is taken out of the setup ([`Setup::take_stock`])
+/// and, for a box or a cylinder, dropped (made again of its closed form
+/// after the planning); the program's path is lent to the planner
+/// ([`Setup::steps_lending_path`]); then the path and a G-code program's
+/// text are emptied (the steps carry what the run needs of them).
+pub(crate) fn simulate_whole(
+    setup: &mut Setup,
+    actual_path: bool,
+    out: &Path,
+    columns_csv: bool,
+    steps_format: StepsFormat,
+) -> Result<(Simulation, StepsFormat)> {
+    // The run sweeps the job's stock itself, not a copy (one stock
+    // fewer held). A box or a cylinder is let go while the program is
+    // planned and made again of its closed form after, the same
+    // columns bit for bit (`stock::build`): planning and the stock
+    // were the peak of the raster at 0.05.
+    let solid = setup.solid();
+    let held = setup.take_stock()?;
+    let held = match solid {
+        Some(_) => {
+            drop(held);
+            None
+        }
+        None => Some(held),
     };
-    crate::model::summary::write_simulate(&out_dir.path().join("summary.json"), &doc)?;
-    out_dir.commit("simulate")?;
-    Ok(Simulated {
-        summary: doc,
-        banded: setup.tiling.as_ref().map(Banded::of),
-        steps_format,
-    })
+    // The planner borrows the path instead of a copy (the peak of a long program).
+    let steps = setup.steps_lending_path(actual_path)?;
+    // The steps carry what the run needs of the program (lines, tools, spindle
+    // speeds); nothing after this reads the path: freed before the sweep.
+    setup.program.path = nc::Path::default();
+    // Nor its text (a G-code program stays marked as one).
+    if let Some(text) = setup.program.gcode.as_mut() {
+        *text = String::new();
+    }
+    let stock = match held {
+        Some(stock) => stock,
+        None => crate::input::stock::build(&setup.job)?,
+    };
+    let sim = simulate_steps(setup, stock, steps)?;
+    let written = sim.write_files(out, columns_csv, steps_format)?;
+    Ok((sim, written))
 }
 
 /// The job a run reads: a job file, the built-in example, or a job fitted to
@@ -377,11 +459,18 @@ fn begin_run(
 /// results folder (a 1 m × 1 m stock at 0.02 mm writes 30 GB of `.npy`
 /// arrays), before the work.
 fn check_output_disk(setup: &Setup, out_dir: &OutDir) -> Result<()> {
+    check_output_disk_for(setup, out_dir, 1)
+}
+
+/// [`check_output_disk`] for `runs` column grids of the stock (a job of
+/// operations writes one an operation).
+pub(crate) fn check_output_disk_for(setup: &Setup, out_dir: &OutDir, runs: usize) -> Result<()> {
     let grid = match &setup.tiling {
         Some(t) => t.grid,
         None => *setup.stock.grid(),
     };
-    let bytes = grid.nx as f64 * grid.ny as f64 * run::run_grid_bytes_per_column() as f64;
+    let bytes =
+        runs as f64 * grid.nx as f64 * grid.ny as f64 * run::run_grid_bytes_per_column() as f64;
     crate::bounds::check_disk(
         out_dir.path(),
         out_dir.target(),
@@ -393,27 +482,54 @@ fn check_output_disk(setup: &Setup, out_dir: &OutDir) -> Result<()> {
     )
 }
 
-/// `dexcut optimize [JOB] --out DIR` (`steps_format`: `--steps-format`, for
-/// steps and steps_before alike).
+/// `dexcut optimize [JOB] --out DIR` (`settings`: `--settings`).
 /// With no job, the built-in boss_contour example, its inputs written into the
 /// results' `input/` folder.
-#[allow(clippy::too_many_arguments)]
 pub fn optimize(
     job: JobArg,
     out: &Path,
-    grid_mm: Option<f64>,
-    force: bool,
-    columns_csv: bool,
-    steps_format: StepsFormat,
     settings: Option<&Path>,
-    memory_budget_mb: Option<f64>,
-    on_warning: OnWarning,
-) -> Result<Optimized> {
+    opts: &RunOptions,
+) -> Result<Ran<Optimized>> {
+    if let Some(doc) = crate::commands::sequence::operations_of(job, opts)? {
+        if settings.is_some() {
+            fail!(request, "--settings is for a job of one program: give each operation's [machine] keys in its [[operations]] entry");
+        }
+        return Ok(Ran::Operations(crate::commands::sequence::optimize(
+            doc, out, opts,
+        )?));
+    }
     let started = Instant::now();
     let settings_input: Vec<PathBuf> = settings.map(Path::to_path_buf).into_iter().collect();
-    let (mut setup, out_dir) = begin_run(job, out, force, &settings_input, |p| {
-        Setup::load_within(p, grid_mm, settings, memory_budget_mb)
+    let (mut setup, out_dir) = begin_run(job, out, opts.force, &settings_input, |p| {
+        Setup::load_within(p, opts.grid_mm, settings, opts.memory_budget_mb)
     })?;
+    refuse_tiled_save(&setup, opts.save_stock)?;
+    check_optimizable(&setup, opts.on_warning)?;
+    announce_setup_warnings(&setup, opts.on_warning);
+    let (mut optimized, stock) = optimize_in(
+        &mut setup,
+        out_dir.path(),
+        out_dir.run_id(),
+        opts.columns_csv,
+        opts.steps_format,
+        opts.on_warning,
+    )?;
+    if opts.save_stock {
+        optimized.summary.saved_stock = Some(save_stock(out_dir.path(), &stock)?);
+    }
+    drop(stock);
+    optimized.summary.run_time_s = started.elapsed().as_secs_f64();
+    crate::model::summary::write_optimize(
+        &out_dir.path().join("summary.json"),
+        &optimized.summary,
+    )?;
+    out_dir.commit("optimize")?;
+    Ok(Ran::Program(optimized))
+}
+
+/// What optimize refuses of a set-up, and the warning of limits that cap nothing.
+pub(crate) fn check_optimizable(setup: &Setup, on_warning: OnWarning) -> Result<()> {
     if setup.job.machine.arcs_as_lines {
         fail!(request, "{}: machine.arcs_as_lines is for simulate and evaluate: optimize re-feeds the program's own blocks and writes arcs as G2/G3", setup.job.name);
     }
@@ -430,15 +546,7 @@ pub fn optimize(
             "[limits] sets no mrr_max, force_max, deflection_max_um, power_max_kw or angle_rule, and stress = false: cutting runs at feed_max"
         });
     }
-    announce_setup_warnings(&setup, on_warning);
-    optimize_setup(
-        &mut setup,
-        out_dir,
-        started,
-        columns_csv,
-        steps_format,
-        on_warning,
-    )
+    Ok(())
 }
 
 /// What [`optimize_setup`] made: summary.json's document, and the drive
@@ -480,6 +588,35 @@ pub fn optimize_setup(
     steps_format: StepsFormat,
     on_warning: OnWarning,
 ) -> Result<Optimized> {
+    let (mut optimized, stock) = optimize_in(
+        setup,
+        out_dir.path(),
+        out_dir.run_id(),
+        columns_csv,
+        steps_format,
+        on_warning,
+    )?;
+    drop(stock);
+    optimized.summary.run_time_s = started.elapsed().as_secs_f64();
+    crate::model::summary::write_optimize(
+        &out_dir.path().join("summary.json"),
+        &optimized.summary,
+    )?;
+    out_dir.commit("optimize")?;
+    Ok(optimized)
+}
+
+/// [`optimize_setup`] into the folder `staged` (written, not committed; its
+/// summary.json not written: the document is returned with `run_time_s` 0),
+/// returning the stock the written program leaves.
+pub(crate) fn optimize_in(
+    setup: &mut Setup,
+    staged: &Path,
+    run_id: String,
+    columns_csv: bool,
+    steps_format: StepsFormat,
+    on_warning: OnWarning,
+) -> Result<(Optimized, Stock)> {
     if let Some(tiling) = &setup.tiling {
         // A stock too large for memory is swept band by band in every run
         // (ARCHITECTURE.md "Large stocks").
@@ -517,7 +654,6 @@ pub fn optimize_setup(
     // rounds. Otherwise (Auto, at most AUTO_NPY_STEPS steps) it keeps its
     // steps and loads until the end; its stock is not needed again (if the
     // original is kept, it is simulated again).
-    let staged = out_dir.path();
     let before_steps = before.steps.len();
     let before_format = steps_format.resolve(before_steps);
     let before = if steps_format != StepsFormat::Auto || before_format == StepsFormat::Npy {
@@ -565,16 +701,12 @@ pub fn optimize_setup(
         exact_stop_time_s,
     };
     let asked = OutputsAsked {
-        started,
+        run_id,
         columns_csv,
         steps_format,
     };
     let optimized = rounds
-        .and_then(|rounds| optimize_outputs(setup, &out_dir, &machine, as_given, rounds, asked))
-        .and_then(|optimized| {
-            out_dir.commit("optimize")?;
-            Ok(optimized)
-        });
+        .and_then(|rounds| optimize_outputs(setup, staged, &machine, as_given, rounds, asked));
     // Back in the setup (read again from its text where it was given).
     setup.program.path = match (free.into_path(setup), &optimized) {
         (Ok(path), _) => path,
@@ -603,16 +735,16 @@ struct AsGiven {
 
 /// The setup's program run in exact stop on its machine (MODEL.md §6.1, "Exact stop"):
 /// each segment from rest to rest at its programmed feed; `None` for an empty path.
-fn exact_stop_time_s(setup: &Setup) -> Option<f64> {
+pub(crate) fn exact_stop_time_s(setup: &Setup) -> Option<f64> {
     let path = &setup.program.path;
     (!path.segments.is_empty()).then(|| {
         schedule::exact_stop_time_s(path, &setup.machine, schedule::FeedPolicy::Programmed)
     })
 }
 
-/// What the user asked of [`optimize_setup`]'s outputs, and when it began.
+/// What the user asked of [`optimize_setup`]'s outputs, and the run's id.
 struct OutputsAsked {
-    started: Instant,
+    run_id: String,
     columns_csv: bool,
     steps_format: StepsFormat,
 }
@@ -624,14 +756,13 @@ struct OutputsAsked {
 /// summary.json.
 fn optimize_outputs(
     setup: &Setup,
-    out_dir: &OutDir,
+    staged: &Path,
     machine: &schedule::Machine,
     as_given: AsGiven,
     rounds: optimize::Rounds,
     asked: OutputsAsked,
-) -> Result<Optimized> {
+) -> Result<(Optimized, Stock)> {
     let limits = &setup.job.limits;
-    let staged = out_dir.path();
     let optimize::Rounds {
         stations: n_stations,
         time_engagement_s,
@@ -639,7 +770,7 @@ fn optimize_outputs(
         plan_started: t2,
     } = rounds;
     let OutputsAsked {
-        started,
+        run_id,
         columns_csv,
         steps_format,
     } = asked;
@@ -784,19 +915,22 @@ fn optimize_outputs(
         station_spacing_mm: motion::STATION_DS_MM,
         design,
         setup: Some(setup.info()),
-        run_time_s: started.elapsed().as_secs_f64(),
+        saved_stock: None,
+        run_time_s: 0.0,
         time_engagement_s,
         time_plan_s,
         time_simulate_s: as_given.time_simulate_s,
-        run_id: out_dir.run_id(),
+        run_id,
     };
-    crate::model::summary::write_optimize(&staged.join("summary.json"), &doc)?;
-    Ok(Optimized {
-        summary: doc,
-        precomp,
-        steps_format,
-        banded: setup.tiling.as_ref().map(Banded::of),
-    })
+    Ok((
+        Optimized {
+            summary: doc,
+            precomp,
+            steps_format,
+            banded: setup.tiling.as_ref().map(Banded::of),
+        },
+        after_run.stock,
+    ))
 }
 
 /// `dexcut report DIR`.

@@ -6,7 +6,9 @@
 use std::path::{Path, PathBuf};
 
 use crate::error::{fail, Context as _, Error, Result, ResultExt as _};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
+
+pub use super::operations::{Operation, OperationSpec};
 
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -17,7 +19,16 @@ pub struct Job {
     /// A tool table: entries keyed by `number` (the T word).
     #[serde(default)]
     pub tools: Vec<ToolSpec>,
-    pub program: ProgramSpec,
+    /// The program (a job of `[[operations]]` has none: each operation has its own).
+    #[serde(default)]
+    pub program: Option<ProgramSpec>,
+    /// `[[operations]]`: programs run in order on one stock
+    /// ([`Job::operation_jobs`]); none for a job of one `[program]`.
+    #[serde(default)]
+    pub operations: Vec<OperationSpec>,
+    /// Each operation as a job of its own, checked when the job is read.
+    #[serde(skip)]
+    pub operation_jobs: Vec<Operation>,
     #[serde(default)]
     pub cutting: CuttingSpec,
     #[serde(default)]
@@ -76,6 +87,14 @@ pub enum StockSpec {
         /// Column spacing, mm.
         grid: f64,
     },
+    /// `kind = "saved"`: the stock a run left, saved by `--save-stock`
+    /// (the folder `DIR/stock`, relative to the job file), on its own grid.
+    Saved {
+        path: PathBuf,
+        /// Column spacing, mm: the saved stock's (read from its stock.json
+        /// when the job is read; a `grid` key must equal it).
+        grid: f64,
+    },
 }
 
 /// The shapes of `[stock]`.
@@ -85,6 +104,7 @@ pub enum StockKind {
     Box,
     Cylinder,
     Mesh,
+    Saved,
 }
 
 /// `[stock]` as written: every shape's keys, each checked against `kind`.
@@ -93,7 +113,7 @@ pub enum StockKind {
 pub struct StockKeys {
     kind: StockKind,
     #[serde(alias = "grid_mm")]
-    grid: f64,
+    grid: Option<f64>,
     min: Option<[f64; 3]>,
     max: Option<[f64; 3]>,
     center: Option<[f64; 2]>,
@@ -111,6 +131,7 @@ impl TryFrom<StockKeys> for StockSpec {
             StockKind::Box => ("box", "min, max and grid"),
             StockKind::Cylinder => ("cylinder", "center, radius, z_min, z_max and grid"),
             StockKind::Mesh => ("mesh", "path and grid"),
+            StockKind::Saved => ("saved", "path (and grid, if given, the saved stock's)"),
         };
         let given = [
             ("min", k.min.is_some()),
@@ -124,7 +145,7 @@ impl TryFrom<StockKeys> for StockSpec {
         let own: &[&str] = match k.kind {
             StockKind::Box => &["min", "max"],
             StockKind::Cylinder => &["center", "radius", "z_min", "z_max"],
-            StockKind::Mesh => &["path"],
+            StockKind::Mesh | StockKind::Saved => &["path"],
         };
         for (key, is) in given {
             if is && !own.contains(&key) {
@@ -139,22 +160,36 @@ impl TryFrom<StockKeys> for StockSpec {
             }
         }
         let missing = "checked above";
+        // Every shape but a saved stock (which has its own) takes its grid.
+        let grid = match (k.kind, k.grid) {
+            (StockKind::Saved, g) => g.unwrap_or(f64::NAN),
+            (_, Some(g)) => g,
+            (_, None) => {
+                return Err(format!(
+                    "stock.grid is missing: a {kind} stock (kind = \"{kind}\") needs {takes}"
+                ))
+            }
+        };
         Ok(match k.kind {
             StockKind::Box => StockSpec::Box {
                 min: k.min.expect(missing),
                 max: k.max.expect(missing),
-                grid: k.grid,
+                grid,
             },
             StockKind::Cylinder => StockSpec::Cylinder {
                 center: k.center.expect(missing),
                 radius: k.radius.expect(missing),
                 z_min: k.z_min.expect(missing),
                 z_max: k.z_max.expect(missing),
-                grid: k.grid,
+                grid,
             },
             StockKind::Mesh => StockSpec::Mesh {
                 path: k.path.expect(missing),
-                grid: k.grid,
+                grid,
+            },
+            StockKind::Saved => StockSpec::Saved {
+                path: k.path.expect(missing),
+                grid,
             },
         })
     }
@@ -166,7 +201,8 @@ impl StockSpec {
         match *self {
             StockSpec::Box { grid, .. }
             | StockSpec::Cylinder { grid, .. }
-            | StockSpec::Mesh { grid, .. } => grid,
+            | StockSpec::Mesh { grid, .. }
+            | StockSpec::Saved { grid, .. } => grid,
         }
     }
 
@@ -174,7 +210,8 @@ impl StockSpec {
         match self {
             StockSpec::Box { grid, .. }
             | StockSpec::Cylinder { grid, .. }
-            | StockSpec::Mesh { grid, .. } => grid,
+            | StockSpec::Mesh { grid, .. }
+            | StockSpec::Saved { grid, .. } => grid,
         }
     }
 }
@@ -315,7 +352,7 @@ impl Default for CuttingSpec {
     }
 }
 
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct MachineSpec {
     /// Interpolation (servo) period, ms.
@@ -353,7 +390,7 @@ pub struct MachineSpec {
 }
 
 /// Direction of the machine's positive Z axis ([`MachineSpec::z_axis`]).
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum ZAxis {
     /// Positive Z away from the table (the tool retracts to +Z).
@@ -392,7 +429,7 @@ impl Default for MachineSpec {
     }
 }
 
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct LimitsSpec {
     /// Material removal rate limit, mm³/s.
@@ -667,19 +704,49 @@ impl Job {
         job.servo_given = toml::from_str::<toml::Table>(text)
             .map(|t| t.contains_key("servo"))
             .unwrap_or(false);
+        // A saved stock's grid is its own.
+        if let StockSpec::Saved { path, grid } = &job.stock {
+            let dir = job.resolve(path);
+            let doc = crate::saved_stock::read_doc(&dir, "stock.path").map_err(|e| {
+                e.context(format!("{}: invalid job", keys.of_message("stock.path")))
+            })?;
+            let saved = doc.grid.spacing_mm;
+            if !grid.is_nan() && *grid != saved {
+                let at = keys.of_message("stock.grid");
+                fail!(job, "{at}: invalid job: stock.grid ({grid} mm) must be the saved stock's, {saved} mm (a saved stock keeps its grid; leave stock.grid out)");
+            }
+            *job.stock.grid_mut() = saved;
+        }
         // A key's error at the key's own line and column.
         if let Err(e) = job.validate() {
             let at = keys.of_message(&e.to_string());
             return Err(e.context(format!("{at}: invalid job")));
         }
+        job.operation_jobs = job.operation_jobs(&keys)?;
         Ok(job)
     }
 
     /// Override the stock's column spacing (`--grid`) and check the job again.
     pub fn set_grid(&mut self, grid_mm: f64) -> Result<()> {
+        if let StockSpec::Saved { grid, .. } = self.stock {
+            if grid != grid_mm {
+                fail!(job, "--grid {grid_mm}: {} starts from a saved stock, which keeps its grid of {grid} mm", self.name);
+            }
+        }
+        for op in &mut self.operation_jobs {
+            op.job.set_grid(grid_mm)?;
+        }
         *self.stock.grid_mut() = grid_mm;
         self.validate()
             .context_with(|| format!("--grid {grid_mm}: invalid for {}", self.name))
+    }
+
+    /// The program of a job of one program (checked when the job is read: a
+    /// job of `[[operations]]` runs each operation's job).
+    pub fn program(&self) -> &ProgramSpec {
+        self.program
+            .as_ref()
+            .expect("a job of operations is run operation by operation")
     }
 
     /// Resolve a path from the job file against its folder.
@@ -695,8 +762,16 @@ impl Job {
     /// with its key: non-finite values (toml reads `inf` and `nan`) and absurd
     /// ones (a 1e-9 mm/s² acceleration, a 1e9 ms period) never reach the work.
     pub(crate) fn validate(&self) -> Result<()> {
+        match (&self.program, self.operations.is_empty()) {
+            (None, true) => fail!(job, "the job needs a [program] (path = …), or [[operations]] each with its program"),
+            (Some(_), false) => fail!(job, "[program] and [[operations]]: a job of operations gives each operation its program"),
+            _ => {}
+        }
         self.validate_stock()?;
-        self.validate_tools()?;
+        // A job of operations may leave its tools to them.
+        if self.operations.is_empty() || self.tool.is_some() || !self.tools.is_empty() {
+            self.validate_tools()?;
+        }
         self.validate_cutting()?;
         self.validate_machine()?;
         self.validate_limits()?;
@@ -747,7 +822,7 @@ impl Job {
                 }
                 grid_resolves("cylinder", grid, 2.0 * radius)?;
             }
-            StockSpec::Mesh { .. } => {}
+            StockSpec::Mesh { .. } | StockSpec::Saved { .. } => {}
         }
         Ok(())
     }
@@ -799,7 +874,10 @@ impl Job {
 
     /// `program.feed` and `[cutting]`: the band height against the flute length, the force model's coefficients.
     fn validate_cutting(&self) -> Result<()> {
-        feed_opt("program.feed (mm/min)", self.program.feed)?;
+        feed_opt(
+            "program.feed (mm/min)",
+            self.program.as_ref().and_then(|p| p.feed),
+        )?;
         let c = &self.cutting;
         self.material()?;
         range(

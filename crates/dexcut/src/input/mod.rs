@@ -5,6 +5,7 @@
 pub mod example;
 pub mod fitted_job;
 pub mod job;
+pub mod operations;
 pub mod program;
 pub mod stock;
 pub mod toml_keys;

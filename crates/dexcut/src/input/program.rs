@@ -88,7 +88,7 @@ impl Program {
 /// Load the job's program, choosing the reader by its content (any file
 /// name: .nc, .ngc, .gc, .tap, .gcode, .cnc, … are all G-code).
 pub fn load(job: &Job) -> Result<Program> {
-    let path = job.resolve(&job.program.path);
+    let path = job.resolve(&job.program().path);
     let size = crate::bounds::check_input_file(&path, "program", crate::bounds::MAX_PROGRAM_BYTES)?;
     crate::bounds::check_memory(
         size as f64 * crate::bounds::BYTES_PER_PROGRAM_BYTE,
@@ -101,7 +101,7 @@ pub fn load(job: &Job) -> Result<Program> {
         // writes them: mirrored where `[machine] z_axis = "down"`.
         // A point list without a tool column is cut by the job's first tool.
         let tool = job.tool_specs()[0].0.unwrap_or(1);
-        let (mut path, stream) = read_points_csv(&text, &file, job.program.feed, tool)?;
+        let (mut path, stream) = read_points_csv(&text, &file, job.program().feed, tool)?;
         if job.machine.z_axis == ZAxis::Down {
             path.mirror_z();
         }

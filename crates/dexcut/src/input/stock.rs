@@ -67,7 +67,7 @@ pub fn solid(spec: &StockSpec) -> Option<Solid> {
             z_lo: z_min,
             z_hi: z_max,
         }),
-        StockSpec::Mesh { .. } => None,
+        StockSpec::Mesh { .. } | StockSpec::Saved { .. } => None,
     }
 }
 
@@ -130,8 +130,14 @@ pub fn build(job: &Job) -> Result<Stock> {
         check_fits(&solid.grid(s.grid_mm())?, &what)?;
         return Ok(solid.stock_in_rows(s.grid_mm(), None, None)?);
     }
-    let StockSpec::Mesh { path, grid } = s else {
-        unreachable!("a box or a cylinder is a solid")
+    let (path, grid) = match s {
+        StockSpec::Mesh { path, grid } => (path, grid),
+        StockSpec::Saved { path, .. } => {
+            return Ok(crate::saved_stock::read(&job.resolve(path), &what)?.0);
+        }
+        StockSpec::Box { .. } | StockSpec::Cylinder { .. } => {
+            unreachable!("a box or a cylinder is a solid")
+        }
     };
     let grid_mm = *grid;
     let path = job.resolve(path);

@@ -86,10 +86,17 @@ impl<'a> KeyPlaces<'a> {
     /// the entry), or the deepest table on the path that the file has:
     /// `None` where not even its first key is in the file.
     fn span_of(&self, path: &str) -> Option<std::ops::Range<usize>> {
+        self.span_along(path).map(|(span, _)| span)
+    }
+
+    /// [`KeyPlaces::span_of`], and whether the whole path is in the file.
+    fn span_along(&self, path: &str) -> Option<(std::ops::Range<usize>, bool)> {
+        let steps = steps(path)?;
+        let mut found_steps = 0;
         let mut table: &DeTable = self.table.as_ref()?.get_ref();
         let mut value: Option<&DeValue> = None;
         let mut found = None;
-        for step in steps(path)? {
+        for &step in &steps {
             let next = match (step, value) {
                 (Step::Key(k), None) | (Step::Key(k), Some(DeValue::Table(_))) => {
                     if let Some(DeValue::Table(t)) = value {
@@ -105,9 +112,23 @@ impl<'a> KeyPlaces<'a> {
             };
             let Some((span, v)) = next else { break };
             found = Some(span);
+            found_steps += 1;
             value = Some(v.get_ref());
         }
-        found
+        found.map(|span| (span, found_steps == steps.len()))
+    }
+
+    /// [`KeyPlaces::of_message`] of a message about a key of the table
+    /// `prefix` (an operation's, `operations[1]`): where that table has the
+    /// key, else where the file's top level has it.
+    pub fn of_message_under(&self, prefix: &str, message: &str) -> String {
+        let under = leading_path(message)
+            .and_then(|p| self.span_along(&format!("{prefix}.{p}")))
+            .filter(|&(_, whole)| whole);
+        match under {
+            Some((span, _)) => self.at(span.start),
+            None => self.of_message(message),
+        }
     }
 
     /// `FILE:LINE:COL` of the key a message begins with (see

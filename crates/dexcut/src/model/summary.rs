@@ -3,7 +3,7 @@
 //! through [`read`], never as untyped JSON.
 //!
 //! Every file carries `schema_version` ([`SCHEMA_VERSION`]) and `command`
-//! (`"simulate"` or `"optimize"`). A change of the layout that an older reader
+//! (`"simulate"`, `"optimize"`, or `"operations"` for a job of operations). A change of the layout that an older reader
 //! cannot read raises the version; a reader refuses any other version with a
 //! message that says which one it reads.
 
@@ -83,6 +83,9 @@ pub struct SimulateSummary {
     /// Material, tools, machine and limits of the job.
     #[serde(default)]
     pub setup: Option<SetupInfo>,
+    /// The stock the run left, saved into `stock/` (`--save-stock`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub saved_stock: Option<crate::saved_stock::SavedStockDoc>,
     /// Wall time of the command, s.
     pub run_time_s: f64,
     /// The run that wrote the folder (as in manifest.json).
@@ -143,6 +146,9 @@ pub struct OptimizeSummary {
     /// Material, tools, machine and limits of the job.
     #[serde(default)]
     pub setup: Option<SetupInfo>,
+    /// The stock the run left, saved into `stock/` (`--save-stock`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub saved_stock: Option<crate::saved_stock::SavedStockDoc>,
     /// Wall time of the command, s.
     pub run_time_s: f64,
     /// Wall time of the engagement sweep, s.
@@ -283,6 +289,74 @@ pub struct CapShare {
     pub share: f64,
 }
 
+/// summary.json of a job of `[[operations]]`: the folder holds one results
+/// folder per operation (`op1_roughing/`, each a `simulate` or `optimize`
+/// folder with its own summary.json), and this document of the whole job.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct OperationsSummary {
+    /// What each operation's folder holds: "simulate" or "optimize".
+    pub ran: String,
+    /// Job file.
+    pub job: String,
+    /// The stock's grid (one stock through every operation).
+    pub grid: GridInfo,
+    /// The operations, in order.
+    pub operations: Vec<OperationLine>,
+    /// The operations' cycle times summed, s (optimize: of the programs written).
+    pub cycle_time_s: f64,
+    /// optimize: the programs as given, summed, s.
+    pub cycle_time_before_s: Option<f64>,
+    /// Stock volume before the first operation, mm³.
+    pub initial_volume_mm3: f64,
+    /// Stock volume after the last, mm³.
+    pub final_volume_mm3: f64,
+    /// Volume the operations removed, mm³.
+    pub removed_volume_mm3: f64,
+    /// The folder of the saved final stock (`--save-stock`), if written.
+    pub saved_stock: Option<String>,
+    /// Wall time of the command, s.
+    pub run_time_s: f64,
+    /// The run that wrote the folder (as in manifest.json and every operation's summary).
+    pub run_id: String,
+}
+
+/// One operation of [`OperationsSummary`].
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct OperationLine {
+    /// 1-based position in the job.
+    pub number: usize,
+    /// Its name.
+    pub name: String,
+    /// Its results folder, relative to the job's.
+    pub folder: String,
+    /// Its program file.
+    pub program: String,
+    /// Its cycle time, s (optimize: of the program written).
+    pub cycle_time_s: f64,
+    /// optimize: of the program as given, s.
+    pub cycle_time_before_s: Option<f64>,
+    /// optimize: the program as given was kept (within every limit and faster).
+    pub kept_original: Option<bool>,
+    /// Volume it removed, mm³.
+    pub removed_volume_mm3: f64,
+    /// Its peaks (optimize: of the program written).
+    pub peak_mrr_mm3_s: f64,
+    /// Largest cutting force, N.
+    pub peak_force_n: f64,
+    /// Largest spindle power, W.
+    pub peak_power_w: f64,
+    /// Largest deflection at the contact height, µm.
+    pub peak_deflection_um: f64,
+    /// Its error map's range, µm.
+    pub min_error_um: f64,
+    /// Largest material left, µm.
+    pub max_error_um: f64,
+    /// Warnings in its summary.
+    pub warnings: usize,
+    /// Its peaks per tool.
+    pub tools: Vec<ToolPeaks>,
+}
+
 /// The version of summary.json this build writes and reads.
 pub const SCHEMA_VERSION: u32 = 1;
 
@@ -294,6 +368,8 @@ pub enum SummaryDoc {
     Simulate(Box<SimulateSummary>),
     /// Written by `optimize`.
     Optimize(Box<OptimizeSummary>),
+    /// Written by `simulate` or `optimize` for a job of `[[operations]]`.
+    Operations(Box<OperationsSummary>),
 }
 
 impl SummaryDoc {
@@ -302,6 +378,7 @@ impl SummaryDoc {
         match self {
             SummaryDoc::Simulate(s) => &s.run_id,
             SummaryDoc::Optimize(o) => &o.run_id,
+            SummaryDoc::Operations(j) => &j.run_id,
         }
     }
 
@@ -310,6 +387,7 @@ impl SummaryDoc {
         match self {
             SummaryDoc::Simulate(s) => &s.grid,
             SummaryDoc::Optimize(o) => &o.grid,
+            SummaryDoc::Operations(j) => &j.grid,
         }
     }
 
@@ -318,6 +396,7 @@ impl SummaryDoc {
         match self {
             SummaryDoc::Simulate(s) => &s.program,
             SummaryDoc::Optimize(o) => &o.program,
+            SummaryDoc::Operations(j) => &j.job,
         }
     }
 
@@ -326,6 +405,7 @@ impl SummaryDoc {
         match self {
             SummaryDoc::Simulate(s) => s.design.as_ref(),
             SummaryDoc::Optimize(o) => o.design.as_ref(),
+            SummaryDoc::Operations(_) => None,
         }
     }
 }
@@ -368,6 +448,18 @@ pub fn write_optimize(path: &Path, doc: &OptimizeSummary) -> Result<()> {
         &Versioned {
             schema_version: SCHEMA_VERSION,
             command: "optimize",
+            doc,
+        },
+    )
+}
+
+/// Write the summary.json of a job of `[[operations]]`, atomically.
+pub fn write_operations(path: &Path, doc: &OperationsSummary) -> Result<()> {
+    crate::util::write_json(
+        path,
+        &Versioned {
+            schema_version: SCHEMA_VERSION,
+            command: "operations",
             doc,
         },
     )
@@ -482,6 +574,7 @@ mod tests {
     #[test]
     fn simulate_summary_round_trips() {
         let doc = SimulateSummary {
+            saved_stock: None,
             run: summary(),
             job: "job.toml".into(),
             program: "p.nc".into(),
@@ -542,6 +635,7 @@ mod tests {
     #[test]
     fn optimize_summary_round_trips() {
         let doc = OptimizeSummary {
+            saved_stock: None,
             job: "job.toml".into(),
             program: "p.nc".into(),
             grid: grid(),

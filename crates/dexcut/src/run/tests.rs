@@ -990,3 +990,35 @@ fn a_step_whose_own_cut_pushes_against_its_taken_direction_ends_on_the_path() {
     );
     assert!(run.closed_loop.converged, "{:?}", run.closed_loop);
 }
+
+/// Each tool of a table takes the highest S of its own moves (MODEL.md
+/// §2.1): a roughing tool at S8000 is not modelled at the finishing
+/// tool's S10000; a single [tool] cutting every T takes the highest of all.
+#[test]
+fn each_tool_of_a_table_takes_the_s_of_its_own_moves() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("p.nc"),
+        "G21 G90\nT1 M6\nS8000 M3\nG0 X-10 Y0 Z5\nG1 Z-1 F600\nG1 X10\nG0 Z5\n\
+         T2 M6\nS10000 M3\nG0 X-10 Y5\nG1 Z-1\nG1 X10\nG0 Z5\nM30\n",
+    )
+    .unwrap();
+    let stock = "[stock]\nkind = \"box\"\nmin = [-5, -5, -5]\nmax = [5, 10, 0]\ngrid = 0.5\n\
+                 [program]\npath = \"p.nc\"\n";
+    let table = "[[tools]]\nnumber = 1\nkind = \"flat\"\ndiameter = 6\n\
+                 [[tools]]\nnumber = 2\nkind = \"ball\"\ndiameter = 6\n";
+    let single = "[tool]\nkind = \"flat\"\ndiameter = 6\n";
+    let rpms = |tools: &str| {
+        let path = dir.path().join("job.toml");
+        std::fs::write(&path, format!("{stock}{tools}")).unwrap();
+        let setup = crate::setup::Setup::load(&path, None).unwrap();
+        setup
+            .tools
+            .entries
+            .iter()
+            .map(|e| e.model.spindle_rpm)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(rpms(table), [8000.0, 10000.0]);
+    assert_eq!(rpms(single), [10000.0]);
+}

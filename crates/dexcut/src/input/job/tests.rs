@@ -18,7 +18,10 @@ feed = 1000
 fn minimal_job_parses_with_defaults() {
     let job = Job::parse(MINIMAL, "job.toml", Path::new("/jobs")).unwrap();
     assert_eq!(job.machine.period_ms, 16.0);
-    assert_eq!(job.resolve(&job.program.path), PathBuf::from("/jobs/p.csv"));
+    assert_eq!(
+        job.resolve(&job.program().path),
+        PathBuf::from("/jobs/p.csv")
+    );
     assert_eq!(job.tool().unwrap().flute_length_mm, 12.0);
 }
 
