@@ -507,15 +507,38 @@ pub fn optimize(
     refuse_tiled_save(&setup, opts.save_stock)?;
     check_optimizable(&setup, opts.on_warning)?;
     announce_setup_warnings(&setup, opts.on_warning);
-    let (mut optimized, stock) = optimize_in(
+    optimize_committed(
         &mut setup,
-        out_dir.path(),
-        out_dir.run_id(),
+        out_dir,
+        started,
         opts.columns_csv,
         opts.steps_format,
+        opts.save_stock,
         opts.on_warning,
+    )
+    .map(Ran::Program)
+}
+
+/// [`optimize_in`] into `out_dir`, the stock saved where asked
+/// (`stock_asked`), summary.json written and the folder committed.
+fn optimize_committed(
+    setup: &mut Setup,
+    out_dir: OutDir,
+    started: Instant,
+    columns_csv: bool,
+    steps_format: StepsFormat,
+    stock_asked: bool,
+    on_warning: OnWarning,
+) -> Result<Optimized> {
+    let (mut optimized, stock) = optimize_in(
+        setup,
+        out_dir.path(),
+        out_dir.run_id(),
+        columns_csv,
+        steps_format,
+        on_warning,
     )?;
-    if opts.save_stock {
+    if stock_asked {
         optimized.summary.saved_stock = Some(save_stock(out_dir.path(), &stock)?);
     }
     drop(stock);
@@ -525,7 +548,7 @@ pub fn optimize(
         &optimized.summary,
     )?;
     out_dir.commit("optimize")?;
-    Ok(Ran::Program(optimized))
+    Ok(optimized)
 }
 
 /// What optimize refuses of a set-up, and the warning of limits that cap nothing.
@@ -588,22 +611,15 @@ pub fn optimize_setup(
     steps_format: StepsFormat,
     on_warning: OnWarning,
 ) -> Result<Optimized> {
-    let (mut optimized, stock) = optimize_in(
+    optimize_committed(
         setup,
-        out_dir.path(),
-        out_dir.run_id(),
+        out_dir,
+        started,
         columns_csv,
         steps_format,
+        false,
         on_warning,
-    )?;
-    drop(stock);
-    optimized.summary.run_time_s = started.elapsed().as_secs_f64();
-    crate::model::summary::write_optimize(
-        &out_dir.path().join("summary.json"),
-        &optimized.summary,
-    )?;
-    out_dir.commit("optimize")?;
-    Ok(optimized)
+    )
 }
 
 /// [`optimize_setup`] into the folder `staged` (written, not committed; its

@@ -172,6 +172,20 @@ fn manifest(dir: &Path, run_id: &str, command: &str) -> Result<()> {
         .map_err(|e| Error::io("cannot write the manifest of", dir, e))
 }
 
+/// A run of the operations begun: its start, the stock's memory budget
+/// (bytes) and its results folder, staged.
+fn begin(
+    doc: &Job,
+    job_path: &Path,
+    out: &Path,
+    opts: &RunOptions,
+) -> Result<(Instant, f64, OutDir)> {
+    let started = Instant::now();
+    let budget_bytes = crate::input::stock::budget_bytes(opts.memory_budget_mb)?;
+    let out_dir = OutDir::begin(out, &input_files(doc, job_path), opts.force)?;
+    Ok((started, budget_bytes, out_dir))
+}
+
 /// `dexcut simulate` of a job of operations.
 pub(crate) fn simulate(
     (doc, job_path): (Job, PathBuf),
@@ -179,9 +193,7 @@ pub(crate) fn simulate(
     actual_path: bool,
     opts: &RunOptions,
 ) -> Result<Sequence<Simulated>> {
-    let started = Instant::now();
-    let budget_bytes = crate::input::stock::budget_bytes(opts.memory_budget_mb)?;
-    let out_dir = OutDir::begin(out, &input_files(&doc, &job_path), opts.force)?;
+    let (started, budget_bytes, out_dir) = begin(&doc, &job_path, out, opts)?;
     let run_id = out_dir.run_id();
     let (mut stock, mut ran, mut lines) = (None, Vec::new(), Vec::new());
     let (mut initial, mut grid) = (0.0, None);
@@ -229,9 +241,7 @@ pub(crate) fn optimize(
     out: &Path,
     opts: &RunOptions,
 ) -> Result<Sequence<Optimized>> {
-    let started = Instant::now();
-    let budget_bytes = crate::input::stock::budget_bytes(opts.memory_budget_mb)?;
-    let out_dir = OutDir::begin(out, &input_files(&doc, &job_path), opts.force)?;
+    let (started, budget_bytes, out_dir) = begin(&doc, &job_path, out, opts)?;
     let run_id = out_dir.run_id();
     let (mut stock, mut ran, mut lines) = (None, Vec::new(), Vec::new());
     let (mut initial, mut grid) = (0.0, None);
