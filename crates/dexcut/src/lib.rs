@@ -100,12 +100,13 @@ pub use commands::{Optimized, Simulation};
 pub use error::{Error, Result, Source};
 pub use evaluate::{DriveEvaluation, SweepRow};
 pub use input::fitted_job;
+pub use input::variant::variant as job_variant;
 pub use model::summary;
 pub use model::warnings::{Warning, WarningKind, Warnings};
 pub use model::Summary;
-pub use output::steps::{StepsFormat, AUTO_NPY_STEPS};
+pub use output::steps::{StepColumns, StepsFormat, AUTO_NPY_STEPS};
 pub use report::ReportFiles;
-pub use run::Run;
+pub use run::{ColumnGrid, Run};
 pub use setup::Setup;
 
 /// Load a job file (TOML) and everything it names (program, stock mesh, design

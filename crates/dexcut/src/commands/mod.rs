@@ -81,6 +81,18 @@ impl Simulation {
             columns_csv,
         )
     }
+
+    /// The per-column results whole: the values of the column grid
+    /// [`Simulation::write_files`] writes, bit for bit, with the design
+    /// comparison's `design_um` and `line` where the job has a `[design]`.
+    pub fn column_grid(&self) -> crate::run::ColumnGrid {
+        let mut grid = self.run.column_grid();
+        if let Some((diff, _)) = &self.design {
+            grid.design_um = Some(diff.clone());
+            grid.line = Some(crate::output::run_files::last_cut_lines(&self.run));
+        }
+        grid
+    }
 }
 
 /// Sweep the job's program through its stock (the commanded path, or with

@@ -10,3 +10,4 @@ pub mod program;
 pub mod stock;
 pub mod toml_keys;
 pub mod tools;
+pub mod variant;

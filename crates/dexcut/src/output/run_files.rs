@@ -23,19 +23,7 @@ pub fn write_run_files(
 ) -> Result<StepsFormat> {
     let steps_format = run.write_steps(out, "steps", steps_format)?;
     // With a design model each column also names the program line that last cut it (S1).
-    let lines: Option<Vec<i32>> = design.as_ref().map(|_| {
-        run.stock
-            .last_cut()
-            .iter()
-            .map(|&s| {
-                if s == NEVER_CUT {
-                    -1
-                } else {
-                    run.steps[s as usize].line as i32
-                }
-            })
-            .collect()
-    });
+    let lines: Option<Vec<i32>> = design.as_ref().map(|_| last_cut_lines(run));
     run.write_columns(
         out,
         design.map(|d| d.0.as_slice()),
@@ -43,4 +31,19 @@ pub fn write_run_files(
         columns_csv,
     )?;
     Ok(steps_format)
+}
+
+/// Per column, the program line of the step that last cut it; -1 if never cut.
+pub fn last_cut_lines(run: &Run) -> Vec<i32> {
+    run.stock
+        .last_cut()
+        .iter()
+        .map(|&s| {
+            if s == NEVER_CUT {
+                -1
+            } else {
+                run.steps[s as usize].line as i32
+            }
+        })
+        .collect()
 }

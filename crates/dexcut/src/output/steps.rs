@@ -135,6 +135,93 @@ const NPY_LAYOUT: &str = "row i of every array is step i (steps.csv's row with s
 /// into column buffers, about 300 B a step with 20 bands).
 const NPY_BLOCK_STEPS: usize = 16 * 1024;
 
+/// A run's per-step results as whole columns, in steps.csv's order: the
+/// values of the steps' `.npy` arrays, bit for bit (both are made by one
+/// function, [`Run::step_columns`] whole, the arrays' writer a block of steps
+/// at a time). Row i of every column is step i.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StepColumns {
+    /// The f64 columns before the band volumes: `t_s`, `x`, `y`, `z`,
+    /// `feed_mm_min`, `volume_mm3`, `mrr_mm3_s` ([`StepColumns::HEAD`]).
+    pub head: [Vec<f64>; 7],
+    /// The band volumes, mm³, row-major `(steps, band_count)`: element
+    /// `[i * band_count + k]` is band k of step i (steps.csv's `band_k_mm3`).
+    pub bands: Vec<f64>,
+    /// Bands listed per step: up to the highest any step cut (steps.csv
+    /// lists all the tool's; those above are zero in every step).
+    pub band_count: usize,
+    /// The f64 columns after the band volumes: `shank_mm3`, `force_n`, …,
+    /// `stress_mpa` ([`StepColumns::LOADS`]).
+    pub loads: [Vec<f64>; 14],
+    /// 1 where the stress exceeds the tool's rupture strength.
+    pub breaks: Vec<u8>,
+    /// Program line of the block the step ends in.
+    pub line: Vec<u32>,
+    /// 1 for a rapid (G0) step.
+    pub rapid: Vec<u8>,
+    /// Number (T word) of the tool cutting the step.
+    pub tool: Vec<u32>,
+}
+
+impl StepColumns {
+    /// Names of [`StepColumns::head`], in order.
+    pub const HEAD: [&'static str; 7] = [
+        HEAD[0].0, HEAD[1].0, HEAD[2].0, HEAD[3].0, HEAD[4].0, HEAD[5].0, HEAD[6].0,
+    ];
+    /// Names of [`StepColumns::loads`], in order.
+    pub const LOADS: [&'static str; 14] = [
+        LOADS[0].0,
+        LOADS[1].0,
+        LOADS[2].0,
+        LOADS[3].0,
+        LOADS[4].0,
+        LOADS[5].0,
+        LOADS[6].0,
+        LOADS[7].0,
+        LOADS[8].0,
+        LOADS[9].0,
+        LOADS[10].0,
+        LOADS[11].0,
+        LOADS[12].0,
+        LOADS[13].0,
+    ];
+    /// Name of [`StepColumns::bands`] (the arrays' `steps_band_mm3.npy`).
+    pub const BANDS: &'static str = BAND;
+
+    fn with_capacity(steps: usize, band_count: usize) -> StepColumns {
+        StepColumns {
+            head: std::array::from_fn(|_| Vec::with_capacity(steps)),
+            bands: Vec::with_capacity(steps * band_count),
+            band_count,
+            loads: std::array::from_fn(|_| Vec::with_capacity(steps)),
+            breaks: Vec::with_capacity(steps),
+            line: Vec::with_capacity(steps),
+            rapid: Vec::with_capacity(steps),
+            tool: Vec::with_capacity(steps),
+        }
+    }
+
+    fn clear(&mut self) {
+        self.head.iter_mut().for_each(Vec::clear);
+        self.loads.iter_mut().for_each(Vec::clear);
+        self.bands.clear();
+        self.breaks.clear();
+        self.line.clear();
+        self.rapid.clear();
+        self.tool.clear();
+    }
+
+    /// Steps held.
+    pub fn len(&self) -> usize {
+        self.line.len()
+    }
+
+    /// No step.
+    pub fn is_empty(&self) -> bool {
+        self.line.is_empty()
+    }
+}
+
 impl Run {
     /// Step `i`'s values before its band volumes, as [`HEAD`] lists them.
     fn step_head(&self, i: usize, mrr_mm3_s: &[f64]) -> [f64; 7] {
@@ -170,6 +257,58 @@ impl Run {
             l.tip_deflection_um,
             l.stress_mpa,
         ]
+    }
+
+    /// Bands the steps' binary form lists: up to the highest any step cut.
+    fn npy_band_count(&self) -> usize {
+        // A finishing cut reaches one or two of a tool's 20 bands: the
+        // bands above the highest any step cut would be zeros.
+        (0..self.steps.len())
+            .map(|i| self.record.band_volumes_mm3(i).len())
+            .max()
+            .unwrap_or(0)
+            .min(self.record.n_bands)
+    }
+
+    /// Append steps `at`'s values to `rows` (whose `band_count` is
+    /// [`Run::npy_band_count`]); `mrr_mm3_s`: [`Run::period_mrr_by_step_mm3_s`].
+    fn push_step_rows(
+        &self,
+        at: std::ops::Range<usize>,
+        mrr_mm3_s: &[f64],
+        rows: &mut StepColumns,
+    ) {
+        let n_bands = rows.band_count;
+        for i in at {
+            for (col, v) in rows.head.iter_mut().zip(self.step_head(i, mrr_mm3_s)) {
+                col.push(v);
+            }
+            let stored = self.record.band_volumes_mm3(i);
+            rows.bands
+                .extend_from_slice(&stored[..stored.len().min(n_bands)]);
+            rows.bands.extend(std::iter::repeat_n(
+                0.0,
+                n_bands.saturating_sub(stored.len()),
+            ));
+            for (col, v) in rows.loads.iter_mut().zip(self.step_loads(i)) {
+                col.push(v);
+            }
+            rows.breaks.push(u8::from(self.breaks(i)));
+            let s = &self.steps[i];
+            rows.line.push(s.line);
+            rows.rapid.push(u8::from(s.step.rapid));
+            rows.tool.push(s.tool);
+        }
+    }
+
+    /// The per-step results as whole columns: the values the steps' `.npy`
+    /// arrays hold ([`Run::write_steps_npy`]), bit for bit.
+    pub fn step_columns(&self) -> StepColumns {
+        let n = self.steps.len();
+        let mrr = self.period_mrr_by_step_mm3_s();
+        let mut rows = StepColumns::with_capacity(n, self.npy_band_count());
+        self.push_step_rows(0..n, &mrr, &mut rows);
+        rows
     }
 
     /// Write the per-step results into the folder `dir` as `format` says
@@ -224,13 +363,7 @@ impl Run {
     /// rapid and breaks flags as `|u1`; the step number is the row.
     pub fn write_steps_npy(&self, dir: &Path, stem: &str) -> Result<()> {
         let n = self.steps.len();
-        // A finishing cut reaches one or two of a tool's 20 bands: the
-        // bands above the highest any step cut would be zeros.
-        let n_bands = (0..n)
-            .map(|i| self.record.band_volumes_mm3(i).len())
-            .max()
-            .unwrap_or(0)
-            .min(self.record.n_bands);
+        let n_bands = self.npy_band_count();
         let h = self.record.band_height_mm;
         let band_meaning = format!(
             "volume removed in each tool height band: element [i, k] is band k ({h}·k to {h}·(k + 1) mm above the tip) of step i, steps.csv's band_k_mm3; the bands of the flutes above the {n_bands} listed (steps.csv lists {}) removed nothing in any step",
@@ -268,49 +401,18 @@ impl Run {
             .map_err(export_err)?;
         let mrr = self.period_mrr_by_step_mm3_s();
         let block = NPY_BLOCK_STEPS.min(n.max(1));
-        let mut head: [Vec<f64>; 7] = std::array::from_fn(|_| Vec::with_capacity(block));
-        let mut loads: [Vec<f64>; 14] = std::array::from_fn(|_| Vec::with_capacity(block));
-        let mut bands: Vec<f64> = Vec::with_capacity(block * n_bands);
-        let mut breaks: Vec<u8> = Vec::with_capacity(block);
-        let mut line: Vec<u32> = Vec::with_capacity(block);
-        let mut rapid: Vec<u8> = Vec::with_capacity(block);
-        let mut tool: Vec<u32> = Vec::with_capacity(block);
+        let mut rows = StepColumns::with_capacity(block, n_bands);
         for start in (0..n).step_by(block) {
-            let end = (start + block).min(n);
-            head.iter_mut().for_each(Vec::clear);
-            loads.iter_mut().for_each(Vec::clear);
-            bands.clear();
-            breaks.clear();
-            line.clear();
-            rapid.clear();
-            tool.clear();
-            for i in start..end {
-                for (col, v) in head.iter_mut().zip(self.step_head(i, &mrr)) {
-                    col.push(v);
-                }
-                let stored = self.record.band_volumes_mm3(i);
-                bands.extend_from_slice(&stored[..stored.len().min(n_bands)]);
-                bands.extend(std::iter::repeat_n(
-                    0.0,
-                    n_bands.saturating_sub(stored.len()),
-                ));
-                for (col, v) in loads.iter_mut().zip(self.step_loads(i)) {
-                    col.push(v);
-                }
-                breaks.push(u8::from(self.breaks(i)));
-                let s = &self.steps[i];
-                line.push(s.line);
-                rapid.push(u8::from(s.step.rapid));
-                tool.push(s.tool);
-            }
-            let mut values: Vec<NpyValues> = head.iter().map(|c| NpyValues::F64(c)).collect();
-            values.push(NpyValues::F64(&bands));
-            values.extend(loads.iter().map(|c| NpyValues::F64(c)));
+            rows.clear();
+            self.push_step_rows(start..(start + block).min(n), &mrr, &mut rows);
+            let mut values: Vec<NpyValues> = rows.head.iter().map(|c| NpyValues::F64(c)).collect();
+            values.push(NpyValues::F64(&rows.bands));
+            values.extend(rows.loads.iter().map(|c| NpyValues::F64(c)));
             values.extend([
-                NpyValues::U8(&breaks),
-                NpyValues::U32(&line),
-                NpyValues::U8(&rapid),
-                NpyValues::U32(&tool),
+                NpyValues::U8(&rows.breaks),
+                NpyValues::U32(&rows.line),
+                NpyValues::U8(&rows.rapid),
+                NpyValues::U32(&rows.tool),
             ]);
             writer.write_rows(&values).map_err(export_err)?;
         }

@@ -163,7 +163,39 @@ const DESIGN_MEANING: &str =
     "final surface minus the design model, + stock left, - gouge; NaN outside the design";
 const LINE_MEANING: &str = "program line of the step that last cut the column; -1 if never cut";
 
+/// A run's per-column results whole, as the column grid's `.npy` arrays hold
+/// them bit for bit: element `iy * nx + ix` is the column centred at
+/// (`x0_mm + ix·spacing_mm`, `y0_mm + iy·spacing_mm`).
+#[derive(Clone, Debug)]
+pub struct ColumnGrid {
+    /// The grid's geometry (columns.json's).
+    pub grid: GridInfo,
+    /// Top of the material after the run, mm; NaN where the column holds none.
+    pub top_mm: Vec<f32>,
+    /// The step that last cut the column; -1 if never cut.
+    pub last_step: Vec<i32>,
+    /// Predicted shape error from tool deflection, µm, + material left; NaN where not cut.
+    pub error_um: Vec<f32>,
+    /// With a design model: final surface minus the design, µm.
+    pub design_um: Option<Vec<f32>>,
+    /// With a design model: program line of the step that last cut the column; -1 if never cut.
+    pub line: Option<Vec<i32>>,
+}
+
 impl Run {
+    /// The per-column results whole ([`ColumnGrid`], without the design
+    /// comparison): the values [`Run::write_columns`] writes.
+    pub fn column_grid(&self) -> ColumnGrid {
+        ColumnGrid {
+            grid: GridInfo::of(self.stock.grid()),
+            top_mm: self.stock.top_heights(),
+            last_step: last_steps(self.stock.last_cut()),
+            error_um: self.error_map_um().into_owned(),
+            design_um: None,
+            line: None,
+        }
+    }
+
     /// Write the per-column results into the folder `dir`: final surface
     /// (`top_mm`, the stock's top heights), last cutting step, predicted
     /// error, and with a design model the distance to it and the program line
