@@ -109,6 +109,21 @@ fn innermost(e: &dexcut::Error) -> &dexcut::Error {
     }
 }
 
+/// `FILE:LINE:COL: …` at the start of a message (the job's TOML errors).
+fn located(message: &str) -> (Option<String>, Option<u64>, Option<u64>) {
+    let head = message.split(": ").next().unwrap_or("");
+    let mut parts = head.rsplitn(3, ':');
+    let (col, line, file) = (parts.next(), parts.next(), parts.next());
+    match (
+        file,
+        line.and_then(|l| l.parse().ok()),
+        col.and_then(|c| c.parse().ok()),
+    ) {
+        (Some(f), Some(l), Some(c)) if !f.is_empty() => (Some(f.to_string()), Some(l), Some(c)),
+        _ => (None, None, None),
+    }
+}
+
 /// The Python exception of `e`'s kind, its message the CLI's, with the
 /// attributes `kind`, `file`, `line`, `column` (None where the kind has no
 /// place) and `diagnostics` (a program's errors: (file, line, column, message)).
@@ -117,7 +132,10 @@ pub fn to_py(e: dexcut::Error) -> PyErr {
     let mut place: (Option<String>, Option<u64>, Option<u64>) = (None, None, None);
     let mut diagnostics: Vec<(String, u32, u32, String)> = Vec::new();
     let (kind, err) = match innermost(&e) {
-        dexcut::Error::Job { .. } => ("job", JobError::new_err(message)),
+        dexcut::Error::Job { message: m, .. } => {
+            place = located(m);
+            ("job", JobError::new_err(message))
+        }
         dexcut::Error::Program { diagnostics: d } => {
             diagnostics = d
                 .iter()
