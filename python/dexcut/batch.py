@@ -86,22 +86,23 @@ def expand_inputs(inputs: Sequence[str]) -> List[Path]:
 
 
 def task_names(paths: Sequence[Path]) -> List[str]:
-    """A folder name per input: its path from the inputs' common folder,
-    without suffix, ``/`` as ``__`` (``job.toml`` files in sibling folders
-    are named by their folders)."""
-    absolute = [Path(os.path.abspath(p)) for p in paths]
-    if len(absolute) == 1:
-        p = absolute[0]
-        return [p.parent.name if p.stem == "job" and p.parent.name else p.stem]
-    common = Path(os.path.commonpath([str(p.parent) for p in absolute]))
-    names = []
-    for p in absolute:
-        rel = p.relative_to(common)
-        parts = list(rel.parent.parts)
-        if p.stem != "job" or not parts:
-            parts.append(p.stem)
-        names.append("__".join(parts) or p.stem)
-    return names
+    """A folder name per input: the file's name without suffix (a
+    ``job.toml`` by its folder's name), with as many of its folders before it
+    (joined by ``__``) as make the names distinct."""
+    parts = []
+    for p in paths:
+        a = Path(os.path.abspath(p))
+        own = [x for x in a.parent.parts if x != a.anchor]
+        if a.stem == "job" and own:
+            parts.append((own[:-1], own[-1]))
+        else:
+            parts.append((own, a.stem))
+    depth = 0
+    while True:
+        names = ["__".join(list(folders[len(folders) - depth :] if depth else []) + [stem]) for folders, stem in parts]
+        if len(set(names)) == len(names) or depth > max(len(f) for f, _ in parts):
+            return names
+        depth += 1
 
 
 def parse_set(items: Sequence[str]) -> List[Tuple[str, List[float]]]:
@@ -311,9 +312,8 @@ def run_task(task: Dict[str, Any]) -> Dict[str, Any]:
 
 def write_index(out: Path, rows: List[Dict[str, Any]], sweep_keys: Sequence[str] = ()) -> List[Path]:
     """``index.csv`` (and ``index.parquet`` where pyarrow is installed),
-    rows in task-name order; returns the files written."""
+    one row per task in the order given; returns the files written."""
     columns = COLUMNS[:2] + list(sweep_keys) + COLUMNS[2:]
-    rows = sorted(rows, key=lambda r: r["job"])
     out.mkdir(parents=True, exist_ok=True)
     written = []
     tmp = out / f".index.csv.{os.getpid()}.tmp"
@@ -378,10 +378,12 @@ def run_batch(
     log(f"{len(tasks)} task(s): {len(tasks) - len(todo)} complete, {len(todo)} to run")
     if todo:
         rows.extend(_run_on_dask(todo, address, workers, client, log))
+    order = {t["name"]: i for i, t in enumerate(tasks)}
+    rows.sort(key=lambda r: order[r["job"]])
     write_index(out, rows, [k for k, _ in sweep])
     failed = sum(1 for r in rows if r["status"] != "ok")
     log(f"{len(rows) - failed} ok, {failed} failed: {out / 'index.csv'}")
-    return sorted(rows, key=lambda r: r["job"])
+    return rows
 
 
 def _run_on_dask(todo, address, workers, client, log):  # type: ignore[no-untyped-def]

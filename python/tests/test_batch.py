@@ -1,0 +1,155 @@
+"""Batch runs on a local Dask cluster: the same summaries as serial CLI
+runs, a killed worker loses no finished result and a re-run completes the
+rest, and the sweep form's table."""
+import json
+import os
+import signal
+import threading
+import time
+
+import pytest
+
+from conftest import REAL, ROOT, run_cli
+from test_api import norm
+
+distributed = pytest.importorskip("dask.distributed")
+from dexcut import batch  # noqa: E402
+
+# 20 real programs of other CAM systems that fit a job from their comments
+# and simulate in well under a second each.
+PROGRAMS = [
+    REAL / n
+    for n in [
+        "estlcam11_ps2cnc_004.nc",
+        "freecad_hole_7mm_adaptive.nc",
+        "fusion_tap_heatsink_drill.tap",
+        "fusion_led_floor_block.nc",
+        "pcb2gcode_milldrill.ngc",
+        "openbuilds_cam_ps2cnc_004.nc",
+        "fusion_linuxcnc_kroneum_usb_holes.nc",
+        "pcb2gcode_outline.ngc",
+        "fusion_led_floor_1022_block2x2_17bit.nc",
+        "estlcam_spool_fixture.nc",
+        "freecad_corner_20_20_adaptive.nc",
+        "flatcam_kroneum_isolation_trimmed.nc",
+        "fusion_led_floor_light_holes.nc",
+        "fusion_tap_heatsink_mill_trimmed.tap",
+        "fusion_led_floor_1072_face_otherside.nc",
+        "pcb2gcode_drill.ngc",
+        "freecad_plate8_profile.nc",
+        "flatcam_kroneum_cutout.nc",
+        "sketchucam_arc_rword_test.gcode",
+        "drl2gcode_kicad_T02.gcode",
+    ]
+]
+
+
+@pytest.fixture(scope="module")
+def client():
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+    c = distributed.Client(cluster)
+    yield c
+    c.close()
+    cluster.close()
+
+
+def summaries(folder):
+    return norm(json.loads((folder / "summary.json").read_text()))
+
+
+def test_twenty_jobs_on_two_workers_equal_twenty_serial_cli_runs(cli, client, tmp_path):
+    serial = tmp_path / "serial"
+    started = time.perf_counter()
+    for p in PROGRAMS:
+        run_cli(cli, "simulate", p, "--out", serial / p.stem)
+    serial_s = time.perf_counter() - started
+    out = tmp_path / "batch"
+    started = time.perf_counter()
+    rows = batch.run_batch("simulate", [str(p) for p in PROGRAMS], out, client=client, log=lambda *_: None)
+    batch_s = time.perf_counter() - started
+    print(f"20 serial CLI runs {serial_s:.2f} s, batch on 2 workers {batch_s:.2f} s")
+    assert len(rows) == 20 and all(r["status"] == "ok" for r in rows), [r["error"] for r in rows]
+    for p in PROGRAMS:
+        a, b = serial / p.stem, out / p.stem
+        assert summaries(b) == summaries(a), p.name
+        for f in sorted(a.iterdir()):
+            if f.is_file() and f.name not in ("summary.json", "manifest.json"):
+                assert (b / f.name).read_bytes() == f.read_bytes(), (p.name, f.name)
+    index = (out / "index.csv").read_text().splitlines()
+    assert len(index) == 21 and index[0].startswith("job,input,command,status,cycle_before_s")
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(out / "index.parquet").to_pylist()
+    assert [r["job"] for r in table] == [r["job"] for r in rows]
+    assert [r["cycle_before_s"] for r in table] == [
+        json.loads((serial / p.stem / "summary.json").read_text())["cycle_time_s"] for p in PROGRAMS
+    ]
+
+
+def test_a_killed_worker_loses_no_finished_result_and_a_rerun_completes_the_rest(client, tmp_path):
+    out = tmp_path / "batch"
+    tasks = batch.make_tasks("simulate", [str(p) for p in PROGRAMS], out)
+    done = {}
+    thread = threading.Thread(
+        target=lambda: done.setdefault(
+            "rows", batch.run_batch("simulate", [str(p) for p in PROGRAMS], out, client=client, log=lambda *_: None)
+        )
+    )
+    thread.start()
+    records = out / batch.RECORDS
+    deadline = time.time() + 120
+    while time.time() < deadline and len(list(records.glob("*.json")) if records.exists() else []) < 3:
+        time.sleep(0.005)
+    finished = {t["name"] for t in tasks if batch.is_complete(t)}
+    assert 3 <= len(finished) < 20, len(finished)
+    pids = client.run(os.getpid)
+    victim = sorted(pids.values())[0]
+    os.kill(victim, signal.SIGKILL)
+    thread.join(timeout=300)
+    assert "rows" in done
+    # Nothing finished before the kill was lost.
+    for t in tasks:
+        if t["name"] in finished:
+            assert batch.is_complete(t), t["name"]
+    first = {r["job"]: r["status"] for r in done["rows"]}
+    print(f"killed worker {victim} after {len(finished)} results; first run: {sum(s == 'ok' for s in first.values())} ok of {len(first)}")
+    # The re-run skips what is complete and runs the rest.
+    client.wait_for_workers(2, timeout=60)
+    rows = batch.run_batch("simulate", [str(p) for p in PROGRAMS], out, client=client, log=lambda *_: None)
+    assert all(r["status"] == "ok" for r in rows), [r["error"] for r in rows]
+    skipped = {r["job"] for r in rows if r.get("skipped")}
+    assert finished <= skipped
+    assert skipped == {j for j, s in first.items() if s == "ok"}
+    assert all(batch.is_complete(t) for t in tasks)
+    # An input changed: its task is no longer complete.
+    changed = tmp_path / "changed.nc"
+    changed.write_bytes(PROGRAMS[0].read_bytes())
+    t = batch.make_tasks("simulate", [str(changed)], out)[0]
+    assert batch.is_complete(t) is None
+
+
+def test_a_sweep_of_three_by_three_values_returns_its_table(client, tmp_path):
+    job = ROOT / "examples/boss_contour/job.toml"
+    sweep = [("limits.mrr_max", [5.0, 10.0, 20.0]), ("tool.stickout", [25.0, 30.0, 35.0])]
+    rows = batch.run_batch("optimize", [str(job)], tmp_path / "sweep", sweep=sweep, client=client, log=lambda *_: None)
+    assert len(rows) == 9 and all(r["status"] == "ok" for r in rows), [r["error"] for r in rows]
+    assert [(r["limits.mrr_max"], r["tool.stickout"]) for r in rows] == [
+        (m, s) for m in (5.0, 10.0, 20.0) for s in (25.0, 30.0, 35.0)
+    ]
+    by = {(r["limits.mrr_max"], r["tool.stickout"]): r for r in rows}
+    for s in (25.0, 30.0, 35.0):
+        # A higher removal-rate limit never makes the program slower; each run keeps its limit.
+        assert by[(5.0, s)]["cycle_after_s"] >= by[(10.0, s)]["cycle_after_s"] >= by[(20.0, s)]["cycle_after_s"]
+        for m in (5.0, 10.0, 20.0):
+            assert by[(m, s)]["peak_mrr_after_mm3_s"] <= 1.02 * m
+    for m in (5.0, 10.0, 20.0):
+        # A longer stickout deflects more under the same limit.
+        assert by[(m, 25.0)]["peak_deflection_after_um"] < by[(m, 35.0)]["peak_deflection_after_um"]
+    # Each task's job is the variant, written with its results.
+    text = (tmp_path / "sweep/boss_contour__mrr_max=10,stickout=30/input/job.toml").read_text()
+    assert "mrr_max = 10" in text and "stickout = 30" in text
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(tmp_path / "sweep/index.parquet").to_pydict()
+    assert table["limits.mrr_max"] == [r["limits.mrr_max"] for r in rows]
+    assert table["cycle_after_s"] == [r["cycle_after_s"] for r in rows]
