@@ -35,6 +35,7 @@ import json
 import os
 import sys
 import time
+import uuid
 from pathlib import Path
 from typing import Any, Dict, Iterable, List, Optional, Sequence, Tuple
 
@@ -264,10 +265,18 @@ def _row(task: Dict[str, Any], summary: Optional[Dict[str, Any]]) -> Dict[str, A
 
 def run_task(task: Dict[str, Any]) -> Dict[str, Any]:
     """Run one task where it is scheduled (a Dask worker, or this process):
-    its results folder, then its record. Never raises: a failure is the
-    row's status ``error`` with the exception's kind and message."""
+    its results folder, then its record; a task already complete returns
+    its record's row (``skipped``). Never raises: a failure is the row's
+    status ``error`` with the exception's kind and message."""
     from . import _dexcut
 
+    # Complete already: Dask runs a task again when the worker holding its
+    # result died before the result was gathered; the results on disk stand.
+    record = is_complete(task)
+    if record is not None:
+        row = dict(record["row"])
+        row["skipped"] = True
+        return row
     started = time.perf_counter()
     row = _row(task, None)
     try:
@@ -399,9 +408,11 @@ def _run_on_dask(todo, address, workers, client, log):  # type: ignore[no-untype
             )
             client = own = Client(cluster)
     try:
-        futures = {
-            client.submit(run_task, t, key=f"dexcut-{t['name']}-{t['key'][:16]}", pure=False): t for t in todo
-        }
+        # A key of this submission: a scheduler keeps an erred task's key
+        # while a client holds it, and a re-run on the same client given the
+        # same key would get the old failure back instead of a run.
+        run = uuid.uuid4().hex[:12]
+        futures = {client.submit(run_task, t, key=f"dexcut-{t['name']}-{run}", pure=False): t for t in todo}
         rows = []
         for future in as_completed(futures):
             t = futures[future]
