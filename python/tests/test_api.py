@@ -200,3 +200,14 @@ def test_report_and_evaluate(tmp_path):
     ev = dexcut.evaluate(setup)
     assert ev.actual_mm.ndim == 2 and ev.actual_mm.shape[1] == 3
     assert ev.evaluation["trajectory_error_mm"] >= 0
+
+
+def test_the_stubs_name_what_the_extension_has():
+    import ast
+
+    import dexcut._dexcut as ext
+
+    stub = ast.parse((ROOT / "python/dexcut/_dexcut.pyi").read_text())
+    stubbed = {n.name for n in stub.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
+    public = {n for n in dir(ext) if not n.startswith("_")}
+    assert stubbed == public, (stubbed ^ public)
