@@ -204,3 +204,30 @@ def test_a_sweep_of_three_by_three_values_returns_its_table(client, tmp_path):
     table = pq.read_table(tmp_path / "sweep/index.parquet").to_pydict()
     assert table["limits.mrr_max"] == [r["limits.mrr_max"] for r in rows]
     assert table["cycle_after_s"] == [r["cycle_after_s"] for r in rows]
+
+
+def test_the_command_reports_a_failed_job_and_runs_the_others(cli, tmp_path):
+    import subprocess
+    import sys
+
+    from test_api import bad_program_job
+
+    (tmp_path / "bad").mkdir()
+    bad = bad_program_job(tmp_path / "bad")
+    inputs = [str(PROGRAMS[0]), str(bad), str(PROGRAMS[2])]
+    out = tmp_path / "out"
+    p = subprocess.run(
+        [sys.executable, "-m", "dexcut", "batch", "simulate", *inputs, "--out", str(out), "--workers", "1"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert p.returncode == 1, p.stderr
+    rows = list(csv.DictReader((out / "index.csv").open()))
+    assert [r["status"] for r in rows] == ["ok", "error", "ok"], rows
+    # The failed job's row has its kind and the CLI's message.
+    cli_run = run_cli(cli, "simulate", bad, "--out", tmp_path / "cli", check=False)
+    assert rows[1]["error_kind"] == "program" and f"error: {rows[1]['error']}" in cli_run.stderr
+    for r, prog in ((rows[0], PROGRAMS[0]), (rows[2], PROGRAMS[2])):
+        run_cli(cli, "simulate", prog, "--out", tmp_path / "cli" / prog.stem)
+        assert summaries(out / r["job"]) == summaries(tmp_path / "cli" / prog.stem)
