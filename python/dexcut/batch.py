@@ -419,8 +419,13 @@ def _run_on_dask(todo, address, workers, client, log):  # type: ignore[no-untype
             try:
                 row = future.result()
             except Exception as e:  # a worker lost more often than Dask retries
-                row = _row(t, None)
-                row.update(status="error", error=f"{type(e).__name__}: {e}", error_kind="worker")
+                record = is_complete(t)
+                if record is not None:
+                    # It finished (results and record written) before its worker died.
+                    row = dict(record["row"])
+                else:
+                    row = _row(t, None)
+                    row.update(status="error", error=f"{type(e).__name__}: {e}", error_kind="worker")
             rows.append(row)
             log(f"  {row['status']:5} {row['job']}" + (f": {row['error']}" if row["error"] else ""))
         return rows

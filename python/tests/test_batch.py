@@ -136,9 +136,11 @@ def test_a_killed_worker_loses_no_finished_result_and_a_rerun_completes_the_rest
     first = {r["job"]: r for r in done["rows"]}
     lost = {j for j, r in first.items() if r["status"] != "ok"}
     print(f"killed worker {victim} running {running} after {len(finished)} results; first run: {20 - len(lost)} ok, lost {sorted(lost)}")
-    # The task the killed worker ran is reported as lost, not as a result.
+    # The task the killed worker ran is reported as lost, not as a result
+    # (one it had finished, results and record written, before it died is ok).
     assert lost and all(first[j]["error_kind"] == "worker" and "KilledWorker" in first[j]["error"] for j in lost), lost
     assert not lost & set(finished)
+    assert lost == {t["name"] for t in tasks if batch.is_complete(t) is None}
     assert [r["status"] for r in csv.DictReader((out / "index.csv").open())].count("error") == len(lost)
     # The re-run skips every finished task (nothing finished before the kill
     # was lost or redone: the same run ids) and runs exactly the lost ones.
