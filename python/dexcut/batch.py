@@ -139,11 +139,22 @@ def _job_inputs(path: Path) -> List[Path]:
         t = doc.get(section)
         if isinstance(t, dict) and isinstance(t.get("path"), str):
             files.append(path.parent / t["path"])
+    # A job of [[operations]]: each its program (a path, or a table with one).
+    for op in doc.get("operations", []) if isinstance(doc.get("operations"), list) else []:
+        prog = op.get("program") if isinstance(op, dict) else None
+        if isinstance(prog, dict):
+            prog = prog.get("path")
+        if isinstance(prog, str):
+            files.append(path.parent / prog)
     return files
 
 
 def _hash_files(h: "hashlib._Hash", files: Iterable[Path]) -> None:
+    expanded: List[Path] = []
     for f in files:
+        # A folder (a saved stock, `[stock] kind = "saved"`): every file in it.
+        expanded.extend(sorted(x for x in Path(f).rglob("*") if x.is_file()) if Path(f).is_dir() else [Path(f)])
+    for f in expanded:
         h.update(str(os.path.abspath(f)).encode())
         try:
             with open(f, "rb") as fh:
@@ -246,6 +257,8 @@ def _row(task: Dict[str, Any], summary: Optional[Dict[str, Any]]) -> Dict[str, A
         row[key] = value
     if summary is None:
         return row
+    if summary.get("command") == "operations":
+        return _operations_row(row, summary)
     if summary.get("command") == "optimize":
         before, after = summary["before"], summary["after"]
     else:
@@ -260,6 +273,26 @@ def _row(task: Dict[str, Any], summary: Optional[Dict[str, Any]]) -> Dict[str, A
         row["peak_force_after_n"] = after["peak_force_n"]
         row["peak_deflection_after_um"] = after["peak_deflection_um"]
     row["warnings"] = len((after or before)["warnings"])
+    return row
+
+
+def _operations_row(row: Dict[str, Any], summary: Dict[str, Any]) -> Dict[str, Any]:
+    """A job of ``[[operations]]``: the cycle times summed (optimize: as
+    given and written), the peaks the highest of any operation (optimize:
+    of the programs written, so in the ``after`` columns), the warnings
+    summed."""
+    ops = summary["operations"]
+    side = "after" if summary.get("ran") == "optimize" else "before"
+    if side == "after":
+        row["cycle_before_s"] = summary.get("cycle_time_before_s")
+        row["cycle_after_s"] = summary["cycle_time_s"]
+    else:
+        row["cycle_before_s"] = summary["cycle_time_s"]
+    for column, key in (("peak_mrr", "peak_mrr_mm3_s"), ("peak_force", "peak_force_n"), ("peak_deflection", "peak_deflection_um")):
+        values = [op[key] for op in ops if op.get(key) is not None]
+        unit = key[len(column) :]
+        row[f"{column}_{side}{unit}"] = max(values) if values else None
+    row["warnings"] = sum(int(op.get("warnings") or 0) for op in ops)
     return row
 
 

@@ -233,3 +233,31 @@ def test_the_command_reports_a_failed_job_and_runs_the_others(cli, tmp_path):
     for r, prog in ((rows[0], PROGRAMS[0]), (rows[2], PROGRAMS[2])):
         run_cli(cli, "simulate", prog, "--out", tmp_path / "cli" / prog.stem)
         assert summaries(out / r["job"]) == summaries(tmp_path / "cli" / prog.stem)
+
+
+def test_a_job_of_operations_is_one_task_with_the_cli_results(cli, client, tmp_path):
+    import shutil
+
+    src = ROOT / "examples/three_operations"
+    job = tmp_path / "three_operations/job.toml"
+    shutil.copytree(src, job.parent)
+    run_cli(cli, "simulate", job, "--out", tmp_path / "cli")
+    out = tmp_path / "batch"
+    rows = batch.run_batch("simulate", [str(job)], out, client=client, log=lambda *_: None)
+    assert [r["status"] for r in rows] == ["ok"], rows
+    doc = json.loads((tmp_path / "cli/summary.json").read_text())
+    assert doc["command"] == "operations" and len(doc["operations"]) == 3
+    got = out / "three_operations"
+    assert summaries(got) == summaries(tmp_path / "cli")
+    for op in doc["operations"]:
+        assert summaries(got / op["folder"]) == summaries(tmp_path / "cli" / op["folder"]), op["folder"]
+    row = rows[0]
+    assert row["cycle_before_s"] == doc["cycle_time_s"]
+    assert row["peak_force_before_n"] == max(op["peak_force_n"] for op in doc["operations"])
+    assert row["warnings"] == sum(op["warnings"] for op in doc["operations"])
+    # Complete, and no longer so when one operation's program changes.
+    task = batch.make_tasks("simulate", [str(job)], out)[0]
+    assert batch.is_complete(task) is not None
+    finish = job.parent / "finish.nc"
+    finish.write_text(finish.read_text() + "\n")
+    assert batch.is_complete(batch.make_tasks("simulate", [str(job)], out)[0]) is None
