@@ -124,16 +124,37 @@ def _fmt(v: float) -> str:
     return str(int(v)) if float(v).is_integer() else repr(float(v))
 
 
-def _job_inputs(path: Path) -> List[Path]:
-    """The files a job file reads (program, stock mesh, design model)."""
+def _job_doc(path: Path) -> Dict[str, Any]:
+    """The job file's TOML, or {} where it does not read (the run tells why)."""
     try:
         import tomllib  # type: ignore[import-not-found]
     except ImportError:  # Python < 3.11
         import tomli as tomllib  # type: ignore[import-not-found,no-redef]
     try:
-        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+        return tomllib.loads(path.read_text(encoding="utf-8"))
     except Exception:  # the job's own error comes from the run
-        return []
+        return {}
+
+
+def _refuse_operation_keys(path: Path, sweep: Sequence[Tuple[str, List[float]]]) -> None:
+    """A sweep's key that a job of ``[[operations]]`` gives per operation
+    (every operation has its tool; ``[operations.limits]`` and the like)
+    would change the job's table, which those operations do not read."""
+    ops = _job_doc(path).get("operations")
+    if not isinstance(ops, list) or not ops:
+        return
+    for key, _ in sweep:
+        section = key.split(".")[0]
+        if section in ("tool", "tools") or any(isinstance(op, dict) and section in op for op in ops):
+            raise SystemExit(
+                f"--set {key}: {path} is a job of [[operations]] whose operations give their own [{section}]; "
+                "sweep a job of one operation instead"
+            )
+
+
+def _job_inputs(path: Path) -> List[Path]:
+    """The files a job file reads (program, stock mesh, design model, each operation's program)."""
+    doc = _job_doc(path)
     files = []
     for section in ("program", "stock", "design"):
         t = doc.get(section)
@@ -185,6 +206,8 @@ def make_tasks(
     for path, name in zip(paths, names):
         is_job = _dexcut.is_job_file(path)
         files = [path] + (_job_inputs(path) if is_job else [])
+        if is_job and sweep:
+            _refuse_operation_keys(path, sweep)
         for combo in combos:
             task_name = name
             if combo:

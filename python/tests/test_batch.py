@@ -261,3 +261,12 @@ def test_a_job_of_operations_is_one_task_with_the_cli_results(cli, client, tmp_p
     finish = job.parent / "finish.nc"
     finish.write_text(finish.read_text() + "\n")
     assert batch.is_complete(batch.make_tasks("simulate", [str(job)], out)[0]) is None
+
+
+def test_a_sweep_refuses_keys_the_operations_give_their_own(tmp_path):
+    job = ROOT / "examples/three_operations/job.toml"
+    for key in ("tool.stickout", "limits.mrr_max"):
+        with pytest.raises(SystemExit, match=r"\[\[operations\]\] whose operations give their own"):
+            batch.make_tasks("optimize", [str(job)], tmp_path, sweep=[(key, [1.0, 2.0])])
+    # A key no operation overrides is swept as for a job of one program.
+    assert len(batch.make_tasks("simulate", [str(job)], tmp_path, sweep=[("cutting.band_height", [0.5, 1.0])])) == 2
