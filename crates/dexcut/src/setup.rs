@@ -138,8 +138,26 @@ impl Setup {
         budget_bytes: f64,
         handed: Option<Stock>,
     ) -> Result<Setup> {
-        let mut program = program::load(&job)?;
+        let mut program = match &job.library {
+            // A tool the program calls that the library skipped: why.
+            Some(library) => program::load(&job)
+                .map_err(|e| crate::input::tool_library::explain_program_error(library, e))?,
+            None => program::load(&job)?,
+        };
         program.path = as_the_machine_reads(&job, std::mem::take(&mut program.path))?;
+        if let Some(library) = &job.library {
+            // A point list's tool column is not checked by the reader: a
+            // tool the library skipped, why.
+            let own: Vec<u32> = job.tools[..job.tools.len() - job.library_tools]
+                .iter()
+                .filter_map(|t| t.number)
+                .collect();
+            crate::input::tool_library::check_used(
+                library,
+                &own,
+                program.path.segments.iter().map(|s| (s.tool, s.line)),
+            )?;
+        }
         let tools = ToolSet::from_job(&job, &program)?;
         // Every move's tool is in the table (an error names the line).
         tools.indices::<u16>(program.path.segments.iter().map(|s| (s.tool, s.line)))?;
@@ -309,6 +327,9 @@ impl Setup {
             _ => {}
         }
         files.extend(self.design.as_ref().map(|(p, _)| p.clone()));
+        if let Some(library) = &self.job.library {
+            files.extend(library.files.iter().cloned());
+        }
         files
     }
 
@@ -332,10 +353,34 @@ impl Setup {
                 message: d.message.clone(),
             })
             .collect();
+        out.extend(self.library_notes());
         out.extend(self.ignored_tool_change());
         out.extend(spindle_check(&self.program.path, &self.tools));
         out.extend(self.grid_warning());
         out
+    }
+
+    /// What `[tool_library]` gave: each tool the program uses, with what was
+    /// inferred and defaulted, and the entries skipped.
+    fn library_notes(&self) -> Vec<crate::model::warnings::Warning> {
+        let Some(library) = &self.job.library else {
+            return Vec::new();
+        };
+        let mut used: Vec<u32> = self.program.path.segments.iter().map(|s| s.tool).collect();
+        used.sort_unstable();
+        used.dedup();
+        crate::input::tool_library::notes(library, &used)
+            .into_iter()
+            .map(|message| crate::model::warnings::Warning {
+                kind: crate::model::warnings::WarningKind::ToolLibrary,
+                line: None,
+                value: 0.0,
+                unit: String::new(),
+                steps: 0,
+                lines: Vec::new(),
+                message,
+            })
+            .collect()
     }
 
     /// With a single `[tool]`, every move is cut by it: a program that loads

@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::error::{fail, Context as _, Error, Result, ResultExt as _};
+use crate::input::tool_library::{Library, ToolLibrarySpec};
 use serde::{Deserialize, Serialize};
 
 pub use super::operations::{Operation, OperationSpec};
@@ -19,6 +20,10 @@ pub struct Job {
     /// A tool table: entries keyed by `number` (the T word).
     #[serde(default)]
     pub tools: Vec<ToolSpec>,
+    /// A shop's tool library (LinuxCNC, Fusion 360, FreeCAD): its tools are
+    /// appended to `tools` when the job is read, after the job's own
+    /// `[[tools]]`, which win over library tools of the same number.
+    pub tool_library: Option<ToolLibrarySpec>,
     /// The program (a job of `[[operations]]` has none: each operation has its own).
     #[serde(default)]
     pub program: Option<ProgramSpec>,
@@ -50,6 +55,13 @@ pub struct Job {
     /// Name shown in messages and reports.
     #[serde(skip)]
     pub name: String,
+    /// What `[tool_library]` gave, its notes and skipped entries.
+    #[serde(skip)]
+    pub library: Option<Library>,
+    /// How many entries at the end of `tools` are the library's (checked
+    /// where they were read, with the library's file and line).
+    #[serde(skip)]
+    pub library_tools: usize,
 }
 
 /// `[stock]`: the blank, one shape per `kind`. Each shape takes its own keys,
@@ -717,6 +729,15 @@ impl Job {
             }
             *job.stock.grid_mut() = saved;
         }
+        if let Some(spec) = job.tool_library.clone() {
+            let at = keys.of_message("tool_library.path");
+            let (tools, library) =
+                super::tool_library::tools_of_library(&spec, base_dir, &job.tools)
+                    .map_err(|e| e.context(format!("{at}: tool_library")))?;
+            job.library_tools = tools.len() - job.tools.len();
+            job.tools = tools;
+            job.library = Some(library);
+        }
         // A key's error at the key's own line and column.
         if let Err(e) = job.validate() {
             let at = keys.of_message(&e.to_string());
@@ -829,6 +850,14 @@ impl Job {
 
     /// The `[tool]` or the `[[tools]]` table: one of them, numbered once each.
     fn validate_tools(&self) -> Result<()> {
+        if self.tool.is_some() && self.tool_library.is_some() {
+            fail!(
+                job,
+                "tool_library: a single [tool] cuts every T, so it cannot be combined with a tool library; give [[tools]] entries (with number = …) to add to the library's tools or replace them"
+            );
+        }
+        // The library's entries were checked where they were read.
+        let own = &self.tools[..self.tools.len() - self.library_tools];
         match (&self.tool, self.tools.is_empty()) {
             (None, true) => {
                 fail!(
@@ -848,7 +877,7 @@ impl Job {
             }
             (None, false) => {
                 let mut seen = std::collections::BTreeSet::new();
-                for (i, t) in self.tools.iter().enumerate() {
+                for (i, t) in own.iter().enumerate() {
                     let key = format!("tools[{i}]");
                     let Some(n) = t.number else {
                         fail!(job, "{key}.number is missing: each [[tools]] entry needs the tool number (T word)");
@@ -1115,7 +1144,7 @@ impl ToolSpec {
     /// Every key against the range a shop's tools have (docs/guide/job.md
     /// lists them beside the keys): a tool key outside it is a typing slip
     /// (`youngs_modulus_mpa = 1e-3` bent a Ø6 ball by 3.5·10¹⁰ µm).
-    fn validate(&self, key: &str) -> Result<()> {
+    pub(crate) fn validate(&self, key: &str) -> Result<()> {
         let t = self;
         let k = |name: &str| format!("{key}.{name}");
         range(

@@ -9,5 +9,6 @@ pub mod operations;
 pub mod program;
 pub mod stock;
 pub mod toml_keys;
+pub mod tool_library;
 pub mod tools;
 pub mod variant;

@@ -50,6 +50,9 @@ pub enum WarningKind {
     SpindleSpeed,
     /// A tool's chip-load cap far below the feed the program cuts with.
     ChipLoad,
+    /// What a `[tool_library]` gave: a tool the program uses with what was
+    /// inferred and defaulted, or the entries it skipped.
+    ToolLibrary,
 }
 
 /// One warning: kind, the first program line concerned, the worst value and a
@@ -84,7 +87,8 @@ impl Warning {
             WarningKind::ProgramForm
             | WarningKind::IgnoredTool
             | WarningKind::SpindleSpeed
-            | WarningKind::ChipLoad => true,
+            | WarningKind::ChipLoad
+            | WarningKind::ToolLibrary => true,
             WarningKind::CoarseGrid => self.line.is_none(),
             _ => false,
         }
