@@ -506,3 +506,66 @@ fn a_job_takes_the_library_under_its_own_tools() {
     assert!(e.starts_with("job.toml:9:1: tool_library: "), "{e}");
     assert!(e.contains("t.tbl:1:7"), "{e}");
 }
+
+/// The tools every real library gives, one line each, and the entries
+/// skipped, for the closing note: `cargo test --release -p dexcut --lib
+/// list_the_tools_of_every_real_library -- --ignored --nocapture`.
+#[test]
+#[ignore = "a listing, not a check"]
+fn list_the_tools_of_every_real_library() {
+    let inch = Some(TableUnits::Inch);
+    for (rel, units) in [
+        ("linuxcnc/linuxcnc_ncam_demo_mill_mm.tbl", None),
+        ("linuxcnc/gardnervickers_mymill.tbl", None),
+        ("linuxcnc/kurtjacobson_rf45.tbl", inch),
+        ("linuxcnc/bristolhackspace_cnc_mill.tbl", None),
+        ("linuxcnc/mrninefinger_ih12z.tbl", inch),
+        ("fusion/kmhbg_library_260122.json", None),
+        ("fusion/kmhbg_library_260122.tools", None),
+        ("fusion/tckaland_ipd_datron.json", None),
+        ("fusion/idc_woodcraft_sampledata.json", None),
+        ("freecad/freecad_cam/Library/Default.fctl", None),
+        ("freecad/better_tool_library/Library/Default.fctl", None),
+        (
+            "freecad/better_tool_library/Library/a8da3550-3879-11ee-aa8d-537499fddd29.fctl",
+            None,
+        ),
+    ] {
+        let lib = read(rel, units);
+        println!(
+            "\n### {rel}: {} tools, {} skipped",
+            lib.tools.len(),
+            lib.skipped.len()
+        );
+        let base = lib.file_name();
+        for t in &lib.tools {
+            let s = &t.spec;
+            let shape = match s.kind {
+                Bull => format!("bull r{}", mm(s.corner_radius.unwrap_or(0.0))),
+                k => format!("{k:?}").to_lowercase(),
+            };
+            println!(
+                "- T{} {:?}: {shape} Ø{} mm, flute {} mm, stickout {} mm, shank Ø{} mm, {} flutes, length {} mm{}",
+                t.number,
+                t.name,
+                mm(s.diameter),
+                mm(s.flute_length.unwrap_or(0.0)),
+                mm(s.stickout.unwrap_or(0.0)),
+                mm(s.shank_diameter.unwrap_or(0.0)),
+                s.flutes,
+                mm(s.length.unwrap_or(0.0)),
+                if t.defaulted.is_empty() {
+                    String::new()
+                } else {
+                    format!(" (defaulted: {})", t.defaulted.join(", "))
+                }
+            );
+        }
+        if !lib.skipped.is_empty() {
+            println!(
+                "- skipped: {}",
+                skipped_list(&lib.skipped).replace(&base, "")
+            );
+        }
+    }
+}
