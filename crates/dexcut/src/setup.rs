@@ -313,7 +313,8 @@ impl Setup {
         }
     }
 
-    /// Every file the run reads: the job, its program, stock mesh and design model.
+    /// Every file the run reads: the job, its program, stock mesh, design model
+    /// and tool library (with a FreeCAD library's bits).
     pub fn input_files(&self, job_path: &Path) -> Vec<PathBuf> {
         let mut files = vec![
             job_path.to_path_buf(),
