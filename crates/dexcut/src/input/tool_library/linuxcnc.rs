@@ -264,6 +264,13 @@ pub(crate) fn read(text: &str, file: &str, units: TableUnits, lib: &mut Library)
         draft.corner_radius = corner;
         draft.length = Some(get('Z').map_or(0.0, |(z, _)| z * scale));
         draft.notes.push(how);
+        match get('Z') {
+            Some((z, _)) => draft.notes.push(format!(
+                "gauge length {} mm (Z, for G43)",
+                super::mm(z * scale)
+            )),
+            None => draft.notes.push("gauge length 0 (no Z)".into()),
+        }
         if units == TableUnits::Inch {
             draft
                 .notes
