@@ -187,3 +187,57 @@ fn a_tool_the_library_skips_is_an_error_at_the_program_line() {
     );
     assert!(err.contains("30degree_Vbit.fctb"), "{err}");
 }
+
+/// A LinuxCNC tool table as a hackspace keeps it (bristolhackspace/cnc-mill,
+/// toolpaths/tool_libraries/linuxcnc, SOURCES.md): `T10 D+2 ;2mm endmill`
+/// with no Z, `T12 D+3 Z+25.961501 ;3mm drill`. T10 cuts a slot 2 mm deep at
+/// Y−8 (2 × 2 × 100 = 400 mm³) and retracts to Z80, above the longer T12's
+/// reach (the gauge point stays at a tool change); T12, its gauge length applied by G43 H12,
+/// 1 mm deep at Y0 (3 × 1 × 100 = 300 mm³), then without G43 its tip is
+/// 25.961501 mm under the programmed Z: programmed at Z 29 + 25.961501 it
+/// cuts 1 mm deep at Y8 (another 300 mm³).
+#[test]
+fn a_linuxcnc_tool_table_gives_the_tools_and_their_gauge_lengths() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let table = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../toolpaths/tool_libraries/linuxcnc/bristolhackspace_cnc_mill.tbl")
+        .canonicalize()
+        .unwrap();
+    let job = format!(
+        "{STOCK}[tool_library]\npath = {:?}\n",
+        table.display().to_string()
+    );
+    std::fs::write(d.join("job.toml"), job).unwrap();
+    std::fs::write(
+        d.join("p.nc"),
+        "%\nG21 G90 G17\nS10000 M3\nT10 M6\nG0 X-10 Y-8 Z40\nG0 Z28\nG1 X110 F600\nG0 Z80\n\
+         T12 M6\nG43 H12\nG0 X-10 Y0 Z40\nG0 Z29\nG1 X110 F600\nG0 Z40\nG49\n\
+         G0 Z80\nG0 X-10 Y8\nG0 Z54.961501\nG1 X110 F600\nG0 Z80\nM30\n%\n",
+    )
+    .unwrap();
+    let o = dexcut(&["simulate", "job.toml", "--out", "o"], d);
+    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{stderr}");
+    assert!(stderr.contains("T12 ("), "{stderr}");
+    assert!(
+        stderr.contains("\"3mm drill\"): flat Ø3 mm, flute length 6 mm, stickout 24 mm, 2 flutes"),
+        "{stderr}"
+    );
+    let s: Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("o/summary.json")).unwrap()).unwrap();
+    let tools = s["tools"].as_array().unwrap();
+    let removed = |k: usize| tools[k]["removed_volume_mm3"].as_f64().unwrap();
+    assert_eq!(tools[0]["tool"], 10);
+    assert_eq!(tools[1]["tool"], 12);
+    assert!(
+        (removed(0) - 400.0).abs() < 1e-3 * 400.0,
+        "T10 {}",
+        removed(0)
+    );
+    assert!(
+        (removed(1) - 600.0).abs() < 1e-3 * 600.0,
+        "T12 {}",
+        removed(1)
+    );
+}
