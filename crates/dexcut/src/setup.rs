@@ -148,10 +148,7 @@ impl Setup {
         if let Some(library) = &job.library {
             // A point list's tool column is not checked by the reader: a
             // tool the library skipped, why.
-            let own: Vec<u32> = job.tools[..job.tools.len() - job.library_tools]
-                .iter()
-                .filter_map(|t| t.number)
-                .collect();
+            let own: Vec<u32> = job.own_tools().iter().filter_map(|t| t.number).collect();
             crate::input::tool_library::check_used(
                 library,
                 &own,

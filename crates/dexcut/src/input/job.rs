@@ -848,6 +848,15 @@ impl Job {
         Ok(())
     }
 
+    /// The job's own `[[tools]]` entries: `tools` but the library's, which
+    /// `[tool_library]` put after them ([`Job::library_tools`]). A job made
+    /// from another (an operation's) that sets `tools` must set
+    /// `tool_library`, `library` and `library_tools` with them
+    /// (`tool_library::tools_of_library`).
+    pub fn own_tools(&self) -> &[ToolSpec] {
+        &self.tools[..self.tools.len().saturating_sub(self.library_tools)]
+    }
+
     /// The `[tool]` or the `[[tools]]` table: one of them, numbered once each.
     fn validate_tools(&self) -> Result<()> {
         if self.tool.is_some() && self.tool_library.is_some() {
@@ -857,7 +866,7 @@ impl Job {
             );
         }
         // The library's entries were checked where they were read.
-        let own = &self.tools[..self.tools.len() - self.library_tools];
+        let own = self.own_tools();
         match (&self.tool, self.tools.is_empty()) {
             (None, true) => {
                 fail!(
