@@ -13,6 +13,7 @@ use serde::de::{DeserializeOwned, Deserializer};
 use serde::{Deserialize, Serialize};
 
 use super::job::{Job, LimitsSpec, MachineSpec, ProgramSpec, ToolSpec};
+use super::tool_library::{tools_of_library, ToolLibrarySpec};
 use crate::error::{fail, Error, Result};
 
 /// One `[[operations]]` entry.
@@ -30,6 +31,8 @@ pub struct OperationSpec {
     /// Its tool table (as `[[tools]]`).
     #[serde(default)]
     pub tools: Vec<ToolSpec>,
+    /// Its tool library (as `[tool_library]`), with its `tools` over it.
+    pub tool_library: Option<ToolLibrarySpec>,
     /// Keys of `[limits]` for this operation, over the job's.
     pub limits: Option<Patch<LimitsSpec>>,
     /// Keys of `[machine]` for this operation, over the job's.
@@ -149,9 +152,22 @@ impl Job {
             let mut job = self.clone();
             job.operations = Vec::new();
             job.program = Some(op.program.0.clone());
-            if op.tool.is_some() || !op.tools.is_empty() {
+            // The operation's tools replace the job's, a job's tool library
+            // with them.
+            if op.tool.is_some() || !op.tools.is_empty() || op.tool_library.is_some() {
                 job.tool = op.tool.clone();
                 job.tools = op.tools.clone();
+                job.tool_library = op.tool_library.clone();
+                job.library = None;
+                job.library_tools = 0;
+                if let Some(spec) = &op.tool_library {
+                    let at = keys.of_message(&format!("{under}.tool_library.path"));
+                    let (tools, library) = tools_of_library(spec, &self.base_dir, &job.tools)
+                        .map_err(|e| e.context(format!("{at}: {under}.tool_library")))?;
+                    job.library_tools = tools.len() - job.tools.len();
+                    job.tools = tools;
+                    job.library = Some(library);
+                }
             }
             if let Some(p) = &op.limits {
                 job.limits = p.over(&self.limits, &format!("{under}.limits"))?;

@@ -569,3 +569,60 @@ fn list_the_tools_of_every_real_library() {
         }
     }
 }
+
+/// `[operations.tool_library]`: an operation's library gives its tools (the
+/// job's library does not reach an operation that gives its own tools), and
+/// an error in it names the operation's key.
+#[test]
+fn an_operation_takes_its_own_tool_library() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("a.tbl"),
+        "T1 P1 D6 ;ball\nT2 P2 D4 ;end mill\n",
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("b.tbl"), "T7 P7 D10 Z5 ;end mill\n").unwrap();
+    let job = |ops: &str| {
+        format!(
+            "[stock]\nkind = \"box\"\nmin = [0, 0, 0]\nmax = [10, 10, 10]\ngrid = 0.5\n\
+             [tool_library]\npath = \"a.tbl\"\n{ops}"
+        )
+    };
+    let parsed = Job::parse(
+        &job("[[operations]]\nname = \"rough\"\nprogram = \"r.nc\"\n\
+              [[operations]]\nname = \"finish\"\nprogram = \"f.nc\"\n\
+              [operations.tool_library]\npath = \"b.tbl\"\n\
+              [[operations]]\nname = \"last\"\nprogram = \"l.nc\"\n\
+              [[operations.tools]]\nnumber = 3\nkind = \"flat\"\ndiameter = 2\n"),
+        "job.toml",
+        dir.path(),
+    )
+    .unwrap_or_else(|e| panic!("{}", e.chain_message()));
+    let ops = &parsed.operation_jobs;
+    let numbers = |j: &Job| {
+        j.tools
+            .iter()
+            .map(|t| t.number.unwrap())
+            .collect::<Vec<_>>()
+    };
+    // The job's library for the operation that gives no tools.
+    assert_eq!(numbers(&ops[0].job), [1, 2]);
+    assert_eq!(ops[0].job.library_tools, 2);
+    // The operation's own library: T7, its Z the gauge length.
+    assert_eq!(numbers(&ops[1].job), [7]);
+    assert_eq!(ops[1].job.tools[0].length, Some(5.0));
+    assert!(ops[1].job.library.as_ref().unwrap().path.ends_with("b.tbl"));
+    // Its own [[tools]]: no library.
+    assert_eq!(numbers(&ops[2].job), [3]);
+    assert!(ops[2].job.library.is_none() && ops[2].job.own_tools().len() == 1);
+    let e = Job::parse(
+        &job("[[operations]]\nname = \"rough\"\nprogram = \"r.nc\"\n\
+              [operations.tool_library]\npath = \"missing.tbl\"\n"),
+        "job.toml",
+        dir.path(),
+    )
+    .unwrap_err()
+    .chain_message();
+    assert!(e.contains("operations[0].tool_library"), "{e}");
+    assert!(e.contains("missing.tbl"), "{e}");
+}
