@@ -241,3 +241,56 @@ fn a_linuxcnc_tool_table_gives_the_tools_and_their_gauge_lengths() {
         removed(1)
     );
 }
+
+/// `[operations.tool_library]`: a job of two operations, each with its own
+/// real library (FreeCAD's T1, the 5mm Endmill, a slot 2 deep at Y−8:
+/// 1000 mm³; the hackspace table's T12 by G43 H12, 1 deep at Y8: 300 mm³),
+/// each operation's tools said under its name.
+#[test]
+fn each_operation_takes_its_own_tool_library() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let table = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../toolpaths/tool_libraries/linuxcnc/bristolhackspace_cnc_mill.tbl")
+        .canonicalize()
+        .unwrap();
+    let job = format!(
+        "[stock]\nkind = \"box\"\nmin = [0, -20, 0]\nmax = [100, 20, 30]\ngrid = 0.1\n\
+         [[operations]]\nname = \"freecad\"\nprogram = \"a.nc\"\n\
+         [operations.tool_library]\npath = {:?}\n\
+         [[operations]]\nname = \"linuxcnc\"\nprogram = \"b.nc\"\n\
+         [operations.tool_library]\npath = {:?}\n",
+        library().display().to_string(),
+        table.display().to_string()
+    );
+    std::fs::write(d.join("job.toml"), job).unwrap();
+    std::fs::write(
+        d.join("a.nc"),
+        "%\nG21 G90 G17\nS10000 M3\nT1 M6\nG0 X-10 Y-8 Z40\nG0 Z28\nG1 X110 F600\nG0 Z80\nM30\n%\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("b.nc"),
+        "%\nG21 G90 G17\nS10000 M3\nT12 M6\nG43 H12\nG0 X-10 Y8 Z40\nG0 Z29\nG1 X110 F600\nG0 Z80\nM30\n%\n",
+    )
+    .unwrap();
+    let o = dexcut(&["simulate", "job.toml", "--out", "o"], d);
+    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{stderr}");
+    assert!(stderr.contains("warning: op1_freecad: T1 ("), "{stderr}");
+    assert!(stderr.contains("warning: op2_linuxcnc: T12 ("), "{stderr}");
+    for (folder, tool, volume) in [("op1_freecad", 1, 1000.0), ("op2_linuxcnc", 12, 300.0)] {
+        let s: Value = serde_json::from_str(
+            &std::fs::read_to_string(d.join("o").join(folder).join("summary.json")).unwrap(),
+        )
+        .unwrap();
+        let tools = s["tools"].as_array().unwrap();
+        assert_eq!(tools.len(), 1, "{folder}");
+        assert_eq!(tools[0]["tool"], tool, "{folder}");
+        let removed = tools[0]["removed_volume_mm3"].as_f64().unwrap();
+        assert!(
+            (removed - volume).abs() < 1e-3 * volume,
+            "{folder}: {removed}"
+        );
+    }
+}
