@@ -10,8 +10,12 @@
 //! The stock is 40 × 10 × 10 mm on a 0.25 mm grid; the cut runs along X at
 //! Y5 at F1200, S10000, on a 2-flute Ø6 tool: a flat end mill 1 mm deep (a
 //! full-width slot, 6 mm² of cross-section) or a ball end 0.5 mm deep (a floor
-//! pass, surface angle 0°). As given the slot peaks at 120.08 mm³/s (over
-//! ≥ 48 ms), 94.83 N, 97.60 µm, 365.0 W and 212.9 MPa.
+//! pass, surface angle 0°). As given the slot removes 6 mm² × 1200 / 60 =
+//! 120 mm³/s; its force, deflection, power and stress are not pinned here
+//! (they are the cutting model's): each test sets its limit well under the
+//! value as given and checks that the program as given is over that limit
+//! beyond its tolerance and within every other one
+//! (`Optimized::assert_breaks_only`).
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -102,6 +106,32 @@ impl Optimized {
             .collect()
     }
 
+    /// The program as given breaks the rule `key` (its peak over `limit` by
+    /// more than 10 %, well past the 2 % tolerance) and no other: its peaks
+    /// are within the loose limits of [`job`] (1000 mm³/s, 1000 N, 1000 µm,
+    /// 10 kW, the tool's 1200 MPa unless the test lowers it) and its cutting
+    /// feed within the chip-load cap (fz_max 1 mm · 2 · 10000 = 20000 mm/min
+    /// unless the test lowers it). `key` None: the rule broken is none of
+    /// these (S3's feed, which the test checks itself).
+    fn assert_breaks_only(&self, key: Option<&str>, limit: f64) {
+        let loose = [
+            ("peak_mrr_windowed_mm3_s", 1000.0),
+            ("peak_force_n", 1000.0),
+            ("peak_deflection_um", 1000.0),
+            ("peak_power_w", 10_000.0),
+            ("peak_stress_mpa", 1200.0),
+            ("peak_cutting_feed_mm_min", 20_000.0),
+        ];
+        for (k, bound) in loose {
+            let v = self.before(k);
+            if Some(k) == key {
+                assert!(v > 1.1 * limit, "{k} as given {v} against {limit}");
+            } else {
+                assert!(v < bound, "{k} as given {v} against {bound}");
+            }
+        }
+    }
+
     /// Not kept: the summary and the console say so, the program as given
     /// is the faster (so only a rule it breaks keeps it from being kept), and
     /// the written program's run is over no limit by more than its tolerance
@@ -183,63 +213,65 @@ fn steady_feed(words: &[f64]) -> f64 {
 fn mrr_broken_as_given_is_not_kept() {
     let o = optimize(&job(FLAT, "fz_max = 1", 3000.0, &[("mrr_max", "80")]), SLOT);
     o.assert_not_kept();
+    o.assert_breaks_only(Some("peak_mrr_windowed_mm3_s"), 80.0);
     let (before, after) = (
         o.before("peak_mrr_windowed_mm3_s"),
         o.after("peak_mrr_windowed_mm3_s"),
     );
-    assert!((before - 120.08).abs() < 0.01, "{before}");
+    assert!((before - 120.0).abs() < 0.01 * 120.0, "{before}");
     assert!((0.9 * 80.0..=80.0 * 1.02).contains(&after), "{after}");
     let low = o.f_words().into_iter().fold(f64::INFINITY, f64::min);
     assert_eq!(low, 800.0);
 }
 
 /// A load that grows as F^p (p = 1 − mc < 1, docs/MODEL.md §3.2) over
-/// `limit` as given (`before`): not kept, the written program within 2 % of
-/// the limit and no more than 10 % under it, its steady feed below the
-/// 1200 · limit / `before` a load proportional to the feed would allow.
-fn assert_load_held(o: &Optimized, key: &str, before: f64, limit: f64) {
+/// `limit` as given, the only rule broken: not kept, the written program
+/// within 2 % of the limit and no more than 10 % under it, its steady feed
+/// below the 1200 · limit / (the load as given) a load proportional to the
+/// feed would allow.
+fn assert_load_held(o: &Optimized, key: &str, limit: f64) {
     o.assert_not_kept();
+    o.assert_breaks_only(Some(key), limit);
     let (b, a) = (o.before(key), o.after(key));
-    assert!((b - before).abs() < 0.01 * before, "{key} as given {b}");
     assert!((0.9 * limit..=limit * 1.02).contains(&a), "{key} after {a}");
     let steady = steady_feed(&o.f_words());
-    assert!(steady < 1200.0 * limit / before, "{key}: F{steady}");
+    assert!(steady < 1200.0 * limit / b, "{key}: F{steady}");
 }
 
-/// Force: force_max = 60 N against 94.83 N as given.
+/// Force: force_max = 60 N, well under the slot's force as given.
 #[test]
 fn force_broken_as_given_is_not_kept() {
     let o = optimize(
         &job(FLAT, "fz_max = 1", 3000.0, &[("force_max", "60")]),
         SLOT,
     );
-    assert_load_held(&o, "peak_force_n", 94.83, 60.0);
+    assert_load_held(&o, "peak_force_n", 60.0);
 }
 
-/// Deflection: deflection_max_um = 60 against 97.60 µm as given.
+/// Deflection: deflection_max_um = 60, well under the deflection as given.
 #[test]
 fn deflection_broken_as_given_is_not_kept() {
     let limits = [("deflection_max_um", "60")];
     let o = optimize(&job(FLAT, "fz_max = 1", 3000.0, &limits), SLOT);
-    assert_load_held(&o, "peak_deflection_um", 97.60, 60.0);
+    assert_load_held(&o, "peak_deflection_um", 60.0);
 }
 
-/// Spindle power: power_max_kw = 0.25 against 365.0 W as given.
+/// Spindle power: power_max_kw = 0.25, well under the power as given.
 #[test]
 fn power_broken_as_given_is_not_kept() {
     let limits = [("power_max_kw", "0.25")];
     let o = optimize(&job(FLAT, "fz_max = 1", 3000.0, &limits), SLOT);
-    assert_load_held(&o, "peak_power_w", 365.0, 250.0);
+    assert_load_held(&o, "peak_power_w", 250.0);
 }
 
-/// The tool's stress: stress_limit_mpa = 150 against 217.8 MPa as given (the
-/// tool's own limit, on by default as `[limits] stress`).
+/// The tool's stress: stress_limit_mpa = 150, well under the stress as given
+/// (the tool's own limit, on by default as `[limits] stress`).
 #[test]
 fn stress_broken_as_given_is_not_kept() {
     let tool = "fz_max = 1\nstress_limit_mpa = 150";
     let o = optimize(&job(FLAT, tool, 3000.0, &[]), SLOT);
     assert_eq!(o.summary["after"]["stress_limit_mpa"], 150.0);
-    assert_load_held(&o, "peak_stress_mpa", 217.8, 150.0);
+    assert_load_held(&o, "peak_stress_mpa", 150.0);
 }
 
 /// Chip load: fz_max = 0.04 mm/tooth on 2 flutes at S10000 caps every cutting
@@ -248,6 +280,7 @@ fn stress_broken_as_given_is_not_kept() {
 fn chip_load_broken_as_given_is_not_kept() {
     let o = optimize(&job(FLAT, "fz_max = 0.04", 3000.0, &[]), SLOT);
     o.assert_not_kept();
+    o.assert_breaks_only(Some("peak_cutting_feed_mm_min"), 800.0);
     assert_eq!(o.before("peak_cutting_feed_mm_min").round(), 1200.0);
     let top = o.after("peak_cutting_feed_mm_min");
     assert!((799.0..=800.0 * (1.0 + 1e-3)).contains(&top), "{top}");
@@ -267,6 +300,7 @@ fn s3_angle_rule_broken_as_given_is_not_kept() {
     let limits = [("angle_rule", "true"), ("v0", "300")];
     let o = optimize(&job(BALL, "fz_max = 1", 3000.0, &limits), FLOOR);
     o.assert_not_kept();
+    o.assert_breaks_only(None, 300.0);
     let floor = 4.0..=36.0;
     let before = o.cutting_feeds(true, floor.clone());
     assert!(before.len() > 50, "{} steps", before.len());
