@@ -99,8 +99,7 @@ pub(super) fn limit_cap(
 }
 
 /// Interval k's cap `cap` ([`limit_cap`]) lowered by S3's angle rule where
-/// it cuts (`a` its windowed area, `theta_deg` its surface angle, NaN for
-/// none), then raised to `feed_min`.
+/// it cuts ([`angle_cap`]), then raised to `feed_min`.
 pub(super) fn angle_and_floor(
     mut cap: (f64, CapKind),
     k: usize,
@@ -109,23 +108,38 @@ pub(super) fn angle_and_floor(
     stations: &Stations,
     limits: &LimitsSpec,
 ) -> (f64, CapKind) {
-    // S3 (MODEL.md §6.3): θ between the surface normal at the contact and the
-    // tool axis, applied to the programmed (set) feed.
-    if a > 1e-12 {
-        let seg = &stations.segments()[stations.segment()[k + 1] as usize];
-        if let (true, Some(v0), false, Motion::Feed { feed_mm_min, .. }) =
-            (limits.angle_rule, limits.v0, theta_deg.is_nan(), seg.motion)
-        {
-            let v = schedule::angle_rule_feed_mm_min(theta_deg, feed_mm_min, v0);
-            if v < cap.0 {
-                cap = (v, CapKind::SurfaceAngle);
-            }
+    if let Some(v) = angle_cap(k, a, theta_deg, stations, limits) {
+        if v < cap.0 {
+            cap = (v, CapKind::SurfaceAngle);
         }
     }
     if let Some(lo) = limits.feed_min {
         cap.0 = cap.0.max(lo);
     }
     cap
+}
+
+/// S3's angle rule on interval k (MODEL.md §6.3), where it cuts (`a` its
+/// windowed area) with a surface angle (`theta_deg`, NaN for none) on a
+/// feed move: F(θ) of the programmed (set) feed and `v0`. None where the
+/// rule is off or does not apply.
+pub(super) fn angle_cap(
+    k: usize,
+    a: f64,
+    theta_deg: f64,
+    stations: &Stations,
+    limits: &LimitsSpec,
+) -> Option<f64> {
+    if a <= 1e-12 {
+        return None;
+    }
+    let seg = &stations.segments()[stations.segment()[k + 1] as usize];
+    match (limits.angle_rule, limits.v0, theta_deg.is_nan(), seg.motion) {
+        (true, Some(v0), false, Motion::Feed { feed_mm_min, .. }) => {
+            Some(schedule::angle_rule_feed_mm_min(theta_deg, feed_mm_min, v0))
+        }
+        _ => None,
+    }
 }
 
 /// Apply interval caps to both end stations of each interval, so the speed

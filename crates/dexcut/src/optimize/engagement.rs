@@ -8,7 +8,8 @@ use dexel::{Stock, SweepOptions};
 use nc::Motion;
 use schedule::{CapKind, Stations};
 
-use super::caps::{angle_and_floor, limit_cap};
+use super::caps::{angle_and_floor, angle_cap, limit_cap};
+use super::verify::FeedRules;
 use crate::input::job::LimitsSpec;
 use crate::input::tools::ToolSet;
 use crate::motion::STATION_DS_MM;
@@ -119,14 +120,17 @@ pub fn engagement_on(
 /// made as the sweep makes each interval's engagement final: neither the
 /// sweep's record nor the reference loads are held (about 74 and 32 B an
 /// interval), only the caps, and the windowed areas where S3 takes
-/// its angles (after the sweep, from them). The same caps bit for bit.
+/// its angles (after the sweep, from them). The same caps bit for bit; with
+/// them, the feed rules of S3's angle rule along the path (empty without
+/// surface angles), which the written program's run and the program as
+/// given are judged by ([`FeedRules`]).
 pub fn engagement_caps_on(
     stations: &Stations,
     stock: &StockSource,
     tools: &ToolSet,
     limits: &LimitsSpec,
     surface: SurfaceFrom,
-) -> Result<Vec<(f64, CapKind)>> {
+) -> Result<(Vec<(f64, CapKind)>, FeedRules)> {
     let tool_index = interval_tools(stations, tools)?;
     let n = tool_index.len();
     // S3's angles need every interval's area once the sweep is done.
@@ -149,6 +153,7 @@ pub fn engagement_caps_on(
             });
         },
     )?;
+    let mut rules = FeedRules::default();
     if angles {
         let theta = surface_angles_deg(
             stations,
@@ -159,11 +164,21 @@ pub fn engagement_caps_on(
             &area_mm2,
             surface,
         );
+        let s_mm = stations.s_mm();
         for (k, cap) in caps.iter_mut().enumerate() {
+            let held = stations.segments()[stations.segment()[k + 1] as usize]
+                .motion
+                .held_feed_mm_min()
+                .is_some();
+            if let (Some(v), false) = (angle_cap(k, area_mm2[k], theta[k], stations, limits), held)
+            {
+                // Held to as the plan holds it: feed_min is a floor under every cap.
+                rules.push_angle(s_mm[k], s_mm[k + 1], v.max(limits.feed_min.unwrap_or(0.0)));
+            }
             *cap = angle_and_floor(*cap, k, area_mm2[k], theta[k], stations, limits);
         }
     }
-    Ok(caps)
+    Ok((caps, rules))
 }
 
 /// Per interval k (station k → k + 1), the index into the tool set of the

@@ -14,7 +14,7 @@ use super::blocks::{
 use super::caps::{apply_interval_caps, cap_shares};
 use super::engagement::{engagement_caps_on, SurfaceFrom};
 use super::stations::FreeStations;
-use super::verify::{excesses, lower_caps, Excess, Given};
+use super::verify::{excesses, lower_caps, within_limits, Excess, FeedRules, Given};
 use crate::model::summary::CapShare;
 use crate::motion::TimedStep;
 use crate::run::Run;
@@ -54,7 +54,7 @@ pub fn caps_and_rounds(
     };
     // The caps made as the sweep makes each interval's engagement final
     // (per station: loads, areas and angles not held).
-    let caps = engagement_caps_on(
+    let (caps, rules) = engagement_caps_on(
         stations,
         &setup.stock_source(),
         &setup.tools,
@@ -65,7 +65,7 @@ pub fn caps_and_rounds(
     crate::util::heap_mark(format_args!("engagement and caps"));
     let t2 = Instant::now();
     let n_stations = stations.len();
-    let written = write_verified(setup, machine, free, caps, given, staged)?;
+    let written = write_verified(setup, machine, free, caps, &rules, given, staged)?;
     Ok(Rounds {
         stations: n_stations,
         time_engagement_s,
@@ -117,7 +117,10 @@ pub struct Written {
 /// [`MERGE_RATIO_MIN`]; what remains comes from lines `nc::refeed` cannot
 /// split per run, which take one feed: MODEL.md §2.2). When the
 /// original program is within every limit and the result would be slower,
-/// the original is kept. The program's path is read from `free`'s
+/// the original is kept: within every limit as the written program is
+/// judged ([`excesses`]), with `rules`, the feed rules of the engagement
+/// that made `caps` ([`FeedRules`]: S3's angle rule), so it is simulated
+/// again and judged by them before it is kept. The program's path is read from `free`'s
 /// ([`FreeStations::path`]): the setup's may be lent to them. `free`'s
 /// arrays are let go while the written program is verified and made again
 /// (by `machine`) for a next round. A G-code program's text is written to
@@ -129,6 +132,7 @@ pub fn write_verified(
     machine: &Machine,
     free: &mut FreeStations,
     mut caps: Vec<(f64, CapKind)>,
+    rules: &FeedRules,
     before: Given,
     out_dir: &Path,
 ) -> Result<Written> {
@@ -167,7 +171,7 @@ pub fn write_verified(
             &format!("verify {round}"),
         )?;
         crate::util::heap_mark(format_args!("round {round}: verification run"));
-        let over = excesses(&run, limits, &setup.tools);
+        let over = excesses(&run, limits, &setup.tools, rules);
         crate::util::heap_mark(format_args!("round {round}: excesses"));
         let gcode = setup.program.gcode.as_deref();
         let slow = gcode.is_some()
@@ -193,7 +197,7 @@ pub fn write_verified(
                 merge_ratio,
                 times,
             };
-            return finish(setup, free, out_dir, before, verified, last);
+            return finish(setup, free, out_dir, before, rules, verified, last);
         }
         // The run is let go before the stations are made again (their
         // path read again from the program's text).
@@ -393,12 +397,15 @@ struct LastRound {
 
 /// The rounds' result: the last round's written program, or the program as
 /// given where it is within every limit and faster (written to `out_dir`'s
-/// optimized.nc and simulated again).
+/// optimized.nc and simulated again). The program as given is judged by
+/// `rules` on that run, with the check the written program had
+/// ([`within_limits`]); where it breaks one, the written program stays.
 fn finish(
     setup: &Setup,
     free: &mut FreeStations,
     out_dir: &Path,
     before: Given,
+    rules: &FeedRules,
     verified: Verified,
     last: LastRound,
 ) -> Result<Written> {
@@ -414,18 +421,24 @@ fn finish(
     } = last;
     let gcode = setup.program.gcode.as_deref();
     let cycle = run.steps.last().map_or(0.0, |s| s.t_end_s);
-    let kept_original = gcode.is_some() && cycle > before.cycle_s && before.within_limits;
+    let faster_within = cycle > before.cycle_s && before.within_limits;
     let (left, unresolved): (Vec<Excess>, Vec<Excess>) = over
         .into_iter()
         .filter(|e| e.beyond_tolerance)
         .partition(|e| e.resolved);
-    let (run, sample_feeds) = match (kept_original, gcode) {
+    let (run, sample_feeds, kept_original) = match (faster_within, gcode) {
         (true, Some(original)) => {
-            write_text(out_dir, original)?;
-            // The program as given, simulated again (its run was
-            // not held through the rounds): the written one is let
-            // go first.
-            drop((run, sample_feeds));
+            // The written program is let go first, unless rules remain
+            // to judge the program as given by: then it stays the result
+            // where the program as given breaks one (both runs held).
+            let written = if rules.is_empty() {
+                drop((run, sample_feeds));
+                None
+            } else {
+                Some((run, sample_feeds))
+            };
+            // The program as given, simulated again (its run was not
+            // held through the rounds).
             let (steps, feeds) = free.with_path(setup, |path| {
                 let samples = crate::motion::machine_motion(path, &setup.machine)?;
                 Ok::<_, crate::error::Error>((
@@ -433,10 +446,20 @@ fn finish(
                     crate::motion::SampleFeeds::of(&samples, path),
                 ))
             })??;
-            let run = crate::run::run_on(setup.stock_source(), &setup.tools, steps, "as given")?;
-            (run, feeds)
+            let given = crate::run::run_on(setup.stock_source(), &setup.tools, steps, "as given")?;
+            match written {
+                Some(written) if !within_limits(&given, &setup.job.limits, &setup.tools, rules) => {
+                    drop((given, feeds));
+                    (written.0, written.1, false)
+                }
+                written => {
+                    drop(written);
+                    write_text(out_dir, original)?;
+                    (given, feeds, true)
+                }
+            }
         }
-        _ => (run, sample_feeds),
+        _ => (run, sample_feeds, false),
     };
     Ok(Written {
         run,

@@ -274,7 +274,8 @@ fn blocks_of_a_refeed_plan_are_those_of_the_list() {
         limits,
         SurfaceFrom::Nothing,
     )
-    .unwrap();
+    .unwrap()
+    .0;
     for merge_ratio in [1.0, MERGE_RATIO_MIN, MERGE_RATIO] {
         let plan = refeed_plan(&stations, &caps, &machine, merge_ratio);
         let list = interval_blocks_listed(&stations, &plan);
@@ -454,7 +455,11 @@ fn engagement_from_the_sweeps_rows_is_the_records() {
             "{what}"
         );
         assert_eq!(
-            cap_bits(&engagement_caps_on(&stations, &stock, tools, limits, surface).unwrap()),
+            cap_bits(
+                &engagement_caps_on(&stations, &stock, tools, limits, surface)
+                    .unwrap()
+                    .0
+            ),
             cap_bits(&caps),
             "{what}"
         );
@@ -512,4 +517,28 @@ fn windowed_area_is_conservative_and_exact_on_plateaus() {
     assert!(a[122] > 0.0 && a[123] == 0.0, "{:?}", &a[118..126]);
     // Never below the plain mean over any window.
     assert!(a.iter().all(|x| *x <= 30.0 + 1e-9));
+}
+
+/// S3's stretches: adjacent intervals with one cap are one stretch; a step
+/// takes the highest cap of the stretches it runs over, and none where part
+/// of it lies outside them (air, no surface angle).
+#[test]
+fn feed_rules_give_a_step_the_highest_cap_it_runs_over_where_they_cover_it() {
+    let mut rules = FeedRules::default();
+    assert!(rules.is_empty());
+    rules.push_angle(0.0, 1.0, 300.0);
+    rules.push_angle(1.0, 2.0, 300.0);
+    rules.push_angle(2.0, 3.0, 500.0);
+    rules.push_angle(4.0, 5.0, 200.0);
+    assert_eq!(
+        rules.angle,
+        [(0.0, 2.0, 300.0), (2.0, 3.0, 500.0), (4.0, 5.0, 200.0)]
+    );
+    assert_eq!(rules.angle_cap(0.2, 1.5), Some(300.0));
+    assert_eq!(rules.angle_cap(1.5, 2.5), Some(500.0));
+    assert_eq!(rules.angle_cap(3.0, 3.5), None);
+    assert_eq!(rules.angle_cap(2.5, 4.5), None);
+    assert_eq!(rules.angle_cap(4.0, 5.0), Some(200.0));
+    assert_eq!(rules.angle_cap(4.5, 5.5), None);
+    assert_eq!(rules.angle_cap(-0.5, 0.5), None);
 }

@@ -26,8 +26,9 @@ pub struct Excess {
     /// largest over the limits it exceeds).
     pub over_limit: f64,
     /// It exceeds a limit by more than that limit's tolerance:
-    /// [`LIMIT_TOLERANCE`] for removal, force, deflection and power per
-    /// period, [`CHIP_LOAD_TOLERANCE`] for the chip-load feed of a cutting step.
+    /// [`LIMIT_TOLERANCE`] for removal, force, deflection, power and stress
+    /// per period, [`CHIP_LOAD_TOLERANCE`] for a feed cap of a cutting step
+    /// (its chip-load feed, S3's angle rule: [`FeedRules`]).
     pub beyond_tolerance: bool,
     /// Program line the period ends in.
     pub line: u32,
@@ -43,9 +44,10 @@ pub struct Excess {
     pub held: bool,
 }
 
-/// A step that removes material may run above its chip-load feed by this
-/// fraction (the feed of a servo step is a mean over a chord; F words are
-/// rounded down, so the plan itself never exceeds the cap).
+/// A step that removes material may run above a feed cap (its chip-load
+/// feed, S3's angle rule) by this fraction (the feed of a servo step is a
+/// mean over a chord; F words are rounded down, so the plan itself never
+/// exceeds the cap).
 pub const CHIP_LOAD_TOLERANCE: f64 = 1e-3;
 
 /// Margin kept under a limit when a period over it is corrected.
@@ -55,10 +57,13 @@ pub const LIMIT_MARGIN: f64 = 0.01;
 /// force, deflection, spindle power or tool stress exceeds the limits, and steps that
 /// remove material (however little: any step in contact with the stock is a
 /// cutting move) above their tool's chip-load feed f_z,max·z·n at the block's
-/// spindle speed (MODEL.md §2.1). MRR scales with the feed; force, deflection
+/// spindle speed (MODEL.md §2.1) or above a feed rule of `rules` where they
+/// run (S3's angle rule, MODEL.md §6.3). MRR scales with the feed; force, deflection
 /// and power with the feed to the power p of the step's tool's force model
-/// (n of S4's law, 1 − mc of Kienzle's, MODEL.md §3).
-pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> {
+/// (n of S4's law, 1 − mc of Kienzle's, MODEL.md §3). The one check of a
+/// run against every cap that shapes the plan: of each round's written
+/// program, and of the program as given ([`within_limits`]).
+pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet, rules: &FeedRules) -> Vec<Excess> {
     let mut out = Vec::new();
     let grid_mm = run.stock.grid().spacing_mm;
     // The periods one by one (a million periods held as a list were 72 MB
@@ -71,6 +76,8 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
         let mut worst = [(0.0f64, 1.0f64); 4];
         // Largest step feed / its chip-load feed among the steps that cut.
         let mut chip: Option<(f64, f64)> = None;
+        // Largest step feed / its S3 cap among the steps that cut.
+        let mut angle: Option<(f64, f64)> = None;
         for k in period.first_step..=period.last_step {
             let step = &run.steps[k];
             // A rapid's load is a collision (rapid_cut), not one a feed sets:
@@ -104,6 +111,13 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
                         chip = Some((step.feed_mm_min / cap, cap));
                     }
                 }
+                // The path the step runs over: from the end of the one before.
+                let s_lo = k.checked_sub(1).map_or(0.0, |j| run.steps[j].s_end_mm);
+                if let Some(cap) = rules.angle_cap(s_lo, step.s_end_mm) {
+                    if angle.is_none_or(|(r, _)| step.feed_mm_min / cap > r) {
+                        angle = Some((step.feed_mm_min / cap, cap));
+                    }
+                }
             }
         }
         // The path and time the period's MRR is measured over (MODEL.md §2.3);
@@ -118,7 +132,7 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
         let mut lower = |cap: f64, kind: CapKind, over: f64| {
             over_limit = over_limit.max(over);
             let tolerance = match kind {
-                CapKind::ChipLoad => CHIP_LOAD_TOLERANCE,
+                CapKind::ChipLoad | CapKind::SurfaceAngle => CHIP_LOAD_TOLERANCE,
                 _ => LIMIT_TOLERANCE,
             };
             beyond_tolerance |= over > tolerance;
@@ -151,9 +165,11 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Vec<Excess> 
                 lower(cap, kind, ratio - 1.0);
             }
         }
-        if let Some((ratio, cap)) = chip {
-            if ratio > 1.0 + 0.5 * CHIP_LOAD_TOLERANCE {
-                lower(cap * (1.0 - 1e-6), CapKind::ChipLoad, ratio - 1.0);
+        for (worst, kind) in [(chip, CapKind::ChipLoad), (angle, CapKind::SurfaceAngle)] {
+            if let Some((ratio, cap)) = worst {
+                if ratio > 1.0 + 0.5 * CHIP_LOAD_TOLERANCE {
+                    lower(cap * (1.0 - 1e-6), kind, ratio - 1.0);
+                }
             }
         }
         // A held feed (tapping) is not slowed: the period is told, with
@@ -213,15 +229,70 @@ pub fn lower_caps(
     }
 }
 
-/// Whether a run (of the program as written) is within every limit: no
+/// Whether a run (of the program as written) is within every limit, judged
+/// as each round's written program is ([`excesses`]): no
 /// period above mrr_max, force_max, deflection_max_um, power_max_kw or the tool's
 /// stress_limit_mpa (with `stress`) by more
 /// than [`LIMIT_TOLERANCE`], no cutting step above its tool's chip-load feed
-/// by more than [`CHIP_LOAD_TOLERANCE`].
-pub fn within_limits(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> bool {
-    excesses(run, limits, tools)
+/// or a feed rule of `rules` (S3's angle rule) where it runs by more than
+/// [`CHIP_LOAD_TOLERANCE`]. S0's block time needs no check here: the
+/// machine model holds every block of every run to it (MODEL.md §6.2).
+pub fn within_limits(run: &Run, limits: &LimitsSpec, tools: &ToolSet, rules: &FeedRules) -> bool {
+    excesses(run, limits, tools, rules)
         .iter()
         .all(|e| !e.beyond_tolerance)
+}
+
+/// Feed caps by geometry along the path of the program as given that a run
+/// is judged by at the feed each of its cutting steps runs at
+/// ([`excesses`]): S3's angle rule (MODEL.md §6.3), known once the
+/// engagement has its surface angles ([`engagement_caps_on`](super::engagement_caps_on)).
+/// The chip-load feed is judged from each step's own tool and spindle speed,
+/// and S0's block time is held by the machine model in every run.
+#[derive(Clone, Debug, Default)]
+pub struct FeedRules {
+    /// S3's cap on stretches of path: (s_from_mm, s_to_mm, cap_mm_min),
+    /// ascending and apart, adjacent intervals with the same cap as one
+    /// stretch (24 B a stretch, only with `angle_rule`).
+    pub(super) angle: Vec<(f64, f64, f64)>,
+}
+
+impl FeedRules {
+    /// S3's cap `cap_mm_min` on the path from `s_from_mm` to `s_to_mm`, after
+    /// every stretch pushed before.
+    pub(super) fn push_angle(&mut self, s_from_mm: f64, s_to_mm: f64, cap_mm_min: f64) {
+        if let Some(last) = self.angle.last_mut() {
+            if last.1 == s_from_mm && last.2 == cap_mm_min {
+                last.1 = s_to_mm;
+                return;
+            }
+        }
+        self.angle.push((s_from_mm, s_to_mm, cap_mm_min));
+    }
+
+    /// No rule to judge.
+    pub fn is_empty(&self) -> bool {
+        self.angle.is_empty()
+    }
+
+    /// S3's cap on a step that runs over the path from `s_lo` to `s_hi`: the
+    /// highest cap of the stretches it runs over (its feed is a mean over its
+    /// chord, at most the highest speed along it, which the plan holds under
+    /// the cap where it is). None where part of it lies where the rule does not
+    /// apply (air, no surface angle).
+    pub fn angle_cap(&self, s_lo: f64, s_hi: f64) -> Option<f64> {
+        let mut i = self.angle.partition_point(|r| r.1 <= s_lo);
+        let (mut covered, mut cap) = (s_lo, None::<f64>);
+        while let Some(&(from, to, c)) = self.angle.get(i).filter(|r| r.0 < s_hi) {
+            if from > covered {
+                return None;
+            }
+            covered = covered.max(to);
+            cap = Some(cap.map_or(c, |m| m.max(c)));
+            i += 1;
+        }
+        cap.filter(|_| covered >= s_hi)
+    }
 }
 
 /// The steps of `run` (the written program) whose tool stress is still above
@@ -266,12 +337,15 @@ pub fn stress_left(
 }
 
 /// What [`write_verified`](super::write_verified) needs of the program as given (its run need not
-/// be held through the rounds).
+/// be held through the rounds). The feed rules of [`FeedRules`] are known
+/// only after the engagement: where the program would be kept, it is
+/// simulated again and judged by them too, with the same check.
 #[derive(Clone, Copy, Debug)]
 pub struct Given {
     /// Its cycle time, s.
     pub cycle_s: f64,
-    /// It is within every limit ([`within_limits`]).
+    /// It is within every limit ([`within_limits`]) but the feed rules
+    /// of the engagement ([`FeedRules`]).
     pub within_limits: bool,
 }
 
@@ -280,7 +354,7 @@ impl Given {
     pub fn of(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Given {
         Given {
             cycle_s: run.steps.last().map_or(0.0, |s| s.t_end_s),
-            within_limits: within_limits(run, limits, tools),
+            within_limits: within_limits(run, limits, tools, &FeedRules::default()),
         }
     }
 }
