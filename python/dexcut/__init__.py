@@ -50,6 +50,8 @@ from ._dexcut import (
 )
 from ._summary import (
     GridInfo,
+    OperationLine,
+    OperationsSummary,
     OptimizeSummary,
     SimulateSummary,
     Summary,
@@ -78,6 +80,8 @@ __all__ = [
     "Summary",
     "SimulateSummary",
     "OptimizeSummary",
+    "OperationLine",
+    "OperationsSummary",
     "Warning",
     "ToolPeaks",
     "GridInfo",
@@ -218,14 +222,18 @@ class Results(_Grid):
     """A results folder read back (:func:`read_results`): ``summary`` (a
     :class:`SimulateSummary` or :class:`OptimizeSummary`), ``steps`` (and
     for optimize ``steps_before``) as numpy arrays, ``columns`` (ny, nx)
-    with ``x_mm``/``y_mm``, ``manifest`` (run id and files), ``path``."""
+    with ``x_mm``/``y_mm``, ``manifest`` (run id and files), ``path``.
+    A job of ``[[operations]]``'s folder: ``summary`` an
+    :class:`OperationsSummary`, ``columns`` the job's grid (``top_mm``,
+    ``last_operation``, ``error_um``), no steps, and ``operations`` each
+    operation's folder read back, by its folder name."""
 
     def __init__(self, path: Path):
         self.path = path
         summary_path = path / "summary.json"
         _dexcut.read_summary(summary_path)  # checked by the library's types and version
         raw = json.loads(summary_path.read_text(encoding="utf-8"))
-        self.summary: Union[SimulateSummary, OptimizeSummary] = document(raw)
+        self.summary: Union[SimulateSummary, OptimizeSummary, OperationsSummary] = document(raw)
         manifest = path / "manifest.json"
         self.manifest: Optional[Dict[str, Any]] = (
             json.loads(manifest.read_text(encoding="utf-8")) if manifest.exists() else None
@@ -233,6 +241,11 @@ class Results(_Grid):
         self.grid, self.columns = _read_grid(path)
         self.steps: Optional[Dict[str, np.ndarray]] = _read_steps(path, "steps")
         self.steps_before: Optional[Dict[str, np.ndarray]] = _read_steps(path, "steps_before")
+        self.operations: Dict[str, "Results"] = (
+            {op.folder: Results(path / op.folder) for op in self.summary.operations}
+            if isinstance(self.summary, OperationsSummary)
+            else {}
+        )
 
     @property
     def warnings(self) -> List[Warning]:
@@ -240,6 +253,8 @@ class Results(_Grid):
         s = self.summary
         if isinstance(s, OptimizeSummary):
             return [] if s.after is None else s.after.warnings
+        if isinstance(s, OperationsSummary):
+            return [w for r in self.operations.values() for w in r.warnings]
         return s.warnings
 
     def __repr__(self) -> str:

@@ -21,6 +21,8 @@ __all__ = [
     "Summary",
     "SimulateSummary",
     "OptimizeSummary",
+    "OperationLine",
+    "OperationsSummary",
 ]
 
 
@@ -208,8 +210,59 @@ class OptimizeSummary(_FromDict):
     _raw: Dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
 
+@dataclass(frozen=True)
+class OperationLine(_FromDict):
+    """One operation of a job of ``[[operations]]`` (:class:`OperationsSummary`):
+    its results folder, program, cycle time (optimize: of the program written,
+    ``cycle_time_before_s`` of the program as given), removal, peaks, error
+    range and peaks per tool."""
+
+    number: int = 0
+    name: str = ""
+    folder: str = ""
+    program: str = ""
+    cycle_time_s: float = 0.0
+    cycle_time_before_s: Optional[float] = None
+    kept_original: Optional[bool] = None
+    removed_volume_mm3: float = 0.0
+    peak_mrr_mm3_s: float = 0.0
+    peak_force_n: float = 0.0
+    peak_power_w: float = 0.0
+    peak_deflection_um: float = 0.0
+    min_error_um: Optional[float] = None
+    max_error_um: Optional[float] = None
+    warnings: int = 0
+    tools: List[ToolPeaks] = field(default_factory=list)
+    _raw: Dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+
+@dataclass(frozen=True)
+class OperationsSummary(_FromDict):
+    """summary.json of a job of ``[[operations]]`` (``command`` "operations"):
+    what each operation's folder holds (``ran``: "simulate" or "optimize"),
+    the operations in order and the totals."""
+
+    schema_version: int = 0
+    command: str = "operations"
+    ran: str = ""
+    job: str = ""
+    grid: Optional[GridInfo] = None
+    operations: List[OperationLine] = field(default_factory=list)
+    cycle_time_s: float = 0.0
+    cycle_time_before_s: Optional[float] = None
+    initial_volume_mm3: float = 0.0
+    final_volume_mm3: float = 0.0
+    removed_volume_mm3: float = 0.0
+    saved_stock: Optional[str] = None
+    run_time_s: float = 0.0
+    run_id: str = ""
+    _raw: Dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+
 def document(d: Dict[str, Any]):  # type: ignore[no-untyped-def]
     """The typed document of a summary.json dict, by its ``command``."""
+    if d.get("command") == "operations":
+        return OperationsSummary.from_dict(d)
     if d.get("command") == "optimize" or "after" in d:
         return OptimizeSummary.from_dict(d)
     return SimulateSummary.from_dict(d)

@@ -219,3 +219,27 @@ def test_the_stubs_name_what_the_extension_has():
     stubbed = {n.name for n in stub.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
     public = {n for n in dir(ext) if not n.startswith("_")}
     assert stubbed == public, (stubbed ^ public)
+
+
+def test_read_results_of_a_job_of_operations(cli, tmp_path):
+    """A job of [[operations]]'s folder reads back as an OperationsSummary
+    with each operation's folder read back beside it."""
+    out = tmp_path / "ops"
+    job = ROOT / "examples/three_operations/job.toml"
+    run_cli(cli, "simulate", job, "--out", out, "--grid", "0.5")
+    res = dexcut.read_results(out)
+    doc = json.loads((out / "summary.json").read_text())
+    assert isinstance(res.summary, dexcut.OperationsSummary)
+    assert res.summary.to_dict() == doc and res.summary.ran == "simulate"
+    assert [op.folder for op in res.summary.operations] == [op["folder"] for op in doc["operations"]]
+    assert res.summary.operations[0].tools[0].peak_force_n == doc["operations"][0]["tools"][0]["peak_force_n"]
+    assert res.steps is None and list(res.operations) == [op["folder"] for op in doc["operations"]]
+    grid = doc["grid"]
+    assert res.columns["last_operation"].shape == (grid["ny"], grid["nx"])
+    for op in doc["operations"]:
+        one = res.operations[op["folder"]]
+        op_doc = json.loads((out / op["folder"] / "summary.json").read_text())
+        assert one.summary.command == "simulate" and one.summary.to_dict() == op_doc
+        assert one.summary.removed_volume_mm3 == op["removed_volume_mm3"]
+        assert one.steps is not None and len(one.steps["t_s"]) == op_doc["steps"]
+    assert len(res.warnings) == sum(op["warnings"] for op in doc["operations"])
