@@ -961,7 +961,7 @@ fn write_operations_report(
             format!("operation {}: {}", op.number, op.name),
             format!("{} (results and report in {}/)", op.program, op.folder),
         ));
-        let key = |what: &str| format!("{} {}: {what}", op.folder, op.name);
+        let key = |what: &str| format!("{} {}: {what}", op.number, op.name);
         let (before_s, after_s) = match op.cycle_time_before_s {
             Some(b) => (b, Some(op.cycle_time_s)),
             None => (op.cycle_time_s, None),
