@@ -231,8 +231,8 @@ impl CuttingModel {
     ///   opposite the contact resultant; power `F · v_c` at the nominal radius.
     /// * Kienzle (MODEL.md §3.2): mean chip thickness per tooth `h_m = V / (Σ dV/h) / N`,
     ///   `kc = kc1_1 · h_m^(−mc)`, power `kc · V / Δt`, torque `P / ω`, mean force
-    ///   `kc / (2π N_rev) · (Σ dV/r) / V · (ẑ × C − k_r C)`, axial `k_a` times the mean
-    ///   tangential force.
+    ///   `kc / (2π N_rev) · (Σ dV/r) / V · (ẑ × C − k_r C)`, axial `−k_a` times the mean
+    ///   tangential force (toward −Z: out of the holder).
     /// * Deflection (MODEL.md §4.2, §4.3): the force spread over the bands, on the stepped
     ///   beam, at the contact height and at the tip, along the force.
     ///
@@ -273,11 +273,14 @@ impl CuttingModel {
                 let ft = kc * r.volume_over_radius_mm2 / (2.0 * std::f64::consts::PI * revolutions);
                 let [cx, cy] = r.contact_resultant;
                 let scale = ft / r.volume_mm3;
-                // Tangential (ẑ × C) for a clockwise (M3) spindle, radial −C.
+                // Tangential (ẑ × C) for a clockwise (M3) spindle, radial −C;
+                // axial −k_a F_t: a right-hand helix turning M3 pulls the tool
+                // out of its holder, toward −Z (MODEL.md §3.2: forces on the
+                // tool, machine axes, +Z up).
                 (
                     scale * (-cy - k.radial_ratio * cx),
                     scale * (cx - k.radial_ratio * cy),
-                    k.axial_ratio * ft,
+                    -k.axial_ratio * ft,
                     power_w,
                 )
             }
@@ -501,9 +504,10 @@ mod tests {
         let fy = 2.0 * 2.0 * 0.1 * kc / 4.0;
         assert!((load.fy_n - fy).abs() < 1e-9 * fy, "{} vs {fy}", load.fy_n);
         assert!((load.fx_n + 0.3 * fy).abs() < 1e-9 * fy);
-        // Torque = P/ω; mean tangential force = T / R; axial = k_a · that.
+        // Torque = P/ω; mean tangential force = T / R; axial = k_a · that,
+        // on the tool toward −Z (out of the holder).
         let ft = load.torque_nm * 1000.0 / 5.0;
-        assert!((load.fz_n - 0.25 * ft).abs() < 1e-9);
+        assert!(load.fz_n < 0.0 && (load.fz_n + 0.25 * ft).abs() < 1e-9);
         assert!(load.stress_mpa > 0.0);
     }
 
