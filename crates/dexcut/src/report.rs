@@ -169,7 +169,7 @@ fn read_maps(
 /// The per-column maps `top_mm`, `error_um` (and `design_um` when written) of
 /// a results folder: from the `.npy` grid (`columns.json`), or from
 /// columns.csv when the folder has no grid (older results).
-fn read_column_maps(dir: &Path, grid: &GridInfo) -> Result<HashMap<String, Vec<f32>>> {
+pub(crate) fn read_column_maps(dir: &Path, grid: &GridInfo) -> Result<HashMap<String, Vec<f32>>> {
     let json = dir.join(export::COLUMN_GRID_JSON);
     if !json.exists() {
         let csv = dir.join("columns.csv");

@@ -146,14 +146,9 @@ pub fn write(dir: &Path, stock: &Stock) -> Result<SavedStockDoc> {
     Ok(doc)
 }
 
-/// A saved stock's file, as named in messages.
-fn file(dir: &Path, name: &str) -> PathBuf {
-    dir.join(name)
-}
-
 /// Read the array `name` of the saved stock in `dir`.
 fn read_array(dir: &Path, name: &str) -> Result<export::Npy> {
-    let path = file(dir, name);
+    let path = dir.join(name);
     crate::bounds::check_input_file(&path, "saved stock array", MAX_ARRAY_BYTES)?;
     let bytes = std::fs::read(&path).map_err(|e| Error::io("cannot read", &path, e))?;
     export::parse_npy(&bytes).map_err(|e| Error::job(format!("{}: {e}", path.display())))
@@ -162,7 +157,7 @@ fn read_array(dir: &Path, name: &str) -> Result<export::Npy> {
 /// Read stock.json of the saved stock in the folder `dir`, checked (its
 /// format, version, units and grid); `what` names the job key in messages.
 pub fn read_doc(dir: &Path, what: &str) -> Result<SavedStockDoc> {
-    let json = file(dir, JSON);
+    let json = dir.join(JSON);
     if !json.is_file() {
         fail!(job, "{what}: {} is not a saved stock folder (no {JSON}; `dexcut simulate --save-stock` or `optimize --save-stock` writes one into DIR/stock)", dir.display());
     }
@@ -203,7 +198,7 @@ pub fn read_doc(dir: &Path, what: &str) -> Result<SavedStockDoc> {
 /// `what` names the job key in messages.
 pub fn read(dir: &Path, what: &str) -> Result<(Stock, SavedStockDoc)> {
     let doc = read_doc(dir, what)?;
-    let json = file(dir, JSON);
+    let json = dir.join(JSON);
     let bad = |m: String| Error::job(format!("{what}: {}: {m}", json.display()));
     let g = doc.grid;
     crate::bounds::check_columns(g.nx, g.ny, g.spacing_mm, what)?;

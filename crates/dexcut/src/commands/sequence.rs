@@ -195,13 +195,13 @@ pub(crate) fn simulate(
 ) -> Result<Sequence<Simulated>> {
     let (started, budget_bytes, out_dir) = begin(&doc, &job_path, out, opts)?;
     let run_id = out_dir.run_id();
-    let (mut stock, mut ran, mut lines) = (None, Vec::new(), Vec::new());
-    let (mut initial, mut grid) = (0.0, None);
+    let mut done = Done::default();
     for op in &doc.operation_jobs {
-        let mut setup = operation_setup(op, &job_path, budget_bytes, stock.take(), &out_dir, opts)?;
+        let stock = done.stock.take();
+        let mut setup = operation_setup(op, &job_path, budget_bytes, stock, &out_dir, opts)?;
         let dir = op_dir(&out_dir, op)?;
         let exact_stop = exact_stop_time_s(&setup);
-        let (mut sim, steps_format) = simulate_whole(
+        let (sim, steps_format) = simulate_whole(
             &mut setup,
             actual_path,
             &dir,
@@ -212,26 +212,17 @@ pub(crate) fn simulate(
         summary.run_time_s = started.elapsed().as_secs_f64();
         crate::model::summary::write_simulate(&dir.join("summary.json"), &summary)?;
         manifest(&dir, &run_id, "simulate")?;
-        if lines.is_empty() {
-            initial = summary.run.initial_volume_mm3;
-        }
-        grid.get_or_insert_with(|| summary.grid.clone());
-        lines.push(line(op, &summary.program, &summary.run, None, None));
-        let spacing = sim.run.stock.grid().spacing_mm;
-        let one = Stock::new_box([0.0; 3], [spacing; 3], spacing)?;
-        stock = Some(std::mem::replace(&mut sim.run.stock, one));
-        ran.push((
-            op.folder.clone(),
-            Simulated {
-                summary,
-                banded: None,
-                steps_format,
-            },
-        ));
+        let line = line(op, &summary.program, &summary.run, None, None);
+        let initial = summary.run.initial_volume_mm3;
+        let grid = summary.grid.clone();
+        let simulated = Simulated {
+            summary,
+            banded: None,
+            steps_format,
+        };
+        done.push(op, line, initial, grid, sim.run.stock, simulated);
     }
-    finish(
-        "simulate", &doc, out_dir, ran, lines, initial, grid, stock, started, opts,
-    )
+    finish("simulate", &doc, out_dir, done, started, opts)
 }
 
 /// `dexcut optimize` of a job of operations: each re-timed on the stock the
@@ -243,10 +234,10 @@ pub(crate) fn optimize(
 ) -> Result<Sequence<Optimized>> {
     let (started, budget_bytes, out_dir) = begin(&doc, &job_path, out, opts)?;
     let run_id = out_dir.run_id();
-    let (mut stock, mut ran, mut lines) = (None, Vec::new(), Vec::new());
-    let (mut initial, mut grid) = (0.0, None);
+    let mut done = Done::default();
     for op in &doc.operation_jobs {
-        let mut setup = operation_setup(op, &job_path, budget_bytes, stock.take(), &out_dir, opts)?;
+        let stock = done.stock.take();
+        let mut setup = operation_setup(op, &job_path, budget_bytes, stock, &out_dir, opts)?;
         crate::commands::check_optimizable(&setup, opts.on_warning)?;
         let dir = op_dir(&out_dir, op)?;
         let (mut optimized, left) = optimize_in(
@@ -261,23 +252,62 @@ pub(crate) fn optimize(
         summary.run_time_s = started.elapsed().as_secs_f64();
         crate::model::summary::write_optimize(&dir.join("summary.json"), summary)?;
         manifest(&dir, &run_id, "optimize")?;
-        if lines.is_empty() {
-            initial = summary.before.initial_volume_mm3;
-        }
-        grid.get_or_insert_with(|| summary.grid.clone());
-        lines.push(line(
+        let line = line(
             op,
             &summary.program,
             &summary.after,
             Some(&summary.before),
             Some(summary.kept_original),
-        ));
-        stock = Some(left);
-        ran.push((op.folder.clone(), optimized));
+        );
+        let (initial, grid) = (summary.before.initial_volume_mm3, summary.grid.clone());
+        done.push(op, line, initial, grid, left, optimized);
     }
-    finish(
-        "optimize", &doc, out_dir, ran, lines, initial, grid, stock, started, opts,
-    )
+    finish("optimize", &doc, out_dir, done, started, opts)
+}
+
+/// The operations run so far: each one's results by its folder, its line of
+/// the job's summary, and the stock it left; the first one's initial volume
+/// and the grid.
+struct Done<T> {
+    ran: Vec<(String, T)>,
+    lines: Vec<OperationLine>,
+    initial_volume_mm3: f64,
+    grid: Option<GridInfo>,
+    stock: Option<Stock>,
+}
+
+impl<T> Default for Done<T> {
+    fn default() -> Self {
+        Done {
+            ran: Vec::new(),
+            lines: Vec::new(),
+            initial_volume_mm3: 0.0,
+            grid: None,
+            stock: None,
+        }
+    }
+}
+
+impl<T> Done<T> {
+    /// Operation `op` run: its line, its stock's initial volume, its grid,
+    /// the stock it left and what it made.
+    fn push(
+        &mut self,
+        op: &Operation,
+        line: OperationLine,
+        initial: f64,
+        grid: GridInfo,
+        stock: Stock,
+        made: T,
+    ) {
+        if self.lines.is_empty() {
+            self.initial_volume_mm3 = initial;
+            self.grid = Some(grid);
+        }
+        self.lines.push(line);
+        self.stock = Some(stock);
+        self.ran.push((op.folder.clone(), made));
+    }
 }
 
 /// The whole job's column grid in `dir` from its operations' (written in
@@ -291,25 +321,15 @@ fn write_job_columns(dir: &Path, grid: &GridInfo, lines: &[OperationLine]) -> Re
     let (mut error_um, mut last_operation) = (vec![f32::NAN; columns], vec![0i32; columns]);
     let mut top_mm = Vec::new();
     for op in lines {
-        let op_dir = dir.join(&op.folder);
-        let info = export::read_column_grid_info(&op_dir, crate::bounds::MAX_SUMMARY_BYTES)?;
-        let array = |name: &str| -> Result<Vec<f32>> {
-            match export::read_grid_array_f32(&op_dir, &info, name)? {
-                Some(v) if v.len() == columns => Ok(v),
-                _ => fail!(
-                    results,
-                    "{}: no {name} of {columns} columns",
-                    op_dir.display()
-                ),
-            }
-        };
-        for (i, e) in array("error_um")?.into_iter().enumerate() {
+        let mut maps = crate::report::read_column_maps(&dir.join(&op.folder), grid)?;
+        let op_error = maps.remove("error_um").unwrap_or_default();
+        for (i, e) in op_error.into_iter().enumerate() {
             if e.is_finite() {
                 error_um[i] = e;
                 last_operation[i] = op.number as i32;
             }
         }
-        top_mm = array("top_mm")?;
+        top_mm = maps.remove("top_mm").unwrap_or_default();
     }
     let arrays = [
         export::GridArray {
@@ -341,32 +361,27 @@ fn write_job_columns(dir: &Path, grid: &GridInfo, lines: &[OperationLine]) -> Re
 
 /// Save the final stock where asked, write the job's summary.json and put
 /// the folder in place.
-#[allow(clippy::too_many_arguments)]
 fn finish<T>(
     command: &str,
     doc: &Job,
     out_dir: OutDir,
-    ran: Vec<(String, T)>,
-    lines: Vec<OperationLine>,
-    initial_volume_mm3: f64,
-    grid: Option<GridInfo>,
-    stock: Option<Stock>,
+    done: Done<T>,
     started: Instant,
     opts: &RunOptions,
 ) -> Result<Sequence<T>> {
-    let (Some(stock), Some(grid)) = (stock, grid) else {
+    let (Some(stock), Some(grid)) = (done.stock, done.grid) else {
         fail!(job, "{}: [[operations]] is empty", doc.name);
     };
     if opts.save_stock {
         crate::commands::save_stock(out_dir.path(), &stock)?;
     }
-    write_job_columns(out_dir.path(), &grid, &lines)?;
+    write_job_columns(out_dir.path(), &grid, &done.lines)?;
     let summary = summary(
         command,
         doc,
         grid,
-        lines,
-        initial_volume_mm3,
+        done.lines,
+        done.initial_volume_mm3,
         stock.volume_mm3(),
         opts.save_stock,
         started,
@@ -375,7 +390,7 @@ fn finish<T>(
     crate::model::summary::write_operations(&out_dir.path().join("summary.json"), &summary)?;
     out_dir.commit(command)?;
     Ok(Sequence {
-        operations: ran,
+        operations: done.ran,
         summary,
     })
 }
