@@ -138,12 +138,11 @@ impl Setup {
         budget_bytes: f64,
         handed: Option<Stock>,
     ) -> Result<Setup> {
-        let mut program = match &job.library {
-            // A tool the program calls that the library skipped: why.
-            Some(library) => program::load(&job)
-                .map_err(|e| crate::input::tool_library::explain_program_error(library, e))?,
-            None => program::load(&job)?,
-        };
+        // A tool the program calls that the library skipped: why.
+        let mut program = program::load(&job).map_err(|e| match &job.library {
+            Some(library) => crate::input::tool_library::explain_program_error(library, e),
+            None => e,
+        })?;
         program.path = as_the_machine_reads(&job, std::mem::take(&mut program.path))?;
         if let Some(library) = &job.library {
             // A point list's tool column is not checked by the reader: a
@@ -644,8 +643,8 @@ pub fn grid_check(
         message: format!(
             "the grid is too coarse to measure this tool's removal per period: {}; a grid of {} mm (--grid {}) would resolve it",
             reasons.join("; "),
-            trim(suggest),
-            trim(suggest)
+            crate::util::short(suggest),
+            crate::util::short(suggest)
         ),
     })
 }
@@ -692,11 +691,6 @@ pub fn spindle_check(path: &nc::Path, tools: &crate::input::tools::ToolSet) -> O
 
 /// Columns a tool's diameter should span for its removal to be resolved.
 pub const TOOL_CELLS: f64 = 10.0;
-
-fn trim(v: f64) -> String {
-    let s = format!("{v:.4}");
-    s.trim_end_matches('0').trim_end_matches('.').to_string()
-}
 
 #[cfg(test)]
 mod tests {

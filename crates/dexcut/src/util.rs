@@ -27,6 +27,13 @@ pub fn fmt(v: f64) -> String {
     }
 }
 
+/// A length or number for messages, at most four decimals, trailing zeros
+/// dropped: 6.35, 12.7, 0.7938, 4.
+pub(crate) fn short(v: f64) -> String {
+    let s = format!("{v:.4}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
 /// Write any serialisable value as pretty JSON, atomically.
 pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
     export::atomic::write_file(path, |w| {

@@ -731,12 +731,8 @@ impl Job {
         }
         if let Some(spec) = job.tool_library.clone() {
             let at = keys.of_message("tool_library.path");
-            let (tools, library) =
-                super::tool_library::tools_of_library(&spec, base_dir, &job.tools)
-                    .map_err(|e| e.context(format!("{at}: tool_library")))?;
-            job.library_tools = tools.len() - job.tools.len();
-            job.tools = tools;
-            job.library = Some(library);
+            job.attach_library(&spec, base_dir)
+                .map_err(|e| e.context(format!("{at}: tool_library")))?;
         }
         // A key's error at the key's own line and column.
         if let Err(e) = job.validate() {
@@ -850,11 +846,23 @@ impl Job {
 
     /// The job's own `[[tools]]` entries: `tools` but the library's, which
     /// `[tool_library]` put after them ([`Job::library_tools`]). A job made
-    /// from another (an operation's) that sets `tools` must set
-    /// `tool_library`, `library` and `library_tools` with them
-    /// (`tool_library::tools_of_library`).
+    /// from another (an operation's) that sets `tools` resets `library` and
+    /// `library_tools` and attaches its own library ([`Job::attach_library`]).
     pub fn own_tools(&self) -> &[ToolSpec] {
         &self.tools[..self.tools.len().saturating_sub(self.library_tools)]
+    }
+
+    /// The tools of the library `spec` (a path relative to `base_dir`) put
+    /// after the job's own `[[tools]]` (which replace library tools of their
+    /// number): `tools`, `library` and `library_tools` set together, the one
+    /// place that sets them.
+    pub(crate) fn attach_library(&mut self, spec: &ToolLibrarySpec, base_dir: &Path) -> Result<()> {
+        let (tools, library) =
+            crate::input::tool_library::tools_of_library(spec, base_dir, &self.tools)?;
+        self.library_tools = tools.len() - self.tools.len();
+        self.tools = tools;
+        self.library = Some(library);
+        Ok(())
     }
 
     /// The `[tool]` or the `[[tools]]` table: one of them, numbered once each.

@@ -13,7 +13,7 @@ use serde::de::{DeserializeOwned, Deserializer};
 use serde::{Deserialize, Serialize};
 
 use super::job::{Job, LimitsSpec, MachineSpec, ProgramSpec, ToolSpec};
-use super::tool_library::{tools_of_library, ToolLibrarySpec};
+use super::tool_library::ToolLibrarySpec;
 use crate::error::{fail, Error, Result};
 
 /// One `[[operations]]` entry.
@@ -162,11 +162,8 @@ impl Job {
                 job.library_tools = 0;
                 if let Some(spec) = &op.tool_library {
                     let at = keys.of_message(&format!("{under}.tool_library.path"));
-                    let (tools, library) = tools_of_library(spec, &self.base_dir, &job.tools)
+                    job.attach_library(spec, &self.base_dir)
                         .map_err(|e| e.context(format!("{at}: {under}.tool_library")))?;
-                    job.library_tools = tools.len() - job.tools.len();
-                    job.tools = tools;
-                    job.library = Some(library);
                 }
             }
             if let Some(p) = &op.limits {

@@ -326,11 +326,7 @@ impl Draft {
     }
 }
 
-/// A length for messages: 6.35, 12.7, 0.79375.
-fn mm(v: f64) -> String {
-    let s = format!("{v:.4}");
-    s.trim_end_matches('0').trim_end_matches('.').to_string()
-}
+use crate::util::short as mm;
 
 /// The tool of a draft: its defaults as a machinist takes them, each said;
 /// its values checked as a `[[tools]]` entry's, errors at its place.
