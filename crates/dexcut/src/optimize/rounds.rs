@@ -421,7 +421,7 @@ fn finish(
     } = last;
     let gcode = setup.program.gcode.as_deref();
     let cycle = run.steps.last().map_or(0.0, |s| s.t_end_s);
-    let faster_within = cycle > before.cycle_s && before.within_limits;
+    let faster_within = cycle > before.cycle_s && before.within_limits_but_feed_rules;
     let (left, unresolved): (Vec<Excess>, Vec<Excess>) = over
         .into_iter()
         .filter(|e| e.beyond_tolerance)

@@ -346,7 +346,7 @@ pub struct Given {
     pub cycle_s: f64,
     /// It is within every limit ([`within_limits`]) but the feed rules
     /// of the engagement ([`FeedRules`]).
-    pub within_limits: bool,
+    pub within_limits_but_feed_rules: bool,
 }
 
 impl Given {
@@ -354,7 +354,7 @@ impl Given {
     pub fn of(run: &Run, limits: &LimitsSpec, tools: &ToolSet) -> Given {
         Given {
             cycle_s: run.steps.last().map_or(0.0, |s| s.t_end_s),
-            within_limits: within_limits(run, limits, tools, &FeedRules::default()),
+            within_limits_but_feed_rules: within_limits(run, limits, tools, &FeedRules::default()),
         }
     }
 }
