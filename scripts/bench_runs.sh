@@ -6,12 +6,17 @@
 #   * the 1 M-block program (1000 × 1000 points, 999 999 G1 blocks) at grid 0.1,
 #     simulate and optimize;
 #   * the free path (240 G1 moves over an 80 × 60 mm block, Ø6 ball) at grid
-#     0.05, simulate with the closed loop (the default) and without.
+#     0.05, simulate with the closed loop (the default) and without;
+#   * two long real ball-end programs (crates/dexcut/benches/programs/real:
+#     A, CAMotics' cameo, 35 288 lines, Ø2 ball, 724 227 servo steps; B,
+#     CAMotics' bear, 15 163 lines, 1/8" ball), simulate and optimize at grid
+#     0.1 with their jobs; the programs are decompressed (xz) into WORKDIR.
 # Programs and jobs are written by `examples/bench_programs.rs` (the same
 # generator as the criterion benches). Prints one Markdown table row per run,
 # with the load average before it, as BENCHMARKS.md records them.
 #
-# Usage: scripts/bench_runs.sh [WORKDIR] [FILTER]   (FILTER: a substring of the run names)
+# Usage: scripts/bench_runs.sh [WORKDIR] [FILTER]   (FILTER: a substring of the run names:
+#        raster, free_path, 1m, real, real_A, ...)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 work=${1:-$root/target/bench_runs}
@@ -20,6 +25,12 @@ cd "$root"
 cargo build --release -q -p dexcut-cli
 cargo run --release -q -p dexcut --example bench_programs -- "$work" > /dev/null
 bin=$root/target/release/dexcut
+real=$root/crates/dexcut/benches/programs/real
+mkdir -p "$work"
+for p in "$real"/*.nc.xz; do
+    xz -dc "$p" > "$work/$(basename "$p" .xz)"
+done
+cp "$real"/*.toml "$work"/
 cd "$work"
 
 run() {
@@ -54,3 +65,7 @@ sed 's/^\[cutting\]/[cutting]\nclosed_loop = false/' free_path_ngc.toml > free_p
 run "free_path_0.05_open_loop" simulate free_path_open.toml --out out_free_path_open --force
 run "1m_simulate_0.1" simulate finish_1m_ngc.toml --out out_1m_simulate --force
 run "1m_optimize_0.1" optimize finish_1m_ngc.toml --out out_1m_optimize --force
+run "real_A_simulate" simulate camotics_cameo.toml --out out_real_A_simulate --force
+run "real_A_optimize" optimize camotics_cameo.toml --out out_real_A_optimize --force
+run "real_B_simulate" simulate camotics_bear.toml --out out_real_B_simulate --force
+run "real_B_optimize" optimize camotics_bear.toml --out out_real_B_optimize --force
