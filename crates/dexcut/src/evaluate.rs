@@ -29,7 +29,7 @@ fn weights(job: &Job, reference_time_s: f64) -> Weights {
 
 /// Commanded positions every period of the program as `machine` runs it.
 fn commanded(setup: &Setup, machine: &Machine) -> Result<Vec<[f64; 3]>> {
-    let samples = motion::machine_motion(&setup.program.path, machine)?;
+    let samples = motion::machine_motion(&setup.program.path, machine, &setup.controller)?;
     Ok(samples.iter().map(|s| s.pos.coords.into()).collect())
 }
 

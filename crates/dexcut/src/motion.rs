@@ -3,7 +3,7 @@
 
 use crate::error::Result;
 use nc::Motion;
-use schedule::{FeedPolicy, Machine, ServoSample, Stations};
+use schedule::{Controller, FeedPolicy, Machine, ServoSample, Stations};
 
 /// Arc-length resolution of the planner's stations, mm: finer than one servo
 /// period at any feed, so caps are respected between samples.
@@ -218,10 +218,20 @@ impl SampleFeeds {
     }
 }
 
-/// How the machine runs the program as written: servo samples every period.
-pub fn machine_motion(path: &nc::Path, machine: &Machine) -> Result<Vec<ServoSample>> {
-    let stations = Stations::new(path, machine, STATION_DS_MM, FeedPolicy::Programmed)?;
-    samples(&stations, machine)
+/// How the machine runs the program as written: servo samples every period, planned by
+/// `controller` (MODEL.md §6.1 for the ideal planner, §6.4 for the controls').
+pub fn machine_motion(
+    path: &nc::Path,
+    machine: &Machine,
+    controller: &Controller,
+) -> Result<Vec<ServoSample>> {
+    match controller {
+        Controller::Ideal => {
+            let stations = Stations::new(path, machine, STATION_DS_MM, FeedPolicy::Programmed)?;
+            samples(&stations, machine)
+        }
+        _ => controlled(path, machine, controller),
+    }
 }
 
 /// [`machine_motion`] with the path handed to the planner's stations rather than
@@ -229,7 +239,11 @@ pub fn machine_motion(path: &nc::Path, machine: &Machine) -> Result<Vec<ServoSam
 pub fn machine_motion_of(
     path: nc::Path,
     machine: &Machine,
+    controller: &Controller,
 ) -> (Result<Vec<ServoSample>>, nc::Path) {
+    if !matches!(controller, Controller::Ideal) {
+        return (controlled(&path, machine, controller), path);
+    }
     match Stations::from_path(path, machine, STATION_DS_MM, FeedPolicy::Programmed) {
         Ok(stations) => {
             let samples = samples(&stations, machine);
@@ -237,6 +251,24 @@ pub fn machine_motion_of(
         }
         Err((e, path)) => (Err(e.into()), path),
     }
+}
+
+/// The servo samples of a real control's planner (MODEL.md §6.4).
+fn controlled(
+    path: &nc::Path,
+    machine: &Machine,
+    controller: &Controller,
+) -> Result<Vec<ServoSample>> {
+    let samples = match controller {
+        Controller::Grbl(settings) => schedule::controller::grbl::samples(path, machine, settings),
+        Controller::LinuxCnc(settings) => {
+            schedule::controller::linuxcnc::samples(path, machine, settings)
+        }
+        Controller::Ideal => unreachable!("the ideal planner plans through its stations"),
+    }?;
+    let cycle_time_s = samples.last().map_or(0.0, |s| s.t_s);
+    crate::bounds::check_samples(cycle_time_s, machine.period_ms, "the program")?;
+    Ok(samples)
 }
 
 /// The servo samples of the time-optimal plan along `stations`.
@@ -355,7 +387,7 @@ mod tests {
             period_ms: 4.0,
             ..Machine::default()
         };
-        let samples = machine_motion(&path, &machine).unwrap();
+        let samples = machine_motion(&path, &machine, &Controller::Ideal).unwrap();
         let steps = steps_from_samples(&path, &samples);
         // The program splits periods at its rapids, and uses both tools.
         assert!(steps.iter().filter(|s| s.continues).count() >= 4);

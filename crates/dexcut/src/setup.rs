@@ -39,6 +39,8 @@ pub struct Setup {
     pub tools: ToolSet,
     /// Axis limits, servo period and feeds (`[machine]`).
     pub machine: Machine,
+    /// The control whose planner runs the program (`[machine] controller`, MODEL.md §6.4).
+    pub controller: schedule::Controller,
     /// The `[design]` model, read and checked before any work.
     pub design: Option<(PathBuf, mesh::DesignModel)>,
     /// The stock was handed over ([`Setup::of_job`]): the stock an operation
@@ -161,6 +163,7 @@ impl Setup {
         let (tool, model) = (first.tool, first.model);
         // Checked with the job (Job::validate, through schedule::MACHINE_RANGES).
         let machine = crate::input::job::machine(&job);
+        let controller = crate::input::job::controller(&job)?;
         if program.gcode.is_some() {
             // Stations and samples are bounded before planning (2 runs: optimize's before and after).
             let estimate =
@@ -213,6 +216,7 @@ impl Setup {
             model,
             tools,
             machine,
+            controller,
             design,
             handed_over,
             warnings: Vec::new(),
@@ -469,7 +473,8 @@ impl Setup {
     /// drive model's estimate of where the axes really are (G-code only).
     pub fn steps(&self, actual_path: bool) -> Result<Vec<TimedStep>> {
         if self.program.gcode.is_some() {
-            let samples = motion::machine_motion(&self.program.path, &self.machine)?;
+            let samples =
+                motion::machine_motion(&self.program.path, &self.machine, &self.controller)?;
             self.steps_of(samples, actual_path)
         } else if actual_path {
             fail!(
@@ -491,7 +496,7 @@ impl Setup {
             return self.steps(actual_path);
         }
         let path = std::mem::take(&mut self.program.path);
-        let (samples, path) = motion::machine_motion_of(path, &self.machine);
+        let (samples, path) = motion::machine_motion_of(path, &self.machine, &self.controller);
         self.program.path = path;
         self.steps_of(samples?, actual_path)
     }

@@ -15,6 +15,7 @@
 #![warn(missing_docs)]
 
 mod bound;
+pub mod controller;
 mod corner_check;
 mod direct;
 mod exact_stop;
@@ -27,6 +28,7 @@ mod slp;
 mod stations;
 
 pub use bound::{lower_bound_time_s, rest_to_rest_time_s};
+pub use controller::Controller;
 pub use exact_stop::exact_stop_time_s;
 pub use machine::{Machine, ScheduleError, MACHINE_RANGES};
 pub use plan::{

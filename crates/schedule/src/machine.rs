@@ -85,6 +85,14 @@ pub enum ScheduleError {
         /// The last slowing factor σ tried.
         slow: f64,
     },
+    /// The job's controller (`[machine] controller`) cannot plan the path.
+    #[error("controller {controller}: {what}")]
+    Controller {
+        /// The controller's name in the job file (`grbl`, `linuxcnc`).
+        controller: &'static str,
+        /// What it cannot do.
+        what: String,
+    },
     /// A caps slice does not have one value per station.
     #[error("expected {expected} caps (one per station), got {got}")]
     CapCount {

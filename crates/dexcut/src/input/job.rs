@@ -399,6 +399,37 @@ pub struct MachineSpec {
     /// optimized.nc is written back in the program's own Z.
     #[serde(default)]
     pub z_axis: ZAxis,
+    /// The control whose planner runs the program (MODEL.md §6.4): "ideal" (dexcut's
+    /// time-optimal planner, the default), "grbl" or "linuxcnc".
+    #[serde(default)]
+    pub controller: ControllerKind,
+    /// grbl's `$11` junction deviation, mm (default 0.01; grbl only). Over a dump's `$11`.
+    pub junction_deviation_mm: Option<f64>,
+    /// grbl's `$12` arc tolerance, mm (default 0.002; grbl only). Over a dump's `$12`.
+    pub arc_tolerance_mm: Option<f64>,
+    /// Blocks grbl's planner buffer holds, the running one included (default 15, the
+    /// ATmega328p's; grbl only).
+    pub planner_blocks: Option<u32>,
+    /// A grbl `$$` settings dump, relative to the job file (grbl only): its `$11`, `$12`,
+    /// `$100`–`$102`, `$110`–`$112` and `$120`–`$122` replace the defaults, `rapid` as
+    /// the axes' maximum rate and `accel`.
+    pub grbl_settings: Option<PathBuf>,
+    /// LinuxCNC's default blending tolerance (the INI's, for G64 without P), mm
+    /// (linuxcnc only).
+    pub blend_tolerance_mm: Option<f64>,
+}
+
+/// `[machine] controller`: which planner runs the program.
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum ControllerKind {
+    /// dexcut's time-optimal planner (MODEL.md §6.1).
+    #[default]
+    Ideal,
+    /// grbl 1.1's planner (MODEL.md §6.4).
+    Grbl,
+    /// LinuxCNC's trajectory planner.
+    Linuxcnc,
 }
 
 /// Direction of the machine's positive Z axis ([`MachineSpec::z_axis`]).
@@ -437,6 +468,12 @@ impl Default for MachineSpec {
             arcs_as_lines: false,
             start: None,
             z_axis: ZAxis::Up,
+            controller: ControllerKind::Ideal,
+            junction_deviation_mm: None,
+            arc_tolerance_mm: None,
+            planner_blocks: None,
+            grbl_settings: None,
+            blend_tolerance_mm: None,
         }
     }
 }
@@ -1016,6 +1053,62 @@ impl Job {
         if let Some(p) = m.start {
             coordinates("machine.start (mm)", &p)?;
         }
+        self.validate_controller()
+    }
+
+    /// `[machine]`'s controller keys: each only with its controller, in its range.
+    fn validate_controller(&self) -> Result<()> {
+        let m = &self.machine;
+        let grbl_keys = [
+            ("junction_deviation_mm", m.junction_deviation_mm.is_some()),
+            ("arc_tolerance_mm", m.arc_tolerance_mm.is_some()),
+            ("planner_blocks", m.planner_blocks.is_some()),
+            ("grbl_settings", m.grbl_settings.is_some()),
+        ];
+        if m.controller != ControllerKind::Grbl {
+            if let Some((key, _)) = grbl_keys.iter().find(|k| k.1) {
+                fail!(job, "machine.{key} is a setting of controller = \"grbl\"; this job's controller is \"{}\"", m.controller.name());
+            }
+        }
+        if m.controller != ControllerKind::Linuxcnc && m.blend_tolerance_mm.is_some() {
+            fail!(job, "machine.blend_tolerance_mm is a setting of controller = \"linuxcnc\"; this job's controller is \"{}\"", m.controller.name());
+        }
+        let grbl_range = |name: &str| {
+            schedule::controller::grbl::GRBL_RANGES
+                .iter()
+                .find(|r| r.0 == name)
+                .map(|r| (r.1, r.2))
+                .expect("a grbl setting's range")
+        };
+        for (key, name, value) in [
+            (
+                "machine.junction_deviation_mm",
+                "junction_deviation_mm",
+                m.junction_deviation_mm,
+            ),
+            (
+                "machine.arc_tolerance_mm",
+                "arc_tolerance_mm",
+                m.arc_tolerance_mm,
+            ),
+            (
+                "machine.planner_blocks",
+                "planner_blocks",
+                m.planner_blocks.map(f64::from),
+            ),
+        ] {
+            if let Some(v) = value {
+                let (lo, hi) = grbl_range(name);
+                if !v.is_finite() {
+                    fail!(job, "{key} must be a finite number, got {v}");
+                }
+                range(key, v, lo, hi)?;
+            }
+        }
+        if let Some(v) = m.blend_tolerance_mm {
+            positive_opt("machine.blend_tolerance_mm", Some(v), 100.0)?;
+            range("machine.blend_tolerance_mm", v, 1e-6, 100.0)?;
+        }
         Ok(())
     }
 
@@ -1288,6 +1381,57 @@ impl ToolSpec {
         tool.validate().or_job(|| "invalid [tool]".into())?;
         Ok(tool)
     }
+}
+
+impl ControllerKind {
+    /// The name the job file writes.
+    pub fn name(self) -> &'static str {
+        match self {
+            ControllerKind::Ideal => "ideal",
+            ControllerKind::Grbl => "grbl",
+            ControllerKind::Linuxcnc => "linuxcnc",
+        }
+    }
+}
+
+/// The job's controller with its settings: a grbl dump (`grbl_settings`) read here, its
+/// values over grbl's defaults and the machine's `rapid` and `accel`, the job's own
+/// `junction_deviation_mm`, `arc_tolerance_mm` and `planner_blocks` over the dump's.
+pub fn controller(job: &Job) -> Result<schedule::Controller> {
+    let m = &job.machine;
+    Ok(match m.controller {
+        ControllerKind::Ideal => schedule::Controller::Ideal,
+        ControllerKind::Linuxcnc => {
+            schedule::Controller::LinuxCnc(schedule::controller::LinuxCncSettings {
+                blend_tolerance_mm: m.blend_tolerance_mm,
+            })
+        }
+        ControllerKind::Grbl => {
+            let mut settings = schedule::controller::GrblSettings::for_machine(&machine(job));
+            if let Some(dump) = &m.grbl_settings {
+                let file = job.resolve(dump);
+                crate::bounds::check_input_file(&file, "grbl settings dump", 1 << 20)?;
+                let text = std::fs::read_to_string(&file)
+                    .map_err(|e| Error::io("cannot read grbl settings dump", &file, e))?;
+                settings = settings.with_dump(&text).map_err(|e| {
+                    Error::job(format!("{}:{}: {}", file.display(), e.line, e.what))
+                })?;
+                settings
+                    .validate()
+                    .map_err(|e| Error::job(format!("{}: {e}", file.display())))?;
+            }
+            if let Some(v) = m.junction_deviation_mm {
+                settings.junction_deviation_mm = v;
+            }
+            if let Some(v) = m.arc_tolerance_mm {
+                settings.arc_tolerance_mm = v;
+            }
+            if let Some(v) = m.planner_blocks {
+                settings.planner_blocks = v as usize;
+            }
+            schedule::Controller::Grbl(settings)
+        }
+    })
 }
 
 /// The machine limits from the job.

@@ -363,7 +363,8 @@ fn written_steps(
             }
             let path = parsed.path;
             crate::util::heap_mark(format_args!("round {round}: re-feed"));
-            let (samples, path) = crate::motion::machine_motion_of(path, &setup.machine);
+            let (samples, path) =
+                crate::motion::machine_motion_of(path, &setup.machine, &setup.controller);
             let samples = samples?;
             let steps = crate::motion::steps_from_samples(&path, &samples);
             let feeds = crate::motion::SampleFeeds::of(&samples, &path);
@@ -440,7 +441,8 @@ fn finish(
             // The program as given, simulated again (its run was not
             // held through the rounds).
             let (steps, feeds) = free.with_path(setup, |path| {
-                let samples = crate::motion::machine_motion(path, &setup.machine)?;
+                let samples =
+                    crate::motion::machine_motion(path, &setup.machine, &setup.controller)?;
                 Ok::<_, crate::error::Error>((
                     crate::motion::steps_from_samples(path, &samples),
                     crate::motion::SampleFeeds::of(&samples, path),

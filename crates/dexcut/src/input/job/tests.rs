@@ -835,3 +835,69 @@ fn every_key_mutated_is_refused_at_its_path_and_line() {
     );
     assert!(refused > read);
 }
+
+/// `[machine] controller`: an unknown one is refused at its place, each controller's keys
+/// only under it and in their range, and a grbl `$$` dump is read with its keys winning
+/// over it and a bad line named at file:line.
+#[test]
+fn controllers_and_their_settings_are_checked() {
+    let with = |machine: &str| MINIMAL.to_string() + "[machine]\n" + machine + "\n";
+    let err = |machine: &str| {
+        Job::parse(&with(machine), "job.toml", Path::new("."))
+            .unwrap_err()
+            .to_string()
+    };
+    let e = err("controller = \"mach3\"");
+    assert!(
+        e.starts_with("job.toml:14:14: machine.controller: unknown variant `mach3`"),
+        "{e}"
+    );
+    let e = err("junction_deviation_mm = 0.02");
+    assert!(
+        e.contains("machine.junction_deviation_mm is a setting of controller = \"grbl\""),
+        "{e}"
+    );
+    let e = err("controller = \"grbl\"\nblend_tolerance_mm = 0.1");
+    assert!(
+        e.contains("machine.blend_tolerance_mm is a setting of controller = \"linuxcnc\""),
+        "{e}"
+    );
+    let e = err("controller = \"grbl\"\njunction_deviation_mm = 50");
+    assert!(e.contains("machine.junction_deviation_mm"), "{e}");
+
+    let dir = std::env::temp_dir().join(format!("dexcut-grbl-dump-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("ok.txt"),
+        "$11=0.05\n$12=0.01\n$110=6000\n$120=200\nok\n",
+    )
+    .unwrap();
+    std::fs::write(dir.join("bad.txt"), "$11=0.05\n$121=x\n").unwrap();
+    let job = |extra: &str| {
+        Job::parse(
+            &with(&format!("controller = \"grbl\"\n{extra}")),
+            "job.toml",
+            &dir,
+        )
+        .unwrap()
+    };
+    let settings =
+        match controller(&job("grbl_settings = \"ok.txt\"\narc_tolerance_mm = 0.003")).unwrap() {
+            schedule::Controller::Grbl(s) => s,
+            c => panic!("{c:?}"),
+        };
+    assert_eq!(settings.junction_deviation_mm, 0.05);
+    assert_eq!(settings.arc_tolerance_mm, 0.003);
+    assert_eq!(settings.max_rate_mm_min, [6000.0, 10000.0, 10000.0]);
+    assert_eq!(settings.accel_mm_s2, [200.0, 1000.0, 1000.0]);
+    assert_eq!(settings.planner_blocks, 15);
+    let e = controller(&job("grbl_settings = \"bad.txt\""))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("bad.txt:2: $121: `x` is not a number"), "{e}");
+    assert_eq!(
+        controller(&Job::parse(MINIMAL, "job.toml", Path::new(".")).unwrap()).unwrap(),
+        schedule::Controller::Ideal
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
