@@ -3070,7 +3070,11 @@ fn a_tool_past_its_rupture_strength_breaks_and_reports_the_deflection_at_rupture
     let (_, d, d_csv, d_npy, _) = run("default", "", "");
     let (_, _, l_csv, l_npy, _) = run("lifted", "rupture_strength_mpa = 1e6", "");
     assert!(d["peak_stress_mpa"].as_f64().unwrap() < 3500.0);
-    assert!(d["closed_loop_passes"].as_u64().unwrap() > 1);
+    // (A full slot: a sideways move of the tool hardly changes its section,
+    // so the rigid sweep settles the loop within 0.5 µm + 2 % of each
+    // step's deflection, MODEL.md §5.1, eq. 5.1e.)
+    assert_eq!(d["closed_loop_passes"], 1);
+    assert_eq!(d["closed_loop_converged"], true);
     assert_eq!(d_csv, l_csv);
     assert_eq!(d_npy, l_npy);
 }

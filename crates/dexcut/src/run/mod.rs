@@ -350,7 +350,7 @@ pub fn run_on(
         looping,
         sub_cells,
         advance_mm,
-    } = LoopPlan::new(&steps, of_step, &step_loads, grid_mm);
+    } = LoopPlan::new(&steps, of_step, &step_loads, &record, grid_mm);
     // Each step's offset: its trial, once the loop tries one.
     let mut x: Vec<f64> = vec![0.0; n];
     // The loads of the steps the loop scales (below) and by how much, once

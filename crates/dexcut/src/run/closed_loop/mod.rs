@@ -13,6 +13,7 @@ use crate::motion::TimedStep;
 
 pub(crate) mod path;
 pub(crate) mod search;
+pub(crate) mod settle;
 pub(crate) mod windows;
 
 pub(crate) use path::{applied_offsets_um, inherit_directions, loop_direction, offset_step};
@@ -71,6 +72,10 @@ pub struct LoopReport {
     /// Some tool's steps were kept rigid: its rigid cut overloaded it
     /// (MODEL.md §5.1).
     pub rigid_kept: bool,
+    /// The loop was settled from the rigid sweep (MODEL.md §5.1, eq. 5.1e):
+    /// no step's deflection could change its load by more than the
+    /// tolerance, so no trial was swept; `residual_um` is that bound.
+    pub settled: bool,
 }
 
 /// The component of a step's deflection along its loop direction, µm
@@ -106,12 +111,13 @@ pub(crate) struct LoopPlan {
 }
 
 impl LoopPlan {
-    /// The plan of the rigid sweep's loads `step_loads` of `steps` (on a
-    /// grid of `grid_mm`).
+    /// The plan of the rigid sweep's loads `step_loads` of `steps` (its
+    /// removal `record`, on a grid of `grid_mm`).
     pub(crate) fn new(
         steps: &[TimedStep],
         of_step: StepTools,
         step_loads: &[StepLoad],
+        record: &RemovalRecord,
         grid_mm: f64,
     ) -> LoopPlan {
         let n = steps.len();
@@ -153,14 +159,34 @@ impl LoopPlan {
             .filter(|&i| !tools.closed_loop || in_loop[i])
             .map(|i| rigid[i])
             .fold(0.0, f64::max);
-        let report = LoopReport {
+        let mut report = LoopReport {
             enabled: tools.closed_loop,
             passes: 1,
             residual_um: rigid_across_peak_um,
             converged: rigid_across_peak_um <= LOOP_TOL_UM,
             unconverged: Vec::new(),
             rigid_kept: tools.closed_loop && overloaded.iter().any(|&o| o),
+            settled: false,
         };
+        // A tool that barely bends: where no step's deflection can change
+        // its load by more than the tolerance, the rigid sweep's answer is
+        // the loop's (MODEL.md §5.1, eq. 5.1e): no trial is swept.
+        if tools.closed_loop && !report.converged {
+            let bound = settle::settled_bound_um(
+                steps,
+                of_step,
+                (step_loads, record),
+                &in_loop,
+                &inherited,
+                &rigid,
+                grid_mm,
+            );
+            if let Some(bound_um) = bound {
+                report.residual_um = bound_um;
+                report.converged = true;
+                report.settled = true;
+            }
+        }
         // The loop's passes run (below).
         let looping = tools.closed_loop && !report.converged;
         // Where a step advances less than one grid cell its load comes in whole
