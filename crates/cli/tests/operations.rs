@@ -460,8 +460,10 @@ fn saved_stl_is_watertight_with_the_stocks_volume() {
     )
     .expect("parry3d: a manifold, oriented mesh");
     eprintln!("parry3d volume {parry_volume} mm³");
+    // parry3d sums its tetrahedra in f32: over the rigid sweep's 308 050
+    // triangles it comes 6.5e-4 under the f64 sum above, which is exact.
     assert!(
-        (f64::from(parry_volume) - volume).abs() < 1e-4 * volume,
+        (f64::from(parry_volume) - volume).abs() < 2e-3 * volume,
         "{parry_volume} vs {volume}"
     );
 }
