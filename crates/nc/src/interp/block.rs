@@ -5,7 +5,7 @@ use super::state::Spindle;
 use super::{fail, Fail, Interp};
 use crate::gcode::integer_value;
 use crate::gcode::GCode;
-use crate::path::{Geometry, Motion, Plane};
+use crate::path::{Geometry, Motion, PathControl, PathControlChange, Plane};
 use crate::syntax::{Item, ItemKind};
 
 /// A block after evaluation of its words.
@@ -512,6 +512,7 @@ impl Interp<'_> {
                 self.coord = i;
             }
         }
+        self.path_control(b);
         for code in [
             GCode::G59_1,
             GCode::G59_2,
@@ -533,6 +534,40 @@ impl Interp<'_> {
         b.set_mode(&mut self.arc_incremental, GCode::G90_1, GCode::G91_1);
         b.set_mode(&mut self.retract_to_start, GCode::G99, GCode::G98);
         Ok(())
+    }
+
+    /// The block's G61, G61.1 or G64 (P, Q in the block's units), recorded on
+    /// the path for the moves made after it (LinuxCNC's
+    /// `convert_control_mode`: a negative or missing P or Q is no P or Q).
+    fn path_control(&mut self, b: &Block) {
+        let mode = if b.has_g(GCode::G61).is_some() {
+            PathControl::ExactPath
+        } else if b.has_g(GCode::G61_1).is_some() {
+            PathControl::ExactStop
+        } else if b.has_g(GCode::G64).is_some() {
+            let mm = |w: char| b.get(w).filter(|v| *v >= 0.0).map(|v| v * self.scale);
+            PathControl::Blend {
+                tolerance_mm: mm('p'),
+                naive_cam_mm: mm('q'),
+            }
+        } else {
+            return;
+        };
+        let first_segment = self
+            .lent
+            .as_ref()
+            .map_or(self.path.segments.len(), |l| l.matched);
+        let changes = &mut self.path.path_control;
+        if changes
+            .last()
+            .is_some_and(|c| c.first_segment == first_segment)
+        {
+            changes.pop();
+        }
+        changes.push(PathControlChange {
+            first_segment,
+            mode,
+        });
     }
 
     /// M19's words, and the outputs and input waits (M62–M68) as LinuxCNC
