@@ -282,6 +282,10 @@ pub struct Path {
     /// each change with the first segment it applies to, in segment order.
     /// Segments before the first change run in the control's start-up mode.
     pub path_control: Vec<PathControlChange>,
+    /// Segments before which the control waits for the motion before to
+    /// stop (spindle, coolant and tool changes, pauses), ascending; no
+    /// segment's geometry depends on them.
+    pub motion_waits: Vec<usize>,
 }
 
 /// How the control joins consecutive moves (G61, G61.1, G64), as the
@@ -320,6 +324,7 @@ impl Path {
         Path {
             segments,
             path_control: Vec::new(),
+            motion_waits: Vec::new(),
         }
     }
 

@@ -978,3 +978,12 @@ fn path_control_is_recorded_per_segment_and_kept_by_refeed() {
     let again = parse(&out);
     assert_eq!(modes_at_ends(&again), want, "{out}");
 }
+
+#[test]
+fn motion_waits_are_recorded_before_the_moves_they_hold() {
+    // LinuxCNC's task waits for motion to stop at spindle, coolant and tool
+    // changes: before segments 1 (M3 S), 2 (M8) and 3 (M5 M9 then M6).
+    let src = "G21 G90\nG0 X1\nM3 S1000\nG1 X2 F100\nM8\nG1 X3\nM5\nM9\nT2 M6\nG0 X4\nG1 X5\nM2\n";
+    let p = parse(src);
+    assert_eq!(p.motion_waits, vec![1, 2, 3]);
+}

@@ -38,7 +38,8 @@ pub fn chord_count(radius_mm: f64, sweep_rad: f64, chord_tolerance_mm: f64) -> u
 /// S0: the path with every feed arc written as equal chords within S0's chord tolerance
 /// for its programmed feed (MODEL.md §6.2, [`chord_count`]), as a CAM or a control
 /// without arc interpolation would run it. Other segments are kept, and so is the
-/// program's path control (each change at the first chord of its segment).
+/// program's path control and its motion waits (each at the first chord of its
+/// segment).
 pub fn linearise_arcs(path: &nc::Path, block_time_ms: f64, kf: f64) -> nc::Path {
     let mut segments = Vec::with_capacity(path.segments.len());
     // Where each segment's first piece lands in the new list.
@@ -78,9 +79,15 @@ pub fn linearise_arcs(path: &nc::Path, block_time_ms: f64, kf: f64) -> nc::Path 
             mode: c.mode,
         })
         .collect();
+    let motion_waits = path
+        .motion_waits
+        .iter()
+        .map(|&k| first_piece[k.min(path.segments.len())])
+        .collect();
     nc::Path {
         segments,
         path_control,
+        motion_waits,
     }
 }
 

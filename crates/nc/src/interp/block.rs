@@ -238,6 +238,7 @@ impl Interp<'_> {
         self.feed_scale = self.scale;
         let g_col = |code| b.has_g(code);
         self.feed_spindle_and_tool(&b, pc)?;
+        self.motion_wait(&b);
         self.inputs_and_outputs(&b)?;
         self.m70_m73(&b)?;
         self.dwell_and_modes(&b, pc)?;
@@ -568,6 +569,24 @@ impl Interp<'_> {
             first_segment,
             mode,
         });
+    }
+
+    /// Records where a control waits for motion to stop before the block:
+    /// spindle (M3, M4, M5, M19, an S word), coolant (M7, M8, M9), tool
+    /// change (M6, M61) and pauses (M0, M1), as LinuxCNC's task does.
+    fn motion_wait(&mut self, b: &Block) {
+        let waits =
+            b.get('s').is_some() || b.m.iter().any(|m| matches!(m.0, 0 | 1 | 3..=9 | 19 | 61));
+        if !waits {
+            return;
+        }
+        let at = self
+            .lent
+            .as_ref()
+            .map_or(self.path.segments.len(), |l| l.matched);
+        if self.path.motion_waits.last() != Some(&at) {
+            self.path.motion_waits.push(at);
+        }
     }
 
     /// M19's words, and the outputs and input waits (M62–M68) as LinuxCNC

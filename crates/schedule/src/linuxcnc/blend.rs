@@ -1,0 +1,277 @@
+//! Corners in G64: blend arcs between lines (blendmath.c's line–line case,
+//! tp.c's `tpCreateLineLineBlend`), parabolic blends and the choice between
+//! them (`tpChooseBestBlend`, `tpComputeBlendVelocity`); MODEL.md §6.4.
+
+use super::queue::{remove_kink, set_term_cond, Tp};
+use super::tc::{acc_ratio_normal, v_peak, Shape, SphericalArc, Tc, TermCond, BLEND_DIST_FRACTION};
+use super::LinuxCncSettings as Settings;
+use nalgebra::{Point3, Vector3};
+use std::f64::consts::PI;
+
+/// `TP_ANGLE_EPSILON`.
+const ANGLE_EPSILON: f64 = 1e-6;
+/// `TP_MIN_ARC_ANGLE`.
+const MIN_ARC_ANGLE: f64 = 1e-3;
+
+/// The blend `tpChooseBestBlend` picked (the order of its `perf` array).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Best {
+    Parabolic,
+    Tangent,
+    Arc,
+    None,
+}
+
+/// A blend arc made for a corner, before it is chosen.
+pub(super) struct Made {
+    pub tc: Tc,
+    pub arc_start: Point3<f64>,
+    pub arc_end: Point3<f64>,
+    /// The previous line is so short that the arc takes it whole.
+    pub consume: bool,
+}
+
+/// `calculateInscribedDiameter`: the largest circle of the box of per-axis
+/// `bounds` cut by the plane of unit `normal` (the limit in any direction of
+/// that plane).
+fn inscribed_diameter(normal: &Vector3<f64>, bounds: &[f64; 3]) -> Option<f64> {
+    if (1.0 - normal.norm_squared()).abs() > 1e-6 {
+        return None;
+    }
+    let mut extent = [0.0; 3];
+    for i in 0..3 {
+        let mut planar = -normal * normal[i];
+        planar[i] += 1.0;
+        let mut planar = planar.abs();
+        planar[i] = planar[i].max(1e-12);
+        if bounds[i] != 0.0 {
+            extent[i] = bounds[i] / planar.norm();
+        }
+    }
+    let mut d = extent[0].max(extent[1]).max(extent[2]);
+    for i in 0..3 {
+        if bounds[i] != 0.0 {
+            d = d.min(extent[i]);
+        }
+    }
+    Some(d)
+}
+
+/// `findIntersectionAngle`: half the supplement of the angle between two
+/// unit vectors (π/2 when they point the same way).
+fn intersection_angle(u1: &Vector3<f64>, u2: &Vector3<f64>) -> f64 {
+    (-u1.dot(u2)).clamp(-1.0, 1.0).acos() / 2.0
+}
+
+/// `tcFindBlendTolerance`: the program's tolerance (a quarter of the moves'
+/// lengths where it is 0, G64 without P), within a quarter of each move.
+fn blend_tolerance(prev: &Tc, tc: &Tc) -> f64 {
+    let ratio = 0.25;
+    let t1 = if prev.tolerance == 0.0 {
+        prev.nominal_length * ratio
+    } else {
+        prev.tolerance
+    };
+    let t2 = if tc.tolerance == 0.0 {
+        tc.nominal_length * ratio
+    } else {
+        tc.tolerance
+    };
+    t1.min(t2)
+        .min(prev.nominal_length * ratio)
+        .min(tc.nominal_length * ratio)
+}
+
+/// `tpCreateLineLineBlend` up to the choice: the blend arc between the
+/// line `prev` and the line `tc`, or `None` where LinuxCNC makes none.
+pub(super) fn line_line(tp: &Tp, prev: &Tc, tc: &Tc) -> Option<Made> {
+    let s = tp.settings;
+    // blendGeom3Init.
+    let u1 = prev.end_tangent();
+    let u2 = tc.start_tangent();
+    let p = tc.start();
+    let theta = intersection_angle(&u1, &u2);
+    if PI / 2.0 - theta < ANGLE_EPSILON || theta < ANGLE_EPSILON {
+        return None;
+    }
+    let binormal = u1.cross(&u2).normalize();
+    let normal = (u2 - u1).normalize();
+    // blendInit3FromLineLine.
+    let phi = PI - theta * 2.0;
+    let l1 = prev.target.min(prev.nominal_length * BLEND_DIST_FRACTION);
+    let l2 = tc.target * BLEND_DIST_FRACTION;
+    // blendParamKinematics.
+    let tolerance = blend_tolerance(prev, tc);
+    let a_max = inscribed_diameter(&binormal, &s.axis_max_acc_mm_s2)?;
+    let a_n_max = a_max * acc_ratio_normal();
+    let v_req = prev.max_target_vel(1.0).max(tc.max_target_vel(1.0));
+    let mut v_goal = prev
+        .max_target_vel(s.max_feed_scale)
+        .max(tc.max_target_vel(s.max_feed_scale));
+    let v_planar_max = inscribed_diameter(&binormal, &s.axis_max_vel_mm_s)?;
+    let phi_eff = phi.min(PI * 0.49);
+    let v_max1 = prev.maxvel.min(tc.maxvel / phi_eff.cos());
+    let v_max2 = tc.maxvel.min(prev.maxvel / phi_eff.cos());
+    let v_area = v_max1 * v_max2 / 2.0 * phi.sin();
+    let base = (u2 * v_max2 - u1 * v_max1).norm();
+    let v_max_alt = 2.0 * v_area / base;
+    v_goal = v_goal.min(v_max_alt.max(v_planar_max));
+    // blendComputeParameters.
+    let h_tol = tolerance / (1.0 - theta.sin());
+    let d_tol = theta.cos() * h_tol;
+    let d_geom = l1.min(l2).min(d_tol);
+    let r_geom = theta.tan() * d_geom;
+    let v_normal = (a_n_max * r_geom).sqrt();
+    let v_plan = v_normal.min(v_goal);
+    let a_parabolic = a_max * 0.5;
+    let v_triangle = (2.0 * a_parabolic * d_geom).sqrt();
+    let t_blend = v_triangle.min(v_plan) / a_parabolic;
+    let s_blend = t_blend * v_plan;
+    let r_blend = (s_blend / phi).min(r_geom);
+    let r_plan = (v_plan * v_plan / a_n_max).max(r_blend);
+    let d_plan = r_plan / theta.tan();
+    if r_plan < super::tc::POS_EPSILON || r_plan * phi < 1e-6 {
+        return None;
+    }
+    // blendFindPoints3.
+    let center = p + normal * (r_plan / theta.sin());
+    let arc_start = p - u1 * d_plan;
+    let arc_end = p + u2 * d_plan;
+    // blendCheckConsume.
+    let l_prev = prev.target - d_plan;
+    let can_consume = !prev.blend_prev;
+    let consume = l_prev / v_plan < s.arc_blend_gap_cycles * prev.cycle_time && can_consume;
+    let line_length = if consume { l_prev } else { 0.0 };
+    let arc = SphericalArc::from_points(arc_start, arc_end, center, u1, line_length)?;
+    // tpInitBlendArcFromPrev: requested speed v_req, limit v_plan, a_max.
+    let length = arc.length();
+    let mut blend = Tc::new(
+        Shape::Blend(arc),
+        prev.segment_at(prev.target),
+        length,
+        (v_req, v_plan, a_max),
+        (tp.term_cond, tp.tolerance),
+        prev.traverse,
+        tp.settings.period_s,
+    );
+    set_term_cond(&mut blend, None, TermCond::Tangent);
+    super::queue::finalize_length(&mut blend);
+    Some(Made {
+        tc: blend,
+        arc_start,
+        arc_end,
+        consume,
+    })
+}
+
+/// `tcConnectBlendArc`'s change to the previous line: it ends at `end`.
+pub(super) fn shorten_end(tc: &mut Tc, end: Point3<f64>) {
+    if let Shape::Line { start, unit, .. } = &mut tc.shape {
+        let d = end - *start;
+        tc.target = d.norm();
+        if tc.target > 0.0 {
+            *unit = d / tc.target;
+        }
+    }
+}
+
+/// `tcConnectBlendArc`'s change to the next line: it starts at `new_start`.
+pub(super) fn shorten_start(tc: &mut Tc, new_start: Point3<f64>) {
+    if let Shape::Line {
+        start,
+        unit,
+        pieces,
+    } = &mut tc.shape
+    {
+        let end = *start + *unit * tc.target;
+        let d = end - new_start;
+        let cut = tc.target - d.norm();
+        *start = new_start;
+        tc.target = d.norm();
+        if tc.target > 0.0 {
+            *unit = d / tc.target;
+        }
+        for p in pieces.iter_mut() {
+            p.1 -= cut;
+        }
+    }
+}
+
+/// `tpComputeBlendVelocity`: the speeds at which a parabolic blend of `tc`
+/// into `next` starts on each, and the blend's net speed.
+pub(super) fn parabolic_velocity(
+    tc: &Tc,
+    next: &Tc,
+    target_vel_this: f64,
+    target_vel_next: f64,
+) -> (f64, f64, f64) {
+    let acc_this = tc.tangential_max_accel();
+    let acc_next = next.tangential_max_accel();
+    let triangle = |t: &Tc| {
+        let length = if t.finalized {
+            t.target
+        } else {
+            t.target / 2.0
+        };
+        v_peak(t.tangential_max_accel(), length)
+    };
+    let v_reach_this = triangle(tc).min(target_vel_this);
+    let v_reach_next = triangle(next).min(target_vel_next);
+    let t_max_reachable = (tc.target / v_reach_this).min(next.target / v_reach_next);
+    let t_max_blend = (v_reach_this / acc_this).max(v_reach_next / acc_next);
+    let t_blend = t_max_reachable.min(t_max_blend);
+    let mut v_this = v_reach_this.min(t_blend * acc_this);
+    let mut v_next = v_reach_next.min(t_blend * acc_next);
+    let theta = intersection_angle(&tc.end_accel_unit(), &next.start_accel_unit());
+    let cos_theta = theta.cos();
+    if tc.tolerance > 0.0 {
+        let min_cos_theta = (PI / 2.0 - MIN_ARC_ANGLE).cos();
+        if cos_theta > min_cos_theta {
+            let v = 2.0 * (acc_this * tc.tolerance / cos_theta).sqrt();
+            v_this = v_this.min(v);
+            v_next = v_next.min(v);
+        }
+    }
+    (v_this, v_next, theta.sin() * (v_this + v_next) / 2.0)
+}
+
+/// `tpChooseBestBlend`: a parabolic blend, passing as tangent at the kink
+/// speed, or the blend arc (whose highest speed is `arc_maxvel`), by the
+/// speed each allows; sets `prev`'s end and returns the choice.
+pub(super) fn choose_best(
+    settings: &Settings,
+    prev: &mut Tc,
+    tc: &mut Tc,
+    arc_maxvel: Option<f64>,
+) -> Best {
+    if matches!(prev.term_cond, TermCond::Exact | TermCond::Stop) {
+        return Best::None;
+    }
+    let max_target = |t: &Tc| {
+        t.max_target_vel(settings.max_feed_scale)
+            .min(settings.max_linear_vel_mm_s)
+    };
+    let (_, _, v_net) = parabolic_velocity(prev, tc, max_target(prev), max_target(tc));
+    let perf = [v_net / 2.0, prev.kink_vel, arc_maxvel.unwrap_or(0.0)];
+    let mut best = 0;
+    for (i, p) in perf.iter().enumerate() {
+        if *p > perf[best] {
+            best = i;
+        }
+    }
+    match best {
+        0 => {
+            remove_kink(prev, tc);
+            set_term_cond(prev, Some(tc), TermCond::Parabolic);
+            Best::Parabolic
+        }
+        1 => {
+            set_term_cond(prev, Some(tc), TermCond::Tangent);
+            Best::Tangent
+        }
+        _ => {
+            remove_kink(prev, tc);
+            Best::Arc
+        }
+    }
+}

@@ -1,0 +1,241 @@
+//! dexcut's LinuxCNC planner against the real one: recordings of LinuxCNC
+//! 2.9 running each program of `tests/data/linuxcnc_reference/programs` on
+//! the simulated machine of `scripts/linuxcnc_reference/sim.ini`
+//! (README.md there), and closed forms for single moves and corners.
+
+use flate2::read::GzDecoder;
+use nalgebra::Point3;
+use schedule::linuxcnc::{ini::settings_from_ini, samples, LinuxCncSettings};
+use schedule::ServoSample;
+use std::io::Read;
+use std::path::PathBuf;
+
+fn data_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/linuxcnc_reference")
+}
+
+fn sim_settings() -> LinuxCncSettings {
+    let file =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scripts/linuxcnc_reference/sim.ini");
+    let text = std::fs::read_to_string(&file).expect("sim.ini");
+    settings_from_ini(&text, "sim.ini").expect("sim.ini reads")
+}
+
+/// A recording: the commanded positions (mm), one per servo period, from
+/// the one before the motion to the last that moves.
+struct Recording {
+    period_s: f64,
+    pos: Vec<Point3<f64>>,
+}
+
+fn recording(name: &str) -> Recording {
+    let file = data_dir().join(format!("{name}.txt.gz"));
+    let mut text = String::new();
+    GzDecoder::new(std::fs::File::open(&file).expect("recording"))
+        .read_to_string(&mut text)
+        .expect("gzip text");
+    let mut period_ns = 0.0;
+    let mut pos = Vec::new();
+    let (mut p, mut d) = ([0i64; 3], [0i64; 3]);
+    let mut k = 0;
+    for line in text.lines() {
+        if line.starts_with('#') {
+            continue;
+        }
+        let f: Vec<&str> = line.split_whitespace().collect();
+        match f[0] {
+            "name" | "samples" => continue,
+            "period_ns" => {
+                period_ns = f[1].parse().expect("period");
+                continue;
+            }
+            _ => {}
+        }
+        let v: Vec<i64> = f[..3].iter().map(|x| x.parse().expect("nm")).collect();
+        for i in 0..3 {
+            match k {
+                0 => p[i] = v[i],
+                1 => d[i] = v[i],
+                _ => d[i] += v[i],
+            }
+            if k > 0 {
+                p[i] += d[i];
+            }
+        }
+        k += 1;
+        pos.push(Point3::new(p[0] as f64, p[1] as f64, p[2] as f64) * 1e-6);
+    }
+    Recording {
+        period_s: period_ns * 1e-9,
+        pos,
+    }
+}
+
+/// The program as LinuxCNC starts it: at the origin, homed.
+fn program(name: &str) -> nc::Path {
+    let file = data_dir().join(format!("programs/{name}.ngc"));
+    let text = std::fs::read_to_string(&file).expect("program");
+    let parsed = nc::Reader::new(&text, name, &nc::Options::default()).parse_from([0.0; 3]);
+    let errors: Vec<_> = parsed
+        .diagnostics
+        .iter()
+        .filter(|d| d.severity == nc::Severity::Error)
+        .collect();
+    assert!(errors.is_empty(), "{name}: {errors:?}");
+    parsed.path
+}
+
+/// LinuxCNC's joints get the cubic interpolation of the planner's
+/// positions one period late: (p[k−2] + 4·p[k−1] + p[k])/6.
+fn as_joints(samples: &[ServoSample]) -> Vec<Point3<f64>> {
+    let at = |k: isize| {
+        samples[k.clamp(0, samples.len() as isize - 1) as usize]
+            .pos
+            .coords
+    };
+    (0..=samples.len() as isize)
+        .map(|k| Point3::from((at(k - 2) + at(k - 1) * 4.0 + at(k)) / 6.0))
+        .collect()
+}
+
+/// Speed (mm/s) against distance run (mm), from positions a period apart.
+fn speed_by_distance(pos: &[Point3<f64>], period_s: f64) -> (Vec<f64>, Vec<f64>) {
+    let mut s = vec![0.0];
+    let mut v = vec![0.0];
+    for w in pos.windows(2) {
+        let d = (w[1] - w[0]).norm();
+        s.push(s.last().copied().unwrap_or(0.0) + d);
+        v.push(d / period_s);
+    }
+    (s, v)
+}
+
+/// The comparison of one program.
+struct Compared {
+    /// Time in motion, s.
+    real_s: f64,
+    /// From the first motion to the last, waits included, s.
+    real_total_s: f64,
+    dexcut_s: f64,
+    /// Share of the real path's length where dexcut's speed at the same
+    /// distance is within 2 % of the real speed.
+    within_2pct: f64,
+    /// Largest distance between a real position and dexcut's at the same
+    /// time, mm.
+    max_gap_mm: f64,
+}
+
+fn compare(name: &str) -> Compared {
+    let real = recording(name);
+    let settings = sim_settings();
+    assert_eq!(real.period_s, settings.period_s);
+    let ours = samples(&program(name), &settings).expect("plan");
+    let joints = as_joints(&ours);
+    // Both end where their last movement ends.
+    let moving_end = |p: &[Point3<f64>]| {
+        (1..p.len())
+            .rev()
+            .find(|&k| (p[k] - p[k - 1]).norm() > 1e-9)
+            .unwrap_or(0)
+    };
+    let n_real = moving_end(&real.pos);
+    let n_ours = moving_end(&joints);
+    let (s_real, v_real) = speed_by_distance(&real.pos[..=n_real], real.period_s);
+    let (s_ours, v_ours) = speed_by_distance(&joints[..=n_ours], settings.period_s);
+    let total: f64 = s_real.last().copied().unwrap_or(0.0);
+    let mut good = 0.0;
+    let mut j = 0;
+    let mut dump = Vec::new();
+    for k in 1..s_real.len() {
+        let ds = s_real[k] - s_real[k - 1];
+        if ds <= 0.0 {
+            continue;
+        }
+        // dexcut's speed over the period covering the same mid-distance.
+        let mid = 0.5 * (s_real[k] + s_real[k - 1]);
+        while j + 1 < s_ours.len() && s_ours[j + 1] < mid {
+            j += 1;
+        }
+        let v = v_ours.get(j + 1).copied().unwrap_or(0.0);
+        if (v - v_real[k]).abs() <= 0.02 * v_real[k] {
+            good += ds;
+        }
+        dump.push(format!(
+            "{k},{mid},{},{v},{},{},{}",
+            v_real[k], real.pos[k].x, real.pos[k].y, real.pos[k].z
+        ));
+    }
+    if std::env::var("DEXCUT_LCNC_DUMP").is_ok_and(|n| n == name) {
+        std::fs::write(format!("/tmp/lcnc_{name}.csv"), dump.join("\n")).expect("dump");
+    }
+    let max_gap_mm = real
+        .pos
+        .iter()
+        .zip(joints.iter())
+        .map(|(a, b)| (a - b).norm())
+        .fold(0.0, f64::max);
+    // Time in motion: LinuxCNC's task waits for its I/O (spindle, tool
+    // changes) at its own pace, which is not the planner's.
+    let moving = |p: &[Point3<f64>]| p.windows(2).filter(|w| (w[1] - w[0]).norm() > 1e-7).count();
+    Compared {
+        real_s: moving(&real.pos) as f64 * real.period_s,
+        dexcut_s: moving(&joints) as f64 * settings.period_s,
+        real_total_s: n_real as f64 * real.period_s,
+        within_2pct: if total > 0.0 { good / total } else { 1.0 },
+        max_gap_mm,
+    }
+}
+
+const PROGRAMS: &[&str] = &[
+    "corner_g61",
+    "corner_g64",
+    "corner_g64_p005",
+    "corner_g64_p005_q002_obtuse",
+    "collinear_short_g64_p01_q005",
+    "arcs_g64_p001",
+    "adaptive_corner",
+    "adaptive_hole",
+    "engrave_locket",
+    "engrave_tiny_cat_g61",
+    "finish_bear",
+    "finish_flower_mold",
+];
+
+/// Programs dexcut does not yet run within the targets, with the reason:
+/// printed in the table, not asserted.
+const KNOWN_GAPS: &[(&str, &str)] = &[];
+#[test]
+fn dexcut_runs_the_recorded_programs_as_linuxcnc_does() {
+    let mut failed = Vec::new();
+    println!(
+        "program                          real s   dexcut s   diff %   within 2 %   max gap mm"
+    );
+    for name in PROGRAMS {
+        if !data_dir().join(format!("{name}.txt.gz")).exists() {
+            failed.push(format!("{name}: no recording"));
+            continue;
+        }
+        let c = compare(name);
+        let diff = (c.dexcut_s - c.real_s) / c.real_s * 100.0;
+        println!(
+            "{name:32} {:8.3} {:9.3} {:8.3} {:11.1}% {:11.4} {:12.3}",
+            c.real_s,
+            c.dexcut_s,
+            diff,
+            c.within_2pct * 100.0,
+            c.max_gap_mm,
+            c.real_total_s
+        );
+        let known = KNOWN_GAPS.iter().find(|g| g.0 == *name);
+        if let Some((_, why)) = known {
+            println!("{:32} (known gap: {why})", "");
+        }
+        if (diff.abs() > 1.0 || c.within_2pct < 0.95) && known.is_none() {
+            failed.push(format!(
+                "{name}: cycle time {:.3} s against {:.3} s ({diff:+.2} %), {:.1} % of the path within 2 % of the real speed",
+                c.dexcut_s, c.real_s, c.within_2pct * 100.0
+            ));
+        }
+    }
+    assert!(failed.is_empty(), "{failed:#?}");
+}
