@@ -191,6 +191,8 @@ const PROGRAMS: &[&str] = &[
     "corner_g64",
     "corner_g64_p005",
     "corner_g64_p005_q002_obtuse",
+    "zigzag_short_g64",
+    "zigzag_short_g64_p002",
     "collinear_short_g64_p01_q005",
     "arcs_g64_p001",
     "adaptive_corner",
@@ -199,6 +201,9 @@ const PROGRAMS: &[&str] = &[
     "engrave_tiny_cat_g61",
     "finish_bear",
     "finish_flower_mold",
+    "finish_wave",
+    "pcb_carbide_copper",
+    "pocket_medial",
 ];
 
 /// Programs dexcut does not yet run within the targets, with the reason:

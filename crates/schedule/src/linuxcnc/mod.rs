@@ -149,7 +149,16 @@ pub fn samples(
                 tp.tolerance = tolerance;
             }
             canon::Cmd::Move(tc) => {
+                let starts = tp.queue.is_empty();
                 tp.add(*tc);
+                // The task hands motion the first move of a run a period
+                // before the next (as the recorded runs show): it starts
+                // alone, ending in the mode's blend.
+                if starts {
+                    if let Some(status) = tp.run_cycle() {
+                        out.push(tp.current_pos, status.vel_mm_s, status.segment)?;
+                    }
+                }
             }
             canon::Cmd::Wait { dwell_s, segment } => {
                 out.drain(&mut tp)?;
