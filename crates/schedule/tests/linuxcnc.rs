@@ -203,6 +203,7 @@ const PROGRAMS: &[&str] = &[
     "finish_flower_mold",
     "finish_wave",
     "pcb_carbide_copper",
+    "pcb_flatcam_isolation",
     "pocket_medial",
 ];
 
@@ -243,4 +244,152 @@ fn dexcut_runs_the_recorded_programs_as_linuxcnc_does() {
         }
     }
     assert!(failed.is_empty(), "{failed:#?}");
+}
+
+fn ini(name: &str) -> Result<LinuxCncSettings, schedule::ScheduleError> {
+    let file = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/linuxcnc_ini")
+        .join(name);
+    settings_from_ini(&std::fs::read_to_string(&file).expect("ini"), name)
+}
+
+#[test]
+fn settings_come_from_the_installed_sample_configurations() {
+    let mm = ini("axis_mm.ini").unwrap();
+    assert_eq!(mm.period_s, 0.001);
+    assert_eq!(mm.axis_max_vel_mm_s, [30.48; 3]);
+    assert_eq!(mm.axis_max_acc_mm_s2, [508.0; 3]);
+    assert_eq!(mm.max_linear_vel_mm_s, 53.34);
+    assert_eq!(mm.max_feed_scale, 1.2);
+    assert_eq!(mm.startup_tolerance_mm, 0.0);
+    assert_eq!(
+        (
+            mm.arc_blend_enable,
+            mm.arc_blend_opt_depth,
+            mm.arc_blend_gap_cycles
+        ),
+        (true, 50, 4.0)
+    );
+    // Inch: [AXIS_n] and [TRAJ] values are in inches.
+    let inch = ini("axis_inch.ini").unwrap();
+    assert_eq!(inch.axis_max_vel_mm_s, [4.0 * 25.4; 3]);
+    assert_eq!(inch.axis_max_acc_mm_s2, [100.0 * 25.4; 3]);
+    assert_eq!(inch.max_linear_vel_mm_s, 4.0 * 25.4);
+    // COORDINATES = XYZ, metric, and the start-up code's G64 P.
+    let qt = ini("qtdragon_hd_xyz.ini").unwrap();
+    assert_eq!(qt.axis_max_vel_mm_s, [60.0, 60.0, 40.0]);
+    assert_eq!(qt.axis_max_acc_mm_s2, [500.0; 3]);
+    assert_eq!(qt.max_linear_vel_mm_s, 60.0);
+    assert_eq!(qt.startup_tolerance_mm, 0.0127);
+}
+
+#[test]
+fn ini_errors_name_the_file_and_line() {
+    let bad = |text: &str| settings_from_ini(text, "m.ini").unwrap_err().to_string();
+    let axes = "[AXIS_X]\nMAX_VELOCITY = 10\nMAX_ACCELERATION = 100\n[AXIS_Y]\nMAX_VELOCITY = 10\n\
+                MAX_ACCELERATION = 100\n[AXIS_Z]\nMAX_VELOCITY = 10\nMAX_ACCELERATION = 100\n";
+    assert!(settings_from_ini(axes, "m.ini").is_ok());
+    assert_eq!(
+        bad(&format!("{axes}[EMCMOT]\nSERVO_PERIOD = fast\n")),
+        "m.ini:11: [EMCMOT] SERVO_PERIOD = fast: not a number"
+    );
+    assert_eq!(
+        bad(&format!("{axes}[EMCMOT]\nSERVO_PERIOD = -1\n")),
+        "m.ini:11: [EMCMOT] SERVO_PERIOD must be > 0, got -1"
+    );
+    assert_eq!(
+        bad("[AXIS_X\n"),
+        "m.ini:1: section header `[AXIS_X` has no closing ]"
+    );
+    assert_eq!(
+        bad("KEY = 1\n"),
+        "m.ini:1: `KEY = 1` comes before any [SECTION]"
+    );
+    assert_eq!(
+        bad("[AXIS_X]\nMAX_VELOCITY = 1\n"),
+        "m.ini:0: no [AXIS_X] MAX_ACCELERATION (nor [JOINT_0] MAX_ACCELERATION)"
+    );
+    // A joint stands in for its axis.
+    let joints = axes.replace("AXIS_Y", "JOINT_1");
+    assert_eq!(
+        settings_from_ini(&joints, "m.ini")
+            .unwrap()
+            .axis_max_vel_mm_s,
+        [10.0; 3]
+    );
+}
+
+/// Closed forms of one 90° corner in the XY plane on the recorded machine
+/// (every axis 1000 mm/s²): G64 P0.05 blends with an arc of radius
+/// R = P·cos θ/(1 − sin θ)·tan θ (θ = 45°, blendmath.c's d_tol), run at
+/// v = √(a_n·R) with a_n = a·√(1 − 0.5²); its middle passes P from the corner.
+#[test]
+fn a_blended_corner_runs_at_the_speed_and_distance_of_its_arc() {
+    let settings = sim_settings();
+    let name = "corner_g64_p005";
+    let ours = samples(&program(name), &settings).unwrap();
+    let theta = std::f64::consts::FRAC_PI_4;
+    let p = 0.05;
+    let radius = p * theta.cos() / (1.0 - theta.sin()) * theta.tan();
+    let v = (1000.0 * 0.75f64.sqrt() * radius).sqrt();
+    let corner = Point3::new(20.0, 0.0, 0.0);
+    let center =
+        corner + nalgebra::Vector3::new(-1.0, 1.0, 0.0).normalize() * (radius / theta.sin());
+    // Samples on the arc, but its first (the speed of its period's start).
+    let on_arc: Vec<&ServoSample> = ours
+        .windows(2)
+        .filter(|w| {
+            let on = |s: &ServoSample| {
+                ((s.pos - center).norm() - radius).abs() < 1e-9
+                    && s.pos.y > 1e-9
+                    && s.pos.x < 20.0 - 1e-9
+            };
+            on(&w[0]) && on(&w[1])
+        })
+        .map(|w| &w[1])
+        .collect();
+    assert!(on_arc.len() >= 10, "{}", on_arc.len());
+    // It enters at the line's final speed, a hair lower, then holds v.
+    let at_v = on_arc
+        .iter()
+        .filter(|s| (s.feed_mm_min / 60.0 - v).abs() < 1e-9)
+        .count();
+    assert!(at_v + 1 >= on_arc.len(), "{at_v} of {}", on_arc.len());
+    assert!(on_arc.iter().all(|s| s.feed_mm_min / 60.0 <= v + 1e-9));
+    let closest = ours
+        .iter()
+        .map(|s| (s.pos - corner).norm())
+        .fold(f64::MAX, f64::min);
+    assert!((closest - p).abs() < 2e-4, "{closest}");
+    // The real planner ran the arc at the same speed (its samples are µm
+    // apart in nm, so 1e-3 mm/s).
+    let real = recording(name);
+    let on_real: Vec<f64> = real
+        .pos
+        .windows(2)
+        .filter(|w| (w[1] - corner).norm() < 0.1 && w[1].y > 0.0 && w[0].y > 0.0)
+        .map(|w| (w[1] - w[0]).norm() / real.period_s)
+        .collect();
+    // Seen through chords of the joints' cubic interpolation, which runs a
+    // circle on the radius (2 + cos Δφ)/3·R.
+    let dphi = v * real.period_s / radius;
+    let seen = v * (dphi / 2.0).sin() / (dphi / 2.0) * (2.0 + dphi.cos()) / 3.0;
+    let at_v = on_real.iter().filter(|r| (*r - seen).abs() < 2e-3).count();
+    assert!(
+        at_v + 2 >= on_real.len() && at_v >= 5,
+        "{on_real:?} against {seen}"
+    );
+}
+
+/// G61 stops at the corner: a sample lies on it at rest.
+#[test]
+fn exact_path_stops_at_the_corner() {
+    let ours = samples(&program("corner_g61"), &sim_settings()).unwrap();
+    let corner = Point3::new(20.0, 0.0, 0.0);
+    let at = ours
+        .iter()
+        .find(|s| (s.pos - corner).norm() < 1e-9)
+        .expect("a sample on the corner");
+    assert_eq!(at.feed_mm_min, 0.0);
+    assert!(ours.iter().all(|s| s.pos.y == 0.0 || s.pos.x == 20.0));
 }
