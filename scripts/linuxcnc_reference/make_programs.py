@@ -13,7 +13,7 @@ TRIMMED = [
     ("adaptive_corner", "freecad_corner_20_20_adaptive.nc", 300),
     ("adaptive_hole", "freecad_hole_7mm_adaptive.nc", 220),
     ("finish_flower_mold", "camotics_flower_mold_trimmed.nc", 45),
-    ("finish_tiger", "camotics_tiger_trimmed.nc", 50),
+    ("finish_tiger", "camotics_tiger_trimmed.nc", 14),
     ("finish_bear", "camotics_bear_trimmed.nc", 300),
     ("finish_wave", "camotics_wave.gcode", 120),
     ("engrave_locket", "camotics_locket_engrave.ngc", 400),

@@ -5,7 +5,7 @@
 
 use flate2::read::GzDecoder;
 use nalgebra::Point3;
-use schedule::linuxcnc::{ini::settings_from_ini, samples, LinuxCncSettings};
+use schedule::linuxcnc::{ini::settings_from_ini, samples_with as samples, LinuxCncIni};
 use schedule::ServoSample;
 use std::io::Read;
 use std::path::PathBuf;
@@ -14,7 +14,7 @@ fn data_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/linuxcnc_reference")
 }
 
-fn sim_settings() -> LinuxCncSettings {
+fn sim_settings() -> LinuxCncIni {
     let file =
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scripts/linuxcnc_reference/sim.ini");
     let text = std::fs::read_to_string(&file).expect("sim.ini");
@@ -29,9 +29,12 @@ struct Recording {
 }
 
 fn recording(name: &str) -> Recording {
-    let file = data_dir().join(format!("{name}.txt.gz"));
+    recording_at(&data_dir().join(format!("{name}.txt.gz")))
+}
+
+fn recording_at(file: &std::path::Path) -> Recording {
     let mut text = String::new();
-    GzDecoder::new(std::fs::File::open(&file).expect("recording"))
+    GzDecoder::new(std::fs::File::open(file).expect("recording"))
         .read_to_string(&mut text)
         .expect("gzip text");
     let mut period_ns = 0.0;
@@ -126,7 +129,10 @@ struct Compared {
 }
 
 fn compare(name: &str) -> Compared {
-    let real = recording(name);
+    compare_with(name, recording(name))
+}
+
+fn compare_with(name: &str, real: Recording) -> Compared {
     let settings = sim_settings();
     assert_eq!(real.period_s, settings.period_s);
     let ours = samples(&program(name), &settings).expect("plan");
@@ -201,6 +207,7 @@ const PROGRAMS: &[&str] = &[
     "engrave_tiny_cat_g61",
     "finish_bear",
     "finish_flower_mold",
+    "finish_tiger",
     "finish_wave",
     "pcb_carbide_copper",
     "pcb_flatcam_isolation",
@@ -246,7 +253,7 @@ fn dexcut_runs_the_recorded_programs_as_linuxcnc_does() {
     assert!(failed.is_empty(), "{failed:#?}");
 }
 
-fn ini(name: &str) -> Result<LinuxCncSettings, schedule::ScheduleError> {
+fn ini(name: &str) -> Result<LinuxCncIni, schedule::ScheduleError> {
     let file = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("tests/data/linuxcnc_ini")
         .join(name);
@@ -392,4 +399,51 @@ fn exact_path_stops_at_the_corner() {
         .expect("a sample on the corner");
     assert_eq!(at.feed_mm_min, 0.0);
     assert!(ours.iter().all(|s| s.pos.y == 0.0 || s.pos.x == 20.0));
+}
+
+/// The real LinuxCNC, live where it is installed (CI installs it): two unit
+/// cases run again and compared as the recordings are.
+#[test]
+fn live_linuxcnc_runs_as_dexcut_plans() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    if !std::path::Path::new("/usr/bin/linuxcnc").exists() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "linuxcnc not installed (apt-get install linuxcnc-uspace) but CI is set"
+        );
+        println!("skipped: linuxcnc not installed");
+        return;
+    }
+    let out = std::env::temp_dir().join(format!("dexcut-lcnc-live-{}", std::process::id()));
+    std::fs::create_dir_all(&out).unwrap();
+    for name in ["corner_g64_p005", "zigzag_short_g64_p002"] {
+        let raw = out.join(format!("{name}.txt"));
+        let packed = out.join(format!("{name}.txt.gz"));
+        let program = data_dir().join(format!("programs/{name}.ngc"));
+        let run = std::process::Command::new("bash")
+            .arg(root.join("scripts/linuxcnc_reference/run.sh"))
+            .arg(&program)
+            .arg(&raw)
+            .status()
+            .expect("run.sh");
+        assert!(run.success(), "{name}: LinuxCNC did not run");
+        let pack = std::process::Command::new("python3")
+            .arg(root.join("scripts/linuxcnc_reference/pack.py"))
+            .args([&raw, &packed])
+            .arg(name)
+            .arg("1000000")
+            .status()
+            .expect("pack.py");
+        assert!(pack.success());
+        let c = compare_with(name, recording_at(&packed));
+        println!(
+            "{name}: live {:.3} s, dexcut {:.3} s, {:.1} % within 2 %",
+            c.real_s,
+            c.dexcut_s,
+            c.within_2pct * 100.0
+        );
+        assert!((c.dexcut_s - c.real_s).abs() <= 0.01 * c.real_s);
+        assert!(c.within_2pct >= 0.95);
+    }
+    std::fs::remove_dir_all(&out).ok();
 }

@@ -4,7 +4,7 @@
 
 use super::queue::{remove_kink, set_term_cond, Tp};
 use super::tc::{acc_ratio_normal, v_peak, Shape, SphericalArc, Tc, TermCond, BLEND_DIST_FRACTION};
-use super::LinuxCncSettings as Settings;
+use super::LinuxCncIni as Settings;
 use nalgebra::{Point3, Vector3};
 use std::f64::consts::PI;
 

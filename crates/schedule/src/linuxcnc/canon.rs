@@ -5,7 +5,7 @@
 //! the task waits for motion to end (dwells, spindle and tool changes).
 
 use super::tc::{Shape, Tc, TermCond};
-use super::LinuxCncSettings;
+use super::LinuxCncIni;
 use nalgebra::{Point3, Vector3};
 use nc::{Geometry, Motion, PathControl, Plane};
 
@@ -46,7 +46,7 @@ fn straight(d: &Vector3<f64>, limit: &[f64; 3]) -> Option<(f64, f64)> {
 }
 
 /// The commands for `path` under `settings`.
-pub(super) fn commands(path: &nc::Path, settings: &LinuxCncSettings) -> Vec<Cmd> {
+pub(super) fn commands(path: &nc::Path, settings: &LinuxCncIni) -> Vec<Cmd> {
     let mut c = Canon {
         settings,
         out: Vec::with_capacity(path.segments.len() + 8),
@@ -105,7 +105,7 @@ pub(super) fn commands(path: &nc::Path, settings: &LinuxCncSettings) -> Vec<Cmd>
 }
 
 struct Canon<'a> {
-    settings: &'a LinuxCncSettings,
+    settings: &'a LinuxCncIni,
     out: Vec<Cmd>,
     /// `canon.endPoint`: where the last move sent ends.
     end: Point3<f64>,

@@ -1,10 +1,10 @@
-//! [`LinuxCncSettings`] from a LinuxCNC INI file's text (the caller reads
+//! [`LinuxCncIni`] from a LinuxCNC INI file's text (the caller reads
 //! the file): `[EMCMOT] SERVO_PERIOD`, `[TRAJ]` limits and blend settings,
 //! `[AXIS_X|Y|Z]` (or the `[JOINT_n]` of the axis' letter in `[TRAJ]
 //! COORDINATES`) `MAX_VELOCITY`/`MAX_ACCELERATION`, `[DISPLAY]
 //! MAX_FEED_OVERRIDE`, and a `G64 P` in `[RS274NGC] RS274NGC_STARTUP_CODE`.
 
-use super::{LinuxCncSettings, STARTUP_TOLERANCE_MM};
+use super::{LinuxCncIni, STARTUP_TOLERANCE_MM};
 use crate::ScheduleError;
 use std::collections::HashMap;
 
@@ -140,7 +140,7 @@ fn startup_tolerance_mm(ini: &Ini) -> Option<f64> {
 
 /// The settings a LinuxCNC INI file gives its planner; `file` names it in
 /// errors (file:line).
-pub fn settings_from_ini(text: &str, file: &str) -> Result<LinuxCncSettings, ScheduleError> {
+pub fn settings_from_ini(text: &str, file: &str) -> Result<LinuxCncIni, ScheduleError> {
     let ini = parse(text, file)?;
     let mm = mm_per_unit(&ini)?;
     let period_ns = ini
@@ -190,7 +190,7 @@ pub fn settings_from_ini(text: &str, file: &str) -> Result<LinuxCncSettings, Sch
     let opt_depth = ini
         .number("TRAJ", "ARC_BLEND_OPTIMIZATION_DEPTH")?
         .map_or(50.0, |v| v.0);
-    Ok(LinuxCncSettings {
+    Ok(LinuxCncIni {
         period_s: period_ns * 1e-9,
         axis_max_vel_mm_s: vel,
         axis_max_acc_mm_s2: acc,

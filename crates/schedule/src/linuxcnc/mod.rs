@@ -20,9 +20,10 @@ mod tc;
 use crate::{Machine, ScheduleError, ServoSample};
 use nalgebra::Point3;
 
-/// What LinuxCNC's planner needs to know of the machine and its INI file.
-#[derive(Clone, Debug, PartialEq)]
-pub struct LinuxCncSettings {
+/// What LinuxCNC's planner reads from the machine's INI file (or dexcut's
+/// machine stands in for: [`LinuxCncIni::from_machine`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LinuxCncIni {
     /// `[EMCMOT] SERVO_PERIOD`, s.
     pub period_s: f64,
     /// `[AXIS_X|Y|Z] MAX_VELOCITY`, mm/s.
@@ -60,14 +61,14 @@ pub struct LinuxCncSettings {
 /// LinuxCNC's start-up blend tolerance, mm: G64 without P, as measured.
 pub const STARTUP_TOLERANCE_MM: f64 = 0.0;
 
-impl LinuxCncSettings {
+impl LinuxCncIni {
     /// Settings from dexcut's machine: its period and per-axis
     /// accelerations, every axis and the path at the rapid rate, LinuxCNC's
     /// defaults for the rest; `blend_tolerance_mm` is the start-up
     /// tolerance ([`STARTUP_TOLERANCE_MM`] when `None`).
-    pub fn from_machine(machine: &Machine, blend_tolerance_mm: Option<f64>) -> LinuxCncSettings {
+    pub fn from_machine(machine: &Machine, blend_tolerance_mm: Option<f64>) -> LinuxCncIni {
         let rapid_mm_s = machine.rapid_mm_min / 60.0;
-        LinuxCncSettings {
+        LinuxCncIni {
             period_s: machine.period_ms / 1000.0,
             axis_max_vel_mm_s: [rapid_mm_s; 3],
             axis_max_acc_mm_s2: machine.accel_mm_s2,
@@ -108,6 +109,40 @@ impl LinuxCncSettings {
     }
 }
 
+/// The settings of LinuxCNC's planner that the program does not set itself.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LinuxCncSettings {
+    /// The start-up blending tolerance (G64 P before the program sets any
+    /// path control), mm; over the INI's. `None`: the INI's, else G64
+    /// without P.
+    pub blend_tolerance_mm: Option<f64>,
+    /// The INI file's settings (`[machine] linuxcnc_ini`); `None`: from the
+    /// machine ([`LinuxCncIni::from_machine`]).
+    pub ini: Option<LinuxCncIni>,
+}
+
+impl LinuxCncSettings {
+    /// The planner's settings on `machine`.
+    pub fn resolve(&self, machine: &Machine) -> LinuxCncIni {
+        let mut ini = self
+            .ini
+            .unwrap_or_else(|| LinuxCncIni::from_machine(machine, None));
+        if let Some(t) = self.blend_tolerance_mm {
+            ini.startup_tolerance_mm = t;
+        }
+        ini
+    }
+}
+
+/// [`samples_with`] on `machine` with `settings` (MODEL.md §6.4).
+pub fn samples(
+    path: &nc::Path,
+    machine: &Machine,
+    settings: &LinuxCncSettings,
+) -> Result<Vec<ServoSample>, ScheduleError> {
+    samples_with(path, &settings.resolve(machine))
+}
+
 /// The servo samples of `path` as LinuxCNC's planner runs it: one every
 /// `settings.period_s` from t = 0 at the path's start, positions on the
 /// path the planner runs (blend arcs cut corners within the tolerance).
@@ -120,9 +155,9 @@ impl LinuxCncSettings {
 /// These are the planner's positions; LinuxCNC's motion module hands the
 /// joints their cubic interpolation, (p[k−1] + 4·p[k] + p[k+1])/6 one period
 /// later, which moves a sample by at most a·T²/6.
-pub fn samples(
+pub fn samples_with(
     path: &nc::Path,
-    settings: &LinuxCncSettings,
+    settings: &LinuxCncIni,
 ) -> Result<Vec<ServoSample>, ScheduleError> {
     settings.check()?;
     let Some(first) = path.segments.first() else {

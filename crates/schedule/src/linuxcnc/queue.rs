@@ -4,7 +4,7 @@
 
 use super::blend;
 use super::tc::{v_peak, Shape, Tc, TermCond, BLEND_DIST_FRACTION};
-use super::LinuxCncSettings as Settings;
+use super::LinuxCncIni as Settings;
 use nalgebra::Point3;
 use std::collections::VecDeque;
 
