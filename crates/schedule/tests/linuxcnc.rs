@@ -113,6 +113,27 @@ fn speed_by_distance(pos: &[Point3<f64>], period_s: f64) -> (Vec<f64>, Vec<f64>)
     (s, v)
 }
 
+/// dexcut's ideal planner (MODEL.md §6.1) on the recorded machine: its
+/// period, axes' accelerations, and the rapid rate as the feed limit.
+fn ideal_s(name: &str) -> f64 {
+    let machine = schedule::Machine {
+        period_ms: 1.0,
+        feed_max_mm_min: 12000.0,
+        rapid_mm_min: 12000.0,
+        accel_mm_s2: [1000.0, 1000.0, 800.0],
+        jerk_mm_s3: None,
+        block_time_ms: None,
+    };
+    let stations = schedule::Stations::new(
+        &program(name),
+        &machine,
+        0.05,
+        schedule::FeedPolicy::Programmed,
+    )
+    .expect("stations");
+    schedule::plan(&stations).cycle_time_s()
+}
+
 /// The comparison of one program.
 struct Compared {
     /// Time in motion, s.
@@ -240,9 +261,14 @@ fn dexcut_runs_the_recorded_programs_as_linuxcnc_does() {
             continue;
         }
         let c = compare(name);
+        let ideal = if std::env::var_os("DEXCUT_LCNC_IDEAL").is_some() {
+            format!("{:10.3}", ideal_s(name))
+        } else {
+            String::new()
+        };
         let diff = (c.dexcut_s - c.real_s) / c.real_s * 100.0;
         println!(
-            "{name:32} {:8.3} {:9.3} {:8.3} {:11.1}% {:11.4} {:12.3}",
+            "{name:32} {:8.3} {:9.3} {:8.3} {:11.1}% {:11.4} {:12.3}{ideal}",
             c.real_s,
             c.dexcut_s,
             diff,
