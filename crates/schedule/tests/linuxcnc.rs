@@ -484,3 +484,26 @@ fn live_linuxcnc_runs_as_dexcut_plans() {
     }
     std::fs::remove_dir_all(&out).ok();
 }
+
+/// The samples dexcut's sweep needs: from the path's start to its end, one
+/// per period, segments in order, the distance run growing.
+#[test]
+fn samples_run_from_start_to_end_in_order() {
+    let machine = schedule::Machine {
+        period_ms: 2.0,
+        ..schedule::Machine::default()
+    };
+    for name in ["zigzag_short_g64", "engrave_locket", "arcs_g64_p001"] {
+        let path = program(name);
+        let s = schedule::linuxcnc::samples(&path, &machine, &Default::default()).unwrap();
+        assert_eq!(s[0].pos, path.segments[0].start);
+        // Positions add up each period's move, as tp.c's do.
+        assert!((s.last().unwrap().pos - path.segments.last().unwrap().end).norm() < 1e-9);
+        for (k, w) in s.windows(2).enumerate() {
+            assert!((w[1].t_s - (k + 1) as f64 * 0.002).abs() < 1e-12);
+            assert!(w[1].segment >= w[0].segment && w[1].s_mm >= w[0].s_mm);
+            // Within the machine's rapid rate (every axis at it, the path too).
+            assert!((w[1].pos - w[0].pos).norm() <= machine.rapid_mm_min / 60.0 * 0.002 + 1e-9);
+        }
+    }
+}

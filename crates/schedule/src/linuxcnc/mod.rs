@@ -149,7 +149,8 @@ pub fn samples(
 /// A sample's speed is the planner's (`motion.current-vel`, the sum of both
 /// moves' speeds during a parabolic blend), `s_mm` the distance run along
 /// that path, and its segment the program segment the planner's current
-/// move belongs to: on a blend arc the segment the arc leaves (MODEL.md §6.4).
+/// move belongs to: on a blend arc the segment the arc leaves (MODEL.md
+/// §6.4); segments never decrease from sample to sample.
 /// Dwells and waits hold the position for their time.
 ///
 /// These are the planner's positions; LinuxCNC's motion module hands the
@@ -237,7 +238,9 @@ impl Run {
             pos,
             feed_mm_min: vel_mm_s * 60.0,
             s_mm: last.s_mm + (pos - last.pos).norm(),
-            segment: segment as u32,
+            // Never back to an earlier segment (a parabolic blend reports the
+            // faster of its two moves).
+            segment: (segment as u32).max(last.segment),
         });
         Ok(())
     }
