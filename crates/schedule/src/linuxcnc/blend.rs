@@ -82,25 +82,30 @@ fn blend_tolerance(prev: &Tc, tc: &Tc) -> f64 {
         .min(tc.nominal_length * ratio)
 }
 
-/// `tpCreateLineLineBlend` up to the choice: the blend arc between the
-/// line `prev` and the line `tc`, or `None` where LinuxCNC makes none.
-pub(super) fn line_line(tp: &Tp, prev: &Tc, tc: &Tc) -> Option<Made> {
-    let s = tp.settings;
-    // blendGeom3Init.
-    let u1 = prev.end_tangent();
-    let u2 = tc.start_tangent();
-    let p = tc.start();
-    let theta = intersection_angle(&u1, &u2);
-    if PI / 2.0 - theta < ANGLE_EPSILON || theta < ANGLE_EPSILON {
-        return None;
-    }
-    let binormal = u1.cross(&u2).normalize();
-    let normal = (u2 - u1).normalize();
-    // blendInit3FromLineLine.
+/// What blendmath.c's kinematics and `blendComputeParameters` give a
+/// corner: the blend's speeds, radius and how far it starts from the corner.
+struct Plan {
+    tolerance: f64,
+    a_max: f64,
+    v_req: f64,
+    v_plan: f64,
+    r_plan: f64,
+    d_plan: f64,
+}
+
+/// `blendParamKinematics` and `blendComputeParameters` for a corner of
+/// half-supplement `theta` between directions `u1`, `u2` (in the plane of
+/// unit `binormal`), within lengths `l1`, `l2` of the moves.
+#[allow(clippy::too_many_arguments)]
+fn plan(
+    s: &Settings,
+    prev: &Tc,
+    tc: &Tc,
+    (u1, u2, binormal): (Vector3<f64>, Vector3<f64>, Vector3<f64>),
+    theta: f64,
+    (l1, l2): (f64, f64),
+) -> Option<Plan> {
     let phi = PI - theta * 2.0;
-    let l1 = prev.target.min(prev.nominal_length * BLEND_DIST_FRACTION);
-    let l2 = tc.target * BLEND_DIST_FRACTION;
-    // blendParamKinematics.
     let tolerance = blend_tolerance(prev, tc);
     let a_max = inscribed_diameter(&binormal, &s.axis_max_acc_mm_s2)?;
     let a_n_max = a_max * acc_ratio_normal();
@@ -114,9 +119,13 @@ pub(super) fn line_line(tp: &Tp, prev: &Tc, tc: &Tc) -> Option<Made> {
     let v_max2 = tc.maxvel.min(prev.maxvel / phi_eff.cos());
     let v_area = v_max1 * v_max2 / 2.0 * phi.sin();
     let base = (u2 * v_max2 - u1 * v_max1).norm();
-    let v_max_alt = 2.0 * v_area / base;
+    // No altitude-based speed where an arc takes part.
+    let v_max_alt = if prev.is_line() && tc.is_line() {
+        2.0 * v_area / base
+    } else {
+        0.0
+    };
     v_goal = v_goal.min(v_max_alt.max(v_planar_max));
-    // blendComputeParameters.
     let h_tol = tolerance / (1.0 - theta.sin());
     let d_tol = theta.cos() * h_tol;
     let d_geom = l1.min(l2).min(d_tol);
@@ -133,34 +142,186 @@ pub(super) fn line_line(tp: &Tp, prev: &Tc, tc: &Tc) -> Option<Made> {
     if r_plan < super::tc::POS_EPSILON || r_plan * phi < 1e-6 {
         return None;
     }
-    // blendFindPoints3.
-    let center = p + normal * (r_plan / theta.sin());
-    let arc_start = p - u1 * d_plan;
-    let arc_end = p + u2 * d_plan;
-    // blendCheckConsume.
-    let l_prev = prev.target - d_plan;
-    let can_consume = !prev.blend_prev;
-    let consume = l_prev / v_plan < s.arc_blend_gap_cycles * prev.cycle_time && can_consume;
-    let line_length = if consume { l_prev } else { 0.0 };
-    let arc = SphericalArc::from_points(arc_start, arc_end, center, u1, line_length)?;
-    // tpInitBlendArcFromPrev: requested speed v_req, limit v_plan, a_max.
+    Some(Plan {
+        tolerance,
+        a_max,
+        v_req,
+        v_plan,
+        r_plan,
+        d_plan,
+    })
+}
+
+/// `tpInitBlendArcFromPrev`: the blend arc as a move (requested speed v_req,
+/// limit v_plan, acceleration a_max), finalised.
+fn blend_tc(tp: &Tp, prev: &Tc, arc: SphericalArc, plan: &Plan) -> Tc {
     let length = arc.length();
     let mut blend = Tc::new(
         Shape::Blend(arc),
         prev.segment_at(prev.target),
         length,
-        (v_req, v_plan, a_max),
+        (plan.v_req, plan.v_plan, plan.a_max),
         (tp.term_cond, tp.tolerance),
         prev.traverse,
         tp.settings.period_s,
     );
     set_term_cond(&mut blend, None, TermCond::Tangent);
     super::queue::finalize_length(&mut blend);
+    blend
+}
+
+/// `tpCreateLineLineBlend` up to the choice: the blend arc between the
+/// line `prev` and the line `tc`, or `None` where LinuxCNC makes none.
+pub(super) fn line_line(tp: &Tp, prev: &Tc, tc: &Tc) -> Option<Made> {
+    let s = tp.settings;
+    // blendGeom3Init.
+    let u1 = prev.end_tangent();
+    let u2 = tc.start_tangent();
+    let p = tc.start();
+    let theta = intersection_angle(&u1, &u2);
+    if PI / 2.0 - theta < ANGLE_EPSILON || theta < ANGLE_EPSILON {
+        return None;
+    }
+    let binormal = u1.cross(&u2).normalize();
+    let normal = (u2 - u1).normalize();
+    // blendInit3FromLineLine.
+    let l1 = prev.target.min(prev.nominal_length * BLEND_DIST_FRACTION);
+    let l2 = tc.target * BLEND_DIST_FRACTION;
+    let pl = plan(s, prev, tc, (u1, u2, binormal), theta, (l1, l2))?;
+    // blendFindPoints3.
+    let center = p + normal * (pl.r_plan / theta.sin());
+    let arc_start = p - u1 * pl.d_plan;
+    let arc_end = p + u2 * pl.d_plan;
+    // blendCheckConsume.
+    let l_prev = prev.target - pl.d_plan;
+    let can_consume = !prev.blend_prev;
+    let consume = l_prev / pl.v_plan < s.arc_blend_gap_cycles * prev.cycle_time && can_consume;
+    let line_length = if consume { l_prev } else { 0.0 };
+    let arc = SphericalArc::from_points(arc_start, arc_end, center, u1, line_length)?;
     Some(Made {
-        tc: blend,
+        tc: blend_tc(tp, prev, arc, &pl),
         arc_start,
         arc_end,
         consume,
+    })
+}
+
+/// A blend arc out of an arc into a line (`tpCreateArcLineBlend`): the arc
+/// `prev` loses `trim_rad` of its end, the line `tc` `trim_mm` of its start.
+pub(super) struct ArcLine {
+    pub tc: Tc,
+    pub trim_rad: f64,
+    pub trim_mm: f64,
+}
+
+/// `tpCreateArcLineBlend` up to the choice (blendInit3FromArcLine,
+/// blendArcLinePostProcess, checkTangentAngle), or `None` where LinuxCNC
+/// makes no blend arc.
+pub(super) fn arc_line(tp: &Tp, prev: &Tc, tc: &Tc) -> Option<ArcLine> {
+    let s = tp.settings;
+    let Shape::Circle {
+        segment,
+        center,
+        normal,
+        radius_mm,
+        ..
+    } = &prev.shape
+    else {
+        return None;
+    };
+    let nc::Geometry::Arc {
+        sweep_rad, plane, ..
+    } = segment.geometry
+    else {
+        return None;
+    };
+    let (a, b, _) = plane.axes();
+    let r1 = ((segment.end[a] - center[a]).powi(2) + (segment.end[b] - center[b]).powi(2)).sqrt();
+    let spiral = r1 - radius_mm;
+    let point_at = |angle: f64| segment.point_at_fraction(angle / sweep_rad);
+    // blendGeom3Init.
+    let u_tan1 = prev.end_tangent();
+    let u_tan2 = tc.start_tangent();
+    let p = tc.start();
+    let theta_tan = intersection_angle(&u_tan1, &u_tan2);
+    if PI / 2.0 - theta_tan < ANGLE_EPSILON || theta_tan < ANGLE_EPSILON {
+        return None;
+    }
+    let binormal = u_tan1.cross(&u_tan2).normalize();
+    // blendInit3FromArcLine: the spiral as a circle near its end.
+    let center1 = center + u_tan1 * (spiral / sweep_rad);
+    let radius1 = (p - center1).norm();
+    let convex = (p - center1).dot(&u_tan2) < 0.0;
+    let phi1_max = (sweep_rad * 2.0 / 3.0).min(if convex { theta_tan } else { PI / 2.0 });
+    let mut theta = theta_tan;
+    let mut u1 = u_tan1;
+    if convex {
+        u1 = (p - point_at(sweep_rad - phi1_max / 2.0)).normalize();
+        theta = theta.min(theta_tan - phi1_max / 4.0);
+    }
+    let l1 = if convex {
+        (phi1_max / 4.0).sin() * radius1
+    } else {
+        phi1_max * radius1
+    };
+    let l2 = tc.nominal_length / 2.0;
+    // Coplanar with the arc.
+    let n = normal.normalize();
+    if (binormal - n).norm_squared() >= ANGLE_EPSILON * ANGLE_EPSILON
+        && (binormal + n).norm_squared() >= ANGLE_EPSILON * ANGLE_EPSILON
+    {
+        return None;
+    }
+    let pl = plan(s, prev, tc, (u1, u_tan2, binormal), theta, (l1, l2))?;
+    // blendArcLinePostProcess.
+    let r = pl.r_plan;
+    let d1 = if convex { -r } else { r } + radius1;
+    let n2 = binormal.cross(&u_tan2).normalize();
+    let r_pc1 = center1 - p;
+    let (c1_u, c1_n) = (r_pc1.dot(&u_tan2), r_pc1.dot(&n2));
+    let (qa, qb, qc) = (1.0, 2.0 * c1_u, c1_u * c1_u - d1 * d1 + (r - c1_n).powi(2));
+    let disc = qb * qb - 4.0 * qa * qc;
+    if disc < 0.0 {
+        return None;
+    }
+    let root0 = (-qb + disc.sqrt()) / (2.0 * qa);
+    let root1 = (-qb - disc.sqrt()) / (2.0 * qa);
+    let d_l = root0.abs().min(root1.abs());
+    let r_pc = u_tan2 * d_l + n2 * r;
+    let arc_center = p + r_pc;
+    if r_pc.norm() - r > pl.tolerance {
+        return None;
+    }
+    let trim_rad = (p - center1)
+        .normalize()
+        .dot(&(arc_center - center1).normalize())
+        .clamp(-1.0, 1.0)
+        .acos();
+    let trim_mm = d_l;
+    if trim_rad > phi1_max || sweep_rad - trim_rad <= 0.0 || tc.target - trim_mm <= 0.0 {
+        return None;
+    }
+    let arc_start = point_at(sweep_rad - trim_rad);
+    let arc_end = p + u_tan2 * trim_mm;
+    let arc = SphericalArc::from_points(arc_start, arc_end, arc_center, u_tan1, 0.0)?;
+    // checkTangentAngle: the trimmed arc's end against the blend's start.
+    let u_circ = segment
+        .tangent_at_fraction((sweep_rad - trim_rad) / sweep_rad)
+        .normalize();
+    let u_arc = {
+        let r0 = arc.r_start;
+        let dr = (arc.r_end.norm() - arc.radius) / arc.angle;
+        (binormal.cross(&r0) + r0.normalize() * dr).normalize()
+    };
+    let blend_angle = u_circ.dot(&u_arc).clamp(-1.0, 1.0).acos();
+    let angle_max = acc_ratio_normal() * 0.25 * pl.a_max / (pl.v_plan / tp.settings.period_s);
+    if blend_angle > angle_max {
+        return None;
+    }
+    Some(ArcLine {
+        tc: blend_tc(tp, prev, arc, &pl),
+        trim_rad,
+        trim_mm,
     })
 }
 

@@ -262,7 +262,7 @@ impl Canon<'_> {
         self.end = seg.end;
         // The target: the helix over the spiral's planar length
         // (pmCircle9Target with the mean radius for the fit).
-        let target = (0.5 * (r0 + r1) * sweep_rad).hypot(axis_len);
+        let target = super::tc::circle_target(seg);
         if target < super::tc::POS_EPSILON || !(vel > 0.0 && a_max > 0.0) {
             return;
         }

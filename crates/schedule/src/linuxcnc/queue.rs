@@ -87,18 +87,31 @@ impl<'a> Tp<'a> {
             Tangent::NoAction => {}
         }
         let n = self.queue.len();
-        let arc = {
-            let prev = &self.queue[n - 1];
-            if prev.term_cond == TermCond::Parabolic
-                && !tc.finalized
-                && !prev.finalized
-                && prev.is_line()
-                && tc.is_line()
+        let prev = &self.queue[n - 1];
+        let can = prev.term_cond == TermCond::Parabolic && !tc.finalized && !prev.finalized;
+        if can && prev.is_circle() && tc.is_line() {
+            let made = blend::arc_line(self, prev, tc);
+            let prev = &mut self.queue[n - 1];
+            let Some(made) = made else {
+                blend::choose_best(self.settings, prev, tc, None);
+                return;
+            };
+            if blend::choose_best(self.settings, prev, tc, Some(made.tc.maxvel)) != blend::Best::Arc
             {
-                blend::line_line(self, prev, tc)
-            } else {
-                None
+                blend::choose_best(self.settings, prev, tc, None);
+                return;
             }
+            super::tc::trim_circle_end(prev, made.trim_rad);
+            let start = tc.start() + tc.start_tangent() * made.trim_mm;
+            blend::shorten_start(tc, start);
+            set_term_cond(prev, Some(tc), TermCond::Tangent);
+            self.queue.push_back(made.tc);
+            return;
+        }
+        let arc = if can && prev.is_line() && tc.is_line() {
+            blend::line_line(self, prev, tc)
+        } else {
+            None
         };
         let prev = &mut self.queue[n - 1];
         let Some(made) = arc else {

@@ -346,6 +346,38 @@ impl Tc {
     }
 }
 
+/// A circle's length (`pmCircle9Target`): the helix over the spiral's planar
+/// length, taken at the mean radius.
+pub(super) fn circle_target(seg: &nc::Segment) -> f64 {
+    let nc::Geometry::Arc {
+        center,
+        plane,
+        sweep_rad,
+        ..
+    } = seg.geometry
+    else {
+        return seg.length_mm();
+    };
+    let (a, b, n) = plane.axes();
+    let r = |p: &Point3<f64>| ((p[a] - center[a]).powi(2) + (p[b] - center[b]).powi(2)).sqrt();
+    (0.5 * (r(&seg.start) + r(&seg.end)) * sweep_rad).hypot(seg.end[n] - seg.start[n])
+}
+
+/// `tcSetCircleXYZ` after `pmCircleStretch`: the circle `tc` loses `trim_rad`
+/// of its end.
+pub(super) fn trim_circle_end(tc: &mut Tc, trim_rad: f64) {
+    if let Shape::Circle { segment, .. } = &mut tc.shape {
+        if let nc::Geometry::Arc { sweep_rad, .. } = segment.geometry {
+            let end = segment.point_at_fraction((sweep_rad - trim_rad) / sweep_rad);
+            if let nc::Geometry::Arc { sweep_rad, .. } = &mut segment.geometry {
+                *sweep_rad -= trim_rad;
+            }
+            segment.end = end;
+        }
+        tc.target = circle_target(segment);
+    }
+}
+
 /// `findVPeak`: the speed reached from rest over `distance` at `acc`.
 pub(super) fn v_peak(acc: f64, distance: f64) -> f64 {
     (acc * distance).sqrt()
