@@ -206,26 +206,36 @@ pub(super) fn line_line(tp: &Tp, prev: &Tc, tc: &Tc) -> Option<Made> {
     })
 }
 
-/// A blend arc out of an arc into a line (`tpCreateArcLineBlend`): the arc
-/// `prev` loses `trim_rad` of its end, the line `tc` `trim_mm` of its start.
+/// A blend arc between an arc and a line (`tpCreateArcLineBlend`,
+/// `tpCreateLineArcBlend`): the arc loses `trim_rad` at the corner, the line
+/// `trim_mm`; `consume`: the line before is taken whole into the blend.
 pub(super) struct ArcLine {
     pub tc: Tc,
     pub trim_rad: f64,
     pub trim_mm: f64,
+    pub consume: bool,
 }
 
-/// `tpCreateArcLineBlend` up to the choice (blendInit3FromArcLine,
-/// blendArcLinePostProcess, checkTangentAngle), or `None` where LinuxCNC
-/// makes no blend arc.
-pub(super) fn arc_line(tp: &Tp, prev: &Tc, tc: &Tc) -> Option<ArcLine> {
-    let s = tp.settings;
+/// A circle move's geometry as blendmath.c reads it.
+struct Circle<'a> {
+    segment: &'a nc::Segment,
+    center: Point3<f64>,
+    /// Unit normal of the turn.
+    normal: Vector3<f64>,
+    /// End radius less start radius, mm.
+    spiral: f64,
+    sweep_rad: f64,
+}
+
+/// The circle of `tc`.
+fn circle(tc: &Tc) -> Option<Circle<'_>> {
     let Shape::Circle {
         segment,
         center,
         normal,
         radius_mm,
         ..
-    } = &prev.shape
+    } = &tc.shape
     else {
         return None;
     };
@@ -237,7 +247,166 @@ pub(super) fn arc_line(tp: &Tp, prev: &Tc, tc: &Tc) -> Option<ArcLine> {
     };
     let (a, b, _) = plane.axes();
     let r1 = ((segment.end[a] - center[a]).powi(2) + (segment.end[b] - center[b]).powi(2)).sqrt();
-    let spiral = r1 - radius_mm;
+    Some(Circle {
+        segment,
+        center: *center,
+        normal: normal.normalize(),
+        spiral: r1 - radius_mm,
+        sweep_rad,
+    })
+}
+
+/// `pmUnitCartsColinear`.
+fn colinear(u: &Vector3<f64>, v: &Vector3<f64>) -> bool {
+    let tol = ANGLE_EPSILON * ANGLE_EPSILON;
+    (u - v).norm_squared() < tol || (u + v).norm_squared() < tol
+}
+
+/// `blendLineArcPostProcess` / `blendArcLinePostProcess`: the blend's centre
+/// for the line through `p` along `u` (`sign` −1 where the arc comes after
+/// the line) and the circle of centre `c`, radius `radius`; `None` where it
+/// leaves the tolerance. Returns the centre and the line's trim.
+#[allow(clippy::too_many_arguments)]
+fn post_process(
+    p: Point3<f64>,
+    u: Vector3<f64>,
+    sign: f64,
+    binormal: Vector3<f64>,
+    (c, radius, convex): (Point3<f64>, f64, bool),
+    r: f64,
+    tolerance: f64,
+) -> Option<(Point3<f64>, f64)> {
+    let d = if convex { -r } else { r } + radius;
+    let n = binormal.cross(&u).normalize();
+    let r_pc0 = c - p;
+    let (c_u, c_n) = (r_pc0.dot(&u), r_pc0.dot(&n));
+    let (qb, qc) = (2.0 * c_u, c_u * c_u - d * d + (r - c_n).powi(2));
+    let disc = qb * qb - 4.0 * qc;
+    if disc < 0.0 {
+        return None;
+    }
+    let d_l = ((-qb + disc.sqrt()) / 2.0)
+        .abs()
+        .min(((-qb - disc.sqrt()) / 2.0).abs());
+    let r_pc = u * (sign * d_l) + n * r;
+    if r_pc.norm() - r > tolerance {
+        return None;
+    }
+    Some((p + r_pc, d_l))
+}
+
+/// `findTrimAngle`.
+fn trim_angle(p: &Point3<f64>, arc_center: &Point3<f64>, center: &Point3<f64>) -> f64 {
+    (p - center)
+        .normalize()
+        .dot(&(arc_center - center).normalize())
+        .clamp(-1.0, 1.0)
+        .acos()
+}
+
+/// `checkTangentAngle`: the blend may meet the trimmed arc at an angle one
+/// period can take (`findMaxTangentAngle`).
+fn tangent_ok(tp: &Tp, pl: &Plan, u_circ: Vector3<f64>, u_arc: Vector3<f64>) -> bool {
+    let blend_angle = u_circ.normalize().dot(&u_arc).clamp(-1.0, 1.0).acos();
+    let angle_max = acc_ratio_normal() * 0.25 * pl.a_max / (pl.v_plan / tp.settings.period_s);
+    blend_angle <= angle_max
+}
+
+/// `arcTangent` of a blend arc about `binormal`, at its start or end.
+fn arc_tangent(arc: &SphericalArc, binormal: &Vector3<f64>, at_end: bool) -> Vector3<f64> {
+    let r = if at_end { arc.r_end } else { arc.r_start };
+    let dr = (arc.r_end.norm() - arc.radius) / arc.angle;
+    (binormal.cross(&r) + r.normalize() * dr).normalize()
+}
+
+/// `tpCreateLineArcBlend` up to the choice (blendInit3FromLineArc,
+/// blendLineArcPostProcess, blendCheckConsume, checkTangentAngle).
+pub(super) fn line_arc(tp: &Tp, prev: &Tc, tc: &Tc) -> Option<ArcLine> {
+    let s = tp.settings;
+    let Circle {
+        segment,
+        center,
+        normal,
+        spiral,
+        sweep_rad,
+    } = circle(tc)?;
+    let point_at = |angle: f64| segment.point_at_fraction(angle / sweep_rad);
+    let u_tan1 = prev.end_tangent();
+    let u_tan2 = tc.start_tangent();
+    let p = prev.end();
+    let theta_tan = intersection_angle(&u_tan1, &u_tan2);
+    if PI / 2.0 - theta_tan < ANGLE_EPSILON || theta_tan < ANGLE_EPSILON {
+        return None;
+    }
+    let binormal = u_tan1.cross(&u_tan2).normalize();
+    let center2 = center + u_tan2 * (spiral / sweep_rad);
+    let radius2 = (p - center2).norm();
+    let convex = (p - center2).dot(&u_tan1) >= 0.0;
+    let phi2_max = (sweep_rad / 3.0).min(if convex { theta_tan } else { PI / 2.0 });
+    let mut theta = theta_tan;
+    let mut u2 = u_tan2;
+    if convex {
+        u2 = (point_at(phi2_max / 2.0) - p).normalize();
+        theta = theta.min(theta_tan - phi2_max / 4.0);
+    }
+    let l1 = prev.target.min(prev.nominal_length / 2.0);
+    let l2 = if convex {
+        (phi2_max / 4.0).sin() * radius2
+    } else {
+        phi2_max * radius2
+    };
+    if !colinear(&binormal, &normal) {
+        return None;
+    }
+    let pl = plan(s, prev, tc, (u_tan1, u2, binormal), theta, (l1, l2))?;
+    let (arc_center, trim_mm) = post_process(
+        p,
+        u_tan1,
+        -1.0,
+        binormal,
+        (center2, radius2, convex),
+        pl.r_plan,
+        pl.tolerance,
+    )?;
+    let trim_rad = trim_angle(&p, &arc_center, &center2);
+    if trim_rad > phi2_max || sweep_rad - trim_rad <= 0.0 || prev.target - trim_mm <= 0.0 {
+        return None;
+    }
+    let l_prev = prev.target - trim_mm;
+    let consume = l_prev / pl.v_plan < s.arc_blend_gap_cycles * prev.cycle_time && !prev.blend_prev;
+    let arc_start = p - u_tan1 * trim_mm;
+    let arc_end = point_at(trim_rad);
+    let arc = SphericalArc::from_points(
+        arc_start,
+        arc_end,
+        arc_center,
+        u_tan1,
+        if consume { l_prev } else { 0.0 },
+    )?;
+    let u_circ = segment.tangent_at_fraction(trim_rad / sweep_rad);
+    if !tangent_ok(tp, &pl, u_circ, arc_tangent(&arc, &binormal, true)) {
+        return None;
+    }
+    Some(ArcLine {
+        tc: blend_tc(tp, prev, arc, &pl),
+        trim_rad,
+        trim_mm,
+        consume,
+    })
+}
+
+/// `tpCreateArcLineBlend` up to the choice (blendInit3FromArcLine,
+/// blendArcLinePostProcess, checkTangentAngle), or `None` where LinuxCNC
+/// makes no blend arc.
+pub(super) fn arc_line(tp: &Tp, prev: &Tc, tc: &Tc) -> Option<ArcLine> {
+    let s = tp.settings;
+    let Circle {
+        segment,
+        center,
+        normal,
+        spiral,
+        sweep_rad,
+    } = circle(prev)?;
     let point_at = |angle: f64| segment.point_at_fraction(angle / sweep_rad);
     // blendGeom3Init.
     let u_tan1 = prev.end_tangent();
@@ -265,39 +434,21 @@ pub(super) fn arc_line(tp: &Tp, prev: &Tc, tc: &Tc) -> Option<ArcLine> {
         phi1_max * radius1
     };
     let l2 = tc.nominal_length / 2.0;
-    // Coplanar with the arc.
-    let n = normal.normalize();
-    if (binormal - n).norm_squared() >= ANGLE_EPSILON * ANGLE_EPSILON
-        && (binormal + n).norm_squared() >= ANGLE_EPSILON * ANGLE_EPSILON
-    {
+    if !colinear(&binormal, &normal) {
         return None;
     }
     let pl = plan(s, prev, tc, (u1, u_tan2, binormal), theta, (l1, l2))?;
     // blendArcLinePostProcess.
-    let r = pl.r_plan;
-    let d1 = if convex { -r } else { r } + radius1;
-    let n2 = binormal.cross(&u_tan2).normalize();
-    let r_pc1 = center1 - p;
-    let (c1_u, c1_n) = (r_pc1.dot(&u_tan2), r_pc1.dot(&n2));
-    let (qa, qb, qc) = (1.0, 2.0 * c1_u, c1_u * c1_u - d1 * d1 + (r - c1_n).powi(2));
-    let disc = qb * qb - 4.0 * qa * qc;
-    if disc < 0.0 {
-        return None;
-    }
-    let root0 = (-qb + disc.sqrt()) / (2.0 * qa);
-    let root1 = (-qb - disc.sqrt()) / (2.0 * qa);
-    let d_l = root0.abs().min(root1.abs());
-    let r_pc = u_tan2 * d_l + n2 * r;
-    let arc_center = p + r_pc;
-    if r_pc.norm() - r > pl.tolerance {
-        return None;
-    }
-    let trim_rad = (p - center1)
-        .normalize()
-        .dot(&(arc_center - center1).normalize())
-        .clamp(-1.0, 1.0)
-        .acos();
-    let trim_mm = d_l;
+    let (arc_center, trim_mm) = post_process(
+        p,
+        u_tan2,
+        1.0,
+        binormal,
+        (center1, radius1, convex),
+        pl.r_plan,
+        pl.tolerance,
+    )?;
+    let trim_rad = trim_angle(&p, &arc_center, &center1);
     if trim_rad > phi1_max || sweep_rad - trim_rad <= 0.0 || tc.target - trim_mm <= 0.0 {
         return None;
     }
@@ -305,23 +456,15 @@ pub(super) fn arc_line(tp: &Tp, prev: &Tc, tc: &Tc) -> Option<ArcLine> {
     let arc_end = p + u_tan2 * trim_mm;
     let arc = SphericalArc::from_points(arc_start, arc_end, arc_center, u_tan1, 0.0)?;
     // checkTangentAngle: the trimmed arc's end against the blend's start.
-    let u_circ = segment
-        .tangent_at_fraction((sweep_rad - trim_rad) / sweep_rad)
-        .normalize();
-    let u_arc = {
-        let r0 = arc.r_start;
-        let dr = (arc.r_end.norm() - arc.radius) / arc.angle;
-        (binormal.cross(&r0) + r0.normalize() * dr).normalize()
-    };
-    let blend_angle = u_circ.dot(&u_arc).clamp(-1.0, 1.0).acos();
-    let angle_max = acc_ratio_normal() * 0.25 * pl.a_max / (pl.v_plan / tp.settings.period_s);
-    if blend_angle > angle_max {
+    let u_circ = segment.tangent_at_fraction((sweep_rad - trim_rad) / sweep_rad);
+    if !tangent_ok(tp, &pl, u_circ, arc_tangent(&arc, &binormal, false)) {
         return None;
     }
     Some(ArcLine {
         tc: blend_tc(tp, prev, arc, &pl),
         trim_rad,
         trim_mm,
+        consume: false,
     })
 }
 

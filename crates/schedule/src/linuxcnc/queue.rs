@@ -89,8 +89,16 @@ impl<'a> Tp<'a> {
         let n = self.queue.len();
         let prev = &self.queue[n - 1];
         let can = prev.term_cond == TermCond::Parabolic && !tc.finalized && !prev.finalized;
-        if can && prev.is_circle() && tc.is_line() {
-            let made = blend::arc_line(self, prev, tc);
+        let mixed = if !can {
+            None
+        } else if prev.is_circle() && tc.is_line() {
+            Some((blend::arc_line(self, prev, tc), true))
+        } else if prev.is_line() && tc.is_circle() {
+            Some((blend::line_arc(self, prev, tc), false))
+        } else {
+            None
+        };
+        if let Some((made, arc_first)) = mixed {
             let prev = &mut self.queue[n - 1];
             let Some(made) = made else {
                 blend::choose_best(self.settings, prev, tc, None);
@@ -101,10 +109,22 @@ impl<'a> Tp<'a> {
                 blend::choose_best(self.settings, prev, tc, None);
                 return;
             }
-            super::tc::trim_circle_end(prev, made.trim_rad);
-            let start = tc.start() + tc.start_tangent() * made.trim_mm;
-            blend::shorten_start(tc, start);
-            set_term_cond(prev, Some(tc), TermCond::Tangent);
+            if arc_first {
+                super::tc::trim_circle_end(prev, made.trim_rad);
+                let start = tc.start() + tc.start_tangent() * made.trim_mm;
+                blend::shorten_start(tc, start);
+                set_term_cond(prev, Some(tc), TermCond::Tangent);
+            } else {
+                if made.consume {
+                    self.queue.pop_back();
+                } else {
+                    let end = prev.end() - prev.end_tangent() * made.trim_mm;
+                    blend::shorten_end(prev, end);
+                    set_term_cond(prev, Some(tc), TermCond::Tangent);
+                }
+                super::tc::trim_circle_start(tc, made.trim_rad);
+                set_term_cond_next(tc, TermCond::Tangent);
+            }
             self.queue.push_back(made.tc);
             return;
         }

@@ -378,6 +378,32 @@ pub(super) fn trim_circle_end(tc: &mut Tc, trim_rad: f64) {
     }
 }
 
+/// `tcSetCircleXYZ` after `pmCircleStretch`: the circle `tc` loses `trim_rad`
+/// of its start.
+pub(super) fn trim_circle_start(tc: &mut Tc, trim_rad: f64) {
+    if let Shape::Circle {
+        segment,
+        radius_mm,
+        center,
+        ..
+    } = &mut tc.shape
+    {
+        if let nc::Geometry::Arc {
+            sweep_rad, plane, ..
+        } = segment.geometry
+        {
+            let start = segment.point_at_fraction(trim_rad / sweep_rad);
+            if let nc::Geometry::Arc { sweep_rad, .. } = &mut segment.geometry {
+                *sweep_rad -= trim_rad;
+            }
+            segment.start = start;
+            let (a, b, _) = plane.axes();
+            *radius_mm = ((start[a] - center[a]).powi(2) + (start[b] - center[b]).powi(2)).sqrt();
+        }
+        tc.target = circle_target(segment);
+    }
+}
+
 /// `findVPeak`: the speed reached from rest over `distance` at `acc`.
 pub(super) fn v_peak(acc: f64, distance: f64) -> f64 {
     (acc * distance).sqrt()
