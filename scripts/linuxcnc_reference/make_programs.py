@@ -39,6 +39,8 @@ UNIT = {
     + "G1 Y10\nM2\n",
     "line_arc_corners_g64_p002": "G21 G90 G17 G64 P0.02\nG1 X10 Y0 F1500\nG2 X20 Y0 I5 J0\n"
     + "G1 X30 Y5\nG3 X40 Y5 I5 J0\nG1 X40 Y15\nM2\n",
+    "arc_arc_corner_g64_p002": "G21 G90 G17 G64 P0.02\nF1500\nG2 X10 Y0 I5 J0\n"
+    + "G2 X15 Y-5 I0 J-5\nG3 X25 Y-5 I5 J0\nG1 X25 Y-15\nM2\n",
     "arcs_g64_p001": "G21 G90 G17 G64 P0.01\nG1 X10 Y0 F1500\nG3 X20 Y10 R10\nG2 X30 Y20 R10\nG1 X30 Y30\nG2 X40 Y40 I10 J0\nM2\n",
 }
 

@@ -234,6 +234,7 @@ const PROGRAMS: &[&str] = &[
     "collinear_short_g64_p01_q005",
     "arcs_g64_p001",
     "line_arc_corners_g64_p002",
+    "arc_arc_corner_g64_p002",
     "adaptive_corner",
     "adaptive_hole",
     "engrave_locket",

@@ -468,6 +468,122 @@ pub(super) fn arc_line(tp: &Tp, prev: &Tc, tc: &Tc) -> Option<ArcLine> {
     })
 }
 
+/// A blend arc between two arcs (`tpCreateArcArcBlend`): the first loses
+/// `trim1_rad` of its end, the second `trim2_rad` of its start.
+pub(super) struct ArcArc {
+    pub tc: Tc,
+    pub trim1_rad: f64,
+    pub trim2_rad: f64,
+}
+
+/// `tpCreateArcArcBlend` up to the choice (blendInit3FromArcArc,
+/// blendArcArcPostProcess, checkTangentAngle at both ends).
+pub(super) fn arc_arc(tp: &Tp, prev: &Tc, tc: &Tc) -> Option<ArcArc> {
+    let s = tp.settings;
+    let c1 = circle(prev)?;
+    let c2 = circle(tc)?;
+    if !colinear(&c1.normal, &c2.normal) {
+        return None;
+    }
+    let point1 = |angle: f64| c1.segment.point_at_fraction(angle / c1.sweep_rad);
+    let point2 = |angle: f64| c2.segment.point_at_fraction(angle / c2.sweep_rad);
+    let u_tan1 = prev.end_tangent();
+    let u_tan2 = tc.start_tangent();
+    let p = tc.start();
+    let theta_tan = intersection_angle(&u_tan1, &u_tan2);
+    if PI / 2.0 - theta_tan < ANGLE_EPSILON || theta_tan < ANGLE_EPSILON {
+        return None;
+    }
+    let binormal = u_tan1.cross(&u_tan2).normalize();
+    let normal = (u_tan2 - u_tan1).normalize();
+    let center1 = c1.center + u_tan1 * (c1.spiral / c1.sweep_rad);
+    let radius1 = (p - center1).norm();
+    let center2 = c2.center + u_tan2 * (c2.spiral / c2.sweep_rad);
+    let radius2 = (p - center2).norm();
+    let convex1 = (p - center1).dot(&u_tan2) < 0.0;
+    let convex2 = (p - center2).dot(&u_tan1) >= 0.0;
+    let phi1_max = (c1.sweep_rad * 2.0 / 3.0).min(if convex1 { theta_tan } else { PI / 2.0 });
+    let phi2_max = (c2.sweep_rad / 3.0).min(if convex2 { theta_tan } else { PI / 2.0 });
+    let (mut theta, mut u1, mut u2) = (theta_tan, u_tan1, u_tan2);
+    if convex1 {
+        u1 = (p - point1(c1.sweep_rad - phi1_max / 2.0)).normalize();
+        theta = theta.min(theta_tan - phi1_max / 4.0);
+    }
+    if convex2 {
+        u2 = (point2(phi2_max / 2.0) - p).normalize();
+        theta = theta.min(theta_tan - phi2_max / 4.0);
+    }
+    if theta < PI / 12.0 {
+        return None;
+    }
+    let l1 = if convex1 {
+        (phi1_max / 4.0).sin() * radius1
+    } else {
+        phi1_max * radius1
+    };
+    let l2 = if convex2 {
+        (phi2_max / 4.0).sin() * radius2
+    } else {
+        phi2_max * radius2
+    };
+    if !colinear(&binormal, &c1.normal) || !colinear(&binormal, &c2.normal) {
+        return None;
+    }
+    let pl = plan(s, prev, tc, (u1, u2, binormal), theta, (l1, l2))?;
+    // blendArcArcPostProcess: the blend circle at R ± r from both centres.
+    let r = pl.r_plan;
+    let d1 = if convex1 { -r } else { r } + radius1;
+    let d2 = if convex2 { -r } else { r } + radius2;
+    let r_c1c2 = center2 - center1;
+    let c2x = r_c1c2.norm();
+    if c2x <= 0.0 {
+        return None;
+    }
+    let cx = (-d1 * d1 + d2 * d2 - c2x * c2x) / (-2.0 * c2x);
+    let cy = (d1 * d1 - cx * cx).max(0.0).sqrt();
+    let uc = r_c1c2 / c2x;
+    let mut n = binormal.cross(&uc);
+    if normal.dot(&n) < 0.0 {
+        n = -n;
+    }
+    let n = n.normalize();
+    let (c_x, mut c_y) = (uc * cx, n * cy);
+    let r_pc1 = center1 - p;
+    if (r_pc1 + c_x - c_y).norm() < (r_pc1 + c_x + c_y).norm() {
+        c_y = -c_y;
+    }
+    let arc_center = center1 + c_x + c_y;
+    if (arc_center - p).norm() - r > pl.tolerance {
+        return None;
+    }
+    let trim1_rad = trim_angle(&p, &arc_center, &center1);
+    let trim2_rad = trim_angle(&p, &arc_center, &center2);
+    if trim1_rad > phi1_max
+        || trim2_rad > phi2_max
+        || c1.sweep_rad - trim1_rad <= 0.0
+        || c2.sweep_rad - trim2_rad <= 0.0
+    {
+        return None;
+    }
+    let arc_start = point1(c1.sweep_rad - trim1_rad);
+    let arc_end = point2(trim2_rad);
+    let arc = SphericalArc::from_points(arc_start, arc_end, arc_center, u_tan1, 0.0)?;
+    let u_circ1 = c1
+        .segment
+        .tangent_at_fraction((c1.sweep_rad - trim1_rad) / c1.sweep_rad);
+    let u_circ2 = c2.segment.tangent_at_fraction(trim2_rad / c2.sweep_rad);
+    if !tangent_ok(tp, &pl, u_circ1, arc_tangent(&arc, &binormal, false))
+        || !tangent_ok(tp, &pl, u_circ2, arc_tangent(&arc, &binormal, true))
+    {
+        return None;
+    }
+    Some(ArcArc {
+        tc: blend_tc(tp, prev, arc, &pl),
+        trim1_rad,
+        trim2_rad,
+    })
+}
+
 /// `tcConnectBlendArc`'s change to the previous line: it ends at `end`.
 pub(super) fn shorten_end(tc: &mut Tc, end: Point3<f64>) {
     if let Shape::Line { start, unit, .. } = &mut tc.shape {

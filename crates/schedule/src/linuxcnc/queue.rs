@@ -98,6 +98,24 @@ impl<'a> Tp<'a> {
         } else {
             None
         };
+        if can && prev.is_circle() && tc.is_circle() {
+            let made = blend::arc_arc(self, prev, tc);
+            let prev = &mut self.queue[n - 1];
+            let Some(made) = made else {
+                blend::choose_best(self.settings, prev, tc, None);
+                return;
+            };
+            if blend::choose_best(self.settings, prev, tc, Some(made.tc.maxvel)) != blend::Best::Arc
+            {
+                blend::choose_best(self.settings, prev, tc, None);
+                return;
+            }
+            super::tc::trim_circle_end(prev, made.trim1_rad);
+            super::tc::trim_circle_start(tc, made.trim2_rad);
+            set_term_cond(prev, Some(tc), TermCond::Tangent);
+            self.queue.push_back(made.tc);
+            return;
+        }
         if let Some((made, arc_first)) = mixed {
             let prev = &mut self.queue[n - 1];
             let Some(made) = made else {
