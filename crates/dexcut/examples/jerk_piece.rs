@@ -19,6 +19,7 @@ fn main() {
     let to = to.parse::<usize>().expect("TO").min(segments.len());
     let path = nc::Path {
         segments: segments[from..to].to_vec(),
+        ..Default::default()
     };
     let machine = schedule::Machine {
         jerk_mm_s3: Some([20_000.0; 3]),

@@ -21,7 +21,7 @@ pub use amend::{amend, Amendment};
 pub use diag::{Diagnostic, Severity};
 pub use gcode::GCode;
 pub use interp::{FileForm, Options, Parsed};
-pub use path::{Geometry, Motion, Path, Plane, Segment};
+pub use path::{Geometry, Motion, Path, PathControl, PathControlChange, Plane, Segment};
 pub use refeed::{refeed, refeed_read, refeed_read_along, RefeedError};
 pub use text::decode;
 

@@ -278,9 +278,65 @@ fn arc_radius(center: &Point3<f64>, plane: Plane, point: &Point3<f64>) -> f64 {
 pub struct Path {
     /// The segments in the order the machine runs them.
     pub segments: Vec<Segment>,
+    /// The program's path control (G61, G61.1, G64 P Q) as a run-length list:
+    /// each change with the first segment it applies to, in segment order.
+    /// Segments before the first change run in the control's start-up mode.
+    pub path_control: Vec<PathControlChange>,
+    /// Segments before which the control waits for the motion before to
+    /// stop (spindle, coolant and tool changes, pauses), ascending; no
+    /// segment's geometry depends on them.
+    pub motion_waits: Vec<usize>,
+}
+
+/// How the control joins consecutive moves (G61, G61.1, G64), as the
+/// program sets it (MODEL.md §9.2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PathControl {
+    /// G61: exact path; LinuxCNC stops at every corner it cannot pass tangent.
+    ExactPath,
+    /// G61.1: exact stop at the end of every move.
+    ExactStop,
+    /// G64: blend consecutive moves.
+    Blend {
+        /// P: how far the blended path may leave a corner, mm; `None`
+        /// without P (no limit but the moves' own lengths).
+        tolerance_mm: Option<f64>,
+        /// Q: the naive CAM detector's tolerance, mm (collinear short moves
+        /// within it are joined); `None` without Q (then P's value, or off
+        /// without P, as LinuxCNC's interpreter sets it).
+        naive_cam_mm: Option<f64>,
+    },
+}
+
+/// A change of [`PathControl`] in a [`Path`]: `mode` applies from segment
+/// `first_segment` on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathControlChange {
+    /// Index of the first segment made after the block that set the mode.
+    pub first_segment: usize,
+    /// The mode.
+    pub mode: PathControl,
 }
 
 impl Path {
+    /// A path of `segments` run in the control's start-up mode throughout.
+    pub fn from_segments(segments: Vec<Segment>) -> Path {
+        Path {
+            segments,
+            path_control: Vec::new(),
+            motion_waits: Vec::new(),
+        }
+    }
+
+    /// The program's path control in force at segment `index`, `None` where
+    /// the program has set none yet (the control's start-up mode).
+    pub fn path_control_at(&self, index: usize) -> Option<PathControl> {
+        let n = self
+            .path_control
+            .partition_point(|c| c.first_segment <= index);
+        n.checked_sub(1).map(|i| self.path_control[i].mode)
+    }
+
     /// Total length in mm of all segments.
     pub fn length_mm(&self) -> f64 {
         self.segments.iter().map(Segment::length_mm).sum()

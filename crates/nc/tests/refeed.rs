@@ -921,6 +921,7 @@ fn the_reading_along_a_lent_path_writes_the_same_text() {
         for (what, lent) in variants {
             let lent = nc::Path {
                 segments: lent.to_vec(),
+                ..Default::default()
             };
             let got = nc::refeed_read_along(src, name, options, &plan, lent)
                 .unwrap_or_else(|e| panic!("{name}, {what}: {e}"));
@@ -932,4 +933,57 @@ fn the_reading_along_a_lent_path_writes_the_same_text() {
         }
     }
     assert!(variants_checked >= 5 * 9, "{variants_checked}");
+}
+
+/// The modes (G61, G61.1, G64 P Q, in the block's units) of `path`, each
+/// with the end point of the segment before it.
+fn modes_at_ends(path: &nc::Path) -> Vec<(Option<[f64; 3]>, nc::PathControl)> {
+    path.path_control
+        .iter()
+        .map(|c| {
+            let before = c
+                .first_segment
+                .checked_sub(1)
+                .map(|k| path.segments[k].end.coords.into());
+            (before, c.mode)
+        })
+        .collect()
+}
+
+#[test]
+fn path_control_is_recorded_per_segment_and_kept_by_refeed() {
+    use nc::PathControl::{Blend, ExactPath, ExactStop};
+    let src = "G21 G90 G17\nG0 X0 Y0 Z5\nG1 Z0 F300\nG64 P0.05 Q0.02 G1 X10\nX20 Y5\nG61 X30\n\
+               G61.1\nG1 Y10\nG20 G64 P0.001\nG1 X0\nG64\nY0\nM30\n";
+    let path = parse(src);
+    let blend = |p: Option<f64>, q: Option<f64>| Blend {
+        tolerance_mm: p,
+        naive_cam_mm: q,
+    };
+    let want = vec![
+        (Some([0.0, 0.0, 0.0]), blend(Some(0.05), Some(0.02))),
+        (Some([20.0, 5.0, 0.0]), ExactPath),
+        (Some([30.0, 5.0, 0.0]), ExactStop),
+        (Some([30.0, 10.0, 0.0]), blend(Some(0.0254), None)),
+        (Some([0.0, 10.0, 0.0]), blend(None, None)),
+    ];
+    assert_eq!(modes_at_ends(&path), want);
+    assert_eq!(path.path_control_at(1), None);
+    assert_eq!(path.path_control_at(2), Some(blend(Some(0.05), Some(0.02))));
+    assert_eq!(path.path_control_at(7), Some(blend(None, None)));
+    // Split blocks: the G64 words stay on the written block's first piece.
+    let plan = every_feed(&path, &[(0.5, 400.0), (1.0, 700.0)]);
+    let out = nc::refeed(src, "t.ngc", &Options::default(), &plan).unwrap();
+    assert!(out.contains("G64 P0.05 Q0.02 G1 X5 F400"), "{out}");
+    let again = parse(&out);
+    assert_eq!(modes_at_ends(&again), want, "{out}");
+}
+
+#[test]
+fn motion_waits_are_recorded_before_the_moves_they_hold() {
+    // LinuxCNC's task waits for motion to stop at spindle, coolant and tool
+    // changes: before segments 1 (M3 S), 2 (M8) and 3 (M5 M9 then M6).
+    let src = "G21 G90\nG0 X1\nM3 S1000\nG1 X2 F100\nM8\nG1 X3\nM5\nM9\nT2 M6\nG0 X4\nG1 X5\nM2\n";
+    let p = parse(src);
+    assert_eq!(p.motion_waits, vec![1, 2, 3]);
 }

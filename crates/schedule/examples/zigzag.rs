@@ -25,6 +25,7 @@ fn polyline(points: &[Point3<f64>], feed_mm_min: f64) -> Path {
             .windows(2)
             .map(|w| line(w[0], w[1], feed_mm_min))
             .collect(),
+        ..Default::default()
     }
 }
 

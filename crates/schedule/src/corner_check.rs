@@ -87,7 +87,7 @@ impl Stations {
                 Corners::Judged,
             )
             .map(checked)
-            .map_err(|(e, segments)| (e, Path { segments })),
+            .map_err(|(e, segments)| (e, Path::from_segments(segments))),
             Err(e) => Err((e, path)),
         }
     }

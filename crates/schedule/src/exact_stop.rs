@@ -124,6 +124,7 @@ mod tests {
         // 10 mm at 50 mm/s and 1000 mm/s²: 10/50 + 50/1000.
         let path = Path {
             segments: vec![seg(Point3::new(10.0, 0.0, 0.0), 3000.0)],
+            ..Default::default()
         };
         close(
             exact_stop_time_s(&path, &machine(None), FeedPolicy::Programmed),
@@ -137,6 +138,7 @@ mod tests {
         let d = 1.0 / 2f64.sqrt();
         let path = Path {
             segments: vec![seg(Point3::new(d, d, 0.0), 3000.0)],
+            ..Default::default()
         };
         let a = 500.0 * 2f64.sqrt();
         close(
@@ -150,6 +152,7 @@ mod tests {
         // 100 mm along Z: programmed 6000 capped at 3000 (50 mm/s), a = 250.
         let path = Path {
             segments: vec![seg(Point3::new(0.0, 0.0, 100.0), 6000.0)],
+            ..Default::default()
         };
         close(
             exact_stop_time_s(&path, &machine(None), FeedPolicy::Programmed),
@@ -157,6 +160,7 @@ mod tests {
         );
         let slow = Path {
             segments: vec![seg(Point3::new(0.0, 0.0, 100.0), 600.0)],
+            ..Default::default()
         };
         close(
             exact_stop_time_s(&slow, &machine(None), FeedPolicy::MachineMax),
@@ -175,6 +179,7 @@ mod tests {
                     ..seg(Point3::origin(), 1.0)
                 },
             ],
+            ..Default::default()
         };
         close(
             exact_stop_time_s(&path, &machine(Some(20000.0)), FeedPolicy::Programmed),
@@ -198,6 +203,7 @@ mod tests {
                 },
                 ..seg(start, 3000.0)
             }],
+            ..Default::default()
         };
         let v = 250f64.sqrt();
         let len = 2.0 * std::f64::consts::PI;

@@ -20,6 +20,7 @@ mod corner_check;
 mod direct;
 mod exact_stop;
 mod kinematics;
+pub mod linuxcnc;
 mod machine;
 mod plan;
 mod range_min;

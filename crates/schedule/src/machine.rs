@@ -93,6 +93,17 @@ pub enum ScheduleError {
         /// What it cannot do.
         what: String,
     },
+    /// A LinuxCNC INI file could not be read (file:line; line 0 where a key is
+    /// missing).
+    #[error("{file}:{line}: {message}")]
+    Ini {
+        /// The file's name as given.
+        file: Box<str>,
+        /// 1-based line, 0 for a missing key.
+        line: usize,
+        /// What is wrong.
+        message: Box<str>,
+    },
     /// A caps slice does not have one value per station.
     #[error("expected {expected} caps (one per station), got {got}")]
     CapCount {

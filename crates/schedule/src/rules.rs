@@ -37,10 +37,15 @@ pub fn chord_count(radius_mm: f64, sweep_rad: f64, chord_tolerance_mm: f64) -> u
 
 /// S0: the path with every feed arc written as equal chords within S0's chord tolerance
 /// for its programmed feed (MODEL.md §6.2, [`chord_count`]), as a CAM or a control
-/// without arc interpolation would run it. Other segments are kept.
+/// without arc interpolation would run it. Other segments are kept, and so is the
+/// program's path control and its motion waits (each at the first chord of its
+/// segment).
 pub fn linearise_arcs(path: &nc::Path, block_time_ms: f64, kf: f64) -> nc::Path {
     let mut segments = Vec::with_capacity(path.segments.len());
+    // Where each segment's first piece lands in the new list.
+    let mut first_piece = Vec::with_capacity(path.segments.len() + 1);
     for seg in &path.segments {
+        first_piece.push(segments.len());
         match (seg.geometry, seg.motion) {
             (nc::Geometry::Arc { sweep_rad, .. }, nc::Motion::Feed { feed_mm_min, .. }) => {
                 let r = seg.radius_mm();
@@ -65,7 +70,25 @@ pub fn linearise_arcs(path: &nc::Path, block_time_ms: f64, kf: f64) -> nc::Path 
             _ => segments.push(*seg),
         }
     }
-    nc::Path { segments }
+    first_piece.push(segments.len());
+    let path_control = path
+        .path_control
+        .iter()
+        .map(|c| nc::PathControlChange {
+            first_segment: first_piece[c.first_segment.min(path.segments.len())],
+            mode: c.mode,
+        })
+        .collect();
+    let motion_waits = path
+        .motion_waits
+        .iter()
+        .map(|&k| first_piece[k.min(path.segments.len())])
+        .collect();
+    nc::Path {
+        segments,
+        path_control,
+        motion_waits,
+    }
 }
 
 /// S0 feed cap in mm/min of a block of length `len_mm` when each block takes

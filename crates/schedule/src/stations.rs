@@ -495,7 +495,7 @@ impl Stations {
     ) -> Result<(Self, Option<CornerChoice>), (ScheduleError, Vec<Segment>)> {
         let mut st = Stations {
             machine: *machine,
-            path: Path { segments },
+            path: Path::from_segments(segments),
             s_mm: Vec::with_capacity(estimate),
             segment: Vec::with_capacity(estimate),
             fraction: Vec::with_capacity(estimate),

@@ -136,7 +136,7 @@ fn polyline(lengths: &[f64], turns: &[f64], tilts: &[f64], spatial: bool, feed: 
         });
         at = end;
     }
-    Path { segments }
+    Path::from_segments(segments)
 }
 
 /// Plan, exact stop and bound of one case; panics where a sample breaks an axis limit.

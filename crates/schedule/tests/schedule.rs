@@ -55,7 +55,7 @@ fn circle(r_mm: f64, feed_mm_min: f64) -> Segment {
 }
 
 fn path(segments: Vec<Segment>) -> Path {
-    Path { segments }
+    Path::from_segments(segments)
 }
 
 fn stations(segments: Vec<Segment>, machine: &Machine, ds_mm: f64) -> Stations {

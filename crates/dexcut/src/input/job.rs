@@ -417,6 +417,10 @@ pub struct MachineSpec {
     /// LinuxCNC's default blending tolerance (the INI's, for G64 without P), mm
     /// (linuxcnc only).
     pub blend_tolerance_mm: Option<f64>,
+    /// A LinuxCNC INI file, relative to the job file (linuxcnc only): its `[EMCMOT]
+    /// SERVO_PERIOD`, `[TRAJ]` and `[AXIS_n]`/`[JOINT_n]` limits and start-up `G64 P`
+    /// replace the machine's.
+    pub linuxcnc_ini: Option<PathBuf>,
 }
 
 /// `[machine] controller`: which planner runs the program.
@@ -473,6 +477,7 @@ impl Default for MachineSpec {
             arc_tolerance_mm: None,
             planner_blocks: None,
             grbl_settings: None,
+            linuxcnc_ini: None,
             blend_tolerance_mm: None,
         }
     }
@@ -1070,8 +1075,14 @@ impl Job {
                 fail!(job, "machine.{key} is a setting of controller = \"grbl\"; this job's controller is \"{}\"", m.controller.name());
             }
         }
-        if m.controller != ControllerKind::Linuxcnc && m.blend_tolerance_mm.is_some() {
-            fail!(job, "machine.blend_tolerance_mm is a setting of controller = \"linuxcnc\"; this job's controller is \"{}\"", m.controller.name());
+        let linuxcnc_keys = [
+            ("blend_tolerance_mm", m.blend_tolerance_mm.is_some()),
+            ("linuxcnc_ini", m.linuxcnc_ini.is_some()),
+        ];
+        if m.controller != ControllerKind::Linuxcnc {
+            if let Some((key, _)) = linuxcnc_keys.iter().find(|k| k.1) {
+                fail!(job, "machine.{key} is a setting of controller = \"linuxcnc\"; this job's controller is \"{}\"", m.controller.name());
+            }
         }
         let grbl_range = |name: &str| {
             schedule::controller::grbl::GRBL_RANGES
@@ -1402,8 +1413,24 @@ pub fn controller(job: &Job) -> Result<schedule::Controller> {
     Ok(match m.controller {
         ControllerKind::Ideal => schedule::Controller::Ideal,
         ControllerKind::Linuxcnc => {
+            let ini = match &m.linuxcnc_ini {
+                Some(path) => {
+                    let file = job.resolve(path);
+                    crate::bounds::check_input_file(&file, "LinuxCNC INI file", 1 << 20)?;
+                    let text = std::fs::read_to_string(&file)
+                        .map_err(|e| Error::io("cannot read LinuxCNC INI file", &file, e))?;
+                    let ini = schedule::linuxcnc::ini::settings_from_ini(
+                        &text,
+                        &file.display().to_string(),
+                    )
+                    .map_err(|e| Error::job(e.to_string()))?;
+                    Some(ini)
+                }
+                None => None,
+            };
             schedule::Controller::LinuxCnc(schedule::controller::LinuxCncSettings {
                 blend_tolerance_mm: m.blend_tolerance_mm,
+                ini,
             })
         }
         ControllerKind::Grbl => {

@@ -447,7 +447,7 @@ pub fn read_points_csv(
     if segments.is_empty() {
         fail!(request, "{file}: need at least two points to make a move");
     }
-    Ok((nc::Path { segments }, timing))
+    Ok((nc::Path::from_segments(segments), timing))
 }
 
 #[cfg(test)]

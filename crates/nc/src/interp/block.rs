@@ -5,7 +5,7 @@ use super::state::Spindle;
 use super::{fail, Fail, Interp};
 use crate::gcode::integer_value;
 use crate::gcode::GCode;
-use crate::path::{Geometry, Motion, Plane};
+use crate::path::{Geometry, Motion, PathControl, PathControlChange, Plane};
 use crate::syntax::{Item, ItemKind};
 
 /// A block after evaluation of its words.
@@ -238,6 +238,7 @@ impl Interp<'_> {
         self.feed_scale = self.scale;
         let g_col = |code| b.has_g(code);
         self.feed_spindle_and_tool(&b, pc)?;
+        self.motion_wait(&b);
         self.inputs_and_outputs(&b)?;
         self.m70_m73(&b)?;
         self.dwell_and_modes(&b, pc)?;
@@ -512,6 +513,7 @@ impl Interp<'_> {
                 self.coord = i;
             }
         }
+        self.path_control(b);
         for code in [
             GCode::G59_1,
             GCode::G59_2,
@@ -533,6 +535,58 @@ impl Interp<'_> {
         b.set_mode(&mut self.arc_incremental, GCode::G90_1, GCode::G91_1);
         b.set_mode(&mut self.retract_to_start, GCode::G99, GCode::G98);
         Ok(())
+    }
+
+    /// The block's G61, G61.1 or G64 (P, Q in the block's units), recorded on
+    /// the path for the moves made after it (LinuxCNC's
+    /// `convert_control_mode`: a negative or missing P or Q is no P or Q).
+    fn path_control(&mut self, b: &Block) {
+        let mode = if b.has_g(GCode::G61).is_some() {
+            PathControl::ExactPath
+        } else if b.has_g(GCode::G61_1).is_some() {
+            PathControl::ExactStop
+        } else if b.has_g(GCode::G64).is_some() {
+            let mm = |w: char| b.get(w).filter(|v| *v >= 0.0).map(|v| v * self.scale);
+            PathControl::Blend {
+                tolerance_mm: mm('p'),
+                naive_cam_mm: mm('q'),
+            }
+        } else {
+            return;
+        };
+        let first_segment = self
+            .lent
+            .as_ref()
+            .map_or(self.path.segments.len(), |l| l.matched);
+        let changes = &mut self.path.path_control;
+        if changes
+            .last()
+            .is_some_and(|c| c.first_segment == first_segment)
+        {
+            changes.pop();
+        }
+        changes.push(PathControlChange {
+            first_segment,
+            mode,
+        });
+    }
+
+    /// Records where a control waits for motion to stop before the block:
+    /// spindle (M3, M4, M5, M19, an S word), coolant (M7, M8, M9), tool
+    /// change (M6, M61) and pauses (M0, M1), as LinuxCNC's task does.
+    fn motion_wait(&mut self, b: &Block) {
+        let waits =
+            b.get('s').is_some() || b.m.iter().any(|m| matches!(m.0, 0 | 1 | 3..=9 | 19 | 61));
+        if !waits {
+            return;
+        }
+        let at = self
+            .lent
+            .as_ref()
+            .map_or(self.path.segments.len(), |l| l.matched);
+        if self.path.motion_waits.last() != Some(&at) {
+            self.path.motion_waits.push(at);
+        }
     }
 
     /// M19's words, and the outputs and input waits (M62–M68) as LinuxCNC

@@ -47,7 +47,7 @@ fn a_profile_without_a_jerk_limit_makes_its_intervals_times_again() {
     dwell.geometry = Geometry::Line;
     segments.insert(100, dwell);
     let st = Stations::new(
-        &Path { segments },
+        &Path::from_segments(segments),
         &Machine::default(),
         0.05,
         FeedPolicy::Programmed,
@@ -101,7 +101,13 @@ fn sine() -> Stations {
         feed_max_mm_min: 10000.0,
         ..Machine::default()
     };
-    Stations::new(&Path { segments }, &machine, 0.05, FeedPolicy::Programmed).unwrap()
+    Stations::new(
+        &Path::from_segments(segments),
+        &machine,
+        0.05,
+        FeedPolicy::Programmed,
+    )
+    .unwrap()
 }
 
 /// `chords` chords of 0.25 mm turning by 1.5° and 6° in turn, the turns changing side
@@ -132,7 +138,13 @@ fn zigzag_turning_every(chords: usize, every: usize) -> Stations {
         feed_max_mm_min: 3000.0,
         ..Machine::default()
     };
-    Stations::new(&Path { segments }, &machine, 0.05, FeedPolicy::Programmed).unwrap()
+    Stations::new(
+        &Path::from_segments(segments),
+        &machine,
+        0.05,
+        FeedPolicy::Programmed,
+    )
+    .unwrap()
 }
 
 /// Largest ratio of a sampled per-axis second or third difference to its limit over
@@ -326,6 +338,7 @@ fn a_sampler_started_late_makes_the_same_samples() {
         let st = Stations::new(
             &Path {
                 segments: segments.clone(),
+                ..Default::default()
             },
             &machine,
             0.05,
@@ -410,7 +423,7 @@ fn slow_corners_dip_instead_of_being_held() {
     };
     // The corners passed, as the rule of slow dips is about (judged, they are stops).
     let st = Stations::with_corners(
-        &Path { segments },
+        &Path::from_segments(segments),
         &machine,
         0.05,
         FeedPolicy::Programmed,
@@ -753,7 +766,13 @@ fn forty_mm_line_with_jerk() -> (Machine, Stations) {
     };
     let feed = Motion::feed(3000.0);
     let segments = vec![line(Point3::origin(), Point3::new(40.0, 0.0, 0.0), feed)];
-    let st = Stations::new(&Path { segments }, &machine, 0.05, FeedPolicy::Programmed).unwrap();
+    let st = Stations::new(
+        &Path::from_segments(segments),
+        &machine,
+        0.05,
+        FeedPolicy::Programmed,
+    )
+    .unwrap();
     (machine, st)
 }
 

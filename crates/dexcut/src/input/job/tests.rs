@@ -899,5 +899,36 @@ fn controllers_and_their_settings_are_checked() {
         controller(&Job::parse(MINIMAL, "job.toml", Path::new(".")).unwrap()).unwrap(),
         schedule::Controller::Ideal
     );
+
+    // LinuxCNC: an INI read with the job (the recording machine's, 1 ms servo
+    // period), a bad one named at file:line, the key refused under another controller.
+    let lcnc = |extra: &str| {
+        Job::parse(
+            &with(&format!("controller = \"linuxcnc\"\n{extra}")),
+            "job.toml",
+            &dir,
+        )
+        .unwrap()
+    };
+    let ini = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scripts/linuxcnc_reference/sim.ini"
+    );
+    let settings = match controller(&lcnc(&format!("linuxcnc_ini = {ini:?}"))).unwrap() {
+        schedule::Controller::LinuxCnc(s) => s,
+        c => panic!("{c:?}"),
+    };
+    let read = settings.ini.expect("the INI's settings");
+    assert_eq!(read.period_s, 1e-3);
+    std::fs::write(dir.join("bad.ini"), "[EMCMOT]\nSERVO_PERIOD = fast\n").unwrap();
+    let e = controller(&lcnc("linuxcnc_ini = \"bad.ini\""))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("bad.ini:2"), "{e}");
+    let e = err("linuxcnc_ini = \"bad.ini\"");
+    assert!(
+        e.contains("machine.linuxcnc_ini is a setting of controller = \"linuxcnc\""),
+        "{e}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
