@@ -711,7 +711,10 @@ pub(crate) fn optimize_in(
     let exact_stop_time_s = exact_stop_time_s(setup);
     let path = std::mem::take(&mut setup.program.path);
     let (rounds, free) = match optimize::free_stations_of(path, &machine) {
-        Err((e, path)) => (Err(e), optimize::FreeStations::Released(path)),
+        Err(failed) => {
+            let (e, path) = *failed;
+            (Err(e), optimize::FreeStations::Released(path))
+        }
         Ok(stations) => {
             let mut free = optimize::FreeStations::Made(Box::new(stations));
             let rounds = optimize::caps_and_rounds(setup, &machine, &mut free, given, t1, staged);

@@ -51,7 +51,8 @@ impl FreeStations {
     /// [`free_stations_of`] made them) where they were let go.
     pub fn stations(&mut self, machine: &Machine, setup: &Setup) -> Result<&mut Stations> {
         if !matches!(self, FreeStations::Made(_)) {
-            let stations = free_stations_of(self.give(setup)?, machine).map_err(|(e, path)| {
+            let stations = free_stations_of(self.give(setup)?, machine).map_err(|failed| {
+                let (e, path) = *failed;
                 *self = FreeStations::Released(path);
                 e
             })?;
@@ -90,16 +91,16 @@ pub fn free_stations(path: &nc::Path, machine: &Machine) -> Result<Stations> {
 
 /// [`free_stations`] on a path handed to the stations rather than copied
 /// (a million-block path is about 120 MB; [`Stations::into_path`] gives it
-/// back); on an error the path comes back with it.
+/// back); on an error the path comes back with it (boxed: the pair is large).
 pub fn free_stations_of(
     path: nc::Path,
     machine: &Machine,
-) -> std::result::Result<Stations, (crate::error::Error, nc::Path)> {
+) -> std::result::Result<Stations, Box<(crate::error::Error, nc::Path)>> {
     if let Err(e) = has_feed_moves(&path) {
-        return Err((e, path));
+        return Err(Box::new((e, path)));
     }
     Stations::from_path(path, machine, STATION_DS_MM, FeedPolicy::MachineMax)
-        .map_err(|(e, path)| (e.into(), path))
+        .map_err(|(e, path)| Box::new((e.into(), path)))
 }
 
 fn has_feed_moves(path: &nc::Path) -> Result<()> {

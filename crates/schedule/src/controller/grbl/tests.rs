@@ -17,7 +17,7 @@ fn line_path(points: &[[f64; 3]], feed_mm_min: f64) -> nc::Path {
             tool: 1,
         })
         .collect();
-    nc::Path { segments }
+    nc::Path::from_segments(segments)
 }
 
 fn settings() -> GrblSettings {
@@ -101,22 +101,20 @@ fn look_ahead_depth_caps_short_blocks() {
 /// ends lie on the circle within the drift of grbl's small-angle rotation.
 #[test]
 fn arcs_are_cut_as_mc_arc_cuts_them() {
-    let path = nc::Path {
-        segments: vec![nc::Segment {
-            start: [10.0, 0.0, 0.0].into(),
-            end: [10.0, 0.0, 0.0].into(),
-            geometry: nc::Geometry::Arc {
-                center: [0.0; 3].into(),
-                plane: nc::Plane::XY,
-                clockwise: false,
-                sweep_rad: std::f64::consts::TAU,
-            },
-            motion: nc::Motion::feed(1000.0),
-            line: 1,
-            spindle_rpm: 0.0,
-            tool: 1,
-        }],
-    };
+    let path = nc::Path::from_segments(vec![nc::Segment {
+        start: [10.0, 0.0, 0.0].into(),
+        end: [10.0, 0.0, 0.0].into(),
+        geometry: nc::Geometry::Arc {
+            center: [0.0; 3].into(),
+            plane: nc::Plane::XY,
+            clockwise: false,
+            sweep_rad: std::f64::consts::TAU,
+        },
+        motion: nc::Motion::feed(1000.0),
+        line: 1,
+        spindle_rpm: 0.0,
+        tool: 1,
+    }]);
     let b = blocks(&path, &settings());
     let n = (std::f64::consts::PI * 10.0 / (0.002f64 * 19.998).sqrt()).floor() as usize;
     assert_eq!(b.len(), n);
