@@ -1617,6 +1617,38 @@ fn optimized_program_starts_where_the_program_did() {
     }
 }
 
+/// Under grbl's and LinuxCNC's planners too (`[machine] controller`), the
+/// summary's `after` is optimized.nc read back and simulated on its own by the
+/// same controller.
+#[test]
+fn optimized_program_simulates_as_the_summary_says_under_each_controller() {
+    for controller in ["grbl", "linuxcnc"] {
+        let job = MIX_JOB.replace(
+            "[machine]\n",
+            &format!("[machine]\ncontroller = \"{controller}\"\n"),
+        );
+        assert_ne!(job, MIX_JOB);
+        let dir = mix_dir(&job);
+        ok(&dexcut(
+            &["optimize", "job.toml", "--out", "out"],
+            dir.path(),
+        ));
+        let s = summary(&dir.path().join("out"));
+        let r = resimulate_optimized(dir.path(), &job);
+        for key in ["cycle_time_s", "removed_volume_mm3", "peak_mrr_mm3_s"] {
+            let (a, b) = (s["after"][key].as_f64().unwrap(), r[key].as_f64().unwrap());
+            assert!(
+                rel(a, b) < 1e-9,
+                "{controller}: {key}: summary {a}, optimized.nc {b}"
+            );
+        }
+        eprintln!(
+            "{controller}: before {} s, after {} s",
+            s["before"]["cycle_time_s"], s["after"]["cycle_time_s"]
+        );
+    }
+}
+
 /// optimize on a program with an o-word subprogram called in a loop with
 /// deeper cuts each run, G91, G20, G93, arcs and a drilling cycle: the
 /// summary's `after` is optimized.nc simulated as a program of its own, and
