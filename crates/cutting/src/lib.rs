@@ -32,6 +32,7 @@ pub mod kienzle;
 pub mod load;
 pub mod material;
 pub mod surface;
+pub mod tooth;
 
 pub use beam::{Cantilever, SteppedBeam};
 pub use calibration::{fit_force_law, Fit, FitError};
