@@ -330,6 +330,7 @@ impl<'a, S: StepSource + ?Sized> Sweep<'a, S> {
                     // The band volumes grew by doubling; what they hold is kept
                     // (a large block is shrunk where it lies, not copied).
                     out.bands.shrink_to_fit();
+                    out.offsets.shrink_to_fit();
                     part.record = out;
                     part.record.columns_evaluated = evaluated;
                 } else {
@@ -648,7 +649,9 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
     let batch = options.batch_steps.max(1);
     // A batch ends before its moves' strip entries would need more than
     // `batch_bytes` of partial sums (a move across many strips, a wide tool
-    // on a fine grid, takes many), with at least one move in it.
+    // on a fine grid, takes many), with at least one move in it. (Their
+    // ranges of lateral offsets, 8 B a band, come beside that bound: the
+    // batches, and so the columns visited, are those of the sums alone.)
     let max_entries = (options.batch_bytes / (width * std::mem::size_of::<f64>())).max(1);
     let strip_span = |m: &Prepared| {
         m.row_range(&grid, radius).and_then(|(a, b)| {

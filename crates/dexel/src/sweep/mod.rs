@@ -152,7 +152,8 @@ pub struct SweepOptions {
     pub batch_steps: usize,
     /// Bound on a batch's partial sums, bytes: a batch ends before its moves'
     /// strip entries (a move joins every strip its footprint's rows touch)
-    /// would need more, with at least one move per batch. Batches change no
+    /// would need more, with at least one move per batch. (The entries'
+    /// ranges of lateral offsets, 8 B a band, come beside it.) Batches change no
     /// result (each strip cuts its moves in order, each step's sums are
     /// reduced in strip order), only the memory and how often progress is
     /// reported.
@@ -445,6 +446,15 @@ impl RemovalRecord {
     /// (MODEL.md §3.2).
     pub fn volume_over_radius_mm2(&self, step: usize) -> f64 {
         self.row(step)[slot::OVER_RADIUS]
+    }
+
+    /// Bytes the record holds on the heap (its vectors' capacities).
+    pub fn memory_bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.data.capacity() * size_of::<f64>()
+            + self.bands.capacity() * size_of::<f64>()
+            + self.band_start.capacity() * size_of::<usize>()
+            + self.offsets.capacity() * size_of::<[f32; 2]>()
     }
 
     /// Sum of all step volumes, mm³.

@@ -41,6 +41,7 @@ impl Banding {
         // (nothing here is NaN): the same values as usize and `f64::min`.
         let mut k = (lo * self.inv_band_h) as i64;
         let n_bands = self.n_bands as i64;
+        let ranges = &mut ranges[..self.n_bands];
         while lo < hi && k < n_bands {
             let mut top = ((k + 1) as f64) * self.band_h;
             if self.flute_len < top {
@@ -51,14 +52,10 @@ impl Banding {
             }
             if top > lo {
                 acc[HEAD + k as usize] += top - lo;
-                // Plain compares: false for a NaN `e`.
+                // `f32::min` and `max` keep the range for a NaN `e`.
                 let range = &mut ranges[k as usize];
-                if e < range[0] {
-                    range[0] = e;
-                }
-                if e > range[1] {
-                    range[1] = e;
-                }
+                range[0] = range[0].min(e);
+                range[1] = range[1].max(e);
                 lo = top;
             }
             k += 1;
