@@ -52,10 +52,15 @@ impl Banding {
             }
             if top > lo {
                 acc[HEAD + k as usize] += top - lo;
-                // `f32::min` and `max` keep the range for a NaN `e`.
+                // Plain compares (one minimum and one maximum instruction):
+                // false for a NaN `e`.
                 let range = &mut ranges[k as usize];
-                range[0] = range[0].min(e);
-                range[1] = range[1].max(e);
+                if e < range[0] {
+                    range[0] = e;
+                }
+                if e > range[1] {
+                    range[1] = e;
+                }
                 lo = top;
             }
             k += 1;
