@@ -231,9 +231,20 @@ fn sweep_engagement(
     let window_mm = (ENGAGEMENT_WINDOW_CELLS * spacing_mm).max(2.0 * STATION_DS_MM);
     let mut rows = EngagementRows {
         area: WindowedArea::new(stations.s_mm(), window_mm),
-        loads: ReferenceLoads::new(stations.s_mm(), sweep.n_bands(), |k| {
-            &tools.entries[usize::from(tool_index[k])].model
-        }),
+        loads: ReferenceLoads::new(
+            stations.s_mm(),
+            sweep.n_bands(),
+            |k| &tools.entries[usize::from(tool_index[k])].model,
+            |k| {
+                let (a, b) = (stations.position_at(k), stations.position_at(k + 1));
+                crate::run::feed_dir(&dexel::Step {
+                    from_mm: a.coords.into(),
+                    to_mm: b.coords.into(),
+                    rapid: false,
+                })
+            },
+            spacing_mm,
+        ),
         each,
     };
     let (swept, _) = crate::run::sweep_through(
@@ -251,13 +262,13 @@ fn sweep_engagement(
 /// The engagement sweep's sink: each interval's row as the sweep makes it
 /// final, in order; each interval's windowed area and reference load given
 /// to `each` once the rows they read are in (two half windows ahead).
-struct EngagementRows<'a, 'e, M> {
+struct EngagementRows<'a, 'e, M, D> {
     area: WindowedArea<'a>,
-    loads: ReferenceLoads<'a, M>,
+    loads: ReferenceLoads<'a, M, D>,
     each: &'e mut dyn FnMut(usize, f64, ReferenceLoad),
 }
 
-impl<'a, M: Fn(usize) -> &'a CuttingModel> EngagementRows<'a, '_, M> {
+impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> [f64; 2]> EngagementRows<'a, '_, M, D> {
     fn row(&mut self, k: usize, row: dexel::RecordRow<'_>) {
         let (loads, each) = (&mut self.loads, &mut *self.each);
         loads.row(k, row);
@@ -320,7 +331,7 @@ pub(super) fn surface_angles_deg(
 /// the windowed areas come, holding only the rows of the cutting intervals
 /// that a load not yet made may take its shape from (not the record, issue
 /// 16).
-struct ReferenceLoads<'a, M> {
+struct ReferenceLoads<'a, M, D> {
     s_mm: &'a [f64],
     /// The tool's model of interval k.
     model_of: M,
@@ -329,9 +340,17 @@ struct ReferenceLoads<'a, M> {
     sources: std::collections::VecDeque<Source>,
     /// Their bands, `n_bands` each (zero above a row's own).
     bands: std::collections::VecDeque<f64>,
+    /// Their bands' ranges of offsets (MODEL.md §1.7), `n_bands` each.
+    offsets: std::collections::VecDeque<[f32; 2]>,
+    /// Interval k's unit XY direction.
+    dir_of: D,
+    /// The grid's cell, mm.
+    cell_mm: f64,
     n_bands: usize,
     /// One load's bands.
     scaled: Vec<f64>,
+    /// One load's bands' offsets.
+    one_offsets: Vec<[f32; 2]>,
 }
 
 /// What a reference load takes of a cutting interval's row.
@@ -343,19 +362,26 @@ struct Source {
     volume_over_radius_mm2: f64,
     /// Bands up to the highest not zero.
     bands: usize,
+    /// The interval's unit XY direction (the frame of its offsets).
+    feed_dir: [f64; 2],
 }
 
-impl<'a, M: Fn(usize) -> &'a CuttingModel> ReferenceLoads<'a, M> {
+impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> [f64; 2]> ReferenceLoads<'a, M, D> {
     /// Loads along stations at `s_mm`, each band list `n_bands` long (the
-    /// record's: that of the tool with the most).
-    fn new(s_mm: &'a [f64], n_bands: usize, model_of: M) -> Self {
+    /// record's: that of the tool with the most); interval k's direction
+    /// `dir_of(k)`, on a grid of `cell_mm`.
+    fn new(s_mm: &'a [f64], n_bands: usize, model_of: M, dir_of: D, cell_mm: f64) -> Self {
         ReferenceLoads {
             s_mm,
             model_of,
             sources: Default::default(),
             bands: Default::default(),
+            offsets: Default::default(),
+            dir_of,
+            cell_mm,
             n_bands,
             scaled: vec![0.0; n_bands],
+            one_offsets: Vec::with_capacity(n_bands),
         }
     }
 
@@ -370,10 +396,17 @@ impl<'a, M: Fn(usize) -> &'a CuttingModel> ReferenceLoads<'a, M> {
                 chip_edge_area_mm2: row.chip_edge_area_mm2(),
                 volume_over_radius_mm2: row.volume_over_radius_mm2(),
                 bands: bands.len(),
+                feed_dir: (self.dir_of)(k),
             });
             self.bands.extend(bands);
             self.bands
                 .extend(std::iter::repeat_n(0.0, self.n_bands - bands.len()));
+            let offsets = row.band_offsets_mm();
+            self.offsets.extend(offsets);
+            self.offsets.extend(std::iter::repeat_n(
+                dexel::EMPTY_OFFSETS,
+                self.n_bands - offsets.len(),
+            ));
         }
     }
 
@@ -385,6 +418,7 @@ impl<'a, M: Fn(usize) -> &'a CuttingModel> ReferenceLoads<'a, M> {
         while self.sources.get(1).is_some_and(|s| s.k <= k) {
             self.sources.pop_front();
             self.bands.drain(..self.n_bands);
+            self.offsets.drain(..self.n_bands);
         }
         debug_assert!(!(area_mm2 > 0.0 && self.sources.is_empty()), "interval {k}");
         let load = match self.sources.front() {
@@ -398,6 +432,9 @@ impl<'a, M: Fn(usize) -> &'a CuttingModel> ReferenceLoads<'a, M> {
                 for (b, v) in self.scaled.iter_mut().zip(self.bands.range(..j.bands)) {
                     *b = v * scale;
                 }
+                self.one_offsets.clear();
+                self.one_offsets
+                    .extend(self.offsets.range(..self.n_bands).copied());
                 let [cx, cy] = j.contact;
                 (self.model_of)(k).step_load(&cutting::StepRemoval {
                     volume_mm3: volume,
@@ -409,9 +446,9 @@ impl<'a, M: Fn(usize) -> &'a CuttingModel> ReferenceLoads<'a, M> {
                         / len_mm,
                     volume_over_radius_mm2: j.volume_over_radius_mm2 * scale,
                     dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
-                    band_offsets_mm: &[],
-                    feed_dir: [0.0, 0.0],
-                    cell_mm: 0.0,
+                    band_offsets_mm: &self.one_offsets,
+                    feed_dir: j.feed_dir,
+                    cell_mm: self.cell_mm,
                 })
             }
             _ => cutting::StepLoad::default(),

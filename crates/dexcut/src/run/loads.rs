@@ -65,7 +65,7 @@ pub(crate) fn step_removal<'r>(
         chip_edge_area_mm2: record.chip_edge_area_mm2(i),
         volume_over_radius_mm2: record.volume_over_radius_mm2(i),
         dt_s: step.dt_s,
-        band_offsets_mm: &[],
+        band_offsets_mm: record.band_offsets_mm(i),
         feed_dir: feed_dir(&step.step),
         cell_mm: grid_mm,
     }

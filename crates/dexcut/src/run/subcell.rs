@@ -103,6 +103,9 @@ pub fn window_loads(
     let mut start: Vec<f64> = Vec::new();
     let mut geo: Vec<(f64, [f64; 2])> = Vec::new();
     let mut bands = vec![0.0; record.n_bands];
+    // The window's bands' ranges of offsets (MODEL.md §1.7): their union
+    // over the steps it takes from.
+    let mut offsets = vec![dexel::EMPTY_OFFSETS; record.n_bands];
     let mut win = Window {
         lo: 0,
         hi: 0,
@@ -213,6 +216,12 @@ pub fn window_loads(
             for v in bands.iter_mut() {
                 *v = (*v * scale).max(0.0);
             }
+            offsets.fill(dexel::EMPTY_OFFSETS);
+            for j in win.lo..=win.hi.min(m - 1) {
+                for (o, r) in offsets.iter_mut().zip(record.band_offsets_mm(k + j)) {
+                    *o = [o[0].min(r[0]), o[1].max(r[1])];
+                }
+            }
             let left = [-u[1], u[0]];
             set(
                 i,
@@ -228,7 +237,7 @@ pub fn window_loads(
                     chip_edge_area_mm2: sum[EDGE_LEN] / (b - a),
                     volume_over_radius_mm2: sum[OVER_R] * scale,
                     dt_s: steps[i].dt_s,
-                    band_offsets_mm: &[],
+                    band_offsets_mm: &offsets,
                     feed_dir: u,
                     cell_mm: grid_mm,
                 }),
