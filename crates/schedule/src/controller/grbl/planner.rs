@@ -6,9 +6,9 @@ use nc::{Geometry, Motion};
 use super::GrblSettings;
 
 /// grbl's `MINIMUM_FEED_RATE`, mm/min: no block is planned slower.
-const MINIMUM_FEED_RATE_MM_MIN: f64 = 1.0;
+const MINIMUM_FEED_RATE_MM_MIN: f32 = 1.0;
 /// grbl's `SOME_LARGE_VALUE`: the junction speed² of a straight junction.
-const SOME_LARGE_VALUE: f64 = 1.0e38;
+const SOME_LARGE_VALUE: f32 = 1.0e38;
 
 /// What a block asks of the planner.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -121,72 +121,107 @@ pub struct PlannedBlock {
     pub dwell_s: f64,
 }
 
-/// The planner's state between blocks (grbl's `planner_t`).
+/// The planner's state between blocks (grbl's `planner_t`). Like grbl's (an ATmega328p's
+/// `double` is a `float`), the block's length, direction, acceleration, rates and
+/// junction speed are computed in single precision, in grbl's order of operations: the
+/// junction speed of a nearly straight or nearly reversing corner depends on it (its
+/// 1 − sin(θ/2) or 1 − cos θ cancels), by up to 3·10⁻⁴ of the speed on real programs.
 struct Planner {
-    accel_mm_min2: [f64; 3],
+    accel_mm_min2: [f32; 3],
+    max_rate_mm_min: [f32; 3],
+    steps_per_mm: [f32; 3],
     position_steps: [i64; 3],
     position_mm: [f64; 3],
-    previous_unit: [f64; 3],
-    previous_nominal_mm_min: f64,
+    previous_unit: [f32; 3],
+    previous_nominal_mm_min: f32,
     buffer_empty: bool,
 }
 
 /// `limit_value_by_axis_maximum`: the largest value along `unit` that keeps every axis
 /// within `max` (grbl's nuts_bolts.c).
-fn limit_by_axis(max: &[f64; 3], unit: &[f64; 3]) -> f64 {
+fn limit_by_axis(max: &[f32; 3], unit: &[f32; 3]) -> f32 {
     (0..3)
         .filter(|&i| unit[i] != 0.0)
         .map(|i| (max[i] / unit[i]).abs())
-        .fold(SOME_LARGE_VALUE, f64::min)
+        .fold(SOME_LARGE_VALUE, f32::min)
+}
+
+/// `convert_delta_vector_to_unit_vector`: `v` made a unit vector; returns its length.
+fn to_unit(v: &mut [f32; 3]) -> f32 {
+    let magnitude = v
+        .iter()
+        .filter(|&&x| x != 0.0)
+        .fold(0.0f32, |m, x| m + x * x)
+        .sqrt();
+    let inv = 1.0 / magnitude;
+    v.iter_mut().for_each(|x| *x *= inv);
+    magnitude
 }
 
 /// `lround(target·steps_per_mm)` with grbl's single-precision product.
-fn to_steps(target_mm: f64, steps_per_mm: f64) -> i64 {
-    f64::from(target_mm as f32 * steps_per_mm as f32).round() as i64
+fn to_steps(target_mm: f64, steps_per_mm: f32) -> i64 {
+    (target_mm as f32 * steps_per_mm).round() as i64
 }
 
 impl Planner {
+    fn new(start_mm: [f64; 3], s: &GrblSettings) -> Planner {
+        let steps_per_mm = s.steps_per_mm.map(|v| v as f32);
+        Planner {
+            accel_mm_min2: s.accel_mm_s2.map(|a| a as f32 * 60.0 * 60.0),
+            max_rate_mm_min: s.max_rate_mm_min.map(|v| v as f32),
+            steps_per_mm,
+            position_steps: [0, 1, 2].map(|i| to_steps(start_mm[i], steps_per_mm[i])),
+            position_mm: start_mm,
+            previous_unit: [0.0; 3],
+            previous_nominal_mm_min: 0.0,
+            buffer_empty: true,
+        }
+    }
+
     /// `plan_buffer_line` without the replanning: the block's length, acceleration, nominal
     /// speed and junction limit (MODEL.md eqs. 6.4.1–6.4.2); `None` for a block of no step.
     fn add(&mut self, block: &Block, index: usize, s: &GrblSettings) -> Option<PlannedBlock> {
         let mut target_steps = [0i64; 3];
-        let mut delta = [0.0; 3];
+        let mut unit = [0.0f32; 3];
         let mut step_events = 0;
         for i in 0..3 {
-            target_steps[i] = to_steps(block.target_mm[i], s.steps_per_mm[i]);
+            target_steps[i] = to_steps(block.target_mm[i], self.steps_per_mm[i]);
             let steps = target_steps[i] - self.position_steps[i];
             step_events = step_events.max(steps.abs());
-            delta[i] = steps as f64 / s.steps_per_mm[i];
+            unit[i] = steps as f32 / self.steps_per_mm[i];
         }
         if step_events == 0 {
             return None;
         }
-        let length_mm = delta.iter().map(|d| d * d).sum::<f64>().sqrt();
-        let unit = delta.map(|d| d / length_mm);
+        let length_mm = to_unit(&mut unit);
         let accel_mm_min2 = limit_by_axis(&self.accel_mm_min2, &unit);
-        let rapid_mm_min = limit_by_axis(&s.max_rate_mm_min, &unit);
+        let rapid_mm_min = limit_by_axis(&self.max_rate_mm_min, &unit);
+        // plan_compute_profile_nominal_speed, overrides at 100 %.
         let nominal_mm_min = match block.kind {
             BlockKind::Rapid => rapid_mm_min,
-            BlockKind::Feed { feed_mm_min } => feed_mm_min.min(rapid_mm_min),
+            BlockKind::Feed { feed_mm_min } => (feed_mm_min as f32).min(rapid_mm_min),
             BlockKind::Sync { .. } => unreachable!("a stop is no line"),
         }
         .max(MINIMUM_FEED_RATE_MM_MIN);
         let junction_sqr = if self.buffer_empty {
             0.0
         } else {
-            self.junction_speed_sqr(&unit, s.junction_deviation_mm)
+            self.junction_speed_sqr(&unit, s.junction_deviation_mm as f32)
         };
-        let max_entry_sqr = nominal_mm_min
-            .min(self.previous_nominal_mm_min)
-            .powi(2)
-            .min(junction_sqr);
+        // plan_compute_profile_parameters.
+        let max_entry_sqr = if nominal_mm_min > self.previous_nominal_mm_min {
+            self.previous_nominal_mm_min * self.previous_nominal_mm_min
+        } else {
+            nominal_mm_min * nominal_mm_min
+        }
+        .min(junction_sqr);
         let planned = PlannedBlock {
             block: index,
             start_mm: self.position_mm,
-            length_mm,
-            accel_mm_s2: accel_mm_min2 / 3600.0,
-            nominal_mm_min,
-            max_entry_mm_min: max_entry_sqr.sqrt(),
+            length_mm: f64::from(length_mm),
+            accel_mm_s2: f64::from(accel_mm_min2) / 3600.0,
+            nominal_mm_min: f64::from(nominal_mm_min),
+            max_entry_mm_min: f64::from(max_entry_sqr).sqrt(),
             entry_mm_min: 0.0,
             exit_mm_min: 0.0,
             dwell_s: 0.0,
@@ -201,21 +236,21 @@ impl Planner {
 
     /// The junction's speed² limit, (mm/min)²: v² = a·δ·sin(θ/2)/(1 − sin(θ/2)) with a the
     /// acceleration along the junction's direction (MODEL.md eq. 6.4.1).
-    fn junction_speed_sqr(&self, unit: &[f64; 3], deviation_mm: f64) -> f64 {
+    fn junction_speed_sqr(&self, unit: &[f32; 3], deviation_mm: f32) -> f32 {
         let prev = &self.previous_unit;
-        let cos_theta = -(0..3).map(|i| prev[i] * unit[i]).sum::<f64>();
+        let mut cos_theta = 0.0f32;
+        let mut junction = [0.0f32; 3];
+        for i in 0..3 {
+            cos_theta -= prev[i] * unit[i];
+            junction[i] = unit[i] - prev[i];
+        }
         if cos_theta > 0.999999 {
             return 0.0;
         }
         if cos_theta < -0.999999 {
             return SOME_LARGE_VALUE;
         }
-        let mut junction = [0.0; 3];
-        for i in 0..3 {
-            junction[i] = unit[i] - prev[i];
-        }
-        let norm = junction.iter().map(|j| j * j).sum::<f64>().sqrt();
-        let junction = junction.map(|j| j / norm);
+        to_unit(&mut junction);
         let accel = limit_by_axis(&self.accel_mm_min2, &junction);
         let sin_half = (0.5 * (1.0 - cos_theta)).sqrt();
         (accel * deviation_mm * sin_half / (1.0 - sin_half)).max(0.0)
@@ -232,14 +267,7 @@ pub fn plan_blocks(
     blocks: &[Block],
     settings: &GrblSettings,
 ) -> Vec<PlannedBlock> {
-    let mut planner = Planner {
-        accel_mm_min2: settings.accel_mm_s2.map(|a| a * 3600.0),
-        position_steps: [0, 1, 2].map(|i| to_steps(start_mm[i], settings.steps_per_mm[i])),
-        position_mm: start_mm,
-        previous_unit: [0.0; 3],
-        previous_nominal_mm_min: 0.0,
-        buffer_empty: true,
-    };
+    let mut planner = Planner::new(start_mm, settings);
     let mut out: Vec<PlannedBlock> = Vec::with_capacity(blocks.len());
     let mut run_first = 0;
     for (index, block) in blocks.iter().enumerate() {
