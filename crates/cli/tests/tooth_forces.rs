@@ -5,6 +5,7 @@
 //! each height, from the tool's profile and the stock's edge), with a linear
 //! law (mc = 0: K_t = kc1_1) so that the comparison is of geometry alone.
 
+#[allow(dead_code)]
 mod common;
 
 use std::collections::HashMap;
@@ -76,8 +77,8 @@ fn exact(cut: &Cut) -> ([f64; 3], f64) {
             phi_ex_rad: b,
         };
         let m = mean_cut(&shape, FLUTES, &arc, FZ, &c);
-        for d in 0..3 {
-            f[d] += m.force_n[d];
+        for (s, v) in f.iter_mut().zip(m.force_n) {
+            *s += v;
         }
         vol += m.volume_mm3;
     }
