@@ -298,3 +298,103 @@ fn forces_converge_with_the_grid() {
         );
     }
 }
+
+/// The error map of a wall finish (MODEL.md §5.2): a flat end leaves the
+/// wall when a tooth passes the flank, φ = 0 in up milling (material on the
+/// left), φ = π in down milling; the error there is the deflection at that
+/// instant across the wall, not the mean's. Up and down milling the same
+/// 0.2 mm wall give different errors, each of the sign and size of the
+/// flank force (through the tool's compliance, the mean deflection over the
+/// mean force), against the wall's outward normal (−y up, +y down).
+#[test]
+fn wall_errors_follow_the_force_when_the_tooth_leaves_the_wall() {
+    let mut errors = Vec::new();
+    for cut in [&CUTS[3], &CUTS[4]] {
+        let dir = tempfile::tempdir().unwrap();
+        let (y0, y1) = match cut.side {
+            Side::Up => (R - cut.ae_mm, 20.0),
+            _ => (-20.0, -(R - cut.ae_mm)),
+        };
+        let job = format!(
+            "[stock]\nkind = \"box\"\nmin = [0, {y0}, 0]\nmax = [60, {y1}, 20]\ngrid = 0.05\n\
+             [tool]\nkind = \"flat\"\ndiameter = 10\nflutes = {FLUTES}\nflute_length = 20\nstickout = 60\n\
+             youngs_modulus_mpa = 210000\n\
+             [program]\npath = \"pass.csv\"\nfeed = {}\n\
+             [cutting]\nkc1_1 = {KC}\nmc = 0\nradial_ratio = {KR}\naxial_ratio = {KA}\n\
+             band_height = 1\nspindle_rpm = {RPM}\nclosed_loop = false\n",
+            FZ * f64::from(FLUTES) * RPM
+        );
+        std::fs::write(dir.path().join("job.toml"), job).unwrap();
+        let csv: String = std::iter::once("x,y,z\n".to_string())
+            .chain(
+                (0..=160).map(|i| format!("{},0,{}\n", -10.0 + 0.5 * i as f64, 20.0 - cut.ap_mm)),
+            )
+            .collect();
+        std::fs::write(dir.path().join("pass.csv"), csv).unwrap();
+        let o = common::run(&["simulate", "job.toml", "--out", "out"], dir.path());
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let summary: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.path().join("out/summary.json")).unwrap(),
+        )
+        .unwrap();
+        let run = &summary;
+        let (lo, hi) = (
+            run["min_error_um"].as_f64().unwrap(),
+            run["max_error_um"].as_f64().unwrap(),
+        );
+        let error = if hi.abs() > lo.abs() { hi } else { lo };
+        // The flank force of the exact cut, and the tool's compliance from
+        // the steady steps (mean deflection over mean force).
+        let steps = csv_columns(&dir.path().join("out/steps.csv"));
+        let rows: Vec<usize> = (0..steps["x"].len())
+            .filter(|&i| (15.0..=45.0).contains(&steps["x"][i]))
+            .collect();
+        let mean = |k: &str| rows.iter().map(|&i| steps[k][i]).sum::<f64>() / rows.len() as f64;
+        let um_per_n = mean("deflection_um") / mean("force_n");
+        let shape = EdgeShape::flat(R);
+        let arc = BandArc::side_cut(R, cut.ae_mm, 0.0, cut.ap_mm, matches!(cut.side, Side::Up));
+        let bands: Vec<(BandArc, f64)> = (0..10)
+            .map(|k| {
+                let mut a = arc;
+                a.z_lo_mm = k as f64;
+                a.z_hi_mm = k as f64 + 1.0;
+                (a, FZ)
+            })
+            .collect();
+        let c = Coefficients {
+            kt_mpa: KC,
+            radial_ratio: KR,
+            axial_ratio: KA,
+        };
+        let p = cutting::tooth::peak_cut(
+            &shape,
+            &cutting::tooth::Teeth {
+                flutes: FLUTES,
+                helix_deg: 30.0,
+            },
+            &bands,
+            &c,
+            mean("contact_height_mm"),
+            &mut cutting::tooth::PeakScratch::default(),
+        );
+        let expected = match cut.side {
+            Side::Up => -p.at_left_flank_n[1] * um_per_n,
+            _ => p.at_right_flank_n[1] * um_per_n,
+        };
+        eprintln!(
+            "{}: error {error:.3} µm, flank force across the wall {expected:.3} µm",
+            cut.name
+        );
+        assert!(expected.abs() > 0.5, "{}: {expected}", cut.name);
+        assert!(
+            (error - expected).abs() <= 0.1 * expected.abs(),
+            "{}: {error} vs {expected}",
+            cut.name
+        );
+        errors.push(error);
+    }
+    assert!(
+        (errors[0] - errors[1]).abs() > 0.2 * errors[0].abs().max(errors[1].abs()),
+        "{errors:?}"
+    );
+}

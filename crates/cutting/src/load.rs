@@ -63,6 +63,13 @@ pub struct StepLoad {
     pub tip_deflection_um: f64,
     /// Largest von Mises stress in the tool (holder face or flute end), MPa.
     pub stress_mpa: f64,
+    /// Deflection [x, y] at the contact height at the instant a tooth there
+    /// passes the flank on the left of the feed (φ = 0: the wall up milling
+    /// leaves), µm (MODEL.md §5.2); the mean deflection where the step has
+    /// no engaged arc.
+    pub at_left_flank_um: [f64; 2],
+    /// The same on the right of the feed (φ = π: down milling's wall), µm.
+    pub at_right_flank_um: [f64; 2],
 }
 
 impl StepLoad {
@@ -84,6 +91,8 @@ impl StepLoad {
             dy_um: s * self.dy_um,
             tip_deflection_um: s * self.tip_deflection_um,
             stress_mpa: s * self.stress_mpa,
+            at_left_flank_um: self.at_left_flank_um.map(|v| s * v),
+            at_right_flank_um: self.at_right_flank_um.map(|v| s * v),
             ..*self
         }
     }
@@ -111,6 +120,8 @@ impl StepLoad {
             dx_um: s * self.dx_um,
             dy_um: s * self.dy_um,
             tip_deflection_um: s * self.tip_deflection_um,
+            at_left_flank_um: self.at_left_flank_um.map(|v| s * v),
+            at_right_flank_um: self.at_right_flank_um.map(|v| s * v),
             ..*self
         }
     }
@@ -211,6 +222,9 @@ struct ToothForces {
     mean_n: [f64; 3],
     peak_lateral_n: f64,
     peak_torque_nmm: f64,
+    /// Lateral forces when a tooth at the contact height passes the left and
+    /// the right flank, machine axes, N.
+    at_flanks_n: [[f64; 2]; 2],
 }
 
 impl CuttingModel {
@@ -306,14 +320,15 @@ impl CuttingModel {
                     radial_ratio: k.radial_ratio,
                     axial_ratio: k.axial_ratio,
                 };
-                if let Some(t) = self.tooth_forces(r, &coefficients, revolutions) {
+                let contact = self.contact_height_mm(r.band_volumes_mm3);
+                if let Some(t) = self.tooth_forces(r, &coefficients, revolutions, contact) {
                     let [fx, fy, fz] = t.mean_n;
                     (
                         fx,
                         fy,
                         fz,
                         power_w,
-                        Some((t.peak_lateral_n, t.peak_torque_nmm)),
+                        Some((t.peak_lateral_n, t.peak_torque_nmm, t.at_flanks_n)),
                     )
                 } else {
                     // No engaged arc (a plunge): §3.2's mean from the aggregates.
@@ -347,7 +362,15 @@ impl CuttingModel {
         let deflection_um = 1000.0 * force * self.compliance_at_mm_per_n(bands, contact_height_mm);
         let tip_deflection_um = 1000.0 * force * self.compliance_at_mm_per_n(bands, 0.0);
         let torque_nm = power_w / omega;
-        let (force_peak_n, peak_torque_nmm) = peak.unwrap_or((force, 1000.0 * torque_nm));
+        // The deflection at the contact height per newton (the mean's).
+        let um_per_n = 1000.0 * self.compliance_at_mm_per_n(bands, contact_height_mm);
+        let (force_peak_n, peak_torque_nmm, flanks) = match peak {
+            Some((f, t, flanks)) => (f, t, flanks.map(|v| v.map(|c| um_per_n * c))),
+            None => {
+                let mean = [deflection_um * ux, deflection_um * uy];
+                (force, 1000.0 * torque_nm, [mean, mean])
+            }
+        };
         StepLoad {
             force_n: force,
             force_peak_n,
@@ -367,6 +390,8 @@ impl CuttingModel {
             stress_mpa: self
                 .beam
                 .peak_stress_mpa(&[(contact_height_mm, force_peak_n)], peak_torque_nmm),
+            at_left_flank_um: flanks[0],
+            at_right_flank_um: flanks[1],
         }
     }
 
@@ -380,6 +405,7 @@ impl CuttingModel {
         r: &StepRemoval<'_>,
         c: &Coefficients,
         revolutions: f64,
+        flank_at_mm: f64,
     ) -> Option<ToothForces> {
         let [ux, uy] = r.feed_dir;
         if (ux == 0.0 && uy == 0.0) || !(revolutions > 0.0) {
@@ -418,13 +444,18 @@ impl CuttingModel {
                 flutes: self.flutes,
                 helix_deg: self.helix_deg,
             };
-            let peak = peak_cut(&self.edge, &teeth, arcs, c, peak_scratch);
+            let peak = peak_cut(&self.edge, &teeth, arcs, c, flank_at_mm, peak_scratch);
             // Feed frame (x along the feed, y to its left) to machine axes.
-            let [fx, fy, fz] = mean;
+            let machine = |[fx, fy]: [f64; 2]| [fx * ux - fy * uy, fx * uy + fy * ux];
+            let [fx, fy] = machine([mean[0], mean[1]]);
             Some(ToothForces {
-                mean_n: [fx * ux - fy * uy, fx * uy + fy * ux, fz],
+                mean_n: [fx, fy, mean[2]],
                 peak_lateral_n: peak.lateral_n,
                 peak_torque_nmm: peak.torque_nmm,
+                at_flanks_n: [
+                    machine(peak.at_left_flank_n),
+                    machine(peak.at_right_flank_n),
+                ],
             })
         })
     }
@@ -462,6 +493,8 @@ mod tests {
             dy_um: -32.0,
             tip_deflection_um: 50.0,
             stress_mpa: 300.0,
+            at_left_flank_um: [30.0, -4.0],
+            at_right_flank_um: [10.0, 8.0],
         };
         let h = l.scaled(0.25);
         assert_eq!(

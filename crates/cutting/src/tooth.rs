@@ -275,6 +275,13 @@ pub struct PeakCut {
     pub torque_nmm: f64,
     /// Tool rotation at that instant (tooth 0 at the tip), rad in [0, 2π/N).
     pub rotation_rad: f64,
+    /// The lateral force [x, y] (N) at the instant a tooth passes the flank
+    /// on the left of the feed (φ = 0) at the height asked for: when up
+    /// milling leaves its wall there (MODEL.md §5.2).
+    pub at_left_flank_n: [f64; 2],
+    /// The same when a tooth passes the flank on the right (φ = π): down
+    /// milling's wall.
+    pub at_right_flank_n: [f64; 2],
 }
 
 /// Largest helix lag across one slice of edge, rad: slices are cut so the
@@ -378,11 +385,16 @@ pub struct PeakScratch {
 /// arc the lateral force is `P + Q cos 2φ + R sin 2φ` in closed form; its size
 /// is taken at both ends of each such stretch (so the jump at a tooth's
 /// entry is caught exactly) and every 2.5° inside.
+///
+/// Also the lateral force at the two instants a tooth at height
+/// `flank_at_mm` passes the flanks, φ = 0 and φ = π (rotations `ψ(z)` and
+/// `π + ψ(z)`): the forces when a wall is left there (MODEL.md §5.2).
 pub fn peak_cut(
     shape: &EdgeShape,
     teeth: &Teeth,
     bands: &[(BandArc, f64)],
     c: &Coefficients,
+    flank_at_mm: f64,
     scratch: &mut PeakScratch,
 ) -> PeakCut {
     let n = teeth.flutes.max(1);
@@ -455,6 +467,7 @@ pub fn peak_cut(
                 force_n,
                 torque_nmm,
                 rotation_rad: phi.rem_euclid(period),
+                ..PeakCut::default()
             };
         }
     };
@@ -475,7 +488,27 @@ pub fn peak_cut(
         let bound = if enter { s.arc[0] } else { s.arc[1] };
         sum.add(&s.tooth(bound - to), if enter { 1.0 } else { -1.0 });
     }
+    let lag = flank_at_mm * lag_per_mm;
+    best.at_left_flank_n = lateral_at(slices, n, lag);
+    best.at_right_flank_n = lateral_at(slices, n, PI + lag);
     best
+}
+
+/// The lateral force [x, y] at the rotation `phi`, summed over the slices'
+/// teeth engaged then (eq. 3.4b).
+fn lateral_at(slices: &[Slice], flutes: u32, phi: f64) -> [f64; 2] {
+    let period = 2.0 * PI / f64::from(flutes);
+    let mut sum = Harmonics::default();
+    for s in slices {
+        for j in 0..flutes {
+            let cj = f64::from(j) * period - s.lag;
+            let alpha = (phi + cj).rem_euclid(2.0 * PI);
+            if alpha >= s.arc[0] && alpha < s.arc[1] {
+                sum.add(&s.tooth(cj), 1.0);
+            }
+        }
+    }
+    sum.lateral(phi)
 }
 
 #[cfg(test)]
@@ -635,9 +668,14 @@ mod tests {
             &teeth,
             &[(arc, fz)],
             &C,
+            1.0,
             &mut PeakScratch::default(),
         );
         let want = C.kt_mpa * ap * fz * (1.0 + C.radial_ratio.powi(2)).sqrt();
+        // Straight teeth at the flanks cut nothing (h = f_z sin φ = 0 there)
+        // and the other tooth is out of the slot: no force.
+        assert_eq!(p.at_left_flank_n, [0.0, 0.0]);
+        assert!(p.at_right_flank_n[0].abs() < 1e-9 && p.at_right_flank_n[1].abs() < 1e-9);
         assert!(close(p.lateral_n, want, 1e-9), "{p:?} {want}");
         assert!(close(p.rotation_rad, PI / 2.0, 1e-9), "{p:?}");
         assert!(
@@ -690,7 +728,7 @@ mod tests {
                 "{avg:?} {mean:?}"
             );
         }
-        let p = peak_cut(&shape, &teeth, &bands, &C, &mut PeakScratch::default());
+        let p = peak_cut(&shape, &teeth, &bands, &C, 0.0, &mut PeakScratch::default());
         // The peak is the largest lateral force on the fine grid (within its step).
         let grid_max = (0..k)
             .map(|i| {
@@ -800,7 +838,7 @@ mod ball_slot_peak {
                     )
                 })
                 .collect();
-            let p = peak_cut(&shape, &teeth, &bands, &c, &mut PeakScratch::default());
+            let p = peak_cut(&shape, &teeth, &bands, &c, 0.0, &mut PeakScratch::default());
             let k = 20_000;
             let brute = (0..k)
                 .map(|i| {

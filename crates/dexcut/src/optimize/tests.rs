@@ -79,6 +79,7 @@ fn reference_loads_of_record<'a>(
     area_mm2: &[f64],
     s_mm: &[f64],
     model_of: impl Fn(usize) -> &'a CuttingModel,
+    (steps, cell_mm): (&[dexel::Step], f64),
 ) -> Vec<ReferenceLoad> {
     let n = area_mm2.len();
     let first_cut = (0..n).find(|&k| record.volume_mm3(k) > 0.0);
@@ -108,9 +109,9 @@ fn reference_loads_of_record<'a>(
                     / len_mm,
                 volume_over_radius_mm2: record.volume_over_radius_mm2(j) * scale,
                 dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
-                band_offsets_mm: &[],
-                feed_dir: [0.0, 0.0],
-                cell_mm: 0.0,
+                band_offsets_mm: record.band_offsets_mm(j),
+                feed_dir: crate::run::feed_dir(&steps[j]),
+                cell_mm,
             });
             ReferenceLoad::from(load)
         })
@@ -408,9 +409,13 @@ fn engagement_from_the_sweeps_rows_is_the_records() {
         let window_mm =
             (ENGAGEMENT_WINDOW_CELLS * stock.grid().spacing_mm).max(2.0 * STATION_DS_MM);
         let area_mm2 = windowed_area_of_lists(stations.s_mm(), &volumes, window_mm);
-        let reference_loads = reference_loads_of_record(&record, &area_mm2, stations.s_mm(), |k| {
-            &tools.entries[usize::from(engagement.tool_index[k])].model
-        });
+        let reference_loads = reference_loads_of_record(
+            &record,
+            &area_mm2,
+            stations.s_mm(),
+            |k| &tools.entries[usize::from(engagement.tool_index[k])].model,
+            (&steps, stock.grid().spacing_mm),
+        );
         let swept = swept.filter(|_| matches!(surface, SurfaceFrom::Stock));
         let surface_angle_deg = surface_angles_deg(
             &stations,

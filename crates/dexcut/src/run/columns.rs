@@ -46,13 +46,13 @@ pub fn write_tiled_columns(
     } else {
         run.steps.iter().map(|s| s.step).collect()
     };
-    let largest_um = |v: &[[f64; 2]]| {
-        v.iter()
-            .map(|&[x, y]| x.hypot(y))
+    let largest_um = |v: &mut dyn Iterator<Item = &[f64; 2]>| {
+        v.map(|&[x, y]| x.hypot(y))
             .filter(|d| d.is_finite())
             .fold(0.0, f64::max)
     };
-    let reach_mm = 1e-3 * (largest_um(&run.model_um) + largest_um(&run.offsets_um));
+    let reach_mm = 1e-3
+        * (largest_um(&mut run.model_um.iter().flatten()) + largest_um(&mut run.offsets_um.iter()));
     let halo = (reach_mm / grid.spacing_mm).ceil() as usize + 2;
     let mut writer = match dir {
         None => None,
@@ -81,6 +81,7 @@ pub fn write_tiled_columns(
             &last,
             &run.offsets_um,
             &run.model_um,
+            &run.steps,
             0..last.last_cut().len(),
         );
         initial_mm = initial.add_row_lengths_mm(rows.clone(), initial_mm);

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 use super::columns::row_blocks;
 use super::{Initial, Run};
 use crate::error::Result;
+use crate::motion::TimedStep;
 
 /// A run's error map (MODEL.md §5).
 pub(crate) enum ErrorMap {
@@ -106,7 +107,9 @@ pub(crate) fn material_along_mm(initial: Before, p: [f64; 3], n: [f64; 3], max_m
 /// columns), µm (MODEL.md §5), positive = material left, NaN where no step
 /// cut; each column's is its own (a map made block by block is the whole
 /// one bit for bit). `applied_um` is the offset each step was swept
-/// with, `model_um` the deflection its removal causes. The error is the model
+/// with, `model_um` the deflection its removal causes when it leaves a wall on
+/// the left of its feed and on the right (a column takes the side it lies on
+/// from the step's line in `steps`, MODEL.md §5.2). The error is the model
 /// deflection projected on the outward normal of the final surface; where it
 /// says more material is left than the sweep's offset made (`model > applied`
 /// along the normal), the excess is clamped to the stock that was there: the
@@ -115,7 +118,8 @@ pub(crate) fn clamped_error_map_um(
     initial: Before,
     last: &Stock,
     applied_um: &[[f64; 2]],
-    model_um: &[[f64; 2]],
+    model_um: &[[[f64; 2]; 2]],
+    steps: &[TimedStep],
     columns: std::ops::Range<usize>,
 ) -> Vec<f32> {
     let grid = *last.grid();
@@ -137,22 +141,32 @@ pub(crate) fn clamped_error_map_um(
                 return f32::NAN;
             }
             let step = step as usize;
+            let (px, py) = (grid.x_mm(ix), grid.y_mm(rows.start + iy));
             let applied = cutting::surface_error_um(applied_um[step], n);
-            let model = cutting::surface_error_um(model_um[step], n);
+            let model =
+                cutting::surface_error_um(model_um[step][flank_side(&steps[step].step, px, py)], n);
             if model <= applied {
                 return model as f32;
             }
-            let p = [
-                grid.x_mm(ix),
-                grid.y_mm(rows.start + iy),
-                f64::from(top(ix, iy)),
-            ];
+            let p = [px, py, f64::from(top(ix, iy))];
             let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
             let unit = n.map(|v| v / len);
             let room_um = 1e3 * material_along_mm(initial, p, unit, 1e-3 * (model - applied));
             (applied + room_um.min(model - applied)) as f32
         })
         .collect()
+}
+
+/// Which flank of `step`'s tool leaves the column at (x, y): 0 where it lies
+/// on the left of the step's XY line (φ = 0, up milling's wall), 1 on the
+/// right (MODEL.md §5.2).
+fn flank_side(step: &dexel::Step, x: f64, y: f64) -> usize {
+    let (ux, uy) = (
+        step.to_mm[0] - step.from_mm[0],
+        step.to_mm[1] - step.from_mm[1],
+    );
+    let e = ux * (y - step.from_mm[1]) - uy * (x - step.from_mm[0]);
+    usize::from(e < 0.0)
 }
 
 impl Run {
@@ -176,6 +190,7 @@ impl Run {
                 &self.stock,
                 &self.offsets_um,
                 &self.model_um,
+                &self.steps,
                 at,
             )),
         }
@@ -189,7 +204,8 @@ pub(crate) fn final_error_map(
     initial: &Initial,
     final_stock: Option<Stock>,
     offsets_um: &[[f64; 2]],
-    model_um: &[[f64; 2]],
+    model_um: &[[[f64; 2]; 2]],
+    steps: &[TimedStep],
 ) -> Result<(Stock, ErrorMap, Option<[f64; 2]>, f64)> {
     Ok(match (initial, final_stock) {
         (Initial::Tiled(tiling), _) => {
@@ -202,7 +218,7 @@ pub(crate) fn final_error_map(
             let before = initial.columns().expect("a whole stock");
             let mut range = [0.0, 0.0];
             for at in row_blocks(last.grid()) {
-                let error = clamped_error_map_um(before, &last, offsets_um, model_um, at);
+                let error = clamped_error_map_um(before, &last, offsets_um, model_um, steps, at);
                 range = error_range_um(&error, range);
             }
             let volume = last.volume_mm3();
@@ -211,7 +227,7 @@ pub(crate) fn final_error_map(
         (Initial::Held(_), Some(last)) => {
             let before = initial.columns().expect("a whole stock");
             let all = 0..last.last_cut().len();
-            let error_um = clamped_error_map_um(before, &last, offsets_um, model_um, all);
+            let error_um = clamped_error_map_um(before, &last, offsets_um, model_um, steps, all);
             let volume = last.volume_mm3();
             (last, ErrorMap::Held(error_um), None, volume)
         }

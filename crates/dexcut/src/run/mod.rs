@@ -26,7 +26,7 @@ mod subcell;
 mod tests;
 mod warnings;
 
-use closed_loop::{along, applied_offsets_um, close_loop, LoopInputs, LoopPlan};
+use closed_loop::{applied_offsets_um, close_loop, LoopInputs, LoopPlan};
 use error_map::{final_error_map, Before, ErrorMap};
 
 pub use closed_loop::LoopReport;
@@ -67,9 +67,11 @@ pub struct Run {
     /// The stock the deflected tool leaves (for a tiled stock, none of its
     /// rows: [`write_tiled_columns`] makes the bands again).
     pub stock: Stock,
-    /// Per step, the deflection across the path its final removal causes, µm
-    /// (the error map's model, MODEL.md §5).
-    pub model_um: Vec<[f64; 2]>,
+    /// Per step, the deflection across the path its final removal causes at
+    /// the instants a tooth at the contact height passes the flank on the
+    /// left of the feed and on the right ([left, right]), µm: the error map's
+    /// model (MODEL.md §5, §5.2) for the walls left on either side.
+    pub model_um: Vec<[[f64; 2]; 2]>,
     /// Least and greatest error of the map when it is not held: made where
     /// it is read (a stock made of its closed form, by [`run_on`]) or a tiled
     /// stock's (set by [`write_tiled_columns`]), µm.
@@ -408,7 +410,7 @@ pub fn run_on(
     drop(x);
     let model_um = model_deflections_um(&steps, &step_loads, &offsets_um, &dirs);
     let (final_stock, error_map, error_range, final_volume_mm3) =
-        final_error_map(&initial, final_stock, &offsets_um, &model_um)?;
+        final_error_map(&initial, final_stock, &offsets_um, &model_um, &steps)?;
     Ok(Run {
         steps,
         record,
@@ -462,14 +464,17 @@ fn model_deflections_um(
     step_loads: &[StepLoad],
     offsets_um: &[[f64; 2]],
     dirs: &[[f64; 2]],
-) -> Vec<[f64; 2]> {
+) -> Vec<[[f64; 2]; 2]> {
     (0..steps.len())
         .map(|i| {
             if steps[i].step.rapid {
-                offsets_um[i]
+                [offsets_um[i]; 2]
             } else {
-                let g = along(dirs, &step_loads[i], i);
-                [g * dirs[i][0], g * dirs[i][1]]
+                let l = &step_loads[i];
+                [l.at_left_flank_um, l.at_right_flank_um].map(|[x, y]| {
+                    let g = x * dirs[i][0] + y * dirs[i][1];
+                    [g * dirs[i][0], g * dirs[i][1]]
+                })
             }
         })
         .collect()
