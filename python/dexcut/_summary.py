@@ -125,6 +125,7 @@ class Summary(_FromDict):
     peak_mrr_mm3_s: float = 0.0
     peak_mrr_windowed_mm3_s: float = 0.0
     peak_force_n: float = 0.0
+    peak_force_revolution_n: float = 0.0
     peak_power_w: float = 0.0
     peak_torque_nm: float = 0.0
     peak_deflection_um: float = 0.0

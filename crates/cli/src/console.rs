@@ -414,6 +414,12 @@ pub fn optimize(optimized: &Optimized, out: &Path, asked: StepsFormat) {
     );
     row("peak force (N)", b.peak_force_n, a.peak_force_n, 2);
     row(
+        "  over a revolution (N)",
+        b.peak_force_revolution_n,
+        a.peak_force_revolution_n,
+        2,
+    );
+    row(
         "peak deflection (µm)",
         b.peak_deflection_um,
         a.peak_deflection_um,

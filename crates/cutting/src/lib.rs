@@ -9,6 +9,7 @@
 //! * [`kienzle`]: Kienzle's specific cutting force and the mean chip thickness of milling.
 //! * [`beam`]: the tool as a cantilever clamped in the holder (uniform, and stepped: flutes,
 //!   shank, holder spring); point loads, band loads and the stress at the holder.
+//! * [`tooth`]: forces through one tooth period from each band's engaged arc (mean, peak).
 //! * [`load`]: per step of the sweep, force magnitude and direction and the tool's deflection.
 //! * [`surface`]: projection of the deflection on the final surface's normal (error map) and
 //!   normals of a height field.
@@ -32,6 +33,7 @@ pub mod kienzle;
 pub mod load;
 pub mod material;
 pub mod surface;
+pub mod tooth;
 
 pub use beam::{Cantilever, SteppedBeam};
 pub use calibration::{fit_force_law, fit_kienzle, Cut, Fit, FitError, KienzleFit, Milling};
@@ -40,3 +42,4 @@ pub use kienzle::{mean_chip_thickness_mm, Kienzle};
 pub use load::{force_direction, CuttingModel, ForceModel, StepLoad, StepRemoval};
 pub use material::Material;
 pub use surface::{surface_error_um, surface_normal_at, surface_normals_from_heights};
+pub use tooth::{BandArc, Coefficients, EdgeShape, Teeth};

@@ -3,9 +3,14 @@
 
 use serde::{Deserialize, Serialize};
 
+use std::cell::RefCell;
+
 use crate::beam::SteppedBeam;
 use crate::force::{force_n, volume_per_tooth_mm3};
 use crate::kienzle::Kienzle;
+use crate::tooth::{
+    feed_for_volume_mm, mean_cut, peak_cut, BandArc, Coefficients, EdgeShape, PeakScratch, Teeth,
+};
 
 /// Below this length the contact resultant is treated as zero (no defined direction).
 const MIN_RESULTANT: f64 = 1e-12;
@@ -31,6 +36,9 @@ pub fn force_direction(contact_resultant: [f64; 3]) -> [f64; 2] {
 pub struct StepLoad {
     /// Magnitude of the mean lateral cutting force on the tool, N.
     pub force_n: f64,
+    /// Largest lateral force on the tool over a revolution, N (MODEL.md
+    /// §3.4; the mean where the step has no engaged arc, and under S4's law).
+    pub force_peak_n: f64,
     /// X component of the force on the tool, N.
     pub fx_n: f64,
     /// Y component of the force on the tool, N.
@@ -65,6 +73,7 @@ impl StepLoad {
     pub fn scaled(&self, s: f64) -> StepLoad {
         StepLoad {
             force_n: s * self.force_n,
+            force_peak_n: s * self.force_peak_n,
             fx_n: s * self.fx_n,
             fy_n: s * self.fy_n,
             fz_n: s * self.fz_n,
@@ -159,6 +168,14 @@ pub struct StepRemoval<'a> {
     pub volume_over_radius_mm2: f64,
     /// Duration of the step, s.
     pub dt_s: f64,
+    /// Per band, the least and greatest signed offset (mm, to the left of the
+    /// feed) of the columns the band cut; a band that cut nothing, or a
+    /// plunge, has none (`lo > hi` or NaN). Empty: no engagement recorded.
+    pub band_offsets_mm: &'a [[f32; 2]],
+    /// The step's unit XY feed direction ([0, 0] for a plunge).
+    pub feed_dir: [f64; 2],
+    /// The grid's cell size, mm (a column stands for its cell).
+    pub cell_mm: f64,
 }
 
 /// The parameters that turn a step's removed volume into force and deflection.
@@ -176,6 +193,24 @@ pub struct CuttingModel {
     pub band_height_mm: f64,
     /// The tool as a beam.
     pub beam: SteppedBeam,
+    /// The cutting edge's profile (MODEL.md §3.4).
+    pub edge: EdgeShape,
+    /// Helix angle of the flutes, degrees.
+    pub helix_deg: f64,
+}
+
+thread_local! {
+    /// Scratch of [`CuttingModel::tooth_forces`]: the bands' arcs and the
+    /// peak's slices and events (no allocation per step once grown).
+    static TOOTH_SCRATCH: RefCell<(Vec<(BandArc, f64)>, PeakScratch)> =
+        RefCell::new((Vec::new(), PeakScratch::default()));
+}
+
+/// A step's forces through a tooth period (MODEL.md §3.4), machine axes.
+struct ToothForces {
+    mean_n: [f64; 3],
+    peak_lateral_n: f64,
+    peak_torque_nmm: f64,
 }
 
 impl CuttingModel {
@@ -249,19 +284,16 @@ impl CuttingModel {
         } else {
             0.0
         };
-        let (fx, fy, fz, power_w) = match self.force_model {
+        // (fx, fy, fz, power, peak lateral force, torque at the peak in N·mm)
+        let (fx, fy, fz, power_w, peak) = match self.force_model {
             ForceModel::PowerLaw { a, n } => {
                 let v = volume_per_tooth_mm3(r.volume_mm3, self.flutes, self.spindle_rpm, r.dt_s);
                 let f = force_n(v, a, n);
                 let [ux, uy] =
                     force_direction([r.contact_resultant[0], r.contact_resultant[1], 0.0]);
                 // P = F · v_c, v_c = ω R (mm/s) → W = N·mm/s / 1000
-                (
-                    f * ux,
-                    f * uy,
-                    0.0,
-                    f * omega * self.tool_radius_mm / 1000.0,
-                )
+                let power_w = f * omega * self.tool_radius_mm / 1000.0;
+                (f * ux, f * uy, 0.0, power_w, None)
             }
             ForceModel::Kienzle(k) => {
                 if chip_thickness_mm <= 0.0 {
@@ -269,20 +301,39 @@ impl CuttingModel {
                 }
                 let kc = k.specific_force_mpa(chip_thickness_mm);
                 let power_w = kc * r.volume_mm3 / r.dt_s / 1000.0;
-                // Mean tangential force: energy per revolution over the edge's path 2π r.
-                let ft = kc * r.volume_over_radius_mm2 / (2.0 * std::f64::consts::PI * revolutions);
-                let [cx, cy] = r.contact_resultant;
-                let scale = ft / r.volume_mm3;
-                // Tangential (ẑ × C) for a clockwise (M3) spindle, radial −C;
-                // axial −k_a F_t: a right-hand helix turning M3 pulls the tool
-                // out of its holder, toward −Z (MODEL.md §3.2: forces on the
-                // tool, machine axes, +Z up).
-                (
-                    scale * (-cy - k.radial_ratio * cx),
-                    scale * (cx - k.radial_ratio * cy),
-                    -k.axial_ratio * ft,
-                    power_w,
-                )
+                let coefficients = Coefficients {
+                    kt_mpa: kc,
+                    radial_ratio: k.radial_ratio,
+                    axial_ratio: k.axial_ratio,
+                };
+                if let Some(t) = self.tooth_forces(r, &coefficients, revolutions) {
+                    let [fx, fy, fz] = t.mean_n;
+                    (
+                        fx,
+                        fy,
+                        fz,
+                        power_w,
+                        Some((t.peak_lateral_n, t.peak_torque_nmm)),
+                    )
+                } else {
+                    // No engaged arc (a plunge): §3.2's mean from the aggregates.
+                    // Mean tangential force: energy per revolution over the edge's path 2π r.
+                    let ft =
+                        kc * r.volume_over_radius_mm2 / (2.0 * std::f64::consts::PI * revolutions);
+                    let [cx, cy] = r.contact_resultant;
+                    let scale = ft / r.volume_mm3;
+                    // Tangential (ẑ × C) for a clockwise (M3) spindle, radial −C;
+                    // axial −k_a F_t: a right-hand helix turning M3 pulls the tool
+                    // out of its holder, toward −Z (MODEL.md §3.2: forces on the
+                    // tool, machine axes, +Z up).
+                    (
+                        scale * (-cy - k.radial_ratio * cx),
+                        scale * (cx - k.radial_ratio * cy),
+                        -k.axial_ratio * ft,
+                        power_w,
+                        None,
+                    )
+                }
             }
         };
         let force = fx.hypot(fy);
@@ -296,8 +347,10 @@ impl CuttingModel {
         let deflection_um = 1000.0 * force * self.compliance_at_mm_per_n(bands, contact_height_mm);
         let tip_deflection_um = 1000.0 * force * self.compliance_at_mm_per_n(bands, 0.0);
         let torque_nm = power_w / omega;
+        let (force_peak_n, peak_torque_nmm) = peak.unwrap_or((force, 1000.0 * torque_nm));
         StepLoad {
             force_n: force,
+            force_peak_n,
             fx_n: fx,
             fy_n: fy,
             fz_n: fz,
@@ -309,11 +362,71 @@ impl CuttingModel {
             dx_um: deflection_um * ux,
             dy_um: deflection_um * uy,
             tip_deflection_um,
-            // Peak von Mises stress: the band loads' resultant at the contact height.
+            // Peak von Mises stress: the largest lateral force of the
+            // revolution (§3.4) at the contact height, with the torque then.
             stress_mpa: self
                 .beam
-                .peak_stress_mpa(&[(contact_height_mm, force)], 1000.0 * torque_nm),
+                .peak_stress_mpa(&[(contact_height_mm, force_peak_n)], peak_torque_nmm),
         }
+    }
+
+    /// The mean force and the peak over a revolution from the bands' engaged
+    /// arcs (MODEL.md §3.4), on the tool in machine axes: each band's feed
+    /// per tooth set so that its arc removes the band's volume per
+    /// revolution. `None` where the step has no horizontal feed or a band
+    /// with volume has no arc (a plunge): the aggregates' mean is used.
+    fn tooth_forces(
+        &self,
+        r: &StepRemoval<'_>,
+        c: &Coefficients,
+        revolutions: f64,
+    ) -> Option<ToothForces> {
+        let [ux, uy] = r.feed_dir;
+        if (ux == 0.0 && uy == 0.0) || !(revolutions > 0.0) {
+            return None;
+        }
+        TOOTH_SCRATCH.with(|scratch| {
+            let (arcs, peak_scratch) = &mut *scratch.borrow_mut();
+            arcs.clear();
+            let h = self.band_height_mm;
+            let mut mean = [0.0; 3];
+            for (k, &v) in r.band_volumes_mm3.iter().enumerate() {
+                if !(v > 0.0) {
+                    continue;
+                }
+                let [lo, hi] = *r.band_offsets_mm.get(k)?;
+                let z_lo = k as f64 * h;
+                let z_hi = (z_lo + h).min(self.beam.flute_length_mm.max(z_lo));
+                let arc = BandArc::from_offsets(
+                    &self.edge,
+                    z_lo,
+                    z_hi,
+                    [f64::from(lo), f64::from(hi)],
+                    r.cell_mm,
+                )?;
+                let fz = feed_for_volume_mm(&self.edge, self.flutes, &arc, v / revolutions);
+                let m = mean_cut(&self.edge, self.flutes, &arc, fz, c);
+                for (s, f) in mean.iter_mut().zip(m.force_n) {
+                    *s += f;
+                }
+                arcs.push((arc, fz));
+            }
+            if arcs.is_empty() {
+                return None;
+            }
+            let teeth = Teeth {
+                flutes: self.flutes,
+                helix_deg: self.helix_deg,
+            };
+            let peak = peak_cut(&self.edge, &teeth, arcs, c, peak_scratch);
+            // Feed frame (x along the feed, y to its left) to machine axes.
+            let [fx, fy, fz] = mean;
+            Some(ToothForces {
+                mean_n: [fx * ux - fy * uy, fx * uy + fy * ux, fz],
+                peak_lateral_n: peak.lateral_n,
+                peak_torque_nmm: peak.torque_nmm,
+            })
+        })
     }
 
     /// The highest feed (mm/min) at which `quantity_at(feed)` stays at or under `limit`,
@@ -336,6 +449,7 @@ mod tests {
     fn scaled_load_scales_forces_and_keeps_the_chip() {
         let l = StepLoad {
             force_n: 10.0,
+            force_peak_n: 14.0,
             fx_n: 6.0,
             fy_n: -8.0,
             fz_n: 2.5,
@@ -427,6 +541,8 @@ mod tests {
                 effective_diameter_mm: 10.0,
                 youngs_modulus_mpa: 210_000.0,
             }),
+            edge: EdgeShape::flat(5.0),
+            helix_deg: 30.0,
         }
     }
 
@@ -488,27 +604,44 @@ mod tests {
         let (v, f) = (6.4, 0.32);
         let edge = v / (2.0 * f / std::f64::consts::PI);
         let c = [v * std::f64::consts::PI / 4.0, 0.0];
-        let load = m.step_load(&StepRemoval {
-            volume_mm3: v,
-            band_volumes_mm3: &[3.2, 3.2],
-            contact_resultant: c,
-            chip_edge_area_mm2: edge,
-            volume_over_radius_mm2: v / 5.0,
-            dt_s: 0.016,
-        });
-        let hm = 2.0 * 0.1 / std::f64::consts::PI;
-        assert!((load.chip_thickness_mm - hm).abs() < 1e-12);
-        let kc = 1500.0 * hm.powf(-0.22);
-        assert!((load.power_w - kc * v / 0.016 / 1000.0).abs() < 1e-9);
-        // Altintas' mean slot forces per tooth pass: F_y = z a_p f_z K_t / 4, F_x = −k_r F_y.
-        let fy = 2.0 * 2.0 * 0.1 * kc / 4.0;
-        assert!((load.fy_n - fy).abs() < 1e-9 * fy, "{} vs {fy}", load.fy_n);
-        assert!((load.fx_n + 0.3 * fy).abs() < 1e-9 * fy);
-        // Torque = P/ω; mean tangential force = T / R; axial = k_a · that,
-        // on the tool toward −Z (out of the holder).
-        let ft = load.torque_nm * 1000.0 / 5.0;
-        assert!(load.fz_n < 0.0 && (load.fz_n + 0.25 * ft).abs() < 1e-9);
-        assert!(load.stress_mpa > 0.0);
+        // From the aggregates (§3.2), and from the bands' arcs (§3.4: the
+        // columns at −4.95…4.95 mm on a 0.1 mm grid, the whole half circle).
+        let offsets = [[-4.95f32, 4.95]; 2];
+        for (band_offsets_mm, feed_dir) in [(&[][..], [0.0, 0.0]), (&offsets[..], [1.0, 0.0])] {
+            let load = m.step_load(&StepRemoval {
+                volume_mm3: v,
+                band_volumes_mm3: &[3.2, 3.2],
+                contact_resultant: c,
+                chip_edge_area_mm2: edge,
+                volume_over_radius_mm2: v / 5.0,
+                dt_s: 0.016,
+                band_offsets_mm,
+                feed_dir,
+                cell_mm: 0.1,
+            });
+            let hm = 2.0 * 0.1 / std::f64::consts::PI;
+            assert!((load.chip_thickness_mm - hm).abs() < 1e-12);
+            let kc = 1500.0 * hm.powf(-0.22);
+            assert!((load.power_w - kc * v / 0.016 / 1000.0).abs() < 1e-9);
+            // Altintas' mean slot forces per tooth pass: F_y = z a_p f_z K_t / 4, F_x = −k_r F_y.
+            let fy = 2.0 * 2.0 * 0.1 * kc / 4.0;
+            // (1e-6: the offsets are f32, so the arc misses π by ~1e-7.)
+            assert!((load.fy_n - fy).abs() < 1e-6 * fy, "{} vs {fy}", load.fy_n);
+            assert!((load.fx_n + 0.3 * fy).abs() < 1e-6 * fy);
+            // Torque = P/ω; mean tangential force = T / R; axial = k_a · that,
+            // on the tool toward −Z (out of the holder).
+            let ft = load.torque_nm * 1000.0 / 5.0;
+            assert!(load.fz_n < 0.0 && (load.fz_n + 0.25 * ft).abs() < 1e-6 * ft);
+            assert!(load.stress_mpa > 0.0);
+            if feed_dir[0] > 0.0 {
+                // Two flutes at 30°: the peak is above the mean, below the
+                // straight-flute peak K_t a_p f_z √(1 + k_r²).
+                let straight = kc * 2.0 * 0.1 * (1.0f64 + 0.09).sqrt();
+                assert!(load.force_peak_n > load.force_n && load.force_peak_n < straight);
+            } else {
+                assert_eq!(load.force_peak_n, load.force_n);
+            }
+        }
     }
 
     #[test]

@@ -405,13 +405,16 @@ fn setup_rows(summary: &SummaryDoc) -> Vec<(String, String)> {
 type Row<T> = (&'static str, &'static str, usize, fn(&T) -> f64);
 
 /// Summary rows of a run.
-const ROWS: [Row<Summary>; 12] = [
+const ROWS: [Row<Summary>; 13] = [
     ("cycle time", "s", 3, |s| s.cycle_time_s),
     ("peak MRR (≥ 48 ms, ≥ 10 cells)", "mm³/s", 2, |s| {
         s.peak_mrr_windowed_mm3_s
     }),
     ("peak MRR per period", "mm³/s", 2, |s| s.peak_mrr_mm3_s),
     ("peak force", "N", 1, |s| s.peak_force_n),
+    ("peak force over a revolution", "N", 1, |s| {
+        s.peak_force_revolution_n
+    }),
     ("peak deflection", "µm", 1, |s| s.peak_deflection_um),
     // Von Mises, against the tool's allowable stress (MODEL.md §4.4).
     ("peak tool stress", "MPa", 0, |s| s.peak_stress_mpa),

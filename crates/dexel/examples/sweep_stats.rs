@@ -73,6 +73,8 @@ fn main() {
     let mut volume = 0.0;
     let mut hwm_sweep = 0;
     let mut fingerprint = 0;
+    let mut offsets_fingerprint = 0;
+    let (mut record_bytes, mut offsets_bytes, mut n_steps) = (0, 0, 0);
     for _ in 0..repeats {
         let mut stock = prepared.clone();
         let start = Instant::now();
@@ -82,6 +84,18 @@ fn main() {
         columns = record.columns_evaluated;
         volume = record.total_volume_mm3();
         hwm_sweep = memory_bytes().0;
+        n_steps = record.len();
+        record_bytes = record.memory_bytes();
+        offsets_bytes = (0..record.len())
+            .map(|i| std::mem::size_of_val(record.band_offsets_mm(i)))
+            .sum::<usize>();
+        offsets_fingerprint = fnv1a((0..record.len()).flat_map(|i| {
+            record
+                .band_offsets_mm(i)
+                .iter()
+                .map(|r| ((r[0].to_bits() as u64) << 32) | r[1].to_bits() as u64)
+                .collect::<Vec<_>>()
+        }));
         fingerprint = fnv1a(
             stock
                 .top_heights()
@@ -126,5 +140,10 @@ fn main() {
         (hwm_stock - hwm0) as f64 / n_columns,
         hwm_sweep as f64 / 1e6,
         (hwm_sweep - hwm0) as f64 / n_columns,
+    );
+    println!(
+        "  record: {:.1} B a step ({:.1} B of them the bands' offset ranges), offsets fingerprint {offsets_fingerprint:016x}",
+        record_bytes as f64 / n_steps.max(1) as f64,
+        offsets_bytes as f64 / n_steps.max(1) as f64,
     );
 }

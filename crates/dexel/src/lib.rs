@@ -51,6 +51,6 @@ mod top;
 
 pub use sweep::{
     sweep, sweep_tools, RecordRow, RemovalRecord, RowSink, Step, StepFn, StepSource, Sweep,
-    SweepOptions,
+    SweepOptions, EMPTY_OFFSETS,
 };
 pub use tool::{Tool, ToolShape};

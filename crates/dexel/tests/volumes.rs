@@ -548,6 +548,7 @@ fn record_bits(r: &RemovalRecord) -> Vec<u64> {
         .into_iter()
         .chain(r.band_volumes_mm3(i).iter().copied())
         .map(f64::to_bits)
+        .chain(offset_bits(r.band_offsets_mm(i)))
         .collect::<Vec<_>>()
     });
     let bits: Vec<u64> = bits.collect();
@@ -571,7 +572,15 @@ fn row_bits(row: dexel::RecordRow<'_>) -> Vec<u64> {
     .into_iter()
     .chain(row.band_volumes_mm3().iter().copied())
     .map(f64::to_bits)
+    .chain(offset_bits(row.band_offsets_mm()))
     .collect()
+}
+
+/// A step's ranges of lateral offsets per band, as bits.
+fn offset_bits(offsets: &[[f32; 2]]) -> impl Iterator<Item = u64> + '_ {
+    offsets
+        .iter()
+        .map(|r| (u64::from(r[0].to_bits()) << 32) | u64::from(r[1].to_bits()))
 }
 
 /// A stock swept band of rows by band of rows (a tiled stock too large for

@@ -248,6 +248,9 @@ pub struct ToolSpec {
     pub flutes: u32,
     /// MPa; default 600 000 (carbide). HSS is about 210 000.
     pub youngs_modulus_mpa: Option<f64>,
+    /// Helix angle of the flutes, degrees (0 straight flutes); default 30
+    /// (MODEL.md §3.4: the force through a tooth period).
+    pub helix_deg: Option<f64>,
     /// Effective diameter of the fluted part for the beam model, mm; default 0.8 × diameter.
     pub effective_diameter: Option<f64>,
     /// Largest feed per tooth, mm/tooth (chip-load limit of optimize); default
@@ -646,6 +649,8 @@ const MIN_CORNER_RADIUS_MM: f64 = 1e-3;
 const TOOL_FZ_MAX_MM: (f64, f64) = (1e-5, 10.0);
 /// Tool bands per step (each costs 12 B per servo sample in the removal record).
 const MAX_BANDS: f64 = 1000.0;
+/// Helix angles of end mills, degrees: straight flutes to high-helix finishers.
+const TOOL_HELIX_DEG: (f64, f64) = (0.0, 60.0);
 /// Pre-compensation iterations accepted (each is one drive simulation).
 const MAX_PRECOMP_ITERATIONS: usize = 1000;
 /// Columns a stock must have across its narrowest XY extent: a coarser grid
@@ -1325,6 +1330,7 @@ impl ToolSpec {
             );
         }
         opt("youngs_modulus_mpa", t.youngs_modulus_mpa, TOOL_MODULUS_MPA)?;
+        opt("helix_deg (°)", t.helix_deg, TOOL_HELIX_DEG)?;
         opt(
             "effective_diameter (mm)",
             t.effective_diameter,

@@ -88,6 +88,10 @@ pub fn rupture_strength_mpa(spec: &ToolSpec, tool: &Tool) -> f64 {
     })
 }
 
+/// Helix angle of a tool whose spec gives none, degrees (general-purpose end
+/// mills: 30°).
+pub const DEFAULT_HELIX_DEG: f64 = 30.0;
+
 /// The force and beam model from the job's [cutting] and a tool's spec.
 pub fn cutting_model(
     job: &Job,
@@ -133,6 +137,15 @@ pub fn cutting_model(
             youngs_modulus_mpa: tool.youngs_modulus_mpa,
             holder_stiffness_n_per_um: spec.holder_stiffness_n_per_um,
         },
+        edge: cutting::EdgeShape {
+            radius_mm: tool.radius_mm(),
+            corner_mm: match tool.shape {
+                dexel::ToolShape::Ball => tool.radius_mm(),
+                dexel::ToolShape::Flat => 0.0,
+                dexel::ToolShape::Bull { corner_radius_mm } => corner_radius_mm,
+            },
+        },
+        helix_deg: spec.helix_deg.unwrap_or(DEFAULT_HELIX_DEG),
     })
 }
 

@@ -27,8 +27,12 @@ pub struct Summary {
     /// carries the dexel grid's column quantisation (±15 % for a slot at 0.8
     /// cells per period), which this average resolves.
     pub peak_mrr_windowed_mm3_s: f64,
-    /// Largest cutting force on the tool, N.
+    /// Largest cutting force on the tool (a step's mean over a revolution), N.
     pub peak_force_n: f64,
+    /// Largest lateral force on the tool at any instant of a revolution
+    /// (MODEL.md §3.4), N: what `[limits] force_max` and the stress act on.
+    #[serde(default)]
+    pub peak_force_revolution_n: f64,
     /// Largest spindle cutting power, W, and torque, N·m.
     pub peak_power_w: f64,
     /// Largest spindle torque, N·m.
@@ -137,6 +141,11 @@ impl Summary {
                 MOTION,
             ),
             ("peak force (N)", self.peak_force_n, FORCE),
+            (
+                "peak force over a revolution (N)",
+                self.peak_force_revolution_n,
+                FORCE,
+            ),
             ("peak deflection (µm)", self.peak_deflection_um, BEAM),
         ] {
             if !v.is_finite() {

@@ -513,6 +513,7 @@ mod tests {
             peak_mrr_mm3_s: 40.0,
             peak_mrr_windowed_mm3_s: 39.0,
             peak_force_n: 12.5,
+            peak_force_revolution_n: 19.0,
             peak_power_w: 100.0,
             peak_torque_nm: 0.1,
             peak_deflection_um: 3.0,

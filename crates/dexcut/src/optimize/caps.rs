@@ -78,7 +78,7 @@ pub(super) fn limit_cap(
         let cap =
             |q_ref: f64, limit: f64| model.feed_for_limit(q_ref, REFERENCE_FEED_MM_MIN, limit);
         if let Some(f) = limits.force_max {
-            lower(cap(at_ref.force_n, f), CapKind::Force);
+            lower(cap(at_ref.force_peak_n, f), CapKind::Force);
         }
         if let Some(d_um) = limits.deflection_max_um {
             lower(cap(at_ref.deflection_um, d_um), CapKind::Deflection);

@@ -34,7 +34,8 @@ pub struct Engagement {
 /// interval instead of the whole load's 104 B).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ReferenceLoad {
-    pub force_n: f64,
+    /// The largest lateral force of a revolution (MODEL.md §3.4), N.
+    pub force_peak_n: f64,
     pub deflection_um: f64,
     pub power_w: f64,
     pub stress_mpa: f64,
@@ -43,7 +44,7 @@ pub struct ReferenceLoad {
 impl From<cutting::StepLoad> for ReferenceLoad {
     fn from(l: cutting::StepLoad) -> Self {
         ReferenceLoad {
-            force_n: l.force_n,
+            force_peak_n: l.force_peak_n,
             deflection_um: l.deflection_um,
             power_w: l.power_w,
             stress_mpa: l.stress_mpa,
@@ -408,6 +409,9 @@ impl<'a, M: Fn(usize) -> &'a CuttingModel> ReferenceLoads<'a, M> {
                         / len_mm,
                     volume_over_radius_mm2: j.volume_over_radius_mm2 * scale,
                     dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
+                    band_offsets_mm: &[],
+                    feed_dir: [0.0, 0.0],
+                    cell_mm: 0.0,
                 })
             }
             _ => cutting::StepLoad::default(),

@@ -108,6 +108,9 @@ fn reference_loads_of_record<'a>(
                     / len_mm,
                 volume_over_radius_mm2: record.volume_over_radius_mm2(j) * scale,
                 dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
+                band_offsets_mm: &[],
+                feed_dir: [0.0, 0.0],
+                cell_mm: 0.0,
             });
             ReferenceLoad::from(load)
         })
@@ -151,7 +154,7 @@ fn caps_in_one_piece(
                     model.feed_for_limit(q_ref, REFERENCE_FEED_MM_MIN, limit)
                 };
                 if let Some(f) = limits.force_max {
-                    lower(cap(at_ref.force_n, f), CapKind::Force);
+                    lower(cap(at_ref.force_peak_n, f), CapKind::Force);
                 }
                 if let Some(d_um) = limits.deflection_max_um {
                     lower(cap(at_ref.deflection_um, d_um), CapKind::Deflection);
@@ -427,7 +430,7 @@ fn engagement_from_the_sweeps_rows_is_the_records() {
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         let load_bits = |l: &[ReferenceLoad]| {
             l.iter()
-                .flat_map(|r| [r.force_n, r.deflection_um, r.power_w, r.stress_mpa])
+                .flat_map(|r| [r.force_peak_n, r.deflection_um, r.power_w, r.stress_mpa])
                 .map(f64::to_bits)
                 .collect::<Vec<_>>()
         };
@@ -476,7 +479,10 @@ fn engagement_from_the_sweeps_rows_is_the_records() {
         assert_eq!(record.n_bands, 24);
         let first_cut = (0..n).position(|k| record.volume_mm3(k) > 0.0).unwrap();
         assert!(held.area_mm2[first_cut - 1] > 0.0, "{what}");
-        assert!(held.reference_loads[first_cut - 1].force_n > 0.0, "{what}");
+        assert!(
+            held.reference_loads[first_cut - 1].force_peak_n > 0.0,
+            "{what}"
+        );
         assert!(steps.iter().any(|s| s.rapid));
         assert!(steps
             .iter()

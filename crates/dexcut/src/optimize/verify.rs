@@ -89,7 +89,7 @@ pub fn excesses(run: &Run, limits: &LimitsSpec, tools: &ToolSet, rules: &FeedRul
             let p = entry.model.force_model.feed_exponent();
             let load = &run.loads[k];
             for (w, (value, limit)) in worst.iter_mut().zip([
-                (load.force_n, limits.force_max),
+                (load.force_peak_n, limits.force_max),
                 // Where the tool breaks, the linear deflection: the one at
                 // rupture does not scale with the feed (MODEL.md §4.4).
                 (run.linear_deflection_um(k), limits.deflection_max_um),

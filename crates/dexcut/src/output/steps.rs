@@ -66,7 +66,7 @@ const HEAD: [ColumnDef; 7] = [
 ];
 
 /// The f64 columns after the band volumes, in steps.csv's order ([`Run::step_loads`]).
-const LOADS: [ColumnDef; 14] = [
+const LOADS: [ColumnDef; 15] = [
     (
         "shank_mm3",
         "mm³",
@@ -76,6 +76,11 @@ const LOADS: [ColumnDef; 14] = [
         "force_n",
         "N",
         "magnitude of the mean lateral cutting force on the tool",
+    ),
+    (
+        "force_peak_n",
+        "N",
+        "largest lateral force on the tool over a revolution (MODEL.md §3.4)",
     ),
     ("fx_n", "N", "X component of the force on the tool"),
     ("fy_n", "N", "Y component of the force on the tool"),
@@ -152,7 +157,7 @@ pub struct StepColumns {
     pub band_count: usize,
     /// The f64 columns after the band volumes: `shank_mm3`, `force_n`, …,
     /// `stress_mpa` ([`StepColumns::LOADS`]).
-    pub loads: [Vec<f64>; 14],
+    pub loads: [Vec<f64>; 15],
     /// 1 where the stress exceeds the tool's rupture strength.
     pub breaks: Vec<u8>,
     /// Program line of the block the step ends in.
@@ -169,7 +174,7 @@ impl StepColumns {
         HEAD[0].0, HEAD[1].0, HEAD[2].0, HEAD[3].0, HEAD[4].0, HEAD[5].0, HEAD[6].0,
     ];
     /// Names of [`StepColumns::loads`], in order.
-    pub const LOADS: [&'static str; 14] = [
+    pub const LOADS: [&'static str; 15] = [
         LOADS[0].0,
         LOADS[1].0,
         LOADS[2].0,
@@ -184,6 +189,7 @@ impl StepColumns {
         LOADS[11].0,
         LOADS[12].0,
         LOADS[13].0,
+        LOADS[14].0,
     ];
     /// Name of [`StepColumns::bands`] (the arrays' `steps_band_mm3.npy`).
     pub const BANDS: &'static str = BAND;
@@ -239,11 +245,12 @@ impl Run {
     }
 
     /// Step `i`'s values after its band volumes, as [`LOADS`] lists them.
-    fn step_loads(&self, i: usize) -> [f64; 14] {
+    fn step_loads(&self, i: usize) -> [f64; 15] {
         let l = &self.loads[i];
         [
             self.record.shank_volume_mm3(i),
             l.force_n,
+            l.force_peak_n,
             l.fx_n,
             l.fy_n,
             l.fz_n,
@@ -452,7 +459,7 @@ mod tests {
             .collect();
         assert_eq!(
             names.join(","),
-            "t_s,x,y,z,feed_mm_min,volume_mm3,mrr_mm3_s,shank_mm3,force_n,fx_n,fy_n,fz_n,power_w,torque_nm,chip_mm,contact_height_mm,deflection_um,dx_um,dy_um,tip_deflection_um,stress_mpa,breaks,line,rapid,tool"
+            "t_s,x,y,z,feed_mm_min,volume_mm3,mrr_mm3_s,shank_mm3,force_n,force_peak_n,fx_n,fy_n,fz_n,power_w,torque_nm,chip_mm,contact_height_mm,deflection_um,dx_um,dy_um,tip_deflection_um,stress_mpa,breaks,line,rapid,tool"
         );
     }
 }

@@ -36,14 +36,7 @@ pub(crate) fn loads_as<T>(
         .enumerate()
         .map(|(i, s)| {
             let model = &tools.entries[tool_of_step[i]].model;
-            let load = model.step_load(&cutting::StepRemoval {
-                volume_mm3: record.volume_mm3(i),
-                band_volumes_mm3: record.band_volumes_mm3(i),
-                contact_resultant: record.contact_resultant(i),
-                chip_edge_area_mm2: record.chip_edge_area_mm2(i),
-                volume_over_radius_mm2: record.volume_over_radius_mm2(i),
-                dt_s: s.dt_s,
-            });
+            let load = model.step_load(&step_removal(record, i, s, grid_mm));
             of(&load, i)
         })
         .collect();
@@ -56,6 +49,41 @@ pub(crate) fn loads_as<T>(
         grid_mm,
     );
     out
+}
+
+/// What step `i` (`step`) of `record` removed, as the force model takes it.
+pub(crate) fn step_removal<'r>(
+    record: &'r RemovalRecord,
+    i: usize,
+    step: &TimedStep,
+    grid_mm: f64,
+) -> cutting::StepRemoval<'r> {
+    cutting::StepRemoval {
+        volume_mm3: record.volume_mm3(i),
+        band_volumes_mm3: record.band_volumes_mm3(i),
+        contact_resultant: record.contact_resultant(i),
+        chip_edge_area_mm2: record.chip_edge_area_mm2(i),
+        volume_over_radius_mm2: record.volume_over_radius_mm2(i),
+        dt_s: step.dt_s,
+        band_offsets_mm: &[],
+        feed_dir: feed_dir(&step.step),
+        cell_mm: grid_mm,
+    }
+}
+
+/// A step's unit XY feed direction, [0, 0] where it has no horizontal part
+/// (the frame of its forces through a tooth period, MODEL.md §3.4).
+pub(crate) fn feed_dir(step: &dexel::Step) -> [f64; 2] {
+    let (dx, dy) = (
+        step.to_mm[0] - step.from_mm[0],
+        step.to_mm[1] - step.from_mm[1],
+    );
+    let xy = dx.hypot(dy);
+    if xy > 0.0 {
+        [dx / xy, dy / xy]
+    } else {
+        [0.0, 0.0]
+    }
 }
 
 /// The step the `tool_breaks` warning describes (MODEL.md §4.4): of the steps

@@ -271,6 +271,11 @@ impl Run {
                 MRR_WINDOW_CELLS * self.stock.grid().spacing_mm,
             ),
             peak_force_n: self.loads.iter().map(|l| l.force_n).fold(0.0, f64::max),
+            peak_force_revolution_n: self
+                .loads
+                .iter()
+                .map(|l| l.force_peak_n)
+                .fold(0.0, f64::max),
             peak_power_w: self.loads.iter().map(|l| l.power_w).fold(0.0, f64::max),
             peak_torque_nm: self.loads.iter().map(|l| l.torque_nm).fold(0.0, f64::max),
             peak_deflection_um: self

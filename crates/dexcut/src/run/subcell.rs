@@ -228,6 +228,9 @@ pub fn window_loads(
                     chip_edge_area_mm2: sum[EDGE_LEN] / (b - a),
                     volume_over_radius_mm2: sum[OVER_R] * scale,
                     dt_s: steps[i].dt_s,
+                    band_offsets_mm: &[],
+                    feed_dir: u,
+                    cell_mm: grid_mm,
                 }),
             );
         }

@@ -801,16 +801,7 @@ fn deflections_made_as_the_loads_are_those_of_the_loads_held() {
     // Every step's load held, then the windows' written over them.
     let model = &setup.tools.entries[0].model;
     let own: Vec<StepLoad> = (0..steps.len())
-        .map(|i| {
-            model.step_load(&cutting::StepRemoval {
-                volume_mm3: record.volume_mm3(i),
-                band_volumes_mm3: record.band_volumes_mm3(i),
-                contact_resultant: record.contact_resultant(i),
-                chip_edge_area_mm2: record.chip_edge_area_mm2(i),
-                volume_over_radius_mm2: record.volume_over_radius_mm2(i),
-                dt_s: steps[i].dt_s,
-            })
-        })
+        .map(|i| model.step_load(&super::loads::step_removal(&record, i, &steps[i], grid_mm)))
         .collect();
     let mut held = own.clone();
     super::subcell::window_loads(

@@ -10,7 +10,7 @@ use super::slot::{CONTACT_X, CONTACT_Y, SHANK, VOLUME};
 use super::strip::{partial_width, Banding, StripJob};
 use super::{
     Envelope, Prepared, RecordRow, RemovalRecord, RowSink, Step, StepSource, SubSteps,
-    SweepOptions, HEAD, PLUNGE_H2,
+    SweepOptions, EMPTY_OFFSETS, HEAD, PLUNGE_H2,
 };
 use crate::stock::{BottomsMut, RowBelow};
 use crate::{Error, Grid, Stock, Tool, ToolShape};
@@ -289,6 +289,7 @@ impl<'a, S: StepSource + ?Sized> Sweep<'a, S> {
                 // Full rows of every step, zero until swept (pages touched as they are written).
                 if part.record.data.len() != n * stride {
                     part.record.data = vec![0.0; n * stride];
+                    part.record.offsets = vec![EMPTY_OFFSETS; n * part.banding.n_bands];
                 }
                 if self.options.smooth && part.spill.len() != n * 2 * HEAD {
                     part.spill = vec![0.0; n * 2 * HEAD];
@@ -329,11 +330,13 @@ impl<'a, S: StepSource + ?Sized> Sweep<'a, S> {
                     // The band volumes grew by doubling; what they hold is kept
                     // (a large block is shrunk where it lies, not copied).
                     out.bands.shrink_to_fit();
+                    out.offsets.shrink_to_fit();
                     part.record = out;
                     part.record.columns_evaluated = evaluated;
                 } else {
                     // Given away: only the count of columns is kept.
                     part.record.data = Vec::new();
+                    part.record.offsets = Vec::new();
                 }
             }
         }
@@ -350,6 +353,7 @@ impl<'a, S: StepSource + ?Sized> Sweep<'a, S> {
             let n = part.end - part.start;
             if part.record.data.len() != n * (HEAD + part.banding.n_bands) {
                 part.record.data = vec![0.0; n * (HEAD + part.banding.n_bands)];
+                part.record.offsets = vec![EMPTY_OFFSETS; n * part.banding.n_bands];
             }
             if self.options.smooth && part.spill.len() != n * 2 * HEAD {
                 part.spill = vec![0.0; n * 2 * HEAD];
@@ -536,11 +540,13 @@ impl<'m> Stream<'m> {
         }
     }
 
-    /// Steps before `swept` are swept (their rows and shares, from `first`
-    /// on, in `rows` and `spill`): make final and move out those that are.
+    /// Steps before `swept` are swept (their rows, offset ranges and
+    /// shares, from `first` on, in `rows`, `offsets` and `spill`): make
+    /// final and move out those that are.
     fn advance(
         &mut self,
         rows: &mut Vec<f64>,
+        offsets: &mut Vec<[f32; 2]>,
         spill: &mut Vec<f64>,
         steps: &(impl StepSource + ?Sized),
         swept: usize,
@@ -559,14 +565,19 @@ impl<'m> Stream<'m> {
             (swept - 1).saturating_sub(1).max(self.first)
         };
         let done = final_end - self.first;
+        let n_bands = stride - HEAD;
         for (j, row) in rows[..done * stride].chunks_exact_mut(stride).enumerate() {
             unbias_plunge(row, &steps.step(self.first + j), &self.grid, self.radius);
+            let ranges = &offsets[j * n_bands..(j + 1) * n_bands];
             match &mut self.out {
-                Out::Record(out) => out.push_row(row),
-                Out::Sink(sink, start) => sink(*start + self.first + j, RecordRow::of_full(row)),
+                Out::Record(out) => out.push_row(row, ranges),
+                Out::Sink(sink, start) => {
+                    sink(*start + self.first + j, RecordRow::of_full(row, ranges))
+                }
             }
         }
         rows.drain(..done * stride);
+        offsets.drain(..done * n_bands);
         if self.smooth {
             spill.drain(..done * 2 * HEAD);
         }
@@ -610,10 +621,19 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
             // Nothing to cut: every step's row is zero.
             let stride = HEAD + banding.n_bands;
             record.data.resize(steps.len() * stride, 0.0);
+            record
+                .offsets
+                .resize(steps.len() * banding.n_bands, EMPTY_OFFSETS);
             if options.smooth {
                 spill.resize(steps.len() * 2 * HEAD, 0.0);
             }
-            stream.advance(&mut record.data, spill, steps, steps.len());
+            stream.advance(
+                &mut record.data,
+                &mut record.offsets,
+                spill,
+                steps,
+                steps.len(),
+            );
         }
         progress(steps.len());
         return;
@@ -629,7 +649,9 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
     let batch = options.batch_steps.max(1);
     // A batch ends before its moves' strip entries would need more than
     // `batch_bytes` of partial sums (a move across many strips, a wide tool
-    // on a fine grid, takes many), with at least one move in it.
+    // on a fine grid, takes many), with at least one move in it. (Their
+    // ranges of lateral offsets, 8 B a band, come beside that bound: the
+    // batches, and so the columns visited, are those of the sums alone.)
     let max_entries = (options.batch_bytes / (width * std::mem::size_of::<f64>())).max(1);
     let strip_span = |m: &Prepared| {
         m.row_range(&grid, radius).and_then(|(a, b)| {
@@ -645,6 +667,9 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
     let mut fill: Vec<u32> = Vec::new();
     let mut entries: Vec<u32> = Vec::new();
     let mut partial: Vec<f64> = Vec::new();
+    // Per strip entry and band, the range of lateral offsets (min/max).
+    let mut ranges: Vec<[f32; 2]> = Vec::new();
+    let n_bands = banding.n_bands;
     // Where the last step taken into a batch ends (each step is made once here).
     let mut last_end: Option<[f64; 3]> = None;
     while done < steps.len() {
@@ -683,6 +708,7 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
         if stream.is_some() {
             let held = first_step + chunk_len - base;
             record.data.resize(held * stride, 0.0);
+            record.offsets.resize(held * n_bands, EMPTY_OFFSETS);
             if options.smooth {
                 spill.resize(held * 2 * HEAD, 0.0);
             }
@@ -693,7 +719,13 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
         if counts[n_strips] == 0 {
             // No move of the batch reaches the band.
             if let Some(stream) = stream.as_deref_mut() {
-                stream.advance(&mut record.data, spill, steps, first_step + chunk_len);
+                stream.advance(
+                    &mut record.data,
+                    &mut record.offsets,
+                    spill,
+                    steps,
+                    first_step + chunk_len,
+                );
             }
             done += chunk_len;
             progress(done);
@@ -725,6 +757,9 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
         // kept from batch to batch could hold up to twice `batch_bytes`.
         partial.reserve_exact(entries.len() * width);
         partial.resize(entries.len() * width, 0.0);
+        ranges.clear();
+        ranges.reserve_exact(entries.len() * n_bands);
+        ranges.resize(entries.len() * n_bands, EMPTY_OFFSETS);
         // Split columns, the rows' intervals below their tops, last-cut marks
         // and partial sums into per-strip pieces.
         type Piece<'a> = (
@@ -733,14 +768,19 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
             &'a mut [RowBelow],
             &'a mut [u32],
             &'a mut [f64],
+            &'a mut [[f32; 2]],
         );
         let mut pieces: Vec<Piece> = Vec::with_capacity(n_strips);
         let mut rest: &mut [f64] = &mut partial;
+        let mut ranges_rest: &mut [[f32; 2]] = &mut ranges;
         let (mut cols_rest, mut bottoms_rest, mut below_rest, mut last_rest) = stock.parts_mut();
         for s in 0..n_strips {
             let n = (counts[s + 1] - counts[s]) as usize * width;
             let (head, tail) = rest.split_at_mut(n);
             rest = tail;
+            let n_ranges = (counts[s + 1] - counts[s]) as usize * n_bands;
+            let (strip_ranges, ranges_tail) = ranges_rest.split_at_mut(n_ranges);
+            ranges_rest = ranges_tail;
             let strip_end = ((first_strip + s + 1) * strip_rows).min(rows.end);
             let (below, below_tail) = below_rest.split_at_mut(strip_end - strip_row0(s));
             below_rest = below_tail;
@@ -751,20 +791,24 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
             bottoms_rest = bottoms_tail;
             let (last, last_tail) = last_rest.split_at_mut(len);
             last_rest = last_tail;
-            pieces.push((cols, bottoms, below, last, head));
+            pieces.push((cols, bottoms, below, last, head, strip_ranges));
         }
         let visited: u64 = pieces
             .into_par_iter()
             .enumerate()
-            .map(|(s, (cols, bottoms, below, last, out))| {
+            .map(|(s, (cols, bottoms, below, last, out, rng))| {
                 let ents = &entries[counts[s] as usize..counts[s + 1] as usize];
                 if ents.is_empty() {
                     0
                 } else {
                     let r0 = strip_row0(s);
                     match bottoms {
-                        BottomsMut::Uniform(lo) => job.run(r0, cols, lo, below, last, ents, out),
-                        BottomsMut::Columns(lo) => job.run(r0, cols, lo, below, last, ents, out),
+                        BottomsMut::Uniform(lo) => {
+                            job.run(r0, cols, lo, below, last, ents, out, rng)
+                        }
+                        BottomsMut::Columns(lo) => {
+                            job.run(r0, cols, lo, below, last, ents, out, rng)
+                        }
                     }
                 }
             })
@@ -780,8 +824,22 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
             first_step,
             base,
         );
+        merge_batch_ranges(
+            &mut record.offsets,
+            &entries,
+            &ranges,
+            n_bands,
+            first_step,
+            base,
+        );
         if let Some(stream) = stream.as_deref_mut() {
-            stream.advance(&mut record.data, spill, steps, first_step + chunk_len);
+            stream.advance(
+                &mut record.data,
+                &mut record.offsets,
+                spill,
+                steps,
+                first_step + chunk_len,
+            );
         }
         done += chunk_len;
         progress(done);
@@ -821,6 +879,29 @@ fn add_batch_sums(
             {
                 *d += s;
             }
+        }
+    }
+}
+
+/// Merge a batch's ranges of lateral offsets (`ranges`, `n_bands` for each
+/// of the strip entries `entries`) into the steps' ranges (`offsets`,
+/// `n_bands` a step, held from step `base` on) by min/max (MODEL.md §1.7):
+/// the same ranges in any order of strips, batches or bands of rows.
+#[inline]
+fn merge_batch_ranges(
+    offsets: &mut [[f32; 2]],
+    entries: &[u32],
+    ranges: &[[f32; 2]],
+    n_bands: usize,
+    first_step: usize,
+    base: usize,
+) {
+    for (e, &mi) in entries.iter().enumerate() {
+        let i = first_step + mi as usize - base;
+        let src = &ranges[e * n_bands..(e + 1) * n_bands];
+        for (d, s) in offsets[i * n_bands..(i + 1) * n_bands].iter_mut().zip(src) {
+            d[0] = d[0].min(s[0]);
+            d[1] = d[1].max(s[1]);
         }
     }
 }

@@ -152,7 +152,8 @@ pub struct SweepOptions {
     pub batch_steps: usize,
     /// Bound on a batch's partial sums, bytes: a batch ends before its moves'
     /// strip entries (a move joins every strip its footprint's rows touch)
-    /// would need more, with at least one move per batch. Batches change no
+    /// would need more, with at least one move per batch. (The entries'
+    /// ranges of lateral offsets, 8 B a band, come beside it.) Batches change no
     /// result (each strip cuts its moves in order, each step's sums are
     /// reduced in strip order), only the memory and how often progress is
     /// reported.
@@ -194,13 +195,27 @@ mod slot {
 /// Values stored per step before the band volumes (the [`slot`]s).
 const HEAD: usize = 6;
 
+/// The range of lateral offsets of a band that received no removal from a
+/// side cut (MODEL.md §1.7): `[+∞, −∞]`, the neutral element of the min/max
+/// merge, whose lower end lies above its upper end.
+pub const EMPTY_OFFSETS: [f32; 2] = [f32::INFINITY, f32::NEG_INFINITY];
+
+/// The range `[e_min, e_max]` of a band's offsets, or `None` where it is
+/// [`EMPTY_OFFSETS`] (any range whose lower end lies above its upper end).
+#[inline]
+fn offsets_or_none(range: Option<&[f32; 2]>) -> Option<[f32; 2]> {
+    range.copied().filter(|r| r[0] <= r[1])
+}
+
 /// What a sweep removed, per step.
 ///
 /// Stored in compact columns: per step the [`slot`] values, and the
 /// band volumes of all steps end to end without each step's trailing zero
 /// bands (a finishing cut touches one or two of a tool's bands), so a long
 /// program keeps about 60 bytes per step instead of 8 per band. The values are
-/// the sweep's own f64 sums, unchanged.
+/// the sweep's own f64 sums, unchanged. Beside each kept band volume, the
+/// range of the lateral offsets of the columns it was cut from (two f32, 8 B
+/// per kept band: [`band_offsets_mm`](Self::band_offsets_mm)).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RemovalRecord {
     /// Height of one tool band above the tip, mm (band k spans k·h to (k+1)·h).
@@ -216,6 +231,11 @@ pub struct RemovalRecord {
     /// Step i's bands are `bands[band_start[i]..band_start[i + 1]]`; empty
     /// while the sweep runs (full rows in `data`).
     band_start: Vec<usize>,
+    /// Per band value: the range [e_min, e_max] of the lateral offsets (mm,
+    /// left of the feed) of the columns whose removal that band holds, or
+    /// [`EMPTY_OFFSETS`]. While the sweep runs, every band of every step
+    /// (`n_bands` a step); once done, beside `bands` (the same indices).
+    offsets: Vec<[f32; 2]>,
     /// Columns visited (inside a step's footprint) over the whole sweep.
     pub columns_evaluated: u64,
 }
@@ -236,6 +256,7 @@ impl RemovalRecord {
             data: vec![0.0; steps * (HEAD + n_bands)],
             bands: Vec::new(),
             band_start: Vec::new(),
+            offsets: vec![EMPTY_OFFSETS; steps * n_bands],
             columns_evaluated: 0,
         }
     }
@@ -248,6 +269,7 @@ impl RemovalRecord {
             data: Vec::new(),
             bands: Vec::new(),
             band_start: vec![0],
+            offsets: Vec::new(),
             columns_evaluated: 0,
         }
     }
@@ -276,9 +298,10 @@ impl RemovalRecord {
             RecordRow {
                 head: self.row(step),
                 bands: self.band_volumes_mm3(step),
+                offsets: self.band_offsets_mm(step),
             }
         } else {
-            RecordRow::of_full(self.row(step))
+            RecordRow::of_full(self.row(step), self.band_offsets_mm(step))
         }
     }
 
@@ -292,11 +315,15 @@ impl RemovalRecord {
         let stride = HEAD + self.n_bands;
         let n = self.data.len() / stride;
         let mut bands = Vec::new();
+        let mut offsets = Vec::new();
         let mut band_start = Vec::with_capacity(n + 1);
         band_start.push(0);
         for i in 0..n {
             let row = &self.data[i * stride..(i + 1) * stride];
-            bands.extend_from_slice(&row[HEAD..HEAD + kept_bands(row)]);
+            let kept = kept_bands(row);
+            bands.extend_from_slice(&row[HEAD..HEAD + kept]);
+            let nb = self.n_bands;
+            offsets.extend_from_slice(&self.offsets[i * nb..i * nb + kept]);
             band_start.push(bands.len());
             self.data
                 .copy_within(i * stride..i * stride + HEAD, i * HEAD);
@@ -304,17 +331,22 @@ impl RemovalRecord {
         self.data.truncate(n * HEAD);
         self.data.shrink_to_fit();
         bands.shrink_to_fit();
+        offsets.shrink_to_fit();
         self.bands = bands;
+        self.offsets = offsets;
         self.band_start = band_start;
     }
 
-    /// Append one step's full row (head values, then every band) to a
-    /// compact record, as [`compact`](Self::compact) keeps it.
-    fn push_row(&mut self, row: &[f64]) {
+    /// Append one step's full row (head values, then every band) and its
+    /// bands' offset ranges (every band) to a compact record, as
+    /// [`compact`](Self::compact) keeps them.
+    fn push_row(&mut self, row: &[f64], offsets: &[[f32; 2]]) {
         debug_assert!(self.is_compact() && row.len() == HEAD + self.n_bands);
+        debug_assert_eq!(offsets.len(), self.n_bands);
         self.data.extend_from_slice(&row[..HEAD]);
-        self.bands
-            .extend_from_slice(&row[HEAD..HEAD + kept_bands(row)]);
+        let kept = kept_bands(row);
+        self.bands.extend_from_slice(&row[HEAD..HEAD + kept]);
+        self.offsets.extend_from_slice(&offsets[..kept]);
         self.band_start.push(self.bands.len());
     }
 
@@ -324,6 +356,7 @@ impl RemovalRecord {
         let base = self.bands.len();
         self.data.extend_from_slice(&other.data);
         self.bands.extend_from_slice(&other.bands);
+        self.offsets.extend_from_slice(&other.offsets);
         self.band_start
             .extend(other.band_start[1..].iter().map(|&s| base + s));
         self.columns_evaluated += other.columns_evaluated;
@@ -362,6 +395,30 @@ impl RemovalRecord {
         }
     }
 
+    /// Per band of [`band_volumes_mm3`](Self::band_volumes_mm3) (the same
+    /// length, index k = band k): the range `[e_min, e_max]` (mm) of the
+    /// signed lateral offsets of the cut columns whose removal the band
+    /// holds, e the column centre's offset to the left of the move's XY
+    /// direction (MODEL.md §1.7). [`EMPTY_OFFSETS`] (`[+∞, −∞]`) where the
+    /// band received no removal from a side cut: a plunge's bands, a band
+    /// above the cut. Ranges are merged over strips and batches by min/max;
+    /// smoothing (§1.5) does not move them. See
+    /// [`band_offset_mm`](Self::band_offset_mm) for one band as an `Option`.
+    pub fn band_offsets_mm(&self, step: usize) -> &[[f32; 2]] {
+        if self.is_compact() {
+            &self.offsets[self.band_start[step]..self.band_start[step + 1]]
+        } else {
+            &self.offsets[step * self.n_bands..(step + 1) * self.n_bands]
+        }
+    }
+
+    /// Band `k`'s range of lateral offsets (see
+    /// [`band_offsets_mm`](Self::band_offsets_mm)); `None` where the band
+    /// received no side cut's removal (or lies above the bands stored).
+    pub fn band_offset_mm(&self, step: usize, k: usize) -> Option<[f32; 2]> {
+        offsets_or_none(self.band_offsets_mm(step).get(k))
+    }
+
     /// Volume removed by `step` in band `k` (0 for a band above the ones
     /// stored), mm³.
     pub fn band_volume_mm3(&self, step: usize, k: usize) -> f64 {
@@ -391,6 +448,15 @@ impl RemovalRecord {
         self.row(step)[slot::OVER_RADIUS]
     }
 
+    /// Bytes the record holds on the heap (its vectors' capacities).
+    pub fn memory_bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.data.capacity() * size_of::<f64>()
+            + self.bands.capacity() * size_of::<f64>()
+            + self.band_start.capacity() * size_of::<usize>()
+            + self.offsets.capacity() * size_of::<[f32; 2]>()
+    }
+
     /// Sum of all step volumes, mm³.
     pub fn total_volume_mm3(&self) -> f64 {
         (0..self.len()).map(|i| self.volume_mm3(i)).sum()
@@ -409,14 +475,19 @@ pub struct RecordRow<'r> {
     head: &'r [f64],
     /// Band 0 up to the highest whose bit pattern is not +0.0.
     bands: &'r [f64],
+    /// Each band's range of lateral offsets.
+    offsets: &'r [[f32; 2]],
 }
 
 impl<'r> RecordRow<'r> {
-    /// A full row of the sweep (head values, then every band of its tool).
-    fn of_full(row: &'r [f64]) -> Self {
+    /// A full row of the sweep (head values, then every band of its tool)
+    /// and the offset ranges of every band.
+    fn of_full(row: &'r [f64], offsets: &'r [[f32; 2]]) -> Self {
+        let kept = kept_bands(row);
         RecordRow {
             head: &row[..HEAD],
-            bands: &row[HEAD..HEAD + kept_bands(row)],
+            bands: &row[HEAD..HEAD + kept],
+            offsets: &offsets[..kept],
         }
     }
 
@@ -434,6 +505,18 @@ impl<'r> RecordRow<'r> {
     /// is not zero.
     pub fn band_volumes_mm3(&self) -> &'r [f64] {
         self.bands
+    }
+
+    /// [`RemovalRecord::band_offsets_mm`]: as many as
+    /// [`band_volumes_mm3`](Self::band_volumes_mm3), [`EMPTY_OFFSETS`] where
+    /// a band received no side cut's removal.
+    pub fn band_offsets_mm(&self) -> &'r [[f32; 2]] {
+        self.offsets
+    }
+
+    /// [`RemovalRecord::band_offset_mm`].
+    pub fn band_offset_mm(&self, k: usize) -> Option<[f32; 2]> {
+        offsets_or_none(self.offsets.get(k))
     }
 
     /// [`RemovalRecord::contact_resultant`].

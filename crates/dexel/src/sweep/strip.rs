@@ -19,10 +19,20 @@ pub(super) struct Banding {
 impl Banding {
     /// Credit the removed piece [a, b] (absolute z) of a column to the bands
     /// above a tip at `z_tip` and to the shank; `acc` is [volume, shank, cx, cy,
-    /// chip area, volume over radius, bands…] in mm. Returns the piece's length
-    /// (the caller adds it to the volume).
+    /// chip area, volume over radius, bands…] in mm. Each band credited takes
+    /// the column's lateral offset `e` into its range in `ranges` (one
+    /// [min, max] a band; MODEL.md §1.7); a NaN `e` (a plunge) changes no
+    /// range. Returns the piece's length (the caller adds it to the volume).
     #[inline]
-    fn credit(&self, acc: &mut [f64], z_tip: f64, a: f64, b: f64) -> f64 {
+    fn credit(
+        &self,
+        acc: &mut [f64],
+        ranges: &mut [[f32; 2]],
+        e: f32,
+        z_tip: f64,
+        a: f64,
+        b: f64,
+    ) -> f64 {
         let mut lo = (a - z_tip).max(0.0);
         let hi = (b - z_tip).max(lo);
         let length = hi - lo;
@@ -31,6 +41,7 @@ impl Banding {
         // (nothing here is NaN): the same values as usize and `f64::min`.
         let mut k = (lo * self.inv_band_h) as i64;
         let n_bands = self.n_bands as i64;
+        let ranges = &mut ranges[..self.n_bands];
         while lo < hi && k < n_bands {
             let mut top = ((k + 1) as f64) * self.band_h;
             if self.flute_len < top {
@@ -41,6 +52,15 @@ impl Banding {
             }
             if top > lo {
                 acc[HEAD + k as usize] += top - lo;
+                // Plain compares (one minimum and one maximum instruction):
+                // false for a NaN `e`.
+                let range = &mut ranges[k as usize];
+                if e < range[0] {
+                    range[0] = e;
+                }
+                if e > range[1] {
+                    range[1] = e;
+                }
                 lo = top;
             }
             k += 1;
@@ -425,7 +445,8 @@ impl<E: Envelope> StripJob<'_, E> {
     /// Run the moves `entries` (batch-local indices, ascending) over the rows
     /// `row0..row0 + rows` whose columns are `cols`; write per-entry sums into `out`
     /// (per entry: this step's sums, then with smoothing the shares for the
-    /// previous and the next step).
+    /// previous and the next step) and per-entry ranges of lateral offsets
+    /// into `ranges` (one [min, max] a band, [`super::EMPTY_OFFSETS`] on entry).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn run(
         &self,
@@ -436,8 +457,10 @@ impl<E: Envelope> StripJob<'_, E> {
         last_cut: &mut [u32],
         entries: &[u32],
         out: &mut [f64],
+        ranges: &mut [[f32; 2]],
     ) -> u64 {
         let nx = self.grid.nx;
+        let n_bands = self.banding.n_bands;
         let rows = cols.len() / nx;
         let stride = HEAD + self.banding.n_bands;
         let width = self.width();
@@ -460,6 +483,12 @@ impl<E: Envelope> StripJob<'_, E> {
         for (j, &mi) in entries.iter().enumerate() {
             let m = &self.moves[mi as usize];
             let all = &mut out[j * width..(j + 1) * width];
+            let band_ranges = &mut ranges[j * n_bands..(j + 1) * n_bands];
+            // The lateral offset e = û × w of a column (MODEL.md §1.7, the
+            // expression of `contacts`); NaN on a plunge, whose cuts are
+            // not side cuts (no range).
+            let side = m.h2 > PLUNGE_H2;
+            let [ux, uy] = m.u;
             let step_index = (self.first_step + mi as usize) as u32;
             let Some((iy0, iy1)) = m.row_range(self.grid, self.radius) else {
                 continue;
@@ -481,6 +510,7 @@ impl<E: Envelope> StripJob<'_, E> {
             };
             for iy in iy0..=iy1 {
                 let y = self.grid.y_mm(iy);
+                let wy = y - m.p0[1];
                 let Some(span) = m.row_span(y, self.radius) else {
                     continue;
                 };
@@ -534,9 +564,16 @@ impl<E: Envelope> StripJob<'_, E> {
                         continue;
                     }
                     let z_tip = m.p0[2] + t * m.d[2];
+                    let e = if side {
+                        (ux * wy - uy * (x - m.p0[0])) as f32
+                    } else {
+                        f32::NAN
+                    };
                     let mut removed = 0.0;
                     bottoms.cut_above(base + ix, col, &mut below[iy - row0], ix, z, |a, b| {
-                        removed += self.banding.credit(all, z_tip, a as f64, b as f64);
+                        removed +=
+                            self.banding
+                                .credit(all, band_ranges, e, z_tip, a as f64, b as f64);
                     });
                     if removed > 0.0 {
                         last_cut[base + ix] = step_index;
@@ -672,6 +709,7 @@ fn row_top(row: &[f32]) -> f32 {
 
 #[cfg(test)]
 mod tests {
+    use super::super::EMPTY_OFFSETS;
     use super::*;
 
     #[test]
@@ -722,8 +760,18 @@ mod tests {
             flute_len: 2.5,
         };
         let mut acc = vec![0.0; HEAD + 3];
-        assert_eq!(b.credit(&mut acc, 10.0, 10.5, 14.0), 3.5);
+        let mut ranges = [EMPTY_OFFSETS; 3];
+        assert_eq!(b.credit(&mut acc, &mut ranges, 1.5, 10.0, 10.5, 14.0), 3.5);
         assert_eq!(&acc[HEAD..], &[0.5, 1.0, 0.5]);
         assert_eq!(acc[1], 1.5, "above the flute length is shank contact");
+        assert_eq!(ranges, [[1.5, 1.5]; 3]);
+        // Another column, in band 0 only; then a plunge's (NaN) changes nothing.
+        b.credit(&mut acc, &mut ranges, -2.0, 10.0, 10.0, 10.25);
+        b.credit(&mut acc, &mut ranges, f32::NAN, 10.0, 10.0, 14.0);
+        assert_eq!(ranges, [[-2.0, 1.5], [1.5, 1.5], [1.5, 1.5]]);
+        // A piece above the cut's bands leaves them empty.
+        let mut ranges = [EMPTY_OFFSETS; 3];
+        b.credit(&mut acc, &mut ranges, 0.5, 10.0, 11.2, 11.4);
+        assert_eq!(ranges, [EMPTY_OFFSETS, [0.5, 0.5], EMPTY_OFFSETS]);
     }
 }

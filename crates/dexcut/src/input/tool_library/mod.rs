@@ -427,6 +427,7 @@ pub(crate) fn finish(d: Draft) -> Result<LibraryTool> {
         stickout: Some(stickout),
         flutes,
         youngs_modulus_mpa: None,
+        helix_deg: None,
         effective_diameter: None,
         fz_max: None,
         number: Some(d.number),

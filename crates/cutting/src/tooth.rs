@@ -1,0 +1,752 @@
+//! Forces through one tooth period from the engagement of each height band
+//! (MODEL.md §3.4): the edge's own frame on flat, bull-nose and ball ends
+//! (Altintas, *Manufacturing Automation* ch. 2; Lee & Altintas 1996), a
+//! helical edge, the mean over a revolution in closed form and the peak over
+//! the revolution from the force's piecewise closed form.
+//!
+//! Angles: the immersion φ is measured clockwise seen from above (+Z down the
+//! view), from the left of the feed (+y of the feed frame); a tooth at φ sits at
+//! `r (sin φ, cos φ)` in the feed frame (x along the feed, y to its left, z
+//! up), and an M3 (clockwise) spindle turns it towards larger φ. Up milling
+//! starts at φ = 0 (material on the left), down milling ends at φ = π. The
+//! chip at φ on an edge whose normal makes the angle κ with the axis is
+//! `h = f_z sin φ sin κ`; forces are on the tool.
+
+use std::f64::consts::PI;
+
+use serde::{Deserialize, Serialize};
+
+/// The cutting edge's profile: the radius and the angle κ of the edge's normal
+/// to the tool axis as functions of the height z above the tip.
+///
+/// A flat end is a bull nose of corner radius 0, a ball end one of corner
+/// radius R; κ is 90° on the cylinder above the corner.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EdgeShape {
+    /// Tool radius R, mm.
+    pub radius_mm: f64,
+    /// Corner radius r_c (0 flat end, R ball end), mm.
+    pub corner_mm: f64,
+}
+
+/// The integrals of a stretch of edge over its heights [z0, z1]:
+/// `∫ dz`, `∫ sin κ dz`, `∫ cos κ dz`, `∫ r dz` (mm, mm, mm, mm²).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EdgeMoments {
+    /// Height spanned, mm.
+    pub length_mm: f64,
+    /// ∫ sin κ dz, mm.
+    pub sin_k_mm: f64,
+    /// ∫ cos κ dz, mm.
+    pub cos_k_mm: f64,
+    /// ∫ r dz, mm².
+    pub radius_mm2: f64,
+}
+
+impl EdgeShape {
+    /// A flat end mill of radius `radius_mm`.
+    pub fn flat(radius_mm: f64) -> Self {
+        EdgeShape {
+            radius_mm,
+            corner_mm: 0.0,
+        }
+    }
+
+    /// A ball end mill of radius `radius_mm`.
+    pub fn ball(radius_mm: f64) -> Self {
+        EdgeShape {
+            radius_mm,
+            corner_mm: radius_mm,
+        }
+    }
+
+    /// The edge's radius at height `z_mm` above the tip, mm.
+    pub fn radius_at_mm(&self, z_mm: f64) -> f64 {
+        let (rr, rc) = (self.radius_mm, self.corner_mm);
+        if z_mm >= rc {
+            return rr;
+        }
+        let z = z_mm.max(0.0);
+        // On the corner z = r_c (1 − cos κ), r = R − r_c + r_c sin κ.
+        rr - rc + (z * (2.0 * rc - z)).max(0.0).sqrt()
+    }
+
+    /// The corner's angle κ at height z (≤ r_c): cos κ = 1 − z / r_c.
+    fn corner_kappa(&self, z: f64) -> f64 {
+        (1.0 - z / self.corner_mm).clamp(-1.0, 1.0).acos()
+    }
+
+    /// [`EdgeMoments`] over the heights `[z0_mm, z1_mm]` in closed form: on
+    /// the corner, with z = r_c (1 − cos κ), `∫ sin κ dz = r_c (κ/2 − sin 2κ/4)`,
+    /// `∫ cos κ dz = r_c sin²κ / 2`, `∫ r dz = (R − r_c) z + r_c² (κ/2 − sin 2κ/4)`;
+    /// on the cylinder κ = 90°.
+    pub fn moments(&self, z0_mm: f64, z1_mm: f64) -> EdgeMoments {
+        let (z0, z1) = (z0_mm.max(0.0), z1_mm.max(0.0));
+        if z1 <= z0 {
+            return EdgeMoments::default();
+        }
+        let (rr, rc) = (self.radius_mm, self.corner_mm);
+        let mut m = EdgeMoments {
+            length_mm: z1 - z0,
+            ..EdgeMoments::default()
+        };
+        // The corner's part.
+        let (c0, c1) = (z0.min(rc), z1.min(rc));
+        if c1 > c0 {
+            let (k0, k1) = (self.corner_kappa(c0), self.corner_kappa(c1));
+            let g = |k: f64| k / 2.0 - (2.0 * k).sin() / 4.0;
+            let s2 = |k: f64| k.sin().powi(2) / 2.0;
+            m.sin_k_mm += rc * (g(k1) - g(k0));
+            m.cos_k_mm += rc * (s2(k1) - s2(k0));
+            m.radius_mm2 += (rr - rc) * (c1 - c0) + rc * rc * (g(k1) - g(k0));
+        }
+        // The cylinder's part.
+        let (y0, y1) = (z0.max(rc), z1.max(rc));
+        if y1 > y0 {
+            m.sin_k_mm += y1 - y0;
+            m.radius_mm2 += rr * (y1 - y0);
+        }
+        m
+    }
+}
+
+/// The engaged arc of one height band: the edge cuts between the immersion
+/// angles `phi_st_rad` and `phi_ex_rad` over the heights `[z_lo_mm, z_hi_mm]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BandArc {
+    /// Lowest height of the band above the tip, mm.
+    pub z_lo_mm: f64,
+    /// Highest height, mm.
+    pub z_hi_mm: f64,
+    /// Entry angle φ_st, rad (0 ≤ φ_st ≤ φ_ex ≤ π).
+    pub phi_st_rad: f64,
+    /// Exit angle φ_ex, rad.
+    pub phi_ex_rad: f64,
+}
+
+impl BandArc {
+    /// The arc of a band over `[z_lo_mm, z_hi_mm]` whose cut columns lie at
+    /// the signed offsets `[e_lo, e_hi]` (mm, to the left of the feed) from
+    /// the move's line, on a grid of `cell_mm` (MODEL.md §3.4): each column
+    /// stands for its cell, so the offsets widen by half a cell, and the
+    /// edge at the band's top (its largest radius r) meets them at
+    /// `cos φ = e / r`. `None` where the band has no radius.
+    pub fn from_offsets(
+        shape: &EdgeShape,
+        z_lo_mm: f64,
+        z_hi_mm: f64,
+        offsets_mm: [f64; 2],
+        cell_mm: f64,
+    ) -> Option<BandArc> {
+        let r = shape.radius_at_mm(z_hi_mm);
+        if !(r > 0.0) || !(offsets_mm[0] <= offsets_mm[1]) {
+            return None;
+        }
+        let e = |v: f64| (v / r).clamp(-1.0, 1.0);
+        Some(BandArc {
+            z_lo_mm,
+            z_hi_mm,
+            phi_st_rad: e(offsets_mm[1] + 0.5 * cell_mm).acos(),
+            phi_ex_rad: e(offsets_mm[0] - 0.5 * cell_mm).acos(),
+        })
+    }
+
+    /// A straight cut of a cylindrical flank `ae_mm` wide into material on
+    /// the left (up milling for M3: φ from 0 to arccos(1 − ae/R)) or on the
+    /// right (down milling: from π − arccos(1 − ae/R) to π); `ae_mm ≥ 2R` is
+    /// a slot.
+    pub fn side_cut(radius_mm: f64, ae_mm: f64, z_lo_mm: f64, z_hi_mm: f64, up: bool) -> BandArc {
+        let sweep = (1.0 - (ae_mm / radius_mm).min(2.0)).acos();
+        let (phi_st_rad, phi_ex_rad) = if up { (0.0, sweep) } else { (PI - sweep, PI) };
+        BandArc {
+            z_lo_mm,
+            z_hi_mm,
+            phi_st_rad,
+            phi_ex_rad,
+        }
+    }
+
+    /// `∫ sin φ dφ`, `∫ sin²φ dφ`, `∫ sin φ cos φ dφ` over the arc.
+    fn integrals(&self) -> [f64; 3] {
+        let (a, b) = (self.phi_st_rad, self.phi_ex_rad);
+        let ss = |p: f64| p / 2.0 - (2.0 * p).sin() / 4.0;
+        let sc = |p: f64| p.sin().powi(2) / 2.0;
+        [a.cos() - b.cos(), ss(b) - ss(a), sc(b) - sc(a)]
+    }
+}
+
+/// The tool's teeth: their number and the helix angle of the edge.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Teeth {
+    /// Number of flutes N.
+    pub flutes: u32,
+    /// Helix angle β, degrees (0: straight flutes).
+    pub helix_deg: f64,
+}
+
+/// The cutting coefficients: the tangential force per mm² of chip `kt_mpa`
+/// (Kienzle's kc at the step's mean chip), and the radial and axial force
+/// as fractions of the tangential.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Coefficients {
+    /// Tangential force per chip area, N/mm².
+    pub kt_mpa: f64,
+    /// Radial over tangential force.
+    pub radial_ratio: f64,
+    /// Axial over tangential force.
+    pub axial_ratio: f64,
+}
+
+/// Mean values over one revolution of a band's cut (feed frame, on the tool).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MeanCut {
+    /// Force [x (along the feed), y (its left), z (up)], N.
+    pub force_n: [f64; 3],
+    /// Torque about the axis, N·mm.
+    pub torque_nmm: f64,
+    /// Volume removed per revolution, mm³.
+    pub volume_mm3: f64,
+}
+
+/// The mean force, torque and volume per revolution of a band cut at feed
+/// per tooth `fz_mm` (MODEL.md eq. 3.4a):
+/// `F̄ = N K_t f_z/(2π) · [−I_sc L − a I_ss, I_ss L − a I_sc, b I_s]` with
+/// `I_s, I_ss, I_sc` the arc's integrals of sin φ, sin²φ, sin φ cos φ, L, S,
+/// C the band's `∫dz, ∫sin κ dz, ∫cos κ dz`, `a = k_r S + k_a C`,
+/// `b = k_r C − k_a S`; torque `N K_t f_z/(2π) I_s ∫r dz`, volume
+/// `N f_z I_s ∫r dz`.
+pub fn mean_cut(
+    shape: &EdgeShape,
+    flutes: u32,
+    arc: &BandArc,
+    fz_mm: f64,
+    c: &Coefficients,
+) -> MeanCut {
+    let m = shape.moments(arc.z_lo_mm, arc.z_hi_mm);
+    let [i_s, i_ss, i_sc] = arc.integrals();
+    let n = f64::from(flutes);
+    let a = c.radial_ratio * m.sin_k_mm + c.axial_ratio * m.cos_k_mm;
+    let b = c.radial_ratio * m.cos_k_mm - c.axial_ratio * m.sin_k_mm;
+    let k = n * c.kt_mpa * fz_mm / (2.0 * PI);
+    MeanCut {
+        force_n: [
+            k * (-i_sc * m.length_mm - a * i_ss),
+            k * (i_ss * m.length_mm - a * i_sc),
+            k * b * i_s,
+        ],
+        torque_nmm: k * i_s * m.radius_mm2,
+        volume_mm3: n * fz_mm * i_s * m.radius_mm2,
+    }
+}
+
+/// The feed per tooth at which a band cut with `arc` removes `volume_mm3`
+/// per revolution (the inverse of [`mean_cut`]'s volume); 0 where the arc
+/// removes nothing.
+pub fn feed_for_volume_mm(shape: &EdgeShape, flutes: u32, arc: &BandArc, volume_mm3: f64) -> f64 {
+    let per_fz = mean_cut(
+        shape,
+        flutes,
+        arc,
+        1.0,
+        &Coefficients {
+            kt_mpa: 0.0,
+            radial_ratio: 0.0,
+            axial_ratio: 0.0,
+        },
+    )
+    .volume_mm3;
+    if per_fz > 0.0 {
+        volume_mm3 / per_fz
+    } else {
+        0.0
+    }
+}
+
+/// The force on the tool at the instant of the revolution where it is
+/// largest sideways (feed frame), and the torque then.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PeakCut {
+    /// Largest lateral force over the revolution, N.
+    pub lateral_n: f64,
+    /// The force vector at that instant [x, y, z], N.
+    pub force_n: [f64; 3],
+    /// Torque at that instant, N·mm.
+    pub torque_nmm: f64,
+    /// Tool rotation at that instant (tooth 0 at the tip), rad in [0, 2π/N).
+    pub rotation_rad: f64,
+}
+
+/// Largest helix lag across one slice of edge, rad: slices are cut so the
+/// lag changes by at most this much over each (MODEL.md §3.4).
+const SLICE_LAG_RAD: f64 = 3.0 * PI / 180.0;
+/// Slices per band at most.
+const MAX_SLICES: usize = 16;
+/// Widest step, in 2φ, between the points where the force's size is taken
+/// inside a stretch of the revolution with the same teeth engaged.
+const SAMPLE_2PHI_RAD: f64 = 5.0 * PI / 180.0;
+
+/// One tooth's contribution to the force's coefficients in the rotation φ
+/// (tooth 0's angle at the tip): x and y are `P + Q cos 2φ + R sin 2φ`, z and
+/// the torque `C cos φ + S sin φ`.
+#[derive(Clone, Copy, Debug, Default)]
+struct Harmonics {
+    x: [f64; 3],
+    y: [f64; 3],
+    z: [f64; 2],
+    t: [f64; 2],
+}
+
+impl Harmonics {
+    fn add(&mut self, o: &Harmonics, sign: f64) {
+        for i in 0..3 {
+            self.x[i] += sign * o.x[i];
+            self.y[i] += sign * o.y[i];
+        }
+        for i in 0..2 {
+            self.z[i] += sign * o.z[i];
+            self.t[i] += sign * o.t[i];
+        }
+    }
+
+    fn lateral(&self, phi: f64) -> [f64; 2] {
+        let (s2, c2) = (2.0 * phi).sin_cos();
+        [
+            self.x[0] + self.x[1] * c2 + self.x[2] * s2,
+            self.y[0] + self.y[1] * c2 + self.y[2] * s2,
+        ]
+    }
+
+    fn at(&self, phi: f64) -> ([f64; 3], f64) {
+        let [x, y] = self.lateral(phi);
+        let (s, c) = phi.sin_cos();
+        (
+            [x, y, self.z[0] * c + self.z[1] * s],
+            self.t[0] * c + self.t[1] * s,
+        )
+    }
+}
+
+/// One slice of a band's edge: its moments, times `K_t f_z`, and its lag.
+#[derive(Clone, Copy, Debug)]
+struct Slice {
+    /// `K_t f_z ∫dz`, `K_t f_z (k_r S + k_a C)`, `K_t f_z (k_r C − k_a S)`, `K_t f_z ∫ r dz`.
+    w: [f64; 4],
+    lag: f64,
+    arc: [f64; 2],
+}
+
+impl Slice {
+    /// The harmonics of tooth angle α = φ + c at the slice (eq. 3.4b): per unit
+    /// `K_t f_z`, x `−L sin α cos α − a sin²α`, y `L sin²α − a sin α cos α`,
+    /// z `b sin α`, torque `∫r dz · sin α`.
+    fn tooth(&self, c: f64) -> Harmonics {
+        let [l, a, b, r] = self.w;
+        let (sc, cc) = c.sin_cos();
+        let (s2, c2) = (2.0 * c).sin_cos();
+        Harmonics {
+            x: [
+                -a / 2.0,
+                -l * s2 / 2.0 + a * c2 / 2.0,
+                -l * c2 / 2.0 - a * s2 / 2.0,
+            ],
+            y: [
+                l / 2.0,
+                -l * c2 / 2.0 - a * s2 / 2.0,
+                l * s2 / 2.0 - a * c2 / 2.0,
+            ],
+            z: [b * sc, b * cc],
+            t: [r * sc, r * cc],
+        }
+    }
+}
+
+/// Scratch space of [`peak_cut`], kept between calls so a step allocates
+/// nothing once it has grown.
+#[derive(Clone, Debug, Default)]
+pub struct PeakScratch {
+    slices: Vec<Slice>,
+    /// (rotation in [0, 2π/N), slice index, a tooth enters (else leaves)).
+    events: Vec<(f64, usize, bool)>,
+}
+
+/// The force through one tooth period of a step whose bands cut the arcs
+/// `bands` (each with its feed per tooth, from [`feed_for_volume_mm`]): the
+/// edge of each band cut in slices whose helix lag `z tan β / R` changes by at
+/// most 3°, tooth j of a slice at `α = φ + 2πj/N − z tan β / R` (MODEL.md
+/// eq. 3.4b). Between the rotations where a tooth enters or leaves a slice's
+/// arc the lateral force is `P + Q cos 2φ + R sin 2φ` in closed form; its size
+/// is taken at both ends of each such stretch (so the jump at a tooth's
+/// entry is caught exactly) and every 2.5° inside.
+pub fn peak_cut(
+    shape: &EdgeShape,
+    teeth: &Teeth,
+    bands: &[(BandArc, f64)],
+    c: &Coefficients,
+    scratch: &mut PeakScratch,
+) -> PeakCut {
+    let n = teeth.flutes.max(1);
+    let period = 2.0 * PI / f64::from(n);
+    let lag_per_mm = teeth.helix_deg.to_radians().tan() / shape.radius_mm;
+    let PeakScratch { slices, events } = scratch;
+    slices.clear();
+    events.clear();
+    let mut sum = Harmonics::default();
+    for (arc, fz) in bands {
+        let span = arc.z_hi_mm - arc.z_lo_mm;
+        if !(span > 0.0) || !(*fz > 0.0) || !(arc.phi_ex_rad > arc.phi_st_rad) {
+            continue;
+        }
+        let k = ((span * lag_per_mm.abs() / SLICE_LAG_RAD).ceil() as usize).clamp(1, MAX_SLICES);
+        let dz = span / k as f64;
+        let kf = c.kt_mpa * fz;
+        for i in 0..k {
+            let (z0, z1) = (
+                arc.z_lo_mm + i as f64 * dz,
+                arc.z_lo_mm + (i + 1) as f64 * dz,
+            );
+            let m = shape.moments(z0, z1);
+            let a = c.radial_ratio * m.sin_k_mm + c.axial_ratio * m.cos_k_mm;
+            let b = c.radial_ratio * m.cos_k_mm - c.axial_ratio * m.sin_k_mm;
+            slices.push(Slice {
+                w: [kf * m.length_mm, kf * a, kf * b, kf * m.radius_mm2],
+                lag: 0.5 * (z0 + z1) * lag_per_mm,
+                arc: [arc.phi_st_rad, arc.phi_ex_rad],
+            });
+        }
+    }
+    for (si, s) in slices.iter().enumerate() {
+        // The rotations in [0, period) where a tooth enters (α = φ_st) and
+        // one leaves (α = φ_ex).
+        events.push(((s.arc[0] + s.lag).rem_euclid(period), si, true));
+        events.push(((s.arc[1] + s.lag).rem_euclid(period), si, false));
+    }
+    events.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut best = PeakCut::default();
+    let m = events.len();
+    if m == 0 {
+        return best;
+    }
+    // Start in a stretch of positive length (r_i0, r_i0+1): the teeth engaged
+    // at its middle, found afresh; then the events in turn, once round.
+    let at = |i: usize| events[i % m].0 + if i >= m { period } else { 0.0 };
+    let i0 = (0..m).find(|&i| at(i + 1) > at(i)).unwrap_or(0);
+    let mid = 0.5
+        * (at(i0)
+            + if at(i0 + 1) > at(i0) {
+                at(i0 + 1)
+            } else {
+                at(i0) + period
+            });
+    for s in slices.iter() {
+        for j in 0..n {
+            let cj = f64::from(j) * period - s.lag;
+            let alpha = (mid + cj).rem_euclid(2.0 * PI);
+            if alpha >= s.arc[0] && alpha < s.arc[1] {
+                sum.add(&s.tooth(cj), 1.0);
+            }
+        }
+    }
+    let consider = |h: &Harmonics, phi: f64, best: &mut PeakCut| {
+        let [x, y] = h.lateral(phi);
+        let f = x.hypot(y);
+        if f > best.lateral_n {
+            let (force_n, torque_nmm) = h.at(phi);
+            *best = PeakCut {
+                lateral_n: f,
+                force_n,
+                torque_nmm,
+                rotation_rad: phi.rem_euclid(period),
+            };
+        }
+    };
+    for k in 0..m {
+        // The stretch [from, to] with the same teeth engaged, then the event at `to`.
+        let (from, to) = (at(i0 + k), at(i0 + k + 1));
+        let steps = ((2.0 * (to - from) / SAMPLE_2PHI_RAD).ceil() as usize).max(1);
+        for i in 0..=steps {
+            consider(
+                &sum,
+                from + (to - from) * i as f64 / steps as f64,
+                &mut best,
+            );
+        }
+        let (_, si, enter) = events[(i0 + k + 1) % m];
+        let s = &slices[si];
+        // The tooth at the arc's bound at this rotation: α = φ + c.
+        let bound = if enter { s.arc[0] } else { s.arc[1] };
+        sum.add(&s.tooth(bound - to), if enter { 1.0 } else { -1.0 });
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const C: Coefficients = Coefficients {
+        kt_mpa: 2000.0,
+        radial_ratio: 0.3,
+        axial_ratio: 0.25,
+    };
+
+    fn close(a: f64, b: f64, tol: f64) -> bool {
+        (a - b).abs() <= tol * b.abs().max(1e-12)
+    }
+
+    #[test]
+    fn moments_of_a_ball_and_a_flat() {
+        let ball = EdgeShape::ball(5.0);
+        // Up to the equator: ∫ sin κ dz = R π/4, ∫ cos κ dz = R/2, ∫ r dz = R² π/4.
+        let m = ball.moments(0.0, 5.0);
+        assert!(close(m.sin_k_mm, 5.0 * PI / 4.0, 1e-12));
+        assert!(close(m.cos_k_mm, 2.5, 1e-12));
+        assert!(close(m.radius_mm2, 25.0 * PI / 4.0, 1e-12));
+        // Additive over heights.
+        let (a, b) = (ball.moments(0.0, 1.7), ball.moments(1.7, 7.0));
+        let w = ball.moments(0.0, 7.0);
+        assert!(close(a.sin_k_mm + b.sin_k_mm, w.sin_k_mm, 1e-12));
+        assert!(close(a.radius_mm2 + b.radius_mm2, w.radius_mm2, 1e-12));
+        let flat = EdgeShape::flat(5.0).moments(0.5, 2.5);
+        assert_eq!(
+            (flat.sin_k_mm, flat.cos_k_mm, flat.radius_mm2),
+            (2.0, 0.0, 10.0)
+        );
+    }
+
+    /// The closed forms for a ball slot, mc = 0, feed +X, M3:
+    /// κ₀ = arccos(1 − ap/R); Fy = N K_t f_z a_p/4;
+    /// Fx = −N K_t f_z R/4 [k_r(κ₀/2 − sin 2κ₀/4) + k_a sin²κ₀/2];
+    /// Fz = N K_t f_z R/π [k_r sin²κ₀/2 − k_a(κ₀/2 − sin 2κ₀/4)]; P = K_t A v_f.
+    #[test]
+    fn ball_slot_matches_the_closed_forms() {
+        let (r, n, fz) = (5.0, 2u32, 0.05);
+        let nf = f64::from(n);
+        for ap in [1.0, 3.0, 5.0] {
+            let k0 = (1.0f64 - ap / r).acos();
+            let g = k0 / 2.0 - (2.0 * k0).sin() / 4.0;
+            let s2 = k0.sin().powi(2) / 2.0;
+            let arc = BandArc {
+                z_lo_mm: 0.0,
+                z_hi_mm: ap,
+                phi_st_rad: 0.0,
+                phi_ex_rad: PI,
+            };
+            let m = mean_cut(&EdgeShape::ball(r), n, &arc, fz, &C);
+            let kt = C.kt_mpa;
+            let fx = -nf * kt * fz * r / 4.0 * (C.radial_ratio * g + C.axial_ratio * s2);
+            let fy = nf * kt * fz * ap / 4.0;
+            let fzz = nf * kt * fz * r / PI * (C.radial_ratio * s2 - C.axial_ratio * g);
+            assert!(
+                close(m.force_n[0], fx, 1e-12),
+                "ap {ap}: {:?} {fx}",
+                m.force_n
+            );
+            assert!(close(m.force_n[1], fy, 1e-12));
+            assert!(close(m.force_n[2], fzz, 1e-12));
+            // Volume per revolution = slot cross-section × feed per revolution:
+            // A = R² (κ₀ − sin κ₀ cos κ₀)… for a ball slot of depth ap,
+            // A = R² k₀ − (R − ap) √(ap (2R − ap)).
+            let area = r * r * k0 - (r - ap) * (ap * (2.0 * r - ap)).sqrt();
+            assert!(close(m.volume_mm3, area * nf * fz, 1e-12));
+            // Energy per revolution = K_t × volume (P = K_t A v_f).
+            assert!(close(2.0 * PI * m.torque_nmm, kt * m.volume_mm3, 1e-12));
+        }
+    }
+
+    /// A flat full slot: mean torque K_t a_p f_z N D/(2π), Fy = N K_t f_z a_p/4,
+    /// Fx = −k_r Fy, Fz = −k_a N K_t f_z a_p/π.
+    #[test]
+    fn flat_slot_matches_the_closed_forms() {
+        let (r, ap, fz, n) = (5.0, 2.0, 0.1, 4u32);
+        let nf = f64::from(n);
+        let arc = BandArc::side_cut(r, 2.0 * r, 0.0, ap, true);
+        let m = mean_cut(&EdgeShape::flat(r), n, &arc, fz, &C);
+        let kt = C.kt_mpa;
+        let fy = nf * kt * fz * ap / 4.0;
+        assert!(close(m.force_n[1], fy, 1e-12));
+        assert!(close(m.force_n[0], -C.radial_ratio * fy, 1e-12));
+        assert!(close(
+            m.force_n[2],
+            -C.axial_ratio * nf * kt * fz * ap / PI,
+            1e-12
+        ));
+        assert!(close(
+            m.torque_nmm,
+            kt * ap * fz * nf * 2.0 * r / (2.0 * PI),
+            1e-12
+        ));
+    }
+
+    /// Flat side cuts against Altintas' mean forces (*Manufacturing Automation*
+    /// eq. 2.x, the same instantaneous forces integrated over the arc):
+    /// `F̄x = N a f_z/(8π) [K_t cos 2φ − K_r (2φ − sin 2φ)]`,
+    /// `F̄y = N a f_z/(8π) [K_t (2φ − sin 2φ) + K_r cos 2φ]` from φ_st to φ_ex;
+    /// and at small immersion the wall pushes the tool away from the material.
+    #[test]
+    fn flat_side_cuts_match_altintas() {
+        let (r, ap, fz, n) = (5.0, 2.0, 0.1, 3u32);
+        let nf = f64::from(n);
+        let kt = C.kt_mpa;
+        let kr = C.radial_ratio;
+        for (ae, up) in [
+            (1.0, true),
+            (1.0, false),
+            (5.0, true),
+            (5.0, false),
+            (0.2, true),
+            (0.2, false),
+        ] {
+            let arc = BandArc::side_cut(r, ae, 0.0, ap, up);
+            let m = mean_cut(&EdgeShape::flat(r), n, &arc, fz, &C);
+            let k = nf * ap * fz / (8.0 * PI);
+            let fx = |p: f64| kt * (2.0 * p).cos() - kt * kr * (2.0 * p - (2.0 * p).sin());
+            let fy = |p: f64| kt * (2.0 * p - (2.0 * p).sin()) + kt * kr * (2.0 * p).cos();
+            let (a, b) = (arc.phi_st_rad, arc.phi_ex_rad);
+            let (ax, ay) = (k * (fx(b) - fx(a)), k * (fy(b) - fy(a)));
+            assert!(
+                close(m.force_n[0], ax, 1e-12),
+                "ae {ae} up {up}: {:?} {ax}",
+                m.force_n
+            );
+            assert!(
+                close(m.force_n[1], ay, 1e-12),
+                "ae {ae} up {up}: {:?} {ay}",
+                m.force_n
+            );
+            if ae <= 0.2 {
+                // A wall finish: material on the left (up milling) pushes the
+                // tool right (−y), on the right left (+y).
+                assert_eq!(m.force_n[1] < 0.0, up, "ae {ae} up {up}: {:?}", m.force_n);
+            }
+        }
+    }
+
+    /// One straight tooth in a flat slot (N = 2, β = 0: one tooth engaged at a
+    /// time): the peak is at φ = π/2, `K_t a_p f_z √(1 + k_r²)`.
+    #[test]
+    fn peak_of_a_straight_two_flute_slot() {
+        let (r, ap, fz) = (5.0, 2.0, 0.1);
+        let teeth = Teeth {
+            flutes: 2,
+            helix_deg: 0.0,
+        };
+        let arc = BandArc::side_cut(r, 2.0 * r, 0.0, ap, true);
+        let p = peak_cut(
+            &EdgeShape::flat(r),
+            &teeth,
+            &[(arc, fz)],
+            &C,
+            &mut PeakScratch::default(),
+        );
+        let want = C.kt_mpa * ap * fz * (1.0 + C.radial_ratio.powi(2)).sqrt();
+        assert!(close(p.lateral_n, want, 1e-9), "{p:?} {want}");
+        assert!(close(p.rotation_rad, PI / 2.0, 1e-9), "{p:?}");
+        assert!(
+            close(p.force_n[2], -C.axial_ratio * C.kt_mpa * ap * fz, 1e-9),
+            "{p:?}"
+        );
+    }
+
+    /// The mean of the instantaneous force over a tooth period is the closed
+    /// form, for a helical ball in a side step (slices and lags included).
+    #[test]
+    fn instantaneous_force_averages_to_the_mean() {
+        let shape = EdgeShape::ball(5.0);
+        let teeth = Teeth {
+            flutes: 3,
+            helix_deg: 30.0,
+        };
+        let bands = [
+            (
+                BandArc::from_offsets(&shape, 0.0, 1.0, [1.0, 3.0], 0.0).unwrap(),
+                0.07,
+            ),
+            (
+                BandArc::from_offsets(&shape, 1.0, 2.0, [2.0, 5.0], 0.0).unwrap(),
+                0.05,
+            ),
+        ];
+        let mean = bands.iter().fold([0.0; 3], |acc, (arc, fz)| {
+            let m = mean_cut(&shape, teeth.flutes, arc, *fz, &C);
+            [
+                acc[0] + m.force_n[0],
+                acc[1] + m.force_n[1],
+                acc[2] + m.force_n[2],
+            ]
+        });
+        // Average the piecewise closed form on a fine grid of rotations.
+        let period = 2.0 * PI / 3.0;
+        let k = 20_000;
+        let mut avg = [0.0; 3];
+        for i in 0..k {
+            let phi = (i as f64 + 0.5) / k as f64 * period;
+            let f = force_at(&shape, &teeth, &bands, &C, phi);
+            for d in 0..3 {
+                avg[d] += f[d] / k as f64;
+            }
+        }
+        for d in 0..3 {
+            assert!(
+                (avg[d] - mean[d]).abs() < 1e-3 * mean[0].hypot(mean[1]),
+                "{avg:?} {mean:?}"
+            );
+        }
+        let p = peak_cut(&shape, &teeth, &bands, &C, &mut PeakScratch::default());
+        // The peak is the largest lateral force on the fine grid (within its step).
+        let grid_max = (0..k)
+            .map(|i| {
+                let f = force_at(&shape, &teeth, &bands, &C, i as f64 / k as f64 * period);
+                f[0].hypot(f[1])
+            })
+            .fold(0.0, f64::max);
+        assert!(
+            p.lateral_n >= grid_max * (1.0 - 1e-6),
+            "{} {grid_max}",
+            p.lateral_n
+        );
+        assert!(
+            p.lateral_n <= grid_max * (1.0 + 1e-3),
+            "{} {grid_max}",
+            p.lateral_n
+        );
+    }
+
+    /// The force at one rotation summed element by element (the test's own
+    /// sum: slices as `peak_cut` cuts them, teeth tested one by one).
+    fn force_at(
+        shape: &EdgeShape,
+        teeth: &Teeth,
+        bands: &[(BandArc, f64)],
+        c: &Coefficients,
+        phi: f64,
+    ) -> [f64; 3] {
+        let n = teeth.flutes;
+        let lag_per_mm = teeth.helix_deg.to_radians().tan() / shape.radius_mm;
+        let mut f = [0.0; 3];
+        for (arc, fz) in bands {
+            let span = arc.z_hi_mm - arc.z_lo_mm;
+            let k = ((span * lag_per_mm / SLICE_LAG_RAD).ceil() as usize).clamp(1, MAX_SLICES);
+            for i in 0..k {
+                let z0 = arc.z_lo_mm + span * i as f64 / k as f64;
+                let z1 = arc.z_lo_mm + span * (i + 1) as f64 / k as f64;
+                let m = shape.moments(z0, z1);
+                let lag = 0.5 * (z0 + z1) * lag_per_mm;
+                for j in 0..n {
+                    let alpha =
+                        (phi + f64::from(j) * 2.0 * PI / f64::from(n) - lag).rem_euclid(2.0 * PI);
+                    if alpha < arc.phi_st_rad || alpha >= arc.phi_ex_rad {
+                        continue;
+                    }
+                    let (s, co) = alpha.sin_cos();
+                    let a = c.radial_ratio * m.sin_k_mm + c.axial_ratio * m.cos_k_mm;
+                    let b = c.radial_ratio * m.cos_k_mm - c.axial_ratio * m.sin_k_mm;
+                    let kf = c.kt_mpa * fz;
+                    f[0] += kf * (-m.length_mm * s * co - a * s * s);
+                    f[1] += kf * (m.length_mm * s * s - a * s * co);
+                    f[2] += kf * b * s;
+                }
+            }
+        }
+        f
+    }
+}
