@@ -2,12 +2,11 @@
 //! ([`fit_force_law`]), and Kienzle's `kc1_1`, `mc` and force ratios from the spindle power and
 //! mean forces of straight flat end mill cuts ([`fit_kienzle`], MODEL.md §3.2 "Calibration").
 
-use std::f64::consts::PI;
-
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::kienzle::{mean_chip_thickness_mm, side_cut_angles, Kienzle};
+use crate::kienzle::{mean_chip_thickness_mm, Kienzle};
+use crate::tooth::{self, BandArc, Coefficients, EdgeShape};
 
 /// Result of [`fit_force_law`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -192,18 +191,18 @@ impl Cut {
         Ok(())
     }
 
-    /// The immersion (φ_st, φ_ex), rad, φ clockwise from +y (the feed's left): up milling
-    /// `(0, arccos(1 − a_e/R))`, down milling `(π − arccos(1 − a_e/R), π)`, a slot `(0, π)`.
+    /// The cut's engaged arc: the tool's flank from the tip to `a_p`, from φ_st to φ_ex (rad, φ
+    /// clockwise from +y, the feed's left): up milling `(0, arccos(1 − a_e/R))`, down milling
+    /// `(π − arccos(1 − a_e/R), π)`, a slot `(0, π)` ([`BandArc::side_cut`]).
+    pub fn arc(&self) -> BandArc {
+        let up = self.milling != Milling::Down;
+        BandArc::side_cut(0.5 * self.diameter_mm, self.ae_mm, 0.0, self.ap_mm, up)
+    }
+
+    /// The immersion (φ_st, φ_ex), rad ([`Cut::arc`]).
     pub fn engagement_rad(&self) -> (f64, f64) {
-        let r = 0.5 * self.diameter_mm;
-        match self.milling {
-            Milling::Slot => (0.0, PI),
-            Milling::Up => side_cut_angles(self.ae_mm, r),
-            Milling::Down => {
-                let (_, sweep) = side_cut_angles(self.ae_mm, r);
-                (PI - sweep, PI)
-            }
-        }
+        let arc = self.arc();
+        (arc.phi_st_rad, arc.phi_ex_rad)
     }
 
     /// The mean chip thickness h_m over the immersion, mm (MODEL.md §3.2).
@@ -249,22 +248,16 @@ impl Cut {
         ]
     }
 
-    /// The mean force on a flat end mill's cylindrical flank over one revolution, N, for the
-    /// coefficients `kt_mpa`, `kr`, `ka` (Altintas, *Manufacturing Automation*, eq. 2.22 with
-    /// the edge coefficients 0): with `c = N a_p f_z K_t / (2π)` and the immersion integrals
-    /// `I_s = ∫ sin φ`, `I_ss = ∫ sin²φ`, `I_sc = ∫ sin φ cos φ` (dφ, φ_st…φ_ex),
-    /// `F̄ = c [−I_sc − k_r I_ss, I_ss − k_r I_sc, −k_a I_s]`.
+    /// The mean force on the tool over one revolution, N, for the coefficients `kt_mpa`, `kr`,
+    /// `ka`: [`tooth::mean_cut`] of the flat end's flank over the cut's arc.
     fn mean_force_n(&self, kt_mpa: f64, kr: f64, ka: f64) -> [f64; 3] {
-        let (a, b) = self.engagement_rad();
-        let ss = |p: f64| p / 2.0 - (2.0 * p).sin() / 4.0;
-        let sc = |p: f64| p.sin().powi(2) / 2.0;
-        let (i_s, i_ss, i_sc) = (a.cos() - b.cos(), ss(b) - ss(a), sc(b) - sc(a));
-        let c = f64::from(self.flutes) * self.ap_mm * self.fz_mm * kt_mpa / (2.0 * PI);
-        [
-            c * (-i_sc - kr * i_ss),
-            c * (i_ss - kr * i_sc),
-            -c * ka * i_s,
-        ]
+        let coefficients = Coefficients {
+            kt_mpa,
+            radial_ratio: kr,
+            axial_ratio: ka,
+        };
+        let shape = EdgeShape::flat(0.5 * self.diameter_mm);
+        tooth::mean_cut(&shape, self.flutes, &self.arc(), self.fz_mm, &coefficients).force_n
     }
 
     /// The tangential coefficient and the radial one times it, `(K_t, K_t k_r)`, that give the
@@ -518,6 +511,7 @@ fn log_line(points: &[(f64, f64)]) -> Option<LogLine> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::PI;
 
     #[test]
     fn recovers_exact_law() {
