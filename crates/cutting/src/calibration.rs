@@ -260,17 +260,15 @@ impl Cut {
         tooth::mean_cut(&shape, self.flutes, &self.arc(), self.fz_mm, &coefficients).force_n
     }
 
-    /// The tangential coefficient and the radial one times it, `(K_t, K_t k_r)`, that give the
-    /// measured x and y forces exactly (two equations, two unknowns; `None` without forces).
-    fn kt_from_forces(&self) -> Option<(f64, f64)> {
+    /// The tangential coefficient K_t that, with some k_r, gives the measured x and y forces
+    /// exactly (`None` without forces).
+    fn kt_from_forces(&self) -> Option<f64> {
         let f = self.force_n?;
         let [bt, br, _] = self.force_basis();
-        // [bt.x br.x; bt.y br.y] (Kt, Kt kr)ᵀ = (Fx, Fy)ᵀ by Cramer's rule; the determinant is
+        // [bt.x br.x; bt.y br.y] (K_t, K_t k_r)ᵀ = (Fx, Fy)ᵀ by Cramer's rule; the determinant is
         // (N a_p f_z / 2π)² (I_sc² + I_ss²) > 0 on any immersion.
         let det = bt[0] * br[1] - bt[1] * br[0];
-        let kt = (f[0] * br[1] - f[1] * br[0]) / det;
-        let ktkr = (bt[0] * f[1] - bt[1] * f[0]) / det;
-        Some((kt, ktkr))
+        Some((f[0] * br[1] - f[1] * br[0]) / det)
     }
 }
 
@@ -345,7 +343,7 @@ pub fn fit_kienzle(cuts: &[Cut]) -> Result<KienzleFit, FitError> {
     for (index, cut) in cuts.iter().enumerate() {
         let kc = match kc_source {
             KcSource::Power => cut.kc_from_power_mpa(),
-            KcSource::Forces => cut.kt_from_forces().map(|(kt, _)| kt),
+            KcSource::Forces => cut.kt_from_forces(),
         }
         .unwrap_or(f64::NAN);
         if !(kc > 0.0 && kc.is_finite()) {

@@ -435,6 +435,21 @@ mod tests {
         assert_eq!(c.mc, Some(0.22));
         assert_eq!(c.radial_ratio, Some(0.3));
         assert_eq!(c.axial_ratio, Some(0.25));
+        // Forces alone (no power_w column): K_t from each cut's x and y forces.
+        let forces_only: String = rows()
+            .lines()
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').collect();
+                format!("{},{}\n", f[..8].join(","), f[9..].join(","))
+            })
+            .collect();
+        let (cuts, _) = read_cuts(&forces_only, "m.csv").unwrap();
+        assert!(cuts
+            .iter()
+            .all(|c| c.power_w.is_none() && c.force_n.is_some()));
+        let fit = cutting::fit_kienzle(&cuts).unwrap();
+        assert_eq!(fit.kc_source, cutting::calibration::KcSource::Forces);
+        assert!((fit.kc1_1_mpa - 1500.0).abs() < 1e-6 && (fit.mc - 0.22).abs() < 1e-9);
         // The power law's too.
         let fit =
             Calibration::PowerLaw(cutting::fit_force_law(&[(0.01, 10.0), (0.1, 50.0)]).unwrap());
