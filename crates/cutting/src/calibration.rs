@@ -647,6 +647,7 @@ mod tests {
     fn kienzle_round_trip_is_exact_without_noise() {
         let cuts = measured(&TRUE_LAW, || 0.0);
         let fit = fit_kienzle(&cuts).unwrap();
+        eprintln!("{fit:?}");
         assert!((fit.kc1_1_mpa - 1500.0).abs() < 1e-9 * 1500.0, "{fit:?}");
         assert!((fit.mc - 0.22).abs() < 1e-9, "{fit:?}");
         assert!((fit.radial_ratio.unwrap() - 0.3).abs() < 1e-9, "{fit:?}");
