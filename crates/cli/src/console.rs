@@ -271,17 +271,49 @@ pub fn evaluate(ev: &DriveEvaluation, out: &Path) {
     outln!("results in {}", out.display());
 }
 
-/// The force-law fit of `calibrate`.
-pub fn calibrate(fit: &cutting::Fit) {
-    outln!("F = a·V^n fitted to {} points:", fit.points);
-    outln!("  force_a = {:.6}", fit.a);
-    outln!("  force_n = {:.6}", fit.n);
-    outln!(
-        "  rms error: {:.4} (log), {:.2} % (relative)",
-        fit.rms_log_error,
-        100.0 * fit.rms_rel_error
-    );
-    outln!("put force_a and force_n into the job's [cutting] section");
+/// The fit of `calibrate`: its quality, then the `[cutting]` fragment.
+pub fn calibrate(fit: &dexcut::commands::Calibration, out: Option<&Path>) {
+    use dexcut::commands::Calibration;
+    match fit {
+        Calibration::PowerLaw(fit) => {
+            outln!("F = a·V^n fitted to {} points:", fit.points);
+            outln!("  force_a = {:.6}", fit.a);
+            outln!("  force_n = {:.6}", fit.n);
+            outln!(
+                "  rms error: {:.4} (log), {:.2} % (relative)",
+                fit.rms_log_error,
+                100.0 * fit.rms_rel_error
+            );
+        }
+        Calibration::Kienzle(fit) => {
+            let q = &fit.kc_quality;
+            let source = match fit.kc_source {
+                cutting::calibration::KcSource::Power => "the spindle power",
+                cutting::calibration::KcSource::Forces => "the x and y forces",
+            };
+            outln!(
+                "kc = kc1_1·h_m^-mc fitted to {} cuts (kc from {source}): rms error {:.2} %, R² {:.4}",
+                q.points,
+                100.0 * q.rms_rel_error,
+                q.r_squared
+            );
+            if let Some(q) = &fit.force_quality {
+                outln!(
+                    "mean forces fitted on {} cuts: rms error {:.2} % of |F|, R² {:.4}",
+                    q.points,
+                    100.0 * q.rms_rel_error,
+                    q.r_squared
+                );
+            }
+        }
+    }
+    outln!("put these keys into the job's [cutting] section:");
+    for line in fit.fragment().lines() {
+        outln!("{line}");
+    }
+    if let Some(out) = out {
+        outln!("wrote {}", out.display());
+    }
 }
 
 /// The folder `example` wrote and how to run it.

@@ -169,10 +169,26 @@ enum Command {
         #[arg(long)]
         force: bool,
     },
-    /// Fit the force law F = a·V^n to measurements: a CSV with columns v_mm3 (volume per tooth) and force_n.
+    /// Fit the force law to measurements; print the job's [cutting] keys.
+    ///
+    /// The CSV's header picks the law. Kienzle (kc1_1, mc, and radial_ratio and
+    /// axial_ratio when forces are given): one row per straight cut of a flat end
+    /// mill, columns tool (flat), diameter_mm, flutes, ap_mm, ae_mm, fz_mm (feed per
+    /// tooth), rpm, milling (up, down or slot; a slot has ae_mm = diameter_mm), and
+    /// what was measured, averaged over the cut: power_w (spindle cutting power, W,
+    /// idle power subtracted) and/or force_x_n, force_y_n, force_z_n (mean force on
+    /// the tool, N: x along the feed, y to its left, z up, M3 spindle; up milling has
+    /// the material on the left). S4's power law F = a·V^n: columns v_mm3 (volume
+    /// per tooth, mm³) and force_n (N).
     Calibrate {
         /// Measurements CSV.
         csv: PathBuf,
+        /// Also write the [cutting] fragment (TOML) to this file.
+        #[arg(long, value_name = "FILE")]
+        out: Option<PathBuf>,
+        /// Replace the --out file if it exists.
+        #[arg(long)]
+        force: bool,
     },
     /// Write a job fitted to a G-code program, to edit: a box stock around its
     /// feed moves, the tool from --tool or the program's comments, aluminium,
@@ -400,7 +416,10 @@ fn run(command: Command) -> Result<(), dexcut::Error> {
             )?;
             console::evaluate(&ev, &out);
         }
-        Command::Calibrate { csv } => console::calibrate(&dexcut::commands::calibrate(&csv)?),
+        Command::Calibrate { csv, out, force } => console::calibrate(
+            &dexcut::commands::calibrate(&csv, out.as_deref(), force)?,
+            out.as_deref(),
+        ),
         Command::Job {
             program,
             tool,

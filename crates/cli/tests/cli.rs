@@ -448,6 +448,109 @@ fn calibrate_recovers_the_force_law() {
     );
 }
 
+/// `calibrate` on straight cuts measured under kc1_1 = 1500, mc = 0.22, k_r = 0.3,
+/// k_a = 0.25 (power and forces from the same model): the fragment file holds them, and
+/// reads as a job's `[cutting]` table; a bad cell is named at its line and column.
+#[test]
+fn calibrate_fits_kienzle_and_writes_the_fragment() {
+    use cutting::calibration::{Cut, Milling};
+    let law = cutting::Kienzle {
+        kc1_1_mpa: 1500.0,
+        mc: 0.22,
+        radial_ratio: 0.3,
+        axial_ratio: 0.25,
+    };
+    let mut csv = String::from(
+        "tool,diameter_mm,flutes,ap_mm,ae_mm,fz_mm,rpm,milling,power_w,force_x_n,force_y_n,force_z_n\n",
+    );
+    for (ae, milling, m) in [
+        (2.0, Milling::Up, "up"),
+        (4.0, Milling::Down, "down"),
+        (8.0, Milling::Slot, "slot"),
+    ] {
+        for fz in [0.02, 0.05, 0.1] {
+            let cut = Cut {
+                diameter_mm: 8.0,
+                flutes: 4,
+                ap_mm: 6.0,
+                ae_mm: ae,
+                fz_mm: fz,
+                rpm: 7000.0,
+                milling,
+                power_w: None,
+                force_n: None,
+            };
+            let f = cut.force_n_of(&law);
+            csv += &format!(
+                "flat,8,4,6,{ae},{fz},7000,{m},{:?},{:?},{:?},{:?}\n",
+                cut.power_w_of(&law),
+                f[0],
+                f[1],
+                f[2]
+            );
+        }
+    }
+    let dir = tempdir();
+    write(dir.path(), "cuts.csv", &csv);
+    let out = dexcut(
+        &["calibrate", "cuts.csv", "--out", "cutting.toml"],
+        dir.path(),
+    );
+    ok(&out);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("fitted to 9 cuts (kc from the spindle power): rms error 0.00 %, R² 1.0000")
+            && text.contains("kc1_1 = 1500.000"),
+        "{text}"
+    );
+    let fragment = std::fs::read_to_string(dir.path().join("cutting.toml")).unwrap();
+    assert_eq!(
+        fragment,
+        "[cutting]\nmodel = \"kienzle\"\nkc1_1 = 1500.000\nmc = 0.220000\nradial_ratio = 0.300000\naxial_ratio = 0.250000\n"
+    );
+    // The fragment is a job's [cutting]: a job with it simulates.
+    write(dir.path(), "slot.csv", "x,y,z\n-10,0,28\n20,0,28\n");
+    let job = SLOT_JOB.replace("[cutting]\nband_height = 1.0\n", &fragment);
+    assert!(job.contains("kc1_1 = 1500.000"));
+    write(dir.path(), "job.toml", &job);
+    ok(&dexcut(
+        &["simulate", "job.toml", "--out", "out"],
+        dir.path(),
+    ));
+    // The existing fragment is not replaced without --force.
+    assert_refused(
+        dir.path(),
+        &["calibrate", "cuts.csv", "--out", "cutting.toml"],
+        &["cutting.toml exists: give --force"],
+        None,
+    );
+    ok(&dexcut(
+        &["calibrate", "cuts.csv", "--out", "cutting.toml", "--force"],
+        dir.path(),
+    ));
+    // A bad cell: named at its file, line and column; exit 1; no fragment written.
+    write(
+        dir.path(),
+        "bad.csv",
+        &csv.replacen(",4,6,4,", ",4,6,9,", 1),
+    );
+    assert_refused(
+        dir.path(),
+        &["calibrate", "bad.csv", "--out", "bad.toml"],
+        &["bad.csv:5:12: ae (9 mm) is wider than the tool's diameter (8 mm)"],
+        Some("bad.toml"),
+    );
+    // One chip thickness only.
+    let one: String = csv.lines().take(2).map(|l| format!("{l}\n")).collect();
+    write(dir.path(), "one.csv", &one);
+    assert_refused(
+        dir.path(),
+        &["calibrate", "one.csv"],
+        &["one.csv: cannot fit: the 1 cuts have 1 distinct mean chip thickness(es)"],
+        None,
+    );
+}
+
 #[test]
 fn plunge_removes_the_ball_volume_through_the_cli() {
     let dir = tempdir();

@@ -3,7 +3,7 @@
 //! Everything here takes values and returns values (no I/O, no allocation per step):
 //!
 //! * [`material`]: force-law coefficients `F = a · V^n` per work material, starting points to be
-//!   calibrated with [`calibration::fit_force_law`].
+//!   calibrated with [`calibration::fit_force_law`] (and Kienzle's with [`calibration::fit_kienzle`]).
 //! * [`chipload`]: the largest feed per tooth by tool diameter and material, and its feed cap.
 //! * [`force`]: volume per tooth per revolution and the force law.
 //! * [`kienzle`]: Kienzle's specific cutting force and the mean chip thickness of milling.
@@ -36,7 +36,7 @@ pub mod surface;
 pub mod tooth;
 
 pub use beam::{Cantilever, SteppedBeam};
-pub use calibration::{fit_force_law, Fit, FitError};
+pub use calibration::{fit_force_law, fit_kienzle, Cut, Fit, FitError, KienzleFit, Milling};
 pub use force::{force_n, volume_per_tooth_at_force_mm3, volume_per_tooth_mm3};
 pub use kienzle::{mean_chip_thickness_mm, Kienzle};
 pub use load::{force_direction, CuttingModel, ForceModel, StepLoad, StepRemoval};

@@ -4,12 +4,13 @@
 //! during the work (warnings) goes to the caller's `on_warning`; the `dexcut`
 //! binary formats both.
 
+pub mod calibrate;
 pub mod sequence;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::error::{fail, Error, Result, ResultExt as _};
+use crate::error::{fail, Error, Result};
 use dexel::Stock;
 
 use crate::model::summary::{GridInfo, Summary};
@@ -27,6 +28,7 @@ pub use crate::model::summary::{
     DesignInfo, DeviationKind, LimitsOut, LineDeviation, OptimizeSummary, SimulateSummary,
 };
 pub use crate::setup::{Setup, MAX_LINEARISED_SEGMENTS};
+pub use calibrate::{calibrate, read_calibration, Calibration};
 
 /// Write the steps (steps.csv and/or the steps' `.npy` arrays, as
 /// `steps_format` says) and the per-column results of a run (the `.npy` grid,
@@ -967,57 +969,4 @@ fn optimize_outputs(
 /// `dexcut report DIR`.
 pub fn report(dir: &Path) -> Result<crate::report::ReportFiles> {
     crate::report::write_report(dir)
-}
-
-/// `dexcut calibrate CSV`: least-squares fit of F = a·V^n in log space.
-pub fn calibrate(path: &Path) -> Result<cutting::Fit> {
-    let text = crate::bounds::read_text(path, "measurements", crate::bounds::MAX_CSV_BYTES)?;
-    let points = read_calibration(&text, &path.display().to_string())?;
-    let fit =
-        cutting::fit_force_law(&points).or_run(|| format!("{}: cannot fit", path.display()))?;
-    Ok(fit)
-}
-
-/// (volume per tooth mm³, force N) pairs from CSV text with columns v_mm3 and force_n.
-pub fn read_calibration(text: &str, file: &str) -> Result<Vec<(f64, f64)>> {
-    let mut reader = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .from_reader(text.as_bytes());
-    let headers = reader
-        .headers()
-        .or_input(file, 1, 1, || "cannot read the header".into())?
-        .clone();
-    let find = |n: &str| headers.iter().position(|h| h.eq_ignore_ascii_case(n));
-    let (Some(iv), Some(if_)) = (find("v_mm3"), find("force_n")) else {
-        return Err(Error::input(
-            file,
-            1,
-            1,
-            "the header must name columns v_mm3 and force_n",
-        ));
-    };
-    let mut points = Vec::new();
-    for rec in reader.records() {
-        let rec = rec.or_results(|| format!("{file}: bad row"))?;
-        let line = rec.position().map_or(0, |p| p.line());
-        let num = |i: usize| -> Result<f64> {
-            let raw = rec.get(i).unwrap_or("");
-            let col = rec.range(i).map_or(1, |r| r.start + i + 1);
-            let col = col as u64;
-            let v: f64 = raw
-                .parse()
-                .or_input(file, line, col, || format!("not a number: {raw:?}"))?;
-            // The law F = a·V^n is fitted in logs: only positive, finite values mean anything.
-            if !(v > 0.0 && v.is_finite()) {
-                let message = format!(
-                    "{} must be a positive, finite number, got {raw}",
-                    headers.get(i).unwrap_or("value")
-                );
-                return Err(Error::input(file, line, col, message));
-            }
-            Ok(v)
-        };
-        points.push((num(iv)?, num(if_)?));
-    }
-    Ok(points)
 }
