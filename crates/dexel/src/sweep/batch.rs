@@ -540,6 +540,17 @@ impl<'m> Stream<'m> {
         }
     }
 
+    /// [`Stream::advance`] over a record's full rows and offset ranges.
+    fn advance_record(
+        &mut self,
+        record: &mut RemovalRecord,
+        spill: &mut Vec<f64>,
+        steps: &(impl StepSource + ?Sized),
+        swept: usize,
+    ) {
+        self.advance(&mut record.data, &mut record.offsets, spill, steps, swept);
+    }
+
     /// Steps before `swept` are swept (their rows, offset ranges and
     /// shares, from `first` on, in `rows`, `offsets` and `spill`): make
     /// final and move out those that are.
@@ -627,13 +638,7 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
             if options.smooth {
                 spill.resize(steps.len() * 2 * HEAD, 0.0);
             }
-            stream.advance(
-                &mut record.data,
-                &mut record.offsets,
-                spill,
-                steps,
-                steps.len(),
-            );
+            stream.advance_record(record, spill, steps, steps.len());
         }
         progress(steps.len());
         return;
@@ -643,7 +648,6 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
     // the band holds, cut at its edges.
     let first_strip = rows.start / strip_rows;
     let n_strips = (rows.end - 1) / strip_rows + 1 - first_strip;
-    let strip_row0 = |s: usize| ((first_strip + s) * strip_rows).max(rows.start);
     let stride = HEAD + banding.n_bands;
     let width = partial_width(banding, options.smooth);
     let batch = options.batch_steps.max(1);
@@ -719,13 +723,7 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
         if counts[n_strips] == 0 {
             // No move of the batch reaches the band.
             if let Some(stream) = stream.as_deref_mut() {
-                stream.advance(
-                    &mut record.data,
-                    &mut record.offsets,
-                    spill,
-                    steps,
-                    first_step + chunk_len,
-                );
+                stream.advance_record(record, spill, steps, first_step + chunk_len);
             }
             done += chunk_len;
             progress(done);
@@ -760,59 +758,20 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
         ranges.clear();
         ranges.reserve_exact(entries.len() * n_bands);
         ranges.resize(entries.len() * n_bands, EMPTY_OFFSETS);
-        // Split columns, the rows' intervals below their tops, last-cut marks
-        // and partial sums into per-strip pieces.
-        type Piece<'a> = (
-            &'a mut [f32],
-            BottomsMut<'a>,
-            &'a mut [RowBelow],
-            &'a mut [u32],
-            &'a mut [f64],
-            &'a mut [[f32; 2]],
+        let strips = Strips {
+            first: first_strip,
+            count: n_strips,
+            rows: strip_rows,
+            band: rows.clone(),
+        };
+        let visited = run_strips(
+            &job,
+            stock,
+            &strips,
+            (&counts, &entries),
+            &mut partial,
+            &mut ranges,
         );
-        let mut pieces: Vec<Piece> = Vec::with_capacity(n_strips);
-        let mut rest: &mut [f64] = &mut partial;
-        let mut ranges_rest: &mut [[f32; 2]] = &mut ranges;
-        let (mut cols_rest, mut bottoms_rest, mut below_rest, mut last_rest) = stock.parts_mut();
-        for s in 0..n_strips {
-            let n = (counts[s + 1] - counts[s]) as usize * width;
-            let (head, tail) = rest.split_at_mut(n);
-            rest = tail;
-            let n_ranges = (counts[s + 1] - counts[s]) as usize * n_bands;
-            let (strip_ranges, ranges_tail) = ranges_rest.split_at_mut(n_ranges);
-            ranges_rest = ranges_tail;
-            let strip_end = ((first_strip + s + 1) * strip_rows).min(rows.end);
-            let (below, below_tail) = below_rest.split_at_mut(strip_end - strip_row0(s));
-            below_rest = below_tail;
-            let len = (strip_end - strip_row0(s)) * grid.nx;
-            let (cols, cols_tail) = cols_rest.split_at_mut(len);
-            cols_rest = cols_tail;
-            let (bottoms, bottoms_tail) = bottoms_rest.split_at_mut(len);
-            bottoms_rest = bottoms_tail;
-            let (last, last_tail) = last_rest.split_at_mut(len);
-            last_rest = last_tail;
-            pieces.push((cols, bottoms, below, last, head, strip_ranges));
-        }
-        let visited: u64 = pieces
-            .into_par_iter()
-            .enumerate()
-            .map(|(s, (cols, bottoms, below, last, out, rng))| {
-                let ents = &entries[counts[s] as usize..counts[s + 1] as usize];
-                if ents.is_empty() {
-                    0
-                } else {
-                    let r0 = strip_row0(s);
-                    match bottoms {
-                        BottomsMut::Uniform(lo) => {
-                            job.run(r0, cols, lo, below, last, ents, out, rng)
-                        }
-                        BottomsMut::Columns(lo) => {
-                            job.run(r0, cols, lo, below, last, ents, out, rng)
-                        }
-                    }
-                }
-            })
-            .sum();
         record.columns_evaluated += visited;
         add_batch_sums(
             &mut record.data,
@@ -833,13 +792,7 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
             base,
         );
         if let Some(stream) = stream.as_deref_mut() {
-            stream.advance(
-                &mut record.data,
-                &mut record.offsets,
-                spill,
-                steps,
-                first_step + chunk_len,
-            );
+            stream.advance_record(record, spill, steps, first_step + chunk_len);
         }
         done += chunk_len;
         progress(done);
@@ -881,6 +834,88 @@ fn add_batch_sums(
             }
         }
     }
+}
+
+/// The strips of a band of rows: strip s holds the grid's rows
+/// `(first + s)·rows ..`, cut at the band's edges.
+struct Strips {
+    first: usize,
+    count: usize,
+    rows: usize,
+    band: std::ops::Range<usize>,
+}
+
+impl Strips {
+    fn row0(&self, s: usize) -> usize {
+        ((self.first + s) * self.rows).max(self.band.start)
+    }
+}
+
+/// Run a batch's strips in parallel: the stock's columns, the rows'
+/// intervals below their tops, the last-cut marks, the partial sums and the
+/// ranges of offsets split into per-strip pieces, each strip given its
+/// entries (`counts`, `entries`: the batch's moves binned by strip, CSR).
+/// Returns the columns visited.
+fn run_strips<E: Envelope>(
+    job: &StripJob<'_, E>,
+    stock: &mut Stock,
+    strips: &Strips,
+    (counts, entries): (&[u32], &[u32]),
+    partial: &mut [f64],
+    ranges: &mut [[f32; 2]],
+) -> u64 {
+    let grid = *stock.grid();
+    let width = partial_width(job.banding, job.smooth);
+    let n_bands = job.banding.n_bands;
+    // Split columns, the rows' intervals below their tops, last-cut marks
+    // and partial sums into per-strip pieces.
+    type Piece<'a> = (
+        &'a mut [f32],
+        BottomsMut<'a>,
+        &'a mut [RowBelow],
+        &'a mut [u32],
+        &'a mut [f64],
+        &'a mut [[f32; 2]],
+    );
+    let mut pieces: Vec<Piece> = Vec::with_capacity(strips.count);
+    let mut rest: &mut [f64] = partial;
+    let mut ranges_rest: &mut [[f32; 2]] = ranges;
+    let (mut cols_rest, mut bottoms_rest, mut below_rest, mut last_rest) = stock.parts_mut();
+    for s in 0..strips.count {
+        let n = (counts[s + 1] - counts[s]) as usize * width;
+        let (head, tail) = rest.split_at_mut(n);
+        rest = tail;
+        let n_ranges = (counts[s + 1] - counts[s]) as usize * n_bands;
+        let (strip_ranges, ranges_tail) = ranges_rest.split_at_mut(n_ranges);
+        ranges_rest = ranges_tail;
+        let strip_end = ((strips.first + s + 1) * strips.rows).min(strips.band.end);
+        let (below, below_tail) = below_rest.split_at_mut(strip_end - strips.row0(s));
+        below_rest = below_tail;
+        let len = (strip_end - strips.row0(s)) * grid.nx;
+        let (cols, cols_tail) = cols_rest.split_at_mut(len);
+        cols_rest = cols_tail;
+        let (bottoms, bottoms_tail) = bottoms_rest.split_at_mut(len);
+        bottoms_rest = bottoms_tail;
+        let (last, last_tail) = last_rest.split_at_mut(len);
+        last_rest = last_tail;
+        pieces.push((cols, bottoms, below, last, head, strip_ranges));
+    }
+    pieces
+        .into_par_iter()
+        .enumerate()
+        .map(|(s, (cols, bottoms, below, last, out, rng))| {
+            let ents = &entries[counts[s] as usize..counts[s + 1] as usize];
+            if ents.is_empty() {
+                0
+            } else {
+                let r0 = strips.row0(s);
+                match bottoms {
+                    BottomsMut::Uniform(lo) => job.run(r0, cols, lo, below, last, ents, out, rng),
+                    BottomsMut::Columns(lo) => job.run(r0, cols, lo, below, last, ents, out, rng),
+                }
+            }
+        })
+        .sum()
 }
 
 /// Merge a batch's ranges of lateral offsets (`ranges`, `n_bands` for each
