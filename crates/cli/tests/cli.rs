@@ -1016,31 +1016,27 @@ fn wall_cut_with_constant_load_has_constant_error() {
         // milling (wall at +y) pulls it into the wall (+y too: the tangential force
         // dominates the radial one, MODEL.md §3.2).
         assert!(lo > 0.0 && hi < 1.05 * lo, "{climb}: {lo}..{hi}");
-        // The wall's outward normal is ≈ −y for the +y wall, +y for the −y wall:
-        // error = offset · n̂ ≈ ±dy, material left in climb milling, an overcut in up milling.
+        // The wall is left when a tooth passes the flank (MODEL.md §5.2): its
+        // error is the deflection at that instant across the wall, the same
+        // all along a constant cut (its size and sign against the flank force:
+        // tooth_forces.rs), and the summary's range holds it.
         let wall = wall_errors(&cols);
         assert!(!wall.is_empty());
-        let sign = if climb { 1.0 } else { -1.0 };
+        let mean = wall.iter().sum::<f64>() / wall.len() as f64;
+        eprintln!("climb {climb}: wall error {mean:.3} µm, mean deflection {lo:.3}..{hi:.3} µm");
+        assert!(mean.abs() > 0.5, "{climb}: wall error {mean} µm");
         for e in &wall {
-            let e = sign * e;
             assert!(
-                e > 0.97 * lo - 0.6 && e < 1.03 * hi + 0.6,
-                "{climb}: wall error {e} µm vs deflection {lo}..{hi} µm"
+                (e - mean).abs() <= 0.03 * mean.abs() + 0.6,
+                "{climb}: wall error {e} µm vs the wall's mean {mean} µm"
             );
         }
         let (max_e, min_e) = (
             s["max_error_um"].as_f64().unwrap(),
             s["min_error_um"].as_f64().unwrap(),
         );
-        if climb {
-            assert!(max_e >= wall.iter().copied().fold(0.0, f64::max) - 1e-4 && min_e <= 0.0);
-        } else {
-            assert!(
-                min_e <= wall.iter().copied().fold(0.0, f64::min) + 1e-4 && min_e < -0.9 * lo,
-                "min error {min_e}, wall {:?}, deflection {lo}",
-                &wall[..3]
-            );
-        }
+        assert!(max_e >= wall.iter().copied().fold(f64::MIN, f64::max) - 1e-4);
+        assert!(min_e <= wall.iter().copied().fold(f64::MAX, f64::min) + 1e-4);
         // The floor (normal +z) gets no error from a sideways deflection.
         let floor: Vec<f64> = (0..cols["x_mm"].len())
             .filter(|&i| {
@@ -2487,7 +2483,9 @@ fn closed_loop_error_is_bounded_by_the_stock_and_falls_with_stiffness() {
         let passes = s["closed_loop_passes"].as_u64().unwrap();
         assert_eq!(s["closed_loop_converged"], true, "{stiffness}: {s}");
         assert_eq!(s["closed_loop_unconverged_steps"], 0);
-        assert!(passes <= 10, "{stiffness}: {passes} sweeps");
+        // (The slender tool: 10 sweeps with §3.2's mean force, 11 with the
+        // force through the tooth period, §3.4.)
+        assert!(passes <= 11, "{stiffness}: {passes} sweeps");
         assert!(s["closed_loop_residual_um"].as_f64().unwrap() <= 0.5 + 0.02 * 200.0);
         assert!(warning(&s, "closed_loop").is_none());
         last = max_e;
@@ -3028,12 +3026,15 @@ fn flat_slot_job(tool_extra: &str, after_cutting: &str) -> String {
 /// carbide) slots 2 mm deep in s50c (the default material) at 6000 rpm: lines 3–112 at F300, 113 on at
 /// F1200 (f_z 0.1 mm), in 0.5 mm moves. Kienzle's mean slot force (MODEL.md §3.2) at F1200 is
 /// F = z a_p f_z kc(2f_z/π)/4 · √(1 + k_r²) = 287.05 N with torque
-/// T = kc a_p z f_z R/π = 1750.3 N·mm; two equal bands put it at 1.0 mm above
-/// the tip, so the holder face carries M = 59 F and σ = √((M/Z)² + 3(T/2Z)²)
-/// = 173.20 MPa (Z = π 10³/32). With rupture_strength_mpa = 70 the tool
-/// breaks at F_R = 287.05 · 70/173.20 = 116.0 N: from line 113, never before
-/// (F300: 97.4 N, 58.7 MPa). The steps that break report the deflection at rupture, the
-/// linear one times 70/σ (28.26 µm on the steady slot, 40.51 µm linear), bit
+/// T = kc a_p z f_z R/π = 1750.3 N·mm. The stress takes the revolution's
+/// peak (§3.4): with straight flutes (helix_deg = 0) one tooth cuts at a
+/// time, and at φ = π/2 the force is 2F = 574.09 N and the torque T π/2; two
+/// equal bands put it at 1.0 mm above the tip, so the holder face carries
+/// M = 59 · 2F and σ = √((M/Z)² + 3(T'/2Z)²) = 345.86 MPa (Z = π 10³/32). With
+/// rupture_strength_mpa = 140 the tool breaks at a mean force of
+/// F_R = 287.05 · 140/345.86 = 116.2 N: from line 113, never before (F300:
+/// 97.4 N, 117.3 MPa). The steps that break report the deflection at rupture, the
+/// linear one times 140/σ (28.31 µm on the steady slot, 40.51 µm linear), bit
 /// for bit what the linear run reports scaled so; the others are the linear
 /// run's bit for bit, and a tool that never breaks is unchanged bit for bit.
 #[test]
@@ -3069,22 +3070,26 @@ fn a_tool_past_its_rupture_strength_breaks_and_reports_the_deflection_at_rupture
             ),
         )
     };
-    let breaking = "stress_limit_mpa = 50\nrupture_strength_mpa = 70";
+    let breaking = "stress_limit_mpa = 100\nrupture_strength_mpa = 140\nhelix_deg = 0";
     let (steps, s, _, error_npy, console) = run("breaks", breaking, "");
     let (linear, sl, _, _, _) = run(
         "linear",
-        "stress_limit_mpa = 50\nrupture_strength_mpa = 1e6",
+        "stress_limit_mpa = 100\nrupture_strength_mpa = 1e6\nhelix_deg = 0",
         "",
     );
-    let rupture = 70.0;
+    let rupture = 140.0;
     // Kienzle's slot in closed form and the load where the tool breaks.
     let fz = 0.1;
     let kc = 1500.0 * (2.0 * fz / PI).powf(-0.22);
     let force = 2.0 * 2.0 * fz * kc / 4.0 * 1.09f64.sqrt();
     let torque = kc * 2.0 * 2.0 * fz * 5.0 / PI;
     let z = PI * 1000.0 / 32.0;
-    let stress = ((59.0 * force / z).powi(2) + 3.0 * (torque / (2.0 * z)).powi(2)).sqrt();
-    assert!((stress - 173.195).abs() < 1e-3, "{stress} MPa");
+    // The stress takes the peak of the revolution (MODEL.md §3.4, §4.4): two
+    // straight flutes in a slot, one tooth cutting at a time, at φ = π/2
+    // K_t a_p f_z √(1 + k_r²) = 2 F and torque K_t a_p f_z R = T π/2.
+    let (peak, peak_torque) = (2.0 * force, torque * PI / 2.0);
+    let stress = ((59.0 * peak / z).powi(2) + 3.0 * (peak_torque / (2.0 * z)).powi(2)).sqrt();
+    assert!((stress - 345.862).abs() < 1e-3, "{stress} MPa");
     let f_rupture = force * rupture / stress;
     // The stepped beam (MODEL.md §4.2) under F/2 at 0.5 and 1.5 mm, at 1.0 mm.
     let deflection_per_n_mm = {
@@ -3100,7 +3105,7 @@ fn a_tool_past_its_rupture_strength_breaks_and_reports_the_deflection_at_rupture
         0.5 * at(0.5, 1.0) + 0.5 * at(1.5, 1.0)
     };
     let at_rupture_um = 1000.0 * deflection_per_n_mm * f_rupture;
-    assert!((at_rupture_um - 28.265).abs() < 1e-3, "{at_rupture_um} µm");
+    assert!((at_rupture_um - 28.308).abs() < 1e-3, "{at_rupture_um} µm");
     let n = steps["x"].len();
     assert_eq!(n, linear["x"].len());
     let (mut broke, mut steady) = (0, 0);
@@ -3120,7 +3125,9 @@ fn a_tool_past_its_rupture_strength_breaks_and_reports_the_deflection_at_rupture
         if (5.0..95.0).contains(&x) && f > 1.03 * f_rupture {
             assert!(breaks, "step {i}: {f} N > F_R {f_rupture} N");
         }
-        if f < 0.97 * f_rupture {
+        // (Entering and leaving the stock the peak of the revolution is a
+        // larger share of the mean: the closed form holds on the steady slot.)
+        if (5.0..95.0).contains(&x) && f < 0.97 * f_rupture {
             assert!(!breaks, "step {i}: {f} N < F_R {f_rupture} N");
         }
         let scale = if breaks {
@@ -3167,7 +3174,7 @@ fn a_tool_past_its_rupture_strength_breaks_and_reports_the_deflection_at_rupture
     let message = w["message"].as_str().unwrap();
     for words in [
         &format!("{peak_stress:.0} MPa at lines 113, 114,"),
-        "rupture strength of 70 MPa",
+        "rupture strength of 140 MPa",
         "the tool breaks",
         // The job's one [tool], in a program without T words: not "tool 0".
         "stress the job's tool (Ø10 mm) to",
@@ -3216,16 +3223,16 @@ fn a_tool_past_its_rupture_strength_breaks_and_reports_the_deflection_at_rupture
 
 /// `optimize` holds the tool under its allowable stress (MODEL.md §2, §4.4).
 /// The slot of the rupture test above (Ø10 carbide flat end, stick-out 60,
-/// flutes 20, 2 mm deep in s50c at 6000 rpm, z = 2) as one G-code line at
-/// F1200: 173.20 MPa at the holder face. With stress_limit_mpa = 80 and no
+/// flutes 20, straight, 2 mm deep in s50c at 6000 rpm, z = 2) as one G-code line at
+/// F1200: 345.86 MPa at the holder face under the revolution's peak. With stress_limit_mpa = 80 and no
 /// other limit, the stress ∝ f_z^(1−mc) (Kienzle, mc 0.22; the torque and the
 /// moment arm scale alike), so the slot may run at
-/// F* = 1200 · (80/173.20)^(1/0.78) = 445.78 mm/min: optimized.nc runs the steady
+/// F* = 1200 · (80/345.86)^(1/0.78) = 183.67 mm/min: optimized.nc runs the steady
 /// slot within 3 % under F*, its stress within 3 % under 80 MPa, and so does
 /// the default (`stress` on). `stress = false` gives the optimized.nc of a
 /// limit that never binds, byte for byte. With
 /// feed_min = 1000 the slot stays over the limit, at the closed-form
-/// 173.20 · (1000/1200)^0.78 MPa, and a limit_exceeded warning names the
+/// 345.86 · (1000/1200)^0.78 MPa, and a limit_exceeded warning names the
 /// lines of optimized.nc that cut it.
 #[test]
 fn optimize_holds_the_tool_under_its_allowable_stress() {
@@ -3237,7 +3244,7 @@ fn optimize_holds_the_tool_under_its_allowable_stress() {
     );
     let run = |name: &str, tool_extra: &str, limits: &str| {
         let job = flat_slot_job(
-            &format!("fz_max = 0.5\n{tool_extra}"),
+            &format!("fz_max = 0.5\nhelix_deg = 0\n{tool_extra}"),
             &format!("[limits]\n{limits}"),
         )
         .replace("path = \"slot.csv\"", "path = \"slot.ngc\"");
@@ -3254,13 +3261,15 @@ fn optimize_holds_the_tool_under_its_allowable_stress() {
             std::fs::read(d.join("optimized.nc")).unwrap(),
         )
     };
-    let (limit, mc, stress_1200): (f64, f64, f64) = (80.0, 0.22, 173.195);
+    let (limit, mc, stress_1200): (f64, f64, f64) = (80.0, 0.22, 345.862);
     let p = 1.0 - mc;
     let feed_star = 1200.0 * (limit / stress_1200).powf(1.0 / p);
-    assert!((feed_star - 445.78).abs() < 0.01, "{feed_star} mm/min");
+    assert!((feed_star - 183.67).abs() < 0.01, "{feed_star} mm/min");
     let (steps, s, held_nc) = run("held", "stress_limit_mpa = 80", "stress = true");
     let before = s["before"]["peak_stress_mpa"].as_f64().unwrap();
-    assert!(rel(before, stress_1200) < 2e-3, "before {before} MPa");
+    // (The highest is a step leaving the stock, 0.35 % over the steady slot:
+    // a smaller mean chip, a higher kc, the same peak engagement.)
+    assert!(rel(before, stress_1200) < 5e-3, "before {before} MPa");
     let after = s["after"]["peak_stress_mpa"].as_f64().unwrap();
     assert!(
         after <= limit * (1.0 + 0.02) && after >= limit * 0.97,
@@ -4223,14 +4232,16 @@ fn sub_cell_steps_carry_the_steady_slot_force() {
 /// optimize holds the tool under its allowable stress where the tool
 /// advances less than a grid cell per servo period (MODEL.md §1.6, §4.4):
 /// the Ø2 slot of [`sub_cell_steps_carry_the_steady_slot_force`] as G-code
-/// at F240 (16 ms periods: 0.64 of a cell), stress_limit_mpa = 300. In
-/// closed form the slot at f_z 0.02 has Kienzle's 20.45 N and torque
-/// T = kc a_p z f_z R/π = 24.94 N·mm, both at 0.25 mm above the tip, so
+/// at F240 (16 ms periods: 0.64 of a cell), stress_limit_mpa = 300, straight
+/// flutes. In closed form the slot at f_z 0.02 has Kienzle's mean 20.45 N and
+/// torque T = kc a_p z f_z R/π = 24.94 N·mm; the stress takes the
+/// revolution's peak (MODEL.md §3.4: one straight tooth cutting at a time,
+/// 2 × 20.45 N and T π/2 at φ = π/2), at 0.25 mm above the tip, so
 /// the shank at the holder face (lever 19.75 mm, Z = π 2³/32) carries
-/// σ_ref = √((M/Z)² + 3(T/2Z)²) = 515.0 MPa, and the feed that holds 300 MPa
-/// is F* = 240 · (300/σ_ref)^(1/0.78) = 120.05 mm/min (0.32 of a cell per
-/// period). optimized.nc's steady slot runs within 3 % under F* and within
-/// 3 % under 300 MPa, no step above it by more than 2 %. (Where a step's
+/// σ_ref = √((M/Z)² + 3(T'/2Z)²) = 1029.4 MPa, and the feed that holds 300 MPa
+/// is F* = 240 · (300/σ_ref)^(1/0.78) = 49.40 mm/min (0.13 of a cell per
+/// period). optimized.nc's steady slot runs within 4 % under F* and within
+/// 4 % under 300 MPa, no step above it by more than 2 %. (Where a step's
 /// load came in whole columns, the stress of such a slot jumped between 0 and
 /// 1.8 σ and a slower feed did not lower its peak.)
 #[test]
@@ -4254,6 +4265,7 @@ flute_length = 6
 stickout = 20
 fz_max = 0.5
 stress_limit_mpa = 300
+helix_deg = 0
 [program]
 path = "slot.ngc"
 [cutting]
@@ -4275,11 +4287,12 @@ stress = true
     let force = 2.0 * 0.5 * fz * kc / 4.0 * 1.09f64.sqrt();
     let torque = kc * 0.5 * 2.0 * fz * 1.0 / PI;
     let z = PI * 8.0 / 32.0;
-    let sigma_ref = ((19.75 * force / z).powi(2) + 3.0 * (torque / (2.0 * z)).powi(2)).sqrt();
-    assert!((sigma_ref - 515.0).abs() < 0.1, "{sigma_ref} MPa");
+    let (peak, peak_torque) = (2.0 * force, torque * PI / 2.0);
+    let sigma_ref = ((19.75 * peak / z).powi(2) + 3.0 * (peak_torque / (2.0 * z)).powi(2)).sqrt();
+    assert!((sigma_ref - 1029.4).abs() < 0.1, "{sigma_ref} MPa");
     let limit = 300.0;
     let feed_star = 240.0 * (limit / sigma_ref).powf(1.0 / 0.78);
-    assert!((feed_star - 120.05).abs() < 0.01, "{feed_star} mm/min");
+    assert!((feed_star - 49.40).abs() < 0.01, "{feed_star} mm/min");
     let mut steady = 0;
     let columns = (&steps["x"], &steps["feed_mm_min"], &steps["stress_mpa"]);
     for (i, ((&x, &f), &sigma)) in columns.0.iter().zip(columns.1).zip(columns.2).enumerate() {
@@ -4290,11 +4303,13 @@ stress = true
                 f * 16.0 / 60_000.0 < 0.1,
                 "step {i}: {f} mm/min is a cell per period"
             );
+            // (Within 4 %: the stress of the sub-cell windows is their peak of the
+            // revolution, which the caps meet from below.)
             assert!(
-                f <= feed_star * 1.005 && f >= feed_star * 0.97,
+                f <= feed_star * 1.005 && f >= feed_star * 0.96,
                 "step {i} at x {x}: {f} mm/min vs F* {feed_star}"
             );
-            assert!(sigma >= limit * 0.97, "step {i} at x {x}: {sigma} MPa");
+            assert!(sigma >= limit * 0.96, "step {i} at x {x}: {sigma} MPa");
         }
     }
     assert!(steady > 100, "{steady} steady steps");

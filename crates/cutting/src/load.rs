@@ -8,9 +8,7 @@ use std::cell::RefCell;
 use crate::beam::SteppedBeam;
 use crate::force::{force_n, volume_per_tooth_mm3};
 use crate::kienzle::Kienzle;
-use crate::tooth::{
-    feed_for_volume_mm, mean_cut, peak_cut, BandArc, Coefficients, EdgeShape, PeakScratch, Teeth,
-};
+use crate::tooth::{mean_cut, peak_cut, BandArc, Coefficients, EdgeShape, PeakScratch, Teeth};
 
 /// Below this length the contact resultant is treated as zero (no defined direction).
 const MIN_RESULTANT: f64 = 1e-12;
@@ -185,6 +183,8 @@ pub struct StepRemoval<'a> {
     pub band_offsets_mm: &'a [[f32; 2]],
     /// The step's unit XY feed direction ([0, 0] for a plunge).
     pub feed_dir: [f64; 2],
+    /// The step's length in XY, mm (what its bands' volumes are removed over).
+    pub len_xy_mm: f64,
     /// The grid's cell size, mm (a column stands for its cell).
     pub cell_mm: f64,
 }
@@ -415,6 +415,7 @@ impl CuttingModel {
             let (arcs, peak_scratch) = &mut *scratch.borrow_mut();
             arcs.clear();
             let h = self.band_height_mm;
+            let fz_motion = r.len_xy_mm / (f64::from(self.flutes) * revolutions);
             let mut mean = [0.0; 3];
             for (k, &v) in r.band_volumes_mm3.iter().enumerate() {
                 if !(v > 0.0) {
@@ -423,19 +424,40 @@ impl CuttingModel {
                 let [lo, hi] = *r.band_offsets_mm.get(k)?;
                 let z_lo = k as f64 * h;
                 let z_hi = (z_lo + h).min(self.beam.flute_length_mm.max(z_lo));
-                let arc = BandArc::from_offsets(
+                // The band's removal across the feed: its volume over its
+                // height and the step's length.
+                let width = v / ((z_hi - z_lo) * r.len_xy_mm);
+                let pieces = BandArc::from_offsets(
                     &self.edge,
                     z_lo,
                     z_hi,
                     [f64::from(lo), f64::from(hi)],
                     r.cell_mm,
-                )?;
-                let fz = feed_for_volume_mm(&self.edge, self.flutes, &arc, v / revolutions);
-                let m = mean_cut(&self.edge, self.flutes, &arc, fz, c);
-                for (s, f) in mean.iter_mut().zip(m.force_n) {
-                    *s += f;
+                    width,
+                );
+                // One feed per tooth for the band's arcs (one, or one at each
+                // flank): its volume per revolution over theirs at f_z = 1.
+                let per_fz: f64 = pieces
+                    .iter()
+                    .flatten()
+                    .map(|arc| mean_cut(&self.edge, self.flutes, arc, 1.0, c).volume_mm3)
+                    .sum();
+                if !(per_fz > 0.0) {
+                    return None;
                 }
-                arcs.push((arc, fz));
+                // At most the feed per tooth the step's motion gives: where
+                // the arcs cannot hold the volume at it (a sliver at a flank
+                // as the tool leaves the stock, whose chip is not f_z sin φ),
+                // the arcs take that feed, not one that grows without bound
+                // as their chip thins to nothing.
+                let fz = (v / revolutions / per_fz).min(fz_motion);
+                for arc in pieces.into_iter().flatten() {
+                    let m = mean_cut(&self.edge, self.flutes, &arc, fz, c);
+                    for (s, f) in mean.iter_mut().zip(m.force_n) {
+                        *s += f;
+                    }
+                    arcs.push((arc, fz));
+                }
             }
             if arcs.is_empty() {
                 return None;
@@ -650,6 +672,7 @@ mod tests {
                 dt_s: 0.016,
                 band_offsets_mm,
                 feed_dir,
+                len_xy_mm: 0.32,
                 cell_mm: 0.1,
             });
             let hm = 2.0 * 0.1 / std::f64::consts::PI;

@@ -125,31 +125,60 @@ pub struct BandArc {
 }
 
 impl BandArc {
-    /// The arc of a band over `[z_lo_mm, z_hi_mm]` whose cut columns lie at
+    /// The arcs of a band over `[z_lo_mm, z_hi_mm]` whose cut columns lie at
     /// the signed offsets `[e_lo, e_hi]` (mm, to the left of the feed) from
-    /// the move's line, on a grid of `cell_mm` (MODEL.md §3.4): each column
-    /// stands for its cell, so the offsets widen by half a cell, and the
-    /// edge at the band's middle height (radius r) meets them at
-    /// `cos φ = e / r` (clamped: on a ball or a corner the band's outermost
-    /// columns are cut above the middle). `None` where the band has no radius.
+    /// the move's line, on a grid of `cell_mm`, and whose removal is
+    /// `width_mm` wide across the feed (the band's volume over its height and
+    /// the step's length; MODEL.md §3.4). Each column stands for its cell, so
+    /// the offsets widen by half a cell; the columns give where the cut lies,
+    /// the volume how wide it is (the columns alone would move the arc's
+    /// bound in jumps of a cell as the tool moves across them, and span the
+    /// uncut middle where the tool leaves a slot): a range that reaches one
+    /// flank (`±r`, its outermost column within a cell of it) keeps it and takes the width from there; one that reaches
+    /// both is cut at both flanks, half the width each (the whole half circle
+    /// at the width of a slot); one that reaches neither takes the width
+    /// about its middle. The edge at the band's middle height (radius r)
+    /// meets the bounds at `cos φ = e / r` (clamped: on a ball or a corner the
+    /// band's outermost columns are cut above the middle). A width that is
+    /// not a positive number keeps the columns' range. Empty where the band
+    /// has no radius or no columns.
     pub fn from_offsets(
         shape: &EdgeShape,
         z_lo_mm: f64,
         z_hi_mm: f64,
         offsets_mm: [f64; 2],
         cell_mm: f64,
-    ) -> Option<BandArc> {
+        width_mm: f64,
+    ) -> [Option<BandArc>; 2] {
         let r = shape.radius_at_mm(0.5 * (z_lo_mm + z_hi_mm));
         if !(r > 0.0) || !(offsets_mm[0] <= offsets_mm[1]) {
-            return None;
+            return [None, None];
         }
-        let e = |v: f64| (v / r).clamp(-1.0, 1.0);
-        Some(BandArc {
-            z_lo_mm,
-            z_hi_mm,
-            phi_st_rad: e(offsets_mm[1] + 0.5 * cell_mm).acos(),
-            phi_ex_rad: e(offsets_mm[0] - 0.5 * cell_mm).acos(),
-        })
+        let arc = |lo: f64, hi: f64| {
+            let e = |v: f64| (v / r).clamp(-1.0, 1.0);
+            Some(BandArc {
+                z_lo_mm,
+                z_hi_mm,
+                phi_st_rad: e(hi).acos(),
+                phi_ex_rad: e(lo).acos(),
+            })
+        };
+        let (lo, hi) = (offsets_mm[0] - 0.5 * cell_mm, offsets_mm[1] + 0.5 * cell_mm);
+        if !(width_mm > 0.0) {
+            return [arc(lo, hi), None];
+        }
+        let w = width_mm.min(2.0 * r);
+        // A flank is reached where the outermost column lies within a cell
+        // of it (its centre can be up to a cell inside).
+        match (hi + 0.5 * cell_mm >= r, lo - 0.5 * cell_mm <= -r) {
+            (true, true) => [arc(r - 0.5 * w, r), arc(-r, 0.5 * w - r)],
+            (true, false) => [arc(r - w, r), None],
+            (false, true) => [arc(-r, w - r), None],
+            (false, false) => {
+                let mid = 0.5 * (lo + hi);
+                [arc(mid - 0.5 * w, mid + 0.5 * w), None]
+            }
+        }
     }
 
     /// A straight cut of a cylindrical flank `ae_mm` wide into material on
@@ -237,29 +266,6 @@ pub fn mean_cut(
         ],
         torque_nmm: k * i_s * m.radius_mm2,
         volume_mm3: n * fz_mm * i_s * m.radius_mm2,
-    }
-}
-
-/// The feed per tooth at which a band cut with `arc` removes `volume_mm3`
-/// per revolution (the inverse of [`mean_cut`]'s volume); 0 where the arc
-/// removes nothing.
-pub fn feed_for_volume_mm(shape: &EdgeShape, flutes: u32, arc: &BandArc, volume_mm3: f64) -> f64 {
-    let per_fz = mean_cut(
-        shape,
-        flutes,
-        arc,
-        1.0,
-        &Coefficients {
-            kt_mpa: 0.0,
-            radial_ratio: 0.0,
-            axial_ratio: 0.0,
-        },
-    )
-    .volume_mm3;
-    if per_fz > 0.0 {
-        volume_mm3 / per_fz
-    } else {
-        0.0
     }
 }
 
@@ -378,7 +384,8 @@ pub struct PeakScratch {
 }
 
 /// The force through one tooth period of a step whose bands cut the arcs
-/// `bands` (each with its feed per tooth, from [`feed_for_volume_mm`]): the
+/// `bands` (each with its feed per tooth: the one at which its arc removes
+/// the band's volume, from [`mean_cut`]'s volume per revolution): the
 /// edge of each band cut in slices whose helix lag `z tan β / R` changes by at
 /// most 3°, tooth j of a slice at `α = φ + 2πj/N − z tan β / R` (MODEL.md
 /// eq. 3.4b). Between the rotations where a tooth enters or leaves a slice's
@@ -695,11 +702,11 @@ mod tests {
         };
         let bands = [
             (
-                BandArc::from_offsets(&shape, 0.0, 1.0, [1.0, 3.0], 0.0).unwrap(),
+                BandArc::from_offsets(&shape, 0.0, 1.0, [1.0, 3.0], 0.0, 0.0)[0].unwrap(),
                 0.07,
             ),
             (
-                BandArc::from_offsets(&shape, 1.0, 2.0, [2.0, 5.0], 0.0).unwrap(),
+                BandArc::from_offsets(&shape, 1.0, 2.0, [2.0, 5.0], 0.0, 0.0)[0].unwrap(),
                 0.05,
             ),
         ];

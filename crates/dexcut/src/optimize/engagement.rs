@@ -237,11 +237,12 @@ fn sweep_engagement(
             |k| &tools.entries[usize::from(tool_index[k])].model,
             |k| {
                 let (a, b) = (stations.position_at(k), stations.position_at(k + 1));
-                crate::run::feed_dir(&dexel::Step {
+                let step = dexel::Step {
                     from_mm: a.coords.into(),
                     to_mm: b.coords.into(),
                     rapid: false,
-                })
+                };
+                (crate::run::feed_dir(&step), crate::run::len_xy_mm(&step))
             },
             spacing_mm,
         ),
@@ -268,7 +269,9 @@ struct EngagementRows<'a, 'e, M, D> {
     each: &'e mut dyn FnMut(usize, f64, ReferenceLoad),
 }
 
-impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> [f64; 2]> EngagementRows<'a, '_, M, D> {
+impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> ([f64; 2], f64)>
+    EngagementRows<'a, '_, M, D>
+{
     fn row(&mut self, k: usize, row: dexel::RecordRow<'_>) {
         let (loads, each) = (&mut self.loads, &mut *self.each);
         loads.row(k, row);
@@ -342,7 +345,7 @@ struct ReferenceLoads<'a, M, D> {
     bands: std::collections::VecDeque<f64>,
     /// Their bands' ranges of offsets (MODEL.md §1.7), `n_bands` each.
     offsets: std::collections::VecDeque<[f32; 2]>,
-    /// Interval k's unit XY direction.
+    /// Interval k's move (its unit XY direction and XY length).
     dir_of: D,
     /// The grid's cell, mm.
     cell_mm: f64,
@@ -366,7 +369,9 @@ struct Source {
     feed_dir: [f64; 2],
 }
 
-impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> [f64; 2]> ReferenceLoads<'a, M, D> {
+impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> ([f64; 2], f64)>
+    ReferenceLoads<'a, M, D>
+{
     /// Loads along stations at `s_mm`, each band list `n_bands` long (the
     /// record's: that of the tool with the most); interval k's direction
     /// `dir_of(k)`, on a grid of `cell_mm`.
@@ -396,7 +401,7 @@ impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> [f64; 2]> ReferenceLo
                 chip_edge_area_mm2: row.chip_edge_area_mm2(),
                 volume_over_radius_mm2: row.volume_over_radius_mm2(),
                 bands: bands.len(),
-                feed_dir: (self.dir_of)(k),
+                feed_dir: (self.dir_of)(k).0,
             });
             self.bands.extend(bands);
             self.bands
@@ -448,6 +453,7 @@ impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> [f64; 2]> ReferenceLo
                     dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
                     band_offsets_mm: &self.one_offsets,
                     feed_dir: j.feed_dir,
+                    len_xy_mm: (self.dir_of)(k).1,
                     cell_mm: self.cell_mm,
                 })
             }

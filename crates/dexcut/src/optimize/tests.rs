@@ -111,6 +111,7 @@ fn reference_loads_of_record<'a>(
                 dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
                 band_offsets_mm: record.band_offsets_mm(j),
                 feed_dir: crate::run::feed_dir(&steps[j]),
+                len_xy_mm: crate::run::len_xy_mm(&steps[k]),
                 cell_mm,
             });
             ReferenceLoad::from(load)

@@ -67,6 +67,7 @@ pub(crate) fn step_removal<'r>(
         dt_s: step.dt_s,
         band_offsets_mm: record.band_offsets_mm(i),
         feed_dir: feed_dir(&step.step),
+        len_xy_mm: len_xy_mm(&step.step),
         cell_mm: grid_mm,
     }
 }
@@ -84,6 +85,11 @@ pub(crate) fn feed_dir(step: &dexel::Step) -> [f64; 2] {
     } else {
         [0.0, 0.0]
     }
+}
+
+/// A step's length in XY, mm.
+pub(crate) fn len_xy_mm(step: &dexel::Step) -> f64 {
+    (step.to_mm[0] - step.from_mm[0]).hypot(step.to_mm[1] - step.from_mm[1])
 }
 
 /// The step the `tool_breaks` warning describes (MODEL.md §4.4): of the steps

@@ -32,8 +32,8 @@ use error_map::{final_error_map, Before, ErrorMap};
 pub use closed_loop::LoopReport;
 pub(crate) use columns::run_grid_bytes_per_column;
 pub use columns::{write_tiled_columns, ColumnGrid};
-pub(crate) use loads::feed_dir;
 pub use loads::loads;
+pub(crate) use loads::{feed_dir, len_xy_mm};
 pub use subcell::SUB_CELL_WINDOW_CELLS;
 
 /// Volume below which a step counts as removing nothing, mm³ (f32 column

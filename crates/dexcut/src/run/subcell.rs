@@ -239,6 +239,7 @@ pub fn window_loads(
                     dt_s: steps[i].dt_s,
                     band_offsets_mm: &offsets,
                     feed_dir: u,
+                    len_xy_mm: super::loads::len_xy_mm(&steps[i].step),
                     cell_mm: grid_mm,
                 }),
             );
