@@ -10,6 +10,10 @@ use crate::force::{force_n, volume_per_tooth_mm3};
 use crate::kienzle::Kienzle;
 use crate::tooth::{mean_cut, peak_cut, BandArc, Coefficients, EdgeShape, PeakScratch, Teeth};
 
+/// The most a band's arcs may need of the step's own feed per tooth to
+/// remove its volume before the step is taken as no steady cut (MODEL.md §3.4).
+const MAX_FEED_OVER_MOTION: f64 = 1.25;
+
 /// Below this length the contact resultant is treated as zero (no defined direction).
 const MIN_RESULTANT: f64 = 1e-12;
 
@@ -445,12 +449,17 @@ impl CuttingModel {
                 if !(per_fz > 0.0) {
                     return None;
                 }
-                // At most the feed per tooth the step's motion gives: where
-                // the arcs cannot hold the volume at it (a sliver at a flank
-                // as the tool leaves the stock, whose chip is not f_z sin φ),
-                // the arcs take that feed, not one that grows without bound
-                // as their chip thins to nothing.
-                let fz = (v / revolutions / per_fz).min(fz_motion);
+                // A steady cut's arcs remove the band's volume at about the
+                // feed per tooth the step's motion gives. Where they would
+                // need more than 1.25 times it (a tool that starts buried in
+                // the stock, slivers left at a flank), the chip is not
+                // f_z sin φ and the arcs do not describe the cut: §3.2's
+                // aggregates do (their force is the energy's), and the peak
+                // is that mean.
+                let fz = v / revolutions / per_fz;
+                if fz > MAX_FEED_OVER_MOTION * fz_motion {
+                    return None;
+                }
                 for arc in pieces.into_iter().flatten() {
                     let m = mean_cut(&self.edge, self.flutes, &arc, fz, c);
                     for (s, f) in mean.iter_mut().zip(m.force_n) {
