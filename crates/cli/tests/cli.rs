@@ -3772,7 +3772,20 @@ fn tiled_stock_optimizes_as_in_memory() {
                 - before["final_volume_mm3"].as_f64().unwrap()
         ) < 1e-6
     );
-    assert_eq!(timeless(summary(&whole)), timeless(s));
+    // (Where the loop does not settle, a whole stock's warning counts the
+    // columns those steps made; a tiled stock's cannot: the message's words
+    // differ, its values do not.)
+    let wordless = |mut v: Value| {
+        for run in ["before", "after"] {
+            if let Some(ws) = v[run]["warnings"].as_array_mut() {
+                for w in ws.iter_mut().filter(|w| w["kind"] == "closed_loop") {
+                    w["message"] = Value::Null;
+                }
+            }
+        }
+        v
+    };
+    assert_eq!(wordless(timeless(summary(&whole))), wordless(timeless(s)));
     ok(&dexcut(&["report", "tiled"], dir.path()));
     // The surface angles of S3 from the stock need every column at once.
     let angles = job.replace(

@@ -233,7 +233,7 @@ const CUTS: [Cut; 11] = [
 /// closing note (`cargo test --release -p dexcut-cli --test tooth_forces -- --nocapture`).
 #[test]
 fn straight_cuts_match_the_closed_forms() {
-    eprintln!("| cut | Fx sim / exact N | Fy sim / exact N | Fz sim / exact N | power sim / exact W | |F̄xy| N | peak N | peak/mean |");
+    eprintln!("| cut | Fx sim / exact N | Fy sim / exact N | Fz sim / exact N | power sim / exact W | mean lateral N | peak N | peak/mean |");
     eprintln!("|---|---|---|---|---|---|---|---|");
     for cut in &CUTS {
         let (f, p) = exact(cut);
