@@ -175,7 +175,7 @@ fn joined_program(dir: &Path, n: usize) -> PathBuf {
 /// Three operations give the removal, final stock and error map of one
 /// program with the three parts joined by tool changes (T2 M6, T3 M6) and a
 /// [[tools]] table. The first operation runs the joined program's first
-/// steps and is its first tool's to 1e-6; the later ones start from
+/// steps and is its first tool's to 1e-4; the later ones start from
 /// their own programs' start, so their servo samples fall elsewhere on the
 /// same path: the stocks differ by the chords of samples across the path's
 /// corners, at most a few µm.
@@ -202,7 +202,7 @@ fn three_operations_equal_one_program_joined_by_tool_changes() {
     assert!(rel(removed.0, removed.1) < 1e-7, "removed {removed:?}");
     assert!(rel(finals.0, finals.1) < 1e-7, "final {finals:?}");
     // Per operation and tool: the roughing is the joined program's T1
-    // to 1e-6; the others within 2 % (their samples fall elsewhere).
+    // to 1e-4; the others within 2 % (their samples fall elsewhere).
     let op_lines = jo["operations"].as_array().unwrap();
     let tools = jp["tools"].as_array().unwrap();
     assert_eq!(op_lines.len(), 3);
@@ -218,9 +218,10 @@ fn three_operations_equal_one_program_joined_by_tool_changes() {
             if i == 0 {
                 // (The same steps; the closed loop sweeps the joined program
                 // as a whole, so its first tool's offsets converge over the
-                // passes the whole program takes: equal to 1e-6, not bit for
-                // bit, since the forces through the tooth period, §3.4.)
-                assert!(rel(a, b) < 1e-6, "operation 1 {key}: {a} vs {b}");
+                // passes the whole program takes: equal to 1e-4 (a column
+                // more or less), no longer bit for bit since the forces
+                // through the tooth period, §3.4.)
+                assert!(rel(a, b) < 1e-4, "operation 1 {key}: {a} vs {b}");
             } else {
                 // (2 %: a step's arcs, MODEL.md §3.4, move with where its
                 // samples fall.)

@@ -134,7 +134,7 @@ impl BandArc {
     /// the volume how wide it is (the columns alone would move the arc's
     /// bound in jumps of a cell as the tool moves across them, and span the
     /// uncut middle where the tool leaves a slot): a range that reaches one
-    /// flank (`±r`, its outermost column within 1.5 cells of it) keeps it and takes the width from there; one that reaches
+    /// flank (`±r`, its outermost column within three cells of it) keeps it and takes the width from there; one that reaches
     /// both is cut at both flanks, half the width each (the whole half circle
     /// at the width of a slot); one that reaches neither takes the width
     /// about its middle. The edge at the band's middle height (radius r)
@@ -168,13 +168,13 @@ impl BandArc {
             return [arc(lo, hi), None];
         }
         let w = width_mm.min(2.0 * r);
-        // A flank is reached where the outermost column lies within one and a
-        // half cells of it (its centre can be up to a cell inside; the half
-        // cell more keeps a column wavering at that distance, as the closed
-        // loop moves the tool, from moving the arc between the flank and the
-        // middle: the three_operations example's semi-finish took 13 sweeps
-        // at one cell, 7 so).
-        match (hi + 1.5 * cell_mm >= r, lo - 1.5 * cell_mm <= -r) {
+        // A flank is reached where the outermost column lies within three
+        // cells of it (its centre can be up to a cell inside; the margin keeps
+        // a column wavering near it, as the closed loop moves the tool, from
+        // moving the arc between the flank and the middle: the
+        // three_operations example's semi-finish took 13 sweeps at one cell,
+        // 10 and an unsettled step at 1.5, 6 at three cells and at five).
+        match (hi + 3.0 * cell_mm >= r, lo - 3.0 * cell_mm <= -r) {
             (true, true) => [arc(r - 0.5 * w, r), arc(-r, 0.5 * w - r)],
             (true, false) => [arc(r - w, r), None],
             (false, true) => [arc(-r, w - r), None],
