@@ -302,8 +302,11 @@ impl CuttingModel {
         } else {
             0.0
         };
-        // (fx, fy, fz, power, peak lateral force, torque at the peak in N·mm)
-        let (fx, fy, fz, power_w, peak) = match self.force_model {
+        let bands = r.band_volumes_mm3;
+        let contact_height_mm = self.contact_height_mm(bands);
+        // (fx, fy, fz, power, the forces through the tooth period where the
+        // step has engaged arcs)
+        let (fx, fy, fz, power_w, tooth) = match self.force_model {
             ForceModel::PowerLaw { a, n } => {
                 let v = volume_per_tooth_mm3(r.volume_mm3, self.flutes, self.spindle_rpm, r.dt_s);
                 let f = force_n(v, a, n);
@@ -324,16 +327,10 @@ impl CuttingModel {
                     radial_ratio: k.radial_ratio,
                     axial_ratio: k.axial_ratio,
                 };
-                let contact = self.contact_height_mm(r.band_volumes_mm3);
-                if let Some(t) = self.tooth_forces(r, &coefficients, revolutions, contact) {
+                let tooth = self.tooth_forces(r, &coefficients, revolutions, contact_height_mm);
+                if let Some(t) = &tooth {
                     let [fx, fy, fz] = t.mean_n;
-                    (
-                        fx,
-                        fy,
-                        fz,
-                        power_w,
-                        Some((t.peak_lateral_n, t.peak_torque_nmm, t.at_flanks_n)),
-                    )
+                    (fx, fy, fz, power_w, tooth)
                 } else {
                     // No engaged arc (a plunge): §3.2's mean from the aggregates.
                     // Mean tangential force: energy per revolution over the edge's path 2π r.
@@ -361,15 +358,18 @@ impl CuttingModel {
         } else {
             (0.0, 0.0)
         };
-        let bands = r.band_volumes_mm3;
-        let contact_height_mm = self.contact_height_mm(bands);
-        let deflection_um = 1000.0 * force * self.compliance_at_mm_per_n(bands, contact_height_mm);
+        // The deflection at the contact height per newton.
+        let compliance_mm_per_n = self.compliance_at_mm_per_n(bands, contact_height_mm);
+        let deflection_um = 1000.0 * force * compliance_mm_per_n;
         let tip_deflection_um = 1000.0 * force * self.compliance_at_mm_per_n(bands, 0.0);
         let torque_nm = power_w / omega;
-        // The deflection at the contact height per newton (the mean's).
-        let um_per_n = 1000.0 * self.compliance_at_mm_per_n(bands, contact_height_mm);
-        let (force_peak_n, peak_torque_nmm, flanks) = match peak {
-            Some((f, t, flanks)) => (f, t, flanks.map(|v| v.map(|c| um_per_n * c))),
+        let um_per_n = 1000.0 * compliance_mm_per_n;
+        let (force_peak_n, peak_torque_nmm, flanks) = match tooth {
+            Some(t) => (
+                t.peak_lateral_n,
+                t.peak_torque_nmm,
+                t.at_flanks_n.map(|v| v.map(|c| um_per_n * c)),
+            ),
             None => {
                 let mean = [deflection_um * ux, deflection_um * uy];
                 (force, 1000.0 * torque_nm, [mean, mean])

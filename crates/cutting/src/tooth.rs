@@ -383,8 +383,18 @@ impl Slice {
 #[derive(Clone, Debug, Default)]
 pub struct PeakScratch {
     slices: Vec<Slice>,
-    /// (rotation in [0, 2π/N), slice index, a tooth enters (else leaves)).
-    events: Vec<(f64, usize, bool)>,
+    events: Vec<Event>,
+}
+
+/// A tooth entering or leaving a slice's arc within one tooth period.
+#[derive(Clone, Copy, Debug)]
+struct Event {
+    /// Rotation of tooth 0 at the tip, rad in [0, 2π/N).
+    rotation: f64,
+    /// Index of the slice in [`PeakScratch::slices`].
+    slice: usize,
+    /// A tooth enters the arc (else one leaves it).
+    enters: bool,
 }
 
 /// The force through one tooth period of a step whose bands cut the arcs
@@ -441,10 +451,15 @@ pub fn peak_cut(
     for (si, s) in slices.iter().enumerate() {
         // The rotations in [0, period) where a tooth enters (α = φ_st) and
         // one leaves (α = φ_ex).
-        events.push(((s.arc[0] + s.lag).rem_euclid(period), si, true));
-        events.push(((s.arc[1] + s.lag).rem_euclid(period), si, false));
+        for (bound, enters) in [(s.arc[0], true), (s.arc[1], false)] {
+            events.push(Event {
+                rotation: (bound + s.lag).rem_euclid(period),
+                slice: si,
+                enters,
+            });
+        }
     }
-    events.sort_by(|a, b| a.0.total_cmp(&b.0));
+    events.sort_by(|a, b| a.rotation.total_cmp(&b.rotation));
     let mut best = PeakCut::default();
     let m = events.len();
     if m == 0 {
@@ -454,7 +469,7 @@ pub fn peak_cut(
     // engaged at its middle, found afresh (far from every arc's bound, so
     // rounding cannot disagree with the events); then the events in turn,
     // once round.
-    let at = |i: usize| events[i % m].0 + if i >= m { period } else { 0.0 };
+    let at = |i: usize| events[i % m].rotation + if i >= m { period } else { 0.0 };
     let i0 = (0..m)
         .max_by(|&a, &b| (at(a + 1) - at(a)).total_cmp(&(at(b + 1) - at(b))))
         .unwrap_or(0);
@@ -493,7 +508,11 @@ pub fn peak_cut(
                 &mut best,
             );
         }
-        let (_, si, enter) = events[(i0 + k + 1) % m];
+        let Event {
+            slice: si,
+            enters: enter,
+            ..
+        } = events[(i0 + k + 1) % m];
         let s = &slices[si];
         // The tooth at the arc's bound at this rotation: α = φ + c.
         let bound = if enter { s.arc[0] } else { s.arc[1] };
