@@ -327,29 +327,30 @@ impl CuttingModel {
                     radial_ratio: k.radial_ratio,
                     axial_ratio: k.axial_ratio,
                 };
-                let tooth = self.tooth_forces(r, &coefficients, revolutions, contact_height_mm);
-                if let Some(t) = &tooth {
-                    let [fx, fy, fz] = t.mean_n;
-                    (fx, fy, fz, power_w, tooth)
-                } else {
-                    // No engaged arc (a plunge): §3.2's mean from the aggregates.
-                    // Mean tangential force: energy per revolution over the edge's path 2π r.
-                    let ft =
-                        kc * r.volume_over_radius_mm2 / (2.0 * std::f64::consts::PI * revolutions);
-                    let [cx, cy] = r.contact_resultant;
-                    let scale = ft / r.volume_mm3;
-                    // Tangential (ẑ × C) for a clockwise (M3) spindle, radial −C;
-                    // axial −k_a F_t: a right-hand helix turning M3 pulls the tool
-                    // out of its holder, toward −Z (MODEL.md §3.2: forces on the
-                    // tool, machine axes, +Z up).
-                    (
-                        scale * (-cy - k.radial_ratio * cx),
-                        scale * (cx - k.radial_ratio * cy),
-                        -k.axial_ratio * ft,
-                        power_w,
-                        None,
-                    )
-                }
+                // §3.2's mean from the aggregates. Mean tangential force:
+                // energy per revolution over the edge's path 2π r.
+                let ft = kc * r.volume_over_radius_mm2 / (2.0 * std::f64::consts::PI * revolutions);
+                let [cx, cy] = r.contact_resultant;
+                let scale = ft / r.volume_mm3;
+                // Tangential (ẑ × C) for a clockwise (M3) spindle, radial −C;
+                // axial −k_a F_t: a right-hand helix turning M3 pulls the tool
+                // out of its holder, toward −Z (MODEL.md §3.2: forces on the
+                // tool, machine axes, +Z up).
+                let aggregate = [
+                    scale * (-cy - k.radial_ratio * cx),
+                    scale * (cx - k.radial_ratio * cy),
+                    -k.axial_ratio * ft,
+                ];
+                let tooth = self.tooth_forces(
+                    r,
+                    &coefficients,
+                    revolutions,
+                    contact_height_mm,
+                    aggregate,
+                    1000.0 * power_w / omega,
+                );
+                let [fx, fy, fz] = tooth.as_ref().map_or(aggregate, |t| t.mean_n);
+                (fx, fy, fz, power_w, tooth)
             }
         };
         let force = fx.hypot(fy);
@@ -402,14 +403,19 @@ impl CuttingModel {
     /// The mean force and the peak over a revolution from the bands' engaged
     /// arcs (MODEL.md §3.4), on the tool in machine axes: each band's feed
     /// per tooth set so that its arc removes the band's volume per
-    /// revolution. `None` where the step has no horizontal feed or a band
-    /// with volume has no arc (a plunge): the aggregates' mean is used.
+    /// revolution. A band with no arcs, or whose arcs are no steady cut,
+    /// takes its share of the volume of §3.2's mean `aggregate_n` (and of
+    /// the mean torque `torque_nmm`), added to the arcs' mean, peak and
+    /// flank forces. `None` where the step has no horizontal feed or no band
+    /// has arcs: the aggregates' mean is used whole.
     fn tooth_forces(
         &self,
         r: &StepRemoval<'_>,
         c: &Coefficients,
         revolutions: f64,
         flank_at_mm: f64,
+        aggregate_n: [f64; 3],
+        torque_nmm: f64,
     ) -> Option<ToothForces> {
         let [ux, uy] = r.feed_dir;
         if (ux == 0.0 && uy == 0.0) || !(revolutions > 0.0) {
@@ -421,11 +427,16 @@ impl CuttingModel {
             let h = self.band_height_mm;
             let fz_motion = r.len_xy_mm / (f64::from(self.flutes) * revolutions);
             let mut mean = [0.0; 3];
+            // The volume of the bands that take §3.2's mean.
+            let mut aggregate_mm3 = 0.0;
             for (k, &v) in r.band_volumes_mm3.iter().enumerate() {
                 if !(v > 0.0) {
                     continue;
                 }
-                let [lo, hi] = *r.band_offsets_mm.get(k)?;
+                let Some(&[lo, hi]) = r.band_offsets_mm.get(k) else {
+                    aggregate_mm3 += v;
+                    continue;
+                };
                 let z_lo = k as f64 * h;
                 let z_hi = (z_lo + h).min(self.beam.flute_length_mm.max(z_lo));
                 // The band's removal across the feed: its volume over its
@@ -447,18 +458,20 @@ impl CuttingModel {
                     .map(|arc| mean_cut(&self.edge, self.flutes, arc, 1.0, c).volume_mm3)
                     .sum();
                 if !(per_fz > 0.0) {
-                    return None;
+                    aggregate_mm3 += v;
+                    continue;
                 }
                 // A steady cut's arcs remove the band's volume at about the
                 // feed per tooth the step's motion gives. Where they would
                 // need more than 1.25 times it (a tool that starts buried in
                 // the stock, slivers left at a flank), the chip is not
                 // f_z sin φ and the arcs do not describe the cut: §3.2's
-                // aggregates do (their force is the energy's), and the peak
-                // is that mean.
+                // aggregates do (their force is the energy's): the band
+                // takes its share of their mean.
                 let fz = v / revolutions / per_fz;
                 if fz > MAX_FEED_OVER_MOTION * fz_motion {
-                    return None;
+                    aggregate_mm3 += v;
+                    continue;
                 }
                 for arc in pieces.into_iter().flatten() {
                     let m = mean_cut(&self.edge, self.flutes, &arc, fz, c);
@@ -476,13 +489,17 @@ impl CuttingModel {
                 helix_deg: self.helix_deg,
             };
             let peak = peak_cut(&self.edge, &teeth, arcs, c, flank_at_mm, peak_scratch);
+            // The bands without a steady cut's arcs: their share of §3.2's
+            // mean, steady through the revolution.
+            let share = aggregate_mm3 / r.volume_mm3;
+            let [ax, ay, az] = aggregate_n.map(|f| share * f);
             // Feed frame (x along the feed, y to its left) to machine axes.
-            let machine = |[fx, fy]: [f64; 2]| [fx * ux - fy * uy, fx * uy + fy * ux];
+            let machine = |[fx, fy]: [f64; 2]| [fx * ux - fy * uy + ax, fx * uy + fy * ux + ay];
             let [fx, fy] = machine([mean[0], mean[1]]);
             Some(ToothForces {
-                mean_n: [fx, fy, mean[2]],
-                peak_lateral_n: peak.lateral_n,
-                peak_torque_nmm: peak.torque_nmm,
+                mean_n: [fx, fy, mean[2] + az],
+                peak_lateral_n: peak.lateral_n + ax.hypot(ay),
+                peak_torque_nmm: peak.torque_nmm + share * torque_nmm,
                 at_flanks_n: [
                     machine(peak.at_left_flank_n),
                     machine(peak.at_right_flank_n),
@@ -707,6 +724,64 @@ mod tests {
                 assert_eq!(load.force_peak_n, load.force_n);
             }
         }
+    }
+
+    /// A band with volume but no offsets (a neighbour's share of a column)
+    /// adds its share of §3.2's mean to the arcs', so that a sliver moves
+    /// the step's force by its share, not to another model.
+    #[test]
+    fn a_band_without_arcs_takes_its_share_of_the_aggregate_mean() {
+        let k = Kienzle {
+            kc1_1_mpa: 1500.0,
+            mc: 0.22,
+            radial_ratio: 0.3,
+            axial_ratio: 0.25,
+        };
+        let m = model(ForceModel::Kienzle(k));
+        let pi = std::f64::consts::PI;
+        // f = 0.32 mm a step, 1.6 revolutions: f_z = 0.1; mean chip 2 f_z/π.
+        let revs = 1.6;
+        let hm = 2.0 * 0.1 / pi;
+        let kc = 1500.0 * hm.powf(-0.22);
+        fn removal<'a>(bands: &'a [f64], offsets: &'a [[f32; 2]]) -> StepRemoval<'a> {
+            let (pi, f) = (std::f64::consts::PI, 0.32);
+            let v: f64 = bands.iter().sum();
+            StepRemoval {
+                volume_mm3: v,
+                band_volumes_mm3: bands,
+                contact_resultant: [v * pi / 4.0, 0.0],
+                chip_edge_area_mm2: v / (2.0 * f / pi),
+                volume_over_radius_mm2: v / 5.0,
+                dt_s: 0.016,
+                band_offsets_mm: offsets,
+                feed_dir: [1.0, 0.0],
+                len_xy_mm: f,
+                cell_mm: 0.1,
+            }
+        }
+        const SLOT: [[f32; 2]; 1] = [[-4.95, 4.95]];
+        // A whole 1 mm slot in band 0, then the same with a 0.1 % sliver in
+        // band 1 that has no offsets.
+        const EMPTY: [f32; 2] = [f32::INFINITY, f32::NEG_INFINITY];
+        const WITH_SLIVER: [[f32; 2]; 2] = [[-4.95, 4.95], EMPTY];
+        let slot = m.step_load(&removal(&[3.2], &SLOT));
+        let sliver = 0.0032;
+        let with = m.step_load(&removal(&[3.2, sliver], &WITH_SLIVER));
+        // §3.2's mean of the whole step: F_t = kc (V/R) / (2π revs) along
+        // ẑ × C, radial −k_r C (C along +x): F_y = F_t |C|/V, F_x = −k_r F_y.
+        let v = 3.2 + sliver;
+        let ft = kc * (v / 5.0) / (2.0 * pi * revs);
+        let aggregate_fy = ft * pi / 4.0;
+        let share = sliver / v;
+        let expected = 2.0 * 1.0 * 0.1 * kc / 4.0 + share * aggregate_fy;
+        assert!(
+            (with.fy_n - expected).abs() < 1e-6 * expected,
+            "{} vs {expected}",
+            with.fy_n
+        );
+        assert!((with.fy_n - slot.fy_n).abs() < 2.0 * share * slot.fy_n);
+        assert!(with.force_peak_n > slot.force_peak_n);
+        assert!(with.force_peak_n - slot.force_peak_n < 2.0 * share * slot.force_n);
     }
 
     #[test]

@@ -328,10 +328,30 @@ impl Harmonics {
 
     fn lateral(&self, phi: f64) -> [f64; 2] {
         let (s2, c2) = (2.0 * phi).sin_cos();
+        self.lateral_cs(c2, s2)
+    }
+
+    /// [`lateral`](Self::lateral) at the rotation whose 2φ has cosine `c2`
+    /// and sine `s2`.
+    fn lateral_cs(&self, c2: f64, s2: f64) -> [f64; 2] {
         [
             self.x[0] + self.x[1] * c2 + self.x[2] * s2,
             self.y[0] + self.y[1] * c2 + self.y[2] * s2,
         ]
+    }
+
+    /// An upper bound of the lateral force's size at any rotation:
+    /// `|P| + √(|Q|² + |R|²)` (|Q cos θ + R sin θ| ≤ √(|Q|² + |R|²) for the
+    /// vectors Q = (x₁, y₁), R = (x₂, y₂)), above by a relative 1e-9 so that
+    /// rounding cannot put it under a sample it bounds.
+    fn lateral_bound(&self) -> f64 {
+        let p = self.x[0].hypot(self.y[0]);
+        let qr = (self.x[1] * self.x[1]
+            + self.y[1] * self.y[1]
+            + self.x[2] * self.x[2]
+            + self.y[2] * self.y[2])
+            .sqrt();
+        (p + qr) * (1.0 + 1e-9)
     }
 
     fn at(&self, phi: f64) -> ([f64; 3], f64) {
@@ -357,10 +377,10 @@ impl Slice {
     /// The harmonics of tooth angle α = φ + c at the slice (eq. 3.4b): per unit
     /// `K_t f_z`, x `−L sin α cos α − a sin²α`, y `L sin²α − a sin α cos α`,
     /// z `b sin α`, torque `∫r dz · sin α`.
-    fn tooth(&self, c: f64) -> Harmonics {
+    /// (At the angle c whose cosine is `cc` and sine `sc`.)
+    fn tooth_cs(&self, cc: f64, sc: f64) -> Harmonics {
         let [l, a, b, r] = self.w;
-        let (sc, cc) = c.sin_cos();
-        let (s2, c2) = (2.0 * c).sin_cos();
+        let (s2, c2) = (2.0 * sc * cc, cc * cc - sc * sc);
         Harmonics {
             x: [
                 -a / 2.0,
@@ -384,6 +404,9 @@ impl Slice {
 pub struct PeakScratch {
     slices: Vec<Slice>,
     events: Vec<Event>,
+    /// Per slice and tooth j, the tooth's harmonics (`Slice::tooth` at
+    /// `c_j = 2πj/N − lag`), N a slice.
+    teeth: Vec<Harmonics>,
 }
 
 /// A tooth entering or leaving a slice's arc within one tooth period.
@@ -395,6 +418,8 @@ struct Event {
     slice: usize,
     /// A tooth enters the arc (else one leaves it).
     enters: bool,
+    /// The tooth at the arc's bound at `rotation`.
+    tooth: u32,
 }
 
 /// The force through one tooth period of a step whose bands cut the arcs
@@ -421,9 +446,14 @@ pub fn peak_cut(
     let n = teeth.flutes.max(1);
     let period = 2.0 * PI / f64::from(n);
     let lag_per_mm = teeth.helix_deg.to_radians().tan() / shape.radius_mm;
-    let PeakScratch { slices, events } = scratch;
+    let PeakScratch {
+        slices,
+        events,
+        teeth: harmonics,
+    } = scratch;
     slices.clear();
     events.clear();
+    harmonics.clear();
     let mut sum = Harmonics::default();
     for (arc, fz) in bands {
         let span = arc.z_hi_mm - arc.z_lo_mm;
@@ -448,14 +478,29 @@ pub fn peak_cut(
             });
         }
     }
+    // Each slice's teeth: c_j = j·period − lag by rotation (one sin_cos a
+    // slice).
+    let (sp, cp) = period.sin_cos();
+    for s in slices.iter() {
+        let (mut sc, mut cc) = (-s.lag).sin_cos();
+        for _ in 0..n {
+            harmonics.push(s.tooth_cs(cc, sc));
+            (sc, cc) = (sc * cp + cc * sp, cc * cp - sc * sp);
+        }
+    }
+    let nu = n as usize;
     for (si, s) in slices.iter().enumerate() {
         // The rotations in [0, period) where a tooth enters (α = φ_st) and
-        // one leaves (α = φ_ex).
+        // one leaves (α = φ_ex): α = rotation + c_j, so j is the whole
+        // number of periods in bound + lag − rotation.
         for (bound, enters) in [(s.arc[0], true), (s.arc[1], false)] {
+            let rotation = (bound + s.lag).rem_euclid(period);
+            let q = ((bound + s.lag - rotation) / period).round() as i64;
             events.push(Event {
-                rotation: (bound + s.lag).rem_euclid(period),
+                rotation,
                 slice: si,
                 enters,
+                tooth: q.rem_euclid(i64::from(n)) as u32,
             });
         }
     }
@@ -474,71 +519,72 @@ pub fn peak_cut(
         .max_by(|&a, &b| (at(a + 1) - at(a)).total_cmp(&(at(b + 1) - at(b))))
         .unwrap_or(0);
     let mid = 0.5 * (at(i0) + at(i0 + 1));
-    for s in slices.iter() {
-        for j in 0..n {
-            let cj = f64::from(j) * period - s.lag;
-            let alpha = (mid + cj).rem_euclid(2.0 * PI);
-            if alpha >= s.arc[0] && alpha < s.arc[1] {
-                sum.add(&s.tooth(cj), 1.0);
-            }
-        }
-    }
-    let consider = |h: &Harmonics, phi: f64, best: &mut PeakCut| {
-        let [x, y] = h.lateral(phi);
-        let f = x.hypot(y);
-        if f > best.lateral_n {
-            let (force_n, torque_nmm) = h.at(phi);
-            *best = PeakCut {
-                lateral_n: f,
-                force_n,
-                torque_nmm,
-                rotation_rad: phi.rem_euclid(period),
-                ..PeakCut::default()
-            };
-        }
-    };
+    sum.add(&engaged_at(slices, harmonics, n, mid), 1.0);
+    // The largest squared lateral force so far.
+    let mut best_sq = 0.0;
     for k in 0..m {
         // The stretch [from, to] with the same teeth engaged, then the event at `to`.
         let (from, to) = (at(i0 + k), at(i0 + k + 1));
-        let steps = ((2.0 * (to - from) / SAMPLE_2PHI_RAD).ceil() as usize).max(1);
-        for i in 0..=steps {
-            consider(
-                &sum,
-                from + (to - from) * i as f64 / steps as f64,
-                &mut best,
-            );
+        // No sample of a stretch can beat the best so far where its bound
+        // does not (the same peak, for less work).
+        if sum.lateral_bound() > best.lateral_n {
+            let steps = ((2.0 * (to - from) / SAMPLE_2PHI_RAD).ceil() as usize).max(1);
+            let d_phi = (to - from) / steps as f64;
+            // 2φ of the samples by rotation (one sin_cos a stretch, not one
+            // a sample).
+            let (mut s2, mut c2) = (2.0 * from).sin_cos();
+            let (ds, dc) = (2.0 * d_phi).sin_cos();
+            for i in 0..=steps {
+                let [x, y] = sum.lateral_cs(c2, s2);
+                let q = x * x + y * y;
+                if q > best_sq {
+                    let phi = from + d_phi * i as f64;
+                    let (force_n, torque_nmm) = sum.at(phi);
+                    best_sq = q;
+                    best = PeakCut {
+                        lateral_n: q.sqrt(),
+                        force_n,
+                        torque_nmm,
+                        rotation_rad: phi.rem_euclid(period),
+                        ..PeakCut::default()
+                    };
+                }
+                (s2, c2) = (s2 * dc + c2 * ds, c2 * dc - s2 * ds);
+            }
         }
         let Event {
             slice: si,
             enters: enter,
+            tooth: j,
             ..
         } = events[(i0 + k + 1) % m];
-        let s = &slices[si];
-        // The tooth at the arc's bound at this rotation: α = φ + c.
-        let bound = if enter { s.arc[0] } else { s.arc[1] };
-        sum.add(&s.tooth(bound - to), if enter { 1.0 } else { -1.0 });
+        // The tooth at the arc's bound at this rotation (one period on, the
+        // tooth before it).
+        let wrap = usize::from(i0 + k + 1 >= m);
+        let j = (j as usize + nu - wrap) % nu;
+        sum.add(&harmonics[si * nu + j], if enter { 1.0 } else { -1.0 });
     }
     let lag = flank_at_mm * lag_per_mm;
-    best.at_left_flank_n = lateral_at(slices, n, lag);
-    best.at_right_flank_n = lateral_at(slices, n, PI + lag);
+    best.at_left_flank_n = engaged_at(slices, harmonics, n, lag).lateral(lag);
+    best.at_right_flank_n = engaged_at(slices, harmonics, n, PI + lag).lateral(PI + lag);
     best
 }
 
-/// The lateral force [x, y] at the rotation `phi`, summed over the slices'
-/// teeth engaged then (eq. 3.4b).
-fn lateral_at(slices: &[Slice], flutes: u32, phi: f64) -> [f64; 2] {
+/// The harmonics of the slices' teeth engaged at the rotation `phi`
+/// (`harmonics`: [`PeakScratch::teeth`]), summed (eq. 3.4b).
+fn engaged_at(slices: &[Slice], harmonics: &[Harmonics], flutes: u32, phi: f64) -> Harmonics {
     let period = 2.0 * PI / f64::from(flutes);
     let mut sum = Harmonics::default();
-    for s in slices {
+    for (si, s) in slices.iter().enumerate() {
         for j in 0..flutes {
             let cj = f64::from(j) * period - s.lag;
             let alpha = (phi + cj).rem_euclid(2.0 * PI);
             if alpha >= s.arc[0] && alpha < s.arc[1] {
-                sum.add(&s.tooth(cj), 1.0);
+                sum.add(&harmonics[si * flutes as usize + j as usize], 1.0);
             }
         }
     }
-    sum.lateral(phi)
+    sum
 }
 
 #[cfg(test)]
@@ -553,6 +599,29 @@ mod tests {
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol * b.abs().max(1e-12)
+    }
+
+    #[test]
+    fn lateral_bound_is_above_every_rotation() {
+        // Harmonics of a few teeth at arbitrary angles and coefficients.
+        let slice = Slice {
+            w: [3.0, 0.7, -0.2, 4.0],
+            lag: 0.1,
+            arc: [0.0, PI],
+        };
+        let mut h = Harmonics::default();
+        for (k, c) in [0.3, 1.9, 2.6, 4.4].into_iter().enumerate() {
+            let (sc, cc) = f64::sin_cos(c);
+            h.add(&slice.tooth_cs(cc, sc), if k == 2 { -0.5 } else { 1.0 });
+            let bound = h.lateral_bound();
+            let peak = (0..3600)
+                .map(|i| {
+                    let [x, y] = h.lateral(f64::from(i) * PI / 3600.0);
+                    x.hypot(y)
+                })
+                .fold(0.0, f64::max);
+            assert!(peak <= bound && bound < 2.0 * peak, "{peak} {bound}");
+        }
     }
 
     #[test]
@@ -711,6 +780,42 @@ mod tests {
         assert!(
             close(p.force_n[2], -C.axial_ratio * C.kt_mpa * ap * fz, 1e-9),
             "{p:?}"
+        );
+    }
+
+    /// The arcs of a band from its columns' offsets and its width: one
+    /// flank keeps it, both share it, neither centres it on the columns.
+    #[test]
+    fn arcs_from_offsets_at_a_flank_in_a_slot_and_in_the_middle() {
+        let flat = EdgeShape::flat(5.0);
+        let (cell, near) = (0.1, |a: f64, b: f64| (a - b).abs() < 1e-12);
+        // Left flank (up milling), 2 mm wide: φ from 0 to arccos(3/5).
+        let [a, b] = BandArc::from_offsets(&flat, 1.0, 2.0, [3.05, 4.95], cell, 2.0);
+        let a = a.unwrap();
+        assert!(b.is_none() && near(a.phi_st_rad, 0.0) && near(a.phi_ex_rad, 0.6f64.acos()));
+        assert!(near(a.z_lo_mm, 1.0) && near(a.z_hi_mm, 2.0));
+        // Right flank (down milling).
+        let [a, _] = BandArc::from_offsets(&flat, 1.0, 2.0, [-4.95, -3.05], cell, 2.0);
+        let a = a.unwrap();
+        assert!(near(a.phi_st_rad, (-0.6f64).acos()) && near(a.phi_ex_rad, PI));
+        // Both flanks, half a slot's volume: 2.5 mm at each flank (as a tool
+        // leaving a slot cuts two slivers; MODEL.md §3.4 on what it misses).
+        let [a, b] = BandArc::from_offsets(&flat, 1.0, 2.0, [-4.95, 4.95], cell, 5.0);
+        let (a, b) = (a.unwrap(), b.unwrap());
+        assert!(near(a.phi_st_rad, 0.0) && near(a.phi_ex_rad, 0.5f64.acos()));
+        assert!(near(b.phi_st_rad, (-0.5f64).acos()) && near(b.phi_ex_rad, PI));
+        assert!(near(a.z_lo_mm, 1.0) && near(a.z_hi_mm, 2.0));
+        // Neither flank: 1 mm about the columns' middle (offsets 0.45…1.45
+        // widened by half a cell: middle 0.95).
+        let [a, _] = BandArc::from_offsets(&flat, 1.0, 2.0, [0.45, 1.45], cell, 1.0);
+        let a = a.unwrap();
+        assert!(near(a.phi_st_rad, (1.45f64 / 5.0).acos()));
+        assert!(near(a.phi_ex_rad, (0.45f64 / 5.0).acos()));
+        // No columns: no arc.
+        let empty = [f64::INFINITY, f64::NEG_INFINITY];
+        assert_eq!(
+            BandArc::from_offsets(&flat, 1.0, 2.0, empty, cell, 1.0),
+            [None, None]
         );
     }
 

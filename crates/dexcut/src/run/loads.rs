@@ -3,6 +3,7 @@
 
 use cutting::StepLoad;
 use dexel::RemovalRecord;
+use rayon::prelude::*;
 
 use crate::input::tools::ToolSet;
 use crate::motion::TimedStep;
@@ -23,16 +24,19 @@ pub fn loads(
 /// What `of(load, step)` makes of each step's load of [`loads`] (the
 /// closed loop's passes keep each step's deflection across its path, 8 B,
 /// not its load, 104 B).
-pub(crate) fn loads_as<T>(
+pub(crate) fn loads_as<T: Send>(
     tools: &ToolSet,
     tool_of_step: &[usize],
     record: &RemovalRecord,
     steps: &[TimedStep],
     grid_mm: f64,
-    of: impl Fn(&StepLoad, usize) -> T,
+    of: impl Fn(&StepLoad, usize) -> T + Sync,
 ) -> Vec<T> {
+    // Steps in parallel: each step's load is its own (the forces through a
+    // tooth period cost a few µs a step, MODEL.md §3.4), and the order of
+    // the results is the steps'.
     let mut out: Vec<T> = steps
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(i, s)| {
             let model = &tools.entries[tool_of_step[i]].model;
