@@ -14,6 +14,10 @@ use crate::tooth::{mean_cut, peak_cut, BandArc, Coefficients, EdgeShape, PeakScr
 /// remove its volume before the step is taken as no steady cut (MODEL.md §3.4).
 const MAX_FEED_OVER_MOTION: f64 = 1.25;
 
+/// Bisections of a step's split of the bands at both flanks between
+/// slivers and a slot (MODEL.md §3.4): s to 2⁻²⁴.
+const SPLIT_BISECTIONS: usize = 24;
+
 /// Below this length the contact resultant is treated as zero (no defined direction).
 const MIN_RESULTANT: f64 = 1e-12;
 
@@ -214,11 +218,36 @@ pub struct CuttingModel {
     pub helix_deg: f64,
 }
 
+/// Scratch of [`CuttingModel::tooth_forces`]: the arcs with their feeds per
+/// tooth, the bands' cuts, and the peak's slices and events (no allocation
+/// per step once grown).
+#[derive(Default)]
+struct ToothScratch {
+    arcs: Vec<(BandArc, f64)>,
+    cuts: Vec<BandCut>,
+    peak: PeakScratch,
+}
+
 thread_local! {
-    /// Scratch of [`CuttingModel::tooth_forces`]: the bands' arcs and the
-    /// peak's slices and events (no allocation per step once grown).
-    static TOOTH_SCRATCH: RefCell<(Vec<(BandArc, f64)>, PeakScratch)> =
-        RefCell::new((Vec::new(), PeakScratch::default()));
+    static TOOTH_SCRATCH: RefCell<ToothScratch> = RefCell::new(ToothScratch::default());
+}
+
+/// A band's cut as the sweep recorded it (MODEL.md §3.4): its volume, its
+/// heights, its columns' offsets, its width across the feed, the grid's
+/// cell, and whether
+/// the columns reach both flanks (a slot over part of the band's height,
+/// or slivers at both flanks: split by the step's contact along the feed).
+#[derive(Clone, Copy, Debug)]
+struct BandCut {
+    volume_mm3: f64,
+    z_mm: [f64; 2],
+    offsets_mm: [f64; 2],
+    width_mm: f64,
+    cell_mm: f64,
+    both_flanks: bool,
+    /// Both flanks, above a band cut across the whole width: the top of a
+    /// slot (cut as one over part of its height, whatever the contact).
+    slot_top: bool,
 }
 
 /// A step's forces through a tooth period (MODEL.md §3.4), machine axes.
@@ -422,14 +451,25 @@ impl CuttingModel {
             return None;
         }
         TOOTH_SCRATCH.with(|scratch| {
-            let (arcs, peak_scratch) = &mut *scratch.borrow_mut();
+            let ToothScratch {
+                arcs,
+                cuts,
+                peak: peak_scratch,
+            } = &mut *scratch.borrow_mut();
             arcs.clear();
+            cuts.clear();
             let h = self.band_height_mm;
             let fz_motion = r.len_xy_mm / (f64::from(self.flutes) * revolutions);
-            let mut mean = [0.0; 3];
             // The volume of the bands that take §3.2's mean.
             let mut aggregate_mm3 = 0.0;
+            // The bands with arcs: their volume, and the volume times the
+            // share along the feed of the contact of those whose arcs are
+            // known (at one flank, at neither, or a slot's top).
+            let (mut arcs_mm3, mut known) = (0.0, 0.0);
+            // The band below was cut across the tool's whole width.
+            let mut below_whole = false;
             for (k, &v) in r.band_volumes_mm3.iter().enumerate() {
+                let below = std::mem::take(&mut below_whole);
                 if !(v > 0.0) {
                     continue;
                 }
@@ -441,35 +481,97 @@ impl CuttingModel {
                 let z_hi = (z_lo + h).min(self.beam.flute_length_mm.max(z_lo));
                 // The band's removal across the feed: its volume over its
                 // height and the step's length.
-                let width = v / ((z_hi - z_lo) * r.len_xy_mm);
-                let pieces = BandArc::from_offsets(
-                    &self.edge,
-                    z_lo,
-                    z_hi,
-                    [f64::from(lo), f64::from(hi)],
-                    r.cell_mm,
-                    width,
-                );
-                // One feed per tooth for the band's arcs (one, or one at each
-                // flank): its volume per revolution over theirs at f_z = 1.
+                let cut = BandCut {
+                    volume_mm3: v,
+                    z_mm: [z_lo, z_hi],
+                    offsets_mm: [f64::from(lo), f64::from(hi)],
+                    width_mm: v / ((z_hi - z_lo) * r.len_xy_mm),
+                    cell_mm: r.cell_mm,
+                    both_flanks: false,
+                    slot_top: false,
+                };
+                let pieces = self.band_arcs(&cut, cut.width_mm);
+                if pieces.iter().all(Option::is_none) {
+                    aggregate_mm3 += v;
+                    continue;
+                }
+                let both_flanks = pieces.iter().all(Option::is_some);
+                // (The width of a slot within the grid's resolution.)
+                let whole_mm = 2.0 * self.edge.radius_at_mm(0.5 * (z_lo + z_hi)) - 2.0 * r.cell_mm;
+                below_whole = both_flanks && cut.width_mm >= whole_mm;
+                let slot_top = both_flanks && below;
+                if slot_top {
+                    known += v * BandArc::forward_share(&self.flank_arcs(&cut, 1.0));
+                } else if !both_flanks {
+                    known += v * BandArc::forward_share(&pieces);
+                }
+                arcs_mm3 += v;
+                cuts.push(BandCut {
+                    both_flanks,
+                    slot_top,
+                    ..cut
+                });
+            }
+            // A band that reaches both flanks is cut between slivers at the
+            // flanks (the contact across the feed) and a slot over part of
+            // its height (along it: π/4 of its volume): the s of
+            // [`BandArc::flanks`], one for the step's such bands, that makes
+            // the contact along the feed of the bands with arcs the step's
+            // (their part of it), by bisection (the share grows with s).
+            let measured = (r.contact_resultant[0] * ux + r.contact_resultant[1] * uy) * arcs_mm3
+                / r.volume_mm3;
+            let along = |s: f64| -> f64 {
+                cuts.iter()
+                    .filter(|cut| cut.both_flanks && !cut.slot_top)
+                    .map(|cut| cut.volume_mm3 * BandArc::forward_share(&self.flank_arcs(cut, s)))
+                    .sum()
+            };
+            let target = measured - known;
+            let s = if cuts.iter().all(|cut| !cut.both_flanks || cut.slot_top)
+                || along(0.0) >= target
+            {
+                0.0
+            } else if along(1.0) <= target {
+                1.0
+            } else {
+                let (mut lo, mut hi) = (0.0, 1.0);
+                for _ in 0..SPLIT_BISECTIONS {
+                    let mid = 0.5 * (lo + hi);
+                    if along(mid) < target {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                0.5 * (lo + hi)
+            };
+            let mut mean = [0.0; 3];
+            for cut in cuts.iter() {
+                let v = cut.volume_mm3;
+                let pieces = if cut.slot_top {
+                    self.flank_arcs(cut, 1.0)
+                } else if cut.both_flanks {
+                    self.flank_arcs(cut, s)
+                } else {
+                    self.band_arcs(cut, cut.width_mm)
+                };
+                // One feed per tooth for the arcs (one, or one at each
+                // flank): their volume per revolution over theirs at
+                // f_z = 1.
                 let per_fz: f64 = pieces
                     .iter()
                     .flatten()
                     .map(|arc| mean_cut(&self.edge, self.flutes, arc, 1.0, c).volume_mm3)
                     .sum();
-                if !(per_fz > 0.0) {
-                    aggregate_mm3 += v;
-                    continue;
-                }
-                // A steady cut's arcs remove the band's volume at about the
-                // feed per tooth the step's motion gives. Where they would
-                // need more than 1.25 times it (a tool that starts buried in
-                // the stock, slivers left at a flank), the chip is not
-                // f_z sin φ and the arcs do not describe the cut: §3.2's
-                // aggregates do (their force is the energy's): the band
-                // takes its share of their mean.
+                // A steady cut's arcs remove the band's volume at about
+                // the feed per tooth the step's motion gives. Where they
+                // would need more than 1.25 times it (a tool that starts
+                // buried in the stock), the chip is not f_z sin φ and the
+                // arcs do not describe the cut: §3.2's aggregates do
+                // (their force is the energy's): the band takes its share
+                // of their mean.
                 let fz = v / revolutions / per_fz;
-                if fz > MAX_FEED_OVER_MOTION * fz_motion {
+                if !(per_fz > 0.0) || fz > MAX_FEED_OVER_MOTION * fz_motion {
                     aggregate_mm3 += v;
                     continue;
                 }
@@ -506,6 +608,25 @@ impl CuttingModel {
                 ],
             })
         })
+    }
+
+    /// [`BandArc::flanks`] of a band's cut `cut` that reaches both flanks.
+    fn flank_arcs(&self, cut: &BandCut, s: f64) -> [Option<BandArc>; 2] {
+        let [z_lo, z_hi] = cut.z_mm;
+        BandArc::flanks(&self.edge, z_lo, z_hi, cut.width_mm, s)
+    }
+
+    /// The arcs of a band's cut `cut` at the width `width_mm` (MODEL.md §3.4).
+    fn band_arcs(&self, cut: &BandCut, width_mm: f64) -> [Option<BandArc>; 2] {
+        let [z_lo, z_hi] = cut.z_mm;
+        BandArc::from_offsets(
+            &self.edge,
+            z_lo,
+            z_hi,
+            cut.offsets_mm,
+            cut.cell_mm,
+            width_mm,
+        )
     }
 
     /// The highest feed (mm/min) at which `quantity_at(feed)` stays at or under `limit`,
@@ -724,6 +845,90 @@ mod tests {
                 assert_eq!(load.force_peak_n, load.force_n);
             }
         }
+    }
+
+    /// A band whose columns reach both flanks is a slot over the part of
+    /// its height its volume fills where the step's contact lies along the
+    /// feed as a slot's does (π/4), slivers at both flanks where it lies as
+    /// theirs does, and arcs between for a contact between; above a band cut
+    /// across the whole width it is the top of a slot whatever the contact
+    /// (MODEL.md §3.4).
+    #[test]
+    fn a_band_at_both_flanks_is_a_slot_or_two_slivers_by_the_contact() {
+        let k = Kienzle {
+            kc1_1_mpa: 1500.0,
+            mc: 0.22,
+            radial_ratio: 0.3,
+            axial_ratio: 0.25,
+        };
+        let m = model(ForceModel::Kienzle(k));
+        let pi = std::f64::consts::PI;
+        let kc = 1500.0 * (2.0 * 0.1 / pi).powf(-0.22);
+        let c = Coefficients {
+            kt_mpa: kc,
+            radial_ratio: 0.3,
+            axial_ratio: 0.25,
+        };
+        // f = 0.32 mm a step, 1.6 revolutions: f_z = 0.1; chip 2 f_z/π.
+        fn removal<'a>(bands: &'a [f64], offsets: &'a [[f32; 2]], along: f64) -> StepRemoval<'a> {
+            let (pi, f) = (std::f64::consts::PI, 0.32);
+            let v: f64 = bands.iter().sum();
+            StepRemoval {
+                volume_mm3: v,
+                band_volumes_mm3: bands,
+                contact_resultant: [v * along, 0.0],
+                chip_edge_area_mm2: v / (2.0 * f / pi),
+                volume_over_radius_mm2: v / 5.0,
+                dt_s: 0.016,
+                band_offsets_mm: offsets,
+                feed_dir: [1.0, 0.0],
+                len_xy_mm: f,
+                cell_mm: 0.1,
+            }
+        }
+        const SLOT: [[f32; 2]; 2] = [[-4.95, 4.95]; 2];
+        // Half a slot's volume in band 0 (1.6 mm³ = 2R · 0.5 · f), contact
+        // along the feed as a slot's: a slot 0.5 mm deep, Altintas'
+        // F_y = N a_p f_z K_t / 4.
+        let fy = |ap: f64| 2.0 * ap * 0.1 * kc / 4.0;
+        let slot = m.step_load(&removal(&[1.6], &SLOT, pi / 4.0));
+        assert!(
+            (slot.fy_n - fy(0.5)).abs() < 1e-6 * fy(0.5),
+            "{}",
+            slot.fy_n
+        );
+        assert!((slot.fx_n + 0.3 * fy(0.5)).abs() < 1e-6 * fy(0.5));
+        // The same volume with the contact of two 2.5 mm slivers at the
+        // flanks: those slivers, at the motion's f_z (their arcs remove the
+        // volume at it).
+        let slivers = BandArc::from_offsets(&m.edge, 0.0, 1.0, [-4.95, 4.95], 0.1, 5.0);
+        let along = BandArc::forward_share(&slivers);
+        assert!(along < pi / 4.0 - 0.1);
+        let two = m.step_load(&removal(&[1.6], &SLOT, along));
+        let expected = slivers
+            .iter()
+            .flatten()
+            .map(|a| mean_cut(&m.edge, 2, a, 0.1, &c).force_n[1])
+            .sum::<f64>();
+        assert!(
+            (two.fy_n - expected).abs() < 1e-6 * fy(0.5),
+            "{} vs {expected}",
+            two.fy_n
+        );
+        assert!((two.fy_n - slot.fy_n).abs() > 0.1 * slot.fy_n);
+        // A contact halfway between: arcs between the slivers' and the
+        // slot's, and so is the force.
+        let mid = m.step_load(&removal(&[1.6], &SLOT, 0.5 * (along + pi / 4.0)));
+        let (lo, hi) = (two.fy_n.min(slot.fy_n), two.fy_n.max(slot.fy_n));
+        assert!(
+            mid.fy_n > lo && mid.fy_n < hi,
+            "{} not in {lo}…{hi}",
+            mid.fy_n
+        );
+        // Above a whole band (1 mm slot, 3.2 mm³): the top of a 1.5 mm slot
+        // even with the slivers' contact.
+        let top = m.step_load(&removal(&[3.2, 1.6], &SLOT, along));
+        assert!((top.fy_n - fy(1.5)).abs() < 1e-6 * fy(1.5), "{}", top.fy_n);
     }
 
     /// A band with volume but no offsets (a neighbour's share of a column)

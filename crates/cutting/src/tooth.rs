@@ -185,6 +185,55 @@ impl BandArc {
         }
     }
 
+    /// The cut of a band whose columns reach both flanks, `width_mm` wide
+    /// across the feed in all (MODEL.md §3.4): the arcs `[0, φ_a]` and
+    /// `[π − φ_a, π]` over the height from the band's bottom that holds its
+    /// volume, `Δz · w / (2r (1 − cos φ_a))`, with `φ_a = φ_s + s (π/2 − φ_s)`
+    /// between the slivers' `φ_s = arccos(1 − w/2r)` (the band's whole
+    /// height, s = 0) and a slot's π/2 (part of it, s = 1); r at the band's
+    /// middle. `[None, None]` where nothing is removed.
+    pub fn flanks(
+        shape: &EdgeShape,
+        z_lo_mm: f64,
+        z_hi_mm: f64,
+        width_mm: f64,
+        s: f64,
+    ) -> [Option<BandArc>; 2] {
+        let r = shape.radius_at_mm(0.5 * (z_lo_mm + z_hi_mm));
+        if !(r > 0.0 && width_mm > 0.0) {
+            return [None, None];
+        }
+        let filled = (width_mm / (2.0 * r)).min(1.0);
+        let phi_s = (1.0 - filled).acos();
+        let phi_a = phi_s + s.clamp(0.0, 1.0) * (0.5 * PI - phi_s);
+        let height = (z_hi_mm - z_lo_mm) * (filled / (1.0 - phi_a.cos())).min(1.0);
+        let arc = |phi_st_rad: f64, phi_ex_rad: f64| {
+            Some(BandArc {
+                z_lo_mm,
+                z_hi_mm: z_lo_mm + height,
+                phi_st_rad,
+                phi_ex_rad,
+            })
+        };
+        [arc(0.0, phi_a), arc(PI - phi_a, PI)]
+    }
+
+    /// The share along the feed of the unit vectors from the tool's axis to
+    /// the cut of `arcs` (of one band), weighted by the volume each removes
+    /// (the chip, ∝ sin φ): `∫ sin²φ dφ / ∫ sin φ dφ` over them; π/4 for a
+    /// slot, near 0 for slivers at its flanks (MODEL.md §3.4). 0 for no arc.
+    pub fn forward_share(arcs: &[Option<BandArc>]) -> f64 {
+        let (s, ss) = arcs.iter().flatten().fold((0.0, 0.0), |(s, ss), a| {
+            let [i_s, i_ss, _] = a.integrals();
+            (s + i_s, ss + i_ss)
+        });
+        if s > 0.0 {
+            ss / s
+        } else {
+            0.0
+        }
+    }
+
     /// A straight cut of a cylindrical flank `ae_mm` wide into material on
     /// the left (up milling for M3: φ from 0 to arccos(1 − ae/R)) or on the
     /// right (down milling: from π − arccos(1 − ae/R) to π); `ae_mm ≥ 2R` is
