@@ -847,6 +847,35 @@ mod tests {
         }
     }
 
+    /// Kienzle's s50c-like law of the tests below: kc1_1 1500, mc 0.22,
+    /// k_r 0.3, k_a 0.25.
+    const KIENZLE: Kienzle = Kienzle {
+        kc1_1_mpa: 1500.0,
+        mc: 0.22,
+        radial_ratio: 0.3,
+        axial_ratio: 0.25,
+    };
+
+    /// A flat Ø10 slot step along +X of [`model`]: f = 0.32 mm a step,
+    /// 1.6 revolutions (f_z 0.1), mean chip 2 f_z/π, `bands` of volume with
+    /// their `offsets`, the contact's share along the feed `along`.
+    fn slot_removal<'a>(bands: &'a [f64], offsets: &'a [[f32; 2]], along: f64) -> StepRemoval<'a> {
+        let (pi, f) = (std::f64::consts::PI, 0.32);
+        let v: f64 = bands.iter().sum();
+        StepRemoval {
+            volume_mm3: v,
+            band_volumes_mm3: bands,
+            contact_resultant: [v * along, 0.0],
+            chip_edge_area_mm2: v / (2.0 * f / pi),
+            volume_over_radius_mm2: v / 5.0,
+            dt_s: 0.016,
+            band_offsets_mm: offsets,
+            feed_dir: [1.0, 0.0],
+            len_xy_mm: f,
+            cell_mm: 0.1,
+        }
+    }
+
     /// A band whose columns reach both flanks is a slot over the part of
     /// its height its volume fills where the step's contact lies along the
     /// feed as a slot's does (π/4), slivers at both flanks where it lies as
@@ -855,13 +884,7 @@ mod tests {
     /// (MODEL.md §3.4).
     #[test]
     fn a_band_at_both_flanks_is_a_slot_or_two_slivers_by_the_contact() {
-        let k = Kienzle {
-            kc1_1_mpa: 1500.0,
-            mc: 0.22,
-            radial_ratio: 0.3,
-            axial_ratio: 0.25,
-        };
-        let m = model(ForceModel::Kienzle(k));
+        let m = model(ForceModel::Kienzle(KIENZLE));
         let pi = std::f64::consts::PI;
         let kc = 1500.0 * (2.0 * 0.1 / pi).powf(-0.22);
         let c = Coefficients {
@@ -869,23 +892,7 @@ mod tests {
             radial_ratio: 0.3,
             axial_ratio: 0.25,
         };
-        // f = 0.32 mm a step, 1.6 revolutions: f_z = 0.1; chip 2 f_z/π.
-        fn removal<'a>(bands: &'a [f64], offsets: &'a [[f32; 2]], along: f64) -> StepRemoval<'a> {
-            let (pi, f) = (std::f64::consts::PI, 0.32);
-            let v: f64 = bands.iter().sum();
-            StepRemoval {
-                volume_mm3: v,
-                band_volumes_mm3: bands,
-                contact_resultant: [v * along, 0.0],
-                chip_edge_area_mm2: v / (2.0 * f / pi),
-                volume_over_radius_mm2: v / 5.0,
-                dt_s: 0.016,
-                band_offsets_mm: offsets,
-                feed_dir: [1.0, 0.0],
-                len_xy_mm: f,
-                cell_mm: 0.1,
-            }
-        }
+        let removal = slot_removal;
         const SLOT: [[f32; 2]; 2] = [[-4.95, 4.95]; 2];
         // Half a slot's volume in band 0 (1.6 mm³ = 2R · 0.5 · f), contact
         // along the feed as a slot's: a slot 0.5 mm deep, Altintas'
@@ -936,34 +943,11 @@ mod tests {
     /// the step's force by its share, not to another model.
     #[test]
     fn a_band_without_arcs_takes_its_share_of_the_aggregate_mean() {
-        let k = Kienzle {
-            kc1_1_mpa: 1500.0,
-            mc: 0.22,
-            radial_ratio: 0.3,
-            axial_ratio: 0.25,
-        };
-        let m = model(ForceModel::Kienzle(k));
+        let m = model(ForceModel::Kienzle(KIENZLE));
         let pi = std::f64::consts::PI;
-        // f = 0.32 mm a step, 1.6 revolutions: f_z = 0.1; mean chip 2 f_z/π.
         let revs = 1.6;
-        let hm = 2.0 * 0.1 / pi;
-        let kc = 1500.0 * hm.powf(-0.22);
-        fn removal<'a>(bands: &'a [f64], offsets: &'a [[f32; 2]]) -> StepRemoval<'a> {
-            let (pi, f) = (std::f64::consts::PI, 0.32);
-            let v: f64 = bands.iter().sum();
-            StepRemoval {
-                volume_mm3: v,
-                band_volumes_mm3: bands,
-                contact_resultant: [v * pi / 4.0, 0.0],
-                chip_edge_area_mm2: v / (2.0 * f / pi),
-                volume_over_radius_mm2: v / 5.0,
-                dt_s: 0.016,
-                band_offsets_mm: offsets,
-                feed_dir: [1.0, 0.0],
-                len_xy_mm: f,
-                cell_mm: 0.1,
-            }
-        }
+        let kc = 1500.0 * (2.0 * 0.1 / pi).powf(-0.22);
+        let removal = |bands, offsets| slot_removal(bands, offsets, pi / 4.0);
         const SLOT: [[f32; 2]; 1] = [[-4.95, 4.95]];
         // A whole 1 mm slot in band 0, then the same with a 0.1 % sliver in
         // band 1 that has no offsets.
