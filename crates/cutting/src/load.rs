@@ -233,21 +233,27 @@ thread_local! {
 }
 
 /// A band's cut as the sweep recorded it (MODEL.md §3.4): its volume, its
-/// heights, its columns' offsets, its width across the feed, the grid's
-/// cell, and whether
-/// the columns reach both flanks (a slot over part of the band's height,
-/// or slivers at both flanks: split by the step's contact along the feed).
+/// heights, its width across the feed, and what its columns' offsets make of
+/// it.
 #[derive(Clone, Copy, Debug)]
 struct BandCut {
     volume_mm3: f64,
     z_mm: [f64; 2],
-    offsets_mm: [f64; 2],
     width_mm: f64,
-    cell_mm: f64,
-    both_flanks: bool,
+    kind: BandKind,
+}
+
+/// What a band's columns make of its cut (MODEL.md §3.4).
+#[derive(Clone, Copy, Debug)]
+enum BandKind {
+    /// Its arcs (at one flank, or at neither).
+    Arcs([Option<BandArc>; 2]),
+    /// Both flanks: between slivers and a slot, split by the step's contact
+    /// along the feed ([`BandArc::flanks`]).
+    Split,
     /// Both flanks, above a band cut across the whole width: the top of a
-    /// slot (cut as one over part of its height, whatever the contact).
-    slot_top: bool,
+    /// slot, cut as one over part of its height whatever the contact.
+    SlotTop,
 }
 
 /// A step's forces through a tooth period (MODEL.md §3.4), machine axes.
@@ -481,16 +487,15 @@ impl CuttingModel {
                 let z_hi = (z_lo + h).min(self.beam.flute_length_mm.max(z_lo));
                 // The band's removal across the feed: its volume over its
                 // height and the step's length.
-                let cut = BandCut {
-                    volume_mm3: v,
-                    z_mm: [z_lo, z_hi],
-                    offsets_mm: [f64::from(lo), f64::from(hi)],
-                    width_mm: v / ((z_hi - z_lo) * r.len_xy_mm),
-                    cell_mm: r.cell_mm,
-                    both_flanks: false,
-                    slot_top: false,
-                };
-                let pieces = self.band_arcs(&cut, cut.width_mm);
+                let width_mm = v / ((z_hi - z_lo) * r.len_xy_mm);
+                let pieces = BandArc::from_offsets(
+                    &self.edge,
+                    z_lo,
+                    z_hi,
+                    [f64::from(lo), f64::from(hi)],
+                    r.cell_mm,
+                    width_mm,
+                );
                 if pieces.iter().all(Option::is_none) {
                     aggregate_mm3 += v;
                     continue;
@@ -498,19 +503,23 @@ impl CuttingModel {
                 let both_flanks = pieces.iter().all(Option::is_some);
                 // (The width of a slot within the grid's resolution.)
                 let whole_mm = 2.0 * self.edge.radius_at_mm(0.5 * (z_lo + z_hi)) - 2.0 * r.cell_mm;
-                below_whole = both_flanks && cut.width_mm >= whole_mm;
-                let slot_top = both_flanks && below;
-                if slot_top {
-                    known += v * BandArc::forward_share(&self.flank_arcs(&cut, 1.0));
-                } else if !both_flanks {
-                    known += v * BandArc::forward_share(&pieces);
+                below_whole = both_flanks && width_mm >= whole_mm;
+                let mut cut = BandCut {
+                    volume_mm3: v,
+                    z_mm: [z_lo, z_hi],
+                    width_mm,
+                    kind: BandKind::Split,
+                };
+                if !both_flanks {
+                    cut.kind = BandKind::Arcs(pieces);
+                } else if below {
+                    cut.kind = BandKind::SlotTop;
+                }
+                if !matches!(cut.kind, BandKind::Split) {
+                    known += v * BandArc::forward_share(&self.cut_arcs(&cut, 1.0));
                 }
                 arcs_mm3 += v;
-                cuts.push(BandCut {
-                    both_flanks,
-                    slot_top,
-                    ..cut
-                });
+                cuts.push(cut);
             }
             // A band that reaches both flanks is cut between slivers at the
             // flanks (the contact across the feed) and a slot over part of
@@ -520,16 +529,15 @@ impl CuttingModel {
             // (their part of it), by bisection (the share grows with s).
             let measured = (r.contact_resultant[0] * ux + r.contact_resultant[1] * uy) * arcs_mm3
                 / r.volume_mm3;
+            let split = |cut: &&BandCut| matches!(cut.kind, BandKind::Split);
             let along = |s: f64| -> f64 {
                 cuts.iter()
-                    .filter(|cut| cut.both_flanks && !cut.slot_top)
-                    .map(|cut| cut.volume_mm3 * BandArc::forward_share(&self.flank_arcs(cut, s)))
+                    .filter(split)
+                    .map(|cut| cut.volume_mm3 * BandArc::forward_share(&self.cut_arcs(cut, s)))
                     .sum()
             };
             let target = measured - known;
-            let s = if cuts.iter().all(|cut| !cut.both_flanks || cut.slot_top)
-                || along(0.0) >= target
-            {
+            let s = if !cuts.iter().any(|cut| split(&cut)) || along(0.0) >= target {
                 0.0
             } else if along(1.0) <= target {
                 1.0
@@ -548,13 +556,7 @@ impl CuttingModel {
             let mut mean = [0.0; 3];
             for cut in cuts.iter() {
                 let v = cut.volume_mm3;
-                let pieces = if cut.slot_top {
-                    self.flank_arcs(cut, 1.0)
-                } else if cut.both_flanks {
-                    self.flank_arcs(cut, s)
-                } else {
-                    self.band_arcs(cut, cut.width_mm)
-                };
+                let pieces = self.cut_arcs(cut, s);
                 // One feed per tooth for the arcs (one, or one at each
                 // flank): their volume per revolution over theirs at
                 // f_z = 1.
@@ -610,23 +612,15 @@ impl CuttingModel {
         })
     }
 
-    /// [`BandArc::flanks`] of a band's cut `cut` that reaches both flanks.
-    fn flank_arcs(&self, cut: &BandCut, s: f64) -> [Option<BandArc>; 2] {
+    /// The arcs of a band's cut `cut`: its own, or where it reaches both
+    /// flanks [`BandArc::flanks`] at the step's split `s` (a slot's top: 1).
+    fn cut_arcs(&self, cut: &BandCut, s: f64) -> [Option<BandArc>; 2] {
         let [z_lo, z_hi] = cut.z_mm;
-        BandArc::flanks(&self.edge, z_lo, z_hi, cut.width_mm, s)
-    }
-
-    /// The arcs of a band's cut `cut` at the width `width_mm` (MODEL.md §3.4).
-    fn band_arcs(&self, cut: &BandCut, width_mm: f64) -> [Option<BandArc>; 2] {
-        let [z_lo, z_hi] = cut.z_mm;
-        BandArc::from_offsets(
-            &self.edge,
-            z_lo,
-            z_hi,
-            cut.offsets_mm,
-            cut.cell_mm,
-            width_mm,
-        )
+        match cut.kind {
+            BandKind::Arcs(arcs) => arcs,
+            BandKind::Split => BandArc::flanks(&self.edge, z_lo, z_hi, cut.width_mm, s),
+            BandKind::SlotTop => BandArc::flanks(&self.edge, z_lo, z_hi, cut.width_mm, 1.0),
+        }
     }
 
     /// The highest feed (mm/min) at which `quantity_at(feed)` stays at or under `limit`,
