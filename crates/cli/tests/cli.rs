@@ -76,54 +76,6 @@ fn csv_columns(path: &Path) -> std::collections::HashMap<String, Vec<f64>> {
     cols
 }
 
-/// The per-column results of an output folder read from its `.npy` grid
-/// (`columns.json`), laid out as columns.csv's rows: one per column where any
-/// value is set, with ix, iy, x_mm, y_mm and one entry per array (NaN and the
-/// integer arrays' −1 read as NaN).
-fn grid_columns(out: &Path) -> HashMap<String, Vec<f64>> {
-    let info = export::read_column_grid_info(out, 1 << 20).unwrap();
-    let arrays: Vec<(String, Vec<f64>)> = info
-        .arrays
-        .iter()
-        .map(|a| {
-            let npy = export::parse_npy(&std::fs::read(out.join(&a.file)).unwrap()).unwrap();
-            assert_eq!(npy.shape, vec![info.ny, info.nx], "{}", a.file);
-            let values = match npy.data {
-                export::NpyArray::F32(v) => v.iter().map(|&x| x as f64).collect(),
-                export::NpyArray::I32(v) => v
-                    .iter()
-                    .map(|&i| if i < 0 { f64::NAN } else { i as f64 })
-                    .collect(),
-                other => panic!("{}: {:?} in the grid", a.file, other.dtype()),
-            };
-            (a.name.clone(), values)
-        })
-        .collect();
-    let grid = info.grid();
-    let mut cols: HashMap<String, Vec<f64>> = HashMap::new();
-    for iy in 0..grid.ny {
-        for ix in 0..grid.nx {
-            let i = grid.index(ix, iy);
-            if arrays.iter().all(|(_, v)| v[i].is_nan()) {
-                continue;
-            }
-            let fixed = [
-                ("ix", ix as f64),
-                ("iy", iy as f64),
-                ("x_mm", grid.x_mm(ix)),
-                ("y_mm", grid.y_mm(iy)),
-            ];
-            for (name, v) in fixed {
-                cols.entry(name.into()).or_default().push(v);
-            }
-            for (name, v) in &arrays {
-                cols.entry(name.clone()).or_default().push(v[i]);
-            }
-        }
-    }
-    cols
-}
-
 /// Cross-section of a slot cut h deep by a ball of radius r (circular segment), mm².
 fn ball_slot_area_mm2(r: f64, h: f64) -> f64 {
     r * r * ((r - h) / r).acos() - (r - h) * (2.0 * r * h - h * h).sqrt()
@@ -754,7 +706,7 @@ fn every_line_beyond_tolerance_is_listed() {
     // Columns never cut (|y| > 5) stand 2 mm above the design: counted apart.
     assert!(s["design"]["uncut_stock_columns"].as_u64().unwrap() > 0);
     // The counts are the columns of the grid on that line beyond the tolerance.
-    let columns = grid_columns(&dir.path().join("out"));
+    let columns = common::grid_columns(&dir.path().join("out"));
     for e in lines {
         let line = e["line"].as_f64().unwrap();
         let gouge = e["kind"].as_str() == Some("gouge");
@@ -819,7 +771,7 @@ fn column_grid_by_default_csv_on_request_and_report_reads_both() {
     }
     // The CSV's rows are the grid's, value for value (NaN as an empty field):
     // the arrays compared as f32 bits, the centres as f64.
-    let from_grid = grid_columns(&npy);
+    let from_grid = common::grid_columns(&npy);
     let mut r = csv::Reader::from_path(both.join("columns.csv")).unwrap();
     let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
     let mut expected: Vec<&str> = vec!["ix", "iy", "x_mm", "y_mm"];
@@ -922,7 +874,7 @@ fn simulate_pass_along_x(
 fn run_output(out: &Path) -> RunOutput {
     (
         csv_columns(&out.join("steps.csv")),
-        grid_columns(out),
+        common::grid_columns(out),
         summary(out),
     )
 }

@@ -69,13 +69,6 @@ pub struct StepLoad {
     pub tip_deflection_um: f64,
     /// Largest von Mises stress in the tool (holder face or flute end), MPa.
     pub stress_mpa: f64,
-    /// Deflection [x, y] at the contact height at the instant a tooth there
-    /// passes the flank on the left of the feed (φ = 0: the wall up milling
-    /// leaves), µm (MODEL.md §5.2); the mean deflection where the step has
-    /// no engaged arc.
-    pub at_left_flank_um: [f64; 2],
-    /// The same on the right of the feed (φ = π: down milling's wall), µm.
-    pub at_right_flank_um: [f64; 2],
 }
 
 impl StepLoad {
@@ -97,8 +90,6 @@ impl StepLoad {
             dy_um: s * self.dy_um,
             tip_deflection_um: s * self.tip_deflection_um,
             stress_mpa: s * self.stress_mpa,
-            at_left_flank_um: self.at_left_flank_um.map(|v| s * v),
-            at_right_flank_um: self.at_right_flank_um.map(|v| s * v),
             ..*self
         }
     }
@@ -120,15 +111,25 @@ impl StepLoad {
         if !self.breaks(rupture_mpa) {
             return *self;
         }
-        let s = rupture_mpa / self.stress_mpa;
+        let s = self.rupture_scale(rupture_mpa);
         StepLoad {
             deflection_um: s * self.deflection_um,
             dx_um: s * self.dx_um,
             dy_um: s * self.dy_um,
             tip_deflection_um: s * self.tip_deflection_um,
-            at_left_flank_um: self.at_left_flank_um.map(|v| s * v),
-            at_right_flank_um: self.at_right_flank_um.map(|v| s * v),
             ..*self
+        }
+    }
+
+    /// What [`StepLoad::at_rupture`] scales the deflections by: `σ_R / σ`
+    /// where the tool breaks, else 1 (any other deflection of the step, such
+    /// as its flanks' of [`CuttingModel::step_load_with_flanks`], scales
+    /// with it).
+    pub fn rupture_scale(&self, rupture_mpa: f64) -> f64 {
+        if self.breaks(rupture_mpa) {
+            rupture_mpa / self.stress_mpa
+        } else {
+            1.0
         }
     }
 
@@ -261,9 +262,6 @@ struct ToothForces {
     mean_n: [f64; 3],
     peak_lateral_n: f64,
     peak_torque_nmm: f64,
-    /// Lateral forces when a tooth at the contact height passes the left and
-    /// the right flank, machine axes, N.
-    at_flanks_n: [[f64; 2]; 2],
 }
 
 impl CuttingModel {
@@ -326,6 +324,26 @@ impl CuttingModel {
     ///
     /// Does not allocate.
     pub fn step_load(&self, r: &StepRemoval<'_>) -> StepLoad {
+        self.step_load_with_flanks(r, &mut [])
+    }
+
+    /// [`step_load`](Self::step_load), and per entry k of `flanks_um` the
+    /// deflection [x, y] (µm, machine axes) at band k's mid-height
+    /// `z_k = (k + ½)·h` at the instants a tooth there passes the flank on
+    /// the left of the feed (φ = 0: the wall up milling leaves) and on the
+    /// right (φ = π: down milling's), `[left, right]` (MODEL.md §5.2): the
+    /// force through the tooth period at that instant, spread over the bands
+    /// like the mean (§4.3), on the beam at z_k. Where the step has no
+    /// engaged arc (plunges, S4's law), the mean force's deflection at z_k on
+    /// both sides; zero where it removes nothing.
+    ///
+    /// Does not allocate.
+    pub fn step_load_with_flanks(
+        &self,
+        r: &StepRemoval<'_>,
+        flanks_um: &mut [[[f64; 2]; 2]],
+    ) -> StepLoad {
+        flanks_um.fill([[0.0; 2]; 2]);
         if !(r.volume_mm3 > 0.0 && r.dt_s > 0.0) {
             return StepLoad::default();
         }
@@ -380,9 +398,9 @@ impl CuttingModel {
                     r,
                     &coefficients,
                     revolutions,
-                    contact_height_mm,
                     aggregate,
                     1000.0 * power_w / omega,
+                    flanks_um,
                 );
                 let [fx, fy, fz] = tooth.as_ref().map_or(aggregate, |t| t.mean_n);
                 (fx, fy, fz, power_w, tooth)
@@ -399,18 +417,20 @@ impl CuttingModel {
         let deflection_um = 1000.0 * force * compliance_mm_per_n;
         let tip_deflection_um = 1000.0 * force * self.compliance_at_mm_per_n(bands, 0.0);
         let torque_nm = power_w / omega;
-        let um_per_n = 1000.0 * compliance_mm_per_n;
-        let (force_peak_n, peak_torque_nmm, flanks) = match tooth {
-            Some(t) => (
-                t.peak_lateral_n,
-                t.peak_torque_nmm,
-                t.at_flanks_n.map(|v| v.map(|c| um_per_n * c)),
-            ),
-            None => {
-                let mean = [deflection_um * ux, deflection_um * uy];
-                (force, 1000.0 * torque_nm, [mean, mean])
-            }
+        let (force_peak_n, peak_torque_nmm) = match &tooth {
+            Some(t) => (t.peak_lateral_n, t.peak_torque_nmm),
+            None => (force, 1000.0 * torque_nm),
         };
+        // Each band's flank forces (the mean's where the step has no
+        // engaged arc) on the beam at the band's mid-height (MODEL.md §5.2).
+        for (k, flank) in flanks_um.iter_mut().enumerate() {
+            let um_per_n =
+                1000.0 * self.compliance_at_mm_per_n(bands, (k as f64 + 0.5) * self.band_height_mm);
+            if tooth.is_none() {
+                *flank = [[fx, fy]; 2];
+            }
+            *flank = flank.map(|f| f.map(|c| um_per_n * c));
+        }
         StepLoad {
             force_n: force,
             force_peak_n,
@@ -430,8 +450,6 @@ impl CuttingModel {
             stress_mpa: self
                 .beam
                 .peak_stress_mpa(&[(contact_height_mm, force_peak_n)], peak_torque_nmm),
-            at_left_flank_um: flanks[0],
-            at_right_flank_um: flanks[1],
         }
     }
 
@@ -442,15 +460,18 @@ impl CuttingModel {
     /// takes its share of the volume of §3.2's mean `aggregate_n` (and of
     /// the mean torque `torque_nmm`), added to the arcs' mean, peak and
     /// flank forces. `None` where the step has no horizontal feed or no band
-    /// has arcs: the aggregates' mean is used whole.
+    /// has arcs: the aggregates' mean is used whole. Per entry k of
+    /// `flanks_n`, the lateral forces (machine axes, N) when a tooth at band
+    /// k's mid-height passes the left and the right flank ([`peak_cut`];
+    /// written only where `Some` is returned).
     fn tooth_forces(
         &self,
         r: &StepRemoval<'_>,
         c: &Coefficients,
         revolutions: f64,
-        flank_at_mm: f64,
         aggregate_n: [f64; 3],
         torque_nmm: f64,
+        flanks_n: &mut [[[f64; 2]; 2]],
     ) -> Option<ToothForces> {
         let [ux, uy] = r.feed_dir;
         if (ux == 0.0 && uy == 0.0) || !(revolutions > 0.0) {
@@ -592,7 +613,7 @@ impl CuttingModel {
                 flutes: self.flutes,
                 helix_deg: self.helix_deg,
             };
-            let peak = peak_cut(&self.edge, &teeth, arcs, c, flank_at_mm, peak_scratch);
+            let peak = peak_cut(&self.edge, &teeth, arcs, c, h, flanks_n, peak_scratch);
             // The bands without a steady cut's arcs: their share of §3.2's
             // mean, steady through the revolution.
             let share = aggregate_mm3 / r.volume_mm3;
@@ -600,14 +621,13 @@ impl CuttingModel {
             // Feed frame (x along the feed, y to its left) to machine axes.
             let machine = |[fx, fy]: [f64; 2]| [fx * ux - fy * uy + ax, fx * uy + fy * ux + ay];
             let [fx, fy] = machine([mean[0], mean[1]]);
+            for flank in flanks_n.iter_mut() {
+                *flank = flank.map(machine);
+            }
             Some(ToothForces {
                 mean_n: [fx, fy, mean[2] + az],
                 peak_lateral_n: peak.lateral_n + ax.hypot(ay),
                 peak_torque_nmm: peak.torque_nmm + share * torque_nmm,
-                at_flanks_n: [
-                    machine(peak.at_left_flank_n),
-                    machine(peak.at_right_flank_n),
-                ],
             })
         })
     }
@@ -656,8 +676,6 @@ mod tests {
             dy_um: -32.0,
             tip_deflection_um: 50.0,
             stress_mpa: 300.0,
-            at_left_flank_um: [30.0, -4.0],
-            at_right_flank_um: [10.0, 8.0],
         };
         let h = l.scaled(0.25);
         assert_eq!(

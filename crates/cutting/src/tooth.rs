@@ -334,13 +334,6 @@ pub struct PeakCut {
     pub torque_nmm: f64,
     /// Tool rotation at that instant (tooth 0 at the tip), rad in [0, 2π/N).
     pub rotation_rad: f64,
-    /// The lateral force [x, y] (N) at the instant a tooth passes the flank
-    /// on the left of the feed (φ = 0) at the height asked for: when up
-    /// milling leaves its wall there (MODEL.md §5.2).
-    pub at_left_flank_n: [f64; 2],
-    /// The same when a tooth passes the flank on the right (φ = π): down
-    /// milling's wall.
-    pub at_right_flank_n: [f64; 2],
 }
 
 /// Largest helix lag across one slice of edge, rad: slices are cut so the
@@ -481,15 +474,18 @@ struct Event {
 /// is taken at both ends of each such stretch (so the jump at a tooth's
 /// entry is caught exactly) and every 2.5° inside.
 ///
-/// Also the lateral force at the two instants a tooth at height
-/// `flank_at_mm` passes the flanks, φ = 0 and φ = π (rotations `ψ(z)` and
-/// `π + ψ(z)`): the forces when a wall is left there (MODEL.md §5.2).
+/// Also, per entry k of `flanks_n`, the lateral force [x, y] (N) at the two
+/// instants a tooth at band k's mid-height `z = (k + ½)·band_height_mm`
+/// passes the flanks, φ = 0 (left of the feed: up milling's wall) and φ = π
+/// (right: down milling's), rotations `ψ(z)` and `π + ψ(z)`: the forces when
+/// that band leaves a wall (MODEL.md §5.2). `[left, right]` per band.
 pub fn peak_cut(
     shape: &EdgeShape,
     teeth: &Teeth,
     bands: &[(BandArc, f64)],
     c: &Coefficients,
-    flank_at_mm: f64,
+    band_height_mm: f64,
+    flanks_n: &mut [[[f64; 2]; 2]],
     scratch: &mut PeakScratch,
 ) -> PeakCut {
     let n = teeth.flutes.max(1);
@@ -555,6 +551,10 @@ pub fn peak_cut(
     }
     events.sort_by(|a, b| a.rotation.total_cmp(&b.rotation));
     let mut best = PeakCut::default();
+    for (k, flank) in flanks_n.iter_mut().enumerate() {
+        let lag = (k as f64 + 0.5) * band_height_mm * lag_per_mm;
+        *flank = [lag, PI + lag].map(|phi| engaged_at(slices, harmonics, n, phi).lateral(phi));
+    }
     let m = events.len();
     if m == 0 {
         return best;
@@ -595,7 +595,6 @@ pub fn peak_cut(
                         force_n,
                         torque_nmm,
                         rotation_rad: phi.rem_euclid(period),
-                        ..PeakCut::default()
                     };
                 }
                 (s2, c2) = (s2 * dc + c2 * ds, c2 * dc - s2 * ds);
@@ -613,9 +612,6 @@ pub fn peak_cut(
         let j = (j as usize + nu - wrap) % nu;
         sum.add(&harmonics[si * nu + j], if enter { 1.0 } else { -1.0 });
     }
-    let lag = flank_at_mm * lag_per_mm;
-    best.at_left_flank_n = engaged_at(slices, harmonics, n, lag).lateral(lag);
-    best.at_right_flank_n = engaged_at(slices, harmonics, n, PI + lag).lateral(PI + lag);
     best
 }
 
@@ -811,19 +807,24 @@ mod tests {
             helix_deg: 0.0,
         };
         let arc = BandArc::side_cut(r, 2.0 * r, 0.0, ap, true);
+        let mut flanks = [[[f64::NAN; 2]; 2]; 2];
         let p = peak_cut(
             &EdgeShape::flat(r),
             &teeth,
             &[(arc, fz)],
             &C,
             1.0,
+            &mut flanks,
             &mut PeakScratch::default(),
         );
         let want = C.kt_mpa * ap * fz * (1.0 + C.radial_ratio.powi(2)).sqrt();
         // Straight teeth at the flanks cut nothing (h = f_z sin φ = 0 there)
-        // and the other tooth is out of the slot: no force.
-        assert_eq!(p.at_left_flank_n, [0.0, 0.0]);
-        assert!(p.at_right_flank_n[0].abs() < 1e-9 && p.at_right_flank_n[1].abs() < 1e-9);
+        // and the other tooth is out of the slot: no force, at either
+        // band's height.
+        for [left, right] in flanks {
+            assert_eq!(left, [0.0, 0.0]);
+            assert!(right[0].abs() < 1e-9 && right[1].abs() < 1e-9, "{right:?}");
+        }
         assert!(close(p.lateral_n, want, 1e-9), "{p:?} {want}");
         assert!(close(p.rotation_rad, PI / 2.0, 1e-9), "{p:?}");
         assert!(
@@ -912,7 +913,15 @@ mod tests {
                 "{avg:?} {mean:?}"
             );
         }
-        let p = peak_cut(&shape, &teeth, &bands, &C, 0.0, &mut PeakScratch::default());
+        let p = peak_cut(
+            &shape,
+            &teeth,
+            &bands,
+            &C,
+            1.0,
+            &mut [],
+            &mut PeakScratch::default(),
+        );
         // The peak is the largest lateral force on the fine grid (within its step).
         let grid_max = (0..k)
             .map(|i| {
@@ -1022,7 +1031,15 @@ mod ball_slot_peak {
                     )
                 })
                 .collect();
-            let p = peak_cut(&shape, &teeth, &bands, &c, 0.0, &mut PeakScratch::default());
+            let p = peak_cut(
+                &shape,
+                &teeth,
+                &bands,
+                &c,
+                1.0,
+                &mut [],
+                &mut PeakScratch::default(),
+            );
             let k = 20_000;
             let brute = (0..k)
                 .map(|i| {

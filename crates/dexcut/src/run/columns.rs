@@ -46,13 +46,13 @@ pub fn write_tiled_columns(
     } else {
         run.steps.iter().map(|s| s.step).collect()
     };
-    let largest_um = |v: &mut dyn Iterator<Item = &[f64; 2]>| {
-        v.map(|&[x, y]| x.hypot(y))
-            .filter(|d| d.is_finite())
-            .fold(0.0, f64::max)
-    };
-    let reach_mm = 1e-3
-        * (largest_um(&mut run.model_um.iter().flatten()) + largest_um(&mut run.offsets_um.iter()));
+    let largest_offset_um = run
+        .offsets_um
+        .iter()
+        .map(|&[x, y]| x.hypot(y))
+        .filter(|d| d.is_finite())
+        .fold(0.0, f64::max);
+    let reach_mm = 1e-3 * (run.model_um.largest_um() + largest_offset_um);
     let halo = (reach_mm / grid.spacing_mm).ceil() as usize + 2;
     let mut writer = match dir {
         None => None,

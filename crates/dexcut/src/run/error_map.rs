@@ -2,13 +2,174 @@
 //! surface, clamped to the stock that was there; held, or made where it is
 //! read.
 
-use dexel::{Stock, NEVER_CUT};
+use dexel::{RemovalRecord, Stock, NEVER_CUT};
 use rayon::prelude::*;
 
 use super::columns::row_blocks;
 use super::{Initial, Run};
 use crate::error::Result;
 use crate::motion::TimedStep;
+
+/// The error map's model (MODEL.md §5, §5.2): per step and per band of its
+/// removal, the deflection [x, y] (µm) at the band's mid-height when a tooth
+/// there passes the flank on the left of the feed (φ = 0, the wall up milling
+/// leaves) and on the right (φ = π, down milling's), `[left, right]`; once a
+/// run is done, across the step's path only. A column takes the side of the
+/// step's line it lies on, at the height of its final top above the step's
+/// tip ([`FlankDeflections::at`]). Held compact, as the record's bands: each step as many bands as its
+/// removal keeps (at least one), 16 B a band.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FlankDeflections {
+    /// Height of a band above the tip, mm.
+    pub band_height_mm: f64,
+    /// Step i's bands are `bands[start[i]..start[i + 1]]`.
+    start: Vec<usize>,
+    bands: Vec<[[f32; 2]; 2]>,
+}
+
+impl FlankDeflections {
+    /// The bands step `i` of `record` has here: as many as the record keeps,
+    /// at least one.
+    pub(crate) fn bands_of(record: &RemovalRecord, i: usize) -> usize {
+        record.band_volumes_mm3(i).len().max(1)
+    }
+
+    /// Zeros for each of `record`'s steps ([`FlankDeflections::bands_of`]).
+    pub(crate) fn sized(record: &RemovalRecord, steps: usize) -> FlankDeflections {
+        let mut start = Vec::with_capacity(steps + 1);
+        start.push(0);
+        for i in 0..steps {
+            start.push(start[i] + Self::bands_of(record, i));
+        }
+        FlankDeflections {
+            band_height_mm: record.band_height_mm,
+            bands: vec![[[0.0; 2]; 2]; start[steps]],
+            start,
+        }
+    }
+
+    /// Step `i`'s bands, band k at index k.
+    pub fn of_step(&self, i: usize) -> &[[[f32; 2]; 2]] {
+        &self.bands[self.start[i]..self.start[i + 1]]
+    }
+
+    /// Step `i`'s bands, to be written.
+    pub(crate) fn of_step_mut(&mut self, i: usize) -> &mut [[[f32; 2]; 2]] {
+        &mut self.bands[self.start[i]..self.start[i + 1]]
+    }
+
+    /// The bands of the steps in blocks of `block` steps, in order, to be
+    /// written (one slice a block).
+    pub(crate) fn blocks_mut(&mut self, block: usize) -> Vec<&mut [[[f32; 2]; 2]]> {
+        let steps = self.start.len() - 1;
+        let mut rest = self.bands.as_mut_slice();
+        let mut out = Vec::with_capacity(steps.div_ceil(block));
+        for b in (0..steps).step_by(block) {
+            let len = self.start[(b + block).min(steps)] - self.start[b];
+            let (head, tail) = std::mem::take(&mut rest).split_at_mut(len);
+            out.push(head);
+            rest = tail;
+        }
+        out
+    }
+
+    /// Step `i`'s deflections times `s` (the load scaled by the loop, or
+    /// capped at rupture: MODEL.md §4.4, §5.1).
+    pub(crate) fn scale(&mut self, i: usize, s: f64) {
+        if s != 1.0 {
+            for v in &mut self.bands[self.start[i]..self.start[i + 1]] {
+                *v = v.map(|xy| xy.map(|c| (f64::from(c) * s) as f32));
+            }
+        }
+    }
+
+    /// Each step's deflections projected on its direction across the path
+    /// `dirs[i]` (unit, MODEL.md §5.1): the component along the path changes
+    /// where a point of the surface is made, not how deep (§5).
+    pub(crate) fn across(&mut self, dirs: &[[f64; 2]]) {
+        for (i, d) in dirs.iter().enumerate() {
+            for v in &mut self.bands[self.start[i]..self.start[i + 1]] {
+                *v = v.map(|[x, y]| {
+                    let g = f64::from(x) * d[0] + f64::from(y) * d[1];
+                    [(g * d[0]) as f32, (g * d[1]) as f32]
+                });
+            }
+        }
+    }
+
+    /// Step `i`'s deflection [x, y] (µm) where the flank on `side` (0 left,
+    /// 1 right) leaves a wall `z_mm` above the tip: linear between its bands'
+    /// mid-heights, the nearest band's below the lowest and above the highest
+    /// (MODEL.md §5.2).
+    pub fn at(&self, i: usize, side: usize, z_mm: f64) -> [f64; 2] {
+        let bands = self.of_step(i);
+        let u = (z_mm / self.band_height_mm - 0.5).max(0.0);
+        let k = (u.floor() as usize).min(bands.len() - 1);
+        let a = bands[k][side].map(f64::from);
+        match bands.get(k + 1) {
+            Some(next) => {
+                let t = u - k as f64;
+                let b = next[side].map(f64::from);
+                [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
+            }
+            None => a,
+        }
+    }
+
+    /// The error (µm) of the face step `i` leaves with its flank on `side`
+    /// from `face_mm[0]` to `face_mm[1]` above its tip (a column's top and
+    /// its highest neighbour's), on the surface normal `n`: of the
+    /// deflections ([`FlankDeflections::at`]) at both ends and at the bands'
+    /// mid-heights between them, within the step's bands, the one of the
+    /// largest error in size (MODEL.md §5.2).
+    pub fn face_error_um(&self, i: usize, side: usize, face_mm: [f64; 2], n: [f64; 3]) -> f64 {
+        let h = self.band_height_mm;
+        let [lo, hi] = face_mm;
+        let hi = hi.min(self.of_step(i).len() as f64 * h).max(lo);
+        let error = |z: f64| cutting::surface_error_um(self.at(i, side, z), n);
+        let mut worst = error(lo);
+        let mut take = |e: f64| {
+            if e.abs() > worst.abs() {
+                worst = e;
+            }
+        };
+        take(error(hi));
+        // The mid-heights strictly inside the face.
+        let first = (lo / h - 0.5).floor() + 1.0;
+        let mut k = first.max(0.0);
+        while (k + 0.5) * h < hi {
+            take(error((k + 0.5) * h));
+            k += 1.0;
+        }
+        worst
+    }
+
+    /// The largest deflection of any step's band and side, µm.
+    pub(crate) fn largest_um(&self) -> f64 {
+        self.bands
+            .iter()
+            .flatten()
+            .map(|&[x, y]| f64::from(x).hypot(f64::from(y)))
+            .filter(|d| d.is_finite())
+            .fold(0.0, f64::max)
+    }
+}
+
+/// The height over `step`'s tool tip of the final top `top_mm` of the
+/// column at (x, y), where the step passes the column (the point of the
+/// step's XY line nearest it), mm (MODEL.md §5.2).
+fn over_tip_mm(step: &dexel::Step, x: f64, y: f64, top_mm: f64) -> f64 {
+    let [ax, ay, az] = step.from_mm;
+    let [bx, by, bz] = step.to_mm;
+    let (ux, uy) = (bx - ax, by - ay);
+    let len2 = ux * ux + uy * uy;
+    let t = if len2 > 0.0 {
+        (((x - ax) * ux + (y - ay) * uy) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    top_mm - (az + t * (bz - az))
+}
 
 /// A run's error map (MODEL.md §5).
 pub(crate) enum ErrorMap {
@@ -107,10 +268,13 @@ pub(crate) fn material_along_mm(initial: Before, p: [f64; 3], n: [f64; 3], max_m
 /// columns), µm (MODEL.md §5), positive = material left, NaN where no step
 /// cut; each column's is its own (a map made block by block is the whole
 /// one bit for bit). `applied_um` is the offset each step was swept
-/// with, `model_um` the deflection its removal causes when it leaves a wall on
-/// the left of its feed and on the right (a column takes the side it lies on
-/// from the step's line in `steps`, MODEL.md §5.2). The error is the model
-/// deflection projected on the outward normal of the final surface; where it
+/// with, `model` the deflection its removal causes where each of its bands
+/// leaves a wall on the left of its feed and on the right (a column takes
+/// the height of its final top over the step's tip and the side of the
+/// step's line in `steps` it lies on, MODEL.md §5.2; a rapid: the offset it
+/// was swept with).
+/// The error is the model deflection projected on the outward normal of the
+/// final surface; where it
 /// says more material is left than the sweep's offset made (`model > applied`
 /// along the normal), the excess is clamped to the stock that was there: the
 /// initial stock's thickness outside the final surface along the normal.
@@ -118,7 +282,7 @@ pub(crate) fn clamped_error_map_um(
     initial: Before,
     last: &Stock,
     applied_um: &[[f64; 2]],
-    model_um: &[[[f64; 2]; 2]],
+    model: &FlankDeflections,
     steps: &[TimedStep],
     columns: std::ops::Range<usize>,
 ) -> Vec<f32> {
@@ -142,13 +306,30 @@ pub(crate) fn clamped_error_map_um(
             }
             let step = step as usize;
             let (px, py) = (grid.x_mm(ix), grid.y_mm(rows.start + iy));
+            let top_mm = f64::from(top(ix, iy));
             let applied = cutting::surface_error_um(applied_um[step], n);
-            let model =
-                cutting::surface_error_um(model_um[step][flank_side(&steps[step].step, px, py)], n);
+            let s = &steps[step].step;
+            let model = if s.rapid {
+                applied
+            } else {
+                // The face the column stands for: from its top up to its
+                // highest neighbour's (a wall's foot holds the wall).
+                let highest = [(-1, 0), (1, 0), (0, -1), (0, 1)]
+                    .into_iter()
+                    .filter_map(|(dx, dy)| {
+                        let (jx, jy) = (ix.checked_add_signed(dx)?, iy.checked_add_signed(dy)?);
+                        (jx < grid.nx && jy < rows.len()).then(|| f64::from(top(jx, jy)))
+                    })
+                    .filter(|t| t.is_finite())
+                    .fold(top_mm, f64::max);
+                let z_mm = over_tip_mm(s, px, py, top_mm);
+                let face_mm = [z_mm, z_mm + (highest - top_mm)];
+                model.face_error_um(step, flank_side(s, px, py), face_mm, n)
+            };
             if model <= applied {
                 return model as f32;
             }
-            let p = [px, py, f64::from(top(ix, iy))];
+            let p = [px, py, top_mm];
             let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
             let unit = n.map(|v| v / len);
             let room_um = 1e3 * material_along_mm(initial, p, unit, 1e-3 * (model - applied));
@@ -204,7 +385,7 @@ pub(crate) fn final_error_map(
     initial: &Initial,
     final_stock: Option<Stock>,
     offsets_um: &[[f64; 2]],
-    model_um: &[[[f64; 2]; 2]],
+    model_um: &FlankDeflections,
     steps: &[TimedStep],
 ) -> Result<(Stock, ErrorMap, Option<[f64; 2]>, f64)> {
     Ok(match (initial, final_stock) {

@@ -5,25 +5,15 @@ use cutting::StepLoad;
 use dexel::RemovalRecord;
 use rayon::prelude::*;
 
+use super::error_map::FlankDeflections;
 use crate::input::tools::ToolSet;
 use crate::motion::TimedStep;
 
-/// Per-step force, power and deflection (MODEL.md §3, §4), each step with
-/// its tool's model; a step shorter than a grid cell (`grid_mm`) has the
-/// load of the steady cut around it (MODEL.md §1.6).
-pub fn loads(
-    tools: &ToolSet,
-    tool_of_step: &[usize],
-    record: &RemovalRecord,
-    steps: &[TimedStep],
-    grid_mm: f64,
-) -> Vec<StepLoad> {
-    loads_as(tools, tool_of_step, record, steps, grid_mm, |l, _| *l)
-}
-
-/// What `of(load, step)` makes of each step's load of [`loads`] (the
-/// closed loop's passes keep each step's deflection across its path, 8 B,
-/// not its load, 104 B).
+/// Each step's force, power and deflection (MODEL.md §3, §4) with its
+/// tool's model, as `of(load, step)` makes it (the closed loop's passes keep
+/// each step's deflection across its path, 8 B, not its load, 104 B); a step
+/// shorter than a grid cell (`grid_mm`) has the load of the steady cut
+/// around it (MODEL.md §1.6).
 pub(crate) fn loads_as<T: Send>(
     tools: &ToolSet,
     tool_of_step: &[usize],
@@ -45,14 +35,73 @@ pub(crate) fn loads_as<T: Send>(
         })
         .collect();
     super::subcell::window_loads(
-        |i, load| out[i] = of(&load, i),
-        tools,
+        |i, r| {
+            let model = &tools.entries[tool_of_step[i]].model;
+            out[i] = of(&r.map_or_else(StepLoad::default, |r| model.step_load(r)), i);
+        },
         tool_of_step,
         record,
         steps,
         grid_mm,
     );
     out
+}
+
+/// Steps a task of [`loads_with_flanks`] takes at a time.
+const FLANK_BLOCK: usize = 256;
+
+/// Each step's load ([`loads_as`]), and per step and band the deflections
+/// when a tooth at the band's mid-height passes the flanks
+/// (`CuttingModel::step_load_with_flanks`, MODEL.md §5.2): the error map's
+/// model, as many bands a step as the record keeps (at least one).
+pub(crate) fn loads_with_flanks(
+    tools: &ToolSet,
+    tool_of_step: &[usize],
+    record: &RemovalRecord,
+    steps: &[TimedStep],
+    grid_mm: f64,
+) -> (Vec<StepLoad>, FlankDeflections) {
+    let mut flanks = FlankDeflections::sized(record, steps.len());
+    // One step's load, and its flanks in f64 as the model makes them into
+    // its f32 bands `out`.
+    let load_into = |i: usize,
+                     r: Option<&cutting::StepRemoval>,
+                     out: &mut [[[f32; 2]; 2]],
+                     buf: &mut Vec<[[f64; 2]; 2]>| {
+        let model = &tools.entries[tool_of_step[i]].model;
+        buf.clear();
+        buf.resize(out.len(), [[0.0; 2]; 2]);
+        let load = r.map_or_else(StepLoad::default, |r| model.step_load_with_flanks(r, buf));
+        for (o, b) in out.iter_mut().zip(buf.iter()) {
+            *o = b.map(|xy| xy.map(|c| c as f32));
+        }
+        load
+    };
+    // Blocks of steps in parallel, each with its part of the bands.
+    let mut out = vec![StepLoad::default(); steps.len()];
+    out.par_chunks_mut(FLANK_BLOCK)
+        .zip(flanks.blocks_mut(FLANK_BLOCK))
+        .enumerate()
+        .for_each(|(b, (loads, mut bands))| {
+            let mut buf = Vec::new();
+            for (j, load) in loads.iter_mut().enumerate() {
+                let i = b * FLANK_BLOCK + j;
+                let (own, rest) =
+                    std::mem::take(&mut bands).split_at_mut(FlankDeflections::bands_of(record, i));
+                let r = step_removal(record, i, &steps[i], grid_mm);
+                *load = load_into(i, Some(&r), own, &mut buf);
+                bands = rest;
+            }
+        });
+    let mut buf = Vec::new();
+    super::subcell::window_loads(
+        |i, r| out[i] = load_into(i, r, flanks.of_step_mut(i), &mut buf),
+        tool_of_step,
+        record,
+        steps,
+        grid_mm,
+    );
+    (out, flanks)
 }
 
 /// What step `i` (`step`) of `record` removed, as the force model takes it.

@@ -27,12 +27,12 @@ mod tests;
 mod warnings;
 
 use closed_loop::{applied_offsets_um, close_loop, LoopInputs, LoopPlan};
+pub use error_map::FlankDeflections;
 use error_map::{final_error_map, Before, ErrorMap};
 
 pub use closed_loop::LoopReport;
 pub(crate) use columns::run_grid_bytes_per_column;
 pub use columns::{write_tiled_columns, ColumnGrid};
-pub use loads::loads;
 pub(crate) use loads::{feed_dir, len_xy_mm};
 pub use subcell::SUB_CELL_WINDOW_CELLS;
 
@@ -67,11 +67,11 @@ pub struct Run {
     /// The stock the deflected tool leaves (for a tiled stock, none of its
     /// rows: [`write_tiled_columns`] makes the bands again).
     pub stock: Stock,
-    /// Per step, the deflection across the path its final removal causes at
-    /// the instants a tooth at the contact height passes the flank on the
-    /// left of the feed and on the right ([left, right]), µm: the error map's
+    /// Per step and band, the deflection across the path its final removal
+    /// causes at the instants a tooth at the band's mid-height passes the
+    /// flank on the left of the feed and on the right, µm: the error map's
     /// model (MODEL.md §5, §5.2) for the walls left on either side.
-    pub model_um: Vec<[[f64; 2]; 2]>,
+    pub model_um: FlankDeflections,
     /// Least and greatest error of the map when it is not held: made where
     /// it is read (a stock made of its closed form, by [`run_on`]) or a tiled
     /// stock's (set by [`write_tiled_columns`]), µm.
@@ -336,7 +336,10 @@ pub fn run_on(
     // At most two stocks at a time: the initial one (none where it is made
     // of its closed form) and the last pass's.
     let mut final_stock = rigid_stock;
-    let mut step_loads = loads(tools, &tool_of_step, &record, &steps, grid_mm);
+    // The rigid pass's loads, with the error map's model (what a run that
+    // does not loop keeps).
+    let (mut step_loads, mut flanks) =
+        loads::loads_with_flanks(tools, &tool_of_step, &record, &steps, grid_mm);
     let n = steps.len();
     let of_step = StepTools {
         tools,
@@ -365,6 +368,7 @@ pub fn run_on(
         // makes its own): freed before the searches are made.
         drop(std::mem::take(&mut record));
         drop(std::mem::take(&mut step_loads));
+        drop(std::mem::take(&mut flanks));
         let on = LoopInputs {
             steps: &steps,
             of_step,
@@ -395,20 +399,26 @@ pub fn run_on(
     drop((rigid, in_loop, inherited, sub_cells, advance_mm));
     // The last pass's loads, those at a jump of g scaled.
     if let Some(scaled) = scaled {
-        step_loads = loads(tools, &tool_of_step, &record, &steps, grid_mm);
+        (step_loads, flanks) =
+            loads::loads_with_flanks(tools, &tool_of_step, &record, &steps, grid_mm);
         for (i, s) in scaled {
             step_loads[i] = step_loads[i].scaled(s);
+            flanks.scale(i, s);
         }
     }
     let sweep_s = started.elapsed().as_secs_f64();
     // The final loads as reported (MODEL.md §4.4): where a step breaks its
     // tool, the deflections at rupture; the error map takes them below.
     for (i, l) in step_loads.iter_mut().enumerate() {
-        *l = l.at_rupture(of_step.rupture_strength_mpa(i));
+        let rupture_mpa = of_step.rupture_strength_mpa(i);
+        flanks.scale(i, l.rupture_scale(rupture_mpa));
+        *l = l.at_rupture(rupture_mpa);
     }
     let offsets_um = applied_offsets_um(&steps, &x, &dirs);
     drop(x);
-    let model_um = model_deflections_um(&steps, &step_loads, &offsets_um, &dirs);
+    // The deflections across the path (MODEL.md §5).
+    flanks.across(&dirs);
+    let model_um = flanks;
     let (final_stock, error_map, error_range, final_volume_mm3) =
         final_error_map(&initial, final_stock, &offsets_um, &model_um, &steps)?;
     Ok(Run {
@@ -455,27 +465,4 @@ fn strengths_and_names(
         .map(|t| (t, of_step.tools.name(t)))
         .collect();
     (strengths_mpa, tool_names)
-}
-
-/// The deflection across the path that the final removal causes, per step
-/// (rapids: the offset they carry), µm.
-fn model_deflections_um(
-    steps: &[TimedStep],
-    step_loads: &[StepLoad],
-    offsets_um: &[[f64; 2]],
-    dirs: &[[f64; 2]],
-) -> Vec<[[f64; 2]; 2]> {
-    (0..steps.len())
-        .map(|i| {
-            if steps[i].step.rapid {
-                [offsets_um[i]; 2]
-            } else {
-                let l = &step_loads[i];
-                [l.at_left_flank_um, l.at_right_flank_um].map(|[x, y]| {
-                    let g = x * dirs[i][0] + y * dirs[i][1];
-                    [g * dirs[i][0], g * dirs[i][1]]
-                })
-            }
-        })
-        .collect()
 }

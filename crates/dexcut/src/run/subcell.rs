@@ -4,10 +4,8 @@
 //! [`SUB_CELL_WINDOW_CELLS`] cells of path around it, at its own length and
 //! duration.
 
-use cutting::{StepLoad, StepRemoval};
+use cutting::StepRemoval;
 use dexel::RemovalRecord;
-
-use crate::input::tools::ToolSet;
 
 /// A servo period in which the tool advances less than one grid cell has its
 /// MRR measured over this many cells of path around it (MODEL.md §2.3): over
@@ -81,8 +79,9 @@ fn head_of(record: &RemovalRecord, k: usize, len: f64, u: [f64; 2]) -> [f64; SUM
     h
 }
 
-/// Give `set(step, load)` the loads that replace those of the steps shorter
-/// than a grid cell (`grid_mm`): the steady cut's, per run of windowable steps (feed steps that move in
+/// Give `set(step, removal)` the removal whose load replaces that of each
+/// step shorter than a grid cell (`grid_mm`; `None`: no load, the window
+/// removes nothing): the steady cut's, per run of windowable steps (feed steps that move in
 /// XY, one tool, each starting where the one before ended), the
 /// removal per unit length over [`SUB_CELL_WINDOW_CELLS`] cells of path
 /// centred on the step (shifted to lie within the run, or the whole run
@@ -90,8 +89,7 @@ fn head_of(record: &RemovalRecord, k: usize, len: f64, u: [f64; 2]) -> [f64; SUM
 /// duration (MODEL.md §1.6). Steps of a cell or more keep their loads bit
 /// for bit. Allocates per call, not per step.
 pub fn window_loads(
-    mut set: impl FnMut(usize, StepLoad),
-    tools: &ToolSet,
+    mut set: impl FnMut(usize, Option<&StepRemoval>),
     tool_of_step: &[usize],
     record: &RemovalRecord,
     steps: &[TimedStep],
@@ -149,7 +147,6 @@ pub fn window_loads(
             geo.push(g);
         }
         let run_mm = start[start.len() - 1] + geo[geo.len() - 1].0;
-        let model = &tools.entries[tool_of_step[k]].model;
         win.lo = 0;
         win.hi = 0;
         win.head = [0.0; SUMS];
@@ -210,7 +207,7 @@ pub fn window_loads(
             let volume = sum[VOL] * scale;
             let i = k + t;
             if !(volume > 0.0) {
-                set(i, StepLoad::default());
+                set(i, None);
                 continue;
             }
             for v in bands.iter_mut() {
@@ -225,7 +222,7 @@ pub fn window_loads(
             let left = [-u[1], u[0]];
             set(
                 i,
-                model.step_load(&StepRemoval {
+                Some(&StepRemoval {
                     volume_mm3: volume,
                     band_volumes_mm3: &bands,
                     contact_resultant: [

@@ -805,8 +805,7 @@ fn deflections_made_as_the_loads_are_those_of_the_loads_held() {
         .collect();
     let mut held = own.clone();
     super::subcell::window_loads(
-        |i, l| held[i] = l,
-        &setup.tools,
+        |i, r| held[i] = r.map_or_else(StepLoad::default, |r| model.step_load(r)),
         &tool_of_step,
         &record,
         &steps,
@@ -818,7 +817,9 @@ fn deflections_made_as_the_loads_are_those_of_the_loads_held() {
     assert!(windowed > 100, "{windowed} steps windowed");
     let along = |l: &StepLoad, i: usize| 0.6 * l.dx_um + 0.8 * l.dy_um + i as f64;
     let g = loads_as(&setup.tools, &tool_of_step, &record, &steps, grid_mm, along);
-    let loads = loads(&setup.tools, &tool_of_step, &record, &steps, grid_mm);
+    // The loads made with the flanks' deflections are the same loads.
+    let (loads, _) =
+        super::loads::loads_with_flanks(&setup.tools, &tool_of_step, &record, &steps, grid_mm);
     assert_eq!(g.len(), steps.len());
     for i in 0..steps.len() {
         assert_eq!(g[i].to_bits(), along(&held[i], i).to_bits(), "step {i}");
@@ -967,15 +968,19 @@ fn a_step_whose_own_cut_pushes_against_its_taken_direction_ends_on_the_path() {
     for &i in &back {
         assert_eq!(run.offsets_um[i], [0.0, 0.0], "step {i}");
         assert!(
-            run.model_um[i].iter().all(|m| m[1] < -10.0),
+            run.model_um
+                .of_step(i)
+                .iter()
+                .flatten()
+                .all(|m| m[1] < -10.0),
             "step {i}: {:?} µm",
-            run.model_um[i]
+            run.model_um.of_step(i)
         );
     }
     eprintln!(
         "first pass {:.1} µm, way back {:.1} µm, {} sweeps, residual {:.2} µm",
         run.offsets_um[first[first.len() / 2]][1],
-        run.model_um[back[back.len() / 2]][0][1],
+        run.model_um.of_step(back[back.len() / 2])[0][0][1],
         run.closed_loop.passes,
         run.closed_loop.residual_um
     );
