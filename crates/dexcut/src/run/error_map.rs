@@ -15,9 +15,10 @@ use crate::motion::TimedStep;
 /// there passes the flank on the left of the feed (φ = 0, the wall up milling
 /// leaves) and on the right (φ = π, down milling's), `[left, right]`; once a
 /// run is done, across the step's path only. A column takes the side of the
-/// step's line it lies on, at the height of its final top above the step's
-/// tip ([`FlankDeflections::at`]). Held compact, as the record's bands: each step as many bands as its
-/// removal keeps (at least one), 16 B a band.
+/// step's line it lies on, over the face it stands for above the step's tip
+/// ([`FlankDeflections::face_error_um`]). Held compact, as the record's
+/// bands: each step as many bands as its removal keeps (at least one), 16 B
+/// a band.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FlankDeflections {
     /// Height of a band above the tip, mm.
@@ -414,4 +415,51 @@ pub(crate) fn final_error_map(
         }
         (_, None) => unreachable!("a whole stock's pass keeps its stock"),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::FlankDeflections;
+
+    /// One step of three 1 mm bands whose left flank's y deflection is 1, 3
+    /// and −2 µm.
+    fn three_bands() -> FlankDeflections {
+        FlankDeflections {
+            band_height_mm: 1.0,
+            start: vec![0, 3],
+            bands: [1.0, 3.0, -2.0].map(|y| [[0.0, y], [0.0, 0.0]]).to_vec(),
+        }
+    }
+
+    /// Linear between the bands' mid-heights, the nearest band's beyond.
+    #[test]
+    fn a_height_between_bands_takes_them_linearly() {
+        let f = three_bands();
+        let y = |z: f64| f.at(0, 0, z)[1];
+        assert_eq!(y(0.0), 1.0);
+        assert_eq!(y(0.5), 1.0);
+        assert_eq!(y(1.0), 2.0);
+        assert_eq!(y(1.5), 3.0);
+        assert_eq!(y(2.25), 3.0 - 0.75 * 5.0);
+        assert_eq!(y(9.0), -2.0);
+        assert_eq!(f.at(0, 1, 1.0), [0.0, 0.0]);
+    }
+
+    /// A face takes its error of largest size among its ends and the bands'
+    /// mid-heights inside it, within the step's bands.
+    #[test]
+    fn a_face_takes_its_largest_error() {
+        let f = three_bands();
+        let n = [0.0, 1.0, 0.0];
+        // A floor column: its own height.
+        assert_eq!(f.face_error_um(0, 0, [0.75, 0.75], n), 1.5);
+        // Up to 1.5 mm: band 1's mid-height, 3 µm.
+        assert_eq!(f.face_error_um(0, 0, [0.0, 1.2], n), 2.4);
+        assert_eq!(f.face_error_um(0, 0, [0.0, 1.8], n), 3.0);
+        // Up to the top of the bands (the neighbour's top higher still):
+        // band 2's −2 µm is not larger in size than band 1's 3.
+        assert_eq!(f.face_error_um(0, 0, [0.0, 20.0], n), 3.0);
+        // Along the other normal, the overcut: −3 µm.
+        assert_eq!(f.face_error_um(0, 0, [0.0, 20.0], [0.0, -1.0, 0.0]), -3.0);
+    }
 }
