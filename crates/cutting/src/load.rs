@@ -324,7 +324,7 @@ impl CuttingModel {
     ///
     /// Does not allocate.
     pub fn step_load(&self, r: &StepRemoval<'_>) -> StepLoad {
-        self.step_load_with_flanks(r, &mut [])
+        self.load(r, Some(&mut []))
     }
 
     /// [`step_load`](Self::step_load), and per entry k of `flanks_um` the
@@ -343,7 +343,28 @@ impl CuttingModel {
         r: &StepRemoval<'_>,
         flanks_um: &mut [[[f64; 2]; 2]],
     ) -> StepLoad {
-        flanks_um.fill([[0.0; 2]; 2]);
+        self.load(r, Some(flanks_um))
+    }
+
+    /// The mean deflection [x, y] at the contact height (µm, along the mean
+    /// force: `dx_um`, `dy_um` of [`step_load`](Self::step_load), bit for
+    /// bit), without the force through the tooth period's peak and flanks
+    /// (MODEL.md §3.4): what the closed loop moves the tool by (§5.1), at a
+    /// fraction of the cost.
+    ///
+    /// Does not allocate.
+    pub fn mean_deflection_um(&self, r: &StepRemoval<'_>) -> [f64; 2] {
+        let l = self.load(r, None);
+        [l.dx_um, l.dy_um]
+    }
+
+    /// [`step_load_with_flanks`](Self::step_load_with_flanks) where `flanks_um`
+    /// is given; without it, the mean only (the peak is the mean's lateral
+    /// force: [`mean_deflection_um`](Self::mean_deflection_um)).
+    fn load(&self, r: &StepRemoval<'_>, mut flanks_um: Option<&mut [[[f64; 2]; 2]]>) -> StepLoad {
+        if let Some(f) = flanks_um.as_deref_mut() {
+            f.fill([[0.0; 2]; 2]);
+        }
         if !(r.volume_mm3 > 0.0 && r.dt_s > 0.0) {
             return StepLoad::default();
         }
@@ -400,7 +421,7 @@ impl CuttingModel {
                     revolutions,
                     aggregate,
                     1000.0 * power_w / omega,
-                    flanks_um,
+                    flanks_um.as_deref_mut(),
                 );
                 let [fx, fy, fz] = tooth.as_ref().map_or(aggregate, |t| t.mean_n);
                 (fx, fy, fz, power_w, tooth)
@@ -423,7 +444,7 @@ impl CuttingModel {
         };
         // Each band's flank forces (the mean's where the step has no
         // engaged arc) on the beam at the band's mid-height (MODEL.md §5.2).
-        for (k, flank) in flanks_um.iter_mut().enumerate() {
+        for (k, flank) in flanks_um.into_iter().flatten().enumerate() {
             let um_per_n =
                 1000.0 * self.compliance_at_mm_per_n(bands, (k as f64 + 0.5) * self.band_height_mm);
             if tooth.is_none() {
@@ -463,7 +484,8 @@ impl CuttingModel {
     /// has arcs: the aggregates' mean is used whole. Per entry k of
     /// `flanks_n`, the lateral forces (machine axes, N) when a tooth at band
     /// k's mid-height passes the left and the right flank ([`peak_cut`];
-    /// written only where `Some` is returned).
+    /// written only where `Some` is returned). Without `flanks_n`, the mean
+    /// only: no [`peak_cut`], the peak is the mean's lateral force.
     fn tooth_forces(
         &self,
         r: &StepRemoval<'_>,
@@ -471,7 +493,7 @@ impl CuttingModel {
         revolutions: f64,
         aggregate_n: [f64; 3],
         torque_nmm: f64,
-        flanks_n: &mut [[[f64; 2]; 2]],
+        flanks_n: Option<&mut [[[f64; 2]; 2]]>,
     ) -> Option<ToothForces> {
         let [ux, uy] = r.feed_dir;
         if (ux == 0.0 && uy == 0.0) || !(revolutions > 0.0) {
@@ -609,11 +631,6 @@ impl CuttingModel {
             if arcs.is_empty() {
                 return None;
             }
-            let teeth = Teeth {
-                flutes: self.flutes,
-                helix_deg: self.helix_deg,
-            };
-            let peak = peak_cut(&self.edge, &teeth, arcs, c, h, flanks_n, peak_scratch);
             // The bands without a steady cut's arcs: their share of §3.2's
             // mean, steady through the revolution.
             let share = aggregate_mm3 / r.volume_mm3;
@@ -621,11 +638,24 @@ impl CuttingModel {
             // Feed frame (x along the feed, y to its left) to machine axes.
             let machine = |[fx, fy]: [f64; 2]| [fx * ux - fy * uy + ax, fx * uy + fy * ux + ay];
             let [fx, fy] = machine([mean[0], mean[1]]);
+            let mean_n = [fx, fy, mean[2] + az];
+            let Some(flanks_n) = flanks_n else {
+                return Some(ToothForces {
+                    mean_n,
+                    peak_lateral_n: fx.hypot(fy),
+                    peak_torque_nmm: torque_nmm,
+                });
+            };
+            let teeth = Teeth {
+                flutes: self.flutes,
+                helix_deg: self.helix_deg,
+            };
+            let peak = peak_cut(&self.edge, &teeth, arcs, c, h, flanks_n, peak_scratch);
             for flank in flanks_n.iter_mut() {
                 *flank = flank.map(machine);
             }
             Some(ToothForces {
-                mean_n: [fx, fy, mean[2] + az],
+                mean_n,
                 peak_lateral_n: peak.lateral_n + ax.hypot(ay),
                 peak_torque_nmm: peak.torque_nmm + share * torque_nmm,
             })

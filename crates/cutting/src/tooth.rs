@@ -449,6 +449,8 @@ pub struct PeakScratch {
     /// Per slice and tooth j, the tooth's harmonics (`Slice::tooth` at
     /// `c_j = 2πj/N − lag`), N a slice.
     teeth: Vec<Harmonics>,
+    /// Per slice and tooth j, its angle at rotation 0, `c_j` in [0, 2π).
+    angles: Vec<f64>,
 }
 
 /// A tooth entering or leaving a slice's arc within one tooth period.
@@ -495,10 +497,12 @@ pub fn peak_cut(
         slices,
         events,
         teeth: harmonics,
+        angles,
     } = scratch;
     slices.clear();
     events.clear();
     harmonics.clear();
+    angles.clear();
     let mut sum = Harmonics::default();
     for (arc, fz) in bands {
         let span = arc.z_hi_mm - arc.z_lo_mm;
@@ -533,6 +537,15 @@ pub fn peak_cut(
             (sc, cc) = (sc * cp + cc * sp, cc * cp - sc * sp);
         }
     }
+    for s in slices.iter() {
+        angles.extend((0..n).map(|j| (f64::from(j) * period - s.lag).rem_euclid(2.0 * PI)));
+    }
+    let engaged = Engaged {
+        slices,
+        harmonics,
+        angles,
+        flutes: n,
+    };
     let nu = n as usize;
     for (si, s) in slices.iter().enumerate() {
         // The rotations in [0, period) where a tooth enters (α = φ_st) and
@@ -553,7 +566,7 @@ pub fn peak_cut(
     let mut best = PeakCut::default();
     for (k, flank) in flanks_n.iter_mut().enumerate() {
         let lag = (k as f64 + 0.5) * band_height_mm * lag_per_mm;
-        *flank = [lag, PI + lag].map(|phi| engaged_at(slices, harmonics, n, phi).lateral(phi));
+        *flank = [lag, PI + lag].map(|phi| engaged.at(phi).lateral(phi));
     }
     let m = events.len();
     if m == 0 {
@@ -568,7 +581,7 @@ pub fn peak_cut(
         .max_by(|&a, &b| (at(a + 1) - at(a)).total_cmp(&(at(b + 1) - at(b))))
         .unwrap_or(0);
     let mid = 0.5 * (at(i0) + at(i0 + 1));
-    sum.add(&engaged_at(slices, harmonics, n, mid), 1.0);
+    sum.add(&engaged.at(mid), 1.0);
     // The largest squared lateral force so far.
     let mut best_sq = 0.0;
     for k in 0..m {
@@ -615,21 +628,37 @@ pub fn peak_cut(
     best
 }
 
-/// The harmonics of the slices' teeth engaged at the rotation `phi`
-/// (`harmonics`: [`PeakScratch::teeth`]), summed (eq. 3.4b).
-fn engaged_at(slices: &[Slice], harmonics: &[Harmonics], flutes: u32, phi: f64) -> Harmonics {
-    let period = 2.0 * PI / f64::from(flutes);
-    let mut sum = Harmonics::default();
-    for (si, s) in slices.iter().enumerate() {
-        for j in 0..flutes {
-            let cj = f64::from(j) * period - s.lag;
-            let alpha = (phi + cj).rem_euclid(2.0 * PI);
-            if alpha >= s.arc[0] && alpha < s.arc[1] {
-                sum.add(&harmonics[si * flutes as usize + j as usize], 1.0);
+/// The slices' teeth of a [`peak_cut`]: their harmonics
+/// ([`PeakScratch::teeth`]) and angles at rotation 0
+/// ([`PeakScratch::angles`]).
+struct Engaged<'a> {
+    slices: &'a [Slice],
+    harmonics: &'a [Harmonics],
+    angles: &'a [f64],
+    flutes: u32,
+}
+
+impl Engaged<'_> {
+    /// The harmonics of the teeth engaged at the rotation `phi` (tooth j of
+    /// a slice at `α = φ + c_j`, engaged on `[φ_st, φ_ex)`), summed (eq. 3.4b).
+    fn at(&self, phi: f64) -> Harmonics {
+        let tau = 2.0 * PI;
+        let phi = phi.rem_euclid(tau);
+        let n = self.flutes as usize;
+        let mut sum = Harmonics::default();
+        for (si, s) in self.slices.iter().enumerate() {
+            for j in 0..n {
+                let mut alpha = self.angles[si * n + j] + phi;
+                if alpha >= tau {
+                    alpha -= tau;
+                }
+                if alpha >= s.arc[0] && alpha < s.arc[1] {
+                    sum.add(&self.harmonics[si * n + j], 1.0);
+                }
             }
         }
+        sum
     }
-    sum
 }
 
 #[cfg(test)]

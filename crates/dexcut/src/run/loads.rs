@@ -9,35 +9,38 @@ use super::error_map::FlankDeflections;
 use crate::input::tools::ToolSet;
 use crate::motion::TimedStep;
 
-/// Each step's force, power and deflection (MODEL.md §3, §4) with its
-/// tool's model, as `of(load, step)` makes it (the closed loop's passes keep
-/// each step's deflection across its path, 8 B, not its load, 104 B); a step
-/// shorter than a grid cell (`grid_mm`) has the load of the steady cut
+/// Each step's mean deflection [x, y] at the contact height (µm, MODEL.md
+/// §3, §4: `CuttingModel::mean_deflection_um`, the `dx_um`, `dy_um` of its
+/// load bit for bit, without the force through the tooth period's peak)
+/// with its tool's model, as `of(deflection, step)` makes it (the closed
+/// loop's passes keep each step's deflection across its path, 8 B); a step
+/// shorter than a grid cell (`grid_mm`) has the deflection of the steady cut
 /// around it (MODEL.md §1.6).
-pub(crate) fn loads_as<T: Send>(
+pub(crate) fn deflections_as<T: Send>(
     tools: &ToolSet,
     tool_of_step: &[usize],
     record: &RemovalRecord,
     steps: &[TimedStep],
     grid_mm: f64,
-    of: impl Fn(&StepLoad, usize) -> T + Sync,
+    of: impl Fn([f64; 2], usize) -> T + Sync,
 ) -> Vec<T> {
-    // Steps in parallel: each step's load is its own (the forces through a
-    // tooth period cost a few µs a step, MODEL.md §3.4), and the order of
-    // the results is the steps'.
+    // Steps in parallel: each step's deflection is its own, and the order
+    // of the results is the steps'.
     let mut out: Vec<T> = steps
         .par_iter()
         .enumerate()
         .map(|(i, s)| {
             let model = &tools.entries[tool_of_step[i]].model;
-            let load = model.step_load(&step_removal(record, i, s, grid_mm));
-            of(&load, i)
+            of(
+                model.mean_deflection_um(&step_removal(record, i, s, grid_mm)),
+                i,
+            )
         })
         .collect();
     super::subcell::window_loads(
         |i, r| {
             let model = &tools.entries[tool_of_step[i]].model;
-            out[i] = of(&r.map_or_else(StepLoad::default, |r| model.step_load(r)), i);
+            out[i] = of(r.map_or([0.0; 2], |r| model.mean_deflection_um(r)), i);
         },
         tool_of_step,
         record,
@@ -50,7 +53,8 @@ pub(crate) fn loads_as<T: Send>(
 /// Steps a task of [`loads_with_flanks`] takes at a time.
 const FLANK_BLOCK: usize = 256;
 
-/// Each step's load ([`loads_as`]), and per step and band the deflections
+/// Each step's load (MODEL.md §3, §4; a step shorter than a grid cell, the
+/// steady cut's around it, §1.6), and per step and band the deflections
 /// when a tooth at the band's mid-height passes the flanks
 /// (`CuttingModel::step_load_with_flanks`, MODEL.md §5.2): the error map's
 /// model, as many bands a step as the record keeps (at least one).

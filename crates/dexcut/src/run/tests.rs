@@ -6,7 +6,7 @@ use super::closed_loop::{
     LOOP_AT_POINT_SIDE_LOAD_UM, LOOP_NO_SIDE_LOAD_UM, LOOP_RELAX_START, LOOP_REL_TOL, LOOP_TOL_UM,
 };
 use super::error_map::{material_along_mm, Before};
-use super::loads::{breaking_step, loads_as};
+use super::loads::breaking_step;
 use super::metrics::Period;
 use super::*;
 
@@ -772,7 +772,7 @@ fn wall_setup(dir: &std::path::Path, csv: &str, depth_mm: f64) -> crate::setup::
 }
 
 /// The closed loop's passes keep each step's deflection across its path
-/// made as each load is (`loads_as`), not the loads: they are those of
+/// made as each load is (`deflections_as`), not the loads: they are those of
 /// every load held and the windowed ones written over it (the loads
 /// `loads` gave before), bit for bit, on a cut in 4 µm steps on a
 /// 10 µm grid, whose loads are those of their windows (MODEL.md §1.6).
@@ -815,14 +815,21 @@ fn deflections_made_as_the_loads_are_those_of_the_loads_held() {
         .filter(|&i| held[i].dx_um.to_bits() != own[i].dx_um.to_bits())
         .count();
     assert!(windowed > 100, "{windowed} steps windowed");
-    let along = |l: &StepLoad, i: usize| 0.6 * l.dx_um + 0.8 * l.dy_um + i as f64;
-    let g = loads_as(&setup.tools, &tool_of_step, &record, &steps, grid_mm, along);
+    // The loop's deflections (the mean only) are the loads', bit for bit.
+    let along = |[dx, dy]: [f64; 2], i: usize| 0.6 * dx + 0.8 * dy + i as f64;
+    let g =
+        super::loads::deflections_as(&setup.tools, &tool_of_step, &record, &steps, grid_mm, along);
     // The loads made with the flanks' deflections are the same loads.
     let (loads, _) =
         super::loads::loads_with_flanks(&setup.tools, &tool_of_step, &record, &steps, grid_mm);
     assert_eq!(g.len(), steps.len());
     for i in 0..steps.len() {
-        assert_eq!(g[i].to_bits(), along(&held[i], i).to_bits(), "step {i}");
+        let l = &held[i];
+        assert_eq!(
+            g[i].to_bits(),
+            along([l.dx_um, l.dy_um], i).to_bits(),
+            "step {i}"
+        );
         assert_eq!(
             format!("{:?}", loads[i]),
             format!("{:?}", held[i]),

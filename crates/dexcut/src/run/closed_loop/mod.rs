@@ -6,7 +6,7 @@
 use cutting::StepLoad;
 use dexel::{RemovalRecord, Stock, SweepOptions};
 
-use super::loads::loads_as;
+use super::loads::deflections_as;
 use super::{sweep_pass, Initial, StepTools, SUB_CELL_WINDOW_CELLS};
 use crate::error::Result;
 use crate::motion::TimedStep;
@@ -80,8 +80,8 @@ pub struct LoopReport {
 
 /// The component of a step's deflection along its loop direction, µm
 /// (`dirs`: each step's unit direction of the loop's offsets).
-pub(crate) fn along(dirs: &[[f64; 2]], load: &StepLoad, i: usize) -> f64 {
-    load.dx_um * dirs[i][0] + load.dy_um * dirs[i][1]
+pub(crate) fn along(dirs: &[[f64; 2]], [dx_um, dy_um]: [f64; 2], i: usize) -> f64 {
+    dx_um * dirs[i][0] + dy_um * dirs[i][1]
 }
 
 /// What the rigid sweep decides for the closed loop (MODEL.md §5.1): each
@@ -146,7 +146,8 @@ impl LoopPlan {
                 if inherited[i] {
                     0.0
                 } else {
-                    along(&dirs, &rigid_load(i), i).max(0.0)
+                    let l = rigid_load(i);
+                    along(&dirs, [l.dx_um, l.dy_um], i).max(0.0)
                 }
             })
             .collect();
@@ -385,13 +386,13 @@ pub(crate) fn close_loop(
         // g: the deflection the removal at the trial offset causes, across
         // the path (of the loads as `loads` makes them).
         let of_step = on.of_step;
-        let g: Vec<f64> = loads_as(
+        let g: Vec<f64> = deflections_as(
             of_step.tools,
             of_step.tool_of_step,
             record,
             on.steps,
             on.grid_mm,
-            |l: &StepLoad, i: usize| along(on.dirs, l, i),
+            |d, i| along(on.dirs, d, i),
         );
         let pass = report.passes;
         let measured = Measured { x, g: &g, pass };
