@@ -564,38 +564,11 @@ impl CuttingModel {
                 arcs_mm3 += v;
                 cuts.push(cut);
             }
-            // A band that reaches both flanks is cut between slivers at the
-            // flanks (the contact across the feed) and a slot over part of
-            // its height (along it: π/4 of its volume): the s of
-            // [`BandArc::flanks`], one for the step's such bands, that makes
-            // the contact along the feed of the bands with arcs the step's
-            // (their part of it), by bisection (the share grows with s).
+            // The contact along the feed of the bands with arcs: the step's
+            // (their part of it), less that of those whose arcs are known.
             let measured = (r.contact_resultant[0] * ux + r.contact_resultant[1] * uy) * arcs_mm3
                 / r.volume_mm3;
-            let split = |cut: &&BandCut| matches!(cut.kind, BandKind::Split);
-            let along = |s: f64| -> f64 {
-                cuts.iter()
-                    .filter(split)
-                    .map(|cut| cut.volume_mm3 * BandArc::forward_share(&self.cut_arcs(cut, s)))
-                    .sum()
-            };
-            let target = measured - known;
-            let s = if !cuts.iter().any(|cut| split(&cut)) || along(0.0) >= target {
-                0.0
-            } else if along(1.0) <= target {
-                1.0
-            } else {
-                let (mut lo, mut hi) = (0.0, 1.0);
-                for _ in 0..SPLIT_BISECTIONS {
-                    let mid = 0.5 * (lo + hi);
-                    if along(mid) < target {
-                        lo = mid;
-                    } else {
-                        hi = mid;
-                    }
-                }
-                0.5 * (lo + hi)
-            };
+            let s = self.split(cuts, measured - known);
             let mut mean = [0.0; 3];
             for cut in cuts.iter() {
                 let v = cut.volume_mm3;
@@ -660,6 +633,38 @@ impl CuttingModel {
                 peak_torque_nmm: peak.torque_nmm + share * torque_nmm,
             })
         })
+    }
+
+    /// The split `s` of [`BandArc::flanks`], one for the step's bands that
+    /// reach both flanks (`BandKind::Split` among `cuts`), between slivers at
+    /// the flanks (the contact across the feed, s = 0) and a slot over part
+    /// of their height (along it: π/4 of their volume, s = 1): the one whose
+    /// volume-weighted contact along the feed is `target_mm3`, by bisection
+    /// (it grows with s; MODEL.md §3.4). 0 where no band is split.
+    fn split(&self, cuts: &[BandCut], target_mm3: f64) -> f64 {
+        let split = |cut: &&BandCut| matches!(cut.kind, BandKind::Split);
+        let along = |s: f64| -> f64 {
+            cuts.iter()
+                .filter(split)
+                .map(|cut| cut.volume_mm3 * BandArc::forward_share(&self.cut_arcs(cut, s)))
+                .sum()
+        };
+        if !cuts.iter().any(|cut| split(&cut)) || along(0.0) >= target_mm3 {
+            return 0.0;
+        }
+        if along(1.0) <= target_mm3 {
+            return 1.0;
+        }
+        let (mut lo, mut hi) = (0.0, 1.0);
+        for _ in 0..SPLIT_BISECTIONS {
+            let mid = 0.5 * (lo + hi);
+            if along(mid) < target_mm3 {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        0.5 * (lo + hi)
     }
 
     /// The arcs of a band's cut `cut`: its own, or where it reaches both

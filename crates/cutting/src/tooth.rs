@@ -527,8 +527,8 @@ pub fn peak_cut(
             });
         }
     }
-    // Each slice's teeth: c_j = j·period − lag by rotation (one sin_cos a
-    // slice).
+    // Each slice's teeth: c_j = j·period − lag, their harmonics by rotation
+    // (one sin_cos a slice) and their angles in [0, 2π).
     let (sp, cp) = period.sin_cos();
     for s in slices.iter() {
         let (mut sc, mut cc) = (-s.lag).sin_cos();
@@ -536,8 +536,6 @@ pub fn peak_cut(
             harmonics.push(s.tooth_cs(cc, sc));
             (sc, cc) = (sc * cp + cc * sp, cc * cp - sc * sp);
         }
-    }
-    for s in slices.iter() {
         angles.extend((0..n).map(|j| (f64::from(j) * period - s.lag).rem_euclid(2.0 * PI)));
     }
     let engaged = Engaged {

@@ -315,14 +315,7 @@ pub(crate) fn clamped_error_map_um(
             } else {
                 // The face the column stands for: from its top up to its
                 // highest neighbour's (a wall's foot holds the wall).
-                let highest = [(-1, 0), (1, 0), (0, -1), (0, 1)]
-                    .into_iter()
-                    .filter_map(|(dx, dy)| {
-                        let (jx, jy) = (ix.checked_add_signed(dx)?, iy.checked_add_signed(dy)?);
-                        (jx < grid.nx && jy < rows.len()).then(|| f64::from(top(jx, jy)))
-                    })
-                    .filter(|t| t.is_finite())
-                    .fold(top_mm, f64::max);
+                let highest = highest_neighbour_mm(top, [grid.nx, rows.len()], [ix, iy], top_mm);
                 let z_mm = over_tip_mm(s, px, py, top_mm);
                 let face_mm = [z_mm, z_mm + (highest - top_mm)];
                 model.face_error_um(step, flank_side(s, px, py), face_mm, n)
@@ -337,6 +330,24 @@ pub(crate) fn clamped_error_map_um(
             (applied + room_um.min(model - applied)) as f32
         })
         .collect()
+}
+
+/// The highest of the finite tops `top` of the four neighbours of column
+/// `[ix, iy]` on a grid of `[nx, ny]` columns, and of its own `own_mm`, mm.
+fn highest_neighbour_mm(
+    top: impl Fn(usize, usize) -> f32,
+    [nx, ny]: [usize; 2],
+    [ix, iy]: [usize; 2],
+    own_mm: f64,
+) -> f64 {
+    [(-1, 0), (1, 0), (0, -1), (0, 1)]
+        .into_iter()
+        .filter_map(|(dx, dy)| {
+            let (jx, jy) = (ix.checked_add_signed(dx)?, iy.checked_add_signed(dy)?);
+            (jx < nx && jy < ny).then(|| f64::from(top(jx, jy)))
+        })
+        .filter(|t| t.is_finite())
+        .fold(own_mm, f64::max)
 }
 
 /// Which flank of `step`'s tool leaves the column at (x, y): 0 where it lies
