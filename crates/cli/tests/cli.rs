@@ -4268,10 +4268,13 @@ stress = true
                 f * 16.0 / 60_000.0 < 0.1,
                 "step {i}: {f} mm/min is a cell per period"
             );
-            // (Within 4 %: the stress of the sub-cell windows is their peak of the
-            // revolution, which the caps meet from below.)
+            // (Within 5 %: the stress of the sub-cell windows is their peak of the
+            // revolution, which the caps meet from below; the engagement's
+            // moves are 0.2 mm, two cells (MODEL.md §2), whose chip thickness
+            // puts the cap at 47.30 mm/min, 4.3 % below F*, where moves of
+            // 0.05 mm put it at 47.75.)
             assert!(
-                f <= feed_star * 1.005 && f >= feed_star * 0.96,
+                f <= feed_star * 1.005 && f >= feed_star * 0.95,
                 "step {i} at x {x}: {f} mm/min vs F* {feed_star}"
             );
             // (Within 5 % step by step: at one feed, 47.75 mm/min, the

@@ -208,28 +208,24 @@ fn sweep_engagement(
     if let (StockSource::Tiled(t), SurfaceFrom::Stock) = (stock, surface) {
         fail!(limits, "[limits] angle_rule with a stock too large for the memory budget ({} rows in bands of {}): the surface angles come from the swept stock's surface, which needs every column at once; give a [design] model, use a coarser grid or a larger --memory-budget-mb", t.grid.ny, t.band_rows);
     }
-    let segs = stations.segments();
-    let seg_of = stations.segment();
-    let n = stations.len();
-    // Interval k's move, made when the sweep asks for it from the stations'
-    // positions (a list of them held 56 B an interval beside the record).
-    let steps = dexel::StepFn::new(n.saturating_sub(1), |i| {
-        let k = i + 1;
-        dexel::Step {
-            from_mm: stations.position_at(k - 1).coords.into(),
-            to_mm: stations.position_at(k).coords.into(),
-            rapid: matches!(segs[seg_of[k] as usize].motion, Motion::Rapid),
-        }
-    });
+    let spacing_mm = stock.grid().spacing_mm;
+    // The sweep's moves (runs of intervals along a line, MODEL.md §2 "The engagement sweep"), made
+    // when the sweep asks for them from the stations' positions.
+    let moves = SweepMoves::new(stations, spacing_mm);
+    let steps = dexel::StepFn::new(moves.len(), |j| moves.step(stations, j));
+    let move_tools: Vec<u16> = moves.starts[..moves.len()]
+        .iter()
+        .map(|&k| tool_index[k as usize])
+        .collect();
     let options = SweepOptions {
         band_height_mm: tools.entries[0].model.band_height_mm,
         ..SweepOptions::default()
     };
     let dexel_tools = tools.tools();
-    let sweep = dexel::Sweep::new(&dexel_tools, tool_index, &steps, &options)?;
-    let spacing_mm = stock.grid().spacing_mm;
+    let sweep = dexel::Sweep::new(&dexel_tools, &move_tools, &steps, &options)?;
     let window_mm = (ENGAGEMENT_WINDOW_CELLS * spacing_mm).max(2.0 * STATION_DS_MM);
     let mut rows = EngagementRows {
+        moves: &moves,
         area: WindowedArea::new(stations.s_mm(), window_mm),
         loads: ReferenceLoads::new(
             stations.s_mm(),
@@ -260,10 +256,74 @@ fn sweep_engagement(
     Ok(swept.filter(|_| matches!(surface, SurfaceFrom::Stock)))
 }
 
+/// The engagement sweep's moves (MODEL.md §2, "The engagement sweep"): runs of station intervals
+/// along one straight segment, each at most the engagement's window
+/// ([`ENGAGEMENT_WINDOW_CELLS`] grid cells of path) long (one interval where a
+/// segment is an arc or an interval is longer). A line's
+/// stations lie on it, so a run sweeps what its intervals one by one would;
+/// each interval takes the run's removal by its share of the length. 4 B a
+/// move.
+pub(super) struct SweepMoves {
+    /// Each move's first interval, then the number of intervals.
+    starts: Vec<u32>,
+}
+
+impl SweepMoves {
+    /// The moves along `stations` on a grid of `cell_mm`.
+    pub(super) fn new(stations: &Stations, cell_mm: f64) -> Self {
+        let window_mm = ENGAGEMENT_WINDOW_CELLS * cell_mm;
+        let (s, seg_of, segs) = (stations.s_mm(), stations.segment(), stations.segments());
+        let n = stations.len().saturating_sub(1);
+        let longest_mm = window_mm * (1.0 + 1e-9);
+        let mut starts =
+            Vec::with_capacity(n.min((s.last().copied().unwrap_or(0.0) / window_mm) as usize + 16));
+        let mut k = 0;
+        while k < n {
+            starts.push(k as u32);
+            let seg = seg_of[k + 1];
+            let mut end = k + 1;
+            if matches!(segs[seg as usize].geometry, nc::Geometry::Line) {
+                while end < n
+                    && seg_of[end + 1] == seg
+                    && seg_of[end] == seg
+                    && s[end + 1] - s[k] <= longest_mm
+                {
+                    end += 1;
+                }
+            }
+            k = end;
+        }
+        starts.push(n as u32);
+        SweepMoves { starts }
+    }
+
+    /// Number of moves.
+    pub(super) fn len(&self) -> usize {
+        self.starts.len() - 1
+    }
+
+    /// Move j's station intervals.
+    pub(super) fn intervals(&self, j: usize) -> std::ops::Range<usize> {
+        self.starts[j] as usize..self.starts[j + 1] as usize
+    }
+
+    /// Move j, from its first station to its last.
+    pub(super) fn step(&self, stations: &Stations, j: usize) -> dexel::Step {
+        let r = self.intervals(j);
+        let seg = stations.segment()[r.end] as usize;
+        dexel::Step {
+            from_mm: stations.position_at(r.start).coords.into(),
+            to_mm: stations.position_at(r.end).coords.into(),
+            rapid: matches!(stations.segments()[seg].motion, Motion::Rapid),
+        }
+    }
+}
+
 /// The engagement sweep's sink: each interval's row as the sweep makes it
 /// final, in order; each interval's windowed area and reference load given
 /// to `each` once the rows they read are in (two half windows ahead).
 struct EngagementRows<'a, 'e, M, D> {
+    moves: &'a SweepMoves,
     area: WindowedArea<'a>,
     loads: ReferenceLoads<'a, M, D>,
     each: &'e mut dyn FnMut(usize, f64, ReferenceLoad),
@@ -272,11 +332,26 @@ struct EngagementRows<'a, 'e, M, D> {
 impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> ([f64; 2], f64)>
     EngagementRows<'a, '_, M, D>
 {
-    fn row(&mut self, k: usize, row: dexel::RecordRow<'_>) {
+    /// Move j's row: its intervals' volumes, each its share by length
+    /// (the move's own where it is one interval).
+    fn row(&mut self, j: usize, row: dexel::RecordRow<'_>) {
         let (loads, each) = (&mut self.loads, &mut *self.each);
-        loads.row(k, row);
-        self.area
-            .push(row.volume_mm3(), &mut |j, a| each(j, a, loads.load(j, a)));
+        let intervals = self.moves.intervals(j);
+        let s_mm = self.area.s_mm;
+        loads.row(intervals.clone(), row);
+        let volume = row.volume_mm3();
+        if intervals.len() == 1 {
+            self.area
+                .push(volume, &mut |k, a| each(k, a, loads.load(k, a)));
+        } else {
+            let per_mm = volume / (s_mm[intervals.end] - s_mm[intervals.start]);
+            for k in intervals {
+                self.area
+                    .push(per_mm * (s_mm[k + 1] - s_mm[k]), &mut |k, a| {
+                        each(k, a, loads.load(k, a))
+                    });
+            }
+        }
     }
 
     fn finish(self) {
@@ -358,7 +433,10 @@ struct ReferenceLoads<'a, M, D> {
 
 /// What a reference load takes of a cutting interval's row.
 struct Source {
+    /// The move's first interval.
     k: usize,
+    /// The move's length of path, mm.
+    len_mm: f64,
     volume_mm3: f64,
     contact: [f64; 2],
     chip_edge_area_mm2: f64,
@@ -390,12 +468,14 @@ impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> ([f64; 2], f64)>
         }
     }
 
-    /// Interval k's row, before its area.
-    fn row(&mut self, k: usize, row: dexel::RecordRow<'_>) {
+    /// The row of the move over `intervals`, before their areas.
+    fn row(&mut self, intervals: std::ops::Range<usize>, row: dexel::RecordRow<'_>) {
         if row.volume_mm3() > 0.0 {
             let bands = row.band_volumes_mm3();
+            let k = intervals.start;
             self.sources.push_back(Source {
                 k,
+                len_mm: self.s_mm[intervals.end] - self.s_mm[k],
                 volume_mm3: row.volume_mm3(),
                 contact: row.contact_resultant(),
                 chip_edge_area_mm2: row.chip_edge_area_mm2(),
@@ -447,8 +527,7 @@ impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> ([f64; 2], f64)>
                     contact_resultant: [cx * scale, cy * scale],
                     // The chip edge area is per step: for the interval's own length, scaled
                     // by the ratio of lengths (thickness per mm of path is what is kept).
-                    chip_edge_area_mm2: j.chip_edge_area_mm2 * scale * (s_mm[j.k + 1] - s_mm[j.k])
-                        / len_mm,
+                    chip_edge_area_mm2: j.chip_edge_area_mm2 * scale * j.len_mm / len_mm,
                     volume_over_radius_mm2: j.volume_over_radius_mm2 * scale,
                     dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
                     band_offsets_mm: &self.one_offsets,

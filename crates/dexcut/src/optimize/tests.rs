@@ -1,6 +1,6 @@
 //! Tests of the optimisation's pieces: engagement, windowed areas, caps, blocks.
 
-use super::engagement::surface_angles_deg;
+use super::engagement::{surface_angles_deg, SweepMoves};
 use super::*;
 use cutting::CuttingModel;
 use dexel::SweepOptions;
@@ -76,23 +76,29 @@ fn windowed_area_of_lists(s_mm: &[f64], volumes_mm3: &[f64], window_mm: f64) -> 
 /// before the sweep gave its rows to them (the oracle).
 fn reference_loads_of_record<'a>(
     record: &dexel::RemovalRecord,
+    moves: &SweepMoves,
     area_mm2: &[f64],
     s_mm: &[f64],
     model_of: impl Fn(usize) -> &'a CuttingModel,
     (steps, cell_mm): (&[dexel::Step], f64),
 ) -> Vec<ReferenceLoad> {
     let n = area_mm2.len();
-    let first_cut = (0..n).find(|&k| record.volume_mm3(k) > 0.0);
+    let first_cut = (0..moves.len()).find(|&j| record.volume_mm3(j) > 0.0);
     let mut last = None;
     let mut bands = vec![0.0; record.n_bands];
+    let move_of: Vec<usize> = (0..moves.len())
+        .flat_map(|j| moves.intervals(j).map(move |_| j))
+        .collect();
     (0..n)
         .map(|k| {
-            if record.volume_mm3(k) > 0.0 {
-                last = Some(k);
+            let m = move_of[k];
+            if record.volume_mm3(m) > 0.0 {
+                last = Some(m);
             }
             let (Some(j), true) = (last.or(first_cut), area_mm2[k] > 0.0) else {
                 return cutting::StepLoad::default().into();
             };
+            let run = moves.intervals(j);
             let len_mm = s_mm[k + 1] - s_mm[k];
             let volume = area_mm2[k] * len_mm;
             let scale = volume / record.volume_mm3(j);
@@ -105,12 +111,14 @@ fn reference_loads_of_record<'a>(
                 volume_mm3: volume,
                 band_volumes_mm3: &bands,
                 contact_resultant: [cx * scale, cy * scale],
-                chip_edge_area_mm2: record.chip_edge_area_mm2(j) * scale * (s_mm[j + 1] - s_mm[j])
+                chip_edge_area_mm2: record.chip_edge_area_mm2(j)
+                    * scale
+                    * (s_mm[run.end] - s_mm[run.start])
                     / len_mm,
                 volume_over_radius_mm2: record.volume_over_radius_mm2(j) * scale,
                 dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
                 band_offsets_mm: record.band_offsets_mm(j),
-                feed_dir: crate::run::feed_dir(&steps[j]),
+                feed_dir: crate::run::feed_dir(&steps[run.start]),
                 len_xy_mm: crate::run::len_xy_mm(&steps[k]),
                 cell_mm,
             });
@@ -395,23 +403,41 @@ fn engagement_from_the_sweeps_rows_is_the_records() {
                 rapid: matches!(segs[seg_of[k] as usize].motion, Motion::Rapid),
             })
             .collect();
+        // The sweep's moves: runs of up to 8 intervals (0.4 mm, the window) along the lines.
+        let moves = SweepMoves::new(&stations, stock.grid().spacing_mm);
+        assert!(moves.len() < steps.len() / 2, "{} moves", moves.len());
+        let move_steps: Vec<dexel::Step> =
+            (0..moves.len()).map(|j| moves.step(&stations, j)).collect();
+        let move_tools: Vec<u16> = (0..moves.len())
+            .map(|j| engagement.tool_index[moves.intervals(j).start])
+            .collect();
         let (swept, record) = crate::run::sweep_pass(
             &stock.initial(),
             None,
             tools,
-            &engagement.tool_index,
-            &steps,
+            &move_tools,
+            &move_steps,
             &options,
             "engagement",
         )
         .unwrap();
-        let n = record.len();
-        let volumes: Vec<f64> = (0..n).map(|k| record.volume_mm3(k)).collect();
+        let volumes: Vec<f64> = (0..moves.len())
+            .flat_map(|j| {
+                let run = moves.intervals(j);
+                let s = stations.s_mm();
+                let v = record.volume_mm3(j);
+                let per_mm = v / (s[run.end] - s[run.start]);
+                let one = run.len() == 1;
+                run.map(move |k| if one { v } else { per_mm * (s[k + 1] - s[k]) })
+            })
+            .collect();
+        assert_eq!(volumes.len(), steps.len());
         let window_mm =
             (ENGAGEMENT_WINDOW_CELLS * stock.grid().spacing_mm).max(2.0 * STATION_DS_MM);
         let area_mm2 = windowed_area_of_lists(stations.s_mm(), &volumes, window_mm);
         let reference_loads = reference_loads_of_record(
             &record,
+            &moves,
             &area_mm2,
             stations.s_mm(),
             |k| &tools.entries[usize::from(engagement.tool_index[k])].model,
@@ -476,19 +502,72 @@ fn engagement_from_the_sweeps_rows_is_the_records() {
         // band count; intervals before the first cut take its shape;
         // the limits and S3 each set caps.
         assert_eq!(tools.entries.len(), 3);
+        let n = moves.len();
         for t in 0..3u16 {
             assert!(
-                (0..n).any(|k| held.tool_index[k] == t && record.volume_mm3(k) > 0.0),
+                (0..n).any(|j| move_tools[j] == t && record.volume_mm3(j) > 0.0),
                 "tool {t} cuts ({what})"
             );
         }
         assert_eq!(record.n_bands, 24);
-        let first_cut = (0..n).position(|k| record.volume_mm3(k) > 0.0).unwrap();
+        let first_cut = moves
+            .intervals((0..n).position(|j| record.volume_mm3(j) > 0.0).unwrap())
+            .start;
         assert!(held.area_mm2[first_cut - 1] > 0.0, "{what}");
         assert!(
             held.reference_loads[first_cut - 1].force_peak_n > 0.0,
             "{what}"
         );
+        // The moves sweep what the intervals one by one do: the same stock,
+        // but for columns whose centres lie on a tool's rim (at its radius
+        // from a move's line, to 1e-6 mm in XY), where cutting or not is
+        // decided by rounding; the same removal in all to those columns.
+        let (by_interval, interval_record) = crate::run::sweep_pass(
+            &stock.initial(),
+            None,
+            tools,
+            &engagement.tool_index,
+            &steps,
+            &options,
+            "engagement",
+        )
+        .unwrap();
+        let total = |r: &dexel::RemovalRecord| (0..r.len()).map(|j| r.volume_mm3(j)).sum::<f64>();
+        let (a, b) = (total(&record), total(&interval_record));
+        assert!(
+            a > 100.0 && (a - b).abs() <= 1e-4 * b,
+            "{a} against {b} mm³ ({what})"
+        );
+        if let (Some(x), Some(y)) = (swept.as_ref(), by_interval.as_ref()) {
+            let g = x.grid();
+            let radii: Vec<f64> = tools.entries.iter().map(|e| e.tool.radius_mm()).collect();
+            let on_a_rim = |px: f64, py: f64| {
+                move_steps.iter().zip(&move_tools).any(|(st, &t)| {
+                    let (a, b) = (st.from_mm, st.to_mm);
+                    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+                    let l2 = dx * dx + dy * dy;
+                    let u = if l2 > 0.0 {
+                        (((px - a[0]) * dx + (py - a[1]) * dy) / l2).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
+                    let d = (px - a[0] - u * dx).hypot(py - a[1] - u * dy);
+                    (d - radii[usize::from(t)]).abs() <= 1e-6
+                })
+            };
+            let mut ties = 0;
+            for (i, (p, q)) in x.top_heights().iter().zip(y.top_heights()).enumerate() {
+                if *p != q {
+                    let (px, py) = (g.x_mm(i % g.nx), g.y_mm(i / g.nx));
+                    assert!(
+                        on_a_rim(px, py),
+                        "column ({px}, {py}): {p} against {q} mm ({what})"
+                    );
+                    ties += 1;
+                }
+            }
+            assert!(ties < g.len() / 100, "{ties} columns differ ({what})");
+        }
         assert!(steps.iter().any(|s| s.rapid));
         assert!(steps
             .iter()
