@@ -406,6 +406,34 @@ fn engagement_from_the_sweeps_rows_is_the_records() {
         // The sweep's moves: runs of up to 8 intervals (0.4 mm, the window) along the lines.
         let moves = SweepMoves::new(&stations, stock.grid().spacing_mm);
         assert!(moves.len() < steps.len() / 2, "{} moves", moves.len());
+        // Each move's intervals lie on one segment (interval k on seg_of[k + 1]),
+        // a line where there are several, at most the window long; together in order.
+        let window_mm = ENGAGEMENT_WINDOW_CELLS * stock.grid().spacing_mm;
+        let mut next = 0;
+        for j in 0..moves.len() {
+            let run = moves.intervals(j);
+            assert_eq!(run.start, next, "move {j}");
+            next = run.end;
+            let seg = seg_of[run.start + 1];
+            assert!(run.clone().all(|k| seg_of[k + 1] == seg), "move {j}");
+            if run.len() > 1 {
+                assert!(matches!(segs[seg as usize].geometry, nc::Geometry::Line));
+                let s = stations.s_mm();
+                assert!(
+                    s[run.end] - s[run.start] <= window_mm * (1.0 + 1e-9),
+                    "move {j}"
+                );
+            }
+        }
+        assert_eq!(next, steps.len());
+        assert!(
+            (0..moves.len()).any(|j| moves.intervals(j).len() == 1
+                && matches!(
+                    segs[seg_of[moves.intervals(j).end] as usize].geometry,
+                    nc::Geometry::Arc { .. }
+                )),
+            "the arc's intervals are moves of their own"
+        );
         let move_steps: Vec<dexel::Step> =
             (0..moves.len()).map(|j| moves.step(&stations, j)).collect();
         let move_tools: Vec<u16> = (0..moves.len())
