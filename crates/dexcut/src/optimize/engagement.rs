@@ -283,11 +283,8 @@ impl SweepMoves {
             let seg = seg_of[k + 1];
             let mut end = k + 1;
             if matches!(segs[seg as usize].geometry, nc::Geometry::Line) {
-                while end < n
-                    && seg_of[end + 1] == seg
-                    && seg_of[end] == seg
-                    && s[end + 1] - s[k] <= longest_mm
-                {
+                // (Interval end lies on seg_of[end + 1]: a junction station ends its segment.)
+                while end < n && seg_of[end + 1] == seg && s[end + 1] - s[k] <= longest_mm {
                     end += 1;
                 }
             }
