@@ -213,10 +213,7 @@ fn sweep_engagement(
     // when the sweep asks for them from the stations' positions.
     let moves = SweepMoves::new(stations, spacing_mm);
     let steps = dexel::StepFn::new(moves.len(), |j| moves.step(stations, j));
-    let move_tools: Vec<u16> = moves.starts[..moves.len()]
-        .iter()
-        .map(|&k| tool_index[k as usize])
-        .collect();
+    let move_tools = moves.tools(tool_index);
     let options = SweepOptions {
         band_height_mm: tools.entries[0].model.band_height_mm,
         ..SweepOptions::default()
@@ -275,8 +272,7 @@ impl SweepMoves {
         let (s, seg_of, segs) = (stations.s_mm(), stations.segment(), stations.segments());
         let n = stations.len().saturating_sub(1);
         let longest_mm = window_mm * (1.0 + 1e-9);
-        let mut starts =
-            Vec::with_capacity(n.min((s.last().copied().unwrap_or(0.0) / window_mm) as usize + 16));
+        let mut starts = Vec::new();
         let mut k = 0;
         while k < n {
             starts.push(k as u32);
@@ -302,6 +298,29 @@ impl SweepMoves {
     /// Move j's station intervals.
     pub(super) fn intervals(&self, j: usize) -> std::ops::Range<usize> {
         self.starts[j] as usize..self.starts[j + 1] as usize
+    }
+
+    /// Interval k's share of move j's removal `volume_mm3`, by length (the
+    /// move's own volume where it is one interval).
+    pub(super) fn interval_volume_mm3(
+        &self,
+        s_mm: &[f64],
+        j: usize,
+        k: usize,
+        volume_mm3: f64,
+    ) -> f64 {
+        let r = self.intervals(j);
+        if r.len() == 1 {
+            volume_mm3
+        } else {
+            volume_mm3 / (s_mm[r.end] - s_mm[r.start]) * (s_mm[k + 1] - s_mm[k])
+        }
+    }
+
+    /// Each move's tool: that of its intervals (`tool_index`, one an interval).
+    pub(super) fn tools(&self, tool_index: &[u16]) -> Vec<u16> {
+        let firsts = &self.starts[..self.len()];
+        firsts.iter().map(|&k| tool_index[k as usize]).collect()
     }
 
     /// Move j, from its first station to its last.
@@ -332,22 +351,13 @@ impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> ([f64; 2], f64)>
     /// Move j's row: its intervals' volumes, each its share by length
     /// (the move's own where it is one interval).
     fn row(&mut self, j: usize, row: dexel::RecordRow<'_>) {
-        let (loads, each) = (&mut self.loads, &mut *self.each);
-        let intervals = self.moves.intervals(j);
-        let s_mm = self.area.s_mm;
+        let (loads, each, moves) = (&mut self.loads, &mut *self.each, self.moves);
+        let (intervals, s_mm) = (moves.intervals(j), self.area.s_mm);
         loads.row(intervals.clone(), row);
-        let volume = row.volume_mm3();
-        if intervals.len() == 1 {
+        for k in intervals {
+            let volume = moves.interval_volume_mm3(s_mm, j, k, row.volume_mm3());
             self.area
                 .push(volume, &mut |k, a| each(k, a, loads.load(k, a)));
-        } else {
-            let per_mm = volume / (s_mm[intervals.end] - s_mm[intervals.start]);
-            for k in intervals {
-                self.area
-                    .push(per_mm * (s_mm[k + 1] - s_mm[k]), &mut |k, a| {
-                        each(k, a, loads.load(k, a))
-                    });
-            }
         }
     }
 

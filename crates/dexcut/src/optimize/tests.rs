@@ -436,9 +436,7 @@ fn engagement_from_the_sweeps_rows_is_the_records() {
         );
         let move_steps: Vec<dexel::Step> =
             (0..moves.len()).map(|j| moves.step(&stations, j)).collect();
-        let move_tools: Vec<u16> = (0..moves.len())
-            .map(|j| engagement.tool_index[moves.intervals(j).start])
-            .collect();
+        let move_tools = moves.tools(&engagement.tool_index);
         let (swept, record) = crate::run::sweep_pass(
             &stock.initial(),
             None,
@@ -451,14 +449,22 @@ fn engagement_from_the_sweeps_rows_is_the_records() {
         .unwrap();
         let volumes: Vec<f64> = (0..moves.len())
             .flat_map(|j| {
-                let run = moves.intervals(j);
-                let s = stations.s_mm();
+                let (moves, s) = (&moves, stations.s_mm());
                 let v = record.volume_mm3(j);
-                let per_mm = v / (s[run.end] - s[run.start]);
-                let one = run.len() == 1;
-                run.map(move |k| if one { v } else { per_mm * (s[k + 1] - s[k]) })
+                moves
+                    .intervals(j)
+                    .map(move |k| moves.interval_volume_mm3(s, j, k, v))
             })
             .collect();
+        // The split keeps each move's volume.
+        for j in 0..moves.len() {
+            let split: f64 = moves.intervals(j).map(|k| volumes[k]).sum();
+            let v = record.volume_mm3(j);
+            assert!(
+                (split - v).abs() <= 1e-12 * v.max(1.0),
+                "move {j}: {split} against {v}"
+            );
+        }
         assert_eq!(volumes.len(), steps.len());
         let window_mm =
             (ENGAGEMENT_WINDOW_CELLS * stock.grid().spacing_mm).max(2.0 * STATION_DS_MM);
