@@ -128,10 +128,17 @@ pub enum Corners {
 /// The corners' choice on the envelope ([`Stations`]' `stop_or_pass_corners`), kept
 /// with a jerk limit for the planner to check (`crate::corner_check`).
 pub(crate) struct CornerChoice {
-    /// Caps before any corner was judged, mm/min, and their kinds (the interval
-    /// accelerations are made again from the geometry: [`Stations::tangential_limits`]).
+    /// Caps before any corner was judged, mm/min, and their kinds.
     base_caps_mm_min: Vec<f64>,
     base_kinds: Vec<CapKind>,
+    /// Whether each corner is judged; the others are passed in every choice but the
+    /// one with every corner a stop.
+    judged: Vec<bool>,
+    /// The interval accelerations with every corner that is not judged passed: the
+    /// tangential limits ([`Stations::tangential_limits`]) with those corners' budgets
+    /// taken out ([`Stations::share_corner_budgets`]), mm/s². A choice that passes them
+    /// all starts from here and shares the budgets of its judged corners only.
+    base_accel_mm_s2: Vec<f64>,
     /// The program's own stops (start, dwells, end).
     stops: Vec<Stop>,
     /// Each corner's station and tangent jump.
@@ -627,27 +634,35 @@ impl Stations {
         let own_stops = std::mem::take(&mut self.stops);
         match choice {
             Corners::Judged => return Ok(self.stop_or_pass_corners(own_stops, corners)),
-            Corners::Stopped => self.limit_corners(&own_stops, &corners, &|_| false),
-            Corners::Passed => self.limit_corners(&own_stops, &corners, &|_| true),
+            Corners::Stopped => self.limit_corners(&own_stops, &corners, &|_| false, &|_| false),
+            Corners::Passed => self.limit_corners(&own_stops, &corners, &|_| true, &|_| false),
         }
         Ok(None)
     }
 
     /// The stops and limits of the stations with the `corners` that `passed` says
-    /// (indices into `corners`) passed, their steps taken out of the budgets beside them,
-    /// and the others stops of no dwell beside `own_stops` (the program's); then the
-    /// sampled-geometry rule over all of it.
+    /// (indices into `corners`) passed, their steps taken out of the budgets beside them
+    /// (except those of the corners `shared` says the interval accelerations hold
+    /// already), and the others stops of no dwell beside `own_stops` (the program's);
+    /// then the sampled-geometry rule over all of it.
     fn limit_corners(
         &mut self,
         own_stops: &[Stop],
         corners: &[(usize, Vector3<f64>)],
         passed: &dyn Fn(usize) -> bool,
+        shared: &dyn Fn(usize) -> bool,
     ) {
-        let (kept, stopped): (Vec<_>, Vec<_>) = (0..corners.len()).partition(|&i| passed(i));
-        self.stops = with_stops(own_stops, stopped.iter().map(|&i| corners[i].0));
-        let kept: Vec<_> = kept.iter().map(|&i| corners[i]).collect();
-        self.share_corner_budgets(&kept);
-        self.corners = kept.iter().map(|&(c, _)| c).collect();
+        self.stops = with_stops(
+            own_stops,
+            (0..corners.len())
+                .filter(|&i| !passed(i))
+                .map(|i| corners[i].0),
+        );
+        self.share_corner_budgets(corners, &|i| passed(i) && !shared(i));
+        self.corners = (0..corners.len())
+            .filter(|&i| passed(i))
+            .map(|i| corners[i].0)
+            .collect();
         self.limit_sampled_geometry();
     }
 
@@ -680,20 +695,30 @@ impl Stations {
             .filter(|&index| self.cap_kind[corners[index].0] == CapKind::Corner)
             .collect();
         if judged.is_empty() {
-            self.limit_corners(&own_stops, &corners, &|_| true);
+            self.limit_corners(&own_stops, &corners, &|_| true, &|_| false);
             return None;
         }
+        let mut is_judged = vec![false; corners.len()];
+        for &index in &judged {
+            is_judged[index] = true;
+        }
+        // The budgets of the corners passed in every choice, shared once (from the
+        // tangential limits, as `limit_with` starts where it shares them all).
+        let base_caps_mm_min = self.cap_mm_min.clone();
+        for k in 0..self.len() - 1 {
+            self.interval_accel_mm_s2[k] = self.tangential_limits(k).0;
+        }
+        self.share_corner_budgets(&corners, &|index| !is_judged[index]);
         let mut choice = CornerChoice {
-            base_caps_mm_min: self.cap_mm_min.clone(),
+            base_caps_mm_min,
             base_kinds: self.cap_kind.clone(),
+            base_accel_mm_s2: self.interval_accel_mm_s2.clone(),
+            judged: is_judged,
             stops: own_stops,
             pass: vec![false; corners.len()],
             corners,
         };
-        let mut free = vec![true; choice.corners.len()];
-        for &index in &judged {
-            free[index] = false;
-        }
+        let free: Vec<bool> = choice.judged.iter().map(|&j| !j).collect();
         let time = |st: &Stations, v: &[f32], lo: usize, hi: usize| {
             (lo..hi)
                 .map(|k| 2.0 * (st.s_mm[k + 1] - st.s_mm[k]) / (v[k] as f64 + v[k + 1] as f64))
@@ -781,24 +806,63 @@ impl Stations {
         // Into the arrays there (no second copy of them at once).
         self.cap_mm_min.clone_from(&choice.base_caps_mm_min);
         self.cap_kind.clone_from(&choice.base_kinds);
-        for k in 0..self.len() - 1 {
-            self.interval_accel_mm_s2[k] = self.tangential_limits(k).0;
+        let judged = &choice.judged;
+        let free_passed = (0..judged.len()).all(|index| judged[index] || passed(index));
+        if free_passed {
+            // The corners that are not judged, shared already (the min over budgets is
+            // the same taken in two steps).
+            self.interval_accel_mm_s2
+                .clone_from(&choice.base_accel_mm_s2);
+            self.limit_corners(&choice.stops, &choice.corners, passed, &|index| {
+                !judged[index]
+            });
+        } else {
+            for k in 0..self.len() - 1 {
+                self.interval_accel_mm_s2[k] = self.tangential_limits(k).0;
+            }
+            self.limit_corners(&choice.stops, &choice.corners, passed, &|_| false);
         }
-        self.limit_corners(&choice.stops, &choice.corners, passed);
         self.envelope_mm_s(&self.cap_mm_min, &self.interval_accel_mm_s2)
     }
 
     /// Within one period of a corner, each axis' velocity step there (v·|Δt_i|, at most
     /// a_i·T/2 by the corner rule) is taken out of that axis' acceleration budget, so the
     /// step and the ramps beside it together stay within a_i in the sampled positions.
-    /// Each corner's budgets are applied to the interval range its reach overlaps through a
-    /// range-minimum tree, so the cost is O((stations + corners)·log stations) however many
-    /// corners fall within one reach (very short segments).
-    fn share_corner_budgets(&mut self, corners: &[(usize, Vector3<f64>)]) {
+    /// Only the corners `include` says (indices into `corners`) share their budgets.
+    ///
+    /// Where their reaches together cover no more intervals than the path has, each
+    /// corner's budgets are applied to its intervals one by one; else through a
+    /// range-minimum tree over the intervals, so the cost is O((stations + corners)·log
+    /// stations) however many corners fall within one reach (very short segments). The
+    /// two give the same limits: each is the minimum over the corners reaching an
+    /// interval of b_i/|t_i|, and dividing by |t_i| keeps the order of the budgets.
+    fn share_corner_budgets(
+        &mut self,
+        corners: &[(usize, Vector3<f64>)],
+        include: &dyn Fn(usize) -> bool,
+    ) {
+        self.share_budgets(corners, include, None);
+    }
+
+    /// [`Stations::share_corner_budgets`], through the tree where `by_tree` says so
+    /// (`None`: where the reaches cover more intervals than the path has).
+    fn share_budgets(
+        &mut self,
+        corners: &[(usize, Vector3<f64>)],
+        include: &dyn Fn(usize) -> bool,
+        by_tree: Option<bool>,
+    ) {
         let intervals = self.s_mm.len().saturating_sub(1);
-        if corners.is_empty() || intervals == 0 {
+        if intervals == 0 {
             return;
         }
+        let shared = || {
+            corners
+                .iter()
+                .enumerate()
+                .filter(|&(index, _)| include(index))
+                .map(|(_, c)| c)
+        };
         let period_s = self.machine.period_s();
         let a = self.machine.accel_mm_s2;
         let a_max = a.iter().copied().fold(0.0, f64::max);
@@ -815,15 +879,40 @@ impl Stations {
             let hi = c + partition_point_near(&self.s_mm[c..], 0, |s| s < s_c + reach);
             (lo, hi.min(intervals), budget)
         };
+        let mut accel = std::mem::take(&mut self.interval_accel_mm_s2);
+        let by_tree = by_tree.unwrap_or_else(|| {
+            let covered: usize = shared()
+                .map(|c| {
+                    let (lo, hi, _) = corner(c);
+                    hi - lo
+                })
+                .sum();
+            covered > intervals
+        });
+        if !by_tree {
+            for c in shared() {
+                let (lo, hi, budget) = corner(c);
+                for (k, a) in accel.iter_mut().enumerate().take(hi).skip(lo) {
+                    for t in [self.tangent_at(k), self.tangent_at(k + 1)] {
+                        for axis in 0..3 {
+                            if t[axis] != 0.0 {
+                                *a = a.min(budget[axis] / t[axis].abs());
+                            }
+                        }
+                    }
+                }
+            }
+            self.interval_accel_mm_s2 = accel;
+            return;
+        }
         // along(t, b) = min over the moving axes of b_i/|t_i|: the limit of an interval is
         // the minimum over the axes of each axis' share, so the axes are taken one at a
         // time, each with a tree of one value per slot (a third of the memory of one tree
         // of three), in the same minima. An interval is limited where a corner reaches it.
         let mut reached: Vec<bool> = Vec::new();
-        let mut accel = std::mem::take(&mut self.interval_accel_mm_s2);
         for axis in 0..3 {
             let mut budgets = RangeMin::<1>::new(intervals);
-            for c in corners {
+            for c in shared() {
                 let (lo, hi, budget) = corner(c);
                 budgets.lower(lo, hi, [budget[axis]]);
             }
@@ -966,18 +1055,22 @@ impl Stations {
             if is_stop[k] || self.s_mm[k] - last_turn > reach && next_turn - self.s_mm[k] > reach {
                 continue;
             }
-            let mut v = cap;
-            if !within(differences(k, v)) {
-                let (mut lo, mut hi) = (0.0, cap);
+            // The speed v kept at station k and its differences there (each taken once).
+            let (mut v, at_cap) = (cap, differences(k, cap));
+            let mut d = at_cap.0;
+            if !within(at_cap) {
+                let (mut lo, mut hi, mut d_lo) = (0.0, cap, None);
                 for _ in 0..40 {
                     let mid = 0.5 * (lo + hi);
-                    if within(differences(k, mid)) {
-                        lo = mid;
+                    let at_mid = differences(k, mid);
+                    if within(at_mid) {
+                        (lo, d_lo) = (mid, Some(at_mid.0));
                     } else {
                         hi = mid;
                     }
                 }
                 v = lo;
+                d = d_lo.unwrap_or_else(|| differences(k, lo).0);
                 // Station k's cap is final from here (no other station lowers it).
                 if 60.0 * v < caps[k] {
                     caps[k] = 60.0 * v;
@@ -986,7 +1079,6 @@ impl Stations {
             }
             // The intervals k−1 → k and k → k+1 take station k's budget (each interval
             // the minimum of its two stations', in station order).
-            let d = differences(k, v).0;
             if d == Vector3::zeros() {
                 continue;
             }
@@ -1342,5 +1434,92 @@ mod partition_tests {
             }
         }
         assert_eq!(partition_point_near(&[], 0, |v: f64| v < 1.0), 0);
+    }
+}
+
+#[cfg(test)]
+mod budget_tests {
+    use nalgebra::{Point3, Vector3};
+    use nc::{Geometry, Motion, Path, Segment};
+
+    use super::{Corners, FeedPolicy, Stations};
+    use crate::machine::Machine;
+
+    /// The corner budgets shared one corner at a time equal those shared through the
+    /// range-minimum tree, bit for bit, and shared in two steps (as a choice that passes
+    /// every corner not judged starts from those shared once) equal those shared at
+    /// once; they lower the accelerations where corners reach.
+    #[test]
+    fn corner_budgets_are_the_same_one_by_one_by_tree_and_in_two_steps() {
+        // A zigzag of short lines (0.07–0.6 mm, a corner at every junction, some
+        // within one reach of each other) and a helix-free arc.
+        let mut points = vec![Point3::new(0.0, 0.0, 0.0)];
+        for i in 1..120 {
+            let len = 0.07 + 0.53 * ((i * 37 % 11) as f64 / 10.0);
+            let angle = if i % 2 == 0 { 0.4 } else { -0.7 } + 0.01 * i as f64;
+            let p = points[i - 1];
+            points.push(Point3::new(
+                p.x + len * angle.cos(),
+                p.y + len * angle.sin(),
+                p.z - 0.001 * (i % 3) as f64,
+            ));
+        }
+        let feed = Motion::feed(2400.0);
+        let segment = |start, end| Segment {
+            start,
+            end,
+            geometry: Geometry::Line,
+            motion: feed,
+            line: 1,
+            spindle_rpm: 10000.0,
+            tool: 1,
+        };
+        let segments: Vec<Segment> = points.windows(2).map(|w| segment(w[0], w[1])).collect();
+        let path = Path::from_segments(segments);
+        let machine = Machine::default();
+        let stopped = Stations::with_corners(
+            &path,
+            &machine,
+            0.05,
+            FeedPolicy::Programmed,
+            Corners::Stopped,
+        )
+        .unwrap();
+        // Every junction a corner, with its tangent jump.
+        let corners: Vec<(usize, Vector3<f64>)> = (1..stopped.len() - 1)
+            .filter(|&k| stopped.segment[k] != stopped.segment[k + 1] && stopped.fraction[k] == 1.0)
+            .map(|k| {
+                let before = &stopped.path.segments[stopped.segment[k] as usize];
+                let after = &stopped.path.segments[stopped.segment[k + 1] as usize];
+                (
+                    k,
+                    after.tangent_at_fraction(0.0) - before.tangent_at_fraction(1.0),
+                )
+            })
+            .collect();
+        assert!(corners.len() > 100, "{} corners", corners.len());
+        let shared = |include: &dyn Fn(usize) -> bool, by_tree: Option<bool>| {
+            let mut st = stopped.clone();
+            st.share_budgets(&corners, include, by_tree);
+            st.interval_accel_mm_s2
+        };
+        let bits = |a: Vec<f64>| a.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let one_by_one = shared(&|_| true, Some(false));
+        let tree = shared(&|_| true, Some(true));
+        assert_eq!(bits(one_by_one.clone()), bits(tree));
+        let lowered = (0..one_by_one.len())
+            .filter(|&k| one_by_one[k] < stopped.interval_accel_mm_s2[k])
+            .count();
+        assert!(lowered > stopped.len() / 2, "{lowered} intervals lowered");
+        // Even corners, then odd ones on top; each step by its own rule.
+        let mut two_steps = stopped.clone();
+        two_steps.share_budgets(&corners, &|i| i % 2 == 0, Some(true));
+        two_steps.share_budgets(&corners, &|i| i % 2 == 1, None);
+        assert_eq!(bits(two_steps.interval_accel_mm_s2), bits(one_by_one));
+        // None shared: nothing changes.
+        assert_eq!(
+            bits(shared(&|_| false, None)),
+            bits(stopped.interval_accel_mm_s2.clone())
+        );
     }
 }
