@@ -890,10 +890,11 @@ impl Stations {
             covered > intervals
         });
         if !by_tree {
+            let mut tangents = RecentTangents::new();
             for c in shared() {
                 let (lo, hi, budget) = corner(c);
                 for (k, a) in accel.iter_mut().enumerate().take(hi).skip(lo) {
-                    for t in [self.tangent_at(k), self.tangent_at(k + 1)] {
+                    for t in [tangents.get(self, k), tangents.get(self, k + 1)] {
                         for axis in 0..3 {
                             if t[axis] != 0.0 {
                                 *a = a.min(budget[axis] / t[axis].abs());
@@ -921,9 +922,10 @@ impl Stations {
                     .map(|k| budgets.get(k)[0].is_finite())
                     .collect();
             }
+            let mut tangents = RecentTangents::new();
             for k in (0..intervals).filter(|&k| reached[k]) {
                 let b = budgets.get(k)[0];
-                for t in [self.tangent_at(k)[axis], self.tangent_at(k + 1)[axis]] {
+                for t in [tangents.get(self, k)[axis], tangents.get(self, k + 1)[axis]] {
                     if t != 0.0 {
                         accel[k] = accel[k].min(b / t.abs());
                     }
@@ -974,15 +976,17 @@ impl Stations {
         // The intervals k → k+1 where the path turns (tangent change or arc), ascending:
         // the arc length to the nearest turn before and after each station is read from
         // them as the stations are visited in order (no per-station arrays).
-        let turns = |k: usize| {
-            !is_stop[k]
-                && ((self.tangent_at(k + 1) - self.tangent_at(k)).norm() > 1e-12
-                    || matches!(
-                        self.path.segments[self.segment[k + 1] as usize].geometry,
-                        Geometry::Arc { .. }
-                    ))
-        };
-        let turning: Vec<usize> = (0..n - 1).filter(|&k| turns(k)).collect();
+        let mut tangents = RecentTangents::new();
+        let turning: Vec<usize> = (0..n - 1)
+            .filter(|&k| {
+                !is_stop[k]
+                    && ((tangents.get(self, k + 1) - tangents.get(self, k)).norm() > 1e-12
+                        || matches!(
+                            self.path.segments[self.segment[k + 1] as usize].geometry,
+                            Geometry::Arc { .. }
+                        ))
+            })
+            .collect();
         // Station k: the last turn ends at s[k] if the interval k → k+1 turns, else at
         // the end s[j+1] of the last turning interval j < k; the next one starts at s[k]
         // if the interval k−1 → k turns, else at the start s[i] of the first turning
@@ -1094,8 +1098,8 @@ impl Stations {
                 if interval >= n - 1 {
                     continue;
                 }
-                let limit = along(&self.tangent_at(interval), budget)
-                    .min(along(&self.tangent_at(interval + 1), budget));
+                let limit = along(&tangents.get(self, interval), budget)
+                    .min(along(&tangents.get(self, interval + 1), budget));
                 let a = &mut interval_accel[interval];
                 *a = a.min(limit);
             }
@@ -1345,6 +1349,33 @@ impl Stations {
             self.path.segments[segment as usize].point_at_fraction(u),
             segment,
         )
+    }
+}
+
+/// The unit tangents ([`Stations::tangent_at`]) of the last three stations asked for,
+/// one a slot by the station's index modulo 3: where stations are visited in order
+/// (each interval asking for both its ends), each tangent is made once.
+struct RecentTangents {
+    station: [usize; 3],
+    tangent: [Vector3<f64>; 3],
+}
+
+impl RecentTangents {
+    fn new() -> Self {
+        RecentTangents {
+            station: [usize::MAX; 3],
+            tangent: [Vector3::zeros(); 3],
+        }
+    }
+
+    /// [`Stations::tangent_at`] of station `k` of `stations`.
+    fn get(&mut self, stations: &Stations, k: usize) -> Vector3<f64> {
+        let slot = k % 3;
+        if self.station[slot] != k {
+            self.station[slot] = k;
+            self.tangent[slot] = stations.tangent_at(k);
+        }
+        self.tangent[slot]
     }
 }
 
