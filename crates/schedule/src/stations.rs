@@ -159,16 +159,6 @@ impl CornerChoice {
     }
 }
 
-/// A judged corner's two segments, between the junctions beside it with every judged
-/// corner a stop, and their envelope's time so.
-struct JudgedWindow {
-    /// First and last station.
-    before: usize,
-    after: usize,
-    /// Time of the envelope over them with the corner stopped at, s.
-    stopped_s: f64,
-}
-
 /// A station where the tool is at rest: path start, path end, and every dwell.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stop {
@@ -674,12 +664,14 @@ impl Stations {
     /// same way. Only corners whose rule sets their station's cap are judged (the others
     /// are passed at their segments' speed). Each is judged with both its judged
     /// neighbours stopped, where its two segments are planned apart from the rest: the
-    /// stations are limited with every judged corner a stop, then with every other one
-    /// passed (even, then odd), and a corner is passed where the acceleration-limited
-    /// envelope over its two segments is no slower so. The stations are limited once
-    /// more with the corners so chosen, and kept so only where their envelope is no
+    /// stations are limited with every other judged corner passed (even, then odd) and
+    /// with every judged corner a stop, and a corner is passed where the
+    /// acceleration-limited envelope over its two segments is no slower so. The stations
+    /// are limited once more with the corners so chosen (not where that stops every
+    /// judged corner: they are so already), and kept so only where their envelope is no
     /// slower than with every corner passed and with every judged corner a stop (else
-    /// the quicker of those). With a jerk limit a stop
+    /// the quicker of those). Each limiting resets every array it sets, so the stations
+    /// are what the last one made, whatever came before. With a jerk limit a stop
     /// is judged W dearer and the choice is returned for the planner to check
     /// (`crate::corner_check`), which limits the stations as it keeps it.
     fn stop_or_pass_corners(
@@ -724,26 +716,60 @@ impl Stations {
                 .map(|k| 2.0 * (st.s_mm[k + 1] - st.s_mm[k]) / (v[k] as f64 + v[k + 1] as f64))
                 .sum::<f64>()
         };
-        // Every judged corner stopped: each one's window (its neighbouring junctions), its
-        // time, and the whole path's (the envelope itself is let go: 4 B a station).
-        let stopped = self.limit_with(&choice, &|index| free[index]);
-        let junctions: Vec<usize> = self.stops.iter().map(|stop| stop.station).collect();
-        let windows: Vec<JudgedWindow> = judged
+        // Each judged corner's window: its neighbouring junctions with every judged corner
+        // a stop (the stops `limit_with` sets so, made here before it runs).
+        let junctions: Vec<usize> = with_stops(
+            &choice.stops,
+            judged.iter().map(|&index| choice.corners[index].0),
+        )
+        .iter()
+        .map(|stop| stop.station)
+        .collect();
+        let windows: Vec<(usize, usize)> = judged
             .iter()
             .map(|&index| {
                 let c = choice.corners[index].0;
                 let at = junctions.partition_point(|&x| x < c);
                 let before = junctions[..at].last().copied().unwrap_or(0);
                 let after = junctions.get(at + 1).copied().unwrap_or(self.len() - 1);
-                JudgedWindow {
-                    before,
-                    after,
-                    stopped_s: time(self, &stopped, before, after),
-                }
+                (before, after)
             })
             .collect();
-        let all_stopped = time(self, &stopped, 0, self.len() - 1);
-        drop(stopped);
+        drop(junctions);
+        let n = self.len() - 1;
+        let jerk = self.machine.jerk_mm_s3.is_some();
+        // The stations are limited with every corner passed (without a jerk limit), with
+        // every other judged corner passed (even, then odd) and last with every judged
+        // corner a stop, so that where the choice stops them all (as it does where every
+        // judged corner is a reversal) the stations are limited so already. Each envelope
+        // is timed (the whole path's, or each judged corner's window where it is passed)
+        // and let go before the next one is made (4 B a station).
+        let all_passed = (!jerk).then(|| {
+            let envelope = self.limit_with(&choice, &|_| true);
+            time(self, &envelope, 0, n)
+        });
+        // Position of each judged corner among the judged ones.
+        let mut rank = vec![0; choice.corners.len()];
+        for (r, &index) in judged.iter().enumerate() {
+            rank[index] = r;
+        }
+        let mut passed_s = vec![0.0; judged.len()];
+        for parity in 0..2 {
+            let envelope =
+                self.limit_with(&choice, &|index| free[index] || rank[index] % 2 == parity);
+            for r in (parity..judged.len()).step_by(2) {
+                let (before, after) = windows[r];
+                passed_s[r] = time(self, &envelope, before, after);
+            }
+        }
+        let (all_stopped, stopped_s) = {
+            let envelope = self.limit_with(&choice, &|index| free[index]);
+            let stopped_s: Vec<f64> = windows
+                .iter()
+                .map(|&(before, after)| time(self, &envelope, before, after))
+                .collect();
+            (time(self, &envelope, 0, n), stopped_s)
+        };
         // With a jerk limit each stop adds a run, and each run its filter's width W
         // (MODEL.md §6.1, "Jerk limit"): a stop costs W more than its envelope says.
         let stop_cost_s = self.machine.jerk_mm_s3.map_or(0.0, |_| {
@@ -751,39 +777,26 @@ impl Stations {
                 .map(|k| self.interval_accel_mm_s2[k] / self.interval_jerk_mm_s3[k])
                 .fold(0.0, f64::max)
         });
-        // Position of each judged corner among the judged ones.
-        let mut rank = vec![0; choice.corners.len()];
         for (r, &index) in judged.iter().enumerate() {
-            rank[index] = r;
-        }
-        for parity in 0..2 {
-            let envelope =
-                self.limit_with(&choice, &|index| free[index] || rank[index] % 2 == parity);
-            for (r, &index) in judged.iter().enumerate().skip(parity).step_by(2) {
-                let w = &windows[r];
-                choice.pass[index] =
-                    time(self, &envelope, w.before, w.after) <= w.stopped_s + stop_cost_s;
-            }
+            choice.pass[index] = passed_s[r] <= stopped_s[r] + stop_cost_s;
         }
         for (index, &f) in free.iter().enumerate() {
             choice.pass[index] |= f;
         }
         let pass = std::mem::take(&mut choice.pass);
-        if self.machine.jerk_mm_s3.is_some() {
+        let Some(all_passed) = all_passed else {
             // The check limits the stations itself, first as chosen (not done twice here).
             choice.pass = pass;
             return Some(choice);
-        }
+        };
         // The choice, kept only where its envelope is no slower than with every corner
         // passed and with every judged corner a stop (the corners interact through the
-        // speeds between them); else the quicker of those two.
-        // (Each envelope is timed and let go before the next pass makes its own.)
-        let n = self.len() - 1;
-        let all_passed = {
-            let envelope = self.limit_with(&choice, &|_| true);
-            time(self, &envelope, 0, n)
-        };
-        let chosen = {
+        // speeds between them); else the quicker of those two. The stations are limited
+        // as stopped now; a choice that stops every judged corner is that one.
+        let stops_all = pass == free;
+        let chosen = if stops_all {
+            all_stopped
+        } else {
             let envelope = self.limit_with(&choice, &|index| pass[index]);
             time(self, &envelope, 0, n)
         };
