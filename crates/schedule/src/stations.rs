@@ -131,8 +131,9 @@ pub(crate) struct CornerChoice {
     /// Caps before any corner was judged, mm/min, and their kinds.
     base_caps_mm_min: Vec<f64>,
     base_kinds: Vec<CapKind>,
-    /// Whether each corner is judged; the others are passed in every choice but the
-    /// one with every corner a stop.
+    /// Whether each corner is judged; the others are passed in every pass of the
+    /// envelope's choice, stopped only where the jerk check stops every corner of a run
+    /// (`crate::corner_check`).
     judged: Vec<bool>,
     /// The interval accelerations with every corner that is not judged passed: the
     /// tangential limits ([`Stations::tangential_limits`]) with those corners' budgets
@@ -809,8 +810,9 @@ impl Stations {
     }
 
     /// The stations limited with the corners of `choice` that `passed` says (indices
-    /// into its corners) passed and the others stops, from its caps and accelerations
-    /// before any corner was judged; their envelope.
+    /// into its corners) passed and the others stops, from its caps before any corner
+    /// was judged and its interval accelerations with the corners that are not judged
+    /// (or, where one of those is stopped, the tangential limits); their envelope.
     pub(crate) fn limit_with(
         &mut self,
         choice: &CornerChoice,
@@ -1496,7 +1498,7 @@ mod budget_tests {
     #[test]
     fn corner_budgets_are_the_same_one_by_one_by_tree_and_in_two_steps() {
         // A zigzag of short lines (0.07–0.6 mm, a corner at every junction, some
-        // within one reach of each other) and a helix-free arc.
+        // within one reach of each other).
         let mut points = vec![Point3::new(0.0, 0.0, 0.0)];
         for i in 1..120 {
             let len = 0.07 + 0.53 * ((i * 37 % 11) as f64 / 10.0);
@@ -1555,11 +1557,23 @@ mod budget_tests {
             .filter(|&k| one_by_one[k] < stopped.interval_accel_mm_s2[k])
             .count();
         assert!(lowered > stopped.len() / 2, "{lowered} intervals lowered");
-        // Even corners, then odd ones on top; each step by its own rule.
-        let mut two_steps = stopped.clone();
-        two_steps.share_budgets(&corners, &|i| i % 2 == 0, Some(true));
-        two_steps.share_budgets(&corners, &|i| i % 2 == 1, None);
-        assert_eq!(bits(two_steps.interval_accel_mm_s2), bits(one_by_one));
+        // Even corners, then odd ones on top, each step either way.
+        for (first, second) in [(true, false), (false, true), (true, true), (false, false)] {
+            let mut two_steps = stopped.clone();
+            two_steps.share_budgets(&corners, &|i| i % 2 == 0, Some(first));
+            two_steps.share_budgets(&corners, &|i| i % 2 == 1, Some(second));
+            assert_eq!(
+                bits(two_steps.interval_accel_mm_s2),
+                bits(one_by_one.clone())
+            );
+        }
+        // As built (the path each takes picked by how much its reaches cover): the
+        // same, for all of them and for two far apart (one by one there).
+        assert_eq!(bits(shared(&|_| true, None)), bits(one_by_one.clone()));
+        assert_eq!(
+            bits(shared(&|i| i == 3 || i == 90, None)),
+            bits(shared(&|i| i == 3 || i == 90, Some(true)))
+        );
         // None shared: nothing changes.
         assert_eq!(
             bits(shared(&|_| false, None)),
