@@ -160,6 +160,13 @@ impl CornerChoice {
     }
 }
 
+/// A judged corner's two segments: the junctions beside it with every judged corner a stop.
+struct JudgedWindow {
+    /// First and last station.
+    before: usize,
+    after: usize,
+}
+
 /// A station where the tool is at rest: path start, path end, and every dwell.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stop {
@@ -708,10 +715,11 @@ impl Stations {
             base_accel_mm_s2: self.interval_accel_mm_s2.clone(),
             judged: is_judged,
             stops: own_stops,
-            pass: vec![false; corners.len()],
+            // (Set below where the choice is returned.)
+            pass: Vec::new(),
             corners,
         };
-        let free: Vec<bool> = choice.judged.iter().map(|&j| !j).collect();
+        let free = |index: usize| !choice.judged[index];
         let time = |st: &Stations, v: &[f32], lo: usize, hi: usize| {
             (lo..hi)
                 .map(|k| 2.0 * (st.s_mm[k + 1] - st.s_mm[k]) / (v[k] as f64 + v[k + 1] as f64))
@@ -726,14 +734,15 @@ impl Stations {
         .iter()
         .map(|stop| stop.station)
         .collect();
-        let windows: Vec<(usize, usize)> = judged
+        let windows: Vec<JudgedWindow> = judged
             .iter()
             .map(|&index| {
                 let c = choice.corners[index].0;
                 let at = junctions.partition_point(|&x| x < c);
-                let before = junctions[..at].last().copied().unwrap_or(0);
-                let after = junctions.get(at + 1).copied().unwrap_or(self.len() - 1);
-                (before, after)
+                JudgedWindow {
+                    before: junctions[..at].last().copied().unwrap_or(0),
+                    after: junctions.get(at + 1).copied().unwrap_or(self.len() - 1),
+                }
             })
             .collect();
         drop(junctions);
@@ -757,17 +766,17 @@ impl Stations {
         let mut passed_s = vec![0.0; judged.len()];
         for parity in 0..2 {
             let envelope =
-                self.limit_with(&choice, &|index| free[index] || rank[index] % 2 == parity);
+                self.limit_with(&choice, &|index| free(index) || rank[index] % 2 == parity);
             for r in (parity..judged.len()).step_by(2) {
-                let (before, after) = windows[r];
-                passed_s[r] = time(self, &envelope, before, after);
+                let w = &windows[r];
+                passed_s[r] = time(self, &envelope, w.before, w.after);
             }
         }
         let (all_stopped, stopped_s) = {
-            let envelope = self.limit_with(&choice, &|index| free[index]);
+            let envelope = self.limit_with(&choice, &free);
             let stopped_s: Vec<f64> = windows
                 .iter()
-                .map(|&(before, after)| time(self, &envelope, before, after))
+                .map(|w| time(self, &envelope, w.before, w.after))
                 .collect();
             (time(self, &envelope, 0, n), stopped_s)
         };
@@ -778,13 +787,11 @@ impl Stations {
                 .map(|k| self.interval_accel_mm_s2[k] / self.interval_jerk_mm_s3[k])
                 .fold(0.0, f64::max)
         });
+        // Every corner not judged passed; each judged one where no slower so.
+        let mut pass: Vec<bool> = (0..choice.corners.len()).map(free).collect();
         for (r, &index) in judged.iter().enumerate() {
-            choice.pass[index] = passed_s[r] <= stopped_s[r] + stop_cost_s;
+            pass[index] = passed_s[r] <= stopped_s[r] + stop_cost_s;
         }
-        for (index, &f) in free.iter().enumerate() {
-            choice.pass[index] |= f;
-        }
-        let pass = std::mem::take(&mut choice.pass);
         let Some(all_passed) = all_passed else {
             // The check limits the stations itself, first as chosen (not done twice here).
             choice.pass = pass;
@@ -794,7 +801,7 @@ impl Stations {
         // passed and with every judged corner a stop (the corners interact through the
         // speeds between them); else the quicker of those two. The stations are limited
         // as stopped now; a choice that stops every judged corner is that one.
-        let stops_all = pass == free;
+        let stops_all = judged.iter().all(|&index| !pass[index]);
         let chosen = if stops_all {
             all_stopped
         } else {
@@ -804,7 +811,7 @@ impl Stations {
         if all_passed < chosen.min(all_stopped) {
             self.limit_with(&choice, &|_| true);
         } else if all_stopped < chosen {
-            self.limit_with(&choice, &|index| free[index]);
+            self.limit_with(&choice, &free);
         }
         None
     }
@@ -856,93 +863,81 @@ impl Stations {
         corners: &[(usize, Vector3<f64>)],
         include: &dyn Fn(usize) -> bool,
     ) {
-        self.share_budgets(corners, include, None);
+        let intervals = self.s_mm.len().saturating_sub(1);
+        let covered: usize = (0..corners.len())
+            .filter(|&index| include(index))
+            .map(|index| self.corner_budget(&corners[index]).intervals.len())
+            .sum();
+        self.share_budgets(corners, include, covered > intervals);
     }
 
-    /// [`Stations::share_corner_budgets`], through the tree where `by_tree` says so
-    /// (`None`: where the reaches cover more intervals than the path has).
+    /// Corner `(c, jump)`'s budgets and the intervals k → k+1 overlapping [s_c − reach,
+    /// s_c + reach]: from the last station at or before s_c − reach to the last one
+    /// before s_c + reach.
+    fn corner_budget(&self, &(c, jump): &(usize, Vector3<f64>)) -> CornerBudget {
+        let period_s = self.machine.period_s();
+        let a = self.machine.accel_mm_s2;
+        let a_max = a.iter().copied().fold(0.0, f64::max);
+        let v_c = self.cap_mm_min[c] / 60.0;
+        let (s_c, reach) = (self.s_mm[c], (v_c + a_max * period_s) * period_s);
+        let lo = partition_point_near(&self.s_mm[..=c], c, |s| s <= s_c - reach).saturating_sub(1);
+        let hi = c + partition_point_near(&self.s_mm[c..], 0, |s| s < s_c + reach);
+        CornerBudget {
+            intervals: lo..hi.min(self.s_mm.len().saturating_sub(1)),
+            accel_mm_s2: std::array::from_fn(|i| {
+                (a[i] - v_c * jump[i].abs() / period_s).max(0.5 * a[i])
+            }),
+        }
+    }
+
+    /// [`Stations::share_corner_budgets`], one corner at a time or (`by_tree`) through the
+    /// tree.
     fn share_budgets(
         &mut self,
         corners: &[(usize, Vector3<f64>)],
         include: &dyn Fn(usize) -> bool,
-        by_tree: Option<bool>,
+        by_tree: bool,
     ) {
         let intervals = self.s_mm.len().saturating_sub(1);
-        if intervals == 0 {
-            return;
-        }
-        let shared = || {
-            corners
-                .iter()
-                .enumerate()
-                .filter(|&(index, _)| include(index))
-                .map(|(_, c)| c)
-        };
-        let period_s = self.machine.period_s();
-        let a = self.machine.accel_mm_s2;
-        let a_max = a.iter().copied().fold(0.0, f64::max);
-        // Each corner's budgets and the intervals k → k+1 overlapping [s_c − reach,
-        // s_c + reach]: from the last station at or before s_c − reach to the last one
-        // before s_c + reach.
-        let corner = |&(c, jump): &(usize, Vector3<f64>)| {
-            let v_c = self.cap_mm_min[c] / 60.0;
-            let budget: [f64; 3] =
-                std::array::from_fn(|i| (a[i] - v_c * jump[i].abs() / period_s).max(0.5 * a[i]));
-            let (s_c, reach) = (self.s_mm[c], (v_c + a_max * period_s) * period_s);
-            let lo =
-                partition_point_near(&self.s_mm[..=c], c, |s| s <= s_c - reach).saturating_sub(1);
-            let hi = c + partition_point_near(&self.s_mm[c..], 0, |s| s < s_c + reach);
-            (lo, hi.min(intervals), budget)
-        };
         let mut accel = std::mem::take(&mut self.interval_accel_mm_s2);
-        let by_tree = by_tree.unwrap_or_else(|| {
-            let covered: usize = shared()
-                .map(|c| {
-                    let (lo, hi, _) = corner(c);
-                    hi - lo
-                })
-                .sum();
-            covered > intervals
-        });
+        let shared = || {
+            (0..corners.len())
+                .filter(|&index| include(index))
+                .map(|index| self.corner_budget(&corners[index]))
+        };
         if !by_tree {
             let mut tangents = RecentTangents::new();
             for c in shared() {
-                let (lo, hi, budget) = corner(c);
-                for (k, a) in accel.iter_mut().enumerate().take(hi).skip(lo) {
+                for k in c.intervals {
                     for t in [tangents.get(self, k), tangents.get(self, k + 1)] {
-                        for axis in 0..3 {
-                            if t[axis] != 0.0 {
-                                *a = a.min(budget[axis] / t[axis].abs());
-                            }
-                        }
+                        accel[k] = accel[k].min(along(&t, c.accel_mm_s2));
                     }
                 }
             }
-            self.interval_accel_mm_s2 = accel;
-            return;
-        }
-        // along(t, b) = min over the moving axes of b_i/|t_i|: the limit of an interval is
-        // the minimum over the axes of each axis' share, so the axes are taken one at a
-        // time, each with a tree of one value per slot (a third of the memory of one tree
-        // of three), in the same minima. An interval is limited where a corner reaches it.
-        let mut reached: Vec<bool> = Vec::new();
-        for axis in 0..3 {
-            let mut budgets = RangeMin::<1>::new(intervals);
-            for c in shared() {
-                let (lo, hi, budget) = corner(c);
-                budgets.lower(lo, hi, [budget[axis]]);
-            }
-            if axis == 0 {
-                reached = (0..intervals)
-                    .map(|k| budgets.get(k)[0].is_finite())
-                    .collect();
-            }
-            let mut tangents = RecentTangents::new();
-            for k in (0..intervals).filter(|&k| reached[k]) {
-                let b = budgets.get(k)[0];
-                for t in [tangents.get(self, k)[axis], tangents.get(self, k + 1)[axis]] {
-                    if t != 0.0 {
-                        accel[k] = accel[k].min(b / t.abs());
+        } else {
+            // along(t, b) = min over the moving axes of b_i/|t_i|: the limit of an interval
+            // is the minimum over the axes of each axis' share, so the axes are taken one at
+            // a time, each with a tree of one value per slot (a third of the memory of one
+            // tree of three), in the same minima. An interval is limited where a corner
+            // reaches it.
+            let mut reached: Vec<bool> = Vec::new();
+            for axis in 0..3 {
+                let mut budgets = RangeMin::<1>::new(intervals);
+                for c in shared() {
+                    budgets.lower(c.intervals.start, c.intervals.end, [c.accel_mm_s2[axis]]);
+                }
+                if axis == 0 {
+                    reached = (0..intervals)
+                        .map(|k| budgets.get(k)[0].is_finite())
+                        .collect();
+                }
+                let mut tangents = RecentTangents::new();
+                for k in (0..intervals).filter(|&k| reached[k]) {
+                    let b = budgets.get(k)[0];
+                    for t in [tangents.get(self, k)[axis], tangents.get(self, k + 1)[axis]] {
+                        if t != 0.0 {
+                            accel[k] = accel[k].min(b / t.abs());
+                        }
                     }
                 }
             }
@@ -1367,6 +1362,15 @@ impl Stations {
     }
 }
 
+/// One corner's share of the axes' acceleration (MODEL.md §6.1): the budget each axis has
+/// left beside its velocity step, over the intervals within its reach.
+struct CornerBudget {
+    /// Intervals k → k+1 within the corner's reach.
+    intervals: std::ops::Range<usize>,
+    /// Each axis' budget, mm/s².
+    accel_mm_s2: [f64; 3],
+}
+
 /// The unit tangents ([`Stations::tangent_at`]) of the last three stations asked for,
 /// one a slot by the station's index modulo 3: where stations are visited in order
 /// (each interval asking for both its ends), each tangent is made once.
@@ -1544,9 +1548,14 @@ mod budget_tests {
             })
             .collect();
         assert!(corners.len() > 100, "{} corners", corners.len());
+        // Shared one by one (Some(false)), by tree (Some(true)) or as built (None: the
+        // way picked by how much the reaches cover).
         let shared = |include: &dyn Fn(usize) -> bool, by_tree: Option<bool>| {
             let mut st = stopped.clone();
-            st.share_budgets(&corners, include, by_tree);
+            match by_tree {
+                Some(by_tree) => st.share_budgets(&corners, include, by_tree),
+                None => st.share_corner_budgets(&corners, include),
+            }
             st.interval_accel_mm_s2
         };
         let bits = |a: Vec<f64>| a.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
@@ -1560,20 +1569,17 @@ mod budget_tests {
         // Even corners, then odd ones on top, each step either way.
         for (first, second) in [(true, false), (false, true), (true, true), (false, false)] {
             let mut two_steps = stopped.clone();
-            two_steps.share_budgets(&corners, &|i| i % 2 == 0, Some(first));
-            two_steps.share_budgets(&corners, &|i| i % 2 == 1, Some(second));
+            two_steps.share_budgets(&corners, &|i| i % 2 == 0, first);
+            two_steps.share_budgets(&corners, &|i| i % 2 == 1, second);
             assert_eq!(
                 bits(two_steps.interval_accel_mm_s2),
                 bits(one_by_one.clone())
             );
         }
-        // As built (the path each takes picked by how much its reaches cover): the
-        // same, for all of them and for two far apart (one by one there).
+        // As built: the same, for all of them and for two far apart.
         assert_eq!(bits(shared(&|_| true, None)), bits(one_by_one.clone()));
-        assert_eq!(
-            bits(shared(&|i| i == 3 || i == 90, None)),
-            bits(shared(&|i| i == 3 || i == 90, Some(true)))
-        );
+        let two = |i: usize| i == 3 || i == 90;
+        assert_eq!(bits(shared(&two, None)), bits(shared(&two, Some(true))));
         // None shared: nothing changes.
         assert_eq!(
             bits(shared(&|_| false, None)),
