@@ -1,0 +1,481 @@
+//! The corners' choice (MODEL.md §6.1, "Stop or pass"): each corner passed at the corner
+//! rule's speed, its velocity step taken out of the acceleration budgets beside it, or made
+//! a stop of no dwell, and the stations limited so ([`Stations::limit_with`]).
+
+use nalgebra::Vector3;
+
+use super::{partition_point_near, CapKind, RecentTangents, Stations, Stop};
+use crate::machine::along;
+use crate::range_min::RangeMin;
+
+/// The corners' choice on the envelope ([`Stations`]' `stop_or_pass_corners`), kept
+/// with a jerk limit for the planner to check (`crate::corner_check`).
+pub(crate) struct CornerChoice {
+    /// Caps before any corner was judged, mm/min, and their kinds.
+    base_caps_mm_min: Vec<f64>,
+    base_kinds: Vec<CapKind>,
+    /// Whether each corner is judged; the others are passed in every pass of the
+    /// envelope's choice, stopped only where the jerk check stops every corner of a run
+    /// (`crate::corner_check`).
+    judged: Vec<bool>,
+    /// The interval accelerations with every corner that is not judged passed: the
+    /// tangential limits ([`Stations::tangential_limits`]) with those corners' budgets
+    /// taken out ([`Stations::share_corner_budgets`]), mm/s². A choice that passes them
+    /// all starts from here and shares the budgets of its judged corners only.
+    base_accel_mm_s2: Vec<f64>,
+    /// The program's own stops (start, dwells, end).
+    stops: Vec<Stop>,
+    /// Each corner's station and tangent jump.
+    corners: Vec<(usize, Vector3<f64>)>,
+    /// Whether the envelope passes each corner.
+    pub(crate) pass: Vec<bool>,
+}
+
+impl CornerChoice {
+    /// The stations of the program's own stops, ascending.
+    pub(crate) fn own_stops(&self) -> Vec<usize> {
+        self.stops.iter().map(|stop| stop.station).collect()
+    }
+
+    /// The station of corner `index`.
+    pub(crate) fn corner_station(&self, index: usize) -> usize {
+        self.corners[index].0
+    }
+}
+
+/// A judged corner's two segments: the junctions beside it with every judged corner a stop.
+struct JudgedWindow {
+    /// First and last station.
+    before: usize,
+    after: usize,
+}
+
+impl Stations {
+    /// The stops and limits of the stations with the `corners` that `passed` says
+    /// (indices into `corners`) passed, their steps taken out of the budgets beside them
+    /// (except those of the corners `shared` says the interval accelerations hold
+    /// already), and the others stops of no dwell beside `own_stops` (the program's);
+    /// then the sampled-geometry rule over all of it.
+    pub(super) fn limit_corners(
+        &mut self,
+        own_stops: &[Stop],
+        corners: &[(usize, Vector3<f64>)],
+        passed: &dyn Fn(usize) -> bool,
+        shared: &dyn Fn(usize) -> bool,
+    ) {
+        self.stops = with_stops(
+            own_stops,
+            (0..corners.len())
+                .filter(|&i| !passed(i))
+                .map(|i| corners[i].0),
+        );
+        self.share_corner_budgets(corners, &|i| passed(i) && !shared(i));
+        self.corners = (0..corners.len())
+            .filter(|&i| passed(i))
+            .map(|i| corners[i].0)
+            .collect();
+        self.limit_sampled_geometry();
+    }
+
+    /// Each corner either passed at the speed the corner rule allows, its velocity step
+    /// taken out of the acceleration budget beside it (the step and the tangential
+    /// acceleration share each axis' limit within one period of it), or stopped at, as
+    /// exact stop does (MODEL.md §6.1, "Stop or pass"): a stop has no velocity step, so
+    /// the motion reaches it with the whole tangential acceleration and leaves it the
+    /// same way. Only corners whose rule sets their station's cap are judged (the others
+    /// are passed at their segments' speed). Each is judged with both its judged
+    /// neighbours stopped, where its two segments are planned apart from the rest: the
+    /// stations are limited with every other judged corner passed (even, then odd) and
+    /// with every judged corner a stop, and a corner is passed where the
+    /// acceleration-limited envelope over its two segments is no slower so. The stations
+    /// are limited once more with the corners so chosen (not where that stops every
+    /// judged corner: they are so already), and kept so only where their envelope is no
+    /// slower than with every corner passed and with every judged corner a stop (else
+    /// the quicker of those). Each limiting resets every array it sets, so the stations
+    /// are what the last one made, whatever came before. With a jerk limit a stop
+    /// is judged W dearer and the choice is returned for the planner to check
+    /// (`crate::corner_check`), which limits the stations as it keeps it.
+    pub(super) fn stop_or_pass_corners(
+        &mut self,
+        own_stops: Vec<Stop>,
+        corners: Vec<(usize, Vector3<f64>)>,
+    ) -> Option<CornerChoice> {
+        // A corner whose rule does not set its station's cap (a shallow one, or one on a
+        // slow segment) is passed at the speed of the segments beside it: a stop there
+        // could only be slower, so it is not judged. Where no corner's rule binds (as on
+        // smooth finishing paths) nothing is judged, and nothing copied.
+        let judged: Vec<usize> = (0..corners.len())
+            .filter(|&index| self.cap_kind[corners[index].0] == CapKind::Corner)
+            .collect();
+        if judged.is_empty() {
+            self.limit_corners(&own_stops, &corners, &|_| true, &|_| false);
+            return None;
+        }
+        let mut is_judged = vec![false; corners.len()];
+        for &index in &judged {
+            is_judged[index] = true;
+        }
+        // The budgets of the corners passed in every choice, shared once (from the
+        // tangential limits, as `limit_with` starts where it shares them all).
+        let base_caps_mm_min = self.cap_mm_min.clone();
+        for k in 0..self.len() - 1 {
+            self.interval_accel_mm_s2[k] = self.tangential_limits(k).0;
+        }
+        self.share_corner_budgets(&corners, &|index| !is_judged[index]);
+        let mut choice = CornerChoice {
+            base_caps_mm_min,
+            base_kinds: self.cap_kind.clone(),
+            base_accel_mm_s2: self.interval_accel_mm_s2.clone(),
+            judged: is_judged,
+            stops: own_stops,
+            // (Set below where the choice is returned.)
+            pass: Vec::new(),
+            corners,
+        };
+        let free = |index: usize| !choice.judged[index];
+        let time = |st: &Stations, v: &[f32], lo: usize, hi: usize| {
+            (lo..hi)
+                .map(|k| 2.0 * (st.s_mm[k + 1] - st.s_mm[k]) / (v[k] as f64 + v[k + 1] as f64))
+                .sum::<f64>()
+        };
+        // Each judged corner's window: its neighbouring junctions with every judged corner
+        // a stop (the stops `limit_with` sets so, made here before it runs).
+        let junctions: Vec<usize> = with_stops(
+            &choice.stops,
+            judged.iter().map(|&index| choice.corners[index].0),
+        )
+        .iter()
+        .map(|stop| stop.station)
+        .collect();
+        let windows: Vec<JudgedWindow> = judged
+            .iter()
+            .map(|&index| {
+                let c = choice.corners[index].0;
+                let at = junctions.partition_point(|&x| x < c);
+                JudgedWindow {
+                    before: junctions[..at].last().copied().unwrap_or(0),
+                    after: junctions.get(at + 1).copied().unwrap_or(self.len() - 1),
+                }
+            })
+            .collect();
+        drop(junctions);
+        let n = self.len() - 1;
+        let jerk = self.machine.jerk_mm_s3.is_some();
+        // The stations are limited with every corner passed (without a jerk limit), with
+        // every other judged corner passed (even, then odd) and last with every judged
+        // corner a stop, so that where the choice stops them all (as it does where every
+        // judged corner is a reversal) the stations are limited so already. Each envelope
+        // is timed (the whole path's, or each judged corner's window where it is passed)
+        // and let go before the next one is made (4 B a station).
+        let all_passed = (!jerk).then(|| {
+            let envelope = self.limit_with(&choice, &|_| true);
+            time(self, &envelope, 0, n)
+        });
+        // Position of each judged corner among the judged ones.
+        let mut rank = vec![0; choice.corners.len()];
+        for (r, &index) in judged.iter().enumerate() {
+            rank[index] = r;
+        }
+        let mut passed_s = vec![0.0; judged.len()];
+        for parity in 0..2 {
+            let envelope =
+                self.limit_with(&choice, &|index| free(index) || rank[index] % 2 == parity);
+            for r in (parity..judged.len()).step_by(2) {
+                let w = &windows[r];
+                passed_s[r] = time(self, &envelope, w.before, w.after);
+            }
+        }
+        let (all_stopped, stopped_s) = {
+            let envelope = self.limit_with(&choice, &free);
+            let stopped_s: Vec<f64> = windows
+                .iter()
+                .map(|w| time(self, &envelope, w.before, w.after))
+                .collect();
+            (time(self, &envelope, 0, n), stopped_s)
+        };
+        // With a jerk limit each stop adds a run, and each run its filter's width W
+        // (MODEL.md §6.1, "Jerk limit"): a stop costs W more than its envelope says.
+        let stop_cost_s = self.machine.jerk_mm_s3.map_or(0.0, |_| {
+            (0..self.len() - 1)
+                .map(|k| self.interval_accel_mm_s2[k] / self.interval_jerk_mm_s3[k])
+                .fold(0.0, f64::max)
+        });
+        // Every corner not judged passed; each judged one where no slower so.
+        let mut pass: Vec<bool> = (0..choice.corners.len()).map(free).collect();
+        for (r, &index) in judged.iter().enumerate() {
+            pass[index] = passed_s[r] <= stopped_s[r] + stop_cost_s;
+        }
+        let Some(all_passed) = all_passed else {
+            // The check limits the stations itself, first as chosen (not done twice here).
+            choice.pass = pass;
+            return Some(choice);
+        };
+        // The choice, kept only where its envelope is no slower than with every corner
+        // passed and with every judged corner a stop (the corners interact through the
+        // speeds between them); else the quicker of those two. The stations are limited
+        // as stopped now; a choice that stops every judged corner is that one.
+        let stops_all = judged.iter().all(|&index| !pass[index]);
+        let chosen = if stops_all {
+            all_stopped
+        } else {
+            let envelope = self.limit_with(&choice, &|index| pass[index]);
+            time(self, &envelope, 0, n)
+        };
+        if all_passed < chosen.min(all_stopped) {
+            self.limit_with(&choice, &|_| true);
+        } else if all_stopped < chosen {
+            self.limit_with(&choice, &free);
+        }
+        None
+    }
+
+    /// The stations limited with the corners of `choice` that `passed` says (indices
+    /// into its corners) passed and the others stops, from its caps before any corner
+    /// was judged and its interval accelerations with the corners that are not judged
+    /// (or, where one of those is stopped, the tangential limits); their envelope.
+    pub(crate) fn limit_with(
+        &mut self,
+        choice: &CornerChoice,
+        passed: &dyn Fn(usize) -> bool,
+    ) -> Vec<f32> {
+        // Into the arrays there (no second copy of them at once).
+        self.cap_mm_min.clone_from(&choice.base_caps_mm_min);
+        self.cap_kind.clone_from(&choice.base_kinds);
+        let judged = &choice.judged;
+        let free_passed = (0..judged.len()).all(|index| judged[index] || passed(index));
+        if free_passed {
+            // The corners that are not judged, shared already (the min over budgets is
+            // the same taken in two steps).
+            self.interval_accel_mm_s2
+                .clone_from(&choice.base_accel_mm_s2);
+            self.limit_corners(&choice.stops, &choice.corners, passed, &|index| {
+                !judged[index]
+            });
+        } else {
+            for k in 0..self.len() - 1 {
+                self.interval_accel_mm_s2[k] = self.tangential_limits(k).0;
+            }
+            self.limit_corners(&choice.stops, &choice.corners, passed, &|_| false);
+        }
+        self.envelope_mm_s(&self.cap_mm_min, &self.interval_accel_mm_s2)
+    }
+
+    /// Within one period of a corner, each axis' velocity step there (v·|Δt_i|, at most
+    /// a_i·T/2 by the corner rule) is taken out of that axis' acceleration budget, so the
+    /// step and the ramps beside it together stay within a_i in the sampled positions.
+    /// Only the corners `include` says (indices into `corners`) share their budgets.
+    ///
+    /// Where their reaches together cover no more intervals than the path has, each
+    /// corner's budgets are applied to its intervals one by one; else through a
+    /// range-minimum tree over the intervals, so the cost is O((stations + corners)·log
+    /// stations) however many corners fall within one reach (very short segments). The
+    /// two give the same limits: each is the minimum over the corners reaching an
+    /// interval of b_i/|t_i|, and dividing by |t_i| keeps the order of the budgets.
+    fn share_corner_budgets(
+        &mut self,
+        corners: &[(usize, Vector3<f64>)],
+        include: &dyn Fn(usize) -> bool,
+    ) {
+        let intervals = self.s_mm.len().saturating_sub(1);
+        let covered: usize = (0..corners.len())
+            .filter(|&index| include(index))
+            .map(|index| self.corner_budget(&corners[index]).intervals.len())
+            .sum();
+        self.share_budgets(corners, include, covered > intervals);
+    }
+
+    /// Corner `(c, jump)`'s budgets and the intervals k → k+1 overlapping [s_c − reach,
+    /// s_c + reach]: from the last station at or before s_c − reach to the last one
+    /// before s_c + reach.
+    fn corner_budget(&self, &(c, jump): &(usize, Vector3<f64>)) -> CornerBudget {
+        let period_s = self.machine.period_s();
+        let a = self.machine.accel_mm_s2;
+        let a_max = a.iter().copied().fold(0.0, f64::max);
+        let v_c = self.cap_mm_min[c] / 60.0;
+        let (s_c, reach) = (self.s_mm[c], (v_c + a_max * period_s) * period_s);
+        let lo = partition_point_near(&self.s_mm[..=c], c, |s| s <= s_c - reach).saturating_sub(1);
+        let hi = c + partition_point_near(&self.s_mm[c..], 0, |s| s < s_c + reach);
+        CornerBudget {
+            intervals: lo..hi.min(self.s_mm.len().saturating_sub(1)),
+            accel_mm_s2: std::array::from_fn(|i| {
+                (a[i] - v_c * jump[i].abs() / period_s).max(0.5 * a[i])
+            }),
+        }
+    }
+
+    /// [`Stations::share_corner_budgets`], one corner at a time or (`by_tree`) through the
+    /// tree.
+    fn share_budgets(
+        &mut self,
+        corners: &[(usize, Vector3<f64>)],
+        include: &dyn Fn(usize) -> bool,
+        by_tree: bool,
+    ) {
+        let intervals = self.s_mm.len().saturating_sub(1);
+        let mut accel = std::mem::take(&mut self.interval_accel_mm_s2);
+        let shared = || {
+            (0..corners.len())
+                .filter(|&index| include(index))
+                .map(|index| self.corner_budget(&corners[index]))
+        };
+        if !by_tree {
+            let mut tangents = RecentTangents::new();
+            for c in shared() {
+                for k in c.intervals {
+                    for t in [tangents.get(self, k), tangents.get(self, k + 1)] {
+                        accel[k] = accel[k].min(along(&t, c.accel_mm_s2));
+                    }
+                }
+            }
+        } else {
+            // along(t, b) = min over the moving axes of b_i/|t_i|: the limit of an interval
+            // is the minimum over the axes of each axis' share, so the axes are taken one at
+            // a time, each with a tree of one value per slot (a third of the memory of one
+            // tree of three), in the same minima. An interval is limited where a corner
+            // reaches it.
+            let mut reached: Vec<bool> = Vec::new();
+            for axis in 0..3 {
+                let mut budgets = RangeMin::<1>::new(intervals);
+                for c in shared() {
+                    budgets.lower(c.intervals.start, c.intervals.end, [c.accel_mm_s2[axis]]);
+                }
+                if axis == 0 {
+                    reached = (0..intervals)
+                        .map(|k| budgets.get(k)[0].is_finite())
+                        .collect();
+                }
+                let mut tangents = RecentTangents::new();
+                for k in (0..intervals).filter(|&k| reached[k]) {
+                    let b = budgets.get(k)[0];
+                    for t in [tangents.get(self, k)[axis], tangents.get(self, k + 1)[axis]] {
+                        if t != 0.0 {
+                            accel[k] = accel[k].min(b / t.abs());
+                        }
+                    }
+                }
+            }
+        }
+        self.interval_accel_mm_s2 = accel;
+    }
+}
+
+/// One corner's share of the axes' acceleration (MODEL.md §6.1): the budget each axis has
+/// left beside its velocity step, over the intervals within its reach.
+struct CornerBudget {
+    /// Intervals k → k+1 within the corner's reach.
+    intervals: std::ops::Range<usize>,
+    /// Each axis' budget, mm/s².
+    accel_mm_s2: [f64; 3],
+}
+
+/// `stops` with a stop of no dwell added at each of `corners` (ascending, none a stop).
+fn with_stops(stops: &[Stop], corners: impl Iterator<Item = usize>) -> Vec<Stop> {
+    let mut all: Vec<Stop> = stops.to_vec();
+    all.extend(corners.map(|station| Stop {
+        station,
+        dwell_s: 0.0,
+    }));
+    all.sort_by_key(|stop| stop.station);
+    all
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{Point3, Vector3};
+    use nc::{Geometry, Motion, Path, Segment};
+
+    use crate::machine::Machine;
+    use crate::stations::{Corners, FeedPolicy, Stations};
+
+    /// The corner budgets shared one corner at a time equal those shared through the
+    /// range-minimum tree, bit for bit, and shared in two steps (as a choice that passes
+    /// every corner not judged starts from those shared once) equal those shared at
+    /// once; they lower the accelerations where corners reach.
+    #[test]
+    fn corner_budgets_are_the_same_one_by_one_by_tree_and_in_two_steps() {
+        // A zigzag of short lines (0.07–0.6 mm, a corner at every junction, some
+        // within one reach of each other).
+        let mut points = vec![Point3::new(0.0, 0.0, 0.0)];
+        for i in 1..120 {
+            let len = 0.07 + 0.53 * ((i * 37 % 11) as f64 / 10.0);
+            let angle = if i % 2 == 0 { 0.4 } else { -0.7 } + 0.01 * i as f64;
+            let p = points[i - 1];
+            points.push(Point3::new(
+                p.x + len * angle.cos(),
+                p.y + len * angle.sin(),
+                p.z - 0.001 * (i % 3) as f64,
+            ));
+        }
+        let feed = Motion::feed(2400.0);
+        let segment = |start, end| Segment {
+            start,
+            end,
+            geometry: Geometry::Line,
+            motion: feed,
+            line: 1,
+            spindle_rpm: 10000.0,
+            tool: 1,
+        };
+        let segments: Vec<Segment> = points.windows(2).map(|w| segment(w[0], w[1])).collect();
+        let path = Path::from_segments(segments);
+        let machine = Machine::default();
+        let stopped = Stations::with_corners(
+            &path,
+            &machine,
+            0.05,
+            FeedPolicy::Programmed,
+            Corners::Stopped,
+        )
+        .unwrap();
+        // Every junction a corner, with its tangent jump.
+        let corners: Vec<(usize, Vector3<f64>)> = (1..stopped.len() - 1)
+            .filter(|&k| stopped.segment[k] != stopped.segment[k + 1] && stopped.fraction[k] == 1.0)
+            .map(|k| {
+                let before = &stopped.path.segments[stopped.segment[k] as usize];
+                let after = &stopped.path.segments[stopped.segment[k + 1] as usize];
+                (
+                    k,
+                    after.tangent_at_fraction(0.0) - before.tangent_at_fraction(1.0),
+                )
+            })
+            .collect();
+        assert!(corners.len() > 100, "{} corners", corners.len());
+        // Shared one by one (Some(false)), by tree (Some(true)) or as built (None: the
+        // way picked by how much the reaches cover).
+        let shared = |include: &dyn Fn(usize) -> bool, by_tree: Option<bool>| {
+            let mut st = stopped.clone();
+            match by_tree {
+                Some(by_tree) => st.share_budgets(&corners, include, by_tree),
+                None => st.share_corner_budgets(&corners, include),
+            }
+            st.interval_accel_mm_s2
+        };
+        let bits = |a: Vec<f64>| a.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let one_by_one = shared(&|_| true, Some(false));
+        let tree = shared(&|_| true, Some(true));
+        assert_eq!(bits(one_by_one.clone()), bits(tree));
+        let lowered = (0..one_by_one.len())
+            .filter(|&k| one_by_one[k] < stopped.interval_accel_mm_s2[k])
+            .count();
+        assert!(lowered > stopped.len() / 2, "{lowered} intervals lowered");
+        // Even corners, then odd ones on top, each step either way.
+        for (first, second) in [(true, false), (false, true), (true, true), (false, false)] {
+            let mut two_steps = stopped.clone();
+            two_steps.share_budgets(&corners, &|i| i % 2 == 0, first);
+            two_steps.share_budgets(&corners, &|i| i % 2 == 1, second);
+            assert_eq!(
+                bits(two_steps.interval_accel_mm_s2),
+                bits(one_by_one.clone())
+            );
+        }
+        // As built: the same, for all of them and for two far apart.
+        assert_eq!(bits(shared(&|_| true, None)), bits(one_by_one.clone()));
+        let two = |i: usize| i == 3 || i == 90;
+        assert_eq!(bits(shared(&two, None)), bits(shared(&two, Some(true))));
+        // None shared: nothing changes.
+        assert_eq!(
+            bits(shared(&|_| false, None)),
+            bits(stopped.interval_accel_mm_s2.clone())
+        );
+    }
+}
