@@ -345,8 +345,10 @@ struct EngagementRows<'a, 'e, M, D> {
     each: &'e mut dyn FnMut(usize, f64, ReferenceLoad),
 }
 
-impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> ([f64; 2], f64)>
-    EngagementRows<'a, '_, M, D>
+impl<'a, M, D> EngagementRows<'a, '_, M, D>
+where
+    M: Fn(usize) -> &'a CuttingModel + Sync,
+    D: Fn(usize) -> ([f64; 2], f64) + Sync,
 {
     /// Move j's row: its intervals' volumes, each its share by length
     /// (the move's own where it is one interval).
@@ -356,14 +358,17 @@ impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> ([f64; 2], f64)>
         loads.row(intervals.clone(), row);
         for k in intervals {
             let volume = moves.interval_volume_mm3(s_mm, j, k, row.volume_mm3());
-            self.area
-                .push(volume, &mut |k, a| each(k, a, loads.load(k, a)));
+            self.area.push(volume, &mut |k, a| loads.ask(k, a));
+        }
+        if loads.asked.len() >= LOAD_BATCH {
+            loads.make(each);
         }
     }
 
     fn finish(self) {
         let (mut loads, each) = (self.loads, self.each);
-        self.area.finish(&mut |j, a| each(j, a, loads.load(j, a)));
+        self.area.finish(&mut |j, a| loads.ask(j, a));
+        loads.make(each);
     }
 }
 
@@ -412,31 +417,41 @@ pub(super) fn surface_angles_deg(
 /// windowed volume per length and the interval's own shape of removal (chip
 /// thickness per feed, contact direction, bands), taken where this one
 /// removed none from the last interval before it that did (before any, the
-/// first that did); made interval after interval as the sweep's rows and
-/// the windowed areas come, holding only the rows of the cutting intervals
-/// that a load not yet made may take its shape from (not the record, issue
-/// 16).
+/// first that did); asked for interval after interval as the sweep's rows
+/// and the windowed areas come, made [`LOAD_BATCH`] at a time in parallel
+/// (between the sweep's batches its threads are idle) and given in order,
+/// holding only the rows of the cutting intervals that a load not yet made
+/// may take its shape from (not the record, issue 16).
 struct ReferenceLoads<'a, M, D> {
     s_mm: &'a [f64],
     /// The tool's model of interval k.
     model_of: M,
     /// Cutting intervals' rows, oldest first: the first is the last cut at
-    /// or before the next load to make (else the first cut of all).
+    /// or before the first load asked for and not made (else the first cut
+    /// of all).
     sources: std::collections::VecDeque<Source>,
     /// Their bands, `n_bands` each (zero above a row's own).
     bands: std::collections::VecDeque<f64>,
     /// Their bands' ranges of offsets (MODEL.md §1.7), `n_bands` each.
     offsets: std::collections::VecDeque<[f32; 2]>,
+    /// The source of the last load asked for: its index in `sources`.
+    current: usize,
+    /// Loads asked for and not made: the interval, its windowed area and
+    /// its source (an index in `sources`; none for no cut).
+    asked: Vec<(usize, f64, Option<usize>)>,
+    /// Those loads, made.
+    made: Vec<ReferenceLoad>,
     /// Interval k's move (its unit XY direction and XY length).
     dir_of: D,
     /// The grid's cell, mm.
     cell_mm: f64,
     n_bands: usize,
-    /// One load's bands.
-    scaled: Vec<f64>,
-    /// One load's bands' offsets.
-    one_offsets: Vec<[f32; 2]>,
 }
+
+/// Reference loads made at a time: a few milliseconds of the tooth model
+/// (MODEL.md §3.4), a few hundred kB of sources held (fewer in the tests,
+/// so that their programs take several batches).
+pub(super) const LOAD_BATCH: usize = if cfg!(test) { 512 } else { 4096 };
 
 /// What a reference load takes of a cutting interval's row.
 struct Source {
@@ -454,8 +469,10 @@ struct Source {
     feed_dir: [f64; 2],
 }
 
-impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> ([f64; 2], f64)>
-    ReferenceLoads<'a, M, D>
+impl<'a, M, D> ReferenceLoads<'a, M, D>
+where
+    M: Fn(usize) -> &'a CuttingModel + Sync,
+    D: Fn(usize) -> ([f64; 2], f64) + Sync,
 {
     /// Loads along stations at `s_mm`, each band list `n_bands` long (the
     /// record's: that of the tool with the most); interval k's direction
@@ -467,11 +484,12 @@ impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> ([f64; 2], f64)>
             sources: Default::default(),
             bands: Default::default(),
             offsets: Default::default(),
+            current: 0,
+            asked: Vec::with_capacity(LOAD_BATCH),
+            made: Vec::with_capacity(LOAD_BATCH),
             dir_of,
             cell_mm,
             n_bands,
-            scaled: vec![0.0; n_bands],
-            one_offsets: Vec::with_capacity(n_bands),
         }
     }
 
@@ -502,50 +520,92 @@ impl<'a, M: Fn(usize) -> &'a CuttingModel, D: Fn(usize) -> ([f64; 2], f64)>
         }
     }
 
-    /// Interval k's load, given its windowed area (intervals in order, each
-    /// after its row). An area above zero is a mean of volumes in whose
-    /// rows one cut at least, so its first cut is among the rows in.
-    fn load(&mut self, k: usize, area_mm2: f64) -> ReferenceLoad {
-        // The last cut at or before k (the rows before it are not taken again).
-        while self.sources.get(1).is_some_and(|s| s.k <= k) {
-            self.sources.pop_front();
-            self.bands.drain(..self.n_bands);
-            self.offsets.drain(..self.n_bands);
+    /// Ask for interval k's load, given its windowed area (intervals in
+    /// order, each after its row). An area above zero is a mean of volumes
+    /// in whose rows one cut at least, so its first cut is among the rows in.
+    fn ask(&mut self, k: usize, area_mm2: f64) {
+        // The last cut at or before k.
+        while self.sources.get(self.current + 1).is_some_and(|s| s.k <= k) {
+            self.current += 1;
         }
         debug_assert!(!(area_mm2 > 0.0 && self.sources.is_empty()), "interval {k}");
-        let load = match self.sources.front() {
-            Some(j) if area_mm2 > 0.0 => {
-                let s_mm = self.s_mm;
-                let len_mm = s_mm[k + 1] - s_mm[k];
-                let volume = area_mm2 * len_mm;
-                let scale = volume / j.volume_mm3;
-                // The record keeps a step's bands up to its highest nonzero one.
-                self.scaled.fill(0.0);
-                for (b, v) in self.scaled.iter_mut().zip(self.bands.range(..j.bands)) {
-                    *b = v * scale;
-                }
-                self.one_offsets.clear();
-                self.one_offsets
-                    .extend(self.offsets.range(..self.n_bands).copied());
-                let [cx, cy] = j.contact;
-                (self.model_of)(k).step_load(&cutting::StepRemoval {
-                    volume_mm3: volume,
-                    band_volumes_mm3: &self.scaled,
-                    contact_resultant: [cx * scale, cy * scale],
-                    // The chip edge area is per step: for the interval's own length, scaled
-                    // by the ratio of lengths (thickness per mm of path is what is kept).
-                    chip_edge_area_mm2: j.chip_edge_area_mm2 * scale * j.len_mm / len_mm,
-                    volume_over_radius_mm2: j.volume_over_radius_mm2 * scale,
-                    dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
-                    band_offsets_mm: &self.one_offsets,
-                    feed_dir: j.feed_dir,
-                    len_xy_mm: (self.dir_of)(k).1,
-                    cell_mm: self.cell_mm,
-                })
-            }
-            _ => cutting::StepLoad::default(),
-        };
-        load.into()
+        let source = (area_mm2 > 0.0 && self.current < self.sources.len()).then_some(self.current);
+        self.asked.push((k, area_mm2, source));
+    }
+
+    /// Make the loads asked for, in parallel, and give each to
+    /// `each(k, area, load)` in order; the rows before the last one's
+    /// source are not taken again.
+    fn make(&mut self, each: &mut dyn FnMut(usize, f64, ReferenceLoad)) {
+        use rayon::prelude::*;
+        let mut made = std::mem::take(&mut self.made);
+        let this = &*self;
+        this.asked
+            .par_iter()
+            .map_init(
+                || (vec![0.0; this.n_bands], Vec::with_capacity(this.n_bands)),
+                |(scaled, offsets), &(k, area_mm2, source)| {
+                    source.map_or_else(ReferenceLoad::default, |j| {
+                        this.load(k, area_mm2, j, scaled, offsets)
+                    })
+                },
+            )
+            .collect_into_vec(&mut made);
+        for (&(k, area_mm2, _), &load) in self.asked.iter().zip(&made) {
+            each(k, area_mm2, load);
+        }
+        self.asked.clear();
+        self.made = made;
+        self.sources.drain(..self.current);
+        self.bands.drain(..self.current * self.n_bands);
+        self.offsets.drain(..self.current * self.n_bands);
+        self.current = 0;
+    }
+
+    /// Interval k's load with the windowed area `area_mm2` (above zero) and
+    /// the shape of removal of source `j`; `scaled` and `offsets` hold one
+    /// load's bands and their offsets.
+    fn load(
+        &self,
+        k: usize,
+        area_mm2: f64,
+        j: usize,
+        scaled: &mut [f64],
+        offsets: &mut Vec<[f32; 2]>,
+    ) -> ReferenceLoad {
+        let (source, n_bands) = (&self.sources[j], self.n_bands);
+        let s_mm = self.s_mm;
+        let len_mm = s_mm[k + 1] - s_mm[k];
+        let volume = area_mm2 * len_mm;
+        let scale = volume / source.volume_mm3;
+        // The record keeps a step's bands up to its highest nonzero one.
+        scaled.fill(0.0);
+        let first = j * n_bands;
+        for (b, v) in scaled
+            .iter_mut()
+            .zip(self.bands.range(first..first + source.bands))
+        {
+            *b = v * scale;
+        }
+        offsets.clear();
+        offsets.extend(self.offsets.range(first..first + n_bands).copied());
+        let [cx, cy] = source.contact;
+        (self.model_of)(k)
+            .step_load(&cutting::StepRemoval {
+                volume_mm3: volume,
+                band_volumes_mm3: scaled,
+                contact_resultant: [cx * scale, cy * scale],
+                // The chip edge area is per step: for the interval's own length, scaled
+                // by the ratio of lengths (thickness per mm of path is what is kept).
+                chip_edge_area_mm2: source.chip_edge_area_mm2 * scale * source.len_mm / len_mm,
+                volume_over_radius_mm2: source.volume_over_radius_mm2 * scale,
+                dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
+                band_offsets_mm: offsets,
+                feed_dir: source.feed_dir,
+                len_xy_mm: (self.dir_of)(k).1,
+                cell_mm: self.cell_mm,
+            })
+            .into()
     }
 }
 

@@ -382,6 +382,12 @@ fn engagement_from_the_sweeps_rows_is_the_records() {
         let limits = &setup.job.limits;
         let machine = optimising_machine(&setup.machine, limits);
         let stations = free_stations(&setup.program.path, &machine).unwrap();
+        // The reference loads made in more than one batch.
+        assert!(
+            stations.len() > 2 * super::engagement::LOAD_BATCH,
+            "{}",
+            stations.len()
+        );
         let stock = setup.stock_source();
         // A tiled stock takes no angles from its surface.
         let surface = match stock {
