@@ -46,6 +46,7 @@ pub fn caps_and_rounds(
     staged: &Path,
 ) -> Result<Rounds> {
     let stations = free.stations(machine, setup)?;
+    crate::util::heap_mark(format_args!("free stations"));
     let limits = &setup.job.limits;
     let surface = match (&setup.design, limits.angle_rule) {
         (_, false) => SurfaceFrom::Nothing,
