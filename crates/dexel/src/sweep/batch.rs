@@ -900,8 +900,13 @@ fn run_strips<E: Envelope>(
         last_rest = last_tail;
         pieces.push((cols, bottoms, below, last, head, strip_ranges));
     }
+    // One strip a task: a batch's cuts crowd into the few strips where the
+    // tool meets fresh material (a raster's next pass), so halves of the
+    // strip list are far from equal work; stealing strip by strip keeps
+    // both cores busy to the batch's end.
     pieces
         .into_par_iter()
+        .with_max_len(1)
         .enumerate()
         .map(|(s, (cols, bottoms, below, last, out, rng))| {
             let ents = &entries[counts[s] as usize..counts[s + 1] as usize];
