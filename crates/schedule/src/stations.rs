@@ -2,6 +2,7 @@
 
 use nalgebra::{Point3, Vector3};
 use nc::{Geometry, Motion, Path, Segment};
+use rayon::prelude::*;
 
 use crate::machine::{along, Machine, ScheduleError};
 use crate::rules::block_feed_cap_mm_min;
@@ -19,6 +20,11 @@ pub const BYTES_PER_STATION: usize = 200;
 
 /// Segments shorter than this (mm) carry no stations; they neither move nor turn the tool.
 const MIN_SEGMENT_MM: f64 = 1e-9;
+
+/// Stations a task of the sampled geometry's limits takes at a time
+/// ([`Stations::limit_sampled_geometry`]; fewer in the tests, so that their paths
+/// take several).
+const SAMPLED_CHUNK: usize = if cfg!(test) { 37 } else { 1 << 14 };
 
 /// Most ramp stations beside one end of a segment ([`ramp_station_counts`]): the nearest
 /// is then h/4096 from the end, h the segment's interval.
@@ -655,11 +661,11 @@ impl Stations {
         // the end s[j+1] of the last turning interval j < k; the next one starts at s[k]
         // if the interval k−1 → k turns, else at the start s[i] of the first turning
         // interval i ≥ k.
-        let mut first_at_or_after = 0usize;
-        let mut turn_window = |k: usize| {
-            while first_at_or_after < turning.len() && turning[first_at_or_after] < k {
-                first_at_or_after += 1;
+        let turn_window = |first_at_or_after: &mut usize, k: usize| {
+            while *first_at_or_after < turning.len() && turning[*first_at_or_after] < k {
+                *first_at_or_after += 1;
             }
+            let first_at_or_after = *first_at_or_after;
             let here = turning.get(first_at_or_after) == Some(&k);
             let last = if here {
                 self.s_mm[k]
@@ -716,57 +722,91 @@ impl Stations {
         // judged at that speed, not at the cap (a station just before a corner cannot
         // run at its cap).
         let envelope = self.envelope_mm_s(&caps, &interval_accel);
-        for k in 0..n {
-            let cap = (caps[k] / 60.0).min(envelope[k] as f64);
-            let reach = 2.0 * cap * period_s + 1e-9;
-            let (last_turn, next_turn) = turn_window(k);
-            if is_stop[k] || self.s_mm[k] - last_turn > reach && next_turn - self.s_mm[k] > reach {
-                continue;
-            }
-            // The speed v kept at station k and its differences there (each taken once).
-            let (mut v, at_cap) = (cap, differences(k, cap));
-            let mut d = at_cap.0;
-            if !within(at_cap) {
-                let (mut lo, mut hi, mut d_lo) = (0.0, cap, None);
-                for _ in 0..40 {
-                    let mid = 0.5 * (lo + hi);
-                    let at_mid = differences(k, mid);
-                    if within(at_mid) {
-                        (lo, d_lo) = (mid, Some(at_mid.0));
-                    } else {
-                        hi = mid;
+        // Station k's speed and budget read the geometry and its own cap only, and
+        // set its own cap and kind and the intervals k−1 → k and k → k+1 (each the
+        // minimum of what it had and its stations' budgets: the same in any order). So
+        // the stations go in chunks in parallel: a chunk holds its stations' intervals
+        // k → k+1 (one slot more at the path's end), and gives back the budget of the
+        // interval before its first station (the chunk before's), taken after.
+        interval_accel.push(f64::INFINITY);
+        let before_chunks: Vec<f64> = caps
+            .par_chunks_mut(SAMPLED_CHUNK)
+            .zip(kinds.par_chunks_mut(SAMPLED_CHUNK))
+            .zip(interval_accel.par_chunks_mut(SAMPLED_CHUNK))
+            .enumerate()
+            .map(|(chunk, ((caps, kinds), interval_accel))| {
+                let k0 = chunk * SAMPLED_CHUNK;
+                let mut first_at_or_after = turning.partition_point(|&t| t < k0);
+                let mut tangents = RecentTangents::new();
+                let mut before = f64::INFINITY;
+                for i in 0..caps.len() {
+                    let k = k0 + i;
+                    let cap = (caps[i] / 60.0).min(envelope[k] as f64);
+                    let reach = 2.0 * cap * period_s + 1e-9;
+                    let (last_turn, next_turn) = turn_window(&mut first_at_or_after, k);
+                    if is_stop[k]
+                        || self.s_mm[k] - last_turn > reach && next_turn - self.s_mm[k] > reach
+                    {
+                        continue;
+                    }
+                    // The speed v kept at station k and its differences there (each taken once).
+                    let (mut v, at_cap) = (cap, differences(k, cap));
+                    let mut d = at_cap.0;
+                    if !within(at_cap) {
+                        let (mut lo, mut hi, mut d_lo) = (0.0, cap, None);
+                        for _ in 0..40 {
+                            let mid = 0.5 * (lo + hi);
+                            let at_mid = differences(k, mid);
+                            if within(at_mid) {
+                                (lo, d_lo) = (mid, Some(at_mid.0));
+                            } else {
+                                hi = mid;
+                            }
+                        }
+                        v = lo;
+                        d = d_lo.unwrap_or_else(|| differences(k, lo).0);
+                        // Station k's cap is final from here (no other station lowers it).
+                        if 60.0 * v < caps[i] {
+                            caps[i] = 60.0 * v;
+                            kinds[i] = CapKind::Curvature;
+                        }
+                    }
+                    // The intervals k−1 → k and k → k+1 take station k's budget (each
+                    // interval the minimum of its two stations').
+                    if d == Vector3::zeros() {
+                        continue;
+                    }
+                    let v = v.min(caps[i] / 60.0);
+                    let budget: [f64; 3] = std::array::from_fn(|axis| {
+                        let left = accel[axis] - d[axis];
+                        match jerk {
+                            Some(j) if d[axis] > 0.0 => {
+                                left.min(0.25 * j[axis] * v / (3.0 * d[axis]))
+                            }
+                            _ => left,
+                        }
+                    });
+                    for interval in [k.wrapping_sub(1), k] {
+                        if interval >= n - 1 {
+                            continue;
+                        }
+                        let limit = along(&tangents.get(self, interval), budget)
+                            .min(along(&tangents.get(self, interval + 1), budget));
+                        let a = if interval < k0 {
+                            &mut before
+                        } else {
+                            &mut interval_accel[interval - k0]
+                        };
+                        *a = a.min(limit);
                     }
                 }
-                v = lo;
-                d = d_lo.unwrap_or_else(|| differences(k, lo).0);
-                // Station k's cap is final from here (no other station lowers it).
-                if 60.0 * v < caps[k] {
-                    caps[k] = 60.0 * v;
-                    kinds[k] = CapKind::Curvature;
-                }
-            }
-            // The intervals k−1 → k and k → k+1 take station k's budget (each interval
-            // the minimum of its two stations', in station order).
-            if d == Vector3::zeros() {
-                continue;
-            }
-            let v = v.min(caps[k] / 60.0);
-            let budget: [f64; 3] = std::array::from_fn(|i| {
-                let left = accel[i] - d[i];
-                match jerk {
-                    Some(j) if d[i] > 0.0 => left.min(0.25 * j[i] * v / (3.0 * d[i])),
-                    _ => left,
-                }
-            });
-            for interval in [k.wrapping_sub(1), k] {
-                if interval >= n - 1 {
-                    continue;
-                }
-                let limit = along(&tangents.get(self, interval), budget)
-                    .min(along(&tangents.get(self, interval + 1), budget));
-                let a = &mut interval_accel[interval];
-                *a = a.min(limit);
-            }
+                before
+            })
+            .collect();
+        interval_accel.pop();
+        for (chunk, before) in before_chunks.into_iter().enumerate().skip(1) {
+            let a = &mut interval_accel[chunk * SAMPLED_CHUNK - 1];
+            *a = a.min(before);
         }
         self.cap_mm_min = caps;
         self.cap_kind = kinds;
