@@ -3,10 +3,15 @@
 //! a stop of no dwell, and the stations limited so ([`Stations::limit_with`]).
 
 use nalgebra::Vector3;
+use rayon::prelude::*;
 
 use super::{partition_point_near, CapKind, RecentTangents, Stations, Stop};
 use crate::machine::along;
 use crate::range_min::RangeMin;
+
+/// Intervals a task of the corner budgets' minima takes at a time (fewer in the
+/// tests, so that their paths take several).
+const SHARE_CHUNK: usize = if cfg!(test) { 29 } else { 1 << 14 };
 
 /// The corners' choice on the envelope ([`Stations`]' `stop_or_pass_corners`), kept
 /// with a jerk limit for the planner to check (`crate::corner_check`).
@@ -344,15 +349,28 @@ impl Stations {
                         .map(|k| budgets.get(k)[0].is_finite())
                         .collect();
                 }
-                let mut tangents = RecentTangents::new();
-                for k in (0..intervals).filter(|&k| reached[k]) {
-                    let b = budgets.get(k)[0];
-                    for t in [tangents.get(self, k)[axis], tangents.get(self, k + 1)[axis]] {
-                        if t != 0.0 {
-                            accel[k] = accel[k].min(b / t.abs());
+                // Each interval's own minimum: the intervals in chunks in parallel.
+                let this = &*self;
+                accel[..intervals]
+                    .par_chunks_mut(SHARE_CHUNK)
+                    .enumerate()
+                    .for_each(|(chunk, accel)| {
+                        let k0 = chunk * SHARE_CHUNK;
+                        let mut tangents = RecentTangents::new();
+                        for (i, a) in accel.iter_mut().enumerate() {
+                            let k = k0 + i;
+                            if !reached[k] {
+                                continue;
+                            }
+                            let b = budgets.get(k)[0];
+                            for t in [tangents.get(this, k)[axis], tangents.get(this, k + 1)[axis]]
+                            {
+                                if t != 0.0 {
+                                    *a = a.min(b / t.abs());
+                                }
+                            }
                         }
-                    }
-                }
+                    });
             }
         }
         self.interval_accel_mm_s2 = accel;
