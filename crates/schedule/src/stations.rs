@@ -836,13 +836,30 @@ impl Stations {
         for stop in &self.stops {
             v2[stop.station] = 0.0;
         }
+        // Where the speed before is at least the cap here (a run of one cap, the
+        // usual case) the cap is kept whatever the reach (reach ≥ v²_before ≥ cap,
+        // rounded up): a branch the processor predicts, so the passes do not wait on
+        // the conversions and rounding of the station before.
+        let step = |before: f32, gain: f64, cap: f32| {
+            if before >= cap && gain >= 0.0 {
+                cap
+            } else {
+                cap.min(up(before as f64 + gain))
+            }
+        };
         for k in 1..n {
-            let reach = v2[k - 1] as f64 + 2.0 * interval_accel[k - 1] * (s[k] - s[k - 1]);
-            v2[k] = v2[k].min(up(reach));
+            v2[k] = step(
+                v2[k - 1],
+                2.0 * interval_accel[k - 1] * (s[k] - s[k - 1]),
+                v2[k],
+            );
         }
         for k in (0..n.saturating_sub(1)).rev() {
-            let reach = v2[k + 1] as f64 + 2.0 * interval_accel[k] * (s[k + 1] - s[k]);
-            v2[k] = v2[k].min(up(reach));
+            v2[k] = step(
+                v2[k + 1],
+                2.0 * interval_accel[k] * (s[k + 1] - s[k]),
+                v2[k],
+            );
         }
         v2.iter_mut().for_each(|x| *x = up((*x as f64).sqrt()));
         v2
