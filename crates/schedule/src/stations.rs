@@ -21,10 +21,9 @@ pub const BYTES_PER_STATION: usize = 200;
 /// Segments shorter than this (mm) carry no stations; they neither move nor turn the tool.
 const MIN_SEGMENT_MM: f64 = 1e-9;
 
-/// Stations a task of the sampled geometry's limits takes at a time
-/// ([`Stations::limit_sampled_geometry`]; fewer in the tests, so that their paths
-/// take several).
-const SAMPLED_CHUNK: usize = if cfg!(test) { 37 } else { 1 << 14 };
+/// Stations (or intervals) a parallel task of the stations' passes takes at a time
+/// ([`Stations::limit_sampled_geometry`], the corner budgets' minima).
+const PARALLEL_CHUNK: usize = 1 << 14;
 
 /// Most ramp stations beside one end of a segment ([`ramp_station_counts`]): the nearest
 /// is then h/4096 from the end, h the segment's interval.
@@ -616,6 +615,12 @@ impl Stations {
     /// 3·a_t·D_i/v ≤ j_i/4), so that tangential and normal acceleration together stay
     /// within a_i in the samples.
     fn limit_sampled_geometry(&mut self) {
+        self.limit_sampled_geometry_in(PARALLEL_CHUNK);
+    }
+
+    /// [`limit_sampled_geometry`](Self::limit_sampled_geometry), `chunk` stations a
+    /// parallel task (the same values for any `chunk`).
+    fn limit_sampled_geometry_in(&mut self, chunk: usize) {
         let n = self.len();
         if n < 2 {
             return;
@@ -728,64 +733,80 @@ impl Stations {
         // the stations go in chunks in parallel: a chunk holds its stations' intervals
         // k → k+1 (one slot more at the path's end), and gives back the budget of the
         // interval before its first station (the chunk before's), taken after.
+        // Station k at its cap `cap_mm_min` (the turns' cursor at `first_at_or_after`):
+        // none where no turn is within the reach of its speed or it is a stop, else its
+        // cap lowered where its differences ask it, and the budget it gives the
+        // intervals beside it where it has differences.
+        let station = |k: usize, cap_mm_min: f64, first_at_or_after: &mut usize| {
+            let cap = (cap_mm_min / 60.0).min(envelope[k] as f64);
+            let reach = 2.0 * cap * period_s + 1e-9;
+            let (last_turn, next_turn) = turn_window(first_at_or_after, k);
+            if is_stop[k] || self.s_mm[k] - last_turn > reach && next_turn - self.s_mm[k] > reach {
+                return None;
+            }
+            // The speed v kept at station k and its differences there (each taken once).
+            let (mut v, at_cap) = (cap, differences(k, cap));
+            let mut d = at_cap.0;
+            let mut limit = SampledLimit {
+                lowered_cap_mm_min: None,
+                budget: None,
+            };
+            if !within(at_cap) {
+                let (mut lo, mut hi, mut d_lo) = (0.0, cap, None);
+                for _ in 0..40 {
+                    let mid = 0.5 * (lo + hi);
+                    let at_mid = differences(k, mid);
+                    if within(at_mid) {
+                        (lo, d_lo) = (mid, Some(at_mid.0));
+                    } else {
+                        hi = mid;
+                    }
+                }
+                v = lo;
+                d = d_lo.unwrap_or_else(|| differences(k, lo).0);
+                // Station k's cap is final from here (no other station lowers it).
+                limit.lowered_cap_mm_min = (60.0 * v < cap_mm_min).then_some(60.0 * v);
+            }
+            if d != Vector3::zeros() {
+                let v = v.min(limit.lowered_cap_mm_min.unwrap_or(cap_mm_min) / 60.0);
+                limit.budget = Some(std::array::from_fn(|axis| {
+                    let left = accel[axis] - d[axis];
+                    match jerk {
+                        Some(j) if d[axis] > 0.0 => left.min(0.25 * j[axis] * v / (3.0 * d[axis])),
+                        _ => left,
+                    }
+                }));
+            }
+            Some(limit)
+        };
+        // Station k's speed and budget read the geometry and its own cap only, and
+        // set its own cap and kind and the intervals k−1 → k and k → k+1 (each the
+        // minimum of what it had and its stations' budgets: the same in any order). So
+        // the stations go in chunks in parallel: a chunk holds its stations' intervals
+        // k → k+1 (one slot more at the path's end), and gives back the budget of the
+        // interval before its first station (the chunk before's), taken after.
         interval_accel.push(f64::INFINITY);
         let before_chunks: Vec<f64> = caps
-            .par_chunks_mut(SAMPLED_CHUNK)
-            .zip(kinds.par_chunks_mut(SAMPLED_CHUNK))
-            .zip(interval_accel.par_chunks_mut(SAMPLED_CHUNK))
+            .par_chunks_mut(chunk)
+            .zip(kinds.par_chunks_mut(chunk))
+            .zip(interval_accel.par_chunks_mut(chunk))
             .enumerate()
-            .map(|(chunk, ((caps, kinds), interval_accel))| {
-                let k0 = chunk * SAMPLED_CHUNK;
+            .map(|(c, ((caps, kinds), interval_accel))| {
+                let k0 = c * chunk;
                 let mut first_at_or_after = turning.partition_point(|&t| t < k0);
                 let mut tangents = RecentTangents::new();
                 let mut before = f64::INFINITY;
-                for i in 0..caps.len() {
-                    let k = k0 + i;
-                    let cap = (caps[i] / 60.0).min(envelope[k] as f64);
-                    let reach = 2.0 * cap * period_s + 1e-9;
-                    let (last_turn, next_turn) = turn_window(&mut first_at_or_after, k);
-                    if is_stop[k]
-                        || self.s_mm[k] - last_turn > reach && next_turn - self.s_mm[k] > reach
-                    {
+                for (i, k) in (k0..k0 + caps.len()).enumerate() {
+                    let Some(limit) = station(k, caps[i], &mut first_at_or_after) else {
                         continue;
+                    };
+                    if let Some(lowered) = limit.lowered_cap_mm_min {
+                        caps[i] = lowered;
+                        kinds[i] = CapKind::Curvature;
                     }
-                    // The speed v kept at station k and its differences there (each taken once).
-                    let (mut v, at_cap) = (cap, differences(k, cap));
-                    let mut d = at_cap.0;
-                    if !within(at_cap) {
-                        let (mut lo, mut hi, mut d_lo) = (0.0, cap, None);
-                        for _ in 0..40 {
-                            let mid = 0.5 * (lo + hi);
-                            let at_mid = differences(k, mid);
-                            if within(at_mid) {
-                                (lo, d_lo) = (mid, Some(at_mid.0));
-                            } else {
-                                hi = mid;
-                            }
-                        }
-                        v = lo;
-                        d = d_lo.unwrap_or_else(|| differences(k, lo).0);
-                        // Station k's cap is final from here (no other station lowers it).
-                        if 60.0 * v < caps[i] {
-                            caps[i] = 60.0 * v;
-                            kinds[i] = CapKind::Curvature;
-                        }
-                    }
-                    // The intervals k−1 → k and k → k+1 take station k's budget (each
-                    // interval the minimum of its two stations').
-                    if d == Vector3::zeros() {
+                    let Some(budget) = limit.budget else {
                         continue;
-                    }
-                    let v = v.min(caps[i] / 60.0);
-                    let budget: [f64; 3] = std::array::from_fn(|axis| {
-                        let left = accel[axis] - d[axis];
-                        match jerk {
-                            Some(j) if d[axis] > 0.0 => {
-                                left.min(0.25 * j[axis] * v / (3.0 * d[axis]))
-                            }
-                            _ => left,
-                        }
-                    });
+                    };
                     for interval in [k.wrapping_sub(1), k] {
                         if interval >= n - 1 {
                             continue;
@@ -804,8 +825,8 @@ impl Stations {
             })
             .collect();
         interval_accel.pop();
-        for (chunk, before) in before_chunks.into_iter().enumerate().skip(1) {
-            let a = &mut interval_accel[chunk * SAMPLED_CHUNK - 1];
+        for (c, before) in before_chunks.into_iter().enumerate().skip(1) {
+            let a = &mut interval_accel[c * chunk - 1];
             *a = a.min(before);
         }
         self.cap_mm_min = caps;
@@ -1071,6 +1092,15 @@ impl Stations {
             segment,
         )
     }
+}
+
+/// What one station's sampled differences make of it (MODEL.md §6.1, "Sampled
+/// geometry"): its cap where they lower it, mm/min, and each axis' acceleration
+/// budget it leaves the intervals beside it, mm/s² (none where it has no
+/// differences).
+struct SampledLimit {
+    lowered_cap_mm_min: Option<f64>,
+    budget: Option<[f64; 3]>,
 }
 
 /// The unit tangents ([`Stations::tangent_at`]) of the last three stations asked for,

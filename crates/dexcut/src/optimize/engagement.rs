@@ -436,9 +436,8 @@ struct ReferenceLoads<'a, M, D> {
     offsets: std::collections::VecDeque<[f32; 2]>,
     /// The source of the last load asked for: its index in `sources`.
     current: usize,
-    /// Loads asked for and not made: the interval, its windowed area and
-    /// its source (an index in `sources`; none for no cut).
-    asked: Vec<(usize, f64, Option<usize>)>,
+    /// Loads asked for and not made.
+    asked: Vec<Asked>,
     /// Those loads, made.
     made: Vec<ReferenceLoad>,
     /// Interval k's move (its unit XY direction and XY length).
@@ -452,6 +451,17 @@ struct ReferenceLoads<'a, M, D> {
 /// (MODEL.md §3.4), a few hundred kB of sources held (fewer in the tests,
 /// so that their programs take several batches).
 pub(super) const LOAD_BATCH: usize = if cfg!(test) { 512 } else { 4096 };
+
+/// A reference load asked for and not made yet.
+#[derive(Clone, Copy)]
+struct Asked {
+    /// The interval.
+    k: usize,
+    /// Its windowed area, mm².
+    area_mm2: f64,
+    /// The row it takes its shape from: an index in `sources` (none: no cut).
+    source: Option<usize>,
+}
 
 /// What a reference load takes of a cutting interval's row.
 struct Source {
@@ -530,7 +540,11 @@ where
         }
         debug_assert!(!(area_mm2 > 0.0 && self.sources.is_empty()), "interval {k}");
         let source = (area_mm2 > 0.0 && self.current < self.sources.len()).then_some(self.current);
-        self.asked.push((k, area_mm2, source));
+        self.asked.push(Asked {
+            k,
+            area_mm2,
+            source,
+        });
     }
 
     /// Make the loads asked for, in parallel, and give each to
@@ -544,15 +558,15 @@ where
             .par_iter()
             .map_init(
                 || (vec![0.0; this.n_bands], Vec::with_capacity(this.n_bands)),
-                |(scaled, offsets), &(k, area_mm2, source)| {
-                    source.map_or_else(ReferenceLoad::default, |j| {
-                        this.load(k, area_mm2, j, scaled, offsets)
+                |(scaled, offsets), a: &Asked| {
+                    a.source.map_or_else(ReferenceLoad::default, |j| {
+                        this.load(a.k, a.area_mm2, j, scaled, offsets)
                     })
                 },
             )
             .collect_into_vec(&mut made);
-        for (&(k, area_mm2, _), &load) in self.asked.iter().zip(&made) {
-            each(k, area_mm2, load);
+        for (a, &load) in self.asked.iter().zip(&made) {
+            each(a.k, a.area_mm2, load);
         }
         self.asked.clear();
         self.made = made;

@@ -5,13 +5,9 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::{partition_point_near, CapKind, RecentTangents, Stations, Stop};
+use super::{partition_point_near, CapKind, RecentTangents, Stations, Stop, PARALLEL_CHUNK};
 use crate::machine::along;
 use crate::range_min::RangeMin;
-
-/// Intervals a task of the corner budgets' minima takes at a time (fewer in the
-/// tests, so that their paths take several).
-const SHARE_CHUNK: usize = if cfg!(test) { 29 } else { 1 << 14 };
 
 /// The corners' choice on the envelope ([`Stations`]' `stop_or_pass_corners`), kept
 /// with a jerk limit for the planner to check (`crate::corner_check`).
@@ -286,7 +282,7 @@ impl Stations {
             .filter(|&index| include(index))
             .map(|index| self.corner_budget(&corners[index]).intervals.len())
             .sum();
-        self.share_budgets(corners, include, covered > intervals);
+        self.share_budgets(corners, include, covered > intervals, PARALLEL_CHUNK);
     }
 
     /// Corner `(c, jump)`'s budgets and the intervals k → k+1 overlapping [s_c − reach,
@@ -309,12 +305,13 @@ impl Stations {
     }
 
     /// [`Stations::share_corner_budgets`], one corner at a time or (`by_tree`) through the
-    /// tree.
+    /// tree, its intervals `chunk` a parallel task (the same values for any `chunk`).
     fn share_budgets(
         &mut self,
         corners: &[(usize, Vector3<f64>)],
         include: &dyn Fn(usize) -> bool,
         by_tree: bool,
+        chunk: usize,
     ) {
         let intervals = self.s_mm.len().saturating_sub(1);
         let mut accel = std::mem::take(&mut self.interval_accel_mm_s2);
@@ -352,10 +349,10 @@ impl Stations {
                 // Each interval's own minimum: the intervals in chunks in parallel.
                 let this = &*self;
                 accel[..intervals]
-                    .par_chunks_mut(SHARE_CHUNK)
+                    .par_chunks_mut(chunk)
                     .enumerate()
-                    .for_each(|(chunk, accel)| {
-                        let k0 = chunk * SHARE_CHUNK;
+                    .for_each(|(c, accel)| {
+                        let k0 = c * chunk;
                         let mut tangents = RecentTangents::new();
                         for (i, a) in accel.iter_mut().enumerate() {
                             let k = k0 + i;
@@ -403,16 +400,15 @@ mod tests {
     use nc::{Geometry, Motion, Path, Segment};
 
     use crate::machine::Machine;
-    use crate::stations::{Corners, FeedPolicy, Stations};
+    use crate::stations::{CapKind, Corners, FeedPolicy, Stations};
 
     /// The corner budgets shared one corner at a time equal those shared through the
     /// range-minimum tree, bit for bit, and shared in two steps (as a choice that passes
     /// every corner not judged starts from those shared once) equal those shared at
     /// once; they lower the accelerations where corners reach.
-    #[test]
-    fn corner_budgets_are_the_same_one_by_one_by_tree_and_in_two_steps() {
-        // A zigzag of short lines (0.07–0.6 mm, a corner at every junction, some
-        // within one reach of each other).
+    /// A zigzag of short lines (0.07–0.6 mm, a corner at every junction, some within
+    /// one reach of each other).
+    fn zigzag() -> Path {
         let mut points = vec![Point3::new(0.0, 0.0, 0.0)];
         for i in 1..120 {
             let len = 0.07 + 0.53 * ((i * 37 % 11) as f64 / 10.0);
@@ -435,7 +431,12 @@ mod tests {
             tool: 1,
         };
         let segments: Vec<Segment> = points.windows(2).map(|w| segment(w[0], w[1])).collect();
-        let path = Path::from_segments(segments);
+        Path::from_segments(segments)
+    }
+
+    #[test]
+    fn corner_budgets_are_the_same_one_by_one_by_tree_and_in_two_steps() {
+        let path = zigzag();
         let machine = Machine::default();
         let stopped = Stations::with_corners(
             &path,
@@ -463,7 +464,8 @@ mod tests {
         let shared = |include: &dyn Fn(usize) -> bool, by_tree: Option<bool>| {
             let mut st = stopped.clone();
             match by_tree {
-                Some(by_tree) => st.share_budgets(&corners, include, by_tree),
+                // (Tasks of 7 intervals: the chunks' ends are passed many times.)
+                Some(by_tree) => st.share_budgets(&corners, include, by_tree, 7),
                 None => st.share_corner_budgets(&corners, include),
             }
             st.interval_accel_mm_s2
@@ -479,8 +481,8 @@ mod tests {
         // Even corners, then odd ones on top, each step either way.
         for (first, second) in [(true, false), (false, true), (true, true), (false, false)] {
             let mut two_steps = stopped.clone();
-            two_steps.share_budgets(&corners, &|i| i % 2 == 0, first);
-            two_steps.share_budgets(&corners, &|i| i % 2 == 1, second);
+            two_steps.share_budgets(&corners, &|i| i % 2 == 0, first, 7);
+            two_steps.share_budgets(&corners, &|i| i % 2 == 1, second, 7);
             assert_eq!(
                 bits(two_steps.interval_accel_mm_s2),
                 bits(one_by_one.clone())
@@ -495,5 +497,55 @@ mod tests {
             bits(shared(&|_| false, None)),
             bits(stopped.interval_accel_mm_s2.clone())
         );
+    }
+
+    /// The sampled geometry's limits made in tasks of a few stations are those made
+    /// in one, bit for bit: caps, their kinds and the intervals' accelerations, on a
+    /// path where they lower both.
+    #[test]
+    fn sampled_limits_are_the_same_in_any_chunks() {
+        let machine = Machine::default();
+        let passed = Stations::with_corners(
+            &zigzag(),
+            &machine,
+            0.05,
+            FeedPolicy::Programmed,
+            Corners::Passed,
+        )
+        .unwrap();
+        // From the tangential limits (the corners' budgets not shared), so that the
+        // intervals hold only what the stations' budgets give them.
+        let tangential: Vec<f64> = (0..passed.len() - 1)
+            .map(|k| passed.tangential_limits(k).0)
+            .collect();
+        let limited = |chunk: usize| {
+            let mut st = passed.clone();
+            st.interval_accel_mm_s2.clone_from(&tangential);
+            st.limit_sampled_geometry_in(chunk);
+            st
+        };
+        let whole = limited(passed.len());
+        assert!(
+            whole.cap_kind.contains(&CapKind::Curvature),
+            "a cap lowered by the differences"
+        );
+        let lowered = (0..tangential.len())
+            .filter(|&k| whole.interval_accel_mm_s2[k] < tangential[k])
+            .count();
+        assert!(
+            lowered > tangential.len() / 2,
+            "{lowered} intervals lowered"
+        );
+        let bits = |a: &[f64]| a.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for chunk in [1, 2, 7, 64] {
+            let st = limited(chunk);
+            assert_eq!(bits(&st.cap_mm_min), bits(&whole.cap_mm_min), "{chunk}");
+            assert_eq!(st.cap_kind, whole.cap_kind, "{chunk}");
+            assert_eq!(
+                bits(&st.interval_accel_mm_s2),
+                bits(&whole.interval_accel_mm_s2),
+                "{chunk}"
+            );
+        }
     }
 }
