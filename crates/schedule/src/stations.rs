@@ -727,12 +727,6 @@ impl Stations {
         // judged at that speed, not at the cap (a station just before a corner cannot
         // run at its cap).
         let envelope = self.envelope_mm_s(&caps, &interval_accel);
-        // Station k's speed and budget read the geometry and its own cap only, and
-        // set its own cap and kind and the intervals k−1 → k and k → k+1 (each the
-        // minimum of what it had and its stations' budgets: the same in any order). So
-        // the stations go in chunks in parallel: a chunk holds its stations' intervals
-        // k → k+1 (one slot more at the path's end), and gives back the budget of the
-        // interval before its first station (the chunk before's), taken after.
         // Station k at its cap `cap_mm_min` (the turns' cursor at `first_at_or_after`):
         // none where no turn is within the reach of its speed or it is a stop, else its
         // cap lowered where its differences ask it, and the budget it gives the
@@ -779,6 +773,32 @@ impl Stations {
             }
             Some(limit)
         };
+        self.limit_stations_in_chunks(
+            chunk,
+            &turning,
+            &mut caps,
+            &mut kinds,
+            &mut interval_accel,
+            &station,
+        );
+        self.cap_mm_min = caps;
+        self.cap_kind = kinds;
+        self.interval_accel_mm_s2 = interval_accel;
+    }
+
+    /// Each station's [`SampledLimit`] (`station(k, its cap, the turns' cursor)`, the
+    /// cursor an index in `turning`) put on `caps`, `kinds` and the intervals'
+    /// accelerations `interval_accel`, `chunk` stations a parallel task.
+    fn limit_stations_in_chunks(
+        &self,
+        chunk: usize,
+        turning: &[usize],
+        caps: &mut [f64],
+        kinds: &mut [CapKind],
+        interval_accel: &mut Vec<f64>,
+        station: &(dyn Fn(usize, f64, &mut usize) -> Option<SampledLimit> + Sync),
+    ) {
+        let n = self.len();
         // Station k's speed and budget read the geometry and its own cap only, and
         // set its own cap and kind and the intervals k−1 → k and k → k+1 (each the
         // minimum of what it had and its stations' budgets: the same in any order). So
@@ -829,9 +849,6 @@ impl Stations {
             let a = &mut interval_accel[c * chunk - 1];
             *a = a.min(before);
         }
-        self.cap_mm_min = caps;
-        self.cap_kind = kinds;
-        self.interval_accel_mm_s2 = interval_accel;
     }
 
     /// The acceleration-limited envelope (MODEL.md §6.1, "Sampled geometry"): the highest
