@@ -10,6 +10,12 @@ pub struct SyntaxError {
     pub message: String,
 }
 
+/// Characters a cursor holds room for from the start (a line's bytes, up to
+/// this): a program's line is read without growing its buffer again and
+/// again (a fifth of a million-block program's reading went to that), a
+/// long one grows from there.
+const LINE_CAPACITY: usize = 256;
+
 #[derive(Clone, Copy, Debug)]
 struct Char {
     c: char,
@@ -30,7 +36,7 @@ impl Cursor {
     /// The normalised characters of `text`, or the error of an unclosed or
     /// nested comment.
     pub(crate) fn new(text: &str) -> Result<Cursor, SyntaxError> {
-        let mut chars = Vec::new();
+        let mut chars = Vec::with_capacity(text.len().min(LINE_CAPACITY));
         let mut comment_start: Option<u32> = None;
         let mut col = 0u32;
         for (byte, c) in text.char_indices() {
