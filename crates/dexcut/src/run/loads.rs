@@ -97,9 +97,17 @@ pub(crate) fn loads_with_flanks(
                 bands = rest;
             }
         });
-    let mut buf = Vec::new();
-    super::subcell::window_loads(
-        |i, r| out[i] = load_into(i, r, flanks.of_step_mut(i), &mut buf),
+    // The sub-cell steps' loads from their windows, made in parallel
+    // (each step's bands made apart, then written over its own).
+    super::subcell::window_loads_in_parallel(
+        |buf, i, r| {
+            let mut bands = vec![[[0.0; 2]; 2]; FlankDeflections::bands_of(record, i)];
+            (load_into(i, r, &mut bands, buf), bands)
+        },
+        |i, (load, bands)| {
+            out[i] = load;
+            flanks.of_step_mut(i).copy_from_slice(&bands);
+        },
         tool_of_step,
         record,
         steps,

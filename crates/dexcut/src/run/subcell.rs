@@ -6,6 +6,7 @@
 
 use cutting::StepRemoval;
 use dexel::RemovalRecord;
+use rayon::prelude::*;
 
 /// A servo period in which the tool advances less than one grid cell has its
 /// MRR measured over this many cells of path around it (MODEL.md §2.3): over
@@ -242,5 +243,103 @@ pub fn window_loads(
             );
         }
         k = end;
+    }
+}
+
+/// Sub-cell steps whose windowed removals [`window_loads_in_parallel`] holds
+/// before it makes their values together: a few hundred kB of bands held.
+const PARALLEL_STEPS: usize = 1024;
+
+/// [`window_loads`] with each step's value made on rayon's threads:
+/// `make(scratch, step, removal)` for up to [`PARALLEL_STEPS`] sub-cell
+/// steps at a time (each thread with its own scratch, `S::default()` at
+/// first), then `set(step, value)` for each of them in step order. The
+/// values are those of `window_loads` with `set(step, make(..))`, bit for
+/// bit (each is a function of its own removal); the windows themselves are
+/// summed in order on the calling thread.
+pub fn window_loads_in_parallel<S: Default + Send, T: Send>(
+    make: impl Fn(&mut S, usize, Option<&StepRemoval>) -> T + Sync,
+    mut set: impl FnMut(usize, T),
+    tool_of_step: &[usize],
+    record: &RemovalRecord,
+    steps: &[TimedStep],
+    grid_mm: f64,
+) {
+    let mut held = HeldWindows::default();
+    window_loads(
+        |i, r| {
+            held.push(i, r);
+            if held.steps.len() == PARALLEL_STEPS {
+                held.make_and_set(&make, &mut set);
+            }
+        },
+        tool_of_step,
+        record,
+        steps,
+        grid_mm,
+    );
+    held.make_and_set(&make, &mut set);
+}
+
+/// Windowed removals held for [`window_loads_in_parallel`]: per step its
+/// removal with empty slices (none: the window removes nothing) and where
+/// its bands' volumes and offsets lie in `bands` and `offsets`.
+#[derive(Default)]
+struct HeldWindows {
+    steps: Vec<(usize, Option<StepRemoval<'static>>, std::ops::Range<usize>)>,
+    bands: Vec<f64>,
+    offsets: Vec<[f32; 2]>,
+}
+
+impl HeldWindows {
+    fn push(&mut self, i: usize, r: Option<&StepRemoval>) {
+        let start = self.bands.len();
+        let removal = r.map(|r| {
+            // One range for both: a window's bands and offsets are the record's bands.
+            debug_assert_eq!(r.band_volumes_mm3.len(), r.band_offsets_mm.len());
+            self.bands.extend_from_slice(r.band_volumes_mm3);
+            self.offsets.extend_from_slice(r.band_offsets_mm);
+            StepRemoval {
+                volume_mm3: r.volume_mm3,
+                band_volumes_mm3: &[],
+                contact_resultant: r.contact_resultant,
+                chip_edge_area_mm2: r.chip_edge_area_mm2,
+                volume_over_radius_mm2: r.volume_over_radius_mm2,
+                dt_s: r.dt_s,
+                band_offsets_mm: &[],
+                feed_dir: r.feed_dir,
+                len_xy_mm: r.len_xy_mm,
+                cell_mm: r.cell_mm,
+            }
+        });
+        self.steps.push((i, removal, start..self.bands.len()));
+    }
+
+    /// Every held step's value made in parallel, then set in step order; the
+    /// steps let go.
+    fn make_and_set<S: Default + Send, T: Send>(
+        &mut self,
+        make: &(impl Fn(&mut S, usize, Option<&StepRemoval>) -> T + Sync),
+        set: &mut impl FnMut(usize, T),
+    ) {
+        let (bands, offsets) = (&self.bands, &self.offsets);
+        let values: Vec<T> = self
+            .steps
+            .par_iter()
+            .map_init(S::default, |scratch, (i, removal, at)| {
+                let removal = removal.map(|r| StepRemoval {
+                    band_volumes_mm3: &bands[at.clone()],
+                    band_offsets_mm: &offsets[at.clone()],
+                    ..r
+                });
+                make(scratch, *i, removal.as_ref())
+            })
+            .collect();
+        for (&(i, _, _), value) in self.steps.iter().zip(values) {
+            set(i, value);
+        }
+        self.steps.clear();
+        self.bands.clear();
+        self.offsets.clear();
     }
 }
