@@ -259,6 +259,27 @@ const PARALLEL_STEPS: usize = 1024;
 /// summed in order on the calling thread.
 pub fn window_loads_in_parallel<S: Default + Send, T: Send>(
     make: impl Fn(&mut S, usize, Option<&StepRemoval>) -> T + Sync,
+    set: impl FnMut(usize, T),
+    tool_of_step: &[usize],
+    record: &RemovalRecord,
+    steps: &[TimedStep],
+    grid_mm: f64,
+) {
+    window_loads_in_chunks(
+        PARALLEL_STEPS,
+        make,
+        set,
+        tool_of_step,
+        record,
+        steps,
+        grid_mm,
+    );
+}
+
+/// [`window_loads_in_parallel`] holding up to `chunk` steps at a time.
+pub(crate) fn window_loads_in_chunks<S: Default + Send, T: Send>(
+    chunk: usize,
+    make: impl Fn(&mut S, usize, Option<&StepRemoval>) -> T + Sync,
     mut set: impl FnMut(usize, T),
     tool_of_step: &[usize],
     record: &RemovalRecord,
@@ -269,7 +290,7 @@ pub fn window_loads_in_parallel<S: Default + Send, T: Send>(
     window_loads(
         |i, r| {
             held.push(i, r);
-            if held.steps.len() == PARALLEL_STEPS {
+            if held.steps.len() >= chunk {
                 held.make_and_set(&make, &mut set);
             }
         },

@@ -815,6 +815,22 @@ fn deflections_made_as_the_loads_are_those_of_the_loads_held() {
         .filter(|&i| held[i].dx_um.to_bits() != own[i].dx_um.to_bits())
         .count();
     assert!(windowed > 100, "{windowed} steps windowed");
+    // Made in parallel, in chunks of any size: the same loads.
+    for chunk in [1, 7, 1024] {
+        let mut made = own.clone();
+        super::subcell::window_loads_in_chunks(
+            chunk,
+            |_: &mut (), _, r| r.map_or_else(StepLoad::default, |r| model.step_load(r)),
+            |i, load| made[i] = load,
+            &tool_of_step,
+            &record,
+            &steps,
+            grid_mm,
+        );
+        for (m, h) in made.iter().zip(&held) {
+            assert_eq!(format!("{m:?}"), format!("{h:?}"), "chunks of {chunk}");
+        }
+    }
     // The loop's deflections (the mean only) are the loads', bit for bit.
     let along = |[dx, dy]: [f64; 2], i: usize| 0.6 * dx + 0.8 * dy + i as f64;
     let g =
