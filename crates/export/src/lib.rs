@@ -16,6 +16,7 @@
 //! | [`write_stock_glb`] | binary glTF of the stock's top surface with vertex colours |
 //! | [`write_column_grid`] | `columns.json` and one NumPy `.npy` array per quantity (the default column output) |
 //! | [`write_column_csv`] | one CSV row per grid column (on request) |
+//! | [`write_csv_records`] | a header and numbered records, formatted on rayon's threads, written in order |
 //! | [`NpyTableWriter`] | a table of named columns as `.npy` arrays and a JSON description (steps in binary form) |
 //! | [`write_report_html`] | one self-contained offline HTML report (SVG plots, PNG maps, WebGL 3D view) |
 //!
@@ -48,7 +49,7 @@ mod ticks;
 use std::path::{Path, PathBuf};
 
 pub use color::{ColorScale, Palette};
-pub use csv_out::{column_csv_bytes, write_column_csv};
+pub use csv_out::{column_csv_bytes, write_column_csv, write_csv_records};
 pub use glb::{stock_glb_bytes, write_stock_glb, write_stock_glb_with, GlbOptions, GlbStats};
 pub use heatmap::{
     heat_map_image, heat_map_png_bytes, write_heat_map_png, HeatMapLayout, HeatMapStyle, NAN_RGBA,

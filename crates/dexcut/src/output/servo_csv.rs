@@ -6,6 +6,9 @@ use std::path::Path;
 use crate::error::{Error, Result};
 use crate::motion::{self, TimedStep};
 
+/// Rows of servo.csv held before they are formatted and written (1.5 MB).
+const ROWS_AT_ONCE: usize = 16_384;
+
 /// servo.csv: commanded positions every period with path feed, axis
 /// velocities, the tool and spindle speed of the block each lies on, and
 /// whether the move to it is a rapid (`rapid`). A period that the run
@@ -22,8 +25,7 @@ pub fn write_servo_csv(
 ) -> Result<()> {
     let mut periods = motion::periods(steps);
     export::atomic::write_file(path, |w| {
-        let mut out = csv::Writer::from_writer(w);
-        out.write_record([
+        let header = [
             "t_s",
             "x",
             "y",
@@ -36,7 +38,18 @@ pub fn write_servo_csv(
             "spindle_rpm",
             "rapid",
             "sample",
-        ])?;
+        ];
+        // The header alone (no records).
+        export::write_csv_records(w, Some(&header), 0, |_, _| {})?;
+        // The rows, made in order, formatted ROWS_AT_ONCE at a time on rayon's threads.
+        let mut rows: Vec<[f64; 12]> = Vec::with_capacity(ROWS_AT_ONCE);
+        let write = |w: &mut dyn std::io::Write, rows: &mut Vec<[f64; 12]>| {
+            export::write_csv_records(w, None, rows.len(), |i, fields| {
+                fields.extend(rows[i].map(crate::util::fmt))
+            })?;
+            rows.clear();
+            std::io::Result::Ok(())
+        };
         let flag = |b: bool| if b { 1.0 } else { 0.0 };
         let mut before: Option<motion::SampleRow> = None;
         for (i, s) in samples.enumerate() {
@@ -61,23 +74,20 @@ pub fn write_servo_csv(
                 let corner = j + 1 < period.len() && c.t_end_s > t_row && c.t_end_s < s.t_s;
                 if corner {
                     let [x, y, z] = c.step.to_mm;
-                    out.write_record(
-                        [
-                            c.t_end_s,
-                            x,
-                            y,
-                            z_sign * z,
-                            c.feed_mm_min,
-                            v.x,
-                            v.y,
-                            z_sign * v.z,
-                            c.tool as f64,
-                            c.spindle_rpm,
-                            flag(c.step.rapid),
-                            0.0,
-                        ]
-                        .map(crate::util::fmt),
-                    )?;
+                    rows.push([
+                        c.t_end_s,
+                        x,
+                        y,
+                        z_sign * z,
+                        c.feed_mm_min,
+                        v.x,
+                        v.y,
+                        z_sign * v.z,
+                        c.tool as f64,
+                        c.spindle_rpm,
+                        flag(c.step.rapid),
+                        0.0,
+                    ]);
                     t_row = c.t_end_s;
                     moved = false;
                 } else if !moved || c.step.from_mm != c.step.to_mm {
@@ -85,26 +95,26 @@ pub fn write_servo_csv(
                     moved = c.step.from_mm != c.step.to_mm;
                 }
             }
-            out.write_record(
-                [
-                    s.t_s,
-                    s.pos.x,
-                    s.pos.y,
-                    z_sign * s.pos.z,
-                    s.feed_mm_min,
-                    v.x,
-                    v.y,
-                    z_sign * v.z,
-                    tool as f64,
-                    rpm,
-                    flag(kind),
-                    1.0,
-                ]
-                .map(crate::util::fmt),
-            )?;
+            rows.push([
+                s.t_s,
+                s.pos.x,
+                s.pos.y,
+                z_sign * s.pos.z,
+                s.feed_mm_min,
+                v.x,
+                v.y,
+                z_sign * v.z,
+                tool as f64,
+                rpm,
+                flag(kind),
+                1.0,
+            ]);
             before = Some(s);
+            if rows.len() >= ROWS_AT_ONCE {
+                write(w, &mut rows)?;
+            }
         }
-        out.flush()
+        write(w, &mut rows)
     })
     .map_err(|e| Error::io("cannot write", path, e))
 }

@@ -336,17 +336,16 @@ impl Run {
     pub fn write_steps_csv(&self, path: &Path) -> Result<()> {
         let n_bands = self.record.n_bands;
         export::atomic::write_file(path, |w| {
-            let mut out = csv::Writer::from_writer(w);
-            let mut header: Vec<String> = vec!["step".into()];
-            header.extend(HEAD.iter().map(|c| c.0.to_string()));
-            header.extend((0..n_bands).map(|k| format!("band_{k}_mm3")));
-            header.extend(LOADS.iter().map(|c| c.0.to_string()));
-            header.extend([BREAKS, LINE, RAPID, TOOL].map(|c| c.0.to_string()));
-            out.write_record(&header)?;
-            let mut row: Vec<String> = Vec::with_capacity(header.len());
+            let bands: Vec<String> = (0..n_bands).map(|k| format!("band_{k}_mm3")).collect();
+            let header: Vec<&str> = std::iter::once("step")
+                .chain(HEAD.iter().map(|c| c.0))
+                .chain(bands.iter().map(String::as_str))
+                .chain(LOADS.iter().map(|c| c.0))
+                .chain([BREAKS, LINE, RAPID, TOOL].map(|c| c.0))
+                .collect();
             let mrr = self.period_mrr_by_step_mm3_s();
-            for (i, s) in self.steps.iter().enumerate() {
-                row.clear();
+            export::write_csv_records(w, Some(&header), self.steps.len(), |i, row| {
+                let s = &self.steps[i];
                 row.push(i.to_string());
                 row.extend(self.step_head(i, &mrr).map(fmt));
                 row.extend((0..n_bands).map(|k| fmt(self.record.band_volume_mm3(i, k))));
@@ -355,10 +354,7 @@ impl Run {
                 row.push(s.line.to_string());
                 row.push(u8::from(s.step.rapid).to_string());
                 row.push(s.tool.to_string());
-                out.write_record(&row)?;
-            }
-            out.flush()?;
-            Ok(())
+            })
         })
         .map_err(|e| Error::io("cannot write", path, e))
     }
