@@ -750,14 +750,11 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
             first_step: step0 + first_step,
             smooth: options.smooth,
         };
-        partial.clear();
-        // Exactly the batch's partial sums: grown by doubling, the buffer
-        // kept from batch to batch could hold up to twice `batch_bytes`.
-        partial.reserve_exact(entries.len() * width);
-        partial.resize(entries.len() * width, 0.0);
-        ranges.clear();
-        ranges.reserve_exact(entries.len() * n_bands);
-        ranges.resize(entries.len() * n_bands, EMPTY_OFFSETS);
+        // Exactly the batch's partial sums (grown by doubling, the buffer
+        // kept from batch to batch could hold up to twice `batch_bytes`);
+        // each strip clears its own entries on its thread (`run_strips`).
+        fit_exact(&mut partial, entries.len() * width, 0.0);
+        fit_exact(&mut ranges, entries.len() * n_bands, EMPTY_OFFSETS);
         let strips = Strips {
             first: first_strip,
             count: n_strips,
@@ -773,23 +770,18 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
             &mut ranges,
         );
         record.columns_evaluated += visited;
-        add_batch_sums(
-            &mut record.data,
-            spill,
-            &entries,
-            &partial,
-            width,
-            stride,
-            first_step,
-            base,
-        );
-        merge_batch_ranges(
-            &mut record.offsets,
-            &entries,
-            &ranges,
-            n_bands,
-            first_step,
-            base,
+        reduce_batch(
+            Held {
+                rows: &mut record.data,
+                offsets: &mut record.offsets,
+                spill,
+                from: first_step - base,
+            },
+            (&counts, &entries),
+            (&partial, &ranges),
+            (width, stride, n_bands),
+            chunk_len,
+            REDUCE_STEPS,
         );
         if let Some(stream) = stream.as_deref_mut() {
             stream.advance_record(record, spill, steps, first_step + chunk_len);
@@ -799,41 +791,110 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
     }
 }
 
-/// Add a batch's partial sums (`partial`, `width` values for each of the
-/// strip entries `entries`, which name the batch's moves from `first_step`
-/// on) to the full rows (`rows`, `stride` values a step) and shares (`spill`)
-/// held from step `base` on. Reduced in strip order: the same sums whatever
-/// the thread count. The shares for the neighbouring steps are summed per
-/// step and applied once the whole program is swept (`apply_spill`), or by a
-/// stream once the next step is swept.
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn add_batch_sums(
-    rows: &mut [f64],
-    spill: &mut [f64],
-    entries: &[u32],
-    partial: &[f64],
-    width: usize,
-    stride: usize,
-    first_step: usize,
-    base: usize,
-) {
-    for (e, &mi) in entries.iter().enumerate() {
-        let i = first_step + mi as usize - base;
-        let src = &partial[e * width..(e + 1) * width];
-        let dst = i * stride;
-        for (d, s) in rows[dst..dst + stride].iter_mut().zip(src) {
-            *d += s;
-        }
-        if width > stride {
-            for (d, s) in spill[i * 2 * HEAD..(i + 1) * 2 * HEAD]
-                .iter_mut()
-                .zip(&src[stride..])
-            {
-                *d += s;
-            }
-        }
+/// Steps of a batch one task of its reduction takes ([`reduce_batch`]).
+const REDUCE_STEPS: usize = 512;
+
+/// `v` holding exactly `len` values (its capacity grown to no more than
+/// that), those it held kept and any new ones `fill`.
+fn fit_exact<T: Copy>(v: &mut Vec<T>, len: usize, fill: T) {
+    if len > v.len() {
+        v.reserve_exact(len - v.len());
     }
+    v.resize(len, fill);
+}
+
+/// What a sweep holds of its steps from some step on: their full rows
+/// (`stride` values a step), ranges of lateral offsets (`n_bands` a step)
+/// and (smoothing) shares for the neighbouring steps (`2 · HEAD` a step);
+/// a batch's first step is the `from`-th held.
+struct Held<'a> {
+    rows: &'a mut [f64],
+    offsets: &'a mut [[f32; 2]],
+    spill: &'a mut [f64],
+    from: usize,
+}
+
+/// Add a batch's partial sums (`partial`, `width` values for each strip
+/// entry) to its steps' held rows and shares and merge its ranges of
+/// lateral offsets (`ranges`, `n_bands` an entry) into theirs by min/max
+/// (MODEL.md §1.7); the entries are the batch's `n_moves` moves binned by
+/// strip (`counts`, `entries`: CSR, each strip's moves ascending). The
+/// shares for the neighbouring steps are summed per step and applied once
+/// the whole program is swept (`apply_spill`), or by a stream once the next
+/// step is swept.
+///
+/// In parallel over runs of `chunk` steps: each takes its steps' entries
+/// strip by strip, so each step's sums are made in strip order, the same
+/// sums whatever the thread count or the chunk.
+fn reduce_batch(
+    held: Held<'_>,
+    (counts, entries): (&[u32], &[u32]),
+    (partial, ranges): (&[f64], &[[f32; 2]]),
+    (width, stride, n_bands): (usize, usize, usize),
+    n_moves: usize,
+    chunk: usize,
+) {
+    let spread = width > stride;
+    let n_strips = counts.len() - 1;
+    let Held {
+        rows,
+        offsets,
+        spill,
+        from,
+    } = held;
+    let mut rows = &mut rows[from * stride..];
+    let mut offsets = &mut offsets[from * n_bands..];
+    let mut spill: &mut [f64] = if spread {
+        &mut spill[from * 2 * HEAD..]
+    } else {
+        &mut []
+    };
+    // Each run's rows, ranges and shares, split off one after the other.
+    let mut runs = Vec::with_capacity(n_moves.div_ceil(chunk.max(1)));
+    let mut m0 = 0;
+    while m0 < n_moves {
+        let m1 = (m0 + chunk.max(1)).min(n_moves);
+        let n = m1 - m0;
+        let (r, rest) = std::mem::take(&mut rows).split_at_mut(n * stride);
+        rows = rest;
+        let (o, rest) = std::mem::take(&mut offsets).split_at_mut(n * n_bands);
+        offsets = rest;
+        let (sp, rest) =
+            std::mem::take(&mut spill).split_at_mut(if spread { n * 2 * HEAD } else { 0 });
+        spill = rest;
+        runs.push((m0 as u32..m1 as u32, r, o, sp));
+        m0 = m1;
+    }
+    runs.into_par_iter()
+        .with_max_len(1)
+        .for_each(|(moves, rows, offsets, spill)| {
+            for s in 0..n_strips {
+                let (c0, c1) = (counts[s] as usize, counts[s + 1] as usize);
+                let strip = &entries[c0..c1];
+                let a = c0 + strip.partition_point(|&m| m < moves.start);
+                let b = c0 + strip.partition_point(|&m| m < moves.end);
+                for e in a..b {
+                    let i = (entries[e] - moves.start) as usize;
+                    let src = &partial[e * width..(e + 1) * width];
+                    for (d, s) in rows[i * stride..(i + 1) * stride].iter_mut().zip(src) {
+                        *d += s;
+                    }
+                    if spread {
+                        for (d, s) in spill[i * 2 * HEAD..(i + 1) * 2 * HEAD]
+                            .iter_mut()
+                            .zip(&src[stride..])
+                        {
+                            *d += s;
+                        }
+                    }
+                    let src = &ranges[e * n_bands..(e + 1) * n_bands];
+                    for (d, s) in offsets[i * n_bands..(i + 1) * n_bands].iter_mut().zip(src) {
+                        d[0] = d[0].min(s[0]);
+                        d[1] = d[1].max(s[1]);
+                    }
+                }
+            }
+        });
 }
 
 /// The strips of a band of rows: strip s holds the grid's rows
@@ -910,6 +971,10 @@ fn run_strips<E: Envelope>(
         .enumerate()
         .map(|(s, (cols, bottoms, below, last, out, rng))| {
             let ents = &entries[counts[s] as usize..counts[s + 1] as usize];
+            // The strip's partial sums and ranges start empty (the buffers
+            // are kept from batch to batch), cleared here on its thread.
+            out.fill(0.0);
+            rng.fill(EMPTY_OFFSETS);
             if ents.is_empty() {
                 0
             } else {
@@ -921,29 +986,6 @@ fn run_strips<E: Envelope>(
             }
         })
         .sum()
-}
-
-/// Merge a batch's ranges of lateral offsets (`ranges`, `n_bands` for each
-/// of the strip entries `entries`) into the steps' ranges (`offsets`,
-/// `n_bands` a step, held from step `base` on) by min/max (MODEL.md §1.7):
-/// the same ranges in any order of strips, batches or bands of rows.
-#[inline]
-fn merge_batch_ranges(
-    offsets: &mut [[f32; 2]],
-    entries: &[u32],
-    ranges: &[[f32; 2]],
-    n_bands: usize,
-    first_step: usize,
-    base: usize,
-) {
-    for (e, &mi) in entries.iter().enumerate() {
-        let i = first_step + mi as usize - base;
-        let src = &ranges[e * n_bands..(e + 1) * n_bands];
-        for (d, s) in offsets[i * n_bands..(i + 1) * n_bands].iter_mut().zip(src) {
-            d[0] = d[0].min(s[0]);
-            d[1] = d[1].max(s[1]);
-        }
-    }
 }
 
 /// Move each step's shares to its neighbours (MODEL.md §1.5): head values as
@@ -1043,5 +1085,104 @@ impl SpillCursor {
             std::mem::swap(row, next);
         }
         self.i = until;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sweep::testing::lcg;
+
+    /// The batch's reduction in runs of 1, 7, 512 and all steps adds the
+    /// same values in the same order as entry by entry: bit for bit, with
+    /// and without the shares, from a held step other than the first.
+    #[test]
+    fn reduce_batch_in_runs_is_entry_by_entry() {
+        let mut seed = 7;
+        let (n_moves, n_strips, n_bands, from) = (40, 9, 3, 5);
+        for spread in [false, true] {
+            let stride = HEAD + n_bands;
+            let width = if spread { stride + 2 * HEAD } else { stride };
+            // Each move joins a run of strips (none for some), binned CSR.
+            let mut counts = vec![0u32; n_strips + 1];
+            let mut spans = Vec::new();
+            for _ in 0..n_moves {
+                let s0 = (lcg(&mut seed) * n_strips as f64) as usize;
+                let k = (lcg(&mut seed) * 4.0) as usize;
+                let span = (s0..(s0 + k).min(n_strips)).collect::<Vec<_>>();
+                for &s in &span {
+                    counts[s + 1] += 1;
+                }
+                spans.push(span);
+            }
+            for s in 0..n_strips {
+                counts[s + 1] += counts[s];
+            }
+            let mut fill = counts.clone();
+            let mut entries = vec![0u32; counts[n_strips] as usize];
+            for (m, span) in spans.iter().enumerate() {
+                for &s in span {
+                    entries[fill[s] as usize] = m as u32;
+                    fill[s] += 1;
+                }
+            }
+            // Values of mixed magnitudes, so that the order of the sums shows.
+            let mut value = || (lcg(&mut seed) - 0.5) * 10f64.powi((lcg(&mut seed) * 12.0) as i32);
+            let partial: Vec<f64> = (0..entries.len() * width).map(|_| value()).collect();
+            let ranges: Vec<[f32; 2]> = (0..entries.len() * n_bands)
+                .map(|_| {
+                    let (a, b) = (value() as f32, value() as f32);
+                    [a.min(b), a.max(b)]
+                })
+                .collect();
+            let held = from + n_moves + 3;
+            let rows0: Vec<f64> = (0..held * stride).map(|_| value()).collect();
+            let offsets0 = vec![EMPTY_OFFSETS; held * n_bands];
+            let spill0: Vec<f64> = if spread {
+                (0..held * 2 * HEAD).map(|_| value()).collect()
+            } else {
+                Vec::new()
+            };
+            // Entry by entry, in the order of the entries.
+            let (mut rows, mut offsets, mut spill) =
+                (rows0.clone(), offsets0.clone(), spill0.clone());
+            for (e, &m) in entries.iter().enumerate() {
+                let i = from + m as usize;
+                for k in 0..stride {
+                    rows[i * stride + k] += partial[e * width + k];
+                }
+                for k in 0..width - stride {
+                    spill[i * 2 * HEAD + k] += partial[e * width + stride + k];
+                }
+                for k in 0..n_bands {
+                    let (d, s) = (&mut offsets[i * n_bands + k], ranges[e * n_bands + k]);
+                    *d = [d[0].min(s[0]), d[1].max(s[1])];
+                }
+            }
+            for chunk in [1, 7, 512, n_moves] {
+                let (mut r, mut o, mut sp) = (rows0.clone(), offsets0.clone(), spill0.clone());
+                reduce_batch(
+                    Held {
+                        rows: &mut r,
+                        offsets: &mut o,
+                        spill: &mut sp,
+                        from,
+                    },
+                    (&counts, &entries),
+                    (&partial, &ranges),
+                    (width, stride, n_bands),
+                    n_moves,
+                    chunk,
+                );
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(
+                    bits(&r),
+                    bits(&rows),
+                    "rows, runs of {chunk}, shares {spread}"
+                );
+                assert_eq!(bits(&sp), bits(&spill), "shares, runs of {chunk}");
+                assert_eq!(o, offsets, "offset ranges, runs of {chunk}");
+            }
+        }
     }
 }
