@@ -246,6 +246,7 @@ pub(crate) fn optimize(
             run_id.clone(),
             opts.columns_csv,
             opts.steps_format,
+            crate::commands::PathAfter::Dropped,
             opts.on_warning,
         )?;
         let summary = &mut optimized.summary;
