@@ -3,8 +3,8 @@
 
 use super::arcsine::asin_diff;
 use super::{
-    sphere_reach2, torus_edge, torus_mean_inv_sin_k, Edge, Envelope, EnvelopeHit, Prepared,
-    ABOVE_MARGIN_MM, PLUNGE_H2,
+    row_hits_by_column, sphere_reach2, torus_edge, torus_mean_inv_sin_k, Edge, Envelope,
+    EnvelopeHit, Prepared, ABOVE_MARGIN_MM, PLUNGE_H2,
 };
 
 pub(super) struct BallEnd {
@@ -62,6 +62,84 @@ impl Envelope for BallEnd {
             z_mm: m.p0[2] + self.r + (ez - (r2 - rho).sqrt()),
             t,
         })
+    }
+
+    #[inline(always)]
+    fn row_in_lanes(&self) -> bool {
+        true
+    }
+
+    /// In lanes, free of branches: for every column both the body root and
+    /// the end sphere on t*'s side, and the square-root-free bound, each
+    /// the expression of [`BallEnd::eval`] and [`BallEnd::stays_above`] (the
+    /// same IEEE operations in the same order), the one that applies taken
+    /// by a select: the same values bit for bit. A plunge column by column.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn row_hits(
+        &self,
+        m: &Prepared,
+        grid: &crate::Grid,
+        y: f64,
+        ix0: usize,
+        tops: &[f32],
+        z_cut: &mut [f32],
+        t_cut: &mut [f64],
+    ) {
+        if m.h2 <= PLUNGE_H2 {
+            // The default's loop (the trait's own body).
+            return row_hits_by_column(self, m, grid, y, ix0, tops, z_cut, t_cut);
+        }
+        debug_assert!(ix0 + tops.len() <= i32::MAX as usize);
+        let r = self.r;
+        let r2 = r * r;
+        let [dx, dy, dz] = m.d;
+        let wy = y - m.p0[1];
+        let zmin = m.zmin as f32;
+        let (z_cut, t_cut) = (&mut z_cut[..tops.len()], &mut t_cut[..tops.len()]);
+        for (i, ((&top, z_out), t_out)) in tops.iter().zip(z_cut).zip(t_cut).enumerate() {
+            // `Grid::x_mm`, the index through i32 (exact): a packed conversion.
+            let x = grid.x0_mm + (((ix0 + i) as i32) as f64 + 0.5) * grid.spacing_mm;
+            let wx = x - m.p0[0];
+            // `stays_above`.
+            let s = ((wx * dx + wy * dy) * m.inv_h2).clamp(0.0, 1.0);
+            let (ex, ey) = (wx - s * dx, wy - s * dy);
+            let depth = top as f64 - m.zmin + ABOVE_MARGIN_MM;
+            let reach2 = if depth <= 0.5 * r {
+                depth * (2.0 * r - depth)
+            } else {
+                2.0 * r * depth
+            };
+            let stays = ex * ex + ey * ey >= reach2;
+            // `eval`: the body root, and the end sphere on t*'s side.
+            let rho0 = wx * wx + wy * wy;
+            let k = wx * dx + wy * dy;
+            let c = m.dd * rho0 - k * k - r2 * m.dd;
+            let disc = k * k * dz * dz - m.h2 * c;
+            let zeta = (k * dz - disc.sqrt()) * m.inv_h2;
+            let t_dd = k + zeta * dz;
+            let (before, at_end) = (t_dd < 0.0, t_dd > m.dd);
+            let in_body = !before && !at_end;
+            let (ex, ey, ez, t_end) = if at_end {
+                (wx - dx, wy - dy, dz, 1.0)
+            } else {
+                (wx, wy, 0.0, 0.0)
+            };
+            let rho = ex * ex + ey * ey;
+            let z_body = m.p0[2] + r + zeta;
+            let z_end = m.p0[2] + r + (ez - (r2 - rho).sqrt());
+            let missed = disc < 0.0;
+            let hit = !missed && (in_body || rho <= r2);
+            let (z, t) = if in_body {
+                (z_body, t_dd * m.inv_dd)
+            } else {
+                (z_end, t_end)
+            };
+            let low = top <= zmin;
+            let cut = !low && !stays && hit;
+            *z_out = if cut { z as f32 } else { f32::INFINITY };
+            *t_out = if cut { t } else { 0.0 };
+        }
     }
 
     /// No square root: with ρ the XY distance from the column to the move's

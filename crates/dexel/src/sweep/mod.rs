@@ -756,6 +756,37 @@ trait Envelope: Sync {
     /// the point.
     fn eval(&self, m: &Prepared, x: f64, y: f64) -> Option<EnvelopeHit>;
 
+    /// Whether the strip loop makes a row's hits with [`Envelope::row_hits`]
+    /// before cutting (a tool whose row is made in lanes) rather than column
+    /// by column as it cuts ([`column_hit`]); the same values either way.
+    #[inline(always)]
+    fn row_in_lanes(&self) -> bool {
+        false
+    }
+
+    /// The columns `ix0, ix0 + 1, …` of the row at `y` (their tops `tops`)
+    /// that the move cuts: for each, the height it leaves (`z_cut`, as f32)
+    /// and the move parameter where the tool is lowest over it (`t_cut`);
+    /// +∞ in `z_cut` where the tool does not reach below the top (a top at
+    /// or below the move's lowest tip, [`Envelope::stays_above`], no
+    /// [`Envelope::eval`] hit), so that a column is cut where its top lies
+    /// above `z_cut` (`t_cut` is then of no use). Column by column by
+    /// default; a tool may make the row in lanes, each the same arithmetic.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn row_hits(
+        &self,
+        m: &Prepared,
+        grid: &crate::Grid,
+        y: f64,
+        ix0: usize,
+        tops: &[f32],
+        z_cut: &mut [f32],
+        t_cut: &mut [f64],
+    ) {
+        row_hits_by_column(self, m, grid, y, ix0, tops, z_cut, t_cut)
+    }
+
     /// A cheap test, made before `eval`, that the swept tool stays at or above
     /// `top` over `(x, y)` (so the column cannot be cut); `false` when unsure.
     #[inline]
@@ -812,6 +843,47 @@ trait Envelope: Sync {
     #[inline]
     fn mean_inv_side(&self, _h_bot: f64, _h_top: f64, _e: f64) -> Option<f64> {
         None
+    }
+}
+
+/// [`Envelope::row_hits`] column by column: [`Envelope::stays_above`], then
+/// [`Envelope::eval`].
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn row_hits_by_column<E: Envelope + ?Sized>(
+    env: &E,
+    m: &Prepared,
+    grid: &crate::Grid,
+    y: f64,
+    ix0: usize,
+    tops: &[f32],
+    z_cut: &mut [f32],
+    t_cut: &mut [f64],
+) {
+    for (i, &top) in tops.iter().enumerate() {
+        (z_cut[i], t_cut[i]) = match column_hit(env, m, grid.x_mm(ix0 + i), y, top) {
+            Some(EnvelopeHit { z_mm, t }) => (z_mm as f32, t),
+            None => (f32::INFINITY, 0.0),
+        };
+    }
+}
+
+/// One column's [`Envelope::row_hits`]: where the move's envelope lies over
+/// `(x, y)`, or `None` where it cannot cut a column whose top is `top` (a top
+/// at or below the lowest tip, [`Envelope::stays_above`], no
+/// [`Envelope::eval`] hit).
+#[inline(always)]
+fn column_hit<E: Envelope + ?Sized>(
+    env: &E,
+    m: &Prepared,
+    x: f64,
+    y: f64,
+    top: f32,
+) -> Option<EnvelopeHit> {
+    if top <= m.zmin as f32 || env.stays_above(m, x, y, top as f64) {
+        None
+    } else {
+        env.eval(m, x, y)
     }
 }
 

@@ -3,7 +3,7 @@
 
 use super::arcsine::asin_diff;
 use super::slot::{CHIP_AREA, CONTACT_X, CONTACT_Y, OVER_RADIUS, SHANK, VOLUME};
-use super::{Envelope, EnvelopeHit, Prepared, HEAD, PLUNGE_H2};
+use super::{column_hit, Envelope, EnvelopeHit, Prepared, HEAD, PLUNGE_H2};
 use crate::stock::RowBelow;
 use crate::top::Top;
 use crate::Grid;
@@ -320,6 +320,37 @@ impl<E: Envelope> StripJob<'_, E> {
         self.contacts_body(m, y, cuts)
     }
 
+    /// [`Envelope::row_hits`] of the columns `ix0, ix0 + 1, …` (tops `tops`)
+    /// of the row at `y`; on an x86-64 processor with AVX2 and FMA compiled
+    /// for them ([`StripJob::hits_avx2`]), the same values bit for bit (as
+    /// [`StripJob::contacts`]).
+    #[inline]
+    fn hits(&self, m: &Prepared, y: f64, ix0: usize, tops: &[f32], z: &mut [f32], t: &mut [f64]) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the processor running this has AVX2 and FMA (just checked).
+            #[allow(unsafe_code)]
+            return unsafe { self.hits_avx2(m, y, ix0, tops, z, t) };
+        }
+        self.env.row_hits(m, self.grid, y, ix0, tops, z, t)
+    }
+
+    /// [`Envelope::row_hits`] compiled for AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn hits_avx2(
+        &self,
+        m: &Prepared,
+        y: f64,
+        ix0: usize,
+        tops: &[f32],
+        z: &mut [f32],
+        t: &mut [f64],
+    ) {
+        self.env.row_hits(m, self.grid, y, ix0, tops, z, t)
+    }
+
     /// [`StripJob::contacts_body`] compiled for AVX2 and FMA.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
@@ -495,6 +526,10 @@ impl<E: Envelope> StripJob<'_, E> {
         let mut visited = 0u64;
         // Cut columns of the current row, awaiting their contact (allocated once per strip).
         let mut cuts = RowCuts::new(nx);
+        // The height each column of a row is cut to and where (`Envelope::row_hits`).
+        let in_lanes = self.env.row_in_lanes();
+        let lanes = if in_lanes { nx } else { 0 };
+        let (mut z_cut, mut t_cut) = (vec![0f32; lanes], vec![0f64; lanes]);
         // Highest top per tile of TILE_COLS columns across the strip's rows, taken
         // once: cuts only lower tops, so it bounds them for all the moves. A row
         // whose tiles all lie at or below a move's lowest tip is air to it.
@@ -572,21 +607,27 @@ impl<E: Envelope> StripJob<'_, E> {
                 else {
                     continue;
                 };
+                // Each column's cut from the tops before the move: a cut
+                // changes its own column alone.
+                let n = ix1 - ix0 + 1;
+                if in_lanes {
+                    let tops = &cols[base + ix0..=base + ix1];
+                    self.hits(m, y, ix0, tops, &mut z_cut[..n], &mut t_cut[..n]);
+                }
                 for ix in ix0..=ix1 {
                     let col = &mut cols[base + ix];
-                    // (−∞ where the column is empty.)
+                    // (−∞ where the column is empty; +∞ as z where it is not cut.)
                     let top = *col;
-                    if top <= zmin {
-                        continue;
-                    }
                     let x = self.grid.x_mm(ix);
-                    if self.env.stays_above(m, x, y, top as f64) {
-                        continue;
-                    }
-                    let Some(EnvelopeHit { z_mm, t }) = self.env.eval(m, x, y) else {
-                        continue;
+                    let (z, t) = if in_lanes {
+                        (z_cut[ix - ix0], t_cut[ix - ix0])
+                    } else {
+                        let Some(EnvelopeHit { z_mm, t }) = column_hit(self.env, m, x, y, top)
+                        else {
+                            continue;
+                        };
+                        (z_mm as f32, t)
                     };
-                    let z = z_mm as f32;
                     if top <= z {
                         continue;
                     }
@@ -800,6 +841,102 @@ mod tests {
         let mut ranges = [EMPTY_OFFSETS; 3];
         b.credit(&mut acc, &mut ranges, 0.5, 10.0, 11.2, 11.4);
         assert_eq!(ranges, [EMPTY_OFFSETS, [0.5, 0.5], EMPTY_OFFSETS]);
+    }
+
+    /// A ball's row made in lanes ([`Envelope::row_hits`], portable and, where
+    /// the processor has them, compiled for AVX2 and FMA) is the column-by-
+    /// column one bit for bit: level, climbing, descending, steep, short and
+    /// plunging moves; tops empty, below the tip, near the envelope and far
+    /// above it; rows through the body, the end spheres and past the tool.
+    #[test]
+    fn a_balls_row_in_lanes_is_its_columns_bit_for_bit() {
+        use super::super::{ball::BallEnd, row_hits_by_column};
+        use crate::sweep::testing::lcg;
+        let r = 3.0;
+        let env = BallEnd { r };
+        assert!(env.row_in_lanes());
+        let grid = Grid::covering(-10.0, -10.0, 10.0, 10.0, 0.1).unwrap();
+        let banding = Banding {
+            n_bands: 1,
+            band_h: 10.0,
+            inv_band_h: 0.1,
+            flute_len: 10.0,
+        };
+        let job = StripJob {
+            env: &env,
+            grid: &grid,
+            radius: r,
+            banding: &banding,
+            moves: &[],
+            first_step: 0,
+            smooth: false,
+        };
+        let mut seed = 11;
+        let (mut cut, mut passed) = (0, 0);
+        for to in [
+            [5.0, 1.0, 0.0],
+            [4.0, -2.0, 1.5],
+            [-3.0, 2.0, -1.5],
+            [0.5, 0.2, -4.0],
+            [0.01, 0.0, 0.0],
+            [0.0, 0.0, -2.0],
+            [0.0, 0.0, 0.0],
+        ] {
+            let step = crate::Step {
+                from_mm: [-1.0, 0.5, 0.0],
+                to_mm: [to[0] - 1.0, to[1] + 0.5, to[2]],
+                rapid: false,
+            };
+            let m = Prepared::new(&step);
+            for _ in 0..40 {
+                // Rows at −5 to 5 mm.
+                let y = grid.y_mm(50 + (100.0 * lcg(&mut seed)) as usize);
+                let ix0 = (lcg(&mut seed) * 20.0) as usize;
+                let tops: Vec<f32> = (0..150)
+                    .map(|i| match i % 5 {
+                        0 => f32::NEG_INFINITY,
+                        1 => (m.zmin - 0.5 * lcg(&mut seed)) as f32,
+                        _ => (m.zmin + (2.0 * r + 1.0) * lcg(&mut seed)) as f32,
+                    })
+                    .collect();
+                let mut expected = (vec![0f32; 150], vec![0f64; 150]);
+                row_hits_by_column(
+                    &env,
+                    &m,
+                    &grid,
+                    y,
+                    ix0,
+                    &tops,
+                    &mut expected.0,
+                    &mut expected.1,
+                );
+                let mut portable = (vec![0f32; 150], vec![0f64; 150]);
+                env.row_hits(&m, &grid, y, ix0, &tops, &mut portable.0, &mut portable.1);
+                let mut dispatched = (vec![0f32; 150], vec![0f64; 150]);
+                job.hits(&m, y, ix0, &tops, &mut dispatched.0, &mut dispatched.1);
+                for got in [&portable, &dispatched] {
+                    assert!(expected
+                        .0
+                        .iter()
+                        .zip(&got.0)
+                        .all(|(a, b)| a.to_bits() == b.to_bits()));
+                    assert!(expected
+                        .1
+                        .iter()
+                        .zip(&got.1)
+                        .all(|(a, b)| a.to_bits() == b.to_bits()));
+                }
+                for (&top, &z) in tops.iter().zip(&expected.0) {
+                    if top > z {
+                        cut += 1;
+                    } else {
+                        passed += 1;
+                    }
+                }
+            }
+        }
+        // Both kinds of column are compared, many of each.
+        assert!(cut > 2_000 && passed > 10_000, "{cut} cut, {passed} passed");
     }
 
     /// The contacts compiled for AVX2 and FMA are the portable ones bit for
