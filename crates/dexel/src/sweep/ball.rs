@@ -4,11 +4,51 @@
 use super::arcsine::asin_diff;
 use super::{
     row_hits_by_column, sphere_reach2, torus_edge, torus_mean_inv_sin_k, Edge, Envelope,
-    EnvelopeHit, Prepared, ABOVE_MARGIN_MM, PLUNGE_H2,
+    EnvelopeHit, Prepared, RowHits, ABOVE_MARGIN_MM, PLUNGE_H2,
 };
 
 pub(super) struct BallEnd {
     pub(super) r: f64,
+}
+
+/// The root of the capsule body's quadratic over a column (MODEL.md §1.2).
+struct BodyRoot {
+    /// Its discriminant: negative where the column misses the cylinder.
+    disc: f64,
+    /// ζ, the lowest height on the column relative to the first ball centre
+    /// p0 + (0, 0, R) (NaN where `disc` < 0).
+    zeta: f64,
+    /// t*·|D|², where along the move it is attained.
+    t_dd: f64,
+}
+
+impl BallEnd {
+    /// The capsule body over the column at `(wx, wy)` from the move's start:
+    /// |W − (W·D)D/|D|²|² = R² with W = (wx, wy, ζ), a quadratic in ζ (not a
+    /// plunge). One expression for [`BallEnd::eval`] and the row in lanes.
+    #[inline(always)]
+    fn body_root(&self, m: &Prepared, wx: f64, wy: f64) -> BodyRoot {
+        let [dx, dy, dz] = m.d;
+        let rho0 = wx * wx + wy * wy;
+        let k = wx * dx + wy * dy;
+        let c = m.dd * rho0 - k * k - self.r * self.r * m.dd;
+        let disc = k * k * dz * dz - m.h2 * c;
+        let zeta = (k * dz - disc.sqrt()) * m.inv_h2;
+        BodyRoot {
+            disc,
+            zeta,
+            t_dd: k + zeta * dz,
+        }
+    }
+
+    /// [`Envelope::stays_above`] of the column at `(wx, wy)` from the move's
+    /// start: one expression for it and the row in lanes.
+    #[inline(always)]
+    fn clears(&self, m: &Prepared, wx: f64, wy: f64, top: f64) -> bool {
+        let t = ((wx * m.d[0] + wy * m.d[1]) * m.inv_h2).clamp(0.0, 1.0);
+        let (ex, ey) = (wx - t * m.d[0], wy - t * m.d[1]);
+        ex * ex + ey * ey >= sphere_reach2(self.r, top - m.zmin + ABOVE_MARGIN_MM)
+    }
 }
 
 impl Envelope for BallEnd {
@@ -25,19 +65,12 @@ impl Envelope for BallEnd {
         let r2 = self.r * self.r;
         let (wx, wy) = (x - m.p0[0], y - m.p0[1]);
         let [dx, dy, dz] = m.d;
-        // ζ: height relative to the first ball centre C0 = p0 + (0, 0, R).
         let at_end = if m.h2 > PLUNGE_H2 {
-            // Capsule body: |W − (W·D)D/|D|²|² = R² with W = (wx, wy, ζ) — quadratic in ζ.
-            let rho0 = wx * wx + wy * wy;
-            let k = wx * dx + wy * dy;
-            let c = m.dd * rho0 - k * k - r2 * m.dd;
-            let disc = k * k * dz * dz - m.h2 * c;
+            let BodyRoot { disc, zeta, t_dd } = self.body_root(m, wx, wy);
             if disc < 0.0 {
                 return None;
             }
-            let zeta = (k * dz - disc.sqrt()) * m.inv_h2;
             // t*·|D|², compared with [0, |D|²] without dividing.
-            let t_dd = k + zeta * dz;
             if t_dd < 0.0 {
                 false
             } else if t_dd > m.dd {
@@ -74,7 +107,6 @@ impl Envelope for BallEnd {
     /// the expression of [`BallEnd::eval`] and [`BallEnd::stays_above`] (the
     /// same IEEE operations in the same order), the one that applies taken
     /// by a select: the same values bit for bit. A plunge column by column.
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn row_hits(
         &self,
@@ -83,12 +115,11 @@ impl Envelope for BallEnd {
         y: f64,
         ix0: usize,
         tops: &[f32],
-        z_cut: &mut [f32],
-        t_cut: &mut [f64],
+        hits: &mut RowHits,
     ) {
         if m.h2 <= PLUNGE_H2 {
             // The default's loop (the trait's own body).
-            return row_hits_by_column(self, m, grid, y, ix0, tops, z_cut, t_cut);
+            return row_hits_by_column(self, m, grid, y, ix0, tops, hits);
         }
         debug_assert!(ix0 + tops.len() <= i32::MAX as usize);
         let r = self.r;
@@ -96,28 +127,15 @@ impl Envelope for BallEnd {
         let [dx, dy, dz] = m.d;
         let wy = y - m.p0[1];
         let zmin = m.zmin as f32;
-        let (z_cut, t_cut) = (&mut z_cut[..tops.len()], &mut t_cut[..tops.len()]);
+        let n = tops.len();
+        let (z_cut, t_cut) = (&mut hits.z_mm[..n], &mut hits.t[..n]);
         for (i, ((&top, z_out), t_out)) in tops.iter().zip(z_cut).zip(t_cut).enumerate() {
             // `Grid::x_mm`, the index through i32 (exact): a packed conversion.
             let x = grid.x0_mm + (((ix0 + i) as i32) as f64 + 0.5) * grid.spacing_mm;
             let wx = x - m.p0[0];
-            // `stays_above`.
-            let s = ((wx * dx + wy * dy) * m.inv_h2).clamp(0.0, 1.0);
-            let (ex, ey) = (wx - s * dx, wy - s * dy);
-            let depth = top as f64 - m.zmin + ABOVE_MARGIN_MM;
-            let reach2 = if depth <= 0.5 * r {
-                depth * (2.0 * r - depth)
-            } else {
-                2.0 * r * depth
-            };
-            let stays = ex * ex + ey * ey >= reach2;
+            let stays = self.clears(m, wx, wy, top as f64);
             // `eval`: the body root, and the end sphere on t*'s side.
-            let rho0 = wx * wx + wy * wy;
-            let k = wx * dx + wy * dy;
-            let c = m.dd * rho0 - k * k - r2 * m.dd;
-            let disc = k * k * dz * dz - m.h2 * c;
-            let zeta = (k * dz - disc.sqrt()) * m.inv_h2;
-            let t_dd = k + zeta * dz;
+            let BodyRoot { disc, zeta, t_dd } = self.body_root(m, wx, wy);
             let (before, at_end) = (t_dd < 0.0, t_dd > m.dd);
             let in_body = !before && !at_end;
             let (ex, ey, ez, t_end) = if at_end {
@@ -148,10 +166,7 @@ impl Envelope for BallEnd {
     /// ρ² ≥ [`sphere_reach2`]`(R, δ)`.
     #[inline]
     fn stays_above(&self, m: &Prepared, x: f64, y: f64, top: f64) -> bool {
-        let (wx, wy) = (x - m.p0[0], y - m.p0[1]);
-        let t = ((wx * m.d[0] + wy * m.d[1]) * m.inv_h2).clamp(0.0, 1.0);
-        let (ex, ey) = (wx - t * m.d[0], wy - t * m.d[1]);
-        ex * ex + ey * ey >= sphere_reach2(self.r, top - m.zmin + ABOVE_MARGIN_MM)
+        self.clears(m, x - m.p0[0], y - m.p0[1], top)
     }
 
     #[inline]

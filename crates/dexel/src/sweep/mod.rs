@@ -765,14 +765,9 @@ trait Envelope: Sync {
     }
 
     /// The columns `ix0, ix0 + 1, …` of the row at `y` (their tops `tops`)
-    /// that the move cuts: for each, the height it leaves (`z_cut`, as f32)
-    /// and the move parameter where the tool is lowest over it (`t_cut`);
-    /// +∞ in `z_cut` where the tool does not reach below the top (a top at
-    /// or below the move's lowest tip, [`Envelope::stays_above`], no
-    /// [`Envelope::eval`] hit), so that a column is cut where its top lies
-    /// above `z_cut` (`t_cut` is then of no use). Column by column by
-    /// default; a tool may make the row in lanes, each the same arithmetic.
-    #[allow(clippy::too_many_arguments)]
+    /// that the move cuts, into the first `tops.len()` of `hits` (see
+    /// [`RowHits`]). Column by column by default ([`column_hit`]); a tool
+    /// may make the row in lanes, each the same arithmetic.
     #[inline(always)]
     fn row_hits(
         &self,
@@ -781,10 +776,9 @@ trait Envelope: Sync {
         y: f64,
         ix0: usize,
         tops: &[f32],
-        z_cut: &mut [f32],
-        t_cut: &mut [f64],
+        hits: &mut RowHits,
     ) {
-        row_hits_by_column(self, m, grid, y, ix0, tops, z_cut, t_cut)
+        row_hits_by_column(self, m, grid, y, ix0, tops, hits)
     }
 
     /// A cheap test, made before `eval`, that the swept tool stays at or above
@@ -846,9 +840,29 @@ trait Envelope: Sync {
     }
 }
 
-/// [`Envelope::row_hits`] column by column: [`Envelope::stays_above`], then
-/// [`Envelope::eval`].
-#[allow(clippy::too_many_arguments)]
+/// What a move does to each column of a row ([`Envelope::row_hits`]): the
+/// height it leaves (f32, as the tops), +∞ where it does not reach below the
+/// column's top (a top at or below the move's lowest tip,
+/// [`Envelope::stays_above`], no [`Envelope::eval`] hit), so that a column
+/// is cut where its top lies above `z_mm`; and the move parameter where the
+/// tool is lowest over it (0 where it is not cut). Allocated once per strip.
+#[derive(Clone, Debug)]
+struct RowHits {
+    z_mm: Vec<f32>,
+    t: Vec<f64>,
+}
+
+impl RowHits {
+    /// Room for `n` columns.
+    fn new(n: usize) -> RowHits {
+        RowHits {
+            z_mm: vec![0.0; n],
+            t: vec![0.0; n],
+        }
+    }
+}
+
+/// [`Envelope::row_hits`] column by column ([`column_hit`]).
 #[inline(always)]
 fn row_hits_by_column<E: Envelope + ?Sized>(
     env: &E,
@@ -857,11 +871,10 @@ fn row_hits_by_column<E: Envelope + ?Sized>(
     y: f64,
     ix0: usize,
     tops: &[f32],
-    z_cut: &mut [f32],
-    t_cut: &mut [f64],
+    hits: &mut RowHits,
 ) {
     for (i, &top) in tops.iter().enumerate() {
-        (z_cut[i], t_cut[i]) = match column_hit(env, m, grid.x_mm(ix0 + i), y, top) {
+        (hits.z_mm[i], hits.t[i]) = match column_hit(env, m, grid.x_mm(ix0 + i), y, top) {
             Some(EnvelopeHit { z_mm, t }) => (z_mm as f32, t),
             None => (f32::INFINITY, 0.0),
         };

@@ -3,7 +3,7 @@
 
 use super::arcsine::asin_diff;
 use super::slot::{CHIP_AREA, CONTACT_X, CONTACT_Y, OVER_RADIUS, SHANK, VOLUME};
-use super::{column_hit, Envelope, EnvelopeHit, Prepared, HEAD, PLUNGE_H2};
+use super::{column_hit, Envelope, EnvelopeHit, Prepared, RowHits, HEAD, PLUNGE_H2};
 use crate::stock::RowBelow;
 use crate::top::Top;
 use crate::Grid;
@@ -325,30 +325,22 @@ impl<E: Envelope> StripJob<'_, E> {
     /// for them ([`StripJob::hits_avx2`]), the same values bit for bit (as
     /// [`StripJob::contacts`]).
     #[inline]
-    fn hits(&self, m: &Prepared, y: f64, ix0: usize, tops: &[f32], z: &mut [f32], t: &mut [f64]) {
+    fn hits(&self, m: &Prepared, y: f64, ix0: usize, tops: &[f32], hits: &mut RowHits) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
         {
             // SAFETY: the processor running this has AVX2 and FMA (just checked).
             #[allow(unsafe_code)]
-            return unsafe { self.hits_avx2(m, y, ix0, tops, z, t) };
+            return unsafe { self.hits_avx2(m, y, ix0, tops, hits) };
         }
-        self.env.row_hits(m, self.grid, y, ix0, tops, z, t)
+        self.env.row_hits(m, self.grid, y, ix0, tops, hits)
     }
 
     /// [`Envelope::row_hits`] compiled for AVX2 and FMA.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    fn hits_avx2(
-        &self,
-        m: &Prepared,
-        y: f64,
-        ix0: usize,
-        tops: &[f32],
-        z: &mut [f32],
-        t: &mut [f64],
-    ) {
-        self.env.row_hits(m, self.grid, y, ix0, tops, z, t)
+    fn hits_avx2(&self, m: &Prepared, y: f64, ix0: usize, tops: &[f32], hits: &mut RowHits) {
+        self.env.row_hits(m, self.grid, y, ix0, tops, hits)
     }
 
     /// [`StripJob::contacts_body`] compiled for AVX2 and FMA.
@@ -528,8 +520,7 @@ impl<E: Envelope> StripJob<'_, E> {
         let mut cuts = RowCuts::new(nx);
         // The height each column of a row is cut to and where (`Envelope::row_hits`).
         let in_lanes = self.env.row_in_lanes();
-        let lanes = if in_lanes { nx } else { 0 };
-        let (mut z_cut, mut t_cut) = (vec![0f32; lanes], vec![0f64; lanes]);
+        let mut hits = RowHits::new(if in_lanes { nx } else { 0 });
         // Highest top per tile of TILE_COLS columns across the strip's rows, taken
         // once: cuts only lower tops, so it bounds them for all the moves. A row
         // whose tiles all lie at or below a move's lowest tip is air to it.
@@ -609,10 +600,8 @@ impl<E: Envelope> StripJob<'_, E> {
                 };
                 // Each column's cut from the tops before the move: a cut
                 // changes its own column alone.
-                let n = ix1 - ix0 + 1;
                 if in_lanes {
-                    let tops = &cols[base + ix0..=base + ix1];
-                    self.hits(m, y, ix0, tops, &mut z_cut[..n], &mut t_cut[..n]);
+                    self.hits(m, y, ix0, &cols[base + ix0..=base + ix1], &mut hits);
                 }
                 for ix in ix0..=ix1 {
                     let col = &mut cols[base + ix];
@@ -620,7 +609,7 @@ impl<E: Envelope> StripJob<'_, E> {
                     let top = *col;
                     let x = self.grid.x_mm(ix);
                     let (z, t) = if in_lanes {
-                        (z_cut[ix - ix0], t_cut[ix - ix0])
+                        (hits.z_mm[ix - ix0], hits.t[ix - ix0])
                     } else {
                         let Some(EnvelopeHit { z_mm, t }) = column_hit(self.env, m, x, y, top)
                         else {
@@ -899,34 +888,19 @@ mod tests {
                         _ => (m.zmin + (2.0 * r + 1.0) * lcg(&mut seed)) as f32,
                     })
                     .collect();
-                let mut expected = (vec![0f32; 150], vec![0f64; 150]);
-                row_hits_by_column(
-                    &env,
-                    &m,
-                    &grid,
-                    y,
-                    ix0,
-                    &tops,
-                    &mut expected.0,
-                    &mut expected.1,
-                );
-                let mut portable = (vec![0f32; 150], vec![0f64; 150]);
-                env.row_hits(&m, &grid, y, ix0, &tops, &mut portable.0, &mut portable.1);
-                let mut dispatched = (vec![0f32; 150], vec![0f64; 150]);
-                job.hits(&m, y, ix0, &tops, &mut dispatched.0, &mut dispatched.1);
-                for got in [&portable, &dispatched] {
-                    assert!(expected
-                        .0
-                        .iter()
-                        .zip(&got.0)
-                        .all(|(a, b)| a.to_bits() == b.to_bits()));
-                    assert!(expected
-                        .1
-                        .iter()
-                        .zip(&got.1)
-                        .all(|(a, b)| a.to_bits() == b.to_bits()));
-                }
-                for (&top, &z) in tops.iter().zip(&expected.0) {
+                let mut expected = RowHits::new(150);
+                row_hits_by_column(&env, &m, &grid, y, ix0, &tops, &mut expected);
+                let mut portable = RowHits::new(150);
+                env.row_hits(&m, &grid, y, ix0, &tops, &mut portable);
+                let mut dispatched = RowHits::new(150);
+                job.hits(&m, y, ix0, &tops, &mut dispatched);
+                let bits = |h: &RowHits| {
+                    let z = h.z_mm.iter().map(|v| v.to_bits() as u64);
+                    z.chain(h.t.iter().map(|v| v.to_bits())).collect::<Vec<_>>()
+                };
+                assert_eq!(bits(&portable), bits(&expected));
+                assert_eq!(bits(&dispatched), bits(&expected));
+                for (&top, &z) in tops.iter().zip(&expected.z_mm) {
                     if top > z {
                         cut += 1;
                     } else {
