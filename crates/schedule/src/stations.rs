@@ -651,15 +651,22 @@ impl Stations {
         // The intervals k → k+1 where the path turns (tangent change or arc), ascending:
         // the arc length to the nearest turn before and after each station is read from
         // them as the stations are visited in order (no per-station arrays).
-        let mut tangents = RecentTangents::new();
-        let turning: Vec<usize> = (0..n - 1)
-            .filter(|&k| {
-                !is_stop[k]
-                    && ((tangents.get(self, k + 1) - tangents.get(self, k)).norm() > 1e-12
-                        || matches!(
-                            self.path.segments[self.segment[k + 1] as usize].geometry,
-                            Geometry::Arc { .. }
-                        ))
+        // (Found in chunks in parallel, each with its own recent tangents: the same
+        // list in the same order.)
+        let this = &*self;
+        let turning: Vec<usize> = (0..(n - 1).div_ceil(chunk))
+            .into_par_iter()
+            .flat_map_iter(|c| {
+                let mut tangents = RecentTangents::new();
+                let (is_stop, this) = (&is_stop, this);
+                (c * chunk..((c + 1) * chunk).min(n - 1)).filter(move |&k| {
+                    !is_stop[k]
+                        && ((tangents.get(this, k + 1) - tangents.get(this, k)).norm() > 1e-12
+                            || matches!(
+                                this.path.segments[this.segment[k + 1] as usize].geometry,
+                                Geometry::Arc { .. }
+                            ))
+                })
             })
             .collect();
         // Station k: the last turn ends at s[k] if the interval k → k+1 turns, else at
@@ -901,6 +908,22 @@ impl Stations {
         }
         v2.iter_mut().for_each(|x| *x = up((*x as f64).sqrt()));
         v2
+    }
+
+    /// Every interval's acceleration its [`Stations::tangential_limits`] (no corner's
+    /// budget taken out), the intervals in chunks in parallel.
+    fn set_tangential_accels(&mut self) {
+        let mut accel = std::mem::take(&mut self.interval_accel_mm_s2);
+        let intervals = self.len() - 1;
+        accel[..intervals]
+            .par_chunks_mut(PARALLEL_CHUNK)
+            .enumerate()
+            .for_each(|(c, accel)| {
+                for (i, a) in accel.iter_mut().enumerate() {
+                    *a = self.tangential_limits(c * PARALLEL_CHUNK + i).0;
+                }
+            });
+        self.interval_accel_mm_s2 = accel;
     }
 
     /// The tangential acceleration and jerk limits of interval k → k+1, mm/s² and mm/s³:

@@ -119,9 +119,7 @@ impl Stations {
         // The budgets of the corners passed in every choice, shared once (from the
         // tangential limits, as `limit_with` starts where it shares them all).
         let base_caps_mm_min = self.cap_mm_min.clone();
-        for k in 0..self.len() - 1 {
-            self.interval_accel_mm_s2[k] = self.tangential_limits(k).0;
-        }
+        self.set_tangential_accels();
         self.share_corner_budgets(&corners, &|index| !is_judged[index]);
         let mut choice = CornerChoice {
             base_caps_mm_min,
@@ -253,9 +251,7 @@ impl Stations {
                 !judged[index]
             });
         } else {
-            for k in 0..self.len() - 1 {
-                self.interval_accel_mm_s2[k] = self.tangential_limits(k).0;
-            }
+            self.set_tangential_accels();
             self.limit_corners(&choice.stops, &choice.corners, passed, &|_| false);
         }
         self.envelope_mm_s(&self.cap_mm_min, &self.interval_accel_mm_s2)
