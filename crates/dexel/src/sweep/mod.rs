@@ -624,7 +624,8 @@ impl Prepared {
     /// start (w · u ≥ −behind_mm, w from the start to the column, u the unit
     /// XY direction), widened by a nanometre (a column on the boundary is
     /// evaluated, not skipped); `None` for a plunge.
-    #[inline]
+    /// (The kernel takes it in lanes: [`Prepared::row_bounds`].)
+    #[cfg(test)]
     fn ahead_span(&self, y: f64, behind_mm: f64) -> Option<Span> {
         if self.h2 <= PLUNGE_H2 {
             return None;
@@ -637,8 +638,9 @@ impl Prepared {
         })
     }
 
-    /// X-interval of the move's footprint (stadium of radius `r`) on the row at `y`.
-    #[inline]
+    /// X-interval of the move's footprint (stadium of radius `r`) on the row at
+    /// `y`. (The kernel takes it in lanes: [`Prepared::footprint_in_lanes`].)
+    #[cfg(test)]
     fn row_span(&self, y: f64, r: f64) -> Option<Span> {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for (cx, cy) in [
@@ -667,6 +669,91 @@ impl Prepared {
         (lo <= hi).then_some(Span { lo, hi })
     }
 
+    /// For the rows `iy0, iy0 + 1, …` (`rows` of them): the
+    /// columns whose centres lie in the move's footprint of radius `r`
+    /// ([`Prepared::row_span`], [`Grid::ix_range`]) and, with `behind_mm`,
+    /// ahead of its start ([`Prepared::ahead_span`]; none on a plunge), into
+    /// `bounds` (first > last where none). Returns the footprint's columns
+    /// summed over the rows before the second narrowing (the columns
+    /// visited). In lanes, free of branches: each value the expression of
+    /// those functions, the one that applies taken by a select, so the same
+    /// columns as row by row (test `row_bounds_in_lanes_are_row_by_rows`).
+    #[inline(always)]
+    pub(super) fn row_bounds(
+        &self,
+        grid: &Grid,
+        iy0: usize,
+        rows: usize,
+        r: f64,
+        behind_mm: Option<f64>,
+        bounds: &mut RowBounds,
+    ) -> u64 {
+        debug_assert!(iy0 + rows <= i32::MAX as usize);
+        debug_assert!(grid.nx <= i32::MAX as usize);
+        let g = grid.spacing_mm;
+        let plunge = self.h2 <= PLUNGE_H2;
+        let [ux, uy] = self.u;
+        // Whether to narrow to the start, and how far behind it (loop-invariant
+        // choices taken as selects, so the loop is one of lanes).
+        let (narrow, behind_mm) = match behind_mm {
+            Some(behind_mm) => (true, behind_mm),
+            None => (false, 0.0),
+        };
+        // (Summed as i64 from i32 differences: conversions the lanes have.)
+        let mut visited = 0i64;
+        let RowBounds { first, last } = bounds;
+        let (first, last) = (&mut first[..rows], &mut last[..rows]);
+        for (i, (first, last)) in first.iter_mut().zip(last.iter_mut()).enumerate() {
+            // `Grid::y_mm`, the index through i32 (exact): a packed conversion.
+            let y = grid.y0_mm + (((iy0 + i) as i32) as f64 + 0.5) * g;
+            let (f, l, covered) = self.footprint_in_lanes(grid, y, r);
+            let wy = y - self.p0[1];
+            // (Wrapping where the row has no columns: that count is not taken.)
+            let count = (l as i32).wrapping_sub(f as i32).wrapping_add(1);
+            visited += if covered { count as i64 } else { 0 };
+            // `ahead_span` over the footprint's columns.
+            let (a, b) = linear_range_in_lanes(ux, uy * wy, -behind_mm - 1e-9, f64::INFINITY);
+            let (af, al, some) = centres_in_lanes(grid, self.p0[0] + a, self.p0[0] + b);
+            let (nf, nl) = (f.max(af), l.min(al));
+            let ahead = !plunge && a <= b && some && nf <= nl;
+            let (f, l) = if narrow { (nf, nl) } else { (f, l) };
+            let cut = covered && (!narrow || ahead);
+            *first = if cut { f as i32 } else { 1 };
+            *last = if cut { l as i32 } else { 0 };
+        }
+        visited as u64
+    }
+
+    /// [`Prepared::row_span`] of radius `r` on the row at `y` and its columns
+    /// ([`Grid::ix_range`]): first, last and whether there are any, free of
+    /// branches (each value the expression of those functions, the one that
+    /// applies taken by a select) for [`Prepared::row_bounds`] and the reach's
+    /// narrowing, whose lanes are rows.
+    #[inline(always)]
+    pub(super) fn footprint_in_lanes(&self, grid: &Grid, y: f64, r: f64) -> (f64, f64, bool) {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for (cx, cy) in [
+            (self.p0[0], self.p0[1]),
+            (self.p0[0] + self.d[0], self.p0[1] + self.d[1]),
+        ] {
+            let dy = y - cy;
+            let inside = dy.abs() <= r;
+            let w = (r * r - dy * dy).sqrt();
+            lo = if inside { lo.min(cx - w) } else { lo };
+            hi = if inside { hi.max(cx + w) } else { hi };
+        }
+        let wy = y - self.p0[1];
+        let [ux, uy] = self.u;
+        let (a0, a1) = linear_range_in_lanes(-uy, ux * wy, -r, r);
+        let (b0, b1) = linear_range_in_lanes(ux, uy * wy, 0.0, self.len_xy);
+        let (s0, s1) = (a0.max(b0), a1.min(b1));
+        let band = self.h2 > PLUNGE_H2 && s0 <= s1;
+        lo = if band { lo.min(self.p0[0] + s0) } else { lo };
+        hi = if band { hi.max(self.p0[0] + s1) } else { hi };
+        let (f, l, some) = centres_in_lanes(grid, lo, hi);
+        (f, l, lo <= hi && some)
+    }
+
     /// Grid rows `[first, last]` the move's footprint (radius `r`) can touch.
     #[inline]
     fn row_range(&self, grid: &Grid, r: f64) -> Option<(usize, usize)> {
@@ -675,8 +762,9 @@ impl Prepared {
     }
 }
 
-/// Values of x with `lo ≤ coef·x + c0 ≤ hi`, as an interval (possibly empty or unbounded).
-#[inline]
+/// Values of x with `lo ≤ coef·x + c0 ≤ hi`, as an interval (possibly empty or
+/// unbounded). (The kernel takes it in lanes: [`linear_range_in_lanes`].)
+#[cfg(test)]
 fn linear_range(coef: f64, c0: f64, lo: f64, hi: f64) -> (f64, f64) {
     if coef.abs() < 1e-12 {
         if c0 >= lo && c0 <= hi {
@@ -687,6 +775,56 @@ fn linear_range(coef: f64, c0: f64, lo: f64, hi: f64) -> (f64, f64) {
     } else {
         let (a, b) = ((lo - c0) / coef, (hi - c0) / coef);
         (a.min(b), a.max(b))
+    }
+}
+
+/// [`Grid::ix_range`] of `[lo, hi]` with the library's roundings (the same
+/// integers, as f64), and whether there are any columns.
+#[inline(always)]
+fn centres_in_lanes(grid: &Grid, lo: f64, hi: f64) -> (f64, f64, bool) {
+    let g = grid.spacing_mm;
+    let first = ((lo - grid.x0_mm) / g - 0.5).ceil().max(0.0);
+    let last = ((hi - grid.x0_mm) / g - 0.5)
+        .floor()
+        .min(grid.nx as f64 - 1.0);
+    let none = first > last || last < 0.0 || first.is_nan() || last.is_nan();
+    (first, last, !none)
+}
+
+/// [`linear_range`] free of branches (both of its cases, one selected): the
+/// same values.
+#[inline(always)]
+fn linear_range_in_lanes(coef: f64, c0: f64, lo: f64, hi: f64) -> (f64, f64) {
+    let (a, b) = ((lo - c0) / coef, (hi - c0) / coef);
+    let inside = c0 >= lo && c0 <= hi;
+    let (flat_lo, flat_hi) = if inside {
+        (f64::NEG_INFINITY, f64::INFINITY)
+    } else {
+        (f64::INFINITY, f64::NEG_INFINITY)
+    };
+    if coef.abs() < 1e-12 {
+        (flat_lo, flat_hi)
+    } else {
+        (a.min(b), a.max(b))
+    }
+}
+
+/// The columns of each of a run of rows a move can reach
+/// ([`Prepared::row_bounds`]): `first[i]..=last[i]` on row `iy0 + i`, first >
+/// last where none. Allocated once per strip.
+#[derive(Clone, Debug)]
+pub(super) struct RowBounds {
+    pub(super) first: Vec<i32>,
+    pub(super) last: Vec<i32>,
+}
+
+impl RowBounds {
+    /// Room for `n` rows.
+    pub(super) fn new(n: usize) -> RowBounds {
+        RowBounds {
+            first: vec![1; n],
+            last: vec![0; n],
+        }
     }
 }
 

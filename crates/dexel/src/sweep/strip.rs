@@ -3,10 +3,27 @@
 
 use super::arcsine::asin_diff;
 use super::slot::{CHIP_AREA, CONTACT_X, CONTACT_Y, OVER_RADIUS, SHANK, VOLUME};
-use super::{column_hit, Envelope, EnvelopeHit, Prepared, RowHits, HEAD, PLUNGE_H2};
+use super::{column_hit, Envelope, EnvelopeHit, Prepared, RowBounds, RowHits, HEAD, PLUNGE_H2};
 use crate::stock::RowBelow;
 use crate::top::Top;
 use crate::Grid;
+
+/// The body of a dispatching method: `$avx2` (its compilation for AVX2 and
+/// FMA, a `#[target_feature]` method) where the processor has them, else
+/// `$portable`; each lane of the two is the same IEEE operation, so they give
+/// the same bits.
+macro_rules! with_avx2 {
+    ($avx2:expr, $portable:expr) => {{
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the processor running this has AVX2 and FMA (just checked).
+            #[allow(unsafe_code)]
+            return unsafe { $avx2 };
+        }
+        $portable
+    }};
+}
 
 /// Per-(strip, move) accumulator width and band bookkeeping shared by the strip loop.
 pub(super) struct Banding {
@@ -310,14 +327,10 @@ impl<E: Envelope> StripJob<'_, E> {
     /// operation (Rust never fuses a multiply and an add unless asked), so
     /// the results are the same bit for bit.
     fn contacts(&self, m: &Prepared, y: f64, cuts: &mut RowCuts) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the processor running this has AVX2 and FMA (just checked).
-            #[allow(unsafe_code)]
-            return unsafe { self.contacts_avx2(m, y, cuts) };
-        }
-        self.contacts_body(m, y, cuts)
+        with_avx2!(
+            self.contacts_avx2(m, y, cuts),
+            self.contacts_body(m, y, cuts)
+        )
     }
 
     /// [`Envelope::row_hits`] of the columns `ix0, ix0 + 1, …` (tops `tops`)
@@ -326,14 +339,94 @@ impl<E: Envelope> StripJob<'_, E> {
     /// [`StripJob::contacts`]).
     #[inline]
     fn hits(&self, m: &Prepared, y: f64, ix0: usize, tops: &[f32], hits: &mut RowHits) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the processor running this has AVX2 and FMA (just checked).
-            #[allow(unsafe_code)]
-            return unsafe { self.hits_avx2(m, y, ix0, tops, hits) };
+        with_avx2!(
+            self.hits_avx2(m, y, ix0, tops, hits),
+            self.env.row_hits(m, self.grid, y, ix0, tops, hits)
+        )
+    }
+
+    /// [`Prepared::row_bounds`] of `m` over the rows `iy0..iy0 + rows` with the
+    /// tool's radius; on an x86-64 processor with AVX2 and FMA compiled for
+    /// them ([`StripJob::row_bounds_avx2`]), the same values (as
+    /// [`StripJob::contacts`]).
+    #[inline]
+    fn row_bounds(
+        &self,
+        m: &Prepared,
+        iy0: usize,
+        rows: usize,
+        behind_mm: Option<f64>,
+        bounds: &mut RowBounds,
+    ) -> u64 {
+        with_avx2!(
+            self.row_bounds_avx2(m, iy0, rows, behind_mm, bounds),
+            m.row_bounds(self.grid, iy0, rows, self.radius, behind_mm, bounds)
+        )
+    }
+
+    /// [`Prepared::row_bounds`] compiled for AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn row_bounds_avx2(
+        &self,
+        m: &Prepared,
+        iy0: usize,
+        rows: usize,
+        behind_mm: Option<f64>,
+        bounds: &mut RowBounds,
+    ) -> u64 {
+        m.row_bounds(self.grid, iy0, rows, self.radius, behind_mm, bounds)
+    }
+
+    /// The reach's narrowing ([`StripJob::reachable`]) of the rows `iy0, iy0 +
+    /// 1, …` of move `m` whose highest tops over their columns (`bounds`) are
+    /// `tops`: a row whose top is at or below the move's lowest tip is left
+    /// without columns, and one the tool reaches less than its radius from
+    /// its axis segment narrowed to that reach's footprint. In lanes as
+    /// [`Prepared::row_bounds`]; on an x86-64 processor with AVX2 and FMA
+    /// compiled for them ([`StripJob::reach_bounds_avx2`]). The same columns
+    /// as `reachable` row by row (test `reach_bounds_in_lanes_are_row_by_rows`).
+    #[inline]
+    fn reach_bounds(&self, m: &Prepared, iy0: usize, tops: &[f32], bounds: &mut RowBounds) {
+        with_avx2!(
+            self.reach_bounds_avx2(m, iy0, tops, bounds),
+            self.reach_bounds_body(m, iy0, tops, bounds)
+        )
+    }
+
+    /// [`StripJob::reach_bounds_body`] compiled for AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn reach_bounds_avx2(&self, m: &Prepared, iy0: usize, tops: &[f32], bounds: &mut RowBounds) {
+        self.reach_bounds_body(m, iy0, tops, bounds)
+    }
+
+    /// The body of [`StripJob::reach_bounds`], inlined into each of its compilations.
+    #[inline(always)]
+    fn reach_bounds_body(&self, m: &Prepared, iy0: usize, tops: &[f32], bounds: &mut RowBounds) {
+        let zmin = m.zmin as f32;
+        let g = self.grid.spacing_mm;
+        let rows = tops.len();
+        let RowBounds { first, last } = bounds;
+        let rows_bounds = first[..rows].iter_mut().zip(&mut last[..rows]);
+        for (i, ((first, last), &top)) in rows_bounds.zip(tops).enumerate() {
+            // `Grid::y_mm`, the index through i32 (exact): a packed conversion.
+            let y = self.grid.y0_mm + (((iy0 + i) as i32) as f64 + 0.5) * g;
+            let (narrow, r) = match self.env.reach(m, top as f64 - m.zmin) {
+                Some(r) => (r < self.radius, r),
+                None => (false, 0.0),
+            };
+            let (f, l, covered) = m.footprint_in_lanes(self.grid, y, r);
+            let (nf, nl) = (f.max(*first as f64), l.min(*last as f64));
+            let keep = *first <= *last && top > zmin && (!narrow || covered && nf <= nl);
+            let (f, l) = if narrow {
+                (nf as i32, nl as i32)
+            } else {
+                (*first, *last)
+            };
+            *first = if keep { f } else { 1 };
+            *last = if keep { l } else { 0 };
         }
-        self.env.row_hits(m, self.grid, y, ix0, tops, hits)
     }
 
     /// [`Envelope::row_hits`] compiled for AVX2 and FMA.
@@ -521,6 +614,11 @@ impl<E: Envelope> StripJob<'_, E> {
         // The height each column of a row is cut to and where (`Envelope::row_hits`).
         let in_lanes = self.env.row_in_lanes();
         let mut hits = RowHits::new(if in_lanes { nx } else { 0 });
+        // The columns each row of a move's can reach (`Prepared::row_bounds`).
+        let mut bounds = RowBounds::new(rows);
+        // The highest top over each row's columns (`reach_bounds`).
+        let mut row_tops = vec![f32::NEG_INFINITY; rows];
+        let has_reach = self.env.has_reach();
         // Highest top per tile of TILE_COLS columns across the strip's rows, taken
         // once: cuts only lower tops, so it bounds them for all the moves. A row
         // whose tiles all lie at or below a move's lowest tip is air to it.
@@ -561,43 +659,42 @@ impl<E: Envelope> StripJob<'_, E> {
             } else {
                 None
             };
-            for iy in iy0..=iy1 {
-                let y = self.grid.y_mm(iy);
-                let wy = y - m.p0[1];
-                let Some(span) = m.row_span(y, self.radius) else {
-                    continue;
-                };
-                let Some((ix0, ix1)) = self.grid.ix_range(span.lo, span.hi) else {
-                    continue;
-                };
-                visited += (ix1 - ix0 + 1) as u64;
-                let base = (iy - row0) * nx;
-                // Behind the start, the previous move's end tool has cut already.
-                let (ix0, ix1) = if let Some(behind_mm) = behind {
-                    let Some((a, b)) = m
-                        .ahead_span(y, behind_mm)
-                        .and_then(|s| self.grid.ix_range(s.lo, s.hi))
-                    else {
-                        continue;
-                    };
-                    let (a, b) = (a.max(ix0), b.min(ix1));
-                    if a > b {
-                        continue;
-                    }
-                    (a, b)
-                } else {
-                    (ix0, ix1)
-                };
-                let tiles = &tile_top[ix0 / TILE_COLS..=ix1 / TILE_COLS];
-                if tiles.iter().all(|&t| t <= zmin) {
+            // The footprint's columns on each row, ahead of the start where
+            // the previous move's end tool has cut already behind it.
+            let move_rows = iy1 - iy0 + 1;
+            visited += self.row_bounds(m, iy0, move_rows, behind, &mut bounds);
+            // Rows of air to the move (its tiles at or below its lowest tip) are
+            // left out; with a reach, the others narrowed to where the tool can
+            // reach below the row's highest top (`reach_bounds`).
+            for (i, top) in row_tops[..move_rows].iter_mut().enumerate() {
+                let (first, last) = (bounds.first[i], bounds.last[i]);
+                *top = f32::NEG_INFINITY;
+                if first > last {
                     continue;
                 }
-                // Narrow the row to where the tool can reach below the row's highest top.
-                let Some((ix0, ix1)) =
-                    self.reachable(m, y, &cols[base + ix0..=base + ix1], ix0, ix1)
-                else {
+                let (ix0, ix1) = (first as usize, last as usize);
+                let tiles = &tile_top[ix0 / TILE_COLS..=ix1 / TILE_COLS];
+                if tiles.iter().all(|&t| t <= zmin) {
+                    (bounds.first[i], bounds.last[i]) = (1, 0);
                     continue;
-                };
+                }
+                if has_reach {
+                    let base = (iy0 + i - row0) * nx;
+                    *top = row_top(&cols[base + ix0..=base + ix1]);
+                }
+            }
+            if has_reach {
+                self.reach_bounds(m, iy0, &row_tops[..move_rows], &mut bounds);
+            }
+            for iy in iy0..=iy1 {
+                let (first, last) = (bounds.first[iy - iy0], bounds.last[iy - iy0]);
+                if first > last {
+                    continue;
+                }
+                let (ix0, ix1) = (first as usize, last as usize);
+                let y = self.grid.y_mm(iy);
+                let wy = y - m.p0[1];
+                let base = (iy - row0) * nx;
                 // Each column's cut from the tops before the move: a cut
                 // changes its own column alone.
                 if in_lanes {
@@ -715,8 +812,9 @@ impl<E: Envelope> StripJob<'_, E> {
     /// The columns `ix0..=ix1` of the row at `y` (`row` holds them) that the
     /// move can cut: those within the tool's reach below the row's highest
     /// top. Columns left out pass neither `stays_above` nor the zmin test, so
-    /// narrowing changes no result.
-    #[inline]
+    /// narrowing changes no result. (The kernel takes it in lanes:
+    /// [`StripJob::reach_bounds`].)
+    #[cfg(test)]
     fn reachable(
         &self,
         m: &Prepared,
@@ -832,6 +930,39 @@ mod tests {
         assert_eq!(ranges, [EMPTY_OFFSETS, [0.5, 0.5], EMPTY_OFFSETS]);
     }
 
+    /// A 20 × 20 mm grid of 0.1 mm cells centred on the origin.
+    fn test_grid() -> Grid {
+        Grid::covering(-10.0, -10.0, 10.0, 10.0, 0.1).unwrap()
+    }
+
+    /// One band of 10 mm.
+    fn one_band() -> Banding {
+        Banding {
+            n_bands: 1,
+            band_h: 10.0,
+            inv_band_h: 0.1,
+            flute_len: 10.0,
+        }
+    }
+
+    /// A strip job of tool `env` (radius `r`) without moves of its own.
+    fn test_job<'a, E: Envelope>(
+        env: &'a E,
+        grid: &'a Grid,
+        banding: &'a Banding,
+        r: f64,
+    ) -> StripJob<'a, E> {
+        StripJob {
+            env,
+            grid,
+            radius: r,
+            banding,
+            moves: &[],
+            first_step: 0,
+            smooth: false,
+        }
+    }
+
     /// A ball's row made in lanes ([`Envelope::row_hits`], portable and, where
     /// the processor has them, compiled for AVX2 and FMA) is the column-by-
     /// column one bit for bit: level, climbing, descending, steep, short and
@@ -844,22 +975,8 @@ mod tests {
         let r = 3.0;
         let env = BallEnd { r };
         assert!(env.row_in_lanes());
-        let grid = Grid::covering(-10.0, -10.0, 10.0, 10.0, 0.1).unwrap();
-        let banding = Banding {
-            n_bands: 1,
-            band_h: 10.0,
-            inv_band_h: 0.1,
-            flute_len: 10.0,
-        };
-        let job = StripJob {
-            env: &env,
-            grid: &grid,
-            radius: r,
-            banding: &banding,
-            moves: &[],
-            first_step: 0,
-            smooth: false,
-        };
+        let (grid, banding) = (test_grid(), one_band());
+        let job = test_job(&env, &grid, &banding, r);
         let mut seed = 11;
         let (mut cut, mut passed) = (0, 0);
         for to in [
@@ -911,6 +1028,204 @@ mod tests {
         }
         // Both kinds of column are compared, many of each.
         assert!(cut > 2_000 && passed > 10_000, "{cut} cut, {passed} passed");
+    }
+
+    /// The rows' columns in lanes ([`Prepared::row_bounds`], portable and as
+    /// dispatched) are those of the footprint and the start taken row by row
+    /// ([`Prepared::row_span`], [`Prepared::ahead_span`], [`Grid::ix_range`]),
+    /// with the columns visited: level, inclined, descending, axis-aligned and
+    /// diagonal moves, plunges, a move of one nanometre, footprints reaching
+    /// past the grid and ends on column centres, without and with the start's
+    /// narrowing.
+    #[test]
+    fn row_bounds_in_lanes_are_row_by_rows() {
+        use super::super::{ball::BallEnd, RowBounds};
+        let r = 3.0;
+        let env = BallEnd { r };
+        let (grid, banding) = (test_grid(), one_band());
+        let job = test_job(&env, &grid, &banding, r);
+        let (mut rows_cut, mut rows_narrowed, mut rows_none) = (0, 0, 0);
+        for (from, to) in [
+            ([0.05, 0.05, 0.0], [3.05, 0.05, 0.0]),
+            ([0.05, 0.05, 0.0], [0.05, -4.95, -1.0]),
+            ([-1.0, 0.5, 0.0], [4.0, 1.5, 0.0]),
+            ([-1.0, 0.5, 1.0], [-4.0, 2.5, -1.5]),
+            ([2.0, -3.0, 0.0], [2.0 + 1e-7, -3.0 + 3e-7, 0.0]),
+            ([1.0, 1.0, 0.0], [1.0 + 1e-9, 1.0, 0.0]),
+            ([1.0, 1.0, 0.0], [1.0, 1.0, -2.0]),
+            ([1.0, 1.0, 0.0], [1.0, 1.0, 2.0]),
+            ([0.05, 0.05, 0.0], [0.05, 0.05, -1.0]),
+            ([-9.0, 8.5, 0.0], [9.5, 9.9, -0.5]),
+            ([-0.35, -0.35, 0.0], [2.65, 2.65, 0.0]),
+        ] {
+            let m = Prepared::new(&crate::Step {
+                from_mm: from,
+                to_mm: to,
+                rapid: false,
+            });
+            let Some((iy0, iy1)) = m.row_range(&grid, r) else {
+                panic!("the move is on the grid");
+            };
+            let rows = iy1 - iy0 + 1;
+            for behind in [None, Some(0.0), Some(0.37)] {
+                // Row by row, as the strip loop took them.
+                let mut visited = 0u64;
+                let mut expected = Vec::new();
+                for iy in iy0..=iy1 {
+                    let y = grid.y_mm(iy);
+                    let footprint = m
+                        .row_span(y, r)
+                        .and_then(|span| grid.ix_range(span.lo, span.hi));
+                    let Some((ix0, ix1)) = footprint else {
+                        expected.push(None);
+                        continue;
+                    };
+                    visited += (ix1 - ix0 + 1) as u64;
+                    expected.push(match behind {
+                        None => Some((ix0, ix1)),
+                        Some(behind_mm) => m
+                            .ahead_span(y, behind_mm)
+                            .and_then(|s| grid.ix_range(s.lo, s.hi))
+                            .map(|(a, b)| (a.max(ix0), b.min(ix1)))
+                            .filter(|(a, b)| a <= b),
+                    });
+                }
+                let columns = |bounds: &RowBounds| {
+                    (0..rows)
+                        .map(|i| {
+                            let (first, last) = (bounds.first[i], bounds.last[i]);
+                            (first <= last).then_some((first as usize, last as usize))
+                        })
+                        .collect::<Vec<_>>()
+                };
+                let mut portable = RowBounds::new(rows + 3);
+                let portable_visited = m.row_bounds(&grid, iy0, rows, r, behind, &mut portable);
+                let mut dispatched = RowBounds::new(rows + 3);
+                let dispatched_visited = job.row_bounds(&m, iy0, rows, behind, &mut dispatched);
+                assert_eq!(columns(&portable), expected, "{from:?} {to:?} {behind:?}");
+                assert_eq!(columns(&dispatched), expected, "{from:?} {to:?} {behind:?}");
+                assert_eq!((portable_visited, dispatched_visited), (visited, visited));
+                for (i, row) in expected.iter().enumerate() {
+                    let footprint = m
+                        .row_span(grid.y_mm(iy0 + i), r)
+                        .and_then(|span| grid.ix_range(span.lo, span.hi));
+                    match (footprint, row) {
+                        (None, _) => rows_none += 1,
+                        (Some(f), Some(c)) if f != *c => rows_narrowed += 1,
+                        (Some(_), Some(_)) => rows_cut += 1,
+                        (Some(_), None) => rows_narrowed += 1,
+                    }
+                }
+            }
+        }
+        // Every kind of row is compared, many of each.
+        assert!(
+            rows_cut > 500 && rows_narrowed > 300 && rows_none > 5,
+            "{rows_cut} whole, {rows_narrowed} narrowed, {rows_none} without columns"
+        );
+    }
+
+    /// The reach's narrowing in lanes ([`StripJob::reach_bounds`], portable
+    /// and as dispatched) is `reachable` taken row by row: rows of air, rows
+    /// whose top is just above the lowest tip, deep rows the tool reaches with
+    /// its whole radius, for a ball and a bull nose on level, inclined and
+    /// plunging moves.
+    #[test]
+    fn reach_bounds_in_lanes_are_row_by_rows() {
+        use super::super::{ball::BallEnd, bull::BullNose, Envelope, RowBounds};
+        use crate::sweep::testing::lcg;
+        fn check<E: Envelope>(env: &E, r: f64, counts: &mut [usize; 3]) {
+            let (grid, banding) = (test_grid(), one_band());
+            let job = test_job(env, &grid, &banding, r);
+            let mut seed = 5;
+            for (from, to) in [
+                ([-1.0, 0.5, 0.0], [4.0, 1.5, 0.0]),
+                ([-1.0, 0.5, 1.0], [-4.0, 2.5, -1.5]),
+                ([0.05, 0.05, 0.0], [0.05, -4.95, -1.0]),
+                ([1.0, 1.0, 0.0], [1.0, 1.0, -2.0]),
+            ] {
+                let m = Prepared::new(&crate::Step {
+                    from_mm: from,
+                    to_mm: to,
+                    rapid: false,
+                });
+                let (iy0, iy1) = m.row_range(&grid, r).unwrap();
+                let rows = iy1 - iy0 + 1;
+                for k in 0..20 {
+                    // Half of them narrowed to the start first (a move that follows).
+                    let behind = (k % 2 == 1).then_some(0.0);
+                    let mut bounds = RowBounds::new(rows);
+                    m.row_bounds(&grid, iy0, rows, r, behind, &mut bounds);
+                    // Each row's columns' tops, and their highest.
+                    let row_cols: Vec<Vec<f32>> = (0..rows)
+                        .map(|i| {
+                            let n = (bounds.last[i] - bounds.first[i] + 1).max(0) as usize;
+                            let kind = lcg(&mut seed);
+                            (0..n)
+                                .map(|_| {
+                                    let depth = if kind < 0.2 {
+                                        -0.5 * lcg(&mut seed)
+                                    } else if kind < 0.6 {
+                                        0.05 * lcg(&mut seed)
+                                    } else {
+                                        (2.0 * r + 1.0) * lcg(&mut seed)
+                                    };
+                                    (m.zmin + depth) as f32
+                                })
+                                .collect()
+                        })
+                        .collect();
+                    let tops: Vec<f32> = row_cols.iter().map(|c| row_top(c)).collect();
+                    let expected: Vec<Option<(usize, usize)>> = (0..rows)
+                        .map(|i| {
+                            let (first, last) = (bounds.first[i], bounds.last[i]);
+                            (first <= last).then_some(())?;
+                            let (ix0, ix1) = (first as usize, last as usize);
+                            job.reachable(&m, grid.y_mm(iy0 + i), &row_cols[i], ix0, ix1)
+                        })
+                        .collect();
+                    let columns = |bounds: &RowBounds| {
+                        (0..rows)
+                            .map(|i| {
+                                let (first, last) = (bounds.first[i], bounds.last[i]);
+                                (first <= last).then_some((first as usize, last as usize))
+                            })
+                            .collect::<Vec<_>>()
+                    };
+                    let mut portable = bounds.clone();
+                    job.reach_bounds_body(&m, iy0, &tops, &mut portable);
+                    let mut dispatched = bounds.clone();
+                    job.reach_bounds(&m, iy0, &tops, &mut dispatched);
+                    assert_eq!(columns(&portable), expected, "{from:?} {to:?}");
+                    assert_eq!(columns(&dispatched), expected, "{from:?} {to:?}");
+                    for (i, row) in expected.iter().enumerate() {
+                        let before = (bounds.first[i] <= bounds.last[i])
+                            .then_some((bounds.first[i] as usize, bounds.last[i] as usize));
+                        counts[match (before, row) {
+                            (Some(_), None) => 0,
+                            (Some(b), Some(a)) if b != *a => 1,
+                            _ => 2,
+                        }] += 1;
+                    }
+                }
+            }
+        }
+        // Rows left out, narrowed, and kept whole (or without columns before).
+        let mut counts = [0; 3];
+        check(&BallEnd { r: 3.0 }, 3.0, &mut counts);
+        check(
+            &BullNose {
+                r: 3.0,
+                rc: 1.0,
+                ring: 2.0,
+            },
+            3.0,
+            &mut counts,
+        );
+        assert!(
+            counts.iter().all(|&c| c > 300),
+            "{counts:?} rows left out, narrowed, kept"
+        );
     }
 
     /// The contacts compiled for AVX2 and FMA are the portable ones bit for
