@@ -863,27 +863,22 @@ struct Edge {
 /// `ring` = 0 and `rc` = R; a flat end has no corner below the flank.
 #[inline]
 fn torus_edge(h: f64, r: f64, rc: f64, ring: f64) -> Edge {
-    if h >= rc {
-        Edge {
-            r_mm: r,
-            inv_r: 1.0 / r,
-            inv_sin_k: 1.0,
-        }
+    // Both the flank's edge and the corner's, the one that applies taken by a
+    // select: the contacts' loop over a row's cuts runs in lanes.
+    let flank = h >= rc;
+    let e = (h * (2.0 * rc - h)).sqrt().max(MIN_EDGE_RADIUS * rc);
+    let inv_e = 1.0 / e;
+    // On a ball the edge radius is e itself: no second division.
+    let (r_mm, inv_r) = if ring == 0.0 {
+        (e, inv_e)
     } else {
-        let e = (h * (2.0 * rc - h)).sqrt().max(MIN_EDGE_RADIUS * rc);
-        let inv_e = 1.0 / e;
-        // On a ball the edge radius is e itself: no second division.
-        let (r_mm, inv_r) = if ring == 0.0 {
-            (e, inv_e)
-        } else {
-            let r_mm = ring + e;
-            (r_mm, 1.0 / r_mm)
-        };
-        Edge {
-            r_mm,
-            inv_r,
-            inv_sin_k: rc * inv_e,
-        }
+        let r_mm = ring + e;
+        (r_mm, 1.0 / r_mm)
+    };
+    Edge {
+        r_mm: if flank { r } else { r_mm },
+        inv_r: if flank { 1.0 / r } else { inv_r },
+        inv_sin_k: if flank { 1.0 } else { rc * inv_e },
     }
 }
 
