@@ -671,8 +671,8 @@ impl Prepared {
 
     /// For the rows `iy0, iy0 + 1, …` (`rows` of them): the
     /// columns whose centres lie in the move's footprint of radius `r`
-    /// ([`Prepared::row_span`], [`Grid::ix_range`]) and, with `behind_mm`,
-    /// ahead of its start ([`Prepared::ahead_span`]; none on a plunge), into
+    /// (`Prepared::row_span`, [`Grid::ix_range`]) and, with `behind_mm`,
+    /// ahead of its start (`Prepared::ahead_span`; none on a plunge), into
     /// `bounds` (first > last where none). Returns the footprint's columns
     /// summed over the rows before the second narrowing (the columns
     /// visited). In lanes, free of branches: each value the expression of
@@ -724,7 +724,7 @@ impl Prepared {
         visited as u64
     }
 
-    /// [`Prepared::row_span`] of radius `r` on the row at `y` and its columns
+    /// `Prepared::row_span` of radius `r` on the row at `y` and its columns
     /// ([`Grid::ix_range`]): first, last and whether there are any, free of
     /// branches (each value the expression of those functions, the one that
     /// applies taken by a select) for [`Prepared::row_bounds`] and the reach's
@@ -791,7 +791,7 @@ fn centres_in_lanes(grid: &Grid, lo: f64, hi: f64) -> (f64, f64, bool) {
     (first, last, !none)
 }
 
-/// [`linear_range`] free of branches (both of its cases, one selected): the
+/// `linear_range` free of branches (both of its cases, one selected): the
 /// same values.
 #[inline(always)]
 fn linear_range_in_lanes(coef: f64, c0: f64, lo: f64, hi: f64) -> (f64, f64) {

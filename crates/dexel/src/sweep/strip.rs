@@ -378,7 +378,7 @@ impl<E: Envelope> StripJob<'_, E> {
         m.row_bounds(self.grid, iy0, rows, self.radius, behind_mm, bounds)
     }
 
-    /// The reach's narrowing ([`StripJob::reachable`]) of the rows `iy0, iy0 +
+    /// The reach's narrowing (`StripJob::reachable`) of the rows `iy0, iy0 +
     /// 1, …` of move `m` whose highest tops over their columns (`bounds`) are
     /// `tops`: a row whose top is at or below the move's lowest tip is left
     /// without columns, and one the tool reaches less than its radius from
