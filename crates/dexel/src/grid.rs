@@ -115,16 +115,63 @@ impl Grid {
     }
 }
 
-#[inline]
-fn centre_range(origin: f64, g: f64, n: usize, lo: f64, hi: f64) -> Option<(usize, usize)> {
-    // centre i at origin + (i + 0.5) g  ⇒ i ≥ (lo - origin)/g - 0.5
+/// The columns (or rows) whose centres lie in `[lo, hi]`: first and last
+/// index as whole numbers in f64, and whether there are any (first ≤ last).
+/// The f64 form is what the sweep's lanes compute in
+/// ([`Grid::ix_bounds_in_lanes`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct CentreBounds {
+    pub(crate) first: f64,
+    pub(crate) last: f64,
+    pub(crate) any: bool,
+}
+
+impl Grid {
+    /// [`Grid::ix_range`] as whole numbers in f64, free of branches, rounded
+    /// by the library's `floor` and `ceil` (a rounding instruction where the
+    /// caller is compiled for one): the same indices, for the sweep's rows in
+    /// lanes.
+    #[inline(always)]
+    pub(crate) fn ix_bounds_in_lanes(&self, lo: f64, hi: f64) -> CentreBounds {
+        centre_bounds(
+            self.x0_mm,
+            self.spacing_mm,
+            self.nx,
+            lo,
+            hi,
+            f64::floor,
+            f64::ceil,
+        )
+    }
+}
+
+/// The one formula of the centres in `[lo, hi]` (centre i at origin + (i +
+/// 0.5) g, so i ≥ (lo − origin)/g − 0.5), with the roundings given: both
+/// round whole numbers the same, so the same indices whichever are given.
+#[inline(always)]
+fn centre_bounds(
+    origin: f64,
+    g: f64,
+    n: usize,
+    lo: f64,
+    hi: f64,
+    floor: impl Fn(f64) -> f64,
+    ceil: impl Fn(f64) -> f64,
+) -> CentreBounds {
     let first = ceil((lo - origin) / g - 0.5).max(0.0);
     let last = floor((hi - origin) / g - 0.5).min(n as f64 - 1.0);
-    if first > last || last < 0.0 || first.is_nan() || last.is_nan() {
-        None
-    } else {
-        Some((first as usize, last as usize))
+    let none = first > last || last < 0.0 || first.is_nan() || last.is_nan();
+    CentreBounds {
+        first,
+        last,
+        any: !none,
     }
+}
+
+#[inline]
+fn centre_range(origin: f64, g: f64, n: usize, lo: f64, hi: f64) -> Option<(usize, usize)> {
+    let b = centre_bounds(origin, g, n, lo, hi, floor, ceil);
+    b.any.then_some((b.first as usize, b.last as usize))
 }
 
 /// Magnitude from which every f64 is an integer (2⁵²).

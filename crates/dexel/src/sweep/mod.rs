@@ -38,6 +38,7 @@ mod strip;
 
 pub use batch::{sweep, sweep_tools, Sweep};
 
+use crate::grid::CentreBounds;
 use crate::Grid;
 
 /// One straight tool move, tip positions in mm.
@@ -706,16 +707,20 @@ impl Prepared {
         for (i, (first, last)) in first.iter_mut().zip(last.iter_mut()).enumerate() {
             // `Grid::y_mm`, the index through i32 (exact): a packed conversion.
             let y = grid.y0_mm + (((iy0 + i) as i32) as f64 + 0.5) * g;
-            let (f, l, covered) = self.footprint_in_lanes(grid, y, r);
+            let CentreBounds {
+                first: f,
+                last: l,
+                any: covered,
+            } = self.footprint_in_lanes(grid, y, r);
             let wy = y - self.p0[1];
             // (Wrapping where the row has no columns: that count is not taken.)
             let count = (l as i32).wrapping_sub(f as i32).wrapping_add(1);
             visited += if covered { count as i64 } else { 0 };
             // `ahead_span` over the footprint's columns.
             let (a, b) = linear_range_in_lanes(ux, uy * wy, -behind_mm - 1e-9, f64::INFINITY);
-            let (af, al, some) = centres_in_lanes(grid, self.p0[0] + a, self.p0[0] + b);
-            let (nf, nl) = (f.max(af), l.min(al));
-            let ahead = !plunge && a <= b && some && nf <= nl;
+            let ahead = grid.ix_bounds_in_lanes(self.p0[0] + a, self.p0[0] + b);
+            let (nf, nl) = (f.max(ahead.first), l.min(ahead.last));
+            let ahead = !plunge && a <= b && ahead.any && nf <= nl;
             let (f, l) = if narrow { (nf, nl) } else { (f, l) };
             let cut = covered && (!narrow || ahead);
             *first = if cut { f as i32 } else { 1 };
@@ -725,12 +730,12 @@ impl Prepared {
     }
 
     /// `Prepared::row_span` of radius `r` on the row at `y` and its columns
-    /// ([`Grid::ix_range`]): first, last and whether there are any, free of
+    /// ([`Grid::ix_bounds_in_lanes`]): first, last and whether there are any, free of
     /// branches (each value the expression of those functions, the one that
     /// applies taken by a select) for [`Prepared::row_bounds`] and the reach's
     /// narrowing, whose lanes are rows.
     #[inline(always)]
-    pub(super) fn footprint_in_lanes(&self, grid: &Grid, y: f64, r: f64) -> (f64, f64, bool) {
+    pub(super) fn footprint_in_lanes(&self, grid: &Grid, y: f64, r: f64) -> CentreBounds {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for (cx, cy) in [
             (self.p0[0], self.p0[1]),
@@ -750,8 +755,11 @@ impl Prepared {
         let band = self.h2 > PLUNGE_H2 && s0 <= s1;
         lo = if band { lo.min(self.p0[0] + s0) } else { lo };
         hi = if band { hi.max(self.p0[0] + s1) } else { hi };
-        let (f, l, some) = centres_in_lanes(grid, lo, hi);
-        (f, l, lo <= hi && some)
+        let columns = grid.ix_bounds_in_lanes(lo, hi);
+        CentreBounds {
+            any: lo <= hi && columns.any,
+            ..columns
+        }
     }
 
     /// Grid rows `[first, last]` the move's footprint (radius `r`) can touch.
@@ -776,19 +784,6 @@ fn linear_range(coef: f64, c0: f64, lo: f64, hi: f64) -> (f64, f64) {
         let (a, b) = ((lo - c0) / coef, (hi - c0) / coef);
         (a.min(b), a.max(b))
     }
-}
-
-/// [`Grid::ix_range`] of `[lo, hi]` with the library's roundings (the same
-/// integers, as f64), and whether there are any columns.
-#[inline(always)]
-fn centres_in_lanes(grid: &Grid, lo: f64, hi: f64) -> (f64, f64, bool) {
-    let g = grid.spacing_mm;
-    let first = ((lo - grid.x0_mm) / g - 0.5).ceil().max(0.0);
-    let last = ((hi - grid.x0_mm) / g - 0.5)
-        .floor()
-        .min(grid.nx as f64 - 1.0);
-    let none = first > last || last < 0.0 || first.is_nan() || last.is_nan();
-    (first, last, !none)
 }
 
 /// `linear_range` free of branches (both of its cases, one selected): the
@@ -825,6 +820,19 @@ impl RowBounds {
             first: vec![1; n],
             last: vec![0; n],
         }
+    }
+
+    /// The columns `first..=last` of row `i` of the run, `None` where it has none.
+    #[inline]
+    pub(super) fn row(&self, i: usize) -> Option<(usize, usize)> {
+        let (first, last) = (self.first[i], self.last[i]);
+        (first <= last).then_some((first as usize, last as usize))
+    }
+
+    /// Row `i` of the run left without columns.
+    #[inline]
+    pub(super) fn clear(&mut self, i: usize) {
+        (self.first[i], self.last[i]) = (1, 0);
     }
 }
 

@@ -416,9 +416,9 @@ impl<E: Envelope> StripJob<'_, E> {
                 Some(r) => (r < self.radius, r),
                 None => (false, 0.0),
             };
-            let (f, l, covered) = m.footprint_in_lanes(self.grid, y, r);
-            let (nf, nl) = (f.max(*first as f64), l.min(*last as f64));
-            let keep = *first <= *last && top > zmin && (!narrow || covered && nf <= nl);
+            let reach = m.footprint_in_lanes(self.grid, y, r);
+            let (nf, nl) = (reach.first.max(*first as f64), reach.last.min(*last as f64));
+            let keep = *first <= *last && top > zmin && (!narrow || reach.any && nf <= nl);
             let (f, l) = if narrow {
                 (nf as i32, nl as i32)
             } else {
@@ -667,15 +667,13 @@ impl<E: Envelope> StripJob<'_, E> {
             // left out; with a reach, the others narrowed to where the tool can
             // reach below the row's highest top (`reach_bounds`).
             for (i, top) in row_tops[..move_rows].iter_mut().enumerate() {
-                let (first, last) = (bounds.first[i], bounds.last[i]);
                 *top = f32::NEG_INFINITY;
-                if first > last {
+                let Some((ix0, ix1)) = bounds.row(i) else {
                     continue;
-                }
-                let (ix0, ix1) = (first as usize, last as usize);
+                };
                 let tiles = &tile_top[ix0 / TILE_COLS..=ix1 / TILE_COLS];
                 if tiles.iter().all(|&t| t <= zmin) {
-                    (bounds.first[i], bounds.last[i]) = (1, 0);
+                    bounds.clear(i);
                     continue;
                 }
                 if has_reach {
@@ -687,11 +685,9 @@ impl<E: Envelope> StripJob<'_, E> {
                 self.reach_bounds(m, iy0, &row_tops[..move_rows], &mut bounds);
             }
             for iy in iy0..=iy1 {
-                let (first, last) = (bounds.first[iy - iy0], bounds.last[iy - iy0]);
-                if first > last {
+                let Some((ix0, ix1)) = bounds.row(iy - iy0) else {
                     continue;
-                }
-                let (ix0, ix1) = (first as usize, last as usize);
+                };
                 let y = self.grid.y_mm(iy);
                 let wy = y - m.p0[1];
                 let base = (iy - row0) * nx;
@@ -1090,14 +1086,8 @@ mod tests {
                             .filter(|(a, b)| a <= b),
                     });
                 }
-                let columns = |bounds: &RowBounds| {
-                    (0..rows)
-                        .map(|i| {
-                            let (first, last) = (bounds.first[i], bounds.last[i]);
-                            (first <= last).then_some((first as usize, last as usize))
-                        })
-                        .collect::<Vec<_>>()
-                };
+                let columns =
+                    |bounds: &RowBounds| (0..rows).map(|i| bounds.row(i)).collect::<Vec<_>>();
                 let mut portable = RowBounds::new(rows + 3);
                 let portable_visited = m.row_bounds(&grid, iy0, rows, r, behind, &mut portable);
                 let mut dispatched = RowBounds::new(rows + 3);
@@ -1159,7 +1149,7 @@ mod tests {
                     // Each row's columns' tops, and their highest.
                     let row_cols: Vec<Vec<f32>> = (0..rows)
                         .map(|i| {
-                            let n = (bounds.last[i] - bounds.first[i] + 1).max(0) as usize;
+                            let n = bounds.row(i).map_or(0, |(first, last)| last - first + 1);
                             let kind = lcg(&mut seed);
                             (0..n)
                                 .map(|_| {
@@ -1178,20 +1168,12 @@ mod tests {
                     let tops: Vec<f32> = row_cols.iter().map(|c| row_top(c)).collect();
                     let expected: Vec<Option<(usize, usize)>> = (0..rows)
                         .map(|i| {
-                            let (first, last) = (bounds.first[i], bounds.last[i]);
-                            (first <= last).then_some(())?;
-                            let (ix0, ix1) = (first as usize, last as usize);
+                            let (ix0, ix1) = bounds.row(i)?;
                             job.reachable(&m, grid.y_mm(iy0 + i), &row_cols[i], ix0, ix1)
                         })
                         .collect();
-                    let columns = |bounds: &RowBounds| {
-                        (0..rows)
-                            .map(|i| {
-                                let (first, last) = (bounds.first[i], bounds.last[i]);
-                                (first <= last).then_some((first as usize, last as usize))
-                            })
-                            .collect::<Vec<_>>()
-                    };
+                    let columns =
+                        |bounds: &RowBounds| (0..rows).map(|i| bounds.row(i)).collect::<Vec<_>>();
                     let mut portable = bounds.clone();
                     job.reach_bounds_body(&m, iy0, &tops, &mut portable);
                     let mut dispatched = bounds.clone();
@@ -1199,9 +1181,7 @@ mod tests {
                     assert_eq!(columns(&portable), expected, "{from:?} {to:?}");
                     assert_eq!(columns(&dispatched), expected, "{from:?} {to:?}");
                     for (i, row) in expected.iter().enumerate() {
-                        let before = (bounds.first[i] <= bounds.last[i])
-                            .then_some((bounds.first[i] as usize, bounds.last[i] as usize));
-                        counts[match (before, row) {
+                        counts[match (bounds.row(i), row) {
                             (Some(_), None) => 0,
                             (Some(b), Some(a)) if b != *a => 1,
                             _ => 2,
