@@ -499,6 +499,8 @@ impl Stations {
         // A dwell (or run of dwells) waiting for the next station: total seconds.
         let mut pending_dwell_s: Option<f64> = None;
         let mut previous: Option<usize> = None;
+        // The previous moving segment's tangent where it is a line (the same at its end).
+        let mut previous_line_tangent: Option<Vector3<f64>> = None;
         // Corner stations and their tangent jumps.
         let mut corners: Vec<(usize, Vector3<f64>)> = Vec::new();
         // Whether the next moving segment's start may be at rest (the path's start is).
@@ -526,6 +528,9 @@ impl Stations {
             };
 
             let start_tangent = seg.tangent_at_fraction(0.0);
+            // A line's tangent is the same at every fraction: its intervals' limits
+            // and its end's tangent are its start's.
+            let line = matches!(seg.geometry, Geometry::Line);
             let s_start_mm = match previous {
                 None => {
                     self.push(0.0, index, 0.0, cap_mm_min, kind);
@@ -544,8 +549,10 @@ impl Stations {
                             dwell_s,
                         }),
                         None => {
-                            let jump =
-                                start_tangent - self.path.segments[prev].tangent_at_fraction(1.0);
+                            let prev_end = previous_line_tangent.unwrap_or_else(|| {
+                                self.path.segments[prev].tangent_at_fraction(1.0)
+                            });
+                            let jump = start_tangent - prev_end;
                             let corner_mm_min = corner_cap_mm_min(&machine, &jump);
                             self.lower_cap(junction, corner_mm_min, CapKind::Corner);
                             corners.push((junction, jump));
@@ -569,13 +576,18 @@ impl Stations {
                 // Its position and tangent are [`Stations::position_at`] and
                 // [`Stations::tangent_at`] of (segment, u): u = 1 exactly at the end.
                 self.push(s_start_mm + len_mm * u, index, u, cap_mm_min, kind);
-                let (accel, jerk) = self.tangential_limits(self.len() - 2);
+                let (accel, jerk) = if line {
+                    self.limits_between(&start_tangent, &start_tangent)
+                } else {
+                    self.tangential_limits(self.len() - 2)
+                };
                 self.interval_accel_mm_s2.push(accel);
                 if machine.jerk_mm_s3.is_some() {
                     self.interval_jerk_mm_s3.push(jerk);
                 }
             }
             previous = Some(index);
+            previous_line_tangent = line.then_some(start_tangent);
         }
         if self.s_mm.is_empty() {
             // Nothing moves: one station where the program starts, standing for its dwells.
@@ -937,16 +949,24 @@ impl Stations {
         } else {
             0.0
         };
-        let (t0, t1) = (
-            seg.tangent_at_fraction(start),
-            seg.tangent_at_fraction(self.fraction[k + 1]),
-        );
+        let t0 = seg.tangent_at_fraction(start);
+        // A line's tangent is the same at both ends.
+        let t1 = if matches!(seg.geometry, Geometry::Line) {
+            t0
+        } else {
+            seg.tangent_at_fraction(self.fraction[k + 1])
+        };
+        self.limits_between(&t0, &t1)
+    }
+
+    /// [`Stations::tangential_limits`] of an interval whose ends have the tangents
+    /// `t0` and `t1`.
+    fn limits_between(&self, t0: &Vector3<f64>, t1: &Vector3<f64>) -> (f64, f64) {
         let m = &self.machine;
         (
-            m.tangential_accel_mm_s2(&t0)
-                .min(m.tangential_accel_mm_s2(&t1)),
-            m.tangential_jerk_mm_s3(&t0)
-                .min(m.tangential_jerk_mm_s3(&t1)),
+            m.tangential_accel_mm_s2(t0)
+                .min(m.tangential_accel_mm_s2(t1)),
+            m.tangential_jerk_mm_s3(t0).min(m.tangential_jerk_mm_s3(t1)),
         )
     }
 
@@ -1071,6 +1091,15 @@ impl Stations {
         }
     }
 
+    /// Whether segment `segment` of the path is a straight line (its tangent the same
+    /// at every fraction).
+    fn is_line(&self, segment: u32) -> bool {
+        matches!(
+            self.path.segments[segment as usize].geometry,
+            Geometry::Line
+        )
+    }
+
     /// Unit tangent of station `k`'s segment there (incoming side at a corner; zero where
     /// nothing moves), made from the segment when asked.
     pub fn tangent_at(&self, k: usize) -> Vector3<f64> {
@@ -1145,10 +1174,14 @@ struct SampledLimit {
 
 /// The unit tangents ([`Stations::tangent_at`]) of the last three stations asked for,
 /// one a slot by the station's index modulo 3: where stations are visited in order
-/// (each interval asking for both its ends), each tangent is made once.
+/// (each interval asking for both its ends), each tangent is made once. And the
+/// tangent of the last straight segment met: a line's is the same at every fraction
+/// (`Segment::tangent_at_fraction` reads none), so its stations share it.
 struct RecentTangents {
     station: [usize; 3],
     tangent: [Vector3<f64>; 3],
+    line: u32,
+    line_tangent: Vector3<f64>,
 }
 
 impl RecentTangents {
@@ -1156,6 +1189,8 @@ impl RecentTangents {
         RecentTangents {
             station: [usize::MAX; 3],
             tangent: [Vector3::zeros(); 3],
+            line: u32::MAX,
+            line_tangent: Vector3::zeros(),
         }
     }
 
@@ -1164,7 +1199,16 @@ impl RecentTangents {
         let slot = k % 3;
         if self.station[slot] != k {
             self.station[slot] = k;
-            self.tangent[slot] = stations.tangent_at(k);
+            let segment = stations.segment[k];
+            self.tangent[slot] = if segment == self.line {
+                self.line_tangent
+            } else {
+                let tangent = stations.tangent_at(k);
+                if stations.is_line(segment) {
+                    (self.line, self.line_tangent) = (segment, tangent);
+                }
+                tangent
+            };
         }
         self.tangent[slot]
     }
@@ -1245,5 +1289,97 @@ mod partition_tests {
             }
         }
         assert_eq!(partition_point_near(&[], 0, |v: f64| v < 1.0), 0);
+    }
+}
+
+#[cfg(test)]
+mod tangent_tests {
+    use nalgebra::Point3;
+    use nc::{Geometry, Motion, Path, Plane, Segment};
+
+    use super::{Corners, FeedPolicy, RecentTangents, Stations};
+    use crate::machine::Machine;
+
+    /// Lines in several directions (one of zero length), a helical arc and a
+    /// quarter circle: the stations' tangents taken through the recent tangents
+    /// (each line's shared by its stations), in order and out of it, and the
+    /// intervals' limits (a line's tangent taken once for both ends) are those
+    /// made from each station's segment and fraction, bit for bit.
+    #[test]
+    fn shared_line_tangents_are_each_stations_own() {
+        let feed = Motion::feed(1800.0);
+        let segment = |start: [f64; 3], end: [f64; 3], geometry| Segment {
+            start: Point3::from(start),
+            end: Point3::from(end),
+            geometry,
+            motion: feed,
+            line: 1,
+            spindle_rpm: 10000.0,
+            tool: 1,
+        };
+        let arc = |center: [f64; 3], clockwise, sweep_rad| Geometry::Arc {
+            center: Point3::from(center),
+            plane: Plane::XY,
+            clockwise,
+            sweep_rad,
+        };
+        let path = Path::from_segments(vec![
+            segment([0.0, 0.0, 5.0], [3.0, 1.0, 4.0], Geometry::Line),
+            segment([3.0, 1.0, 4.0], [3.0, 1.0, 4.0], Geometry::Line),
+            segment([3.0, 1.0, 4.0], [7.0, 1.0, 4.0], Geometry::Line),
+            segment(
+                [7.0, 1.0, 4.0],
+                [9.0, 3.0, 3.5],
+                arc([7.0, 3.0, 4.0], false, std::f64::consts::FRAC_PI_2),
+            ),
+            segment([9.0, 3.0, 3.5], [9.0, 8.0, 3.5], Geometry::Line),
+            segment(
+                [9.0, 8.0, 3.5],
+                [7.0, 10.0, 3.5],
+                arc([7.0, 8.0, 3.5], false, std::f64::consts::FRAC_PI_2),
+            ),
+            segment([7.0, 10.0, 3.5], [-2.0, 10.0, 6.0], Geometry::Line),
+        ]);
+        let machine = Machine::default();
+        let st = Stations::with_corners(
+            &path,
+            &machine,
+            0.5,
+            FeedPolicy::MachineMax,
+            Corners::Judged,
+        )
+        .expect("stations");
+        let n = st.len();
+        assert!(n > 40, "{n} stations");
+        let own =
+            |k: usize| path.segments[st.segment[k] as usize].tangent_at_fraction(st.fraction[k]);
+        let bits = |t: nalgebra::Vector3<f64>| t.map(f64::to_bits);
+        let mut recent = RecentTangents::new();
+        for k in 0..n {
+            assert_eq!(bits(recent.get(&st, k)), bits(own(k)), "station {k}");
+        }
+        let mut recent = RecentTangents::new();
+        for k in (0..n).rev().chain((0..n).step_by(7)) {
+            assert_eq!(bits(recent.get(&st, k)), bits(own(k)), "station {k}");
+        }
+        for k in 0..n - 1 {
+            let seg = &path.segments[st.segment[k + 1] as usize];
+            let start = if st.segment[k] == st.segment[k + 1] {
+                st.fraction[k]
+            } else {
+                0.0
+            };
+            let (t0, t1) = (
+                seg.tangent_at_fraction(start),
+                seg.tangent_at_fraction(st.fraction[k + 1]),
+            );
+            let (accel, jerk) = st.tangential_limits(k);
+            let want = st.limits_between(&t0, &t1);
+            assert_eq!(
+                (accel.to_bits(), jerk.to_bits()),
+                (want.0.to_bits(), want.1.to_bits()),
+                "interval {k}"
+            );
+        }
     }
 }
