@@ -734,6 +734,14 @@ impl<E: Envelope> StripJob<'_, E> {
                 // credited above are other slots), then their sums in column
                 // order: the same sums in the same order as one pass.
                 self.contacts(m, y, &mut cuts);
+                // The row's sums into the move's, in column order (held in
+                // registers over the row: the same additions in the same order).
+                let mut sums = [[0.0; HEAD]; 3];
+                sums[0].copy_from_slice(&all[..HEAD]);
+                if self.smooth {
+                    sums[1].copy_from_slice(&all[stride..stride + HEAD]);
+                    sums[2].copy_from_slice(&all[stride + HEAD..stride + 2 * HEAD]);
+                }
                 for i in 0..cuts.n {
                     let removed = cuts.removed[i];
                     let r_hat = cuts.r_hat[i];
@@ -743,19 +751,24 @@ impl<E: Envelope> StripJob<'_, E> {
                     column[CONTACT_Y] = removed * r_hat[1];
                     column[CHIP_AREA] = removed * cuts.inv_h[i];
                     column[OVER_RADIUS] = removed * cuts.inv_r[i];
-                    for (d, v) in all[..HEAD].iter_mut().zip(column) {
+                    for (d, v) in sums[0].iter_mut().zip(column) {
                         *d += v;
                     }
                     // Shares for the neighbours: head values only; bands and shank
                     // follow in proportion when the strips are reduced.
-                    for (k, slot) in [(0, stride), (1, stride + HEAD)] {
+                    for k in 0..2 {
                         let share = cuts.shares[i][k];
                         if share > 0.0 {
-                            for (d, v) in all[slot..slot + HEAD].iter_mut().zip(column) {
+                            for (d, v) in sums[1 + k].iter_mut().zip(column) {
                                 *d += share * v;
                             }
                         }
                     }
+                }
+                all[..HEAD].copy_from_slice(&sums[0]);
+                if self.smooth {
+                    all[stride..stride + HEAD].copy_from_slice(&sums[1]);
+                    all[stride + HEAD..stride + 2 * HEAD].copy_from_slice(&sums[2]);
                 }
                 cuts.n = 0;
             }
