@@ -127,6 +127,20 @@ pub(crate) struct CentreBounds {
 }
 
 impl Grid {
+    /// [`Grid::x_mm`] with the index converted through i32 (exact below 2³¹
+    /// columns, which a grid never reaches): a conversion the sweep's lanes
+    /// have packed, where usize to f64 has none. The same value.
+    #[inline(always)]
+    pub(crate) fn x_mm_in_lanes(&self, ix: usize) -> f64 {
+        self.x0_mm + ((ix as i32) as f64 + 0.5) * self.spacing_mm
+    }
+
+    /// [`Grid::y_mm`] as [`Grid::x_mm_in_lanes`] takes `x_mm`.
+    #[inline(always)]
+    pub(crate) fn y_mm_in_lanes(&self, iy: usize) -> f64 {
+        self.y0_mm + ((iy as i32) as f64 + 0.5) * self.spacing_mm
+    }
+
     /// [`Grid::ix_range`] as whole numbers in f64, free of branches, rounded
     /// by the library's `floor` and `ceil` (a rounding instruction where the
     /// caller is compiled for one): the same indices, for the sweep's rows in

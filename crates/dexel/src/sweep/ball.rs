@@ -130,8 +130,7 @@ impl Envelope for BallEnd {
         let n = tops.len();
         let (z_cut, t_cut) = (&mut hits.z_mm[..n], &mut hits.t[..n]);
         for (i, ((&top, z_out), t_out)) in tops.iter().zip(z_cut).zip(t_cut).enumerate() {
-            // `Grid::x_mm`, the index through i32 (exact): a packed conversion.
-            let x = grid.x0_mm + (((ix0 + i) as i32) as f64 + 0.5) * grid.spacing_mm;
+            let x = grid.x_mm_in_lanes(ix0 + i);
             let wx = x - m.p0[0];
             let stays = self.clears(m, wx, wy, top as f64);
             // `eval`: the body root, and the end sphere on t*'s side.

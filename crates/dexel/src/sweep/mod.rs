@@ -691,7 +691,6 @@ impl Prepared {
     ) -> u64 {
         debug_assert!(iy0 + rows <= i32::MAX as usize);
         debug_assert!(grid.nx <= i32::MAX as usize);
-        let g = grid.spacing_mm;
         let plunge = self.h2 <= PLUNGE_H2;
         let [ux, uy] = self.u;
         // Whether to narrow to the start, and how far behind it (loop-invariant
@@ -705,8 +704,7 @@ impl Prepared {
         let RowBounds { first, last } = bounds;
         let (first, last) = (&mut first[..rows], &mut last[..rows]);
         for (i, (first, last)) in first.iter_mut().zip(last.iter_mut()).enumerate() {
-            // `Grid::y_mm`, the index through i32 (exact): a packed conversion.
-            let y = grid.y0_mm + (((iy0 + i) as i32) as f64 + 0.5) * g;
+            let y = grid.y_mm_in_lanes(iy0 + i);
             let CentreBounds {
                 first: f,
                 last: l,

@@ -405,13 +405,11 @@ impl<E: Envelope> StripJob<'_, E> {
     #[inline(always)]
     fn reach_bounds_body(&self, m: &Prepared, iy0: usize, tops: &[f32], bounds: &mut RowBounds) {
         let zmin = m.zmin as f32;
-        let g = self.grid.spacing_mm;
         let rows = tops.len();
         let RowBounds { first, last } = bounds;
         let rows_bounds = first[..rows].iter_mut().zip(&mut last[..rows]);
         for (i, ((first, last), &top)) in rows_bounds.zip(tops).enumerate() {
-            // `Grid::y_mm`, the index through i32 (exact): a packed conversion.
-            let y = self.grid.y0_mm + (((iy0 + i) as i32) as f64 + 0.5) * g;
+            let y = self.grid.y_mm_in_lanes(iy0 + i);
             let (narrow, r) = match self.env.reach(m, top as f64 - m.zmin) {
                 Some(r) => (r < self.radius, r),
                 None => (false, 0.0),
@@ -734,8 +732,12 @@ impl<E: Envelope> StripJob<'_, E> {
                 // credited above are other slots), then their sums in column
                 // order: the same sums in the same order as one pass.
                 self.contacts(m, y, &mut cuts);
-                // The row's sums into the move's, in column order (held in
-                // registers over the row: the same additions in the same order).
+                // The row's sums into the move's head values and (smoothing)
+                // the shares for the previous and the next step, in column
+                // order, held in registers over the row: the same additions
+                // in the same order. (The three slots written out: a loop over
+                // them kept the sums in memory, 6 % slower on `sweep_stats`
+                // ball roughing.)
                 let mut sums = [[0.0; HEAD]; 3];
                 sums[0].copy_from_slice(&all[..HEAD]);
                 if self.smooth {
