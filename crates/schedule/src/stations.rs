@@ -528,9 +528,8 @@ impl Stations {
             };
 
             let start_tangent = seg.tangent_at_fraction(0.0);
-            // A line's tangent is the same at every fraction: its intervals' limits
-            // and its end's tangent are its start's.
-            let line = matches!(seg.geometry, Geometry::Line);
+            // A line's intervals' limits and its end's tangent are its start's.
+            let line = straight(&seg);
             let s_start_mm = match previous {
                 None => {
                     self.push(0.0, index, 0.0, cap_mm_min, kind);
@@ -950,8 +949,7 @@ impl Stations {
             0.0
         };
         let t0 = seg.tangent_at_fraction(start);
-        // A line's tangent is the same at both ends.
-        let t1 = if matches!(seg.geometry, Geometry::Line) {
+        let t1 = if straight(seg) {
             t0
         } else {
             seg.tangent_at_fraction(self.fraction[k + 1])
@@ -1091,15 +1089,6 @@ impl Stations {
         }
     }
 
-    /// Whether segment `segment` of the path is a straight line (its tangent the same
-    /// at every fraction).
-    fn is_line(&self, segment: u32) -> bool {
-        matches!(
-            self.path.segments[segment as usize].geometry,
-            Geometry::Line
-        )
-    }
-
     /// Unit tangent of station `k`'s segment there (incoming side at a corner; zero where
     /// nothing moves), made from the segment when asked.
     pub fn tangent_at(&self, k: usize) -> Vector3<f64> {
@@ -1172,11 +1161,16 @@ struct SampledLimit {
     budget: Option<[f64; 3]>,
 }
 
+/// Whether `seg` is a straight line: its tangent is the same at every fraction
+/// (`Segment::tangent_at_fraction` reads none), so one serves all its stations.
+fn straight(seg: &Segment) -> bool {
+    matches!(seg.geometry, Geometry::Line)
+}
+
 /// The unit tangents ([`Stations::tangent_at`]) of the last three stations asked for,
 /// one a slot by the station's index modulo 3: where stations are visited in order
 /// (each interval asking for both its ends), each tangent is made once. And the
-/// tangent of the last straight segment met: a line's is the same at every fraction
-/// (`Segment::tangent_at_fraction` reads none), so its stations share it.
+/// tangent of the last [`straight`] segment met, which its stations share.
 struct RecentTangents {
     station: [usize; 3],
     tangent: [Vector3<f64>; 3],
@@ -1204,7 +1198,7 @@ impl RecentTangents {
                 self.line_tangent
             } else {
                 let tangent = stations.tangent_at(k);
-                if stations.is_line(segment) {
+                if straight(&stations.path.segments[segment as usize]) {
                     (self.line, self.line_tangent) = (segment, tangent);
                 }
                 tangent
@@ -1300,11 +1294,14 @@ mod tangent_tests {
     use super::{Corners, FeedPolicy, RecentTangents, Stations};
     use crate::machine::Machine;
 
-    /// Lines in several directions (one of zero length), a helical arc and a
-    /// quarter circle: the stations' tangents taken through the recent tangents
-    /// (each line's shared by its stations), in order and out of it, and the
-    /// intervals' limits (a line's tangent taken once for both ends) are those
-    /// made from each station's segment and fraction, bit for bit.
+    /// Lines in several directions (one of zero length between two, which has
+    /// no stations: the next line starts anew), a helical arc and a quarter
+    /// circle, with a jerk limit: the stations' tangents taken through the
+    /// recent tangents (each line's shared by its stations), in order and out of
+    /// it, and the intervals' limits (a line's tangent taken once for both ends,
+    /// and in the fill its start's) are those made from each station's segment
+    /// and fraction, bit for bit. The jerk limits are the fill's alone (nothing
+    /// after it changes them).
     #[test]
     fn shared_line_tangents_are_each_stations_own() {
         let feed = Motion::feed(1800.0);
@@ -1340,7 +1337,10 @@ mod tangent_tests {
             ),
             segment([7.0, 10.0, 3.5], [-2.0, 10.0, 6.0], Geometry::Line),
         ]);
-        let machine = Machine::default();
+        let machine = Machine {
+            jerk_mm_s3: Some([20000.0, 15000.0, 5000.0]),
+            ..Machine::default()
+        };
         let st = Stations::with_corners(
             &path,
             &machine,
@@ -1380,6 +1380,8 @@ mod tangent_tests {
                 (want.0.to_bits(), want.1.to_bits()),
                 "interval {k}"
             );
+            let filled = st.interval_jerk_mm_s3().expect("a jerk limit")[k];
+            assert_eq!(filled.to_bits(), want.1.to_bits(), "interval {k} as filled");
         }
     }
 }
