@@ -111,6 +111,22 @@ pub enum LineKind {
     ProgramNumber(i64),
 }
 
+impl LineKind {
+    /// A line whose words and assignments are the arena's `len` items from
+    /// `start` (at most a line's bytes of them, so within u32): a block, or
+    /// where it has none, an empty line.
+    fn of_items(start: u32, len: usize) -> LineKind {
+        if len == 0 {
+            LineKind::Empty
+        } else {
+            LineKind::Block(Items {
+                start,
+                len: len as u32,
+            })
+        }
+    }
+}
+
 /// A parsed line.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Line {
@@ -295,12 +311,109 @@ pub fn split_lines(source: &str) -> impl Iterator<Item = (&str, &str)> {
 /// Parses one line (without its line terminator); a block's items are
 /// appended to `arena` (nothing is left there on an error).
 pub fn parse_line(text: &str, arena: &mut Vec<Item>) -> Result<Line, SyntaxError> {
+    if let Some(line) = parse_plain_words(text, arena) {
+        return Ok(line);
+    }
     let first = arena.len();
     let line = parse_line_into(text, arena);
     if line.is_err() {
         arena.truncate(first);
     }
     line
+}
+
+/// The line as [`parse_line_into`] reads it where it is a block of plain
+/// words, or None (the arena as it was) where it holds anything else.
+///
+/// A plain line is ASCII: blanks, an optional line number first (`N12`),
+/// then words, each a letter other than N and O followed at once by at most
+/// one sign and an unsigned decimal number (`X-1.5`, `g1`, `F.5`), the words
+/// apart or not (`G1X2`). That is what CAM systems write on nearly every
+/// motion line; a comment, a parameter, an expression, a blank inside a word
+/// or anything malformed leaves the line to the general reading, which
+/// reports its errors. The items, values, columns and spans are those the
+/// general reading makes (test `plain_words_read_as_the_general_reading_does`),
+/// without its character list, its number texts or its error paths: a
+/// program's lines are read twice ([`Lines::push_parsed_unkept`], then
+/// [`Lines::block_items`]), and these were half of reading a million-block
+/// program.
+fn parse_plain_words(text: &str, arena: &mut Vec<Item>) -> Option<Line> {
+    let bytes = text.as_bytes();
+    let arena_start = u32::try_from(arena.len()).ok()?;
+    u32::try_from(bytes.len()).ok()?;
+    let is_blank = |b: u8| b.is_ascii() && char::from(b).is_whitespace();
+    // An unsigned decimal number from `i` (digits with at most one point,
+    // at least one digit), as `Cursor::number` reads it: its end, or None.
+    let number_end = |i: usize| {
+        let mut end = i;
+        let mut dots = 0;
+        let mut digits = 0;
+        while let Some(&b) = bytes.get(end) {
+            match b {
+                b'0'..=b'9' => digits += 1,
+                b'.' => dots += 1,
+                _ => break,
+            }
+            end += 1;
+        }
+        (digits > 0 && dots <= 1).then_some(end)
+    };
+    // After a number, blanks, then a letter or the end: a digit or point
+    // would continue the number in the general reading (blanks are dropped
+    // there), anything else is not plain.
+    let next_word = |mut i: usize| {
+        while bytes.get(i).is_some_and(|&b| is_blank(b)) {
+            i += 1;
+        }
+        match bytes.get(i) {
+            None => Some(i),
+            Some(b) if b.is_ascii_alphabetic() => Some(i),
+            Some(_) => None,
+        }
+    };
+    let first = arena.len();
+    let plain = (|| {
+        let mut i = next_word(0)?;
+        if matches!(bytes.get(i), Some(b'n' | b'N')) {
+            i = next_word(number_end(i + 1)?)?;
+        }
+        while let Some(&b) = bytes.get(i) {
+            let letter = char::from(b.to_ascii_lowercase());
+            if letter == 'n' || letter == 'o' {
+                return None;
+            }
+            let sign = match bytes.get(i + 1) {
+                Some(b'-') => Some(true),
+                Some(b'+') => Some(false),
+                _ => None,
+            };
+            let digits = i + 1 + usize::from(sign.is_some());
+            let end = number_end(digits)?;
+            let num = Expr::Num(text[digits..end].parse().ok()?);
+            let value = if sign == Some(true) {
+                Expr::Neg(Box::new(num))
+            } else {
+                num
+            };
+            // Within the line, whose length is a u32 (checked above).
+            arena.push(Item {
+                kind: ItemKind::Word { letter, value },
+                col: i as u32 + 1,
+                start: i as u32,
+                end: end as u32,
+            });
+            i = next_word(end)?;
+        }
+        Some(())
+    })();
+    if plain.is_none() {
+        arena.truncate(first);
+        return None;
+    }
+    Some(Line {
+        block_delete: false,
+        kind: LineKind::of_items(arena_start, arena.len() - first),
+    })
 }
 
 fn parse_line_into(text: &str, arena: &mut Vec<Item>) -> Result<Line, SyntaxError> {
@@ -391,18 +504,9 @@ fn parse_line_into(text: &str, arena: &mut Vec<Item>) -> Result<Line, SyntaxErro
             end,
         });
     }
-    let len = arena.len() - first;
     Ok(Line {
         block_delete,
-        kind: if len == 0 {
-            LineKind::Empty
-        } else {
-            // At most a line's bytes of items, so within u32.
-            LineKind::Block(Items {
-                start: arena_start,
-                len: len as u32,
-            })
-        },
+        kind: LineKind::of_items(arena_start, arena.len() - first),
     })
 }
 
@@ -453,4 +557,174 @@ fn parse_oword(cur: &mut Cursor) -> Result<LineKind, SyntaxError> {
         args,
         col,
     })))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// The plain reading's line and arena.
+    type Plain = (Line, Vec<Item>);
+
+    /// The general reading of `text` into an arena that already holds an
+    /// item (so the lines' item ranges are checked off zero), and the plain
+    /// reading's where it takes the line; None where it leaves it.
+    fn both(text: &str) -> (Result<Line, SyntaxError>, Vec<Item>, Option<Plain>) {
+        let held = Item {
+            kind: ItemKind::Word {
+                letter: 'g',
+                value: Expr::Num(0.0),
+            },
+            col: 1,
+            start: 0,
+            end: 2,
+        };
+        let mut general = vec![held.clone()];
+        let line = parse_line_into(text, &mut general);
+        if line.is_err() {
+            general.truncate(1);
+        }
+        let mut plain = vec![held.clone()];
+        let fast = parse_plain_words(text, &mut plain).map(|l| (l, plain.clone()));
+        if fast.is_none() {
+            assert_eq!(plain, [held], "{text:?}: the plain reading left items");
+        }
+        (line, general, fast)
+    }
+
+    /// Every item the same, its value to the bit (a sign kept as written).
+    fn same_values(a: &[Item], b: &[Item]) -> bool {
+        format!("{a:?}") == format!("{b:?}")
+            && a.iter().zip(b).all(|(x, y)| match (&x.kind, &y.kind) {
+                (ItemKind::Word { value: v, .. }, ItemKind::Word { value: w, .. }) => {
+                    bits(v) == bits(w)
+                }
+                _ => false,
+            })
+    }
+
+    fn bits(value: &Expr) -> Option<(bool, u64)> {
+        match value {
+            Expr::Num(x) => Some((false, x.to_bits())),
+            Expr::Neg(inner) => match **inner {
+                Expr::Num(x) => Some((true, x.to_bits())),
+                _ => None,
+            },
+            _ => None,
+        }
+    }
+
+    fn check(text: &str) -> bool {
+        let (line, general, fast) = both(text);
+        match fast {
+            None => false,
+            Some((fast_line, items)) => {
+                assert_eq!(line.as_ref(), Ok(&fast_line), "{text:?}");
+                assert!(
+                    same_values(&general, &items),
+                    "{text:?}: {general:?} against {items:?}"
+                );
+                true
+            }
+        }
+    }
+
+    #[test]
+    fn plain_words_read_as_the_general_reading_does() {
+        for text in [
+            "",
+            "   \t",
+            "G1 X99.5996 Y0.0000 Z-1.0581 F3000",
+            "g1x-.5y+2.z3",
+            "N0010 G01 X1.5",
+            "n5g0x1",
+            "X-0",
+            "G1 X1e5",
+            "M3 S12000\x0b",
+        ] {
+            assert!(check(text), "{text:?} is plain");
+        }
+        // Left to the general reading, which reads or rejects them.
+        for text in [
+            "G1 X1 (comment)",
+            "G1 X1 ; note",
+            "/G1 X1",
+            "%",
+            "G1 X 1",
+            "G1 X1 .5",
+            "G1 X1.2.3",
+            "G1 X--1",
+            "G1 X+-1",
+            "G1 X#1",
+            "G1 X[1+2]",
+            "#1=2",
+            "N 10 G1",
+            "N10 O100 sub",
+            "O100 call",
+            "G1 N10",
+            "G1 X1 Y",
+            "G1 Xé1",
+            "G1 X1 é",
+            "@1 ^2",
+            "G1 X-",
+            "X.",
+        ] {
+            assert!(!check(text), "{text:?} is not plain");
+        }
+    }
+
+    /// Every line of the real programs in tests/data/real (most of them
+    /// plain: 51 711 of 56 620 lines): the plain reading reads what the
+    /// general reading reads.
+    #[test]
+    fn plain_words_of_real_programs_read_as_the_general_reading_does() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/real");
+        let (mut lines, mut plain) = (0, 0);
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let bytes = std::fs::read(entry.unwrap().path()).unwrap();
+            let source = String::from_utf8_lossy(&bytes);
+            for (text, _) in split_lines(&source) {
+                lines += 1;
+                plain += usize::from(check(text));
+            }
+        }
+        assert!(
+            lines > 50_000 && plain * 10 > lines * 8,
+            "{plain} of {lines}"
+        );
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(4000))]
+        /// Lines made of words, numbers, signs, blanks and the characters
+        /// that are not plain: where the plain reading takes one it reads
+        /// what the general reading reads, and it takes every line of words.
+        #[test]
+        fn plain_reading_agrees_on_any_line(
+            parts in prop::collection::vec(prop::sample::select(vec![
+                "G", "x", "Y", "n", "N", "o", "O", "e", "-", "+", ".", "0", "1", "5", "99",
+                " ", "\t", "\x0b", "(", ")", ";", "#", "[", "]", "=", "/", "%", "é", "@",
+            ]), 0..14),
+            words in prop::collection::vec(
+                (prop::sample::select(vec!['G', 'x', 'Y', 'z', 'F', 'i', 'M']),
+                 prop::sample::select(vec!["", "-", "+"]),
+                 0u32..100_000, 0usize..5, any::<bool>(),
+                 prop::sample::select(vec!["", " ", "  ", "\t"])),
+                0..8),
+        ) {
+            check(&parts.concat());
+            let mut line = String::new();
+            for (letter, sign, value, point, lead, blank) in &words {
+                let digits = value.to_string();
+                let at = (*point).min(digits.len());
+                let number = if *lead { format!(".{digits}") } else {
+                    format!("{}.{}", &digits[..at], &digits[at..])
+                };
+                line.push_str(&format!("{letter}{sign}{number}{blank}"));
+            }
+            // Words apart by blanks or not at all are plain.
+            prop_assert!(check(&line), "{:?}", line);
+        }
+    }
 }
