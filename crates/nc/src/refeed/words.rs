@@ -74,8 +74,30 @@ pub(super) fn f_word(
     let magnitude = value.abs().log10().floor() as i32;
     let decimals = (5 - magnitude).clamp(3, 8);
     let unit = 10f64.powi(decimals);
-    let v = ((value * unit * (1.0 + 1e-12)).floor() / unit).max(1.0 / unit);
-    format!("F{}", trim_number(&format!("{v:.*}", decimals as usize)))
+    // The feed is q / unit: its digits, `decimals` of them after the point.
+    let q = (value * unit * (1.0 + 1e-12)).floor().max(1.0);
+    format!("F{}", fixed_point(q, decimals as usize))
+}
+
+/// `q / 10^decimals` (q a whole number at least 1, decimals ≤ 8) as
+/// `trim_number(&format!("{v:.decimals$}"))` writes v = q / 10^decimals,
+/// without the float formatting where q < 2⁵⁰: v is within 2⁻⁵³·v of
+/// q / 10^decimals, far less than half the last decimal, so its digits
+/// rounded to `decimals` places are q's (test
+/// `fixed_point_writes_what_float_formatting_writes`).
+fn fixed_point(q: f64, decimals: usize) -> String {
+    if !(1.0..(1u64 << 50) as f64).contains(&q) {
+        let v = q / 10f64.powi(decimals as i32);
+        return trim_number(&format!("{v:.decimals$}"));
+    }
+    let digits = format!("{:0width$}", q as u64, width = decimals + 1);
+    let (whole, fraction) = digits.split_at(digits.len() - decimals);
+    let fraction = fraction.trim_end_matches('0');
+    if fraction.is_empty() {
+        whole.to_string()
+    } else {
+        format!("{whole}.{fraction}")
+    }
 }
 
 pub(super) fn f_value(word: &str) -> f64 {
@@ -347,5 +369,38 @@ pub(super) fn eol_or_newline(eol: &str) -> &str {
         "\n"
     } else {
         eol
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The digits written without float formatting are those of the
+    /// formatted value, over whole numbers of every size up to 2⁵⁰ and past
+    /// it, at 3 to 8 decimals.
+    #[test]
+    fn fixed_point_writes_what_float_formatting_writes() {
+        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for i in 0..400_000 {
+            let decimals = 3 + (i % 6);
+            let bits = 1 + next() % 56;
+            let q = ((next() >> (64 - bits)) as f64).max(1.0);
+            let v = q / 10f64.powi(decimals as i32);
+            assert_eq!(
+                fixed_point(q, decimals),
+                trim_number(&format!("{v:.decimals$}")),
+                "{q} at {decimals} decimals"
+            );
+        }
+        assert_eq!(fixed_point(1.0, 3), "0.001");
+        assert_eq!(fixed_point(1_200_000.0, 5), "12");
+        assert_eq!(fixed_point(1_234_500.0, 3), "1234.5");
     }
 }
