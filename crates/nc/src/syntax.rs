@@ -189,6 +189,20 @@ impl Lines {
     /// where it begins ([`Lines::push_start`] before a line pushed
     /// otherwise).
     pub fn push_parsed_unkept(&mut self, text: &str, start: usize) -> Result<(), SyntaxError> {
+        // A plain line's words are only counted: each is a letter and a
+        // decimal number, which always reads as a value.
+        if let Some(words) = plain_words(text, |_| Some(())) {
+            self.lines.push(Some(Line {
+                block_delete: false,
+                kind: if words == 0 {
+                    LineKind::Empty
+                } else {
+                    LineKind::Block(Items::UNKEPT)
+                },
+            }));
+            self.starts.push(start);
+            return Ok(());
+        }
         let first = self.items.len();
         self.push_parsed(text)?;
         self.starts.push(start);
@@ -338,8 +352,51 @@ pub fn parse_line(text: &str, arena: &mut Vec<Item>) -> Result<Line, SyntaxError
 /// [`Lines::block_items`]), and these were half of reading a million-block
 /// program.
 fn parse_plain_words(text: &str, arena: &mut Vec<Item>) -> Option<Line> {
-    let bytes = text.as_bytes();
     let arena_start = u32::try_from(arena.len()).ok()?;
+    let first = arena.len();
+    let words = plain_words(text, |word| {
+        let num = Expr::Num(text[word.digits.clone()].parse().ok()?);
+        let value = if word.negative {
+            Expr::Neg(Box::new(num))
+        } else {
+            num
+        };
+        // Within the line, whose length is a u32 (checked by `plain_words`).
+        arena.push(Item {
+            kind: ItemKind::Word {
+                letter: word.letter,
+                value,
+            },
+            col: word.at as u32 + 1,
+            start: word.at as u32,
+            end: word.digits.end as u32,
+        });
+        Some(())
+    });
+    let Some(words) = words else {
+        arena.truncate(first);
+        return None;
+    };
+    Some(Line {
+        block_delete: false,
+        kind: LineKind::of_items(arena_start, words),
+    })
+}
+
+/// One word of a plain line: its letter (lower case) at byte `at`, its sign
+/// and the bytes of its unsigned number.
+struct PlainWord {
+    letter: char,
+    at: usize,
+    negative: bool,
+    digits: Range<usize>,
+}
+
+/// The words of `text` where it is a plain line ([`parse_plain_words`]),
+/// each given to `word` in turn: their count, or None where the line is not
+/// plain or `word` says None (after some words, maybe).
+fn plain_words(text: &str, mut word: impl FnMut(PlainWord) -> Option<()>) -> Option<usize> {
+    let bytes = text.as_bytes();
     u32::try_from(bytes.len()).ok()?;
     let is_blank = |b: u8| b.is_ascii() && char::from(b).is_whitespace();
     // An unsigned decimal number from `i` (digits with at most one point,
@@ -371,49 +428,29 @@ fn parse_plain_words(text: &str, arena: &mut Vec<Item>) -> Option<Line> {
             Some(_) => None,
         }
     };
-    let first = arena.len();
-    let plain = (|| {
-        let mut i = next_word(0)?;
-        if matches!(bytes.get(i), Some(b'n' | b'N')) {
-            i = next_word(number_end(i + 1)?)?;
-        }
-        while let Some(&b) = bytes.get(i) {
-            let letter = char::from(b.to_ascii_lowercase());
-            if letter == 'n' || letter == 'o' {
-                return None;
-            }
-            let sign = match bytes.get(i + 1) {
-                Some(b'-') => Some(true),
-                Some(b'+') => Some(false),
-                _ => None,
-            };
-            let digits = i + 1 + usize::from(sign.is_some());
-            let end = number_end(digits)?;
-            let num = Expr::Num(text[digits..end].parse().ok()?);
-            let value = if sign == Some(true) {
-                Expr::Neg(Box::new(num))
-            } else {
-                num
-            };
-            // Within the line, whose length is a u32 (checked above).
-            arena.push(Item {
-                kind: ItemKind::Word { letter, value },
-                col: i as u32 + 1,
-                start: i as u32,
-                end: end as u32,
-            });
-            i = next_word(end)?;
-        }
-        Some(())
-    })();
-    if plain.is_none() {
-        arena.truncate(first);
-        return None;
+    let mut i = next_word(0)?;
+    if matches!(bytes.get(i), Some(b'n' | b'N')) {
+        i = next_word(number_end(i + 1)?)?;
     }
-    Some(Line {
-        block_delete: false,
-        kind: LineKind::of_items(arena_start, arena.len() - first),
-    })
+    let mut words = 0;
+    while let Some(&b) = bytes.get(i) {
+        let letter = char::from(b.to_ascii_lowercase());
+        if letter == 'n' || letter == 'o' {
+            return None;
+        }
+        let sign = bytes.get(i + 1).filter(|&&b| b == b'-' || b == b'+');
+        let start = i + 1 + usize::from(sign.is_some());
+        let end = number_end(start)?;
+        word(PlainWord {
+            letter,
+            at: i,
+            negative: sign == Some(&b'-'),
+            digits: start..end,
+        })?;
+        words += 1;
+        i = next_word(end)?;
+    }
+    Some(words)
 }
 
 fn parse_line_into(text: &str, arena: &mut Vec<Item>) -> Result<Line, SyntaxError> {
@@ -618,9 +655,19 @@ mod tests {
     fn check(text: &str) -> bool {
         let (line, general, fast) = both(text);
         match fast {
-            None => false,
+            None => {
+                assert_eq!(plain_words(text, |_| Some(())), None, "{text:?}");
+                false
+            }
             Some((fast_line, items)) => {
                 assert_eq!(line.as_ref(), Ok(&fast_line), "{text:?}");
+                // Counted without their values, as a reading that keeps no
+                // items checks the line.
+                assert_eq!(
+                    plain_words(text, |_| Some(())),
+                    Some(items.len() - 1),
+                    "{text:?}"
+                );
                 assert!(
                     same_values(&general, &items),
                     "{text:?}: {general:?} against {items:?}"
@@ -693,6 +740,41 @@ mod tests {
             lines > 50_000 && plain * 10 > lines * 8,
             "{plain} of {lines}"
         );
+    }
+
+    /// A reading that keeps no items holds, line for line, what it held when
+    /// every line was parsed with its values and its items then dropped.
+    #[test]
+    fn unkept_plain_lines_are_the_parsed_lines_without_their_items() {
+        let source = "G21 G90\nN10 G1 X1 Y-2.5 F300\n\n(comment)\nG1 X#1\n  \ng2x1y1i.5j0\nG1 X1 .5\n%\n";
+        let mut unkept = Lines::default();
+        let mut oracle = Lines::default();
+        let mut start = 0;
+        for (text, eol) in split_lines(source) {
+            let got = unkept.push_parsed_unkept(text, start);
+            let first = oracle.items.len();
+            let want = oracle.push_parsed(text).map(|()| {
+                if let Some(Some(Line {
+                    kind: LineKind::Block(items),
+                    ..
+                })) = oracle.lines.last_mut()
+                {
+                    *items = Items::UNKEPT;
+                }
+                oracle.items.truncate(first);
+                oracle.starts.push(start);
+            });
+            if want.is_err() {
+                oracle.push_error();
+                unkept.push_error();
+                oracle.starts.push(start);
+                unkept.push_start(start);
+            }
+            assert_eq!(got, want, "{text:?}");
+            start += text.len() + eol.len();
+        }
+        assert_eq!(unkept, oracle);
+        assert_eq!(unkept.held().0, 0);
     }
 
     proptest! {
