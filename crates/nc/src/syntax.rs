@@ -746,7 +746,8 @@ mod tests {
     /// every line was parsed with its values and its items then dropped.
     #[test]
     fn unkept_plain_lines_are_the_parsed_lines_without_their_items() {
-        let source = "G21 G90\nN10 G1 X1 Y-2.5 F300\n\n(comment)\nG1 X#1\n  \ng2x1y1i.5j0\nG1 X1 .5\n%\n";
+        let source =
+            "G21 G90\nN10 G1 X1 Y-2.5 F300\n\n(comment)\nG1 X#1\n  \ng2x1y1i.5j0\nG1 X1 .5\n%\n";
         let mut unkept = Lines::default();
         let mut oracle = Lines::default();
         let mut start = 0;
