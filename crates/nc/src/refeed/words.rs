@@ -71,8 +71,11 @@ pub(super) fn f_word(
         feed_mm_min / scale
     };
     // Six significant digits (at least three decimals), rounded down.
+    // (A feed of 0, refused before any F word is written, would give
+    // log10 = −∞, i32::MIN: wrapped, as a release build always did, to 3
+    // decimals, not a panic.)
     let magnitude = value.abs().log10().floor() as i32;
-    let decimals = (5 - magnitude).clamp(3, 8);
+    let decimals = 5i32.wrapping_sub(magnitude).clamp(3, 8);
     let unit = 10f64.powi(decimals);
     // The feed is q / unit: its digits, `decimals` of them after the point.
     let q = (value * unit * (1.0 + 1e-12)).floor().max(1.0);
@@ -400,6 +403,29 @@ mod tests {
             );
         }
         assert_eq!(fixed_point(1.0, 3), "0.001");
+        // Six significant digits rounded down, at least three decimals, and
+        // never below the last decimal (a feed of 0 included).
+        let trace = SegmentTrace {
+            line_index: 0,
+            scale: 1.0,
+            feed_scale: 1.0,
+            incremental: false,
+            arc_incremental: false,
+            inverse_time: false,
+            offset_mm: [0.0; 3],
+            compensated: false,
+            rotated: false,
+            spindle_cycle: false,
+        };
+        for (feed, word) in [
+            (1234.5678, "F1234.567"),
+            (0.123456789, "F0.123456"),
+            (3000.0, "F3000"),
+            (250_000.0, "F250000"),
+            (0.0, "F0.001"),
+        ] {
+            assert_eq!(f_word(&trace, feed, 1.0, false), word, "{feed}");
+        }
         assert_eq!(fixed_point(1_200_000.0, 5), "12");
         assert_eq!(fixed_point(1_234_500.0, 3), "1234.5");
     }
