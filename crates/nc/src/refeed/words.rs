@@ -403,8 +403,15 @@ mod tests {
             );
         }
         assert_eq!(fixed_point(1.0, 3), "0.001");
-        // Six significant digits rounded down, at least three decimals, and
-        // never below the last decimal (a feed of 0 included).
+        assert_eq!(fixed_point(1_200_000.0, 5), "12");
+        assert_eq!(fixed_point(1_234_500.0, 3), "1234.5");
+    }
+
+    /// An F word keeps six significant digits rounded down, at least three
+    /// decimals, and never goes below the last decimal (a feed of 0
+    /// included, which overflowed in a debug build before 3ba618b).
+    #[test]
+    fn f_words_keep_six_digits_rounded_down() {
         let trace = SegmentTrace {
             line_index: 0,
             scale: 1.0,
@@ -426,7 +433,5 @@ mod tests {
         ] {
             assert_eq!(f_word(&trace, feed, 1.0, false), word, "{feed}");
         }
-        assert_eq!(fixed_point(1_200_000.0, 5), "12");
-        assert_eq!(fixed_point(1_234_500.0, 3), "1234.5");
     }
 }
