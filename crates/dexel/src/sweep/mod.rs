@@ -870,7 +870,7 @@ struct Edge {
 #[inline]
 fn torus_edge(h: f64, r: f64, rc: f64, ring: f64) -> Edge {
     // Both the flank's edge and the corner's, the one that applies taken by a
-    // select: the contacts' loop over a row's cuts runs in lanes.
+    // select: the contacts' loop over a move's cuts runs in lanes.
     let flank = h >= rc;
     let e = (h * (2.0 * rc - h)).sqrt().max(MIN_EDGE_RADIUS * rc);
     let inv_e = 1.0 / e;

@@ -199,21 +199,24 @@ fn trapezoid_cdf(x: f64, a: f64, b: f64) -> f64 {
     }
 }
 
-/// The columns cut on the current row by one move, and their contacts
-/// (MODEL.md §1.4, §1.5, §3.2), column by column in arrays of the row's
-/// length (allocated once per strip and batch: 16 arrays of `nx`). The contacts are computed in phases
-/// over the whole row, each a loop of independent arithmetic free of the
+/// The columns cut by one move, row after row, and their contacts (MODEL.md
+/// §1.4, §1.5, §3.2), column by column in arrays of a row's length (allocated
+/// once per strip and batch: 17 arrays of `nx`), taken until the next row
+/// might not fit or the move ends. The contacts are computed in phases over
+/// every cut taken (a few columns a row where a step is short against the
+/// cell, so the phases run over many rows at once), each a loop of independent arithmetic free of the
 /// cut's branches (square roots and divisions of many columns in flight, in
 /// vector registers where the compiler packs them); only the columns whose
 /// chip thickness needs a mean over the cell or the piece's heights take the
 /// scalar arcsines. Every value is the same expression of the same inputs as
 /// one column at a time, so results are the same bit for bit.
 #[cfg_attr(test, derive(Clone))]
-struct RowCuts {
-    /// Cuts on the row so far.
+struct MoveCuts {
+    /// Cuts taken so far.
     n: usize,
-    /// Column centre's X, mm, and the move parameter where it was cut.
+    /// Column centre's X and Y, mm, and the move parameter where it was cut.
     x: Vec<f64>,
+    y: Vec<f64>,
     t: Vec<f64>,
     /// Heights above the tip of the column's top before the cut and of the cut, mm.
     h_top: Vec<f64>,
@@ -243,12 +246,13 @@ struct RowCuts {
     mean: Vec<u32>,
 }
 
-impl RowCuts {
-    fn new(nx: usize) -> RowCuts {
+impl MoveCuts {
+    fn new(nx: usize) -> MoveCuts {
         let v = || vec![0.0; nx];
-        RowCuts {
+        MoveCuts {
             n: 0,
             x: v(),
+            y: v(),
             t: v(),
             h_top: v(),
             h_bot: v(),
@@ -266,11 +270,19 @@ impl RowCuts {
         }
     }
 
-    /// Record a cut column (at most one per column of the row).
+    /// Whether a row of `columns` more columns fits.
     #[inline]
-    fn push(&mut self, x: f64, t: f64, h_top: f64, h_bot: f64, removed: f64) {
+    fn fits(&self, columns: usize) -> bool {
+        self.n + columns <= self.x.len()
+    }
+
+    /// Record a cut column (at most one per column of a row; room for the row
+    /// checked with [`MoveCuts::fits`]).
+    #[inline]
+    fn push(&mut self, x: f64, y: f64, t: f64, h_top: f64, h_bot: f64, removed: f64) {
         let i = self.n;
         self.x[i] = x;
+        self.y[i] = y;
         self.t[i] = t;
         self.h_top[i] = h_top;
         self.h_bot[i] = h_bot;
@@ -317,20 +329,17 @@ impl<E: Envelope> StripJob<'_, E> {
         partial_width(self.banding, self.smooth)
     }
 
-    /// How the edge met each column cut on the row at `y` (`cuts`, cut by
-    /// `m`; MODEL.md §1.4, §1.5, §3.2), in phases over the row (see
-    /// [`RowCuts`]): `r_hat`, `inv_r`, `inv_h` and `shares` of each cut.
+    /// How the edge met each column cut (`cuts`, cut by `m`; MODEL.md §1.4,
+    /// §1.5, §3.2), in phases over the cuts (see [`MoveCuts`]): `r_hat`,
+    /// `inv_r`, `inv_h` and `shares` of each cut.
     ///
     /// On an x86-64 processor with AVX2 and FMA the same code compiled for
     /// them ([`StripJob::contacts_avx2`]): the phases take four columns an
     /// instruction instead of two. Each lane's arithmetic is the same IEEE
     /// operation (Rust never fuses a multiply and an add unless asked), so
     /// the results are the same bit for bit.
-    fn contacts(&self, m: &Prepared, y: f64, cuts: &mut RowCuts) {
-        with_avx2!(
-            self.contacts_avx2(m, y, cuts),
-            self.contacts_body(m, y, cuts)
-        )
+    fn contacts(&self, m: &Prepared, cuts: &mut MoveCuts) {
+        with_avx2!(self.contacts_avx2(m, cuts), self.contacts_body(m, cuts))
     }
 
     /// [`Envelope::row_hits`] of the columns `ix0, ix0 + 1, …` (tops `tops`)
@@ -437,17 +446,18 @@ impl<E: Envelope> StripJob<'_, E> {
     /// [`StripJob::contacts_body`] compiled for AVX2 and FMA.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    fn contacts_avx2(&self, m: &Prepared, y: f64, cuts: &mut RowCuts) {
-        self.contacts_body(m, y, cuts)
+    fn contacts_avx2(&self, m: &Prepared, cuts: &mut MoveCuts) {
+        self.contacts_body(m, cuts)
     }
 
     /// The phases of [`StripJob::contacts`], inlined into each of its compilations.
     #[inline(always)]
-    fn contacts_body(&self, m: &Prepared, y: f64, cuts: &mut RowCuts) {
+    fn contacts_body(&self, m: &Prepared, cuts: &mut MoveCuts) {
         let n = cuts.n;
         let g = self.grid.spacing_mm;
-        let RowCuts {
+        let MoveCuts {
             x,
+            y,
             t,
             h_top,
             h_bot,
@@ -463,7 +473,8 @@ impl<E: Envelope> StripJob<'_, E> {
             mean,
             ..
         } = cuts;
-        let (x, t, h_top, h_bot) = (&x[..n], &t[..n], &h_top[..n], &h_bot[..n]);
+        let (x, y, t) = (&x[..n], &y[..n], &t[..n]);
+        let (h_top, h_bot) = (&h_top[..n], &h_bot[..n]);
         let (r_mm, inv_r, inv_sin_k) = (&mut r_mm[..n], &mut inv_r[..n], &mut inv_sin_k[..n]);
         let (sin_t, cos_t) = (&mut sin_t[..n], &mut cos_t[..n]);
         let (inv_h, inv_side) = (&mut inv_h[..n], &mut inv_side[..n]);
@@ -490,7 +501,7 @@ impl<E: Envelope> StripJob<'_, E> {
             for i in 0..n {
                 let (ax, ay) = (
                     x[i] - (m.p0[0] + t[i] * m.d[0]),
-                    y - (m.p0[1] + t[i] * m.d[1]),
+                    y[i] - (m.p0[1] + t[i] * m.d[1]),
                 );
                 let dist = ax.hypot(ay);
                 r_hat[i] = if dist > 1e-12 {
@@ -506,9 +517,8 @@ impl<E: Envelope> StripJob<'_, E> {
         // the angle θ from the feed direction with sin θ = e / r (e: the
         // column's signed offset to the left of the move's line).
         let [ux, uy] = m.u;
-        let wy = y - m.p0[1];
         for i in 0..n {
-            let wx = x[i] - m.p0[0];
+            let (wx, wy) = (x[i] - m.p0[0], y[i] - m.p0[1]);
             let s = ((ux * wy - uy * wx) * inv_r[i]).clamp(-1.0, 1.0);
             let c = (1.0 - s * s).sqrt();
             sin_t[i] = s;
@@ -553,7 +563,7 @@ impl<E: Envelope> StripJob<'_, E> {
             } else {
                 // Away from the flank, a closed form over the piece's heights
                 // where the tool has one (a ball: κ and θ both vary with the height).
-                let wx = x[i] - m.p0[0];
+                let (wx, wy) = (x[i] - m.p0[0], y[i] - m.p0[1]);
                 self.env
                     .mean_inv_side(h_bot, h_top, ux * wy - uy * wx)
                     .unwrap_or_else(|| (1.0 / cos_t[i]) * self.env.mean_inv_sin_k(h_bot, h_top))
@@ -566,7 +576,7 @@ impl<E: Envelope> StripJob<'_, E> {
         for i in 0..n {
             let side_cut = inv_side[i] <= inv_h[i];
             inv_h[i] = inv_h[i].min(inv_side[i]);
-            let wx = x[i] - m.p0[0];
+            let (wx, wy) = (x[i] - m.p0[0], y[i] - m.p0[1]);
             let c = cos_t[i];
             let s_c = ((wx * ux + wy * uy) - r_mm[i] * c).clamp(0.0, m.len_xy);
             let (a, b) = (g * r_hat[i][0].abs(), g * r_hat[i][1].abs());
@@ -603,12 +613,11 @@ impl<E: Envelope> StripJob<'_, E> {
         let nx = self.grid.nx;
         let n_bands = self.banding.n_bands;
         let rows = cols.len() / nx;
-        let stride = HEAD + self.banding.n_bands;
         let width = self.width();
         let area = self.grid.cell_area_mm2();
         let mut visited = 0u64;
-        // Cut columns of the current row, awaiting their contact (allocated once per strip).
-        let mut cuts = RowCuts::new(nx);
+        // Cut columns of the current move, awaiting their contact (allocated once per strip).
+        let mut cuts = MoveCuts::new(nx);
         // The height each column of a row is cut to and where (`Envelope::row_hits`).
         let in_lanes = self.env.row_in_lanes();
         let mut hits = RowHits::new(if in_lanes { nx } else { 0 });
@@ -686,6 +695,9 @@ impl<E: Envelope> StripJob<'_, E> {
                 let Some((ix0, ix1)) = bounds.row(iy - iy0) else {
                     continue;
                 };
+                if !cuts.fits(ix1 - ix0 + 1) {
+                    self.credit_cuts(m, &mut cuts, all);
+                }
                 let y = self.grid.y_mm(iy);
                 let wy = y - m.p0[1];
                 let base = (iy - row0) * nx;
@@ -725,60 +737,71 @@ impl<E: Envelope> StripJob<'_, E> {
                     });
                     if removed > 0.0 {
                         last_cut[base + ix] = step_index;
-                        cuts.push(x, t, top as f64 - z_tip, z as f64 - z_tip, removed);
+                        cuts.push(x, y, t, top as f64 - z_tip, z as f64 - z_tip, removed);
                     }
                 }
-                // The row's contacts after its cuts (the bands and shank
-                // credited above are other slots), then their sums in column
-                // order: the same sums in the same order as one pass.
-                self.contacts(m, y, &mut cuts);
-                // The row's sums into the move's head values and (smoothing)
-                // the shares for the previous and the next step, in column
-                // order, held in registers over the row: the same additions
-                // in the same order. (The three slots written out: a loop over
-                // them kept the sums in memory, 6 % slower on `sweep_stats`
-                // ball roughing.)
-                let mut sums = [[0.0; HEAD]; 3];
-                sums[0].copy_from_slice(&all[..HEAD]);
-                if self.smooth {
-                    sums[1].copy_from_slice(&all[stride..stride + HEAD]);
-                    sums[2].copy_from_slice(&all[stride + HEAD..stride + 2 * HEAD]);
-                }
-                for i in 0..cuts.n {
-                    let removed = cuts.removed[i];
-                    let r_hat = cuts.r_hat[i];
-                    let mut column = [0.0; HEAD];
-                    column[VOLUME] = removed;
-                    column[CONTACT_X] = removed * r_hat[0];
-                    column[CONTACT_Y] = removed * r_hat[1];
-                    column[CHIP_AREA] = removed * cuts.inv_h[i];
-                    column[OVER_RADIUS] = removed * cuts.inv_r[i];
-                    for (d, v) in sums[0].iter_mut().zip(column) {
-                        *d += v;
-                    }
-                    // Shares for the neighbours: head values only; bands and shank
-                    // follow in proportion when the strips are reduced.
-                    for k in 0..2 {
-                        let share = cuts.shares[i][k];
-                        if share > 0.0 {
-                            for (d, v) in sums[1 + k].iter_mut().zip(column) {
-                                *d += share * v;
-                            }
-                        }
-                    }
-                }
-                all[..HEAD].copy_from_slice(&sums[0]);
-                if self.smooth {
-                    all[stride..stride + HEAD].copy_from_slice(&sums[1]);
-                    all[stride + HEAD..stride + 2 * HEAD].copy_from_slice(&sums[2]);
-                }
-                cuts.n = 0;
             }
+            self.credit_cuts(m, &mut cuts, all);
             for v in all.iter_mut() {
                 *v *= area;
             }
         }
         visited
+    }
+
+    /// The contacts of the cuts taken (`cuts`, cut by `m`), then their sums
+    /// into the move's head values `all` and (smoothing) the shares for the
+    /// previous and the next step, in the order they were cut: the same sums in
+    /// the same order as one pass, however the cuts are taken. Leaves `cuts`
+    /// empty.
+    #[inline]
+    fn credit_cuts(&self, m: &Prepared, cuts: &mut MoveCuts, all: &mut [f64]) {
+        if cuts.n == 0 {
+            return;
+        }
+        let stride = HEAD + self.banding.n_bands;
+        // The contacts after the cuts (the bands and shank credited
+        // as they were cut are other slots).
+        self.contacts(m, cuts);
+        // The sums held in registers over the cuts: the same additions
+        // in the same order. (The three slots written out: a loop over
+        // them kept the sums in memory, 6 % slower on `sweep_stats`
+        // ball roughing.)
+        let mut sums = [[0.0; HEAD]; 3];
+        sums[0].copy_from_slice(&all[..HEAD]);
+        if self.smooth {
+            sums[1].copy_from_slice(&all[stride..stride + HEAD]);
+            sums[2].copy_from_slice(&all[stride + HEAD..stride + 2 * HEAD]);
+        }
+        for i in 0..cuts.n {
+            let removed = cuts.removed[i];
+            let r_hat = cuts.r_hat[i];
+            let mut column = [0.0; HEAD];
+            column[VOLUME] = removed;
+            column[CONTACT_X] = removed * r_hat[0];
+            column[CONTACT_Y] = removed * r_hat[1];
+            column[CHIP_AREA] = removed * cuts.inv_h[i];
+            column[OVER_RADIUS] = removed * cuts.inv_r[i];
+            for (d, v) in sums[0].iter_mut().zip(column) {
+                *d += v;
+            }
+            // Shares for the neighbours: head values only; bands and shank
+            // follow in proportion when the strips are reduced.
+            for k in 0..2 {
+                let share = cuts.shares[i][k];
+                if share > 0.0 {
+                    for (d, v) in sums[1 + k].iter_mut().zip(column) {
+                        *d += share * v;
+                    }
+                }
+            }
+        }
+        all[..HEAD].copy_from_slice(&sums[0]);
+        if self.smooth {
+            all[stride..stride + HEAD].copy_from_slice(&sums[1]);
+            all[stride + HEAD..stride + 2 * HEAD].copy_from_slice(&sums[2]);
+        }
+        cuts.n = 0;
     }
 
     /// The rows `iy0..=iy1` of the strip that the move can cut, given the
@@ -1265,21 +1288,22 @@ mod tests {
                             first_step: 0,
                             smooth,
                         };
-                        let mut cuts = RowCuts::new(200);
-                        let y = 2.9 * (2.0 * lcg(&mut seed) - 1.0);
+                        let mut cuts = MoveCuts::new(200);
                         for i in 0..200 {
+                            // Cuts of several rows, as a move takes them.
+                            let y = 2.9 * (2.0 * lcg(&mut seed) - 1.0);
                             let h_top = 5.0 * lcg(&mut seed);
                             // Thin pieces (slivers) and thick ones.
                             let depth = if i % 3 == 0 { 0.01 } else { 2.0 } * lcg(&mut seed);
                             let x = -3.0 + 0.05 * i as f64 + case as f64;
-                            cuts.push(x, lcg(&mut seed), h_top, h_top - depth, depth);
+                            cuts.push(x, y, lcg(&mut seed), h_top, h_top - depth, depth);
                         }
                         let mut portable = cuts.clone();
-                        job.contacts_body(&m, y, &mut portable);
+                        job.contacts_body(&m, &mut portable);
                         // SAFETY: the processor has AVX2 and FMA (checked above).
                         #[allow(unsafe_code)]
                         unsafe {
-                            job.contacts_avx2(&m, y, &mut cuts)
+                            job.contacts_avx2(&m, &mut cuts)
                         };
                         for (a, b) in [
                             (&portable.inv_r, &cuts.inv_r),
