@@ -2,6 +2,9 @@
 //! sums reduced in a fixed order, smoothing shares applied at the end.
 
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
 
 use super::ball::BallEnd;
 use super::bull::BullNose;
@@ -676,6 +679,8 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
     let n_bands = banding.n_bands;
     // Where the last step taken into a batch ends (each step is made once here).
     let mut last_end: Option<[f64; 3]> = None;
+    // What each strip took in the last batch that ran it, ns (0: none yet).
+    let cost_ns: Vec<AtomicU64> = (0..n_strips).map(|_| AtomicU64::new(0)).collect();
     while done < steps.len() {
         let first_step = done;
         // The batch's moves, binned by strip (CSR): a move joins every strip
@@ -768,6 +773,7 @@ fn run_batches<E: Envelope, S: StepSource + ?Sized>(
             (&counts, &entries),
             &mut partial,
             &mut ranges,
+            &cost_ns,
         );
         record.columns_evaluated += visited;
         reduce_batch(
@@ -924,6 +930,7 @@ fn run_strips<E: Envelope>(
     (counts, entries): (&[u32], &[u32]),
     partial: &mut [f64],
     ranges: &mut [[f32; 2]],
+    cost_ns: &[AtomicU64],
 ) -> u64 {
     let grid = *stock.grid();
     let width = partial_width(job.banding, job.smooth);
@@ -961,29 +968,52 @@ fn run_strips<E: Envelope>(
         last_rest = last_tail;
         pieces.push((cols, bottoms, below, last, head, strip_ranges));
     }
-    // One strip a task: a batch's cuts crowd into the few strips where the
-    // tool meets fresh material (a raster's next pass), so halves of the
-    // strip list are far from equal work; stealing strip by strip keeps
-    // both cores busy to the batch's end.
-    pieces
+    // The strips with moves, the costliest first by the time each took in the
+    // batch before (a batch's cuts crowd into the few strips where the tool
+    // meets fresh material, a raster's next pass, and those stay the same
+    // for many batches; a strip not timed yet goes by its moves), each taken
+    // by the next free thread: the batch ends with cheap strips, not with a
+    // costly one on one core while the others wait. The strips are
+    // independent, so their order changes no result.
+    let mut order: Vec<usize> = (0..strips.count)
+        .filter(|&s| counts[s + 1] > counts[s])
+        .collect();
+    order.sort_by_key(|&s| {
+        std::cmp::Reverse(match cost_ns[s].load(Ordering::Relaxed) {
+            0 => u64::from(counts[s + 1] - counts[s]),
+            ns => ns,
+        })
+    });
+    // Each strip's piece, taken once by the thread that runs it.
+    let pieces: Vec<Mutex<Option<Piece>>> =
+        pieces.into_iter().map(|p| Mutex::new(Some(p))).collect();
+    let next = AtomicUsize::new(0);
+    let workers = rayon::current_num_threads().clamp(1, order.len().max(1));
+    (0..workers)
         .into_par_iter()
         .with_max_len(1)
-        .enumerate()
-        .map(|(s, (cols, bottoms, below, last, out, rng))| {
-            let ents = &entries[counts[s] as usize..counts[s + 1] as usize];
-            // The strip's partial sums and ranges start empty (the buffers
-            // are kept from batch to batch), cleared here on its thread.
-            out.fill(0.0);
-            rng.fill(EMPTY_OFFSETS);
-            if ents.is_empty() {
-                0
-            } else {
+        .map(|_| {
+            let mut visited = 0;
+            while let Some(&s) = order.get(next.fetch_add(1, Ordering::Relaxed)) {
+                let piece = pieces[s].lock().ok().and_then(|mut p| p.take());
+                let Some((cols, bottoms, below, last, out, rng)) = piece else {
+                    continue;
+                };
+                let ents = &entries[counts[s] as usize..counts[s + 1] as usize];
+                let started = Instant::now();
+                // The strip's partial sums and ranges start empty (the buffers
+                // are kept from batch to batch), cleared here on its thread.
+                out.fill(0.0);
+                rng.fill(EMPTY_OFFSETS);
                 let r0 = strips.row0(s);
-                match bottoms {
+                visited += match bottoms {
                     BottomsMut::Uniform(lo) => job.run(r0, cols, lo, below, last, ents, out, rng),
                     BottomsMut::Columns(lo) => job.run(r0, cols, lo, below, last, ents, out, rng),
-                }
+                };
+                let ns = u64::try_from(started.elapsed().as_nanos()).unwrap_or(u64::MAX);
+                cost_ns[s].store(ns.max(1), Ordering::Relaxed);
             }
+            visited
         })
         .sum()
 }
