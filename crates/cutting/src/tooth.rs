@@ -387,7 +387,18 @@ impl Harmonics {
     /// vectors Q = (x₁, y₁), R = (x₂, y₂)), above by a relative 1e-9 so that
     /// rounding cannot put it under a sample it bounds.
     fn lateral_bound(&self) -> f64 {
-        let p = self.x[0].hypot(self.y[0]);
+        // (√ of the sum of squares, not `hypot` (8 % of real program A's
+        // loads): within an ulp of it where the squares neither overflow nor
+        // underflow, far inside the 1e-9 above; `hypot` outside. The bound
+        // only skips stretches none of whose samples can be the peak, so the
+        // peak is the same bit for bit.)
+        let p2 = self.x[0] * self.x[0] + self.y[0] * self.y[0];
+        let exact_zero = self.x[0] == 0.0 && self.y[0] == 0.0;
+        let p = if (1e-290..1e290).contains(&p2) || exact_zero {
+            p2.sqrt()
+        } else {
+            self.x[0].hypot(self.y[0])
+        };
         let qr = (self.x[1] * self.x[1]
             + self.y[1] * self.y[1]
             + self.x[2] * self.x[2]
@@ -536,7 +547,7 @@ pub fn peak_cut(
             harmonics.push(s.tooth_cs(cc, sc));
             (sc, cc) = (sc * cp + cc * sp, cc * cp - sc * sp);
         }
-        angles.extend((0..n).map(|j| (f64::from(j) * period - s.lag).rem_euclid(2.0 * PI)));
+        angles.extend((0..n).map(|j| rem_euclid(f64::from(j) * period - s.lag, 2.0 * PI)));
     }
     let engaged = Engaged {
         slices,
@@ -550,7 +561,7 @@ pub fn peak_cut(
         // one leaves (α = φ_ex): α = rotation + c_j, so j is the whole
         // number of periods in bound + lag − rotation.
         for (bound, enters) in [(s.arc[0], true), (s.arc[1], false)] {
-            let rotation = (bound + s.lag).rem_euclid(period);
+            let rotation = rem_euclid(bound + s.lag, period);
             let q = ((bound + s.lag - rotation) / period).round() as i64;
             events.push(Event {
                 rotation,
@@ -560,7 +571,15 @@ pub fn peak_cut(
             });
         }
     }
-    events.sort_by(|a, b| a.rotation.total_cmp(&b.rotation));
+    // In rotation, ties in the order the events were listed (slice by slice,
+    // each slice's entry before its exit): the order of a stable sort,
+    // without its scratch.
+    events.sort_unstable_by(|a, b| {
+        a.rotation
+            .total_cmp(&b.rotation)
+            .then(a.slice.cmp(&b.slice))
+            .then(b.enters.cmp(&a.enters))
+    });
     let mut best = PeakCut::default();
     for (k, flank) in flanks_n.iter_mut().enumerate() {
         let lag = (k as f64 + 0.5) * band_height_mm * lag_per_mm;
@@ -580,8 +599,11 @@ pub fn peak_cut(
         .unwrap_or(0);
     let mid = 0.5 * (at(i0) + at(i0 + 1));
     sum.add(&engaged.at(mid), 1.0);
-    // The largest squared lateral force so far.
+    // The largest squared lateral force so far, and where: the rotation and
+    // the teeth engaged there (their force and torque made once, at the end,
+    // from the same sum at the same rotation).
     let mut best_sq = 0.0;
+    let mut best_at: Option<(Harmonics, f64)> = None;
     for k in 0..m {
         // The stretch [from, to] with the same teeth engaged, then the event at `to`.
         let (from, to) = (at(i0 + k), at(i0 + k + 1));
@@ -598,15 +620,9 @@ pub fn peak_cut(
                 let [x, y] = sum.lateral_cs(c2, s2);
                 let q = x * x + y * y;
                 if q > best_sq {
-                    let phi = from + d_phi * i as f64;
-                    let (force_n, torque_nmm) = sum.at(phi);
                     best_sq = q;
-                    best = PeakCut {
-                        lateral_n: q.sqrt(),
-                        force_n,
-                        torque_nmm,
-                        rotation_rad: phi.rem_euclid(period),
-                    };
+                    best.lateral_n = q.sqrt();
+                    best_at = Some((sum, from + d_phi * i as f64));
                 }
                 (s2, c2) = (s2 * dc + c2 * ds, c2 * dc - s2 * ds);
             }
@@ -623,7 +639,29 @@ pub fn peak_cut(
         let j = (j as usize + nu - wrap) % nu;
         sum.add(&harmonics[si * nu + j], if enter { 1.0 } else { -1.0 });
     }
+    if let Some((teeth, phi)) = best_at {
+        (best.force_n, best.torque_nmm) = teeth.at(phi);
+        best.rotation_rad = phi.rem_euclid(period);
+    }
     best
+}
+
+/// `x.rem_euclid(p)` bit for bit (p > 0), without the division's remainder
+/// where x lies within (−p, 2p): there `x % p` is x, or x − p (exact by
+/// Sterbenz's lemma), and a negative x gets p added as `rem_euclid` adds it.
+#[inline]
+fn rem_euclid(x: f64, p: f64) -> f64 {
+    if x >= 0.0 {
+        if x < p {
+            return x;
+        }
+        if x < 2.0 * p {
+            return x - p;
+        }
+    } else if x > -p {
+        return x + p;
+    }
+    x.rem_euclid(p)
 }
 
 /// The slices' teeth of a [`peak_cut`]: their harmonics
@@ -641,7 +679,7 @@ impl Engaged<'_> {
     /// a slice at `α = φ + c_j`, engaged on `[φ_st, φ_ex)`), summed (eq. 3.4b).
     fn at(&self, phi: f64) -> Harmonics {
         let tau = 2.0 * PI;
-        let phi = phi.rem_euclid(tau);
+        let phi = rem_euclid(phi, tau);
         let n = self.flutes as usize;
         let mut sum = Harmonics::default();
         for (si, s) in self.slices.iter().enumerate() {
@@ -671,6 +709,37 @@ mod tests {
 
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol * b.abs().max(1e-12)
+    }
+
+    #[test]
+    fn rem_euclid_is_the_standard_one_bit_for_bit() {
+        for p in [2.0 * PI, PI, 2.0 * PI / 3.0, 0.5] {
+            let edges = [
+                -p,
+                -p * (1.0 - f64::EPSILON),
+                -1e-300,
+                -0.0,
+                0.0,
+                1e-300,
+                p * (1.0 - f64::EPSILON),
+                p,
+                2.0 * p * (1.0 - f64::EPSILON),
+                2.0 * p,
+                -2.0 * p,
+                7.5 * p,
+                -7.5 * p,
+                f64::NAN,
+                f64::INFINITY,
+            ];
+            let grid = (-400..=400).map(|i| f64::from(i) * p / 97.3);
+            for x in edges.into_iter().chain(grid) {
+                let (ours, std) = (rem_euclid(x, p), x.rem_euclid(p));
+                assert!(
+                    ours.to_bits() == std.to_bits() || ours.is_nan() && std.is_nan(),
+                    "{x} mod {p}: {ours} against {std}"
+                );
+            }
+        }
     }
 
     #[test]
