@@ -2,8 +2,7 @@
 //! sums reduced in a fixed order, smoothing shares applied at the end.
 
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use super::ball::BallEnd;
@@ -971,48 +970,39 @@ fn run_strips<E: Envelope>(
     // The strips with moves, the costliest first by the time each took in the
     // batch before (a batch's cuts crowd into the few strips where the tool
     // meets fresh material, a raster's next pass, and those stay the same
-    // for many batches; a strip not timed yet goes by its moves), each taken
-    // by the next free thread: the batch ends with cheap strips, not with a
-    // costly one on one core while the others wait. The strips are
-    // independent, so their order changes no result.
-    let mut order: Vec<usize> = (0..strips.count)
-        .filter(|&s| counts[s + 1] > counts[s])
+    // for many batches; strips not timed yet after them, by their moves),
+    // each taken in that order by the next free thread (`par_bridge`): the
+    // batch ends with cheap strips, not with a costly one on one core while
+    // the others wait. The strips are independent, so their order changes no
+    // result.
+    let mut order: Vec<(usize, Piece)> = pieces
+        .into_iter()
+        .enumerate()
+        .filter(|&(s, _)| counts[s + 1] > counts[s])
         .collect();
-    order.sort_by_key(|&s| {
+    order.sort_by_key(|&(s, _)| {
         std::cmp::Reverse(match cost_ns[s].load(Ordering::Relaxed) {
             0 => u64::from(counts[s + 1] - counts[s]),
             ns => ns,
         })
     });
-    // Each strip's piece, taken once by the thread that runs it.
-    let pieces: Vec<Mutex<Option<Piece>>> =
-        pieces.into_iter().map(|p| Mutex::new(Some(p))).collect();
-    let next = AtomicUsize::new(0);
-    let workers = rayon::current_num_threads().clamp(1, order.len().max(1));
-    (0..workers)
-        .into_par_iter()
-        .with_max_len(1)
-        .map(|_| {
-            let mut visited = 0;
-            while let Some(&s) = order.get(next.fetch_add(1, Ordering::Relaxed)) {
-                let piece = pieces[s].lock().ok().and_then(|mut p| p.take());
-                let Some((cols, bottoms, below, last, out, rng)) = piece else {
-                    continue;
-                };
-                let ents = &entries[counts[s] as usize..counts[s + 1] as usize];
-                let started = Instant::now();
-                // The strip's partial sums and ranges start empty (the buffers
-                // are kept from batch to batch), cleared here on its thread.
-                out.fill(0.0);
-                rng.fill(EMPTY_OFFSETS);
-                let r0 = strips.row0(s);
-                visited += match bottoms {
-                    BottomsMut::Uniform(lo) => job.run(r0, cols, lo, below, last, ents, out, rng),
-                    BottomsMut::Columns(lo) => job.run(r0, cols, lo, below, last, ents, out, rng),
-                };
-                let ns = u64::try_from(started.elapsed().as_nanos()).unwrap_or(u64::MAX);
-                cost_ns[s].store(ns.max(1), Ordering::Relaxed);
-            }
+    order
+        .into_iter()
+        .par_bridge()
+        .map(|(s, (cols, bottoms, below, last, out, rng))| {
+            let ents = &entries[counts[s] as usize..counts[s + 1] as usize];
+            let started = Instant::now();
+            // The strip's partial sums and ranges start empty (the buffers
+            // are kept from batch to batch), cleared here on its thread.
+            out.fill(0.0);
+            rng.fill(EMPTY_OFFSETS);
+            let r0 = strips.row0(s);
+            let visited = match bottoms {
+                BottomsMut::Uniform(lo) => job.run(r0, cols, lo, below, last, ents, out, rng),
+                BottomsMut::Columns(lo) => job.run(r0, cols, lo, below, last, ents, out, rng),
+            };
+            let ns = u64::try_from(started.elapsed().as_nanos()).unwrap_or(u64::MAX);
+            cost_ns[s].store(ns.max(1), Ordering::Relaxed);
             visited
         })
         .sum()

@@ -168,9 +168,10 @@ pub struct SweepOptions {
 impl Default for SweepOptions {
     /// Strips of 8 rows; batches of up to 8 192 steps and 8 MiB of partial
     /// sums: each batch ends with its last strip while the other threads
-    /// wait (the costliest are taken first), so fewer, larger batches keep both cores busier (the long real program B's optimize
-    /// 36.8 → 33.7 s against 2 048 steps and 4 MiB, BENCHMARKS.md)
-    /// while the raster at grid 0.05 stays at its 89 MB.
+    /// wait (the costliest are taken first), so fewer, larger batches keep
+    /// both cores busier (the long real program B's optimize 36.8 → 33.7 s
+    /// against 2 048 steps and 4 MiB, BENCHMARKS.md) while the raster at grid
+    /// 0.05 stays at its 89 MB.
     fn default() -> Self {
         SweepOptions {
             band_height_mm: 1.0,
