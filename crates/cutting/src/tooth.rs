@@ -393,8 +393,7 @@ impl Harmonics {
         // only skips stretches none of whose samples can be the peak, so the
         // peak is the same bit for bit.)
         let p2 = self.x[0] * self.x[0] + self.y[0] * self.y[0];
-        let exact_zero = self.x[0] == 0.0 && self.y[0] == 0.0;
-        let p = if (1e-290..1e290).contains(&p2) || exact_zero {
+        let p = if (1e-290..1e290).contains(&p2) {
             p2.sqrt()
         } else {
             self.x[0].hypot(self.y[0])
@@ -641,7 +640,7 @@ pub fn peak_cut(
     }
     if let Some((teeth, phi)) = best_at {
         (best.force_n, best.torque_nmm) = teeth.at(phi);
-        best.rotation_rad = phi.rem_euclid(period);
+        best.rotation_rad = rem_euclid(phi, period);
     }
     best
 }
