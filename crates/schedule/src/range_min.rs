@@ -1,5 +1,6 @@
-//! Offline range-minimum updates with point queries: `N` independent minima per slot,
-//! O(log n) per update and per query, so every use over a path stays n·log n.
+//! Offline range-minimum updates, then every slot's minimum: `N` independent minima per
+//! slot, O(log n) per update and O(n) for all the slots, so every use over a path stays
+//! n·log n.
 
 /// Slots 0..n, each holding N values that only go down (start: +∞).
 pub(crate) struct RangeMin<const N: usize> {
@@ -32,7 +33,23 @@ impl<const N: usize> RangeMin<N> {
         }
     }
 
+    /// The values of every slot (what [`RangeMin::get`] gives each, bit for bit), in
+    /// O(n): each node's minimum pushed down to its children, parents first, so a
+    /// leaf ends with the minimum over itself and every ancestor, the set `get` takes
+    /// (a minimum is one of its arguments, so the order it is taken in does not
+    /// change it).
+    pub(crate) fn into_minima(mut self) -> Vec<[f64; N]> {
+        for i in 1..self.n {
+            let value = self.tree[i];
+            min_into(&mut self.tree[2 * i], &value);
+            min_into(&mut self.tree[2 * i + 1], &value);
+        }
+        self.tree.drain(..self.n);
+        self.tree
+    }
+
     /// The values of slot `i`: the minimum of every update covering it.
+    #[cfg(test)]
     pub(crate) fn get(&self, i: usize) -> [f64; N] {
         let mut at = i + self.n;
         let mut value = self.tree[at];
@@ -74,6 +91,11 @@ mod tests {
             }
             for (i, d) in direct.iter().enumerate() {
                 assert_eq!(tree.get(i)[0], *d, "n {n} slot {i}");
+            }
+            let minima = tree.into_minima();
+            assert_eq!(minima.len(), n);
+            for (i, d) in direct.iter().enumerate() {
+                assert_eq!(minima[i][0].to_bits(), d.to_bits(), "n {n} slot {i}");
             }
         }
     }

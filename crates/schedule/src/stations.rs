@@ -652,9 +652,14 @@ impl Stations {
         for stop in &self.stops {
             is_stop[stop.station] = true;
         }
-        let run_of = |k: usize| {
-            let after = self.stops.partition_point(|stop| stop.station <= k);
-            match (after.checked_sub(1), self.stops.get(after)) {
+        // The run of station k, the stops' cursor (`cursor.stops_up_to`: how many stops
+        // are at or before the last station asked, which is at most k) moved up to it.
+        let run_of = |cursor: &mut Cursor, k: usize| {
+            let after = &mut cursor.stops_up_to;
+            while *after < self.stops.len() && self.stops[*after].station <= k {
+                *after += 1;
+            }
+            match (after.checked_sub(1), self.stops.get(*after)) {
                 (Some(before), Some(next)) => (self.stops[before].station, next.station),
                 _ => (0, n - 1),
             }
@@ -684,7 +689,8 @@ impl Stations {
         // the end s[j+1] of the last turning interval j < k; the next one starts at s[k]
         // if the interval k−1 → k turns, else at the start s[i] of the first turning
         // interval i ≥ k.
-        let turn_window = |first_at_or_after: &mut usize, k: usize| {
+        let turn_window = |cursor: &mut Cursor, k: usize| {
+            let first_at_or_after = &mut cursor.turns_before;
             while *first_at_or_after < turning.len() && turning[*first_at_or_after] < k {
                 *first_at_or_after += 1;
             }
@@ -721,8 +727,8 @@ impl Stations {
             let k = partition_point_near(&self.s_mm, near, |sk| sk <= x).clamp(1, n - 1) - 1;
             self.locate(k, x).0.coords
         };
-        let differences = |k: usize, v: f64| {
-            let (s, l, run) = (self.s_mm[k], v * period_s, run_of(k));
+        let differences = |k: usize, v: f64, run: (usize, usize)| {
+            let (s, l) = (self.s_mm[k], v * period_s);
             let p0 = self.position_at(k).coords;
             let (pm, p1) = (position(run, s - l, k), position(run, s + l, k));
             let d = (p1 - 2.0 * p0 + pm).map(f64::abs) / (period_s * period_s);
@@ -745,19 +751,21 @@ impl Stations {
         // judged at that speed, not at the cap (a station just before a corner cannot
         // run at its cap).
         let envelope = self.envelope_mm_s(&caps, &interval_accel);
-        // Station k at its cap `cap_mm_min` (the turns' cursor at `first_at_or_after`):
-        // none where no turn is within the reach of its speed or it is a stop, else its
-        // cap lowered where its differences ask it, and the budget it gives the
+        // Station k at its cap `cap_mm_min` (the turns' and stops' cursor at the station
+        // before): none where no turn is within the reach of its speed or it is a stop,
+        // else its cap lowered where its differences ask it, and the budget it gives the
         // intervals beside it where it has differences.
-        let station = |k: usize, cap_mm_min: f64, first_at_or_after: &mut usize| {
+        let station = |k: usize, cap_mm_min: f64, cursor: &mut Cursor| {
             let cap = (cap_mm_min / 60.0).min(envelope[k] as f64);
             let reach = 2.0 * cap * period_s + 1e-9;
-            let (last_turn, next_turn) = turn_window(first_at_or_after, k);
+            let (last_turn, next_turn) = turn_window(cursor, k);
             if is_stop[k] || self.s_mm[k] - last_turn > reach && next_turn - self.s_mm[k] > reach {
                 return None;
             }
+            let run = run_of(cursor, k);
+            let differences = |v: f64| differences(k, v, run);
             // The speed v kept at station k and its differences there (each taken once).
-            let (mut v, at_cap) = (cap, differences(k, cap));
+            let (mut v, at_cap) = (cap, differences(cap));
             let mut d = at_cap.0;
             let mut limit = SampledLimit {
                 lowered_cap_mm_min: None,
@@ -767,7 +775,7 @@ impl Stations {
                 let (mut lo, mut hi, mut d_lo) = (0.0, cap, None);
                 for _ in 0..40 {
                     let mid = 0.5 * (lo + hi);
-                    let at_mid = differences(k, mid);
+                    let at_mid = differences(mid);
                     if within(at_mid) {
                         (lo, d_lo) = (mid, Some(at_mid.0));
                     } else {
@@ -775,7 +783,7 @@ impl Stations {
                     }
                 }
                 v = lo;
-                d = d_lo.unwrap_or_else(|| differences(k, lo).0);
+                d = d_lo.unwrap_or_else(|| differences(lo).0);
                 // Station k's cap is final from here (no other station lowers it).
                 limit.lowered_cap_mm_min = (60.0 * v < cap_mm_min).then_some(60.0 * v);
             }
@@ -804,8 +812,8 @@ impl Stations {
         self.interval_accel_mm_s2 = interval_accel;
     }
 
-    /// Each station's [`SampledLimit`] (`station(k, its cap, the turns' cursor)`, the
-    /// cursor an index in `turning`) put on `caps`, `kinds` and the intervals'
+    /// Each station's [`SampledLimit`] (`station(k, its cap, the cursor)`, the cursor's
+    /// `turns_before` an index in `turning`) put on `caps`, `kinds` and the intervals'
     /// accelerations `interval_accel`, `chunk` stations a parallel task.
     fn limit_stations_in_chunks(
         &self,
@@ -814,7 +822,7 @@ impl Stations {
         caps: &mut [f64],
         kinds: &mut [CapKind],
         interval_accel: &mut Vec<f64>,
-        station: &(dyn Fn(usize, f64, &mut usize) -> Option<SampledLimit> + Sync),
+        station: &(dyn Fn(usize, f64, &mut Cursor) -> Option<SampledLimit> + Sync),
     ) {
         let n = self.len();
         // Station k's speed and budget read the geometry and its own cap only, and
@@ -831,11 +839,14 @@ impl Stations {
             .enumerate()
             .map(|(c, ((caps, kinds), interval_accel))| {
                 let k0 = c * chunk;
-                let mut first_at_or_after = turning.partition_point(|&t| t < k0);
+                let mut cursor = Cursor {
+                    turns_before: turning.partition_point(|&t| t < k0),
+                    stops_up_to: self.stops.partition_point(|stop| stop.station <= k0),
+                };
                 let mut tangents = RecentTangents::new();
                 let mut before = f64::INFINITY;
                 for (i, k) in (k0..k0 + caps.len()).enumerate() {
-                    let Some(limit) = station(k, caps[i], &mut first_at_or_after) else {
+                    let Some(limit) = station(k, caps[i], &mut cursor) else {
                         continue;
                     };
                     if let Some(lowered) = limit.lowered_cap_mm_min {
@@ -1150,6 +1161,15 @@ impl Stations {
             segment,
         )
     }
+}
+
+/// Where a chunk of stations visited in order stands in the path's turns and stops
+/// ([`Stations::limit_sampled_geometry`]).
+struct Cursor {
+    /// How many turning intervals start before the station.
+    turns_before: usize,
+    /// How many stops are at or before the last station whose run was asked.
+    stops_up_to: usize,
 }
 
 /// What one station's sampled differences make of it (MODEL.md §6.1, "Sampled

@@ -286,8 +286,9 @@ impl<'a> RunPlanner<'a> {
             }
             tree.lower(lo, hi, [cap]);
         }
-        for (j, vj) in v.iter_mut().enumerate() {
-            *vj = vj.min(tree.get(j)[0]);
+        debug_assert_eq!(v.len(), s.len());
+        for (vj, [limit]) in v.iter_mut().zip(tree.into_minima()) {
+            *vj = vj.min(limit);
         }
     }
 

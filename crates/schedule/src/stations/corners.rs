@@ -337,10 +337,9 @@ impl Stations {
                 for c in shared() {
                     budgets.lower(c.intervals.start, c.intervals.end, [c.accel_mm_s2[axis]]);
                 }
+                let budgets = budgets.into_minima();
                 if axis == 0 {
-                    reached = (0..intervals)
-                        .map(|k| budgets.get(k)[0].is_finite())
-                        .collect();
+                    reached = budgets.iter().map(|[b]| b.is_finite()).collect();
                 }
                 // Each interval's own minimum: the intervals in chunks in parallel.
                 let this = &*self;
@@ -355,7 +354,7 @@ impl Stations {
                             if !reached[k] {
                                 continue;
                             }
-                            let b = budgets.get(k)[0];
+                            let [b] = budgets[k];
                             for t in [tangents.get(this, k)[axis], tangents.get(this, k + 1)[axis]]
                             {
                                 if t != 0.0 {
