@@ -670,19 +670,23 @@ impl Stations {
         // (Found in chunks in parallel, each with its own recent tangents: the same
         // list in the same order.)
         let this = &*self;
-        let turning: Vec<usize> = (0..(n - 1).div_ceil(chunk))
+        // (u32: at most MAX_STATIONS; half the memory, pages to fault in and list to
+        // copy of usize where every interval turns, as on a curved finish.)
+        let turning: Vec<u32> = (0..(n - 1).div_ceil(chunk))
             .into_par_iter()
             .flat_map_iter(|c| {
                 let mut tangents = RecentTangents::new();
                 let (is_stop, this) = (&is_stop, this);
-                (c * chunk..((c + 1) * chunk).min(n - 1)).filter(move |&k| {
-                    !is_stop[k]
-                        && ((tangents.get(this, k + 1) - tangents.get(this, k)).norm() > 1e-12
-                            || matches!(
-                                this.path.segments[this.segment[k + 1] as usize].geometry,
-                                Geometry::Arc { .. }
-                            ))
-                })
+                (c * chunk..((c + 1) * chunk).min(n - 1))
+                    .filter(move |&k| {
+                        !is_stop[k]
+                            && ((tangents.get(this, k + 1) - tangents.get(this, k)).norm() > 1e-12
+                                || matches!(
+                                    this.path.segments[this.segment[k + 1] as usize].geometry,
+                                    Geometry::Arc { .. }
+                                ))
+                    })
+                    .map(|k| k as u32)
             })
             .collect();
         // Station k: the last turn ends at s[k] if the interval k → k+1 turns, else at
@@ -691,31 +695,34 @@ impl Stations {
         // interval i ≥ k.
         let turn_window = |cursor: &mut Cursor, k: usize| {
             let first_at_or_after = &mut cursor.turns_before;
-            while *first_at_or_after < turning.len() && turning[*first_at_or_after] < k {
+            while *first_at_or_after < turning.len() && (turning[*first_at_or_after] as usize) < k {
                 *first_at_or_after += 1;
             }
             let first_at_or_after = *first_at_or_after;
-            let here = turning.get(first_at_or_after) == Some(&k);
+            let here = turning.get(first_at_or_after).map(|&i| i as usize) == Some(k);
             let last = if here {
                 self.s_mm[k]
             } else {
                 first_at_or_after
                     .checked_sub(1)
-                    .map_or(f64::NEG_INFINITY, |j| self.s_mm[turning[j] + 1])
+                    .map_or(f64::NEG_INFINITY, |j| self.s_mm[turning[j] as usize + 1])
             };
-            let next = if k > 0 && first_at_or_after > 0 && turning[first_at_or_after - 1] == k - 1
+            let next = if k > 0
+                && first_at_or_after > 0
+                && turning[first_at_or_after - 1] as usize == k - 1
             {
                 self.s_mm[k]
             } else {
                 turning
                     .get(first_at_or_after)
-                    .map_or(f64::INFINITY, |&i| self.s_mm[i])
+                    .map_or(f64::INFINITY, |&i| self.s_mm[i as usize])
             };
             (last, next)
         };
-        // Where the path is at arc length x (station `near` is close by: the stations are
-        // searched outwards from it).
-        let position = |run: (usize, usize), x: f64, near: usize| {
+        // Where the path is at arc length x (the stations are searched outwards from
+        // `near`, which is left where x was found: the next station's search for its
+        // own neighbour on that side starts there).
+        let position = |run: (usize, usize), x: f64, near: &mut usize| {
             let (lo, hi) = run;
             if x <= self.s_mm[lo] {
                 return self.position_at(lo).coords
@@ -724,17 +731,22 @@ impl Stations {
             if x >= self.s_mm[hi] {
                 return self.position_at(hi).coords + (x - self.s_mm[hi]) * self.tangent_at(hi);
             }
-            let k = partition_point_near(&self.s_mm, near, |sk| sk <= x).clamp(1, n - 1) - 1;
-            self.locate(k, x).0.coords
+            *near = partition_point_near(&self.s_mm, *near, |sk| sk <= x);
+            self.locate((*near).clamp(1, n - 1) - 1, x).0.coords
         };
-        let differences = |k: usize, v: f64, run: (usize, usize)| {
+        // Station k's differences at speed v, the searches for its neighbours at s − l,
+        // s + l and s + 2l started from `near` (and left where they were found).
+        let differences = |k: usize, v: f64, run: (usize, usize), near: &mut [usize; 3]| {
             let (s, l) = (self.s_mm[k], v * period_s);
             let p0 = self.position_at(k).coords;
-            let (pm, p1) = (position(run, s - l, k), position(run, s + l, k));
+            let (pm, p1) = (
+                position(run, s - l, &mut near[0]),
+                position(run, s + l, &mut near[1]),
+            );
             let d = (p1 - 2.0 * p0 + pm).map(f64::abs) / (period_s * period_s);
             let e = match jerk {
                 Some(_) => {
-                    let p2 = position(run, s + 2.0 * l, k);
+                    let p2 = position(run, s + 2.0 * l, &mut near[2]);
                     (p2 - 3.0 * p1 + 3.0 * p0 - pm).map(f64::abs) / period_s.powi(3)
                 }
                 None => Vector3::zeros(),
@@ -763,9 +775,13 @@ impl Stations {
                 return None;
             }
             let run = run_of(cursor, k);
-            let differences = |v: f64| differences(k, v, run);
-            // The speed v kept at station k and its differences there (each taken once).
-            let (mut v, at_cap) = (cap, differences(cap));
+            // The speed v kept at station k and its differences there (each taken once):
+            // at the speed asked, the neighbours searched from where the last station's
+            // were found (a station or two on), at lower speeds from those.
+            let at_cap = differences(k, cap, run, &mut cursor.neighbours);
+            let near = cursor.neighbours;
+            let differences = |v: f64| differences(k, v, run, &mut near.clone());
+            let mut v = cap;
             let mut d = at_cap.0;
             let mut limit = SampledLimit {
                 lowered_cap_mm_min: None,
@@ -818,7 +834,7 @@ impl Stations {
     fn limit_stations_in_chunks(
         &self,
         chunk: usize,
-        turning: &[usize],
+        turning: &[u32],
         caps: &mut [f64],
         kinds: &mut [CapKind],
         interval_accel: &mut Vec<f64>,
@@ -840,8 +856,9 @@ impl Stations {
             .map(|(c, ((caps, kinds), interval_accel))| {
                 let k0 = c * chunk;
                 let mut cursor = Cursor {
-                    turns_before: turning.partition_point(|&t| t < k0),
+                    turns_before: turning.partition_point(|&t| (t as usize) < k0),
                     stops_up_to: self.stops.partition_point(|stop| stop.station <= k0),
+                    neighbours: [k0; 3],
                 };
                 let mut tangents = RecentTangents::new();
                 let mut before = f64::INFINITY;
@@ -1170,6 +1187,10 @@ struct Cursor {
     turns_before: usize,
     /// How many stops are at or before the last station whose run was asked.
     stops_up_to: usize,
+    /// Where the last station's neighbours one sample before, one after and two after
+    /// were found (partition points of the arc lengths): only where to start the next
+    /// searches.
+    neighbours: [usize; 3],
 }
 
 /// What one station's sampled differences make of it (MODEL.md §6.1, "Sampled

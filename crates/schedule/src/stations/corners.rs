@@ -278,7 +278,14 @@ impl Stations {
             .filter(|&index| include(index))
             .map(|index| self.corner_budget(&corners[index]).intervals.len())
             .sum();
-        self.share_budgets(corners, include, covered > intervals, PARALLEL_CHUNK);
+        let by = if covered <= intervals {
+            Sharing::OneByOne
+        } else if covered <= PAINTED_MAX * intervals {
+            Sharing::Painted
+        } else {
+            Sharing::Tree
+        };
+        self.share_budgets(corners, include, by, PARALLEL_CHUNK);
     }
 
     /// Corner `(c, jump)`'s budgets and the intervals k → k+1 overlapping [s_c − reach,
@@ -300,13 +307,13 @@ impl Stations {
         }
     }
 
-    /// [`Stations::share_corner_budgets`], one corner at a time or (`by_tree`) through the
-    /// tree, its intervals `chunk` a parallel task (the same values for any `chunk`).
+    /// [`Stations::share_corner_budgets`] as `by` says, its intervals `chunk` a parallel
+    /// task (the same values for any `chunk` and either way).
     fn share_budgets(
         &mut self,
         corners: &[(usize, Vector3<f64>)],
         include: &dyn Fn(usize) -> bool,
-        by_tree: bool,
+        by: Sharing,
         chunk: usize,
     ) {
         let intervals = self.s_mm.len().saturating_sub(1);
@@ -316,7 +323,7 @@ impl Stations {
                 .filter(|&index| include(index))
                 .map(|index| self.corner_budget(&corners[index]))
         };
-        if !by_tree {
+        if by == Sharing::OneByOne {
             let mut tangents = RecentTangents::new();
             for c in shared() {
                 for k in c.intervals {
@@ -328,18 +335,32 @@ impl Stations {
         } else {
             // along(t, b) = min over the moving axes of b_i/|t_i|: the limit of an interval
             // is the minimum over the axes of each axis' share, so the axes are taken one at
-            // a time, each with a tree of one value per slot (a third of the memory of one
-            // tree of three), in the same minima. An interval is limited where a corner
-            // reaches it.
+            // a time, each axis' budgets one value per interval (a third of the memory of
+            // three), in the same minima (a minimum is one of its arguments, whatever the
+            // order). An interval is limited where a corner reaches it.
             let mut reached: Vec<bool> = Vec::new();
+            let mut budgets: Vec<f64> = Vec::new();
             for axis in 0..3 {
-                let mut budgets = RangeMin::<1>::new(intervals);
-                for c in shared() {
-                    budgets.lower(c.intervals.start, c.intervals.end, [c.accel_mm_s2[axis]]);
+                if by == Sharing::Painted {
+                    // Each corner's intervals lowered one by one, in one array kept for
+                    // the three axes (allocating it again would have its pages cleared
+                    // and faulted in again: 24 MB for 3 M stations).
+                    budgets.clear();
+                    budgets.resize(intervals, f64::INFINITY);
+                    for c in shared() {
+                        for b in &mut budgets[c.intervals] {
+                            *b = b.min(c.accel_mm_s2[axis]);
+                        }
+                    }
+                } else {
+                    let mut tree = RangeMin::<1>::new(intervals);
+                    for c in shared() {
+                        tree.lower(c.intervals.start, c.intervals.end, [c.accel_mm_s2[axis]]);
+                    }
+                    budgets = tree.into_minima().into_iter().map(|[b]| b).collect();
                 }
-                let budgets = budgets.into_minima();
                 if axis == 0 {
-                    reached = budgets.iter().map(|[b]| b.is_finite()).collect();
+                    reached = budgets.iter().map(|b| b.is_finite()).collect();
                 }
                 // Each interval's own minimum: the intervals in chunks in parallel.
                 let this = &*self;
@@ -354,7 +375,7 @@ impl Stations {
                             if !reached[k] {
                                 continue;
                             }
-                            let [b] = budgets[k];
+                            let b = budgets[k];
                             for t in [tangents.get(this, k)[axis], tangents.get(this, k + 1)[axis]]
                             {
                                 if t != 0.0 {
@@ -368,6 +389,23 @@ impl Stations {
         self.interval_accel_mm_s2 = accel;
     }
 }
+
+/// How [`Stations::share_budgets`] takes the corners' budgets to the intervals they
+/// reach: one corner at a time, each interval's tangents and limit made for each corner
+/// that reaches it (where the corners reach fewer intervals than there are); each axis'
+/// budgets painted over an array of the intervals, corner by corner (where they reach at
+/// most [`PAINTED_MAX`] times as many); or through a range-minimum tree (n·log n
+/// however far they reach).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Sharing {
+    OneByOne,
+    Painted,
+    Tree,
+}
+
+/// The most intervals the corners may reach together, as a multiple of the path's
+/// intervals, for their budgets to be painted rather than taken through the tree.
+const PAINTED_MAX: usize = 32;
 
 /// One corner's share of the axes' acceleration (MODEL.md §6.1): the budget each axis has
 /// left beside its velocity step, over the intervals within its reach.
@@ -394,6 +432,7 @@ mod tests {
     use nalgebra::{Point3, Vector3};
     use nc::{Geometry, Motion, Path, Segment};
 
+    use super::Sharing;
     use crate::machine::Machine;
     use crate::stations::{CapKind, Corners, FeedPolicy, Stations};
 
@@ -430,7 +469,7 @@ mod tests {
     }
 
     #[test]
-    fn corner_budgets_are_the_same_one_by_one_by_tree_and_in_two_steps() {
+    fn corner_budgets_are_the_same_one_by_one_painted_by_tree_and_in_two_steps() {
         let path = zigzag();
         let machine = Machine::default();
         let stopped = Stations::with_corners(
@@ -454,27 +493,30 @@ mod tests {
             })
             .collect();
         assert!(corners.len() > 100, "{} corners", corners.len());
-        // Shared one by one (Some(false)), by tree (Some(true)) or as built (None: the
-        // way picked by how much the reaches cover).
-        let shared = |include: &dyn Fn(usize) -> bool, by_tree: Option<bool>| {
+        // Shared one way (Some) or as built (None: the way picked by how much the reaches
+        // cover).
+        let shared = |include: &dyn Fn(usize) -> bool, by: Option<Sharing>| {
             let mut st = stopped.clone();
-            match by_tree {
+            match by {
                 // (Tasks of 7 intervals: the chunks' ends are passed many times.)
-                Some(by_tree) => st.share_budgets(&corners, include, by_tree, 7),
+                Some(by) => st.share_budgets(&corners, include, by, 7),
                 None => st.share_corner_budgets(&corners, include),
             }
             st.interval_accel_mm_s2
         };
         let bits = |a: Vec<f64>| a.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        let one_by_one = shared(&|_| true, Some(false));
-        let tree = shared(&|_| true, Some(true));
+        let one_by_one = shared(&|_| true, Some(Sharing::OneByOne));
+        let tree = shared(&|_| true, Some(Sharing::Tree));
         assert_eq!(bits(one_by_one.clone()), bits(tree));
+        let painted = shared(&|_| true, Some(Sharing::Painted));
+        assert_eq!(bits(one_by_one.clone()), bits(painted));
         let lowered = (0..one_by_one.len())
             .filter(|&k| one_by_one[k] < stopped.interval_accel_mm_s2[k])
             .count();
         assert!(lowered > stopped.len() / 2, "{lowered} intervals lowered");
-        // Even corners, then odd ones on top, each step either way.
-        for (first, second) in [(true, false), (false, true), (true, true), (false, false)] {
+        // Even corners, then odd ones on top, each step any way.
+        let ways = [Sharing::OneByOne, Sharing::Painted, Sharing::Tree];
+        for (first, second) in ways.into_iter().flat_map(|a| ways.map(|b| (a, b))) {
             let mut two_steps = stopped.clone();
             two_steps.share_budgets(&corners, &|i| i % 2 == 0, first, 7);
             two_steps.share_budgets(&corners, &|i| i % 2 == 1, second, 7);
@@ -486,7 +528,14 @@ mod tests {
         // As built: the same, for all of them and for two far apart.
         assert_eq!(bits(shared(&|_| true, None)), bits(one_by_one.clone()));
         let two = |i: usize| i == 3 || i == 90;
-        assert_eq!(bits(shared(&two, None)), bits(shared(&two, Some(true))));
+        assert_eq!(
+            bits(shared(&two, None)),
+            bits(shared(&two, Some(Sharing::Tree)))
+        );
+        assert_eq!(
+            bits(shared(&two, None)),
+            bits(shared(&two, Some(Sharing::Painted)))
+        );
         // None shared: nothing changes.
         assert_eq!(
             bits(shared(&|_| false, None)),
