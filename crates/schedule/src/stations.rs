@@ -877,8 +877,17 @@ impl Stations {
                         if interval >= n - 1 {
                             continue;
                         }
-                        let limit = along(&tangents.get(self, interval), budget)
-                            .min(along(&tangents.get(self, interval + 1), budget));
+                        // (Both ends on one line: one tangent, one limit.)
+                        let (t0, t1) = (
+                            tangents.get(self, interval),
+                            tangents.get(self, interval + 1),
+                        );
+                        let limit = along(&t0, budget);
+                        let limit = if t1 == t0 {
+                            limit
+                        } else {
+                            limit.min(along(&t1, budget))
+                        };
                         let a = if interval < k0 {
                             &mut before
                         } else {

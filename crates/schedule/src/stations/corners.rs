@@ -376,9 +376,12 @@ impl Stations {
                                 continue;
                             }
                             let b = budgets[k];
-                            for t in [tangents.get(this, k)[axis], tangents.get(this, k + 1)[axis]]
-                            {
-                                if t != 0.0 {
+                            let (t0, t1) =
+                                (tangents.get(this, k)[axis], tangents.get(this, k + 1)[axis]);
+                            // (Both ends on one line: the same share once.)
+                            let ends = if t1 == t0 { 1 } else { 2 };
+                            for t in &[t0, t1][..ends] {
+                                if *t != 0.0 {
                                     *a = a.min(b / t.abs());
                                 }
                             }
