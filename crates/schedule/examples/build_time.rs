@@ -1,4 +1,7 @@
-//! Time of building the stations of a program (each corner judged), best of 5.
+//! Time of building the stations of a program (each corner passed, and each judged), best
+//! of 5, and a fingerprint of what each build made (its arc lengths, caps, cap kinds and
+//! interval accelerations, bit for bit), so two builds of the code compare for speed and
+//! sameness.
 //!
 //! `cargo run --release -p schedule --example build_time -- FILE PERIOD_MS [JERK_MM_S3 [programmed]]`
 //! (`programmed`: at the program's feeds, as `simulate`; else at `feed_max`, as `optimize`).
@@ -38,9 +41,30 @@ fn main() {
                 let t = std::time::Instant::now();
                 let st = Stations::with_corners(&path, &machine, 0.05, policy, corners)
                     .expect("stations");
-                (t.elapsed().as_secs_f64(), st.len())
+                (t.elapsed().as_secs_f64(), st.len(), fingerprint(&st))
             })
-            .fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a });
-        println!("{corners:?}: {:.3} s, {} stations", best.0, best.1);
+            .fold((f64::INFINITY, 0, 0), |a, b| if b.0 < a.0 { b } else { a });
+        println!(
+            "{corners:?}: {:.3} s, {} stations, fingerprint {:016x}",
+            best.0, best.1, best.2
+        );
     }
+}
+
+/// A hash of the stations' arrays, bit for bit.
+fn fingerprint(st: &Stations) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for x in st
+        .s_mm()
+        .iter()
+        .chain(st.cap_mm_min())
+        .chain(st.interval_accel_mm_s2())
+    {
+        x.to_bits().hash(&mut h);
+    }
+    for kind in st.cap_kind() {
+        format!("{kind:?}").hash(&mut h);
+    }
+    h.finish()
 }
