@@ -780,7 +780,7 @@ impl Stations {
             // were found (a station or two on), at lower speeds from those.
             let at_cap = differences(k, cap, run, &mut cursor.neighbours);
             let near = cursor.neighbours;
-            let differences = |v: f64| differences(k, v, run, &mut near.clone());
+            let at_speed = |v: f64| differences(k, v, run, &mut { near });
             let mut v = cap;
             let mut d = at_cap.0;
             let mut limit = SampledLimit {
@@ -791,7 +791,7 @@ impl Stations {
                 let (mut lo, mut hi, mut d_lo) = (0.0, cap, None);
                 for _ in 0..40 {
                     let mid = 0.5 * (lo + hi);
-                    let at_mid = differences(mid);
+                    let at_mid = at_speed(mid);
                     if within(at_mid) {
                         (lo, d_lo) = (mid, Some(at_mid.0));
                     } else {
@@ -799,7 +799,7 @@ impl Stations {
                     }
                 }
                 v = lo;
-                d = d_lo.unwrap_or_else(|| differences(lo).0);
+                d = d_lo.unwrap_or_else(|| at_speed(lo).0);
                 // Station k's cap is final from here (no other station lowers it).
                 limit.lowered_cap_mm_min = (60.0 * v < cap_mm_min).then_some(60.0 * v);
             }

@@ -341,55 +341,76 @@ impl Stations {
             let mut reached: Vec<bool> = Vec::new();
             let mut budgets: Vec<f64> = Vec::new();
             for axis in 0..3 {
-                if by == Sharing::Painted {
-                    // Each corner's intervals lowered one by one, in one array kept for
-                    // the three axes (allocating it again would have its pages cleared
-                    // and faulted in again: 24 MB for 3 M stations).
-                    budgets.clear();
-                    budgets.resize(intervals, f64::INFINITY);
-                    for c in shared() {
-                        for b in &mut budgets[c.intervals] {
-                            *b = b.min(c.accel_mm_s2[axis]);
-                        }
-                    }
-                } else {
-                    let mut tree = RangeMin::<1>::new(intervals);
-                    for c in shared() {
-                        tree.lower(c.intervals.start, c.intervals.end, [c.accel_mm_s2[axis]]);
-                    }
-                    budgets = tree.into_minima().into_iter().map(|[b]| b).collect();
-                }
+                axis_budgets(shared(), axis, intervals, by, &mut budgets);
                 if axis == 0 {
                     reached = budgets.iter().map(|b| b.is_finite()).collect();
                 }
-                // Each interval's own minimum: the intervals in chunks in parallel.
-                let this = &*self;
-                accel[..intervals]
-                    .par_chunks_mut(chunk)
-                    .enumerate()
-                    .for_each(|(c, accel)| {
-                        let k0 = c * chunk;
-                        let mut tangents = RecentTangents::new();
-                        for (i, a) in accel.iter_mut().enumerate() {
-                            let k = k0 + i;
-                            if !reached[k] {
-                                continue;
-                            }
-                            let b = budgets[k];
-                            let (t0, t1) =
-                                (tangents.get(this, k)[axis], tangents.get(this, k + 1)[axis]);
-                            // (Both ends on one line: the same share once.)
-                            let ends = if t1 == t0 { 1 } else { 2 };
-                            for t in &[t0, t1][..ends] {
-                                if *t != 0.0 {
-                                    *a = a.min(b / t.abs());
-                                }
-                            }
-                        }
-                    });
+                self.lower_by_axis(&mut accel[..intervals], &budgets, &reached, axis, chunk);
             }
         }
         self.interval_accel_mm_s2 = accel;
+    }
+
+    /// Each interval `k` that a corner reaches (`reached`) lowered to each of its ends'
+    /// share of `axis`' budget there, `budgets[k] / |t_axis|` (an axis that does not
+    /// move there takes none), the intervals `chunk` a parallel task.
+    fn lower_by_axis(
+        &self,
+        accel: &mut [f64],
+        budgets: &[f64],
+        reached: &[bool],
+        axis: usize,
+        chunk: usize,
+    ) {
+        accel
+            .par_chunks_mut(chunk)
+            .enumerate()
+            .for_each(|(c, accel)| {
+                let k0 = c * chunk;
+                let mut tangents = RecentTangents::new();
+                for (i, a) in accel.iter_mut().enumerate() {
+                    let k = k0 + i;
+                    if !reached[k] {
+                        continue;
+                    }
+                    let (t0, t1) = (tangents.get(self, k)[axis], tangents.get(self, k + 1)[axis]);
+                    // (Both ends on one line: the same share once.)
+                    let ends = if t1 == t0 { 1 } else { 2 };
+                    for t in &[t0, t1][..ends] {
+                        if *t != 0.0 {
+                            *a = a.min(budgets[k] / t.abs());
+                        }
+                    }
+                }
+            });
+    }
+}
+
+/// Each of the `intervals`' least budget of `axis` over the corners `shared` (+∞ where
+/// none reaches), into `budgets`: painted corner by corner over the array, which is kept
+/// from axis to axis (allocated again, its pages would be cleared and faulted in again:
+/// 24 MB for 3 M stations), or through a range-minimum tree (`by`).
+fn axis_budgets(
+    shared: impl Iterator<Item = CornerBudget>,
+    axis: usize,
+    intervals: usize,
+    by: Sharing,
+    budgets: &mut Vec<f64>,
+) {
+    if by == Sharing::Painted {
+        budgets.clear();
+        budgets.resize(intervals, f64::INFINITY);
+        for c in shared {
+            for b in &mut budgets[c.intervals] {
+                *b = b.min(c.accel_mm_s2[axis]);
+            }
+        }
+    } else {
+        let mut tree = RangeMin::<1>::new(intervals);
+        for c in shared {
+            tree.lower(c.intervals.start, c.intervals.end, [c.accel_mm_s2[axis]]);
+        }
+        *budgets = tree.into_minima().into_iter().map(|[b]| b).collect();
     }
 }
 
