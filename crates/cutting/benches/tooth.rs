@@ -5,7 +5,7 @@
 //! ball's raster pass 1 mm deep, and a Ø10 four-flute flat end's side cut over
 //! two bands.
 use criterion::{criterion_group, criterion_main, Criterion};
-use cutting::tooth::{peak_cut, PeakScratch};
+use cutting::tooth::{peak_bound, peak_cut, PeakScratch};
 use cutting::{BandArc, Coefficients, EdgeShape, Teeth};
 use std::f64::consts::PI;
 use std::hint::black_box;
@@ -99,6 +99,17 @@ fn bench(c: &mut Criterion) {
                     case.band_height_mm,
                     &mut flanks,
                     &mut scratch,
+                )
+            })
+        });
+        // What the closed loop's plan takes instead (MODEL.md §3.4, "A bound on the peak").
+        c.bench_function(&format!("peak_bound_{}", case.name), |b| {
+            b.iter(|| {
+                peak_bound(
+                    black_box(&case.shape),
+                    &case.teeth,
+                    black_box(&case.bands),
+                    &C,
                 )
             })
         });

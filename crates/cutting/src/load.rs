@@ -8,7 +8,9 @@ use std::cell::RefCell;
 use crate::beam::SteppedBeam;
 use crate::force::{force_n, volume_per_tooth_mm3};
 use crate::kienzle::Kienzle;
-use crate::tooth::{mean_cut, peak_cut, BandArc, Coefficients, EdgeShape, PeakScratch, Teeth};
+use crate::tooth::{
+    mean_cut, peak_bound, peak_cut, BandArc, Coefficients, EdgeShape, PeakScratch, Teeth,
+};
 
 /// The most a band's arcs may need of the step's own feed per tooth to
 /// remove its volume before the step is taken as no steady cut (MODEL.md §3.4).
@@ -258,6 +260,16 @@ enum BandKind {
 }
 
 /// A step's forces through a tooth period (MODEL.md §3.4), machine axes.
+/// How much of the force through the tooth period a load takes (MODEL.md §3.4).
+enum Peak<'f> {
+    /// The mean only: the peak is the mean's lateral force.
+    Mean,
+    /// Upper bounds of the peak and of its torque ([`peak_bound`]).
+    Bound,
+    /// The peak ([`peak_cut`]), and per entry the forces at its band's flanks.
+    Exact(&'f mut [[[f64; 2]; 2]]),
+}
+
 struct ToothForces {
     mean_n: [f64; 3],
     peak_lateral_n: f64,
@@ -324,7 +336,20 @@ impl CuttingModel {
     ///
     /// Does not allocate.
     pub fn step_load(&self, r: &StepRemoval<'_>) -> StepLoad {
-        self.load(r, Some(&mut []))
+        self.load(r, Peak::Exact(&mut []))
+    }
+
+    /// [`step_load`](Self::step_load) but for the force through the tooth
+    /// period's peak: `force_peak_n` and `stress_mpa` are upper bounds of
+    /// its (from [`peak_bound`]: MODEL.md §3.4, "A bound on the peak"), the
+    /// rest its own bit for bit; where the step has no engaged arc (plunges,
+    /// S4's law) its own too. What decides whether a step can stress its tool
+    /// beyond a limit at a fraction of the peak's cost: where the bound is
+    /// within the limit the step's own stress is.
+    ///
+    /// Does not allocate.
+    pub fn step_load_bounded(&self, r: &StepRemoval<'_>) -> StepLoad {
+        self.load(r, Peak::Bound)
     }
 
     /// [`step_load`](Self::step_load), and per entry k of `flanks_um` the
@@ -343,7 +368,7 @@ impl CuttingModel {
         r: &StepRemoval<'_>,
         flanks_um: &mut [[[f64; 2]; 2]],
     ) -> StepLoad {
-        self.load(r, Some(flanks_um))
+        self.load(r, Peak::Exact(flanks_um))
     }
 
     /// The mean deflection [x, y] at the contact height (µm, along the mean
@@ -354,15 +379,16 @@ impl CuttingModel {
     ///
     /// Does not allocate.
     pub fn mean_deflection_um(&self, r: &StepRemoval<'_>) -> [f64; 2] {
-        let l = self.load(r, None);
+        let l = self.load(r, Peak::Mean);
         [l.dx_um, l.dy_um]
     }
 
-    /// [`step_load_with_flanks`](Self::step_load_with_flanks) where `flanks_um`
-    /// is given; without it, the mean only (the peak is the mean's lateral
-    /// force: [`mean_deflection_um`](Self::mean_deflection_um)).
-    fn load(&self, r: &StepRemoval<'_>, mut flanks_um: Option<&mut [[[f64; 2]; 2]]>) -> StepLoad {
-        if let Some(f) = flanks_um.as_deref_mut() {
+    /// [`step_load_with_flanks`](Self::step_load_with_flanks) with
+    /// [`Peak::Exact`]'s flanks; [`step_load_bounded`](Self::step_load_bounded)
+    /// with [`Peak::Bound`]; the mean only with [`Peak::Mean`] (the peak is
+    /// the mean's lateral force: [`mean_deflection_um`](Self::mean_deflection_um)).
+    fn load(&self, r: &StepRemoval<'_>, mut peak: Peak<'_>) -> StepLoad {
+        if let Peak::Exact(f) = &mut peak {
             f.fill([[0.0; 2]; 2]);
         }
         if !(r.volume_mm3 > 0.0 && r.dt_s > 0.0) {
@@ -421,7 +447,7 @@ impl CuttingModel {
                     revolutions,
                     aggregate,
                     1000.0 * power_w / omega,
-                    flanks_um.as_deref_mut(),
+                    &mut peak,
                 );
                 let [fx, fy, fz] = tooth.as_ref().map_or(aggregate, |t| t.mean_n);
                 (fx, fy, fz, power_w, tooth)
@@ -444,7 +470,11 @@ impl CuttingModel {
         };
         // Each band's flank forces (the mean's where the step has no
         // engaged arc) on the beam at the band's mid-height (MODEL.md §5.2).
-        for (k, flank) in flanks_um.into_iter().flatten().enumerate() {
+        let flanks_um: &mut [[[f64; 2]; 2]] = match peak {
+            Peak::Exact(f) => f,
+            Peak::Mean | Peak::Bound => &mut [],
+        };
+        for (k, flank) in flanks_um.iter_mut().enumerate() {
             let um_per_n =
                 1000.0 * self.compliance_at_mm_per_n(bands, (k as f64 + 0.5) * self.band_height_mm);
             if tooth.is_none() {
@@ -484,8 +514,9 @@ impl CuttingModel {
     /// has arcs: the aggregates' mean is used whole. Per entry k of
     /// `flanks_n`, the lateral forces (machine axes, N) when a tooth at band
     /// k's mid-height passes the left and the right flank ([`peak_cut`];
-    /// written only where `Some` is returned). Without `flanks_n`, the mean
-    /// only: no [`peak_cut`], the peak is the mean's lateral force.
+    /// written only where `Some` is returned: [`Peak::Exact`]). With
+    /// [`Peak::Bound`], [`peak_bound`]'s bounds in place of the peak; with
+    /// [`Peak::Mean`], the mean only: the peak is the mean's lateral force.
     fn tooth_forces(
         &self,
         r: &StepRemoval<'_>,
@@ -493,7 +524,7 @@ impl CuttingModel {
         revolutions: f64,
         aggregate_n: [f64; 3],
         torque_nmm: f64,
-        flanks_n: Option<&mut [[[f64; 2]; 2]]>,
+        peak: &mut Peak<'_>,
     ) -> Option<ToothForces> {
         let [ux, uy] = r.feed_dir;
         if (ux == 0.0 && uy == 0.0) || !(revolutions > 0.0) {
@@ -612,16 +643,28 @@ impl CuttingModel {
             let machine = |[fx, fy]: [f64; 2]| [fx * ux - fy * uy + ax, fx * uy + fy * ux + ay];
             let [fx, fy] = machine([mean[0], mean[1]]);
             let mean_n = [fx, fy, mean[2] + az];
-            let Some(flanks_n) = flanks_n else {
-                return Some(ToothForces {
-                    mean_n,
-                    peak_lateral_n: fx.hypot(fy),
-                    peak_torque_nmm: torque_nmm,
-                });
-            };
             let teeth = Teeth {
                 flutes: self.flutes,
                 helix_deg: self.helix_deg,
+            };
+            let flanks_n = match peak {
+                Peak::Mean => {
+                    return Some(ToothForces {
+                        mean_n,
+                        peak_lateral_n: fx.hypot(fy),
+                        peak_torque_nmm: torque_nmm,
+                    })
+                }
+                // Above the exact branch's sums, term by term.
+                Peak::Bound => {
+                    let b = peak_bound(&self.edge, &teeth, arcs, c);
+                    return Some(ToothForces {
+                        mean_n,
+                        peak_lateral_n: b.lateral_n + ax.hypot(ay),
+                        peak_torque_nmm: b.torque_nmm + (share * torque_nmm).abs(),
+                    });
+                }
+                Peak::Exact(f) => &mut **f,
             };
             let peak = peak_cut(&self.edge, &teeth, arcs, c, h, flanks_n, peak_scratch);
             for flank in flanks_n.iter_mut() {
@@ -1018,6 +1061,57 @@ mod tests {
         assert!((with.fy_n - slot.fy_n).abs() < 2.0 * share * slot.fy_n);
         assert!(with.force_peak_n > slot.force_peak_n);
         assert!(with.force_peak_n - slot.force_peak_n < 2.0 * share * slot.force_n);
+    }
+
+    /// `step_load_bounded` is `step_load` bit for bit but for the peak and
+    /// the stress, which it bounds from above: on the slots, slivers, arcs
+    /// between, a band without arcs, a step without feed and S4's law of
+    /// the tests above; and the bound is no more than twice the peak there.
+    #[test]
+    fn a_bounded_load_is_the_load_with_its_peak_and_stress_bounded() {
+        let pi = std::f64::consts::PI;
+        const SLOT: [[f32; 2]; 2] = [[-4.95, 4.95]; 2];
+        const EMPTY: [f32; 2] = [f32::INFINITY, f32::NEG_INFINITY];
+        const WITH_SLIVER: [[f32; 2]; 2] = [[-4.95, 4.95], EMPTY];
+        const SIDE: [[f32; 2]; 2] = [[3.05, 4.95]; 2];
+        let kienzle = model(ForceModel::Kienzle(KIENZLE));
+        let s4 = model(S4);
+        let mut cases = vec![
+            (&kienzle, slot_removal(&[1.6], &SLOT, pi / 4.0)),
+            (&kienzle, slot_removal(&[1.6], &SLOT, 0.2)),
+            (&kienzle, slot_removal(&[1.6], &SLOT, 0.5)),
+            (&kienzle, slot_removal(&[3.2, 1.6], &SLOT, 0.2)),
+            (
+                &kienzle,
+                slot_removal(&[3.2, 0.0032], &WITH_SLIVER, pi / 4.0),
+            ),
+            (&kienzle, slot_removal(&[0.9, 0.9], &SIDE, 0.3)),
+            (&s4, slot_removal(&[1.6], &SLOT, pi / 4.0)),
+        ];
+        let mut plunge = slot_removal(&[1.6], &SLOT, pi / 4.0);
+        plunge.feed_dir = [0.0, 0.0];
+        cases.push((&kienzle, plunge));
+        for (i, (m, r)) in cases.iter().enumerate() {
+            let (exact, bounded) = (m.step_load(r), m.step_load_bounded(r));
+            assert!(exact.force_peak_n > 0.0, "case {i}");
+            assert!(
+                bounded.force_peak_n >= exact.force_peak_n
+                    && bounded.force_peak_n <= 2.0 * exact.force_peak_n
+                    && bounded.stress_mpa >= exact.stress_mpa,
+                "case {i}: {bounded:?} against {exact:?}"
+            );
+            let others = |l: StepLoad| StepLoad {
+                force_peak_n: 0.0,
+                stress_mpa: 0.0,
+                ..l
+            };
+            assert_eq!(others(bounded), others(exact), "case {i}");
+            assert_eq!(
+                m.mean_deflection_um(r),
+                [bounded.dx_um, bounded.dy_um],
+                "case {i}"
+            );
+        }
     }
 
     #[test]

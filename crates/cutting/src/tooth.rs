@@ -645,6 +645,171 @@ pub fn peak_cut(
     best
 }
 
+/// Upper bounds of [`peak_cut`]'s lateral force and of the size of its
+/// torque for the same `bands` (MODEL.md §3.4, "A bound on the peak"), at
+/// the cost of one [`EdgeShape::moments`] a band: no slices, events or
+/// samples. By eq. 3.4b a tooth at α on a slice of weights `l = K_t f_z ∫dz`,
+/// `a = K_t f_z (k_r S + k_a C)` pushes the tool sideways by
+/// `sin α √(l² + a²) ≤ sin α (l + |a|)` and turns it by `sin α K_t f_z ∫r dz`,
+/// so a slice's teeth in its arcs give at most `Σ sin α` ([`teeth_sines`])
+/// times those weights; summed over the slices the moments are the band's
+/// (S, C ≥ 0 on every edge). Above by a relative 1e-9, so that rounding
+/// cannot put a bound under the sum it bounds.
+pub fn peak_bound(
+    shape: &EdgeShape,
+    teeth: &Teeth,
+    bands: &[(BandArc, f64)],
+    c: &Coefficients,
+) -> PeakBound {
+    let n = teeth.flutes.max(1);
+    let period = 2.0 * PI / f64::from(n);
+    let mut bound = PeakBound::default();
+    // The arcs of one band (the same heights and feed: listed together, as
+    // a slot's or slivers' two flanks are) cut one slice's teeth: their sines
+    // are bounded arc by arc, or over the arcs' hull where that is less (a
+    // tooth is in one flank's arc or the other's, not in both).
+    let mut rest = bands;
+    while let Some(((first, fz), _)) = rest.split_first() {
+        let same = |(a, f): &(BandArc, f64)| {
+            (a.z_lo_mm, a.z_hi_mm, *f) == (first.z_lo_mm, first.z_hi_mm, *fz)
+        };
+        let len = rest.iter().take_while(|b| same(b)).count();
+        let (band, after) = rest.split_at(len);
+        rest = after;
+        // (The bands `peak_cut` slices.)
+        let span = first.z_hi_mm - first.z_lo_mm;
+        if !(span > 0.0) || !(*fz > 0.0) {
+            continue;
+        }
+        let arcs = || {
+            band.iter()
+                .map(|(a, _)| (a.phi_st_rad, a.phi_ex_rad))
+                .filter(|(st, ex)| ex > st)
+        };
+        let Some(hull) = arcs().reduce(|(a, b), (c, d)| (a.min(c), b.max(d))) else {
+            continue;
+        };
+        let apart: f64 = arcs().map(|(st, ex)| teeth_sines(st, ex, period, n)).sum();
+        let sines = apart.min(teeth_sines(hull.0, hull.1, period, n));
+        let m = shape.moments(first.z_lo_mm, first.z_hi_mm);
+        let w = sines * (c.kt_mpa * fz).abs();
+        bound.lateral_n += w
+            * (m.length_mm
+                + c.radial_ratio.abs() * m.sin_k_mm.abs()
+                + c.axial_ratio.abs() * m.cos_k_mm.abs());
+        bound.torque_nmm += w * m.radius_mm2.abs();
+    }
+    if let Some(h) = helix_bound(shape, teeth, bands, c) {
+        bound.lateral_n = bound.lateral_n.min(h.lateral_n);
+        bound.torque_nmm = bound.torque_nmm.min(h.torque_nmm);
+    }
+    PeakBound {
+        lateral_n: bound.lateral_n * (1.0 + 1e-9),
+        torque_nmm: bound.torque_nmm * (1.0 + 1e-9),
+    }
+}
+
+/// [`peak_bound`] of a helical edge over all its bands at once: the teeth
+/// of bands at different heights lag one another, so that the bands are
+/// not all engaged at the rotation where each is most (a Ø2 ball 6 mm
+/// deep at 30° lags 198° over the cut). With `λ = tan β / R` the lag per mm,
+/// tooth j at height z sits at `α = φ + c_j − λ z`, and a slice counts as
+/// engaged where the α of its middle lies in its band's arc, inside the
+/// arcs' hull H. Per mm of edge a tooth pushes by at most
+/// `K_t f_z (1 + √(k_r² + k_a²)) sin α` (|k_r sin κ + k_a cos κ| ≤ √(k_r² + k_a²)) and
+/// turns by `K_t f_z R sin α`. At one rotation the heights where one tooth's
+/// α lies in H are one interval of `|H| / |λ|` (of every tooth and turn,
+/// at most `⌊(Z|λ| + |H|) / (2π/N)⌋ + 1` such intervals over the cut's Z), and
+/// the slices' middles there sum `sin α dz` to at most
+/// `(∫ |sin α| dα over H widened by half a slice's lag Δα each side + (|H| + Δα) Δα² / 24) / |λ|`
+/// (the midpoint rule on a function of |second derivative| ≤ 1). `None`
+/// for straight flutes, where no band lags another, or arcs outside [0, π].
+fn helix_bound(
+    shape: &EdgeShape,
+    teeth: &Teeth,
+    bands: &[(BandArc, f64)],
+    c: &Coefficients,
+) -> Option<PeakBound> {
+    let lag = (teeth.helix_deg.to_radians().tan() / shape.radius_mm).abs();
+    if !(lag > 0.0 && lag.is_finite()) {
+        return None;
+    }
+    // The bands `peak_cut` slices: their arcs' hull, heights, largest
+    // K_t f_z and largest slice (in lag), as it slices them.
+    let (mut hull, mut z, mut kf, mut slice_lag) =
+        ([PI, 0.0], [f64::INFINITY, 0.0], 0.0f64, 0.0f64);
+    for (arc, fz) in bands {
+        let span = arc.z_hi_mm - arc.z_lo_mm;
+        if !(span > 0.0) || !(*fz > 0.0) || !(arc.phi_ex_rad > arc.phi_st_rad) {
+            continue;
+        }
+        if !(arc.phi_st_rad >= 0.0 && arc.phi_ex_rad <= PI) {
+            return None;
+        }
+        hull = [hull[0].min(arc.phi_st_rad), hull[1].max(arc.phi_ex_rad)];
+        z = [z[0].min(arc.z_lo_mm), z[1].max(arc.z_hi_mm)];
+        kf = kf.max((c.kt_mpa * fz).abs());
+        let k = ((span * lag / SLICE_LAG_RAD).ceil() as usize).clamp(1, MAX_SLICES);
+        slice_lag = slice_lag.max(span / k as f64 * lag);
+    }
+    if !(hull[1] > hull[0]) {
+        return Some(PeakBound::default());
+    }
+    let width = hull[1] - hull[0];
+    let period = 2.0 * PI / f64::from(teeth.flutes.max(1));
+    let intervals = (((z[1] - z[0]) * lag + width) / period).floor() + 1.0;
+    let half = 0.5 * slice_lag;
+    let (a, b) = ((hull[0] - half).max(0.0), (hull[1] + half).min(PI));
+    // ∫|sin| over the widened hull: inside [0, π] in closed form, at most
+    // half a slice's lag (|sin α| ≤ Δα/2 there) on each side outside.
+    let sines =
+        (a.cos() - b.cos()) + slice_lag + (width + slice_lag) * slice_lag * slice_lag / 24.0;
+    let per_mm = intervals * sines / lag;
+    Some(PeakBound {
+        lateral_n: kf * (1.0 + c.radial_ratio.hypot(c.axial_ratio)) * per_mm,
+        torque_nmm: kf * shape.radius_mm * per_mm,
+    })
+}
+
+/// What [`peak_bound`] bounds: [`PeakCut::lateral_n`] and the size of
+/// [`PeakCut::torque_nmm`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PeakBound {
+    /// N.
+    pub lateral_n: f64,
+    /// N·mm.
+    pub torque_nmm: f64,
+}
+
+/// An upper bound of `Σ sin α` over the teeth of one slice (N of them,
+/// `period` apart) inside the arc `[st, ex)` at any rotation: at most
+/// `⌈(ex − st) / period⌉` of them, each at sin α no more than its largest on
+/// the arc, and where that width is a whole number of periods (a slot's
+/// [0, π] and two flutes) one more at its ends, as a tooth leaves when the
+/// next enters; sin α to 10⁻¹² above (the teeth's angles are rounded).
+fn teeth_sines(st: f64, ex: f64, period: f64, n: u32) -> f64 {
+    let (q, n) = ((ex - st) / period, f64::from(n));
+    let inside = (q - 1e-9).ceil().clamp(1.0, n);
+    let at_ends = if (q + 1e-9).floor() + 1.0 > inside && inside < n {
+        st.sin().abs().max(ex.sin().abs()) + 1e-12
+    } else {
+        0.0
+    };
+    inside * (largest_sin(st, ex) + 1e-12).min(1.0) + at_ends
+}
+
+/// The largest |sin α| for α in `[a, b]` (a ≤ b): 1 where the interval holds
+/// an odd multiple of π/2, else at one of its ends (|sin| is monotone
+/// between those multiples).
+fn largest_sin(a: f64, b: f64) -> f64 {
+    let k = ((a - 0.5 * PI) / PI).ceil();
+    if 0.5 * PI + k * PI <= b {
+        1.0
+    } else {
+        a.sin().abs().max(b.sin().abs())
+    }
+}
+
 /// `x.rem_euclid(p)` bit for bit (p > 0), without the division's remainder
 /// where x lies within (−p, 2p): there `x % p` is x, or x − p (exact by
 /// Sterbenz's lemma), and a negative x gets p added as `rem_euclid` adds it.
@@ -926,6 +1091,150 @@ mod tests {
             close(p.force_n[2], -C.axial_ratio * C.kt_mpa * ap * fz, 1e-9),
             "{p:?}"
         );
+    }
+
+    /// `peak_bound` is above `peak_cut`'s lateral force and torque on every
+    /// edge, helix, flute count and set of arcs tried (a grid of arcs from
+    /// slivers at either flank to whole slots, over one to three bands, with
+    /// feeds differing per band), and within √2 of it on the straight
+    /// two-flute slot, where `(1 + k_r) / √(1 + k_r²)` is its ratio.
+    #[test]
+    fn peak_bound_is_above_the_peak_and_near_it_in_a_slot() {
+        let mut scratch = PeakScratch::default();
+        let mut flanks = [[[0.0; 2]; 2]; 3];
+        let mut tried = 0;
+        let mut tightest: f64 = f64::INFINITY;
+        for shape in [
+            EdgeShape::ball(1.0),
+            EdgeShape::ball(5.0),
+            EdgeShape::flat(3.0),
+            EdgeShape {
+                radius_mm: 4.0,
+                corner_mm: 1.0,
+            },
+        ] {
+            for flutes in [1, 2, 3, 4] {
+                for helix_deg in [0.0, 30.0, 45.0] {
+                    let teeth = Teeth { flutes, helix_deg };
+                    for (i, st) in [0.0, 0.3, 1.2, PI / 2.0, 2.0, 2.9].into_iter().enumerate() {
+                        for width in [0.05, 0.5, 1.4, PI] {
+                            let ex = (st + width).min(PI);
+                            let bands: Vec<(BandArc, f64)> = (0..1 + i % 3)
+                                .map(|k| {
+                                    let z = 0.7 * k as f64;
+                                    let arc = BandArc {
+                                        z_lo_mm: z,
+                                        z_hi_mm: z + 0.7,
+                                        phi_st_rad: (st - 0.2 * k as f64).max(0.0),
+                                        phi_ex_rad: ex,
+                                    };
+                                    (arc, 0.02 + 0.03 * k as f64)
+                                })
+                                .collect();
+                            let p = peak_cut(
+                                &shape,
+                                &teeth,
+                                &bands,
+                                &C,
+                                0.7,
+                                &mut flanks[..bands.len()],
+                                &mut scratch,
+                            );
+                            let b = peak_bound(&shape, &teeth, &bands, &C);
+                            assert!(
+                                p.lateral_n <= b.lateral_n && p.torque_nmm.abs() <= b.torque_nmm,
+                                "{shape:?} {teeth:?} {bands:?}: {p:?} above {b:?}"
+                            );
+                            tried += 1;
+                            if p.lateral_n > 0.0 {
+                                tightest = tightest.min(b.lateral_n / p.lateral_n);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert_eq!(tried, 4 * 4 * 3 * 6 * 4);
+        // A Ø2 ball 6 mm deep (real program A's side cuts: 1 mm bands, the
+        // helix lags 198° over the cut): the bound over all bands at once is
+        // within 3 times the peak (two flutes), every band's at its most is not.
+        let shape = EdgeShape::ball(1.0);
+        for flutes in [2, 3, 4] {
+            for helix_deg in [30.0, 45.0, -30.0] {
+                let teeth = Teeth { flutes, helix_deg };
+                for (st, ex) in [(0.0, 1.05), (2.06, PI), (0.4, 1.9)] {
+                    let bands: Vec<(BandArc, f64)> = (0..6)
+                        .map(|k| {
+                            let arc = BandArc {
+                                z_lo_mm: k as f64,
+                                z_hi_mm: k as f64 + 1.0,
+                                phi_st_rad: st + 0.01 * k as f64,
+                                phi_ex_rad: ex - 0.02 * k as f64,
+                            };
+                            (arc, 0.015 + 0.001 * k as f64)
+                        })
+                        .collect();
+                    let p = peak_cut(&shape, &teeth, &bands, &C, 1.0, &mut [], &mut scratch);
+                    let b = peak_bound(&shape, &teeth, &bands, &C);
+                    assert!(
+                        p.lateral_n <= b.lateral_n && p.torque_nmm.abs() <= b.torque_nmm,
+                        "{teeth:?} {st} {ex}: {p:?} above {b:?}"
+                    );
+                    if flutes == 2 {
+                        assert!(
+                            b.lateral_n < 3.0 * p.lateral_n,
+                            "{teeth:?} {st} {ex}: {b:?} {p:?}"
+                        );
+                    }
+                }
+            }
+        }
+        // One band's two flanks (slivers to a slot), bounded together.
+        for flutes in [1, 2, 3, 4, 6] {
+            let teeth = Teeth {
+                flutes,
+                helix_deg: 30.0,
+            };
+            for phi in [0.1, 0.7, PI / 3.0, PI / 2.0] {
+                let flank = |st: f64, ex: f64| {
+                    let arc = BandArc {
+                        z_lo_mm: 0.5,
+                        z_hi_mm: 1.5,
+                        phi_st_rad: st,
+                        phi_ex_rad: ex,
+                    };
+                    (arc, 0.05)
+                };
+                let bands = [flank(0.0, phi), flank(PI - phi, PI)];
+                let shape = EdgeShape::ball(3.0);
+                let p = peak_cut(&shape, &teeth, &bands, &C, 1.0, &mut [], &mut scratch);
+                let b = peak_bound(&shape, &teeth, &bands, &C);
+                assert!(
+                    p.lateral_n <= b.lateral_n && p.torque_nmm.abs() <= b.torque_nmm,
+                    "{flutes} {phi}: {p:?} above {b:?}"
+                );
+            }
+        }
+        // Somewhere the bound is nearly reached (one tooth at sin α = 1).
+        assert!(tightest < 1.5, "{tightest}");
+        let (r, ap, fz) = (5.0, 2.0, 0.1);
+        let teeth = Teeth {
+            flutes: 2,
+            helix_deg: 0.0,
+        };
+        let slot = [(BandArc::side_cut(r, 2.0 * r, 0.0, ap, true), fz)];
+        let p = peak_cut(
+            &EdgeShape::flat(r),
+            &teeth,
+            &slot,
+            &C,
+            1.0,
+            &mut flanks[..2],
+            &mut scratch,
+        );
+        let b = peak_bound(&EdgeShape::flat(r), &teeth, &slot, &C);
+        let ratio = (1.0 + C.radial_ratio) / (1.0 + C.radial_ratio.powi(2)).sqrt();
+        assert!(close(b.lateral_n / p.lateral_n, ratio, 1e-8), "{b:?} {p:?}");
     }
 
     /// The arcs of a band from its columns' offsets and its width: one

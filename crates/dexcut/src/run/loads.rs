@@ -50,6 +50,50 @@ pub(crate) fn deflections_as<T: Send>(
     out
 }
 
+/// Each step's load as the closed loop's plan reads it (MODEL.md §5.1):
+/// [`loads_with_flanks`]' loads bit for bit but for the force through the
+/// tooth period's peak where it cannot matter to the plan. The plan reads
+/// a step's peak only through its stress, against its tool's allowable
+/// stress and rupture strength (`limit_mpa(i)`: the lower of them); where
+/// the stress bound of `CuttingModel::step_load_bounded` (MODEL.md §3.4, "A
+/// bound on the peak") is within that, `force_peak_n` and `stress_mpa` are
+/// those bounds, elsewhere the step's own (no flanks). A loop that runs
+/// makes every load again from its last pass, so the rigid pass of such a
+/// run skips the peak's events and samples and the flanks of nearly every
+/// step.
+pub(crate) fn plan_loads(
+    tools: &ToolSet,
+    tool_of_step: &[usize],
+    record: &RemovalRecord,
+    steps: &[TimedStep],
+    grid_mm: f64,
+    limit_mpa: impl Fn(usize) -> f64 + Sync,
+) -> Vec<StepLoad> {
+    let load = |i: usize, r: &cutting::StepRemoval| {
+        let model = &tools.entries[tool_of_step[i]].model;
+        let bounded = model.step_load_bounded(r);
+        if bounded.stress_mpa > limit_mpa(i) {
+            model.step_load(r)
+        } else {
+            bounded
+        }
+    };
+    let mut out: Vec<StepLoad> = steps
+        .par_iter()
+        .enumerate()
+        .map(|(i, s)| load(i, &step_removal(record, i, s, grid_mm)))
+        .collect();
+    super::subcell::window_loads_in_parallel(
+        |_: &mut (), i, r| r.map_or_else(StepLoad::default, |r| load(i, r)),
+        |i, l| out[i] = l,
+        tool_of_step,
+        record,
+        steps,
+        grid_mm,
+    );
+    out
+}
+
 /// Steps a task of [`loads_with_flanks`] takes at a time.
 const FLANK_BLOCK: usize = 256;
 

@@ -336,14 +336,24 @@ pub fn run_on(
     // At most two stocks at a time: the initial one (none where it is made
     // of its closed form) and the last pass's.
     let mut final_stock = rigid_stock;
-    // The rigid pass's loads, with the error map's model (what a run that
-    // does not loop keeps).
-    let (mut step_loads, mut flanks) =
-        loads::loads_with_flanks(tools, &tool_of_step, &record, &steps, grid_mm);
     let n = steps.len();
     let of_step = StepTools {
         tools,
         tool_of_step: &tool_of_step,
+    };
+    // The rigid pass's loads: with the closed loop, as its plan reads them
+    // (the peak only where it can matter to the plan); without, with the
+    // error map's model (what a run that does not loop keeps).
+    let (mut step_loads, mut flanks) = if tools.closed_loop {
+        let limit_mpa = |i| {
+            of_step
+                .stress_limit_mpa(i)
+                .min(of_step.rupture_strength_mpa(i))
+        };
+        let plan = loads::plan_loads(tools, &tool_of_step, &record, &steps, grid_mm, limit_mpa);
+        (plan, FlankDeflections::default())
+    } else {
+        loads::loads_with_flanks(tools, &tool_of_step, &record, &steps, grid_mm)
     };
     let (strengths_mpa, tool_names) = strengths_and_names(&steps, of_step);
     let LoopPlan {
@@ -397,7 +407,9 @@ pub fn run_on(
     // they are; the sub-cell windows and advances, 20 MB of a million-step
     // run, were held beside the loads).
     drop((rigid, in_loop, inherited, sub_cells, advance_mm));
-    // The last pass's loads, those at a jump of g scaled.
+    // The last pass's loads, those at a jump of g scaled; the rigid pass's
+    // with the error map's model where the closed loop settled or converged
+    // on it (its plan's are let go first).
     if let Some(scaled) = scaled {
         (step_loads, flanks) =
             loads::loads_with_flanks(tools, &tool_of_step, &record, &steps, grid_mm);
@@ -405,6 +417,10 @@ pub fn run_on(
             step_loads[i] = step_loads[i].scaled(s);
             flanks.scale(i, s);
         }
+    } else if tools.closed_loop {
+        drop(std::mem::take(&mut step_loads));
+        (step_loads, flanks) =
+            loads::loads_with_flanks(tools, &tool_of_step, &record, &steps, grid_mm);
     }
     let sweep_s = started.elapsed().as_secs_f64();
     // The final loads as reported (MODEL.md §4.4): where a step breaks its
