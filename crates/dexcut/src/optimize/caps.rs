@@ -53,6 +53,56 @@ pub(super) fn limit_cap(
     limits: &LimitsSpec,
     tools: &ToolSet,
 ) -> (f64, CapKind) {
+    limit_cap_of(k, a, at_ref, tool, stations, limits, tools, true)
+}
+
+/// Whether interval k's [`limit_cap`] can be its force or stress cap,
+/// given a reference load `bounded` whose `force_peak_n` and `stress_mpa`
+/// are upper bounds of its own (`CuttingModel::step_load_bounded`, MODEL.md
+/// §3.4; the rest its own bit for bit): their caps are then lower bounds of
+/// the load's own. Where both lie above the cap of every other limit (by a
+/// relative 1e-9, for the rounding of `powf`), neither is the least nor
+/// ties it, so the cap and its kind are those of the other limits, which
+/// `bounded` gives bit for bit: `false`, and the peak is not needed.
+pub(super) fn peak_can_bind(
+    k: usize,
+    a: f64,
+    bounded: &ReferenceLoad,
+    tool: u16,
+    stations: &Stations,
+    limits: &LimitsSpec,
+    tools: &ToolSet,
+) -> bool {
+    if !(a > 1e-12) {
+        return false;
+    }
+    let (others, _) = limit_cap_of(k, a, bounded, tool, stations, limits, tools, false);
+    let entry = &tools.entries[usize::from(tool)];
+    let cap = |q_ref: f64, limit: f64| {
+        entry
+            .model
+            .feed_for_limit(q_ref, REFERENCE_FEED_MM_MIN, limit)
+    };
+    let binds = |v: f64| !(v > others * (1.0 + 1e-9));
+    limits
+        .force_max
+        .is_some_and(|f| binds(cap(bounded.force_peak_n, f)))
+        || (limits.stress && binds(cap(bounded.stress_mpa, entry.stress_limit_mpa)))
+}
+
+/// [`limit_cap`], with the caps of the load's peak (force and stress) where
+/// `with_peak`, else without them.
+#[allow(clippy::too_many_arguments)]
+fn limit_cap_of(
+    k: usize,
+    a: f64,
+    at_ref: &ReferenceLoad,
+    tool: u16,
+    stations: &Stations,
+    limits: &LimitsSpec,
+    tools: &ToolSet,
+    with_peak: bool,
+) -> (f64, CapKind) {
     // The model of the tool cutting this interval.
     let entry = &tools.entries[usize::from(tool)];
     let model = &entry.model;
@@ -77,7 +127,7 @@ pub(super) fn limit_cap(
         // Load ∝ F^p at fixed engagement (MODEL.md §3): F ≤ F_ref·(limit/Q_ref)^(1/p).
         let cap =
             |q_ref: f64, limit: f64| model.feed_for_limit(q_ref, REFERENCE_FEED_MM_MIN, limit);
-        if let Some(f) = limits.force_max {
+        if let (Some(f), true) = (limits.force_max, with_peak) {
             lower(cap(at_ref.force_peak_n, f), CapKind::Force);
         }
         if let Some(d_um) = limits.deflection_max_um {
@@ -88,7 +138,7 @@ pub(super) fn limit_cap(
         }
         // The stress grows with the step's load (force and torque) at its
         // contact height (MODEL.md §4.4): a force limit of F·σ_limit/σ.
-        if limits.stress {
+        if limits.stress && with_peak {
             lower(
                 cap(at_ref.stress_mpa, entry.stress_limit_mpa),
                 CapKind::Stress,

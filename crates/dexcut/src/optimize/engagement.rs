@@ -8,7 +8,7 @@ use dexel::{Stock, SweepOptions};
 use nc::Motion;
 use schedule::{CapKind, Stations};
 
-use super::caps::{angle_and_floor, angle_cap, limit_cap};
+use super::caps::{angle_and_floor, angle_cap, limit_cap, peak_can_bind};
 use super::verify::FeedRules;
 use crate::input::job::LimitsSpec;
 use crate::input::tools::ToolSet;
@@ -95,6 +95,7 @@ pub fn engagement_on(
         tools,
         &tool_index,
         surface,
+        None,
         &mut |_, a, l| {
             area_mm2.push(a);
             reference_loads.push(l);
@@ -138,12 +139,18 @@ pub fn engagement_caps_on(
     let angles = !matches!(surface, SurfaceFrom::Nothing);
     let mut caps = Vec::with_capacity(n);
     let mut area_mm2 = Vec::with_capacity(if angles { n } else { 0 });
+    // The peak of a reference load only where its force or stress cap can
+    // be the interval's (MODEL.md §3.4, "A bound on the peak"): the same caps.
+    let needs_peak = |k: usize, a: f64, bounded: &ReferenceLoad| {
+        peak_can_bind(k, a, bounded, tool_index[k], stations, limits, tools)
+    };
     let swept = sweep_engagement(
         stations,
         stock,
         tools,
         &tool_index,
         surface,
+        Some(&needs_peak),
         &mut |k, a, l| {
             let cap = limit_cap(k, a, &l, tool_index[k], stations, limits, tools);
             caps.push(if angles {
@@ -196,13 +203,17 @@ fn interval_tools(stations: &Stations, tools: &ToolSet) -> Result<Vec<u16>> {
 /// and reference load given to `each(k, area, load)`, interval after
 /// interval, as the sweep makes its rows final ([`EngagementRows`]; the
 /// record is not held). Gives the swept stock where S3 takes its
-/// angles from its surface.
+/// angles from its surface. With `needs_peak`, each load is first made with
+/// an upper bound of its peak (`CuttingModel::step_load_bounded`) and with
+/// its own only where `needs_peak(k, area, bounded)`.
+#[allow(clippy::too_many_arguments)]
 fn sweep_engagement(
     stations: &Stations,
     stock: &StockSource,
     tools: &ToolSet,
     tool_index: &[u16],
     surface: SurfaceFrom,
+    needs_peak: Option<&NeedsPeak<'_>>,
     each: &mut dyn FnMut(usize, f64, ReferenceLoad),
 ) -> Result<Option<Stock>> {
     if let (StockSource::Tiled(t), SurfaceFrom::Stock) = (stock, surface) {
@@ -238,6 +249,7 @@ fn sweep_engagement(
                 (crate::run::feed_dir(&step), crate::run::len_xy_mm(&step))
             },
             spacing_mm,
+            needs_peak,
         ),
         each,
     };
@@ -445,7 +457,15 @@ struct ReferenceLoads<'a, M, D> {
     /// The grid's cell, mm.
     cell_mm: f64,
     n_bands: usize,
+    /// Where a load needs its own peak, given the one with its bound
+    /// (none: everywhere).
+    needs_peak: Option<&'a NeedsPeak<'a>>,
 }
+
+/// Whether interval k's reference load needs the peak over the revolution,
+/// given its windowed area and the load with an upper bound of the peak
+/// (`CuttingModel::step_load_bounded`).
+type NeedsPeak<'f> = dyn Fn(usize, f64, &ReferenceLoad) -> bool + Sync + 'f;
 
 /// Reference loads made at a time: a few milliseconds of the tooth model
 /// (MODEL.md §3.4), a few hundred kB of sources held (fewer in the tests,
@@ -487,7 +507,14 @@ where
     /// Loads along stations at `s_mm`, each band list `n_bands` long (the
     /// record's: that of the tool with the most); interval k's direction
     /// `dir_of(k)`, on a grid of `cell_mm`.
-    fn new(s_mm: &'a [f64], n_bands: usize, model_of: M, dir_of: D, cell_mm: f64) -> Self {
+    fn new(
+        s_mm: &'a [f64],
+        n_bands: usize,
+        model_of: M,
+        dir_of: D,
+        cell_mm: f64,
+        needs_peak: Option<&'a NeedsPeak<'a>>,
+    ) -> Self {
         ReferenceLoads {
             s_mm,
             model_of,
@@ -500,6 +527,7 @@ where
             dir_of,
             cell_mm,
             n_bands,
+            needs_peak,
         }
     }
 
@@ -604,22 +632,28 @@ where
         offsets.clear();
         offsets.extend(self.offsets.range(first..first + n_bands).copied());
         let [cx, cy] = source.contact;
-        (self.model_of)(k)
-            .step_load(&cutting::StepRemoval {
-                volume_mm3: volume,
-                band_volumes_mm3: scaled,
-                contact_resultant: [cx * scale, cy * scale],
-                // The chip edge area is per step: for the interval's own length, scaled
-                // by the ratio of lengths (thickness per mm of path is what is kept).
-                chip_edge_area_mm2: source.chip_edge_area_mm2 * scale * source.len_mm / len_mm,
-                volume_over_radius_mm2: source.volume_over_radius_mm2 * scale,
-                dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
-                band_offsets_mm: offsets,
-                feed_dir: source.feed_dir,
-                len_xy_mm: (self.dir_of)(k).1,
-                cell_mm: self.cell_mm,
-            })
-            .into()
+        let removal = cutting::StepRemoval {
+            volume_mm3: volume,
+            band_volumes_mm3: scaled,
+            contact_resultant: [cx * scale, cy * scale],
+            // The chip edge area is per step: for the interval's own length, scaled
+            // by the ratio of lengths (thickness per mm of path is what is kept).
+            chip_edge_area_mm2: source.chip_edge_area_mm2 * scale * source.len_mm / len_mm,
+            volume_over_radius_mm2: source.volume_over_radius_mm2 * scale,
+            dt_s: len_mm * 60.0 / REFERENCE_FEED_MM_MIN,
+            band_offsets_mm: offsets,
+            feed_dir: source.feed_dir,
+            len_xy_mm: (self.dir_of)(k).1,
+            cell_mm: self.cell_mm,
+        };
+        let model = (self.model_of)(k);
+        if let Some(needs_peak) = self.needs_peak {
+            let bounded = model.step_load_bounded(&removal).into();
+            if !needs_peak(k, area_mm2, &bounded) {
+                return bounded;
+            }
+        }
+        model.step_load(&removal).into()
     }
 }
 

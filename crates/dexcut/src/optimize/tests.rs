@@ -617,6 +617,39 @@ fn engagement_from_the_sweeps_rows_is_the_records() {
         for kind in ["Removal", "Deflection", "ChipLoad", "FeedScale", "FeedMax"] {
             assert!(kinds.contains(kind), "{kind} in {kinds:?} ({what})");
         }
+        // With a force limit at a tenth of the median reference peak, the force caps
+        // hold part of the path: the caps made with the peak only where it
+        // can be the cap (MODEL.md §3.4, "A bound on the peak") are those of
+        // every interval's peak, bit for bit, on both sides of that line.
+        let mut peaks: Vec<f64> = held
+            .reference_loads
+            .iter()
+            .map(|l| l.force_peak_n)
+            .filter(|&f| f > 0.0)
+            .collect();
+        peaks.sort_by(f64::total_cmp);
+        let low = LimitsSpec {
+            force_max: Some(0.1 * peaks[peaks.len() / 2]),
+            ..limits.clone()
+        };
+        let exact = caps_in_one_piece(&held, &stations, &low, tools);
+        assert_eq!(
+            cap_bits(
+                &engagement_caps_on(&stations, &stock, tools, &low, surface)
+                    .unwrap()
+                    .0
+            ),
+            cap_bits(&exact),
+            "{what}"
+        );
+        let held_by = |kind: CapKind| exact.iter().filter(|c| c.1 == kind).count();
+        assert!(
+            held_by(CapKind::Force) > exact.len() / 20 && held_by(CapKind::Removal) > 0,
+            "force {} removal {} of {} ({what})",
+            held_by(CapKind::Force),
+            held_by(CapKind::Removal),
+            exact.len()
+        );
         if budget_mb.is_none() {
             assert!(kinds.contains("SurfaceAngle"), "{kinds:?}");
         }
