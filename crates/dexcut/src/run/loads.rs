@@ -56,43 +56,92 @@ pub(crate) fn deflections_as<T: Send>(
 /// a step's peak only through its stress, against its tool's allowable
 /// stress and rupture strength (`limit_mpa(i)`: the lower of them); where
 /// the stress bound of `CuttingModel::step_load_bounded` (MODEL.md §3.4, "A
-/// bound on the peak") is within that, `force_peak_n` and `stress_mpa` are
-/// those bounds, elsewhere the step's own (no flanks). A loop that runs
-/// makes every load again from its last pass, so the rigid pass of such a
-/// run skips the peak's events and samples and the flanks of nearly every
-/// step.
-pub(crate) fn plan_loads(
+/// bound on the peak") is within that, `force_peak_n` and `stress_mpa` may
+/// be those bounds, elsewhere they are the step's own.
+///
+/// A loop that runs makes every load again from its last pass; one that
+/// settles or converges on the rigid sweep keeps the rigid loads with their
+/// peaks and flanks. So the steps are taken in order, [`GUESS_STEPS`] at a
+/// time, with peaks and flanks ([`loads_with_flanks`]' loads and flanks)
+/// until `likely(step, load)` guesses that the loop will run, then with the
+/// bound. Returns the loads, and the flanks where every load has them (the
+/// guess never made): then they are [`loads_with_flanks`]' bit for bit.
+pub(crate) fn rigid_loads(
     tools: &ToolSet,
     tool_of_step: &[usize],
     record: &RemovalRecord,
     steps: &[TimedStep],
     grid_mm: f64,
     limit_mpa: impl Fn(usize) -> f64 + Sync,
-) -> Vec<StepLoad> {
-    let load = |i: usize, r: &cutting::StepRemoval| {
+    likely: impl Fn(usize, &StepLoad) -> bool + Sync,
+) -> (Vec<StepLoad>, Option<FlankDeflections>) {
+    let bounded = |i: usize, r: &cutting::StepRemoval| {
         let model = &tools.entries[tool_of_step[i]].model;
-        let bounded = model.step_load_bounded(r);
-        if bounded.stress_mpa > limit_mpa(i) {
+        let load = model.step_load_bounded(r);
+        if load.stress_mpa > limit_mpa(i) {
             model.step_load(r)
         } else {
-            bounded
+            load
         }
     };
-    let mut out: Vec<StepLoad> = steps
-        .par_iter()
-        .enumerate()
-        .map(|(i, s)| load(i, &step_removal(record, i, s, grid_mm)))
-        .collect();
+    let mut flanks = FlankDeflections::sized(record, steps.len());
+    let mut out = vec![StepLoad::default(); steps.len()];
+    let mut full = true;
+    {
+        let mut bands = flanks.blocks_mut(FLANK_BLOCK);
+        for (c, (loads, bands)) in out
+            .chunks_mut(GUESS_STEPS)
+            .zip(bands.chunks_mut(GUESS_STEPS / FLANK_BLOCK))
+            .enumerate()
+        {
+            let first = c * GUESS_STEPS;
+            if full {
+                loads_into(
+                    tools,
+                    tool_of_step,
+                    record,
+                    steps,
+                    grid_mm,
+                    first,
+                    loads,
+                    bands,
+                );
+                full = !(loads.par_iter().enumerate()).any(|(j, l)| likely(first + j, l));
+            } else {
+                loads.par_iter_mut().enumerate().for_each(|(j, l)| {
+                    let i = first + j;
+                    *l = bounded(i, &step_removal(record, i, &steps[i], grid_mm));
+                });
+            }
+        }
+    }
+    if full {
+        with_flanks_in_windows(
+            tools,
+            tool_of_step,
+            record,
+            steps,
+            grid_mm,
+            &mut out,
+            &mut flanks,
+        );
+        return (out, Some(flanks));
+    }
+    drop(flanks);
     super::subcell::window_loads_in_parallel(
-        |_: &mut (), i, r| r.map_or_else(StepLoad::default, |r| load(i, r)),
+        |_: &mut (), i, r| r.map_or_else(StepLoad::default, |r| bounded(i, r)),
         |i, l| out[i] = l,
         tool_of_step,
         record,
         steps,
         grid_mm,
     );
-    out
+    (out, None)
 }
+
+/// Steps [`rigid_loads`] takes at a time before it looks at its guess (a
+/// whole number of [`FLANK_BLOCK`]s).
+const GUESS_STEPS: usize = 64 * FLANK_BLOCK;
 
 /// Steps a task of [`loads_with_flanks`] takes at a time.
 const FLANK_BLOCK: usize = 256;
@@ -110,43 +159,98 @@ pub(crate) fn loads_with_flanks(
     grid_mm: f64,
 ) -> (Vec<StepLoad>, FlankDeflections) {
     let mut flanks = FlankDeflections::sized(record, steps.len());
-    // One step's load, and its flanks in f64 as the model makes them into
-    // its f32 bands `out`.
-    let load_into = |i: usize,
-                     r: Option<&cutting::StepRemoval>,
-                     out: &mut [[[f32; 2]; 2]],
-                     buf: &mut Vec<[[f64; 2]; 2]>| {
-        let model = &tools.entries[tool_of_step[i]].model;
-        buf.clear();
-        buf.resize(out.len(), [[0.0; 2]; 2]);
-        let load = r.map_or_else(StepLoad::default, |r| model.step_load_with_flanks(r, buf));
-        for (o, b) in out.iter_mut().zip(buf.iter()) {
-            *o = b.map(|xy| xy.map(|c| c as f32));
-        }
-        load
-    };
-    // Blocks of steps in parallel, each with its part of the bands.
     let mut out = vec![StepLoad::default(); steps.len()];
-    out.par_chunks_mut(FLANK_BLOCK)
-        .zip(flanks.blocks_mut(FLANK_BLOCK))
+    let mut bands = flanks.blocks_mut(FLANK_BLOCK);
+    loads_into(
+        tools,
+        tool_of_step,
+        record,
+        steps,
+        grid_mm,
+        0,
+        &mut out,
+        &mut bands,
+    );
+    drop(bands);
+    with_flanks_in_windows(
+        tools,
+        tool_of_step,
+        record,
+        steps,
+        grid_mm,
+        &mut out,
+        &mut flanks,
+    );
+    (out, flanks)
+}
+
+/// Step i's load from its removal `r` with its flanks written into its
+/// f32 bands `out` (the model's f64 made in `buf`).
+fn load_into(
+    tools: &ToolSet,
+    tool_of_step: &[usize],
+    i: usize,
+    r: Option<&cutting::StepRemoval>,
+    out: &mut [[[f32; 2]; 2]],
+    buf: &mut Vec<[[f64; 2]; 2]>,
+) -> StepLoad {
+    let model = &tools.entries[tool_of_step[i]].model;
+    buf.clear();
+    buf.resize(out.len(), [[0.0; 2]; 2]);
+    let load = r.map_or_else(StepLoad::default, |r| model.step_load_with_flanks(r, buf));
+    for (o, b) in out.iter_mut().zip(buf.iter()) {
+        *o = b.map(|xy| xy.map(|c| c as f32));
+    }
+    load
+}
+
+/// The loads and flanks of steps `first..first + loads.len()` from their
+/// own removals, blocks of [`FLANK_BLOCK`] steps in parallel, each block
+/// with its part of the bands (`bands`, one slice a block).
+#[allow(clippy::too_many_arguments)]
+fn loads_into(
+    tools: &ToolSet,
+    tool_of_step: &[usize],
+    record: &RemovalRecord,
+    steps: &[TimedStep],
+    grid_mm: f64,
+    first: usize,
+    loads: &mut [StepLoad],
+    bands: &mut [&mut [[[f32; 2]; 2]]],
+) {
+    loads
+        .par_chunks_mut(FLANK_BLOCK)
+        .zip(bands.par_iter_mut())
         .enumerate()
-        .for_each(|(b, (loads, mut bands))| {
+        .for_each(|(b, (loads, bands))| {
             let mut buf = Vec::new();
+            let mut bands: &mut [[[f32; 2]; 2]] = bands;
             for (j, load) in loads.iter_mut().enumerate() {
-                let i = b * FLANK_BLOCK + j;
+                let i = first + b * FLANK_BLOCK + j;
                 let (own, rest) =
                     std::mem::take(&mut bands).split_at_mut(FlankDeflections::bands_of(record, i));
                 let r = step_removal(record, i, &steps[i], grid_mm);
-                *load = load_into(i, Some(&r), own, &mut buf);
+                *load = load_into(tools, tool_of_step, i, Some(&r), own, &mut buf);
                 bands = rest;
             }
         });
-    // The sub-cell steps' loads from their windows, made in parallel
-    // (each step's bands made apart, then written over its own).
+}
+
+/// The sub-cell steps' loads and flanks from their windows, made in
+/// parallel (each step's bands made apart, then written over its own).
+fn with_flanks_in_windows(
+    tools: &ToolSet,
+    tool_of_step: &[usize],
+    record: &RemovalRecord,
+    steps: &[TimedStep],
+    grid_mm: f64,
+    out: &mut [StepLoad],
+    flanks: &mut FlankDeflections,
+) {
     super::subcell::window_loads_in_parallel(
         |buf, i, r| {
             let mut bands = vec![[[0.0; 2]; 2]; FlankDeflections::bands_of(record, i)];
-            (load_into(i, r, &mut bands, buf), bands)
+            (load_into(tools, tool_of_step, i, r, &mut bands, buf), bands)
         },
         |i, (load, bands)| {
             out[i] = load;
@@ -157,7 +261,6 @@ pub(crate) fn loads_with_flanks(
         steps,
         grid_mm,
     );
-    (out, flanks)
 }
 
 /// What step `i` (`step`) of `record` removed, as the force model takes it.

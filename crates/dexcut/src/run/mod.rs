@@ -341,19 +341,35 @@ pub fn run_on(
         tools,
         tool_of_step: &tool_of_step,
     };
-    // The rigid pass's loads: with the closed loop, as its plan reads them
-    // (the peak only where it can matter to the plan); without, with the
-    // error map's model (what a run that does not loop keeps).
-    let (mut step_loads, mut flanks) = if tools.closed_loop {
+    // The rigid pass's loads, with the error map's model (what a run that
+    // does not loop keeps); with the closed loop, from where the loads guess
+    // that it will run, as its plan reads them (the peak only where it can
+    // matter to the plan; no flanks).
+    let (mut step_loads, mut flanks, with_flanks) = if tools.closed_loop {
         let limit_mpa = |i| {
             of_step
                 .stress_limit_mpa(i)
                 .min(of_step.rupture_strength_mpa(i))
         };
-        let plan = loads::plan_loads(tools, &tool_of_step, &record, &steps, grid_mm, limit_mpa);
-        (plan, FlankDeflections::default())
+        let likely = |i, l: &cutting::StepLoad| {
+            closed_loop::settle::loop_likely(&steps, of_step, &record, i, l, grid_mm)
+        };
+        match loads::rigid_loads(
+            tools,
+            &tool_of_step,
+            &record,
+            &steps,
+            grid_mm,
+            limit_mpa,
+            likely,
+        ) {
+            (loads, Some(flanks)) => (loads, flanks, true),
+            (loads, None) => (loads, FlankDeflections::default(), false),
+        }
     } else {
-        loads::loads_with_flanks(tools, &tool_of_step, &record, &steps, grid_mm)
+        let (loads, flanks) =
+            loads::loads_with_flanks(tools, &tool_of_step, &record, &steps, grid_mm);
+        (loads, flanks, true)
     };
     let (strengths_mpa, tool_names) = strengths_and_names(&steps, of_step);
     let LoopPlan {
@@ -417,7 +433,7 @@ pub fn run_on(
             step_loads[i] = step_loads[i].scaled(s);
             flanks.scale(i, s);
         }
-    } else if tools.closed_loop {
+    } else if !with_flanks {
         drop(std::mem::take(&mut step_loads));
         (step_loads, flanks) =
             loads::loads_with_flanks(tools, &tool_of_step, &record, &steps, grid_mm);

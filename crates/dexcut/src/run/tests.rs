@@ -836,8 +836,40 @@ fn deflections_made_as_the_loads_are_those_of_the_loads_held() {
     let g =
         super::loads::deflections_as(&setup.tools, &tool_of_step, &record, &steps, grid_mm, along);
     // The loads made with the flanks' deflections are the same loads.
-    let (loads, _) =
+    let (loads, flanks) =
         super::loads::loads_with_flanks(&setup.tools, &tool_of_step, &record, &steps, grid_mm);
+    // The rigid pass's: where the loop is never guessed to run, these
+    // loads and flanks; where it is (from the first step), the loads
+    // without flanks (S4's law has no peak to bound: the same loads).
+    let rigid = |likely: bool| {
+        super::loads::rigid_loads(
+            &setup.tools,
+            &tool_of_step,
+            &record,
+            &steps,
+            grid_mm,
+            |_| 1200.0,
+            |_, _| likely,
+        )
+    };
+    let (never, with) = rigid(false);
+    assert_eq!(format!("{never:?}"), format!("{loads:?}"));
+    assert_eq!(with, Some(flanks));
+    let (guessed, without) = rigid(true);
+    assert_eq!(format!("{guessed:?}"), format!("{loads:?}"));
+    assert!(without.is_none());
+    // This wall's tool bends by about 99 µm on its 0.1 N/µm holder: the
+    // guess that the loop will run is made on it.
+    let of_step = StepTools {
+        tools: &setup.tools,
+        tool_of_step: &tool_of_step,
+    };
+    let likely = (0..steps.len())
+        .filter(|&i| {
+            super::closed_loop::settle::loop_likely(&steps, of_step, &record, i, &loads[i], grid_mm)
+        })
+        .count();
+    assert!(likely > 100, "{likely} of {}", steps.len());
     assert_eq!(g.len(), steps.len());
     for i in 0..steps.len() {
         let l = &held[i];

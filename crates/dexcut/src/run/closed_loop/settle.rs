@@ -6,7 +6,7 @@
 use cutting::StepLoad;
 use dexel::{RemovalRecord, ToolShape};
 
-use super::{within, LOOP_TOL_UM};
+use super::{loop_direction, within, LOOP_TOL_UM};
 use crate::motion::TimedStep;
 use crate::run::StepTools;
 
@@ -56,7 +56,6 @@ pub(crate) fn settled_bound_um(
         let t = &mut largest_mm[of_step.tool_of_step[i]];
         *t = t.max(1e-3 * rigid[i]);
     }
-    let band_mm = record.band_height_mm;
     let mut bound_um = 0.0_f64;
     for i in (0..n).filter(|&i| in_loop[i]) {
         // A step that took its direction starts where the step before it
@@ -64,41 +63,85 @@ pub(crate) fn settled_bound_um(
         if inherited[i] {
             continue;
         }
-        let tip_um = step_loads[i].tip_deflection_um.abs();
-        let Some(Section {
-            advance_mm,
-            volume_mm3,
-            lowest,
-            highest,
-        }) = section(steps, of_step.tool_of_step, record, i, grid_mm)
-        else {
-            // (A section the grid does not resolve: settled only where the
-            // tool hardly bends at all.)
-            if tip_um > LOOP_TOL_UM {
-                return None;
-            }
-            bound_um = bound_um.max(tip_um);
-            continue;
-        };
-        let engaged_mm = (highest + 1 - lowest) as f64 * band_mm;
-        let top_mm = (highest + 1) as f64 * band_mm;
-        let tool = &of_step.tools.entries[of_step.tool_of_step[i]].tool;
-        let rounded_mm = match tool.shape {
-            ToolShape::Ball => 0.5 * tool.diameter_mm,
-            ToolShape::Flat => 0.0,
-            ToolShape::Bull { corner_radius_mm } => corner_radius_mm,
-        };
-        // (The band holding the corner's top counts as vertical.)
-        let vertical = top_mm > rounded_mm;
-        let sliver_mm = largest_mm[of_step.tool_of_step[i]] + if vertical { grid_mm } else { 0.0 };
-        let section_mm2 = volume_mm3 / advance_mm;
-        let b = tip_um * sliver_mm * engaged_mm / section_mm2;
+        let largest = largest_mm[of_step.tool_of_step[i]];
+        let b = step_bound_um(steps, of_step, record, i, &step_loads[i], largest, grid_mm)?;
         if !within(b, rigid[i]) {
             return None;
         }
         bound_um = bound_um.max(b);
     }
     Some(bound_um)
+}
+
+/// Step i's bound B of eq. 5.1e with its load `load` and X = `largest_mm`
+/// (mm); `None` where its section is one the grid does not resolve and the
+/// tool bends there by more than the tolerance (never settled so), else,
+/// for such a section, the tip's deflection.
+fn step_bound_um(
+    steps: &[TimedStep],
+    of_step: StepTools,
+    record: &RemovalRecord,
+    i: usize,
+    load: &StepLoad,
+    largest_mm: f64,
+    grid_mm: f64,
+) -> Option<f64> {
+    let tip_um = load.tip_deflection_um.abs();
+    let Some(Section {
+        advance_mm,
+        volume_mm3,
+        lowest,
+        highest,
+    }) = section(steps, of_step.tool_of_step, record, i, grid_mm)
+    else {
+        // (A section the grid does not resolve: settled only where the
+        // tool hardly bends at all.)
+        return (tip_um <= LOOP_TOL_UM).then_some(tip_um);
+    };
+    let band_mm = record.band_height_mm;
+    let engaged_mm = (highest + 1 - lowest) as f64 * band_mm;
+    let top_mm = (highest + 1) as f64 * band_mm;
+    let tool = &of_step.tools.entries[of_step.tool_of_step[i]].tool;
+    let rounded_mm = match tool.shape {
+        ToolShape::Ball => 0.5 * tool.diameter_mm,
+        ToolShape::Flat => 0.0,
+        ToolShape::Bull { corner_radius_mm } => corner_radius_mm,
+    };
+    // (The band holding the corner's top counts as vertical.)
+    let vertical = top_mm > rounded_mm;
+    let sliver_mm = largest_mm + if vertical { grid_mm } else { 0.0 };
+    let section_mm2 = volume_mm3 / advance_mm;
+    Some(tip_um * sliver_mm * engaged_mm / section_mm2)
+}
+
+/// A guess, from step i's rigid load `load` alone, that the closed loop
+/// will run (MODEL.md §5.1): a feed step pushed across its path by more
+/// than the tolerance whose own deflection, as X, already puts eq. 5.1e's
+/// bound beyond it (X is at least that). It neither converges nor settles
+/// there unless its tool is left rigid (overloaded elsewhere) or its
+/// direction is another's (the plan decides those); a guess decides only
+/// how the rigid pass's loads are made, not what they are.
+pub(crate) fn loop_likely(
+    steps: &[TimedStep],
+    of_step: StepTools,
+    record: &RemovalRecord,
+    i: usize,
+    load: &StepLoad,
+    grid_mm: f64,
+) -> bool {
+    let step = &steps[i].step;
+    if step.rapid {
+        return false;
+    }
+    let motion = [
+        step.to_mm[0] - step.from_mm[0],
+        step.to_mm[1] - step.from_mm[1],
+    ];
+    let [dx, dy] = loop_direction(load.dx_um, load.dy_um, motion);
+    let rigid_um = (load.dx_um * dx + load.dy_um * dy).max(0.0);
+    rigid_um > LOOP_TOL_UM
+        && step_bound_um(steps, of_step, record, i, load, 1e-3 * rigid_um, grid_mm)
+            .is_none_or(|b| !within(b, rigid_um))
 }
 
 /// The cut of a step over the path the grid resolves: its XY advance, mm,
