@@ -690,7 +690,16 @@ pub fn peak_bound(
             continue;
         };
         let apart: f64 = arcs().map(|(st, ex)| teeth_sines(st, ex, period, n)).sum();
-        let sines = apart.min(teeth_sines(hull.0, hull.1, period, n));
+        // (Arcs that overlap count a tooth in both, as `peak_cut` does: the
+        // hull only over arcs apart, as a band's flanks are.)
+        let overlap = arcs()
+            .enumerate()
+            .any(|(i, (a, b))| arcs().skip(i + 1).any(|(c, d)| c < b && a < d));
+        let sines = if overlap {
+            apart
+        } else {
+            apart.min(teeth_sines(hull.0, hull.1, period, n))
+        };
         let m = shape.moments(first.z_lo_mm, first.z_hi_mm);
         let w = sines * (c.kt_mpa * fz).abs();
         bound.lateral_n += w
@@ -1189,13 +1198,15 @@ mod tests {
                 }
             }
         }
-        // One band's two flanks (slivers to a slot), bounded together.
+        // One band's two flanks (slivers to a slot), bounded together; and
+        // two arcs of one band that overlap (beyond π/2, or one slot twice),
+        // whose teeth `peak_cut` counts in both.
         for flutes in [1, 2, 3, 4, 6] {
             let teeth = Teeth {
                 flutes,
                 helix_deg: 30.0,
             };
-            for phi in [0.1, 0.7, PI / 3.0, PI / 2.0] {
+            for phi in [0.1, 0.7, PI / 3.0, PI / 2.0, 2.0, 2.8, PI] {
                 let flank = |st: f64, ex: f64| {
                     let arc = BandArc {
                         z_lo_mm: 0.5,
