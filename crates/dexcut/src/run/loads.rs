@@ -1,93 +1,142 @@
 //! Each step's force, power, deflection and stress from its removal
 //! (MODEL.md §3, §4), and the step that breaks its tool.
 
-use cutting::StepLoad;
+use cutting::{CuttingModel, StepLoad, StepRemoval};
 use dexel::RemovalRecord;
 use rayon::prelude::*;
 
 use super::error_map::FlankDeflections;
-use crate::input::tools::ToolSet;
+use super::StepTools;
 use crate::motion::TimedStep;
 
-/// Each step's mean deflection [x, y] at the contact height (µm, MODEL.md
-/// §3, §4: `CuttingModel::mean_deflection_um`, the `dx_um`, `dy_um` of its
-/// load bit for bit, without the force through the tooth period's peak)
-/// with its tool's model, as `of(deflection, step)` makes it (the closed
-/// loop's passes keep each step's deflection across its path, 8 B); a step
-/// shorter than a grid cell (`grid_mm`) has the deflection of the steady cut
-/// around it (MODEL.md §1.6).
-pub(crate) fn deflections_as<T: Send>(
-    tools: &ToolSet,
-    tool_of_step: &[usize],
-    record: &RemovalRecord,
-    steps: &[TimedStep],
-    grid_mm: f64,
-    of: impl Fn([f64; 2], usize) -> T + Sync,
-) -> Vec<T> {
-    // Steps in parallel: each step's deflection is its own, and the order
-    // of the results is the steps'.
-    let mut out: Vec<T> = steps
-        .par_iter()
-        .enumerate()
-        .map(|(i, s)| {
-            let model = &tools.entries[tool_of_step[i]].model;
-            of(
-                model.mean_deflection_um(&step_removal(record, i, s, grid_mm)),
-                i,
-            )
-        })
-        .collect();
-    super::subcell::window_loads(
-        |i, r| {
-            let model = &tools.entries[tool_of_step[i]].model;
-            out[i] = of(r.map_or([0.0; 2], |r| model.mean_deflection_um(r)), i);
-        },
-        tool_of_step,
-        record,
-        steps,
-        grid_mm,
-    );
-    out
+/// What a run's loads are made of: its steps, what each removed (the
+/// record), each step's tool and the grid.
+#[derive(Clone, Copy)]
+pub(crate) struct Removals<'a> {
+    pub of_step: StepTools<'a>,
+    pub record: &'a RemovalRecord,
+    pub steps: &'a [TimedStep],
+    /// Column spacing, mm.
+    pub grid_mm: f64,
 }
 
-/// Each step's load as the closed loop's plan reads it (MODEL.md §5.1):
-/// [`loads_with_flanks`]' loads bit for bit but for the force through the
-/// tooth period's peak where it cannot matter to the plan. The plan reads
-/// a step's peak only through its stress, against its tool's allowable
-/// stress and rupture strength (`limit_mpa(i)`: the lower of them); where
-/// the stress bound of `CuttingModel::step_load_bounded` (MODEL.md §3.4, "A
-/// bound on the peak") is within that, `force_peak_n` and `stress_mpa` may
-/// be those bounds, elsewhere they are the step's own.
-///
-/// A loop that runs makes every load again from its last pass; one that
-/// settles or converges on the rigid sweep keeps the rigid loads with their
-/// peaks and flanks. So the steps are taken in order, [`GUESS_STEPS`] at a
-/// time, with peaks and flanks ([`loads_with_flanks`]' loads and flanks)
-/// until `likely(step, load)` guesses that the loop will run, then with the
-/// bound. Returns the loads, and the flanks where every load has them (the
-/// guess never made): then they are [`loads_with_flanks`]' bit for bit.
-pub(crate) fn rigid_loads(
-    tools: &ToolSet,
-    tool_of_step: &[usize],
-    record: &RemovalRecord,
-    steps: &[TimedStep],
-    grid_mm: f64,
-    limit_mpa: impl Fn(usize) -> f64 + Sync,
-    likely: impl Fn(usize, &StepLoad) -> bool + Sync,
-) -> (Vec<StepLoad>, Option<FlankDeflections>) {
-    let bounded = |i: usize, r: &cutting::StepRemoval| {
-        let model = &tools.entries[tool_of_step[i]].model;
-        let load = model.step_load_bounded(r);
-        if load.stress_mpa > limit_mpa(i) {
-            model.step_load(r)
-        } else {
-            load
+/// Steps [`Removals::rigid_loads`] takes at a time before it looks at its
+/// guess (a whole number of [`FLANK_BLOCK`]s).
+const GUESS_STEPS: usize = 64 * FLANK_BLOCK;
+
+/// Steps a task of [`Removals::loads_with_flanks`] takes at a time.
+const FLANK_BLOCK: usize = 256;
+
+impl<'a> Removals<'a> {
+    pub(crate) fn new(
+        of_step: StepTools<'a>,
+        record: &'a RemovalRecord,
+        steps: &'a [TimedStep],
+        grid_mm: f64,
+    ) -> Self {
+        Removals {
+            of_step,
+            record,
+            steps,
+            grid_mm,
         }
-    };
-    let mut flanks = FlankDeflections::sized(record, steps.len());
-    let mut out = vec![StepLoad::default(); steps.len()];
-    let mut full = true;
-    {
+    }
+
+    /// Step i's tool's model.
+    fn model(&self, i: usize) -> &CuttingModel {
+        &self.of_step.tools.entries[self.of_step.tool_of_step[i]].model
+    }
+
+    /// What step i removed, as the force model takes it ([`step_removal`]).
+    fn removal(&self, i: usize) -> StepRemoval<'_> {
+        step_removal(self.record, i, &self.steps[i], self.grid_mm)
+    }
+
+    /// `set(step, removal)` for each step shorter than a grid cell, with
+    /// the removal of its window (`subcell::window_loads`).
+    fn windows(&self, set: impl FnMut(usize, Option<&StepRemoval>)) {
+        let (tool_of_step, record) = (self.of_step.tool_of_step, self.record);
+        super::subcell::window_loads(set, tool_of_step, record, self.steps, self.grid_mm);
+    }
+
+    /// [`Removals::windows`] with each value made on rayon's threads
+    /// (`subcell::window_loads_in_parallel`).
+    fn windows_in_parallel<S: Default + Send, T: Send>(
+        &self,
+        make: impl Fn(&mut S, usize, Option<&StepRemoval>) -> T + Sync,
+        set: impl FnMut(usize, T),
+    ) {
+        let (tool_of_step, record) = (self.of_step.tool_of_step, self.record);
+        super::subcell::window_loads_in_parallel(
+            make,
+            set,
+            tool_of_step,
+            record,
+            self.steps,
+            self.grid_mm,
+        );
+    }
+
+    /// Each step's mean deflection [x, y] at the contact height (µm, MODEL.md
+    /// §3, §4: `CuttingModel::mean_deflection_um`, the `dx_um`, `dy_um` of its
+    /// load bit for bit, without the force through the tooth period's peak)
+    /// with its tool's model, as `of(deflection, step)` makes it (the closed
+    /// loop's passes keep each step's deflection across its path, 8 B); a step
+    /// shorter than a grid cell has the deflection of the steady cut around
+    /// it (MODEL.md §1.6).
+    pub(crate) fn deflections_as<T: Send>(
+        &self,
+        of: impl Fn([f64; 2], usize) -> T + Sync,
+    ) -> Vec<T> {
+        // Steps in parallel: each step's deflection is its own, and the order
+        // of the results is the steps'.
+        let mut out: Vec<T> = (0..self.steps.len())
+            .into_par_iter()
+            .map(|i| of(self.model(i).mean_deflection_um(&self.removal(i)), i))
+            .collect();
+        self.windows(|i, r| {
+            out[i] = of(
+                r.map_or([0.0; 2], |r| self.model(i).mean_deflection_um(r)),
+                i,
+            );
+        });
+        out
+    }
+
+    /// Each step's load as the closed loop's plan reads it (MODEL.md §5.1):
+    /// [`Removals::loads_with_flanks`]' loads bit for bit but for the force
+    /// through the tooth period's peak where it cannot matter to the plan.
+    /// The plan reads a step's peak only through its stress, against its
+    /// tool's allowable stress and rupture strength (`limit_mpa(i)`: the
+    /// lower of them); where the stress bound of
+    /// `CuttingModel::step_load_bounded` (MODEL.md §3.4, "A bound on the
+    /// peak") is within that, `force_peak_n` and `stress_mpa` may be those
+    /// bounds, elsewhere they are the step's own.
+    ///
+    /// A loop that runs makes every load again from its last pass; one that
+    /// settles or converges on the rigid sweep keeps the rigid loads with
+    /// their peaks and flanks. So the steps are taken in order,
+    /// [`GUESS_STEPS`] at a time, with peaks and flanks until
+    /// `likely(step, load)` guesses that the loop will run, then with the
+    /// bound. Returns the loads, and the flanks where every load has them
+    /// (the guess never made): then both are
+    /// [`Removals::loads_with_flanks`]' bit for bit.
+    pub(crate) fn rigid_loads(
+        &self,
+        limit_mpa: impl Fn(usize) -> f64 + Sync,
+        likely: impl Fn(usize, &StepLoad) -> bool + Sync,
+    ) -> (Vec<StepLoad>, Option<FlankDeflections>) {
+        let bounded = |i: usize, r: &StepRemoval| {
+            let load = self.model(i).step_load_bounded(r);
+            if load.stress_mpa > limit_mpa(i) {
+                self.model(i).step_load(r)
+            } else {
+                load
+            }
+        };
+        let mut flanks = FlankDeflections::sized(self.record, self.steps.len());
+        let mut out = vec![StepLoad::default(); self.steps.len()];
+        let mut full = true;
         let mut bands = flanks.blocks_mut(FLANK_BLOCK);
         for (c, (loads, bands)) in out
             .chunks_mut(GUESS_STEPS)
@@ -96,171 +145,103 @@ pub(crate) fn rigid_loads(
         {
             let first = c * GUESS_STEPS;
             if full {
-                loads_into(
-                    tools,
-                    tool_of_step,
-                    record,
-                    steps,
-                    grid_mm,
-                    first,
-                    loads,
-                    bands,
-                );
+                self.own_loads_with_flanks(first, loads, bands);
                 full = !(loads.par_iter().enumerate()).any(|(j, l)| likely(first + j, l));
             } else {
-                loads.par_iter_mut().enumerate().for_each(|(j, l)| {
-                    let i = first + j;
-                    *l = bounded(i, &step_removal(record, i, &steps[i], grid_mm));
-                });
+                loads
+                    .par_iter_mut()
+                    .enumerate()
+                    .for_each(|(j, l)| *l = bounded(first + j, &self.removal(first + j)));
             }
         }
-    }
-    if full {
-        with_flanks_in_windows(
-            tools,
-            tool_of_step,
-            record,
-            steps,
-            grid_mm,
-            &mut out,
-            &mut flanks,
+        drop(bands);
+        if full {
+            self.windowed_loads_with_flanks(&mut out, &mut flanks);
+            return (out, Some(flanks));
+        }
+        drop(flanks);
+        self.windows_in_parallel(
+            |_: &mut (), i, r| r.map_or_else(StepLoad::default, |r| bounded(i, r)),
+            |i, l| out[i] = l,
         );
-        return (out, Some(flanks));
+        (out, None)
     }
-    drop(flanks);
-    super::subcell::window_loads_in_parallel(
-        |_: &mut (), i, r| r.map_or_else(StepLoad::default, |r| bounded(i, r)),
-        |i, l| out[i] = l,
-        tool_of_step,
-        record,
-        steps,
-        grid_mm,
-    );
-    (out, None)
-}
 
-/// Steps [`rigid_loads`] takes at a time before it looks at its guess (a
-/// whole number of [`FLANK_BLOCK`]s).
-const GUESS_STEPS: usize = 64 * FLANK_BLOCK;
-
-/// Steps a task of [`loads_with_flanks`] takes at a time.
-const FLANK_BLOCK: usize = 256;
-
-/// Each step's load (MODEL.md §3, §4; a step shorter than a grid cell, the
-/// steady cut's around it, §1.6), and per step and band the deflections
-/// when a tooth at the band's mid-height passes the flanks
-/// (`CuttingModel::step_load_with_flanks`, MODEL.md §5.2): the error map's
-/// model, as many bands a step as the record keeps (at least one).
-pub(crate) fn loads_with_flanks(
-    tools: &ToolSet,
-    tool_of_step: &[usize],
-    record: &RemovalRecord,
-    steps: &[TimedStep],
-    grid_mm: f64,
-) -> (Vec<StepLoad>, FlankDeflections) {
-    let mut flanks = FlankDeflections::sized(record, steps.len());
-    let mut out = vec![StepLoad::default(); steps.len()];
-    let mut bands = flanks.blocks_mut(FLANK_BLOCK);
-    loads_into(
-        tools,
-        tool_of_step,
-        record,
-        steps,
-        grid_mm,
-        0,
-        &mut out,
-        &mut bands,
-    );
-    drop(bands);
-    with_flanks_in_windows(
-        tools,
-        tool_of_step,
-        record,
-        steps,
-        grid_mm,
-        &mut out,
-        &mut flanks,
-    );
-    (out, flanks)
-}
-
-/// Step i's load from its removal `r` with its flanks written into its
-/// f32 bands `out` (the model's f64 made in `buf`).
-fn load_into(
-    tools: &ToolSet,
-    tool_of_step: &[usize],
-    i: usize,
-    r: Option<&cutting::StepRemoval>,
-    out: &mut [[[f32; 2]; 2]],
-    buf: &mut Vec<[[f64; 2]; 2]>,
-) -> StepLoad {
-    let model = &tools.entries[tool_of_step[i]].model;
-    buf.clear();
-    buf.resize(out.len(), [[0.0; 2]; 2]);
-    let load = r.map_or_else(StepLoad::default, |r| model.step_load_with_flanks(r, buf));
-    for (o, b) in out.iter_mut().zip(buf.iter()) {
-        *o = b.map(|xy| xy.map(|c| c as f32));
+    /// Each step's load (MODEL.md §3, §4; a step shorter than a grid cell,
+    /// the steady cut's around it, §1.6), and per step and band the
+    /// deflections when a tooth at the band's mid-height passes the flanks
+    /// (`CuttingModel::step_load_with_flanks`, MODEL.md §5.2): the error
+    /// map's model, as many bands a step as the record keeps (at least one).
+    pub(crate) fn loads_with_flanks(&self) -> (Vec<StepLoad>, FlankDeflections) {
+        let mut flanks = FlankDeflections::sized(self.record, self.steps.len());
+        let mut out = vec![StepLoad::default(); self.steps.len()];
+        let mut bands = flanks.blocks_mut(FLANK_BLOCK);
+        self.own_loads_with_flanks(0, &mut out, &mut bands);
+        drop(bands);
+        self.windowed_loads_with_flanks(&mut out, &mut flanks);
+        (out, flanks)
     }
-    load
-}
 
-/// The loads and flanks of steps `first..first + loads.len()` from their
-/// own removals, blocks of [`FLANK_BLOCK`] steps in parallel, each block
-/// with its part of the bands (`bands`, one slice a block).
-#[allow(clippy::too_many_arguments)]
-fn loads_into(
-    tools: &ToolSet,
-    tool_of_step: &[usize],
-    record: &RemovalRecord,
-    steps: &[TimedStep],
-    grid_mm: f64,
-    first: usize,
-    loads: &mut [StepLoad],
-    bands: &mut [&mut [[[f32; 2]; 2]]],
-) {
-    loads
-        .par_chunks_mut(FLANK_BLOCK)
-        .zip(bands.par_iter_mut())
-        .enumerate()
-        .for_each(|(b, (loads, bands))| {
-            let mut buf = Vec::new();
-            let mut bands: &mut [[[f32; 2]; 2]] = bands;
-            for (j, load) in loads.iter_mut().enumerate() {
-                let i = first + b * FLANK_BLOCK + j;
-                let (own, rest) =
-                    std::mem::take(&mut bands).split_at_mut(FlankDeflections::bands_of(record, i));
-                let r = step_removal(record, i, &steps[i], grid_mm);
-                *load = load_into(tools, tool_of_step, i, Some(&r), own, &mut buf);
-                bands = rest;
-            }
+    /// Step i's load from its removal `r` with its flanks written into its
+    /// f32 bands `out` (the model's f64 made in `buf`).
+    fn load_with_flanks(
+        &self,
+        i: usize,
+        r: Option<&StepRemoval>,
+        out: &mut [[[f32; 2]; 2]],
+        buf: &mut Vec<[[f64; 2]; 2]>,
+    ) -> StepLoad {
+        buf.clear();
+        buf.resize(out.len(), [[0.0; 2]; 2]);
+        let load = r.map_or_else(StepLoad::default, |r| {
+            self.model(i).step_load_with_flanks(r, buf)
         });
-}
+        for (o, b) in out.iter_mut().zip(buf.iter()) {
+            *o = b.map(|xy| xy.map(|c| c as f32));
+        }
+        load
+    }
 
-/// The sub-cell steps' loads and flanks from their windows, made in
-/// parallel (each step's bands made apart, then written over its own).
-fn with_flanks_in_windows(
-    tools: &ToolSet,
-    tool_of_step: &[usize],
-    record: &RemovalRecord,
-    steps: &[TimedStep],
-    grid_mm: f64,
-    out: &mut [StepLoad],
-    flanks: &mut FlankDeflections,
-) {
-    super::subcell::window_loads_in_parallel(
-        |buf, i, r| {
-            let mut bands = vec![[[0.0; 2]; 2]; FlankDeflections::bands_of(record, i)];
-            (load_into(tools, tool_of_step, i, r, &mut bands, buf), bands)
-        },
-        |i, (load, bands)| {
-            out[i] = load;
-            flanks.of_step_mut(i).copy_from_slice(&bands);
-        },
-        tool_of_step,
-        record,
-        steps,
-        grid_mm,
-    );
+    /// The loads and flanks of steps `first..first + loads.len()` from
+    /// their own removals, blocks of [`FLANK_BLOCK`] steps in parallel, each
+    /// block with its part of the bands (`bands`, one slice a block).
+    fn own_loads_with_flanks(
+        &self,
+        first: usize,
+        loads: &mut [StepLoad],
+        bands: &mut [&mut [[[f32; 2]; 2]]],
+    ) {
+        loads
+            .par_chunks_mut(FLANK_BLOCK)
+            .zip(bands.par_iter_mut())
+            .enumerate()
+            .for_each(|(b, (loads, bands))| {
+                let mut buf = Vec::new();
+                let mut bands: &mut [[[f32; 2]; 2]] = bands;
+                for (j, load) in loads.iter_mut().enumerate() {
+                    let i = first + b * FLANK_BLOCK + j;
+                    let (own, rest) = std::mem::take(&mut bands)
+                        .split_at_mut(FlankDeflections::bands_of(self.record, i));
+                    *load = self.load_with_flanks(i, Some(&self.removal(i)), own, &mut buf);
+                    bands = rest;
+                }
+            });
+    }
+
+    /// The sub-cell steps' loads and flanks from their windows, made in
+    /// parallel (each step's bands made apart, then written over its own).
+    fn windowed_loads_with_flanks(&self, out: &mut [StepLoad], flanks: &mut FlankDeflections) {
+        self.windows_in_parallel(
+            |buf, i, r| {
+                let mut bands = vec![[[0.0; 2]; 2]; FlankDeflections::bands_of(self.record, i)];
+                (self.load_with_flanks(i, r, &mut bands, buf), bands)
+            },
+            |i, (load, bands)| {
+                out[i] = load;
+                flanks.of_step_mut(i).copy_from_slice(&bands);
+            },
+        );
+    }
 }
 
 /// What step `i` (`step`) of `record` removed, as the force model takes it.

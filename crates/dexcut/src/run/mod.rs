@@ -29,6 +29,7 @@ mod warnings;
 use closed_loop::{applied_offsets_um, close_loop, LoopInputs, LoopPlan};
 pub use error_map::FlankDeflections;
 use error_map::{final_error_map, Before, ErrorMap};
+use loads::Removals;
 
 pub use closed_loop::LoopReport;
 pub(crate) use columns::run_grid_bytes_per_column;
@@ -344,8 +345,8 @@ pub fn run_on(
     // The rigid pass's loads, with the error map's model (what a run that
     // does not loop keeps); with the closed loop, from where the loads guess
     // that it will run, as its plan reads them (the peak only where it can
-    // matter to the plan; no flanks).
-    let (mut step_loads, mut flanks, with_flanks) = if tools.closed_loop {
+    // matter to the plan; no flanks: `None`).
+    let (mut step_loads, mut flanks) = if tools.closed_loop {
         let limit_mpa = |i| {
             of_step
                 .stress_limit_mpa(i)
@@ -354,22 +355,10 @@ pub fn run_on(
         let likely = |i, l: &cutting::StepLoad| {
             closed_loop::settle::loop_likely(&steps, of_step, &record, i, l, grid_mm)
         };
-        match loads::rigid_loads(
-            tools,
-            &tool_of_step,
-            &record,
-            &steps,
-            grid_mm,
-            limit_mpa,
-            likely,
-        ) {
-            (loads, Some(flanks)) => (loads, flanks, true),
-            (loads, None) => (loads, FlankDeflections::default(), false),
-        }
+        Removals::new(of_step, &record, &steps, grid_mm).rigid_loads(limit_mpa, likely)
     } else {
-        let (loads, flanks) =
-            loads::loads_with_flanks(tools, &tool_of_step, &record, &steps, grid_mm);
-        (loads, flanks, true)
+        let (loads, flanks) = Removals::new(of_step, &record, &steps, grid_mm).loads_with_flanks();
+        (loads, Some(flanks))
     };
     let (strengths_mpa, tool_names) = strengths_and_names(&steps, of_step);
     let LoopPlan {
@@ -394,7 +383,7 @@ pub fn run_on(
         // makes its own): freed before the searches are made.
         drop(std::mem::take(&mut record));
         drop(std::mem::take(&mut step_loads));
-        drop(std::mem::take(&mut flanks));
+        drop(flanks.take());
         let on = LoopInputs {
             steps: &steps,
             of_step,
@@ -425,19 +414,27 @@ pub fn run_on(
     drop((rigid, in_loop, inherited, sub_cells, advance_mm));
     // The last pass's loads, those at a jump of g scaled; the rigid pass's
     // with the error map's model where the closed loop settled or converged
-    // on it (its plan's are let go first).
-    if let Some(scaled) = scaled {
-        (step_loads, flanks) =
-            loads::loads_with_flanks(tools, &tool_of_step, &record, &steps, grid_mm);
-        for (i, s) in scaled {
-            step_loads[i] = step_loads[i].scaled(s);
-            flanks.scale(i, s);
+    // on it (its plan's let go first where they have no flanks).
+    let mut flanks = match (scaled, flanks) {
+        (Some(scaled), _) => {
+            let (loads, mut flanks) =
+                Removals::new(of_step, &record, &steps, grid_mm).loads_with_flanks();
+            step_loads = loads;
+            for (i, s) in scaled {
+                step_loads[i] = step_loads[i].scaled(s);
+                flanks.scale(i, s);
+            }
+            flanks
         }
-    } else if !with_flanks {
-        drop(std::mem::take(&mut step_loads));
-        (step_loads, flanks) =
-            loads::loads_with_flanks(tools, &tool_of_step, &record, &steps, grid_mm);
-    }
+        (None, Some(flanks)) => flanks,
+        (None, None) => {
+            drop(std::mem::take(&mut step_loads));
+            let (loads, flanks) =
+                Removals::new(of_step, &record, &steps, grid_mm).loads_with_flanks();
+            step_loads = loads;
+            flanks
+        }
+    };
     let sweep_s = started.elapsed().as_secs_f64();
     // The final loads as reported (MODEL.md §4.4): where a step breaks its
     // tool, the deflections at rupture; the error map takes them below.

@@ -833,25 +833,18 @@ fn deflections_made_as_the_loads_are_those_of_the_loads_held() {
     }
     // The loop's deflections (the mean only) are the loads', bit for bit.
     let along = |[dx, dy]: [f64; 2], i: usize| 0.6 * dx + 0.8 * dy + i as f64;
-    let g =
-        super::loads::deflections_as(&setup.tools, &tool_of_step, &record, &steps, grid_mm, along);
+    let of_step = StepTools {
+        tools: &setup.tools,
+        tool_of_step: &tool_of_step,
+    };
+    let removals = super::loads::Removals::new(of_step, &record, &steps, grid_mm);
+    let g = removals.deflections_as(along);
     // The loads made with the flanks' deflections are the same loads.
-    let (loads, flanks) =
-        super::loads::loads_with_flanks(&setup.tools, &tool_of_step, &record, &steps, grid_mm);
+    let (loads, flanks) = removals.loads_with_flanks();
     // The rigid pass's: where the loop is never guessed to run, these
     // loads and flanks; where it is (from the first step), the loads
     // without flanks (S4's law has no peak to bound: the same loads).
-    let rigid = |likely: bool| {
-        super::loads::rigid_loads(
-            &setup.tools,
-            &tool_of_step,
-            &record,
-            &steps,
-            grid_mm,
-            |_| 1200.0,
-            |_, _| likely,
-        )
-    };
+    let rigid = |likely: bool| removals.rigid_loads(|_| 1200.0, |_, _| likely);
     let (never, with) = rigid(false);
     assert_eq!(format!("{never:?}"), format!("{loads:?}"));
     assert_eq!(with, Some(flanks));
@@ -860,10 +853,6 @@ fn deflections_made_as_the_loads_are_those_of_the_loads_held() {
     assert!(without.is_none());
     // This wall's tool bends by about 99 µm on its 0.1 N/µm holder: the
     // guess that the loop will run is made on it.
-    let of_step = StepTools {
-        tools: &setup.tools,
-        tool_of_step: &tool_of_step,
-    };
     let likely = (0..steps.len())
         .filter(|&i| {
             super::closed_loop::settle::loop_likely(&steps, of_step, &record, i, &loads[i], grid_mm)

@@ -6,7 +6,7 @@
 use cutting::StepLoad;
 use dexel::{RemovalRecord, Stock, SweepOptions};
 
-use super::loads::deflections_as;
+use super::loads::Removals;
 use super::{sweep_pass, Initial, StepTools, SUB_CELL_WINDOW_CELLS};
 use crate::error::Result;
 use crate::motion::TimedStep;
@@ -385,15 +385,8 @@ pub(crate) fn close_loop(
         sweep_trial(on, x, final_stock, record, report)?;
         // g: the deflection the removal at the trial offset causes, across
         // the path (of the loads as `loads` makes them).
-        let of_step = on.of_step;
-        let g: Vec<f64> = deflections_as(
-            of_step.tools,
-            of_step.tool_of_step,
-            record,
-            on.steps,
-            on.grid_mm,
-            |d, i| along(on.dirs, d, i),
-        );
+        let g: Vec<f64> = Removals::new(on.of_step, record, on.steps, on.grid_mm)
+            .deflections_as(|d, i| along(on.dirs, d, i));
         let pass = report.passes;
         let measured = Measured { x, g: &g, pass };
         state.observe(on, measured);
