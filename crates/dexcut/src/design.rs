@@ -45,8 +45,12 @@ fn line_deviations(
     (by_line.into_values().collect(), uncut)
 }
 
+/// A run's comparison with the `[design]` model: each column's signed
+/// distance to it, µm (positive = stock left), and the per-line comparison.
+pub type Comparison = (Vec<f32>, DesignInfo);
+
 /// Signed distance (µm) of each column's top (the final stock's top heights) to the design model; positive = stock left.
-pub fn design_comparison(setup: &Setup, run: &Run) -> Result<Option<(Vec<f32>, DesignInfo)>> {
+pub fn design_comparison(setup: &Setup, run: &Run) -> Result<Option<Comparison>> {
     let Some((path, model)) = &setup.design else {
         return Ok(None);
     };

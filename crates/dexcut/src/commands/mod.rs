@@ -111,23 +111,46 @@ pub fn simulate_setup(setup: &Setup, actual_path: bool) -> Result<Simulation> {
 /// closed form for each pass, in the memory of the stock handed over, so the
 /// run holds one stock; a mesh stock is copied for each pass.
 fn simulate_steps(setup: &Setup, stock: Stock, steps: Vec<TimedStep>) -> Result<Simulation> {
+    let (run, design) = run_steps(setup, stock, steps)?;
+    Simulation::of(setup, run, design)
+}
+
+/// The run of [`simulate_steps`] and its design comparison, without the
+/// summary.
+fn run_steps(
+    setup: &Setup,
+    stock: Stock,
+    steps: Vec<TimedStep>,
+) -> Result<(Run, Option<crate::design::Comparison>)> {
     let stock = match setup.solid() {
         Some(solid) => run::StockSource::Made(stock, solid),
         None => run::StockSource::Whole(stock),
     };
     let run = run::run_on(stock, &setup.tools, steps, "simulate")?;
-    let mut summary = run.summary();
-    summary.check_finite()?;
-    summary
-        .warnings
-        .0
-        .splice(0..0, setup.warnings.iter().cloned());
     let design = crate::design::design_comparison(setup, &run)?;
-    Ok(Simulation {
-        run,
-        summary,
-        design,
-    })
+    Ok((run, design))
+}
+
+impl Simulation {
+    /// The simulation of `run` (with its design comparison `design`): its
+    /// summary, with the set-up's warnings first.
+    fn of(
+        setup: &Setup,
+        run: Run,
+        design: Option<crate::design::Comparison>,
+    ) -> Result<Simulation> {
+        let mut summary = run.summary();
+        summary.check_finite()?;
+        summary
+            .warnings
+            .0
+            .splice(0..0, setup.warnings.iter().cloned());
+        Ok(Simulation {
+            run,
+            summary,
+            design,
+        })
+    }
 }
 
 /// Told at once, before or during a command's work: a warning the caller
@@ -403,9 +426,17 @@ pub(crate) fn simulate_whole(
         Some(stock) => stock,
         None => crate::input::stock::build(&setup.job)?,
     };
-    let sim = simulate_steps(setup, stock, steps)?;
-    let written = sim.write_files(out, columns_csv, steps_format)?;
-    Ok((sim, written))
+    let (run, design) = run_steps(setup, stock, steps)?;
+    let written = crate::output::run_files::write_run_files(
+        &run,
+        design.as_ref(),
+        out,
+        steps_format,
+        columns_csv,
+    )?;
+    // The summary after the columns: a map made as it is written gives its
+    // range on the way (`Run::error_range_um`), not in a pass of its own.
+    Ok((Simulation::of(setup, run, design)?, written))
 }
 
 /// The job a run reads: a job file, the built-in example, or a job fitted to
@@ -841,6 +872,17 @@ fn optimize_outputs(
         run::write_tiled_columns(&mut after_run, tiling, &setup.tools, Some(staged))?;
     }
     let after = &after_run;
+    // One format for both (Auto: by the longer), so the folder reads alike.
+    let steps_format = steps_format.resolve(after.steps.len().max(as_given.steps));
+    let design = match setup.tiling {
+        None => write_run(setup, after, staged, steps_format, columns_csv)?,
+        Some(_) => {
+            after.write_steps(staged, "steps", steps_format)?;
+            None
+        }
+    };
+    // The summary after the columns: a map made as it is written gives its
+    // range on the way (`Run::error_range_um`), not in a pass of its own.
     let mut after_summary = after.summary();
     as_given.summary.check_finite()?;
     after_summary.check_finite()?;
@@ -897,15 +939,6 @@ fn optimize_outputs(
         ),
     });
     }
-    // One format for both (Auto: by the longer), so the folder reads alike.
-    let steps_format = steps_format.resolve(after.steps.len().max(as_given.steps));
-    let design = match setup.tiling {
-        None => write_run(setup, after, staged, steps_format, columns_csv)?,
-        Some(_) => {
-            after.write_steps(staged, "steps", steps_format)?;
-            None
-        }
-    };
     if let Some(before) = as_given.run {
         before.write_steps(staged, "steps_before", steps_format)?;
     }

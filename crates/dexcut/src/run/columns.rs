@@ -109,7 +109,7 @@ pub fn write_tiled_columns(
     let area = grid.cell_area_mm2();
     run.initial_volume_mm3 = initial_mm * area;
     run.final_volume_mm3 = final_mm * area;
-    run.error_range_um = Some(range);
+    run.error_range_um = std::sync::OnceLock::from(range);
     Ok(())
 }
 
@@ -241,10 +241,14 @@ impl Run {
             arrays.push(meta("line", "1", LINE_MEANING, export::NpyValues::I32(&[])));
         }
         let mut writer = export::ColumnGridWriter::begin(dir, &grid, &arrays).map_err(context)?;
+        // A map made as it is written gives its range on the way (the same
+        // blocks in the same order as `Run::error_range_um`'s).
+        let mut range = [0.0, 0.0];
         for at in row_blocks(self.stock.grid()) {
             let tops = self.stock.top_heights_at(at.clone());
             let last = last_steps(&last_cut[at.clone()]);
             let error = self.error_map_at(at.clone());
+            range = error_range_um(&error, range);
             let mut values = vec![
                 export::NpyValues::F32(&tops),
                 export::NpyValues::I32(&last),
@@ -259,6 +263,10 @@ impl Run {
             writer.write_rows(&values).map_err(context)?;
         }
         writer.finish().map_err(context)?;
+        if let ErrorMap::Made(..) = self.error_map {
+            // (Set already where the summary went through the map first.)
+            let _ = self.error_range_um.set(range);
+        }
         if !csv {
             return Ok(());
         }

@@ -373,6 +373,20 @@ impl Run {
         }
     }
 
+    /// The least and greatest error of the map, µm, from `[0, 0]` (its
+    /// finite values; a tiled stock's as [`write_tiled_columns`] found them).
+    /// Found once: a map made where it is read is made block of rows by
+    /// block of rows in order (the fold over the whole map), unless
+    /// [`Run::write_columns`] went through it first.
+    pub fn error_range_um(&self) -> [f64; 2] {
+        *self.error_range_um.get_or_init(|| match &self.error_map {
+            ErrorMap::Held(error) => error_range_um(error, [0.0, 0.0]),
+            ErrorMap::Made(..) => row_blocks(self.stock.grid()).fold([0.0, 0.0], |range, at| {
+                error_range_um(&self.error_map_at(at), range)
+            }),
+        })
+    }
+
     /// The predicted shape error of the columns `at` (indices into the
     /// grid), µm: those of [`Run::error_map_um`].
     pub fn error_map_at(&self, at: std::ops::Range<usize>) -> std::borrow::Cow<'_, [f32]> {
@@ -390,39 +404,29 @@ impl Run {
     }
 }
 
-/// The final stock, its error map, the map's range where it is not held,
-/// and the final volume, of a run from `initial` whose last pass left
-/// `final_stock` (none for a tiled stock: an empty one, no map, NaN).
+/// The final stock, its error map and the final volume of a run from
+/// `initial` whose last pass left `final_stock` (none for a tiled stock: an
+/// empty one, no map, NaN). The map of a stock made of its closed form is
+/// made where it is read ([`ErrorMap::Made`]); the others' held.
 pub(crate) fn final_error_map(
     initial: &Initial,
     final_stock: Option<Stock>,
     offsets_um: &[[f64; 2]],
     model_um: &FlankDeflections,
     steps: &[TimedStep],
-) -> Result<(Stock, ErrorMap, Option<[f64; 2]>, f64)> {
+) -> Result<(Stock, ErrorMap, f64)> {
     Ok(match (initial, final_stock) {
-        (Initial::Tiled(tiling), _) => {
-            (tiling.empty()?, ErrorMap::Held(Vec::new()), None, f64::NAN)
-        }
+        (Initial::Tiled(tiling), _) => (tiling.empty()?, ErrorMap::Held(Vec::new()), f64::NAN),
         (Initial::Made(solid, grid), Some(last)) => {
-            // The map's range, block of rows by block of rows in order (the
-            // same fold as over the whole map); the map is made again where
-            // it is written.
-            let before = initial.columns().expect("a whole stock");
-            let mut range = [0.0, 0.0];
-            for at in row_blocks(last.grid()) {
-                let error = clamped_error_map_um(before, &last, offsets_um, model_um, steps, at);
-                range = error_range_um(&error, range);
-            }
             let volume = last.volume_mm3();
-            (last, ErrorMap::Made(*solid, *grid), Some(range), volume)
+            (last, ErrorMap::Made(*solid, *grid), volume)
         }
         (Initial::Held(_), Some(last)) => {
             let before = initial.columns().expect("a whole stock");
             let all = 0..last.last_cut().len();
             let error_um = clamped_error_map_um(before, &last, offsets_um, model_um, steps, all);
             let volume = last.volume_mm3();
-            (last, ErrorMap::Held(error_um), None, volume)
+            (last, ErrorMap::Held(error_um), volume)
         }
         (_, None) => unreachable!("a whole stock's pass keeps its stock"),
     })

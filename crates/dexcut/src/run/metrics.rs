@@ -2,7 +2,6 @@
 //! (MODEL.md §2.3), its peaks, and its summary.
 
 use super::closed_loop::sub_cell_windows;
-use super::error_map::error_range_um;
 use super::{Run, MRR_WINDOW_CELLS, MRR_WINDOW_S, NOTHING_MM3, SUB_CELL_WINDOW_CELLS};
 use crate::input::tools::ToolSet;
 use crate::model::{Summary, ToolPeaks};
@@ -253,9 +252,7 @@ impl Run {
     /// The headline numbers of the run.
     pub fn summary(&self) -> Summary {
         let n = self.steps.len();
-        let [min_error_um, max_error_um] = self
-            .error_range_um
-            .unwrap_or_else(|| error_range_um(&self.error_map_um(), [0.0, 0.0]));
+        let [min_error_um, max_error_um] = self.error_range_um();
         let final_volume_mm3 = self.final_volume_mm3;
         let collisions: Vec<usize> = (0..n)
             .filter(|&i| self.steps[i].step.rapid && self.record.volume_mm3(i) > NOTHING_MM3)

@@ -73,10 +73,12 @@ pub struct Run {
     /// flank on the left of the feed and on the right, µm: the error map's
     /// model (MODEL.md §5, §5.2) for the walls left on either side.
     pub model_um: FlankDeflections,
-    /// Least and greatest error of the map when it is not held: made where
-    /// it is read (a stock made of its closed form, by [`run_on`]) or a tiled
-    /// stock's (set by [`write_tiled_columns`]), µm.
-    pub error_range_um: Option<[f64; 2]>,
+    /// Least and greatest error of the map, µm ([`Run::error_range_um`]):
+    /// found by the first that goes through the whole map, in order (the
+    /// summary, or [`Run::write_columns`] as it makes and writes the map of a
+    /// stock made of its closed form), or a tiled stock's (set by
+    /// [`write_tiled_columns`]).
+    error_range_um: std::sync::OnceLock<[f64; 2]>,
     /// Wall-clock time of the sweeps, s.
     pub sweep_s: f64,
     /// How the closed loop between removal and deflection ended.
@@ -448,7 +450,7 @@ pub fn run_on(
     // The deflections across the path (MODEL.md §5).
     flanks.across(&dirs);
     let model_um = flanks;
-    let (final_stock, error_map, error_range, final_volume_mm3) =
+    let (final_stock, error_map, final_volume_mm3) =
         final_error_map(&initial, final_stock, &offsets_um, &model_um, &steps)?;
     Ok(Run {
         steps,
@@ -459,7 +461,7 @@ pub fn run_on(
         initial_volume_mm3,
         final_volume_mm3,
         model_um,
-        error_range_um: error_range,
+        error_range_um: std::sync::OnceLock::new(),
         stock: final_stock,
         sweep_s,
         closed_loop: report,

@@ -698,7 +698,7 @@ fn a_stock_made_of_its_closed_form_runs_as_the_stock_held() {
         let made = run_on(
             StockSource::Made(setup.stock.clone(), solid),
             &setup.tools,
-            steps,
+            steps.clone(),
             "made",
         )
         .unwrap();
@@ -721,6 +721,32 @@ fn a_stock_made_of_its_closed_form_runs_as_the_stock_held() {
         assert_eq!(
             bits(&held.error_map_um()),
             bits(&made.error_map_um()),
+            "{stock}"
+        );
+        // The map's range: the held map's, and the made one's found block by
+        // block (the summary first) or as the columns are written.
+        let range_bits = |r: [f64; 2]| r.map(f64::to_bits);
+        let held_range = held.error_range_um();
+        assert!(held_range[0] < 0.0 || held_range[1] > 0.0, "{stock}");
+        assert_eq!(
+            range_bits(held_range),
+            range_bits(made.error_range_um()),
+            "{stock}"
+        );
+        let written = run_on(
+            StockSource::Made(setup.stock.clone(), solid),
+            &setup.tools,
+            steps.clone(),
+            "made, written",
+        )
+        .unwrap();
+        assert!(written.error_range_um.get().is_none(), "{stock}");
+        written
+            .write_columns(dir.path(), None, None, false)
+            .unwrap();
+        assert_eq!(
+            written.error_range_um.get().map(|&r| range_bits(r)),
+            Some(range_bits(held_range)),
             "{stock}"
         );
         assert_eq!(held.closed_loop.passes, made.closed_loop.passes);
