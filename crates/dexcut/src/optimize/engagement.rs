@@ -266,12 +266,15 @@ fn sweep_engagement(
 }
 
 /// The engagement sweep's moves (MODEL.md §2, "The engagement sweep"): runs of station intervals
-/// along one straight segment, each at most the engagement's window
+/// along straight segments, each at most the engagement's window
 /// ([`ENGAGEMENT_WINDOW_CELLS`] grid cells of path) long (one interval where a
 /// segment is an arc or an interval is longer). A line's
-/// stations lie on it, so a run sweeps what its intervals one by one would;
-/// each interval takes the run's removal by its share of the length. 4 B a
-/// move.
+/// stations lie on it, so a run along one sweeps what its intervals one by
+/// one would; a run goes on across the junction of two lines of the same
+/// tool and kind of motion where every station it passes lies within
+/// [`JOIN_TOL_MM`] of its chord (the lines of a program that follows a
+/// surface in short blocks). Each interval takes the run's removal by its
+/// share of the length. 4 B a move.
 pub(super) struct SweepMoves {
     /// Each move's first interval, then the number of intervals.
     starts: Vec<u32>,
@@ -290,9 +293,22 @@ impl SweepMoves {
             starts.push(k as u32);
             let seg = seg_of[k + 1];
             let mut end = k + 1;
-            if matches!(segs[seg as usize].geometry, nc::Geometry::Line) {
+            let line = |seg: u32| matches!(segs[seg as usize].geometry, nc::Geometry::Line);
+            if line(seg) {
                 // (Interval end lies on seg_of[end + 1]: a junction station ends its segment.)
-                while end < n && seg_of[end + 1] == seg && s[end + 1] - s[k] <= longest_mm {
+                let (first, rapid) = (&segs[seg as usize], is_rapid(&segs[seg as usize]));
+                while end < n && s[end + 1] - s[k] <= longest_mm {
+                    // Interval `end` on the move's first segment, or (across a
+                    // junction) on another line whose stations keep to the chord.
+                    let next = seg_of[end + 1];
+                    let joins = next == seg
+                        || line(next)
+                            && segs[next as usize].tool == first.tool
+                            && is_rapid(&segs[next as usize]) == rapid
+                            && chord_holds(stations, k, end + 1);
+                    if !joins {
+                        break;
+                    }
                     end += 1;
                 }
             }
@@ -655,6 +671,34 @@ where
         }
         model.step_load(&removal).into()
     }
+}
+
+/// How far from its chord a station an engagement move passes may lie where
+/// the move crosses the junction of two lines, mm: the closed loop's
+/// tolerance (MODEL.md §5.1), the size of the last digit a program in mm
+/// writes (0.1 µm) a few times over.
+pub const JOIN_TOL_MM: f64 = 1e-3 * crate::run::LOOP_TOL_UM;
+
+/// Whether every station strictly between stations `a` and `b` lies within
+/// [`JOIN_TOL_MM`] of the chord from `a` to `b`.
+fn chord_holds(stations: &Stations, a: usize, b: usize) -> bool {
+    let (p, q) = (stations.position_at(a), stations.position_at(b));
+    let chord = q - p;
+    let len = chord.norm();
+    (a + 1..b).all(|i| {
+        let w = stations.position_at(i) - p;
+        let off = if len > 0.0 {
+            w.cross(&chord).norm() / len
+        } else {
+            w.norm()
+        };
+        off <= JOIN_TOL_MM
+    })
+}
+
+/// A segment the machine moves along at its rapid rate.
+fn is_rapid(seg: &nc::Segment) -> bool {
+    matches!(seg.motion, Motion::Rapid)
 }
 
 /// Engagement is averaged over this many grid cells of path: a dexel grid

@@ -31,7 +31,7 @@ pub use error_map::FlankDeflections;
 use error_map::{final_error_map, Before, ErrorMap};
 use loads::Removals;
 
-pub use closed_loop::LoopReport;
+pub use closed_loop::{LoopReport, LOOP_TOL_UM};
 pub(crate) use columns::run_grid_bytes_per_column;
 pub use columns::{write_tiled_columns, ColumnGrid};
 pub(crate) use loads::{feed_dir, len_xy_mm};
