@@ -444,7 +444,8 @@ fn engagement_from_the_sweeps_rows_is_the_records() {
                     stations.position_at(run.end),
                 );
                 for k in run.start + 1..run.end {
-                    let off = (stations.position_at(k) - a).cross(&(b - a)).norm() / (b - a).norm();
+                    let off =
+                        super::engagement::distance_to_chord_mm(stations.position_at(k), a, b);
                     assert!(off <= super::engagement::JOIN_TOL_MM, "move {j}: {off} mm");
                 }
                 crossing += usize::from(seg_of[run.start + 1] != seg_of[run.end]);
@@ -732,4 +733,56 @@ fn feed_rules_give_a_step_the_highest_cap_it_runs_over_where_they_cover_it() {
     assert_eq!(rules.angle_cap(4.0, 5.0), Some(200.0));
     assert_eq!(rules.angle_cap(4.5, 5.5), None);
     assert_eq!(rules.angle_cap(-0.5, 0.5), None);
+}
+
+/// The engagement sweep's moves cross a junction only where the path keeps
+/// to their chord: not where it turns back along its line (a feed in and out
+/// of the same hole, a pass and its return), whose turning station a chord
+/// across it would not reach; they do where two blocks lie 0.1 µm off one
+/// line.
+#[test]
+fn engagement_moves_do_not_cross_a_turn_back() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("job.toml"),
+        "[stock]\nkind = \"box\"\nmin = [0, 0, 0]\nmax = [60, 40, 20]\ngrid = 0.1\n\
+         [tool]\nkind = \"flat\"\ndiameter = 6\n\
+         [program]\npath = \"p.ngc\"\n[cutting]\nmaterial = \"al6061\"\n\
+         [machine]\nfeed_max = 3000\naccel = [1000, 1000, 1000]\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("p.ngc"),
+        "G21 G90 G17\nS9000 M3\nG0 X5 Y20 Z25\nG1 Z12.07 F600\nG1 Z15\nG1 X19.93 F1200\n\
+         G1 X10\nG1 X30.03 Y20.0001\nG1 X50 Y20\nG0 Z25\nM2\n",
+    )
+    .unwrap();
+    let setup = Setup::load(&dir.path().join("job.toml"), None).unwrap();
+    let machine = optimising_machine(&setup.machine, &setup.job.limits);
+    let stations = free_stations(&setup.program.path, &machine).unwrap();
+    let moves = SweepMoves::new(&stations, setup.stock.grid().spacing_mm);
+    let at = |k: usize| stations.position_at(k);
+    // Each turn back (the plunge's bottom at Z12.07, the pass's end at
+    // X19.93: neither a whole number of moves from its block's start) is a
+    // station where a move ends; the junction at X30.03 is crossed.
+    let ends: Vec<usize> = (0..moves.len()).map(|j| moves.intervals(j).end).collect();
+    let station_at = |x: f64, z: f64| {
+        (0..stations.len())
+            .find(|&k| (at(k).x - x).abs() < 1e-9 && (at(k).z - z).abs() < 1e-9)
+            .unwrap_or_else(|| panic!("a station at X{x} Z{z}"))
+    };
+    for (x, z) in [(5.0, 12.07), (19.93, 15.0)] {
+        let k = station_at(x, z);
+        assert!(ends.contains(&k), "a move crosses the turn back at X{x} Z{z}");
+    }
+    let k = (0..stations.len())
+        .find(|&k| (at(k).x - 30.03).abs() < 1e-9 && (at(k).y - 20.0001).abs() < 1e-9)
+        .expect("the junction at X30.03");
+    assert!(
+        (0..moves.len()).any(|j| {
+            let r = moves.intervals(j);
+            r.start < k && k < r.end
+        }),
+        "no move crosses the junction 0.1 µm off the line"
+    );
 }
