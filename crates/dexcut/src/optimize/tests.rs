@@ -773,7 +773,10 @@ fn engagement_moves_do_not_cross_a_turn_back() {
     };
     for (x, z) in [(5.0, 12.07), (19.93, 15.0)] {
         let k = station_at(x, z);
-        assert!(ends.contains(&k), "a move crosses the turn back at X{x} Z{z}");
+        assert!(
+            ends.contains(&k),
+            "a move crosses the turn back at X{x} Z{z}"
+        );
     }
     let k = (0..stations.len())
         .find(|&k| (at(k).x - 30.03).abs() < 1e-9 && (at(k).y - 20.0001).abs() < 1e-9)
