@@ -11,7 +11,7 @@ fn dot(a: P3, b: P3) -> f64 {
 }
 
 /// Squared distance from `p` to the segment `a`–`b` (a point when `a == b`).
-fn dist2_point_segment(p: P3, a: P3, b: P3) -> f64 {
+pub fn dist2_point_segment(p: P3, a: P3, b: P3) -> f64 {
     let ab = sub(b, a);
     let ap = sub(p, a);
     let len2 = dot(ab, ab);

@@ -684,24 +684,10 @@ pub const JOIN_TOL_MM: f64 = 1e-3 * crate::run::LOOP_TOL_UM;
 /// turns back along its line, as a tap's or a reamer's feed out, does not
 /// keep to it).
 fn chord_holds(stations: &Stations, a: usize, b: usize) -> bool {
-    let (p, q) = (stations.position_at(a), stations.position_at(b));
-    (a + 1..b).all(|i| distance_to_chord_mm(stations.position_at(i), p, q) <= JOIN_TOL_MM)
-}
-
-/// Distance of `x` from the segment from `p` to `q`, mm.
-pub(super) fn distance_to_chord_mm(
-    x: nalgebra::Point3<f64>,
-    p: nalgebra::Point3<f64>,
-    q: nalgebra::Point3<f64>,
-) -> f64 {
-    let (chord, w) = (q - p, x - p);
-    let len2 = chord.norm_squared();
-    let t = if len2 > 0.0 {
-        (w.dot(&chord) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (w - t * chord).norm()
+    let at = |k: usize| -> [f64; 3] { stations.position_at(k).coords.into() };
+    let (p, q) = (at(a), at(b));
+    (a + 1..b)
+        .all(|i| servo::path_error::dist2_point_segment(at(i), p, q) <= JOIN_TOL_MM * JOIN_TOL_MM)
 }
 
 /// A segment the machine moves along at its rapid rate.

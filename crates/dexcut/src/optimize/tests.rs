@@ -444,8 +444,13 @@ fn engagement_from_the_sweeps_rows_is_the_records() {
                     stations.position_at(run.end),
                 );
                 for k in run.start + 1..run.end {
-                    let off =
-                        super::engagement::distance_to_chord_mm(stations.position_at(k), a, b);
+                    let at = |p: nalgebra::Point3<f64>| -> [f64; 3] { p.coords.into() };
+                    let off = servo::path_error::dist2_point_segment(
+                        at(stations.position_at(k)),
+                        at(a),
+                        at(b),
+                    )
+                    .sqrt();
                     assert!(off <= super::engagement::JOIN_TOL_MM, "move {j}: {off} mm");
                 }
                 crossing += usize::from(seg_of[run.start + 1] != seg_of[run.end]);
