@@ -8,8 +8,10 @@ use crate::machine::{along, Machine, ScheduleError};
 use crate::rules::block_feed_cap_mm_min;
 
 mod corners;
+mod sampled;
 
 pub(crate) use corners::CornerChoice;
+use sampled::SampledMemo;
 
 /// Most stations one path may have: about 200 bytes each while planning (the arrays here,
 /// the plan's speeds and times, the corner-budget tree), so 4 GB at the bound.
@@ -609,8 +611,12 @@ impl Stations {
         let own_stops = std::mem::take(&mut self.stops);
         match choice {
             Corners::Judged => return Ok(self.stop_or_pass_corners(own_stops, corners)),
-            Corners::Stopped => self.limit_corners(&own_stops, &corners, &|_| false, &|_| false),
-            Corners::Passed => self.limit_corners(&own_stops, &corners, &|_| true, &|_| false),
+            Corners::Stopped => {
+                self.limit_corners(&own_stops, &corners, &|_| false, &|_| false, None)
+            }
+            Corners::Passed => {
+                self.limit_corners(&own_stops, &corners, &|_| true, &|_| false, None)
+            }
         }
         Ok(None)
     }
@@ -625,13 +631,17 @@ impl Stations {
     /// a_i − D_i at the capped speed (with a jerk limit also the cross term
     /// 3·a_t·D_i/v ≤ j_i/4), so that tangential and normal acceleration together stay
     /// within a_i in the samples.
-    fn limit_sampled_geometry(&mut self) {
-        self.limit_sampled_geometry_in(PARALLEL_CHUNK);
+    ///
+    /// With `kept` (a corner choice's, [`SampledMemo`]) the first limiting is kept there, and
+    /// each later one judges again only the stations whose inputs differ from it: the same
+    /// values as judging them all.
+    fn limit_sampled_geometry(&mut self, kept: Option<&mut Option<SampledMemo>>) {
+        self.limit_sampled_geometry_in(PARALLEL_CHUNK, kept);
     }
 
     /// [`limit_sampled_geometry`](Self::limit_sampled_geometry), `chunk` stations a
     /// parallel task (the same values for any `chunk`).
-    fn limit_sampled_geometry_in(&mut self, chunk: usize) {
+    fn limit_sampled_geometry_in(&mut self, chunk: usize, kept: Option<&mut Option<SampledMemo>>) {
         let n = self.len();
         if n < 2 {
             return;
@@ -652,43 +662,14 @@ impl Stations {
         for stop in &self.stops {
             is_stop[stop.station] = true;
         }
-        // The run of station k, the stops' cursor (`cursor.stops_up_to`: how many stops
-        // are at or before the last station asked, which is at most k) moved up to it.
-        let run_of = |cursor: &mut Cursor, k: usize| {
-            let after = &mut cursor.stops_up_to;
-            while *after < self.stops.len() && self.stops[*after].station <= k {
-                *after += 1;
-            }
-            match (after.checked_sub(1), self.stops.get(*after)) {
-                (Some(before), Some(next)) => (self.stops[before].station, next.station),
-                _ => (0, n - 1),
-            }
+        // The intervals k → k+1 where the path turns (tangent change or arc) and that do
+        // not start at a stop, ascending: the arc length to the nearest turn before and
+        // after each station is read from them as the stations are visited in order (no
+        // per-station arrays). A kept limiting holds those of every station.
+        let turning = match kept.as_deref() {
+            Some(Some(memo)) => memo.turns_but_stops(&is_stop),
+            _ => self.turning_intervals(chunk, &is_stop),
         };
-        // The intervals k → k+1 where the path turns (tangent change or arc), ascending:
-        // the arc length to the nearest turn before and after each station is read from
-        // them as the stations are visited in order (no per-station arrays).
-        // (Found in chunks in parallel, each with its own recent tangents: the same
-        // list in the same order.)
-        let this = &*self;
-        // (u32: at most MAX_STATIONS; half the memory, pages to fault in and list to
-        // copy of usize where every interval turns, as on a curved finish.)
-        let turning: Vec<u32> = (0..(n - 1).div_ceil(chunk))
-            .into_par_iter()
-            .flat_map_iter(|c| {
-                let mut tangents = RecentTangents::new();
-                let (is_stop, this) = (&is_stop, this);
-                (c * chunk..((c + 1) * chunk).min(n - 1))
-                    .filter(move |&k| {
-                        !is_stop[k]
-                            && ((tangents.get(this, k + 1) - tangents.get(this, k)).norm() > 1e-12
-                                || matches!(
-                                    this.path.segments[this.segment[k + 1] as usize].geometry,
-                                    Geometry::Arc { .. }
-                                ))
-                    })
-                    .map(|k| k as u32)
-            })
-            .collect();
         // Station k: the last turn ends at s[k] if the interval k → k+1 turns, else at
         // the end s[j+1] of the last turning interval j < k; the next one starts at s[k]
         // if the interval k−1 → k turns, else at the start s[i] of the first turning
@@ -774,7 +755,7 @@ impl Stations {
             if is_stop[k] || self.s_mm[k] - last_turn > reach && next_turn - self.s_mm[k] > reach {
                 return None;
             }
-            let run = run_of(cursor, k);
+            let run = self.run_of(cursor, k);
             // The speed v kept at station k and its differences there (each taken once):
             // at the speed asked, the neighbours searched from where the last station's
             // were found (a station or two on), at lower speeds from those.
@@ -815,22 +796,97 @@ impl Stations {
             }
             Some(limit)
         };
-        self.limit_stations_in_chunks(
-            chunk,
-            &turning,
-            &mut caps,
-            &mut kinds,
-            &mut interval_accel,
-            &station,
-        );
+        let arrays = (&mut caps[..], &mut kinds[..], &mut interval_accel[..]);
+        let from_kept = kept.as_deref().is_some_and(|kept| {
+            kept.as_ref()
+                .is_some_and(|memo| memo.limit(self, &envelope, &turning, arrays, &station))
+        });
+        match kept {
+            _ if from_kept => {}
+            Some(slot @ None) => {
+                // The stations' limits apart from the intervals' accelerations they
+                // are taken into, kept for the next limiting.
+                let max_cap_mm_min = caps.iter().copied().fold(0.0, f64::max);
+                let mut limits = vec![f64::INFINITY; n - 1];
+                let lowered = self.limit_stations_in_chunks(
+                    chunk,
+                    &turning,
+                    &mut caps,
+                    &mut kinds,
+                    &mut limits,
+                    &station,
+                );
+                interval_accel
+                    .par_iter_mut()
+                    .zip(&limits)
+                    .for_each(|(a, &limit)| *a = a.min(limit));
+                let reach_mm = sampled::reach_mm(max_cap_mm_min, period_s);
+                *slot = Some(SampledMemo::new(
+                    self, envelope, &turning, lowered, limits, reach_mm,
+                ));
+            }
+            _ => {
+                self.limit_stations_in_chunks(
+                    chunk,
+                    &turning,
+                    &mut caps,
+                    &mut kinds,
+                    &mut interval_accel,
+                    &station,
+                );
+            }
+        }
         self.cap_mm_min = caps;
         self.cap_kind = kinds;
         self.interval_accel_mm_s2 = interval_accel;
     }
 
+    /// The run (stop to stop) of station k, the stops' cursor (`cursor.stops_up_to`:
+    /// how many stops are at or before the last station asked, which is at most k)
+    /// moved up to it ([`Stations::limit_sampled_geometry`]).
+    fn run_of(&self, cursor: &mut Cursor, k: usize) -> (usize, usize) {
+        let after = &mut cursor.stops_up_to;
+        while *after < self.stops.len() && self.stops[*after].station <= k {
+            *after += 1;
+        }
+        match (after.checked_sub(1), self.stops.get(*after)) {
+            (Some(before), Some(next)) => (self.stops[before].station, next.station),
+            _ => (0, self.len() - 1),
+        }
+    }
+
+    /// The intervals k → k+1 where the path turns ([`Stations::turns`]) but those that
+    /// start at a stop (`is_stop`), ascending. Found in chunks of `chunk` in parallel,
+    /// each with its own recent tangents: the same list in the same order.
+    fn turning_intervals(&self, chunk: usize, is_stop: &[bool]) -> Vec<u32> {
+        let n = self.len();
+        // (u32: at most MAX_STATIONS; half the memory, pages to fault in and list to
+        // copy of usize where every interval turns, as on a curved finish.)
+        (0..(n - 1).div_ceil(chunk))
+            .into_par_iter()
+            .flat_map_iter(|c| {
+                let mut tangents = RecentTangents::new();
+                (c * chunk..((c + 1) * chunk).min(n - 1))
+                    .filter(move |&k| !is_stop[k] && self.turns(&mut tangents, k))
+                    .map(|k| k as u32)
+            })
+            .collect()
+    }
+
+    /// Whether the path turns over the interval k → k+1: its tangent changes, or it is
+    /// on an arc.
+    fn turns(&self, tangents: &mut RecentTangents, k: usize) -> bool {
+        (tangents.get(self, k + 1) - tangents.get(self, k)).norm() > 1e-12
+            || matches!(
+                self.path.segments[self.segment[k + 1] as usize].geometry,
+                Geometry::Arc { .. }
+            )
+    }
+
     /// Each station's [`SampledLimit`] (`station(k, its cap, the cursor)`, the cursor's
     /// `turns_before` an index in `turning`) put on `caps`, `kinds` and the intervals'
-    /// accelerations `interval_accel`, `chunk` stations a parallel task.
+    /// accelerations `interval_accel`, `chunk` stations a parallel task; the caps
+    /// lowered (station, mm/min), ascending.
     fn limit_stations_in_chunks(
         &self,
         chunk: usize,
@@ -839,8 +895,7 @@ impl Stations {
         kinds: &mut [CapKind],
         interval_accel: &mut Vec<f64>,
         station: &(dyn Fn(usize, f64, &mut Cursor) -> Option<SampledLimit> + Sync),
-    ) {
-        let n = self.len();
+    ) -> Vec<(u32, f64)> {
         // Station k's speed and budget read the geometry and its own cap only, and
         // set its own cap and kind and the intervals k−1 → k and k → k+1 (each the
         // minimum of what it had and its stations' budgets: the same in any order). So
@@ -848,62 +903,92 @@ impl Stations {
         // k → k+1 (one slot more at the path's end), and gives back the budget of the
         // interval before its first station (the chunk before's), taken after.
         interval_accel.push(f64::INFINITY);
-        let before_chunks: Vec<f64> = caps
+        let (before_chunks, lowered): (Vec<f64>, Vec<Vec<(u32, f64)>>) = caps
             .par_chunks_mut(chunk)
             .zip(kinds.par_chunks_mut(chunk))
             .zip(interval_accel.par_chunks_mut(chunk))
             .enumerate()
             .map(|(c, ((caps, kinds), interval_accel))| {
                 let k0 = c * chunk;
-                let mut cursor = Cursor {
-                    turns_before: turning.partition_point(|&t| (t as usize) < k0),
-                    stops_up_to: self.stops.partition_point(|stop| stop.station <= k0),
-                    neighbours: [k0; 3],
-                };
-                let mut tangents = RecentTangents::new();
-                let mut before = f64::INFINITY;
-                for (i, k) in (k0..k0 + caps.len()).enumerate() {
-                    let Some(limit) = station(k, caps[i], &mut cursor) else {
-                        continue;
-                    };
-                    if let Some(lowered) = limit.lowered_cap_mm_min {
-                        caps[i] = lowered;
-                        kinds[i] = CapKind::Curvature;
-                    }
-                    let Some(budget) = limit.budget else {
-                        continue;
-                    };
-                    for interval in [k.wrapping_sub(1), k] {
-                        if interval >= n - 1 {
-                            continue;
-                        }
-                        // (Both ends on one line: one tangent, one limit.)
-                        let (t0, t1) = (
-                            tangents.get(self, interval),
-                            tangents.get(self, interval + 1),
-                        );
-                        let limit = along(&t0, budget);
-                        let limit = if t1 == t0 {
-                            limit
-                        } else {
-                            limit.min(along(&t1, budget))
-                        };
-                        let a = if interval < k0 {
-                            &mut before
-                        } else {
-                            &mut interval_accel[interval - k0]
-                        };
-                        *a = a.min(limit);
-                    }
+                let mut lowered = Vec::new();
+                let before = self.limit_station_range(
+                    k0,
+                    caps,
+                    turning,
+                    station,
+                    &mut lowered,
+                    interval_accel,
+                );
+                for &(k, cap) in &lowered {
+                    caps[k as usize - k0] = cap;
+                    kinds[k as usize - k0] = CapKind::Curvature;
                 }
-                before
+                (before, lowered)
             })
-            .collect();
+            .unzip();
         interval_accel.pop();
         for (c, before) in before_chunks.into_iter().enumerate().skip(1) {
             let a = &mut interval_accel[c * chunk - 1];
             *a = a.min(before);
         }
+        lowered.concat()
+    }
+
+    /// The stations `k0, k0 + 1, …` (caps `caps`) limited by `station` (the turns
+    /// `turning`): the caps they lower (station, mm/min) pushed to `lowered`, and their
+    /// budgets taken into the intervals k0 → k0 + 1, … (`interval_accel`, one a
+    /// station); the budget of the interval before `k0` returned.
+    fn limit_station_range(
+        &self,
+        k0: usize,
+        caps: &[f64],
+        turning: &[u32],
+        station: &(dyn Fn(usize, f64, &mut Cursor) -> Option<SampledLimit> + Sync),
+        lowered: &mut Vec<(u32, f64)>,
+        interval_accel: &mut [f64],
+    ) -> f64 {
+        let n = self.len();
+        let mut cursor = Cursor {
+            turns_before: turning.partition_point(|&t| (t as usize) < k0),
+            stops_up_to: self.stops.partition_point(|stop| stop.station <= k0),
+            neighbours: [k0; 3],
+        };
+        let mut tangents = RecentTangents::new();
+        let mut before = f64::INFINITY;
+        for (i, k) in (k0..k0 + caps.len()).enumerate() {
+            let Some(limit) = station(k, caps[i], &mut cursor) else {
+                continue;
+            };
+            if let Some(cap) = limit.lowered_cap_mm_min {
+                lowered.push((k as u32, cap));
+            }
+            let Some(budget) = limit.budget else {
+                continue;
+            };
+            for interval in [k.wrapping_sub(1), k] {
+                if interval >= n - 1 {
+                    continue;
+                }
+                // (Both ends on one line: one tangent, one limit.)
+                let (t0, t1) = (
+                    tangents.get(self, interval),
+                    tangents.get(self, interval + 1),
+                );
+                let limit = along(&t0, budget);
+                let limit = if t1 == t0 {
+                    limit
+                } else {
+                    limit.min(along(&t1, budget))
+                };
+                let a = if interval < k0 {
+                    &mut before
+                } else {
+                    &mut interval_accel[interval - k0]
+                };
+                *a = a.min(limit);
+            }
+        }
+        before
     }
 
     /// The acceleration-limited envelope (MODEL.md §6.1, "Sampled geometry"): the highest

@@ -2,10 +2,14 @@
 //! rule's speed, its velocity step taken out of the acceleration budgets beside it, or made
 //! a stop of no dwell, and the stations limited so ([`Stations::limit_with`]).
 
+use std::sync::Mutex;
+
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::{partition_point_near, CapKind, RecentTangents, Stations, Stop, PARALLEL_CHUNK};
+use super::{
+    partition_point_near, CapKind, RecentTangents, SampledMemo, Stations, Stop, PARALLEL_CHUNK,
+};
 use crate::machine::along;
 use crate::range_min::RangeMin;
 
@@ -30,6 +34,9 @@ pub(crate) struct CornerChoice {
     corners: Vec<(usize, Vector3<f64>)>,
     /// Whether the envelope passes each corner.
     pub(crate) pass: Vec<bool>,
+    /// The choice's first sampled-geometry limiting, kept for its later ones (each
+    /// of its limitings starts from its caps; [`SampledMemo`]).
+    sampled: Mutex<Option<SampledMemo>>,
 }
 
 impl CornerChoice {
@@ -56,13 +63,15 @@ impl Stations {
     /// (indices into `corners`) passed, their steps taken out of the budgets beside them
     /// (except those of the corners `shared` says the interval accelerations hold
     /// already), and the others stops of no dwell beside `own_stops` (the program's);
-    /// then the sampled-geometry rule over all of it.
+    /// then the sampled-geometry rule over all of it (`kept`: a choice's first limiting,
+    /// [`Stations::limit_sampled_geometry`]).
     pub(super) fn limit_corners(
         &mut self,
         own_stops: &[Stop],
         corners: &[(usize, Vector3<f64>)],
         passed: &dyn Fn(usize) -> bool,
         shared: &dyn Fn(usize) -> bool,
+        kept: Option<&mut Option<SampledMemo>>,
     ) {
         self.stops = with_stops(
             own_stops,
@@ -75,7 +84,7 @@ impl Stations {
             .filter(|&i| passed(i))
             .map(|i| corners[i].0)
             .collect();
-        self.limit_sampled_geometry();
+        self.limit_sampled_geometry(kept);
     }
 
     /// Each corner either passed at the speed the corner rule allows, its velocity step
@@ -109,7 +118,7 @@ impl Stations {
             .filter(|&index| self.cap_kind[corners[index].0] == CapKind::Corner)
             .collect();
         if judged.is_empty() {
-            self.limit_corners(&own_stops, &corners, &|_| true, &|_| false);
+            self.limit_corners(&own_stops, &corners, &|_| true, &|_| false, None);
             return None;
         }
         let mut is_judged = vec![false; corners.len()];
@@ -130,6 +139,7 @@ impl Stations {
             // (Set below where the choice is returned.)
             pass: Vec::new(),
             corners,
+            sampled: Mutex::new(None),
         };
         let free = |index: usize| !choice.judged[index];
         let time = |st: &Stations, v: &[f32], lo: usize, hi: usize| {
@@ -242,17 +252,28 @@ impl Stations {
         self.cap_kind.clone_from(&choice.base_kinds);
         let judged = &choice.judged;
         let free_passed = (0..judged.len()).all(|index| judged[index] || passed(index));
+        let mut kept = choice.sampled.lock().unwrap_or_else(|e| e.into_inner());
         if free_passed {
             // The corners that are not judged, shared already (the min over budgets is
             // the same taken in two steps).
             self.interval_accel_mm_s2
                 .clone_from(&choice.base_accel_mm_s2);
-            self.limit_corners(&choice.stops, &choice.corners, passed, &|index| {
-                !judged[index]
-            });
+            self.limit_corners(
+                &choice.stops,
+                &choice.corners,
+                passed,
+                &|index| !judged[index],
+                Some(&mut kept),
+            );
         } else {
             self.set_tangential_accels();
-            self.limit_corners(&choice.stops, &choice.corners, passed, &|_| false);
+            self.limit_corners(
+                &choice.stops,
+                &choice.corners,
+                passed,
+                &|_| false,
+                Some(&mut kept),
+            );
         }
         self.envelope_mm_s(&self.cap_mm_min, &self.interval_accel_mm_s2)
     }
@@ -589,7 +610,7 @@ mod tests {
         let limited = |chunk: usize| {
             let mut st = passed.clone();
             st.interval_accel_mm_s2.clone_from(&tangential);
-            st.limit_sampled_geometry_in(chunk);
+            st.limit_sampled_geometry_in(chunk, None);
             st
         };
         let whole = limited(passed.len());
@@ -615,5 +636,131 @@ mod tests {
                 "{chunk}"
             );
         }
+    }
+
+    /// A corner choice's later limitings, judged again only where their inputs differ
+    /// from its first one's (`SampledMemo`), are those judged anew, bit for bit: caps,
+    /// kinds, interval accelerations and envelope, for choices that pass every corner,
+    /// every other judged one, stop every judged one, and stop every corner (the jerk
+    /// check's), on curved paths with sharp corners whose sampled geometry lowers caps:
+    /// one where the ramps from a stop reach further than a station's samples, one
+    /// where they reach less far (slow, so that the stops' own reach tells).
+    #[test]
+    fn a_choices_kept_sampled_limits_are_those_made_anew() {
+        // Feed mm/min, chord mm, radius mm.
+        for (feed, chord, radius) in [(3000.0, 0.2, 4.0), (600.0, 0.02, 0.4)] {
+            kept_sampled_limits_are_made_anew(feed, chord, radius);
+        }
+    }
+
+    /// [`a_choices_kept_sampled_limits_are_those_made_anew`] on a path of `chord` mm
+    /// chords at `feed_mm_min`: a sharp turn (a judged corner) every 200 chords, 50
+    /// chords straight after it, then an arc of `radius_mm` (at that feed its turns
+    /// within one period, 16 ms, add up to more than half the acceleration; the corner
+    /// rule at each chord allows more).
+    fn kept_sampled_limits_are_made_anew(feed_mm_min: f64, chord: f64, radius_mm: f64) {
+        let mut points = vec![Point3::new(0.0, 0.0, 0.0)];
+        let mut heading: f64 = 0.0;
+        for i in 1..2000 {
+            heading += match i % 200 {
+                0 => 1.9,
+                1..50 => 0.0,
+                _ => chord / radius_mm,
+            };
+            let p = points[i - 1];
+            points.push(Point3::new(
+                p.x + chord * heading.cos(),
+                p.y + chord * heading.sin(),
+                p.z - 0.0025 * chord,
+            ));
+        }
+        let segments: Vec<Segment> = points
+            .windows(2)
+            .map(|w| Segment {
+                start: w[0],
+                end: w[1],
+                geometry: Geometry::Line,
+                motion: Motion::feed(feed_mm_min),
+                line: 1,
+                spindle_rpm: 10000.0,
+                tool: 1,
+            })
+            .collect();
+        let machine = Machine {
+            accel_mm_s2: [400.0; 3],
+            jerk_mm_s3: Some([1e6; 3]),
+            ..Machine::default()
+        };
+        let (st, choice) = Stations::build_with(
+            segments,
+            &machine,
+            chord / 4.0,
+            FeedPolicy::Programmed,
+            20_000,
+            Corners::Judged,
+        )
+        .map_err(|(e, _)| e)
+        .expect("stations");
+        let choice = choice.expect("a choice to check (jerk limit)");
+        let judged: Vec<usize> = (0..choice.judged.len())
+            .filter(|&i| choice.judged[i])
+            .collect();
+        assert!(
+            (6..=20).contains(&judged.len()),
+            "{} judged corners at F{feed_mm_min}",
+            judged.len()
+        );
+        let rank = |index: usize| judged.iter().position(|&i| i == index);
+        let every_other = |index: usize| rank(index).is_none_or(|r| r % 2 == 0);
+        let free = |index: usize| rank(index).is_none();
+        let patterns: [(&str, &dyn Fn(usize) -> bool); 5] = [
+            ("even", &every_other),
+            ("all passed", &|_| true),
+            ("odd", &|index| rank(index).is_none_or(|r| r % 2 == 1)),
+            ("judged stopped", &free),
+            ("all stopped", &|_| false),
+        ];
+        let bits = |a: &[f64]| a.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let mut judged_again = Vec::new();
+        for (name, passed) in patterns {
+            // Anew: the kept limiting taken out for this one, put back after.
+            let kept = choice.sampled.lock().unwrap().take();
+            let mut anew = st.clone();
+            let anew_envelope = anew.limit_with(&choice, passed);
+            *choice.sampled.lock().unwrap() = kept;
+            let mut from_kept = st.clone();
+            let kept_envelope = from_kept.limit_with(&choice, passed);
+            assert_eq!(
+                bits(&from_kept.cap_mm_min),
+                bits(&anew.cap_mm_min),
+                "{name}"
+            );
+            assert_eq!(from_kept.cap_kind, anew.cap_kind, "{name}");
+            assert_eq!(
+                bits(&from_kept.interval_accel_mm_s2),
+                bits(&anew.interval_accel_mm_s2),
+                "{name}"
+            );
+            let f32_bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(f32_bits(&kept_envelope), f32_bits(&anew_envelope), "{name}");
+            let memo = choice.sampled.lock().unwrap();
+            let memo = memo.as_ref().expect("kept from the first");
+            judged_again.push(
+                memo.judged_last
+                    .swap(0, std::sync::atomic::Ordering::Relaxed),
+            );
+        }
+        // The sampled geometry lowers caps here, and the later limitings took ranges
+        // (not every station again).
+        assert!(
+            st.cap_kind.contains(&CapKind::Curvature),
+            "a cap lowered by the differences at F{feed_mm_min}"
+        );
+        let n = st.len();
+        assert_eq!(judged_again[0], 0, "the first is kept, not judged again");
+        assert!(
+            judged_again[1..4].iter().all(|&k| k > 0 && 4 * k <= n),
+            "stations judged again {judged_again:?} of {n} at F{feed_mm_min}"
+        );
     }
 }

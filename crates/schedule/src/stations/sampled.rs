@@ -1,0 +1,273 @@
+//! One sampled-geometry limiting kept for the next ones of the same stations
+//! ([`Stations::limit_sampled_geometry`] in a corner choice, [`super::CornerChoice`]): each
+//! later one judges again only the stations whose inputs differ from the kept one's.
+
+use rayon::prelude::*;
+
+use super::{CapKind, Cursor, RecentTangents, SampledLimit, Stations, Stop};
+
+/// Caps lowered: station and cap, mm/min.
+type Lowered = Vec<(u32, f64)>;
+
+/// A later limiting judges every station again where more than one in this many differ
+/// (its ranges would cost more than the whole).
+const MOST_AGAIN: usize = 4;
+
+/// The first sampled-geometry limiting of a corner choice, kept.
+///
+/// Station k's limit (MODEL.md §6.1, "Sampled geometry") reads its cap, its speed on
+/// the envelope, whether it is a stop, whether a turn starts or ends within 2·v·T of it
+/// and whether a run ends within its samples (s − v·T to s + 2·v·T); the path and the
+/// machine are the same in every limiting of a choice, and so are the caps it starts
+/// from (the choice's caps before any corner was judged). A later limiting of the choice
+/// differs in its stops and its intervals' accelerations: its stations whose envelope
+/// speed differs, and those within that reach of a stop one of the two has and the other
+/// has not, are judged again; every other station's lowered cap and every interval
+/// between two of them are the kept ones, bit for bit.
+pub(crate) struct SampledMemo {
+    /// The stations of the stops it was made with, ascending, each once.
+    pub(super) stops: Vec<usize>,
+    /// The envelope its stations were judged at, mm/s.
+    pub(super) envelope: Vec<f32>,
+    /// Whether the path turns over each interval, stops or not: one bit an interval
+    /// (interval k is bit k % 64 of word k / 64).
+    pub(super) turns: Vec<u64>,
+    /// The caps it lowered, ascending.
+    pub(super) lowered: Lowered,
+    /// Each interval's least limit from its two stations' budgets, mm/s² (∞ where
+    /// neither gives one).
+    pub(super) interval_limits: Vec<f64>,
+    /// How far along the path a station's limit reads the stops and turns, mm: 2·v·T at
+    /// the highest cap, and a margin for the arc lengths' rounding.
+    pub(super) reach_mm: f64,
+    /// How many stations the last limiting from it judged again (the tests' check that
+    /// the ranges were taken).
+    #[cfg(test)]
+    pub(super) judged_last: std::sync::atomic::AtomicUsize,
+}
+
+impl SampledMemo {
+    /// The limiting of `stations` judged at `envelope` (the turning intervals that do
+    /// not start at a stop `turning`) that lowered the caps `lowered` and limited the
+    /// intervals to `interval_limits`, kept; its stations' limits read the path within
+    /// `reach_mm` ([`reach_mm`]).
+    pub(super) fn new(
+        stations: &Stations,
+        envelope: Vec<f32>,
+        turning: &[u32],
+        lowered: Lowered,
+        interval_limits: Vec<f64>,
+        reach_mm: f64,
+    ) -> SampledMemo {
+        SampledMemo {
+            stops: stop_stations(&stations.stops),
+            envelope,
+            turns: turns_with_stops(stations, turning),
+            lowered,
+            interval_limits,
+            reach_mm,
+            #[cfg(test)]
+            judged_last: Default::default(),
+        }
+    }
+
+    /// The intervals where the path turns that do not start at a stop (`is_stop`),
+    /// ascending ([`Stations::turning_intervals`]).
+    pub(super) fn turns_but_stops(&self, is_stop: &[bool]) -> Vec<u32> {
+        let mut turning = Vec::new();
+        for (w, &word) in self.turns.iter().enumerate() {
+            let mut bits = word;
+            while bits != 0 {
+                let k = 64 * w + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                if !is_stop[k] {
+                    turning.push(k as u32);
+                }
+            }
+        }
+        turning
+    }
+
+    /// The stations a limiting with `stops`, its stations judged at `envelope`, judges
+    /// again (arc lengths `s_mm`): those whose envelope speed differs from the kept one's
+    /// and those within the reach of a stop that one of the two has and the other has
+    /// not, each range widened by a station on both sides (so that every interval beside
+    /// a station judged again has both its stations judged), merged; first and last
+    /// station of each, ascending. None where they are more than a quarter of the
+    /// stations.
+    fn judged_again(
+        &self,
+        s_mm: &[f64],
+        stops: &[Stop],
+        envelope: &[f32],
+    ) -> Option<Vec<(usize, usize)>> {
+        let n = s_mm.len();
+        debug_assert_eq!(envelope.len(), self.envelope.len());
+        let differs = |k: usize| envelope[k].to_bits() != self.envelope[k].to_bits();
+        let mut marked: Vec<(usize, usize)> = Vec::new();
+        let mut k = 0;
+        while k < n {
+            if !differs(k) {
+                k += 1;
+                continue;
+            }
+            let first = k;
+            while k < n && differs(k) {
+                k += 1;
+            }
+            marked.push((first, k - 1));
+        }
+        for j in symmetric_difference(&self.stops, &stop_stations(stops)) {
+            // Interval j turns or not as station j is a stop or not; station j is in
+            // the runs either side of it.
+            let (lo, hi) = (
+                s_mm[j] - self.reach_mm,
+                s_mm[(j + 1).min(n - 1)] + self.reach_mm,
+            );
+            let first = s_mm.partition_point(|&s| s < lo);
+            let last = s_mm.partition_point(|&s| s <= hi) - 1;
+            marked.push((first, last));
+        }
+        marked.sort_unstable();
+        let mut again: Vec<(usize, usize)> = Vec::new();
+        for (first, last) in marked {
+            let (first, last) = (first.saturating_sub(1), (last + 1).min(n - 1));
+            match again.last_mut() {
+                Some((_, end)) if first <= *end + 1 => *end = (*end).max(last),
+                _ => again.push((first, last)),
+            }
+        }
+        let count: usize = again.iter().map(|&(first, last)| last - first + 1).sum();
+        (count * MOST_AGAIN <= n).then_some(again)
+    }
+
+    /// The stations limited as [`Stations::limit_stations_in_chunks`] limits them, the
+    /// ranges `again` judged by `station` (the turns `turning`) and every other station
+    /// as kept: `caps` (the choice's caps before any corner; `kinds` theirs) lowered, and
+    /// each interval's acceleration (`interval_accel`, before the sampled geometry)
+    /// limited.
+    ///
+    /// The ranges are those [`SampledMemo::judged_again`] finds for the stations' stops
+    /// and `envelope`; where there are none (too many stations differ) nothing is done
+    /// and false returned.
+    pub(super) fn limit(
+        &self,
+        stations: &Stations,
+        envelope: &[f32],
+        turning: &[u32],
+        (caps, kinds, interval_accel): (&mut [f64], &mut [CapKind], &mut [f64]),
+        station: &(dyn Fn(usize, f64, &mut Cursor) -> Option<SampledLimit> + Sync),
+    ) -> bool {
+        let Some(again) = self.judged_again(&stations.s_mm, &stations.stops, envelope) else {
+            return false;
+        };
+        let again = &again[..];
+        // Each range judged again: the caps it lowers, and the accelerations of the
+        // intervals between its stations (the one after its last station has a station
+        // outside it, one as kept).
+        #[cfg(test)]
+        self.judged_last.store(
+            again.iter().map(|&(first, last)| last - first + 1).sum(),
+            std::sync::atomic::Ordering::Relaxed,
+        );
+        let judged: Vec<(Lowered, Vec<f64>)> = again
+            .par_iter()
+            .map(|&(first, last)| {
+                let mut lowered = Vec::new();
+                let mut limits = vec![f64::INFINITY; last - first + 1];
+                stations.limit_station_range(
+                    first,
+                    &caps[first..=last],
+                    turning,
+                    station,
+                    &mut lowered,
+                    &mut limits,
+                );
+                limits.pop();
+                for (limit, &a) in limits.iter_mut().zip(&interval_accel[first..last]) {
+                    *limit = a.min(*limit);
+                }
+                (lowered, limits)
+            })
+            .collect();
+        interval_accel
+            .par_iter_mut()
+            .zip(&self.interval_limits)
+            .for_each(|(a, &limit)| *a = a.min(limit));
+        for &(k, cap) in &self.lowered {
+            let k = k as usize;
+            let at = again.partition_point(|&(_, last)| last < k);
+            if again.get(at).is_none_or(|&(first, _)| first > k) {
+                caps[k] = cap;
+                kinds[k] = CapKind::Curvature;
+            }
+        }
+        for (&(first, last), (lowered, limits)) in again.iter().zip(judged) {
+            for (k, cap) in lowered {
+                caps[k as usize] = cap;
+                kinds[k as usize] = CapKind::Curvature;
+            }
+            interval_accel[first..last].copy_from_slice(&limits);
+        }
+        true
+    }
+}
+
+/// How far along the path a station's sampled limit reads the stops and turns, mm, where
+/// the highest cap is `max_cap_mm_min` and the period `period_s`: 2·v·T (MODEL.md §6.1,
+/// "Sampled geometry"), and a margin for the arc lengths' rounding.
+pub(super) fn reach_mm(max_cap_mm_min: f64, period_s: f64) -> f64 {
+    2.0 * max_cap_mm_min / 60.0 * period_s * (1.0 + 1e-9) + 1e-6
+}
+
+/// Whether the path of `stations` turns over each interval, one bit an interval
+/// ([`SampledMemo::turns`]): those of `turning` (the turning intervals that do not start
+/// at a stop) and those of the stops that turn.
+fn turns_with_stops(stations: &Stations, turning: &[u32]) -> Vec<u64> {
+    let intervals = stations.len() - 1;
+    let mut turns = vec![0u64; intervals.div_ceil(64)];
+    let mut set = |k: usize| turns[k / 64] |= 1 << (k % 64);
+    turning.iter().for_each(|&k| set(k as usize));
+    let mut tangents = RecentTangents::new();
+    for stop in &stations.stops {
+        if stop.station < intervals && stations.turns(&mut tangents, stop.station) {
+            set(stop.station);
+        }
+    }
+    turns
+}
+
+/// The stations of `stops` (in station order), each once.
+fn stop_stations(stops: &[Stop]) -> Vec<usize> {
+    let mut stations: Vec<usize> = stops.iter().map(|stop| stop.station).collect();
+    stations.dedup();
+    stations
+}
+
+/// The values in one of the ascending lists `a` and `b` and not in the other, ascending.
+fn symmetric_difference(a: &[usize], b: &[usize]) -> Vec<usize> {
+    let (mut i, mut j, mut out) = (0, 0, Vec::new());
+    while i < a.len() || j < b.len() {
+        match (a.get(i), b.get(j)) {
+            (Some(x), Some(y)) if x == y => (i, j) = (i + 1, j + 1),
+            (Some(&x), Some(&y)) if x < y => {
+                out.push(x);
+                i += 1;
+            }
+            (Some(_), Some(&y)) => {
+                out.push(y);
+                j += 1;
+            }
+            (Some(&x), None) => {
+                out.push(x);
+                i += 1;
+            }
+            (None, Some(&y)) => {
+                out.push(y);
+                j += 1;
+            }
+            (None, None) => unreachable!("one list has values left"),
+        }
+    }
+    out
+}
