@@ -806,7 +806,7 @@ impl Stations {
             Some(slot @ None) => {
                 // The stations' limits apart from the intervals' accelerations they
                 // are taken into, kept for the next limiting.
-                let max_cap_mm_min = caps.iter().copied().fold(0.0, f64::max);
+                let started = sampled::started_from(&caps, period_s);
                 let mut limits = vec![f64::INFINITY; n - 1];
                 let lowered = self.limit_stations_in_chunks(
                     chunk,
@@ -820,9 +820,8 @@ impl Stations {
                     .par_iter_mut()
                     .zip(&limits)
                     .for_each(|(a, &limit)| *a = a.min(limit));
-                let reach_mm = sampled::reach_mm(max_cap_mm_min, period_s);
                 *slot = Some(SampledMemo::new(
-                    self, envelope, &turning, lowered, limits, reach_mm,
+                    self, envelope, &turning, lowered, limits, started,
                 ));
             }
             _ => {

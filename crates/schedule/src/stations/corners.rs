@@ -713,21 +713,25 @@ mod tests {
         let rank = |index: usize| judged.iter().position(|&i| i == index);
         let every_other = |index: usize| rank(index).is_none_or(|r| r % 2 == 0);
         let free = |index: usize| rank(index).is_none();
-        let patterns: [(&str, &dyn Fn(usize) -> bool); 5] = [
+        let patterns: [(&str, &dyn Fn(usize) -> bool); 6] = [
             ("even", &every_other),
             ("all passed", &|_| true),
             ("odd", &|index| rank(index).is_none_or(|r| r % 2 == 1)),
             ("judged stopped", &free),
             ("all stopped", &|_| false),
+            ("even again", &every_other),
         ];
         let bits = |a: &[f64]| a.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         let mut judged_again = Vec::new();
         for (name, passed) in patterns {
-            // Anew: the kept limiting taken out for this one, put back after.
+            // Anew: the kept limiting taken out for this one, put back after (the
+            // first's made anew kept).
             let kept = choice.sampled.lock().unwrap().take();
             let mut anew = st.clone();
             let anew_envelope = anew.limit_with(&choice, passed);
-            *choice.sampled.lock().unwrap() = kept;
+            if kept.is_some() {
+                *choice.sampled.lock().unwrap() = kept;
+            }
             let mut from_kept = st.clone();
             let kept_envelope = from_kept.limit_with(&choice, passed);
             assert_eq!(
@@ -757,10 +761,13 @@ mod tests {
             "a cap lowered by the differences at F{feed_mm_min}"
         );
         let n = st.len();
-        assert_eq!(judged_again[0], 0, "the first is kept, not judged again");
         assert!(
             judged_again[1..4].iter().all(|&k| k > 0 && 4 * k <= n),
             "stations judged again {judged_again:?} of {n} at F{feed_mm_min}"
+        );
+        assert_eq!(
+            judged_again[5], 0,
+            "the first's stops again: nothing judged again"
         );
     }
 }

@@ -40,8 +40,11 @@ pub(crate) struct SampledMemo {
     /// How far along the path a station's limit reads the stops and turns, mm: 2·v·T at
     /// the highest cap, and a margin for the arc lengths' rounding.
     pub(super) reach_mm: f64,
+    /// The [`fingerprint`] of the caps it started from: a later limiting from other caps
+    /// is made anew.
+    pub(super) caps_fingerprint: u64,
     /// How many stations the last limiting from it judged again (the tests' check that
-    /// the ranges were taken).
+    /// the ranges were taken; `usize::MAX` where it was made anew).
     #[cfg(test)]
     pub(super) judged_last: std::sync::atomic::AtomicUsize,
 }
@@ -50,14 +53,14 @@ impl SampledMemo {
     /// The limiting of `stations` judged at `envelope` (the turning intervals that do
     /// not start at a stop `turning`) that lowered the caps `lowered` and limited the
     /// intervals to `interval_limits`, kept; its stations' limits read the path within
-    /// `reach_mm` ([`reach_mm`]).
+    /// `reach_mm` ([`started_from`]), and it started from the caps of `caps_fingerprint`.
     pub(super) fn new(
         stations: &Stations,
         envelope: Vec<f32>,
         turning: &[u32],
         lowered: Lowered,
         interval_limits: Vec<f64>,
-        reach_mm: f64,
+        (reach_mm, caps_fingerprint): (f64, u64),
     ) -> SampledMemo {
         SampledMemo {
             stops: stop_stations(&stations.stops),
@@ -66,6 +69,7 @@ impl SampledMemo {
             lowered,
             interval_limits,
             reach_mm,
+            caps_fingerprint,
             #[cfg(test)]
             judged_last: Default::default(),
         }
@@ -158,7 +162,13 @@ impl SampledMemo {
         (caps, kinds, interval_accel): (&mut [f64], &mut [CapKind], &mut [f64]),
         station: &(dyn Fn(usize, f64, &mut Cursor) -> Option<SampledLimit> + Sync),
     ) -> bool {
-        let Some(again) = self.judged_again(&stations.s_mm, &stations.stops, envelope) else {
+        let again = (fingerprint(caps) == self.caps_fingerprint)
+            .then(|| self.judged_again(&stations.s_mm, &stations.stops, envelope))
+            .flatten();
+        let Some(again) = again else {
+            #[cfg(test)]
+            self.judged_last
+                .store(usize::MAX, std::sync::atomic::Ordering::Relaxed);
             return false;
         };
         let again = &again[..];
@@ -213,11 +223,22 @@ impl SampledMemo {
     }
 }
 
-/// How far along the path a station's sampled limit reads the stops and turns, mm, where
-/// the highest cap is `max_cap_mm_min` and the period `period_s`: 2·v·T (MODEL.md §6.1,
-/// "Sampled geometry"), and a margin for the arc lengths' rounding.
-pub(super) fn reach_mm(max_cap_mm_min: f64, period_s: f64) -> f64 {
-    2.0 * max_cap_mm_min / 60.0 * period_s * (1.0 + 1e-9) + 1e-6
+/// What a limiting starting from `caps` (mm/min) at the period `period_s` keeps of them:
+/// how far along the path a station's sampled limit reads the stops and turns, mm
+/// (2·v·T at the highest cap, MODEL.md §6.1 "Sampled geometry", and a margin for the
+/// arc lengths' rounding), and their [`fingerprint`].
+pub(super) fn started_from(caps: &[f64], period_s: f64) -> (f64, u64) {
+    let max_cap_mm_min = caps.iter().copied().fold(0.0, f64::max);
+    let reach_mm = 2.0 * max_cap_mm_min / 60.0 * period_s * (1.0 + 1e-9) + 1e-6;
+    (reach_mm, fingerprint(caps))
+}
+
+/// A fingerprint of `caps` (FNV-1a over their bits): the kept limiting is the one of
+/// these caps only where they have the same one.
+pub(super) fn fingerprint(caps: &[f64]) -> u64 {
+    caps.iter().fold(0xcbf2_9ce4_8422_2325, |h, c| {
+        (h ^ c.to_bits()).wrapping_mul(0x0000_0100_0000_01b3)
+    })
 }
 
 /// Whether the path of `stations` turns over each interval, one bit an interval
