@@ -269,6 +269,16 @@ pub(crate) fn run_read(
 ) -> (Parsed, Trace, Option<u32>, Vec<Executed>) {
     let mut it = interp(file, options, record);
     it.lent = lent.map(|path| Lent { path, matched: 0 });
+    // A segment a line at most in most programs: room for them (and a recorded run's
+    // trace) from the start rather than grown by doubling (each step a copy of the
+    // whole), within the limit of moves; the path's room left is given back below.
+    let room = read.lines.len().min(options.max_segments.saturating_add(1));
+    if lent.is_none() {
+        it.path.segments.reserve_exact(room);
+    }
+    if record {
+        it.trace.reserve_exact(room);
+    }
     it.lines = Rc::clone(&read.lines);
     it.source = source;
     it.olines = read.olines.clone();
