@@ -670,36 +670,6 @@ impl Stations {
             Some(Some(memo)) => memo.turns_but_stops(&is_stop),
             _ => self.turning_intervals(chunk, &is_stop),
         };
-        // Station k: the last turn ends at s[k] if the interval k → k+1 turns, else at
-        // the end s[j+1] of the last turning interval j < k; the next one starts at s[k]
-        // if the interval k−1 → k turns, else at the start s[i] of the first turning
-        // interval i ≥ k.
-        let turn_window = |cursor: &mut Cursor, k: usize| {
-            let first_at_or_after = &mut cursor.turns_before;
-            while *first_at_or_after < turning.len() && (turning[*first_at_or_after] as usize) < k {
-                *first_at_or_after += 1;
-            }
-            let first_at_or_after = *first_at_or_after;
-            let here = turning.get(first_at_or_after).map(|&i| i as usize) == Some(k);
-            let last = if here {
-                self.s_mm[k]
-            } else {
-                first_at_or_after
-                    .checked_sub(1)
-                    .map_or(f64::NEG_INFINITY, |j| self.s_mm[turning[j] as usize + 1])
-            };
-            let next = if k > 0
-                && first_at_or_after > 0
-                && turning[first_at_or_after - 1] as usize == k - 1
-            {
-                self.s_mm[k]
-            } else {
-                turning
-                    .get(first_at_or_after)
-                    .map_or(f64::INFINITY, |&i| self.s_mm[i as usize])
-            };
-            (last, next)
-        };
         // Where the path is at arc length x (the stations are searched outwards from
         // `near`, which is left where x was found: the next station's search for its
         // own neighbour on that side starts there).
@@ -751,7 +721,7 @@ impl Stations {
         let station = |k: usize, cap_mm_min: f64, cursor: &mut Cursor| {
             let cap = (cap_mm_min / 60.0).min(envelope[k] as f64);
             let reach = 2.0 * cap * period_s + 1e-9;
-            let (last_turn, next_turn) = turn_window(cursor, k);
+            let (last_turn, next_turn) = self.turn_window(&turning, cursor, k);
             if is_stop[k] || self.s_mm[k] - last_turn > reach && next_turn - self.s_mm[k] > reach {
                 return None;
             }
@@ -796,17 +766,23 @@ impl Stations {
             }
             Some(limit)
         };
-        let arrays = (&mut caps[..], &mut kinds[..], &mut interval_accel[..]);
-        let from_kept = kept.as_deref().is_some_and(|kept| {
-            kept.as_ref()
-                .is_some_and(|memo| memo.limit(self, &envelope, &turning, arrays, &station))
-        });
+        let from_kept = match kept.as_deref() {
+            Some(Some(memo)) => {
+                let limited = sampled::Limited {
+                    caps: &mut caps,
+                    kinds: &mut kinds,
+                    interval_accel: &mut interval_accel,
+                };
+                memo.limit(self, &envelope, &turning, limited, &station)
+            }
+            _ => false,
+        };
         match kept {
             _ if from_kept => {}
             Some(slot @ None) => {
                 // The stations' limits apart from the intervals' accelerations they
                 // are taken into, kept for the next limiting.
-                let started = sampled::started_from(&caps, period_s);
+                let start = sampled::CapsStart::of(&caps, period_s);
                 let mut limits = vec![f64::INFINITY; n - 1];
                 let lowered = self.limit_stations_in_chunks(
                     chunk,
@@ -821,7 +797,7 @@ impl Stations {
                     .zip(&limits)
                     .for_each(|(a, &limit)| *a = a.min(limit));
                 *slot = Some(SampledMemo::new(
-                    self, envelope, &turning, lowered, limits, started,
+                    self, envelope, &turning, lowered, limits, start,
                 ));
             }
             _ => {
@@ -852,6 +828,37 @@ impl Stations {
             (Some(before), Some(next)) => (self.stops[before].station, next.station),
             _ => (0, self.len() - 1),
         }
+    }
+
+    /// Where the last turn before station k ends and the next one after it starts (arc
+    /// lengths, mm; ∓∞ where there is none), the turning intervals `turning`'s cursor
+    /// (`cursor.turns_before`) moved up to k ([`Stations::limit_sampled_geometry`]): the
+    /// last turn ends at s[k] if the interval k → k+1 turns, else at the end s[j+1] of the
+    /// last turning interval j < k; the next one starts at s[k] if the interval k−1 → k
+    /// turns, else at the start s[i] of the first turning interval i ≥ k.
+    fn turn_window(&self, turning: &[u32], cursor: &mut Cursor, k: usize) -> (f64, f64) {
+        let first_at_or_after = &mut cursor.turns_before;
+        while *first_at_or_after < turning.len() && (turning[*first_at_or_after] as usize) < k {
+            *first_at_or_after += 1;
+        }
+        let first_at_or_after = *first_at_or_after;
+        let here = turning.get(first_at_or_after).map(|&i| i as usize) == Some(k);
+        let last = if here {
+            self.s_mm[k]
+        } else {
+            first_at_or_after
+                .checked_sub(1)
+                .map_or(f64::NEG_INFINITY, |j| self.s_mm[turning[j] as usize + 1])
+        };
+        let next =
+            if k > 0 && first_at_or_after > 0 && turning[first_at_or_after - 1] as usize == k - 1 {
+                self.s_mm[k]
+            } else {
+                turning
+                    .get(first_at_or_after)
+                    .map_or(f64::INFINITY, |&i| self.s_mm[i as usize])
+            };
+        (last, next)
     }
 
     /// The intervals k → k+1 where the path turns ([`Stations::turns`]) but those that

@@ -2,6 +2,8 @@
 //! ([`Stations::limit_sampled_geometry`] in a corner choice, [`super::CornerChoice`]): each
 //! later one judges again only the stations whose inputs differ from the kept one's.
 
+use std::collections::BTreeSet;
+
 use rayon::prelude::*;
 
 use super::{CapKind, Cursor, RecentTangents, SampledLimit, Stations, Stop};
@@ -25,8 +27,8 @@ const MOST_AGAIN: usize = 4;
 /// has not, are judged again; every other station's lowered cap and every interval
 /// between two of them are the kept ones, bit for bit.
 pub(crate) struct SampledMemo {
-    /// The stations of the stops it was made with, ascending, each once.
-    pub(super) stops: Vec<usize>,
+    /// The stations of the stops it was made with.
+    pub(super) stops: BTreeSet<usize>,
     /// The envelope its stations were judged at, mm/s.
     pub(super) envelope: Vec<f32>,
     /// Whether the path turns over each interval, stops or not: one bit an interval
@@ -37,12 +39,9 @@ pub(crate) struct SampledMemo {
     /// Each interval's least limit from its two stations' budgets, mm/s² (∞ where
     /// neither gives one).
     pub(super) interval_limits: Vec<f64>,
-    /// How far along the path a station's limit reads the stops and turns, mm: 2·v·T at
-    /// the highest cap, and a margin for the arc lengths' rounding.
-    pub(super) reach_mm: f64,
-    /// The [`fingerprint`] of the caps it started from: a later limiting from other caps
-    /// is made anew.
-    pub(super) caps_fingerprint: u64,
+    /// What it kept of the caps it started from: a later limiting from other caps is
+    /// made anew.
+    pub(super) start: CapsStart,
     /// How many stations the last limiting from it judged again (the tests' check that
     /// the ranges were taken; `usize::MAX` where it was made anew).
     #[cfg(test)]
@@ -52,24 +51,22 @@ pub(crate) struct SampledMemo {
 impl SampledMemo {
     /// The limiting of `stations` judged at `envelope` (the turning intervals that do
     /// not start at a stop `turning`) that lowered the caps `lowered` and limited the
-    /// intervals to `interval_limits`, kept; its stations' limits read the path within
-    /// `reach_mm` ([`started_from`]), and it started from the caps of `caps_fingerprint`.
+    /// intervals to `interval_limits`, kept; it started from the caps of `start`.
     pub(super) fn new(
         stations: &Stations,
         envelope: Vec<f32>,
         turning: &[u32],
         lowered: Lowered,
         interval_limits: Vec<f64>,
-        (reach_mm, caps_fingerprint): (f64, u64),
+        start: CapsStart,
     ) -> SampledMemo {
         SampledMemo {
-            stops: stop_stations(&stations.stops),
+            stops: stations.stops.iter().map(|stop| stop.station).collect(),
             envelope,
             turns: turns_with_stops(stations, turning),
             lowered,
             interval_limits,
-            reach_mm,
-            caps_fingerprint,
+            start,
             #[cfg(test)]
             judged_last: Default::default(),
         }
@@ -121,13 +118,12 @@ impl SampledMemo {
             }
             marked.push((first, k - 1));
         }
-        for j in symmetric_difference(&self.stops, &stop_stations(stops)) {
+        let stops: BTreeSet<usize> = stops.iter().map(|stop| stop.station).collect();
+        for &j in self.stops.symmetric_difference(&stops) {
             // Interval j turns or not as station j is a stop or not; station j is in
             // the runs either side of it.
-            let (lo, hi) = (
-                s_mm[j] - self.reach_mm,
-                s_mm[(j + 1).min(n - 1)] + self.reach_mm,
-            );
+            let reach_mm = self.start.reach_mm;
+            let (lo, hi) = (s_mm[j] - reach_mm, s_mm[(j + 1).min(n - 1)] + reach_mm);
             let first = s_mm.partition_point(|&s| s < lo);
             let last = s_mm.partition_point(|&s| s <= hi) - 1;
             marked.push((first, last));
@@ -159,10 +155,15 @@ impl SampledMemo {
         stations: &Stations,
         envelope: &[f32],
         turning: &[u32],
-        (caps, kinds, interval_accel): (&mut [f64], &mut [CapKind], &mut [f64]),
+        limited: Limited,
         station: &(dyn Fn(usize, f64, &mut Cursor) -> Option<SampledLimit> + Sync),
     ) -> bool {
-        let again = (fingerprint(caps) == self.caps_fingerprint)
+        let Limited {
+            caps,
+            kinds,
+            interval_accel,
+        } = limited;
+        let again = (fingerprint(caps) == self.start.caps_fingerprint)
             .then(|| self.judged_again(&stations.s_mm, &stations.stops, envelope))
             .flatten();
         let Some(again) = again else {
@@ -223,19 +224,38 @@ impl SampledMemo {
     }
 }
 
-/// What a limiting starting from `caps` (mm/min) at the period `period_s` keeps of them:
-/// how far along the path a station's sampled limit reads the stops and turns, mm
-/// (2·v·T at the highest cap, MODEL.md §6.1 "Sampled geometry", and a margin for the
-/// arc lengths' rounding), and their [`fingerprint`].
-pub(super) fn started_from(caps: &[f64], period_s: f64) -> (f64, u64) {
-    let max_cap_mm_min = caps.iter().copied().fold(0.0, f64::max);
-    let reach_mm = 2.0 * max_cap_mm_min / 60.0 * period_s * (1.0 + 1e-9) + 1e-6;
-    (reach_mm, fingerprint(caps))
+/// The arrays a limiting sets, station by station and interval by interval: the caps
+/// (mm/min) it lowers and their kinds, and the intervals' accelerations (mm/s²) it limits.
+pub(super) struct Limited<'a> {
+    pub(super) caps: &'a mut [f64],
+    pub(super) kinds: &'a mut [CapKind],
+    pub(super) interval_accel: &'a mut [f64],
+}
+
+/// What a kept limiting keeps of the caps it started from.
+pub(super) struct CapsStart {
+    /// How far along the path a station's sampled limit reads the stops and turns, mm:
+    /// 2·v·T at the highest cap (MODEL.md §6.1 "Sampled geometry"), and a margin for the
+    /// arc lengths' rounding.
+    reach_mm: f64,
+    /// Their [`fingerprint`].
+    caps_fingerprint: u64,
+}
+
+impl CapsStart {
+    /// Of the caps `caps` (mm/min) at the period `period_s`.
+    pub(super) fn of(caps: &[f64], period_s: f64) -> CapsStart {
+        let max_cap_mm_min = caps.iter().copied().fold(0.0, f64::max);
+        CapsStart {
+            reach_mm: 2.0 * max_cap_mm_min / 60.0 * period_s * (1.0 + 1e-9) + 1e-6,
+            caps_fingerprint: fingerprint(caps),
+        }
+    }
 }
 
 /// A fingerprint of `caps` (FNV-1a over their bits): the kept limiting is the one of
 /// these caps only where they have the same one.
-pub(super) fn fingerprint(caps: &[f64]) -> u64 {
+fn fingerprint(caps: &[f64]) -> u64 {
     caps.iter().fold(0xcbf2_9ce4_8422_2325, |h, c| {
         (h ^ c.to_bits()).wrapping_mul(0x0000_0100_0000_01b3)
     })
@@ -256,39 +276,4 @@ fn turns_with_stops(stations: &Stations, turning: &[u32]) -> Vec<u64> {
         }
     }
     turns
-}
-
-/// The stations of `stops` (in station order), each once.
-fn stop_stations(stops: &[Stop]) -> Vec<usize> {
-    let mut stations: Vec<usize> = stops.iter().map(|stop| stop.station).collect();
-    stations.dedup();
-    stations
-}
-
-/// The values in one of the ascending lists `a` and `b` and not in the other, ascending.
-fn symmetric_difference(a: &[usize], b: &[usize]) -> Vec<usize> {
-    let (mut i, mut j, mut out) = (0, 0, Vec::new());
-    while i < a.len() || j < b.len() {
-        match (a.get(i), b.get(j)) {
-            (Some(x), Some(y)) if x == y => (i, j) = (i + 1, j + 1),
-            (Some(&x), Some(&y)) if x < y => {
-                out.push(x);
-                i += 1;
-            }
-            (Some(_), Some(&y)) => {
-                out.push(y);
-                j += 1;
-            }
-            (Some(&x), None) => {
-                out.push(x);
-                i += 1;
-            }
-            (None, Some(&y)) => {
-                out.push(y);
-                j += 1;
-            }
-            (None, None) => unreachable!("one list has values left"),
-        }
-    }
-    out
 }
