@@ -41,6 +41,13 @@ const ITERATIONS: usize = 4;
 const CONVERGED: f64 = 1e-3;
 /// Interior-point iterations per program (they take about 16 where it is feasible).
 const MAX_SOLVER_ITERATIONS: u32 = 50;
+/// The duality gap, relative and absolute, each program is solved to: ten times finer
+/// than [`CONVERGED`], the share by which the programs' best time must still change for
+/// another to be solved; each iterate is checked against the limits by its own motion
+/// whatever the gap. At 10⁻⁶ the interior point's last iterations bought 3D_Chips' plan
+/// with a jerk limit nothing (its cycle 170.9571 s at 10⁻⁶, 170.9335 s at 10⁻⁴) for a
+/// quarter of its CPU (10.35 → 7.62 s; MODEL.md §6.1, "Fewer programs, fewer refinements").
+const GAP_TOL: f64 = 1e-4;
 /// Iterative refinement steps per linear solve of the interior point method (clarabel's
 /// default is 10; the programs' equalities hold to about 10⁻⁸ with 2, and the refinement
 /// took half of the planner's time).
@@ -88,8 +95,8 @@ pub(crate) fn shape(lim: &Limits, held: (usize, usize), v: &mut [f64], accel: &m
         .verbose(false)
         .presolve_enable(false)
         .max_iter(MAX_SOLVER_ITERATIONS)
-        .tol_gap_rel(1e-6)
-        .tol_gap_abs(1e-6)
+        .tol_gap_rel(GAP_TOL)
+        .tol_gap_abs(GAP_TOL)
         .iterative_refinement_max_iter(REFINEMENT_STEPS)
         .build()
     else {
