@@ -65,8 +65,13 @@ impl NpyValues<'_> {
         self.len() == 0
     }
 
-    /// Stream the values, little-endian, in blocks (no copy of the whole array).
+    /// Write the values, little-endian: on a little-endian machine the
+    /// values' own bytes in one write (no copy); elsewhere byte-swapped in
+    /// blocks (no copy of the whole array).
     fn write_data(&self, out: &mut dyn Write) -> std::io::Result<()> {
+        if cfg!(target_endian = "little") {
+            return out.write_all(self.native_bytes());
+        }
         const BLOCK: usize = 16 * 1024;
         let mut buf = Vec::with_capacity(self.dtype().size() * BLOCK);
         macro_rules! blocks {
@@ -88,6 +93,17 @@ impl NpyValues<'_> {
             NpyValues::U8(v) => out.write_all(v)?,
         }
         Ok(())
+    }
+
+    /// The values' bytes in the machine's own order.
+    fn native_bytes(&self) -> &[u8] {
+        match self {
+            NpyValues::F32(v) => bytemuck::cast_slice(v),
+            NpyValues::I32(v) => bytemuck::cast_slice(v),
+            NpyValues::F64(v) => bytemuck::cast_slice(v),
+            NpyValues::U32(v) => bytemuck::cast_slice(v),
+            NpyValues::U8(v) => v,
+        }
     }
 }
 
