@@ -46,7 +46,7 @@ const MAX_SOLVER_ITERATIONS: u32 = 50;
 /// another to be solved; each iterate is checked against the limits by its own motion
 /// whatever the gap. At 10⁻⁶ the interior point's last iterations bought 3D_Chips' plan
 /// with a jerk limit nothing (its cycle 170.9571 s at 10⁻⁶, 170.9335 s at 10⁻⁴) for a
-/// quarter of its CPU (10.35 → 7.62 s; MODEL.md §6.1, "Fewer programs, fewer refinements").
+/// quarter of its CPU (10.35 → 7.62 s; MODEL.md §6.1, "A coarser duality gap").
 const GAP_TOL: f64 = 1e-4;
 /// Iterative refinement steps per linear solve of the interior point method (clarabel's
 /// default is 10; the programs' equalities hold to about 10⁻⁸ with 2, and the refinement
