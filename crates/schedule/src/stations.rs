@@ -797,7 +797,12 @@ impl Stations {
                     .zip(&limits)
                     .for_each(|(a, &limit)| *a = a.min(limit));
                 *slot = Some(SampledMemo::new(
-                    self, envelope, &turning, lowered, limits, start,
+                    self,
+                    envelope,
+                    &turning,
+                    lowered.concat(),
+                    limits,
+                    start,
                 ));
             }
             _ => {
@@ -892,7 +897,8 @@ impl Stations {
     /// Each station's [`SampledLimit`] (`station(k, its cap, the cursor)`, the cursor's
     /// `turns_before` an index in `turning`) put on `caps`, `kinds` and the intervals'
     /// accelerations `interval_accel`, `chunk` stations a parallel task; the caps
-    /// lowered (station, mm/min), ascending.
+    /// lowered (station, mm/min), ascending, a list a chunk (joined only where a kept
+    /// limiting needs them).
     fn limit_stations_in_chunks(
         &self,
         chunk: usize,
@@ -901,7 +907,7 @@ impl Stations {
         kinds: &mut [CapKind],
         interval_accel: &mut Vec<f64>,
         station: &(dyn Fn(usize, f64, &mut Cursor) -> Option<SampledLimit> + Sync),
-    ) -> Vec<(u32, f64)> {
+    ) -> Vec<Vec<(u32, f64)>> {
         // Station k's speed and budget read the geometry and its own cap only, and
         // set its own cap and kind and the intervals k−1 → k and k → k+1 (each the
         // minimum of what it had and its stations' budgets: the same in any order). So
@@ -937,7 +943,7 @@ impl Stations {
             let a = &mut interval_accel[c * chunk - 1];
             *a = a.min(before);
         }
-        lowered.concat()
+        lowered
     }
 
     /// The stations `k0, k0 + 1, …` (caps `caps`) limited by `station` (the turns
