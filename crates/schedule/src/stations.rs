@@ -897,8 +897,8 @@ impl Stations {
     /// Each station's [`SampledLimit`] (`station(k, its cap, the cursor)`, the cursor's
     /// `turns_before` an index in `turning`) put on `caps`, `kinds` and the intervals'
     /// accelerations `interval_accel`, `chunk` stations a parallel task; the caps
-    /// lowered (station, mm/min), ascending, a list a chunk (joined only where a kept
-    /// limiting needs them).
+    /// lowered, ascending, a list a chunk (joined only where a kept limiting needs
+    /// them).
     fn limit_stations_in_chunks(
         &self,
         chunk: usize,
@@ -907,7 +907,7 @@ impl Stations {
         kinds: &mut [CapKind],
         interval_accel: &mut Vec<f64>,
         station: &(dyn Fn(usize, f64, &mut Cursor) -> Option<SampledLimit> + Sync),
-    ) -> Vec<Vec<(u32, f64)>> {
+    ) -> Vec<Vec<LoweredCap>> {
         // Station k's speed and budget read the geometry and its own cap only, and
         // set its own cap and kind and the intervals k−1 → k and k → k+1 (each the
         // minimum of what it had and its stations' budgets: the same in any order). So
@@ -915,7 +915,7 @@ impl Stations {
         // k → k+1 (one slot more at the path's end), and gives back the budget of the
         // interval before its first station (the chunk before's), taken after.
         interval_accel.push(f64::INFINITY);
-        let (before_chunks, lowered): (Vec<f64>, Vec<Vec<(u32, f64)>>) = caps
+        let (before_chunks, lowered): (Vec<f64>, Vec<Vec<LoweredCap>>) = caps
             .par_chunks_mut(chunk)
             .zip(kinds.par_chunks_mut(chunk))
             .zip(interval_accel.par_chunks_mut(chunk))
@@ -931,9 +931,9 @@ impl Stations {
                     &mut lowered,
                     interval_accel,
                 );
-                for &(k, cap) in &lowered {
-                    caps[k as usize - k0] = cap;
-                    kinds[k as usize - k0] = CapKind::Curvature;
+                for cap in &lowered {
+                    caps[cap.station as usize - k0] = cap.cap_mm_min;
+                    kinds[cap.station as usize - k0] = CapKind::Curvature;
                 }
                 (before, lowered)
             })
@@ -947,7 +947,7 @@ impl Stations {
     }
 
     /// The stations `k0, k0 + 1, …` (caps `caps`) limited by `station` (the turns
-    /// `turning`): the caps they lower (station, mm/min) pushed to `lowered`, and their
+    /// `turning`): the caps they lower pushed to `lowered`, and their
     /// budgets taken into the intervals k0 → k0 + 1, … (`interval_accel`, one a
     /// station); the budget of the interval before `k0` returned.
     fn limit_station_range(
@@ -956,7 +956,7 @@ impl Stations {
         caps: &[f64],
         turning: &[u32],
         station: &(dyn Fn(usize, f64, &mut Cursor) -> Option<SampledLimit> + Sync),
-        lowered: &mut Vec<(u32, f64)>,
+        lowered: &mut Vec<LoweredCap>,
         interval_accel: &mut [f64],
     ) -> f64 {
         let n = self.len();
@@ -971,8 +971,11 @@ impl Stations {
             let Some(limit) = station(k, caps[i], &mut cursor) else {
                 continue;
             };
-            if let Some(cap) = limit.lowered_cap_mm_min {
-                lowered.push((k as u32, cap));
+            if let Some(cap_mm_min) = limit.lowered_cap_mm_min {
+                lowered.push(LoweredCap {
+                    station: k as u32,
+                    cap_mm_min,
+                });
             }
             let Some(budget) = limit.budget else {
                 continue;
@@ -1306,6 +1309,13 @@ struct Cursor {
 struct SampledLimit {
     lowered_cap_mm_min: Option<f64>,
     budget: Option<[f64; 3]>,
+}
+
+/// A station's cap the sampled geometry lowered ([`SampledLimit::lowered_cap_mm_min`]).
+#[derive(Clone, Copy, Debug)]
+struct LoweredCap {
+    station: u32,
+    cap_mm_min: f64,
 }
 
 /// Whether `seg` is a straight line: its tangent is the same at every fraction

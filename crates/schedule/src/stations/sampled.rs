@@ -6,10 +6,7 @@ use std::collections::BTreeSet;
 
 use rayon::prelude::*;
 
-use super::{CapKind, Cursor, RecentTangents, SampledLimit, Stations, Stop};
-
-/// Caps lowered: station and cap, mm/min.
-type Lowered = Vec<(u32, f64)>;
+use super::{CapKind, Cursor, LoweredCap, RecentTangents, SampledLimit, Stations, Stop};
 
 /// A later limiting judges every station again where more than one in this many differ
 /// (its ranges would cost more than the whole).
@@ -35,7 +32,7 @@ pub(crate) struct SampledMemo {
     /// (interval k is bit k % 64 of word k / 64).
     pub(super) turns: Vec<u64>,
     /// The caps it lowered, ascending.
-    pub(super) lowered: Lowered,
+    pub(super) lowered: Vec<LoweredCap>,
     /// Each interval's least limit from its two stations' budgets, mm/s² (∞ where
     /// neither gives one).
     pub(super) interval_limits: Vec<f64>,
@@ -56,7 +53,7 @@ impl SampledMemo {
         stations: &Stations,
         envelope: Vec<f32>,
         turning: &[u32],
-        lowered: Lowered,
+        lowered: Vec<LoweredCap>,
         interval_limits: Vec<f64>,
         start: CapsStart,
     ) -> SampledMemo {
@@ -181,7 +178,7 @@ impl SampledMemo {
             again.iter().map(|&(first, last)| last - first + 1).sum(),
             std::sync::atomic::Ordering::Relaxed,
         );
-        let judged: Vec<(Lowered, Vec<f64>)> = again
+        let judged: Vec<(Vec<LoweredCap>, Vec<f64>)> = again
             .par_iter()
             .map(|&(first, last)| {
                 let mut lowered = Vec::new();
@@ -205,18 +202,18 @@ impl SampledMemo {
             .par_iter_mut()
             .zip(&self.interval_limits)
             .for_each(|(a, &limit)| *a = a.min(limit));
-        for &(k, cap) in &self.lowered {
-            let k = k as usize;
+        for cap in &self.lowered {
+            let k = cap.station as usize;
             let at = again.partition_point(|&(_, last)| last < k);
             if again.get(at).is_none_or(|&(first, _)| first > k) {
-                caps[k] = cap;
+                caps[k] = cap.cap_mm_min;
                 kinds[k] = CapKind::Curvature;
             }
         }
         for (&(first, last), (lowered, limits)) in again.iter().zip(judged) {
-            for (k, cap) in lowered {
-                caps[k as usize] = cap;
-                kinds[k as usize] = CapKind::Curvature;
+            for cap in lowered {
+                caps[cap.station as usize] = cap.cap_mm_min;
+                kinds[cap.station as usize] = CapKind::Curvature;
             }
             interval_accel[first..last].copy_from_slice(&limits);
         }
