@@ -67,11 +67,20 @@ impl NpyValues<'_> {
 
     /// Write the values, little-endian: on a little-endian machine the
     /// values' own bytes in one write (no copy); elsewhere byte-swapped in
-    /// blocks (no copy of the whole array).
+    /// blocks ([`NpyValues::write_le_in_blocks`], no copy of the whole array).
     fn write_data(&self, out: &mut dyn Write) -> std::io::Result<()> {
         if cfg!(target_endian = "little") {
-            return out.write_all(self.native_bytes());
+            out.write_all(self.native_bytes())
+        } else {
+            self.write_le_in_blocks(out)
         }
+    }
+
+    /// Write the values little-endian whatever the machine's order: each
+    /// value's `to_le_bytes`, a block of values at a time (the writer of a
+    /// big-endian machine; on a little-endian one the same bytes as
+    /// [`NpyValues::native_bytes`], test `values_in_blocks_are_the_native_little_endian_bytes`).
+    fn write_le_in_blocks(&self, out: &mut dyn Write) -> std::io::Result<()> {
         const BLOCK: usize = 16 * 1024;
         let mut buf = Vec::with_capacity(self.dtype().size() * BLOCK);
         macro_rules! blocks {
@@ -753,5 +762,59 @@ pub fn read_grid_array_f32(
             "dtype {}, expected <f4",
             other.dtype().descr()
         ))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::NpyValues;
+
+    /// The big-endian machine's writer (each value's `to_le_bytes`, in
+    /// blocks) gives NumPy's little-endian bytes, across a block's end;
+    /// on this little-endian machine they are the values' own bytes, as
+    /// `write_data` writes them here.
+    #[test]
+    fn values_in_blocks_are_the_native_little_endian_bytes() {
+        let n: i32 = 40_000; // more than two blocks of 16 Ki values
+        let f32s: Vec<f32> = (0..n)
+            .map(|i| (i as f32 - 7.5) * 1.25e-3)
+            .chain([f32::NAN, f32::INFINITY, -0.0, f32::MIN_POSITIVE])
+            .collect();
+        let f64s: Vec<f64> = f32s.iter().map(|&x| f64::from(x) * 1.000_000_1).collect();
+        let i32s: Vec<i32> = (0..n).map(|i| i.wrapping_mul(-97_531)).collect();
+        let u32s: Vec<u32> = (0..n)
+            .map(|i| (i as u32).wrapping_mul(2_654_435_761))
+            .collect();
+        let u8s: Vec<u8> = (0..n).map(|i| (i % 251) as u8).collect();
+        let le = |v: Vec<Vec<u8>>| v.concat();
+        for (values, want) in [
+            (
+                NpyValues::F32(&f32s),
+                le(f32s.iter().map(|x| x.to_le_bytes().to_vec()).collect()),
+            ),
+            (
+                NpyValues::F64(&f64s),
+                le(f64s.iter().map(|x| x.to_le_bytes().to_vec()).collect()),
+            ),
+            (
+                NpyValues::I32(&i32s),
+                le(i32s.iter().map(|x| x.to_le_bytes().to_vec()).collect()),
+            ),
+            (
+                NpyValues::U32(&u32s),
+                le(u32s.iter().map(|x| x.to_le_bytes().to_vec()).collect()),
+            ),
+            (NpyValues::U8(&u8s), u8s.clone()),
+        ] {
+            let mut blocks = Vec::new();
+            values.write_le_in_blocks(&mut blocks).unwrap();
+            assert_eq!(blocks, want, "{:?}", values.dtype());
+            let mut data = Vec::new();
+            values.write_data(&mut data).unwrap();
+            assert_eq!(data, want, "{:?}", values.dtype());
+            if cfg!(target_endian = "little") {
+                assert_eq!(values.native_bytes(), &want[..], "{:?}", values.dtype());
+            }
+        }
     }
 }
