@@ -9,7 +9,7 @@ use crate::beam::SteppedBeam;
 use crate::force::{force_n, volume_per_tooth_mm3};
 use crate::kienzle::Kienzle;
 use crate::tooth::{
-    mean_cut, peak_bound, peak_cut, BandArc, Coefficients, EdgeShape, PeakScratch, Teeth,
+    peak_bound, peak_cut, ArcTerms, BandArc, Coefficients, EdgeShape, PeakScratch, Teeth,
 };
 
 /// The most a band's arcs may need of the step's own feed per tooth to
@@ -244,6 +244,10 @@ struct BandCut {
     z_mm: [f64; 2],
     width_mm: f64,
     kind: BandKind,
+    /// The terms of its arcs where they do not depend on the step's split
+    /// (not [`BandKind::Split`]): made once, for the contact along the feed
+    /// and both feeds of the arcs' mean.
+    terms: Option<[Option<ArcTerms>; 2]>,
 }
 
 /// What a band's columns make of its cut (MODEL.md §3.4).
@@ -583,6 +587,7 @@ impl CuttingModel {
                     z_mm: [z_lo, z_hi],
                     width_mm,
                     kind: BandKind::Split,
+                    terms: None,
                 };
                 if !both_flanks {
                     cut.kind = BandKind::Arcs(pieces);
@@ -590,7 +595,9 @@ impl CuttingModel {
                     cut.kind = BandKind::SlotTop;
                 }
                 if !matches!(cut.kind, BandKind::Split) {
-                    known += v * BandArc::forward_share(&self.cut_arcs(&cut, 1.0));
+                    let terms = ArcTerms::of_each(&self.edge, self.cut_arcs(&cut, 1.0));
+                    known += v * ArcTerms::forward_share(&terms);
+                    cut.terms = Some(terms);
                 }
                 arcs_mm3 += v;
                 cuts.push(cut);
@@ -604,13 +611,17 @@ impl CuttingModel {
             for cut in cuts.iter() {
                 let v = cut.volume_mm3;
                 let pieces = self.cut_arcs(cut, s);
+                // Each arc's terms once, for both feeds below.
+                let terms = cut
+                    .terms
+                    .unwrap_or_else(|| ArcTerms::of_each(&self.edge, pieces));
                 // One feed per tooth for the arcs (one, or one at each
                 // flank): their volume per revolution over theirs at
                 // f_z = 1.
-                let per_fz: f64 = pieces
+                let per_fz: f64 = terms
                     .iter()
                     .flatten()
-                    .map(|arc| mean_cut(&self.edge, self.flutes, arc, 1.0, c).volume_mm3)
+                    .map(|t| t.mean_cut(self.flutes, 1.0, c).volume_mm3)
                     .sum();
                 // A steady cut's arcs remove the band's volume at about
                 // the feed per tooth the step's motion gives. Where they
@@ -624,8 +635,8 @@ impl CuttingModel {
                     aggregate_mm3 += v;
                     continue;
                 }
-                for arc in pieces.into_iter().flatten() {
-                    let m = mean_cut(&self.edge, self.flutes, &arc, fz, c);
+                for (arc, t) in pieces.into_iter().zip(terms).filter_map(|(a, t)| a.zip(t)) {
+                    let m = t.mean_cut(self.flutes, fz, c);
                     for (s, f) in mean.iter_mut().zip(m.force_n) {
                         *s += f;
                     }
@@ -736,6 +747,7 @@ impl CuttingModel {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tooth::mean_cut;
 
     #[test]
     fn scaled_load_scales_forces_and_keeps_the_chip() {

@@ -223,15 +223,7 @@ impl BandArc {
     /// (the chip, ∝ sin φ): `∫ sin²φ dφ / ∫ sin φ dφ` over them; π/4 for a
     /// slot, near 0 for slivers at its flanks (MODEL.md §3.4). 0 for no arc.
     pub fn forward_share(arcs: &[Option<BandArc>]) -> f64 {
-        let (s, ss) = arcs.iter().flatten().fold((0.0, 0.0), |(s, ss), a| {
-            let [i_s, i_ss, _] = a.integrals();
-            (s + i_s, ss + i_ss)
-        });
-        if s > 0.0 {
-            ss / s
-        } else {
-            0.0
-        }
+        forward_share_of(arcs.iter().flatten().map(BandArc::integrals))
     }
 
     /// A straight cut of a cylindrical flank `ae_mm` wide into material on
@@ -305,20 +297,65 @@ pub fn mean_cut(
     fz_mm: f64,
     c: &Coefficients,
 ) -> MeanCut {
-    let m = shape.moments(arc.z_lo_mm, arc.z_hi_mm);
-    let [i_s, i_ss, i_sc] = arc.integrals();
-    let n = f64::from(flutes);
-    let a = c.radial_ratio * m.sin_k_mm + c.axial_ratio * m.cos_k_mm;
-    let b = c.radial_ratio * m.cos_k_mm - c.axial_ratio * m.sin_k_mm;
-    let k = n * c.kt_mpa * fz_mm / (2.0 * PI);
-    MeanCut {
-        force_n: [
-            k * (-i_sc * m.length_mm - a * i_ss),
-            k * (i_ss * m.length_mm - a * i_sc),
-            k * b * i_s,
-        ],
-        torque_nmm: k * i_s * m.radius_mm2,
-        volume_mm3: n * fz_mm * i_s * m.radius_mm2,
+    ArcTerms::of(shape, arc).mean_cut(flutes, fz_mm, c)
+}
+
+/// [`BandArc::forward_share`] of arcs given by their integrals
+/// (`[I_s, I_ss, I_sc]` each, in the arcs' order).
+fn forward_share_of(integrals: impl Iterator<Item = [f64; 3]>) -> f64 {
+    let (s, ss) = integrals.fold((0.0, 0.0), |(s, ss), [i_s, i_ss, _]| (s + i_s, ss + i_ss));
+    if s > 0.0 {
+        ss / s
+    } else {
+        0.0
+    }
+}
+
+/// What [`mean_cut`] takes of an arc whatever the feed: its band's edge
+/// moments ([`EdgeShape::moments`]) and the arc's integrals (`I_s, I_ss,
+/// I_sc`), made once where an arc's cut is wanted at more than one feed.
+#[derive(Clone, Copy, Debug)]
+pub struct ArcTerms {
+    moments: EdgeMoments,
+    integrals: [f64; 3],
+}
+
+impl ArcTerms {
+    /// The terms of `arc` on the edge `shape`.
+    pub fn of(shape: &EdgeShape, arc: &BandArc) -> ArcTerms {
+        ArcTerms {
+            moments: shape.moments(arc.z_lo_mm, arc.z_hi_mm),
+            integrals: arc.integrals(),
+        }
+    }
+
+    /// Each of `arcs`' terms ([`ArcTerms::of`]).
+    pub fn of_each(shape: &EdgeShape, arcs: [Option<BandArc>; 2]) -> [Option<ArcTerms>; 2] {
+        arcs.map(|arc| arc.map(|arc| ArcTerms::of(shape, &arc)))
+    }
+
+    /// [`BandArc::forward_share`] of the arcs whose terms are `terms`, bit for bit.
+    pub fn forward_share(terms: &[Option<ArcTerms>]) -> f64 {
+        forward_share_of(terms.iter().flatten().map(|t| t.integrals))
+    }
+
+    /// [`mean_cut`] of the arc at the feed per tooth `fz_mm`, bit for bit.
+    pub fn mean_cut(&self, flutes: u32, fz_mm: f64, c: &Coefficients) -> MeanCut {
+        let m = self.moments;
+        let [i_s, i_ss, i_sc] = self.integrals;
+        let n = f64::from(flutes);
+        let a = c.radial_ratio * m.sin_k_mm + c.axial_ratio * m.cos_k_mm;
+        let b = c.radial_ratio * m.cos_k_mm - c.axial_ratio * m.sin_k_mm;
+        let k = n * c.kt_mpa * fz_mm / (2.0 * PI);
+        MeanCut {
+            force_n: [
+                k * (-i_sc * m.length_mm - a * i_ss),
+                k * (i_ss * m.length_mm - a * i_sc),
+                k * b * i_s,
+            ],
+            torque_nmm: k * i_s * m.radius_mm2,
+            volume_mm3: n * fz_mm * i_s * m.radius_mm2,
+        }
     }
 }
 
