@@ -244,10 +244,17 @@ struct BandCut {
     z_mm: [f64; 2],
     width_mm: f64,
     kind: BandKind,
-    /// The terms of its arcs where they do not depend on the step's split
-    /// (not [`BandKind::Split`]): made once, for the contact along the feed
-    /// and both feeds of the arcs' mean.
-    terms: Option<[Option<ArcTerms>; 2]>,
+    /// Its arcs and their terms where they do not depend on the step's
+    /// split (not [`BandKind::Split`]): made once, for the contact along the
+    /// feed and both feeds of the arcs' mean.
+    fixed: Option<FixedArcs>,
+}
+
+/// A band's arcs that do not depend on the step's split, and their terms.
+#[derive(Clone, Copy, Debug)]
+struct FixedArcs {
+    arcs: [Option<BandArc>; 2],
+    terms: [Option<ArcTerms>; 2],
 }
 
 /// What a band's columns make of its cut (MODEL.md §3.4).
@@ -587,7 +594,7 @@ impl CuttingModel {
                     z_mm: [z_lo, z_hi],
                     width_mm,
                     kind: BandKind::Split,
-                    terms: None,
+                    fixed: None,
                 };
                 if !both_flanks {
                     cut.kind = BandKind::Arcs(pieces);
@@ -595,9 +602,10 @@ impl CuttingModel {
                     cut.kind = BandKind::SlotTop;
                 }
                 if !matches!(cut.kind, BandKind::Split) {
-                    let terms = ArcTerms::of_each(&self.edge, self.cut_arcs(&cut, 1.0));
+                    let arcs = self.cut_arcs(&cut, 1.0);
+                    let terms = ArcTerms::of_each(&self.edge, arcs);
                     known += v * ArcTerms::forward_share(&terms);
-                    cut.terms = Some(terms);
+                    cut.fixed = Some(FixedArcs { arcs, terms });
                 }
                 arcs_mm3 += v;
                 cuts.push(cut);
@@ -610,11 +618,17 @@ impl CuttingModel {
             let mut mean = [0.0; 3];
             for cut in cuts.iter() {
                 let v = cut.volume_mm3;
-                let pieces = self.cut_arcs(cut, s);
-                // Each arc's terms once, for both feeds below.
-                let terms = cut
-                    .terms
-                    .unwrap_or_else(|| ArcTerms::of_each(&self.edge, pieces));
+                // Its arcs, and each arc's terms once for both feeds below.
+                let FixedArcs {
+                    arcs: pieces,
+                    terms,
+                } = cut.fixed.unwrap_or_else(|| {
+                    let arcs = self.cut_arcs(cut, s);
+                    FixedArcs {
+                        arcs,
+                        terms: ArcTerms::of_each(&self.edge, arcs),
+                    }
+                });
                 // One feed per tooth for the arcs (one, or one at each
                 // flank): their volume per revolution over theirs at
                 // f_z = 1.

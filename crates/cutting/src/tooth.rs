@@ -315,14 +315,14 @@ fn forward_share_of(integrals: impl Iterator<Item = [f64; 3]>) -> f64 {
 /// moments ([`EdgeShape::moments`]) and the arc's integrals (`I_s, I_ss,
 /// I_sc`), made once where an arc's cut is wanted at more than one feed.
 #[derive(Clone, Copy, Debug)]
-pub struct ArcTerms {
+pub(crate) struct ArcTerms {
     moments: EdgeMoments,
     integrals: [f64; 3],
 }
 
 impl ArcTerms {
     /// The terms of `arc` on the edge `shape`.
-    pub fn of(shape: &EdgeShape, arc: &BandArc) -> ArcTerms {
+    pub(crate) fn of(shape: &EdgeShape, arc: &BandArc) -> ArcTerms {
         ArcTerms {
             moments: shape.moments(arc.z_lo_mm, arc.z_hi_mm),
             integrals: arc.integrals(),
@@ -330,17 +330,17 @@ impl ArcTerms {
     }
 
     /// Each of `arcs`' terms ([`ArcTerms::of`]).
-    pub fn of_each(shape: &EdgeShape, arcs: [Option<BandArc>; 2]) -> [Option<ArcTerms>; 2] {
+    pub(crate) fn of_each(shape: &EdgeShape, arcs: [Option<BandArc>; 2]) -> [Option<ArcTerms>; 2] {
         arcs.map(|arc| arc.map(|arc| ArcTerms::of(shape, &arc)))
     }
 
     /// [`BandArc::forward_share`] of the arcs whose terms are `terms`, bit for bit.
-    pub fn forward_share(terms: &[Option<ArcTerms>]) -> f64 {
+    pub(crate) fn forward_share(terms: &[Option<ArcTerms>]) -> f64 {
         forward_share_of(terms.iter().flatten().map(|t| t.integrals))
     }
 
     /// [`mean_cut`] of the arc at the feed per tooth `fz_mm`, bit for bit.
-    pub fn mean_cut(&self, flutes: u32, fz_mm: f64, c: &Coefficients) -> MeanCut {
+    pub(crate) fn mean_cut(&self, flutes: u32, fz_mm: f64, c: &Coefficients) -> MeanCut {
         let m = self.moments;
         let [i_s, i_ss, i_sc] = self.integrals;
         let n = f64::from(flutes);
