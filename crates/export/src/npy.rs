@@ -786,23 +786,23 @@ mod tests {
             .map(|i| (i as u32).wrapping_mul(2_654_435_761))
             .collect();
         let u8s: Vec<u8> = (0..n).map(|i| (i % 251) as u8).collect();
-        let le = |v: Vec<Vec<u8>>| v.concat();
+        let le = |bytes: &mut dyn Iterator<Item = u8>| bytes.collect::<Vec<u8>>();
         for (values, want) in [
             (
                 NpyValues::F32(&f32s),
-                le(f32s.iter().map(|x| x.to_le_bytes().to_vec()).collect()),
+                le(&mut f32s.iter().flat_map(|x| x.to_le_bytes())),
             ),
             (
                 NpyValues::F64(&f64s),
-                le(f64s.iter().map(|x| x.to_le_bytes().to_vec()).collect()),
+                le(&mut f64s.iter().flat_map(|x| x.to_le_bytes())),
             ),
             (
                 NpyValues::I32(&i32s),
-                le(i32s.iter().map(|x| x.to_le_bytes().to_vec()).collect()),
+                le(&mut i32s.iter().flat_map(|x| x.to_le_bytes())),
             ),
             (
                 NpyValues::U32(&u32s),
-                le(u32s.iter().map(|x| x.to_le_bytes().to_vec()).collect()),
+                le(&mut u32s.iter().flat_map(|x| x.to_le_bytes())),
             ),
             (NpyValues::U8(&u8s), u8s.clone()),
         ] {

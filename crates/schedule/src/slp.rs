@@ -459,6 +459,14 @@ mod tests {
             let (fine, fine_ratio) = section.time_s(1e-9);
             assert!(coarse_ratio <= 1.0 && fine_ratio <= 1.0);
             let bound = s_curve_time_s(len_mm, limits);
+            // From rest, the S-curve is the planner's own closed form.
+            let [_, v, a, j] = limits;
+            let from_rest = s_curve_time_s(len_mm, [0.0, v, a, j]);
+            let closed = crate::rest_to_rest_time_s(len_mm, v, a, j);
+            assert!(
+                (from_rest - closed).abs() <= 1e-9 * closed,
+                "{from_rest} {closed}"
+            );
             assert!(
                 (coarse - fine).abs() <= 0.1 * CONVERGED * fine,
                 "{len_mm} mm: {coarse} s at the planner's gap, {fine} s at 1e-9"
@@ -472,7 +480,8 @@ mod tests {
 
     /// The least time over `len` from the speed `w0` back to it under the cap `v`, the
     /// acceleration `a` and the jerk `j` (an S-curve up to a peak speed and its mirror),
-    /// by bisection on the peak speed.
+    /// by bisection on the peak speed: `rest_to_rest_time_s` where `w0` is 0 (checked in
+    /// the test), which starts from rest only, as no section here can.
     fn s_curve_time_s(len: f64, [w0, v, a, j]: [f64; 4]) -> f64 {
         // Time and distance from w0 up to w at the limits (the mean speed of an
         // S-curve between two speeds is theirs).
