@@ -640,27 +640,45 @@ pub fn peak_cut(
     // from the same sum at the same rotation).
     let mut best_sq = 0.0;
     let mut best_at: Option<(Harmonics, f64)> = None;
+    // sin and cos of 2φ at the end of the last stretch sampled, exact: the
+    // next stretch's start, the same rotation (the same bits), where that
+    // stretch is sampled too.
+    let mut end_sc: Option<(f64, f64)> = None;
     for k in 0..m {
         // The stretch [from, to] with the same teeth engaged, then the event at `to`.
         let (from, to) = (at(i0 + k), at(i0 + k + 1));
+        let start_sc = end_sc.take();
         // No sample of a stretch can beat the best so far where its bound
         // does not (the same peak, for less work).
         if sum.lateral_bound() > best.lateral_n {
-            let steps = ((2.0 * (to - from) / SAMPLE_2PHI_RAD).ceil() as usize).max(1);
-            let d_phi = (to - from) / steps as f64;
-            // 2φ of the samples by rotation (one sin_cos a stretch, not one
-            // a sample).
-            let (mut s2, mut c2) = (2.0 * from).sin_cos();
-            let (ds, dc) = (2.0 * d_phi).sin_cos();
-            for i in 0..=steps {
+            let mut sample = |s2: f64, c2: f64, phi: f64| {
                 let [x, y] = sum.lateral_cs(c2, s2);
                 let q = x * x + y * y;
                 if q > best_sq {
                     best_sq = q;
                     best.lateral_n = q.sqrt();
-                    best_at = Some((sum, from + d_phi * i as f64));
+                    best_at = Some((sum, phi));
                 }
-                (s2, c2) = (s2 * dc + c2 * ds, c2 * dc - s2 * ds);
+            };
+            let steps = ((2.0 * (to - from) / SAMPLE_2PHI_RAD).ceil() as usize).max(1);
+            let d_phi = (to - from) / steps as f64;
+            // 2φ of the samples by rotation from the stretch's start (one
+            // sin_cos a stretch, not one a sample), but at the end of a
+            // stretch of one step exact: that end is the next stretch's
+            // start, so stretches of one step sampled in a row cost one
+            // sin_cos each.
+            let (mut s2, mut c2) = start_sc.unwrap_or_else(|| (2.0 * from).sin_cos());
+            sample(s2, c2, from);
+            if steps == 1 {
+                let (s2, c2) = (2.0 * to).sin_cos();
+                sample(s2, c2, to);
+                end_sc = Some((s2, c2));
+            } else {
+                let (ds, dc) = (2.0 * d_phi).sin_cos();
+                for i in 1..=steps {
+                    (s2, c2) = (s2 * dc + c2 * ds, c2 * dc - s2 * ds);
+                    sample(s2, c2, from + d_phi * i as f64);
+                }
             }
         }
         let Event {
@@ -1447,6 +1465,24 @@ mod tests {
 mod ball_slot_peak {
     use super::*;
 
+    /// The largest lateral force of two-flute `bands` at 20 000 rotations
+    /// through one tooth period (π).
+    fn brute_peak(
+        shape: &EdgeShape,
+        teeth: &Teeth,
+        bands: &[(BandArc, f64)],
+        c: &Coefficients,
+    ) -> f64 {
+        let k = 20_000;
+        (0..k)
+            .map(|i| {
+                let f =
+                    super::tests::force_at_pub(shape, teeth, bands, c, i as f64 / k as f64 * PI);
+                f[0].hypot(f[1])
+            })
+            .fold(0.0, f64::max)
+    }
+
     /// A two-flute ball slot in 0.25 mm bands whose arcs are [0, π] (every
     /// tooth's entry and exit at the same rotation) or shrunk unevenly as a
     /// grid's column centres leave them: the peak is the brute force maximum.
@@ -1492,19 +1528,7 @@ mod ball_slot_peak {
                 &mut [],
                 &mut PeakScratch::default(),
             );
-            let k = 20_000;
-            let brute = (0..k)
-                .map(|i| {
-                    let f = super::tests::force_at_pub(
-                        &shape,
-                        &teeth,
-                        &bands,
-                        &c,
-                        i as f64 / k as f64 * PI,
-                    );
-                    f[0].hypot(f[1])
-                })
-                .fold(0.0, f64::max);
+            let brute = brute_peak(&shape, &teeth, &bands, &c);
             // Within the sampling of the stretches (every 2.5°), and never above.
             assert!(
                 p.lateral_n <= brute * (1.0 + 1e-9) && p.lateral_n >= brute * (1.0 - 1e-3),
@@ -1512,5 +1536,78 @@ mod ball_slot_peak {
                 p.lateral_n
             );
         }
+    }
+
+    /// Real program A's deepest passes (a Ø2 ball 5 mm down a wall, 30°
+    /// helix: 60 slices, stretches of about a degree, most sampled in one
+    /// step, each start the end before it), with the wall's arcs ending at
+    /// 40 angles: the force made again at the rotation each peak reports is
+    /// the peak to rounding, so every sample's 2φ is its rotation's; and the
+    /// peak is the brute force maximum.
+    #[test]
+    fn peak_of_short_stretches_in_a_row_is_the_force_where_it_says() {
+        let c = Coefficients {
+            kt_mpa: 1500.0,
+            radial_ratio: 0.3,
+            axial_ratio: 0.25,
+        };
+        let shape = EdgeShape::ball(1.0);
+        let teeth = Teeth {
+            flutes: 2,
+            helix_deg: 30.0,
+        };
+        let wall = |entry: f64, exit: f64| -> Vec<(BandArc, f64)> {
+            (0..5)
+                .map(|k| {
+                    let z = f64::from(k);
+                    (
+                        BandArc {
+                            z_lo_mm: z,
+                            z_hi_mm: z + 1.0,
+                            phi_st_rad: entry + 0.05 * z,
+                            phi_ex_rad: exit - 0.1 * z,
+                        },
+                        0.01,
+                    )
+                })
+                .collect()
+        };
+        let mut scratch = PeakScratch::default();
+        for i in 0..40 {
+            let (entry, exit) = (0.3 - 0.0075 * f64::from(i), PI - 0.02 * f64::from(i));
+            let p = peak_cut(
+                &shape,
+                &teeth,
+                &wall(entry, exit),
+                &c,
+                1.0,
+                &mut [],
+                &mut scratch,
+            );
+            assert!(
+                scratch.events.len() > 100,
+                "{} events",
+                scratch.events.len()
+            );
+            // (Made again from the teeth engaged there, with its own sin_cos:
+            // at an event, the teeth of the stretch that ends there.)
+            let there = p.force_n[0].hypot(p.force_n[1]);
+            assert!(
+                (p.lateral_n - there).abs() <= 1e-12 * there,
+                "arcs [{entry}, {exit}]: peak {} against {there} at its rotation",
+                p.lateral_n
+            );
+        }
+        let bands = wall(0.3, PI);
+        let p = peak_cut(&shape, &teeth, &bands, &c, 1.0, &mut [], &mut scratch);
+        let brute = brute_peak(&shape, &teeth, &bands, &c);
+        // (Within the sampling, either side: the peak here is at a tooth's
+        // entry, the limit of a jump the grid of rotations meets only to
+        // within its step.)
+        assert!(
+            (p.lateral_n - brute).abs() <= 1e-3 * brute,
+            "peak {} against {brute}",
+            p.lateral_n
+        );
     }
 }
