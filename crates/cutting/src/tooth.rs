@@ -657,7 +657,12 @@ pub fn peak_cut(
                     rotation,
                     slice: si,
                     enters,
-                    tooth: q.rem_euclid(i64::from(n)) as u32,
+                    // (Nearly always a whole period or none: no division.)
+                    tooth: if (0..i64::from(n)).contains(&q) {
+                        q
+                    } else {
+                        q.rem_euclid(i64::from(n))
+                    } as u32,
                 }
                 .key(),
             );
@@ -680,10 +685,17 @@ pub fn peak_cut(
     // engaged at its middle, found afresh (far from every arc's bound, so
     // rounding cannot disagree with the events); then the events in turn,
     // once round.
-    let at = |i: usize| Event::from_key(events[i % m]).rotation + if i >= m { period } else { 0.0 };
-    let i0 = (0..m)
-        .max_by(|&a, &b| (at(a + 1) - at(a)).total_cmp(&(at(b + 1) - at(b))))
-        .unwrap_or(0);
+    // (Events i in [0, 2m): the second time round one period on. The
+    // longest stretch, the last of equals, as `Iterator::max_by` finds it.)
+    let event = |i: usize| Event::from_key(events[if i >= m { i - m } else { i }]);
+    let at = |i: usize| event(i).rotation + if i >= m { period } else { 0.0 };
+    let (mut i0, mut longest) = (0, at(1) - at(0));
+    for a in 1..m {
+        let gap = at(a + 1) - at(a);
+        if longest.total_cmp(&gap).is_le() {
+            (i0, longest) = (a, gap);
+        }
+    }
     let mid = 0.5 * (at(i0) + at(i0 + 1));
     sum.add(&engaged.at(mid), 1.0);
     // The largest squared lateral force so far, and where: the rotation and
@@ -737,11 +749,14 @@ pub fn peak_cut(
             enters: enter,
             tooth: j,
             ..
-        } = Event::from_key(events[(i0 + k + 1) % m]);
+        } = event(i0 + k + 1);
         // The tooth at the arc's bound at this rotation (one period on, the
         // tooth before it).
-        let wrap = usize::from(i0 + k + 1 >= m);
-        let j = (j as usize + nu - wrap) % nu;
+        let j = match (j as usize, i0 + k + 1 >= m) {
+            (j, false) => j,
+            (0, true) => nu - 1,
+            (j, true) => j - 1,
+        };
         sum.add(&harmonics[si * nu + j], if enter { 1.0 } else { -1.0 });
     }
     if let Some((teeth, phi)) = best_at {
