@@ -673,9 +673,20 @@ pub fn peak_cut(
     // without its scratch.
     events.sort_unstable();
     let mut best = PeakCut::default();
+    // With an even number of teeth half a revolution is a whole number of
+    // tooth periods: as one tooth passes the left flank another passes the
+    // right, so the two instants are one (the force the same, but for
+    // rounding; test `flanks_are_the_force_at_their_instants`).
+    let flanks_at_once = n.is_multiple_of(2);
     for (k, flank) in flanks_n.iter_mut().enumerate() {
         let lag = (k as f64 + 0.5) * band_height_mm * lag_per_mm;
-        *flank = [lag, PI + lag].map(|phi| engaged.at(phi).lateral(phi));
+        let left = engaged.at(lag).lateral(lag);
+        let right = if flanks_at_once {
+            left
+        } else {
+            engaged.at(PI + lag).lateral(PI + lag)
+        };
+        *flank = [left, right];
     }
     let m = events.len();
     if m == 0 {
@@ -1289,6 +1300,55 @@ mod tests {
             close(p.force_n[2], -C.axial_ratio * C.kt_mpa * ap * fz, 1e-9),
             "{p:?}"
         );
+    }
+
+    /// The forces at the flanks are the forces at their instants, rotations
+    /// `ψ(z)` and `π + ψ(z)` at each band's mid-height, summed tooth by tooth
+    /// (`force_at`), for one to four flutes, straight and helical, on a ball
+    /// cutting slivers, part of a slot and a whole slot; with an even number
+    /// of flutes the two are one.
+    #[test]
+    fn flanks_are_the_force_at_their_instants() {
+        let shape = EdgeShape::ball(3.0);
+        let mut scratch = PeakScratch::default();
+        let mut checked = 0;
+        for flutes in [1, 2, 3, 4] {
+            for helix_deg in [0.0, 30.0] {
+                let teeth = Teeth { flutes, helix_deg };
+                for (st, ex) in [(0.0, 0.6), (0.4, 2.5), (2.2, PI), (0.0, PI)] {
+                    let bands: Vec<(BandArc, f64)> = (0..3)
+                        .map(|k| {
+                            let z = 0.5 * k as f64;
+                            let arc = BandArc {
+                                z_lo_mm: z,
+                                z_hi_mm: z + 0.5,
+                                phi_st_rad: st,
+                                phi_ex_rad: ex,
+                            };
+                            (arc, 0.03)
+                        })
+                        .collect();
+                    let mut flanks = [[[f64::NAN; 2]; 2]; 3];
+                    let p = peak_cut(&shape, &teeth, &bands, &C, 0.5, &mut flanks, &mut scratch);
+                    let lag_per_mm = helix_deg.to_radians().tan() / shape.radius_mm;
+                    for (k, [left, right]) in flanks.into_iter().enumerate() {
+                        let lag = (k as f64 + 0.5) * 0.5 * lag_per_mm;
+                        for (got, phi) in [(left, lag), (right, PI + lag)] {
+                            let want = force_at(&shape, &teeth, &bands, &C, phi);
+                            assert!(
+                                (got[0] - want[0]).hypot(got[1] - want[1]) <= 1e-9 * p.lateral_n,
+                                "{teeth:?} [{st}, {ex}] band {k} at {phi}: {got:?} against {want:?}"
+                            );
+                            checked += 1;
+                        }
+                        if flutes.is_multiple_of(2) {
+                            assert_eq!(left, right);
+                        }
+                    }
+                }
+            }
+        }
+        assert_eq!(checked, 4 * 2 * 4 * 3 * 2);
     }
 
     /// `peak_bound` is above `peak_cut`'s lateral force and torque on every
