@@ -720,9 +720,9 @@ pub fn peak_cut(
     // from the same sum at the same rotation).
     let mut best_sq = 0.0;
     let mut best_at: Option<(Harmonics, f64)> = None;
-    // sin and cos of 2φ at the end of the last stretch sampled, exact: the
-    // next stretch's start, the same rotation (the same bits), where that
-    // stretch is sampled too.
+    // sin and cos of 2φ, exact, at the end of the stretch before where it
+    // was sampled in one step (none otherwise): this stretch's start, the
+    // same rotation (the same bits).
     let mut end_sc: Option<(f64, f64)> = None;
     for k in 0..m {
         // The stretch [from, to] with the same teeth engaged, then the event at `to`.
