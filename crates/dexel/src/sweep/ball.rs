@@ -1,10 +1,10 @@
 //! Ball end: the swept ball is a capsule, its lower envelope a closed-form
 //! ray–capsule intersection, with a square-root-free skip bound.
 
-use super::arcsine::asin_diff;
+use super::arcsine::AsinDiff;
 use super::{
-    row_hits_by_column, sphere_reach2, torus_edge, torus_mean_inv_sin_k, Edge, Envelope,
-    EnvelopeHit, Prepared, RowHits, ABOVE_MARGIN_MM, PLUNGE_H2,
+    row_hits_by_column, sphere_reach2, torus_edge, torus_mean_inv_sin_k, ArcsineMean, Edge,
+    Envelope, EnvelopeHit, Prepared, RowHits, ABOVE_MARGIN_MM, PLUNGE_H2,
 };
 
 pub(super) struct BallEnd {
@@ -204,7 +204,7 @@ impl Envelope for BallEnd {
     /// ∫ dh / (sin κ cos θ) = R asin((h − R)/a), a = √(R² − e²), up to the
     /// equator; above it R/a per mm (MODEL.md §3.2).
     #[inline]
-    fn mean_inv_side(&self, h_bot: f64, h_top: f64, e: f64) -> Option<f64> {
+    fn mean_inv_side(&self, h_bot: f64, h_top: f64, e: f64) -> Option<ArcsineMean> {
         let r = self.r;
         let (lo, hi) = (h_bot.max(0.0), h_top.max(0.0));
         let span = hi - lo;
@@ -213,11 +213,15 @@ impl Envelope for BallEnd {
             return None;
         }
         let a = a2.sqrt();
-        // One difference of arcsines (`asin_diff`: one arcsine, not two).
+        // One difference of arcsines (`asin_diff`: one arcsine, not two),
+        // times R: the corner's part; the flank's above the equator.
         let x = |h: f64| (h.min(r) - r) / a;
-        let corner = r * asin_diff(x(hi), x(lo));
-        let flank = (hi - lo.max(r)).max(0.0) * r / a;
-        Some((corner + flank) / span)
+        Some(ArcsineMean {
+            diff: AsinDiff::of(x(hi), x(lo)),
+            scale: r,
+            add: (hi - lo.max(r)).max(0.0) * r / a,
+            span,
+        })
     }
 
     #[inline]

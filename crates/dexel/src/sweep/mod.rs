@@ -973,10 +973,30 @@ trait Envelope: Sync {
 
     /// Mean of 1/(sin κ cos θ) over the heights `[h_bot, h_top]` of a column at
     /// signed offset `e` from the move's line, where θ too varies with the
-    /// height (sin θ = e / r(h)); `None` where no closed form is used.
+    /// height (sin θ = e / r(h)), as the arcsine that makes it ([`ArcsineMean`]:
+    /// the strip takes many such arcsines in one loop); `None` where no closed
+    /// form is used.
     #[inline]
-    fn mean_inv_side(&self, _h_bot: f64, _h_top: f64, _e: f64) -> Option<f64> {
+    fn mean_inv_side(&self, _h_bot: f64, _h_top: f64, _e: f64) -> Option<ArcsineMean> {
         None
+    }
+}
+
+/// A mean that is one difference of arcsines d = asin(a) − asin(b)
+/// ([`arcsine::asin_diff`]): (scale · d + add) / span.
+#[derive(Clone, Copy, Debug)]
+struct ArcsineMean {
+    diff: arcsine::AsinDiff,
+    scale: f64,
+    add: f64,
+    span: f64,
+}
+
+impl ArcsineMean {
+    /// The mean, given `asin_arg`, the arcsine of `diff.arg`.
+    #[inline]
+    fn value(self, asin_arg: f64) -> f64 {
+        (self.scale * self.diff.form.difference(asin_arg) + self.add) / self.span
     }
 }
 

@@ -3,7 +3,9 @@
 
 use super::arcsine::{asin_small, AsinDiff, DiffForm};
 use super::slot::{CHIP_AREA, CONTACT_X, CONTACT_Y, OVER_RADIUS, SHANK, VOLUME};
-use super::{column_hit, Envelope, EnvelopeHit, Prepared, RowBounds, RowHits, HEAD, PLUNGE_H2};
+use super::{
+    column_hit, ArcsineMean, Envelope, EnvelopeHit, Prepared, RowBounds, RowHits, HEAD, PLUNGE_H2,
+};
 use crate::stock::RowBelow;
 use crate::top::Top;
 use crate::Grid;
@@ -201,15 +203,15 @@ fn trapezoid_cdf(x: f64, a: f64, b: f64) -> f64 {
 
 /// The columns cut by one move, row after row, and their contacts (MODEL.md
 /// §1.4, §1.5, §3.2), column by column in arrays of a row's length (allocated
-/// once per strip and batch: 20 arrays of `nx`), taken until the next row
+/// once per strip and batch: arrays of `nx`), taken until the next row
 /// might not fit or the move ends. The contacts are computed in phases over
 /// every cut taken (a few columns a row where a step is short against the
 /// cell, so the phases run over many rows at once), each a loop of independent arithmetic free of the
 /// cut's branches (square roots and divisions of many columns in flight, in
 /// vector registers where the compiler packs them); the columns whose
 /// chip thickness needs a mean over the cell take their arcsines in a phase
-/// of their own (`asin_small` in lanes), those that need one over a thick
-/// piece's heights one at a time. Every value is the same expression of the
+/// of their own (`asin_small` in lanes), with those that need one over a
+/// thick piece's heights (a ball's). Every value is the same expression of the
 /// same inputs whichever way the phases are compiled (the portable and the
 /// AVX2 build agree bit for bit).
 #[cfg_attr(test, derive(Clone))]
@@ -246,11 +248,20 @@ struct MoveCuts {
     /// The cuts whose side thickness is a mean (near the flank, or over a
     /// thick piece's heights).
     mean: Vec<u32>,
-    /// The cuts near the flank, the argument of their cell's arcsine
-    /// (then the arcsine), and how the mean of 1/cos θ follows from it.
-    flank: Vec<u32>,
-    flank_arg: Vec<f64>,
-    flank_form: Vec<DiffForm>,
+    /// The cuts whose mean waits for an arcsine, and what it is a mean of;
+    /// the arcsines' arguments (then the arcsines), in the same order.
+    pending: Vec<(u32, Pending)>,
+    asin_args: Vec<f64>,
+}
+
+/// What a cut's arcsine makes ([`StripJob::contacts`]).
+#[derive(Clone, Copy, Debug)]
+enum Pending {
+    /// The cell's mean of 1/cos θ near the flank (times the mean of 1/sin κ
+    /// already in `inv_side`).
+    Flank(DiffForm),
+    /// The mean of 1/(sin κ cos θ) over a thick piece's heights.
+    Side(ArcsineMean),
 }
 
 impl MoveCuts {
@@ -274,9 +285,8 @@ impl MoveCuts {
             r_hat: vec![[0.0; 2]; nx],
             shares: vec![[0.0; 2]; nx],
             mean: Vec::with_capacity(nx),
-            flank: Vec::with_capacity(nx),
-            flank_arg: Vec::with_capacity(nx),
-            flank_form: Vec::with_capacity(nx),
+            pending: Vec::with_capacity(nx),
+            asin_args: Vec::with_capacity(nx),
         }
     }
 
@@ -481,9 +491,8 @@ impl<E: Envelope> StripJob<'_, E> {
             r_hat,
             shares,
             mean,
-            flank,
-            flank_arg,
-            flank_form,
+            pending,
+            asin_args,
             ..
         } = cuts;
         let (x, y, t) = (&x[..n], &y[..n], &t[..n]);
@@ -558,13 +567,13 @@ impl<E: Envelope> StripJob<'_, E> {
             mean[k] = i as u32;
             k += usize::from(near_flank || thick);
         }
-        // Near the flank the cell's arcsines are taken in a loop of their own
-        // (vector lanes: `asin_small`), between the arguments and the means
-        // they give; 93 % of the 1 M-block program's cuts take one.
+        // The means' arcsines are taken in a loop of their own (vector lanes:
+        // `asin_small`), between their arguments and the means they give
+        // (93 % of the 1 M-block program's cuts take one near the flank; most of
+        // a roughing pass's, over a thick piece's heights).
         let mut f = 0;
-        flank.resize(k, 0);
-        flank_arg.resize(k, 0.0);
-        flank_form.resize(k, DiffForm::Sin);
+        pending.resize(k, (0, Pending::Flank(DiffForm::Sin)));
+        asin_args.resize(k, 0.0);
         for &i in &mean[..k] {
             let i = i as usize;
             let (h_top, h_bot, sin_t) = (h_top[i], h_bot[i], sin_t[i]);
@@ -574,7 +583,7 @@ impl<E: Envelope> StripJob<'_, E> {
             if near_flank {
                 let (lo, hi) = ((sin_t - half).max(-1.0), (sin_t + half).min(1.0));
                 let diff = AsinDiff::of(hi, lo);
-                (flank[f], flank_arg[f], flank_form[f]) = (i as u32, diff.arg, diff.form);
+                (pending[f], asin_args[f]) = ((i as u32, Pending::Flank(diff.form)), diff.arg);
                 f += 1;
                 // The mean of 1/sin κ, times the mean of 1/cos θ below.
                 inv_side[i] = if thick {
@@ -582,26 +591,35 @@ impl<E: Envelope> StripJob<'_, E> {
                 } else {
                     inv_sin_k[i]
                 };
-            } else {
-                // Away from the flank, a closed form over the piece's heights
-                // where the tool has one (a ball: κ and θ both vary with the height).
-                let (wx, wy) = (x[i] - m.p0[0], y[i] - m.p0[1]);
-                inv_side[i] = self
-                    .env
-                    .mean_inv_side(h_bot, h_top, ux * wy - uy * wx)
-                    .unwrap_or_else(|| (1.0 / cos_t[i]) * self.env.mean_inv_sin_k(h_bot, h_top))
-                    * m.inv_len_xy;
+                continue;
+            }
+            // Away from the flank, a closed form over the piece's heights
+            // where the tool has one (a ball: κ and θ both vary with the height).
+            let (wx, wy) = (x[i] - m.p0[0], y[i] - m.p0[1]);
+            match self.env.mean_inv_side(h_bot, h_top, ux * wy - uy * wx) {
+                Some(mean) => {
+                    (pending[f], asin_args[f]) = ((i as u32, Pending::Side(mean)), mean.diff.arg);
+                    f += 1;
+                }
+                None => {
+                    inv_side[i] =
+                        (1.0 / cos_t[i]) * self.env.mean_inv_sin_k(h_bot, h_top) * m.inv_len_xy;
+                }
             }
         }
-        for a in &mut flank_arg[..f] {
+        for a in &mut asin_args[..f] {
             *a = asin_small(*a);
         }
-        for ((&i, &asin_arg), &form) in flank[..f].iter().zip(&flank_arg[..f]).zip(&flank_form[..f])
-        {
+        for (&(i, of), &asin_arg) in pending[..f].iter().zip(&asin_args[..f]) {
             let i = i as usize;
-            let half = 0.5 * g * inv_r[i];
-            let inv_cos = form.difference(asin_arg) / (2.0 * half);
-            inv_side[i] = inv_cos * inv_side[i] * m.inv_len_xy;
+            inv_side[i] = match of {
+                Pending::Flank(form) => {
+                    let half = 0.5 * g * inv_r[i];
+                    let inv_cos = form.difference(asin_arg) / (2.0 * half);
+                    inv_cos * inv_side[i] * m.inv_len_xy
+                }
+                Pending::Side(mean) => mean.value(asin_arg) * m.inv_len_xy,
+            };
         }
         // The side's thickness where it is the thinner, and then (MODEL.md
         // §1.5) the shares: the edge, locally straight with normal r̂, passes
