@@ -61,21 +61,17 @@ impl AsinDiff {
         // b ≤ a: d ≥ 0, so sin d ≥ 0 (a rounding below is 0).
         let sin_d = (a * cb - b * ca).clamp(0.0, 1.0);
         let cos_d = (ca * cb + a * b).clamp(-1.0, 1.0);
-        if cos_d >= sin_d {
-            AsinDiff {
-                arg: sin_d,
-                form: DiffForm::Sin,
-            }
-        } else if cos_d >= -sin_d {
-            AsinDiff {
-                arg: cos_d,
-                form: DiffForm::Cos,
-            }
-        } else {
-            AsinDiff {
-                arg: sin_d,
-                form: DiffForm::SinFromPi,
-            }
+        // Selects, not branches: a loop of them runs in lanes.
+        let (sin_form, cos_form) = (cos_d >= sin_d, cos_d >= -sin_d);
+        AsinDiff {
+            arg: if !sin_form && cos_form { cos_d } else { sin_d },
+            form: if sin_form {
+                DiffForm::Sin
+            } else if cos_form {
+                DiffForm::Cos
+            } else {
+                DiffForm::SinFromPi
+            },
         }
     }
 }

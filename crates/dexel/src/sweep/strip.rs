@@ -245,23 +245,19 @@ struct MoveCuts {
     r_hat: Vec<[f64; 2]>,
     /// Shares of the column credited to the previous and the next step.
     shares: Vec<[f64; 2]>,
-    /// The cuts whose side thickness is a mean (near the flank, or over a
-    /// thick piece's heights).
+    /// The thick pieces away from the flank (their side thickness a mean
+    /// over their heights).
     mean: Vec<u32>,
-    /// The cuts whose mean waits for an arcsine, and what it is a mean of;
-    /// the arcsines' arguments (then the arcsines), in the same order.
-    pending: Vec<(u32, Pending)>,
+    /// The cuts near the flank (their cell's mean of 1/cos θ), half the
+    /// cell over the edge's radius, and the form of their difference of
+    /// arcsines; the thick pieces whose mean over their heights is one (a
+    /// ball's); the arcsines' arguments, the flank's then the thick pieces',
+    /// then the arcsines.
+    flank: Vec<u32>,
+    halves: Vec<f64>,
+    forms: Vec<DiffForm>,
+    sides: Vec<(u32, ArcsineMean)>,
     asin_args: Vec<f64>,
-}
-
-/// What a cut's arcsine makes ([`StripJob::contacts`]).
-#[derive(Clone, Copy, Debug)]
-enum Pending {
-    /// The cell's mean of 1/cos θ near the flank (times the mean of 1/sin κ
-    /// already in `inv_side`).
-    Flank(DiffForm),
-    /// The mean of 1/(sin κ cos θ) over a thick piece's heights.
-    Side(ArcsineMean),
 }
 
 impl MoveCuts {
@@ -285,7 +281,10 @@ impl MoveCuts {
             r_hat: vec![[0.0; 2]; nx],
             shares: vec![[0.0; 2]; nx],
             mean: Vec::with_capacity(nx),
-            pending: Vec::with_capacity(nx),
+            flank: Vec::with_capacity(nx),
+            halves: Vec::with_capacity(nx),
+            forms: Vec::with_capacity(nx),
+            sides: Vec::with_capacity(nx),
             asin_args: Vec::with_capacity(nx),
         }
     }
@@ -491,7 +490,10 @@ impl<E: Envelope> StripJob<'_, E> {
             r_hat,
             shares,
             mean,
-            pending,
+            flank,
+            halves,
+            forms,
+            sides,
             asin_args,
             ..
         } = cuts;
@@ -557,49 +559,58 @@ impl<E: Envelope> StripJob<'_, E> {
         // 1/cos θ to O(half²). A piece across more than THICK_PIECE_MM of
         // height is credited over its heights (MODEL.md §3.2); a thinner one
         // at its top, as the sliver it is. The cuts that take a mean are
-        // listed without a branch, then taken one by one.
-        let mut k = 0;
+        // listed without a branch (those near the flank, with their sin θ
+        // and cell; the thick pieces away from it), then taken in phases.
+        let (mut kf, mut ks) = (0, 0);
+        flank.resize(n, 0);
         mean.resize(n, 0);
+        asin_args.resize(n, 0.0);
+        halves.resize(n, 0.0);
         for i in 0..n {
             let half = 0.5 * g * inv_r[i];
             let near_flank = 1.0 - sin_t[i].abs() <= 4.0 * half;
             let thick = h_top[i] - h_bot[i] > THICK_PIECE_MM;
-            mean[k] = i as u32;
-            k += usize::from(near_flank || thick);
+            // (The flank's sin θ, its arcsine's argument below.)
+            (flank[kf], asin_args[kf], halves[kf]) = (i as u32, sin_t[i], half);
+            kf += usize::from(near_flank);
+            mean[ks] = i as u32;
+            ks += usize::from(thick && !near_flank);
         }
         // The means' arcsines are taken in a loop of their own (vector lanes:
         // `asin_small`), between their arguments and the means they give
         // (93 % of the 1 M-block program's cuts take one near the flank; most of
-        // a roughing pass's, over a thick piece's heights).
-        let mut f = 0;
-        pending.resize(k, (0, Pending::Flank(DiffForm::Sin)));
-        asin_args.resize(k, 0.0);
-        for &i in &mean[..k] {
+        // a roughing pass's, over a thick piece's heights): first the flank's
+        // arguments, in lanes too.
+        let (flank, halves) = (&flank[..kf], &halves[..kf]);
+        forms.resize(kf, DiffForm::Sin);
+        for ((arg, &half), form) in asin_args[..kf].iter_mut().zip(halves).zip(&mut forms[..kf]) {
+            let sin_t = *arg;
+            let (lo, hi) = ((sin_t - half).max(-1.0), (sin_t + half).min(1.0));
+            AsinDiff {
+                arg: *arg,
+                form: *form,
+            } = AsinDiff::of(hi, lo);
+        }
+        // The mean of 1/sin κ, times the mean of 1/cos θ below.
+        for &i in flank {
             let i = i as usize;
-            let (h_top, h_bot, sin_t) = (h_top[i], h_bot[i], sin_t[i]);
-            let half = 0.5 * g * inv_r[i];
-            let near_flank = 1.0 - sin_t.abs() <= 4.0 * half;
-            let thick = h_top - h_bot > THICK_PIECE_MM;
-            if near_flank {
-                let (lo, hi) = ((sin_t - half).max(-1.0), (sin_t + half).min(1.0));
-                let diff = AsinDiff::of(hi, lo);
-                (pending[f], asin_args[f]) = ((i as u32, Pending::Flank(diff.form)), diff.arg);
-                f += 1;
-                // The mean of 1/sin κ, times the mean of 1/cos θ below.
-                inv_side[i] = if thick {
-                    self.env.mean_inv_sin_k(h_bot, h_top)
-                } else {
-                    inv_sin_k[i]
-                };
-                continue;
-            }
-            // Away from the flank, a closed form over the piece's heights
-            // where the tool has one (a ball: κ and θ both vary with the height).
+            inv_side[i] = if h_top[i] - h_bot[i] > THICK_PIECE_MM {
+                self.env.mean_inv_sin_k(h_bot[i], h_top[i])
+            } else {
+                inv_sin_k[i]
+            };
+        }
+        // Away from the flank, a closed form over the piece's heights where
+        // the tool has one (a ball: κ and θ both vary with the height).
+        sides.clear();
+        for &i in &mean[..ks] {
+            let i = i as usize;
+            let (h_top, h_bot) = (h_top[i], h_bot[i]);
             let (wx, wy) = (x[i] - m.p0[0], y[i] - m.p0[1]);
             match self.env.mean_inv_side(h_bot, h_top, ux * wy - uy * wx) {
                 Some(mean) => {
-                    (pending[f], asin_args[f]) = ((i as u32, Pending::Side(mean)), mean.diff.arg);
-                    f += 1;
+                    asin_args[kf + sides.len()] = mean.diff.arg;
+                    sides.push((i as u32, mean));
                 }
                 None => {
                     inv_side[i] =
@@ -607,19 +618,20 @@ impl<E: Envelope> StripJob<'_, E> {
                 }
             }
         }
-        for a in &mut asin_args[..f] {
+        let args = &mut asin_args[..kf + sides.len()];
+        for a in args.iter_mut() {
             *a = asin_small(*a);
         }
-        for (&(i, of), &asin_arg) in pending[..f].iter().zip(&asin_args[..f]) {
+        let (flank_asin, side_asin) = args.split_at(kf);
+        for (((&i, &asin_arg), &form), &half) in
+            flank.iter().zip(flank_asin).zip(&forms[..kf]).zip(halves)
+        {
             let i = i as usize;
-            inv_side[i] = match of {
-                Pending::Flank(form) => {
-                    let half = 0.5 * g * inv_r[i];
-                    let inv_cos = form.difference(asin_arg) / (2.0 * half);
-                    inv_cos * inv_side[i] * m.inv_len_xy
-                }
-                Pending::Side(mean) => mean.value(asin_arg) * m.inv_len_xy,
-            };
+            let inv_cos = form.difference(asin_arg) / (2.0 * half);
+            inv_side[i] = inv_cos * inv_side[i] * m.inv_len_xy;
+        }
+        for (&(i, mean), &asin_arg) in sides.iter().zip(side_asin) {
+            inv_side[i as usize] = mean.value(asin_arg) * m.inv_len_xy;
         }
         // The side's thickness where it is the thinner, and then (MODEL.md
         // §1.5) the shares: the edge, locally straight with normal r̂, passes
