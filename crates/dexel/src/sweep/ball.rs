@@ -209,19 +209,19 @@ impl Envelope for BallEnd {
         let (lo, hi) = (h_bot.max(0.0), h_top.max(0.0));
         let span = hi - lo;
         let a2 = r * r - e * e;
-        if span <= 1e-6 * r || a2 <= 0.0 {
-            return None;
-        }
+        // Made whole and then kept or not (no branch: the strip takes many in
+        // lanes; where it is not kept, a NaN or ∞ of it is not read).
         let a = a2.sqrt();
         // One difference of arcsines (`asin_diff`: one arcsine, not two),
         // times R: the corner's part; the flank's above the equator.
         let x = |h: f64| (h.min(r) - r) / a;
-        Some(ArcsineMean {
+        let mean = ArcsineMean {
             diff: AsinDiff::of(x(hi), x(lo)),
             scale: r,
             add: (hi - lo.max(r)).max(0.0) * r / a,
             span,
-        })
+        };
+        (!(span <= 1e-6 * r || a2 <= 0.0)).then_some(mean)
     }
 
     #[inline]

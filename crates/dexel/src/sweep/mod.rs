@@ -993,6 +993,17 @@ struct ArcsineMean {
 }
 
 impl ArcsineMean {
+    /// A placeholder (never a mean read).
+    const NONE: ArcsineMean = ArcsineMean {
+        diff: arcsine::AsinDiff {
+            arg: 0.0,
+            form: arcsine::DiffForm::Sin,
+        },
+        scale: 0.0,
+        add: 0.0,
+        span: 1.0,
+    };
+
     /// The mean, given `asin_arg`, the arcsine of `diff.arg`.
     #[inline]
     fn value(self, asin_arg: f64) -> f64 {

@@ -246,18 +246,71 @@ struct MoveCuts {
     /// Shares of the column credited to the previous and the next step.
     shares: Vec<[f64; 2]>,
     /// The thick pieces away from the flank (their side thickness a mean
-    /// over their heights).
+    /// over their heights): their bottom and top above the tip and their
+    /// lateral offset e, mm, and their means as the tool makes them.
     mean: Vec<u32>,
+    side_bot: Vec<f64>,
+    side_top: Vec<f64>,
+    side_e: Vec<f64>,
+    sides: SidePieces,
     /// The cuts near the flank (their cell's mean of 1/cos θ), half the
     /// cell over the edge's radius, and the form of their difference of
-    /// arcsines; the thick pieces whose mean over their heights is one (a
-    /// ball's); the arcsines' arguments, the flank's then the thick pieces',
-    /// then the arcsines.
+    /// arcsines.
     flank: Vec<u32>,
     halves: Vec<f64>,
     forms: Vec<DiffForm>,
-    sides: Vec<(u32, ArcsineMean)>,
+    /// The arcsines' arguments, the flank's then the thick pieces', then
+    /// the arcsines.
     asin_args: Vec<f64>,
+}
+
+/// Thick pieces' [`Envelope::mean_inv_side`], field by field (so that a
+/// loop of them runs in lanes): `kept` where the tool has the closed form.
+#[cfg_attr(test, derive(Clone))]
+struct SidePieces {
+    kept: Vec<bool>,
+    form: Vec<DiffForm>,
+    scale: Vec<f64>,
+    add: Vec<f64>,
+    span: Vec<f64>,
+}
+
+impl SidePieces {
+    fn new(n: usize) -> SidePieces {
+        SidePieces {
+            kept: Vec::with_capacity(n),
+            form: Vec::with_capacity(n),
+            scale: Vec::with_capacity(n),
+            add: Vec::with_capacity(n),
+            span: Vec::with_capacity(n),
+        }
+    }
+
+    /// Room for `n` pieces.
+    fn resize(&mut self, n: usize) {
+        self.kept.resize(n, false);
+        self.form.resize(n, DiffForm::Sin);
+        self.scale.resize(n, 0.0);
+        self.add.resize(n, 0.0);
+        self.span.resize(n, 1.0);
+    }
+
+    /// Piece `j`'s mean, given `asin_arg`, the arcsine of its argument.
+    #[inline]
+    fn value(&self, j: usize, asin_arg: f64) -> f64 {
+        let diff = AsinDiff {
+            arg: f64::NAN,
+            form: self.form[j],
+        };
+        let (scale, add, span) = (self.scale[j], self.add[j], self.span[j]);
+        ArcsineMean {
+            diff,
+            scale,
+            add,
+            span,
+        }
+        .value(asin_arg)
+    }
 }
 
 impl MoveCuts {
@@ -284,7 +337,10 @@ impl MoveCuts {
             flank: Vec::with_capacity(nx),
             halves: Vec::with_capacity(nx),
             forms: Vec::with_capacity(nx),
-            sides: Vec::with_capacity(nx),
+            sides: SidePieces::new(nx),
+            side_bot: Vec::with_capacity(nx),
+            side_top: Vec::with_capacity(nx),
+            side_e: Vec::with_capacity(nx),
             asin_args: Vec::with_capacity(nx),
         }
     }
@@ -472,8 +528,19 @@ impl<E: Envelope> StripJob<'_, E> {
     /// The phases of [`StripJob::contacts`], inlined into each of its compilations.
     #[inline(always)]
     fn contacts_body(&self, m: &Prepared, cuts: &mut MoveCuts) {
+        if self.edges(m, cuts) {
+            self.means(m, cuts);
+            self.shares(m, cuts);
+        }
+    }
+
+    /// The edge at each cut's top, the floor's and the bottom's thickness,
+    /// and (not a plunge) the angle θ where the edge reached it and the
+    /// side's thickness of a thin piece away from the flank; false on a
+    /// plunge, whose contacts are then made.
+    #[inline(always)]
+    fn edges(&self, m: &Prepared, cuts: &mut MoveCuts) -> bool {
         let n = cuts.n;
-        let g = self.grid.spacing_mm;
         let MoveCuts {
             x,
             y,
@@ -489,12 +556,6 @@ impl<E: Envelope> StripJob<'_, E> {
             inv_side,
             r_hat,
             shares,
-            mean,
-            flank,
-            halves,
-            forms,
-            sides,
-            asin_args,
             ..
         } = cuts;
         let (x, y, t) = (&x[..n], &y[..n], &t[..n]);
@@ -535,7 +596,7 @@ impl<E: Envelope> StripJob<'_, E> {
                 };
                 shares[i] = [0.0, 0.0];
             }
-            return;
+            return false;
         }
         // The edge circle of radius r at the column's top first reaches it at
         // the angle θ from the feed direction with sin θ = e / r (e: the
@@ -553,6 +614,42 @@ impl<E: Envelope> StripJob<'_, E> {
             // from the flank (the others are taken below).
             inv_side[i] = (1.0 / c) * inv_sin_k[i] * m.inv_len_xy;
         }
+        true
+    }
+
+    /// The side's thickness of the cuts whose chip needs a mean: near the
+    /// flank, over the cell; a thick piece, over its heights (MODEL.md §3.2).
+    #[inline(always)]
+    fn means(&self, m: &Prepared, cuts: &mut MoveCuts) {
+        let n = cuts.n;
+        let g = self.grid.spacing_mm;
+        let MoveCuts {
+            x,
+            y,
+            h_top,
+            h_bot,
+            inv_r,
+            inv_sin_k,
+            sin_t,
+            cos_t,
+            inv_side,
+            mean,
+            flank,
+            halves,
+            forms,
+            sides,
+            side_bot,
+            side_top,
+            side_e,
+            asin_args,
+            ..
+        } = cuts;
+        let (x, y) = (&x[..n], &y[..n]);
+        let (h_top, h_bot) = (&h_top[..n], &h_bot[..n]);
+        let (inv_r, inv_sin_k) = (&inv_r[..n], &inv_sin_k[..n]);
+        let (sin_t, cos_t) = (&sin_t[..n], &cos_t[..n]);
+        let inv_side = &mut inv_side[..n];
+        let [ux, uy] = m.u;
         // Near the flanks 1/cos θ varies fast across the cell: take its mean
         // over the cell's offsets, [e − g/2, e + g/2] ∩ [−r, r] (mean of
         // 1/cos = Δ arcsin · r / Δe); away from the flank the cell mean is
@@ -601,24 +698,55 @@ impl<E: Envelope> StripJob<'_, E> {
             };
         }
         // Away from the flank, a closed form over the piece's heights where
-        // the tool has one (a ball: κ and θ both vary with the height).
-        sides.clear();
-        for &i in &mean[..ks] {
+        // the tool has one (a ball: κ and θ both vary with the height), in
+        // lanes too; where it has none (`None`), 1/cos θ at the top times the
+        // mean of 1/sin κ. (Their heights and lateral offsets e first side by
+        // side: few cuts on a finishing pass, where copying them in the
+        // listing above cost more than it saved.)
+        side_bot.resize(ks, 0.0);
+        side_top.resize(ks, 0.0);
+        side_e.resize(ks, 0.0);
+        for (j, &i) in mean[..ks].iter().enumerate() {
             let i = i as usize;
-            let (h_top, h_bot) = (h_top[i], h_bot[i]);
             let (wx, wy) = (x[i] - m.p0[0], y[i] - m.p0[1]);
-            match self.env.mean_inv_side(h_bot, h_top, ux * wy - uy * wx) {
-                Some(mean) => {
-                    asin_args[kf + sides.len()] = mean.diff.arg;
-                    sides.push((i as u32, mean));
-                }
-                None => {
-                    inv_side[i] =
-                        (1.0 / cos_t[i]) * self.env.mean_inv_sin_k(h_bot, h_top) * m.inv_len_xy;
-                }
+            (side_bot[j], side_top[j], side_e[j]) = (h_bot[i], h_top[i], ux * wy - uy * wx);
+        }
+        sides.resize(ks);
+        let SidePieces {
+            kept,
+            form,
+            scale,
+            add,
+            span,
+        } = &mut *sides;
+        let lanes = kept
+            .iter_mut()
+            .zip(form.iter_mut())
+            .zip(scale.iter_mut())
+            .zip(add.iter_mut())
+            .zip(span.iter_mut())
+            .zip(&mut asin_args[kf..kf + ks]);
+        let inputs = side_bot[..ks]
+            .iter()
+            .zip(&side_top[..ks])
+            .zip(&side_e[..ks]);
+        for ((((((kept, form), scale), add), span), arg), ((&h_bot, &h_top), &e)) in
+            lanes.zip(inputs)
+        {
+            let mean = self.env.mean_inv_side(h_bot, h_top, e);
+            *kept = mean.is_some();
+            let mean = mean.unwrap_or(ArcsineMean::NONE);
+            (*arg, *form) = (mean.diff.arg, mean.diff.form);
+            (*scale, *add, *span) = (mean.scale, mean.add, mean.span);
+        }
+        for (&i, &kept) in mean[..ks].iter().zip(&sides.kept) {
+            if !kept {
+                let i = i as usize;
+                inv_side[i] =
+                    (1.0 / cos_t[i]) * self.env.mean_inv_sin_k(h_bot[i], h_top[i]) * m.inv_len_xy;
             }
         }
-        let args = &mut asin_args[..kf + sides.len()];
+        let args = &mut asin_args[..kf + ks];
         for a in args.iter_mut() {
             *a = asin_small(*a);
         }
@@ -630,9 +758,35 @@ impl<E: Envelope> StripJob<'_, E> {
             let inv_cos = form.difference(asin_arg) / (2.0 * half);
             inv_side[i] = inv_cos * inv_side[i] * m.inv_len_xy;
         }
-        for (&(i, mean), &asin_arg) in sides.iter().zip(side_asin) {
-            inv_side[i as usize] = mean.value(asin_arg) * m.inv_len_xy;
+        for (j, (&i, &asin_arg)) in mean[..ks].iter().zip(side_asin).enumerate() {
+            if sides.kept[j] {
+                inv_side[i as usize] = sides.value(j, asin_arg) * m.inv_len_xy;
+            }
         }
+    }
+
+    /// The side's thickness where it is the thinner, and the shares of each
+    /// cut for the neighbouring steps (MODEL.md §1.5).
+    #[inline(always)]
+    fn shares(&self, m: &Prepared, cuts: &mut MoveCuts) {
+        let n = cuts.n;
+        let g = self.grid.spacing_mm;
+        let MoveCuts {
+            x,
+            y,
+            r_mm,
+            cos_t,
+            inv_h,
+            inv_side,
+            r_hat,
+            shares,
+            ..
+        } = cuts;
+        let (x, y) = (&x[..n], &y[..n]);
+        let (r_mm, cos_t) = (&r_mm[..n], &cos_t[..n]);
+        let (inv_h, inv_side) = (&mut inv_h[..n], &inv_side[..n]);
+        let (r_hat, shares) = (&r_hat[..n], &mut shares[..n]);
+        let [ux, uy] = m.u;
         // The side's thickness where it is the thinner, and then (MODEL.md
         // §1.5) the shares: the edge, locally straight with normal r̂, passes
         // the column's centre at s_c along the move and advances cos θ per mm
