@@ -212,7 +212,7 @@ impl Envelope for BallEnd {
         // Made whole and then kept or not (no branch: the strip takes many in
         // lanes; where it is not kept, a NaN or ∞ of it is not read).
         let a = a2.sqrt();
-        // One difference of arcsines (`asin_diff`: one arcsine, not two),
+        // One difference of arcsines (`AsinDiff`: one arcsine, not two),
         // times R: the corner's part; the flank's above the equator.
         let x = |h: f64| (h.min(r) - r) / a;
         let mean = ArcsineMean {

@@ -983,7 +983,8 @@ trait Envelope: Sync {
 }
 
 /// A mean that is one difference of arcsines d = asin(a) − asin(b)
-/// ([`arcsine::asin_diff`]): (scale · d + add) / span.
+/// ([`arcsine::asin_diff`]): (scale · d + add) / span (made by the strip's
+/// `SidePieces::value`, many at a time).
 #[derive(Clone, Copy, Debug)]
 struct ArcsineMean {
     diff: arcsine::AsinDiff,
@@ -1003,12 +1004,6 @@ impl ArcsineMean {
         add: 0.0,
         span: 1.0,
     };
-
-    /// The mean, given `asin_arg`, the arcsine of `diff.arg`.
-    #[inline]
-    fn value(self, asin_arg: f64) -> f64 {
-        (self.scale * self.diff.form.difference(asin_arg) + self.add) / self.span
-    }
 }
 
 /// What a move does to each column of a row ([`Envelope::row_hits`]): the

@@ -248,7 +248,7 @@ struct MoveCuts {
     /// The thick pieces away from the flank (their side thickness a mean
     /// over their heights): their bottom and top above the tip and their
     /// lateral offset e, mm, and their means as the tool makes them.
-    mean: Vec<u32>,
+    thick: Vec<u32>,
     side_bot: Vec<f64>,
     side_top: Vec<f64>,
     side_e: Vec<f64>,
@@ -259,8 +259,8 @@ struct MoveCuts {
     flank: Vec<u32>,
     halves: Vec<f64>,
     forms: Vec<DiffForm>,
-    /// The arcsines' arguments, the flank's then the thick pieces', then
-    /// the arcsines.
+    /// The near-flank cuts' sin θ as they are listed, then their arcsines'
+    /// arguments, followed by the thick pieces'; then the arcsines.
     asin_args: Vec<f64>,
 }
 
@@ -295,21 +295,11 @@ impl SidePieces {
         self.span.resize(n, 1.0);
     }
 
-    /// Piece `j`'s mean, given `asin_arg`, the arcsine of its argument.
+    /// Piece `j`'s mean, given `asin_arg`, the arcsine of its argument:
+    /// (scale · d + add) / span ([`ArcsineMean`]).
     #[inline]
     fn value(&self, j: usize, asin_arg: f64) -> f64 {
-        let diff = AsinDiff {
-            arg: f64::NAN,
-            form: self.form[j],
-        };
-        let (scale, add, span) = (self.scale[j], self.add[j], self.span[j]);
-        ArcsineMean {
-            diff,
-            scale,
-            add,
-            span,
-        }
-        .value(asin_arg)
+        (self.scale[j] * self.form[j].difference(asin_arg) + self.add[j]) / self.span[j]
     }
 }
 
@@ -333,7 +323,7 @@ impl MoveCuts {
             inv_side: v(),
             r_hat: vec![[0.0; 2]; nx],
             shares: vec![[0.0; 2]; nx],
-            mean: Vec::with_capacity(nx),
+            thick: Vec::with_capacity(nx),
             flank: Vec::with_capacity(nx),
             halves: Vec::with_capacity(nx),
             forms: Vec::with_capacity(nx),
@@ -386,6 +376,13 @@ const TILE_COLS: usize = 64;
 /// averaged over the heights it spans (MODEL.md §3.2), mm.
 const THICK_PIECE_MM: f64 = 0.02;
 
+/// Whether a piece from `h_bot` to `h_top` is credited over its heights
+/// (more than [`THICK_PIECE_MM`]) rather than at its top.
+#[inline(always)]
+fn is_thick(h_top: f64, h_bot: f64) -> bool {
+    h_top - h_bot > THICK_PIECE_MM
+}
+
 /// Accumulator width per strip entry of a move: its sums, then (smoothing)
 /// the head values moved to the previous and to the next step.
 pub(super) fn partial_width(banding: &Banding, smooth: bool) -> usize {
@@ -406,7 +403,7 @@ impl<E: Envelope> StripJob<'_, E> {
 
     /// How the edge met each column cut (`cuts`, cut by `m`; MODEL.md §1.4,
     /// §1.5, §3.2), in phases over the cuts (see [`MoveCuts`]): `r_hat`,
-    /// `inv_r`, `inv_h` and `shares` of each cut.
+    /// `inv_r`, `inv_side`, `inv_h` and `shares` of each cut.
     ///
     /// On an x86-64 processor with AVX2 and FMA the same code compiled for
     /// them ([`StripJob::contacts_avx2`]): the phases take four columns an
@@ -633,7 +630,7 @@ impl<E: Envelope> StripJob<'_, E> {
             sin_t,
             cos_t,
             inv_side,
-            mean,
+            thick,
             flank,
             halves,
             forms,
@@ -660,18 +657,18 @@ impl<E: Envelope> StripJob<'_, E> {
         // and cell; the thick pieces away from it), then taken in phases.
         let (mut kf, mut ks) = (0, 0);
         flank.resize(n, 0);
-        mean.resize(n, 0);
+        thick.resize(n, 0);
         asin_args.resize(n, 0.0);
         halves.resize(n, 0.0);
         for i in 0..n {
             let half = 0.5 * g * inv_r[i];
             let near_flank = 1.0 - sin_t[i].abs() <= 4.0 * half;
-            let thick = h_top[i] - h_bot[i] > THICK_PIECE_MM;
+            let thick_piece = is_thick(h_top[i], h_bot[i]);
             // (The flank's sin θ, its arcsine's argument below.)
             (flank[kf], asin_args[kf], halves[kf]) = (i as u32, sin_t[i], half);
             kf += usize::from(near_flank);
-            mean[ks] = i as u32;
-            ks += usize::from(thick && !near_flank);
+            thick[ks] = i as u32;
+            ks += usize::from(thick_piece && !near_flank);
         }
         // The means' arcsines are taken in a loop of their own (vector lanes:
         // `asin_small`), between their arguments and the means they give
@@ -691,7 +688,7 @@ impl<E: Envelope> StripJob<'_, E> {
         // The mean of 1/sin κ, times the mean of 1/cos θ below.
         for &i in flank {
             let i = i as usize;
-            inv_side[i] = if h_top[i] - h_bot[i] > THICK_PIECE_MM {
+            inv_side[i] = if is_thick(h_top[i], h_bot[i]) {
                 self.env.mean_inv_sin_k(h_bot[i], h_top[i])
             } else {
                 inv_sin_k[i]
@@ -706,7 +703,7 @@ impl<E: Envelope> StripJob<'_, E> {
         side_bot.resize(ks, 0.0);
         side_top.resize(ks, 0.0);
         side_e.resize(ks, 0.0);
-        for (j, &i) in mean[..ks].iter().enumerate() {
+        for (j, &i) in thick[..ks].iter().enumerate() {
             let i = i as usize;
             let (wx, wy) = (x[i] - m.p0[0], y[i] - m.p0[1]);
             (side_bot[j], side_top[j], side_e[j]) = (h_bot[i], h_top[i], ux * wy - uy * wx);
@@ -739,7 +736,7 @@ impl<E: Envelope> StripJob<'_, E> {
             (*arg, *form) = (mean.diff.arg, mean.diff.form);
             (*scale, *add, *span) = (mean.scale, mean.add, mean.span);
         }
-        for (&i, &kept) in mean[..ks].iter().zip(&sides.kept) {
+        for (&i, &kept) in thick[..ks].iter().zip(&sides.kept) {
             if !kept {
                 let i = i as usize;
                 inv_side[i] =
@@ -758,7 +755,7 @@ impl<E: Envelope> StripJob<'_, E> {
             let inv_cos = form.difference(asin_arg) / (2.0 * half);
             inv_side[i] = inv_cos * inv_side[i] * m.inv_len_xy;
         }
-        for (j, (&i, &asin_arg)) in mean[..ks].iter().zip(side_asin).enumerate() {
+        for (j, (&i, &asin_arg)) in thick[..ks].iter().zip(side_asin).enumerate() {
             if sides.kept[j] {
                 inv_side[i as usize] = sides.value(j, asin_arg) * m.inv_len_xy;
             }
@@ -1554,6 +1551,111 @@ mod tests {
                 + compare(&bull, &grid, &banding, r)
                 + compare(&FlatEnd::new(r), &grid, &banding, r);
             assert_eq!(n, 3 * 3 * 2 * 200);
+        }
+    }
+
+    /// The means' phases (lists, lanes, arguments side by side) give each
+    /// cut the side thickness it has alone: the expressions of MODEL.md §3.2
+    /// made one cut at a time. The cuts buffer is used again with fewer
+    /// cuts and another move, so that a list left from the last call shows.
+    #[test]
+    fn means_are_each_cuts_own_one_at_a_time() {
+        use super::super::arcsine::{asin_small, AsinDiff};
+        use super::super::{ball::BallEnd, bull::BullNose, flat::FlatEnd, Envelope};
+        use crate::sweep::testing::lcg;
+        fn check<E: Envelope>(env: &E, r: f64) -> [usize; 3] {
+            let grid = Grid::covering(-10.0, -10.0, 10.0, 10.0, 0.1).unwrap();
+            let banding = Banding {
+                n_bands: 4,
+                band_h: 1.0,
+                inv_band_h: 1.0,
+                flute_len: 4.0,
+            };
+            let g = grid.spacing_mm;
+            let mut seed = 9;
+            // Near the flank, thick away from it, thin away from it.
+            let mut kinds = [0; 3];
+            let mut cuts = MoveCuts::new(300);
+            for (to, count) in [([4.0, 1.0, 0.0], 300), ([-1.0, 3.0, -0.5], 170)] {
+                let step = crate::Step {
+                    from_mm: [0.0, 0.0, 0.0],
+                    to_mm: to,
+                    rapid: false,
+                };
+                let m = Prepared::new(&step);
+                let job = StripJob {
+                    env,
+                    grid: &grid,
+                    radius: r,
+                    banding: &banding,
+                    moves: &[],
+                    first_step: 0,
+                    smooth: true,
+                };
+                cuts.n = 0;
+                for i in 0..count {
+                    let (x, y) = (
+                        3.0 * (2.0 * lcg(&mut seed) - 1.0),
+                        3.0 * (2.0 * lcg(&mut seed) - 1.0),
+                    );
+                    let h_top = 0.05 + 4.0 * lcg(&mut seed);
+                    let depth = if i % 3 == 0 { 0.01 } else { 1.5 } * lcg(&mut seed);
+                    cuts.push(x, y, lcg(&mut seed), h_top, h_top - depth, depth);
+                }
+                job.contacts_body(&m, &mut cuts);
+                let [ux, uy] = m.u;
+                for i in 0..cuts.n {
+                    let (h_top, h_bot) = (cuts.h_top[i], cuts.h_bot[i]);
+                    let (sin_t, cos_t) = (cuts.sin_t[i], cuts.cos_t[i]);
+                    let half = 0.5 * g * cuts.inv_r[i];
+                    let thick = h_top - h_bot > THICK_PIECE_MM;
+                    let e = ux * (cuts.y[i] - m.p0[1]) - uy * (cuts.x[i] - m.p0[0]);
+                    let alone = if 1.0 - sin_t.abs() <= 4.0 * half {
+                        kinds[0] += 1;
+                        let (lo, hi) = ((sin_t - half).max(-1.0), (sin_t + half).min(1.0));
+                        let d = AsinDiff::of(hi, lo);
+                        let inv_cos = d.form.difference(asin_small(d.arg)) / (2.0 * half);
+                        let k = if thick {
+                            env.mean_inv_sin_k(h_bot, h_top)
+                        } else {
+                            cuts.inv_sin_k[i]
+                        };
+                        inv_cos * k * m.inv_len_xy
+                    } else if thick {
+                        kinds[1] += 1;
+                        match env.mean_inv_side(h_bot, h_top, e) {
+                            Some(mean) => {
+                                let d = mean.diff.form.difference(asin_small(mean.diff.arg));
+                                (mean.scale * d + mean.add) / mean.span * m.inv_len_xy
+                            }
+                            None => (1.0 / cos_t) * env.mean_inv_sin_k(h_bot, h_top) * m.inv_len_xy,
+                        }
+                    } else {
+                        kinds[2] += 1;
+                        (1.0 / cos_t) * cuts.inv_sin_k[i] * m.inv_len_xy
+                    };
+                    assert_eq!(
+                        cuts.inv_side[i].to_bits(),
+                        alone.to_bits(),
+                        "cut {i}: {} against {alone}",
+                        cuts.inv_side[i]
+                    );
+                }
+            }
+            kinds
+        }
+        let r = 3.0;
+        let bull = BullNose {
+            r,
+            rc: 1.0,
+            ring: r - 1.0,
+        };
+        for kinds in [
+            check(&BallEnd { r }, r),
+            check(&bull, r),
+            check(&FlatEnd::new(r), r),
+        ] {
+            assert!(kinds.iter().all(|&k| k > 10), "{kinds:?}");
         }
     }
 }
