@@ -661,11 +661,7 @@ pub fn peak_cut(
                     slice: si,
                     enters,
                     // (Nearly always a whole period or none: no division.)
-                    tooth: if (0..i64::from(n)).contains(&q) {
-                        q
-                    } else {
-                        q.rem_euclid(i64::from(n))
-                    } as u32,
+                    tooth: q.rem_euclid(i64::from(n)) as u32,
                 }
                 .key(),
             );

@@ -286,13 +286,14 @@ impl SidePieces {
         }
     }
 
-    /// Room for `n` pieces.
+    /// Room for `n` pieces (none kept until written).
     fn resize(&mut self, n: usize) {
+        let none = ArcsineMean::NONE;
         self.kept.resize(n, false);
-        self.form.resize(n, DiffForm::Sin);
-        self.scale.resize(n, 0.0);
-        self.add.resize(n, 0.0);
-        self.span.resize(n, 1.0);
+        self.form.resize(n, none.diff.form);
+        self.scale.resize(n, none.scale);
+        self.add.resize(n, none.add);
+        self.span.resize(n, none.span);
     }
 
     /// Piece `j`'s mean, given `asin_arg`, the arcsine of its argument:
