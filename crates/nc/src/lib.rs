@@ -32,26 +32,32 @@ pub fn parse(source: &str, file_name: &str, options: &Options) -> Parsed {
 }
 
 /// A program read once and run from more than one start: its lines are
-/// parsed once ([`Reader::parse_from`] runs them again from another place).
+/// read once ([`Reader::parse_from`] runs them again from another place).
+/// As [`parse`], it keeps no block's items: each run reads a block's words
+/// from `source` where it runs (a million-block program's lines hold 32 MB,
+/// not about 190, and its runs are quicker than from the items held).
 pub struct Reader<'a> {
     file_name: &'a str,
+    source: &'a str,
     options: Options,
     read: interp::Read,
 }
 
 impl<'a> Reader<'a> {
     /// Reads `source` as [`parse`] does with `options` (only labels diagnostics with `file_name`).
-    pub fn new(source: &str, file_name: &'a str, options: &Options) -> Self {
+    pub fn new(source: &'a str, file_name: &'a str, options: &Options) -> Self {
         Reader {
             file_name,
+            source,
             options: options.clone(),
-            read: interp::read(source, file_name, options),
+            read: interp::read_unkept(source, file_name, options),
         }
     }
 
     /// What [`parse`] returns for the source and options read.
     pub fn parse(&self) -> Parsed {
-        interp::run_read_and_record(&self.read, "", self.file_name, &self.options, false, None).0
+        let (source, file) = (self.source, self.file_name);
+        interp::run_read_and_record(&self.read, source, file, &self.options, false, None).0
     }
 
     /// [`Reader::parse`] with the tool starting at `initial_position_mm`
@@ -61,7 +67,15 @@ impl<'a> Reader<'a> {
             initial_position_mm,
             ..self.options.clone()
         };
-        interp::run_read_and_record(&self.read, "", self.file_name, &options, false, None).0
+        interp::run_read_and_record(
+            &self.read,
+            self.source,
+            self.file_name,
+            &options,
+            false,
+            None,
+        )
+        .0
     }
 }
 

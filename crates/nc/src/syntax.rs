@@ -246,11 +246,62 @@ impl Lines {
         }
     }
 
+    /// Block line `index`'s words as the run reads them where the arena
+    /// keeps no items and the line is plain ([`parse_plain_words`]): each
+    /// word's letter (lower case), column and value, as evaluating the
+    /// items the general reading makes gives them (a signed number's sign
+    /// applied, as `Expr::Neg` does), written into `words`; false (and
+    /// `words` empty) where the line is not such a block, or has more
+    /// words than `words` holds. A million-block program's lines were
+    /// parsed into items again only to be evaluated: 44 % of its run.
+    pub fn plain_block_words(
+        &self,
+        index: usize,
+        source: &str,
+        words: &mut PlainBlockWords,
+    ) -> bool {
+        words.len = 0;
+        let unkept = matches!(
+            &self.lines[index],
+            Some(Line { kind: LineKind::Block(items), .. }) if !items.kept()
+        );
+        if !unkept {
+            return false;
+        }
+        let text = self.text(index, source);
+        let read = plain_words(text, |word| {
+            let slot = words.words.get_mut(words.len)?;
+            let magnitude = decimal(&text[word.digits.clone()])?;
+            let value = if word.negative { -magnitude } else { magnitude };
+            // Within the line, whose length is a u32 (checked by `plain_words`).
+            *slot = (word.letter, word.at as u32 + 1, value);
+            words.len += 1;
+            Some(())
+        });
+        if read.is_none() {
+            words.len = 0;
+        }
+        read.is_some()
+    }
+
     /// The text of line `index` of `source` (without its terminator, as
     /// [`split_lines`] gives it), in a reading that keeps no block's items.
     fn text<'t>(&self, index: usize, source: &'t str) -> &'t str {
-        let rest = &source[self.starts[index]..];
-        &rest[..rest.find(['\n', '\r']).unwrap_or(rest.len())]
+        let from = self.starts[index];
+        match self.starts.get(index + 1) {
+            // Up to the next line, less this one's terminator (`\n`, `\r\n`
+            // or `\r`: a `\r` always ends a line).
+            Some(&next) => {
+                let text = &source[from..next];
+                let text = text.strip_suffix('\n').unwrap_or(text);
+                text.strip_suffix('\r').unwrap_or(text)
+            }
+            None => {
+                let rest = &source[from..];
+                let end = rest.bytes().position(|b| b == b'\n' || b == b'\r');
+                &rest[..end.unwrap_or(rest.len())]
+            }
+        }
     }
 
     /// The items of `text`, a line that parsed before as a block, parsed
@@ -381,6 +432,60 @@ fn parse_plain_words(text: &str, arena: &mut Vec<Item>) -> Option<Line> {
         block_delete: false,
         kind: LineKind::of_items(arena_start, words),
     })
+}
+
+/// The value of an unsigned decimal number (digits with at most one
+/// point), as `str::parse` gives it, bit for bit: where its digits make an
+/// integer below 2^53 and at most 22 of them follow the point, that integer
+/// and the power of ten are exact doubles and one division rounds their
+/// quotient correctly (Clinger's fast path); else `str::parse`.
+fn decimal(digits: &str) -> Option<f64> {
+    const POW10: [f64; 23] = [
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+        1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+    ];
+    let bytes = digits.as_bytes();
+    if bytes.len() <= 16 {
+        let mut mantissa = 0u64;
+        let mut after_point: Option<usize> = None;
+        for (i, &b) in bytes.iter().enumerate() {
+            match b {
+                b'0'..=b'9' => mantissa = mantissa * 10 + u64::from(b - b'0'),
+                b'.' => after_point = Some(bytes.len() - 1 - i),
+                _ => return digits.parse().ok(),
+            }
+        }
+        // At most 16 digits: below 10^16, so the test is the bound.
+        if mantissa < 1 << 53 {
+            return Some(mantissa as f64 / POW10[after_point.unwrap_or(0)]);
+        }
+    }
+    digits.parse().ok()
+}
+
+/// The words of a plain block line as the run reads them
+/// ([`Lines::plain_block_words`]): letter (lower case), 1-based column and
+/// value, in the line's order; room for 16, which CAM systems' lines hold.
+#[derive(Clone)]
+pub struct PlainBlockWords {
+    words: [(char, u32, f64); 16],
+    len: usize,
+}
+
+impl Default for PlainBlockWords {
+    fn default() -> Self {
+        PlainBlockWords {
+            words: [('\0', 0, 0.0); 16],
+            len: 0,
+        }
+    }
+}
+
+impl PlainBlockWords {
+    /// The words read.
+    pub fn words(&self) -> &[(char, u32, f64)] {
+        &self.words[..self.len]
+    }
 }
 
 /// One word of a plain line: its letter (lower case) at byte `at`, its sign
@@ -674,6 +779,58 @@ mod tests {
                 );
                 true
             }
+        }
+    }
+
+    /// `decimal` gives `str::parse`'s value bit for bit: integers, points
+    /// first and last, leading and trailing zeros, 15 to 17 significant
+    /// digits about 2^53, 22 decimals and more (the slow path).
+    #[test]
+    fn decimals_are_parsed_as_rust_parses_them() {
+        let mut texts: Vec<String> = [
+            "0",
+            "0.",
+            ".0",
+            "00012.5000",
+            "9007199254740991",
+            "9007199254740992",
+            "9007199254740993",
+            "1234567890.123456",
+            "0.1",
+            "0.3",
+            ".0000000000000000000001",
+            "123.4567890123456789",
+            "99999999999999999999",
+            "5.",
+            "1.0000000000000002",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        // Every point position of some digit strings of 1 to 20 digits.
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        for _ in 0..20_000 {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            let len = 1 + (seed % 20) as usize;
+            let digits: String = (0..len)
+                .map(|i| char::from(b'0' + ((seed >> (i * 3 % 60)) % 10) as u8))
+                .collect();
+            let at = (seed >> 40) as usize % (len + 2);
+            texts.push(if at > len {
+                digits
+            } else {
+                format!("{}.{}", &digits[..at], &digits[at..])
+            });
+        }
+        for text in &texts {
+            let want: f64 = text.parse().expect("a decimal");
+            assert_eq!(
+                decimal(text).map(f64::to_bits),
+                Some(want.to_bits()),
+                "{text}"
+            );
         }
     }
 

@@ -14,8 +14,12 @@ pub(super) struct Block {
     /// G codes with columns.
     pub(super) g: Vec<(GCode, u32)>,
     pub(super) m: Vec<(i32, u32)>,
-    /// Letter values and columns, indexed by [`slot`].
-    pub(super) words: [Option<(f64, u32)>; 28],
+    /// Letter values and columns, indexed by [`slot`], where `present`
+    /// has the slot's bit (side by side rather than as options: a block is
+    /// made and moved for every line run).
+    values: [f64; 28],
+    cols: [u32; 28],
+    present: u32,
     pub(super) first_col: u32,
 }
 
@@ -30,16 +34,67 @@ fn slot(letter: char) -> usize {
 
 impl Block {
     pub(super) fn get(&self, letter: char) -> Option<f64> {
-        self.words[slot(letter)].map(|w| w.0)
+        let i = slot(letter);
+        (self.present & (1 << i) != 0).then(|| self.values[i])
     }
     pub(super) fn col(&self, letter: char) -> u32 {
-        self.words[slot(letter)].map_or(self.first_col, |w| w.1)
+        let i = slot(letter);
+        if self.present & (1 << i) != 0 {
+            self.cols[i]
+        } else {
+            self.first_col
+        }
     }
     pub(super) fn has_g(&self, code: GCode) -> Option<u32> {
         self.g.iter().find(|g| g.0 == code).map(|g| g.1)
     }
     pub(super) fn has_m(&self, code: i32) -> bool {
         self.m.iter().any(|m| m.0 == code)
+    }
+    /// Word `letter` (lower case) of value `v` at column `col` put in the
+    /// block: a G or M code, or a letter's value (T, H and L whole
+    /// numbers, as LinuxCNC reads them); a malformed code or a letter given
+    /// twice is an error.
+    fn put_word(&mut self, letter: char, v: f64, col: u32) -> Result<(), Fail> {
+        match letter {
+            'g' => {
+                let Some(code) = GCode::from_value(v) else {
+                    return fail(col, format!("G{v} is not a valid code"));
+                };
+                self.g.push((code, col));
+            }
+            'm' => {
+                let Some(code) = integer_value(v).filter(|c| c.abs() <= 100_000) else {
+                    return fail(col, format!("M{v} is not a valid code"));
+                };
+                self.m.push((code as i32, col));
+            }
+            l => {
+                let v = match l {
+                    't' | 'h' | 'l' => match integer_value(v) {
+                        Some(n) => n as f64,
+                        None => {
+                            return fail(
+                                col,
+                                format!("{}{v} is not a whole number", l.to_ascii_uppercase()),
+                            )
+                        }
+                    },
+                    _ => v,
+                };
+                let i = slot(l);
+                if self.present & (1 << i) != 0 {
+                    return fail(
+                        col,
+                        format!("more than one {} word in the block", l.to_ascii_uppercase()),
+                    );
+                }
+                self.present |= 1 << i;
+                self.values[i] = v;
+                self.cols[i] = col;
+            }
+        }
+        Ok(())
     }
     /// The column of the block's first axis word (its first column if none).
     pub(super) fn first_axis_col(&self) -> u32 {
@@ -122,52 +177,39 @@ impl Interp<'_> {
                 }
                 ItemKind::Word { letter, value } => {
                     let v = self.params.eval(value).map_err(err)?;
-                    match letter {
-                        'g' => {
-                            let Some(code) = GCode::from_value(v) else {
-                                return fail(item.col, format!("G{v} is not a valid code"));
-                            };
-                            b.g.push((code, item.col));
-                        }
-                        'm' => {
-                            let Some(code) = integer_value(v).filter(|c| c.abs() <= 100_000) else {
-                                return fail(item.col, format!("M{v} is not a valid code"));
-                            };
-                            b.m.push((code as i32, item.col));
-                        }
-                        l => {
-                            // LinuxCNC reads T, H and L words as whole numbers.
-                            let v = match l {
-                                't' | 'h' | 'l' => match integer_value(v) {
-                                    Some(n) => n as f64,
-                                    None => {
-                                        return fail(
-                                            item.col,
-                                            format!(
-                                                "{}{v} is not a whole number",
-                                                l.to_ascii_uppercase()
-                                            ),
-                                        )
-                                    }
-                                },
-                                _ => v,
-                            };
-                            let slot = &mut b.words[slot(*l)];
-                            if slot.is_some() {
-                                return fail(
-                                    item.col,
-                                    format!(
-                                        "more than one {} word in the block",
-                                        l.to_ascii_uppercase()
-                                    ),
-                                );
-                            }
-                            *slot = Some((v, item.col));
-                        }
-                    }
+                    b.put_word(*letter, v, item.col)?;
                 }
             }
         }
+        self.check_block(b, assignments)
+    }
+
+    /// [`Interp::eval_block`] of a plain line's words
+    /// ([`syntax::Lines::plain_block_words`](crate::syntax::Lines::plain_block_words)):
+    /// the same block, or the same error, as its items give.
+    fn eval_plain_block(&mut self, words: &[(char, u32, f64)]) -> Result<Block, Fail> {
+        let mut b = Block {
+            first_col: words.first().map_or(1, |w| w.1),
+            ..Block::default()
+        };
+        for &(letter, col, v) in words {
+            // As `Params::eval` refuses a number too large for an f64.
+            if !v.is_finite() {
+                return fail(col, "expression result is not a finite number");
+            }
+            b.put_word(letter, v, col)?;
+        }
+        self.check_block(b, Vec::new())
+    }
+
+    /// The checks of a block whose words are in (modal groups, axes, E
+    /// words), then its parameter assignments made: the end of
+    /// [`Interp::eval_block`].
+    fn check_block(
+        &mut self,
+        mut b: Block,
+        assignments: Vec<(crate::expr::Target, f64)>,
+    ) -> Result<Block, Fail> {
         for &(code, col) in &b.g {
             if g_group(code).is_none() {
                 return fail(col, format!("unknown G code {code}"));
@@ -235,6 +277,22 @@ impl Interp<'_> {
     /// run next, `None` at the program's end.
     pub(super) fn block(&mut self, pc: usize, items: &[Item]) -> Result<Option<usize>, Fail> {
         let b = self.eval_block(items)?;
+        self.run_block(pc, b)
+    }
+
+    /// [`Interp::block`] of a plain line's words
+    /// ([`syntax::Lines::plain_block_words`](crate::syntax::Lines::plain_block_words)).
+    pub(super) fn plain_block(
+        &mut self,
+        pc: usize,
+        words: &[(char, u32, f64)],
+    ) -> Result<Option<usize>, Fail> {
+        let b = self.eval_plain_block(words)?;
+        self.run_block(pc, b)
+    }
+
+    /// Executes block `b` of line `pc`, its words evaluated and checked.
+    fn run_block(&mut self, pc: usize, b: Block) -> Result<Option<usize>, Fail> {
         self.feed_scale = self.scale;
         let g_col = |code| b.has_g(code);
         self.feed_spindle_and_tool(&b, pc)?;

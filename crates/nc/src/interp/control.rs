@@ -34,6 +34,7 @@ impl Interp<'_> {
         let lines = Rc::clone(&self.lines);
         // A block's items parsed again where they are not kept.
         let mut again = Vec::new();
+        let mut plain = syntax::PlainBlockWords::default();
         while pc < lines.len() {
             executed += 1;
             if executed > self.options.max_blocks {
@@ -113,6 +114,9 @@ impl Interp<'_> {
                     msg: "'%' is allowed only on the first line and to close a program opened with it".into(),
                 }),
                 LineKind::OWord(stmt) => self.oword(pc, stmt),
+                LineKind::Block(_) if lines.plain_block_words(pc, self.source, &mut plain) => {
+                    self.plain_block(pc, plain.words())
+                }
                 LineKind::Block(_) => {
                     let items = lines.block_items(pc, self.source, &mut again);
                     self.block(pc, items.expect("a block's items"))

@@ -32,6 +32,8 @@ mod tools;
 use block::Block;
 use diagnostics::{fail, Fail};
 pub use options::{FileForm, Options};
-pub(crate) use run::{parse, read, run_read_and_record, Read};
+#[cfg(test)]
+pub(crate) use run::read;
+pub(crate) use run::{parse, read_unkept, run_read_and_record, Read};
 pub use run::{run_recorded, run_recorded_along, Executed, Parsed, SegmentTrace, Trace};
 use state::Interp;

@@ -155,9 +155,16 @@ pub(crate) struct Read {
     pub(super) diagnostics: Vec<Diagnostic>,
 }
 
-/// Reads every line of `source` (syntax, the tolerant form's amendments, o-word labels).
+/// Reads every line of `source` (syntax, the tolerant form's amendments, o-word labels),
+/// keeping every block's items (the tests' reading held).
+#[cfg(test)]
 pub(crate) fn read(source: &str, file: &str, options: &Options) -> Read {
     read_lines(source, file, options, true)
+}
+
+/// [`read`], keeping no block's items: runs read them from `source` again.
+pub(crate) fn read_unkept(source: &str, file: &str, options: &Options) -> Read {
+    read_lines(source, file, options, false)
 }
 
 /// [`read`]; where `keep` is false, a block's items are not kept (the line is

@@ -41,6 +41,13 @@ fn a_program_parsed_where_it_runs_reads_as_one_held() {
     ] {
         sources.push((name.to_owned(), text.to_owned()));
     }
+    // Plain lines whose words the run refuses, each with its error and
+    // column as the items give them (the plain reading's words).
+    let huge = format!("G1 X1{} F100", "0".repeat(400));
+    sources.push((
+        "plain refusals".to_owned(),
+        format!("G0 X0 Y0 Z5\nG1 X1 X2 F100\nG1.7 X1\nM123456789\nT1.5 M6\n{huge}\nG1 X-0 Y.5 Z5. F100\nG1 X12345678901234567 Y0.12345678901234567\nM2\n"),
+    ));
     let mut blocks = 0;
     for (name, source) in &sources {
         for file_form in [FileForm::Tolerant, FileForm::LinuxCnc] {
