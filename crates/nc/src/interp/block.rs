@@ -181,7 +181,8 @@ impl Interp<'_> {
                 }
             }
         }
-        self.check_block(b, assignments)
+        self.check_block(&mut b, assignments)?;
+        Ok(b)
     }
 
     /// [`Interp::eval_block`] of a plain line's words
@@ -199,7 +200,8 @@ impl Interp<'_> {
             }
             b.put_word(letter, v, col)?;
         }
-        self.check_block(b, Vec::new())
+        self.check_block(&mut b, Vec::new())?;
+        Ok(b)
     }
 
     /// The checks of a block whose words are in (modal groups, axes, E
@@ -207,9 +209,9 @@ impl Interp<'_> {
     /// [`Interp::eval_block`].
     fn check_block(
         &mut self,
-        mut b: Block,
+        b: &mut Block,
         assignments: Vec<(crate::expr::Target, f64)>,
-    ) -> Result<Block, Fail> {
+    ) -> Result<(), Fail> {
         for &(code, col) in &b.g {
             if g_group(code).is_none() {
                 return fail(col, format!("unknown G code {code}"));
@@ -270,14 +272,14 @@ impl Interp<'_> {
         for (t, v) in assignments {
             self.params.assign(&t, v);
         }
-        Ok(b)
+        Ok(())
     }
 
     /// Executes line `pc`'s block (`items`) in LinuxCNC's order; the line to
     /// run next, `None` at the program's end.
     pub(super) fn block(&mut self, pc: usize, items: &[Item]) -> Result<Option<usize>, Fail> {
         let b = self.eval_block(items)?;
-        self.run_block(pc, b)
+        self.run_block(pc, &b)
     }
 
     /// [`Interp::block`] of a plain line's words
@@ -288,18 +290,18 @@ impl Interp<'_> {
         words: &[(char, u32, f64)],
     ) -> Result<Option<usize>, Fail> {
         let b = self.eval_plain_block(words)?;
-        self.run_block(pc, b)
+        self.run_block(pc, &b)
     }
 
     /// Executes block `b` of line `pc`, its words evaluated and checked.
-    fn run_block(&mut self, pc: usize, b: Block) -> Result<Option<usize>, Fail> {
+    fn run_block(&mut self, pc: usize, b: &Block) -> Result<Option<usize>, Fail> {
         self.feed_scale = self.scale;
         let g_col = |code| b.has_g(code);
-        self.feed_spindle_and_tool(&b, pc)?;
-        self.motion_wait(&b);
-        self.inputs_and_outputs(&b)?;
-        self.m70_m73(&b)?;
-        self.dwell_and_modes(&b, pc)?;
+        self.feed_spindle_and_tool(b, pc)?;
+        self.motion_wait(b);
+        self.inputs_and_outputs(b)?;
+        self.m70_m73(b)?;
+        self.dwell_and_modes(b, pc)?;
         // Non-modal group 0.
         let axis_user = b.g.iter().find(|g| {
             matches!(
@@ -326,9 +328,9 @@ impl Interp<'_> {
         let cycle = motion.is_some_and(GCode::is_canned_cycle);
         let in_block = |codes: &[GCode]| codes.iter().any(|&g| g_col(g).is_some());
         let m_in = |used: fn(i32) -> bool| b.m.iter().any(|m| used(m.0));
-        let words = [
-            (
-                'p',
+        // Whether the block uses its P, Q, L or R word (asked only where it has one).
+        let used = |letter: char| match letter {
+            'p' => {
                 matches!(
                     motion,
                     Some(
@@ -340,37 +342,41 @@ impl Interp<'_> {
                             | GCode::G86
                             | GCode::G89
                     )
-                )
-                    || in_block(&[GCode::G4, GCode::G10, GCode::G64])
-                    || m_in(|m| matches!(m, 19 | 50..=53 | 62..=66 | 98)),
-                "P word with no G2, G3, G4, G10, G64, G74, G82, G84, G86, G89, M19, M50-M53, M62-M66 or M98 to use it",
-            ),
-            (
-                'q',
+                ) || in_block(&[GCode::G4, GCode::G10, GCode::G64])
+                    || m_in(|m| matches!(m, 19 | 50..=53 | 62..=66 | 98))
+            }
+            'q' => {
                 matches!(motion, Some(GCode::G73 | GCode::G83))
                     || in_block(&[GCode::G10, GCode::G64])
-                    || m_in(|m| matches!(m, 19 | 61 | 66..=68)),
-                "Q word with no G10, G64, G73, G83, M19, M61, M66, M67 or M68 to use it",
-            ),
-            (
-                'l',
+                    || m_in(|m| matches!(m, 19 | 61 | 66..=68))
+            }
+            'l' => {
                 cycle
-                    || in_block(&[GCode::G10, GCode::G41, GCode::G41_1, GCode::G42, GCode::G42_1])
-                    || m_in(|m| matches!(m, 66 | 98)),
-                "L word with no G10, cutter compensation, canned cycle, M66 or M98 to use it",
-            ),
-            (
-                'r',
+                    || in_block(&[
+                        GCode::G10,
+                        GCode::G41,
+                        GCode::G41_1,
+                        GCode::G42,
+                        GCode::G42_1,
+                    ])
+                    || m_in(|m| matches!(m, 66 | 98))
+            }
+            _ => {
                 matches!(motion, Some(GCode::G2 | GCode::G3))
                     || cycle
                     || in_block(&[GCode::G10])
-                    || m_in(|m| m == 19),
-                "R word with no G2, G3, G10, canned cycle or M19 to use it",
-            ),
+                    || m_in(|m| m == 19)
+            }
+        };
+        let words = [
+            ('p', "P word with no G2, G3, G4, G10, G64, G74, G82, G84, G86, G89, M19, M50-M53, M62-M66 or M98 to use it"),
+            ('q', "Q word with no G10, G64, G73, G83, M19, M61, M66, M67 or M68 to use it"),
+            ('l', "L word with no G10, cutter compensation, canned cycle, M66 or M98 to use it"),
+            ('r', "R word with no G2, G3, G10, canned cycle or M19 to use it"),
         ];
-        if let Some(&(letter, _, message)) = words
+        if let Some(&(letter, message)) = words
             .iter()
-            .find(|&&(letter, used, _)| b.get(letter).is_some() && !used)
+            .find(|&&(letter, _)| b.get(letter).is_some() && !used(letter))
         {
             return fail(b.col(letter), message);
         }
@@ -382,7 +388,7 @@ impl Interp<'_> {
         if let Some(&(code, col)) =
             axis_user.filter(|g| !matches!(g.0, GCode::G43_1 | GCode::G43_2))
         {
-            self.modal0(code, col, &b, pc)?;
+            self.modal0(code, col, b, pc)?;
         } else if g_col(GCode::G92_1).is_some() {
             // LinuxCNC's convert_axis_offsets: the machine does not move;
             // G92.1 clears the saved offset too, G92.2 keeps it for G92.3.
@@ -416,19 +422,19 @@ impl Interp<'_> {
         let use_motion = axis_user.is_none() && (motion_code.is_some() || b.has_axes());
         if use_motion {
             if self.motion == GCode::G80 && b.has_axes() {
-                self.axis_words_after_g80(&b, pc)?;
+                self.axis_words_after_g80(b, pc)?;
             }
             if self.motion == GCode::G80 {
                 self.cycle_r = None;
                 self.cycle_z = None;
-            } else if let Some((code, _)) = motion_code.filter(|_| self.lone_arc_mode(&b, pc)) {
+            } else if let Some((code, _)) = motion_code.filter(|_| self.lone_arc_mode(b, pc)) {
                 // Nothing moves: the arc mode waits for the next axis words.
                 self.tolerated.lone_arc = Some(code);
             } else if b.has_axes() || matches!(self.motion, GCode::G2 | GCode::G3) {
                 if motion_code.is_none() {
-                    self.arc_mode_written_here(&b, pc);
+                    self.arc_mode_written_here(b, pc);
                 }
-                self.motion_block(&b, pc)?;
+                self.motion_block(b, pc)?;
             }
         }
         if !matches!(self.motion, GCode::G2 | GCode::G3 | GCode::G87) || !use_motion {
@@ -444,7 +450,7 @@ impl Interp<'_> {
                 }
             }
         }
-        self.program_flow(&b, pc)
+        self.program_flow(b, pc)
     }
 
     /// The block's feed mode (G93/G94; G95 refused), F and S words, T word,
