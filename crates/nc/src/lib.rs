@@ -60,6 +60,43 @@ impl<'a> Reader<'a> {
         interp::run_read_and_record(&self.read, source, file, &self.options, false, None).0
     }
 
+    /// [`Reader::parse`], then, where `start` picks a start from that run
+    /// (`Some`), the run from there ([`Reader::parse_from`]) made in the first
+    /// run's memory (a million segments are 120 MB of pages new to the process
+    /// otherwise); where it picks none, the first run. The same paths,
+    /// diagnostics and amendments as those two calls.
+    pub fn parse_then_from(&self, start: impl FnOnce(&Parsed) -> Option<[f64; 3]>) -> Parsed {
+        let (source, file) = (self.source, self.file_name);
+        let keep_room = interp::PathRoom {
+            segments: Vec::new(),
+            shrink: false,
+        };
+        let (mut first, ..) = interp::run_read_and_record_in(
+            &self.read,
+            source,
+            file,
+            &self.options,
+            false,
+            None,
+            keep_room,
+        );
+        let Some(initial_position_mm) = start(&first) else {
+            first.path.segments.shrink_to_fit();
+            return first;
+        };
+        let segments = std::mem::take(&mut first.path.segments);
+        drop(first);
+        let options = Options {
+            initial_position_mm,
+            ..self.options.clone()
+        };
+        let room = interp::PathRoom {
+            segments,
+            shrink: true,
+        };
+        interp::run_read_and_record_in(&self.read, source, file, &options, false, None, room).0
+    }
+
     /// [`Reader::parse`] with the tool starting at `initial_position_mm`
     /// ([`Options::initial_position_mm`]) instead.
     pub fn parse_from(&self, initial_position_mm: [f64; 3]) -> Parsed {
@@ -102,6 +139,15 @@ mod tests {
         };
         let from = reader.parse_from(start);
         assert_eq!(from, parse(source, "p.nc", &moved));
+        // The second run made in the first's memory: the same runs.
+        let mut seen = None;
+        let then = reader.parse_then_from(|first| {
+            seen = Some(first.clone());
+            Some(start)
+        });
+        assert_eq!(then, from);
+        assert_eq!(seen, Some(reader.parse()));
+        assert_eq!(reader.parse_then_from(|_| None), reader.parse());
         assert_ne!(from.path, reader.parse().path);
         assert!(from.diagnostics.iter().any(|d| !d.is_error()));
         assert!(!from.amendments.is_empty());
@@ -124,6 +170,8 @@ mod tests {
             parsed.path,
             reader.parse().path,
             reader.parse_from([1.0, 2.0, 9.0]).path,
+            reader.parse_then_from(|_| Some([1.0, 2.0, 9.0])).path,
+            reader.parse_then_from(|_| None).path,
         ] {
             assert_eq!(path.segments.capacity(), path.segments.len());
         }

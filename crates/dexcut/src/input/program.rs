@@ -204,38 +204,46 @@ pub fn parse_gcode(text: String, file: &str, job: &Job) -> Result<Program> {
         ..nc::Options::default()
     };
     options.initial_position_mm = job.machine.start.unwrap_or_default();
-    // Read once: with the default start the program runs again from there.
+    // Read once: with the default start the program runs again from there,
+    // in the first run's memory.
     let reader = nc::Reader::new(&text, file, &options);
-    let mut parsed = reader.parse();
-    if z_down {
-        parsed.path.mirror_z();
-    }
-    let errors: Vec<nc::Diagnostic> = parsed
-        .diagnostics
-        .iter()
-        .filter(|d| d.is_error())
-        .cloned()
-        .collect();
-    if !errors.is_empty() {
-        return Err(Error::Program {
-            diagnostics: errors,
-        });
-    }
-    if parsed.path.segments.is_empty() {
-        fail!(request, "{file}: the program has no motion");
-    }
-    if job.machine.start.is_none() {
+    // What the first run found wrong (its errors, or no motion): then no second run.
+    let mut refused: Option<Error> = None;
+    let mut default = None;
+    let mut parsed = reader.parse_then_from(|first| {
+        let errors: Vec<nc::Diagnostic> = first
+            .diagnostics
+            .iter()
+            .filter(|d| d.is_error())
+            .cloned()
+            .collect();
+        if !errors.is_empty() {
+            refused = Some(Error::Program {
+                diagnostics: errors,
+            });
+            return None;
+        }
+        if first.path.segments.is_empty() {
+            refused = Some(Error::request(format!("{file}: the program has no motion")));
+            return None;
+        }
+        if job.machine.start.is_some() {
+            return None;
+        }
         // The default start depends on the path run from the origin: run it again from there.
         // Found in dexcut's frame, given in the program's.
-        let [x, y, z] = default_start(&parsed.path);
-        options.initial_position_mm = [x, y, if z_down { -z } else { z }];
-        // The first run is not needed any more: free its path before the
-        // second one is made (one path in memory at a time).
-        drop(parsed);
-        parsed = reader.parse_from(options.initial_position_mm);
-        if z_down {
-            parsed.path.mirror_z();
-        }
+        let [x, y, z] = default_start(&first.path, z_down);
+        default = Some([x, y, if z_down { -z } else { z }]);
+        default
+    });
+    if let Some(e) = refused {
+        return Err(e);
+    }
+    if let Some(start) = default {
+        options.initial_position_mm = start;
+    }
+    if z_down {
+        parsed.path.mirror_z();
     }
     Ok(Program {
         path: parsed.path,
@@ -257,7 +265,9 @@ pub fn parse_gcode(text: String, file: &str, job: &Job) -> Result<Program> {
 /// where the program was read from (the machine origin): a rapid is never
 /// split when the program is re-fed, a feed move may be, so the written
 /// program (optimized.nc) read on its own starts where the original did.
-fn default_start(path: &nc::Path) -> [f64; 3] {
+/// `path` is the program's as read, in dexcut's frame once mirrored where
+/// Z points down (`z_down`): the start is in dexcut's frame.
+fn default_start(path: &nc::Path, z_down: bool) -> [f64; 3] {
     let first = match path.segments[0] {
         nc::Segment {
             motion: nc::Motion::Rapid,
@@ -266,11 +276,13 @@ fn default_start(path: &nc::Path) -> [f64; 3] {
         } => end,
         nc::Segment { start, .. } => start,
     };
+    // Z as `nc::Path::mirror_z` gives it.
+    let z = |z: f64| if z_down { -z } else { z };
     let top = path
         .segments
         .iter()
-        .map(|s| s.end.z.max(s.start.z))
-        .fold(first.z, f64::max);
+        .map(|s| z(s.end.z).max(z(s.start.z)))
+        .fold(z(first.z), f64::max);
     [first.x, first.y, top]
 }
 

@@ -127,19 +127,67 @@ pub(crate) fn run_read_and_record(
     record: bool,
     lent: Option<&[Segment]>,
 ) -> (Parsed, Trace, Vec<Executed>) {
-    let (parsed, trace, first, executed) = run_read(read, source, file, options, record, lent);
+    let room = PathRoom::default();
+    run_read_and_record_in(read, source, file, options, record, lent, room)
+}
+
+/// The memory a run makes its path in: `segments` (emptied; taken where it
+/// has room for a segment a line, else let go), and whether the path is
+/// held at its length once made (`shrink`) or at the room it was made in,
+/// for another run of the program to make its path in again rather than in
+/// pages new to the process (a million segments are 120 MB).
+pub(crate) struct PathRoom {
+    pub(crate) segments: Vec<Segment>,
+    pub(crate) shrink: bool,
+}
+
+impl Default for PathRoom {
+    fn default() -> Self {
+        PathRoom {
+            segments: Vec::new(),
+            shrink: true,
+        }
+    }
+}
+
+/// [`run_read_and_record`] with its path made in `room`.
+pub(crate) fn run_read_and_record_in(
+    read: &Read,
+    source: &str,
+    file: &str,
+    options: &Options,
+    record: bool,
+    lent: Option<&[Segment]>,
+    room: PathRoom,
+) -> (Parsed, Trace, Vec<Executed>) {
+    let shrink = room.shrink;
+    let first_room = PathRoom {
+        segments: room.segments,
+        shrink: options.initial_tool.is_some() && shrink,
+    };
+    let (mut parsed, trace, first, executed) =
+        run_read(read, source, file, options, record, lent, first_room);
     match (options.initial_tool, first) {
         (None, Some(tool)) if tool != 0 => {
-            // Dropped before the run again: one path at a time.
+            // Dropped before the run again: one path at a time, the second
+            // made in the first's memory.
+            let segments = std::mem::take(&mut parsed.path.segments);
             drop((parsed, trace, executed));
             let options = Options {
                 initial_tool: Some(tool),
                 ..options.clone()
             };
-            let (parsed, trace, _, executed) = run_read(read, source, file, &options, record, lent);
+            let room = PathRoom { segments, shrink };
+            let (parsed, trace, _, executed) =
+                run_read(read, source, file, &options, record, lent, room);
             (parsed, trace, executed)
         }
-        _ => (parsed, trace, executed),
+        _ => {
+            if shrink {
+                parsed.path.segments.shrink_to_fit();
+            }
+            (parsed, trace, executed)
+        }
     }
 }
 
@@ -273,6 +321,7 @@ pub(crate) fn run_read(
     options: &Options,
     record: bool,
     lent: Option<&[Segment]>,
+    path_room: PathRoom,
 ) -> (Parsed, Trace, Option<u32>, Vec<Executed>) {
     let mut it = interp(file, options, record);
     it.lent = lent.map(|path| Lent { path, matched: 0 });
@@ -281,7 +330,14 @@ pub(crate) fn run_read(
     // whole), within the limit of moves; the path's room left is given back below.
     let room = read.lines.len().min(options.max_segments.saturating_add(1));
     if lent.is_none() {
-        it.path.segments.reserve_exact(room);
+        let mut segments = path_room.segments;
+        segments.clear();
+        if segments.capacity() < room {
+            // Let go before the room is made: one path's memory at a time.
+            segments = Vec::new();
+            segments.reserve_exact(room);
+        }
+        it.path.segments = segments;
     }
     if record {
         it.trace.reserve_exact(room);
@@ -315,8 +371,10 @@ pub(crate) fn run_read(
     }
     // The path is held as long as its program runs: not at the capacity its
     // pushes grew it to, up to twice its segments (125.8 MB for a million
-    // segments of 120 B, not 120.0).
-    it.path.segments.shrink_to_fit();
+    // segments of 120 B, not 120.0), unless another run makes its path in it.
+    if path_room.shrink {
+        it.path.segments.shrink_to_fit();
+    }
     let trace = Trace {
         segments: it.trace,
         lines: it.lines,
