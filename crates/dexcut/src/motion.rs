@@ -74,8 +74,30 @@ pub fn steps_from_samples(path: &nc::Path, samples: &[ServoSample]) -> Vec<Timed
             0.0
         };
         let held = (a..=b).any(|k| path.segments[k].motion.held_feed_mm_min().is_some());
+        let splits = |k: usize| is_rapid(k) || is_rapid(k + 1);
+        if !(a..b).any(splits) {
+            // One part, the whole period (most periods): what the parts below
+            // make of it, without their lists.
+            steps.push(TimedStep {
+                step: dexel::Step {
+                    from_mm: w[0].pos.coords.into(),
+                    to_mm: w[1].pos.coords.into(),
+                    rapid: is_rapid(b),
+                },
+                t_end_s: w[1].t_s,
+                dt_s: w[1].t_s - w[0].t_s,
+                feed_mm_min,
+                line: path.segments[b].line,
+                s_end_mm: w[1].s_mm,
+                continues: false,
+                held,
+                tool: path.segments[b].tool,
+                spindle_rpm: path.segments[b].spindle_rpm,
+            });
+            continue;
+        }
         // Ends of segments inside the period where a rapid starts or ends.
-        let cuts: Vec<usize> = (a..b).filter(|&k| is_rapid(k) || is_rapid(k + 1)).collect();
+        let cuts: Vec<usize> = (a..b).filter(|&k| splits(k)).collect();
         let mut points: Vec<([f64; 3], usize)> = vec![(w[0].pos.coords.into(), a)];
         points.extend(
             cuts.iter()
