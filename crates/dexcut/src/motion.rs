@@ -75,24 +75,33 @@ pub fn steps_from_samples(path: &nc::Path, samples: &[ServoSample]) -> Vec<Timed
         };
         let held = (a..=b).any(|k| path.segments[k].motion.held_feed_mm_min().is_some());
         let splits = |k: usize| is_rapid(k) || is_rapid(k + 1);
+        // A part of the period from `from_mm` to `to_mm` on segment `seg`: what
+        // it takes of the segment (its times are the caller's).
+        let on_segment = |from_mm: [f64; 3], to_mm: [f64; 3], seg: usize| TimedStep {
+            step: dexel::Step {
+                from_mm,
+                to_mm,
+                rapid: is_rapid(seg),
+            },
+            t_end_s: 0.0,
+            dt_s: 0.0,
+            feed_mm_min: 0.0,
+            line: path.segments[seg].line,
+            s_end_mm: 0.0,
+            continues: false,
+            held,
+            tool: path.segments[seg].tool,
+            spindle_rpm: path.segments[seg].spindle_rpm,
+        };
         if !(a..b).any(splits) {
             // One part, the whole period (most periods): what the parts below
             // make of it, without their lists.
             steps.push(TimedStep {
-                step: dexel::Step {
-                    from_mm: w[0].pos.coords.into(),
-                    to_mm: w[1].pos.coords.into(),
-                    rapid: is_rapid(b),
-                },
                 t_end_s: w[1].t_s,
                 dt_s: w[1].t_s - w[0].t_s,
                 feed_mm_min,
-                line: path.segments[b].line,
                 s_end_mm: w[1].s_mm,
-                continues: false,
-                held,
-                tool: path.segments[b].tool,
-                spindle_rpm: path.segments[b].spindle_rpm,
+                ..on_segment(w[0].pos.coords.into(), w[1].pos.coords.into(), b)
             });
             continue;
         }
@@ -141,13 +150,7 @@ pub fn steps_from_samples(path: &nc::Path, samples: &[ServoSample]) -> Vec<Timed
             s = if last { w[1].s_mm } else { s + lengths[j] };
             // The part up to a corner lies on the corner's segment (or, without
             // a rapid, on segments of its kind).
-            let seg = p[1].1;
             steps.push(TimedStep {
-                step: dexel::Step {
-                    from_mm: p[0].0,
-                    to_mm: p[1].0,
-                    rapid: is_rapid(seg),
-                },
                 t_end_s: t,
                 dt_s: part_dt,
                 feed_mm_min: if n_parts == 1 {
@@ -157,12 +160,9 @@ pub fn steps_from_samples(path: &nc::Path, samples: &[ServoSample]) -> Vec<Timed
                 } else {
                     0.0
                 },
-                line: path.segments[seg].line,
                 s_end_mm: s,
                 continues: j > 0,
-                held,
-                tool: path.segments[seg].tool,
-                spindle_rpm: path.segments[seg].spindle_rpm,
+                ..on_segment(p[0].0, p[1].0, p[1].1)
             });
         }
     }

@@ -57,7 +57,16 @@ impl<'a> Reader<'a> {
     /// What [`parse`] returns for the source and options read.
     pub fn parse(&self) -> Parsed {
         let (source, file) = (self.source, self.file_name);
-        interp::run_read_and_record(&self.read, source, file, &self.options, false, None).0
+        interp::run_read_and_record(
+            &self.read,
+            source,
+            file,
+            &self.options,
+            false,
+            None,
+            interp::PathRoom::default(),
+        )
+        .0
     }
 
     /// [`Reader::parse`], then, where `start` picks a start from that run
@@ -71,7 +80,7 @@ impl<'a> Reader<'a> {
             segments: Vec::new(),
             shrink: false,
         };
-        let (mut first, ..) = interp::run_read_and_record_in(
+        let (mut first, ..) = interp::run_read_and_record(
             &self.read,
             source,
             file,
@@ -94,7 +103,7 @@ impl<'a> Reader<'a> {
             segments,
             shrink: true,
         };
-        interp::run_read_and_record_in(&self.read, source, file, &options, false, None, room).0
+        interp::run_read_and_record(&self.read, source, file, &options, false, None, room).0
     }
 
     /// [`Reader::parse`] with the tool starting at `initial_position_mm`
@@ -111,6 +120,7 @@ impl<'a> Reader<'a> {
             &options,
             false,
             None,
+            interp::PathRoom::default(),
         )
         .0
     }

@@ -6,7 +6,7 @@ use super::{fail, Fail, Interp};
 use crate::gcode::integer_value;
 use crate::gcode::GCode;
 use crate::path::{Geometry, Motion, PathControl, PathControlChange, Plane};
-use crate::syntax::{Item, ItemKind};
+use crate::syntax::{Item, ItemKind, PlainWordValue};
 
 /// A block after evaluation of its words.
 #[derive(Default)]
@@ -188,12 +188,17 @@ impl Interp<'_> {
     /// [`Interp::eval_block`] of a plain line's words
     /// ([`syntax::Lines::plain_block_words`](crate::syntax::Lines::plain_block_words)):
     /// the same block, or the same error, as its items give.
-    fn eval_plain_block(&mut self, words: &[(char, u32, f64)]) -> Result<Block, Fail> {
+    fn eval_plain_block(&mut self, words: &[PlainWordValue]) -> Result<Block, Fail> {
         let mut b = Block {
-            first_col: words.first().map_or(1, |w| w.1),
+            first_col: words.first().map_or(1, |w| w.col),
             ..Block::default()
         };
-        for &(letter, col, v) in words {
+        for &PlainWordValue {
+            letter,
+            col,
+            value: v,
+        } in words
+        {
             // As `Params::eval` refuses a number too large for an f64.
             if !v.is_finite() {
                 return fail(col, "expression result is not a finite number");
@@ -287,7 +292,7 @@ impl Interp<'_> {
     pub(super) fn plain_block(
         &mut self,
         pc: usize,
-        words: &[(char, u32, f64)],
+        words: &[PlainWordValue],
     ) -> Result<Option<usize>, Fail> {
         let b = self.eval_plain_block(words)?;
         self.run_block(pc, &b)

@@ -34,8 +34,6 @@ use diagnostics::{fail, Fail};
 pub use options::{FileForm, Options};
 #[cfg(test)]
 pub(crate) use run::read;
-pub(crate) use run::{
-    parse, read_unkept, run_read_and_record, run_read_and_record_in, PathRoom, Read,
-};
+pub(crate) use run::{parse, read_unkept, run_read_and_record, PathRoom, Read};
 pub use run::{run_recorded, run_recorded_along, Executed, Parsed, SegmentTrace, Trace};
 use state::Interp;

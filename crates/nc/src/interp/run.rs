@@ -91,7 +91,16 @@ pub struct Executed {
 /// the lines held ([`run_read_and_record`] of [`read`]).
 pub(crate) fn parse(source: &str, file: &str, options: &Options) -> Parsed {
     let read = read_lines(source, file, options, false);
-    run_read_and_record(&read, source, file, options, false, None).0
+    run_read_and_record(
+        &read,
+        source,
+        file,
+        options,
+        false,
+        None,
+        PathRoom::default(),
+    )
+    .0
 }
 
 /// [`parse`], with the trace of a recorded run and every line executed in
@@ -99,7 +108,15 @@ pub(crate) fn parse(source: &str, file: &str, options: &Options) -> Parsed {
 /// block's items: [`syntax::Lines::block_items`] with `source` gives them.
 pub fn run_recorded(source: &str, file: &str, options: &Options) -> (Parsed, Trace, Vec<Executed>) {
     let read = read_lines(source, file, options, false);
-    run_read_and_record(&read, source, file, options, true, None)
+    run_read_and_record(
+        &read,
+        source,
+        file,
+        options,
+        true,
+        None,
+        PathRoom::default(),
+    )
 }
 
 /// [`run_recorded`] lent the path the caller read the same text to
@@ -114,23 +131,19 @@ pub fn run_recorded_along(
     path: &[Segment],
 ) -> (Parsed, Trace, Vec<Executed>) {
     let read = read_lines(source, file, options, false);
-    run_read_and_record(&read, source, file, options, true, Some(path))
+    run_read_and_record(
+        &read,
+        source,
+        file,
+        options,
+        true,
+        Some(path),
+        PathRoom::default(),
+    )
 }
 
 /// A run of a program already read (its lines parsed once, or where `read`
 /// keeps no block's items, again from `source`, the text it read).
-pub(crate) fn run_read_and_record(
-    read: &Read,
-    source: &str,
-    file: &str,
-    options: &Options,
-    record: bool,
-    lent: Option<&[Segment]>,
-) -> (Parsed, Trace, Vec<Executed>) {
-    let room = PathRoom::default();
-    run_read_and_record_in(read, source, file, options, record, lent, room)
-}
-
 /// The memory a run makes its path in: `segments` (emptied; taken where it
 /// has room for a segment a line, else let go), and whether the path is
 /// held at its length once made (`shrink`) or at the room it was made in,
@@ -150,8 +163,10 @@ impl Default for PathRoom {
     }
 }
 
-/// [`run_read_and_record`] with its path made in `room`.
-pub(crate) fn run_read_and_record_in(
+/// A run of a program already read (its lines parsed once, or where `read`
+/// keeps no block's items, again from `source`, the text it read), its path
+/// made in `room` ([`PathRoom::default`]: fresh memory, held at its length).
+pub(crate) fn run_read_and_record(
     read: &Read,
     source: &str,
     file: &str,

@@ -86,7 +86,8 @@ fn a_program_parsed_where_it_runs_reads_as_one_held() {
                 ..options.clone()
             };
             for options in [&options, &moved] {
-                let (held, _, executed) = run_read_and_record(&held, "", name, options, true, None);
+                let (held, _, executed) =
+                    run_read_and_record(&held, "", name, options, true, None, PathRoom::default());
                 let streamed = parse(source, name, options);
                 assert_eq!(streamed, held, "{name} {file_form:?}");
                 assert!(!executed.is_empty(), "{name}");
