@@ -9,8 +9,9 @@
 //!   column lies under the tool's disc (closed form);
 //! * bull nose: the tool's lower surface height at horizontal distance ρ from
 //!   the axis, `f(ρ)`, is convex and non-decreasing, and ρ(t) is convex along
-//!   the move, so `f(ρ(t)) + z_tip(t)` is convex in t: a golden-section search
-//!   finds the minimum to 1e-9 mm along the move (no sub-sampling of
+//!   the move, so `f(ρ(t)) + z_tip(t)` is convex in t: its minimum is at an
+//!   end of the column's interval or at its slope's root, found by Newton's
+//!   steps kept in a bracket, to 1e-9 mm along the move (no sub-sampling of
 //!   positions); on a level move it is where ρ is least, on a plunge at the
 //!   lower end.
 //!
