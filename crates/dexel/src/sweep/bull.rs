@@ -4,8 +4,8 @@
 //! closed form.
 
 use super::{
-    disc_interval, sphere_reach2, torus_edge, torus_mean_inv_sin_k, Edge, Envelope, EnvelopeHit,
-    Prepared, Span, ABOVE_MARGIN_MM, BOTTOM_MM, PLUNGE_H2,
+    disc_interval, row_hits_by_column, sphere_reach2, torus_edge, torus_mean_inv_sin_k, Edge,
+    Envelope, EnvelopeHit, Prepared, RowHits, Span, ABOVE_MARGIN_MM, BOTTOM_MM, PLUNGE_H2,
 };
 
 /// The search for the lowest point stops when its step, or its bracket of
@@ -25,18 +25,21 @@ pub(super) struct BullNose {
 }
 
 impl BullNose {
-    /// Height of the tool's lower surface above its tip at horizontal distance ρ.
-    #[inline]
+    /// Height of the tool's lower surface above its tip at horizontal distance ρ
+    /// (the corner's value, computed either way, taken beyond the flat
+    /// bottom by a select: one expression for a column and a row in lanes).
+    #[inline(always)]
     fn profile(&self, rho: f64) -> f64 {
         let e = rho - self.ring;
+        let corner = self.rc - (self.rc * self.rc - (e * e).min(self.rc * self.rc)).sqrt();
         if e <= 0.0 {
             0.0
         } else {
-            self.rc - (self.rc * self.rc - (e * e).min(self.rc * self.rc)).sqrt()
+            corner
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn height(&self, m: &Prepared, x: f64, y: f64, t: f64) -> f64 {
         let (ax, ay) = (m.p0[0] + t * m.d[0], m.p0[1] + t * m.d[1]);
         let rho = ((x - ax) * (x - ax) + (y - ay) * (y - ay)).sqrt();
@@ -45,6 +48,16 @@ impl BullNose {
 }
 
 impl BullNose {
+    /// [`Envelope::stays_above`] of the column at `(wx, wy)` from the move's
+    /// start: one expression for it and the row in lanes.
+    #[inline(always)]
+    fn clears(&self, m: &Prepared, wx: f64, wy: f64, top: f64) -> bool {
+        let t = ((wx * m.d[0] + wy * m.d[1]) * m.inv_h2).clamp(0.0, 1.0);
+        let (ex, ey) = (wx - t * m.d[0], wy - t * m.d[1]);
+        let reach = self.ring + sphere_reach2(self.rc, top - m.zmin + ABOVE_MARGIN_MM).sqrt();
+        ex * ex + ey * ey >= reach * reach
+    }
+
     /// The slope dh/dt of the lower surface's height over the column at
     /// `(wx, wy)` from the move's start, at t, and its curvature d²h/dt²
     /// (MODEL.md §1.2): with ρ(t) the column's XY distance from the axis and
@@ -164,11 +177,66 @@ impl Envelope for BullNose {
     /// above `top` where e² ≥ [`sphere_reach2`]`(rc, top − z_min + margin)`.
     #[inline]
     fn stays_above(&self, m: &Prepared, x: f64, y: f64, top: f64) -> bool {
-        let (wx, wy) = (x - m.p0[0], y - m.p0[1]);
-        let t = ((wx * m.d[0] + wy * m.d[1]) * m.inv_h2).clamp(0.0, 1.0);
-        let (ex, ey) = (wx - t * m.d[0], wy - t * m.d[1]);
-        let reach = self.ring + sphere_reach2(self.rc, top - m.zmin + ABOVE_MARGIN_MM).sqrt();
-        ex * ex + ey * ey >= reach * reach
+        self.clears(m, x - m.p0[0], y - m.p0[1], top)
+    }
+
+    #[inline(always)]
+    fn row_in_lanes(&self) -> bool {
+        true
+    }
+
+    /// A level move's row in lanes, free of branches: for every column the
+    /// closed form of [`BullNose::eval`] (the column's interval under the
+    /// tool's disc, where the axis passes closest clamped into it, the
+    /// height there) and the bound of [`Envelope::stays_above`], each the
+    /// same expression, the one that applies taken by a select: the same
+    /// values bit for bit. Other moves column by column (the search of a
+    /// sloped move does not take lanes).
+    #[inline(always)]
+    fn row_hits(
+        &self,
+        m: &Prepared,
+        grid: &crate::Grid,
+        y: f64,
+        ix0: usize,
+        tops: &[f32],
+        hits: &mut RowHits,
+    ) {
+        if m.d[2] != 0.0 || m.h2 <= PLUNGE_H2 {
+            return row_hits_by_column(self, m, grid, y, ix0, tops, hits);
+        }
+        debug_assert!(ix0 + tops.len() <= i32::MAX as usize);
+        let r2 = self.r * self.r;
+        let [dx, dy, _] = m.d;
+        let wy = y - m.p0[1];
+        let zmin = m.zmin as f32;
+        let n = tops.len();
+        let (z_cut, t_cut) = (&mut hits.z_mm[..n], &mut hits.t[..n]);
+        for (i, ((&top, z_out), t_out)) in tops.iter().zip(z_cut).zip(t_cut).enumerate() {
+            let x = grid.x_mm_in_lanes(ix0 + i);
+            let wx = x - m.p0[0];
+            let stays = self.clears(m, wx, wy, top as f64);
+            // `disc_interval`'s arithmetic.
+            let rho0 = wx * wx + wy * wy;
+            let k = wx * dx + wy * dy;
+            let disc = k * k - m.h2 * (rho0 - r2);
+            let s = disc.sqrt();
+            let (a, b) = (((k - s) / m.h2).max(0.0), ((k + s) / m.h2).min(1.0));
+            let hit = disc >= 0.0 && a <= b;
+            // `f64::clamp` where a ≤ b (NaN elsewhere, not taken).
+            let closest = k * m.inv_h2;
+            let t = if closest < a {
+                a
+            } else if closest > b {
+                b
+            } else {
+                closest
+            };
+            let z = self.height(m, x, y, t);
+            let cut = top > zmin && !stays && hit;
+            *z_out = if cut { z as f32 } else { f32::INFINITY };
+            *t_out = if cut { t } else { 0.0 };
+        }
     }
 
     #[inline]

@@ -1213,20 +1213,42 @@ mod tests {
         }
     }
 
-    /// A ball's row made in lanes ([`Envelope::row_hits`], portable and, where
-    /// the processor has them, compiled for AVX2 and FMA) is the column-by-
-    /// column one bit for bit: level, climbing, descending, steep, short and
-    /// plunging moves; tops empty, below the tip, near the envelope and far
-    /// above it; rows through the body, the end spheres and past the tool.
+    /// A row made in lanes ([`Envelope::row_hits`], portable and, where the
+    /// processor has them, compiled for AVX2 and FMA) is the column-by-column
+    /// one bit for bit, for a ball and a bull nose (whose level moves take
+    /// lanes): level, climbing, descending, steep, short and plunging moves;
+    /// tops empty, below the tip, near the envelope and far above it; rows
+    /// through the body, the end spheres or corners and past the tool.
     #[test]
-    fn a_balls_row_in_lanes_is_its_columns_bit_for_bit() {
-        use super::super::{ball::BallEnd, row_hits_by_column};
-        use crate::sweep::testing::lcg;
+    fn a_row_in_lanes_is_its_columns_bit_for_bit() {
+        use super::super::{ball::BallEnd, bull::BullNose};
         let r = 3.0;
-        let env = BallEnd { r };
+        let (cut, passed) = row_in_lanes_against_columns(&BallEnd { r }, r);
+        // Both kinds of column are compared, many of each.
+        assert!(
+            cut > 2_000 && passed > 10_000,
+            "ball: {cut} cut, {passed} passed"
+        );
+        let bull = BullNose {
+            r,
+            rc: 1.0,
+            ring: 2.0,
+        };
+        let (cut, passed) = row_in_lanes_against_columns(&bull, r);
+        assert!(
+            cut > 2_000 && passed > 10_000,
+            "bull nose: {cut} cut, {passed} passed"
+        );
+    }
+
+    /// The columns cut and passed of rows of `env` (radius `r`) compared in
+    /// lanes and column by column.
+    fn row_in_lanes_against_columns<E: Envelope>(env: &E, r: f64) -> (usize, usize) {
+        use super::super::row_hits_by_column;
+        use crate::sweep::testing::lcg;
         assert!(env.row_in_lanes());
         let (grid, banding) = (test_grid(), one_band());
-        let job = test_job(&env, &grid, &banding, r);
+        let job = test_job(env, &grid, &banding, r);
         let mut seed = 11;
         let (mut cut, mut passed) = (0, 0);
         for to in [
@@ -1237,6 +1259,9 @@ mod tests {
             [0.01, 0.0, 0.0],
             [0.0, 0.0, -2.0],
             [0.0, 0.0, 0.0],
+            [-0.3, 2.2, 0.0],
+            [0.0, -0.15, 0.0],
+            [0.2, 0.0, 0.0],
         ] {
             let step = crate::Step {
                 from_mm: [-1.0, 0.5, 0.0],
@@ -1256,7 +1281,7 @@ mod tests {
                     })
                     .collect();
                 let mut expected = RowHits::new(150);
-                row_hits_by_column(&env, &m, &grid, y, ix0, &tops, &mut expected);
+                row_hits_by_column(env, &m, &grid, y, ix0, &tops, &mut expected);
                 let mut portable = RowHits::new(150);
                 env.row_hits(&m, &grid, y, ix0, &tops, &mut portable);
                 let mut dispatched = RowHits::new(150);
@@ -1276,8 +1301,7 @@ mod tests {
                 }
             }
         }
-        // Both kinds of column are compared, many of each.
-        assert!(cut > 2_000 && passed > 10_000, "{cut} cut, {passed} passed");
+        (cut, passed)
     }
 
     /// The rows' columns in lanes ([`Prepared::row_bounds`], portable and as
