@@ -235,6 +235,33 @@ thread_local! {
     static TOOTH_SCRATCH: RefCell<ToothScratch> = RefCell::new(ToothScratch::default());
 }
 
+/// The bands of a step from the first that removed something to the last
+/// (none: an empty slice), and the index of the first among all.
+#[derive(Clone, Copy)]
+struct CutBands<'a> {
+    first: usize,
+    volumes_mm3: &'a [f64],
+}
+
+impl<'a> CutBands<'a> {
+    fn of(band_volumes_mm3: &'a [f64]) -> CutBands<'a> {
+        let cut = |v: &f64| *v > 0.0;
+        match (
+            band_volumes_mm3.iter().position(cut),
+            band_volumes_mm3.iter().rposition(cut),
+        ) {
+            (Some(first), Some(last)) => CutBands {
+                first,
+                volumes_mm3: &band_volumes_mm3[first..=last],
+            },
+            _ => CutBands {
+                first: 0,
+                volumes_mm3: &[],
+            },
+        }
+    }
+}
+
 /// A band's cut as the sweep recorded it (MODEL.md §3.4): its volume, its
 /// heights, its width across the feed, and what its columns' offsets make of
 /// it.
@@ -309,16 +336,23 @@ impl CuttingModel {
     /// bands like `band_volumes_mm3` (band k carries its share at its mid-height; the whole
     /// force at the tip when no band has volume). Does not allocate.
     pub fn compliance_at_mm_per_n(&self, band_volumes_mm3: &[f64], at_from_tip_mm: f64) -> f64 {
-        let total: f64 = band_volumes_mm3.iter().filter(|v| **v > 0.0).sum();
+        self.compliance_of(CutBands::of(band_volumes_mm3), at_from_tip_mm)
+    }
+
+    /// [`compliance_at_mm_per_n`](Self::compliance_at_mm_per_n) of the bands
+    /// `cut` holds: the same sums of the same terms in the same order (the
+    /// bands that removed nothing, which the sums leave out, not scanned).
+    fn compliance_of(&self, cut: CutBands<'_>, at_from_tip_mm: f64) -> f64 {
+        let total: f64 = cut.volumes_mm3.iter().filter(|v| **v > 0.0).sum();
         if total <= 0.0 {
             return self.beam.deflection_mm(1.0, 0.0, at_from_tip_mm);
         }
-        band_volumes_mm3
+        cut.volumes_mm3
             .iter()
             .enumerate()
             .filter(|(_, v)| **v > 0.0)
-            .map(|(k, v)| {
-                let mid_mm = (k as f64 + 0.5) * self.band_height_mm;
+            .map(|(j, v)| {
+                let mid_mm = ((cut.first + j) as f64 + 0.5) * self.band_height_mm;
                 self.beam.deflection_mm(v / total, mid_mm, at_from_tip_mm)
             })
             .sum()
@@ -470,10 +504,13 @@ impl CuttingModel {
         } else {
             (0.0, 0.0)
         };
-        // The deflection at the contact height per newton.
-        let compliance_mm_per_n = self.compliance_at_mm_per_n(bands, contact_height_mm);
+        // The deflection at the contact height per newton (the bands that
+        // removed something found once: a long flute's flanks below take
+        // the compliance at each band's height).
+        let cut = CutBands::of(bands);
+        let compliance_mm_per_n = self.compliance_of(cut, contact_height_mm);
         let deflection_um = 1000.0 * force * compliance_mm_per_n;
-        let tip_deflection_um = 1000.0 * force * self.compliance_at_mm_per_n(bands, 0.0);
+        let tip_deflection_um = 1000.0 * force * self.compliance_of(cut, 0.0);
         let torque_nm = power_w / omega;
         let (force_peak_n, peak_torque_nmm) = match &tooth {
             Some(t) => (t.peak_lateral_n, t.peak_torque_nmm),
@@ -486,8 +523,7 @@ impl CuttingModel {
             Peak::Mean | Peak::Bound => &mut [],
         };
         for (k, flank) in flanks_um.iter_mut().enumerate() {
-            let um_per_n =
-                1000.0 * self.compliance_at_mm_per_n(bands, (k as f64 + 0.5) * self.band_height_mm);
+            let um_per_n = 1000.0 * self.compliance_of(cut, (k as f64 + 0.5) * self.band_height_mm);
             if tooth.is_none() {
                 *flank = [[fx, fy]; 2];
             }
