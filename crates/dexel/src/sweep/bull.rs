@@ -4,8 +4,8 @@
 //! closed form.
 
 use super::{
-    disc_interval, row_hits_by_column, sphere_reach2, torus_edge, torus_mean_inv_sin_k, Edge,
-    Envelope, EnvelopeHit, Prepared, RowHits, Span, ABOVE_MARGIN_MM, BOTTOM_MM, PLUNGE_H2,
+    disc_interval, disc_roots, row_hits_by_column, sphere_reach2, torus_edge, torus_mean_inv_sin_k,
+    Edge, Envelope, EnvelopeHit, Prepared, RowHits, Span, ABOVE_MARGIN_MM, BOTTOM_MM, PLUNGE_H2,
 };
 
 /// The search for the lowest point stops when its step, or its bracket of
@@ -207,7 +207,6 @@ impl Envelope for BullNose {
         }
         debug_assert!(ix0 + tops.len() <= i32::MAX as usize);
         let r2 = self.r * self.r;
-        let [dx, dy, _] = m.d;
         let wy = y - m.p0[1];
         let zmin = m.zmin as f32;
         let n = tops.len();
@@ -216,15 +215,10 @@ impl Envelope for BullNose {
             let x = grid.x_mm_in_lanes(ix0 + i);
             let wx = x - m.p0[0];
             let stays = self.clears(m, wx, wy, top as f64);
-            // `disc_interval`'s arithmetic.
-            let rho0 = wx * wx + wy * wy;
-            let k = wx * dx + wy * dy;
-            let disc = k * k - m.h2 * (rho0 - r2);
-            let s = disc.sqrt();
-            let (a, b) = (((k - s) / m.h2).max(0.0), ((k + s) / m.h2).min(1.0));
-            let hit = disc >= 0.0 && a <= b;
+            let roots = disc_roots(m, wx, wy, r2);
+            let (hit, Span { lo: a, hi: b }) = (roots.hit(), roots.span);
             // `f64::clamp` where a ≤ b (NaN elsewhere, not taken).
-            let closest = k * m.inv_h2;
+            let closest = roots.k * m.inv_h2;
             let t = if closest < a {
                 a
             } else if closest > b {

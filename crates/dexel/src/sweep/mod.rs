@@ -1115,19 +1115,50 @@ const ABOVE_MARGIN_MM: f64 = 1e-7;
 #[inline]
 fn disc_interval(m: &Prepared, x: f64, y: f64, r: f64) -> Option<Span> {
     let (wx, wy) = (x - m.p0[0], y - m.p0[1]);
-    let rho0 = wx * wx + wy * wy;
     if m.h2 <= PLUNGE_H2 {
+        let rho0 = wx * wx + wy * wy;
         return (rho0 <= r * r).then_some(Span { lo: 0.0, hi: 1.0 });
     }
-    // |w − t·d_xy|² ≤ r²: quadratic in t.
-    let k = wx * m.d[0] + wy * m.d[1];
-    let disc = k * k - m.h2 * (rho0 - r * r);
-    if disc < 0.0 {
-        return None;
+    let roots = disc_roots(m, wx, wy, r * r);
+    roots.hit().then_some(roots.span)
+}
+
+/// [`disc_interval`] of the column at `(wx, wy)` from the start of a move
+/// that is not a plunge, with the disc's radius squared `r2`: one expression
+/// for it and a row in lanes (which take its parts whether or not it hits).
+#[derive(Clone, Copy)]
+struct DiscRoots {
+    /// w · d_xy.
+    k: f64,
+    /// The quadratic's discriminant: negative where the column misses.
+    disc: f64,
+    /// Its roots clipped to [0, 1] (NaN where `disc` < 0).
+    span: Span,
+}
+
+impl DiscRoots {
+    /// The column lies under the disc somewhere along the move.
+    #[inline(always)]
+    fn hit(&self) -> bool {
+        self.disc >= 0.0 && self.span.lo <= self.span.hi
     }
+}
+
+/// |w − t·d_xy|² ≤ r²: quadratic in t ([`DiscRoots`]).
+#[inline(always)]
+fn disc_roots(m: &Prepared, wx: f64, wy: f64, r2: f64) -> DiscRoots {
+    let rho0 = wx * wx + wy * wy;
+    let k = wx * m.d[0] + wy * m.d[1];
+    let disc = k * k - m.h2 * (rho0 - r2);
     let s = disc.sqrt();
-    let (ta, tb) = (((k - s) / m.h2).max(0.0), ((k + s) / m.h2).min(1.0));
-    (ta <= tb).then_some(Span { lo: ta, hi: tb })
+    DiscRoots {
+        k,
+        disc,
+        span: Span {
+            lo: ((k - s) / m.h2).max(0.0),
+            hi: ((k + s) / m.h2).min(1.0),
+        },
+    }
 }
 
 /// Shared test references: dense sampling of the swept tool, a small
