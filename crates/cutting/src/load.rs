@@ -902,6 +902,57 @@ mod tests {
 
     const S4: ForceModel = ForceModel::PowerLaw { a: 800.0, n: 0.72 };
 
+    /// The compliance over the bands that removed something
+    /// ([`CutBands`]) is the sum over every band of the flute that removed
+    /// something, bit for bit: bands cut at the bottom, in the middle and at
+    /// the top of an 80-band flute, with bands between that removed
+    /// nothing, none cut, at heights along and beyond the flute.
+    #[test]
+    fn compliance_over_the_cut_bands_is_over_every_band() {
+        let m = model(S4);
+        let every_band = |bands: &[f64], at: f64| -> f64 {
+            let total: f64 = bands.iter().filter(|v| **v > 0.0).sum();
+            if total <= 0.0 {
+                return m.beam.deflection_mm(1.0, 0.0, at);
+            }
+            bands
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| **v > 0.0)
+                .map(|(k, v)| {
+                    let mid_mm = (k as f64 + 0.5) * m.band_height_mm;
+                    m.beam.deflection_mm(v / total, mid_mm, at)
+                })
+                .sum()
+        };
+        let mut seed = 5u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for case in 0..200 {
+            let mut bands = vec![0.0; 80];
+            let (lo, len) = ((next() * 80.0) as usize, 1 + (next() * 6.0) as usize);
+            for k in lo..(lo + len).min(80) {
+                // Some bands between remove nothing.
+                bands[k] = if next() < 0.3 { 0.0 } else { next() * 0.2 };
+            }
+            if case % 20 == 0 {
+                bands.fill(0.0);
+            }
+            for at in [0.0, 0.5, 3.7, 41.5, 79.5, 120.0] {
+                let (got, want) = (m.compliance_at_mm_per_n(&bands, at), every_band(&bands, at));
+                assert_eq!(
+                    got.to_bits(),
+                    want.to_bits(),
+                    "case {case} at {at}: {got} vs {want}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn direction_is_opposite_the_contact_resultant() {
         // Material on +x of the tool pushes it towards −x.

@@ -14,7 +14,8 @@ use super::{
 const NEWTON_TOL_MM: f64 = 1e-9;
 
 /// Most steps of that search (each halves the bracket at least where
-/// Newton's step would leave it; about 6 on the benchmark's finishing moves).
+/// Newton's step would leave it; 3.8 on average where the benchmark's
+/// finishing moves take it).
 const NEWTON_MAX_STEPS: usize = 200;
 
 pub(super) struct BullNose {
@@ -45,9 +46,7 @@ impl BullNose {
         let rho = ((x - ax) * (x - ax) + (y - ay) * (y - ay)).sqrt();
         self.profile(rho) + m.p0[2] + t * m.d[2]
     }
-}
 
-impl BullNose {
     /// [`Envelope::stays_above`] of the column at `(wx, wy)` from the move's
     /// start: one expression for it and the row in lanes.
     #[inline(always)]
