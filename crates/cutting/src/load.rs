@@ -935,9 +935,9 @@ mod tests {
         for case in 0..200 {
             let mut bands = vec![0.0; 80];
             let (lo, len) = ((next() * 80.0) as usize, 1 + (next() * 6.0) as usize);
-            for k in lo..(lo + len).min(80) {
+            for band in &mut bands[lo..(lo + len).min(80)] {
                 // Some bands between remove nothing.
-                bands[k] = if next() < 0.3 { 0.0 } else { next() * 0.2 };
+                *band = if next() < 0.3 { 0.0 } else { next() * 0.2 };
             }
             if case % 20 == 0 {
                 bands.fill(0.0);
