@@ -356,6 +356,76 @@ mod tests {
         assert!(compared > 10_000, "{compared} columns compared");
     }
 
+    /// Degenerate tools and moves (a corner of nearly the whole radius or
+    /// of almost none, moves of a nanometre to 20 mm, nearly level and
+    /// nearly plunging, columns on and near the rim): the search ends with
+    /// a finite height on the column's interval, never above the height at
+    /// any of 64 points of it by more than the height's own rounding at the
+    /// rim (where dh/dρ is infinite, a rounding of ρ by 10⁻¹⁵ mm moves it by
+    /// √(2 r_c·10⁻¹⁵) ≈ 10⁻⁷ mm; an f32 height's step is 5·10⁻⁷ mm at 4 mm).
+    #[test]
+    fn degenerate_bull_noses_and_moves_give_the_lowest_point() {
+        const RIM_NOISE_MM: f64 = 1e-6;
+        let mut seed = 23;
+        let mut found = 0;
+        for (rc, ring) in [
+            (1e-9, 5.0 - 1e-9),
+            (5.0 - 1e-9, 1e-9),
+            (2.0, 3.0),
+            (0.5, 4.5),
+        ] {
+            let env = BullNose {
+                r: rc + ring,
+                rc,
+                ring,
+            };
+            for case in 0..4000 {
+                let mut r = || lcg(&mut seed) * 2.0 - 1.0;
+                let len = 10f64.powf(-9.0 + 10.3 * (0.5 + 0.5 * r()));
+                let (dir, slope) = (
+                    std::f64::consts::PI * r(),
+                    10f64.powf(-8.0 + 11.0 * (0.5 + 0.5 * r())) * r().signum(),
+                );
+                let from = [r(), r(), r()];
+                let step = Step {
+                    from_mm: from,
+                    to_mm: [
+                        from[0] + len * dir.cos(),
+                        from[1] + len * dir.sin(),
+                        from[2] + len * slope,
+                    ],
+                    rapid: false,
+                };
+                let m = Prepared::new(&step);
+                // Columns anywhere, some on the rim of the start's disc.
+                let (x, y) = if case % 4 == 0 {
+                    let a = std::f64::consts::PI * r();
+                    (from[0] + env.r * a.cos(), from[1] + env.r * a.sin())
+                } else {
+                    (from[0] + 6.0 * r(), from[1] + 6.0 * r())
+                };
+                let Some(hit) = env.eval(&m, x, y) else {
+                    continue;
+                };
+                found += 1;
+                assert!(
+                    hit.z_mm.is_finite() && (0.0..=1.0).contains(&hit.t),
+                    "{hit:?}"
+                );
+                let span = disc_interval(&m, x, y, env.r).expect("a hit lies under the disc");
+                for i in 0..=64 {
+                    let t = span.lo + (span.hi - span.lo) * i as f64 / 64.0;
+                    let z = env.height(&m, x, y, t);
+                    assert!(
+                        hit.z_mm <= z + RIM_NOISE_MM,
+                        "case {case}: {hit:?} above {z} at t {t} (r_c {rc}, ring {ring}, move {len} mm)"
+                    );
+                }
+            }
+        }
+        assert!(found > 5000, "{found} columns hit");
+    }
+
     #[test]
     fn bull_nose_limits_are_ball_and_flat() {
         let mut seed = 11;
