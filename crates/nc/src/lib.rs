@@ -56,17 +56,13 @@ impl<'a> Reader<'a> {
 
     /// What [`parse`] returns for the source and options read.
     pub fn parse(&self) -> Parsed {
+        self.run(&self.options, interp::PathRoom::default())
+    }
+
+    /// A run of the text read with `options`, its path made in `room`.
+    fn run(&self, options: &Options, room: interp::PathRoom) -> Parsed {
         let (source, file) = (self.source, self.file_name);
-        interp::run_read_and_record(
-            &self.read,
-            source,
-            file,
-            &self.options,
-            false,
-            None,
-            interp::PathRoom::default(),
-        )
-        .0
+        interp::run_read_and_record(&self.read, source, file, options, false, None, room).0
     }
 
     /// [`Reader::parse`], then, where `start` picks a start from that run
@@ -75,20 +71,11 @@ impl<'a> Reader<'a> {
     /// otherwise); where it picks none, the first run. The same paths,
     /// diagnostics and amendments as those two calls.
     pub fn parse_then_from(&self, start: impl FnOnce(&Parsed) -> Option<[f64; 3]>) -> Parsed {
-        let (source, file) = (self.source, self.file_name);
         let keep_room = interp::PathRoom {
             segments: Vec::new(),
             shrink: false,
         };
-        let (mut first, ..) = interp::run_read_and_record(
-            &self.read,
-            source,
-            file,
-            &self.options,
-            false,
-            None,
-            keep_room,
-        );
+        let mut first = self.run(&self.options, keep_room);
         let Some(initial_position_mm) = start(&first) else {
             first.path.segments.shrink_to_fit();
             return first;
@@ -103,7 +90,7 @@ impl<'a> Reader<'a> {
             segments,
             shrink: true,
         };
-        interp::run_read_and_record(&self.read, source, file, &options, false, None, room).0
+        self.run(&options, room)
     }
 
     /// [`Reader::parse`] with the tool starting at `initial_position_mm`
@@ -113,16 +100,7 @@ impl<'a> Reader<'a> {
             initial_position_mm,
             ..self.options.clone()
         };
-        interp::run_read_and_record(
-            &self.read,
-            self.source,
-            self.file_name,
-            &options,
-            false,
-            None,
-            interp::PathRoom::default(),
-        )
-        .0
+        self.run(&options, interp::PathRoom::default())
     }
 }
 

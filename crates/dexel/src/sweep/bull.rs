@@ -283,6 +283,20 @@ mod tests {
         check_against_brute_force(&env, &profile, 1e-4);
     }
 
+    /// A move from `from` of `len` mm in XY at `dir` (rad from +X), rising
+    /// `slope` mm a mm.
+    fn sloped_step(from: [f64; 3], len: f64, dir: f64, slope: f64) -> Step {
+        Step {
+            from_mm: from,
+            to_mm: [
+                from[0] + len * dir.cos(),
+                from[1] + len * dir.sin(),
+                from[2] + len * slope,
+            ],
+            rapid: false,
+        }
+    }
+
     /// On sloped moves (the search's), the lowest point is a fine search's:
     /// a golden section of the height along the move to 10⁻¹³ of it, which
     /// took 70 heights a column, within 10⁻¹⁰ mm, never above it by more;
@@ -325,15 +339,7 @@ mod tests {
             let len = 0.05 + 8.0 * (0.5 + 0.5 * r()).powi(2);
             let (dir, slope) = (std::f64::consts::PI * r(), 1.7 * r());
             let from = [3.0 * r(), 3.0 * r(), 2.0 * r()];
-            let step = Step {
-                from_mm: from,
-                to_mm: [
-                    from[0] + len * dir.cos(),
-                    from[1] + len * dir.sin(),
-                    from[2] + len * slope,
-                ],
-                rapid: false,
-            };
+            let step = sloped_step(from, len, dir, slope);
             let m = Prepared::new(&step);
             let (x, y) = (from[0] + 6.0 * r(), from[1] + 6.0 * r());
             match (env.eval(&m, x, y), fine(&m, x, y)) {
@@ -387,15 +393,7 @@ mod tests {
                     10f64.powf(-8.0 + 11.0 * (0.5 + 0.5 * r())) * r().signum(),
                 );
                 let from = [r(), r(), r()];
-                let step = Step {
-                    from_mm: from,
-                    to_mm: [
-                        from[0] + len * dir.cos(),
-                        from[1] + len * dir.sin(),
-                        from[2] + len * slope,
-                    ],
-                    rapid: false,
-                };
+                let step = sloped_step(from, len, dir, slope);
                 let m = Prepared::new(&step);
                 // Columns anywhere, some on the rim of the start's disc.
                 let (x, y) = if case % 4 == 0 {

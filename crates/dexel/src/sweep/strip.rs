@@ -1223,7 +1223,7 @@ mod tests {
     fn a_row_in_lanes_is_its_columns_bit_for_bit() {
         use super::super::{ball::BallEnd, bull::BullNose};
         let r = 3.0;
-        let (cut, passed) = row_in_lanes_against_columns(&BallEnd { r }, r);
+        let (cut, passed, _) = row_in_lanes_against_columns(&BallEnd { r }, r);
         // Both kinds of column are compared, many of each.
         assert!(
             cut > 2_000 && passed > 10_000,
@@ -1234,23 +1234,24 @@ mod tests {
             rc: 1.0,
             ring: 2.0,
         };
-        let (cut, passed) = row_in_lanes_against_columns(&bull, r);
+        // (Its lanes take level moves only: many of those cut too.)
+        let (cut, passed, level_cut) = row_in_lanes_against_columns(&bull, r);
         assert!(
-            cut > 2_000 && passed > 10_000,
-            "bull nose: {cut} cut, {passed} passed"
+            cut > 2_000 && passed > 10_000 && level_cut > 1_000,
+            "bull nose: {cut} cut ({level_cut} by level moves), {passed} passed"
         );
     }
 
     /// The columns cut and passed of rows of `env` (radius `r`) compared in
-    /// lanes and column by column.
-    fn row_in_lanes_against_columns<E: Envelope>(env: &E, r: f64) -> (usize, usize) {
+    /// lanes and column by column, and the columns level moves cut.
+    fn row_in_lanes_against_columns<E: Envelope>(env: &E, r: f64) -> (usize, usize, usize) {
         use super::super::row_hits_by_column;
         use crate::sweep::testing::lcg;
         assert!(env.row_in_lanes());
         let (grid, banding) = (test_grid(), one_band());
         let job = test_job(env, &grid, &banding, r);
         let mut seed = 11;
-        let (mut cut, mut passed) = (0, 0);
+        let (mut cut, mut passed, mut level_cut) = (0, 0, 0);
         for to in [
             [5.0, 1.0, 0.0],
             [4.0, -2.0, 1.5],
@@ -1295,13 +1296,14 @@ mod tests {
                 for (&top, &z) in tops.iter().zip(&expected.z_mm) {
                     if top > z {
                         cut += 1;
+                        level_cut += usize::from(to[2] == 0.0 && to[..2] != [0.0, 0.0]);
                     } else {
                         passed += 1;
                     }
                 }
             }
         }
-        (cut, passed)
+        (cut, passed, level_cut)
     }
 
     /// The rows' columns in lanes ([`Prepared::row_bounds`], portable and as

@@ -90,33 +90,36 @@ pub struct Executed {
 /// The lines are parsed twice; the result is that of a run of
 /// the lines held ([`run_read_and_record`] of [`read`]).
 pub(crate) fn parse(source: &str, file: &str, options: &Options) -> Parsed {
+    read_and_run(source, file, options, false, None).0
+}
+
+/// `source` read keeping no block's items, then run (`record`: with the
+/// trace and the lines executed; `lent`: along the caller's path) in fresh
+/// memory: what [`parse`], [`run_recorded`] and [`run_recorded_along`] do.
+fn read_and_run(
+    source: &str,
+    file: &str,
+    options: &Options,
+    record: bool,
+    lent: Option<&[Segment]>,
+) -> (Parsed, Trace, Vec<Executed>) {
     let read = read_lines(source, file, options, false);
     run_read_and_record(
         &read,
         source,
         file,
         options,
-        false,
-        None,
+        record,
+        lent,
         PathRoom::default(),
     )
-    .0
 }
 
 /// [`parse`], with the trace of a recorded run and every line executed in
 /// the order it ran (for unrolling loops). The trace's lines keep no
 /// block's items: [`syntax::Lines::block_items`] with `source` gives them.
 pub fn run_recorded(source: &str, file: &str, options: &Options) -> (Parsed, Trace, Vec<Executed>) {
-    let read = read_lines(source, file, options, false);
-    run_read_and_record(
-        &read,
-        source,
-        file,
-        options,
-        true,
-        None,
-        PathRoom::default(),
-    )
+    read_and_run(source, file, options, true, None)
 }
 
 /// [`run_recorded`] lent the path the caller read the same text to
@@ -130,16 +133,7 @@ pub fn run_recorded_along(
     options: &Options,
     path: &[Segment],
 ) -> (Parsed, Trace, Vec<Executed>) {
-    let read = read_lines(source, file, options, false);
-    run_read_and_record(
-        &read,
-        source,
-        file,
-        options,
-        true,
-        Some(path),
-        PathRoom::default(),
-    )
+    read_and_run(source, file, options, true, Some(path))
 }
 
 /// A run of a program already read (its lines parsed once, or where `read`
